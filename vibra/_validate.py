@@ -1,0 +1,153 @@
+"""Input checks shared by the public functions.
+
+Each check takes the argument's public ``name`` and raises an error that names it, states
+the requirement and shows what arrived (STYLE.md, "Validation names the offending input").
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+# Relative tolerance of the symmetry check: |K_ij - K_ji| <= SYMMETRY_RTOL * max|K|.
+# Assembly in floating point leaves gaps of a few ulps; a user's typo leaves far more.
+SYMMETRY_RTOL = 1e-10
+
+
+def real_array(value: Any, name: str, *, ndim: int | tuple[int, ...] | None = None) -> NDArray[np.float64]:
+    """`value` as a finite float64 ndarray; raise naming `name` otherwise."""
+    if sp.issparse(value):
+        raise TypeError(f"{name} must be a dense array here, got a scipy.sparse matrix")
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"{name} must be an array of real numbers, got {type(value).__name__}"
+        ) from None
+    if ndim is not None:
+        allowed = (ndim,) if isinstance(ndim, int) else ndim
+        if array.ndim not in allowed:
+            want = " or ".join(f"{d}-D" for d in allowed)
+            raise ValueError(f"{name} must be {want}, got shape {array.shape}")
+    finite(array, name)
+    return array
+
+
+def finite(array: NDArray[Any], name: str) -> None:
+    """Raise if `array` holds NaN or inf, giving the first offending index."""
+    bad = ~np.isfinite(array)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = ",".join(str(i) for i in index)
+        raise ValueError(f"{name}[{where}] is {array[index]!r}; every entry must be finite")
+
+
+def positive(array: NDArray[np.float64], name: str, what: str = "value") -> None:
+    """Raise if any entry of `array` is not strictly positive (and finite)."""
+    finite(array, name)
+    bad = ~(array > 0)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = ",".join(str(i) for i in index)
+        raise ValueError(f"{name}[{where}] is {array[index]!r}; every {what} must be positive and finite")
+
+
+def nonnegative(array: NDArray[np.float64], name: str, what: str = "value") -> None:
+    """Raise if any entry of `array` is negative or not finite."""
+    finite(array, name)
+    bad = array < 0
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = ",".join(str(i) for i in index)
+        raise ValueError(f"{name}[{where}] is {array[index]!r}; every {what} must be >= 0")
+
+
+def square_matrix(value: Any, name: str) -> NDArray[np.float64] | sp.csr_matrix:
+    """`value` as a finite square float matrix, dense ndarray or CSR."""
+    if sp.issparse(value):
+        matrix = sp.csr_matrix(value, dtype=float)
+        finite(matrix.data, f"{name}.data")
+    else:
+        matrix = real_array(value, name, ndim=2)
+    if matrix.shape[0] != matrix.shape[1]:
+        raise ValueError(f"{name} must be square, got shape {matrix.shape}")
+    if matrix.shape[0] == 0:
+        raise ValueError(f"{name} must have at least one row, got shape {matrix.shape}")
+    return matrix
+
+
+def symmetric(
+    matrix: NDArray[np.float64] | sp.csr_matrix, name: str, *, symmetrize: bool = False,
+    rtol: float = SYMMETRY_RTOL,
+) -> NDArray[np.float64] | sp.csr_matrix:
+    """Check symmetry within ``rtol * max|matrix|``; with `symmetrize`, return (A + A^T) / 2."""
+    if sp.issparse(matrix):
+        gap_matrix = (matrix - matrix.T).tocoo()
+        scale = abs(matrix).max() if matrix.nnz else 0.0
+        if gap_matrix.nnz:
+            k = int(np.argmax(np.abs(gap_matrix.data)))
+            gap, i, j = abs(gap_matrix.data[k]), int(gap_matrix.row[k]), int(gap_matrix.col[k])
+        else:
+            gap, i, j = 0.0, 0, 0
+    else:
+        difference = np.abs(matrix - matrix.T)
+        i, j = (int(x) for x in np.unravel_index(np.argmax(difference), difference.shape))
+        gap = float(difference[i, j])
+        scale = float(np.abs(matrix).max())
+    atol = rtol * scale
+    if gap > atol:
+        if not symmetrize:
+            raise ValueError(
+                f"{name} is not symmetric: |{name}[{i},{j}] - {name}[{j},{i}]| = {gap:.3g} > "
+                f"atol={atol:.3g} ({rtol:g} * max|{name}|); pass symmetrize=True to use "
+                f"({name} + {name}^T) / 2"
+            )
+    if gap > 0:  # within tolerance (a few ulps) or symmetrize=True
+        matrix = (matrix + matrix.T) * 0.5
+        if sp.issparse(matrix):
+            matrix = sp.csr_matrix(matrix)
+    return matrix
+
+
+def mass_argument(value: Any, n_dof: int, name: str = "M") -> NDArray[np.float64]:
+    """Masses as an (n_dof,) positive vector or an (n_dof, n_dof) SPD matrix."""
+    if sp.issparse(value):
+        value = value.toarray()
+    masses = real_array(value, name, ndim=(1, 2))
+    if masses.ndim == 1:
+        if masses.shape[0] != n_dof:
+            raise ValueError(f"{name} must have {n_dof} masses to match K, got shape {masses.shape}")
+        positive(masses, name, "mass")
+        return masses
+    if masses.shape != (n_dof, n_dof):
+        raise ValueError(f"{name} must be ({n_dof}, {n_dof}) to match K, got shape {masses.shape}")
+    masses = symmetric(masses, name)
+    try:
+        np.linalg.cholesky(masses)
+    except np.linalg.LinAlgError:
+        smallest = float(np.linalg.eigvalsh(masses)[0])
+        raise ValueError(
+            f"{name} is not positive definite (smallest eigenvalue {smallest:.3g}); a mass "
+            "matrix must be symmetric positive definite"
+        ) from None
+    return masses
+
+
+def count(value: Any, name: str, *, low: int, high: int) -> int:
+    """An integer in [low, high]."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+    if not low <= value <= high:
+        raise ValueError(f"{name} is {value}; expected {low} <= {name} <= {high}")
+    return int(value)
+
+
+def choice(value: Any, name: str, allowed: tuple[str, ...]) -> str:
+    """One of the option strings in `allowed`."""
+    if value not in allowed:
+        options = ", ".join(repr(a) for a in allowed)
+        raise ValueError(f"{name} is {value!r}; expected one of {options}")
+    return str(value)

@@ -1,0 +1,322 @@
+"""`normal_modes(K, M)` and its immutable result, `Modes` (seed 003 eqs. 137-151).
+
+The eigenproblem K u = omega^2 M u is solved in mass-weighted form,
+K~ = M^-1/2 K M^-1/2 = D Omega^2 D^T (eqs. 138-141), by the solver path in `vibra.solvers`
+that fits the structure of K and what is asked. The result carries the frequencies, the
+mass-weighted vectors d_k, the physical shapes u_k = M^-1/2 d_k (eq. 151), and the accuracy
+figures of the run.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+from vibra import _validate
+from vibra.system import _freeze_arrays
+from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
+
+__all__ = ["Modes", "normal_modes", "SOLVERS"]
+
+#: Solver paths accepted by `normal_modes(solver=...)`; see `vibra.solvers`.
+SOLVERS = ("auto", "dense", "tridiagonal", "sparse", "accurate")
+
+
+@dataclass(frozen=True, eq=False)
+class Modes:
+    """Normal modes of one system, in that system's units.
+
+    Attributes
+    ----------
+    omega : (n_modes,) ndarray
+        Angular frequencies, ascending, in rad per time unit of `units` (rad/s for SI).
+        An unstable (imaginary) mode is reported as -|omega|, never NaN.
+    vectors : (n_dof, n_modes) ndarray or None
+        Mass-weighted orthonormal d_k (eq. 143); column k belongs to omega[k]. None when
+        only frequencies were computed.
+    shapes : (n_dof, n_modes) ndarray or None
+        Physical-space shapes u_k = M^-1/2 d_k (eq. 151), M-orthonormal, in length per
+        sqrt(mass) of `units`.
+    mass : (n_dof,) or (n_dof, n_dof) ndarray
+        The mass matrix the modes belong to (diagonal masses or dense SPD matrix).
+    omega_error : (n_modes,) ndarray
+        Estimated absolute error of each omega, in the units of omega.
+    residual : float
+        Largest relative eigen-residual ||K~ d - omega^2 d|| / ||K~|| (NaN without vectors).
+    orthogonality : float
+        Largest |D^T D - I| entry (NaN without vectors).
+    solver : str
+        The solver path that ran (see `vibra.solvers`).
+    units : UnitSystem
+        Units of omega and of the shapes.
+    """
+
+    omega: NDArray[np.float64]
+    vectors: NDArray[np.float64] | None
+    shapes: NDArray[np.float64] | None
+    mass: NDArray[np.float64]
+    omega_error: NDArray[np.float64]
+    residual: float
+    orthogonality: float
+    solver: str
+    units: UnitSystem = DIMENSIONLESS
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_modes(self) -> int:
+        """Number of modes held."""
+        return int(self.omega.shape[0])
+
+    @property
+    def n_dof(self) -> int:
+        """Number of degrees of freedom of the system."""
+        return int(self.mass.shape[0])
+
+    @property
+    def omega_squared(self) -> NDArray[np.float64]:
+        """(n_modes,) signed eigenvalues omega * |omega| of K~, in (rad per time unit)^2."""
+        return self.omega * np.abs(self.omega)
+
+    @property
+    def unstable(self) -> NDArray[np.bool_]:
+        """(n_modes,) True for imaginary (unstable) modes, omega < 0."""
+        return self.omega < 0
+
+    # ------------------------------------------------------------------ units
+    def omega_rad_per_s(self) -> NDArray[np.float64]:
+        """(n_modes,) signed angular frequencies in rad/s."""
+        return self.units.omega_to_rad_per_s(self.omega)
+
+    def frequencies_hz(self) -> NDArray[np.float64]:
+        """(n_modes,) signed frequencies omega / 2 pi, in Hz."""
+        return self.units.omega_to_hz(self.omega)
+
+    def frequencies_thz(self) -> NDArray[np.float64]:
+        """(n_modes,) signed frequencies in THz (phonopy's convention: negative = imaginary)."""
+        return self.units.omega_to_thz(self.omega)
+
+    def wavenumbers_cm1(self) -> NDArray[np.float64]:
+        """(n_modes,) signed wavenumbers omega / (2 pi c), in cm^-1."""
+        return self.units.omega_to_cm1(self.omega)
+
+    def energies_mev(self) -> NDArray[np.float64]:
+        """(n_modes,) signed quantum energies hbar omega, in meV."""
+        return self.units.omega_to_mev(self.omega)
+
+    # ------------------------------------------------------------------ groups
+    def zero_modes(self, rtol: float = 1e-6) -> NDArray[np.bool_]:
+        """(n_modes,) True where |omega| <= rtol * max|omega| (rigid-body / translation modes)."""
+        scale = float(np.abs(self.omega).max()) if self.n_modes else 0.0
+        return np.abs(self.omega) <= np.maximum(rtol * scale, np.abs(self.omega_error))
+
+    def degenerate_groups(self, rtol: float = 1e-8) -> list[NDArray[np.intp]]:
+        """Indices of modes whose frequencies agree within ``rtol * max|omega|`` (and their error).
+
+        Returns a list of index arrays, one per group of two or more modes, ascending.
+        """
+        if self.n_modes < 2:
+            return []
+        scale = float(np.abs(self.omega).max())
+        tolerance = np.maximum(rtol * scale, self.omega_error[1:] + self.omega_error[:-1])
+        same = np.diff(self.omega) <= tolerance
+        groups: list[NDArray[np.intp]] = []
+        start = 0
+        for i in range(1, self.n_modes + 1):
+            if i == self.n_modes or not same[i - 1]:
+                if i - start > 1:
+                    groups.append(np.arange(start, i))
+                start = i
+        return groups
+
+    # ------------------------------------------------------------------ motion
+    def _require_shapes(self, what: str) -> NDArray[np.float64]:
+        if self.shapes is None:
+            raise ValueError(f"{what} needs mode shapes; these modes were computed with vectors=False")
+        return self.shapes
+
+    def _mass_times(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
+        if self.mass.ndim == 1:
+            return self.mass[:, None] * u if u.ndim == 2 else self.mass * u
+        return self.mass @ u
+
+    def normal_coordinates(self, u: ArrayLike) -> NDArray[np.float64]:
+        """Normal coordinates q = D^T M^1/2 u (eq. 149).
+
+        Parameters
+        ----------
+        u : (n_dof,) or (n_dof, n) array_like
+            Displacements from equilibrium, in the length unit of `units`.
+
+        Returns
+        -------
+        (n_modes,) or (n_modes, n) ndarray
+            q, in length * sqrt(mass).
+        """
+        shapes = self._require_shapes("normal_coordinates")
+        values = _validate.real_array(u, "u", ndim=(1, 2))
+        if values.shape[0] != self.n_dof:
+            raise ValueError(f"u must have {self.n_dof} rows (one per dof), got shape {values.shape}")
+        return shapes.T @ self._mass_times(values)
+
+    def evolve(self, u0: ArrayLike, v0: ArrayLike, t: ArrayLike) -> NDArray[np.float64]:
+        """Free motion u(t) from u(0) = u0, u'(0) = v0 (eqs. 148-150).
+
+        Each normal coordinate evolves as q0 cos(omega t) + q0' sin(omega t) / omega, which is
+        q0 + q0' t for a zero mode and q0 cosh(|omega| t) + q0' sinh(|omega| t) / |omega| for
+        an imaginary one. With a partial set of modes this is the motion of the projection of
+        (u0, v0) onto those modes.
+
+        Parameters
+        ----------
+        u0, v0 : (n_dof,) array_like
+            Initial displacement (length) and velocity (length per time unit).
+        t : float or (n_t,) array_like
+            Times, in the time unit of `units`.
+
+        Returns
+        -------
+        (n_dof,) or (n_t, n_dof) ndarray
+            Displacements, in the length unit of `units`.
+        """
+        shapes = self._require_shapes("evolve")
+        q0 = self.normal_coordinates(_validate.real_array(u0, "u0", ndim=1))
+        qd0 = self.normal_coordinates(_validate.real_array(v0, "v0", ndim=1))
+        times = _validate.real_array(t, "t", ndim=(0, 1))
+        scalar = times.ndim == 0
+        times = np.atleast_1d(times)[:, None]
+        w = np.abs(self.omega)[None, :]
+        wt = w * times
+        stable = (self.omega >= 0)[None, :]
+        cos_part = np.where(stable, np.cos(wt), np.cosh(wt))
+        # sin(w t) / w -> t as w -> 0: np.sinc keeps it continuous with no division by zero.
+        sin_part = np.where(stable, times * np.sinc(wt / np.pi), times * _sinhc(wt))
+        q = cos_part * q0[None, :] + sin_part * qd0[None, :]
+        u = q @ shapes.T
+        return u[0] if scalar else u
+
+    def energy(self, u: ArrayLike, v: ArrayLike) -> float:
+        """Total energy 1/2 v^T M v + 1/2 sum_k omega_k|omega_k| q_k^2 within the computed modes."""
+        q = self.normal_coordinates(u)
+        qd = self.normal_coordinates(v)
+        return float(0.5 * np.sum(qd**2) + 0.5 * np.sum(self.omega_squared * q**2))
+
+
+def _sinhc(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """sinh(x) / x, continuous at 0."""
+    small = np.abs(x) < 1e-4
+    safe = np.where(small, 1.0, x)
+    return np.where(small, 1.0 + x * x / 6.0, np.sinh(safe) / safe)
+
+
+def normal_modes(
+    K: ArrayLike | sp.spmatrix,
+    M: ArrayLike,
+    *,
+    n_modes: int | None = None,
+    vectors: bool = True,
+    band: tuple[float, float] | None = None,
+    solver: str = "auto",
+    symmetrize: bool = False,
+    spring_factor: tuple[Any, ArrayLike] | None = None,
+    units: str | UnitSystem = DIMENSIONLESS,
+) -> Modes:
+    """Normal modes of M u'' + K u = 0 (seed 003 eqs. 137-151).
+
+    Parameters
+    ----------
+    K : (n_dof, n_dof) array_like or scipy.sparse matrix
+        Symmetric force-constant matrix, in energy / length^2 of `units`. An indefinite K
+        is allowed: it warns and reports the imaginary modes as negative omega.
+    M : (n_dof,) or (n_dof, n_dof) array_like
+        Diagonal masses, or a symmetric positive-definite mass matrix (generalised
+        coordinates).
+    n_modes : int, optional
+        How many of the lowest modes to compute (all by default).
+    vectors : bool
+        False computes frequencies only (cheaper).
+    band : (float, float), optional
+        Only modes with omega in [band[0], band[1]] (signed, rad per time unit).
+    solver : {"auto", "dense", "tridiagonal", "sparse", "accurate"}
+        The solver path; "auto" chooses from the structure of K and what is asked.
+        "accurate" needs `spring_factor`.
+    symmetrize : bool
+        Replace a non-symmetric K by (K + K^T) / 2 instead of raising.
+    spring_factor : (B, w), optional
+        B (n_terms, n_dof) sparse or dense and w (n_terms,) > 0 with K = B^T diag(w) B:
+        enables the accurate path (frequencies as singular values of W^1/2 B M^-1/2).
+    units : str or UnitSystem
+        Unit system of K and M, carried by the result.
+
+    Returns
+    -------
+    Modes
+
+    Raises
+    ------
+    ValueError
+        K not square, not symmetric (beyond 1e-10 * max|K|) or not finite; M of the wrong
+        shape, non-positive, non-finite or not positive definite; n_modes out of range;
+        an unknown solver or a solver that cannot serve the request.
+
+    Examples
+    --------
+    >>> import numpy as np, vibra
+    >>> K = np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+    >>> modes = vibra.normal_modes(K, [1.0, 1.0, 1.0])
+    >>> np.round(modes.omega ** 2, 12)
+    array([0., 1., 3.])
+    """
+    from vibra import solvers
+
+    K_matrix = _validate.square_matrix(K, "K")
+    K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
+    n_dof = K_matrix.shape[0]
+    mass = _validate.mass_argument(M, n_dof, "M")
+    if n_modes is not None:
+        n_modes = _validate.count(n_modes, "n_modes", low=1, high=n_dof)
+    if band is not None:
+        band = _band(band)
+        if n_modes is not None:
+            raise ValueError("give either n_modes or band, not both")
+    _validate.choice(solver, "solver", SOLVERS)
+    factor = None
+    if spring_factor is not None:
+        factor = solvers.check_spring_factor(spring_factor, n_dof)
+    elif solver == "accurate":
+        raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B")
+    unit = unit_system(units)
+
+    result = solvers.solve(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band,
+                           solver=solver, spring_factor=factor)
+    if (result.eigenvalues < -result.error).any():
+        n_negative = int((result.eigenvalues < -result.error).sum())
+        warnings.warn(
+            f"K is not positive semi-definite: {n_negative} imaginary mode(s), reported as "
+            "negative omega", RuntimeWarning, stacklevel=2,
+        )
+    omega = np.sign(result.eigenvalues) * np.sqrt(np.abs(result.eigenvalues))
+    # d(omega) = d(omega^2) / (2 |omega|), capped by sqrt(d(omega^2)) near zero.
+    omega_error = np.minimum(result.error / np.maximum(2.0 * np.abs(omega), 1e-300), np.sqrt(result.error))
+    shapes = None
+    if result.vectors is not None:
+        shapes = solvers.physical_shapes(result.vectors, mass)
+    return Modes(
+        omega=omega, vectors=result.vectors, shapes=shapes, mass=mass, omega_error=omega_error,
+        residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
+        units=unit,
+    )
+
+
+def _band(band: Any) -> tuple[float, float]:
+    values = _validate.real_array(band, "band", ndim=1)
+    if values.shape != (2,) or not values[0] < values[1]:
+        raise ValueError(f"band must be (low, high) with low < high, got {band!r}")
+    return float(values[0]), float(values[1])

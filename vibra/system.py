@@ -1,0 +1,547 @@
+"""`System`: what is vibrating, and how its Hessian K and mass matrix M are assembled.
+
+A system is a set of sites (equilibrium coordinates in 1, 2 or 3 dimensions, one mass each)
+with a quadratic potential, or a set of generalised coordinates with a dense mass matrix.
+The potential is stored factorised whenever possible (seed 003 eq. 133):
+
+    V = 1/2 u^T K u,    K = B^T diag(w) B + K_extra,
+
+where each row of the sparse matrix B is the gradient of one internal coordinate (a spring's
+elongation, an anchor spring, a bond angle, ...) with respect to the displacements u, w > 0
+is its stiffness and K_extra holds Hessian blocks given directly by the user. When K_extra is
+absent the accurate solver path uses the factor: the normal frequencies are the singular values
+of W^1/2 B M^-1/2 (DESIGN.md, "Accuracy").
+
+Sites or single degrees of freedom can be frozen; `hessian()`, `mass_matrix()` and `modes()`
+then refer to the free degrees of freedom only, in the order of `free_dofs`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, Sequence
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+from vibra import _validate
+from vibra.units import UnitSystem, unit_system
+
+if TYPE_CHECKING:
+    from vibra.modes import Modes
+
+__all__ = ["System"]
+
+_AXES = "xyz"
+
+
+def _freeze_arrays(obj: object) -> None:
+    """Copy every ndarray field of a frozen dataclass and make the copy read-only."""
+    for field in dataclasses.fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, field.name)
+        if isinstance(value, np.ndarray):
+            value = value.copy()
+            value.flags.writeable = False
+            object.__setattr__(obj, field.name, value)
+        elif sp.issparse(value):
+            value = value.copy()
+            for part in ("data", "indices", "indptr"):
+                if hasattr(value, part):
+                    getattr(value, part).flags.writeable = False
+            object.__setattr__(obj, field.name, value)
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """A vibrating system: sites, masses, and a factorised quadratic potential.
+
+    Build one with `System.from_springs`, `System.from_terms`, `System.from_hessian` or
+    `System.generalized` (or a builder in `vibra.chains` / `vibra.molecules`), not with the
+    raw constructor.
+
+    Attributes
+    ----------
+    positions : (n_sites, dim) ndarray
+        Equilibrium coordinates, in the length unit of `units`. Empty (n_sites, 0) for a
+        system in generalised coordinates.
+    masses : (n_sites,) ndarray
+        Site masses, in the mass unit of `units`.
+    units : UnitSystem
+        The unit system of every quantity of the system and of its results.
+    coupling : (n_terms, n_sites * dim) scipy.sparse.csr_matrix
+        B: row t is the gradient of internal coordinate t with respect to the displacements
+        (dimensionless for springs, 1/length for angles).
+    weights : (n_terms,) ndarray
+        w: the stiffness of each term, in energy per (internal-coordinate unit)^2.
+    extra_hessian : (n_sites * dim, n_sites * dim) scipy.sparse.csr_matrix or None
+        Hessian blocks given directly (not factorised), in energy / length^2.
+    frozen : (n_sites * dim,) ndarray of bool
+        True for a degree of freedom held at rest.
+    generalized_mass : (n_dof, n_dof) ndarray or None
+        Dense SPD mass matrix of a system in generalised coordinates (then `masses` is
+        empty), in the units of the kinetic energy's coefficients.
+    labels : tuple of str
+        One name per degree of freedom (free and frozen), e.g. ``"3x"`` or ``"theta1"``.
+    name : str
+        A short name used in reports.
+    """
+
+    positions: NDArray[np.float64]
+    masses: NDArray[np.float64]
+    units: UnitSystem
+    coupling: sp.csr_matrix
+    weights: NDArray[np.float64]
+    extra_hessian: sp.csr_matrix | None
+    frozen: NDArray[np.bool_]
+    generalized_mass: NDArray[np.float64] | None
+    labels: tuple[str, ...]
+    name: str = "system"
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_springs(
+        cls,
+        positions: ArrayLike,
+        masses: ArrayLike,
+        springs: ArrayLike | None = None,
+        stiffness: ArrayLike | float | None = None,
+        *,
+        anchors: ArrayLike | None = None,
+        anchor_stiffness: ArrayLike | float | None = None,
+        anchor_directions: ArrayLike | None = None,
+        frozen_sites: ArrayLike | None = None,
+        frozen_dofs: ArrayLike | None = None,
+        units: str | UnitSystem = "SI",
+        name: str = "system",
+    ) -> System:
+        """Sites joined by harmonic springs whose rest lengths are the equilibrium distances.
+
+        In d dimensions a spring between sites i and j, with unit bond vector e, adds the
+        Hessian block k e e^T (row of B: -e on site i, +e on site j).
+
+        Parameters
+        ----------
+        positions : (n_sites, dim) or (n_sites,) array_like
+            Equilibrium coordinates, in the length unit of `units`; 1-D input means dim = 1.
+        masses : (n_sites,) array_like or float
+            Site masses, in the mass unit of `units`.
+        springs : (n_springs, 2) array_like of int, optional
+            Site index pairs (i, j), i != j.
+        stiffness : (n_springs,) array_like or float
+            Spring constants, in energy / length^2 (N/m in SI).
+        anchors : (n_anchors,) array_like of int, optional
+            Sites tied by a spring to a fixed point.
+        anchor_stiffness : (n_anchors,) array_like or float
+            Their spring constants.
+        anchor_directions : (n_anchors, dim) array_like, optional
+            Direction of each anchor spring (normalised here); by default the x axis.
+        frozen_sites : array_like of int, optional
+            Sites held at rest (all their degrees of freedom).
+        frozen_dofs : array_like of int, optional
+            Single degrees of freedom held at rest, as flat indices site * dim + axis.
+        units : str or UnitSystem
+            ``"SI"`` (default), ``"ASE"`` or ``"dimensionless"``.
+        name : str
+            Name used in reports.
+
+        Raises
+        ------
+        ValueError
+            Wrong shapes, non-positive or non-finite masses or stiffnesses, site indices out
+            of range, a spring joining a site to itself or two coincident sites.
+        """
+        positions_array = _positions(positions)
+        n_sites, dim = positions_array.shape
+        mass_array = _site_masses(masses, n_sites)
+        rows: list[sp.coo_matrix] = []
+        weight_parts: list[NDArray[np.float64]] = []
+        if springs is not None:
+            pairs = _index_array(springs, "springs", n_sites, shape=(-1, 2))
+            k = _per_item(stiffness, len(pairs), "stiffness")
+            _validate.positive(k, "stiffness", "spring constant")
+            same = pairs[:, 0] == pairs[:, 1]
+            if same.any():
+                s = int(np.argmax(same))
+                raise ValueError(f"springs[{s}] joins site {pairs[s, 0]} to itself")
+            bond = positions_array[pairs[:, 1]] - positions_array[pairs[:, 0]]
+            length = np.linalg.norm(bond, axis=1)
+            scale = max(float(np.abs(positions_array).max()), 1.0) if positions_array.size else 1.0
+            short = length <= 1e-12 * scale
+            if short.any():
+                s = int(np.argmax(short))
+                raise ValueError(
+                    f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} at the same "
+                    "position; a spring needs distinct equilibrium positions to define its axis"
+                )
+            unit = bond / length[:, None]
+            rows.append(_pair_rows(pairs, unit, n_sites, dim))
+            weight_parts.append(k)
+        elif stiffness is not None:
+            raise ValueError("stiffness was given without springs")
+        if anchors is not None:
+            sites = _index_array(anchors, "anchors", n_sites, shape=(-1,))
+            k = _per_item(anchor_stiffness, len(sites), "anchor_stiffness")
+            _validate.positive(k, "anchor_stiffness", "spring constant")
+            if anchor_directions is None:
+                direction = np.zeros((len(sites), dim))
+                direction[:, 0] = 1.0
+            else:
+                direction = _validate.real_array(anchor_directions, "anchor_directions", ndim=2)
+                if direction.shape != (len(sites), dim):
+                    raise ValueError(
+                        f"anchor_directions must have shape ({len(sites)}, {dim}), got {direction.shape}"
+                    )
+                norm = np.linalg.norm(direction, axis=1)
+                if (norm == 0).any():
+                    raise ValueError(f"anchor_directions[{int(np.argmin(norm))}] is the zero vector")
+                direction = direction / norm[:, None]
+            rows.append(_single_rows(sites, direction, n_sites, dim))
+            weight_parts.append(k)
+        elif anchor_stiffness is not None:
+            raise ValueError("anchor_stiffness was given without anchors")
+        coupling, weights = _stack_terms(rows, weight_parts, n_sites * dim)
+        frozen = _frozen_mask(n_sites, dim, frozen_sites, frozen_dofs)
+        return cls(
+            positions=positions_array, masses=mass_array, units=unit_system(units),
+            coupling=coupling, weights=weights, extra_hessian=None, frozen=frozen,
+            generalized_mass=None, labels=_site_labels(n_sites, dim), name=name,
+        )
+
+    @classmethod
+    def from_terms(
+        cls,
+        positions: ArrayLike,
+        masses: ArrayLike,
+        coupling: ArrayLike | sp.spmatrix,
+        weights: ArrayLike,
+        *,
+        extra_hessian: ArrayLike | sp.spmatrix | None = None,
+        frozen_sites: ArrayLike | None = None,
+        frozen_dofs: ArrayLike | None = None,
+        units: str | UnitSystem = "SI",
+        name: str = "system",
+    ) -> System:
+        """Sites with a potential given as K = B^T diag(w) B (+ K_extra).
+
+        Parameters
+        ----------
+        positions : (n_sites, dim) array_like
+            Equilibrium coordinates, in the length unit of `units`.
+        masses : (n_sites,) array_like
+            Site masses.
+        coupling : (n_terms, n_sites * dim) array_like or sparse
+            B, the gradients of the internal coordinates (Wilson's B matrix).
+        weights : (n_terms,) array_like
+            w, the force constant of each internal coordinate (> 0).
+        extra_hessian : (n_sites * dim, n_sites * dim) array_like or sparse, optional
+            A symmetric Hessian added to B^T W B, in energy / length^2.
+        """
+        positions_array = _positions(positions)
+        n_sites, dim = positions_array.shape
+        mass_array = _site_masses(masses, n_sites)
+        n_full = n_sites * dim
+        b = sp.csr_matrix(coupling, dtype=float)
+        if b.shape[1] != n_full:
+            raise ValueError(f"coupling must have {n_full} columns (n_sites * dim), got shape {b.shape}")
+        _validate.finite(b.data, "coupling.data")
+        w = _validate.real_array(weights, "weights", ndim=1)
+        if w.shape[0] != b.shape[0]:
+            raise ValueError(f"weights must have {b.shape[0]} entries (one per row of coupling), got {w.shape[0]}")
+        _validate.positive(w, "weights", "force constant")
+        extra = None
+        if extra_hessian is not None:
+            extra = _validate.symmetric(_validate.square_matrix(extra_hessian, "extra_hessian"), "extra_hessian")
+            if extra.shape[0] != n_full:
+                raise ValueError(f"extra_hessian must be ({n_full}, {n_full}), got {extra.shape}")
+            extra = sp.csr_matrix(extra)
+        return cls(
+            positions=positions_array, masses=mass_array, units=unit_system(units),
+            coupling=b, weights=w, extra_hessian=extra,
+            frozen=_frozen_mask(n_sites, dim, frozen_sites, frozen_dofs),
+            generalized_mass=None, labels=_site_labels(n_sites, dim), name=name,
+        )
+
+    @classmethod
+    def from_hessian(
+        cls,
+        positions: ArrayLike,
+        masses: ArrayLike,
+        hessian: ArrayLike | sp.spmatrix,
+        *,
+        symmetrize: bool = False,
+        frozen_sites: ArrayLike | None = None,
+        frozen_dofs: ArrayLike | None = None,
+        units: str | UnitSystem = "SI",
+        name: str = "system",
+    ) -> System:
+        """Sites with a Hessian K given directly, (n_sites * dim, n_sites * dim), energy / length^2."""
+        positions_array = _positions(positions)
+        n_sites, dim = positions_array.shape
+        matrix = _validate.square_matrix(hessian, "hessian")
+        matrix = _validate.symmetric(matrix, "hessian", symmetrize=symmetrize)
+        if matrix.shape[0] != n_sites * dim:
+            raise ValueError(f"hessian must be ({n_sites * dim}, {n_sites * dim}), got {matrix.shape}")
+        return cls(
+            positions=positions_array, masses=_site_masses(masses, n_sites), units=unit_system(units),
+            coupling=sp.csr_matrix((0, n_sites * dim)), weights=np.zeros(0),
+            extra_hessian=sp.csr_matrix(matrix),
+            frozen=_frozen_mask(n_sites, dim, frozen_sites, frozen_dofs),
+            generalized_mass=None, labels=_site_labels(n_sites, dim), name=name,
+        )
+
+    @classmethod
+    def generalized(
+        cls,
+        M: ArrayLike,
+        K: ArrayLike,
+        *,
+        coordinates: Sequence[str] | None = None,
+        units: str | UnitSystem = "SI",
+        name: str = "system",
+    ) -> System:
+        """A system in generalised coordinates q: T = 1/2 q'^T M q', V = 1/2 q^T K q.
+
+        Parameters
+        ----------
+        M : (n_dof, n_dof) array_like
+            Symmetric positive-definite mass matrix (kg m^2 for angles in SI).
+        K : (n_dof, n_dof) array_like
+            Symmetric stiffness matrix (J per rad^2 for angles in SI).
+        coordinates : sequence of str, optional
+            Names of the coordinates (default ``q0, q1, ...``).
+        """
+        K_matrix = _validate.square_matrix(K, "K")
+        if sp.issparse(K_matrix):
+            K_matrix = K_matrix.toarray()
+        K_matrix = _validate.symmetric(K_matrix, "K")
+        n_dof = K_matrix.shape[0]
+        M_matrix = _validate.mass_argument(M, n_dof, "M")
+        if M_matrix.ndim == 1:
+            M_matrix = np.diag(M_matrix)
+        names = tuple(coordinates) if coordinates is not None else tuple(f"q{i}" for i in range(n_dof))
+        if len(names) != n_dof:
+            raise ValueError(f"coordinates must name {n_dof} coordinates, got {len(names)}")
+        return cls(
+            positions=np.zeros((0, 0)), masses=np.zeros(0), units=unit_system(units),
+            coupling=sp.csr_matrix((0, n_dof)), weights=np.zeros(0),
+            extra_hessian=sp.csr_matrix(K_matrix), frozen=np.zeros(n_dof, dtype=bool),
+            generalized_mass=M_matrix, labels=names, name=name,
+        )
+
+    # ------------------------------------------------------------------ derived systems
+    def with_masses(self, masses: ArrayLike) -> System:
+        """The same potential with new site masses (isotopes), in the mass unit of `units`."""
+        if self.generalized_mass is not None:
+            raise TypeError("with_masses needs a system of sites; this one is in generalised coordinates")
+        return dataclasses.replace(self, masses=_site_masses(masses, self.n_sites))
+
+    def freeze(self, sites: ArrayLike | None = None, dofs: ArrayLike | None = None) -> System:
+        """A copy with more sites or flat degrees of freedom held at rest."""
+        extra = _frozen_mask(self.n_sites, self.dim, sites, dofs) if self.generalized_mass is None else (
+            _frozen_mask(len(self.labels), 1, None, dofs))
+        return dataclasses.replace(self, frozen=self.frozen | extra)
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_sites(self) -> int:
+        """Number of sites (0 for generalised coordinates)."""
+        return int(self.masses.shape[0])
+
+    @property
+    def dim(self) -> int:
+        """Spatial dimension of the sites (0 for generalised coordinates)."""
+        return int(self.positions.shape[1]) if self.positions.ndim == 2 else 0
+
+    @property
+    def free_dofs(self) -> NDArray[np.intp]:
+        """(n_dof,) flat indices of the degrees of freedom that move."""
+        return np.flatnonzero(~self.frozen)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of free degrees of freedom (the size of K and M)."""
+        return int((~self.frozen).sum())
+
+    @property
+    def is_generalized(self) -> bool:
+        """True for a system in generalised coordinates (dense mass matrix)."""
+        return self.generalized_mass is not None
+
+    # ------------------------------------------------------------------ assembly
+    def spring_factor(self) -> tuple[sp.csr_matrix, NDArray[np.float64]] | None:
+        """(B, w) with K = B^T diag(w) B over the free dofs, or None if K is not factorised.
+
+        B is (n_terms, n_dof) CSR with the columns of frozen dofs removed and rows that
+        touch no free dof dropped; w is (n_terms,).
+        """
+        if self.extra_hessian is not None:
+            return None
+        b = self.coupling[:, self.free_dofs] if self.frozen.any() else self.coupling
+        b = sp.csr_matrix(b)
+        keep = np.diff(b.indptr) > 0
+        if not keep.all():
+            b = b[np.flatnonzero(keep)]
+            return sp.csr_matrix(b), self.weights[keep]
+        return b, np.asarray(self.weights)
+
+    def hessian(self) -> sp.csr_matrix:
+        """(n_dof, n_dof) CSR force-constant matrix K over the free dofs, in energy / length^2."""
+        b = self.coupling
+        K = (b.T @ sp.diags(self.weights) @ b).tocsr() if b.shape[0] else sp.csr_matrix(
+            (b.shape[1], b.shape[1]))
+        if self.extra_hessian is not None:
+            K = (K + self.extra_hessian).tocsr()
+        if self.frozen.any():
+            free = self.free_dofs
+            K = K[free][:, free].tocsr()
+        K.sum_duplicates()
+        return K
+
+    def mass_matrix(self) -> NDArray[np.float64]:
+        """Masses of the free dofs: (n_dof,) diagonal, or (n_dof, n_dof) in generalised coordinates."""
+        free = self.free_dofs
+        if self.generalized_mass is not None:
+            return np.array(self.generalized_mass[np.ix_(free, free)])
+        return np.repeat(np.asarray(self.masses), self.dim)[free]
+
+    def expand(self, vectors: ArrayLike) -> NDArray[np.float64]:
+        """(n_sites * dim, ...) full displacement array from (n_dof, ...) free-dof values (0 at frozen dofs)."""
+        values = np.asarray(vectors)
+        full = np.zeros((self.frozen.shape[0],) + values.shape[1:], dtype=values.dtype)
+        full[self.free_dofs] = values
+        return full
+
+    def modes(
+        self,
+        n_modes: int | None = None,
+        *,
+        accuracy: Literal["high", "fast"] = "high",
+        vectors: bool = True,
+        band: tuple[float, float] | None = None,
+        solver: str = "auto",
+    ) -> Modes:
+        """Normal modes of the free dofs (seed 003 eqs. 137-151).
+
+        Parameters
+        ----------
+        n_modes : int, optional
+            Number of lowest modes wanted (all by default).
+        accuracy : {"high", "fast"}
+            "high": every requested frequency to high relative accuracy, using the spring
+            factor when K is factorised; "fast": the quickest path meeting the residual
+            tolerance.
+        vectors : bool
+            False computes frequencies only.
+        band : (float, float), optional
+            Only the modes with omega in [low, high], in rad per time unit.
+        solver : str
+            Override the automatic choice (see `vibra.normal_modes`).
+        """
+        from vibra.modes import normal_modes
+
+        _validate.choice(accuracy, "accuracy", ("high", "fast"))
+        factor = self.spring_factor() if accuracy == "high" else None
+        return normal_modes(
+            self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
+            solver=solver, spring_factor=factor, units=self.units,
+        )
+
+
+# ---------------------------------------------------------------------- helpers
+def _positions(positions: ArrayLike) -> NDArray[np.float64]:
+    array = _validate.real_array(positions, "positions", ndim=(1, 2))
+    if array.ndim == 1:
+        array = array[:, None]
+    if array.shape[0] < 1:
+        raise ValueError("positions must hold at least one site, got none")
+    if array.shape[1] not in (1, 2, 3):
+        raise ValueError(f"positions must be (n_sites, dim) with dim 1, 2 or 3, got shape {array.shape}")
+    return array
+
+
+def _site_masses(masses: ArrayLike, n_sites: int) -> NDArray[np.float64]:
+    array = _validate.real_array(masses, "masses", ndim=(0, 1))
+    if array.ndim == 0:
+        array = np.full(n_sites, float(array))
+    if array.shape[0] != n_sites:
+        raise ValueError(f"masses must have {n_sites} entries (one per site), got {array.shape[0]}")
+    _validate.positive(array, "masses", "mass")
+    return array
+
+
+def _per_item(value: ArrayLike | float | None, n: int, name: str) -> NDArray[np.float64]:
+    if value is None:
+        raise ValueError(f"{name} is required")
+    array = _validate.real_array(value, name, ndim=(0, 1))
+    if array.ndim == 0:
+        return np.full(n, float(array))
+    if array.shape[0] != n:
+        raise ValueError(f"{name} must have {n} entries, got {array.shape[0]}")
+    return array
+
+
+def _index_array(value: ArrayLike, name: str, n_sites: int, *, shape: tuple[int, ...]) -> NDArray[np.intp]:
+    array = np.asarray(value)
+    if array.size == 0:
+        return np.zeros((0,) + shape[1:], dtype=np.intp)
+    if not np.issubdtype(array.dtype, np.integer):
+        raise TypeError(f"{name} must hold integer site indices, got dtype {array.dtype}")
+    try:
+        array = array.reshape(shape)
+    except ValueError:
+        raise ValueError(f"{name} must have shape {('n',) + shape[1:]}, got {np.shape(value)}") from None
+    bad = (array < 0) | (array >= n_sites)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = ",".join(str(i) for i in index)
+        raise ValueError(f"{name}[{where}] is {array[index]}; site indices run from 0 to {n_sites - 1}")
+    return array.astype(np.intp)
+
+
+def _pair_rows(pairs: NDArray[np.intp], unit: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:
+    n = len(pairs)
+    axis = np.arange(dim)
+    rows = np.repeat(np.arange(n), 2 * dim)
+    cols = np.concatenate([pairs[:, :1] * dim + axis, pairs[:, 1:] * dim + axis], axis=1).ravel()
+    data = np.concatenate([-unit, unit], axis=1).ravel()
+    return sp.coo_matrix((data, (rows, cols)), shape=(n, n_sites * dim))
+
+
+def _single_rows(sites: NDArray[np.intp], direction: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:
+    n = len(sites)
+    rows = np.repeat(np.arange(n), dim)
+    cols = (sites[:, None] * dim + np.arange(dim)).ravel()
+    return sp.coo_matrix((direction.ravel(), (rows, cols)), shape=(n, n_sites * dim))
+
+
+def _stack_terms(rows: list[sp.coo_matrix], weights: list[NDArray[np.float64]], n_full: int
+                 ) -> tuple[sp.csr_matrix, NDArray[np.float64]]:
+    if not rows:
+        return sp.csr_matrix((0, n_full)), np.zeros(0)
+    b = sp.vstack(rows, format="csr")
+    b.eliminate_zeros()  # axis-aligned springs have zero components
+    return b, np.concatenate(weights)
+
+
+def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLike | None) -> NDArray[np.bool_]:
+    mask = np.zeros(n_sites * dim, dtype=bool)
+    if sites is not None:
+        index = _index_array(sites, "frozen_sites", n_sites, shape=(-1,))
+        mask[(index[:, None] * dim + np.arange(dim)).ravel()] = True
+    if dofs is not None:
+        index = _index_array(dofs, "frozen_dofs", n_sites * dim, shape=(-1,))
+        mask[index] = True
+    if mask.all():
+        raise ValueError("every degree of freedom is frozen; nothing is left to vibrate")
+    return mask
+
+
+def _site_labels(n_sites: int, dim: int) -> tuple[str, ...]:
+    if dim == 1:
+        return tuple(str(i) for i in range(n_sites))
+    return tuple(f"{i}{_AXES[a]}" for i in range(n_sites) for a in range(dim))

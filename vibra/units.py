@@ -1,0 +1,123 @@
+"""Unit systems and frequency conversions.
+
+Every `System` and every result carries a `UnitSystem`. Angular frequencies are stored in
+rad per time unit of that system; conversions to Hz, THz, cm^-1 and meV go through the
+factors built here from `scipy.constants` and `ase.units` (never typed in by hand).
+
+The three systems:
+
+- ``SI``: kg, m, N/m, s. omega in rad/s.
+- ``ASE`` (molecules): amu, Angstrom, eV. The time unit is Angstrom * sqrt(amu / eV)
+  (about 10.18 fs), so omega is in rad per that unit.
+- ``dimensionless``: no physical scale; only omega is meaningful.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import constants
+
+__all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "unit_system"]
+
+
+@dataclass(frozen=True)
+class UnitSystem:
+    """A consistent set of units for masses, lengths, energies and time.
+
+    Attributes
+    ----------
+    name : str
+        ``"SI"``, ``"ASE"`` or ``"dimensionless"``.
+    mass : str
+        Name of the mass unit (``"kg"``, ``"amu"``).
+    length : str
+        Name of the length unit (``"m"``, ``"Angstrom"``).
+    energy : str
+        Name of the energy unit (``"J"``, ``"eV"``).
+    time_s : float or None
+        Length of one time unit in seconds; None when the system is dimensionless.
+    """
+
+    name: str
+    mass: str
+    length: str
+    energy: str
+    time_s: float | None
+
+    @property
+    def stiffness(self) -> str:
+        """Name of the stiffness unit (energy per length squared)."""
+        if self.time_s is None:
+            return "1"
+        return "N/m" if self.name == "SI" else f"{self.energy}/{self.length}^2"
+
+    @property
+    def omega(self) -> str:
+        """Name of the angular-frequency unit."""
+        if self.time_s is None:
+            return "rad/time unit"
+        return "rad/s" if self.time_s == 1.0 else f"rad/({self.time_s:.4g} s)"
+
+    def _require_physical(self, what: str) -> float:
+        if self.time_s is None:
+            raise ValueError(
+                f"cannot express {what}: the unit system is dimensionless; "
+                "build the system with units='SI' or 'ASE'"
+            )
+        return self.time_s
+
+    def omega_to_rad_per_s(self, omega: ArrayLike) -> NDArray[np.float64]:
+        """(n,) angular frequencies converted to rad/s."""
+        return np.asarray(omega, dtype=float) / self._require_physical("rad/s")
+
+    def omega_to_hz(self, omega: ArrayLike) -> NDArray[np.float64]:
+        """(n,) ordinary frequencies omega / 2 pi, in Hz."""
+        return self.omega_to_rad_per_s(omega) / (2.0 * np.pi)
+
+    def omega_to_thz(self, omega: ArrayLike) -> NDArray[np.float64]:
+        """(n,) ordinary frequencies in THz."""
+        return self.omega_to_hz(omega) / constants.tera
+
+    def omega_to_cm1(self, omega: ArrayLike) -> NDArray[np.float64]:
+        """(n,) wavenumbers omega / (2 pi c), in cm^-1."""
+        return self.omega_to_hz(omega) / (constants.c / constants.centi)
+
+    def omega_to_mev(self, omega: ArrayLike) -> NDArray[np.float64]:
+        """(n,) quantum energies hbar omega, in meV."""
+        return self.omega_to_rad_per_s(omega) * constants.hbar / constants.e / constants.milli
+
+    def cm1_to_omega(self, wavenumber: ArrayLike) -> NDArray[np.float64]:
+        """(n,) wavenumbers in cm^-1 converted to omega in this system's units."""
+        hz = np.asarray(wavenumber, dtype=float) * (constants.c / constants.centi)
+        return 2.0 * np.pi * hz * self._require_physical("cm^-1")
+
+
+def _ase_time_s() -> float:
+    # One ASE time unit, Angstrom * sqrt(amu / eV), in seconds. Built from scipy.constants
+    # (CODATA 2018+) so that `import vibra` does not import ase; ase.units uses CODATA 2014
+    # by default, which differs from this by about 1e-8 relative.
+    return constants.angstrom * np.sqrt(constants.atomic_mass / constants.electron_volt)
+
+
+SI = UnitSystem("SI", mass="kg", length="m", energy="J", time_s=1.0)
+ASE = UnitSystem("ASE", mass="amu", length="Angstrom", energy="eV", time_s=_ase_time_s())
+DIMENSIONLESS = UnitSystem("dimensionless", mass="1", length="1", energy="1", time_s=None)
+
+_BY_NAME = {"si": SI, "ase": ASE, "dimensionless": DIMENSIONLESS}
+
+
+def unit_system(units: str | UnitSystem) -> UnitSystem:
+    """Return the `UnitSystem` named `units` (``"SI"``, ``"ASE"``, ``"dimensionless"``)."""
+    if isinstance(units, UnitSystem):
+        return units
+    if not isinstance(units, str):
+        raise TypeError(f"units must be a str or UnitSystem, got {type(units).__name__}")
+    try:
+        return _BY_NAME[units.lower()]
+    except KeyError:
+        raise ValueError(
+            f"units is {units!r}; expected one of 'SI', 'ASE', 'dimensionless'"
+        ) from None
