@@ -17,6 +17,11 @@ from numpy.typing import NDArray
 SYMMETRY_RTOL = 1e-10
 
 
+def _scalar(value: Any) -> str:
+    """A numpy scalar as the plain Python repr a user typed (-2.0, nan, inf)."""
+    return repr(value.item()) if hasattr(value, "item") else repr(value)
+
+
 def real_array(value: Any, name: str, *, ndim: int | tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """`value` as a finite float64 ndarray; raise naming `name` otherwise."""
     if sp.issparse(value):
@@ -42,7 +47,7 @@ def finite(array: NDArray[Any], name: str) -> None:
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {array[index]!r}; every entry must be finite")
+        raise ValueError(f"{name}[{where}] is {_scalar(array[index])}; every entry must be finite")
 
 
 def positive(array: NDArray[np.float64], name: str, what: str = "value") -> None:
@@ -52,7 +57,7 @@ def positive(array: NDArray[np.float64], name: str, what: str = "value") -> None
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {array[index]!r}; every {what} must be positive and finite")
+        raise ValueError(f"{name}[{where}] is {_scalar(array[index])}; every {what} must be positive and finite")
 
 
 def nonnegative(array: NDArray[np.float64], name: str, what: str = "value") -> None:
@@ -62,7 +67,7 @@ def nonnegative(array: NDArray[np.float64], name: str, what: str = "value") -> N
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {array[index]!r}; every {what} must be >= 0")
+        raise ValueError(f"{name}[{where}] is {_scalar(array[index])}; every {what} must be >= 0")
 
 
 def square_matrix(value: Any, name: str) -> NDArray[np.float64] | sp.csr_matrix:

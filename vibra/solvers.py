@@ -228,7 +228,8 @@ def _tridiagonal(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[flo
         values, basis = la.eigh_tridiagonal(d, e, **kwargs)
     else:
         values, basis = la.eigvalsh_tridiagonal(d, e, **kwargs), None
-    return _figures(sp.csr_matrix(Kt), np.asarray(values), basis, "tridiagonal", floor=4.0)
+    # MRRR / bisection: absolute eigenvalue error O(n eps ||T||).
+    return _figures(sp.csr_matrix(Kt), np.asarray(values), basis, "tridiagonal", floor=float(n))
 
 
 def _bandwidth(Kt: Any) -> int:

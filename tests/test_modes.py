@@ -1,0 +1,378 @@
+"""Tests of vibra/modes.py and vibra/solvers.py: normal_modes, the solver paths, Modes.
+
+Truth comes from closed forms (seed 003 eqs. 157-158, chain spectra), from mpmath
+eigenvalues at 50 digits, from scipy's ODE integrator, and from invariants.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import mpmath
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+
+import vibra
+from vibra import System, normal_modes
+
+
+# ---------------------------------------------------------------------- helpers
+def free_chain(n: int, mass: float | np.ndarray = 1.0, stiffness: float | np.ndarray = 1.0) -> System:
+    return System.from_springs(np.arange(n, dtype=float), mass, np.c_[np.arange(n - 1), np.arange(1, n)], stiffness)
+
+
+def fixed_chain(n: int) -> System:
+    return System.from_springs(np.arange(n, dtype=float), 1.0, np.c_[np.arange(n - 1), np.arange(1, n)], 1.0,
+                               anchors=[0, n - 1], anchor_stiffness=1.0)
+
+
+def free_closed_form(n: int) -> np.ndarray:
+    """Free chain, kappa = m = 1: omega_j = 2 sin(j pi / 2n), j = 0..n-1 (seed 003 section 5.3)."""
+    return 2.0 * np.sin(np.arange(n) * np.pi / (2 * n))
+
+
+def fixed_closed_form(n: int) -> np.ndarray:
+    """Fixed-fixed chain with n + 1 springs: omega_k = 2 sin(k pi / 2(n+1)), k = 1..n."""
+    return 2.0 * np.sin(np.arange(1, n + 1) * np.pi / (2 * (n + 1)))
+
+
+def mp_chain_omegas(masses: np.ndarray, stiffness: np.ndarray, digits: int = 60) -> np.ndarray:
+    """Free-chain frequencies from mpmath at `digits` digits, K built from the spring constants
+    themselves (a float64 K would already have rounded a weak spring next to a stiff one)."""
+    with mpmath.workdps(digits):
+        n = len(masses)
+        m = [mpmath.mpf(float(x)) for x in masses]
+        k = [mpmath.mpf(float(x)) for x in stiffness]
+        Kt = mpmath.matrix(n, n)
+        for s in range(n - 1):
+            i, j = s, s + 1
+            Kt[i, i] += k[s] / m[i]
+            Kt[j, j] += k[s] / m[j]
+            Kt[i, j] -= k[s] / mpmath.sqrt(m[i] * m[j])
+            Kt[j, i] -= k[s] / mpmath.sqrt(m[i] * m[j])
+        values = mpmath.eigsy(Kt, eigvals_only=True)
+        return np.array(sorted(float(mpmath.sign(v) * mpmath.sqrt(abs(v))) for v in values))
+
+
+def co2_K(kappa: float = 1.0) -> np.ndarray:
+    return kappa * np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+
+
+# ---------------------------------------------------------------------- CO2 (seed 003 example 11)
+@pytest.mark.parametrize("alpha", [0.1, 16.0 / 12.0, 1.0, 7.0, 1e-6, 1e6])
+@pytest.mark.parametrize("accuracy", ["high", "fast"])
+def test_co2_axial_against_eqs_157_158(alpha: float, accuracy: str) -> None:
+    big = 12.0
+    small = alpha * big
+    kappa = 3.7
+    system = System.from_springs([0.0, 1.16, 2.32], [small, big, small], [[0, 1], [1, 2]], kappa)
+    modes = system.modes(accuracy=accuracy)
+    expected = np.array([0.0, np.sqrt(kappa / small), np.sqrt(kappa * (1 / small + 2 / big))])
+    # Eq. 157. Relative 1e-12 on the nonzero pair: both paths are backward stable on a 3x3
+    # problem whose eigenvalues are within a factor 1 + 2/alpha of each other... except at
+    # alpha = 1e6 where the fast path's absolute error eps*||K~|| still is 1e-16 relative.
+    np.testing.assert_allclose(modes.omega[1:], expected[1:], rtol=1e-12)
+    assert abs(modes.omega[0]) <= 1e-7 * expected[2]  # zero mode: sqrt of rounding at most
+    # Eq. 158 (physical directions, normalised) up to sign.
+    u1 = np.ones(3) / np.sqrt(3)
+    u2 = np.array([-1.0, 0.0, 1.0]) / np.sqrt(2)
+    u3 = np.array([1 / np.sqrt(4 * alpha**2 + 2), -np.sqrt(2) * alpha / np.sqrt(2 * alpha**2 + 1),
+                   1 / np.sqrt(4 * alpha**2 + 2)])
+    for k, reference in enumerate([u1, u2, u3]):
+        shape = modes.shapes[:, k] / np.linalg.norm(modes.shapes[:, k])
+        assert min(np.abs(shape - reference).max(), np.abs(shape + reference).max()) < 1e-10
+
+
+def test_normal_modes_doctest_example_and_plain_arrays() -> None:
+    modes = normal_modes(co2_K(), [1.0, 1.0, 1.0])
+    np.testing.assert_allclose(modes.omega_squared[1:], [1.0, 3.0], rtol=1e-13)
+
+
+# ---------------------------------------------------------------------- chains: closed forms
+@pytest.mark.parametrize("n", [2, 3, 10, 257, 2000])
+@pytest.mark.parametrize("accuracy", ["high", "fast"])
+def test_free_and_fixed_chains_against_closed_forms(n: int, accuracy: str) -> None:
+    free = free_chain(n).modes(accuracy=accuracy, vectors=n <= 300)
+    exact = free_closed_form(n)
+    # Fast path: absolute error ~ n eps ||K~|| in omega^2, so relative error on the lowest
+    # omega grows like eps n^2; the high path keeps ~1e-13 (dqds relative accuracy).
+    rtol = 1e-12 if accuracy == "high" else 50 * np.finfo(float).eps * n**2
+    np.testing.assert_allclose(free.omega[1:], exact[1:], rtol=max(rtol, 1e-13))
+    fixed = fixed_chain(n).modes(accuracy=accuracy, vectors=False)
+    np.testing.assert_allclose(fixed.omega, fixed_closed_form(n), rtol=max(rtol, 1e-13))
+
+
+@pytest.mark.parametrize("n", [3, 8, 101, 1600])
+def test_periodic_chain_against_closed_form(n: int) -> None:
+    pairs = np.c_[np.arange(n), (np.arange(n) + 1) % n]
+    ring = System.from_springs(np.arange(n, dtype=float), 1.0, pairs, 1.0)
+    modes = ring.modes(vectors=n < 1000)
+    exact = np.sort(2.0 * np.abs(np.sin(np.pi * np.arange(n) / n)))
+    np.testing.assert_allclose(modes.omega[1:], exact[1:], rtol=1e-10)
+    # Degenerate pairs +-q: every nonzero frequency below the top appears twice.
+    if modes.vectors is not None and n > 3:
+        sizes = [len(g) for g in modes.degenerate_groups(rtol=1e-9)]
+        assert sizes.count(2) == (n - 1) // 2
+
+
+def test_accurate_path_full_spectrum_n30000_beats_tridiagonal() -> None:
+    n = 30000
+    system = free_chain(n)
+    exact = free_closed_form(n)
+    high = system.modes(vectors=False)
+    assert high.solver == "accurate-bidiagonal"
+    error_high = np.abs(high.omega[1:] - exact[1:]) / exact[1:]
+    # Every nonzero frequency, the lowest included, within 1e-10 relative (issue 2).
+    assert error_high.max() < 1e-10
+    fast = system.modes(accuracy="fast", vectors=False)
+    error_fast = abs(fast.omega[1] - exact[1]) / exact[1]
+    assert error_fast > 1000 * error_high[0]  # the accurate path is >= 1000x closer here
+    assert np.all(high.omega_error[1:] >= np.abs(high.omega[1:] - exact[1:]))  # honest bound
+
+
+@pytest.mark.slow
+def test_accurate_path_every_frequency_of_1e5_chain() -> None:
+    n = 100_000
+    modes = free_chain(n).modes(vectors=False)
+    exact = free_closed_form(n)
+    assert np.max(np.abs(modes.omega[1:] - exact[1:]) / exact[1:]) < 1e-10
+
+
+def test_lowest_modes_of_a_long_chain_partial_paths() -> None:
+    n, k = 200_000, 12
+    system = free_chain(n)
+    exact = free_closed_form(n)[:k]
+    high = system.modes(n_modes=k)
+    assert high.solver == "accurate-ritz" and high.n_modes == k
+    np.testing.assert_allclose(high.omega[1:], exact[1:], rtol=1e-10)
+    assert abs(high.omega[0]) < 1e-6 * exact[1]
+    fast = normal_modes(system.hessian(), system.mass_matrix(), n_modes=k)
+    assert fast.solver == "sparse"
+    # A standard sparse solve: relative error of order eps ||K~|| / omega_1^2 ~ eps n^2 on
+    # the lowest omega^2, halved for omega.
+    np.testing.assert_allclose(fast.omega[1:], exact[1:], rtol=np.finfo(float).eps * n**2)
+    assert fast.orthogonality < 1e-12 and fast.residual < 1e-12
+
+
+# ---------------------------------------------------------------------- 3-D networks
+def test_rigid_cluster_has_six_zero_modes_and_freezing_removes_them(rng: np.random.Generator) -> None:
+    points = rng.normal(size=(7, 3))
+    pairs = np.array([(i, j) for i in range(7) for j in range(i + 1, 7)])
+    cluster = System.from_springs(points, rng.uniform(1, 3, 7), pairs, rng.uniform(1, 2, len(pairs)))
+    for accuracy in ("high", "fast"):
+        modes = cluster.modes(accuracy=accuracy)
+        assert int(modes.zero_modes(rtol=1e-6).sum()) == 6
+        assert modes.omega[6] > 1e-3
+    frozen = cluster.freeze(sites=[0, 1, 2])
+    assert frozen.n_dof == 12
+    assert int(frozen.modes().zero_modes(rtol=1e-6).sum()) == 0
+
+
+def test_linear_molecule_with_bends_has_five_zero_modes() -> None:
+    # A-B-C along x with two stretches and two linear-bend coordinates (y and z), whose
+    # Wilson-B rows are d(theta)/du = (1/L1, -(1/L1 + 1/L2), 1/L2) on the y (or z) components.
+    L1, L2 = 1.16, 1.16
+    positions = np.array([[-L1, 0, 0], [0.0, 0, 0], [L2, 0, 0]])
+    rows = np.zeros((4, 9))
+    rows[0, [0, 3]] = [-1.0, 1.0]
+    rows[1, [3, 6]] = [-1.0, 1.0]
+    for r, axis in ((2, 1), (3, 2)):
+        rows[r, [axis, 3 + axis, 6 + axis]] = [1 / L1, -(1 / L1 + 1 / L2), 1 / L2]
+    system = System.from_terms(positions, [16.0, 12.0, 16.0], sp.csr_matrix(rows), [10.0, 10.0, 0.5, 0.5],
+                               units="ASE")
+    modes = system.modes()
+    assert int(modes.zero_modes(rtol=1e-6).sum()) == 5
+    groups = modes.degenerate_groups(rtol=1e-10)
+    assert [len(g) for g in groups if not modes.zero_modes()[g[0]]] == [2]  # the degenerate bend
+    # Frozen centre: the two rotations about it stay free (they leave every coordinate unchanged).
+    assert int(system.freeze(sites=[1]).modes().zero_modes(rtol=1e-6).sum()) == 2
+    # Frozen ends: the centre atom is held by the stretches (x) and the bends (y, z).
+    assert int(system.freeze(sites=[0, 2]).modes().zero_modes(rtol=1e-6).sum()) == 0
+
+
+# ---------------------------------------------------------------------- invariants
+def test_shapes_are_m_orthonormal_and_vectors_orthonormal(rng: np.random.Generator) -> None:
+    n = 40
+    masses = rng.uniform(0.5, 5.0, n)
+    system = free_chain(n, masses, rng.uniform(1, 3, n - 1))
+    for accuracy in ("high", "fast"):
+        modes = system.modes(accuracy=accuracy)
+        np.testing.assert_allclose(modes.shapes.T @ (masses[:, None] * modes.shapes), np.eye(n), atol=1e-12)
+        np.testing.assert_allclose(modes.vectors.T @ modes.vectors, np.eye(n), atol=1e-12)
+        assert modes.orthogonality < 1e-12 and modes.residual < 1e-12
+
+
+def test_generalized_mass_matrix_modes(rng: np.random.Generator) -> None:
+    a = rng.normal(size=(4, 4))
+    M = a @ a.T + 4 * np.eye(4)
+    b = rng.normal(size=(4, 4))
+    K = b @ b.T
+    modes = normal_modes(K, M)
+    np.testing.assert_allclose(modes.shapes.T @ M @ modes.shapes, np.eye(4), atol=1e-12)
+    np.testing.assert_allclose(K @ modes.shapes, M @ modes.shapes * modes.omega_squared, atol=1e-11)
+
+
+def test_evolve_matches_numerical_integration_and_conserves_energy(rng: np.random.Generator) -> None:
+    n = 12
+    masses = rng.uniform(1, 4, n)
+    system = free_chain(n, masses, rng.uniform(1, 3, n - 1))
+    K = system.hessian().toarray()
+    modes = system.modes()
+    u0, v0 = rng.normal(size=n), rng.normal(size=n)  # includes drift of the zero mode
+    times = np.linspace(0.0, 20.0, 41)
+
+    def rhs(_t: float, y: np.ndarray) -> np.ndarray:
+        return np.r_[y[n:], -(K @ y[:n]) / masses]
+
+    reference = solve_ivp(rhs, (0, 20), np.r_[u0, v0], t_eval=times, rtol=1e-12, atol=1e-12, method="DOP853")
+    motion = modes.evolve(u0, v0, times)
+    # DOP853 at rtol=atol=1e-12 over ~20 time units: global error ~1e-10; 1e-8 leaves margin.
+    np.testing.assert_allclose(motion, reference.y[:n].T, atol=1e-8)
+    energy0 = 0.5 * v0 @ (masses * v0) + 0.5 * u0 @ K @ u0
+    velocity = np.gradient(motion, times, axis=0)  # only for a consistency check below
+    assert velocity.shape == motion.shape
+    assert modes.energy(u0, v0) == pytest.approx(energy0, rel=1e-12)
+    # Energy along the exact motion from the normal-coordinate form: each q_k's energy is constant.
+    u_half = modes.evolve(u0, v0, 7.3)
+    v_half = (modes.evolve(u0, v0, 7.3 + 1e-6) - modes.evolve(u0, v0, 7.3 - 1e-6)) / 2e-6
+    assert 0.5 * v_half @ (masses * v_half) + 0.5 * u_half @ K @ u_half == pytest.approx(energy0, rel=1e-8)
+
+
+def test_evolve_zero_and_imaginary_modes() -> None:
+    # One free particle (zero mode) and one inverted oscillator (omega^2 = -4).
+    with pytest.warns(RuntimeWarning, match="imaginary"):
+        modes = normal_modes(np.diag([0.0, -4.0]), [1.0, 1.0])
+    assert modes.omega[0] == pytest.approx(-2.0) and modes.unstable.tolist() == [True, False]
+    u = modes.evolve([1.0, 0.5], [2.0, 0.25], 1.5)
+    # Exact: dof 0 drifts, x(t) = 1 + 2 t; dof 1 is inverted, y(t) = 0.5 cosh(2t) + 0.25 sinh(2t) / 2.
+    np.testing.assert_allclose(u, [1.0 + 2.0 * 1.5, 0.5 * np.cosh(3.0) + 0.125 * np.sinh(3.0)], rtol=1e-12)
+
+
+@given(
+    log_ratio=st.floats(min_value=-12, max_value=12),
+    log_stiffness=st.floats(min_value=-12, max_value=12),
+    n=st.integers(min_value=2, max_value=7),
+)
+def test_extreme_mass_and_stiffness_ratios_against_mpmath(log_ratio: float, log_stiffness: float, n: int) -> None:
+    masses = np.where(np.arange(n) % 2 == 0, 1.0, 10.0**log_ratio)
+    stiffness = np.where(np.arange(n - 1) % 2 == 0, 1.0, 10.0**log_stiffness)
+    system = free_chain(n, masses, stiffness)
+    modes = system.modes(vectors=False)
+    reference = mp_chain_omegas(masses, stiffness)
+    # Ratios up to 1e12 and 1e24 between frequencies: the accurate path keeps every nonzero
+    # frequency to ~n eps relative (dqds); 1e-12 allows for forming B~ (sqrt, divide).
+    np.testing.assert_allclose(modes.omega[1:], reference[1:], rtol=1e-12)
+    assert np.all(modes.omega_error[1:] >= np.abs(modes.omega[1:] - reference[1:]))
+
+
+def test_nearly_singular_K_weak_link_keeps_relative_accuracy() -> None:
+    n = 20
+    stiffness = np.ones(n - 1)
+    stiffness[9] = 1e-13  # two halves joined by an almost-broken spring
+    system = free_chain(n, 1.0, stiffness)
+    reference = mp_chain_omegas(np.ones(n), stiffness)
+    high = system.modes(vectors=False)
+    assert abs(high.omega[1] - reference[1]) / reference[1] < 1e-12
+    fast = system.modes(accuracy="fast", vectors=False)
+    # The fast path works on the rounded K (1 + 1e-13 keeps 3 digits of the weak spring):
+    # it cannot resolve omega_1 ~ 1e-7, and its error bar says so.
+    assert abs(fast.omega[1] - reference[1]) <= fast.omega_error[1]
+    assert fast.omega_error[1] > 1e-3 * reference[1]
+
+
+def test_degenerate_modes_grouped() -> None:
+    modes = normal_modes(np.diag([1.0, 4.0, 4.0, 4.0, 9.0]), np.ones(5))
+    groups = modes.degenerate_groups()
+    assert [g.tolist() for g in groups] == [[1, 2, 3]]
+
+
+def test_sparse_path_with_zero_modes_and_band() -> None:
+    system = free_chain(5000)
+    K, M = system.hessian(), system.mass_matrix()
+    modes = normal_modes(K, M, n_modes=6, solver="sparse")
+    np.testing.assert_allclose(modes.omega[1:], free_closed_form(5000)[1:6], rtol=1e-8)
+    assert abs(modes.omega[0]) < 1e-6
+    band = normal_modes(K, M, band=(0.01, 0.0105))
+    exact = free_closed_form(5000)
+    inside = exact[(exact >= 0.01) & (exact <= 0.0105)]
+    np.testing.assert_allclose(band.omega, inside, rtol=1e-8)
+
+
+def test_values_only_and_unit_conversions() -> None:
+    system = System.from_springs([0.0, 1.16, 2.32], [15.995, 12.0, 15.995], [[0, 1], [1, 2]], 100.0, units="ASE")
+    modes = system.modes(vectors=False)
+    assert modes.vectors is None and modes.shapes is None
+    with pytest.raises(ValueError, match="vectors=False"):
+        modes.evolve(np.zeros(3), np.zeros(3), 1.0)
+    # Independent conversion: omega (rad per ASE time unit) -> cm^-1 with ASE's own units.
+    from ase import units as ase_units
+
+    reference = modes.omega * ase_units.s / (2 * np.pi * ase_units._c * 100)
+    np.testing.assert_allclose(modes.wavenumbers_cm1(), reference, rtol=1e-7)  # CODATA 2014 vs 2018
+    np.testing.assert_allclose(modes.energies_mev(), modes.omega * ase_units.s * ase_units._hbar * ase_units.J * 1e3,
+                               rtol=1e-7)
+    with pytest.raises(ValueError, match="dimensionless"):
+        normal_modes(np.eye(2), np.ones(2)).frequencies_hz()
+
+
+# ---------------------------------------------------------------------- immutability
+def test_modes_are_immutable() -> None:
+    modes = normal_modes(co2_K(), [1.0, 2.0, 1.0])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        modes.omega = np.zeros(3)  # type: ignore[misc]
+    with pytest.raises(ValueError):
+        modes.omega[0] = 1.0
+    with pytest.raises(ValueError):
+        modes.shapes[0, 0] = 1.0
+
+
+# ---------------------------------------------------------------------- validation
+@pytest.mark.parametrize(
+    ("K", "M", "kwargs", "error", "match"),
+    [
+        (np.array([[1.0, 2.0], [0.0, 1.0]]), [1, 1], {}, ValueError, r"K is not symmetric: \|K\[0,1\] - K\[1,0\]\|"),
+        (np.ones((2, 3)), [1, 1], {}, ValueError, r"K must be square"),
+        (np.array([[1.0, np.nan], [np.nan, 1.0]]), [1, 1], {}, ValueError, r"K\[0,1\] is nan"),
+        (np.eye(2), [1.0, -2.0], {}, ValueError, r"M\[1\] is -2.0; every mass must be positive"),
+        (np.eye(2), [1.0, np.inf], {}, ValueError, r"M\[1\] is inf"),
+        (np.eye(2), [1.0, 1.0, 1.0], {}, ValueError, r"M must have 2 masses"),
+        (np.eye(2), np.array([[1.0, 2.0], [2.0, 1.0]]), {}, ValueError, r"M is not positive definite"),
+        (np.eye(2), [1, 1], {"n_modes": 3}, ValueError, r"n_modes is 3; expected 1 <= n_modes <= 2"),
+        (np.eye(2), [1, 1], {"n_modes": 1.5}, TypeError, r"n_modes must be an int"),
+        (np.eye(2), [1, 1], {"solver": "magic"}, ValueError, r"solver is 'magic'; expected one of"),
+        (np.eye(2), [1, 1], {"solver": "accurate"}, ValueError, r"needs spring_factor"),
+        (np.eye(2), [1, 1], {"band": (2.0, 1.0)}, ValueError, r"band must be \(low, high\)"),
+        ("abc", [1, 1], {}, TypeError, r"K must be an array of real numbers"),
+    ],
+)
+def test_normal_modes_validation_messages(K, M, kwargs, error, match) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(error, match=match):
+        normal_modes(K, M, **kwargs)
+
+
+def test_symmetrize_opt_in_and_indefinite_warns() -> None:
+    K = np.array([[2.0, -1.0], [-1.0 + 1e-3, 2.0]])
+    modes = normal_modes(K, [1.0, 1.0], symmetrize=True)
+    np.testing.assert_allclose(modes.omega_squared, np.linalg.eigvalsh((K + K.T) / 2), rtol=1e-13)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        normal_modes(np.eye(2), [1.0, 1.0])  # a PSD K does not warn
+    with pytest.warns(RuntimeWarning, match="1 imaginary mode"):
+        modes = normal_modes(np.diag([-9.0, 1.0]), [1.0, 1.0])
+    assert modes.omega.tolist() == pytest.approx([-3.0, 1.0])
+    assert not np.isnan(modes.omega).any()
+
+
+def test_top_level_api_is_lazy() -> None:
+    import subprocess
+    import sys
+
+    code = "import sys, vibra; print(any(m in sys.modules for m in ('pyvista', 'ase', 'phonopy', 'vtk')))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+    assert vibra.System is System

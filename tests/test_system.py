@@ -1,0 +1,139 @@
+"""Tests of vibra/system.py: assembly of K and M, freezing, validation, immutability."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from vibra import System
+
+
+def numeric_hessian(positions: np.ndarray, pairs: np.ndarray, stiffness: np.ndarray, h: float = 1e-4) -> np.ndarray:
+    """Central-difference Hessian of V = sum k/2 (|r_j - r_i| - l0)^2 (independent of vibra)."""
+    rest = np.linalg.norm(positions[pairs[:, 1]] - positions[pairs[:, 0]], axis=1)
+
+    def energy(x: np.ndarray) -> float:
+        r = x.reshape(positions.shape)
+        length = np.linalg.norm(r[pairs[:, 1]] - r[pairs[:, 0]], axis=1)
+        return float(0.5 * np.sum(stiffness * (length - rest) ** 2))
+
+    x0 = positions.ravel()
+    n = x0.size
+    H = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            e = np.zeros(n)
+            f = np.zeros(n)
+            e[i] = h
+            f[j] = h
+            H[i, j] = (energy(x0 + e + f) - energy(x0 + e - f) - energy(x0 - e + f) + energy(x0 - e - f)) / (4 * h * h)
+    return H
+
+
+def test_spring_hessian_blocks_match_finite_differences(rng: np.random.Generator) -> None:
+    positions = rng.normal(size=(5, 3))
+    pairs = np.array([[0, 1], [1, 2], [2, 3], [3, 4], [0, 4], [1, 3]])
+    stiffness = rng.uniform(1, 5, len(pairs))
+    system = System.from_springs(positions, 1.0, pairs, stiffness)
+    K = system.hessian()
+    assert sp.isspmatrix_csr(K)
+    # Central differences of a smooth quartic-free energy: truncation O(h^2 V'''') ~ 1e-8.
+    np.testing.assert_allclose(K.toarray(), numeric_hessian(positions, pairs, stiffness), atol=1e-6)
+
+
+def test_anchor_and_1d_chain_matrix() -> None:
+    system = System.from_springs([0.0, 1.0, 2.0], [1.0, 2.0, 3.0], [[0, 1], [1, 2]], [4.0, 5.0],
+                                 anchors=[0], anchor_stiffness=7.0)
+    expected = np.array([[4.0 + 7.0, -4.0, 0.0], [-4.0, 9.0, -5.0], [0.0, -5.0, 5.0]])
+    np.testing.assert_array_equal(system.hessian().toarray(), expected)
+    np.testing.assert_array_equal(system.mass_matrix(), [1.0, 2.0, 3.0])
+    B, w = system.spring_factor()
+    np.testing.assert_allclose((B.T @ sp.diags(w) @ B).toarray(), expected)
+
+
+def test_frozen_sites_and_dofs_reduce_the_problem() -> None:
+    positions = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
+    system = System.from_springs(positions, [1.0, 2.0, 3.0], [[0, 1], [1, 2], [0, 2]], 1.0)
+    frozen = system.freeze(sites=[0], dofs=[3])  # site 0 entirely, and site 1's y
+    assert frozen.n_dof == 3
+    np.testing.assert_array_equal(frozen.free_dofs, [2, 4, 5])
+    full = system.hessian().toarray()
+    np.testing.assert_allclose(frozen.hessian().toarray(), full[np.ix_([2, 4, 5], [2, 4, 5])])
+    np.testing.assert_array_equal(frozen.mass_matrix(), [2.0, 3.0, 3.0])
+    expanded = frozen.expand(np.array([1.0, 2.0, 3.0]))
+    np.testing.assert_array_equal(expanded, [0, 0, 1, 0, 2, 3])
+
+
+def test_user_hessian_and_generalized_systems() -> None:
+    H = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    system = System.from_hessian([[0.0], [1.0]], [1.0, 1.0], H)
+    assert system.spring_factor() is None
+    np.testing.assert_array_equal(system.hessian().toarray(), H)
+    M = np.array([[2.0, 0.3], [0.3, 1.0]])
+    generalized = System.generalized(M, np.diag([1.0, 2.0]), coordinates=["theta1", "theta2"])
+    assert generalized.is_generalized and generalized.labels == ("theta1", "theta2")
+    np.testing.assert_array_equal(generalized.mass_matrix(), M)
+
+
+def test_isotopes_change_masses_only() -> None:
+    system = System.from_springs([0.0, 1.0], [1.0, 1.0], [[0, 1]], 2.0)
+    heavy = system.with_masses([1.0, 3.0])
+    np.testing.assert_array_equal(heavy.hessian().toarray(), system.hessian().toarray())
+    # Two masses on one spring: omega = sqrt(k / mu), mu the reduced mass.
+    assert heavy.modes().omega[1] == pytest.approx(np.sqrt(2.0 / (3.0 / 4.0)), rel=1e-14)
+
+
+def test_assembly_is_vectorised_for_a_million_springs() -> None:
+    n = 1_000_001
+    system = System.from_springs(np.arange(n, dtype=float), 1.0, np.c_[np.arange(n - 1), np.arange(1, n)], 1.0)
+    K = system.hessian()
+    assert K.shape == (n, n) and K.nnz == 3 * n - 2
+    assert K[0, 0] == 1.0 and K[5, 5] == 2.0 and K[5, 6] == -1.0
+
+
+def test_system_is_immutable() -> None:
+    system = System.from_springs([0.0, 1.0], 1.0, [[0, 1]], 1.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        system.masses = np.ones(2)  # type: ignore[misc]
+    with pytest.raises(ValueError):
+        system.masses[0] = 5.0
+    with pytest.raises(ValueError):
+        system.coupling.data[0] = 5.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"masses": [1.0, -1.0]}, ValueError, r"masses\[1\] is -1.0; every mass must be positive"),
+        ({"masses": [1.0, np.nan]}, ValueError, r"masses\[1\] is nan"),
+        ({"masses": [1.0, 1.0, 1.0]}, ValueError, r"masses must have 2 entries"),
+        ({"stiffness": -3.0}, ValueError, r"stiffness\[0\] is -3.0; every spring constant must be positive"),
+        ({"springs": [[0, 2]]}, ValueError, r"springs\[0,1\] is 2; site indices run from 0 to 1"),
+        ({"springs": [[1, 1]]}, ValueError, r"springs\[0\] joins site 1 to itself"),
+        ({"springs": [[0.0, 1.0]]}, TypeError, r"springs must hold integer site indices"),
+        ({"positions": [0.0, 0.0]}, ValueError, r"springs\[0\] joins sites 0 and 1 at the same position"),
+        ({"positions": np.zeros((2, 4))}, ValueError, r"positions must be \(n_sites, dim\) with dim 1, 2 or 3"),
+        ({"anchors": [0], "anchor_stiffness": 0.0}, ValueError, r"anchor_stiffness\[0\] is 0.0"),
+        ({"frozen_sites": [0, 1]}, ValueError, r"every degree of freedom is frozen"),
+        ({"units": "imperial"}, ValueError, r"units is 'imperial'; expected one of"),
+    ],
+)
+def test_from_springs_validation(kwargs, error, match) -> None:  # type: ignore[no-untyped-def]
+    arguments = {"positions": [0.0, 1.0], "masses": [1.0, 1.0], "springs": [[0, 1]], "stiffness": 1.0}
+    arguments.update(kwargs)
+    with pytest.raises(error, match=match):
+        System.from_springs(**arguments)
+
+
+def test_generalized_validation() -> None:
+    with pytest.raises(ValueError, match=r"M is not positive definite"):
+        System.generalized(np.array([[1.0, 2.0], [2.0, 1.0]]), np.eye(2))
+    with pytest.raises(ValueError, match=r"K is not symmetric"):
+        System.generalized(np.eye(2), np.array([[1.0, 0.5], [0.0, 1.0]]))
+    with pytest.raises(ValueError, match=r"coordinates must name 2 coordinates, got 1"):
+        System.generalized(np.eye(2), np.eye(2), coordinates=["a"])
+    with pytest.raises(ValueError, match=r"accuracy is 'best'"):
+        System.generalized(np.eye(2), np.eye(2)).modes(accuracy="best")  # type: ignore[arg-type]
