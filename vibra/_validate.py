@@ -89,9 +89,10 @@ def symmetric(
     rtol: float = SYMMETRY_RTOL,
 ) -> NDArray[np.float64] | sp.csr_matrix:
     """Check symmetry within ``rtol * max|matrix|``; with `symmetrize`, return (A + A^T) / 2."""
-    if sp.issparse(matrix):
-        gap_matrix = (matrix - matrix.T).tocoo()
-        scale = abs(matrix).max() if matrix.nnz else 0.0
+    if isinstance(matrix, sp.spmatrix) or sp.issparse(matrix):
+        sparse_matrix: Any = matrix
+        gap_matrix = (sparse_matrix - sparse_matrix.T).tocoo()
+        scale = abs(sparse_matrix).max() if sparse_matrix.nnz else 0.0
         if gap_matrix.nnz:
             k = int(np.argmax(np.abs(gap_matrix.data)))
             gap, i, j = abs(gap_matrix.data[k]), int(gap_matrix.row[k]), int(gap_matrix.col[k])

@@ -100,7 +100,7 @@ def mass_weighted(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float
             return sp.csr_matrix(sp.diags(scale) @ K @ sp.diags(scale))
         return K * scale[:, None] * scale[None, :]
     root = _mass_power(mass, -0.5)
-    dense = K.toarray() if sp.issparse(K) else K
+    dense = K if isinstance(K, np.ndarray) else np.asarray(K.toarray())
     weighted = root @ dense @ root
     return 0.5 * (weighted + weighted.T)
 
@@ -381,8 +381,8 @@ def _accurate(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matrix, N
     if path is not None:
         return _accurate_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band)
     if few and band is None:
-        sigma, factor = _lowest_shift(sp.csr_matrix(Kt))
-        _, basis = _shift_invert(sp.csr_matrix(Kt), int(n_modes), sigma, factor)  # type: ignore[arg-type]
+        sigma, shifted = _lowest_shift(sp.csr_matrix(Kt))
+        _, basis = _shift_invert(sp.csr_matrix(Kt), int(n_modes), sigma, shifted)  # type: ignore[arg-type]
         return _spring_ritz(weighted, basis, vectors=vectors)
     if few:
         standard = _sparse(Kt, n_modes=None, vectors=True, band=band)
@@ -493,7 +493,9 @@ def _accurate_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes: 
     # Vectors from the standard tridiagonal solver (angle error ~ eps ||K~|| / gap), values
     # from dqds: each column is re-paired with the dqds value of the same rank.
     d, e = _diagonals(Kt)
-    if select.size:
+    if select.size == n:
+        _, basis = la.eigh_tridiagonal(d, e, check_finite=False)  # MRRR, O(n^2)
+    elif select.size:
         _, basis = la.eigh_tridiagonal(d, e, select="i", select_range=(int(select[0]), int(select[-1])),
                                        check_finite=False)
         basis = basis[:, select - select[0]]

@@ -316,8 +316,8 @@ class System:
             Names of the coordinates (default ``q0, q1, ...``).
         """
         K_matrix = _validate.square_matrix(K, "K")
-        if sp.issparse(K_matrix):
-            K_matrix = K_matrix.toarray()
+        if not isinstance(K_matrix, np.ndarray):
+            K_matrix = np.asarray(K_matrix.toarray())
         K_matrix = _validate.symmetric(K_matrix, "K")
         n_dof = K_matrix.shape[0]
         M_matrix = _validate.mass_argument(M, n_dof, "M")

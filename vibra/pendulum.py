@@ -1,0 +1,382 @@
+"""The simple pendulum, exact versus harmonic (seed 003, examples 3, 6 and 8, figure 2).
+
+The exact motion theta'' + Omega^2 sin(theta) = 0 (Omega = sqrt(g/l)) released at rest
+from the amplitude theta0 has the period
+
+    T(theta0) = 4 K(k^2) / Omega,    k = sin(theta0 / 2),
+
+(K the complete elliptic integral of the first kind in scipy's parameter convention
+m = k^2), and the closed form sin(theta/2) = k cd(Omega t | k^2), with cd = cn / dn the
+Jacobi elliptic functions. The harmonic approximation theta0 cos(Omega t) has the period
+2 pi / Omega whatever the amplitude (seed 003 section 2.5); its period error grows as
+theta0^2 / 16 and its trajectory error over a fixed number of periods as theta0^3.
+
+With linear friction (example 6, eqs. 63-66) theta'' + eta theta' + Omega^2 sin(theta) = 0,
+and the energy decays as dE/dt = -2 eta T.
+
+Energies here are per unit moment of inertia m l^2 (so in rad^2 per time unit squared):
+E = theta'^2 / 2 + Omega^2 (1 - cos theta). Times are in the time unit of `omega`
+(seconds when omega is in rad/s).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import special
+
+from vibra import _validate
+from vibra.system import _freeze_arrays
+
+__all__ = [
+    "PendulumMotion",
+    "HarmonicError",
+    "exact_period",
+    "harmonic_period",
+    "exact_motion",
+    "harmonic_motion",
+    "damped_motion",
+    "harmonic_error",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class PendulumMotion:
+    """One motion theta(t) of the simple pendulum.
+
+    Attributes
+    ----------
+    t : (n_t,) ndarray
+        Times, in the time unit of `omega` (s for omega in rad/s).
+    theta : (n_t,) ndarray
+        Angle from the downward vertical, in rad.
+    theta_dot : (n_t,) ndarray
+        Its rate, in rad per time unit.
+    omega : float
+        Small-amplitude angular frequency Omega = sqrt(g / l), in rad per time unit.
+    eta : float
+        Linear friction rate (seed 003 example 6), in 1 / time unit; 0 without friction.
+    method : str
+        ``"elliptic"`` (Jacobi closed form), ``"harmonic"`` (theta0 cos(Omega t) and its
+        damped counterpart) or ``"solve_ivp"`` (DOP853 integration).
+    """
+
+    t: NDArray[np.float64]
+    theta: NDArray[np.float64]
+    theta_dot: NDArray[np.float64]
+    omega: float
+    eta: float
+    method: str
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    @property
+    def kinetic(self) -> NDArray[np.float64]:
+        """(n_t,) kinetic energy theta'^2 / 2 per unit m l^2, in rad^2 per time unit^2."""
+        return 0.5 * self.theta_dot**2
+
+    @property
+    def energy(self) -> NDArray[np.float64]:
+        """(n_t,) total energy theta'^2 / 2 + Omega^2 (1 - cos theta) per unit m l^2.
+
+        For a ``"harmonic"`` motion the potential is the harmonic one, Omega^2 theta^2 / 2.
+        """
+        if self.method == "harmonic":
+            potential = 0.5 * self.omega**2 * self.theta**2
+        else:
+            potential = self.omega**2 * (1.0 - np.cos(self.theta))
+        return self.kinetic + potential
+
+
+@dataclass(frozen=True, eq=False)
+class HarmonicError:
+    """How far the harmonic approximation is from the exact pendulum, per amplitude.
+
+    Attributes
+    ----------
+    amplitudes : (n,) ndarray
+        Release angles theta0 (at rest), in rad.
+    exact_period : (n,) ndarray
+        4 K(sin^2(theta0/2)) / Omega, in time units.
+    harmonic_period : float
+        2 pi / Omega, in time units.
+    period_error : (n,) ndarray
+        Relative period error exact_period / harmonic_period - 1 (dimensionless, >= 0).
+    trajectory_error : (n,) ndarray
+        Largest |theta_harmonic - theta_exact| over `n_periods` harmonic periods, in rad.
+    n_periods : float
+        Length of the comparison window, in harmonic periods.
+    omega : float
+        Omega, in rad per time unit.
+    """
+
+    amplitudes: NDArray[np.float64]
+    exact_period: NDArray[np.float64]
+    harmonic_period: float
+    period_error: NDArray[np.float64]
+    trajectory_error: NDArray[np.float64]
+    n_periods: float
+    omega: float
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    @property
+    def relative_trajectory_error(self) -> NDArray[np.float64]:
+        """(n,) trajectory_error / amplitudes (dimensionless)."""
+        return self.trajectory_error / self.amplitudes
+
+
+# ---------------------------------------------------------------------- checks
+def _real_scalar(value: Any, name: str) -> float:
+    """`value` as a finite float; the message names `name` (no empty index for 0-d input)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        array = np.asarray(value) if not isinstance(value, str) else None
+        if array is None or array.ndim != 0 or not np.issubdtype(array.dtype, np.number):
+            raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+        value = array.item()
+    number = float(value)
+    if not np.isfinite(number):
+        raise ValueError(f"{name} is {number!r}; it must be finite")
+    return number
+
+
+def _omega(omega: float) -> float:
+    value = _real_scalar(omega, "omega")
+    if not value > 0:
+        raise ValueError(f"omega is {value!r}; the pendulum's Omega = sqrt(g/l) must be positive")
+    return value
+
+
+def _amplitudes(amplitude: ArrayLike, name: str = "amplitude") -> NDArray[np.float64]:
+    if np.ndim(amplitude) == 0:
+        values = np.asarray(_real_scalar(amplitude, name))
+    else:
+        values = _validate.real_array(amplitude, name, ndim=1)
+    bad = ~((values > 0) & (values < np.pi))
+    if bad.any():
+        index = int(np.argmax(np.atleast_1d(bad)))
+        shown = f"{name}[{index}]" if values.ndim else name
+        raise ValueError(
+            f"{shown} is {float(np.atleast_1d(values)[index])!r} rad; a release angle must lie in (0, pi) "
+            "(at pi the pendulum stands on its unstable equilibrium and never swings)"
+        )
+    return values
+
+
+def _times(t: ArrayLike) -> NDArray[np.float64]:
+    times = _validate.real_array(t, "t", ndim=1)
+    if times.shape[0] < 2:
+        raise ValueError(f"t must hold at least 2 times, got {times.shape[0]}")
+    step = np.diff(times)
+    if not (step > 0).all():
+        i = int(np.argmax(~(step > 0)))
+        raise ValueError(f"t must increase: t[{i + 1}] = {float(times[i + 1])!r} <= t[{i}] = {float(times[i])!r}")
+    return times
+
+
+# ---------------------------------------------------------------------- periods
+def exact_period(amplitude: ArrayLike, omega: float = 1.0) -> NDArray[np.float64]:
+    """Exact period 4 K(sin^2(theta0/2)) / Omega of the pendulum released at rest.
+
+    Parameters
+    ----------
+    amplitude : float or (n,) array_like
+        Release angle theta0, in rad, in (0, pi).
+    omega : float
+        Omega = sqrt(g / l), in rad per time unit.
+
+    Returns
+    -------
+    float ndarray, shape of `amplitude`
+        Periods, in time units.
+
+    Raises
+    ------
+    ValueError
+        An amplitude outside (0, pi); omega not positive.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vibra.pendulum import exact_period
+    >>> round(float(exact_period(np.pi / 2) / (2 * np.pi)), 6)
+    1.18034
+    """
+    theta0 = _amplitudes(amplitude)
+    return 4.0 * special.ellipk(np.sin(0.5 * theta0) ** 2) / _omega(omega)
+
+
+def harmonic_period(omega: float = 1.0) -> float:
+    """2 pi / Omega, the period of the harmonic approximation, in time units."""
+    return 2.0 * np.pi / _omega(omega)
+
+
+# ---------------------------------------------------------------------- motions
+def exact_motion(amplitude: float, t: ArrayLike, omega: float = 1.0) -> PendulumMotion:
+    """Exact motion from rest at theta0: sin(theta/2) = k cd(Omega t | k^2), k = sin(theta0/2).
+
+    Parameters
+    ----------
+    amplitude : float
+        Release angle theta0, in rad, in (0, pi).
+    t : (n_t,) array_like
+        Increasing times, in time units (t = 0 is the release).
+    omega : float
+        Omega, in rad per time unit.
+
+    Returns
+    -------
+    PendulumMotion
+        method ``"elliptic"``; theta' = 2 k Omega (d cd/du) / cos(theta/2), with
+        d cd/du = -(1 - k^2) sn / dn^2.
+    """
+    theta0 = float(_amplitudes(amplitude))
+    times = _times(t)
+    w = _omega(omega)
+    k = np.sin(0.5 * theta0)
+    sn, cn, dn, _ = special.ellipj(w * times, k * k)
+    half = np.arcsin(np.clip(k * cn / dn, -1.0, 1.0))
+    theta_dot = 2.0 * k * w * (-(1.0 - k * k) * sn / dn**2) / np.cos(half)
+    return PendulumMotion(t=times, theta=2.0 * half, theta_dot=theta_dot, omega=w, eta=0.0, method="elliptic")
+
+
+def harmonic_motion(amplitude: float, t: ArrayLike, omega: float = 1.0, *, eta: float = 0.0) -> PendulumMotion:
+    """Harmonic approximation from rest at theta0 (sin theta ~ theta), optionally damped.
+
+    Without friction theta = theta0 cos(Omega t) (seed 003, example 3). With eta < 2 Omega,
+    theta = theta0 exp(-eta t / 2) [cos(w t) + eta / (2 w) sin(w t)], w = sqrt(Omega^2 - eta^2/4).
+
+    Parameters
+    ----------
+    amplitude : float
+        Release angle theta0, in rad (any value: the approximation does not care, but it
+        is only meaningful for small ones), in (0, pi).
+    t : (n_t,) array_like
+        Increasing times, in time units.
+    omega : float
+        Omega, in rad per time unit.
+    eta : float
+        Friction rate, in 1 / time unit, 0 <= eta < 2 Omega (under-damped).
+
+    Returns
+    -------
+    PendulumMotion
+        method ``"harmonic"``.
+    """
+    theta0 = float(_amplitudes(amplitude))
+    times = _times(t)
+    w0 = _omega(omega)
+    rate = _eta(eta)
+    if not rate < 2.0 * w0:
+        raise ValueError(f"eta is {rate!r}; harmonic_motion covers the under-damped case eta < 2 omega = {2 * w0!r}")
+    w = np.sqrt(w0 * w0 - 0.25 * rate * rate)
+    decay = np.exp(-0.5 * rate * times)
+    c, s = np.cos(w * times), np.sin(w * times)
+    theta = theta0 * decay * (c + 0.5 * rate / w * s)
+    theta_dot = -theta0 * decay * (w0 * w0 / w) * s
+    return PendulumMotion(t=times, theta=theta, theta_dot=theta_dot, omega=w0, eta=rate, method="harmonic")
+
+
+def _eta(eta: float) -> float:
+    value = _real_scalar(eta, "eta")
+    if value < 0:
+        raise ValueError(f"eta is {value!r}; a friction rate must be >= 0")
+    return value
+
+
+def damped_motion(
+    amplitude: float, t: ArrayLike, *, omega: float = 1.0, eta: float, velocity: float = 0.0,
+    rtol: float = 1e-10, atol: float = 1e-12,
+) -> PendulumMotion:
+    """Pendulum with linear friction, theta'' + eta theta' + Omega^2 sin(theta) = 0 (example 6).
+
+    Integrated with `scipy.integrate.solve_ivp` (DOP853). Its `energy` decays as
+    dE/dt = -2 eta T (seed 003 eq. 63); eta = 0 gives the exact frictionless motion.
+
+    Parameters
+    ----------
+    amplitude : float
+        Starting angle, in rad, in (0, pi).
+    t : (n_t,) array_like
+        Increasing output times, in time units, from the start.
+    omega : float
+        Omega, in rad per time unit.
+    eta : float
+        Friction rate, in 1 / time unit, >= 0.
+    velocity : float
+        Starting rate theta'(t[0]), in rad per time unit.
+    rtol, atol : float
+        Tolerances of solve_ivp (atol in rad and rad per time unit).
+
+    Returns
+    -------
+    PendulumMotion
+        method ``"solve_ivp"``.
+
+    Raises
+    ------
+    ValueError
+        amplitude outside (0, pi), omega not positive, eta negative, t not increasing.
+    RuntimeError
+        The integrator fails.
+    """
+    from scipy.integrate import solve_ivp
+
+    theta0 = float(_amplitudes(amplitude))
+    times = _times(t)
+    w = _omega(omega)
+    rate = _eta(eta)
+    speed = _real_scalar(velocity, "velocity")
+
+    def rhs(_: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.array([y[1], -rate * y[1] - w * w * np.sin(y[0])])
+
+    solution = solve_ivp(rhs, (times[0], times[-1]), [theta0, speed], method="DOP853", t_eval=times,
+                         rtol=rtol, atol=atol)
+    if not solution.success:
+        raise RuntimeError(f"solve_ivp failed on the pendulum: {solution.message}")
+    return PendulumMotion(t=times, theta=solution.y[0], theta_dot=solution.y[1], omega=w, eta=rate,
+                          method="solve_ivp")
+
+
+# ---------------------------------------------------------------------- comparison
+def harmonic_error(
+    amplitudes: ArrayLike, *, omega: float = 1.0, n_periods: float = 1.0, n_points: int = 2001,
+) -> HarmonicError:
+    """Period and trajectory error of the harmonic approximation, per release angle.
+
+    Parameters
+    ----------
+    amplitudes : (n,) array_like
+        Release angles theta0 (at rest), in rad, in (0, pi).
+    omega : float
+        Omega, in rad per time unit.
+    n_periods : float
+        The trajectories are compared over [0, n_periods * 2 pi / Omega].
+    n_points : int
+        Sample times per comparison (the error is the largest gap at these times).
+
+    Returns
+    -------
+    HarmonicError
+    """
+    theta0 = np.atleast_1d(_amplitudes(amplitudes, "amplitudes"))
+    w = _omega(omega)
+    periods = _real_scalar(n_periods, "n_periods")
+    if not periods > 0:
+        raise ValueError(f"n_periods is {periods!r}; it must be positive")
+    n_points = _validate.count(n_points, "n_points", low=2, high=10**7)
+    t0 = harmonic_period(w)
+    times = np.linspace(0.0, periods * t0, n_points)
+    gaps = np.empty(theta0.shape[0])
+    for i, amplitude in enumerate(theta0):
+        exact = exact_motion(amplitude, times, w).theta
+        gaps[i] = np.abs(amplitude * np.cos(w * times) - exact).max()
+    exact_t = exact_period(theta0, w)
+    return HarmonicError(amplitudes=theta0, exact_period=exact_t, harmonic_period=t0,
+                         period_error=exact_t / t0 - 1.0, trajectory_error=gaps, n_periods=periods, omega=w)
