@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 #: rcParams applied (locally, via rc_context) to every chart: legible at the default size.
-STYLE: dict[str, Any] = {
+STYLE: Any = {
     "figure.figsize": (8.0, 5.0),
     "figure.dpi": 100,
     "savefig.dpi": 120,
