@@ -1,0 +1,178 @@
+"""Charts of forced, damped response: the seed's figure 7, a chain's FRF, Rayleigh damping.
+
+Each function takes result objects or arrays and returns a matplotlib Figure; save it with
+`vibra.charts._style.save_figure`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
+
+from vibra import _validate
+from vibra.charts._style import new_figure
+from vibra.response import FrequencyResponse, Oscillator, rayleigh_damping_ratio
+
+__all__ = ["plot_oscillator_response", "plot_frf", "plot_rayleigh_damping"]
+
+
+def plot_oscillator_response(
+    oscillators: Sequence[Oscillator] | None = None,
+    omegas: ArrayLike | None = None,
+    *,
+    F0: float = 1.0,
+) -> Figure:
+    """Amplitude |u0(w)| (eq. 121) and phase phi(w) (eq. 123) against w: the seed's figure 7.
+
+    Parameters
+    ----------
+    oscillators : sequence of Oscillator, optional
+        One curve each. Default: w0 = 1, m = 1 and gamma = 1/2, 1, 2, 4 (figure 7).
+    omegas : (n,) array_like, optional
+        Driving angular frequencies >= 0, in rad per time unit; default 0 to 3 w0.
+    F0 : float
+        Force amplitude |F0|, in force units (figure 7: |F0|/m = 1).
+
+    Returns
+    -------
+    Figure
+        Left: amplitude in length units; right: phase in units of pi, from 0 to -pi. The
+        amplitude peak (at `Oscillator.resonance_frequency`) is marked where there is one.
+    """
+    if oscillators is None:
+        oscillators = [Oscillator(w0=1.0, gamma=g) for g in (0.5, 1.0, 2.0, 4.0)]
+    oscillators = list(oscillators)
+    if not oscillators:
+        raise ValueError("oscillators is empty; give at least one Oscillator")
+    for i, oscillator in enumerate(oscillators):
+        if not isinstance(oscillator, Oscillator):
+            raise TypeError(f"oscillators[{i}] must be an Oscillator, got {type(oscillator).__name__}")
+    top = 3.0 * max(o.w0 for o in oscillators)
+    w = np.linspace(0.0, top, 601) if omegas is None else _validate.real_array(omegas, "omegas", ndim=1)
+    fig, (left, right) = new_figure(1, 2, figsize=(11.0, 4.6))
+    for oscillator in oscillators:
+        label = f"$\\gamma$ = {oscillator.gamma:g}"
+        line, = left.plot(w, oscillator.amplitude(w, F0), label=label)
+        peak = oscillator.resonance_frequency()
+        if peak is not None and w.min() <= peak <= w.max():
+            left.plot([peak], [oscillator.amplitude(peak, F0)], "o", color=line.get_color(), ms=5)
+        right.plot(w, oscillator.phase(w) / np.pi, label=label, color=line.get_color())
+    w0 = oscillators[0].w0
+    left.set_xlabel(r"driving angular frequency $\omega$ (rad / time unit)")
+    left.set_ylabel(r"amplitude $|u_0(\omega)|$ (length)")
+    left.set_title(f"amplitude (eq. 121), $\\omega_0$ = {w0:g}, $|F_0|/m$ = {F0 / oscillators[0].m:g}")
+    left.set_ylim(bottom=0.0)
+    left.legend(title="dots: resonance peak")
+    right.set_xlabel(r"driving angular frequency $\omega$ (rad / time unit)")
+    right.set_ylabel(r"phase $\phi(\omega)$ ($\pi$ rad)")
+    right.set_title("phase lag of u behind F (eq. 123)")
+    right.set_ylim(-1.05, 0.05)
+    right.axhline(-0.5, color="0.5", lw=0.8, ls="--")
+    right.legend()
+    return fig
+
+
+def plot_frf(
+    result: FrequencyResponse,
+    dof: int,
+    *,
+    natural_frequencies: ArrayLike | None = None,
+    reference: FrequencyResponse | None = None,
+) -> Figure:
+    """Magnitude (log scale) and phase of one dof's response against w, resonances marked.
+
+    Parameters
+    ----------
+    result : FrequencyResponse
+        The response to draw.
+    dof : int
+        Which degree of freedom.
+    natural_frequencies : (n,) array_like, optional
+        Angular frequencies to mark as resonances (rad per time unit); default
+        `result.natural_frequencies` when it has them.
+    reference : FrequencyResponse, optional
+        A second response (e.g. the direct solve) drawn dashed for comparison.
+
+    Returns
+    -------
+    Figure
+        Top: |x_dof(w)| in length units on a log scale; bottom: phase in units of pi.
+    """
+    if not isinstance(result, FrequencyResponse):
+        raise TypeError(f"result must be a FrequencyResponse, got {type(result).__name__}")
+    index = _validate.count(dof, "dof", low=0, high=result.n_dof - 1)
+    marks = natural_frequencies if natural_frequencies is not None else result.natural_frequencies
+    w = result.omegas
+    unit = result.units.omega
+    fig, (top, bottom) = new_figure(2, 1, sharex=True, figsize=(9.0, 6.5))
+    label = _label(result)
+    top.semilogy(w, np.abs(result.response[:, index]), label=label)
+    bottom.plot(w, np.angle(result.response[:, index]) / np.pi)
+    if reference is not None:
+        top.semilogy(reference.omegas, np.abs(reference.response[:, index]), "--",
+                     label=_label(reference))
+        bottom.plot(reference.omegas, np.angle(reference.response[:, index]) / np.pi, "--")
+    if marks is not None:
+        shown = [f for f in np.asarray(marks, dtype=float) if w.min() <= f <= w.max()]
+        for i, frequency in enumerate(shown):
+            for axis in (top, bottom):
+                axis.axvline(frequency, color="tab:red", lw=0.7, alpha=0.5,
+                             label="natural frequencies" if (i == 0 and axis is top) else None)
+    top.set_ylabel(f"$|x_{{{index}}}(\\omega)|$ (length)")
+    top.set_title(f"frequency response of dof {index}")
+    top.legend(loc="best")
+    bottom.set_xlabel(f"driving angular frequency $\\omega$ ({unit})")
+    bottom.set_ylabel(r"phase ($\pi$ rad)")
+    bottom.set_ylim(-1.05, 1.05)
+    return fig
+
+
+def plot_rayleigh_damping(
+    a: float,
+    b: float,
+    omegas: ArrayLike,
+    *,
+    natural_frequencies: ArrayLike | None = None,
+) -> Figure:
+    """Damping ratio zeta(w) = a/(2w) + b w/2 of Rayleigh damping C = a M + b K.
+
+    Parameters
+    ----------
+    a, b : float
+        Rayleigh coefficients (1 / time unit, time unit).
+    omegas : (n,) array_like
+        Angular frequencies > 0, in rad per time unit.
+    natural_frequencies : (n_modes,) array_like, optional
+        Modes to mark on the curve (their damping ratios), in rad per time unit.
+
+    Returns
+    -------
+    Figure
+        zeta against w, with the mass (a/2w) and stiffness (bw/2) parts.
+    """
+    w = _validate.real_array(omegas, "omegas", ndim=1)
+    zeta = rayleigh_damping_ratio(w, a, b)
+    fig, ax = new_figure()
+    ax.plot(w, zeta, label=r"$\zeta(\omega) = a/2\omega + b\omega/2$")
+    ax.plot(w, a / (2.0 * w), ":", label=rf"mass part $a/2\omega$, a = {a:g}")
+    ax.plot(w, 0.5 * b * w, "--", label=rf"stiffness part $b\omega/2$, b = {b:g}")
+    if natural_frequencies is not None:
+        modes = _validate.real_array(natural_frequencies, "natural_frequencies", ndim=1)
+        modes = modes[modes > 0]
+        ax.plot(modes, rayleigh_damping_ratio(modes, a, b), "o", ms=4, label="normal modes")
+    ax.set_xlabel(r"angular frequency $\omega$ (rad / time unit)")
+    ax.set_ylabel(r"damping ratio $\zeta$ (dimensionless)")
+    ax.set_title("Rayleigh damping C = a M + b K")
+    ax.set_ylim(0.0, min(float(np.max(zeta)), 4.0 * float(np.min(zeta)) + 0.05) * 1.1)
+    ax.legend()
+    return fig
+
+
+def _label(result: FrequencyResponse) -> str:
+    if result.method == "modal":
+        extra = " + static correction" if result.residual_correction else ""
+        return f"modal, {result.n_modes} modes{extra}"
+    return f"{result.method.replace('_', ' ')} ({result.solver})"
