@@ -1,0 +1,189 @@
+"""Tests of vibra.crosscheck: vibra against ASE Vibrations and phonopy on CO2 and H2O.
+
+ASE and phonopy are required dependencies (never skipped); tblite is the optional extra
+``xtb`` and its tests skip only when it cannot be imported."""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+
+import numpy as np
+import pytest
+from ase import Atoms
+
+from vibra import crosscheck as cc
+from vibra import molecules as mol
+
+# The packages' unit constants: phonopy's THz factor differs from vibra's CODATA 2018 by
+# 1.2e-7 relative, ASE's CODATA 2014 by 4e-9 (measured, see CrossCheck.within_error).
+UNIT_RTOL = 2e-7
+
+
+def _model(atoms: Atoms, name: str) -> mol.ValenceModel:
+    if name == "CO2":
+        return mol.valence_model(atoms, bonds=np.array([[0, 1], [1, 2]]), stretch=mol.CO2_STRETCH, bend=mol.CO2_BEND)
+    return mol.valence_model(atoms, bonds=np.array([[0, 1], [0, 2]]), stretch=mol.H2O_STRETCH, bend=mol.H2O_BEND)
+
+
+MOLECULES = {"CO2": mol.co2_atoms, "H2O": mol.h2o_atoms}
+
+
+@pytest.mark.parametrize("nfree", [2, 4])
+@pytest.mark.parametrize("name", ["CO2", "H2O"])
+def test_agrees_with_ase_and_phonopy_within_fd_error(name: str, nfree: int) -> None:
+    atoms = MOLECULES[name]()
+    result = cc.crosscheck(atoms, model=_model(atoms, name), delta=0.01, nfree=nfree)
+    vib = ~result.rigid
+    assert result.n_rigid == (5 if name == "CO2" else 6) and vib.sum() == (4 if name == "CO2" else 3)
+    # tolerance: the finite-difference error the cross-check reports (Richardson estimate of
+    # the truncation error of a Hessian with ASE's / phonopy's step and stencil, propagated to
+    # first order) plus the unit-constant allowance UNIT_RTOL * |wavenumber|
+    floor = UNIT_RTOL * np.abs(result.vibra_cm1[vib])
+    assert np.all(np.abs(result.ase_difference_cm1[vib]) <= result.fd_error_cm1[vib] + floor)
+    assert np.all(np.abs(result.phonopy_difference_cm1[vib]) <= result.phonopy_fd_error_cm1[vib] + floor)
+    assert result.within_error()
+    # the estimate is informative, not a blanket: below 0.5 cm^-1 (~1e-4 relative) at 0.01 A
+    assert np.all(result.fd_error_cm1[vib] < 0.5)
+    # vibra's side is the analytic force field: its wavenumbers are the builders' ones
+    reference = mol.vibrational_analysis(mol.co2() if name == "CO2" else mol.h2o()).vibration_wavenumbers_cm1()
+    np.testing.assert_allclose(result.vibra_cm1[vib], reference, rtol=1e-12)
+    # rigid-body rows are matched by overlap: the matched ASE and phonopy modes lie in the
+    # rigid-body subspace up to the fd contamination (error / gap ~ 1e-3 here)
+    assert np.all(result.ase_rigid_overlap[result.rigid] > 0.99)
+    assert np.all(result.phonopy_rigid_overlap[result.rigid] > 0.99)
+    assert np.all(result.ase_rigid_overlap[vib] < 0.01)
+
+
+def test_four_point_stencil_is_closer_to_analytic() -> None:
+    atoms = mol.h2o_atoms()
+    two = cc.crosscheck(atoms, model=_model(atoms, "H2O"), nfree=2)
+    four = cc.crosscheck(atoms, model=_model(atoms, "H2O"), nfree=4)
+    vib = ~two.rigid
+    # O(h^2) against O(h^4) truncation at h = 0.01 A: at least 100 times smaller
+    assert np.abs(four.ase_difference_cm1[vib]).max() * 100 < np.abs(two.ase_difference_cm1[vib]).max()
+    # phonopy stays 2-point whatever ASE's stencil
+    np.testing.assert_allclose(four.phonopy_cm1, two.phonopy_cm1, rtol=1e-12, atol=1e-9)
+
+
+def test_table_and_rows() -> None:
+    atoms = mol.co2_atoms()
+    result = cc.crosscheck(atoms, model=_model(atoms, "CO2"), experimental_cm1=cc.CO2_FUNDAMENTALS_CM1)
+    rows = result.rows()
+    assert len(rows) == 9 and sum(row.kind == "rigid" for row in rows) == 5
+    assert [row.experimental_cm1 for row in rows if row.kind == "vibration"] == list(cc.CO2_FUNDAMENTALS_CM1)
+    text = result.table()
+    assert "vibra" in text and "ASE" in text and "phonopy" in text and "cm^-1" in text
+    assert "Fermi resonance" in text
+    assert len(text.splitlines()) == 2 + 9 + 1 + len(result.notes)
+
+
+def test_default_model_is_guessed() -> None:
+    result = cc.crosscheck(mol.h2o_atoms())
+    assert result.within_error() and result.n_rigid == 6
+
+
+class _CountingNaN(mol.ValenceForceField):
+    """Valence forces for the first `good` calls, NaN afterwards."""
+
+    def __init__(self, model: mol.ValenceModel, good: int) -> None:
+        super().__init__(model)
+        self.good = good
+        self.calls = 0
+
+    def calculate(self, atoms=None, properties=("energy",), system_changes=None):  # type: ignore[override]
+        super().calculate(atoms, properties, system_changes or [])
+        self.calls += 1
+        if self.calls > self.good:
+            self.results["forces"] = np.full((len(self.atoms), 3), np.nan)
+
+
+@pytest.mark.parametrize(("good", "pattern"), [
+    (3, r"non-finite forces at atom 0 displaced"),   # caught by vibra's own finite differences
+    (37, r"ASE Vibrations got non-finite forces"),   # vibra's 37 calls pass, ASE's cache gets NaN
+])
+def test_nan_calculator_raises_and_leaves_no_cache(good: int, pattern: str, tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    atoms = mol.co2_atoms()
+    calc = _CountingNaN(_model(atoms, "CO2"), good)
+    with pytest.raises(RuntimeError, match=pattern):
+        cc.crosscheck(atoms, calc)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tmp"]
+    assert list(scratch.iterdir()) == []
+
+
+def _bad_inputs():
+    co2 = mol.co2_atoms()
+    model = _model(co2, "CO2")
+    calc = mol.ValenceForceField(model)
+    return [
+        (lambda: cc.crosscheck("CO2"), TypeError, r"atoms must be an ase\.Atoms, got str"),
+        (lambda: cc.crosscheck(co2, calc, model=model), TypeError, r"either model .* or calculator"),
+        (lambda: cc.crosscheck(co2, model=model, delta=-0.01), ValueError, r"delta is -0\.01"),
+        (lambda: cc.crosscheck(co2, model=model, nfree=3), ValueError, r"nfree is 3; expected 2 or 4"),
+        (lambda: cc.crosscheck(co2, model=model, box=3.0), ValueError, r"box is 3\.0 Angstrom; it must exceed"),
+        (lambda: cc.crosscheck(co2, model=model, experimental_cm1=[667.0, 1333.0]), ValueError,
+         r"experimental_cm1 must have 4 values \(one per vibration\), got 2"),
+        (lambda: cc.crosscheck(Atoms(numbers=[8, 0]), model=model), ValueError, r"atoms\.numbers\[1\] is 0"),
+        (lambda: cc.crosscheck(Atoms("CO", positions=[(0, 0, 0), (0, 0, 0.01)])), ValueError,
+         r"atoms 0 and 1 overlap"),
+        (lambda: cc.crosscheck(mol.co2_atoms(bond_length=1.25), model=model), ValueError,
+         r"not an equilibrium of the force field: residual force"),
+    ]
+
+
+@pytest.mark.parametrize("case", range(len(_bad_inputs())))
+def test_bad_input_messages(case: int) -> None:
+    call, error, pattern = _bad_inputs()[case]
+    with pytest.raises(error, match=pattern):
+        call()
+
+
+def test_results_are_frozen() -> None:
+    atoms = mol.h2o_atoms()
+    result = cc.crosscheck(atoms, model=_model(atoms, "H2O"))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        result.vibra_cm1 = np.zeros(9)  # type: ignore[misc]
+    with pytest.raises(ValueError, match="read-only"):
+        result.ase_cm1[0] = 1.0
+    row = result.rows()[0]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        row.vibra_cm1 = 1.0  # type: ignore[misc]
+
+
+# ----------------------------------------------------------------- GFN2-xTB (optional extra)
+def _xtb_atoms(name: str):
+    try:
+        from tblite.ase import TBLite
+    except ImportError:  # the optional extra "xtb" is not installed
+        pytest.skip("tblite (vibra[xtb]) is not installed")
+    from ase.optimize import BFGS
+
+    atoms = MOLECULES[name]()
+    atoms.calc = TBLite(method="GFN2-xTB", verbosity=0)
+    BFGS(atoms, logfile=None).run(fmax=1e-5)
+    return atoms
+
+
+@pytest.mark.slow  # ~8 s each: about 75 GFN2-xTB force calls on 2 shared cores
+@pytest.mark.parametrize(("name", "experimental"), [("CO2", cc.CO2_FUNDAMENTALS_CM1),
+                                                     ("H2O", cc.H2O_FUNDAMENTALS_CM1)])
+def test_gfn2_xtb_vibra_equals_ase(name: str, experimental) -> None:
+    atoms = _xtb_atoms(name)
+    result = cc.crosscheck(atoms, atoms.calc, experimental_cm1=experimental)
+    vib = ~result.rigid
+    # vibra's finite-difference Hessian (same step and stencil) + vibra's eigensolver against
+    # ASE and phonopy: equal within the fd error estimate, which here also carries the SCF
+    # noise of the forces (it enters the Richardson difference)
+    floor = UNIT_RTOL * np.abs(result.vibra_cm1[vib])
+    assert np.all(np.abs(result.ase_difference_cm1[vib]) <= result.fd_error_cm1[vib] + floor)
+    assert np.all(np.abs(result.phonopy_difference_cm1[vib]) <= result.phonopy_fd_error_cm1[vib] + floor)
+    # GFN2-xTB harmonic wavenumbers are within 15 % of the experimental fundamentals
+    # (GFN2's published mean absolute deviation for small molecules is ~ 5-10 %)
+    np.testing.assert_allclose(result.vibra_cm1[vib], experimental, rtol=0.15)
+    text = result.table()
+    assert "exp" in text and "anharmonic" in text
+    assert ("Fermi resonance" in text) == (name == "CO2")

@@ -1,0 +1,518 @@
+"""Tests of vibra.molecules: builders, valence force field, finite differences, Eckart analysis,
+isotopes. Truth comes from seed 003 Example 11 (eqs. 157-158), textbook closed forms, ASE
+(geometry functions, Vibrations, VibrationsData), phonopy, and invariants (Teller-Redlich)."""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+import warnings
+
+import numpy as np
+import pytest
+from ase import Atoms
+from ase.build import molecule
+from ase.data import atomic_masses, atomic_numbers
+from ase.vibrations import Vibrations, VibrationsData
+from scipy import constants
+
+from vibra import System
+from vibra import molecules as mol
+from vibra.units import ASE
+
+M_O = atomic_masses[atomic_numbers["O"]]
+M_C = atomic_masses[atomic_numbers["C"]]
+KAPPA = mol.CO2_STRETCH
+L = mol.CO2_BOND_LENGTH
+
+
+def _cm1(omega: np.ndarray) -> np.ndarray:
+    return ASE.omega_to_cm1(omega)
+
+
+# ----------------------------------------------------------------- seed 003, Example 11
+def test_co2_axial_matches_seed_157_158() -> None:
+    system = mol.co2(dims=1)
+    assert system.n_dof == 3 and system.dim == 1
+    modes = system.modes()
+    expected = np.array([0.0, np.sqrt(KAPPA / M_O), np.sqrt(KAPPA * (1 / M_O + 2 / M_C))])  # eq. 157
+    # Dense symmetric eigensolvers give omega^2 to ~eps * ||K~|| (||K~|| ~ 4 omega_2^2 here), so
+    # the non-zero omegas agree to ~1e-15 relative; 1e-10 leaves room for any solver path. The
+    # zero mode's omega is ~sqrt(eps * ||K~||) ~ 1e-8 omega_3 at worst.
+    np.testing.assert_allclose(modes.omega[1:], expected[1:], rtol=1e-10)
+    assert abs(modes.omega[0]) <= 1e-7 * expected[2]
+    alpha = M_O / M_C
+    seed_shapes = [np.ones(3) / np.sqrt(3), np.array([-1, 0, 1]) / np.sqrt(2),
+                   np.array([1, -2 * alpha, 1]) / np.sqrt(4 * alpha**2 + 2)]  # eq. 158
+    for k, seed in enumerate(seed_shapes):
+        shape = modes.shapes[:, k] / np.linalg.norm(modes.shapes[:, k])
+        # directions agree up to sign; eigenvector error ~ eps * ||K~|| / gap ~ 1e-15
+        assert abs(abs(shape @ seed) - 1.0) < 1e-10
+
+
+def test_co2_3d_four_vibrations_degenerate_bend_five_zero_modes() -> None:
+    system = mol.co2()
+    assert system.n_dof == 9
+    analysis = mol.vibrational_analysis(system)
+    assert analysis.linear and analysis.n_rigid == 5 and analysis.n_vibrations == 4
+    assert np.count_nonzero(analysis.modes.omega[analysis.rigid] == 0.0) == 5
+    bend_1, bend_2, symmetric, asymmetric = analysis.modes.omega[~analysis.rigid]
+    # the two bends are symmetry copies (rotation about the axis); only round-off separates them
+    assert abs(bend_1 - bend_2) <= 1e-12 * asymmetric
+    # textbook linear XY2 bend: omega^2 = k_delta (2/m_O + 4/m_C) / L^2 (Herzberg)
+    np.testing.assert_allclose(bend_1, np.sqrt(mol.CO2_BEND * (2 / M_O + 4 / M_C)) / L, rtol=1e-10)
+    # stretches are the axial model's (eq. 157)
+    np.testing.assert_allclose([symmetric, asymmetric],
+                               [np.sqrt(KAPPA / M_O), np.sqrt(KAPPA * (1 / M_O + 2 / M_C))], rtol=1e-10)
+
+
+def test_co2_reduced_masses_and_force_constants_closed_form() -> None:
+    analysis = mol.vibrational_analysis(mol.co2())
+    mu = analysis.reduced_mass[~analysis.rigid]
+    k = analysis.force_constant[~analysis.rigid]
+    alpha = M_O / M_C
+    # symmetric stretch: only the O atoms move, mu = m_O, k = mu omega^2 = kappa exactly;
+    # asymmetric stretch: l ~ (1, -2 alpha, 1) gives mu = m_O (1 + 2 alpha) / (1 + 2 alpha^2)
+    np.testing.assert_allclose(mu[2], M_O, rtol=1e-10)
+    np.testing.assert_allclose(k[2], KAPPA, rtol=1e-10)
+    np.testing.assert_allclose(mu[3], M_O * (1 + 2 * alpha) / (1 + 2 * alpha**2), rtol=1e-10)
+    # 1 eV/A^2 = e / 1e-20 N/m = 0.01602 mdyn/A * 10  (1 mdyn/A = 100 N/m)
+    np.testing.assert_allclose(analysis.force_constants_mdyn_per_angstrom()[~analysis.rigid][2],
+                               KAPPA * constants.electron_volt / 1e-20 / 100, rtol=1e-12)
+
+
+def test_co2_default_constants_reproduce_documented_wavenumbers() -> None:
+    waves = mol.vibrational_analysis(mol.co2()).vibration_wavenumbers_cm1()
+    # documented in CO2_BEND / CO2_STRETCH: 667.0 (fit), 1279 and 2448 (4 % off 1333 / 2349)
+    np.testing.assert_allclose(waves, [667.0, 667.0, 1279.0, 2448.2], atol=0.5)
+
+
+def test_h2o_three_vibrations_six_zero_modes_and_ase_agrees() -> None:
+    system = mol.h2o()
+    analysis = mol.vibrational_analysis(system)
+    assert not analysis.linear and analysis.n_rigid == 6 and analysis.n_vibrations == 3
+    # ASE's VibrationsData diagonalises the same Hessian with its own code and units (CODATA
+    # 2014: 4e-9 relative from vibra's CODATA 2018), so 1e-7 relative covers it.
+    data = VibrationsData.from_2d(mol.h2o_atoms(), system.hessian().toarray())
+    ase_cm1 = np.sort(data.get_frequencies().real)[-3:]
+    np.testing.assert_allclose(analysis.vibration_wavenumbers_cm1(), ase_cm1, rtol=1e-7)
+    np.testing.assert_allclose(analysis.vibration_wavenumbers_cm1(), [1595.0, 3679.6, 3733.3], atol=0.5)
+    # ZPE: ASE sums 1/2 E over all 9 modes; its 6 rigid ones are sqrt(round-off) ~ 1e-7 eV each
+    assert abs(analysis.zero_point_energy_ev() - data.get_zero_point_energy()) < 1e-5
+
+
+def test_projection_leaves_exact_hessian_and_removes_rigid_stiffness() -> None:
+    system = mol.h2o()
+    projected = mol.vibrational_analysis(system)
+    plain = mol.vibrational_analysis(system, project=False)
+    # K has exact rigid-body zero modes, so projection changes the vibrations only by round-off
+    np.testing.assert_allclose(projected.modes.omega[~projected.rigid], plain.modes.omega[~plain.rigid], rtol=1e-10)
+    assert plain.n_rigid == 6 and np.all(plain.rigid_overlap[plain.rigid] > 1 - 1e-10)
+    # add a stiffness along the x translation and the first rotation: an unprojected solve sees
+    # it, the Eckart projection removes it exactly (it lives in the rigid-body subspace)
+    t = mol.rigid_body_vectors(system.positions, system.masses)
+    root = np.sqrt(np.repeat(system.masses, 3))
+    spurious = 0.5 * np.outer(root * t[:, 0], root * t[:, 0]) + 0.3 * np.outer(root * t[:, 3], root * t[:, 3])
+    stiff = System.from_hessian(system.positions, system.masses, system.hessian().toarray() + spurious, units="ASE")
+    np.testing.assert_allclose(mol.vibrational_analysis(stiff).modes.omega, projected.modes.omega, rtol=1e-9, atol=1e-9)
+    assert np.count_nonzero(np.abs(mol.vibrational_analysis(stiff, project=False).modes.omega) > 0.1) == 5
+
+
+def test_imaginary_mode_kept_and_flagged() -> None:
+    system = mol.h2o()
+    analysis = mol.vibrational_analysis(system)
+    bend = analysis.vibrations[0]
+    d = analysis.modes.vectors[:, bend]
+    lam = analysis.modes.omega[bend] ** 2
+    root = np.sqrt(np.repeat(system.masses, 3))
+    # K~' = K~ - 2 lam d d^T flips that eigenvalue to -lam and leaves the others (spectral theorem)
+    K = system.hessian().toarray() - 2 * lam * np.outer(root * d, root * d)
+    unstable = System.from_hessian(system.positions, system.masses, K, units="ASE", name="saddle")
+    with pytest.warns(RuntimeWarning, match="imaginary"):
+        result = mol.vibrational_analysis(unstable)
+    assert result.n_vibrations == 3 and result.imaginary.sum() == 1
+    index = int(np.flatnonzero(result.imaginary)[0])
+    np.testing.assert_allclose(result.modes.omega[index], -np.sqrt(lam), rtol=1e-10)
+    assert result.force_constant[index] < 0
+    assert "i" in result.table().splitlines()[2 + index]
+    real = analysis.modes.energies_mev()[analysis.vibrations[1:]]
+    np.testing.assert_allclose(result.zero_point_energy_ev(), 0.5e-3 * real.sum(), rtol=1e-10)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3])
+def test_linear_detection_is_relative(scale: float) -> None:
+    atoms = mol.co2_atoms()
+    positions = atoms.positions * scale
+    masses = atoms.get_masses()
+    assert mol.is_linear(positions, masses)
+    noisy = positions + 1e-7 * scale * np.array([[0, 1, 0], [0, -1, 1], [0, 0, 1]])
+    assert mol.is_linear(noisy, masses)
+    bent = positions.copy()
+    bent[1, 1] = 0.02 * scale  # about 1 degree
+    assert not mol.is_linear(bent, masses)
+    assert mol.rigid_body_vectors(bent, masses).shape == (9, 6)
+    assert mol.rigid_body_vectors(positions, masses).shape == (9, 5)
+
+
+# ----------------------------------------------------------------- valence coordinates
+def test_internal_coordinates_and_b_matrix_against_ase_geometry(rng: np.random.Generator) -> None:
+    atoms = molecule("CH3CH2OH")
+    model = mol.valence_model(atoms, torsion=0.1)
+    assert len(model.torsions) > 0 and len(model.angles) > 0
+    x = atoms.positions + 0.05 * rng.standard_normal(atoms.positions.shape)
+    moved = atoms.copy()
+    moved.positions = x
+
+    def values(positions: np.ndarray) -> np.ndarray:
+        probe = atoms.copy()
+        probe.positions = positions
+        return np.concatenate([
+            [probe.get_distance(i, j) for i, j in model.bonds],
+            np.radians([probe.get_angle(*t) for t in model.angles]),
+            np.radians([probe.get_dihedral(*q) for q in model.torsions]),
+        ])
+
+    b = model.wilson_b(x).toarray()
+    numeric = np.empty_like(b)
+    h = 1e-6
+    for c in range(x.size):
+        step = np.zeros(x.size)
+        step[c] = h
+        diff = values(x + step.reshape(x.shape)) - values(x - step.reshape(x.shape))
+        numeric[:, c] = (diff + np.pi) % (2 * np.pi) - np.pi  # dihedrals wrap at +-pi
+        numeric[:, c] /= 2 * h
+    # central differences of ASE's coordinate values: truncation ~h^2 ~1e-12, round-off
+    # ~eps/h ~1e-10 (degrees converted to rad); 1e-7 absolute covers both with margin
+    np.testing.assert_allclose(b, numeric, atol=1e-7)
+
+
+def test_linear_bend_rows_and_calculator_forces(rng: np.random.Generator) -> None:
+    atoms = Atoms("OCOH", positions=[(-1.16, 0, 0), (0, 0, 0), (1.16, 0, 0), (2.1, 0.6, 0.1)])
+    model = mol.valence_model(atoms, bonds=np.array([[0, 1], [1, 2], [2, 3]]), torsion=None)
+    assert len(model.linear_angles) == 1 and len(model.angles) == 1
+    calc = mol.ValenceForceField(model)
+    x = atoms.positions + 0.03 * rng.standard_normal(atoms.positions.shape)
+    energy, forces = model.energy_and_forces(x)
+    numeric = np.zeros_like(x)
+    h = 1e-5
+    for a in range(4):
+        for c in range(3):
+            plus, minus = x.copy(), x.copy()
+            plus[a, c] += h
+            minus[a, c] -= h
+            numeric[a, c] = -(model.energy_and_forces(plus)[0] - model.energy_and_forces(minus)[0]) / (2 * h)
+    # F = -dE/dx by central differences: truncation ~h^2 E''' ~1e-9, round-off ~eps E/h ~1e-11
+    np.testing.assert_allclose(forces, numeric, atol=1e-7)
+    probe = atoms.copy()
+    probe.positions = x
+    probe.calc = calc
+    assert probe.get_potential_energy() == pytest.approx(energy, rel=1e-14)
+    # linear-bend energy k (1 + cos angle) (rotation invariant), the docstring's definition
+    theta = np.radians(probe.get_angle(0, 1, 2))
+    bond_angle = np.radians(probe.get_angle(1, 2, 3))
+    d = [probe.get_distance(0, 1) - 1.16, probe.get_distance(1, 2) - 1.16,
+         probe.get_distance(2, 3) - np.linalg.norm(atoms.positions[3] - atoms.positions[2])]
+    expected = (0.5 * 30.0 * np.sum(np.square(d)) + 3.0 * (1 + np.cos(theta))
+                + 0.5 * 3.0 * (bond_angle - np.radians(atoms.get_angle(1, 2, 3))) ** 2)
+    assert energy == pytest.approx(expected, rel=1e-10)
+
+
+def test_central_springs_on_linear_molecule_warn() -> None:
+    atoms = mol.co2_atoms()
+    model = mol.valence_model(atoms, bend=None)
+    with pytest.warns(mol.SoftModeWarning, match="7 zero-frequency modes .* only 5"):
+        system = mol.from_atoms(atoms, model)
+    with pytest.warns(mol.SoftModeWarning, match="no restoring force"):
+        mol.vibrational_analysis(system)
+
+
+# ----------------------------------------------------------------- finite differences
+@pytest.mark.parametrize("stencil", [2, 4])
+def test_finite_difference_equals_ase_vibrations_hessian(stencil: int, tmp_path) -> None:
+    atoms = mol.h2o_atoms()
+    model = mol.valence_model(atoms, stretch=mol.H2O_STRETCH, bend=mol.H2O_BEND)
+    calc = mol.ValenceForceField(model)
+    ours = mol.finite_difference_hessian(atoms, calc, step=0.01, stencil=stencil)
+    work = atoms.copy()
+    work.calc = calc
+    vib = Vibrations(work, name=str(tmp_path / "vib"), delta=0.01, nfree=stencil)
+    vib.run()
+    theirs = vib.get_vibrations().get_hessian_2d()
+    # same stencil, same deterministic forces: only the order of floating-point operations
+    # differs, ~eps * |F| / h ~ 1e-13 eV/A^2 against entries of ~50
+    np.testing.assert_allclose(ours.hessian, theirs, rtol=0, atol=1e-9)
+    assert ours.n_force_calls == 1 + 3 * len(atoms) * (2 * stencil if stencil == 2 else 6)
+    assert ours.error_method == "richardson"
+
+
+@pytest.mark.parametrize(("stencil", "step"), [(2, 1e-3), (2, 1e-2), (4, 3e-3), (4, 1e-2)])
+def test_finite_difference_error_estimate_tracks_true_error(stencil: int, step: float) -> None:
+    atoms = molecule("CH3CH2OH")
+    model = mol.valence_model(atoms, torsion=0.1)
+    exact = mol.from_atoms(atoms, model).hessian().toarray()
+    result = mol.finite_difference_hessian(atoms, mol.ValenceForceField(model), step=step, stencil=stencil)
+    actual = np.abs(result.hessian - exact).max()
+    # Richardson's estimate is exact to leading order; the next order is smaller by (h / 1 A)^2
+    # <= 1e-4 here, so the largest actual and estimated errors agree within 10 %
+    assert 0.9 <= actual / result.error.max() <= 1.1
+    assert actual > 100 * result.roundoff  # these steps are truncation dominated
+
+
+def test_finite_difference_without_estimate_and_from_calculator() -> None:
+    atoms = mol.co2_atoms()
+    model = mol.valence_model(atoms, stretch=KAPPA, bend=mol.CO2_BEND)
+    calc = mol.ValenceForceField(model)
+    result = mol.finite_difference_hessian(atoms, calc, estimate_error=False)
+    assert result.error_method == "asymmetry" and result.n_force_calls == 1 + 18
+    system = mol.from_calculator(atoms, calc, stencil=4, step=0.005)
+    exact = mol.from_atoms(atoms, model)
+    # 4-point error ~ h^4 E^(6) ~ 1e-8 relative at h = 0.005 A
+    np.testing.assert_allclose(
+        mol.vibrational_analysis(system).vibration_wavenumbers_cm1(),
+        mol.vibrational_analysis(exact).vibration_wavenumbers_cm1(), rtol=1e-6)
+
+
+class _NaNCalculator(mol.ValenceForceField):
+    def calculate(self, atoms=None, properties=("energy",), system_changes=None):  # type: ignore[override]
+        super().calculate(atoms, properties, system_changes or [])
+        if abs(self.atoms.positions[1, 1]) > 0:  # NaN once atom 1 moves along y
+            self.results["forces"] = np.full((len(self.atoms), 3), np.nan)
+
+
+def test_nan_forces_raise_and_leave_nothing(tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    atoms = mol.co2_atoms()
+    calc = _NaNCalculator(mol.valence_model(atoms))
+    with pytest.raises(RuntimeError, match=r"non-finite forces at atom 1 displaced by \+1h along y"):
+        mol.finite_difference_hessian(atoms, calc)
+    assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------- other Hessian sources
+def test_from_vibrations_data_and_from_hessian(tmp_path) -> None:
+    atoms = mol.h2o_atoms()
+    system = mol.h2o()
+    K = system.hessian().toarray()
+    data = VibrationsData.from_2d(atoms, K)
+    rebuilt = mol.from_vibrations_data(data)
+    # same K, same masses: eigenvalues agree to round-off; ASE's units differ by 4e-9
+    np.testing.assert_allclose(mol.vibrational_analysis(rebuilt).vibration_wavenumbers_cm1(),
+                               np.sort(data.get_frequencies().real)[-3:], rtol=1e-7)
+    from_user = mol.from_hessian(atoms, K)
+    np.testing.assert_allclose(from_user.hessian().toarray(), K, rtol=1e-15, atol=0)
+    # a partial VibrationsData (hydrogen atoms only) freezes the oxygen
+    partial = VibrationsData.from_2d(atoms, K[3:, 3:], indices=[1, 2])
+    frozen = mol.from_vibrations_data(partial)
+    assert frozen.n_dof == 6 and frozen.frozen[:3].all()
+    # zero modes come out as sqrt(round-off) ~ sqrt(eps) * 3600 cm^-1 ~ 1e-4 cm^-1 in either code
+    np.testing.assert_allclose(np.sort(np.abs(_cm1(frozen.modes().omega))),
+                               np.sort(np.abs(partial.get_frequencies())), rtol=1e-7, atol=1e-3)
+
+
+def test_from_phonopy_matches_phonopy_gamma_frequencies() -> None:
+    from phonopy import Phonopy
+    from phonopy.structure.atoms import PhonopyAtoms
+
+    atoms = mol.h2o_atoms()
+    model = mol.valence_model(atoms, stretch=mol.H2O_STRETCH, bend=mol.H2O_BEND)
+    calc = mol.ValenceForceField(model)
+    unit = PhonopyAtoms(symbols=atoms.get_chemical_symbols(), masses=atoms.get_masses(),
+                        positions=atoms.positions + 10.0, cell=np.eye(3) * 20.0)
+    phonon = Phonopy(unit, supercell_matrix=np.eye(3, dtype=int), primitive_matrix="P", is_symmetry=False)
+    phonon.generate_displacements(distance=0.01, is_plusminus=True)
+    forces = []
+    for cell in phonon.supercells_with_displacements:
+        probe = atoms.copy()
+        probe.positions = np.asarray(cell.positions) - 10.0
+        probe.calc = calc
+        forces.append(probe.get_forces())
+    phonon.forces = np.array(forces)
+    phonon.produce_force_constants(show_drift=False)
+    thz = phonon.run_qpoints([[0, 0, 0]]).frequencies[0]
+    system = mol.from_phonopy(phonon, name="H2O")
+    with warnings.catch_warnings():
+        # the fd rigid-body modes may come out slightly imaginary (reported as negative)
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ours = mol.vibrational_analysis(system, project=False).modes.frequencies_thz()
+    # same force constants; phonopy's THz factor differs from CODATA 2018 by 1.2e-7 relative,
+    # and its rigid-body modes are ~1 THz * 1e-7 after the unit change: 2e-7 relative + 1e-6 THz
+    np.testing.assert_allclose(np.sort(ours), np.sort(thz), rtol=2e-7, atol=1e-6)
+
+
+# ----------------------------------------------------------------- isotopes
+@pytest.mark.parametrize(("substitutions", "masses"), [
+    ({1: "13C"}, (15.99900, 13.00335483507, 15.99900)),
+    ({0: "18O", 2: "18O"}, (17.99915961286, 12.011, 17.99915961286)),
+    ({0: "18O"}, (17.99915961286, 12.011, 15.999)),
+    ({2: 17.0}, (15.999, 12.011, 17.0)),
+])
+def test_isotope_shifts_axial_closed_form(substitutions, masses) -> None:
+    base = mol.co2(dims=1)
+    system = mol.substitute_isotopes(base, substitutions)
+    assert system.coupling is base.coupling or np.array_equal(system.coupling.toarray(), base.coupling.toarray())
+    m1, mc, m3 = masses
+    # 3-mass free chain: omega^2 (omega^4 - kappa (1/m1 + 2/mc + 1/m3) omega^2
+    #                     + kappa^2 (m1 + mc + m3) / (m1 mc m3)) = 0; eq. 157 when m1 = m3
+    s = KAPPA * (1 / m1 + 2 / mc + 1 / m3)
+    p = KAPPA**2 * (m1 + mc + m3) / (m1 * mc * m3)
+    roots = np.sqrt([(s - np.sqrt(s * s - 4 * p)) / 2, (s + np.sqrt(s * s - 4 * p)) / 2])
+    np.testing.assert_allclose(system.modes().omega[1:], roots, rtol=1e-10)
+
+
+def test_d2o_teller_redlich_product_rule() -> None:
+    h2o = mol.h2o()
+    d2o = mol.substitute_isotopes(h2o, {1: "D", 2: "2H"}, symbols=["O", "H", "H"])
+    w_h = mol.vibrational_analysis(h2o).vibration_wavenumbers_cm1()
+    w_d = mol.vibrational_analysis(d2o).vibration_wavenumbers_cm1()
+    m_h, m_d = np.asarray(h2o.masses), np.asarray(d2o.masses)
+
+    def moments(masses: np.ndarray) -> np.ndarray:
+        x = h2o.positions - (masses[:, None] * h2o.positions).sum(0) / masses.sum()
+        inertia = np.sum(masses * np.sum(x * x, 1)) * np.eye(3) - np.einsum("i,ia,ib->ab", masses, x, x)
+        return np.linalg.eigvalsh(inertia)
+
+    # Teller-Redlich: prod(w'/w) = prod_a (m_a/m'_a)^(3/2) (M'/M)^(3/2) prod_r (I'_r/I_r)^(1/2)
+    expected = (np.prod(m_h / m_d) ** 1.5 * (m_d.sum() / m_h.sum()) ** 1.5
+                * np.prod(moments(m_d) / moments(m_h)) ** 0.5)
+    # exact for a harmonic K with exact rigid-body zero modes; round-off ~1e-14
+    np.testing.assert_allclose(np.prod(w_d / w_h), expected, rtol=1e-10)
+
+
+def test_isotope_mass_table() -> None:
+    assert mol.isotope_mass("D") == mol.isotope_mass("2H") == pytest.approx(2.01410177812, rel=1e-12)
+    assert mol.isotope_mass("13C") == pytest.approx(13.00335483507, rel=1e-12)
+
+
+# ----------------------------------------------------------------- bad input
+def _co2_model() -> mol.ValenceModel:
+    return mol.valence_model(mol.co2_atoms())
+
+
+def _bad_inputs():
+    co2 = mol.co2_atoms()
+    calc = mol.ValenceForceField(_co2_model())
+    ghost = Atoms(numbers=[8, 0, 8], positions=[(-1.16, 0, 0), (0, 0, 0), (1.16, 0, 0)])
+    overlap = Atoms("OCO", positions=[(-1.16, 0, 0), (0, 0, 0), (0.05, 0, 0)])
+    stretched = mol.co2_atoms(bond_length=1.20)
+    h2o = mol.h2o()
+    return [
+        (lambda: mol.from_atoms(ghost), ValueError, r"atoms\.numbers\[1\] is 0 \('X'\)"),
+        (lambda: mol.from_atoms(overlap), ValueError, r"atoms 1 and 2 overlap \(distance 0\.05"),
+        (lambda: mol.from_atoms(stretched, _co2_model()), ValueError, r"residual force .* on atom 0"),
+        (lambda: mol.from_atoms("CO2"), TypeError, r"atoms must be an ase\.Atoms, got str"),
+        (lambda: mol.from_atoms(Atoms()), ValueError, r"atoms holds no atoms"),
+        (lambda: mol.from_atoms(co2, 3), TypeError, r"model must be a ValenceModel, got int"),
+        (lambda: mol.from_atoms(co2, _co2_model(), stretch=1.0), TypeError, r"either model or valence_model"),
+        (lambda: mol.from_atoms(mol.h2o_atoms()[:2], _co2_model()), ValueError, r"model is for 3 atoms but atoms has 2"),
+        (lambda: mol.from_atoms(Atoms("He2", positions=[(0, 0, 0), (0, 0, 5)])), ValueError, r"model has no terms"),
+        (lambda: mol.from_atoms(co2, masses=[1.0, 2.0]), ValueError, r"masses must have 3 entries"),
+        (lambda: mol.from_atoms(co2, masses=[1.0, -2.0, 1.0]), ValueError, r"masses\[1\] is .*-2\.0.*positive"),
+        (lambda: mol.valence_model(co2, stretch=[1.0]), ValueError, r"stretch must be a number or have 2 entries"),
+        (lambda: mol.valence_model(co2, stretch=-1.0), ValueError, r"stretch\[0\] is .*-1\.0.*positive"),
+        (lambda: mol.valence_model(co2, bonds=[[0, 1.5]]), TypeError, r"bonds must hold integer atom indices"),
+        (lambda: mol.valence_model(co2, bonds=[0, 1]), ValueError, r"bonds must have shape \(n, 2\), got \(2,\)"),
+        (lambda: mol.valence_model(co2, bonds=[[0, 3]]), ValueError, r"bonds\[0,1\] is 3; atom indices run from 0 to 2"),
+        (lambda: mol.valence_model(co2, bonds=[[1, 1]]), ValueError, r"bonds\[0\] is \[1, 1\]; its atoms must be distinct"),
+        (lambda: mol.valence_model(co2, bond_scale=0.0), ValueError, r"bond_scale is 0\.0"),
+        (lambda: mol.valence_model(co2, linear_tolerance_deg=90), ValueError, r"linear_tolerance_deg is 90"),
+        (lambda: mol.valence_model(co2, bend=[]), ValueError, r"linear_bend is required"),
+        (lambda: _co2_model().wilson_b(np.zeros((2, 3))), ValueError, r"positions must have shape \(3, 3\)"),
+        (lambda: mol.ValenceForceField("model"), TypeError, r"model must be a ValenceModel, got str"),
+        (lambda: _energy_on(mol.h2o_atoms()[:2], calc), ValueError, r"atoms has 2 atoms; this force field is for 3"),
+        (lambda: mol.finite_difference_hessian(co2), TypeError, r"calculator is None and atoms has no calculator"),
+        (lambda: mol.finite_difference_hessian(co2, object()), TypeError, r"calculator must be an ASE calculator"),
+        (lambda: mol.finite_difference_hessian(co2, calc, step=0.0), ValueError, r"step is 0\.0"),
+        (lambda: mol.finite_difference_hessian(co2, calc, stencil=3), ValueError, r"stencil is 3; expected 2 or 4"),
+        (lambda: mol.finite_difference_hessian(co2, calc, force_noise=-1.0), ValueError, r"force_noise is -1\.0"),
+        (lambda: mol.finite_difference_hessian(stretched, calc, force_tolerance=1e-3), ValueError,
+         r"not an equilibrium of the calculator: residual force .* on atom 0"),
+        (lambda: mol.finite_difference_hessian(co2, _ShapeCalculator(_co2_model())), RuntimeError,
+         r"forces of shape \(2, 3\) at the reference geometry"),
+        (lambda: mol.from_vibrations_data(np.zeros(3)), TypeError, r"data must be an ase\.vibrations\.VibrationsData"),
+        (lambda: mol.from_phonopy(None), TypeError, r"phonon must be a phonopy\.Phonopy, got NoneType"),
+        (lambda: mol.from_phonopy(_phonopy_without_fc()), ValueError, r"phonon has no force constants"),
+        (lambda: mol.from_phonopy(_phonopy_compact_fc()), ValueError,
+         r"phonon\.force_constants must be full, shape \(8, 8, 3, 3\), got \(1, 8, 3, 3\)"),
+        (lambda: mol.vibrational_analysis(h2o.hessian()), TypeError, r"system must be a vibra System"),
+        (lambda: mol.vibrational_analysis(System.generalized(np.eye(2), np.eye(2))), TypeError, r"generalised coordinates"),
+        (lambda: mol.vibrational_analysis(h2o.freeze(sites=[0])), ValueError, r"3 frozen degree\(s\) of freedom"),
+        (lambda: mol.isotope_mass(13), TypeError, r"label must be a str"),
+        (lambda: mol.isotope_mass("C13x"), ValueError, r"label is 'C13x'; expected an isotope like"),
+        (lambda: mol.isotope_mass("99Xx"), ValueError, r"label is '99Xx'; expected an isotope like"),
+        (lambda: mol.isotope_mass("13Fe"), ValueError, r"label is '13Fe': isotope not in vibra's table"),
+        (lambda: mol.substitute_isotopes(h2o.hessian(), {}), TypeError, r"system must be a vibra System"),
+        (lambda: mol.substitute_isotopes(System.from_springs([0.0, 1.0], 1.0, [[0, 1]], 1.0), {0: 2.0}),
+         TypeError, r"system must be in ASE units"),
+        (lambda: mol.substitute_isotopes(h2o, [(0, 2.0)]), TypeError, r"substitutions must be a mapping"),
+        (lambda: mol.substitute_isotopes(h2o, {0: "18O"}, symbols=["O"]), ValueError, r"symbols must name 3 atoms, got 1"),
+        (lambda: mol.substitute_isotopes(h2o, {"0": 2.0}), TypeError, r"substitutions key '0' must be an int"),
+        (lambda: mol.substitute_isotopes(h2o, {3: 2.0}), ValueError, r"substitutions\[3\]: atom index out of range 0\.\.2"),
+        (lambda: mol.substitute_isotopes(h2o, {1: "18O"}, symbols=["O", "H", "H"]), ValueError,
+         r"substitutions\[1\] is '18O' but atom 1 is 'H'"),
+        (lambda: mol.substitute_isotopes(h2o, {1: -1.0}), ValueError, r"substitutions\[1\] is -1\.0; a mass must be positive"),
+        (lambda: mol.substitute_isotopes(h2o, {1: [2.0]}), TypeError, r"substitutions\[1\] must be a mass in amu"),
+        (lambda: mol.co2(dims=2), ValueError, r"dims is 2; expected 1 \(axial model\) or 3"),
+        (lambda: mol.co2(bond_length=-1.0), ValueError, r"bond_length is -1\.0"),
+        (lambda: mol.FiniteDifferenceHessian.omega_errors(
+            mol.finite_difference_hessian(co2, calc, estimate_error=False), mol.co2().modes(vectors=False)),
+         ValueError, r"modes has no vectors"),
+        (lambda: mol.finite_difference_hessian(co2, calc, estimate_error=False).omega_errors(mol.co2(dims=1).modes()),
+         ValueError, r"modes has 3 dofs; the Hessian has 9"),
+    ]
+
+
+def _energy_on(atoms: Atoms, calc) -> float:
+    atoms.calc = calc
+    return atoms.get_potential_energy()
+
+
+class _ShapeCalculator(mol.ValenceForceField):
+    def calculate(self, atoms=None, properties=("energy",), system_changes=None):  # type: ignore[override]
+        super().calculate(atoms, properties, system_changes or [])
+        self.results["forces"] = self.results["forces"][:2]
+
+
+def _phonopy_without_fc():
+    from phonopy import Phonopy
+    from phonopy.structure.atoms import PhonopyAtoms
+
+    return Phonopy(PhonopyAtoms(symbols=["He"], positions=[[1.0, 1.0, 1.0]], cell=np.eye(3) * 5.0),
+                   supercell_matrix=np.eye(3, dtype=int), primitive_matrix="P")
+
+
+def _phonopy_compact_fc():
+    from phonopy import Phonopy
+    from phonopy.structure.atoms import PhonopyAtoms
+
+    phonon = Phonopy(PhonopyAtoms(symbols=["He"], positions=[[1.0, 1.0, 1.0]], cell=np.eye(3) * 3.0),
+                     supercell_matrix=2 * np.eye(3, dtype=int), primitive_matrix="P")
+    phonon.generate_displacements(distance=0.01)
+    phonon.forces = np.zeros((len(phonon.supercells_with_displacements), 8, 3))
+    phonon.produce_force_constants(calculate_full_force_constants=False, show_drift=False)
+    return phonon
+
+
+@pytest.mark.parametrize("case", range(len(_bad_inputs())))
+def test_bad_input_messages(case: int) -> None:
+    call, error, pattern = _bad_inputs()[case]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", mol.SoftModeWarning)
+        with pytest.raises(error, match=pattern):
+            call()
+
+
+# ----------------------------------------------------------------- immutability
+def test_results_are_frozen() -> None:
+    atoms = mol.co2_atoms()
+    model = _co2_model()
+    fd = mol.finite_difference_hessian(atoms, mol.ValenceForceField(model), estimate_error=False)
+    analysis = mol.vibrational_analysis(mol.co2())
+    for obj, field, array in [(model, "bond_k", model.bond_k), (fd, "hessian", fd.hessian),
+                              (analysis, "reduced_mass", analysis.reduced_mass)]:
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(obj, field, array)
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 1.0
+    with pytest.raises(ValueError, match="read-only"):
+        analysis.rigid[0] = False
