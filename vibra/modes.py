@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.system import _freeze_arrays
+from vibra.system import _freeze_arrays, owned_arrays
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = ["Modes", "normal_modes", "SOLVERS"]
@@ -308,11 +308,14 @@ def normal_modes(
     shapes = None
     if result.vectors is not None:
         shapes = solvers.physical_shapes(result.vectors, mass)
-    return Modes(
-        omega=omega, vectors=result.vectors, shapes=shapes, mass=mass, omega_error=omega_error,
-        residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
-        units=unit,
-    )
+    if result.vectors is not None and any(np.shares_memory(result.vectors, x) for x in (K_matrix, mass)):
+        result.vectors = result.vectors.copy()  # never alias an input
+    with owned_arrays():  # vectors and shapes were created here: freeze them without copying
+        return Modes(
+            omega=omega, vectors=result.vectors, shapes=shapes, mass=mass.copy(), omega_error=omega_error,
+            residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
+            units=unit,
+        )
 
 
 def _band(band: Any) -> tuple[float, float]:

@@ -34,7 +34,7 @@ import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 from vibra import _validate
-from vibra._lapack import bidiagonal_singular_values
+from vibra._lapack import bidiagonal_singular_values, bidiagonal_svd
 
 EPS = float(np.finfo(float).eps)
 
@@ -42,6 +42,9 @@ EPS = float(np.finfo(float).eps)
 DENSE_LIMIT = 1500
 #: Largest n for which all modes of a general sparse K are computed densely.
 DENSE_ALL_LIMIT = 20000
+#: Largest chain segment whose vectors come from the bidiagonal SVD (dbdsqr, O(n^3),
+#: relatively accurate vectors); longer chains take MRRR vectors (absolute accuracy).
+BDSQR_LIMIT = 800
 #: Columns sampled for the residual / orthogonality figures of very large results.
 SAMPLE = 256
 
@@ -400,13 +403,17 @@ def _weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass
     return np.asarray((left @ coupling).toarray() @ _mass_power(mass, -0.5))
 
 
-def _path_bidiagonals(weighted: sp.csr_matrix) -> list[tuple[int, int, NDArray[np.float64], NDArray[np.float64], int]] | None:
+Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
+
+
+def _path_bidiagonals(weighted: sp.csr_matrix) -> list[Segment] | None:
     """Split B~ into chains whose springs form a path; None if the spring graph is not one.
 
     A path is a run of consecutive dofs c0..c1 joined by one term per neighbouring pair, with
     at most one single-dof term (an anchor) at each end. Its Golub-Kahan bidiagonal is
-    returned as (c0, c1, d, e, n_keep): the singular values of the square upper bidiagonal
-    (d, e), of which the largest n_keep = c1 - c0 + 1 are the segment's frequencies.
+    returned as (c0, c1, d, e, n_keep, dofs_are_rows): the singular values of the square
+    upper bidiagonal (d, e), of which the largest n_keep = c1 - c0 + 1 are the segment's
+    frequencies; its dof-space vectors are the left singular vectors when dofs_are_rows.
     """
     b = sp.csr_matrix(weighted)
     b.sort_indices()
@@ -456,16 +463,15 @@ def _path_bidiagonals(weighted: sp.csr_matrix) -> list[tuple[int, int, NDArray[n
             if at_end:
                 d = np.r_[d, 0.0]
                 e = np.r_[e, at_end[:1]]
-        segments.append((c0, c1, d, e, c1 - c0 + 1))
+        segments.append((c0, c1, d, e, c1 - c0 + 1, bool(at_start)))
     return segments
 
 
-def _path_values(segments: list[tuple[int, int, NDArray[np.float64], NDArray[np.float64], int]]
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _path_values(segments: list[Segment]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(omega ascending, relative error bound) of all path segments by dqds."""
     omegas = []
     bounds = []
-    for _, _, d, e, keep in segments:
+    for _, _, d, e, keep, _ in segments:
         sigma = bidiagonal_singular_values(d, e)[-keep:]
         omegas.append(sigma)
         # Demmel-Kahan: relative entry errors eta perturb each singular value by at most
@@ -490,19 +496,37 @@ def _accurate_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes: 
     error = 2.0 * relative[select] * eigenvalues
     if not vectors:
         return SolveResult(eigenvalues, None, error, float("nan"), float("nan"), "accurate-bidiagonal")
-    # Vectors from the standard tridiagonal solver (angle error ~ eps ||K~|| / gap), values
-    # from dqds: each column is re-paired with the dqds value of the same rank.
-    d, e = _diagonals(Kt)
-    if select.size == n:
-        _, basis = la.eigh_tridiagonal(d, e, check_finite=False)  # MRRR, O(n^2)
-    elif select.size:
-        _, basis = la.eigh_tridiagonal(d, e, select="i", select_range=(int(select[0]), int(select[-1])),
-                                       check_finite=False)
-        basis = basis[:, select - select[0]]
+    if all(d.shape[0] <= BDSQR_LIMIT for _, _, d, _, _, _ in segments):
+        basis = _path_vectors(segments, Kt.shape[0], omega)[:, select]
     else:
-        basis = np.zeros((Kt.shape[0], 0))
+        # Vectors from the standard tridiagonal solver (angle error ~ eps ||K~|| / gap),
+        # values from dqds: each column is re-paired with the dqds value of the same rank.
+        d, e = _diagonals(Kt)
+        if select.size == n:
+            _, basis = la.eigh_tridiagonal(d, e, check_finite=False)  # MRRR, O(n^2)
+        elif select.size:
+            _, basis = la.eigh_tridiagonal(d, e, select="i", select_range=(int(select[0]), int(select[-1])),
+                                           check_finite=False)
+            basis = basis[:, select - select[0]]
+        else:
+            basis = np.zeros((Kt.shape[0], 0))
     figures = _figures(sp.csr_matrix(Kt), eigenvalues, basis, "accurate-bidiagonal", floor=4.0)
     return SolveResult(eigenvalues, basis, error, figures.residual, figures.orthogonality, "accurate-bidiagonal")
+
+
+def _path_vectors(segments: list[Segment], n: int, omega: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n, n) dof-space vectors of every segment from dbdsqr, columns ordered like `omega`."""
+    sigmas = []
+    blocks = []
+    for c0, c1, d, e, keep, dofs_are_rows in segments:
+        sigma, vectors = bidiagonal_svd(d, e, left=dofs_are_rows)
+        sigma, vectors = sigma[-keep:], vectors[: c1 - c0 + 1, -keep:]  # drop the padding
+        full = np.zeros((n, keep))
+        full[c0 : c1 + 1] = vectors / np.linalg.norm(vectors, axis=0)
+        sigmas.append(sigma)
+        blocks.append(full)
+    order = np.argsort(np.concatenate(sigmas), kind="stable")
+    return np.hstack(blocks)[:, order]
 
 
 def _spring_products(weighted: Any, basis: NDArray[np.float64]) -> NDArray[np.float64]:
