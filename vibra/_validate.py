@@ -22,6 +22,19 @@ def _scalar(value: Any) -> str:
     return repr(value.item()) if hasattr(value, "item") else repr(value)
 
 
+def real_scalar(value: Any, name: str) -> float:
+    """`value` (a Python or numpy real number, or a 0-d array) as a finite float."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        array = np.asarray(value) if not isinstance(value, str) else None
+        if array is None or array.ndim != 0 or not np.issubdtype(array.dtype, np.number):
+            raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+        value = array.item()
+    number = float(value)
+    if not np.isfinite(number):
+        raise ValueError(f"{name} is {number!r}; it must be finite")
+    return number
+
+
 def real_array(value: Any, name: str, *, ndim: int | tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """`value` as a finite float64 ndarray; raise naming `name` otherwise."""
     if sp.issparse(value):

@@ -232,17 +232,7 @@ def linearize(
 
 
 # ---------------------------------------------------------------------- input checks
-def _real_scalar(value: Any, name: str) -> float:
-    """`value` as a finite float; the message names `name` (no empty index for 0-d input)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        array = np.asarray(value) if not isinstance(value, str) else None
-        if array is None or array.ndim != 0 or not np.issubdtype(array.dtype, np.number):
-            raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-        value = array.item()
-    number = float(value)
-    if not np.isfinite(number):
-        raise ValueError(f"{name} is {number!r}; it must be finite")
-    return number
+_real_scalar = _validate.real_scalar
 
 
 def _expression(value: Any, name: str) -> sympy.Expr:

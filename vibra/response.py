@@ -79,13 +79,7 @@ _EPS = float(np.finfo(float).eps)
 
 
 # ====================================================================== the single oscillator
-def _scalar(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    number = float(value)
-    if not math.isfinite(number):
-        raise ValueError(f"{name} is {number!r}; it must be finite")
-    return number
+_scalar = _validate.real_scalar
 
 
 def _complex_scalar(value: Any, name: str) -> complex:
