@@ -78,6 +78,19 @@ def test_user_hessian_and_generalized_systems() -> None:
     np.testing.assert_array_equal(generalized.mass_matrix(), M)
 
 
+def test_user_hessian_block_adds_to_springs() -> None:
+    H = np.array([[3.0, -1.0], [-1.0, 3.0]])  # an extra coupling of sites 0 and 2 in 1-D
+    system = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0, blocks=[([0, 2], H)])
+    expected = np.array([[1.0 + 3.0, -1.0, -1.0], [-1.0, 2.0, -1.0], [-1.0, -1.0, 1.0 + 3.0]])
+    np.testing.assert_array_equal(system.hessian().toarray(), expected)
+    assert system.spring_factor() is None  # blocks are not factorised: no accurate path
+    np.testing.assert_allclose(system.modes().omega_squared, np.linalg.eigvalsh(expected), atol=1e-13)
+    with pytest.raises(ValueError, match=r"blocks\[0\] H must be \(2, 2\) for 2 sites in 1-D"):
+        System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1]], 1.0, blocks=[([0, 2], np.eye(3))])
+    with pytest.raises(ValueError, match=r"blocks\[0\] H is not symmetric"):
+        System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1]], 1.0, blocks=[([0, 2], [[1.0, 2.0], [0.0, 1.0]])])
+
+
 def test_isotopes_change_masses_only() -> None:
     system = System.from_springs([0.0, 1.0], [1.0, 1.0], [[0, 1]], 2.0)
     heavy = system.with_masses([1.0, 3.0])

@@ -133,6 +133,7 @@ class System:
         anchors: ArrayLike | None = None,
         anchor_stiffness: ArrayLike | float | None = None,
         anchor_directions: ArrayLike | None = None,
+        blocks: Sequence[tuple[ArrayLike, ArrayLike]] | None = None,
         frozen_sites: ArrayLike | None = None,
         frozen_dofs: ArrayLike | None = None,
         units: str | UnitSystem = "SI",
@@ -159,6 +160,10 @@ class System:
             Their spring constants.
         anchor_directions : (n_anchors, dim) array_like, optional
             Direction of each anchor spring (normalised here); by default the x axis.
+        blocks : sequence of (sites, H), optional
+            User-given Hessian blocks: `sites` (k,) site indices and `H` a symmetric
+            (k * dim, k * dim) matrix in energy / length^2 over their dofs (site-major),
+            added to K. A system with blocks has no spring factor (no accurate path).
         frozen_sites : array_like of int, optional
             Sites held at rest (all their degrees of freedom).
         frozen_dofs : array_like of int, optional
@@ -225,9 +230,10 @@ class System:
             raise ValueError("anchor_stiffness was given without anchors")
         coupling, weights = _stack_terms(rows, weight_parts, n_sites * dim)
         frozen = _frozen_mask(n_sites, dim, frozen_sites, frozen_dofs)
+        extra = _hessian_blocks(blocks, n_sites, dim) if blocks is not None else None
         return cls(
             positions=positions_array, masses=mass_array, units=unit_system(units),
-            coupling=coupling, weights=weights, extra_hessian=None, frozen=frozen,
+            coupling=coupling, weights=weights, extra_hessian=extra, frozen=frozen,
             generalized_mass=None, labels=_site_labels(n_sites, dim), name=name,
         )
 
@@ -545,6 +551,32 @@ def _stack_terms(rows: list[sp.coo_matrix], weights: list[NDArray[np.float64]], 
     b = sp.vstack(rows, format="csr")
     b.eliminate_zeros()  # axis-aligned springs have zero components
     return b, np.concatenate(weights)
+
+
+def _hessian_blocks(blocks: Sequence[tuple[ArrayLike, ArrayLike]], n_sites: int, dim: int) -> sp.csr_matrix:
+    """Sum user Hessian blocks into one sparse (n_sites * dim)^2 matrix."""
+    rows: list[NDArray[np.intp]] = []
+    cols: list[NDArray[np.intp]] = []
+    data: list[NDArray[np.float64]] = []
+    for b, block in enumerate(blocks):
+        try:
+            sites, matrix = block
+        except (TypeError, ValueError):
+            raise TypeError(f"blocks[{b}] must be a pair (sites, H)") from None
+        index = _index_array(sites, f"blocks[{b}] sites", n_sites, shape=(-1,))
+        dofs = (index[:, None] * dim + np.arange(dim)).ravel()
+        H = _validate.real_array(matrix, f"blocks[{b}] H", ndim=2)
+        if H.shape != (dofs.size, dofs.size):
+            raise ValueError(f"blocks[{b}] H must be ({dofs.size}, {dofs.size}) for {index.size} sites in {dim}-D, "
+                             f"got {H.shape}")
+        _validate.symmetric(H, f"blocks[{b}] H")
+        rows.append(np.repeat(dofs, dofs.size))
+        cols.append(np.tile(dofs, dofs.size))
+        data.append(H.ravel())
+    size = n_sites * dim
+    if not data:
+        return sp.csr_matrix((size, size))
+    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
 
 
 def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLike | None) -> NDArray[np.bool_]:
