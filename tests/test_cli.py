@@ -1,0 +1,188 @@
+"""Tests of vibra/cli.py: `vibra report`, `vibra validate`, `vibra modes`, exit codes, and
+interrupted runs. The CLI runs in subprocesses, as a user runs it."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ase.data import atomic_masses, atomic_numbers
+from PIL import Image
+
+from vibra import molecules
+from vibra.units import ASE
+
+ROOT = Path(__file__).resolve().parent.parent
+BROKEN = ROOT / "tests" / "broken_scenes"
+
+
+def vibra(*args: str, **kwargs: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "vibra", *args], capture_output=True, text=True,
+                          cwd=ROOT, **kwargs)  # type: ignore[call-overload]
+
+
+def complete_png(path: Path) -> np.ndarray:
+    with Image.open(path) as handle:
+        handle.load()  # raises on a truncated file
+        return np.asarray(handle.convert("RGB"))
+
+
+def test_help_is_fast_and_light() -> None:
+    code = ("import sys, time; t = time.perf_counter(); from vibra import cli; cli.build_parser(); "
+            "print(time.perf_counter() - t, 'pyvista' in sys.modules, 'matplotlib' in sys.modules)")
+    seconds, pyvista, matplotlib = subprocess.run([sys.executable, "-c", code], capture_output=True,
+                                                  text=True, check=True).stdout.split()
+    assert (pyvista, matplotlib) == ("False", "False")
+    # 2 s: importing vibra (numpy, scipy.sparse) takes ~0.4 s here; pyvista alone would add ~1.5 s.
+    assert float(seconds) < 2.0
+    run = vibra("--help")
+    assert run.returncode == 0 and "report" in run.stdout and "validate" in run.stdout
+
+
+def test_no_command_prints_help() -> None:
+    run = vibra()
+    assert run.returncode == 2 and "usage: vibra" in run.stdout
+
+
+def test_validate_bundled_scenes() -> None:
+    run = vibra("validate", "chains", "molecules")
+    assert run.returncode == 0, run.stdout
+    assert "11 scene(s), 0 invalid" in run.stdout
+
+
+@pytest.mark.parametrize("name, message", [
+    ("typo-key.toml", "system.stifness: unknown key; did you mean 'stiffness'?"),
+    ("wrong-type.toml", "system.n: expected an integer, got a string"),
+    ("negative-mass.toml", "system.mass: must be positive, got -1.0"),
+    ("unknown-builder.toml", "unknown builder 'linear_chian'; did you mean 'linear_chain'?"),
+    ("escape-path.toml", "name: '../escaped' is not a safe file name"),
+])
+def test_validate_broken_scene(name: str, message: str) -> None:
+    run = vibra("validate", str(BROKEN / name))
+    assert run.returncode == 1
+    assert message in run.stdout and name in run.stdout
+
+
+def test_validate_missing_file() -> None:
+    run = vibra("validate", "no/such/scene.toml")
+    assert run.returncode == 1 and "no/such/scene.toml: file not found" in run.stdout
+
+
+def test_modes_table_matches_seed_eq_157() -> None:
+    run = vibra("modes", "molecules/co2-axial.toml")
+    assert run.returncode == 0, run.stderr
+    rows = [line.split() for line in run.stdout.splitlines()[2:]]
+    wavenumbers = np.array([float(row[2]) for row in rows])
+    kappa = molecules.CO2_STRETCH
+    m, M = atomic_masses[atomic_numbers["O"]], atomic_masses[atomic_numbers["C"]]
+    expected = ASE.omega_to_cm1([0.0, np.sqrt(kappa / m), np.sqrt(kappa * (1 / m + 2 / M))])
+    # The table prints 6 significant digits: 1e-5 relative covers the rounding.
+    assert np.allclose(wavenumbers, expected, rtol=1e-5, atol=1e-3)
+
+
+def test_modes_on_invalid_scene() -> None:
+    run = vibra("modes", str(BROKEN / "negative-mass.toml"))
+    assert run.returncode == 1 and "system.mass: must be positive" in run.stderr
+
+
+def test_bad_jobs_is_a_usage_error(tmp_path: Path) -> None:
+    run = vibra("report", "chains", "--out", str(tmp_path), "--jobs", "0")
+    assert run.returncode == 2 and "--jobs must be >= 1" in run.stderr
+
+
+def test_report_with_broken_scenes_exits_nonzero_and_writes_nothing_for_them(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    run = vibra("report", str(BROKEN), "--out", str(out), "--quiet")
+    assert run.returncode == 1
+    n_broken = len(list(BROKEN.glob("*.toml")))
+    assert f"{n_broken} scene(s), {n_broken} failed, 0 image(s)" in run.stdout
+    assert "did you mean 'stiffness'?" in run.stdout  # the final table says why
+    assert sorted(p.name for p in out.iterdir()) == ["index.html", "summary.json"]
+    assert not Path("/tmp/vibra-escaped_modes.png").exists()
+    assert not (tmp_path / "escaped").exists()
+
+
+#: Every image the bundled scenes must produce (from the scene files' [draw] tables).
+EXPECTED = {
+    "monatomic-free": ["modes", "spectrum", "dispersion"],
+    "monatomic-fixed": ["modes", "spectrum", "dispersion"],
+    "diatomic": ["modes", "spectrum", "dispersion"],
+    "mass-defect": ["modes", "spectrum"],
+    "continuum-limit": ["modes", "convergence"],
+    "forced-damped": ["spectrum", "response"],
+    "long-chain": ["modes", "spectrum"],
+    "double-pendulum": ["modes", "spectrum"],
+    "co2-axial": ["mode1", "mode2", "spectrum"],  # mode 0 is the translation: not drawn
+    "co2": ["mode5", "mode7", "mode8", "spectrum"],  # mode5: the degenerate bend pair, side by side
+    "h2o": ["mode6", "mode7", "mode8", "spectrum"],
+}
+
+
+@pytest.mark.slow
+def test_report_bundled_scenes_end_to_end(tmp_path: Path) -> None:
+    out = tmp_path / "plots"
+    run = vibra("report", "chains", "molecules", "--out", str(out), "--jobs", "2", "--window-size", "320x200",
+                env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "11 scene(s), 0 failed" in run.stdout
+    assert "11/11" in run.stderr  # the progress bar
+    summary = json.loads((out / "summary.json").read_text())
+    assert {s["name"] for s in summary["scenes"]} == set(EXPECTED)
+    for entry in summary["scenes"]:
+        assert entry["status"] == "ok"
+        expected = [f"{entry['name']}_{what}.png" for what in EXPECTED[entry["name"]]]
+        assert [o for o in entry["outputs"] if o.endswith(".png")] == expected
+        for name in expected:
+            picture = complete_png(out / name)
+            rendered = "_mode" in name and entry["name"] != "double-pendulum"  # pyvista, not matplotlib
+            if rendered:
+                assert picture.shape == (200, 320, 3), name  # the --window-size asked for
+            else:
+                assert picture.shape[1] >= 600, name  # charts keep their legible default size
+            assert picture.std() > 5.0, name  # not blank (see test_render.py)
+    assert (out / "co2_crosscheck.txt").is_file() and (out / "co2_mode5.gif").is_file()
+    assert (out / "monatomic-fixed_mode0.gif").is_file()
+    index = (out / "index.html").read_text()
+    assert all(f"src='{name}_{what}.png'" in index for name, whats in EXPECTED.items() for what in whats)
+    again = vibra("report", "chains", "molecules", "--out", str(out), "--window-size", "320x200")
+    assert again.returncode == 0 and again.stdout.count("skipped") == 11
+
+
+def _all_outputs_complete(out: Path) -> int:
+    """Check every visible file in `out` is complete; return the number of PNGs."""
+    count = 0
+    for path in out.iterdir():
+        if path.name.startswith("."):
+            continue  # hidden: work folders, manifests and in-flight temp files are not outputs
+        if path.suffix == ".png":
+            complete_png(path)
+            count += 1
+        elif path.suffix == ".json":
+            json.loads(path.read_text())
+    return count
+
+
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGINT])
+def test_killed_run_leaves_no_half_written_file(tmp_path: Path, how: signal.Signals) -> None:
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "vibra", "report", "chains", "--out", str(out),
+                                "--force", "--window-size", "320x200", "--quiet"], cwd=ROOT,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (out.is_dir() and list(out.glob("*.png"))):
+        time.sleep(0.05)
+    process.send_signal(how)
+    _, stderr = process.communicate(timeout=60)
+    if how == signal.SIGINT:
+        assert process.returncode == 130, stderr
+        assert "interrupted" in stderr
+    else:
+        assert process.returncode == -signal.SIGKILL
+    assert _all_outputs_complete(out) >= 1

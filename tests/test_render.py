@@ -1,0 +1,143 @@
+"""Tests of vibra/render.py: off-screen pyvista images of chains and molecules.
+
+Rendering must work here (it is the package's main job): these tests fail, never skip,
+when it breaks. Images are small (320 x 200) to keep the tests fast.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from vibra.plan import build_system
+from vibra.render import MAX_CHAIN_SITES, SceneRenderer, _inversion_parity, write_gif, write_png
+from vibra.scene import Scene
+
+SIZE = (320, 200)
+# A rendered image is "not blank" when its pixel standard deviation exceeds this: a uniform
+# background gives 0, a single tiny glyph about 1; the smallest real render here gives > 10.
+MIN_STD = 5.0
+
+
+def image(path: Path) -> np.ndarray:
+    with Image.open(path) as handle:
+        handle.load()  # a truncated PNG raises here
+        return np.asarray(handle.convert("RGB"))
+
+
+def scene(data: dict[str, object]) -> Scene:
+    return Scene.from_dict({**data, "draw": {"modes": True, "window_size": list(SIZE)}}, source="t.toml")
+
+
+@pytest.fixture(scope="module")
+def renderer() -> SceneRenderer:
+    r = SceneRenderer(SIZE)
+    yield r
+    r.close()
+
+
+def test_chain_image_size_content_and_caption(renderer: SceneRenderer, tmp_path: Path) -> None:
+    sc = scene({"kind": "chain", "name": "c", "system": {"builder": "linear_chain", "n": 6, "ends": "fixed"}})
+    system = build_system(sc)
+    modes = system.modes()
+    [(name, caption)] = renderer.render_modes(sc, system, modes, [0, 1], tmp_path)
+    pixels = image(tmp_path / name)
+    assert name == "c_modes.png"
+    assert pixels.shape == (SIZE[1], SIZE[0], 3)
+    assert pixels.std() > MIN_STD
+    assert "axial" in caption and "decimated" not in caption
+
+
+def test_reused_plotter_renders_each_image_anew(renderer: SceneRenderer, tmp_path: Path) -> None:
+    # Regression: a reused plotter must not return the previous screenshot.
+    sc = scene({"kind": "molecule", "name": "w", "system": {"builder": "h2o"}})
+    system = build_system(sc)
+    modes = system.modes()
+    outputs = renderer.render_modes(sc, system, modes, [6, 7, 8], tmp_path)
+    pictures = [image(tmp_path / name) for name, _ in outputs]
+    assert len(pictures) == 3
+    for a in range(3):
+        for b in range(a + 1, 3):
+            assert np.abs(pictures[a].astype(int) - pictures[b].astype(int)).sum() > 0
+
+
+def test_degenerate_bend_side_by_side(renderer: SceneRenderer, tmp_path: Path) -> None:
+    sc = scene({"kind": "molecule", "name": "co2", "system": {"builder": "co2", "dims": 3}})
+    system = build_system(sc)
+    modes = system.modes()
+    outputs = renderer.render_modes(sc, system, modes, [5, 6, 7, 8], tmp_path)
+    names = [name for name, _ in outputs]
+    assert names == ["co2_mode5.png", "co2_mode7.png", "co2_mode8.png"]  # the bend pair is one image
+    assert "degenerate, x2, side by side" in outputs[0][1]
+    # mutual exclusion (centrosymmetric CO2): symmetric stretch g, bend and asymmetric stretch u
+    assert "g: IR-inactive" in outputs[1][1]
+    assert "u: IR-allowed" in outputs[0][1] and "u: IR-allowed" in outputs[2][1]
+    assert "cm^-1" in outputs[0][1]
+    for name in names:
+        assert image(tmp_path / name).std() > MIN_STD
+
+
+def test_long_chain_is_decimated(renderer: SceneRenderer, tmp_path: Path) -> None:
+    sc = scene({"kind": "chain", "name": "long", "system": {"builder": "linear_chain", "n": 500, "ends": "fixed"}})
+    system = build_system(sc)
+    modes = system.modes(3)
+    [(name, caption)] = renderer.render_modes(sc, system, modes, [0], tmp_path)
+    assert f"{MAX_CHAIN_SITES} evenly spaced sites of 500 shown" in caption
+    assert image(tmp_path / name).std() > MIN_STD
+
+
+def test_beaded_string_arrows_are_transverse(renderer: SceneRenderer, tmp_path: Path) -> None:
+    sc = scene({"kind": "chain", "name": "s", "system": {"builder": "beaded_string", "n": 5}})
+    system = build_system(sc)
+    [(name, caption)] = renderer.render_modes(sc, system, system.modes(), [0], tmp_path)
+    assert "transverse" in caption
+    assert image(tmp_path / name).std() > MIN_STD
+
+
+def test_gif_of_a_mode(renderer: SceneRenderer, tmp_path: Path) -> None:
+    sc = scene({"kind": "chain", "name": "g", "system": {"builder": "linear_chain", "n": 4, "ends": "fixed"}})
+    system = build_system(sc)
+    name, caption = renderer.render_gif(sc, system, system.modes(), 0, tmp_path, tmp_path)
+    with Image.open(tmp_path / name) as gif:
+        assert gif.n_frames == 16 and gif.size == SIZE
+    assert "animation of mode 0" in caption
+
+
+def test_render_needs_shapes(renderer: SceneRenderer, tmp_path: Path) -> None:
+    sc = scene({"kind": "chain", "name": "c", "system": {"builder": "linear_chain", "n": 4}})
+    system = build_system(sc)
+    with pytest.raises(ValueError, match=r"render_modes needs mode shapes; the modes were computed with vectors=False"):
+        renderer.render_modes(sc, system, system.modes(vectors=False), [1], tmp_path)
+
+
+def test_inversion_parity_by_construction() -> None:
+    # O-C-O on x: the symmetric stretch is g, the asymmetric stretch u; a bent molecule has no parity.
+    x = np.array([[-1.0, 0, 0], [0.0, 0, 0], [1.0, 0, 0]])
+    m = np.array([16.0, 12.0, 16.0])
+    symmetric = np.array([[-1.0, 0, 0], [0, 0, 0], [1.0, 0, 0]])
+    asymmetric = np.array([[1.0, 0, 0], [-2.0, 0, 0], [1.0, 0, 0]])
+    assert _inversion_parity(x, m, symmetric) == "g"
+    assert _inversion_parity(x, m, asymmetric) == "u"
+    bent = np.array([[-1.0, 0.5, 0], [0.0, 0, 0], [1.0, 0.5, 0]])
+    assert _inversion_parity(bent, m, symmetric) is None
+
+
+def test_atomic_writers_leave_no_temp_files(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    frames = [rng.integers(0, 255, (40, 60, 3), dtype=np.uint8) for _ in range(3)]
+    write_png(frames[0], tmp_path / "a.png")
+    write_gif(frames, tmp_path / "a.gif")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.gif", "a.png"]
+    assert np.array_equal(image(tmp_path / "a.png"), frames[0])  # PNG is lossless
+
+
+def test_import_vibra_does_not_import_pyvista() -> None:
+    code = ("import sys, vibra, vibra.scene, vibra.plan, vibra.report, vibra.cli; "
+            "print('pyvista' in sys.modules, 'vtk' in sys.modules, 'phonopy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "False", "False"]

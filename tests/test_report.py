@@ -1,0 +1,251 @@
+"""Tests of vibra/plan.py and vibra/report.py: plans that compute only what a scene asks, and
+the batch report (isolation, atomic outputs, skipping, summary.json, index.html)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ase.data import atomic_masses, atomic_numbers
+from PIL import Image
+
+from vibra import molecules
+from vibra.plan import PlanResult, StepRecord, build_system, execute, make_plan
+from vibra.report import BatchResult, SceneOutcome, atomic_write_text, report, run_scene
+from vibra.scene import Scene, load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+SMALL = [320, 200]
+
+
+def write(folder: Path, name: str, text: str) -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+CHAIN = """kind = "chain"
+title = "Small <chain> & co"
+[system]
+builder = "linear_chain"
+n = 5
+ends = "fixed"
+[draw]
+modes = true
+n_draw = 2
+spectrum = true
+window_size = [320, 200]
+"""
+
+FAILING = """kind = "generalized"
+[system]
+builder = "matrices"
+M = [[1.0, 2.0], [2.0, 1.0]]
+K = [[1.0, 0.0], [0.0, 1.0]]
+[draw]
+modes = true
+spectrum = true
+"""  # valid schema, but M is not positive definite: fails while building
+
+
+def pixels(path: Path) -> np.ndarray:
+    with Image.open(path) as handle:
+        handle.load()
+        return np.asarray(handle.convert("RGB"))
+
+
+# ---------------------------------------------------------------------- plans
+def test_axial_co2_solves_three_dof_against_seed_eq_157(tmp_path: Path) -> None:
+    scene = load_scene(ROOT / "molecules" / "co2-axial.toml")
+    plan = make_plan(scene)
+    result = execute(dataclasses.replace(plan, steps=plan.steps[:2]), tmp_path, tmp_path)
+    modes = result.modes
+    assert modes.n_dof == 3
+    kappa = molecules.CO2_STRETCH
+    m, M = atomic_masses[atomic_numbers["O"]], atomic_masses[atomic_numbers["C"]]
+    expected = np.array([0.0, np.sqrt(kappa / m), np.sqrt(kappa * (1 / m + 2 / M))])
+    # eq. 157 in ASE units; 1e-12 relative: a 3x3 eigenproblem loses only a few ulps of ||K~||.
+    assert np.allclose(modes.omega, expected, rtol=1e-12, atol=1e-12 * expected.max())
+    assert result.records[0].accuracy == "3 degrees of freedom"
+    assert result.records[1].solver == modes.solver
+
+
+def test_no_shapes_when_nothing_is_drawn(tmp_path: Path) -> None:
+    scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 8},
+                             "draw": {"spectrum": True, "window_size": SMALL}}, source="s.toml")
+    plan = make_plan(scene)
+    assert plan.vectors is False and "frequencies only" in plan.steps[1].what
+    result = execute(plan, tmp_path, tmp_path)
+    assert result.modes.shapes is None and result.modes.vectors is None
+    assert result.outputs == ("s_spectrum.png",)
+
+
+def test_partial_solver_for_the_lowest_modes(tmp_path: Path) -> None:
+    n, k_modes = 20_000, 4
+    scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": n, "ends": "fixed"},
+                             "compute": {"n_modes": k_modes}}, source="l.toml")
+    plan = make_plan(scene)
+    assert plan.n_modes == k_modes and plan.step_names == ("build", "modes")
+    modes = execute(plan, tmp_path, tmp_path).modes
+    assert modes.n_modes == k_modes and modes.solver != "dense"
+    k = np.arange(1, k_modes + 1)
+    expected = 2.0 * np.sin(k * np.pi / (2 * (n + 1)))  # fixed chain, Omega = 1 (chains closed form)
+    # 1e-9 relative: the accurate path keeps ~10 digits on the lowest modes of a long chain (DESIGN.md).
+    assert np.allclose(modes.omega, expected, rtol=1e-9, atol=0)
+
+
+def test_crosscheck_backends_imported_only_when_asked() -> None:
+    code = """
+import sys, tempfile
+from pathlib import Path
+from vibra.plan import execute, make_plan
+from vibra.scene import load_scene
+d = Path(tempfile.mkdtemp())
+plan = make_plan(load_scene(sys.argv[1]))
+execute(plan, d, d)
+print('phonopy' in sys.modules, 'ase.vibrations' in sys.modules, 'pyvista' in sys.modules)
+"""
+    axial = ROOT / "molecules" / "co2-axial.toml"  # no cross-check asked; it draws modes
+    run = subprocess.run([sys.executable, "-c", code, str(axial)], capture_output=True, text=True, check=True)
+    assert run.stdout.split() == ["False", "False", "True"]
+
+
+def test_plan_steps_for_a_full_chain_scene() -> None:
+    plan = make_plan(load_scene(ROOT / "chains" / "forced-damped.toml"))
+    assert plan.step_names == ("build", "modes", "response", "chart-spectrum", "chart-response")
+    plan = make_plan(load_scene(ROOT / "molecules" / "co2.toml"))
+    assert plan.step_names[:3] == ("build", "modes", "crosscheck")
+
+
+def test_mass_defect_builds_the_defect(tmp_path: Path) -> None:
+    scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 5, "defect_site": 2,
+                                                          "defect_mass": 0.25}}, source="d.toml")
+    system = build_system(scene)
+    assert list(system.masses) == [1.0, 1.0, 0.25, 1.0, 1.0]
+
+
+def test_result_records_are_immutable(tmp_path: Path) -> None:
+    record = StepRecord(name="modes", what="all", seconds=0.1)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        record.seconds = 0.0  # type: ignore[misc]
+    result = PlanResult(records=(record,), outputs=(), captions=(), frequencies=())
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        result.outputs = ("x",)  # type: ignore[misc]
+    outcome = SceneOutcome(source="a", name="a", title="a", status="ok")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        outcome.status = "failed"  # type: ignore[misc]
+    batch = BatchResult(out_dir=tmp_path, outcomes=(outcome,), seconds=0.0, jobs=1)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        batch.jobs = 2  # type: ignore[misc]
+
+
+# ---------------------------------------------------------------------- batch
+def test_report_outputs_summary_and_index(tmp_path: Path) -> None:
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    write(scenes, "small.toml", CHAIN)
+    out = tmp_path / "out"
+    result = report([scenes], out, progress=False)
+    [outcome] = result.outcomes
+    assert outcome.status == "ok", outcome.error
+    assert outcome.outputs == ("small_modes.png", "small_spectrum.png")
+    picture = pixels(out / "small_modes.png")
+    assert picture.shape == (200, 320, 3) and picture.std() > 5.0  # not blank (see test_render.py)
+    assert pixels(out / "small_spectrum.png").std() > 5.0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["n_scenes"] == 1 and summary["n_failed"] == 0
+    entry = summary["scenes"][0]
+    assert entry["name"] == "small" and entry["outputs"] == list(outcome.outputs)
+    steps = {s["name"]: s for s in entry["steps"]}
+    assert steps["modes"]["solver"] and "residual" in steps["modes"]["accuracy"]
+    assert all(s["seconds"] >= 0 for s in entry["steps"])
+    index = (out / "index.html").read_text()
+    assert "Small &lt;chain&gt; &amp; co" in index and "<chain>" not in index
+    for name in outcome.outputs:
+        assert f"src='{name}'" in index
+    assert not (out / ".work").exists()
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "index.html", "small_modes.png", "small_spectrum.png", "summary.json"]
+
+
+def test_failing_scene_does_not_stop_others_and_leaves_nothing(tmp_path: Path) -> None:
+    good = write(tmp_path, "good.toml", CHAIN)
+    bad = write(tmp_path, "bad.toml", FAILING)
+    broken = ROOT / "tests" / "broken_scenes" / "typo-key.toml"
+    out = tmp_path / "out"
+    result = report([bad, good, broken, tmp_path / "missing.toml"], out, progress=False)
+    status = {o.name: o for o in result.outcomes}
+    assert status["good"].status == "ok"
+    assert status["bad"].status == "failed" and "not positive definite" in status["bad"].error
+    assert status["typo-key"].status == "failed" and "did you mean 'stiffness'" in status["typo-key"].error
+    assert status["missing"].status == "failed" and "file not found" in status["missing"].error
+    assert len(result.failed) == 3
+    assert not list(out.glob("bad_*")) and not list(out.glob("typo-key*"))
+    assert not (out / ".work").exists()
+    table = result.table()
+    assert "bad" in table and "failed" in table and "3 failed" in table
+
+
+def test_unchanged_scenes_are_skipped_until_forced_or_edited(tmp_path: Path) -> None:
+    path = write(tmp_path, "small.toml", CHAIN)
+    out = tmp_path / "out"
+    first = run_scene(path, out)
+    assert first.status == "ok"
+    again = run_scene(path, out)
+    assert again.status == "skipped" and again.outputs == first.outputs
+    assert run_scene(path, out, force=True).status == "ok"
+    path.write_text(CHAIN.replace("n = 5", "n = 6"))
+    assert run_scene(path, out).status == "ok"
+    (out / "small_modes.png").unlink()  # an output removed by hand: redo
+    assert run_scene(path, out).status == "ok"
+
+
+def test_duplicate_scene_names_fail(tmp_path: Path) -> None:
+    a = write(tmp_path, "a.toml", CHAIN.replace('kind = "chain"', 'kind = "chain"\nname = "same"'))
+    b = write(tmp_path, "b.toml", CHAIN.replace('kind = "chain"', 'kind = "chain"\nname = "same"'))
+    result = report([a, b], tmp_path / "out", progress=False)
+    assert [o.status for o in result.outcomes] == ["ok", "failed"]
+    assert "scene name 'same' is already used" in result.outcomes[1].error
+
+
+def test_report_argument_errors(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"jobs is 0; expected jobs >= 1"):
+        report([tmp_path], tmp_path / "out", jobs=0)
+    with pytest.raises(TypeError, match=r"jobs must be an int, got str"):
+        report([tmp_path], tmp_path / "out", jobs="2")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"paths holds no scene file"):
+        report([tmp_path], tmp_path / "out")
+
+
+def test_atomic_write_text(tmp_path: Path) -> None:
+    target = atomic_write_text(tmp_path / "a" / "b.txt", "hello")
+    assert target.read_text() == "hello"
+    assert [p.name for p in target.parent.iterdir()] == ["b.txt"]
+
+
+def test_oscillator_and_generalized_scenes(tmp_path: Path) -> None:
+    osc = write(tmp_path, "osc.toml", """kind = "oscillator"
+title = "Seed figure 7"
+[system]
+builder = "oscillator"
+w0 = 1.0
+gamma = [0.5, 1.0, 2.0, 4.0]
+[compute.response]
+omega_min = 0.0
+omega_max = 3.0
+[draw]
+response = true
+""")
+    gen = write(tmp_path, "gen.toml", FAILING.replace("[[1.0, 2.0], [2.0, 1.0]]", "[[2.0, 1.0], [1.0, 2.0]]"))
+    result = report([osc, gen], tmp_path / "out", progress=False)
+    assert [o.status for o in result.outcomes] == ["ok", "ok"], [o.error for o in result.outcomes]
+    assert result.outcomes[0].outputs == ("osc_response.png",)
+    assert result.outcomes[1].outputs == ("gen_modes.png", "gen_spectrum.png")
+    for outcome in result.outcomes:
+        for name in outcome.outputs:
+            assert pixels(tmp_path / "out" / name).std() > 5.0

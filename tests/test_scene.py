@@ -1,0 +1,225 @@
+"""Tests of vibra/scene.py: the scene schema, its validation messages, and the bundled scenes."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import pytest
+
+from vibra.scene import BUILDERS, KINDS, Scene, SceneError, find_scene_files, load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+BUNDLED = sorted((ROOT / "chains").glob("*.toml")) + sorted((ROOT / "molecules").glob("*.toml"))
+BROKEN = ROOT / "tests" / "broken_scenes"
+
+#: broken scene file -> the specific message it must produce (key path included).
+BROKEN_MESSAGES = {
+    "typo-key.toml": r"system\.stifness: unknown key; did you mean 'stiffness'\?",
+    "wrong-type.toml": r"system\.n: expected an integer, got a string \('twelve'\)",
+    "negative-mass.toml": r"system\.mass: must be positive, got -1\.0",
+    "unknown-builder.toml": r"system\.builder: unknown builder 'linear_chian'; did you mean 'linear_chain'\?",
+    "escape-path.toml": r"name: '\.\./escaped' is not a safe file name",
+    "absolute-path.toml": r"name: '/tmp/vibra-escaped' is not a safe file name",
+    "section-typo.toml": r"draws: unknown key; did you mean 'draw'\?",
+    "invalid-toml.toml": r"invalid TOML",
+    "code-injection.toml": r"system\.n: expected an integer, got a string",
+}
+
+
+def chain(**system: object) -> dict[str, object]:
+    """A minimal valid chain scene table, with `system` keys merged in."""
+    return {"kind": "chain", "system": {"builder": "linear_chain", "n": 4, **system}}
+
+
+def test_bundled_scenes_are_the_issue_list() -> None:
+    names = {path.name for path in BUNDLED}
+    expected = {"co2-axial.toml", "co2.toml", "h2o.toml", "monatomic-free.toml", "monatomic-fixed.toml",
+                "diatomic.toml", "mass-defect.toml", "continuum-limit.toml", "forced-damped.toml",
+                "long-chain.toml", "double-pendulum.toml"}
+    assert expected <= names
+
+
+@pytest.mark.parametrize("path", BUNDLED, ids=lambda p: p.name)
+def test_every_bundled_scene_validates(path: Path) -> None:
+    scene = load_scene(path)
+    assert scene.kind in KINDS
+    assert scene.name == path.stem
+    json.dumps(scene.dump())  # a summary can always hold it
+
+
+@pytest.mark.parametrize("file_name", sorted(BROKEN_MESSAGES))
+def test_broken_scene_fails_with_its_message(file_name: str) -> None:
+    path = BROKEN / file_name
+    with pytest.raises(SceneError, match=BROKEN_MESSAGES[file_name]) as info:
+        load_scene(path)
+    assert str(info.value).startswith(str(path) + ": ")  # the file name leads the message
+
+
+def test_every_broken_scene_has_a_message() -> None:
+    assert {p.name for p in BROKEN.glob("*.toml")} == set(BROKEN_MESSAGES)
+
+
+def test_missing_file() -> None:
+    with pytest.raises(SceneError, match=r"nowhere\.toml: file not found"):
+        load_scene("nowhere.toml")
+
+
+def test_scene_error_is_a_value_error_with_parts() -> None:
+    error = SceneError("a.toml", "system.n", "is required")
+    assert isinstance(error, ValueError)
+    assert (error.source, error.key, error.problem) == ("a.toml", "system.n", "is required")
+    assert str(error) == "a.toml: system.n: is required"
+
+
+def test_code_in_a_value_is_never_run(tmp_path: Path) -> None:
+    # The injection scene would create this file if any value were evaluated.
+    marker = Path("/tmp/vibra-pwned")
+    marker.unlink(missing_ok=True)
+    with pytest.raises(SceneError):
+        load_scene(BROKEN / "code-injection.toml")
+    assert not marker.exists()
+
+
+def test_builder_names_are_a_fixed_table() -> None:
+    with pytest.raises(SceneError, match=r"unknown builder 'os\.system'"):
+        Scene.from_dict(chain(builder="os.system"), source="x.toml")
+
+
+def test_defaults_are_filled_from_the_schema() -> None:
+    scene = Scene.from_dict(chain(), source="chains/x.toml")
+    p = scene.system.parameters
+    assert (p["mass"], p["stiffness"], p["spacing"], p["ends"]) == (1.0, 1.0, 1.0, "free")
+    assert scene.units == "SI" and scene.title == "x" and scene.name == "x"
+    assert scene.compute.n_modes is None and scene.compute.accuracy == "high"
+    assert scene.draw.modes is False and scene.draw.window_size == (1024, 640)
+    molecule = Scene.from_dict({"kind": "molecule", "system": {"builder": "co2"}}, source="m.toml")
+    assert molecule.units == "ASE" and molecule.system.parameters["dims"] == 3
+
+
+def test_lists_become_tuples() -> None:
+    scene = Scene.from_dict(chain(mass=[1.0, 2.0, 1.0, 2.0]), source="x.toml")
+    assert scene.system.parameters["mass"] == (1.0, 2.0, 1.0, 2.0)
+
+
+def test_scene_is_immutable() -> None:
+    scene = load_scene(BUNDLED[0])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        scene.name = "other"  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        scene.draw.modes = False  # type: ignore[misc]
+    with pytest.raises(TypeError):
+        scene.system.parameters["n"] = 3  # type: ignore[index]
+
+
+def test_every_builder_serves_a_known_kind() -> None:
+    for builder, (kinds, fields) in BUILDERS.items():
+        assert set(kinds) <= set(KINDS), builder
+        assert fields is not None
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"system": {"builder": "linear_chain", "n": 4}}, r"kind: is required"),
+    ({"kind": "crystal", "system": {}}, r"kind: is 'crystal'; expected one of 'chain'"),
+    ({"kind": "chain"}, r"system: is required"),
+    ({"kind": "chain", "system": 3}, r"system: expected a table"),
+    ({"kind": "chain", "system": {"n": 4}}, r"system\.builder: is required \(for kind 'chain'"),
+    ({"kind": "chain", "system": {"builder": 7}}, r"system\.builder: expected a string, got an integer"),
+    ({"kind": "chain", "system": {"builder": "co2"}}, r"system\.builder: builder 'co2' does not make a 'chain' scene"),
+    (chain(n=1), r"system\.n: must be >= 2, got 1"),
+    (chain(n=True), r"system\.n: expected an integer, got a boolean"),
+    (chain(n=4.0), r"system\.n: expected an integer, got a number"),
+    (chain(ends="closed"), r"system\.ends: is 'closed'; expected one of 'free', 'fixed', 'periodic'"),
+    (chain(mass=[1.0, 0.0, 1.0, 1.0]), r"system\.mass: \[1\] must be positive, got 0\.0"),
+    (chain(mass=[1.0, 1.0]), r"system\.mass: needs 4 values for 4 free-end masses, got 2"),
+    (chain(stiffness=[1.0] * 4, ends="fixed"), r"system\.stiffness: needs 5 values for 4 fixed-end masses, got 4"),
+    (chain(spacing=float("nan")), r"system\.spacing: expected a finite number"),
+    (chain(defect_site=1), r"system\.defect_mass: defect_site and defect_mass go together"),
+    (chain(defect_site=9, defect_mass=0.5), r"system\.defect_site: is 9; sites run from 0 to 3"),
+    ({**chain(), "name": ""}, r"name: '' is not a safe file name"),
+    ({**chain(), "name": "a/b"}, r"name: 'a/b' is not a safe file name"),
+    ({**chain(), "name": "a..b"}, r"name: 'a\.\.b' is not a safe file name"),
+    ({**chain(), "units": "cgs"}, r"units: is 'cgs'; expected one of 'SI', 'ASE', 'dimensionless'"),
+    ({**chain(), "compute": {"n_modes": 5}}, r"compute\.n_modes: is 5; the system has only 4 degrees of freedom"),
+    ({**chain(), "compute": {"n_modes": 2, "band": [0.0, 1.0]}}, r"compute\.band: give either n_modes or band"),
+    ({**chain(), "compute": {"band": [2.0, 1.0]}}, r"compute\.band: must be \[low, high\] with low < high"),
+    ({**chain(), "compute": {"accuracy": "best"}}, r"compute\.accuracy: is 'best'; expected one of 'high', 'fast'"),
+    ({**chain(), "compute": {"shapes": "yes"}}, r"compute\.shapes: expected true or false, got a string"),
+    ({**chain(), "compute": {"n_mode": 2}}, r"compute\.n_mode: unknown key; did you mean 'n_modes'\?"),
+    ({**chain(), "compute": {"response": {"omega_min": 2.0, "omega_max": 1.0}}},
+     r"compute\.response\.omega_max: must exceed omega_min \(2\), got 1"),
+    ({**chain(), "compute": {"response": {"omega_max": 1.0}}}, r"compute\.response\.omega_min: is required"),
+    ({**chain(), "compute": {"response": {"omega_min": 0.0, "omega_max": 1.0, "alpha": -1.0}}},
+     r"compute\.response\.alpha: must be >= 0, got -1\.0"),
+    ({**chain(), "compute": {"response": {"omega_min": 0.0, "omega_max": 1.0, "force_site": 4}}},
+     r"compute\.response\.force_site: is 4; degrees of freedom run from 0 to 3"),
+    ({**chain(), "compute": {"continuum": {"sizes": [8]}}}, r"compute\.continuum\.sizes: needs at least 2 sizes"),
+    ({**chain(), "compute": {"continuum": {"modes": [8], "sizes": [8, 16]}}},
+     r"compute\.continuum\.modes: mode 8 needs chains longer than the smallest size 8"),
+    ({**chain(), "compute": {"crosscheck": True}}, r"compute\.crosscheck: is available for the 3-D molecules"),
+    ({**chain(), "draw": {"response": True}}, r"draw\.response: needs a \[compute\.response\] table"),
+    ({**chain(), "draw": {"convergence": True}}, r"draw\.convergence: needs a \[compute\.continuum\] table"),
+    ({**chain(), "draw": {"n_draw": 0}}, r"draw\.n_draw: must be 1 <= value <= 24, got 0"),
+    ({**chain(), "draw": {"window_size": [800]}}, r"draw\.window_size: needs 2 values, got 1"),
+    ({**chain(), "draw": {"window_size": [10, 10]}}, r"draw\.window_size: \[0\] must be 64 <= value <= 4096"),
+    ({"kind": "chain", "system": {"builder": "beaded_string", "n": 3}, "draw": {"dispersion": True}},
+     r"draw\.dispersion: needs a linear_chain or diatomic_chain system"),
+    ({"kind": "molecule", "system": {"builder": "co2", "dims": 2}}, r"system\.dims: is 2; expected one of 1, 3"),
+    ({"kind": "molecule", "system": {"builder": "co2", "dims": True}}, r"system\.dims: is True; expected one of 1, 3"),
+    ({"kind": "molecule", "system": {"builder": "co2", "dims": 1}, "compute": {"crosscheck": True}},
+     r"compute\.crosscheck: is available for the 3-D molecules 'co2' \(dims = 3\) and 'h2o'"),
+    ({"kind": "molecule", "system": {"builder": "springs", "positions": [[0, 0, 0], [1, 0, 0]],
+                                      "masses": [1.0], "springs": [[0, 1]], "stiffness": 1.0}},
+     r"system\.masses: needs 2 values \(one per site\), got 1"),
+    ({"kind": "molecule", "system": {"builder": "springs", "positions": [[0, 0, 0], [1, 0, 0]],
+                                      "masses": 1.0, "springs": [[0, 2]], "stiffness": 1.0}},
+     r"system\.springs\[0\]: is \[0, 2\]; site indices run from 0 to 1"),
+    ({"kind": "molecule", "system": {"builder": "springs", "positions": [[0, 0], [1, 0, 0]],
+                                      "masses": 1.0, "springs": [[0, 1]], "stiffness": 1.0}},
+     r"system\.positions: every site needs the same number \(1, 2 or 3\) of coordinates"),
+    ({"kind": "generalized", "system": {"builder": "matrices", "M": [[1.0, 0.0], [0.0, 1.0]], "K": [[1.0]]}},
+     r"system\.K: must be 2x2 like M, got 1x1"),
+    ({"kind": "generalized", "system": {"builder": "matrices", "M": [[1.0, 0.0], [1.0]], "K": [[1.0]]}},
+     r"system\.M: must be a square matrix"),
+    ({"kind": "generalized", "system": {"builder": "double_pendulum"}, "draw": {"gif": True}},
+     r"draw\.gif: animates chains and molecules, not a 'generalized' scene"),
+    ({"kind": "oscillator", "system": {"builder": "oscillator"}, "draw": {"modes": True}},
+     r"draw\.modes: an oscillator scene draws only its response"),
+    ({"kind": "oscillator", "system": {"builder": "oscillator", "gamma": [0.5, -1.0]}},
+     r"system\.gamma: \[1\] must be >= 0, got -1\.0"),
+])
+def test_validation_messages(data: dict[str, object], message: str) -> None:
+    with pytest.raises(SceneError, match=r"^scene\.toml: " + message):
+        Scene.from_dict(data, source="scene.toml")
+
+
+def test_name_required_without_a_file() -> None:
+    with pytest.raises(SceneError, match=r"name: is required when the scene has no file name"):
+        Scene.from_dict(chain())
+
+
+def test_valid_variants_of_every_kind() -> None:
+    Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": [0.5, 1, 2, 4]},
+                     "draw": {"response": True}}, source="osc.toml")
+    Scene.from_dict({"kind": "generalized", "system": {"builder": "matrices", "M": [[2.0, 1.0], [1.0, 2.0]],
+                                                        "K": [[1.0, 0.0], [0.0, 1.0]], "coordinates": ["a", "b"]}},
+                    source="gen.toml")
+    Scene.from_dict({"kind": "molecule", "system": {"builder": "springs", "positions": [[0, 0, 0], [1.1, 0, 0]],
+                                                     "masses": [12.0, 16.0], "springs": [[0, 1]], "stiffness": 50.0,
+                                                     "symbols": ["C", "O"]}}, source="co.toml")
+
+
+def test_find_scene_files_expands_folders(tmp_path: Path) -> None:
+    (tmp_path / "b.toml").write_text("")
+    (tmp_path / "a.toml").write_text("")
+    (tmp_path / "notes.txt").write_text("")
+    found = find_scene_files([tmp_path, tmp_path / "missing.toml"])
+    assert [p.name for p in found] == ["a.toml", "b.toml", "missing.toml"]
+
+
+def test_unreadable_text(tmp_path: Path) -> None:
+    path = tmp_path / "binary.toml"
+    path.write_bytes(b"\xff\xfe\x00kind")
+    with pytest.raises(SceneError, match=r"binary\.toml: not UTF-8 text"):
+        load_scene(path)

@@ -1,0 +1,430 @@
+"""Off-screen pyvista renders of mode shapes: the only module of vibra that imports pyvista.
+
+- A molecule: atoms as spheres (sized and coloured by element, from `ase.data`), bonds as
+  tubes, one arrow per atom along its displacement in the mode; degenerate modes side by
+  side in one image; the caption gives the wavenumber (cm^-1) and an IR-activity hint.
+- A chain: a row of masses (sphere volume proportional to mass) per mode, one row per mode,
+  with displacement arrows (along the chain for axial motion, across it for a string).
+  Long chains show an evenly decimated set of sites, and the caption says so.
+
+Every image is written atomically: rendered to an array, encoded to a temporary file in
+the destination folder, then renamed (`os.replace`), so an interrupted run never leaves a
+half-written PNG. One `SceneRenderer` reuses its plotters for all images of a scene.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["SceneRenderer", "write_png", "write_gif", "molecule_symbols", "molecule_bonds", "MAX_CHAIN_SITES"]
+
+#: Largest number of sites drawn in a chain row; longer chains are decimated evenly.
+MAX_CHAIN_SITES = 41
+_GIF_FRAMES = 16
+
+
+def _report_theme() -> Any:
+    """A fresh document theme for reports (never edits `pv.global_theme`)."""
+    import pyvista as pv
+
+    theme = pv.themes.DocumentTheme()
+    theme.background = "white"
+    theme.font.color = "black"
+    theme.font.size = 14
+    theme.font.label_size = 14
+    theme.font.title_size = 14
+    theme.show_edges = False
+    return theme
+
+
+def _atomic_target(path: Path, suffix: str) -> str:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    os.close(handle)
+    return temporary
+
+
+def write_png(image: NDArray[np.uint8], path: str | os.PathLike[str]) -> Path:
+    """Write an (height, width, 3 or 4) uint8 image to `path` as PNG, atomically."""
+    from PIL import Image
+
+    target = Path(path)
+    temporary = _atomic_target(target, ".tmp")
+    try:
+        Image.fromarray(np.ascontiguousarray(image)).save(temporary, format="PNG")
+        os.replace(temporary, target)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    return target
+
+
+def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str], *,
+              frame_ms: int = 80) -> Path:
+    """Write frames as a looping animated GIF at `path`, atomically (frame_ms per frame)."""
+    from PIL import Image
+
+    target = Path(path)
+    temporary = _atomic_target(target, ".tmp")
+    try:
+        images = [Image.fromarray(np.ascontiguousarray(f)).convert("RGB").quantize(
+            colors=128, method=Image.Quantize.FASTOCTREE) for f in frames]
+        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
+                       duration=frame_ms, loop=0)
+        os.replace(temporary, target)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    return target
+
+
+# ---------------------------------------------------------------------- geometry helpers
+def _positions3(system: Any) -> NDArray[np.float64]:
+    positions = np.asarray(system.positions, dtype=float)
+    out = np.zeros((positions.shape[0], 3))
+    out[:, : positions.shape[1]] = positions
+    return out
+
+
+def _displacements3(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n_sites, 3) displacement of every site (zeros at frozen dofs and unused axes)."""
+    full = np.asarray(system.expand(shape)).reshape(system.n_sites, system.dim)
+    out = np.zeros((system.n_sites, 3))
+    out[:, : system.dim] = full
+    return out
+
+
+def molecule_symbols(system: Any, symbols: Sequence[str] | None = None) -> list[str]:
+    """Chemical symbols of the sites: `symbols` if given, else the element of nearest standard mass."""
+    from ase.data import chemical_symbols
+
+    return [chemical_symbols[z] for z in _elements(system, symbols)]
+
+
+def molecule_bonds(system: Any, symbols: Sequence[str] | None = None,
+                   springs: Sequence[Sequence[int]] | None = None) -> list[tuple[int, int]]:
+    """Bonds of a molecule: the given springs, else pairs closer than 1.25 x covalent radii."""
+    return _bonds(_positions3(system), _elements(system, symbols), springs)
+
+
+def _elements(system: Any, symbols: Sequence[str] | None) -> list[int]:
+    """Atomic numbers: from given symbols, else the element whose standard mass is nearest."""
+    from ase.data import atomic_masses, atomic_numbers
+
+    if symbols is not None:
+        return [atomic_numbers[s] for s in symbols]
+    numbers = []
+    for mass in np.asarray(system.masses, dtype=float):
+        z = int(np.argmin(np.abs(atomic_masses[1:] - mass))) + 1
+        numbers.append(z)
+    return numbers
+
+
+def _bonds(positions: NDArray[np.float64], numbers: list[int],
+           springs: Sequence[Sequence[int]] | None) -> list[tuple[int, int]]:
+    """Bonds: the scene's springs, else pairs closer than 1.25 x the sum of covalent radii."""
+    if springs is not None:
+        return [(int(i), int(j)) for i, j in springs]
+    from ase.data import covalent_radii
+
+    bonds = []
+    for i in range(len(positions)):
+        for j in range(i + 1, len(positions)):
+            limit = 1.25 * (covalent_radii[numbers[i]] + covalent_radii[numbers[j]])
+            if np.linalg.norm(positions[i] - positions[j]) <= limit:
+                bonds.append((i, j))
+    return bonds
+
+
+def _inversion_parity(positions: NDArray[np.float64], masses: NDArray[np.float64],
+                      displacement: NDArray[np.float64]) -> str | None:
+    """'g' or 'u' for a centrosymmetric molecule (None otherwise): parity under inversion.
+
+    Inversion through the centre of mass maps atom i to its partner P(i) and a displacement
+    u_i to -u_P(i). A mode is 'g' when u_P(i) = -u_i for all i and 'u' when u_P(i) = u_i.
+    By the mutual-exclusion rule g modes are IR-inactive (Raman-allowed) and u modes are
+    IR-allowed.
+    """
+    centre = (masses[:, None] * positions).sum(axis=0) / masses.sum()
+    relative = positions - centre
+    scale = max(float(np.abs(relative).max()), 1e-12)
+    partner = []
+    for i in range(len(relative)):
+        distance = np.linalg.norm(relative + relative[i], axis=1)
+        j = int(np.argmin(distance))
+        if distance[j] > 1e-6 * scale or not np.isclose(masses[j], masses[i], rtol=1e-9):
+            return None
+        partner.append(j)
+    size = max(float(np.abs(displacement).max()), 1e-300)
+    mapped = displacement[partner]
+    if np.abs(mapped + displacement).max() <= 1e-6 * size:
+        return "g"
+    if np.abs(mapped - displacement).max() <= 1e-6 * size:
+        return "u"
+    return None
+
+
+def _ir_hint(parity: str | None) -> str:
+    if parity == "g":
+        return "g: IR-inactive (centrosymmetric, mutual exclusion)"
+    if parity == "u":
+        return "u: IR-allowed"
+    return "no inversion centre: IR activity not fixed by symmetry"
+
+
+def _frequency_text(scene: Any, modes: Any, k: int) -> str:
+    units = modes.units
+    if scene.kind == "molecule" and units.time_s is not None:
+        return f"{float(modes.wavenumbers_cm1()[k]):.1f} cm^-1"
+    if units.time_s is not None:
+        return f"omega = {float(modes.omega[k]):.4g} rad/s"
+    return f"omega = {float(modes.omega[k]):.4g} (dimensionless)"
+
+
+# ---------------------------------------------------------------------- renderer
+class SceneRenderer:
+    """Renders the images of one scene, reusing one off-screen plotter per layout.
+
+    Parameters
+    ----------
+    window_size : (int, int)
+        Image size in pixels (width, height).
+    """
+
+    def __init__(self, window_size: Sequence[int]) -> None:
+        import pyvista as pv
+
+        pv.vtk_verbosity("off")  # silences the one "bad X server connection" warning
+        self._pv = pv
+        self.window_size = (int(window_size[0]), int(window_size[1]))
+        self._plotters: dict[tuple[int, int], Any] = {}
+
+    def _plotter(self, shape: tuple[int, int]) -> Any:
+        plotter = self._plotters.get(shape)
+        if plotter is None:
+            plotter = self._pv.Plotter(off_screen=True, window_size=list(self.window_size),
+                                       shape=shape, theme=_report_theme(), border=False)
+            self._plotters[shape] = plotter
+        else:
+            for renderer in plotter.renderers:  # keep the lights: plotter.clear() removes them
+                renderer.clear_actors()
+        # Every add_mesh / camera change of a shown plotter re-renders (~0.15 s in software GL):
+        # draw everything first, render once in `_snapshot`.
+        plotter.suppress_rendering = True
+        return plotter
+
+    def close(self) -> None:
+        """Release every plotter (and its render window)."""
+        for plotter in self._plotters.values():
+            plotter.close()
+        self._plotters.clear()
+
+    def _snapshot(self, plotter: Any) -> NDArray[np.uint8]:
+        plotter.suppress_rendering = False
+        try:
+            for renderer in plotter.renderers:
+                renderer.ResetCameraClippingRange()
+            plotter.render()  # screenshot() renders only a plotter's first image
+            image = plotter.screenshot(None, return_img=True)
+        finally:
+            plotter.suppress_rendering = True
+        return np.asarray(image, dtype=np.uint8)
+
+    # ------------------------------------------------------------------ public
+    def render_modes(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                     out_dir: Path, *, hints: dict[int, str] | None = None) -> list[tuple[str, str]]:
+        """Render the modes `indices`; returns (file name, caption) per image written.
+
+        `hints` maps a mode index to an IR-activity text for the molecule captions.
+        """
+        if modes.shapes is None:
+            raise ValueError("render_modes needs mode shapes; the modes were computed with vectors=False")
+        if scene.kind == "molecule":
+            return self._molecule_images(scene, system, modes, indices, out_dir, hints or {})
+        return [self._chain_image(scene, system, modes, indices, out_dir)]
+
+    def render_gif(self, scene: Any, system: Any, modes: Any, index: int, out_dir: Path,
+                   work_dir: Path) -> tuple[str, str]:
+        """Animated GIF of mode `index` over one period; returns (file name, caption)."""
+        frames = []
+        for phase in np.linspace(0.0, 2.0 * np.pi, _GIF_FRAMES, endpoint=False):
+            plotter = self._plotter((1, 1))
+            if scene.kind == "molecule":
+                self._draw_molecule(plotter, scene, system, modes, index, phase=phase, arrows=False)
+            else:
+                self._draw_chain(plotter, scene, system, modes, index, phase=phase)
+            frames.append(self._snapshot(plotter))
+        name = f"{scene.name}_mode{index}.gif"
+        write_gif(frames, out_dir / name)
+        return name, (f"{scene.title}: animation of mode {index} ({_frequency_text(scene, modes, index)}), "
+                      "displacements exaggerated")
+
+    # ------------------------------------------------------------------ molecules
+    def _molecule_images(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                         out_dir: Path, hints: dict[int, str]) -> list[tuple[str, str]]:
+        groups: list[list[int]] = []
+        degenerate = {int(i): [int(j) for j in g] for g in modes.degenerate_groups(1e-6) for i in g}
+        for k in indices:
+            group = degenerate.get(int(k), [int(k)])
+            if any(int(k) in g for g in groups):
+                continue
+            groups.append(group)
+        images = []
+        for group in groups:
+            plotter = self._plotter((1, len(group)))
+            texts = []
+            for column, k in enumerate(group):
+                plotter.subplot(0, column)
+                texts.append(self._draw_molecule(plotter, scene, system, modes, k, hint=hints.get(k)))
+            name = f"{scene.name}_mode{group[0]}.png"
+            write_png(self._snapshot(plotter), out_dir / name)
+            label = " and ".join(str(k) for k in group)
+            together = f" (degenerate, x{len(group)}, side by side)" if len(group) > 1 else ""
+            images.append((name, f"{scene.title}: mode {label}{together}: {texts[0]}"))
+        return images
+
+    def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int, *,
+                       phase: float | None = None, arrows: bool = True, hint: str | None = None) -> str:
+        pv = self._pv
+        from ase.data import covalent_radii
+        from ase.data.colors import jmol_colors
+
+        params = scene.system.parameters
+        positions = _positions3(system)
+        numbers = _elements(system, params.get("symbols"))
+        displacement = _displacements3(system, np.asarray(modes.shapes)[:, k])
+        bond_list = _bonds(positions, numbers, params.get("springs"))
+        lengths = [np.linalg.norm(positions[i] - positions[j]) for i, j in bond_list]
+        reference = min(lengths) if lengths else 1.0
+        size = max(float(np.linalg.norm(displacement, axis=1).max()), 1e-300)
+        displacement = displacement * (0.8 * reference / size)  # longest arrow: 0.8 bond lengths
+        shown = positions if phase is None else positions + 0.35 * np.cos(phase) * displacement
+        radii = 0.35 * covalent_radii[numbers] + 0.1
+        for i, z in enumerate(numbers):
+            plotter.add_mesh(pv.Sphere(radius=float(radii[i]), center=shown[i], theta_resolution=24,
+                                       phi_resolution=24), color=tuple(jmol_colors[z]), smooth_shading=True,
+                             specular=0.3)
+        for i, j in bond_list:
+            line = pv.Line(shown[i], shown[j])
+            plotter.add_mesh(line.tube(radius=0.1 * reference), color="lightgray", smooth_shading=True,
+                             opacity=0.5)  # see-through: arrows along a bond stay visible
+        if arrows:
+            one_d = system.dim == 1
+            for i in range(len(positions)):
+                vector = displacement[i]
+                if np.linalg.norm(vector) < 1e-3 * reference:
+                    continue
+                norm = float(np.linalg.norm(vector))
+                # start on the atom's surface so that short arrows are not hidden inside it
+                start = positions[i] + (np.array([0.0, 0.0, 1.6 * radii[i]]) if one_d
+                                        else radii[i] * vector / norm)
+                arrow = pv.Arrow(start=start, direction=vector, scale=norm,
+                                 tip_length=0.3, tip_radius=0.12, shaft_radius=0.04)
+                plotter.add_mesh(arrow, color="crimson", smooth_shading=True)
+        parity = _inversion_parity(positions, np.asarray(system.masses, dtype=float), displacement)
+        symmetry = _ir_hint(parity) if hint is None or parity is not None else hint
+        if hint is not None and parity is not None:
+            symmetry = f"{symmetry}; {hint}"
+        text = f"{_frequency_text(scene, modes, k)}, {symmetry}"
+        plotter.add_text(f"mode {k}: {_frequency_text(scene, modes, k)}\n" + symmetry.replace("; ", "\n"),
+                         position="upper_left", font_size=13, color="black")
+        extent = np.ptp(positions, axis=0)
+        plotter.camera_position = "xz" if extent[2] > 1e-9 or extent[1] <= 1e-9 else "xy"
+        plotter.camera.elevation = 30
+        plotter.camera.azimuth = 35
+        plotter.reset_camera()
+        rows, columns = plotter.shape
+        aspect = (self.window_size[0] / columns) / (self.window_size[1] / rows)
+        plotter.camera.zoom(1.45 if aspect >= 1.2 else 1.0)
+        return text
+
+    # ------------------------------------------------------------------ chains
+    def _chain_sites(self, system: Any) -> NDArray[np.intp]:
+        n = system.n_sites
+        if n <= MAX_CHAIN_SITES:
+            return np.arange(n)
+        return np.unique(np.linspace(0, n - 1, MAX_CHAIN_SITES).round().astype(np.intp))
+
+    def _chain_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                     out_dir: Path) -> tuple[str, str]:
+        plotter = self._plotter((len(indices), 1))
+        for row, k in enumerate(indices):
+            plotter.subplot(row, 0)
+            self._draw_chain(plotter, scene, system, modes, k)
+        name = f"{scene.name}_modes.png"
+        write_png(self._snapshot(plotter), out_dir / name)
+        sites = self._chain_sites(system)
+        transverse = scene.system.builder == "beaded_string"
+        note = (f"; {len(sites)} evenly spaced sites of {system.n_sites} shown (decimated window)"
+                if len(sites) < system.n_sites else "")
+        direction = "across the string (transverse)" if transverse else "along the chain (axial motion)"
+        listed = ", ".join(f"{k} ({_frequency_text(scene, modes, k)})" for k in indices)
+        return name, (f"{scene.title}: modes {listed}; one row per mode, arrows {direction}, "
+                      f"sphere volume proportional to mass{note}")
+
+    def _draw_chain(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
+                    *, phase: float | None = None) -> None:
+        """One row of masses for mode k in the current subplot (displaced when `phase` is given)."""
+        pv = self._pv
+        sites = self._chain_sites(system)
+        x = np.asarray(system.positions, dtype=float)[sites, 0]
+        width = 10.0
+        span = float(x.max() - x.min())
+        x = (x - x.min()) / span * width if span > 0 else np.zeros(len(x))
+        step = width / max(len(x) - 1, 1)
+        masses = np.asarray(system.masses, dtype=float)[sites]
+        radii = 0.3 * step * np.cbrt(masses / masses.max())
+        transverse = scene.system.builder == "beaded_string"
+        shape = _displacements3(system, np.asarray(modes.shapes)[:, k])[sites, 1 if transverse else 0]
+        size = max(float(np.abs(shape).max()), 1e-300)
+        length = (1.2 if transverse else 0.95) * step * shape / size
+        offsets = np.zeros((len(x), 3))
+        if phase is not None:
+            offsets[:, 1 if transverse else 0] = 0.8 * np.cos(phase) * length
+        centres = np.column_stack([x, np.zeros(len(x)), np.zeros(len(x))]) + offsets
+        line = pv.Line((x[0] - 0.5 * step, 0.0, 0.0), (x[-1] + 0.5 * step, 0.0, 0.0))
+        plotter.add_mesh(line.tube(radius=0.05 * step), color="gray")
+        cloud = pv.PolyData(centres)
+        cloud["radius"] = radii
+        spheres = cloud.glyph(geom=pv.Sphere(radius=1.0, theta_resolution=16, phi_resolution=16),
+                              scale="radius", orient=False)
+        plotter.add_mesh(spheres, color="steelblue", smooth_shading=True)
+        # invisible frame so every row spans the same height, arrows or not
+        reach = 1.3 * step if transverse else 0.9 * step
+        frame = pv.PolyData(np.array([[x[0] - 0.6 * step, -reach, 0.0], [x[-1] + 0.6 * step, reach, 0.0]]))
+        plotter.add_mesh(frame, opacity=0.0, render_points_as_spheres=False, point_size=1)
+        moving = np.abs(length) > 2e-2 * step
+        if phase is None and moving.any():
+            count = int(moving.sum())
+            if transverse:
+                starts = centres[moving]
+                directions = np.column_stack([np.zeros(count), length[moving], np.zeros(count)])
+            else:
+                starts = centres[moving] + np.array([0.0, radii.max() + 0.3 * step, 0.0])
+                starts[:, 0] -= 0.5 * length[moving]
+                directions = np.column_stack([length[moving], np.zeros((count, 2))])
+            arrows = [pv.Arrow(start=a, direction=d, scale=float(np.linalg.norm(d)), tip_length=0.3,
+                               tip_radius=0.11, shaft_radius=0.045) for a, d in zip(starts, directions)]
+            plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
+        plotter.add_text(f"mode {k}: {_frequency_text(scene, modes, k)}", position="upper_left",
+                         font_size=11, color="black")
+        # Parallel projection framed on the row: fit its width to the subplot's aspect ratio.
+        rows, columns = plotter.shape
+        aspect = (self.window_size[0] / columns) / (self.window_size[1] / rows)
+        half_width = 0.5 * (x[-1] - x[0]) + 0.8 * step
+        centre = (0.5 * (x[0] + x[-1]), 0.0, 0.0)
+        camera = plotter.camera
+        scale = max(1.45 * reach, half_width / aspect)
+        lifted = (centre[0], 0.22 * scale, 0.0)  # the row sits below the caption line
+        camera.parallel_projection = True
+        camera.focal_point = lifted
+        camera.position = (centre[0], lifted[1], 10.0 * width)
+        camera.up = (0.0, 1.0, 0.0)
+        camera.parallel_scale = scale
+        plotter.renderer.ResetCameraClippingRange()
