@@ -52,8 +52,9 @@ CO2_FUNDAMENTALS_CM1 = (667.0, 667.0, 1333.0, 2349.0)
 #: Experimental H2O fundamentals, cm^-1, ascending: nu2 = 1595, nu1 = 3657, nu3 = 3756 (NIST CCCBDB).
 H2O_FUNDAMENTALS_CM1 = (1595.0, 3657.0, 3756.0)
 
-_HARMONIC_NOTE = ("experimental values are fundamentals (anharmonic); harmonic wavenumbers lie "
-                  "above them, typically by 1-5 %, more for X-H stretches")
+_HARMONIC_NOTE = ("experimental values are fundamentals (anharmonic); harmonic wavenumbers of a "
+                  "first-principles potential lie above them, typically by 1-5 %, more for X-H "
+                  "stretches; a force field fitted to fundamentals (vibra's defaults) sits on either side")
 _FERMI_NOTE = ("CO2: the symmetric stretch nu1 is in Fermi resonance with the bend overtone 2 nu2; "
                "the observed pair 1285/1388 cm^-1 shares their character, which a harmonic model "
                "(one mode per frequency, no coupling between modes) cannot show")

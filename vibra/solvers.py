@@ -313,8 +313,9 @@ def _shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: _ShiftedInver
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     if factor is None:
         factor = _ShiftedInverse(Kt, sigma, need_inertia=False)
+    start = np.random.default_rng(0).standard_normal(Kt.shape[0])  # reproducible runs
     values, basis = sla.eigsh(Kt, k=k, sigma=sigma, which="LM", OPinv=factor.operator(), tol=0.0,
-                              ncv=min(Kt.shape[0], max(2 * k + 1, 20)))
+                              ncv=min(Kt.shape[0], max(2 * k + 1, 20)), v0=start)
     order = np.argsort(values)
     return values[order], basis[:, order]
 
