@@ -35,6 +35,19 @@ def real_scalar(value: Any, name: str) -> float:
     return number
 
 
+def increasing_times(t: Any, name: str = "t") -> NDArray[np.float64]:
+    """(n_t,) strictly increasing finite times, n_t >= 2."""
+    times = real_array(t, name, ndim=1)
+    if times.shape[0] < 2:
+        raise ValueError(f"{name} must hold at least 2 times, got {times.shape[0]}")
+    step = np.diff(times)
+    if not (step > 0).all():
+        i = int(np.argmax(~(step > 0)))
+        raise ValueError(f"{name} must increase: {name}[{i + 1}] = {float(times[i + 1])!r} <= "
+                         f"{name}[{i}] = {float(times[i])!r}")
+    return times
+
+
 def real_array(value: Any, name: str, *, ndim: int | tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """`value` as a finite float64 ndarray; raise naming `name` otherwise."""
     if sp.issparse(value):

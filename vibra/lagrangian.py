@@ -522,12 +522,4 @@ def integrate_double_pendulum(
                                 energy=kinetic + potential, parameters=np.array(parameters))
 
 
-def _times(t: ArrayLike) -> NDArray[np.float64]:
-    times = _validate.real_array(t, "t", ndim=1)
-    if times.shape[0] < 2:
-        raise ValueError(f"t must hold at least 2 times, got {times.shape[0]}")
-    step = np.diff(times)
-    if not (step > 0).all():
-        i = int(np.argmax(~(step > 0)))
-        raise ValueError(f"t must increase: t[{i + 1}] = {float(times[i + 1])!r} <= t[{i}] = {float(times[i])!r}")
-    return times
+_times = _validate.increasing_times

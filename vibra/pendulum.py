@@ -158,15 +158,7 @@ def _amplitudes(amplitude: ArrayLike, name: str = "amplitude") -> NDArray[np.flo
     return values
 
 
-def _times(t: ArrayLike) -> NDArray[np.float64]:
-    times = _validate.real_array(t, "t", ndim=1)
-    if times.shape[0] < 2:
-        raise ValueError(f"t must hold at least 2 times, got {times.shape[0]}")
-    step = np.diff(times)
-    if not (step > 0).all():
-        i = int(np.argmax(~(step > 0)))
-        raise ValueError(f"t must increase: t[{i + 1}] = {float(times[i + 1])!r} <= t[{i}] = {float(times[i])!r}")
-    return times
+_times = _validate.increasing_times
 
 
 # ---------------------------------------------------------------------- periods
