@@ -376,3 +376,23 @@ def test_top_level_api_is_lazy() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
     assert vibra.System is System
+
+
+def test_banded_path_on_a_3d_chain_and_sparse_diagonal_mass(rng: np.random.Generator) -> None:
+    # A zig-zag chain in 3-D with next-nearest springs: K has half-bandwidth 5 (> tridiagonal).
+    n_sites = 700
+    positions = np.c_[np.arange(n_sites), 0.3 * (np.arange(n_sites) % 2), 0.1 * (np.arange(n_sites) % 3)]
+    pairs = np.r_[np.c_[np.arange(n_sites - 1), np.arange(1, n_sites)], np.c_[np.arange(n_sites - 2), np.arange(2, n_sites)]]
+    system = System.from_springs(positions, rng.uniform(1, 2, n_sites), pairs, rng.uniform(1, 2, len(pairs)))
+    K, masses = system.hessian(), system.mass_matrix()
+    reference = np.sqrt(np.abs(np.linalg.eigvalsh(K.toarray() / np.sqrt(np.outer(masses, masses)))))
+    banded = normal_modes(K, sp.diags(masses), vectors=False)  # sparse diagonal M stays a vector
+    assert banded.solver == "banded"
+    # Both are backward-stable absolute-accuracy solvers: agree to ~n eps ||K~|| in omega^2.
+    scale = np.finfo(float).eps * K.shape[0] * reference.max() ** 2
+    np.testing.assert_allclose(banded.omega**2, reference**2, atol=scale)
+    subset = normal_modes(K, masses, n_modes=10, vectors=True, solver="banded")
+    np.testing.assert_allclose(subset.omega_squared, reference[:10] ** 2, atol=scale)
+    assert subset.residual < 1e-12 and subset.orthogonality < 1e-12
+    with pytest.raises(ValueError, match=r"solver='banded' needs diagonal masses"):
+        normal_modes(np.eye(2), np.eye(2), solver="banded")

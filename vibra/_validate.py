@@ -147,7 +147,11 @@ def symmetric(
 def mass_argument(value: Any, n_dof: int, name: str = "M") -> NDArray[np.float64]:
     """Masses as an (n_dof,) positive vector or an (n_dof, n_dof) SPD matrix."""
     if sp.issparse(value):
-        value = value.toarray()
+        matrix = sp.csr_matrix(value)
+        diagonal = matrix.diagonal()
+        off_diagonal = matrix.nnz - np.count_nonzero(diagonal)
+        # A diagonal sparse M stays a vector (never densify n x n); a general one is dense.
+        value = diagonal if off_diagonal == 0 and matrix.shape[0] == matrix.shape[1] else matrix.toarray()
     masses = real_array(value, name, ndim=(1, 2))
     if masses.ndim == 1:
         if masses.shape[0] != n_dof:

@@ -24,7 +24,7 @@ from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 __all__ = ["Modes", "normal_modes", "SOLVERS"]
 
 #: Solver paths accepted by `normal_modes(solver=...)`; see `vibra.solvers`.
-SOLVERS = ("auto", "dense", "tridiagonal", "sparse", "accurate")
+SOLVERS = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
 
 
 @dataclass(frozen=True, eq=False)
@@ -244,7 +244,7 @@ def normal_modes(
         False computes frequencies only (cheaper).
     band : (float, float), optional
         Only modes with omega in [band[0], band[1]] (signed, rad per time unit).
-    solver : {"auto", "dense", "tridiagonal", "sparse", "accurate"}
+    solver : {"auto", "dense", "tridiagonal", "banded", "sparse", "accurate"}
         The solver path; "auto" chooses from the structure of K and what is asked.
         "accurate" needs `spring_factor`.
     symmetrize : bool

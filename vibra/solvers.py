@@ -6,6 +6,8 @@
 ``dense``          LAPACK symmetric eigensolver on the dense K~ (subset by index or value;
                    values only when no vectors are asked). Absolute error ~ eps ||K~||.
 ``tridiagonal``    K~ tridiagonal (a chain): LAPACK stemr/stebz on its diagonals.
+``banded``         K~ banded with a narrow band (a chain in 2-D or 3-D, a ladder): LAPACK
+                   sbevd / sbevx on the band storage, O(n b^2) per value.
 ``sparse``         A few of the lowest modes (or a band) of a large sparse K~: shift-invert
                    Lanczos (ARPACK) with a negative shift chosen from the spectrum's scale, so
                    a singular K (free system) is never hit; tridiagonal K~ is factorised with
@@ -40,6 +42,8 @@ EPS = float(np.finfo(float).eps)
 
 #: Largest n for which "auto" uses dense LAPACK when a sparse path could serve.
 DENSE_LIMIT = 1500
+#: Widest half-bandwidth for which "auto" uses the banded solver.
+BAND_LIMIT = 16
 #: Largest n for which all modes of a general sparse K are computed densely.
 DENSE_ALL_LIMIT = 20000
 #: Largest chain segment whose vectors come from the bidiagonal SVD (dbdsqr, O(n^3),
@@ -122,19 +126,21 @@ def solve(
     """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`."""
     n = K.shape[0]
     Kt = mass_weighted(K, mass)
-    tridiagonal = mass.ndim == 1 and _bandwidth(Kt) <= 1
+    width = _bandwidth(Kt) if mass.ndim == 1 else n
+    tridiagonal = width <= 1
     partial = n_modes is not None and n_modes < n
     if solver == "auto":
         if spring_factor is not None:
             solver = "accurate"
         elif n <= DENSE_LIMIT:
             solver = "dense"
-        elif tridiagonal and not (vectors and (partial or band is not None)):
-            solver = "tridiagonal"
+        elif width <= BAND_LIMIT and not (vectors and (partial or band is not None)):
+            # (LAPACK's banded and tridiagonal drivers allocate n x n vectors even for a subset)
+            solver = "tridiagonal" if tridiagonal else "banded"
         elif partial or band is not None:
             solver = "sparse"
         else:
-            solver = "tridiagonal" if tridiagonal else "dense"
+            solver = "dense"
     if solver == "dense" and n > DENSE_ALL_LIMIT:
         raise ValueError(
             f"K has {n} dofs: a dense solve would need {8 * n * n / 2**30:.1f} GiB; ask for "
@@ -142,6 +148,8 @@ def solve(
         )
     if solver == "tridiagonal" and not tridiagonal:
         raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
+    if solver == "banded" and mass.ndim != 1:
+        raise ValueError("solver='banded' needs diagonal masses")
     if solver == "sparse" and n_modes is None and band is None:
         raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
     if solver == "accurate":
@@ -150,6 +158,8 @@ def solve(
         return _accurate(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band)
     if solver == "tridiagonal":
         result = _tridiagonal(Kt, n_modes=n_modes, vectors=vectors, band=band)
+    elif solver == "banded":
+        result = _banded(Kt, width, n_modes=n_modes, vectors=vectors, band=band)
     elif solver == "sparse":
         result = _sparse(Kt, n_modes=n_modes, vectors=vectors, band=band)
     else:
@@ -233,6 +243,25 @@ def _tridiagonal(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[flo
         values, basis = la.eigvalsh_tridiagonal(d, e, **kwargs), None
     # MRRR / bisection: absolute eigenvalue error O(n eps ||T||).
     return _figures(sp.csr_matrix(Kt), np.asarray(values), basis, "tridiagonal", floor=float(n))
+
+
+def _banded(Kt: Any, width: int, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None
+            ) -> SolveResult:
+    matrix = sp.csr_matrix(Kt)
+    n = matrix.shape[0]
+    storage = np.zeros((width + 1, n))  # lower band storage: storage[i, j] = K~[j + i, j]
+    for offset in range(width + 1):
+        storage[offset, : n - offset] = matrix.diagonal(-offset)
+    kwargs: dict[str, Any] = {"lower": True, "check_finite": False}
+    if n_modes is not None and n_modes < n:
+        kwargs.update(select="i", select_range=(0, n_modes - 1))
+    elif band is not None:
+        kwargs.update(select="v", select_range=_value_range(band))
+    if vectors:
+        values, basis = la.eig_banded(storage, **kwargs)
+    else:
+        values, basis = la.eigvals_banded(storage, **kwargs), None
+    return _figures(matrix, np.asarray(values), basis, "banded", floor=float(n))
 
 
 def _bandwidth(Kt: Any) -> int:
