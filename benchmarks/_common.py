@@ -15,7 +15,11 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-RESULTS = Path(__file__).resolve().parent / "results"
+import sys
+
+#: Where results go. A ``--quick`` smoke run writes to results/quick/ (git-ignored) so that it
+#: never overwrites the committed full-size figures.
+RESULTS = Path(__file__).resolve().parent / "results" / ("quick" if "--quick" in sys.argv else "")
 
 
 def best_time(function: Callable[[], Any], repeat: int = 3, budget_s: float = 60.0) -> tuple[float, Any]:

@@ -199,6 +199,16 @@ def test_diatomic_chain_modes_periodic_against_closed_form():
     np.testing.assert_allclose(modes.omega[1:], exact[1:], rtol=1e-12)
 
 
+def test_long_diatomic_ring_lowest_modes_against_closed_form():
+    # 10^5 sites (50,000 cells): the lowest acoustic modes, omega_1 ~ 1e-4 omega_max, through
+    # System.modes against the Bloch closed form. The accurate path keeps relative accuracy
+    # (observed ~3e-15); 1e-10 as for the monatomic 10^5 chain.
+    n_cells, masses, stiffness = 50_000, (1.0, 2.5), (1.0, 3.0)
+    modes = chains.diatomic_chain(n_cells, masses=masses, stiffness=stiffness, ends="periodic").modes(n_modes=5)
+    exact = chains.diatomic_frequencies(n_cells, masses, stiffness)[:5]
+    np.testing.assert_allclose(modes.omega[1:], exact[1:], rtol=1e-10)
+
+
 def test_beaded_string_modes_against_closed_form():
     modes = chains.beaded_string(200, mass=0.01, tension=50.0, spacing=0.005).modes(n_modes=4)
     exact = chains.beaded_string_frequencies(200, 0.01, 50.0, 0.005)[:4]
@@ -370,3 +380,28 @@ def test_closed_form_validation_messages():
         chains.diatomic_branches(0.1, 1.0, 1.0, -1.0, 1.0)
     with pytest.raises(ValueError, match=r"cell_length is 0.0"):
         chains.diatomic_branches(0.1, 1.0, 1.0, 1.0, 1.0, cell_length=0.0)
+
+
+def test_scalar_arguments_are_named_without_an_index():
+    # A bad scalar is reported by name alone ("spacing is nan"), not as "spacing[] is nan".
+    with pytest.raises(ValueError, match=r"^spacing is nan; it must be finite$"):
+        chains.linear_chain(4, spacing=float("nan"))
+    with pytest.raises(ValueError, match=r"^mass is nan; it must be finite$"):
+        chains.linear_chain(4, mass=float("nan"))
+    with pytest.raises(ValueError, match=r"^stiffness is inf; it must be finite$"):
+        chains.linear_chain(4, stiffness=np.inf)
+    with pytest.raises(ValueError, match=r"^tension is inf; it must be finite$"):
+        chains.beaded_string(4, tension=np.inf)
+    with pytest.raises(TypeError, match=r"^spacing must be a real number, got str$"):
+        chains.linear_chain(4, spacing="1 m")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"^mass must be 1-D, got shape \(2, 2\)$"):
+        chains.linear_chain(4, mass=np.ones((2, 2)))
+    with pytest.raises(ValueError, match=r"^masses\[0\] is nan; every entry must be finite$"):
+        chains.diatomic_chain(3, masses=(np.nan, 1.0))
+
+
+def test_monatomic_shapes_rejects_non_integer_mode_indices():
+    # 1.7 used to be truncated to mode 1 silently.
+    with pytest.raises(ValueError, match=r"modes must be 1-D mode indices in \[0, 3\] \(ints\), got \[1.7\]"):
+        chains.monatomic_shapes(4, modes=[1.7])
+    np.testing.assert_array_equal(chains.monatomic_shapes(4, modes=[2]), chains.monatomic_shapes(4)[:, [2]])

@@ -109,6 +109,24 @@ def test_band_edges_against_bloch_matrix_scan():
     np.testing.assert_allclose(continuum.band_edges(masses=2.0, stiffness=8.0), [[0.0, 4.0]], rtol=4 * EPS)
 
 
+def test_gapless_diatomic_is_the_folded_monatomic_chain():
+    # m1 = m2, k1 = k2: the "diatomic" branches are the monatomic omega = 2 Omega sin(q dx / 2)
+    # and its fold 2 Omega cos(q dx / 2) (textbook), so v = +Omega dx cos(q dx / 2) and
+    # -Omega dx sin(q dx / 2). At the zone boundary q = pi / (2 dx) the branches touch and
+    # both the root and its derivative vanish: the left derivative is finite (not inf).
+    m, k, dx = 2.0, 3.0, 0.5
+    omega = np.sqrt(k / m)
+    boundary = np.pi / (2 * dx)
+    q = np.array([0.0, 0.3, 1.0, boundary * (1 - 1e-9), boundary])
+    v = continuum.group_velocity(q, masses=(m, m), stiffness=(k, k), spacing=dx)
+    # The radicand is formed without cancellation: a few ulps of Omega dx (1e-14 bound).
+    np.testing.assert_allclose(v[0], omega * dx * np.cos(q * dx / 2), rtol=0, atol=1e-14 * omega * dx)
+    np.testing.assert_allclose(v[1], -omega * dx * np.sin(q * dx / 2), rtol=0, atol=1e-14 * omega * dx)
+    curves = continuum.dispersion(q[1:], masses=(m, m), stiffness=(k, k), spacing=dx)
+    np.testing.assert_allclose(curves[0], 2 * omega * np.sin(q[1:] * dx / 2), rtol=1e-14)
+    np.testing.assert_allclose(curves[1], 2 * omega * np.cos(q[1:] * dx / 2), rtol=1e-14)
+
+
 def test_wave_speed_and_continuum_frequencies():
     # Eq. 164: c = Omega dx; for a beaded string of k = T / d: sqrt(T / mu), mu = m / d.
     assert continuum.wave_speed(0.5, 8.0, 0.1) == pytest.approx(0.4, rel=4 * EPS)
@@ -285,6 +303,17 @@ def test_continuum_validation_messages():
         continuum.convergence_study([1], [10, 20], method="closed form").n_for_error(0.0)
     with pytest.raises(ValueError, match=r"length is 0.0"):
         continuum.continuum_frequencies(2, length=0.0)
+    # Repeated or decreasing sizes and widths make the log-log fit meaningless.
+    with pytest.raises(ValueError, match=r"n_sites\[1\] is 10 <= n_sites\[0\] = 20; sizes must increase"):
+        continuum.convergence_study([1], [20, 10], method="closed form")
+    with pytest.raises(ValueError, match=r"n_sites\[2\] is 40 <= n_sites\[1\] = 40"):
+        continuum.pulse_study([20, 40, 40], [0.05, 0.1], time=0.1)
+    with pytest.raises(ValueError, match=r"widths\[1\] is 0.05 <= widths\[0\] = 0.05; widths must increase"):
+        continuum.pulse_study([20, 40], [0.05, 0.05], time=0.1)
+    with pytest.raises(ValueError, match=r"time is 0.0; a comparison time must be positive"):
+        continuum.pulse_study([20, 40], [0.05, 0.1], time=0.0)
+    with pytest.raises(ValueError, match=r"^center is nan; it must be finite$"):
+        continuum.gaussian_pulse(100, [0.0], width=0.05, center=float("nan"))
 
 
 # ---------------------------------------------------------------------- charts

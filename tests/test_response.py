@@ -398,8 +398,10 @@ def test_reciprocity(rng: np.random.Generator) -> None:
     assert rel(H, dense) <= 1e-12
     ss = np.stack([R.frf(K, M, C, omegas, np.eye(n)[j], method="state_space") for j in range(3)], axis=2)
     assert rel(ss, dense[:, :, :3]) <= 1e-10      # eigen-decomposition route: ~1e-12, 1e-10 bound
-    with pytest.raises(ValueError, match=r"C is not diagonal in the modal basis"):
+    with pytest.raises(ValueError, match=r"C is not diagonal in the modal basis.*use method='direct'"):
         R.frf(K, M, C, omegas, np.eye(n)[0], method="modal")
+    with pytest.raises(ValueError, match=r"C is not diagonal in the modal basis.*needs friction, Rayleigh"):
+        R.transient_response(K, M, C, [0.0, 1.0], np.eye(n)[0])
 
 
 def test_modal_truncation_error_shrinks_and_is_estimated_honestly(fixed_chain) -> None:
@@ -544,6 +546,44 @@ def test_transient_of_a_chain_forced_at_one_end_against_integration() -> None:
     # Slowest decay c_1 / 2 ~ 0.053: by t = 800 the transient is e^-42 ~ 1e-18 of it.
     step = R.transient_response(K, M, C, [800.0], force)
     assert np.allclose(step.displacement[0], np.linalg.solve(K, force), rtol=1e-9)
+
+
+@pytest.mark.parametrize("eta", [0.0, 0.3])
+def test_free_chain_pushed_at_one_end_drifts_like_a_free_mass(eta: float) -> None:
+    # A free chain (one rigid-body mode) under a constant force at one end has no steady
+    # state, but its motion is well defined: the centre of mass moves as X'' + eta X' = F / M_tot
+    # (friction C = eta M), X = F t^2 / (2 M_tot) without damping. Checked against that closed
+    # form and against solve_ivp for the whole chain; c t runs from 0 to 3 (both branches of
+    # the drift formula).
+    n = 6
+    K = chain(n, 2.0, ends="free").toarray()
+    M = np.linspace(1.0, 2.0, n)                       # unequal masses: rigid omega is round-off
+    C = R.friction_damping(M, eta).toarray()
+    force = np.zeros(n)
+    force[0] = 1.0
+    t = np.linspace(0.0, 10.0, 41)
+    result = R.transient_response(K, M, C if eta else None, t, force)
+    centre = result.displacement @ M / M.sum()
+    if eta == 0:
+        expected = t**2 / (2 * M.sum())
+    else:
+        expected = (t - (-np.expm1(-eta * t)) / eta) / (eta * M.sum())
+    # Closed form in double precision; the modal sum adds round-off of the flexible modes: 1e-12.
+    assert np.allclose(centre, expected, rtol=0, atol=1e-12 * expected.max())
+
+    def rhs(time: float, y: np.ndarray) -> np.ndarray:
+        u, v = y[:n], y[n:]
+        return np.concatenate([v, (force - K @ u - C @ v) / M])
+
+    ode = solve_ivp(rhs, (0.0, 10.0), np.zeros(2 * n), t_eval=t, method="DOP853", rtol=1e-11, atol=1e-12)
+    # DOP853 at rtol 1e-11 over 10 time units: ~1e-9 of the motion; bound 1e-7.
+    assert np.allclose(result.displacement, ode.y[:n].T, rtol=0, atol=1e-7 * np.abs(ode.y[:n]).max())
+    assert np.allclose(result.velocity, ode.y[n:].T, rtol=0, atol=1e-7 * np.abs(ode.y[n:]).max())
+
+
+def test_undamped_mode_driven_at_its_frequency_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"mode 0 \(omega_k = 2\.0\) has no damping and is driven at omega = 2\.0"):
+        R.transient_response(np.array([[4.0]]), [1.0], None, [0.0, 1.0], [1.0], omega=2.0)
 
 
 def test_damped_chain_energy_obeys_eq_63() -> None:

@@ -64,10 +64,17 @@ def _site_count(n: object, name: str, low: int) -> int:
 
 
 def _positive_scalar(value: object, name: str, what: str) -> float:
-    array = _validate.real_array(value, name, ndim=0)
-    if not float(array) > 0:
-        raise ValueError(f"{name} is {float(array)!r}; a {what} must be positive and finite")
-    return float(array)
+    number = _validate.real_scalar(value, name)  # "spacing is nan; it must be finite"
+    if not number > 0:
+        raise ValueError(f"{name} is {number!r}; a {what} must be positive and finite")
+    return number
+
+
+def _values(value: object, name: str) -> NDArray[np.float64]:
+    """One real number (as a 0-d array) or a 1-D array; a bad scalar is named without an index."""
+    if np.ndim(value) == 0:  # type: ignore[arg-type]
+        return np.asarray(_validate.real_scalar(value, name))
+    return _validate.real_array(value, name, ndim=1)
 
 
 def _positive_array(array: NDArray[np.float64], name: str, what: str) -> None:
@@ -78,7 +85,7 @@ def _positive_array(array: NDArray[np.float64], name: str, what: str) -> None:
 
 
 def _per_site(value: ArrayLike, n: int, name: str) -> NDArray[np.float64]:
-    array = _validate.real_array(value, name, ndim=(0, 1))
+    array = _values(value, name)
     if array.ndim == 0:
         array = np.full(n, float(array))
     elif array.shape[0] != n:
@@ -94,7 +101,7 @@ def _bond_count(n: int, ends: str) -> int:
 def _per_bond(value: ArrayLike, n: int, ends: str, name: str, what: str = "spring constant"
               ) -> NDArray[np.float64]:
     n_bonds = _bond_count(n, ends)
-    array = _validate.real_array(value, name, ndim=(0, 1))
+    array = _values(value, name)
     if array.ndim == 0:
         array = np.full(n_bonds, float(array))
     elif array.shape[0] != n_bonds:
@@ -108,7 +115,7 @@ def _per_bond(value: ArrayLike, n: int, ends: str, name: str, what: str = "sprin
 
 
 def _pair(value: ArrayLike, name: str, what: str) -> tuple[float, float]:
-    array = _validate.real_array(value, name, ndim=(0, 1))
+    array = _values(value, name)
     if array.ndim == 0:
         array = np.array([float(array), float(array)])
     if array.shape != (2,):
@@ -379,9 +386,11 @@ def monatomic_shapes(n: int, *, ends: Ends = "free", modes: ArrayLike | None = N
     """
     n = _site_count(n, "n", 2)
     _validate.choice(ends, "ends", ENDS)
-    index = np.arange(n) if modes is None else np.asarray(modes, dtype=np.intp)
-    if index.ndim != 1 or ((index < 0) | (index >= n)).any():
-        raise ValueError(f"modes must be 1-D mode indices in [0, {n - 1}], got {modes!r}")
+    index = np.arange(n) if modes is None else np.asarray(modes)
+    if index.ndim != 1 or not (np.issubdtype(index.dtype, np.integer) or index.size == 0) or (
+            (index < 0) | (index >= n)).any():
+        raise ValueError(f"modes must be 1-D mode indices in [0, {n - 1}] (ints), got {modes!r}")
+    index = index.astype(np.intp)
     i = np.arange(n)[:, None]
     if ends == "free":
         shapes = np.cos(index[None, :] * np.pi * (i + 0.5) / n)
@@ -395,13 +404,30 @@ def monatomic_shapes(n: int, *, ends: Ends = "free", modes: ArrayLike | None = N
     return shapes / np.linalg.norm(shapes, axis=0)
 
 
+def _bloch_root(phase: NDArray[np.float64], m1: float, m2: float, k1: float, k2: float
+                ) -> NDArray[np.float64]:
+    """sqrt(S^2/4 - 4 k1 k2 sin^2(phase/2) / (m1 m2)) without cancellation.
+
+    With sin^2 = 1 - cos^2 the radicand is G + 4 k1 k2 cos^2(phase/2) / (m1 m2), where
+    G = S^2/4 - 4 k1 k2 / (m1 m2) >= 0 is the squared half-gap at the zone boundary,
+    written as a sum of non-negative terms ((k1 + k2)(m1 + m2) - 4 sqrt(k1 k2 m1 m2) =
+    2 sqrt(k1 k2)(sqrt m1 - sqrt m2)^2 + 2 sqrt(m1 m2)(sqrt k1 - sqrt k2)^2
+    + (sqrt k1 - sqrt k2)^2 (sqrt m1 - sqrt m2)^2). The radicand is thus accurate to a few
+    ulps near the zone boundary, where the two branches meet when the gap closes.
+    """
+    dm, dk = (np.sqrt(m1) - np.sqrt(m2)) ** 2, (np.sqrt(k1) - np.sqrt(k2)) ** 2
+    geometric = 4.0 * np.sqrt(k1 * k2 * m1 * m2)
+    excess = 2.0 * np.sqrt(k1 * k2) * dm + 2.0 * np.sqrt(m1 * m2) * dk + dk * dm
+    gap = excess * ((k1 + k2) * (m1 + m2) + geometric) / (4.0 * (m1 * m2) ** 2)
+    return np.sqrt(gap + 4.0 * k1 * k2 * np.cos(0.5 * phase) ** 2 / (m1 * m2))
+
+
 def _bloch_eigenvalues(phase: NDArray[np.float64], m1: float, m2: float, k1: float, k2: float
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lambda_minus, lambda_plus) = omega^2 of the 2x2 Bloch problem at phase q * cell."""
     total = (k1 + k2) * (m1 + m2) / (m1 * m2)
     product = 4.0 * k1 * k2 * np.sin(0.5 * phase) ** 2 / (m1 * m2)
-    root = np.sqrt(np.maximum(0.25 * total * total - product, 0.0))
-    upper = 0.5 * total + root
+    upper = 0.5 * total + _bloch_root(phase, m1, m2, k1, k2)
     # lambda_minus = det / lambda_plus keeps the acoustic branch accurate near q = 0.
     return product / upper, upper
 
@@ -429,7 +455,7 @@ def diatomic_branches(q: ArrayLike, m1: float, m2: float, k1: float, k2: float, 
     acoustic, optical : (n_q,) ndarray
         Angular frequencies in rad per time unit (the acoustic branch to a few ulps relative).
     """
-    q_array = _validate.real_array(q, "q", ndim=(0, 1))
+    q_array = _values(q, "q")
     m1 = _positive_scalar(m1, "m1", "mass")
     m2 = _positive_scalar(m2, "m2", "mass")
     k1 = _positive_scalar(k1, "k1", "spring constant")

@@ -25,7 +25,8 @@ import scipy.fft
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.chains import ENDS, _bloch_eigenvalues, _pair, _positive_scalar, _site_count
+from vibra.chains import (ENDS, _bloch_eigenvalues, _bloch_root, _pair, _positive_scalar, _site_count,
+                          _values, diatomic_band_edges)
 from vibra.modes import Modes
 from vibra.system import _freeze_arrays
 
@@ -50,8 +51,8 @@ Ends = Literal["free", "fixed", "periodic"]
 
 def _chain_parameters(masses: ArrayLike, stiffness: ArrayLike) -> tuple[int, float, float, float, float]:
     """(n_branches, m1, m2, k1, k2) from one value (monatomic) or pairs (diatomic)."""
-    mass_array = _validate.real_array(masses, "masses", ndim=(0, 1))
-    k_array = _validate.real_array(stiffness, "stiffness", ndim=(0, 1))
+    mass_array = _values(masses, "masses")
+    k_array = _values(stiffness, "stiffness")
     diatomic = (mass_array.ndim == 1 and mass_array.shape[0] != 1) or (k_array.ndim == 1 and k_array.shape[0] != 1)
     if not diatomic:
         m = _positive_scalar(mass_array.reshape(()), "masses", "mass")
@@ -86,7 +87,7 @@ def dispersion(q: ArrayLike, *, masses: ArrayLike = 1.0, stiffness: ArrayLike = 
     (n_branches, n_q) ndarray
         One row (monatomic) or two (acoustic, optical).
     """
-    q_array = np.atleast_1d(_validate.real_array(q, "q", ndim=(0, 1)))
+    q_array = np.atleast_1d(_values(q, "q"))
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
     a = _positive_scalar(spacing, "spacing", "spacing")
     if n_branches == 1:
@@ -103,7 +104,7 @@ def group_velocity(q: ArrayLike, *, masses: ArrayLike = 1.0, stiffness: ArrayLik
     derivative, the sound speed (Omega dx for a monatomic chain,
     2 dx sqrt(k1 k2 / ((k1 + k2)(m1 + m2))) for a diatomic one).
     """
-    q_array = np.atleast_1d(_validate.real_array(q, "q", ndim=(0, 1)))
+    q_array = np.atleast_1d(_values(q, "q"))
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
     a = _positive_scalar(spacing, "spacing", "spacing")
     sign = np.where(q_array >= 0, 1.0, -1.0)
@@ -113,12 +114,16 @@ def group_velocity(q: ArrayLike, *, masses: ArrayLike = 1.0, stiffness: ArrayLik
     half = 0.5 * q_array * cell
     total = (k1 + k2) * (m1 + m2) / (m1 * m2)
     coupling = 4.0 * k1 * k2 / (m1 * m2)
-    product = coupling * np.sin(half) ** 2
-    root = np.sqrt(np.maximum(0.25 * total * total - product, 0.0))
+    root = _bloch_root(q_array * cell, m1, m2, k1, k2)
     upper = 0.5 * total + root
     d_product = coupling * np.sin(half) * np.cos(half) * cell
+    # lambda_+ = S/2 + sqrt(S^2/4 - P): d lambda_+ / dq = -P' / (2 root). Where the gap
+    # closes (m1 = m2 and k1 = k2: a folded monatomic chain) root and P' vanish together at
+    # the zone boundary; the left derivative there is -sqrt(coupling) cell / 2 (|root| =
+    # sqrt(coupling) |cos(half)|).
     with np.errstate(divide="ignore", invalid="ignore"):
-        d_upper = -d_product / (2.0 * root)  # lambda_+ = S/2 + sqrt(S^2/4 - P)
+        d_upper = np.where(root > 0, -d_product / (2.0 * np.where(root > 0, root, 1.0)),
+                           -0.5 * np.sqrt(coupling) * cell * np.abs(np.sin(half)))
     # omega_- = sqrt(coupling) |sin(half)| / sqrt(upper): differentiate without 0/0 at q = 0.
     d_acoustic = np.sqrt(coupling) * (0.5 * cell * np.cos(half) * sign / np.sqrt(upper)
                                       - np.abs(np.sin(half)) * d_upper / (2.0 * upper ** 1.5))
@@ -135,9 +140,7 @@ def band_edges(*, masses: ArrayLike = 1.0, stiffness: ArrayLike = 1.0) -> NDArra
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
     if n_branches == 1:
         return np.array([[0.0, 2.0 * np.sqrt(k1 / m1)]])
-    low_pi, high_pi = _bloch_eigenvalues(np.array([np.pi]), m1, m2, k1, k2)
-    _, high_0 = _bloch_eigenvalues(np.array([0.0]), m1, m2, k1, k2)
-    return np.sqrt(np.array([[0.0, low_pi[0]], [high_pi[0], high_0[0]]]))
+    return diatomic_band_edges((m1, m2), (k1, k2))
 
 
 def wave_speed(mass: float, stiffness: float, spacing: float) -> float:
@@ -178,7 +181,7 @@ def continuum_frequencies(n_modes: int, *, length: float = 1.0, wave_speed: floa
         k = index + 1
     else:
         k = 2 * ((index + 1) // 2)
-    return k * np.pi * c / L
+    return (k * np.pi * c / L).astype(np.float64)
 
 
 def _sign_changes(shapes: NDArray[np.float64], periodic: bool) -> NDArray[np.intp]:
@@ -305,13 +308,31 @@ class ConvergenceStudy:
         sin(x) / x - 1 = -x^2 / 6 + ...; shown beside the measured `coefficient`.
         """
         factor = 2.0 if self.ends == "periodic" else 1.0
-        return (factor * self.modes * np.pi) ** 2 / 24.0
+        return ((factor * self.modes * np.pi) ** 2 / 24.0).astype(np.float64)
 
     def n_for_error(self, target: float) -> NDArray[np.int64]:
         """(n_k,) smallest N the fit predicts for |error| <= target (dimensionless)."""
         goal = _positive_scalar(target, "target", "error")
         resolution = np.ceil((self.coefficient / goal) ** (1.0 / self.order)).astype(np.int64)
         return resolution - (1 if self.ends == "fixed" else 0)
+
+
+def _chain_sizes(n_sites: object) -> NDArray[np.int64]:
+    """(n_N,) strictly increasing int chain sizes, at least two (a fit needs two distinct N)."""
+    sizes = np.asarray(n_sites)
+    if sizes.ndim != 1 or sizes.size < 2 or not np.issubdtype(sizes.dtype, np.integer):
+        raise ValueError(f"n_sites must be a 1-D sequence of at least two int sizes, got {n_sites!r}")
+    _increasing(sizes, "n_sites", "sizes")
+    return sizes
+
+
+def _increasing(values: NDArray[np.generic], name: str, what: str) -> None:
+    """Raise naming the first entry of `values` that is not above the one before it."""
+    step = np.diff(values)
+    if (step <= 0).any():
+        i = int(np.argmax(step <= 0)) + 1
+        raise ValueError(f"{name}[{i}] is {values[i].item()!r} <= {name}[{i - 1}] = {values[i - 1].item()!r}; "
+                         f"{what} must increase")
 
 
 def _fit_power(n_sites: NDArray[np.float64], errors: NDArray[np.float64]) -> tuple[float, float]:
@@ -376,9 +397,7 @@ def convergence_study(
     if (ks < 1).any():
         i = int(np.argmax(ks < 1))
         raise ValueError(f"modes[{i}] is {ks[i]}; mode labels start at 1 (the zero mode has no relative error)")
-    sizes = np.asarray(n_sites)
-    if sizes.ndim != 1 or sizes.size < 2 or not np.issubdtype(sizes.dtype, np.integer):
-        raise ValueError(f"n_sites must be a 1-D sequence of at least two int sizes, got {n_sites!r}")
+    sizes = _chain_sizes(n_sites)
     _validate.choice(ends, "ends", ENDS)
     L = _positive_scalar(length, "length", "length")
     c = _positive_scalar(wave_speed, "wave_speed", "speed")
@@ -547,7 +566,7 @@ def gaussian_pulse(
         non-positive length, speed or amplitude, unknown ends.
     """
     n = _site_count(n_sites, "n_sites", 2)
-    t = np.atleast_1d(_validate.real_array(times, "times", ndim=(0, 1)))
+    t = np.atleast_1d(_values(times, "times"))
     if (t < 0).any():
         i = int(np.argmax(t < 0))
         raise ValueError(f"times[{i}] is {float(t[i])!r}; every time must be >= 0")
@@ -555,7 +574,7 @@ def gaussian_pulse(
     sigma = _positive_scalar(width, "width", "width")
     if sigma > 0.1 * L:
         raise ValueError(f"width is {sigma!r}; it must be <= length / 10 = {0.1 * L!r}")
-    x0 = 0.25 * L if center is None else float(_validate.real_array(center, "center", ndim=0))
+    x0 = 0.25 * L if center is None else _validate.real_scalar(center, "center")
     if not 0.0 <= x0 <= L:
         raise ValueError(f"center is {x0!r}; it must lie in [0, length] = [0, {L!r}]")
     c = _positive_scalar(wave_speed, "wave_speed", "speed")
@@ -563,7 +582,7 @@ def gaussian_pulse(
     _validate.choice(ends, "ends", ENDS)
     dx = L / (n + 1) if ends == "fixed" else L / n
     offset = {"periodic": 0.0, "free": 0.5, "fixed": 1.0}[ends]
-    x = (np.arange(n) + offset) * dx
+    x = ((np.arange(n) + offset) * dx).astype(np.float64)
     u0 = amp * _images(x, 0.0, x0, sigma, L, ends)
     # v0 = -c f'(x) of the same image sum: f' of a Gaussian is -(y / sigma^2) f.
     v0 = np.zeros(n)
@@ -641,17 +660,38 @@ def pulse_study(n_sites: Sequence[int] | ArrayLike, widths: Sequence[float] | Ar
                 length: float = 1.0, wave_speed: float = 1.0, ends: Ends = "periodic") -> PulseStudy:
     """`gaussian_pulse` error at one time for every (N, width), with fitted orders.
 
+    Parameters
+    ----------
+    n_sites : (n_N,) sequence of int
+        Chain sizes, at least two, strictly increasing.
+    widths : (n_w,) array_like
+        Pulse widths sigma, at least two, strictly increasing, each <= length / 10, in
+        length units.
+    time : float
+        Time of the comparison, > 0, in time units.
+    length : float
+        L, in length units.
+    wave_speed : float
+        c, in length per time unit.
+    ends : {"periodic", "free", "fixed"}
+        End conditions.
+
+    Returns
+    -------
+    PulseStudy
+
     Raises
     ------
     ValueError
-        Fewer than two sizes or two widths, or any argument `gaussian_pulse` rejects.
+        Fewer than two sizes or two widths, sizes or widths not increasing, time not
+        positive, or any argument `gaussian_pulse` rejects.
     """
-    sizes = np.asarray(n_sites)
-    if sizes.ndim != 1 or sizes.size < 2 or not np.issubdtype(sizes.dtype, np.integer):
-        raise ValueError(f"n_sites must be a 1-D sequence of at least two int sizes, got {n_sites!r}")
+    sizes = _chain_sizes(n_sites)
     sigma = _validate.real_array(widths, "widths", ndim=1)
     if sigma.size < 2:
         raise ValueError(f"widths must hold at least two widths, got {sigma.size}")
+    _increasing(sigma, "widths", "widths")
+    time = _positive_scalar(time, "time", "comparison time")  # the error at t = 0 is 0: no fit
     errors = np.array([[gaussian_pulse(int(n), [time], width=float(s), length=length, wave_speed=wave_speed,
                                        ends=ends).error[0] for s in sigma] for n in sizes])
     order_n = np.array([_fit_power(sizes.astype(float), errors[:, j])[0] for j in range(sigma.size)])

@@ -959,31 +959,13 @@ def _modal(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[np.float64
     dropped = wanted < n_dof
 
     # Modal damping c_k (the modal equations are q'' + c_k q' + omega_k^2 q = phi_k^T f).
+    modal_c = _modal_damping(shapes, omega, C, damping_ratios, "use method='direct' or method='state_space'")
     if damping_ratios is not None:
-        ratios = _validate.real_array(damping_ratios, "damping_ratios", ndim=(0, 1))
-        ratios = np.broadcast_to(ratios, (wanted,)) if ratios.ndim == 0 else ratios
-        if ratios.shape != (wanted,):
-            raise ValueError(f"damping_ratios must have {wanted} entries (one per mode), got shape {ratios.shape}")
-        _validate.nonnegative(ratios, "damping_ratios", "damping ratio")
-        modal_c = 2.0 * ratios * np.abs(omega)
         next_c = modal_c[-1] * abs(omega_all[wanted]) / max(abs(omega[-1]), 1e-300) if (
             dropped and omega_all.size > wanted) else (modal_c[-1] if modal_c.size else 0.0)
     elif C is None:
-        modal_c = np.zeros(wanted)
         next_c = 0.0
     else:
-        projected = shapes.T @ (_as_operator(C, n_dof) @ shapes)
-        modal_c = np.diagonal(projected).copy()
-        off = projected - np.diag(modal_c)
-        size = float(np.max(np.abs(projected))) if projected.size else 0.0
-        gap = float(np.max(np.abs(off))) if off.size else 0.0
-        if gap > MODAL_DIAGONAL_RTOL * size:
-            i, j = np.unravel_index(int(np.argmax(np.abs(off))), off.shape)
-            raise ValueError(
-                f"C is not diagonal in the modal basis (non-proportional damping): "
-                f"|Phi^T C Phi|[{i},{j}] = {gap:.3g} > {MODAL_DIAGONAL_RTOL:g} * {size:.3g}; "
-                "use method='direct' or method='state_space'"
-            )
         if dropped and omega_all.size > wanted:
             extra = shapes_all[:, wanted]
             next_c = float(extra @ (_as_operator(C, n_dof) @ extra))
@@ -1021,6 +1003,37 @@ def _modal(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[np.float64
             error = np.where(norms > 0, factor * residual_norm / norms,
                              np.where(factor * residual_norm > 0, np.inf, 0.0))
     return response, error, wanted, omega
+
+
+def _modal_damping(shapes: NDArray[np.float64], omega: NDArray[np.float64], C: Any, damping_ratios: Any,
+                   remedy: str) -> NDArray[np.float64]:
+    """(n_modes,) modal damping c_k (q'' + c_k q' + omega_k^2 q = phi_k^T f), in 1 / time unit.
+
+    2 zeta_k |omega_k| from `damping_ratios`, else diag(Phi^T C Phi) when C is diagonal in
+    the modal basis (within MODAL_DIAGONAL_RTOL), zero without C; `remedy` ends the error.
+    """
+    n_dof, wanted = shapes.shape
+    if damping_ratios is not None:
+        ratios = _validate.real_array(damping_ratios, "damping_ratios", ndim=(0, 1))
+        ratios = np.broadcast_to(ratios, (wanted,)) if ratios.ndim == 0 else ratios
+        if ratios.shape != (wanted,):
+            raise ValueError(f"damping_ratios must have {wanted} entries (one per mode), got shape {ratios.shape}")
+        _validate.nonnegative(ratios, "damping_ratios", "damping ratio")
+        return 2.0 * ratios * np.abs(omega)
+    if C is None:
+        return np.zeros(wanted)
+    projected = shapes.T @ (_as_operator(C, n_dof) @ shapes)
+    modal_c = np.diagonal(projected).copy()
+    off = projected - np.diag(modal_c)
+    size = float(np.max(np.abs(projected))) if projected.size else 0.0
+    gap = float(np.max(np.abs(off))) if off.size else 0.0
+    if gap > MODAL_DIAGONAL_RTOL * size:
+        i, j = np.unravel_index(int(np.argmax(np.abs(off))), off.shape)
+        raise ValueError(
+            f"C is not diagonal in the modal basis (non-proportional damping): "
+            f"|Phi^T C Phi|[{i},{j}] = {gap:.3g} > {MODAL_DIAGONAL_RTOL:g} * {size:.3g}; {remedy}"
+        )
+    return modal_c
 
 
 def _dropped_factor(omegas: NDArray[np.float64], lam: float, c: float, corrected: bool,
@@ -1246,7 +1259,9 @@ def transient_response(
     Re{exp(i w t)} and moves as one `Oscillator` (eq. 129, continuous across critical
     damping); u = sum_k phi_k q_k (eq. 150). Rigid-body modes (omega_k = 0) move as damped
     free masses. With n_modes < n_dof the result is the motion of the kept modes (the
-    initial conditions and the force projected on them).
+    initial conditions and the force projected on them). A constant force (omega = 0) on a
+    free structure makes its rigid-body modes drift: q = q0 + v0 t + f_k t^2 / 2 without
+    damping, terminal velocity f_k / c_k with it (f_k = phi_k^T f).
 
     Parameters
     ----------
@@ -1275,9 +1290,8 @@ def transient_response(
     Raises
     ------
     ValueError
-        As `frequency_response`; t negative; u0, v0 of the wrong length; a mode with no
-        damping driven exactly at its frequency (or a rigid-body mode under a constant force
-        with no damping), whose amplitude grows without bound.
+        As `frequency_response`; t negative; u0, v0 of the wrong length; a flexible mode
+        with no damping driven exactly at its frequency, whose amplitude grows without bound.
     """
     stiffness, mass, damping, loads = _structure(K, M, C, force)
     n_dof = stiffness.shape[0]
@@ -1304,37 +1318,26 @@ def transient_response(
     elif modes.shapes is None or modes.n_dof != n_dof or modes.n_modes < wanted:
         raise ValueError(f"modes must hold shapes of at least {wanted} modes of {n_dof} dofs")
     shapes = np.asarray(modes.shapes)[:, :wanted]
-    omega_k = np.asarray(modes.omega)[:wanted]
+    # Rigid-body modes come out of the eigensolver as round-off (+-1e-8 omega_max); they are
+    # exactly 0 (as in the modal FRF), so that a constant force drives them as free masses.
+    omega_k = np.where(np.asarray(modes.zero_modes())[:wanted], 0.0, np.asarray(modes.omega)[:wanted])
     if np.any(omega_k < 0):
         raise ValueError("K has imaginary (unstable) modes; transient_response needs K positive semi-definite")
-    if damping_ratios is not None:
-        ratios = _validate.real_array(damping_ratios, "damping_ratios", ndim=(0, 1))
-        ratios = np.broadcast_to(ratios, (wanted,)) if ratios.ndim == 0 else ratios
-        if ratios.shape != (wanted,):
-            raise ValueError(f"damping_ratios must have {wanted} entries (one per mode), got shape {ratios.shape}")
-        _validate.nonnegative(ratios, "damping_ratios", "damping ratio")
-        modal_c = 2.0 * ratios * omega_k
-    elif damping is None:
-        modal_c = np.zeros(wanted)
-    else:
-        projected = shapes.T @ (_as_operator(damping, n_dof) @ shapes)
-        modal_c = np.diagonal(projected).copy()
-        off = np.abs(projected - np.diag(modal_c))
-        if off.size and off.max() > MODAL_DIAGONAL_RTOL * np.abs(projected).max():
-            raise ValueError(
-                "C is not diagonal in the modal basis (non-proportional damping); "
-                "transient_response superposes real normal modes and needs friction, "
-                "Rayleigh or modal damping"
-            )
+    modal_c = _modal_damping(shapes, omega_k, damping, damping_ratios,
+                             "transient_response superposes real normal modes and needs friction, "
+                             "Rayleigh or modal damping")
     loads_q = shapes.T @ loads
     q0 = shapes.T @ _mass_times(mass, starts[0])
     qd0 = shapes.T @ _mass_times(mass, starts[1])
     denominators = _denominator(omega_k, modal_c, w)
     zero = (denominators == 0) & (loads_q != 0)
-    if zero.any():
-        k = int(np.flatnonzero(zero)[0])
+    # omega = 0 makes the denominator vanish only for rigid-body modes (omega_k = 0): a
+    # constant force on a free mass has no steady state but a well-defined drift.
+    drift = zero & (omega_k == 0)
+    if (zero & ~drift).any():
+        k = int(np.flatnonzero(zero & ~drift)[0])
         raise ValueError(
-            f"mode {k} (omega_k = {omega_k[k]!r}) has no damping and is driven at omega = {w!r}: "
+            f"mode {k} (omega_k = {float(omega_k[k])!r}) has no damping and is driven at omega = {w!r}: "
             "its amplitude grows without bound; add damping"
         )
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -1342,4 +1345,38 @@ def transient_response(
     column = times[:, None]
     q = _oscillator_state(column, omega_k, modal_c, q0, qd0, amplitude, w, derivative=False)
     qd = _oscillator_state(column, omega_k, modal_c, q0, qd0, amplitude, w, derivative=True)
+    if drift.any():
+        q[:, drift], qd[:, drift] = _pushed_free_mass(column, modal_c[drift], q0[drift], qd0[drift],
+                                                      loads_q[drift])
     return Transient(t=times, displacement=q @ shapes.T, velocity=qd @ shapes.T, n_modes=wanted)
+
+
+def _phi(x: NDArray[np.float64], order: int) -> NDArray[np.float64]:
+    """phi_1(x) = (1 - e^-x) / x or phi_2(x) = (x - 1 + e^-x) / x^2, x >= 0, without cancellation.
+
+    Both are sum_n (-x)^n / (n + order)!; the series (25 terms, remainder < 1e-27) is used for
+    x <= 1, the closed form (with expm1, cancelling at most a factor e) above.
+    """
+    x = np.asarray(x, dtype=float)
+    small = x <= 1.0
+    series = np.zeros_like(x)
+    term = np.full_like(x, 1.0 / math.factorial(order))
+    for n in range(25):
+        series += term
+        term = term * (-x) / (n + 1 + order)
+    safe = np.where(small, 1.0, x)
+    closed = -np.expm1(-safe) / safe if order == 1 else (safe + np.expm1(-safe)) / (safe * safe)
+    return np.where(small, series, closed)
+
+
+def _pushed_free_mass(t: NDArray[np.float64], c: NDArray[np.float64], q0: NDArray[np.float64],
+                      v0: NDArray[np.float64], load: NDArray[np.float64],
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """q(t), q'(t) of q'' + c q' = load (constant), q(0) = q0, q'(0) = v0, c >= 0.
+
+    q = q0 + v0 t phi_1(c t) + load t^2 phi_2(c t), q' = v0 e^(-c t) + load t phi_1(c t):
+    uniform acceleration q0 + v0 t + load t^2 / 2 for c = 0, drift at load / c for c t >> 1.
+    """
+    x = c * t
+    phi_1, phi_2 = _phi(x, 1), _phi(x, 2)
+    return q0 + v0 * t * phi_1 + load * t * t * phi_2, v0 * np.exp(-x) + load * t * phi_1
