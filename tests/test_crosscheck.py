@@ -101,6 +101,7 @@ class _CountingNaN(mol.ValenceForceField):
 @pytest.mark.parametrize(("good", "pattern"), [
     (3, r"non-finite forces at atom 0 displaced"),   # caught by vibra's own finite differences
     (37, r"ASE Vibrations got non-finite forces"),   # vibra's 37 calls pass, ASE's cache gets NaN
+    (37 + 19, r"phonopy: the calculator returned non-finite forces"),  # then ASE's 1 + 18 pass
 ])
 def test_nan_calculator_raises_and_leaves_no_cache(good: int, pattern: str, tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
@@ -113,6 +114,29 @@ def test_nan_calculator_raises_and_leaves_no_cache(good: int, pattern: str, tmp_
         cc.crosscheck(atoms, calc)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["tmp"]
     assert list(scratch.iterdir()) == []
+
+
+def test_arguments_checked_before_any_force_call() -> None:
+    # a calculator that fails on its first call: a bad argument must be reported instead
+    atoms = mol.co2_atoms()
+    calc = _CountingNaN(_model(atoms, "CO2"), good=0)
+    with pytest.raises(ValueError, match=r"experimental_cm1 must have 4 values \(one per vibration\), got 3"):
+        cc.crosscheck(atoms, calc, experimental_cm1=cc.H2O_FUNDAMENTALS_CM1)
+    with pytest.raises(ValueError, match=r"force_tolerance is -0\.1; it must be >= 0 \(eV/Angstrom\)"):
+        cc.crosscheck(atoms, calc, force_tolerance=-0.1)
+    assert calc.calls == 0
+
+
+def test_calculator_geometry_must_be_an_equilibrium() -> None:
+    # with a calculator, a stretched CO2 (C=O 1.20 A against the model's 1.16 A) is refused with
+    # its residual force kappa * 0.04 A = 3.85 eV/A on an O atom; force_tolerance=None runs it
+    model = _model(mol.co2_atoms(), "CO2")
+    stretched = mol.co2_atoms(bond_length=1.20)
+    with pytest.raises(ValueError, match=r"not an equilibrium of the calculator: residual force 3\.85 eV/Angstrom"):
+        cc.crosscheck(stretched, mol.ValenceForceField(model))
+    result = cc.crosscheck(stretched, mol.ValenceForceField(model), force_tolerance=None)
+    assert result.residual_force == pytest.approx(mol.CO2_STRETCH * 0.04, rel=1e-12)
+    assert "residual force 3.8 eV/A" in result.table().splitlines()[0]
 
 
 def _bad_inputs():

@@ -382,6 +382,10 @@ def test_d2o_teller_redlich_product_rule() -> None:
 def test_isotope_mass_table() -> None:
     assert mol.isotope_mass("D") == mol.isotope_mass("2H") == pytest.approx(2.01410177812, rel=1e-12)
     assert mol.isotope_mass("13C") == pytest.approx(13.00335483507, rel=1e-12)
+    # the public table holds the aliases too, and cannot be edited by a caller
+    assert mol.ISOTOPE_MASSES["D"] == mol.ISOTOPE_MASSES["2H"] and mol.ISOTOPE_MASSES["T"] == mol.isotope_mass("3H")
+    with pytest.raises(TypeError):
+        mol.ISOTOPE_MASSES["13C"] = 13.0  # type: ignore[index]
 
 
 # ----------------------------------------------------------------- bad input
@@ -437,6 +441,14 @@ def _bad_inputs():
         (lambda: mol.vibrational_analysis(h2o.hessian()), TypeError, r"system must be a vibra System"),
         (lambda: mol.vibrational_analysis(System.generalized(np.eye(2), np.eye(2))), TypeError, r"generalised coordinates"),
         (lambda: mol.vibrational_analysis(h2o.freeze(sites=[0])), ValueError, r"3 frozen degree\(s\) of freedom"),
+        (lambda: mol.vibrational_analysis(h2o, accuracy="best"), ValueError, r"accuracy is 'best'; expected one of"),
+        (lambda: mol.vibrational_analysis(h2o, linear_rtol=-1e-6), ValueError,
+         r"linear_rtol is -1e-06; it must be >= 0 \(relative\)"),
+        (lambda: mol.vibrational_analysis(h2o, zero_rtol="small"), TypeError, r"zero_rtol must be a real number, got str"),
+        (lambda: mol.from_atoms(co2, force_tolerance=-1.0), ValueError,
+         r"force_tolerance is -1\.0; it must be >= 0 \(eV/Angstrom\)"),
+        (lambda: mol.finite_difference_hessian(co2, _NaNCalculator(_co2_model()), force_tolerance=float("nan")),
+         ValueError, r"force_tolerance is nan; it must be finite"),  # checked before any force call
         (lambda: mol.isotope_mass(13), TypeError, r"label must be a str"),
         (lambda: mol.isotope_mass("C13x"), ValueError, r"label is 'C13x'; expected an isotope like"),
         (lambda: mol.isotope_mass("99Xx"), ValueError, r"label is '99Xx'; expected an isotope like"),
@@ -516,3 +528,21 @@ def test_results_are_frozen() -> None:
             array[0] = 1.0
     with pytest.raises(ValueError, match="read-only"):
         analysis.rigid[0] = False
+
+
+# ----------------------------------------------------------------- docs
+def test_docs_molecules_examples_run_as_written(tmp_path, monkeypatch) -> None:
+    # docs/molecules.md must work exactly as written (its code blocks, in order)
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "docs" / "molecules.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) == 2
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    for block in blocks:
+        exec(compile(block, "docs/molecules.md", "exec"), namespace)
+    assert namespace["co2"].n_dof == 9 and namespace["axial"].n_dof == 3
+    assert namespace["result"].n_rigid == 5
+    assert list(tmp_path.iterdir()) == []   # the cross-check leaves no cache behind

@@ -10,6 +10,9 @@ The test systems are built here with `System.from_springs` / `System.from_terms`
 from __future__ import annotations
 
 import dataclasses
+import re
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +27,7 @@ from PIL import Image
 from scipy import constants
 
 import vibra
+from vibra import molecules as mol
 from vibra import spectra
 from vibra.charts._style import save_figure
 from vibra.charts.spectra import plot_broadened_spectrum, plot_stick_spectrum, plot_thermo
@@ -219,6 +223,57 @@ def test_electronegativity_charges():
     # the table's charges give the same CO2 selection rules
     ir = spectra.ir_spectrum(co2_3d(), charges=charges)
     assert ir.active().tolist() == [True, True, False, True]
+
+
+class ValencePointCharges(mol.ValenceForceField):
+    """vibra's valence force field (nonlinear coordinates) plus a point-charge dipole."""
+
+    implemented_properties = ["energy", "forces", "dipole"]
+
+    def __init__(self, model: mol.ValenceModel, charges: np.ndarray) -> None:
+        super().__init__(model)
+        self.charges = np.asarray(charges, dtype=float)
+
+    def calculate(self, atoms=None, properties=("energy",), system_changes=all_changes):
+        super().calculate(atoms, properties, system_changes)
+        self.results["dipole"] = self.charges @ self.atoms.get_positions()
+
+
+def test_fd_hessian_rotations_left_out_via_vibrational_analysis(tmp_path):
+    # A finite-difference Hessian of a nonlinear force field (h = 0.01 A) puts H2O's rotations
+    # at 26 and 29 cm^-1: beyond the default zero_rtol, so bare Modes let one through as a
+    # strong spurious IR line. The Eckart analysis matches them and the spectrum keeps 3N-6.
+    atoms = mol.h2o_atoms()
+    model = mol.valence_model(atoms, bonds=np.array([[0, 1], [0, 2]]), stretch=mol.H2O_STRETCH,
+                              bend=mol.H2O_BEND)
+    calc = ValencePointCharges(model, H2O_CHARGES)
+    system = mol.finite_difference_hessian(atoms, calc, step=0.01).system()
+    with pytest.warns(RuntimeWarning):         # the fd rotations are partly imaginary
+        bare = spectra.ir_spectrum(system, charges=H2O_CHARGES)
+    assert (bare.wavenumbers < 100.0).any() and bare.intensities_km_per_mol().max() > 100.0
+    analysis = mol.vibrational_analysis(system)
+    ir = spectra.ir_spectrum(system, analysis, charges=H2O_CHARGES)
+    raman = spectra.raman_spectrum(system, analysis, bonds=[[0, 1], [0, 2]])
+    np.testing.assert_array_equal(ir.mode_indices, analysis.vibrations)
+    np.testing.assert_array_equal(raman.mode_indices, analysis.vibrations)
+    # ASE's Infrared on the same calculator, step and stencil: the same fd Hessian, solved
+    # without projection. Wavenumbers differ by ASE's CODATA 2014 constants (~5e-9): 1e-7.
+    # ASE's vectors carry a rotational admixture of at most (omega_rot / omega_vib)^2 =
+    # (29 / 1595)^2 = 3.3e-4 in amplitude, so intensities agree to 2 x 3.3e-4 < 1e-3.
+    work = atoms.copy()
+    work.calc = calc
+    infrared = Infrared(work, name=str(tmp_path / "ir"), delta=0.01, nfree=2)
+    infrared.run()
+    np.testing.assert_allclose(ir.wavenumbers, infrared.get_frequencies().real[-3:], rtol=1e-7)
+    np.testing.assert_allclose(ir.intensities / ase_units.Debye**2, infrared.intensities[-3:], rtol=1e-3)
+    # the thermochemistry counts the same 3 vibrations: ASE HarmonicThermo on ASE's 3 highest
+    # energies, at the same kT (entropy depends on x = E/kT; 5e-9 in E -> 1e-7 relative)
+    thermo = spectra.thermochemistry(analysis, [298.15])
+    assert thermo.n_imaginary == 0 and len(thermo.wavenumbers) == 3
+    reference = HarmonicThermo(vib_energies=infrared.get_energies().real[-3:])
+    t_ase = ase_temperature(np.array([298.15]))[0]
+    assert thermo.entropy[0] / K_VIBRA == pytest.approx(
+        reference.get_entropy(t_ase, verbose=False) / ase_units.kB, rel=1e-6)
 
 
 # ====================================================================== Raman
@@ -543,6 +598,23 @@ def test_isotope_13c_leaves_co2_symmetric_stretch_unchanged_in_3d():
     assert np.prod(shifts.ratios) == pytest.approx(rule, rel=1e-9)
 
 
+def test_isotope_table_is_the_molecules_table_and_read_only():
+    assert spectra.ISOTOPE_MASSES is mol.ISOTOPE_MASSES
+    assert spectra.ISOTOPE_MASSES["D"] == mol.isotope_mass("2H")
+    with pytest.raises(TypeError):
+        spectra.ISOTOPE_MASSES["13C"] = 13.0  # type: ignore[index]
+
+
+def test_isotope_shift_mode_count_mismatch_raises():
+    # Axial CO2: SYM / ASYM = 0.522 before, 0.537 after 13C (ASYM drops, SYM does not move).
+    # zero_rtol = 0.53 counts SYM as a zero mode before and as a vibration after.
+    ratio_before = SYM / ASYM
+    ratio_after = SYM / omega_to_cm1(K_STRETCH * (1 / M_O + 2 / spectra.ISOTOPE_MASSES["13C"]))
+    assert ratio_before < 0.53 < ratio_after
+    with pytest.raises(RuntimeError, match="the substituted system has 2 vibrational modes, the original 1"):
+        spectra.isotope_shifts(co2_axial(), {1: "13C"}, zero_rtol=0.53)
+
+
 # ====================================================================== validation
 def test_ir_validation_messages():
     system = co2_3d()
@@ -552,8 +624,10 @@ def test_ir_validation_messages():
         spectra.ir_spectrum(vibra.System.generalized(np.eye(2), np.eye(2), units="ASE"), charges=[0, 0])
     with pytest.raises(ValueError, match="system.units is 'SI'"):
         spectra.ir_spectrum(vibra.System.from_springs([0.0, 1.0], 1.0, [[0, 1]], 1.0), charges=[1, -1])
-    with pytest.raises(TypeError, match="modes must be a vibra.Modes"):
+    with pytest.raises(TypeError, match="modes must be a vibra.Modes or a molecules.VibrationalAnalysis, got ndarray"):
         spectra.ir_spectrum(system, np.zeros(3), charges=CO2_CHARGES)
+    with pytest.raises(ValueError, match="modes has 3 degrees of freedom but the system has 9"):
+        spectra.ir_spectrum(system, mol.vibrational_analysis(co2_axial()), charges=CO2_CHARGES)
     with pytest.raises(ValueError, match="modes has no shapes"):
         spectra.ir_spectrum(system, system.modes(vectors=False), charges=CO2_CHARGES)
     with pytest.raises(ValueError, match="modes has 3 degrees of freedom but the system has 9"):
@@ -662,6 +736,8 @@ def test_isotope_validation_messages():
     system = co2_axial()
     with pytest.raises(TypeError, match="system must be a vibra.System"):
         spectra.isotope_shifts(None, {0: "18O"})
+    with pytest.raises(TypeError, match="system must be a system of sites; this one is in generalised"):
+        spectra.isotope_shifts(vibra.System.generalized(np.eye(2), np.eye(2), units="ASE"), {0: 2.0})
     with pytest.raises(TypeError, match="substitutions must be a mapping"):
         spectra.isotope_shifts(system, [(0, "18O")])
     with pytest.raises(ValueError, match="substitutions is empty"):
@@ -756,3 +832,22 @@ def test_chart_argument_types():
         plot_broadened_spectrum(spectrum, sticks=3)
     with pytest.raises(TypeError, match="thermo must be a Thermochemistry"):
         plot_thermo(spectrum)
+
+
+# ====================================================================== docs
+def test_docs_spectra_example_runs_as_written(tmp_path, monkeypatch):
+    # docs/spectra.md must work exactly as written: run its code block in a scratch folder
+    text = (Path(__file__).resolve().parent.parent / "docs" / "spectra.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    namespace: dict = {}
+    for block in blocks:
+        exec(compile(block, "docs/spectra.md", "exec"), namespace)
+    # what the text promises: CO2 selection rules and the merged bend
+    assert namespace["ir"].active().tolist() == [True, True, False, True]
+    assert namespace["raman"].active().tolist() == [False, False, True, False]
+    assert len(namespace["sticks"].wavenumbers) == 3
+    for name, size in [("co2_ir.png", (960, 600)), ("co2_raman.png", (960, 600)), ("co2_thermo.png", (1200, 540))]:
+        _check_png(tmp_path / name, size)

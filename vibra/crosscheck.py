@@ -130,6 +130,9 @@ class CrossCheck:
         ASE's stencil (2 or 4 points).
     n_rigid : int
         Number of rigid-body modes.
+    residual_force : float
+        Largest force norm at the reference geometry, eV / Angstrom (0 at an exact
+        equilibrium; finite differences of a non-equilibrium geometry mix in rotations).
     notes : tuple of str
         What the comparison does not show (anharmonicity, Fermi resonance).
     """
@@ -148,6 +151,7 @@ class CrossCheck:
     delta: float
     nfree: int
     n_rigid: int
+    residual_force: float
     notes: tuple[str, ...]
 
     def __post_init__(self) -> None:
@@ -202,7 +206,8 @@ class CrossCheck:
                   f"{'ph-vibra':>10} {'fd err':>9} {'ph fd err':>9}" + (f" {'exp':>7}" if has_exp else ""))
         lines = [
             f"{self.name}: wavenumbers in cm^-1; vibra: {self.source}; ASE Vibrations delta={self.delta:g} A, "
-            f"nfree={self.nfree}; phonopy 1x1x1 supercell, +-{self.delta:g} A",
+            f"nfree={self.nfree}; phonopy 1x1x1 supercell, +-{self.delta:g} A; residual force "
+            f"{self.residual_force:.2g} eV/A",
             header,
         ]
         for row in self.rows():
@@ -311,6 +316,7 @@ def crosscheck(
     project: bool = True,
     experimental_cm1: ArrayLike | None = None,
     force_noise: float | None = None,
+    force_tolerance: float | None = 1e-3,
     name: str | None = None,
 ) -> CrossCheck:
     """vibra's wavenumbers beside ASE `Vibrations` and phonopy's, with the fd error explaining them.
@@ -340,6 +346,11 @@ def crosscheck(
     force_noise : float, optional
         Noise of one force component of `calculator`, eV / Angstrom, for the round-off part of
         the error estimate (see `finite_difference_hessian`).
+    force_tolerance : float or None
+        Largest residual force (eV / Angstrom) accepted from `calculator` at `atoms`: the
+        frequencies of a geometry that is not an equilibrium mean nothing (relax it first).
+        None skips the check. (A valence force field is always checked, at 1e-4 eV / Angstrom,
+        by `from_atoms`.)
     name : str, optional
         Name in the table (the Hill formula by default).
 
@@ -352,8 +363,9 @@ def crosscheck(
     TypeError
         `atoms` is not an ase.Atoms; both `model` and `calculator` given.
     ValueError
-        Bad delta, nfree, box or experimental values; unknown elements, overlapping atoms; a
-        geometry that is not an equilibrium (residual force reported).
+        Bad delta, nfree, box, force_tolerance or experimental values (checked before any
+        force call); unknown elements, overlapping atoms; a geometry that is not an
+        equilibrium (residual force reported).
     RuntimeError
         The calculator returned non-finite forces; no file is left behind.
     """
@@ -363,16 +375,26 @@ def crosscheck(
         raise TypeError(f"atoms must be an ase.Atoms, got {type(atoms).__name__}")
     if calculator is not None and model is not None:
         raise TypeError("give either model (valence force field) or calculator, not both")
-    step = float(_validate.real_array(delta, "delta", ndim=0))
+    step = _validate.real_scalar(delta, "delta")
     if not step > 0:
         raise ValueError(f"delta is {step!r}; the displacement must be positive (Angstrom)")
     if isinstance(nfree, bool) or nfree not in (2, 4):
         raise ValueError(f"nfree is {nfree!r}; expected 2 or 4 (ASE's stencils)")
-    edge = float(_validate.real_array(box, "box", ndim=0))
+    edge = _validate.real_scalar(box, "box")
     positions, masses = _molecules._check_atoms(atoms)
     extent = float(np.ptp(positions, axis=0).max())
     if not edge > extent + 2.0:
         raise ValueError(f"box is {edge!r} Angstrom; it must exceed the molecule's extent ({extent:.3g}) by 2 Angstrom")
+    t = _molecules.rigid_body_vectors(positions, masses)
+    experimental = None
+    if experimental_cm1 is not None:
+        experimental = _validate.real_array(experimental_cm1, "experimental_cm1", ndim=1)
+        n_vibrations = t.shape[0] - t.shape[1]
+        if experimental.shape[0] != n_vibrations:
+            raise ValueError(f"experimental_cm1 must have {n_vibrations} values (one per vibration), "
+                             f"got {experimental.shape[0]}")
+    tolerance = None if force_tolerance is None else _molecules._nonnegative(
+        force_tolerance, "force_tolerance", "eV/Angstrom")
     label = name if name is not None else atoms.get_chemical_formula(mode="hill")
     work = atoms.copy()
     work.set_masses(masses)  # explicit masses for all three packages
@@ -388,7 +410,7 @@ def crosscheck(
     else:
         calc = calculator
         estimate = _molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
-                                                        force_noise=force_noise, force_tolerance=None)
+                                                        force_noise=force_noise, force_tolerance=tolerance)
         system = estimate.system(name=label)
         source = f"finite differences ({nfree}-point, step {step:g} A) of {type(calculator).__name__}"
     phonopy_estimate = estimate if nfree == 2 else _molecules.finite_difference_hessian(
@@ -400,20 +422,14 @@ def crosscheck(
         analysis = _molecules.vibrational_analysis(system, project=project)
     modes = analysis.modes
     rigid = np.asarray(analysis.rigid)
-    t = _molecules.rigid_body_vectors(positions, masses)
 
     ase_cm1, ase_vectors = _run_ase(work, calc, step, nfree)
     phonopy_cm1, phonopy_vectors = _run_phonopy(work, calc, step, edge)
     ase_matched, ase_overlap = _match(ase_cm1, ase_vectors, t, rigid)
     phonopy_matched, phonopy_overlap = _match(phonopy_cm1, phonopy_vectors, t, rigid)
 
-    experimental = None
     notes: list[str] = []
-    if experimental_cm1 is not None:
-        experimental = _validate.real_array(experimental_cm1, "experimental_cm1", ndim=1)
-        if experimental.shape[0] != analysis.n_vibrations:
-            raise ValueError(f"experimental_cm1 must have {analysis.n_vibrations} values (one per vibration), "
-                             f"got {experimental.shape[0]}")
+    if experimental is not None:
         notes.append(_HARMONIC_NOTE)
         if atoms.get_chemical_formula(mode="hill") == "CO2":
             notes.append(_FERMI_NOTE)
@@ -425,5 +441,5 @@ def crosscheck(
         fd_error_cm1=to_cm1(estimate.omega_errors(modes)),
         phonopy_fd_error_cm1=to_cm1(phonopy_estimate.omega_errors(modes)),
         experimental_cm1=experimental, delta=step, nfree=int(nfree), n_rigid=analysis.n_rigid,
-        notes=tuple(notes),
+        residual_force=estimate.residual_force, notes=tuple(notes),
     )

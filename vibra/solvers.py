@@ -505,8 +505,9 @@ def _path_values(segments: list[Segment]) -> tuple[NDArray[np.float64], NDArray[
         sigma = bidiagonal_singular_values(d, e)[-keep:]
         omegas.append(sigma)
         # Demmel-Kahan: relative entry errors eta perturb each singular value by at most
-        # (2 size - 1) eta relative; forming B~ (sqrt, divide) gives eta ~ 3 eps.
-        bounds.append(np.full(keep, (2 * d.shape[0] - 1) * 3 * EPS))
+        # (2 size - 1) eta relative; forming B~ (sqrt, divide) gives eta ~ 3 eps, and dqds's
+        # own rounding adds a few eps per step of a size-long sweep: 10 size eps in all.
+        bounds.append(np.full(keep, 10 * d.shape[0] * EPS))
     omega = np.concatenate(omegas)
     bound = np.concatenate(bounds)
     order = np.argsort(omega)

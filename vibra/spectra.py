@@ -20,8 +20,10 @@ Models (see docs/spectra.md):
 - Thermochemistry of independent harmonic oscillators, with the same formulas as ASE's
   ``HarmonicThermo``.
 
-Rigid-body modes (|omega| <= zero_rtol * max|omega|, or within the mode's own error) are
-skipped everywhere; imaginary modes are skipped with a RuntimeWarning.
+Rigid-body modes (|omega| <= zero_rtol * max|omega|, or within the mode's own error, and,
+when a `vibra.molecules.VibrationalAnalysis` is passed as the modes, every mode it matched to
+a translation or rotation) are skipped everywhere; imaginary modes are skipped with a
+RuntimeWarning.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ from scipy import constants
 
 from vibra import _validate
 from vibra.modes import Modes
+from vibra.molecules import ISOTOPE_MASSES as _ISOTOPE_TABLE
+from vibra.molecules import VibrationalAnalysis
 from vibra.system import System, _freeze_arrays
 
 if TYPE_CHECKING:
@@ -53,7 +57,8 @@ __all__ = [
 #: Default relative threshold for rigid-body modes: |omega| <= ZERO_RTOL * max|omega|
 #: (0.35 cm^-1 when the highest mode is at 3500 cm^-1). Modes within their own computed
 #: error of zero are skipped too. Finite-difference Hessians from a calculator leave
-#: rotations at a few cm^-1: pass a larger zero_rtol (say 1e-2) for those.
+#: rotations at up to tens of cm^-1, which no threshold separates safely from soft
+#: vibrations: pass ``vibra.molecules.vibrational_analysis(system)`` as the modes instead.
 ZERO_RTOL = 1e-4
 
 #: N_A / (12 epsilon_0 c^2), converting |dmu/dQ|^2 in e^2/amu to an integrated absorption
@@ -70,16 +75,9 @@ BOLTZMANN_EV_PER_K = constants.k / constants.e
 #: E = h c nu~ : eV per cm^-1.
 _EV_PER_CM1 = constants.h * constants.c / constants.centi / constants.e
 
-#: Masses of common isotopes in amu (AME2020: M. Wang et al., Chinese Phys. C 45, 030003
-#: (2021)). Accepted by `isotope_shifts` in place of a number.
-ISOTOPE_MASSES: Mapping[str, float] = {
-    "1H": 1.00782503223, "2H": 2.01410177812, "D": 2.01410177812,
-    "12C": 12.0, "13C": 13.00335483507,
-    "14N": 14.00307400443, "15N": 15.00010889888,
-    "16O": 15.99491461957, "17O": 16.99913175650, "18O": 17.99915961286,
-    "32S": 31.9720711744, "34S": 33.967867004,
-    "35Cl": 34.968852682, "37Cl": 36.965902602,
-}
+#: Isotope label -> mass in amu (``"13C"``, ``"18O"``, ``"D"``, ...): the table of
+#: `vibra.molecules` (NIST/AME values), accepted by `isotope_shifts` in place of a number.
+ISOTOPE_MASSES: Mapping[str, float] = _ISOTOPE_TABLE
 
 #: Pauling electronegativities (CRC Handbook of Chemistry and Physics) used by
 #: `electronegativity_charges`.
@@ -429,8 +427,11 @@ def ir_spectrum(
     system : System
         A system of sites in ASE units (amu, Angstrom, eV), in 1, 2 or 3 dimensions (the
         missing Cartesian components are zero).
-    modes : Modes, optional
-        Its normal modes with shapes (default: ``system.modes()``).
+    modes : Modes or VibrationalAnalysis, optional
+        Its normal modes with shapes (default: ``system.modes()``). For a molecule pass
+        ``vibra.molecules.vibrational_analysis(system)``: its Eckart-matched rigid-body modes
+        are left out exactly, even where a finite-difference Hessian puts rotations at tens
+        of cm^-1 (beyond any `zero_rtol`).
     charges : (n_sites,) array_like, optional
         Point charges, in e.
     dipole_derivatives : (3 n_sites, 3) or (n_sites, 3, 3) array_like, optional
@@ -446,12 +447,12 @@ def ir_spectrum(
     Raises
     ------
     TypeError
-        `system` not a System of sites, `modes` not a Modes.
+        `system` not a System of sites, `modes` not a Modes or VibrationalAnalysis.
     ValueError
         Units other than ASE; modes without shapes or of another size; both or neither of
         `charges` and `dipole_derivatives`; wrong shapes or non-finite values.
     """
-    system, modes = _system_and_modes(system, modes)
+    system, modes, rigid = _system_and_modes(system, modes)
     if (charges is None) == (dipole_derivatives is None):
         raise ValueError("give exactly one of charges and dipole_derivatives")
     n_sites = system.n_sites
@@ -472,7 +473,7 @@ def ir_spectrum(
             )
         model = "dipole derivatives"
     zero_rtol = _nonnegative_float(zero_rtol, "zero_rtol")
-    keep = _vibrational(modes, zero_rtol, "ir_spectrum")
+    keep = _vibrational(modes, zero_rtol, "ir_spectrum", rigid)
     shapes = _cartesian_shapes(system, modes)[:, :, keep]  # (n_sites, 3, n_vib)
     dmu_dq = np.einsum("iba,ibk->ka", derivatives, shapes)
     return IRSpectrum(
@@ -600,8 +601,9 @@ def raman_spectrum(
     ----------
     system : System
         A system of sites in ASE units, in 1, 2 or 3 dimensions.
-    modes : Modes, optional
-        Its normal modes with shapes (default: ``system.modes()``).
+    modes : Modes or VibrationalAnalysis, optional
+        Its normal modes with shapes (default: ``system.modes()``); a `VibrationalAnalysis`
+        leaves out its rigid-body modes exactly (see `ir_spectrum`).
     bonds : (n_bonds, 2) array_like of int
         Bonded site pairs.
     polarizability_parallel, polarizability_perpendicular : float or (n_bonds,) array_like
@@ -618,13 +620,14 @@ def raman_spectrum(
     Raises
     ------
     TypeError
-        `system` not a System of sites, `modes` not a Modes, bond indices not integers.
+        `system` not a System of sites, `modes` not a Modes or VibrationalAnalysis, bond
+        indices not integers.
     ValueError
         Units other than ASE; modes without shapes or of another size; bond indices out of
         range or a bond joining a site to itself or two coincident sites; parameter arrays
         of the wrong length or not finite.
     """
-    system, modes = _system_and_modes(system, modes)
+    system, modes, rigid = _system_and_modes(system, modes)
     pairs = _bond_pairs(bonds, system.n_sites)
     n_bonds = len(pairs)
     a_par = _per_bond(polarizability_parallel, n_bonds, "polarizability_parallel")
@@ -641,7 +644,7 @@ def raman_spectrum(
         b = int(np.argmax(short))
         raise ValueError(f"bonds[{b}] joins sites {pairs[b, 0]} and {pairs[b, 1]} at the same position")
     e = vector / length[:, None]                                    # (n_bonds, 3)
-    keep = _vibrational(modes, zero_rtol, "raman_spectrum")
+    keep = _vibrational(modes, zero_rtol, "raman_spectrum", rigid)
     shapes = _cartesian_shapes(system, modes)[:, :, keep]           # (n_sites, 3, n_vib)
     delta = shapes[pairs[:, 1]] - shapes[pairs[:, 0]]               # (n_bonds, 3, n_vib)
     stretch = np.einsum("ba,bak->bk", e, delta)                     # dr
@@ -755,7 +758,7 @@ def broadened_spectrum(
 
 # ---------------------------------------------------------------------- thermochemistry
 def thermochemistry(
-    modes: Modes | ArrayLike,
+    modes: Modes | VibrationalAnalysis | ArrayLike,
     temperatures: ArrayLike,
     *,
     zero_rtol: float = ZERO_RTOL,
@@ -769,9 +772,9 @@ def thermochemistry(
 
     Parameters
     ----------
-    modes : Modes or (n_modes,) array_like
-        Normal modes in physical units, or signed wavenumbers in cm^-1 (negative =
-        imaginary).
+    modes : Modes or VibrationalAnalysis or (n_modes,) array_like
+        Normal modes in physical units, a molecule's `VibrationalAnalysis` (its rigid-body
+        modes are left out exactly), or signed wavenumbers in cm^-1 (negative = imaginary).
     temperatures : float or (n_T,) array_like
         Temperatures, in K (> 0).
     zero_rtol : float
@@ -791,12 +794,17 @@ def thermochemistry(
         temperatures not positive.
     """
     zero_rtol = _nonnegative_float(zero_rtol, "zero_rtol")
+    rigid = None
+    if isinstance(modes, VibrationalAnalysis):
+        rigid = np.asarray(modes.rigid)
+        modes = modes.modes
     if isinstance(modes, Modes):
         if modes.units.time_s is None:
             raise ValueError("modes are dimensionless; thermochemistry needs units 'SI' or 'ASE'")
-        keep = _vibrational(modes, zero_rtol, "thermochemistry")
+        keep = _vibrational(modes, zero_rtol, "thermochemistry", rigid)
         wavenumbers = modes.wavenumbers_cm1()[keep]
-        n_imaginary = int(np.sum(modes.unstable & ~modes.zero_modes(zero_rtol)))
+        skipped = modes.zero_modes(zero_rtol) | (rigid if rigid is not None else False)
+        n_imaginary = int(np.sum(modes.unstable & ~skipped))
     else:
         signed = _validate.real_array(modes, "modes", ndim=1)
         keep, n_imaginary = _vibrational_values(signed, zero_rtol, "thermochemistry")
@@ -927,7 +935,8 @@ def isotope_shifts(
 
 
 # ---------------------------------------------------------------------- helpers
-def _system_and_modes(system: Any, modes: Any) -> tuple[System, Modes]:
+def _system_and_modes(system: Any, modes: Any) -> tuple[System, Modes, NDArray[np.bool_] | None]:
+    """The system, its modes, and the rigid-body flags of a `VibrationalAnalysis` (or None)."""
     if not isinstance(system, System):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
     if system.is_generalized:
@@ -935,17 +944,21 @@ def _system_and_modes(system: Any, modes: Any) -> tuple[System, Modes]:
     if system.units.name != "ASE":
         raise ValueError(
             f"system.units is {system.units.name!r}; spectra need units 'ASE' (amu, Angstrom, eV)")
+    rigid = None
+    if isinstance(modes, VibrationalAnalysis):
+        modes, rigid = modes.modes, np.asarray(modes.rigid)
     if modes is None:
         modes = system.modes()
     elif not isinstance(modes, Modes):
-        raise TypeError(f"modes must be a vibra.Modes, got {type(modes).__name__}")
+        raise TypeError(
+            f"modes must be a vibra.Modes or a molecules.VibrationalAnalysis, got {type(modes).__name__}")
     if modes.shapes is None:
         raise ValueError("modes has no shapes (computed with vectors=False); spectra need them")
     if modes.n_dof != system.n_dof:
         raise ValueError(
             f"modes has {modes.n_dof} degrees of freedom but the system has {system.n_dof}; "
             "pass the modes of this system")
-    return system, modes
+    return system, modes, rigid
 
 
 def _cartesian_shapes(system: System, modes: Modes) -> NDArray[np.float64]:
@@ -963,9 +976,16 @@ def _cartesian_positions(system: System) -> NDArray[np.float64]:
     return out
 
 
-def _vibrational(modes: Modes, zero_rtol: float, where: str) -> NDArray[np.bool_]:
-    """Mask of the real, non-zero modes; warn about imaginary ones."""
+def _vibrational(modes: Modes, zero_rtol: float, where: str,
+                 rigid: NDArray[np.bool_] | None = None) -> NDArray[np.bool_]:
+    """Mask of the real, non-zero, non-rigid modes; warn about imaginary ones.
+
+    `rigid` (from a `VibrationalAnalysis`) marks the translations and rotations matched by
+    the Eckart analysis; they are left out whatever their computed omega.
+    """
     zero = modes.zero_modes(zero_rtol) if modes.n_modes else np.zeros(0, dtype=bool)
+    if rigid is not None:
+        zero = zero | rigid
     imaginary = modes.unstable & ~zero
     if imaginary.any():
         warnings.warn(
@@ -1035,20 +1055,15 @@ def _per_bond(value: ArrayLike | float, n_bonds: int, name: str) -> NDArray[np.f
 
 
 def _positive_float(value: Any, name: str) -> float:
-    number = _scalar(value, name)
-    if not (np.isfinite(number) and number > 0):
+    number = _validate.real_scalar(value, name)
+    if not number > 0:
         raise ValueError(f"{name} is {value!r}; it must be positive and finite")
     return number
 
 
 def _nonnegative_float(value: Any, name: str) -> float:
-    number = _scalar(value, name)
-    if not (np.isfinite(number) and number >= 0):
+    number = _validate.real_scalar(value, name)
+    if not number >= 0:
         raise ValueError(f"{name} is {value!r}; it must be >= 0 and finite")
     return number
 
-
-def _scalar(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    return float(value)
