@@ -118,7 +118,7 @@ def main() -> None:
     payload["headline"] = headline(payload["rows"])
     for key, value in payload["headline"].items():
         print(key, value)
-    name = "solvers_quick" if args.quick else "solvers"
+    name = "solvers"  # a --quick run writes to results/quick/ (see _common.RESULTS)
     write_json(name, payload)
     series: dict[str, list[tuple[float, float]]] = {}
     for row in payload["rows"]:

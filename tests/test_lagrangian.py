@@ -110,6 +110,39 @@ def test_double_pendulum_matches_sympy_mechanics_linearization(params, sympy_lin
     np.testing.assert_allclose(system.hessian().toarray(), K_ref, rtol=ULP_RTOL, atol=0)
 
 
+def test_inverted_lower_pendulum_matches_sympy_mechanics(sympy_pendulum):
+    # Away from the hanging position M depends on q0: at theta = 0, phi = pi (the lower mass
+    # balanced upright above the upper one) cos(phi - theta) = -1 flips the coupling, and K
+    # has a negative entry: one unstable mode. Independent truth: LagrangesMethod.linearize
+    # at the same operating point.
+    method, (theta, phi, theta_dot, phi_dot), symbols = sympy_pendulum
+    params = PARAMETERS[1]
+    op = {theta: 0, phi: sympy.pi, theta_dot: 0, phi_dot: 0}
+    M_lin, A_lin = method.linearize(q_ind=[theta, phi], qd_ind=[theta_dot, phi_dot], op_point=op)[:2]
+    numbers = dict(zip(symbols, params))
+    M_ref = np.array(M_lin[2:, 2:].subs(numbers), dtype=float)
+    K_ref = -np.array(A_lin[2:, :2].subs(numbers), dtype=float)
+    th, ph, thd, phd = sympy.symbols("theta phi theta_dot phi_dot")
+    m, mp, a, b, g = sympy.symbols("m m_prime a b g", positive=True)
+    T = ((m + mp) * a**2 * thd**2 + mp * b**2 * phd**2 + 2 * mp * a * b * sympy.cos(ph - th) * thd * phd) / 2
+    V = -(m + mp) * g * a * sympy.cos(th) - mp * g * b * sympy.cos(ph)
+    system = linearize(T, V, [th, ph], [thd, phd], [0.0, np.pi], dict(zip((m, mp, a, b, g), params)))
+    # q0 = pi is rounded to a double (1.2e-16 rad off), which moves M and K by ~1e-16
+    # relative: a few ulps.
+    np.testing.assert_allclose(system.mass_matrix(), M_ref, rtol=ULP_RTOL)
+    np.testing.assert_allclose(system.hessian().toarray(), K_ref, rtol=ULP_RTOL, atol=1e-15 * np.abs(K_ref).max())
+    assert system.mass_matrix()[0, 1] < 0  # the coupling m' a b cos(pi) changed sign
+    # The squared frequencies solve det(K - r M) = 0 with the sympy matrices (a quadratic in r).
+    r = sympy.Symbol("r")
+    roots = sympy.Poly((sympy.Matrix(K_ref) - r * sympy.Matrix(M_ref)).det(), r).nroots(n=30)
+    expected = np.sort([float(x) for x in roots])
+    with pytest.warns(RuntimeWarning, match="imaginary"):
+        modes = system.modes()
+    # Dense generalised eigensolver, |r| ratio ~ 4 here: 1e-12 relative is a wide margin.
+    np.testing.assert_allclose(modes.omega_squared, expected, rtol=1e-12)
+    assert expected[0] < 0 < expected[1] and modes.omega[0] < 0  # unstable mode reported as -|omega|
+
+
 def test_linearize_accepts_dynamicsymbols(sympy_pendulum):
     # The same T and V written with sympy.physics.mechanics dynamicsymbols.
     theta, phi = dynamicsymbols("theta phi")
@@ -357,6 +390,8 @@ V2 = -G_SYM * (sympy.cos(TH) + sympy.cos(PH))
         (dict(T=THD**2 / 2), ValueError, r"T is not positive definite at q0"),
         (dict(V=V2 + sympy.sqrt(TH - 1)), ValueError, r"is not real|not an equilibrium|real and finite"),
         (dict(rtol=0.0), ValueError, r"rtol is 0.0"),
+        (dict(q0={"theta": 0.0, "phi": "0"}), TypeError, r"q0\[phi\] must be a real number, got str"),
+        (dict(q0={TH: 0.0, PH: np.inf}), ValueError, r"q0\[phi\] is inf"),
     ],
 )
 def test_linearize_rejects_bad_input(kwargs, error, pattern):
@@ -390,3 +425,27 @@ def test_double_pendulum_rejects_bad_parameters(kwargs, pattern):
 def test_integrate_rejects_bad_times(t, pattern):
     with pytest.raises(ValueError, match=pattern):
         integrate_double_pendulum(0.1, 0.1, t)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "pattern"),
+    [
+        (dict(theta0=np.nan), ValueError, r"theta0 is nan; it must be finite"),
+        (dict(phi0="0.1"), TypeError, r"phi0 must be a real number, got str"),
+        (dict(theta_dot0=np.inf), ValueError, r"theta_dot0 is inf"),
+        (dict(phi_dot0=[1.0]), TypeError, r"phi_dot0 must be a real number, got list"),
+        (dict(b=-1.0), ValueError, r"b is -1.0; it must be positive"),
+        (dict(rtol=0.0), ValueError, r"rtol is 0.0; an integration tolerance must be positive"),
+        (dict(atol=-1.0), ValueError, r"atol is -1.0"),
+    ],
+)
+def test_integrate_rejects_bad_arguments(kwargs, error, pattern):
+    arguments = dict(theta0=0.1, phi0=0.1, t=[0.0, 1.0])
+    arguments.update(kwargs)
+    with pytest.raises(error, match=pattern):
+        integrate_double_pendulum(arguments.pop("theta0"), arguments.pop("phi0"), arguments.pop("t"), **arguments)
+
+
+def test_single_mode_offsets_rejects_bad_phi0():
+    with pytest.raises(ValueError, match=r"phi0 is nan; it must be finite"):
+        double_pendulum_single_mode_offsets(phi0=np.nan)

@@ -93,12 +93,15 @@ def test_plot_cost_vs_error_draws_one_point_per_run() -> None:
     ((["a", "b"], [1.0, 2.0], [1.0]), ValueError, r"errors has 1 values; expected 2"),
     (("ab", [1.0, 2.0], [1.0, 2.0]), TypeError, r"labels must be a sequence of str"),
     (([1, 2], [1.0, 2.0], [1.0, 2.0]), TypeError, r"labels\[0\] must be a str"),
+    ((["a", "b"], [1.0, 2.0], [1.0, 2.0], ["g"]), ValueError, r"groups has 1 entries; expected 2"),
+    ((["a"], [1.0], [1.0], [3]), TypeError, r"groups\[0\] must be a str"),
 ])
 def test_plot_cost_vs_error_validates(args: tuple, error: type, match: str) -> None:
     from vibra.charts.notebooks import plot_cost_vs_error
 
+    labels, seconds, errors, *groups = args
     with pytest.raises(error, match=match):
-        plot_cost_vs_error(*args)
+        plot_cost_vs_error(labels, seconds, errors, groups=groups[0] if groups else None)
 
 
 def test_plot_step_errors_guides_follow_the_order() -> None:
@@ -136,9 +139,12 @@ def test_plot_time_series_draws_each_signal() -> None:
     from vibra.charts.notebooks import plot_time_series
 
     t = np.linspace(0.0, 1.0, 11)
-    fig = plot_time_series(t, [np.sin(t), np.cos(t)], ["sin", "cos"], styles=["-", "k:"])
-    lines = fig.axes[0].get_lines()
+    fig = plot_time_series(t, [np.sin(t), np.cos(t)], ["sin", "cos"], styles=["-", "k:"],
+                           time_label="time t (s)", value_label="u (m)")
+    ax = fig.axes[0]
+    lines = ax.get_lines()
     assert len(lines) == 2 and np.allclose(lines[1].get_ydata(), np.cos(t))
+    assert ax.get_xlabel() == "time t (s)" and ax.get_ylabel() == "u (m)"  # the caller's units
 
 
 @pytest.mark.parametrize(("kwargs", "error", "match"), [
@@ -147,11 +153,15 @@ def test_plot_time_series_draws_each_signal() -> None:
     ({"labels": ["a", "b"]}, ValueError, r"labels has 2 entries; expected 1"),
     ({"styles": ["-", "--"]}, ValueError, r"styles has 2 entries; expected 1"),
     ({"styles": "-"}, TypeError, r"styles must be a sequence of str"),
+    ({"time_label": None}, TypeError, r"time_label must be a str \(an axis label with its unit\), got NoneType"),
+    ({"value_label": 1.0}, TypeError, r"value_label must be a str"),
+    ({"t": [0.0, np.nan, 2.0]}, ValueError, r"t\[1\]"),
 ])
 def test_plot_time_series_validates(kwargs: dict, error: type, match: str) -> None:
     from vibra.charts.notebooks import plot_time_series
 
-    arguments = {"t": [0.0, 1.0, 2.0], "series": [[1.0, 2.0, 3.0]], "labels": ["a"]}
+    arguments = {"t": [0.0, 1.0, 2.0], "series": [[1.0, 2.0, 3.0]], "labels": ["a"],
+                 "time_label": "t (s)", "value_label": "u (m)"}
     arguments.update(kwargs)
     with pytest.raises(error, match=match):
         plot_time_series(**arguments)

@@ -9,6 +9,7 @@ harmonic approximation.
 from __future__ import annotations
 
 import dataclasses
+import doctest
 
 import matplotlib.image
 import numpy as np
@@ -30,12 +31,12 @@ from vibra.pendulum import (
 )
 
 
-def _reference_motion(theta0, t, omega=1.0, eta=0.0, linear=False):
+def _reference_motion(theta0, t, omega=1.0, eta=0.0, linear=False, velocity=0.0):
     """theta(t) by scipy's LSODA, written here independently of vibra."""
     def rhs(_, y):
         force = y[0] if linear else np.sin(y[0])
         return [y[1], -eta * y[1] - omega**2 * force]
-    solution = solve_ivp(rhs, (t[0], t[-1]), [theta0, 0.0], method="LSODA", t_eval=t, rtol=1e-12, atol=1e-14)
+    solution = solve_ivp(rhs, (t[0], t[-1]), [theta0, velocity], method="LSODA", t_eval=t, rtol=1e-12, atol=1e-14)
     assert solution.success
     return solution.y
 
@@ -100,6 +101,34 @@ def test_exact_motion_matches_integration(theta0):
     assert motion.method == "elliptic"
     # Energy is conserved by the closed form (rounding only).
     assert np.ptp(motion.energy) < 1e-12 * motion.energy.max()
+
+
+def test_release_on_the_other_side_mirrors_the_motion():
+    # A release at -theta0 is the mirror image of one at +theta0 (V is even in theta);
+    # checked against the independent LSODA run, not only against vibra's own +theta0 motion.
+    t = np.linspace(0.0, 12.0, 121)
+    motion = exact_motion(-1.2, t, omega=1.3)
+    theta, theta_dot = _reference_motion(-1.2, t, omega=1.3)
+    # LSODA at rtol 1e-12 over ~2.5 periods: ~1e-9 rad (as in the test above).
+    np.testing.assert_allclose(motion.theta, theta, atol=1e-7)
+    np.testing.assert_allclose(motion.theta_dot, theta_dot, atol=1e-7)
+    np.testing.assert_allclose(harmonic_motion(-0.2, t).theta, -0.2 * np.cos(t), rtol=0, atol=1e-16)
+    # Released at 0 it stays at rest.
+    np.testing.assert_array_equal(exact_motion(0.0, t).theta, 0.0)
+
+
+def test_damped_motion_kicked_from_the_rest_position():
+    # Starting at theta = 0 with a velocity (a kick), strong enough to go over the top:
+    # E = 2.5^2 / 2 > 2 Omega^2 at first, so theta passes pi before friction traps it.
+    t = np.linspace(0.0, 20.0, 401)
+    motion = damped_motion(0.0, t, eta=0.1, velocity=2.5)
+    theta, theta_dot = _reference_motion(0.0, t, eta=0.1, velocity=2.5)
+    # DOP853 at rtol 1e-10 against LSODA at 1e-12 over 20 time units of a motion that
+    # stays smooth (it never stops near the top): agreement ~1e-8 rad, allow 1e-6.
+    np.testing.assert_allclose(motion.theta, theta, atol=1e-6)
+    np.testing.assert_allclose(motion.theta_dot, theta_dot, atol=1e-6)
+    assert motion.theta.max() > np.pi
+    np.testing.assert_allclose(motion.energy[0], 0.5 * 2.5**2, rtol=1e-15)
 
 
 def test_harmonic_motion_undamped_and_damped():
@@ -206,6 +235,15 @@ def test_results_are_frozen():
         (lambda: harmonic_error([0.1], n_periods=0.0), ValueError, r"n_periods is 0.0"),
         (lambda: harmonic_error([0.1], n_points=1), ValueError, r"n_points is 1"),
         (lambda: harmonic_error([3.5]), ValueError, r"amplitudes\[0\] is 3.5 rad"),
+        (lambda: exact_motion(-np.pi, [0.0, 1.0]), ValueError,
+         r"amplitude is -3.14159\d* rad; a release angle must lie in \(-pi, pi\)"),
+        (lambda: harmonic_motion(4.0, [0.0, 1.0]), ValueError, r"amplitude is 4.0 rad"),
+        (lambda: exact_motion(np.inf, [0.0, 1.0]), ValueError, r"amplitude is inf; it must be finite"),
+        (lambda: damped_motion(np.nan, [0.0, 1.0], eta=0.1), ValueError, r"amplitude is nan"),
+        (lambda: damped_motion(0.1, [0.0, 1.0], eta=0.1, rtol=0.0), ValueError,
+         r"rtol is 0.0; an integration tolerance must be positive"),
+        (lambda: damped_motion(0.1, [0.0, 1.0], eta=0.1, atol=-1e-9), ValueError, r"atol is -1e-09"),
+        (lambda: damped_motion(0.1, [0.0, 1.0], eta=0.1, atol="1e-9"), TypeError, r"atol must be a real number"),
     ],
 )
 def test_bad_input(call, error, pattern):
@@ -246,6 +284,20 @@ def test_chart_bad_input():
         plot_trajectory_comparison([])
     with pytest.raises(TypeError, match=r"pairs\[0\] must be a pair of PendulumMotion"):
         plot_trajectory_comparison([(1, 2)])
+    modes = double_pendulum().modes()
+    with pytest.raises(ValueError, match=r"b is -1.0 m; a string length must be positive"):
+        plot_double_pendulum_modes(modes, 1.0, -1.0)
+    with pytest.raises(TypeError, match=r"a must be a real number, got str"):
+        plot_double_pendulum_modes(modes, "1", 1.0)
+    with pytest.raises(ValueError, match=r"amplitude is 2.0 rad; the drawn angle must lie in \(0, pi/2\]"):
+        plot_double_pendulum_modes(modes, 1.0, 1.0, amplitude=2.0)
     modes_without_shapes = double_pendulum().modes(vectors=False)
     with pytest.raises(ValueError, match="modes must hold the 2 mode shapes"):
         plot_double_pendulum_modes(modes_without_shapes, 1.0, 1.0)
+
+
+def test_docstring_examples_run():
+    import vibra.pendulum
+
+    failures, attempted = doctest.testmod(vibra.pendulum, optionflags=doctest.ELLIPSIS)
+    assert attempted > 0 and failures == 0

@@ -10,6 +10,7 @@ built with scipy.spatial.transform.Rotation.
 from __future__ import annotations
 
 import dataclasses
+import doctest
 
 import numpy as np
 import pytest
@@ -363,6 +364,8 @@ def test_bodies_and_springs_are_frozen():
         (lambda: compound_pendulum(_ball(center=(0, 0, -1)), (0, 0, 0), axis=(0, 0, 0)), ValueError, r"axis is the zero vector"),
         (lambda: compound_pendulum(_ball(center=(0, 0, -1)), (0, 0)), ValueError, r"pivot must be a 3-vector"),
         (lambda: equivalent_length(_ball(center=(0, 0, -1)), (0, 0, 0), g=0.0), ValueError, r"g is 0.0"),
+        (lambda: _ball().inertia_about((0.0, 1.0)), ValueError, r"point must be a 3-vector"),
+        (lambda: rigid_body_system([_ball()], springs=None), TypeError, r"springs must be a sequence of LinearSpring"),
     ],
 )
 def test_bad_input(call, error, pattern):
@@ -374,3 +377,10 @@ def test_rod_without_inertia_about_the_swing_axis():
     rod = RigidBody(1.0, rod_inertia(1.0, 1.0), center=(0.0, 0.0, 0.0))
     with pytest.raises(ValueError, match="no inertia about the axis"):
         compound_pendulum(rod, (0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0))
+
+
+def test_docstring_examples_run():
+    import vibra.rigid
+
+    failures, attempted = doctest.testmod(vibra.rigid, optionflags=doctest.ELLIPSIS)
+    assert attempted > 0 and failures == 0

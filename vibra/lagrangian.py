@@ -34,6 +34,7 @@ import sympy
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
+from vibra.pendulum import _tolerances
 from vibra.system import System, _freeze_arrays
 from vibra.units import UnitSystem
 
@@ -499,16 +500,21 @@ def integrate_double_pendulum(
 
     Raises
     ------
+    TypeError
+        A starting value, parameter or tolerance that is not a real number.
     ValueError
-        Non-positive parameters, non-finite starting values, t not 1-D increasing.
+        Non-finite starting values, t not 1-D increasing, non-positive parameters or
+        tolerances.
     RuntimeError
         The integrator fails.
     """
     from scipy.integrate import solve_ivp
 
-    parameters = _pendulum_parameters(m, m_prime, a, b, g)
-    start = _validate.real_array([theta0, phi0, theta_dot0, phi_dot0], "initial state", ndim=1)
+    start = np.array([_real_scalar(value, name) for value, name in
+                      ((theta0, "theta0"), (phi0, "phi0"), (theta_dot0, "theta_dot0"), (phi_dot0, "phi_dot0"))])
     times = _times(t)
+    parameters = _pendulum_parameters(m, m_prime, a, b, g)
+    rtol, atol = _tolerances(rtol, atol)
     solution = solve_ivp(double_pendulum_rhs, (times[0], times[-1]), start, method="DOP853",
                          t_eval=times, args=parameters, rtol=rtol, atol=atol)
     if not solution.success:

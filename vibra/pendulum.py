@@ -158,7 +158,29 @@ def _amplitudes(amplitude: ArrayLike, name: str = "amplitude") -> NDArray[np.flo
     return values
 
 
+def _release_angle(angle: float) -> float:
+    """A starting angle of a motion released at rest: |theta0| < pi (0 is the trivial rest)."""
+    value = _real_scalar(angle, "amplitude")
+    if not abs(value) < np.pi:
+        raise ValueError(
+            f"amplitude is {value!r} rad; a release angle must lie in (-pi, pi) "
+            "(at +-pi the pendulum stands on its unstable equilibrium and never swings)"
+        )
+    return value
+
+
 _times = _validate.increasing_times
+
+
+def _tolerances(rtol: float, atol: float) -> tuple[float, float]:
+    """(rtol, atol) for `scipy.integrate.solve_ivp`, each positive and finite."""
+    out = []
+    for value, name in ((rtol, "rtol"), (atol, "atol")):
+        number = _real_scalar(value, name)
+        if not number > 0:
+            raise ValueError(f"{name} is {number!r}; an integration tolerance must be positive")
+        out.append(number)
+    return out[0], out[1]
 
 
 # ---------------------------------------------------------------------- periods
@@ -179,15 +201,20 @@ def exact_period(amplitude: ArrayLike, omega: float = 1.0) -> NDArray[np.float64
 
     Raises
     ------
+    TypeError
+        amplitude or omega not real numbers.
     ValueError
-        An amplitude outside (0, pi); omega not positive.
+        An amplitude outside (0, pi) (a period depends on |theta0| only); omega not positive.
 
     Examples
     --------
     >>> import numpy as np
     >>> from vibra.pendulum import exact_period
+
+    At 90 degrees the period is 18 % longer than 2 pi / Omega:
+
     >>> round(float(exact_period(np.pi / 2) / (2 * np.pi)), 6)
-    1.18034
+    1.180341
     """
     theta0 = _amplitudes(amplitude)
     return 4.0 * special.ellipk(np.sin(0.5 * theta0) ** 2) / _omega(omega)
@@ -205,7 +232,7 @@ def exact_motion(amplitude: float, t: ArrayLike, omega: float = 1.0) -> Pendulum
     Parameters
     ----------
     amplitude : float
-        Release angle theta0, in rad, in (0, pi).
+        Release angle theta0, in rad, in (-pi, pi) (negative: released on the other side).
     t : (n_t,) array_like
         Increasing times, in time units (t = 0 is the release).
     omega : float
@@ -216,8 +243,15 @@ def exact_motion(amplitude: float, t: ArrayLike, omega: float = 1.0) -> Pendulum
     PendulumMotion
         method ``"elliptic"``; theta' = 2 k Omega (d cd/du) / cos(theta/2), with
         d cd/du = -(1 - k^2) sn / dn^2.
+
+    Raises
+    ------
+    TypeError
+        amplitude or omega not a real number.
+    ValueError
+        |amplitude| >= pi; omega not positive; t not 1-D, finite and increasing.
     """
-    theta0 = float(_amplitudes(amplitude))
+    theta0 = _release_angle(amplitude)
     times = _times(t)
     w = _omega(omega)
     k = np.sin(0.5 * theta0)
@@ -236,8 +270,8 @@ def harmonic_motion(amplitude: float, t: ArrayLike, omega: float = 1.0, *, eta: 
     Parameters
     ----------
     amplitude : float
-        Release angle theta0, in rad (any value: the approximation does not care, but it
-        is only meaningful for small ones), in (0, pi).
+        Release angle theta0, in rad, in (-pi, pi) (the approximation is only meaningful
+        for small ones; the range is that of `exact_motion`, for comparisons).
     t : (n_t,) array_like
         Increasing times, in time units.
     omega : float
@@ -249,8 +283,16 @@ def harmonic_motion(amplitude: float, t: ArrayLike, omega: float = 1.0, *, eta: 
     -------
     PendulumMotion
         method ``"harmonic"``.
+
+    Raises
+    ------
+    TypeError
+        amplitude, omega or eta not a real number.
+    ValueError
+        |amplitude| >= pi; omega not positive; eta negative or >= 2 omega; t not 1-D,
+        finite and increasing.
     """
-    theta0 = float(_amplitudes(amplitude))
+    theta0 = _release_angle(amplitude)
     times = _times(t)
     w0 = _omega(omega)
     rate = _eta(eta)
@@ -283,7 +325,8 @@ def damped_motion(
     Parameters
     ----------
     amplitude : float
-        Starting angle, in rad, in (0, pi).
+        Starting angle theta(t[0]), in rad: any finite value (with `velocity`, a pendulum
+        kicked from its rest position starts at 0).
     t : (n_t,) array_like
         Increasing output times, in time units, from the start.
     omega : float
@@ -302,18 +345,22 @@ def damped_motion(
 
     Raises
     ------
+    TypeError
+        A scalar argument that is not a real number.
     ValueError
-        amplitude outside (0, pi), omega not positive, eta negative, t not increasing.
+        amplitude or velocity not finite, t not 1-D and increasing, omega not positive,
+        eta negative, rtol or atol not positive.
     RuntimeError
         The integrator fails.
     """
     from scipy.integrate import solve_ivp
 
-    theta0 = float(_amplitudes(amplitude))
+    theta0 = _real_scalar(amplitude, "amplitude")
     times = _times(t)
     w = _omega(omega)
     rate = _eta(eta)
     speed = _real_scalar(velocity, "velocity")
+    rtol, atol = _tolerances(rtol, atol)
 
     def rhs(_: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.array([y[1], -rate * y[1] - w * w * np.sin(y[0])])
@@ -346,6 +393,13 @@ def harmonic_error(
     Returns
     -------
     HarmonicError
+
+    Raises
+    ------
+    TypeError
+        A scalar argument that is not a real number; n_points not an int.
+    ValueError
+        An amplitude outside (0, pi); omega or n_periods not positive; n_points < 2.
     """
     theta0 = np.atleast_1d(_amplitudes(amplitudes, "amplitudes"))
     w = _omega(omega)

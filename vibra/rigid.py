@@ -263,12 +263,7 @@ class LinearSpring:
     direction: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
-        for field in ("body_a", "body_b"):
-            _body_index(getattr(self, field), field)
-        if self.body_a is None and self.body_b is None:
-            raise ValueError("body_a and body_b are both None; a spring must hold at least one body")
-        if self.body_a is not None and self.body_a == self.body_b:
-            raise ValueError(f"body_a and body_b are both {self.body_a}; a spring joins two different bodies")
+        _body_pair(self.body_a, self.body_b, "a spring")
         object.__setattr__(self, "point_a", _vector3(self.point_a, "point_a"))
         object.__setattr__(self, "point_b", _vector3(self.point_b, "point_b"))
         object.__setattr__(self, "stiffness", _positive_scalar(self.stiffness, "stiffness"))
@@ -308,16 +303,21 @@ class TorsionSpring:
     axis: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
-        for field in ("body_a", "body_b"):
-            _body_index(getattr(self, field), field)
-        if self.body_a is None and self.body_b is None:
-            raise ValueError("body_a and body_b are both None; a torsion spring must hold at least one body")
-        if self.body_a is not None and self.body_a == self.body_b:
-            raise ValueError(f"body_a and body_b are both {self.body_a}; a spring joins two different bodies")
+        _body_pair(self.body_a, self.body_b, "a torsion spring")
         object.__setattr__(self, "stiffness", _positive_scalar(self.stiffness, "stiffness"))
         if self.axis is not None:
             object.__setattr__(self, "axis", _unit3(self.axis, "axis"))
         _freeze_arrays(self)
+
+
+def _body_pair(body_a: Any, body_b: Any, what: str) -> None:
+    """Check the two body indices of `what` (a spring): each an int >= 0 or None, not equal."""
+    _body_index(body_a, "body_a")
+    _body_index(body_b, "body_b")
+    if body_a is None and body_b is None:
+        raise ValueError(f"body_a and body_b are both None; {what} must hold at least one body")
+    if body_a is not None and body_a == body_b:
+        raise ValueError(f"body_a and body_b are both {body_a}; {what} joins two different bodies")
 
 
 def _body_index(value: Any, name: str) -> None:
@@ -401,6 +401,16 @@ def equivalent_length(body: RigidBody, pivot: ArrayLike, axis: ArrayLike = (1.0,
     ValueError
         As `compound_pendulum`; also when gravity gives no restoring torque (G on the axis,
         or a vertical axis) or G sits above the axis (an unstable equilibrium).
+
+    Examples
+    --------
+    A uniform rod of length 1.2 m hung from one end swings like a simple pendulum of
+    length 2L/3 = 0.8 m (seed 000, problem I):
+
+    >>> from vibra.rigid import RigidBody, equivalent_length, rod_inertia
+    >>> rod = RigidBody(0.5, rod_inertia(0.5, 1.2), center=(0.0, 0.0, -0.6))
+    >>> round(equivalent_length(rod, pivot=(0.0, 0.0, 0.0)), 12)
+    0.8
     """
     system = compound_pendulum(body, pivot, axis, g=g)
     stiffness = float(system.hessian().toarray()[0, 0])

@@ -182,8 +182,8 @@ def plot_time_series(
     labels: Sequence[str],
     *,
     styles: Sequence[str] | None = None,
-    time_label: str = "time t (time unit)",
-    value_label: str = "displacement u (length)",
+    time_label: str,
+    value_label: str,
     title: str | None = None,
 ) -> Figure:
     """Several signals against the same times, one line each.
@@ -199,7 +199,8 @@ def plot_time_series(
     styles : (n_series,) sequence of str, optional
         matplotlib format strings (e.g. "-", "--", ":"); solid lines by default.
     time_label, value_label : str
-        Axis labels, with units.
+        Axis labels with their units, e.g. ``"time t (s)"``; required, as the signals
+        carry no unit of their own.
     title : str, optional
         Figure title.
 
@@ -210,7 +211,7 @@ def plot_time_series(
     Raises
     ------
     TypeError
-        labels or styles not a sequence of str.
+        labels or styles not a sequence of str; time_label or value_label not a str.
     ValueError
         series not 2-D, or with another number of columns than t has times.
     """
@@ -220,6 +221,9 @@ def plot_time_series(
         raise ValueError(f"series has {values.shape[1]} columns; expected {times.shape[0]}, one per time")
     names = _labels(labels, values.shape[0], "labels")
     formats = _labels(styles, values.shape[0], "styles") if styles is not None else ["-"] * values.shape[0]
+    for label, name in ((time_label, "time_label"), (value_label, "value_label")):
+        if not isinstance(label, str):
+            raise TypeError(f"{name} must be a str (an axis label with its unit), got {type(label).__name__}")
     fig, ax = new_figure(figsize=(10.0, 4.6))
     for row, (name, fmt) in enumerate(zip(names, formats)):
         ax.plot(times, values[row], fmt, label=name)

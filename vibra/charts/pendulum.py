@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
+from vibra import _validate
 from vibra.charts._style import new_figure
 from vibra.modes import Modes
 from vibra.pendulum import HarmonicError, PendulumMotion
@@ -66,12 +67,25 @@ def plot_double_pendulum_modes(modes: Modes, a: float, b: float, *, amplitude: f
     a, b : float
         Lengths of the upper and lower string, in m.
     amplitude : float
-        Largest angle drawn, in rad.
+        Largest angle drawn, in rad, in (0, pi/2].
+
+    Raises
+    ------
+    TypeError
+        modes not a Modes; a, b or amplitude not real numbers.
+    ValueError
+        modes without the 2 shapes of a double pendulum; a, b not positive; amplitude
+        outside (0, pi/2].
     """
     if not isinstance(modes, Modes):
         raise TypeError(f"modes must be a Modes, got {type(modes).__name__}")
     if modes.shapes is None or modes.shapes.shape != (2, 2):
         raise ValueError("modes must hold the 2 mode shapes of a double pendulum (computed with vectors=True)")
+    for value, name in ((a, "a"), (b, "b")):
+        if not _validate.real_scalar(value, name) > 0:
+            raise ValueError(f"{name} is {value!r} m; a string length must be positive")
+    if not 0 < _validate.real_scalar(amplitude, "amplitude") <= np.pi / 2:
+        raise ValueError(f"amplitude is {amplitude!r} rad; the drawn angle must lie in (0, pi/2]")
     fig, axes = new_figure(1, 2, figsize=(10.0, 4.8))
     reach = a + b
     for k, ax in enumerate(axes):
