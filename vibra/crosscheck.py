@@ -289,7 +289,7 @@ def _run_phonopy(atoms: Any, calculator: Any, delta: float, box: float
     work.pbc = False
     work.calc = calculator
     forces = []
-    for cell in phonon.supercells_with_displacements:
+    for cell in phonon.supercells_with_displacements or []:
         work.set_positions(np.asarray(cell.positions) - offset)
         values = np.asarray(work.get_forces(), dtype=float)
         if not np.all(np.isfinite(values)):

@@ -378,9 +378,9 @@ def _check_atoms(atoms: Any, name: str = "atoms") -> tuple[NDArray[np.float64], 
 
         distance = squareform(pdist(positions))
         np.fill_diagonal(distance, np.inf)
-        i, j = np.unravel_index(np.argmin(distance), distance.shape)
+        first, second = (int(x) for x in np.unravel_index(np.argmin(distance), distance.shape))
+        i, j = min(first, second), max(first, second)
         if distance[i, j] < MIN_DISTANCE:
-            i, j = min(i, j), max(i, j)
             raise ValueError(
                 f"{name}: atoms {i} and {j} overlap (distance {distance[i, j]:.3g} Angstrom < "
                 f"{MIN_DISTANCE} Angstrom)"
@@ -514,7 +514,8 @@ def valence_model(
     for i, j in bond_array:
         neighbours[i].append(int(j))
         neighbours[j].append(int(i))
-    angles, linear = [], []
+    angles: list[tuple[int, int, int]] = []
+    linear: list[tuple[int, int, int]] = []
     if bend is not None:
         for j in range(n):
             for p, i in enumerate(neighbours[j]):
@@ -529,7 +530,8 @@ def valence_model(
         if linear_bend is None and len(linear_array):
             raise ValueError("linear_bend is required when bend is given per angle and the molecule "
                              f"has {len(linear_array)} linear angle(s)")
-    linear_k = _per_term(linear_bend, len(linear_array), "linear_bend") if len(linear_array) else np.zeros(0)
+    linear_k = (_per_term(linear_bend, len(linear_array), "linear_bend")  # type: ignore[arg-type]
+                if len(linear_array) else np.zeros(0))
     quads = []
     if torsion is not None:
         straight = {tuple(t) for t in linear_array.tolist()} | {tuple(t[::-1]) for t in linear_array.tolist()}
