@@ -75,6 +75,17 @@ def test_validate_missing_file() -> None:
     assert run.returncode == 1 and "no/such/scene.toml: file not found" in run.stdout
 
 
+def test_closed_output_pipe_is_not_a_traceback() -> None:
+    # `vibra validate ... | head -1`: the reader is gone before vibra writes (closed at once,
+    # while the interpreter is still starting), so the first print meets a broken pipe.
+    process = subprocess.Popen([sys.executable, "-m", "vibra", "validate", "chains", "molecules"], cwd=ROOT,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert process.stdout is not None
+    process.stdout.close()
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 1 and "Traceback" not in stderr, stderr
+
+
 def test_modes_table_matches_seed_eq_157() -> None:
     run = vibra("modes", "molecules/co2-axial.toml")
     assert run.returncode == 0, run.stderr

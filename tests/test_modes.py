@@ -396,3 +396,11 @@ def test_banded_path_on_a_3d_chain_and_sparse_diagonal_mass(rng: np.random.Gener
     assert subset.residual < 1e-12 and subset.orthogonality < 1e-12
     with pytest.raises(ValueError, match=r"solver='banded' needs diagonal masses"):
         normal_modes(np.eye(2), np.eye(2), solver="banded")
+
+
+@pytest.mark.parametrize("solver", ["auto", "dense", "tridiagonal", "sparse"])
+def test_empty_band_returns_no_modes(solver: str) -> None:
+    system = free_chain(50)
+    K, M = system.hessian(), system.mass_matrix()
+    modes = normal_modes(K, M, band=(5.0, 6.0), solver=solver)  # above the band edge 2
+    assert modes.n_modes == 0 and modes.shapes is not None and modes.shapes.shape == (50, 0)

@@ -15,7 +15,7 @@ import pytest
 from PIL import Image
 
 from vibra.plan import build_system
-from vibra.render import MAX_CHAIN_SITES, SceneRenderer, _inversion_parity, write_gif, write_png
+from vibra.render import MAX_CHAIN_SITES, SceneRenderer, _inversion_parity, chain_sites, write_gif, write_png
 from vibra.scene import Scene
 
 SIZE = (320, 200)
@@ -87,8 +87,69 @@ def test_long_chain_is_decimated(renderer: SceneRenderer, tmp_path: Path) -> Non
     system = build_system(sc)
     modes = system.modes(3)
     [(name, caption)] = renderer.render_modes(sc, system, modes, [0], tmp_path)
-    assert f"{MAX_CHAIN_SITES} evenly spaced sites of 500 shown" in caption
+    assert "one site in 13 shown (39 of 500, evenly spaced)" in caption  # ceil(500 / 41) = 13
     assert image(tmp_path / name).std() > MIN_STD
+
+
+@pytest.mark.parametrize("n", [41, 42, 64, 500, 10**6])
+def test_decimated_chain_sites_are_evenly_spaced(n: int) -> None:
+    # Regression: rounding linspace(0, n - 1, 41) drew 64 sites as uneven pairs.
+    sites = chain_sites(np.ones(n))
+    steps = np.diff(sites)
+    assert sites[0] == 0 and len(sites) <= MAX_CHAIN_SITES
+    assert np.all(steps == steps[0]) if len(steps) else n == 1
+    assert len(sites) == n or steps[0] == -(-n // MAX_CHAIN_SITES)  # the smallest stride that fits
+
+
+def test_decimated_diatomic_chain_keeps_both_masses() -> None:
+    masses = np.tile([1.0, 3.0], 64)  # 128 sites: stride ceil(128 / 41) = 4 would show only m1
+    sites = chain_sites(masses)
+    assert len(sites) <= MAX_CHAIN_SITES and np.all(np.diff(sites) == sites[1] - sites[0])
+    assert set(masses[sites]) == {1.0, 3.0}
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance from point p to the segment [a, b]."""
+    t = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+    return float(np.linalg.norm(p - (a + t * (b - a))))
+
+
+@pytest.mark.parametrize("builder, dims", [("co2", 1), ("co2", 3), ("h2o", 3)])
+def test_molecule_arrows_stay_clear_of_the_bonds(builder: str, dims: int) -> None:
+    # Regression: the asymmetric stretch's arrows ran inside the bond tubes and neighbouring
+    # atoms, hidden. Invariant from geometry: every point of every arrow lies outside every
+    # bond tube (radius 0.1 bond length, as drawn) and outside every other atom's sphere.
+    from ase.data import covalent_radii
+
+    from vibra.render import _arrow_start, _bonds, _displacements3, _elements, _positions3
+
+    system_table = {"builder": builder, **({"dims": dims} if builder == "co2" else {})}
+    sc = scene({"kind": "molecule", "name": "m", "system": system_table})
+    system = build_system(sc)
+    modes = system.modes()
+    positions = _positions3(system)
+    numbers = _elements(system, None)
+    bonds = _bonds(positions, numbers, None)
+    reference = min(np.linalg.norm(positions[i] - positions[j]) for i, j in bonds)
+    radii = 0.35 * covalent_radii[numbers] + 0.1  # as drawn by SceneRenderer
+    checked = 0
+    for k in np.flatnonzero(~modes.zero_modes(1e-6)):
+        displacement = _displacements3(system, modes.shapes[:, k])
+        displacement *= 0.8 * reference / np.linalg.norm(displacement, axis=1).max()
+        for i in range(len(positions)):
+            vector = displacement[i]
+            if np.linalg.norm(vector) < 1e-3 * reference:
+                continue
+            start = _arrow_start(positions, bonds, i, vector, float(radii[i]))
+            for t in np.linspace(0.0, 1.0, 21):
+                point = start + t * vector
+                for a, b in bonds:
+                    assert _segment_distance(point, positions[a], positions[b]) > 0.1 * reference, (k, i, t)
+                for j in range(len(positions)):
+                    if j != i:
+                        assert np.linalg.norm(point - positions[j]) > radii[j], (k, i, j, t)
+            checked += 1
+    assert checked >= 4
 
 
 def test_beaded_string_arrows_are_transverse(renderer: SceneRenderer, tmp_path: Path) -> None:

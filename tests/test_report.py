@@ -16,7 +16,7 @@ from PIL import Image
 
 from vibra import molecules
 from vibra.plan import PlanResult, StepRecord, build_system, execute, make_plan
-from vibra.report import BatchResult, SceneOutcome, atomic_write_text, report, run_scene
+from vibra.report import BatchResult, SceneOutcome, atomic_write_text, report, run_scene, spectrum_figure
 from vibra.scene import Scene, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -249,3 +249,103 @@ response = true
     for outcome in result.outcomes:
         for name in outcome.outputs:
             assert pixels(tmp_path / "out" / name).std() > 5.0
+
+
+# ---------------------------------------------------------------------- charts
+@pytest.mark.parametrize("file_name", ["chains/monatomic-free.toml", "molecules/h2o.toml", "chains/mass-defect.toml",
+                                       "chains/long-chain.toml"])
+def test_spectrum_labels_are_distinct_apart_and_inside(file_name: str) -> None:
+    # Regression: close sticks (H2O's two stretches, the top of a chain's band, the two
+    # modes at the band edge of the mass-defect chain) had overlapping or identical labels,
+    # and the outermost ones were cut at the axes edge. Checked on the drawn text boxes.
+    scene = load_scene(ROOT / file_name)
+    if scene.system.builder == "linear_chain" and scene.system.parameters["n"] > 1000:
+        system = build_system(dataclasses.replace(scene, system=dataclasses.replace(
+            scene.system, parameters={**scene.system.parameters, "n": 2000})))  # same labels, fast
+    else:
+        system = build_system(scene)
+    modes = system.modes(scene.compute.n_modes, band=scene.compute.band, vectors=False)
+    figure, _ = spectrum_figure(scene, modes)
+    renderer = figure.canvas.get_renderer()
+    axes = figure.axes[0]
+    labels = [t for t in axes.texts if t.get_text()]
+    assert len(labels) == int((~modes.zero_modes(1e-6)).sum())  # one per non-zero stick here
+    assert len({t.get_text() for t in labels}) == len(labels)
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    frame = axes.get_window_extent(renderer)
+    for a, box in enumerate(boxes):
+        assert frame.x0 <= box.x0 and box.x1 <= frame.x1 and box.y1 <= frame.y1, labels[a].get_text()
+        for other in boxes[a + 1:]:
+            assert not box.overlaps(other), (labels[a].get_text(), box, other)
+
+
+def test_response_chart_names_scene_and_receptance_unit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The generic FRF chart labels |x| in "length"; a report of an SI scene says m/N.
+    import vibra.plan
+
+    seen = []
+    monkeypatch.setattr(vibra.plan, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    scene = load_scene(ROOT / "chains" / "forced-damped.toml")
+    plan = make_plan(dataclasses.replace(scene, draw=dataclasses.replace(scene.draw, spectrum=False)))
+    execute(plan, tmp_path, tmp_path)
+    [figure] = seen
+    assert "(m/N)" in figure.axes[0].get_ylabel() and "length" not in figure.axes[0].get_ylabel()
+    assert figure.axes[0].get_title().startswith(scene.title)
+
+
+def test_oscillator_chart_in_si_units(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The generic oscillator chart says "rad / time unit" and "length"; an SI scene says rad/s and m.
+    import vibra.plan
+
+    seen = []
+    monkeypatch.setattr(vibra.plan, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    scene = Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator"}, "draw": {"response": True}},
+                            source="osc.toml")
+    execute(make_plan(scene), tmp_path, tmp_path)
+    [figure] = seen
+    assert [a.get_xlabel() for a in figure.axes[:2]] == ["driving angular frequency $\\omega$ (rad/s)"] * 2
+    assert figure.axes[0].get_ylabel().endswith("(m)")
+
+
+# ---------------------------------------------------------------------- failures
+def test_empty_band_fails_with_a_clear_message(tmp_path: Path) -> None:
+    path = write(tmp_path, "empty.toml", """kind = "chain"
+[system]
+builder = "linear_chain"
+n = 4
+[compute]
+band = [100.0, 200.0]
+[draw]
+spectrum = true
+""")  # omega of a 4-mass free chain with unit springs and masses stays below 2 rad/s
+    outcome = run_scene(path, tmp_path / "out")
+    assert outcome.status == "failed"
+    assert "compute.band: no mode has omega in [100, 200] rad/s" in outcome.error
+
+
+def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The modes image is rendered (into the scene's work folder) before the spectrum step
+    # fails: the output folder must get neither that image nor a manifest.
+    import vibra.plan
+
+    rendered = []
+    render_step = vibra.plan._STEPS["render-modes"]
+
+    def render_and_remember(plan: object, context: object, renderer: object) -> tuple[None, None]:
+        result = render_step(plan, context, renderer)
+        rendered.extend(context.out_dir / name for name in context.outputs)  # type: ignore[attr-defined]
+        return result
+
+    def fail(plan: object, context: object, renderer: object) -> None:
+        assert all(path.is_file() for path in rendered) and rendered  # drawn, not yet published
+        raise RuntimeError("disk full")
+
+    monkeypatch.setitem(vibra.plan._STEPS, "render-modes", render_and_remember)
+    monkeypatch.setitem(vibra.plan._STEPS, "chart-spectrum", fail)
+    path = write(tmp_path, "late.toml", CHAIN)
+    out = tmp_path / "out"
+    outcome = run_scene(path, out)
+    assert outcome.status == "failed" and "RuntimeError: disk full" in outcome.error
+    assert [p.name for p in rendered] == ["late_modes.png"]
+    assert [p.name for p in out.iterdir() if not p.name.startswith(".")] == []
+    assert not list(out.rglob("*.png")) and not (out / ".vibra" / "late.json").exists()

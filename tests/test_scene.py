@@ -188,10 +188,75 @@ def test_every_builder_serves_a_known_kind() -> None:
      r"draw\.modes: an oscillator scene draws only its response"),
     ({"kind": "oscillator", "system": {"builder": "oscillator", "gamma": [0.5, -1.0]}},
      r"system\.gamma: \[1\] must be >= 0, got -1\.0"),
+    # impossible values caught before any work (they used to fail only while building)
+    (chain(frozen_sites=[0, 9]), r"system\.frozen_sites\[1\]: is 9; sites run from 0 to 3"),
+    (chain(frozen_dofs=[4]), r"system\.frozen_dofs\[0\]: is 4; degrees of freedom run from 0 to 3"),
+    ({"kind": "chain", "system": {"builder": "beaded_string", "n": 3, "frozen_dofs": [6]}},
+     r"system\.frozen_dofs\[0\]: is 6; degrees of freedom \(site \* 2 \+ axis\) run from 0 to 5"),
+    (chain(frozen_sites=[0, 1, 2, 3]), r"system\.frozen_sites: holds every degree of freedom at rest"),
+    (chain(frozen_sites=[0, 1], frozen_dofs=[2, 3]), r"system\.frozen_dofs: holds every degree of freedom at rest"),
+    ({"kind": "chain", "system": {"builder": "beaded_string", "n": 2, "frozen_dofs": [1, 3]}},
+     r"system\.frozen_dofs: holds every degree of freedom at rest"),  # x is already held: 2 dof, both frozen
+    ({**chain(frozen_sites=[1, 1]), "compute": {"n_modes": 4}},  # a repeated site is frozen once: 3 dof
+     r"compute\.n_modes: is 4; the system has only 3 degrees of freedom"),
+    ({"kind": "molecule", "system": {"builder": "co2", "dims": 3, "frozen_sites": [1]}, "compute": {"n_modes": 7}},
+     r"compute\.n_modes: is 7; the system has only 6 degrees of freedom"),
+    ({**chain(), "compute": {"response": {"omega_min": 0.0, "omega_max": 1.0, "method": "modal", "n_modes": 5}}},
+     r"compute\.response\.n_modes: is 5; the system has only 4 degrees of freedom"),
+    ({"kind": "chain", "system": {"builder": "springs", "positions": [0.0, 1.0], "masses": 1.0,
+                                   "springs": [[1, 1]], "stiffness": 1.0}},
+     r"system\.springs\[0\]: is \[1, 1\]; a spring joins two different sites"),
+    ({"kind": "chain", "system": {"builder": "springs", "positions": [0.0, 1.0], "masses": 1.0,
+                                   "springs": [[0, 1]], "stiffness": 1.0, "anchors": [0, 2],
+                                   "anchor_stiffness": 1.0}},
+     r"system\.anchors\[1\]: is 2; site indices run from 0 to 1"),
+    ({"kind": "chain", "system": {"builder": "springs", "positions": [0.0, 1.0], "masses": 1.0,
+                                   "springs": [[0, 1]], "stiffness": 1.0, "anchors": [0]}},
+     r"system\.anchor_stiffness: is required with anchors"),
+    ({"kind": "chain", "system": {"builder": "springs", "positions": [0.0, 1.0], "masses": 1.0,
+                                   "springs": [[0, 1]], "stiffness": 1.0, "anchor_stiffness": 2.0}},
+     r"system\.anchor_stiffness: is given but there are no anchors"),
+    ({"kind": "chain", "system": {"builder": "springs", "positions": [0.0, 1.0], "masses": 1.0,
+                                   "springs": [[0, 1]], "stiffness": 1.0, "anchors": [0, 1],
+                                   "anchor_stiffness": [1.0, 2.0, 3.0]}},
+     r"system\.anchor_stiffness: needs 2 values \(one per anchor\), got 3"),
+    ({"kind": "molecule", "system": {"builder": "springs", "positions": [[0, 0, 0], [1.1, 0, 0]],
+                                      "masses": [12.0, 16.0], "springs": [[0, 1]], "stiffness": 50.0,
+                                      "symbols": ["C", "Xx"]}},
+     r"system\.symbols\[1\]: is 'Xx', not a chemical symbol"),
 ])
 def test_validation_messages(data: dict[str, object], message: str) -> None:
     with pytest.raises(SceneError, match=r"^scene\.toml: " + message):
         Scene.from_dict(data, source="scene.toml")
+
+
+def test_unsafe_file_stem_names_the_file_and_the_fix() -> None:
+    # No `name` key: the name comes from the file, so the message says so and how to fix it.
+    with pytest.raises(SceneError, match=r"^chains/my scene\.toml: name: 'my scene' \(the file name, as no name "
+                       r"is given\) is not a safe file name: .*no spaces.*; rename the file or add a name"):
+        Scene.from_dict(chain(), source="chains/my scene.toml")
+    assert Scene.from_dict({**chain(), "name": "my-scene"}, source="chains/my scene.toml").name == "my-scene"
+
+
+@pytest.mark.parametrize("system", [
+    {"builder": "linear_chain", "n": 6, "frozen_sites": [0, 0, 5], "frozen_dofs": [5, 2]},
+    {"builder": "beaded_string", "n": 5, "frozen_sites": [4], "frozen_dofs": [0, 1, 3]},
+    {"builder": "diatomic_chain", "n_cells": 3, "masses": [1.0, 2.0], "frozen_dofs": [1]},
+    {"builder": "springs", "positions": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], "masses": 1.0,
+     "springs": [[0, 1], [0, 2]], "stiffness": 1.0, "frozen_sites": [2], "frozen_dofs": [0, 5]},
+    {"builder": "co2", "dims": 1, "frozen_dofs": [0]},
+    {"builder": "h2o", "frozen_sites": [0], "frozen_dofs": [0, 3]},
+])
+def test_schema_dof_count_matches_the_built_system(system: dict[str, object]) -> None:
+    # Truth: the System that vibra.system builds. n_modes = its dof count must pass the schema
+    # check and one more must fail it, naming that count.
+    from vibra.plan import build_system
+
+    kind = "molecule" if system["builder"] in ("co2", "h2o") else "chain"
+    n_dof = build_system(Scene.from_dict({"kind": kind, "system": system}, source="s.toml")).n_dof
+    Scene.from_dict({"kind": kind, "system": system, "compute": {"n_modes": n_dof}}, source="s.toml")
+    with pytest.raises(SceneError, match=rf"compute\.n_modes: is {n_dof + 1}; the system has only {n_dof} "):
+        Scene.from_dict({"kind": kind, "system": system, "compute": {"n_modes": n_dof + 1}}, source="s.toml")
 
 
 def test_name_required_without_a_file() -> None:

@@ -150,3 +150,8 @@ def test_generalized_validation() -> None:
         System.generalized(np.eye(2), np.eye(2), coordinates=["a"])
     with pytest.raises(ValueError, match=r"accuracy is 'best'"):
         System.generalized(np.eye(2), np.eye(2)).modes(accuracy="best")  # type: ignore[arg-type]
+
+
+def test_frozen_dofs_out_of_range_names_dof_indices() -> None:
+    with pytest.raises(ValueError, match=r"frozen_dofs\[0\] is 9; dof indices run from 0 to 3"):
+        System.from_springs(np.zeros((2, 2)) + [[0.0, 0.0], [1.0, 0.0]], 1.0, [[0, 1]], 1.0, frozen_dofs=[9])

@@ -139,6 +139,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("\nvibra: interrupted; finished images are complete, unfinished scenes left no output",
               file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into a reader that stopped (`vibra validate ... | head`)
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return 1
 
 
 if __name__ == "__main__":

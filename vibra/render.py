@@ -14,15 +14,17 @@ half-written PNG. One `SceneRenderer` reuses its plotters for all images of a sc
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SceneRenderer", "write_png", "write_gif", "molecule_symbols", "molecule_bonds", "MAX_CHAIN_SITES"]
+__all__ = ["SceneRenderer", "write_png", "write_gif", "molecule_symbols", "molecule_bonds", "chain_sites",
+           "MAX_CHAIN_SITES"]
 
 #: Largest number of sites drawn in a chain row; longer chains are decimated evenly.
 MAX_CHAIN_SITES = 41
@@ -85,6 +87,23 @@ def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str],
 
 
 # ---------------------------------------------------------------------- geometry helpers
+def chain_sites(masses: ArrayLike) -> NDArray[np.intp]:
+    """(n_shown,) indices of the chain sites drawn, for a chain of these (n_sites,) masses.
+
+    All sites up to `MAX_CHAIN_SITES`; else every s-th site, with the smallest stride s that
+    keeps at most `MAX_CHAIN_SITES`, so the drawn row stays evenly spaced. When the masses
+    repeat with a short period (a diatomic chain: 2), s is made prime to that period so that
+    every kind of mass still appears in the row.
+    """
+    values = np.asarray(masses, dtype=float)
+    n_sites = len(values)
+    stride = -(-n_sites // MAX_CHAIN_SITES)  # ceil
+    period = next((p for p in range(1, 5) if np.array_equal(values[p:], values[:-p])), 1)
+    while stride > 1 and math.gcd(stride, period) != 1:
+        stride += 1
+    return np.arange(0, n_sites, stride, dtype=np.intp)
+
+
 def _positions3(system: Any) -> NDArray[np.float64]:
     positions = np.asarray(system.positions, dtype=float)
     out = np.zeros((positions.shape[0], 3))
@@ -140,6 +159,40 @@ def _bonds(positions: NDArray[np.float64], numbers: list[int],
             if np.linalg.norm(positions[i] - positions[j]) <= limit:
                 bonds.append((i, j))
     return bonds
+
+
+#: An arrow whose direction is within ~25 degrees of a bond (cosine above this) would run
+#: inside that bond's tube and the neighbouring atom, hidden from view.
+_ALONG_BOND = 0.9
+
+
+def _arrow_start(positions: NDArray[np.float64], bonds: Sequence[tuple[int, int]], i: int,
+                 vector: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
+    """Where atom i's displacement arrow starts (Angstrom) so that it stays visible.
+
+    - pointing away from every bond: from the atom's surface outwards;
+    - pointing into a bond but free behind: ending on the atom's surface (pushing it);
+    - bonds on both sides (the centre of a linear molecule): lifted off the bond axis by
+      1.6 radii, perpendicular to the motion, and centred over the atom.
+    """
+    norm = float(np.linalg.norm(vector))
+    direction = vector / norm
+    neighbours = [j for a, b in bonds for j, k in ((b, a), (a, b)) if k == i]
+    units = [(positions[j] - positions[i]) / max(float(np.linalg.norm(positions[j] - positions[i])), 1e-300)
+             for j in neighbours]
+
+    def blocked(d: NDArray[np.float64]) -> bool:
+        return any(float(u @ d) > _ALONG_BOND for u in units)
+
+    if not blocked(direction):
+        return positions[i] + radius * direction
+    if not blocked(-direction):
+        return positions[i] - (radius + norm) * direction
+    axes = np.eye(3)[::-1]  # z first: the screen's vertical in the views used below
+    lift = axes[int(np.argmin(np.abs(axes @ direction)))]
+    lift = lift - (lift @ direction) * direction
+    lift /= np.linalg.norm(lift)
+    return positions[i] + 1.6 * radius * lift - 0.5 * vector
 
 
 def _inversion_parity(positions: NDArray[np.float64], masses: NDArray[np.float64],
@@ -315,15 +368,12 @@ class SceneRenderer:
             plotter.add_mesh(line.tube(radius=0.1 * reference), color="lightgray", smooth_shading=True,
                              opacity=0.5)  # see-through: arrows along a bond stay visible
         if arrows:
-            one_d = system.dim == 1
             for i in range(len(positions)):
                 vector = displacement[i]
-                if np.linalg.norm(vector) < 1e-3 * reference:
-                    continue
                 norm = float(np.linalg.norm(vector))
-                # start on the atom's surface so that short arrows are not hidden inside it
-                start = positions[i] + (np.array([0.0, 0.0, 1.6 * radii[i]]) if one_d
-                                        else radii[i] * vector / norm)
+                if norm < 1e-3 * reference:
+                    continue
+                start = _arrow_start(positions, bond_list, i, vector, float(radii[i]))
                 arrow = pv.Arrow(start=start, direction=vector, scale=norm,
                                  tip_length=0.3, tip_radius=0.12, shaft_radius=0.04)
                 plotter.add_mesh(arrow, color="crimson", smooth_shading=True)
@@ -346,10 +396,7 @@ class SceneRenderer:
 
     # ------------------------------------------------------------------ chains
     def _chain_sites(self, system: Any) -> NDArray[np.intp]:
-        n = system.n_sites
-        if n <= MAX_CHAIN_SITES:
-            return np.arange(n)
-        return np.unique(np.linspace(0, n - 1, MAX_CHAIN_SITES).round().astype(np.intp))
+        return chain_sites(system.masses)
 
     def _chain_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
                      out_dir: Path) -> tuple[str, str]:
@@ -361,8 +408,8 @@ class SceneRenderer:
         write_png(self._snapshot(plotter), out_dir / name)
         sites = self._chain_sites(system)
         transverse = scene.system.builder == "beaded_string"
-        note = (f"; {len(sites)} evenly spaced sites of {system.n_sites} shown (decimated window)"
-                if len(sites) < system.n_sites else "")
+        note = (f"; one site in {sites[1] - sites[0]} shown ({len(sites)} of {system.n_sites}, "
+                "evenly spaced)" if len(sites) < system.n_sites else "")
         direction = "across the string (transverse)" if transverse else "along the chain (axial motion)"
         listed = ", ".join(f"{k} ({_frequency_text(scene, modes, k)})" for k in indices)
         return name, (f"{scene.title}: modes {listed}; one row per mode, arrows {direction}, "

@@ -457,8 +457,11 @@ class Scene:
         if name is None:
             reader.fail("name", "is required when the scene has no file name")
         if not _SAFE_NAME.match(name) or ".." in name:
-            reader.fail("name", f"{name!r} is not a safe file name: use letters, digits, '_', "
-                        "'.', '-' (no '/', '..' or absolute paths); outputs stay inside the output folder")
+            given = "name" in data
+            reader.fail("name", f"{name!r}{'' if given else ' (the file name, as no name is given)'} "
+                        "is not a safe file name: use letters, digits, '_', '.', '-' (no spaces, '/', '..' "
+                        "or absolute paths); outputs stay inside the output folder"
+                        + ("" if given else "; rename the file or add a name = \"...\" line"))
         units = top["units"] or _DEFAULT_UNITS[kind]
         system = _system(reader, data["system"], kind)
         compute = _compute(reader, data.get("compute", {}), kind)
@@ -637,13 +640,18 @@ def _cross_checks(reader: _Reader, scene: Scene) -> None:
         for key in ("modes", "gif", "spectrum", "dispersion"):
             if getattr(draw, key):
                 reader.fail(f"draw.{key}", "an oscillator scene draws only its response")
-    n_dof = _count_dof(scene)
+    if scene.system.builder == "springs":
+        _check_springs(reader, params)  # before counting: the site count comes from positions
+    n_dof = _check_frozen(reader, scene)
     if n_dof is not None:
         if compute.n_modes is not None and compute.n_modes > n_dof:
             reader.fail("compute.n_modes", f"is {compute.n_modes}; the system has only {n_dof} degrees of freedom")
         if compute.response is not None and compute.response.force_site >= n_dof:
             reader.fail("compute.response.force_site",
                         f"is {compute.response.force_site}; degrees of freedom run from 0 to {n_dof - 1}")
+        if compute.response is not None and (compute.response.n_modes or 0) > n_dof:
+            reader.fail("compute.response.n_modes",
+                        f"is {compute.response.n_modes}; the system has only {n_dof} degrees of freedom")
     builder = scene.system.builder
     if builder == "linear_chain":
         n = params["n"]
@@ -656,19 +664,6 @@ def _cross_checks(reader: _Reader, scene: Scene) -> None:
             reader.fail("system.defect_site", f"is {params['defect_site']}; sites run from 0 to {n - 1}")
     if builder == "diatomic_chain" and isinstance(params["stiffness"], tuple) and len(params["stiffness"]) != 2:
         reader.fail("system.stiffness", f"needs 1 or 2 values (k1, k2), got {len(params['stiffness'])}")
-    if builder == "springs":
-        n_sites = len(params["positions"])
-        masses = params["masses"]
-        if isinstance(masses, tuple) and len(masses) != n_sites:
-            reader.fail("system.masses", f"needs {n_sites} values (one per site), got {len(masses)}")
-        for i, pair in enumerate(params["springs"]):
-            if max(pair) >= n_sites:
-                reader.fail(f"system.springs[{i}]", f"is {list(pair)}; site indices run from 0 to {n_sites - 1}")
-        stiffness = params["stiffness"]
-        if isinstance(stiffness, tuple) and len(stiffness) != len(params["springs"]):
-            reader.fail("system.stiffness", f"needs {len(params['springs'])} values (one per spring), got {len(stiffness)}")
-        if params["symbols"] is not None and len(params["symbols"]) != n_sites:
-            reader.fail("system.symbols", f"needs {n_sites} values (one per site), got {len(params['symbols'])}")
     if builder == "matrices":
         if len(params["M"]) != len(params["K"]):
             reader.fail("system.K", f"must be {len(params['M'])}x{len(params['M'])} like M, got {len(params['K'])}x{len(params['K'])}")
@@ -676,22 +671,93 @@ def _cross_checks(reader: _Reader, scene: Scene) -> None:
             reader.fail("system.coordinates", f"needs {len(params['M'])} names, got {len(params['coordinates'])}")
 
 
-def _count_dof(scene: Scene) -> int | None:
-    """Number of degrees of freedom when it follows from the parameters alone (else None)."""
+def _sites_and_dim(scene: Scene) -> tuple[int, int] | None:
+    """(number of sites, coordinates per site) of a site-based builder (None otherwise)."""
     p = scene.system.parameters
-    frozen = len(p.get("frozen_dofs") or ())
     builder = scene.system.builder
-    if builder in ("linear_chain", "beaded_string"):
-        return p["n"] - len(p.get("frozen_sites") or ()) - frozen
+    if builder == "linear_chain":
+        return p["n"], 1
     if builder == "diatomic_chain":
-        return 2 * p["n_cells"] - len(p.get("frozen_sites") or ()) - frozen
-    if builder == "co2" and not p.get("frozen_sites") and not frozen:
-        return 3 * p["dims"]
+        return 2 * p["n_cells"], 1
+    if builder == "beaded_string":
+        return p["n"], 2  # (x, y) per bead, x held at rest: transverse motion only
+    if builder == "springs":
+        first = p["positions"][0]
+        return len(p["positions"]), len(first) if isinstance(first, tuple) else 1
+    if builder == "co2":
+        return 3, p["dims"]
+    if builder == "h2o":
+        return 3, 3
+    return None
+
+
+def _check_frozen(reader: _Reader, scene: Scene) -> int | None:
+    """Check frozen_sites / frozen_dofs against the system's size; return the free dof count.
+
+    None when the count does not follow from the parameters alone.
+    """
+    p = scene.system.parameters
+    builder = scene.system.builder
     if builder == "double_pendulum":
         return 2
     if builder == "matrices":
         return len(p["M"])
-    return None
+    geometry = _sites_and_dim(scene)
+    if geometry is None:
+        return None
+    n_sites, dim = geometry
+    frozen = {s * dim for s in range(n_sites)} if builder == "beaded_string" else set()
+    for i, site in enumerate(p.get("frozen_sites") or ()):
+        if site >= n_sites:
+            reader.fail(f"system.frozen_sites[{i}]", f"is {site}; sites run from 0 to {n_sites - 1}")
+        frozen.update(site * dim + axis for axis in range(dim))
+    for i, dof in enumerate(p.get("frozen_dofs") or ()):
+        if dof >= n_sites * dim:
+            layout = f" (site * {dim} + axis)" if dim > 1 else ""
+            reader.fail(f"system.frozen_dofs[{i}]", f"is {dof}; degrees of freedom{layout} "
+                        f"run from 0 to {n_sites * dim - 1}")
+        frozen.add(dof)
+    n_dof = n_sites * dim - len(frozen)
+    if n_dof == 0:
+        key = "system.frozen_dofs" if p.get("frozen_dofs") else "system.frozen_sites"
+        reader.fail(key, "holds every degree of freedom at rest; nothing is left to vibrate")
+    return n_dof
+
+
+def _check_springs(reader: _Reader, params: Mapping[str, Any]) -> None:
+    """Index ranges, anchors and chemical symbols of the 'springs' builder."""
+    n_sites = len(params["positions"])
+    masses = params["masses"]
+    if isinstance(masses, tuple) and len(masses) != n_sites:
+        reader.fail("system.masses", f"needs {n_sites} values (one per site), got {len(masses)}")
+    for i, pair in enumerate(params["springs"]):
+        if max(pair) >= n_sites:
+            reader.fail(f"system.springs[{i}]", f"is {list(pair)}; site indices run from 0 to {n_sites - 1}")
+        if pair[0] == pair[1]:
+            reader.fail(f"system.springs[{i}]", f"is {list(pair)}; a spring joins two different sites")
+    stiffness = params["stiffness"]
+    if isinstance(stiffness, tuple) and len(stiffness) != len(params["springs"]):
+        reader.fail("system.stiffness", f"needs {len(params['springs'])} values (one per spring), got {len(stiffness)}")
+    anchors, anchor_stiffness = params["anchors"], params["anchor_stiffness"]
+    for i, site in enumerate(anchors or ()):
+        if site >= n_sites:
+            reader.fail(f"system.anchors[{i}]", f"is {site}; site indices run from 0 to {n_sites - 1}")
+    if anchors and anchor_stiffness is None:
+        reader.fail("system.anchor_stiffness", "is required with anchors (the stiffness tying each anchor "
+                    "to its rest position)")
+    if anchor_stiffness is not None and not anchors:
+        reader.fail("system.anchor_stiffness", "is given but there are no anchors; add anchors = [site, ...]")
+    if isinstance(anchor_stiffness, tuple) and anchors and len(anchor_stiffness) != len(anchors):
+        reader.fail("system.anchor_stiffness", f"needs {len(anchors)} values (one per anchor), got {len(anchor_stiffness)}")
+    symbols = params["symbols"]
+    if symbols is not None:
+        if len(symbols) != n_sites:
+            reader.fail("system.symbols", f"needs {n_sites} values (one per site), got {len(symbols)}")
+        from ase.data import atomic_numbers  # the periodic table only; no calculator
+
+        for i, symbol in enumerate(symbols):
+            if symbol not in atomic_numbers:
+                reader.fail(f"system.symbols[{i}]", f"is {symbol!r}, not a chemical symbol (e.g. 'H', 'C', 'O')")
 
 
 # ---------------------------------------------------------------------- files

@@ -192,8 +192,8 @@ def _figures(Kt: Any, eigenvalues: NDArray[np.float64], vectors: NDArray[np.floa
     error[columns] = np.maximum(error[columns], residuals)
     gram = vectors.T @ sample
     gram[columns, np.arange(len(columns))] -= 1.0
-    return SolveResult(eigenvalues, vectors, error, float(residuals.max() / norm) if n else 0.0,
-                       float(np.abs(gram).max()), solver)
+    return SolveResult(eigenvalues, vectors, error, float(residuals.max(initial=0.0) / norm),
+                       float(np.abs(gram).max(initial=0.0)), solver)
 
 
 def _sample_columns(k: int) -> NDArray[np.intp]:

@@ -510,12 +510,13 @@ def _per_item(value: ArrayLike | float | None, n: int, name: str) -> NDArray[np.
     return array
 
 
-def _index_array(value: ArrayLike, name: str, n_sites: int, *, shape: tuple[int, ...]) -> NDArray[np.intp]:
+def _index_array(value: ArrayLike, name: str, n_sites: int, *, shape: tuple[int, ...], what: str = "site"
+                 ) -> NDArray[np.intp]:
     array = np.asarray(value)
     if array.size == 0:
         return np.zeros((0,) + shape[1:], dtype=np.intp)
     if not np.issubdtype(array.dtype, np.integer):
-        raise TypeError(f"{name} must hold integer site indices, got dtype {array.dtype}")
+        raise TypeError(f"{name} must hold integer {what} indices, got dtype {array.dtype}")
     try:
         array = array.reshape(shape)
     except ValueError:
@@ -524,7 +525,7 @@ def _index_array(value: ArrayLike, name: str, n_sites: int, *, shape: tuple[int,
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {array[index]}; site indices run from 0 to {n_sites - 1}")
+        raise ValueError(f"{name}[{where}] is {array[index]}; {what} indices run from 0 to {n_sites - 1}")
     return array.astype(np.intp)
 
 
@@ -585,7 +586,7 @@ def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLik
         index = _index_array(sites, "frozen_sites", n_sites, shape=(-1,))
         mask[(index[:, None] * dim + np.arange(dim)).ravel()] = True
     if dofs is not None:
-        index = _index_array(dofs, "frozen_dofs", n_sites * dim, shape=(-1,))
+        index = _index_array(dofs, "frozen_dofs", n_sites * dim, shape=(-1,), what="dof")
         mask[index] = True
     if mask.all():
         raise ValueError("every degree of freedom is frozen; nothing is left to vibrate")
