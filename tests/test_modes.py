@@ -12,6 +12,7 @@ import warnings
 import mpmath
 import numpy as np
 import pytest
+import scipy.linalg as la
 import scipy.sparse as sp
 from hypothesis import given
 from hypothesis import strategies as st
@@ -404,3 +405,19 @@ def test_empty_band_returns_no_modes(solver: str) -> None:
     K, M = system.hessian(), system.mass_matrix()
     modes = normal_modes(K, M, band=(5.0, 6.0), solver=solver)  # above the band edge 2
     assert modes.n_modes == 0 and modes.shapes is not None and modes.shapes.shape == (50, 0)
+
+
+def test_accurate_path_with_a_dense_mass_matrix_and_few_modes(rng: np.random.Generator) -> None:
+    # A spring factor with a full SPD mass matrix, large enough for the partial (Ritz) path.
+    n = 1600
+    system = free_chain(n)
+    B, w = system.spring_factor()
+    M = np.diag(rng.uniform(1.0, 2.0, n))
+    M[0, 1] = M[1, 0] = 0.1  # a small coupling makes M a true matrix
+    K = system.hessian()
+    modes = normal_modes(K, M, n_modes=4, spring_factor=(B, w))
+    assert modes.solver == "accurate-ritz"
+    reference = la.eigh(K.toarray(), M, subset_by_index=(0, 4), eigvals_only=True)
+    # Reference: LAPACK's generalised solver, absolute accuracy ~ n eps ||K|| / min(M).
+    np.testing.assert_allclose(modes.omega_squared[1:], reference[1:4], rtol=1e-6)
+    np.testing.assert_allclose(modes.shapes.T @ M @ modes.shapes, np.eye(4), atol=1e-10)

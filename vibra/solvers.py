@@ -586,7 +586,8 @@ def _spring_figures(weighted: Any, values: NDArray[np.float64], basis: NDArray[n
     sample = basis[:, columns]
     product = np.asarray(weighted.T @ (weighted @ sample))
     residuals = np.linalg.norm(product - sample * values[columns], axis=0)
-    norm = max(float(values.max(initial=0.0)), float(np.asarray(weighted.multiply(weighted).sum(axis=0)).max()))
+    squares = weighted.multiply(weighted) if sp.issparse(weighted) else np.asarray(weighted) ** 2
+    norm = max(float(values.max(initial=0.0)), float(np.asarray(squares.sum(axis=0)).max()))  # max diag of K~
     # Kato-Temple: |lambda - theta| <= r^2 / gap, gap to the nearest other Ritz value;
     # plus the rounding of the Gram sums (a few eps relative).
     gaps = np.full(values.shape, norm)
