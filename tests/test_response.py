@@ -701,3 +701,18 @@ def test_charts_render(tmp_path, fixed_chain) -> None:
         plot_frf(result, N)
     with pytest.raises(TypeError, match=r"oscillators\[0\] must be an Oscillator, got float"):
         plot_oscillator_response([1.0])  # type: ignore[list-item]
+
+
+def test_charts_name_the_units_of_the_system() -> None:
+    # The receptance of an SI system is in m/N and omega in rad/s; a dimensionless one says so.
+    K = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    si = R.frequency_response(K, [1.0, 1.0], 0.1 * np.eye(2), np.linspace(0.1, 2.0, 50), [1.0, 0.0],
+                                     units="SI")
+    figure = plot_frf(si, 0, title="two masses")
+    assert figure.axes[0].get_ylabel().endswith("per unit force (m/N)")
+    assert figure.axes[0].get_title() == "two masses"
+    assert figure.axes[1].get_xlabel().endswith("(rad/s)")
+    figure = plot_oscillator_response(units="SI")
+    assert figure.axes[0].get_ylabel().endswith("(m)") and figure.axes[0].get_xlabel().endswith("(rad/s)")
+    generic = plot_oscillator_response()
+    assert generic.axes[0].get_xlabel().endswith("(rad / time unit)")

@@ -516,12 +516,8 @@ def _step_chart_response(plan: Plan, context: _Context, renderer: Any) -> tuple[
 
     if plan.scene.kind == "oscillator":
         oscillators = context.system
-        figure = response_charts.plot_oscillator_response(list(oscillators), context.response)
-        units = _unit_system(plan.scene.units)
-        if units.time_s is not None:  # the generic chart says "time unit" and "length"
-            for axes in figure.axes[:2]:
-                axes.set_xlabel(f"driving angular frequency $\\omega$ ({units.omega})")
-            figure.axes[0].set_ylabel(f"amplitude $|u_0(\\omega)|$ ({units.length})")
+        figure = response_charts.plot_oscillator_response(list(oscillators), context.response,
+                                                          units=plan.scene.units)
         gammas = ", ".join(f"{o.gamma:g}" for o in oscillators)
         caption = (f"{plan.scene.title}: amplitude and phase against omega (seed 003 eqs. 120-123) "
                    f"for gamma = {gammas}, omega0 = {oscillators[0].w0:g}")
@@ -529,30 +525,13 @@ def _step_chart_response(plan: Plan, context: _Context, renderer: Any) -> tuple[
         r = plan.scene.compute.response
         assert r is not None
         natural = None if context.modes is None else np.asarray(context.modes.omega)
-        figure = response_charts.plot_frf(context.response, r.force_site, natural_frequencies=natural)
-        top = figure.axes[0]  # name the scene and the receptance's unit on the chart itself
-        top.set_ylabel(f"$|x_{{{r.force_site}}}(\\omega)|$ per unit force ({_receptance_unit(context.response.units)})")
-        top.set_title(f"{plan.scene.title}: response of dof {r.force_site}")
+        figure = response_charts.plot_frf(context.response, r.force_site, natural_frequencies=natural,
+                                          title=f"{plan.scene.title}: response of dof {r.force_site}")
         caption = (f"{plan.scene.title}: receptance at the driven dof {r.force_site} for a unit force "
                    f"({context.response.solver} solver, C = {r.alpha:g} M + {r.beta:g} K)"
                    + (", resonances marked" if natural is not None else ""))
     _save_chart(context, figure, "response", caption)
     return None, None
-
-
-def _unit_system(name: str) -> Any:
-    from vibra.units import unit_system
-
-    return unit_system(name)
-
-
-def _receptance_unit(units: Any) -> str:
-    """Unit of a displacement per unit force: m/N in SI, length / (energy / length) otherwise."""
-    if units.time_s is None:
-        return "dimensionless"
-    if units.name == "SI":
-        return "m/N"
-    return f"{units.length} per {units.energy}/{units.length}"
 
 
 def _step_chart_convergence(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:

@@ -55,10 +55,24 @@ class UnitSystem:
         return "N/m" if self.name == "SI" else f"{self.energy}/{self.length}^2"
 
     @property
+    def force(self) -> str:
+        """Name of the force unit (energy per length)."""
+        if self.time_s is None:
+            return "1"
+        return "N" if self.name == "SI" else f"{self.energy}/{self.length}"
+
+    @property
+    def receptance(self) -> str:
+        """Name of the unit of a displacement per unit force (a frequency response)."""
+        if self.time_s is None:
+            return "dimensionless"
+        return "m/N" if self.name == "SI" else f"{self.length} per {self.force}"
+
+    @property
     def omega(self) -> str:
         """Name of the angular-frequency unit."""
         if self.time_s is None:
-            return "rad/time unit"
+            return "rad / time unit"
         return "rad/s" if self.time_s == 1.0 else f"rad/({self.time_s:.4g} s)"
 
     def _require_physical(self, what: str) -> float:

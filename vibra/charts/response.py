@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike
 
 from vibra import _validate
 from vibra.charts._style import new_figure
+from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 from vibra.response import FrequencyResponse, Oscillator, rayleigh_damping_ratio
 
 __all__ = ["plot_oscillator_response", "plot_frf", "plot_rayleigh_damping"]
@@ -24,6 +25,7 @@ def plot_oscillator_response(
     omegas: ArrayLike | None = None,
     *,
     F0: float = 1.0,
+    units: str | UnitSystem = DIMENSIONLESS,
 ) -> Figure:
     """Amplitude |u0(w)| (eq. 121) and phase phi(w) (eq. 123) against w: the seed's figure 7.
 
@@ -35,6 +37,9 @@ def plot_oscillator_response(
         Driving angular frequencies >= 0, in rad per time unit; default 0 to 3 w0.
     F0 : float
         Force amplitude |F0|, in force units (figure 7: |F0|/m = 1).
+    units : str or UnitSystem
+        Unit system of the oscillators, named on the axes (default dimensionless, as in
+        figure 7).
 
     Returns
     -------
@@ -61,12 +66,14 @@ def plot_oscillator_response(
             left.plot([peak], [oscillator.amplitude(peak, F0)], "o", color=line.get_color(), ms=5)
         right.plot(w, oscillator.phase(w) / np.pi, label=label, color=line.get_color())
     w0 = oscillators[0].w0
-    left.set_xlabel(r"driving angular frequency $\omega$ (rad / time unit)")
-    left.set_ylabel(r"amplitude $|u_0(\omega)|$ (length)")
+    unit = unit_system(units)
+    length = "length" if unit.time_s is None else unit.length
+    left.set_xlabel(f"driving angular frequency $\\omega$ ({unit.omega})")
+    left.set_ylabel(f"amplitude $|u_0(\\omega)|$ ({length})")
     left.set_title(f"amplitude (eq. 121), $\\omega_0$ = {w0:g}, $|F_0|/m$ = {F0 / oscillators[0].m:g}")
     left.set_ylim(bottom=0.0)
     left.legend(title="dots: resonance peak")
-    right.set_xlabel(r"driving angular frequency $\omega$ (rad / time unit)")
+    right.set_xlabel(f"driving angular frequency $\\omega$ ({unit.omega})")
     right.set_ylabel(r"phase $\phi(\omega)$ ($\pi$ rad)")
     right.set_title("phase lag of u behind F (eq. 123)")
     right.set_ylim(-1.05, 0.05)
@@ -81,6 +88,7 @@ def plot_frf(
     *,
     natural_frequencies: ArrayLike | None = None,
     reference: FrequencyResponse | None = None,
+    title: str | None = None,
 ) -> Figure:
     """Magnitude (log scale) and phase of one dof's response against w, resonances marked.
 
@@ -95,11 +103,14 @@ def plot_frf(
         `result.natural_frequencies` when it has them.
     reference : FrequencyResponse, optional
         A second response (e.g. the direct solve) drawn dashed for comparison.
+    title : str, optional
+        Title of the magnitude panel (default "frequency response of dof <dof>").
 
     Returns
     -------
     Figure
-        Top: |x_dof(w)| in length units on a log scale; bottom: phase in units of pi.
+        Top: |x_dof(w)| per unit force (the receptance, in the unit system's
+        `receptance` unit: m/N in SI) on a log scale; bottom: phase in units of pi.
     """
     if not isinstance(result, FrequencyResponse):
         raise TypeError(f"result must be a FrequencyResponse, got {type(result).__name__}")
@@ -121,8 +132,8 @@ def plot_frf(
             for axis in (top, bottom):
                 axis.axvline(frequency, color="tab:red", lw=0.7, alpha=0.5,
                              label="natural frequencies" if (i == 0 and axis is top) else None)
-    top.set_ylabel(f"$|x_{{{index}}}(\\omega)|$ (length)")
-    top.set_title(f"frequency response of dof {index}")
+    top.set_ylabel(f"$|x_{{{index}}}(\\omega)|$ per unit force ({result.units.receptance})")
+    top.set_title(title if title is not None else f"frequency response of dof {index}")
     top.legend(loc="best")
     bottom.set_xlabel(f"driving angular frequency $\\omega$ ({unit})")
     bottom.set_ylabel(r"phase ($\pi$ rad)")
