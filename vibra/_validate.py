@@ -35,6 +35,15 @@ def real_scalar(value: Any, name: str) -> float:
     return number
 
 
+def positive_scalar(value: Any, name: str, what: str | None = None) -> float:
+    """`value` as a finite float > 0; `what` names the quantity in the message ("a mass ...")."""
+    number = real_scalar(value, name)
+    if not number > 0:
+        subject = f"a {what}" if what else "it"
+        raise ValueError(f"{name} is {number!r}; {subject} must be positive and finite")
+    return number
+
+
 def increasing_times(t: Any, name: str = "t") -> NDArray[np.float64]:
     """(n_t,) strictly increasing finite times, n_t >= 2."""
     times = real_array(t, name, ndim=1)

@@ -63,11 +63,7 @@ def _site_count(n: object, name: str, low: int) -> int:
     return int(n)
 
 
-def _positive_scalar(value: object, name: str, what: str) -> float:
-    number = _validate.real_scalar(value, name)  # "spacing is nan; it must be finite"
-    if not number > 0:
-        raise ValueError(f"{name} is {number!r}; a {what} must be positive and finite")
-    return number
+_positive_scalar = _validate.positive_scalar
 
 
 def _values(value: object, name: str) -> NDArray[np.float64]:
@@ -77,11 +73,7 @@ def _values(value: object, name: str) -> NDArray[np.float64]:
     return _validate.real_array(value, name, ndim=1)
 
 
-def _positive_array(array: NDArray[np.float64], name: str, what: str) -> None:
-    bad = ~(array > 0)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise ValueError(f"{name}[{i}] is {float(array[i])!r}; every {what} must be positive and finite")
+_positive_array = _validate.positive
 
 
 def _per_site(value: ArrayLike, n: int, name: str) -> NDArray[np.float64]:

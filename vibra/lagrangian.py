@@ -322,10 +322,7 @@ def _number(expression: sympy.Expr, at_point: Mapping[sympy.Basic, Any], what: s
 def _pendulum_parameters(m: float, m_prime: float, a: float, b: float, g: float) -> tuple[float, ...]:
     numbers = []
     for value, name in ((m, "m"), (m_prime, "m_prime"), (a, "a"), (b, "b"), (g, "g")):
-        number = _real_scalar(value, name)
-        if not number > 0:
-            raise ValueError(f"{name} is {number!r}; it must be positive")
-        numbers.append(number)
+        numbers.append(_validate.positive_scalar(value, name))
     return tuple(numbers)
 
 

@@ -56,11 +56,7 @@ _AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
 
 
 # ---------------------------------------------------------------------- checks
-def _positive_scalar(value: Any, name: str) -> float:
-    number = _real_scalar(value, name)
-    if not number > 0:
-        raise ValueError(f"{name} is {number!r}; it must be positive and finite")
-    return number
+_positive_scalar = _validate.positive_scalar
 
 
 def _vector3(value: Any, name: str) -> NDArray[np.float64]:

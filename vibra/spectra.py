@@ -1054,11 +1054,7 @@ def _per_bond(value: ArrayLike | float, n_bonds: int, name: str) -> NDArray[np.f
     return array
 
 
-def _positive_float(value: Any, name: str) -> float:
-    number = _validate.real_scalar(value, name)
-    if not number > 0:
-        raise ValueError(f"{name} is {value!r}; it must be positive and finite")
-    return number
+_positive_float = _validate.positive_scalar
 
 
 def _nonnegative_float(value: Any, name: str) -> float:
