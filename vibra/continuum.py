@@ -28,7 +28,7 @@ from vibra import _validate
 from vibra.chains import (ENDS, _bloch_eigenvalues, _bloch_root, _pair, _positive_scalar, _site_count,
                           _values, diatomic_band_edges)
 from vibra.modes import Modes
-from vibra.system import _freeze_arrays
+from vibra._frozen import _freeze_arrays
 
 __all__ = [
     "dispersion",

@@ -37,7 +37,7 @@ from scipy import constants
 
 from vibra import _validate
 from vibra import molecules as _molecules
-from vibra.system import _freeze_arrays
+from vibra._frozen import _freeze_arrays
 from vibra.units import ASE
 
 if TYPE_CHECKING:

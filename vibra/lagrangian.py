@@ -35,7 +35,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra.pendulum import _tolerances
-from vibra.system import System, _freeze_arrays
+from vibra._frozen import _freeze_arrays
+from vibra.system import System
 from vibra.units import UnitSystem
 
 __all__ = [

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.system import _freeze_arrays, owned_arrays
+from vibra._frozen import _freeze_arrays, owned_arrays
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = ["Modes", "normal_modes", "SOLVERS"]

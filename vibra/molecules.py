@@ -42,7 +42,8 @@ from scipy import constants
 
 from vibra import _validate
 from vibra.modes import Modes, normal_modes
-from vibra.system import System, _freeze_arrays
+from vibra._frozen import _freeze_arrays
+from vibra.system import System
 from vibra.units import ASE
 
 if TYPE_CHECKING:

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
 from vibra import _validate
-from vibra.system import _freeze_arrays
+from vibra._frozen import _freeze_arrays
 
 __all__ = [
     "PendulumMotion",

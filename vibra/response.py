@@ -55,7 +55,7 @@ from scipy.linalg import lapack
 
 from vibra import _validate
 from vibra.modes import Modes, normal_modes
-from vibra.system import _freeze_arrays
+from vibra._frozen import _freeze_arrays
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = [

@@ -32,7 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra.lagrangian import _real_scalar, linearize
-from vibra.system import System, _freeze_arrays
+from vibra._frozen import _freeze_arrays
+from vibra.system import System
 from vibra.units import UnitSystem
 
 __all__ = [

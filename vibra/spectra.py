@@ -40,7 +40,8 @@ from vibra import _validate
 from vibra.modes import Modes
 from vibra.molecules import ISOTOPE_MASSES as _ISOTOPE_TABLE
 from vibra.molecules import VibrationalAnalysis
-from vibra.system import System, _freeze_arrays
+from vibra._frozen import _freeze_arrays
+from vibra.system import System
 
 if TYPE_CHECKING:
     from ase import Atoms
