@@ -7,6 +7,7 @@ committed files must carry no outputs and no execution counts.
 
 from __future__ import annotations
 
+import ast
 import os
 import re
 from pathlib import Path
@@ -64,12 +65,37 @@ def test_notebook_is_committed_clean(path: Path) -> None:
         assert cell.get("execution_count") is None, f"{path.name} cell {index} has an execution count"
 
 
+def _asserts(source: str) -> list[ast.Assert]:
+    """The ``assert`` statements of notebook code (IPython magics and shell lines dropped)."""
+    lines = [line for line in source.splitlines() if not line.lstrip().startswith(("%", "!"))]
+    return [node for node in ast.walk(ast.parse("\n".join(lines))) if isinstance(node, ast.Assert)]
+
+
+def _checks_a_computed_value(node: ast.Assert) -> bool:
+    """An assertion that can fail: its test is no literal and reads at least one variable."""
+    if isinstance(node.test, ast.Constant):
+        return False
+    return any(isinstance(child, ast.Name) for child in ast.walk(node.test))
+
+
+def test_assertion_counter_sees_only_real_assertions() -> None:
+    """The counter below ignores the word in comments and strings and constant assertions."""
+    source = ('# assert x == 1\ntext = "assert y"\nassert True\n%matplotlib inline\n'
+              'assert abs(omega - 1.0) < 1e-12\n')
+    assert [_checks_a_computed_value(node) for node in _asserts(source)] == [False, True]
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_asserts_its_numbers(path: Path) -> None:
-    """Each notebook checks its key numbers itself (the issue asks for it)."""
+    """Each notebook checks at least 3 of its key numbers with real ``assert`` statements.
+
+    Counted on the parsed code (not the text), so a comment, a string or ``assert True``
+    does not count; `test_notebook_executes` runs them, so each one can fail.
+    """
     notebook = nbformat.read(path, as_version=4)
     code = "\n".join(cell.source for cell in notebook.cells if cell.cell_type == "code")
-    assert code.count("assert ") >= 3, f"{path.name} asserts fewer than 3 key numbers"
+    real = [node for node in _asserts(code) if _checks_a_computed_value(node)]
+    assert len(real) >= 3, f"{path.name} asserts {len(real)} computed numbers; at least 3 expected"
 
 
 # ---------------------------------------------------------------------- vibra.charts.notebooks
