@@ -157,6 +157,15 @@ def vibrational_analysis(
     ValueError
         A system with frozen degrees of freedom (rigid-body motions are then not free); an
         unknown `accuracy`; a negative `linear_rtol` or `zero_rtol`.
+
+    Examples
+    --------
+    >>> from vibra.molecules import h2o
+    >>> analysis = vibrational_analysis(h2o())
+    >>> analysis.n_vibrations, analysis.n_rigid, analysis.linear
+    (3, 6, False)
+    >>> round(analysis.zero_point_energy_ev(), 3)
+    0.558
     """
     if not isinstance(system, System):
         raise TypeError(f"system must be a vibra System, got {type(system).__name__}")

@@ -66,6 +66,17 @@ def co2(
         kappa, eV / Angstrom^2; default `CO2_STRETCH` (fitted to 1333 and 2349 cm^-1).
     bend : float
         Linear-bend constant, eV / rad^2; default `CO2_BEND` (fitted to 667 cm^-1).
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> analysis = molecules.vibrational_analysis(molecules.co2())
+    >>> analysis.n_vibrations, analysis.n_rigid, analysis.linear
+    (4, 5, True)
+    >>> [round(float(w)) for w in analysis.vibration_wavenumbers_cm1()]
+    [667, 667, 1279, 2448]
+    >>> molecules.co2(dims=1).n_dof
+    3
     """
     from ase import Atoms as _Atoms
     from ase.data import atomic_masses, atomic_numbers
@@ -86,7 +97,14 @@ def co2(
 
 
 def co2_atoms(bond_length: float = CO2_BOND_LENGTH) -> Atoms:
-    """ase.Atoms of linear CO2 along x (O, C, O), masses set explicitly from ase.data."""
+    """ase.Atoms of linear CO2 along x (O, C, O), masses set explicitly from ase.data.
+
+    Examples
+    --------
+    >>> atoms = co2_atoms()
+    >>> atoms.get_chemical_symbols(), atoms.positions[:, 0].tolist()
+    (['O', 'C', 'O'], [-1.16, 0.0, 1.16])
+    """
     from ase import Atoms as _Atoms
     from ase.data import atomic_masses, atomic_numbers
 
@@ -95,7 +113,14 @@ def co2_atoms(bond_length: float = CO2_BOND_LENGTH) -> Atoms:
 
 
 def h2o_atoms(bond_length: float = H2O_BOND_LENGTH, angle_deg: float = H2O_ANGLE_DEG) -> Atoms:
-    """ase.Atoms of H2O in the xy plane (O, H, H), masses set explicitly from ase.data."""
+    """ase.Atoms of H2O in the xy plane (O, H, H), masses set explicitly from ase.data.
+
+    Examples
+    --------
+    >>> atoms = h2o_atoms()
+    >>> atoms.get_chemical_symbols(), round(float(atoms.get_angle(1, 0, 2)), 2)
+    (['O', 'H', 'H'], 104.52)
+    """
     from ase import Atoms as _Atoms
     from ase.data import atomic_masses, atomic_numbers
 
@@ -112,6 +137,12 @@ def h2o(*, stretch: float = H2O_STRETCH, bend: float = H2O_BEND) -> System:
     Geometry: r = 0.9572 Angstrom, angle 104.52 degrees; constants `H2O_STRETCH` (eV/A^2) and
     `H2O_BEND` (eV/rad^2), fitted to the experimental fundamentals (see the module constants).
     9 degrees of freedom: 3 vibrations and 6 rigid-body modes.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> [round(float(w)) for w in molecules.vibrational_analysis(h2o()).vibration_wavenumbers_cm1()]
+    [1595, 3680, 3733]
     """
     atoms = h2o_atoms()
     model = valence_model(atoms, bonds=np.array([[0, 1], [0, 2]]), stretch=stretch, bend=bend)

@@ -158,6 +158,14 @@ def finite_difference_hessian(
     RuntimeError
         The calculator returned forces that are not finite or of the wrong shape (the
         displacement is named); nothing is written anywhere.
+
+    Examples
+    --------
+    >>> from vibra.molecules import ValenceForceField, h2o_atoms, valence_model
+    >>> atoms = h2o_atoms()
+    >>> result = finite_difference_hessian(atoms, ValenceForceField(valence_model(atoms)))
+    >>> result.hessian.shape, result.n_force_calls, result.error_method
+    ((9, 9), 37, 'richardson')
     """
     positions, masses = check_atoms(atoms)
     calc = calculator if calculator is not None else atoms.calc
@@ -262,6 +270,13 @@ def from_calculator(
 
     See `finite_difference_hessian` (which also returns the error estimate); this runs it
     without the extra Richardson step and returns the `System` (ASE units).
+
+    Examples
+    --------
+    >>> from vibra.molecules import ValenceForceField, co2_atoms, valence_model
+    >>> atoms = co2_atoms()
+    >>> from_calculator(atoms, ValenceForceField(valence_model(atoms))).n_dof
+    9
     """
     result = finite_difference_hessian(atoms, calculator, step=step, stencil=stencil,
                                        estimate_error=False, force_tolerance=force_tolerance)

@@ -85,6 +85,13 @@ def from_atoms(
     ValueError
         Unknown elements, overlapping atoms, a model for another atom count, a model with no
         terms, or a geometry that is not an equilibrium (the residual force is reported).
+
+    Examples
+    --------
+    >>> from vibra.molecules import h2o_atoms
+    >>> system = from_atoms(h2o_atoms(), stretch=47.89, bend=4.021)
+    >>> system.n_dof, system.units.name
+    (9, 'ASE')
     """
     positions, default_masses = check_atoms(atoms)
     if model is None:
@@ -130,6 +137,13 @@ def from_hessian(
         Use (H + H^T) / 2 instead of raising on an asymmetric Hessian.
     name : str, optional
         Name of the system.
+
+    Examples
+    --------
+    >>> from vibra.molecules import h2o, h2o_atoms
+    >>> system = from_hessian(h2o_atoms(), h2o().hessian().toarray(), name="H2O")
+    >>> system.n_dof, system.name
+    (9, 'H2O')
     """
     positions, default_masses = check_atoms(atoms)
     return System.from_hessian(positions, masses_or_default(masses, default_masses), hessian,
@@ -140,6 +154,14 @@ def from_vibrations_data(data: Any, *, name: str | None = None) -> System:
     """A molecule from ASE's `VibrationsData` (its Hessian, atoms and masses).
 
     Atoms left out of the data's ``indices`` are frozen.
+
+    Examples
+    --------
+    >>> from ase.vibrations import VibrationsData
+    >>> from vibra.molecules import h2o, h2o_atoms
+    >>> data = VibrationsData.from_2d(h2o_atoms(), h2o().hessian().toarray())
+    >>> from_vibrations_data(data).n_dof
+    9
     """
     from ase.vibrations import VibrationsData
 

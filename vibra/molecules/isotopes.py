@@ -36,6 +36,11 @@ def isotope_mass(label: str) -> float:
     """Mass in amu of an isotope label such as ``"13C"``, ``"18O"``, ``"D"`` or ``"2H"``.
 
     Masses from NIST's "Atomic Weights and Isotopic Compositions" (table in this module).
+
+    Examples
+    --------
+    >>> isotope_mass("13C"), isotope_mass("D") == isotope_mass("2H")
+    (13.00335483507, True)
     """
     if not isinstance(label, str):
         raise TypeError(f"label must be a str such as '13C', got {type(label).__name__}")
@@ -80,6 +85,13 @@ def substitute_isotopes(
     ValueError
         An index out of range, a non-positive mass, an unknown label, or a label of another
         element than `symbols` gives.
+
+    Examples
+    --------
+    >>> from vibra.molecules import h2o, vibrational_analysis
+    >>> d2o = substitute_isotopes(h2o(), {1: "D", 2: "D"}, symbols=["O", "H", "H"])
+    >>> [round(float(w)) for w in vibrational_analysis(d2o).vibration_wavenumbers_cm1()]
+    [1163, 2664, 2736]
     """
     if not isinstance(system, System):
         raise TypeError(f"system must be a vibra System, got {type(system).__name__}")

@@ -21,6 +21,13 @@ def is_linear(positions: ArrayLike, masses: ArrayLike, *, rtol: float = 1e-6) ->
 
     Relative, so it does not depend on the size or the units of the molecule. A single atom
     is not linear (it has no rotations at all).
+
+    Examples
+    --------
+    >>> is_linear([[-1.16, 0, 0], [0, 0, 0], [1.16, 0, 0]], [16.0, 12.0, 16.0])
+    True
+    >>> is_linear([[0, 0, 0], [0.76, 0.59, 0], [-0.76, 0.59, 0]], [16.0, 1.0, 1.0])
+    False
     """
     x = _validate.real_array(positions, "positions", ndim=2)
     m = _validate.real_array(masses, "masses", ndim=1)
@@ -45,6 +52,13 @@ def rigid_body_vectors(positions: ArrayLike, masses: ArrayLike, *, linear_rtol: 
     Translations sqrt(m_i) e_a; rotations sqrt(m_i) (n_a x (r_i - r_com)) about the principal
     axes with a non-zero moment (the molecular axis of a linear molecule is left out, as is
     every rotation of a single atom). In 2-D the one in-plane rotation, in 1-D none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = rigid_body_vectors([[-1.16, 0, 0], [0, 0, 0], [1.16, 0, 0]], [16.0, 12.0, 16.0])
+    >>> t.shape, bool(np.allclose(t.T @ t, np.eye(5)))     # 3 translations, 2 rotations
+    ((9, 5), True)
     """
     x = _validate.real_array(positions, "positions", ndim=2)
     m = _validate.real_array(masses, "masses", ndim=1)

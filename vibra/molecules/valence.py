@@ -247,6 +247,15 @@ def valence_model(
         `atoms` is not an ase.Atoms; bond indices are not integers.
     ValueError
         An unknown element, overlapping atoms, bad indices or non-positive constants.
+
+    Examples
+    --------
+    >>> from vibra.molecules import co2_atoms
+    >>> model = valence_model(co2_atoms())          # bonds from covalent radii, CO2 is straight
+    >>> len(model.bonds), len(model.angles), len(model.linear_angles), model.n_terms
+    (2, 0, 1, 4)
+    >>> model.bond_r0.tolist()
+    [1.16, 1.16]
     """
     from ase.data import covalent_radii
 

@@ -149,6 +149,14 @@ def ir_spectrum(
     ValueError
         Units other than ASE; modes without shapes or of another size; both or neither of
         `charges` and `dipole_derivatives`; wrong shapes or non-finite values.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> system = molecules.co2()
+    >>> ir = ir_spectrum(system, molecules.vibrational_analysis(system), charges=[-0.3, 0.6, -0.3])
+    >>> [round(float(w)) for w in ir.wavenumbers], ir.active().tolist()   # symmetric stretch is IR-silent
+    ([667, 667, 1279, 2448], [True, True, False, True])
     """
     system, modes, rigid = system_and_modes(system, modes)
     if (charges is None) == (dipole_derivatives is None):
@@ -251,6 +259,11 @@ def electronegativity_charges(symbols: ArrayLike, bonds: ArrayLike, *,
     -------
     (n_sites,) ndarray
         Partial charges, in e.
+
+    Examples
+    --------
+    >>> electronegativity_charges(["O", "C", "O"], [[0, 1], [1, 2]]).round(3).tolist()
+    [-0.178, 0.356, -0.178]
     """
     names = [str(s) for s in np.atleast_1d(np.asarray(symbols, dtype=object))]
     chi = np.empty(len(names))

@@ -110,6 +110,13 @@ def isotope_shifts(
         name, an isotope name outside ASE units, a mass not positive and finite.
     RuntimeError
         The two systems do not have the same number of vibrational modes.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> shifts = isotope_shifts(molecules.co2(dims=1), {1: "13C"})
+    >>> [round(float(s), 1) for s in shifts.shifts]          # 13C moves only the asymmetric stretch
+    [0.0, -68.9]
     """
     if not isinstance(system, System):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")

@@ -127,6 +127,14 @@ def raman_spectrum(
         Units other than ASE; modes without shapes or of another size; bond indices out of
         range or a bond joining a site to itself or two coincident sites; parameter arrays
         of the wrong length or not finite.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> system = molecules.co2()
+    >>> raman = raman_spectrum(system, molecules.vibrational_analysis(system), bonds=[[0, 1], [1, 2]])
+    >>> raman.active().tolist()      # mutual exclusion: only the symmetric stretch
+    [False, False, True, False]
     """
     system, modes, rigid = system_and_modes(system, modes)
     pairs = bond_pairs(bonds, system.n_sites)

@@ -143,6 +143,12 @@ def thermochemistry(
     ValueError
         Dimensionless modes; wavenumbers or temperatures not 1-D, not finite, or
         temperatures not positive.
+
+    Examples
+    --------
+    >>> thermo = thermochemistry([1000.0], [300.0])       # one mode at 1000 cm^-1
+    >>> round(thermo.zero_point_energy, 6)                  # h c (1000 cm^-1) / 2, in eV
+    0.061992
     """
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
     rigid = None
