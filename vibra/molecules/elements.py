@@ -29,7 +29,9 @@ def symbols_from_masses(masses: ArrayLike) -> tuple[str, ...]:
     -------
     tuple of str
         One symbol per mass, from ``ase.data.chemical_symbols`` (the element of nearest
-        ``ase.data.atomic_masses``; a deuterium mass 2.014 gives ``"H"``).
+        ``ase.data.atomic_masses``; a deuterium mass 2.014 gives ``"H"``). A heavy isotope
+        can lie nearer the next element: 18O (17.999 amu) gives ``"F"`` (18.998); pass symbols
+        explicitly for isotopically substituted molecules.
 
     Raises
     ------

@@ -13,8 +13,9 @@ from vibra.units import ASE
 
 __all__ = ["ISOTOPE_MASSES", "isotope_mass", "substitute_isotopes"]
 
-# Isotope masses in amu: NIST "Atomic Weights and Isotopic Compositions" (the AME2016 and
-# AME2020 evaluations agree on every digit given here). ase.data has no isotope table offline
+# Isotope masses in amu: NIST "Atomic Weights and Isotopic Compositions" (AME2012/AME2016
+# values; the AME2020 evaluation moved them by at most 1.2e-9 relative, 3.4e-9 amu for 3H,
+# far below what any wavenumber resolves). ase.data has no isotope table offline
 # (ase.data.isotopes downloads it), hence this table; vibra.spectra uses the same one.
 _ISOTOPES: dict[str, float] = {
     "1H": 1.00782503223, "2H": 2.01410177812, "3H": 3.0160492779,
