@@ -369,6 +369,13 @@ def crosscheck(
         equilibrium (residual force reported).
     RuntimeError
         The calculator returned non-finite forces; no file is left behind.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> result = crosscheck(molecules.h2o_atoms())    # valence force field guessed from the geometry
+    >>> result.n_rigid, int((~result.rigid).sum()), result.within_error()
+    (6, 3, True)
     """
     from ase import Atoms as _Atoms
 
