@@ -12,12 +12,13 @@ import numpy as np
 import pytest
 from ase import Atoms
 from ase import units as ase_units
-from ase.data import atomic_masses, atomic_numbers
 from phonopy.physical_units import get_physical_units
 from scipy import constants
 
 from vibra import crosscheck as cc
 from vibra import molecules as mol
+
+from molecule_closed_forms import co2_closed_form_cm1, h2o_closed_form_cm1
 
 # Each package converts omega to its unit with its own constants; the crosscheck turns their
 # results into cm^-1 with scipy's. The relative offsets, computed here from the packages'
@@ -44,33 +45,11 @@ def _model(atoms: Atoms, name: str) -> mol.ValenceModel:
 MOLECULES = {"CO2": mol.co2_atoms, "H2O": mol.h2o_atoms}
 
 
-def _cm1(lam) -> np.ndarray:
-    """omega^2 in eV / (Angstrom^2 amu) to cm^-1 with scipy.constants."""
-    omega = np.sqrt(np.asarray(lam, dtype=float) * constants.e / constants.angstrom**2 / constants.atomic_mass)
-    return omega / (2 * np.pi * constants.c / constants.centi)
-
-
 def _closed_form_cm1(name: str) -> np.ndarray:
-    """Exact harmonic wavenumbers of the builders' force fields, ascending, cm^-1.
-
-    CO2: seed 003 eq. 157 for the stretches and the linear XY2 bend
-    omega^2 = k (2/m_O + 4/m_C) / L^2 (twice). H2O: Wilson's GF method for a bent XY2 with a
-    simple valence force field (Wilson, Decius & Cross 1955): A1 block
-    G11 = mu_H + mu_O (1 + cos), G22 = 2 (mu_H + mu_O (1 - cos)) / r^2, G12 = -sqrt2 mu_O sin / r,
-    B2 G33 = mu_H + mu_O (1 - cos), F = diag(k_r, k_theta, k_r).
-    """
-    m_o, m_c, m_h = (atomic_masses[atomic_numbers[s]] for s in "OCH")
+    """Exact harmonic wavenumbers of the builders' force fields, ascending, cm^-1."""
     if name == "CO2":
-        bend = mol.CO2_BEND * (2 / m_o + 4 / m_c) / mol.CO2_BOND_LENGTH**2
-        return _cm1([bend, bend, mol.CO2_STRETCH / m_o, mol.CO2_STRETCH * (1 / m_o + 2 / m_c)])
-    r, theta = mol.H2O_BOND_LENGTH, np.radians(mol.H2O_ANGLE_DEG)
-    g11 = 1 / m_h + (1 + np.cos(theta)) / m_o
-    g22 = 2 * (1 / m_h + (1 - np.cos(theta)) / m_o) / r**2
-    g12 = -np.sqrt(2) * np.sin(theta) / (m_o * r)
-    trace = mol.H2O_STRETCH * g11 + mol.H2O_BEND * g22
-    root = np.sqrt(trace**2 - 4 * mol.H2O_STRETCH * mol.H2O_BEND * (g11 * g22 - g12**2))
-    b2 = mol.H2O_STRETCH * (1 / m_h + (1 - np.cos(theta)) / m_o)
-    return np.sort(_cm1([(trace - root) / 2, (trace + root) / 2, b2]))
+        return co2_closed_form_cm1(mol.CO2_STRETCH, mol.CO2_BEND, mol.CO2_BOND_LENGTH)
+    return h2o_closed_form_cm1(mol.H2O_STRETCH, mol.H2O_BEND, mol.H2O_BOND_LENGTH, mol.H2O_ANGLE_DEG)
 
 
 @pytest.mark.parametrize("nfree", [2, 4])

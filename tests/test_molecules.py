@@ -20,6 +20,9 @@ from vibra import System
 from vibra import molecules as mol
 from vibra.units import ASE
 
+from molecule_closed_forms import (CO2_EXPERIMENT, H2O_EXPERIMENT, cm1_from_eigenvalue, co2_closed_form_cm1,
+                                    h2o_closed_form_cm1)
+
 M_O = atomic_masses[atomic_numbers["O"]]
 M_C = atomic_masses[atomic_numbers["C"]]
 KAPPA = mol.CO2_STRETCH
@@ -81,38 +84,8 @@ def test_co2_reduced_masses_and_force_constants_closed_form() -> None:
                                KAPPA * constants.electron_volt / 1e-20 / 100, rtol=1e-12)
 
 
-def _cm1_from_eigenvalue(lam) -> np.ndarray:
-    """omega^2 in eV / (Angstrom^2 amu) to wavenumbers in cm^-1, with scipy.constants only."""
-    omega = np.sqrt(np.asarray(lam, dtype=float) * constants.e / constants.angstrom**2 / constants.atomic_mass)
-    return omega / (2 * np.pi * constants.c / constants.centi)
-
-
-# Experimental fundamentals, cm^-1 (NIST CCCBDB, "Vibrational frequencies"; Herzberg, Molecular
-# Spectra and Molecular Structure II): CO2 nu2 = 667, nu1 = 1333, nu3 = 2349; H2O nu2 = 1595,
-# nu1 = 3657, nu3 = 3756. The defaults' docstrings say how they were fitted to these.
-CO2_EXPERIMENT = (667.0, 1333.0, 2349.0)
-H2O_EXPERIMENT = (1595.0, 3657.0, 3756.0)
-
-
-def _h2o_closed_form_cm1(stretch: float, bend: float) -> np.ndarray:
-    """Bent XY2 with a simple valence force field (no interaction constants), ascending cm^-1.
-
-    Wilson's GF method (Wilson, Decius & Cross, Molecular Vibrations, 1955; Herzberg II):
-    with mu = 1/m, bond r and angle theta, symmetry coordinates S1 = (r1 + r2)/sqrt2,
-    S2 = theta (A1) and S3 = (r1 - r2)/sqrt2 (B2):
-    G11 = mu_H + mu_O (1 + cos), G22 = 2 (mu_H + mu_O (1 - cos)) / r^2,
-    G12 = -sqrt2 mu_O sin / r, G33 = mu_H + mu_O (1 - cos); F = diag(k_r, k_theta, k_r).
-    """
-    m_h, m_o = atomic_masses[atomic_numbers["H"]], atomic_masses[atomic_numbers["O"]]
-    r, theta = mol.H2O_BOND_LENGTH, np.radians(mol.H2O_ANGLE_DEG)
-    g11 = 1 / m_h + (1 + np.cos(theta)) / m_o
-    g22 = 2 * (1 / m_h + (1 - np.cos(theta)) / m_o) / r**2
-    g12 = -np.sqrt(2) * np.sin(theta) / (m_o * r)
-    g33 = 1 / m_h + (1 - np.cos(theta)) / m_o
-    trace = stretch * g11 + bend * g22
-    det = stretch * bend * (g11 * g22 - g12**2)
-    root = np.sqrt(trace**2 - 4 * det)
-    return np.sort(_cm1_from_eigenvalue([(trace - root) / 2, (trace + root) / 2, stretch * g33]))
+def _h2o_cm1(stretch: float, bend: float) -> np.ndarray:
+    return h2o_closed_form_cm1(stretch, bend, mol.H2O_BOND_LENGTH, mol.H2O_ANGLE_DEG)
 
 
 def _least_squares_on_log(model, experiment, start) -> np.ndarray:
@@ -131,16 +104,16 @@ def test_co2_default_constants_are_the_documented_fit_to_experiment() -> None:
     from scipy.optimize import brentq
 
     stretch_terms = np.array([1 / M_O, 1 / M_O + 2 / M_C])
-    kappa, = _least_squares_on_log(lambda k: _cm1_from_eigenvalue(k * stretch_terms),
+    kappa, = _least_squares_on_log(lambda k: cm1_from_eigenvalue(k * stretch_terms),
                                    np.array(CO2_EXPERIMENT[1:]), [90.0])
     assert abs(kappa - mol.CO2_STRETCH) <= 0.005            # CO2_STRETCH = 96.24 has 2 decimals
     bend_term = (2 / M_O + 4 / M_C) / L**2
-    k_delta = brentq(lambda k: _cm1_from_eigenvalue(k * bend_term) - CO2_EXPERIMENT[0], 1.0, 10.0)
+    k_delta = brentq(lambda k: cm1_from_eigenvalue(k * bend_term) - CO2_EXPERIMENT[0], 1.0, 10.0)
     assert abs(k_delta - mol.CO2_BEND) <= 0.0005            # CO2_BEND = 4.806 has 3 decimals
     # vibra's wavenumbers are those closed forms; the documented 667.0, 1279 and 2448 cm^-1
     # ("each 4 % off") follow from them
     waves = mol.vibrational_analysis(mol.co2()).vibration_wavenumbers_cm1()
-    closed = _cm1_from_eigenvalue([mol.CO2_BEND * bend_term] * 2 + list(mol.CO2_STRETCH * stretch_terms))
+    closed = co2_closed_form_cm1(mol.CO2_STRETCH, mol.CO2_BEND, L)
     np.testing.assert_allclose(waves, closed, rtol=1e-10)
     assert [round(float(w), 1) for w in closed[:2]] == [667.0, 667.0]
     assert [round(float(w)) for w in closed[2:]] == [1279, 2448]
@@ -158,7 +131,7 @@ def test_h2o_three_vibrations_six_zero_modes_and_ase_agrees() -> None:
     np.testing.assert_allclose(analysis.vibration_wavenumbers_cm1(), ase_cm1, rtol=1e-7)
     # Wilson's GF closed form for the same force field (eigen round-off ~1e-15 relative)
     np.testing.assert_allclose(analysis.vibration_wavenumbers_cm1(),
-                               _h2o_closed_form_cm1(mol.H2O_STRETCH, mol.H2O_BEND), rtol=1e-10)
+                               _h2o_cm1(mol.H2O_STRETCH, mol.H2O_BEND), rtol=1e-10)
     # ZPE: ASE sums 1/2 E over all 9 modes; its 6 rigid ones are sqrt(round-off) ~ 1e-7 eV each
     assert abs(analysis.zero_point_energy_ev() - data.get_zero_point_energy()) < 1e-5
 
@@ -166,11 +139,11 @@ def test_h2o_three_vibrations_six_zero_modes_and_ase_agrees() -> None:
 def test_h2o_default_constants_are_the_documented_fit_to_experiment() -> None:
     # H2O_STRETCH and H2O_BEND: least squares on ln(omega) against the three experimental
     # fundamentals in the GF closed form; refitting here gives the constants to their digits
-    stretch, bend = _least_squares_on_log(_h2o_closed_form_cm1, np.array(H2O_EXPERIMENT), [45.0, 4.0])
+    stretch, bend = _least_squares_on_log(_h2o_cm1, np.array(H2O_EXPERIMENT), [45.0, 4.0])
     assert abs(stretch - mol.H2O_STRETCH) <= 0.005           # 47.89: 2 decimals
     assert abs(bend - mol.H2O_BEND) <= 0.0005                # 4.021: 3 decimals
     # the documented result "1595, 3680 and 3733 cm^-1"
-    closed = _h2o_closed_form_cm1(mol.H2O_STRETCH, mol.H2O_BEND)
+    closed = _h2o_cm1(mol.H2O_STRETCH, mol.H2O_BEND)
     assert [round(float(w)) for w in closed] == [1595, 3680, 3733]
 
 
