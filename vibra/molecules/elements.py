@@ -119,7 +119,7 @@ def bonds_from_distances(
         return ()
     first, second = candidates[:, 0], candidates[:, 1]
     distance = np.linalg.norm(x3[first] - x3[second], axis=1)
-    keep = distance <= factor * (radii[first] + radii[second])
+    keep = distance < factor * (radii[first] + radii[second])
     pairs = np.sort(np.stack([first[keep], second[keep]], axis=1), axis=1)
     pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
     return tuple((int(i), int(j)) for i, j in pairs)

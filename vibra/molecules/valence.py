@@ -18,6 +18,7 @@ from vibra._frozen import _freeze_arrays
 from vibra.molecules.checks import check_atoms
 from vibra.molecules.coordinates import (angle_bend, bond_angle, bond_stretch, dihedral, linear_bend_rows,
                                          linear_bend_vector, wrap_angle)
+from vibra.molecules.elements import bonds_from_distances
 
 if TYPE_CHECKING:
     from ase import Atoms
@@ -257,8 +258,6 @@ def valence_model(
     >>> model.bond_r0.tolist()
     [1.16, 1.16]
     """
-    from ase.data import covalent_radii
-
     positions, _ = check_atoms(atoms)
     bond_scale = _validate.real_scalar(bond_scale, "bond_scale")
     if not bond_scale > 0:
@@ -268,9 +267,7 @@ def valence_model(
         raise ValueError(f"linear_tolerance_deg is {tolerance!r}; expected 0 <= value < 90")
     n = len(atoms)
     if bonds is None:
-        radii = covalent_radii[atoms.get_atomic_numbers()]
-        pairs = [(i, j) for i in range(n) for j in range(i + 1, n)
-                 if np.linalg.norm(positions[j] - positions[i]) < bond_scale * (radii[i] + radii[j])]
+        pairs = bonds_from_distances(positions, atoms.get_chemical_symbols(), scale=bond_scale)
         bond_array = np.array(pairs, dtype=np.intp).reshape(-1, 2)
     else:
         bond_array = _index_list(bonds, "bonds", 2, n)
