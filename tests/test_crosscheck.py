@@ -11,13 +11,29 @@ import tempfile
 import numpy as np
 import pytest
 from ase import Atoms
+from ase import units as ase_units
+from phonopy.physical_units import get_physical_units
+from scipy import constants
 
 from vibra import crosscheck as cc
 from vibra import molecules as mol
 
-# The packages' unit constants: phonopy's THz factor differs from vibra's CODATA 2018 by
-# 1.2e-7 relative, ASE's CODATA 2014 by 4e-9 (measured, see CrossCheck.within_error).
-UNIT_RTOL = 2e-7
+from molecule_closed_forms import co2_closed_form_cm1, h2o_closed_form_cm1
+
+# Each package converts omega to its unit with its own constants; the crosscheck turns their
+# results into cm^-1 with scipy's. The relative offsets, computed here from the packages'
+# constants (not measured on results): ASE's VibrationsData gives hbar omega with
+# s = _hbar * m / sqrt(_e * _amu) (ase.units, CODATA 2014); phonopy's THz are
+# sqrt(omega^2) * DefaultToTHz (its CODATA).
+_S_SCIPY = constants.hbar / constants.angstrom / np.sqrt(constants.e * constants.atomic_mass)
+ASE_UNIT_BIAS = ase_units._hbar * ase_units.m / np.sqrt(ase_units._e * ase_units._amu) / _S_SCIPY - 1
+PHONOPY_UNIT_BIAS = get_physical_units().DefaultToTHz / (
+    np.sqrt(constants.e / constants.atomic_mass) / constants.angstrom / (2 * np.pi) / constants.tera) - 1
+# Round-off of a difference quotient: positions carry eps * |x| with |x| up to box / 2 = 10 A
+# in phonopy's cell, so each Hessian entry (and a wavenumber, half as much) is good to about
+# eps * (box / 2) / delta relative; 16 times that covers the eigensolvers' few-eps round-off.
+DELTA = 0.01
+ROUNDOFF_RTOL = 16 * np.finfo(float).eps * 10.0 / DELTA
 
 
 def _model(atoms: Atoms, name: str) -> mol.ValenceModel:
@@ -29,25 +45,41 @@ def _model(atoms: Atoms, name: str) -> mol.ValenceModel:
 MOLECULES = {"CO2": mol.co2_atoms, "H2O": mol.h2o_atoms}
 
 
+def _closed_form_cm1(name: str) -> np.ndarray:
+    """Exact harmonic wavenumbers of the builders' force fields, ascending, cm^-1."""
+    if name == "CO2":
+        return co2_closed_form_cm1(mol.CO2_STRETCH, mol.CO2_BEND, mol.CO2_BOND_LENGTH)
+    return h2o_closed_form_cm1(mol.H2O_STRETCH, mol.H2O_BEND, mol.H2O_BOND_LENGTH, mol.H2O_ANGLE_DEG)
+
+
 @pytest.mark.parametrize("nfree", [2, 4])
 @pytest.mark.parametrize("name", ["CO2", "H2O"])
-def test_agrees_with_ase_and_phonopy_within_fd_error(name: str, nfree: int) -> None:
+def test_agrees_with_ase_and_phonopy_within_their_own_fd_error(name: str, nfree: int) -> None:
     atoms = MOLECULES[name]()
-    result = cc.crosscheck(atoms, model=_model(atoms, name), delta=0.01, nfree=nfree)
+    result = cc.crosscheck(atoms, model=_model(atoms, name), delta=DELTA, nfree=nfree)
+    coarse = cc.crosscheck(atoms, model=_model(atoms, name), delta=2 * DELTA, nfree=nfree)
     vib = ~result.rigid
     assert result.n_rigid == (5 if name == "CO2" else 6) and vib.sum() == (4 if name == "CO2" else 3)
-    # tolerance: the finite-difference error the cross-check reports (Richardson estimate of
-    # the truncation error of a Hessian with ASE's / phonopy's step and stencil, propagated to
-    # first order) plus the unit-constant allowance UNIT_RTOL * |wavenumber|
-    floor = UNIT_RTOL * np.abs(result.vibra_cm1[vib])
-    assert np.all(np.abs(result.ase_difference_cm1[vib]) <= result.fd_error_cm1[vib] + floor)
-    assert np.all(np.abs(result.phonopy_difference_cm1[vib]) <= result.phonopy_fd_error_cm1[vib] + floor)
+    exact = _closed_form_cm1(name)
+    # vibra's side is the analytic force field: the closed forms (eigen round-off ~1e-15)
+    np.testing.assert_allclose(result.vibra_cm1[vib], exact, rtol=1e-12)
+    floor = ROUNDOFF_RTOL * exact
+    for fine, crude, bias, order, reported in [
+        (result.ase_cm1, coarse.ase_cm1, ASE_UNIT_BIAS, 2 if nfree == 2 else 4, result.fd_error_cm1),
+        (result.phonopy_cm1, coarse.phonopy_cm1, PHONOPY_UNIT_BIAS, 2, result.phonopy_fd_error_cm1),
+    ]:
+        # each package's truncation error, from its own results at delta and 2 delta
+        # (Richardson: e(h) = (x(h) - x(2h)) / (2^p - 1) to leading order, the next order
+        # smaller by (h / 1 Angstrom)^2 ~ 1e-4); the unit offsets are divided out first
+        fine_cm1, crude_cm1 = fine[vib] / (1 + bias), crude[vib] / (1 + bias)
+        estimate = np.abs(fine_cm1 - crude_cm1) / (2**order - 1)
+        actual = np.abs(fine_cm1 - exact)
+        assert np.all(actual <= 1.1 * estimate + floor)
+        # vibra's reported fd error (a first-order bound) covers that independently found error
+        assert np.all(actual <= reported[vib] + floor)
     assert result.within_error()
     # the estimate is informative, not a blanket: below 0.5 cm^-1 (~1e-4 relative) at 0.01 A
     assert np.all(result.fd_error_cm1[vib] < 0.5)
-    # vibra's side is the analytic force field: its wavenumbers are the builders' ones
-    reference = mol.vibrational_analysis(mol.co2() if name == "CO2" else mol.h2o()).vibration_wavenumbers_cm1()
-    np.testing.assert_allclose(result.vibra_cm1[vib], reference, rtol=1e-12)
     # rigid-body rows are matched by overlap: the matched ASE and phonopy modes lie in the
     # rigid-body subspace up to the fd contamination (error / gap ~ 1e-3 here)
     assert np.all(result.ase_rigid_overlap[result.rigid] > 0.99)
@@ -197,14 +229,18 @@ def _xtb_atoms(name: str):
                                                      ("H2O", cc.H2O_FUNDAMENTALS_CM1)])
 def test_gfn2_xtb_vibra_equals_ase(name: str, experimental) -> None:
     atoms = _xtb_atoms(name)
-    result = cc.crosscheck(atoms, atoms.calc, experimental_cm1=experimental)
+    result = cc.crosscheck(atoms, atoms.calc, delta=DELTA, experimental_cm1=experimental)
+    coarse = cc.crosscheck(atoms, atoms.calc, delta=2 * DELTA)
     vib = ~result.rigid
     # vibra's finite-difference Hessian (same step and stencil) + vibra's eigensolver against
-    # ASE and phonopy: equal within the fd error estimate, which here also carries the SCF
-    # noise of the forces (it enters the Richardson difference)
-    floor = UNIT_RTOL * np.abs(result.vibra_cm1[vib])
-    assert np.all(np.abs(result.ase_difference_cm1[vib]) <= result.fd_error_cm1[vib] + floor)
-    assert np.all(np.abs(result.phonopy_difference_cm1[vib]) <= result.phonopy_fd_error_cm1[vib] + floor)
+    # ASE and phonopy: vibra must lie within each package's own fd error, estimated from that
+    # package's results at delta and 2 delta (Richardson, 2-point: (x(h) - x(2h)) / 3; it
+    # carries the SCF noise of the forces too), unit offsets divided out
+    floor = ROUNDOFF_RTOL * np.abs(result.vibra_cm1[vib])
+    for fine, crude, bias in [(result.ase_cm1, coarse.ase_cm1, ASE_UNIT_BIAS),
+                              (result.phonopy_cm1, coarse.phonopy_cm1, PHONOPY_UNIT_BIAS)]:
+        estimate = np.abs(fine[vib] - crude[vib]) / (1 + bias) / 3
+        assert np.all(np.abs(fine[vib] / (1 + bias) - result.vibra_cm1[vib]) <= estimate + floor)
     # GFN2-xTB harmonic wavenumbers are within 15 % of the experimental fundamentals
     # (GFN2's published mean absolute deviation for small molecules is ~ 5-10 %)
     np.testing.assert_allclose(result.vibra_cm1[vib], experimental, rtol=0.15)

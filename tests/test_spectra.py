@@ -383,7 +383,7 @@ def test_broadening_matches_scipy_profiles_in_small_blocks(shape, rng, monkeypat
     # are the reference; a tiny block size forces the chunked path with ragged last chunk.
     from scipy import stats
 
-    monkeypatch.setattr(spectra, "_BLOCK", 7)
+    monkeypatch.setattr(spectra.broadening, "_BLOCK", 7)
     positions, strengths = rng.uniform(500, 3500, 5), rng.uniform(0, 2, 5)
     grid = np.linspace(0, 4000, 103)
     width = 25.0

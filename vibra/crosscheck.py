@@ -36,7 +36,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra import molecules as _molecules
+from vibra import molecules
+from vibra.molecules.checks import check_atoms, nonnegative_scalar
 from vibra._frozen import _freeze_arrays
 from vibra.units import ASE
 
@@ -368,6 +369,13 @@ def crosscheck(
         equilibrium (residual force reported).
     RuntimeError
         The calculator returned non-finite forces; no file is left behind.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> result = crosscheck(molecules.h2o_atoms())    # valence force field guessed from the geometry
+    >>> result.n_rigid, int((~result.rigid).sum()), result.within_error()
+    (6, 3, True)
     """
     from ase import Atoms as _Atoms
 
@@ -381,11 +389,11 @@ def crosscheck(
     if isinstance(nfree, bool) or nfree not in (2, 4):
         raise ValueError(f"nfree is {nfree!r}; expected 2 or 4 (ASE's stencils)")
     edge = _validate.real_scalar(box, "box")
-    positions, masses = _molecules._check_atoms(atoms)
+    positions, masses = check_atoms(atoms)
     extent = float(np.ptp(positions, axis=0).max())
     if not edge > extent + 2.0:
         raise ValueError(f"box is {edge!r} Angstrom; it must exceed the molecule's extent ({extent:.3g}) by 2 Angstrom")
-    t = _molecules.rigid_body_vectors(positions, masses)
+    t = molecules.rigid_body_vectors(positions, masses)
     experimental = None
     if experimental_cm1 is not None:
         experimental = _validate.real_array(experimental_cm1, "experimental_cm1", ndim=1)
@@ -393,7 +401,7 @@ def crosscheck(
         if experimental.shape[0] != n_vibrations:
             raise ValueError(f"experimental_cm1 must have {n_vibrations} values (one per vibration), "
                              f"got {experimental.shape[0]}")
-    tolerance = None if force_tolerance is None else _molecules._nonnegative(
+    tolerance = None if force_tolerance is None else nonnegative_scalar(
         force_tolerance, "force_tolerance", "eV/Angstrom")
     label = name if name is not None else atoms.get_chemical_formula(mode="hill")
     work = atoms.copy()
@@ -401,25 +409,25 @@ def crosscheck(
 
     if calculator is None:
         if model is None:
-            model = _molecules.valence_model(work)
-        system = _molecules.from_atoms(work, model, name=label)
-        calc = _molecules.ValenceForceField(model)
-        estimate = _molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
-                                                        force_noise=force_noise)
+            model = molecules.valence_model(work)
+        system = molecules.from_atoms(work, model, name=label)
+        calc = molecules.ValenceForceField(model)
+        estimate = molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
+                                                       force_noise=force_noise)
         source = "analytic valence force field B^T W B"
     else:
         calc = calculator
-        estimate = _molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
-                                                        force_noise=force_noise, force_tolerance=tolerance)
+        estimate = molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
+                                                       force_noise=force_noise, force_tolerance=tolerance)
         system = estimate.system(name=label)
         source = f"finite differences ({nfree}-point, step {step:g} A) of {type(calculator).__name__}"
-    phonopy_estimate = estimate if nfree == 2 else _molecules.finite_difference_hessian(
+    phonopy_estimate = estimate if nfree == 2 else molecules.finite_difference_hessian(
         work, calc, step=step, stencil=2, force_noise=force_noise)
 
     with warnings.catch_warnings():
         # an imaginary mode is kept and flagged in the table, not raised
         warnings.simplefilter("ignore", RuntimeWarning)
-        analysis = _molecules.vibrational_analysis(system, project=project)
+        analysis = molecules.vibrational_analysis(system, project=project)
     modes = analysis.modes
     rigid = np.asarray(analysis.rigid)
 

@@ -1,0 +1,122 @@
+"""Isotope masses and isotopic substitution on the same force field."""
+
+from __future__ import annotations
+
+import re
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from vibra.system import System
+from vibra.units import ASE
+
+__all__ = ["ISOTOPE_MASSES", "isotope_mass", "substitute_isotopes"]
+
+# Isotope masses in amu: NIST "Atomic Weights and Isotopic Compositions" (AME2012/AME2016
+# values; the AME2020 evaluation moved them by at most 1.2e-9 relative, 3.4e-9 amu for 3H,
+# far below what any wavenumber resolves). ase.data has no isotope table offline
+# (ase.data.isotopes downloads it), hence this table; vibra.spectra uses the same one.
+_ISOTOPES: dict[str, float] = {
+    "1H": 1.00782503223, "2H": 2.01410177812, "3H": 3.0160492779,
+    "12C": 12.0, "13C": 13.00335483507, "14C": 14.0032419884,
+    "14N": 14.00307400443, "15N": 15.00010889888,
+    "16O": 15.99491461957, "17O": 16.99913175650, "18O": 17.99915961286,
+    "32S": 31.9720711744, "34S": 33.967867004,
+    "35Cl": 34.968852682, "37Cl": 36.965902602,
+}
+_ISOTOPE_ALIASES = {"D": "2H", "T": "3H"}
+#: Isotope label -> mass in amu (``"13C"``, ``"18O"``, ``"D"`` = ``"2H"``, ...), read-only; the
+#: one table behind `isotope_mass`, `substitute_isotopes` and `vibra.spectra.isotope_shifts`.
+ISOTOPE_MASSES: Mapping[str, float] = MappingProxyType(
+    {**_ISOTOPES, **{alias: _ISOTOPES[key] for alias, key in _ISOTOPE_ALIASES.items()}})
+
+
+
+def isotope_mass(label: str) -> float:
+    """Mass in amu of an isotope label such as ``"13C"``, ``"18O"``, ``"D"`` or ``"2H"``.
+
+    Masses from NIST's "Atomic Weights and Isotopic Compositions" (table in this module).
+
+    Examples
+    --------
+    >>> isotope_mass("13C"), isotope_mass("D") == isotope_mass("2H")
+    (13.00335483507, True)
+    """
+    if not isinstance(label, str):
+        raise TypeError(f"label must be a str such as '13C', got {type(label).__name__}")
+    key = _ISOTOPE_ALIASES.get(label, label)
+    if key not in _ISOTOPES:
+        match = re.fullmatch(r"(\d+)([A-Z][a-z]?)", key)
+        from ase.data import chemical_symbols
+
+        if match is None or match.group(2) not in chemical_symbols[1:]:
+            raise ValueError(f"label is {label!r}; expected an isotope like '13C', '18O', 'D' or '2H'")
+        known = ", ".join(sorted(_ISOTOPES) + sorted(_ISOTOPE_ALIASES))
+        raise ValueError(f"label is {label!r}: isotope not in vibra's table (known: {known}); pass a mass in amu")
+    return _ISOTOPES[key]
+
+
+def _isotope_element(label: str) -> str:
+    key = _ISOTOPE_ALIASES.get(label, label)
+    return re.fullmatch(r"\d+([A-Z][a-z]?)", key).group(1)  # type: ignore[union-attr]
+
+
+def substitute_isotopes(
+    system: System,
+    substitutions: Mapping[int, float | str],
+    *,
+    symbols: list[str] | tuple[str, ...] | None = None,
+) -> System:
+    """The same force field with some atoms replaced by isotopes (K is not recomputed).
+
+    Parameters
+    ----------
+    system : System
+        A molecule in ASE units (masses in amu).
+    substitutions : mapping of int to float or str
+        Atom index -> new mass in amu, or an isotope label (``"13C"``, ``"18O"``, ``"D"``).
+    symbols : sequence of str, optional
+        Chemical symbols of the atoms; when given, a label must name the atom's element.
+
+    Raises
+    ------
+    TypeError
+        Not a System of sites in ASE units, or a substitution of the wrong kind.
+    ValueError
+        An index out of range, a non-positive mass, an unknown label, or a label of another
+        element than `symbols` gives.
+
+    Examples
+    --------
+    >>> from vibra.molecules import h2o, vibrational_analysis
+    >>> d2o = substitute_isotopes(h2o(), {1: "D", 2: "D"}, symbols=["O", "H", "H"])
+    >>> [round(float(w)) for w in vibrational_analysis(d2o).vibration_wavenumbers_cm1()]
+    [1163, 2664, 2736]
+    """
+    if not isinstance(system, System):
+        raise TypeError(f"system must be a vibra System, got {type(system).__name__}")
+    if system.units is not ASE and system.units.name != "ASE":
+        raise TypeError(f"system must be in ASE units (amu) for isotope masses, got {system.units.name!r}")
+    if not isinstance(substitutions, Mapping):
+        raise TypeError(f"substitutions must be a mapping index -> mass or label, got {type(substitutions).__name__}")
+    if symbols is not None and len(symbols) != system.n_sites:
+        raise ValueError(f"symbols must name {system.n_sites} atoms, got {len(symbols)}")
+    masses = np.array(system.masses)
+    for index, value in substitutions.items():
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise TypeError(f"substitutions key {index!r} must be an int atom index")
+        if not 0 <= index < system.n_sites:
+            raise ValueError(f"substitutions[{index}]: atom index out of range 0..{system.n_sites - 1}")
+        if isinstance(value, str):
+            mass = isotope_mass(value)
+            if symbols is not None and _isotope_element(value) != symbols[index]:
+                raise ValueError(f"substitutions[{index}] is {value!r} but atom {index} is {symbols[index]!r}")
+        elif isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool):
+            mass = float(value)
+            if not (np.isfinite(mass) and mass > 0):
+                raise ValueError(f"substitutions[{index}] is {value!r}; a mass must be positive and finite (amu)")
+        else:
+            raise TypeError(f"substitutions[{index}] must be a mass in amu or an isotope label, got {type(value).__name__}")
+        masses[index] = mass
+    return system.with_masses(masses)

@@ -1,0 +1,55 @@
+"""Spectroscopy from normal modes: IR and Raman activity, broadened spectra, harmonic
+thermochemistry and isotope shifts.
+
+Everything here starts from a `vibra.System` of sites in ASE units (amu, Angstrom, eV) and
+its `vibra.Modes`. The mode shapes u_k are M-orthonormal Cartesian displacements (seed 003
+eq. 151), so a displacement along mode k by the normal coordinate Q_k is u = u_k Q_k, with
+Q_k in Angstrom * sqrt(amu).
+
+Models (see docs/spectra.md):
+
+- IR, point charges: mu = sum_i q_i r_i, so dmu/dQ_k = sum_i q_i u_k[i] (e / sqrt(amu)).
+  From a calculator: dmu_a/dx_ib by central differences of ``atoms.get_dipole_moment()``,
+  projected on the modes. Intensity |dmu/dQ_k|^2 in e^2/amu; times
+  N_A / (12 epsilon_0 c^2) it is the integrated absorption coefficient in km/mol.
+- Raman, bond polarisabilities: each bond adds
+  alpha_b = alpha_par e e^T + alpha_perp (I - e e^T) (e the unit bond vector), whose two
+  values depend on the bond length. The mode's polarisability derivative alpha'_k collects
+  the bond stretch and the bond rotation terms; the activity is 45 a'^2 + 7 g'^2 with the
+  isotropic invariant a' = tr(alpha')/3 and the anisotropy g'^2 (Long, "The Raman Effect").
+- Thermochemistry of independent harmonic oscillators, with the same formulas as ASE's
+  ``HarmonicThermo``.
+
+Rigid-body modes (|omega| <= zero_rtol * max|omega|, or within the mode's own error, and,
+when a `vibra.molecules.VibrationalAnalysis` is passed as the modes, every mode it matched to
+a translation or rotation) are skipped everywhere; imaginary modes are skipped with a
+RuntimeWarning.
+
+Modules: `ir.py`, `raman.py`, `broadening.py` (stick and broadened spectra), `thermochemistry.py`,
+`isotopes.py` (isotope shifts), and `common.py` (mode selection and checks they share).
+"""
+
+from __future__ import annotations
+
+from vibra.modes import Modes
+from vibra.molecules import VibrationalAnalysis
+from vibra.spectra.broadening import BroadenedSpectrum, StickSpectrum, broadened_spectrum
+from vibra.spectra.common import ZERO_RTOL
+from vibra.spectra.ir import (KM_PER_MOL_PER_E2_AMU, PAULING_ELECTRONEGATIVITY, IRSpectrum, dipole_derivatives,
+                              electronegativity_charges, ir_spectrum)
+from vibra.spectra.isotopes import ISOTOPE_MASSES, IsotopeShifts, isotope_shifts
+from vibra.spectra.raman import RamanSpectrum, raman_spectrum
+from vibra.spectra.thermochemistry import BOLTZMANN_EV_PER_K, Thermochemistry, thermochemistry
+from vibra.system import System
+
+__all__ = [
+    "ZERO_RTOL", "KM_PER_MOL_PER_E2_AMU", "BOLTZMANN_EV_PER_K", "ISOTOPE_MASSES",
+    "PAULING_ELECTRONEGATIVITY",
+    "IRSpectrum", "RamanSpectrum", "StickSpectrum", "BroadenedSpectrum", "Thermochemistry",
+    "IsotopeShifts",
+    "ir_spectrum", "raman_spectrum", "dipole_derivatives", "electronegativity_charges",
+    "broadened_spectrum", "thermochemistry", "isotope_shifts",
+]
+
+# re-exported from the stages below, as the single-module vibra.spectra did
+_REEXPORTED = (Modes, System, VibrationalAnalysis)

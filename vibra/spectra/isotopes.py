@@ -1,0 +1,176 @@
+"""Isotope shifts: the wavenumbers of a system before and after changing some masses."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vibra import _validate
+from vibra._frozen import _freeze_arrays
+from vibra.molecules import ISOTOPE_MASSES
+from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
+from vibra.system import System
+
+__all__ = ["ISOTOPE_MASSES", "IsotopeShifts", "isotope_shifts"]
+
+@dataclass(frozen=True, eq=False)
+class IsotopeShifts:
+    """Wavenumbers of the vibrational modes before and after an isotopic substitution.
+
+    Modes are paired in ascending order of wavenumber (the k-th vibrational mode of one
+    system with the k-th of the other).
+
+    Attributes
+    ----------
+    sites : (n_sub,) ndarray of int
+        Substituted sites.
+    original_masses, new_masses : (n_sub,) ndarray
+        Their masses before and after, in the mass unit of the system (amu for ASE units).
+    labels : tuple of str
+        The substitution as given for each site (an isotope name or the mass as text).
+    wavenumbers : (n_vib,) ndarray
+        Original wavenumbers, ascending, in cm^-1.
+    shifted_wavenumbers : (n_vib,) ndarray
+        Wavenumbers after substitution, ascending, in cm^-1.
+    """
+
+    sites: NDArray[np.intp]
+    original_masses: NDArray[np.float64]
+    new_masses: NDArray[np.float64]
+    labels: tuple[str, ...]
+    wavenumbers: NDArray[np.float64]
+    shifted_wavenumbers: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    @property
+    def shifts(self) -> NDArray[np.float64]:
+        """(n_vib,) shifted minus original wavenumbers, in cm^-1 (negative: red shift)."""
+        return self.shifted_wavenumbers - self.wavenumbers
+
+    @property
+    def ratios(self) -> NDArray[np.float64]:
+        """(n_vib,) shifted / original wavenumbers (dimensionless)."""
+        return self.shifted_wavenumbers / self.wavenumbers
+
+    def table(self) -> str:
+        """Text table: mode, original and shifted wavenumbers, shift (cm^-1), ratio."""
+        what = ", ".join(f"site {s}: {lab} ({m0:.6g} -> {m1:.6g})" for s, lab, m0, m1 in zip(
+            self.sites, self.labels, self.original_masses, self.new_masses))
+        lines = [f"isotope shifts [{what}]",
+                 " mode   original/cm^-1   shifted/cm^-1   shift/cm^-1      ratio"]
+        for k in range(len(self.wavenumbers)):
+            lines.append(
+                f"{k:5d}  {self.wavenumbers[k]:15.2f}  {self.shifted_wavenumbers[k]:14.2f}  "
+                f"{self.shifts[k]:12.2f}  {self.ratios[k]:9.6f}"
+            )
+        return "\n".join(lines)
+
+
+
+def isotope_shifts(
+    system: System,
+    substitutions: Mapping[int, float | str],
+    *,
+    zero_rtol: float = ZERO_RTOL,
+    accuracy: Literal["high", "fast"] = "high",
+) -> IsotopeShifts:
+    """Vibrational wavenumbers before and after replacing the masses of some sites.
+
+    The potential (K) is unchanged; only M changes (`System.with_masses`). Modes are paired
+    in ascending order of wavenumber.
+
+    Parameters
+    ----------
+    system : System
+        A system of sites in physical units (isotope names need ASE units: amu).
+    substitutions : mapping of int to float or str
+        Site index -> new mass (in the mass unit of the system) or an isotope name from
+        `ISOTOPE_MASSES` (``"13C"``, ``"18O"``, ``"D"``, ...).
+    zero_rtol : float
+        Relative threshold of the rigid-body modes left out.
+    accuracy : {"high", "fast"}
+        Passed to `System.modes`.
+
+    Returns
+    -------
+    IsotopeShifts
+
+    Raises
+    ------
+    TypeError
+        `system` not a System of sites; `substitutions` not a mapping, a key not an int, a
+        value neither a number nor a str.
+    ValueError
+        Dimensionless units; an empty mapping, a site out of range, an unknown isotope
+        name, an isotope name outside ASE units, a mass not positive and finite.
+    RuntimeError
+        The two systems do not have the same number of vibrational modes.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> shifts = isotope_shifts(molecules.co2(dims=1), {1: "13C"})
+    >>> [round(float(s), 1) for s in shifts.shifts]          # 13C moves only the asymmetric stretch
+    [0.0, -68.9]
+    """
+    if not isinstance(system, System):
+        raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
+    if system.is_generalized:
+        raise TypeError("system must be a system of sites; this one is in generalised coordinates")
+    if system.units.time_s is None:
+        raise ValueError("system is dimensionless; isotope shifts need units 'SI' or 'ASE' (cm^-1)")
+    if not isinstance(substitutions, Mapping):
+        raise TypeError(f"substitutions must be a mapping of site -> mass, got {type(substitutions).__name__}")
+    if not substitutions:
+        raise ValueError("substitutions is empty; give at least one site -> new mass")
+    zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
+    _validate.choice(accuracy, "accuracy", ("high", "fast"))
+    masses = np.array(system.masses, dtype=float)
+    sites, labels, old, new = [], [], [], []
+    for site, value in substitutions.items():
+        if isinstance(site, bool) or not isinstance(site, (int, np.integer)):
+            raise TypeError(f"substitutions key {site!r} must be an int site index")
+        if not 0 <= site < system.n_sites:
+            raise ValueError(f"substitutions[{site}]: site {site} is out of range 0..{system.n_sites - 1}")
+        if isinstance(value, str):
+            if value not in ISOTOPE_MASSES:
+                raise ValueError(
+                    f"substitutions[{site}] is {value!r}; known isotopes: {', '.join(ISOTOPE_MASSES)}")
+            if system.units.name != "ASE":
+                raise ValueError(
+                    f"substitutions[{site}] is the isotope name {value!r}, which needs masses in amu "
+                    f"(units 'ASE'); this system is in {system.units.name!r}: give the mass instead")
+            mass = float(ISOTOPE_MASSES[value])
+            label = value
+        elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+            mass = float(value)
+            if not (np.isfinite(mass) and mass > 0):
+                raise ValueError(f"substitutions[{site}] is {value!r}; a mass must be positive and finite")
+            label = f"{mass:g}"
+        else:
+            raise TypeError(
+                f"substitutions[{site}] must be a mass or an isotope name, got {type(value).__name__}")
+        sites.append(int(site))
+        labels.append(label)
+        old.append(float(system.masses[site]))
+        new.append(mass)
+        masses[site] = mass
+    before = system.modes(accuracy=accuracy)
+    after = system.with_masses(masses).modes(accuracy=accuracy)
+    keep_before = vibrational_mask(before, zero_rtol, "isotope_shifts")
+    keep_after = vibrational_mask(after, zero_rtol, "isotope_shifts")
+    if keep_before.sum() != keep_after.sum():
+        raise RuntimeError(
+            f"the substituted system has {int(keep_after.sum())} vibrational modes, the original "
+            f"{int(keep_before.sum())}; adjust zero_rtol")
+    return IsotopeShifts(
+        sites=np.array(sites, dtype=np.intp), original_masses=np.array(old),
+        new_masses=np.array(new), labels=tuple(labels),
+        wavenumbers=before.wavenumbers_cm1()[keep_before],
+        shifted_wavenumbers=after.wavenumbers_cm1()[keep_after],
+    )

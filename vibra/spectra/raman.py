@@ -1,0 +1,198 @@
+"""Raman activities in the bond-polarisability model."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vibra import _validate
+from vibra._frozen import _freeze_arrays
+from vibra.modes import Modes
+from vibra.spectra.broadening import StickSpectrum, stick_spectrum
+from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, nonnegative_float,
+                                  system_and_modes, vibrational_mask)
+from vibra.system import System
+
+__all__ = ["RamanSpectrum", "raman_spectrum"]
+
+
+@dataclass(frozen=True, eq=False)
+class RamanSpectrum:
+    """Raman activity of the vibrational modes in the bond-polarisability model.
+
+    Attributes
+    ----------
+    mode_indices : (n_vib,) ndarray of int
+        Index of each vibrational mode in its `Modes`.
+    wavenumbers : (n_vib,) ndarray
+        Mode wavenumbers, ascending, in cm^-1.
+    polarizability_derivatives : (n_vib, 3, 3) ndarray
+        d alpha / dQ_k, symmetric, in Angstrom^3 / (Angstrom sqrt(amu)) = Angstrom^2/sqrt(amu).
+    isotropic : (n_vib,) ndarray
+        a'_k = tr(d alpha / dQ_k) / 3, in Angstrom^2/sqrt(amu).
+    anisotropy : (n_vib,) ndarray
+        g'_k >= 0 with g'^2 = 1/2 [(xx-yy)^2 + (yy-zz)^2 + (zz-xx)^2 + 6 (xy^2+yz^2+zx^2)],
+        in Angstrom^2/sqrt(amu).
+    activities : (n_vib,) ndarray
+        45 a'^2 + 7 g'^2, in Angstrom^4/amu.
+    """
+
+    mode_indices: NDArray[np.intp]
+    wavenumbers: NDArray[np.float64]
+    polarizability_derivatives: NDArray[np.float64]
+    isotropic: NDArray[np.float64]
+    anisotropy: NDArray[np.float64]
+    activities: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    def active(self, rtol: float = 1e-8) -> NDArray[np.bool_]:
+        """(n_vib,) True where the activity exceeds `rtol` times the strongest line."""
+        return active_lines(self.activities, rtol)
+
+    def sticks(self, *, merge_cm1: float = 0.01) -> StickSpectrum:
+        """Stick spectrum of the activities (Angstrom^4/amu), degenerate lines summed."""
+        return stick_spectrum(self.wavenumbers, self.activities, merge_cm1, "Angstrom^4/amu", "Raman")
+
+    def table(self) -> str:
+        """Text table: mode, wavenumber (cm^-1), a', g', activity, Raman active."""
+        active = self.active()
+        lines = ["Raman (bond polarisability)",
+                 " mode  wavenumber/cm^-1        a'          g'   activity/(A^4/amu)  active"]
+        for k in range(len(self.wavenumbers)):
+            lines.append(
+                f"{self.mode_indices[k]:5d}  {self.wavenumbers[k]:16.2f}  {self.isotropic[k]:10.4g}  "
+                f"{self.anisotropy[k]:10.4g}  {self.activities[k]:19.4g}  "
+                f"{'yes' if active[k] else 'no':>6}"
+            )
+        return "\n".join(lines)
+
+
+
+def raman_spectrum(
+    system: System,
+    modes: Modes | None = None,
+    *,
+    bonds: ArrayLike,
+    polarizability_parallel: ArrayLike | float = 1.0,
+    polarizability_perpendicular: ArrayLike | float = 0.5,
+    derivative_parallel: ArrayLike | float = 2.0,
+    derivative_perpendicular: ArrayLike | float = 0.5,
+    zero_rtol: float = ZERO_RTOL,
+) -> RamanSpectrum:
+    """Raman activities in the bond-polarisability model (a qualitative hint).
+
+    Each bond b with unit vector e and length r adds
+    alpha_b = alpha_par(r) e e^T + alpha_perp(r) (I - e e^T). Along mode k, with
+    Delta = u_k[j] - u_k[i] for the bond (i, j), the bond stretches by dr = e . Delta and
+    turns by de = (Delta - e dr) / r, so
+
+        d alpha_b / dQ_k = [alpha'_par e e^T + alpha'_perp (I - e e^T)] dr
+                           + (alpha_par - alpha_perp) (de e^T + e de^T).
+
+    The activity is 45 a'^2 + 7 g'^2 with a' and g' the isotropic and anisotropic invariants
+    of d alpha / dQ_k. The default bond values are generic: only ratios between modes mean
+    anything, and a zero activity is a symmetry statement (e.g. the mutual exclusion rule of
+    centrosymmetric molecules such as CO2).
+
+    Parameters
+    ----------
+    system : System
+        A system of sites in ASE units, in 1, 2 or 3 dimensions.
+    modes : Modes or VibrationalAnalysis, optional
+        Its normal modes with shapes (default: ``system.modes()``); a `VibrationalAnalysis`
+        leaves out its rigid-body modes exactly (see `ir_spectrum`).
+    bonds : (n_bonds, 2) array_like of int
+        Bonded site pairs.
+    polarizability_parallel, polarizability_perpendicular : float or (n_bonds,) array_like
+        alpha_par and alpha_perp of each bond, in Angstrom^3 (polarisability volumes).
+    derivative_parallel, derivative_perpendicular : float or (n_bonds,) array_like
+        Their derivatives with respect to the bond length, in Angstrom^2.
+    zero_rtol : float
+        Relative threshold of the rigid-body modes left out.
+
+    Returns
+    -------
+    RamanSpectrum
+
+    Raises
+    ------
+    TypeError
+        `system` not a System of sites, `modes` not a Modes or VibrationalAnalysis, bond
+        indices not integers.
+    ValueError
+        Units other than ASE; modes without shapes or of another size; bond indices out of
+        range or a bond joining a site to itself or two coincident sites; parameter arrays
+        of the wrong length or not finite.
+
+    Examples
+    --------
+    >>> from vibra import molecules
+    >>> system = molecules.co2()
+    >>> raman = raman_spectrum(system, molecules.vibrational_analysis(system), bonds=[[0, 1], [1, 2]])
+    >>> raman.active().tolist()      # mutual exclusion: only the symmetric stretch
+    [False, False, True, False]
+    """
+    system, modes, rigid = system_and_modes(system, modes)
+    pairs = bond_pairs(bonds, system.n_sites)
+    n_bonds = len(pairs)
+    a_par = _per_bond(polarizability_parallel, n_bonds, "polarizability_parallel")
+    a_perp = _per_bond(polarizability_perpendicular, n_bonds, "polarizability_perpendicular")
+    d_par = _per_bond(derivative_parallel, n_bonds, "derivative_parallel")
+    d_perp = _per_bond(derivative_perpendicular, n_bonds, "derivative_perpendicular")
+    zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
+    positions = _cartesian_positions(system)
+    vector = positions[pairs[:, 1]] - positions[pairs[:, 0]]
+    length = np.linalg.norm(vector, axis=1)
+    scale = max(float(np.abs(positions).max()), 1.0)
+    short = length <= 1e-12 * scale
+    if short.any():
+        b = int(np.argmax(short))
+        raise ValueError(f"bonds[{b}] joins sites {pairs[b, 0]} and {pairs[b, 1]} at the same position")
+    e = vector / length[:, None]                                    # (n_bonds, 3)
+    keep = vibrational_mask(modes, zero_rtol, "raman_spectrum", rigid)
+    shapes = cartesian_shapes(system, modes)[:, :, keep]           # (n_sites, 3, n_vib)
+    delta = shapes[pairs[:, 1]] - shapes[pairs[:, 0]]               # (n_bonds, 3, n_vib)
+    stretch = np.einsum("ba,bak->bk", e, delta)                     # dr
+    turn = (delta - e[:, :, None] * stretch[:, None, :]) / length[:, None, None]  # de
+    eye = np.eye(3)
+    projector = np.einsum("ba,bc->bac", e, e)                       # e e^T
+    stretch_tensor = (d_par[:, None, None] * projector
+                      + d_perp[:, None, None] * (eye[None] - projector))
+    derivative = np.einsum("bac,bk->kac", stretch_tensor, stretch)
+    turn_outer = np.einsum("bak,bc->bkac", turn, e)                 # de e^T, (n_bonds, n_vib, 3, 3)
+    turn_outer = turn_outer + np.swapaxes(turn_outer, 2, 3)         # de e^T + e de^T
+    derivative += np.einsum("b,bkac->kac", a_par - a_perp, turn_outer)
+    isotropic = np.trace(derivative, axis1=1, axis2=2) / 3.0
+    anisotropy = np.sqrt(np.maximum(_anisotropy_squared(derivative), 0.0))
+    return RamanSpectrum(
+        mode_indices=np.flatnonzero(keep), wavenumbers=modes.wavenumbers_cm1()[keep],
+        polarizability_derivatives=derivative, isotropic=isotropic, anisotropy=anisotropy,
+        activities=45.0 * isotropic**2 + 7.0 * anisotropy**2,
+    )
+
+
+def _anisotropy_squared(t: NDArray[np.float64]) -> NDArray[np.float64]:
+    xx, yy, zz = t[:, 0, 0], t[:, 1, 1], t[:, 2, 2]
+    xy, yz, zx = t[:, 0, 1], t[:, 1, 2], t[:, 2, 0]
+    return 0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2
+                  + 6.0 * (xy**2 + yz**2 + zx**2))
+
+
+def _per_bond(value: ArrayLike | float, n_bonds: int, name: str) -> NDArray[np.float64]:
+    array = _validate.real_array(value, name, ndim=(0, 1))
+    if array.ndim == 0:
+        return np.full(n_bonds, float(array))
+    if array.shape[0] != n_bonds:
+        raise ValueError(f"{name} must have {n_bonds} entries (one per bond), got {array.shape[0]}")
+    return array
+
+
+
+def _cartesian_positions(system: System) -> NDArray[np.float64]:
+    out = np.zeros((system.n_sites, 3))
+    out[:, : system.dim] = system.positions
+    return out

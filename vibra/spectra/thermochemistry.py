@@ -1,0 +1,205 @@
+"""Thermochemistry of independent harmonic oscillators (ZPE, q, U, C_v, S, F), as ASE's
+``HarmonicThermo``."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import constants
+
+from vibra import _validate
+from vibra._frozen import _freeze_arrays
+from vibra.modes import Modes
+from vibra.molecules import VibrationalAnalysis
+from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
+
+__all__ = ["BOLTZMANN_EV_PER_K", "Thermochemistry", "thermochemistry"]
+
+#: Boltzmann's constant in eV/K (CODATA 2018 via scipy; ase.units.kB is CODATA 2014 and
+#: differs by 3.4e-7 relative).
+BOLTZMANN_EV_PER_K = constants.k / constants.e
+
+#: E = h c nu~ : eV per cm^-1.
+_EV_PER_CM1 = constants.h * constants.c / constants.centi / constants.e
+
+
+@dataclass(frozen=True, eq=False)
+class Thermochemistry:
+    """Harmonic vibrational thermochemistry at several temperatures.
+
+    Energies are measured from the bottom of the potential well (as ASE's HarmonicThermo
+    does with potentialenergy=0) unless stated otherwise.
+
+    Attributes
+    ----------
+    temperatures : (n_T,) ndarray
+        Temperatures, in K.
+    wavenumbers : (n_vib,) ndarray
+        Wavenumbers of the modes counted, ascending, in cm^-1.
+    vibrational_energies : (n_vib,) ndarray
+        Quanta hbar omega_k = h c nu~_k, in eV.
+    zero_point_energy : float
+        sum_k hbar omega_k / 2, in eV.
+    log_partition_function : (n_T,) ndarray
+        ln q_ZPE = -sum_k ln(1 - exp(-x_k)), x_k = hbar omega_k / kT: the partition function
+        with energies counted from the ground state (the zero-point level); q_ZPE -> 1 as
+        T -> 0. Kept as a logarithm so that its tiny low-T values keep their digits
+        (`partition_function` gives q_ZPE itself).
+    log_partition_function_bottom : (n_T,) ndarray
+        ln q_BOT = ln q_ZPE - ZPE / kT: energies counted from the bottom of the well (q_BOT
+        itself underflows at low T).
+    internal_energy : (n_T,) ndarray
+        U = ZPE + sum_k hbar omega_k / (exp(x_k) - 1), in eV.
+    heat_capacity : (n_T,) ndarray
+        C_v = k sum_k x_k^2 e^x_k / (e^x_k - 1)^2, in eV/K.
+    entropy : (n_T,) ndarray
+        S = k sum_k [x_k / (e^x_k - 1) - ln(1 - e^-x_k)], in eV/K.
+    helmholtz_energy : (n_T,) ndarray
+        F = U - T S = ZPE + kT sum_k ln(1 - e^-x_k) = -kT ln q_BOT, in eV.
+    n_imaginary : int
+        Imaginary modes left out.
+    """
+
+    temperatures: NDArray[np.float64]
+    wavenumbers: NDArray[np.float64]
+    vibrational_energies: NDArray[np.float64]
+    zero_point_energy: float
+    log_partition_function: NDArray[np.float64]
+    log_partition_function_bottom: NDArray[np.float64]
+    internal_energy: NDArray[np.float64]
+    heat_capacity: NDArray[np.float64]
+    entropy: NDArray[np.float64]
+    helmholtz_energy: NDArray[np.float64]
+    n_imaginary: int
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    @property
+    def partition_function(self) -> NDArray[np.float64]:
+        """(n_T,) q_ZPE = exp(log_partition_function), dimensionless."""
+        return np.exp(self.log_partition_function)
+
+    def heat_capacity_j_per_mol_k(self) -> NDArray[np.float64]:
+        """(n_T,) C_v per mole, in J/(mol K)."""
+        return self.heat_capacity * constants.e * constants.N_A
+
+    def entropy_j_per_mol_k(self) -> NDArray[np.float64]:
+        """(n_T,) S per mole, in J/(mol K)."""
+        return self.entropy * constants.e * constants.N_A
+
+    def table(self) -> str:
+        """Text table: T (K), U (eV), C_v and S (J/(mol K)), F (eV), q_ZPE."""
+        lines = [
+            f"harmonic vibrations: {len(self.wavenumbers)} modes, ZPE = {self.zero_point_energy:.6f} eV"
+            + (f", {self.n_imaginary} imaginary mode(s) left out" if self.n_imaginary else ""),
+            "      T/K        U/eV   Cv/(J/mol/K)    S/(J/mol/K)        F/eV        q_ZPE",
+        ]
+        cv, s = self.heat_capacity_j_per_mol_k(), self.entropy_j_per_mol_k()
+        for i, t in enumerate(self.temperatures):
+            lines.append(
+                f"{t:9.2f}  {self.internal_energy[i]:10.6f}  {cv[i]:13.5f}  {s[i]:13.5f}  "
+                f"{self.helmholtz_energy[i]:10.6f}  {self.partition_function[i]:11.6g}"
+            )
+        return "\n".join(lines)
+
+
+
+def thermochemistry(
+    modes: Modes | VibrationalAnalysis | ArrayLike,
+    temperatures: ArrayLike,
+    *,
+    zero_rtol: float = ZERO_RTOL,
+) -> Thermochemistry:
+    """Vibrational ZPE, partition function, U, C_v, S and F of independent harmonic modes.
+
+    With x_k = hbar omega_k / kT: q_ZPE = prod 1/(1 - e^-x_k),
+    U = ZPE + sum hbar omega_k / (e^x_k - 1), C_v = k sum x_k^2 e^x_k / (e^x_k - 1)^2,
+    S = k sum [x_k / (e^x_k - 1) - ln(1 - e^-x_k)], F = U - T S. These are the formulas of
+    ASE's HarmonicThermo (and the vibrational part of IdealGasThermo); k is CODATA 2018.
+
+    Parameters
+    ----------
+    modes : Modes or VibrationalAnalysis or (n_modes,) array_like
+        Normal modes in physical units, a molecule's `VibrationalAnalysis` (its rigid-body
+        modes are left out exactly), or signed wavenumbers in cm^-1 (negative = imaginary).
+    temperatures : float or (n_T,) array_like
+        Temperatures, in K (> 0).
+    zero_rtol : float
+        Modes with |omega| <= zero_rtol * max|omega| (rigid-body motion) are left out.
+        Imaginary modes are left out with a RuntimeWarning.
+
+    Returns
+    -------
+    Thermochemistry
+
+    Raises
+    ------
+    TypeError
+        `modes` neither a Modes nor an array of numbers.
+    ValueError
+        Dimensionless modes; wavenumbers or temperatures not 1-D, not finite, or
+        temperatures not positive.
+
+    Examples
+    --------
+    >>> thermo = thermochemistry([1000.0], [300.0])       # one mode at 1000 cm^-1
+    >>> round(thermo.zero_point_energy, 6)                  # h c (1000 cm^-1) / 2, in eV
+    0.061992
+    """
+    zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
+    rigid = None
+    if isinstance(modes, VibrationalAnalysis):
+        rigid = np.asarray(modes.rigid)
+        modes = modes.modes
+    if isinstance(modes, Modes):
+        if modes.units.time_s is None:
+            raise ValueError("modes are dimensionless; thermochemistry needs units 'SI' or 'ASE'")
+        keep = vibrational_mask(modes, zero_rtol, "thermochemistry", rigid)
+        wavenumbers = modes.wavenumbers_cm1()[keep]
+        skipped = modes.zero_modes(zero_rtol) | (rigid if rigid is not None else False)
+        n_imaginary = int(np.sum(modes.unstable & ~skipped))
+    else:
+        signed = _validate.real_array(modes, "modes", ndim=1)
+        keep, n_imaginary = _vibrational_values(signed, zero_rtol, "thermochemistry")
+        wavenumbers = np.sort(signed[keep])
+    temps = _validate.real_array(temperatures, "temperatures", ndim=(0, 1))
+    temps = np.atleast_1d(temps)
+    _validate.positive(temps, "temperatures", "temperature")
+
+    energies = wavenumbers * _EV_PER_CM1                        # (n_vib,) eV
+    kt = BOLTZMANN_EV_PER_K * temps                             # (n_T,) eV
+    x = energies[None, :] / kt[:, None]                         # (n_T, n_vib)
+    decay = np.exp(-x)
+    one_minus = -np.expm1(-x)                                   # 1 - e^-x, accurate for small x
+    occupation = decay / one_minus                              # 1 / (e^x - 1)
+    # ln(1 - e^-x): log1p keeps the digits when e^-x is tiny, log(-expm1) when x is small
+    log_one_minus = np.where(x > np.log(2.0), np.log1p(-decay), np.log(one_minus))
+    zpe = 0.5 * float(np.sum(energies))
+    log_q = -np.sum(log_one_minus, axis=1)
+    internal = zpe + occupation @ energies
+    heat_capacity = BOLTZMANN_EV_PER_K * np.sum(x**2 * decay / one_minus**2, axis=1)
+    entropy = BOLTZMANN_EV_PER_K * np.sum(x * occupation - log_one_minus, axis=1)
+    helmholtz = zpe + kt * np.sum(log_one_minus, axis=1)
+    return Thermochemistry(
+        temperatures=temps, wavenumbers=wavenumbers, vibrational_energies=energies,
+        zero_point_energy=zpe, log_partition_function=log_q,
+        log_partition_function_bottom=log_q - zpe / kt, internal_energy=internal,
+        heat_capacity=heat_capacity, entropy=entropy, helmholtz_energy=helmholtz,
+        n_imaginary=n_imaginary,
+    )
+
+
+def _vibrational_values(signed: NDArray[np.float64], zero_rtol: float, where: str
+                        ) -> tuple[NDArray[np.bool_], int]:
+    scale = float(np.abs(signed).max()) if signed.size else 0.0
+    zero = np.abs(signed) <= zero_rtol * scale
+    imaginary = (signed < 0) & ~zero
+    if imaginary.any():
+        warnings.warn(
+            f"{where}: {int(imaginary.sum())} imaginary mode(s) left out "
+            f"(wavenumbers {signed[imaginary].tolist()} cm^-1)", RuntimeWarning, stacklevel=3)
+    return ~zero & ~imaginary, int(imaginary.sum())
