@@ -17,14 +17,14 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra import _validate, solvers
 from vibra._frozen import _freeze_arrays, owned_arrays
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = ["Modes", "normal_modes", "SOLVERS"]
 
-#: Solver paths accepted by `normal_modes(solver=...)`; see `vibra.solvers`.
-SOLVERS = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
+#: Solver paths accepted by `normal_modes(solver=...)`: `vibra.solvers.SOLVER_NAMES`.
+SOLVERS = solvers.SOLVER_NAMES
 
 
 @dataclass(frozen=True, eq=False)
@@ -274,8 +274,6 @@ def normal_modes(
     >>> np.round(modes.omega ** 2, 12)
     array([0., 1., 3.])
     """
-    from vibra import solvers
-
     K_matrix = _validate.square_matrix(K, "K")
     K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
     n_dof = K_matrix.shape[0]
