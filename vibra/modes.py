@@ -185,6 +185,14 @@ class Modes:
         -------
         (n_dof,) or (n_t, n_dof) ndarray
             Displacements, in the length unit of `units`.
+
+        Examples
+        --------
+        >>> import numpy as np, vibra
+        >>> modes = vibra.normal_modes(np.array([[4.0]]), [1.0])        # omega = 2
+        >>> np.round(modes.evolve([1.0], [0.0], [0.0, np.pi / 2]), 12)   # cos(2 t)
+        array([[ 1.],
+               [-1.]])
         """
         shapes = self._require_shapes("evolve")
         q0 = self.normal_coordinates(_validate.real_array(u0, "u0", ndim=1))

@@ -31,6 +31,12 @@ def friction_damping(M: ArrayLike, eta: float) -> NDArray[np.float64] | sp.csr_m
     ------
     ValueError
         eta negative or not finite; M not positive.
+
+    Examples
+    --------
+    >>> friction_damping([1.0, 2.0], 0.1).toarray()
+    array([[0.1, 0. ],
+           [0. , 0.2]])
     """
     rate = _validate.real_scalar(eta, "eta")
     if rate < 0:
@@ -66,6 +72,13 @@ def rayleigh_damping(K: ArrayLike | sp.spmatrix, M: ArrayLike, a: float, b: floa
     ------
     ValueError
         a or b negative or not finite; K not square; M not matching K.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rayleigh_damping(np.array([[2.0, -1.0], [-1.0, 2.0]]), [1.0, 1.0], 0.1, 0.01).toarray()
+    array([[ 0.12, -0.01],
+           [-0.01,  0.12]])
     """
     alpha = _validate.real_scalar(a, "a")
     beta = _validate.real_scalar(b, "b")
@@ -92,6 +105,11 @@ def rayleigh_damping_ratio(omega: ArrayLike, a: float, b: float) -> NDArray[np.f
         Angular frequencies > 0, in rad per time unit.
     a, b : float
         Rayleigh coefficients >= 0 (1 / time unit, time unit).
+
+    Examples
+    --------
+    >>> float(rayleigh_damping_ratio(2.0, 0.4, 0.1))   # 0.4 / 4 + 0.1 * 2 / 2
+    0.2
     """
     w = _validate.real_array(omega, "omega", ndim=(0, 1))
     _validate.positive(np.atleast_1d(w), "omega", "angular frequency")
@@ -115,6 +133,12 @@ def rayleigh_coefficients(omega_1: float, omega_2: float, zeta_1: float, zeta_2:
     ValueError
         Frequencies not positive or equal; ratios negative; a solution with a < 0 or b < 0
         (no Rayleigh damping passes through those two points).
+
+    Examples
+    --------
+    >>> a, b = rayleigh_coefficients(1.0, 10.0, 0.05, 0.05)
+    >>> round(a, 12), round(b, 12)
+    (0.090909090909, 0.009090909091)
     """
     w1, w2 = _validate.real_scalar(omega_1, "omega_1"), _validate.real_scalar(omega_2, "omega_2")
     z1, z2 = _validate.real_scalar(zeta_1, "zeta_1"), _validate.real_scalar(zeta_2, "zeta_2")

@@ -99,6 +99,16 @@ def transient_response(
     ValueError
         As `frequency_response`; t negative; u0, v0 of the wrong length; a flexible mode
         with no damping driven exactly at its frequency, whose amplitude grows without bound.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> K = np.array([[1.0, -1.0], [-1.0, 1.0]])       # two unit masses, one unit spring
+    >>> t = [0.0, np.pi / np.sqrt(2.0)]                # half a period of the stretch, omega = sqrt(2)
+    >>> motion = transient_response(K, [1.0, 1.0], None, t, [0.0, 0.0], u0=[0.5, -0.5])
+    >>> np.round(motion.displacement, 12) + 0.0
+    array([[ 0.5, -0.5],
+           [-0.5,  0.5]])
     """
     stiffness, mass, damping, loads = check_structure(K, M, C, force)
     n_dof = stiffness.shape[0]

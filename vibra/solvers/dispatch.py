@@ -33,7 +33,17 @@ def solve(
     solver: str,
     spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
 ) -> SolveResult:
-    """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`."""
+    """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> K = np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])   # CO2 axial, kappa = 1
+    >>> result = solve(K, np.array([1.0, 2.0, 1.0]), n_modes=None, vectors=False, band=None,
+    ...                solver="dense", spring_factor=None)
+    >>> np.round(result.eigenvalues, 12)          # 0, kappa / m, kappa (1/m + 2/M) (eq. 157)
+    array([0., 1., 2.])
+    """
     n = K.shape[0]
     Kt = mass_weighted(K, mass)
     width = bandwidth(Kt) if mass.ndim == 1 else n
