@@ -1,16 +1,8 @@
 """Forced, damped response: the single oscillator and multi-dof frequency response.
 
-The single oscillator (seed 003 section 5.1, eqs. 114-131) is
-
-    u'' + gamma u' + w0^2 u = F(t) / m,
-
-with friction -m gamma u' (seed eq. 61). For a harmonic force F(t) = Re{F0 exp(i w t)}
-(eq. 118) the steady state is u_p(t) = Re{u0(w) exp(i w t)} with the complex amplitude
-u0(w) = (F0/m) / (w0^2 - w^2 + i gamma w) (eq. 120); the full motion adds the homogeneous
-part fixed by the initial conditions (eqs. 126-129), which dies out for t >> 1/gamma
-(eqs. 130-131). `Oscillator` holds these formulas in forms that keep their digits at the
-extremes (near resonance, near critical damping gamma = 2 w0, gamma >> w0, w -> 0 and
-w -> infinity).
+The single oscillator u'' + gamma u' + w0^2 u = F(t) / m (seed 003 section 5.1, eqs.
+114-131) is `Oscillator`, in forms that keep their digits at the extremes (see
+`vibra.response.oscillator`).
 
 For many degrees of freedom, M u'' + C u' + K u = Re{f exp(i w t)} has the steady state
 Re{x(w) exp(i w t)} with the receptance response x(w) = (K - w^2 M + i w C)^-1 f.

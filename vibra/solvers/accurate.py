@@ -21,7 +21,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
-from vibra.solvers.common import DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, small_pencil
+from vibra.solvers.common import (
+    DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil,
+)
 from vibra.solvers.sparse import lowest_shift, shift_invert, sparse_path
 from vibra.solvers.standard import dense_path
 
@@ -115,11 +117,7 @@ def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band:
     sigma = scale * sva
     order = np.argsort(sigma)
     omega = sigma[order]
-    select = np.arange(n)
-    if n_modes is not None:
-        select = select[:n_modes]
-    elif band is not None:
-        select = select[(omega >= band[0]) & (omega <= band[1])]
+    select = selected(omega, n_modes=n_modes, band=band)
     eigenvalues = omega[select] ** 2
     # Jacobi: relative error ~ eps * cond(B~ with columns scaled to unit norm) per value;
     # reported with the residual of the Gram form below.

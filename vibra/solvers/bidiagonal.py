@@ -16,7 +16,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values, bidiagonal_svd
-from vibra.solvers.common import BDSQR_LIMIT, EPS, SolveResult, absolute_figures, tridiagonal_bands
+from vibra.solvers.common import (
+    BDSQR_LIMIT, EPS, SolveResult, absolute_figures, selected, tridiagonal_bands,
+)
 
 
 Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
@@ -105,11 +107,7 @@ def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes:
     """accurate-bidiagonal: dqds values of each path segment, dbdsqr or MRRR vectors."""
     omega, relative = _path_values(segments)
     n = omega.shape[0]
-    select = np.arange(n)
-    if n_modes is not None:
-        select = select[:n_modes]
-    elif band is not None:
-        select = select[(omega >= band[0]) & (omega <= band[1])]
+    select = selected(omega, n_modes=n_modes, band=band)
     eigenvalues = omega[select] ** 2
     error = 2.0 * relative[select] * eigenvalues
     if not vectors:

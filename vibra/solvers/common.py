@@ -138,6 +138,17 @@ def squared_range(band: tuple[float, float]) -> tuple[float, float]:
     return float(np.sign(low) * low * low), float(np.sign(high) * high * high)
 
 
+def selected(omega: NDArray[np.float64], *, n_modes: int | None, band: tuple[float, float] | None
+             ) -> NDArray[np.intp]:
+    """Indices into the ascending `omega` of the lowest `n_modes`, or of those inside `band`, or all."""
+    select = np.arange(omega.shape[0])
+    if n_modes is not None:
+        return select[:n_modes]
+    if band is not None:
+        return select[(omega >= band[0]) & (omega <= band[1])]
+    return select
+
+
 def tridiagonal_bands(Kt: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(diagonal, superdiagonal) of a tridiagonal K~, dense or sparse."""
     if sp.issparse(Kt):
