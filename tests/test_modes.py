@@ -1,4 +1,4 @@
-"""Tests of vibra/modes.py and vibra/solvers.py: normal_modes, the solver paths, Modes.
+"""Tests of vibra/modes.py and vibra/solvers/: normal_modes, the solver paths, Modes.
 
 Truth comes from closed forms (seed 003 eqs. 157-158, chain spectra), from mpmath
 eigenvalues at 50 digits, from scipy's ODE integrator, and from invariants.
@@ -58,6 +58,45 @@ def mp_chain_omegas(masses: np.ndarray, stiffness: np.ndarray, digits: int = 60)
             Kt[j, i] -= k[s] / mpmath.sqrt(m[i] * m[j])
         values = mpmath.eigsy(Kt, eigvals_only=True)
         return np.array(sorted(float(mpmath.sign(v) * mpmath.sqrt(abs(v))) for v in values))
+
+
+def mp_pencil_eigenvalues(springs: np.ndarray, masses: np.ndarray, indices: range, digits: int = 40) -> np.ndarray:
+    """Eigenvalues number `indices` (ascending, from 0) of the free-chain pencil (K, diag(masses)).
+
+    Sylvester's law of inertia: the number of negative pivots of the LDL^T factorisation of the
+    tridiagonal K - sigma D is the number of eigenvalues below sigma. The pivots are computed in
+    mpmath at `digits` digits from the spring constants themselves; each eigenvalue is bracketed
+    around scipy's float64 estimate (checked by the counts) and bisected to 1e-16 relative.
+    """
+    n = len(masses)
+    with mpmath.workdps(digits):
+        k = [mpmath.mpf(float(x)) for x in springs]
+        d = [mpmath.mpf(float(x)) for x in masses]
+        zero = mpmath.mpf(0)
+
+        def below(sigma: mpmath.mpf) -> int:
+            negative, pivot = 0, None
+            for i in range(n):
+                diagonal = (k[i - 1] if i > 0 else zero) + (k[i] if i < n - 1 else zero) - sigma * d[i]
+                pivot = diagonal if pivot is None else diagonal - k[i - 1] ** 2 / pivot
+                negative += pivot < 0
+            return negative
+
+        scale = 1.0 / np.sqrt(masses)
+        estimate = la.eigh_tridiagonal(np.r_[springs, 0.0] / masses + np.r_[0.0, springs] / masses,
+                                       -springs * scale[:-1] * scale[1:], eigvals_only=True)
+        values = []
+        for j in indices:
+            low, high = mpmath.mpf(estimate[j]) * (1 - 1e-4), mpmath.mpf(estimate[j]) * (1 + 1e-4)
+            assert below(low) <= j < below(high), "the float64 estimate does not bracket the eigenvalue"
+            while high - low > high * mpmath.mpf(10) ** -16:
+                middle = (low + high) / 2
+                if below(middle) > j:
+                    high = middle
+                else:
+                    low = middle
+            values.append(float((low + high) / 2))
+    return np.array(values)
 
 
 def co2_K(kappa: float = 1.0) -> np.ndarray:
@@ -136,12 +175,27 @@ def test_accurate_path_full_spectrum_n30000_beats_tridiagonal() -> None:
     assert np.all(high.omega_error[1:] >= np.abs(high.omega[1:] - exact[1:]))  # honest bound
 
 
-@pytest.mark.slow
-def test_accurate_path_every_frequency_of_1e5_chain() -> None:
-    n = 100_000
-    modes = free_chain(n).modes(vectors=False)
-    exact = free_closed_form(n)
-    assert np.max(np.abs(modes.omega[1:] - exact[1:]) / exact[1:]) < 1e-10
+@pytest.mark.parametrize("ends", ["free", "fixed"])
+def test_accurate_path_every_frequency_of_a_long_chain(ends: str) -> None:
+    """Every frequency of a long uniform chain to 1e-10 relative, at a length where the N^2 loss shows.
+
+    Truth: the closed forms 2 sin(j pi / 2n) (free) and 2 sin(k pi / 2(n + 1)) (fixed), evaluated
+    in float64 to a few ulps relative (the argument is one rounded product and quotient, and
+    sin is correctly rounded to ~1 ulp for small arguments). At n = 8000 an absolute-accuracy
+    solver loses about eps ||K~|| / omega_1^2 ~ eps (2n / pi)^2 ~ 6e-9 relative on the lowest
+    omega^2, so the standard tridiagonal path misses 1e-10: the check can see a loss of relative
+    accuracy, which a 1e5 chain showed only at 40x the cost.
+    """
+    n = 8000
+    system = free_chain(n) if ends == "free" else fixed_chain(n)
+    exact = free_closed_form(n)[1:] if ends == "free" else fixed_closed_form(n)
+    high = system.modes(vectors=False)
+    assert high.solver == "accurate-bidiagonal"
+    omega = high.omega[1:] if ends == "free" else high.omega
+    assert np.max(np.abs(omega - exact) / exact) < 1e-10
+    fast = system.modes(accuracy="fast", vectors=False)
+    omega_fast = fast.omega[1:] if ends == "free" else fast.omega
+    assert np.max(np.abs(omega_fast - exact) / exact) > 1e-10  # the N^2 loss is visible at this n
 
 
 def test_lowest_modes_of_a_long_chain_partial_paths() -> None:
@@ -235,8 +289,16 @@ def test_evolve_matches_numerical_integration_and_conserves_energy(rng: np.rando
     # DOP853 at rtol=atol=1e-12 over ~20 time units: global error ~1e-10; 1e-8 leaves margin.
     np.testing.assert_allclose(motion, reference.y[:n].T, atol=1e-8)
     energy0 = 0.5 * v0 @ (masses * v0) + 0.5 * u0 @ K @ u0
-    velocity = np.gradient(motion, times, axis=0)  # only for a consistency check below
-    assert velocity.shape == motion.shape
+    # The velocity of the modal motion (central differences of evolve, step h = 1e-5:
+    # truncation h^2 |u^(3)| / 6 ~ 1e-10, round-off eps |u| / h ~ 1e-11) against the integrator's
+    # velocity (global error ~1e-10), and the energy 1/2 v^T M v + 1/2 u^T K u of that motion at
+    # every sample against E(0): conserved to the differencing error.
+    h = 1e-5
+    velocity = (modes.evolve(u0, v0, times + h) - modes.evolve(u0, v0, times - h)) / (2 * h)
+    np.testing.assert_allclose(velocity, reference.y[n:].T, atol=1e-8)
+    energies = 0.5 * np.einsum("ti,i,ti->t", velocity, masses, velocity) + 0.5 * np.einsum(
+        "ti,ij,tj->t", motion, K, motion)
+    np.testing.assert_allclose(energies, energy0, rtol=1e-9)
     assert modes.energy(u0, v0) == pytest.approx(energy0, rel=1e-12)
     # Energy along the exact motion from the normal-coordinate form: each q_k's energy is constant.
     u_half = modes.evolve(u0, v0, 7.3)
@@ -408,16 +470,33 @@ def test_empty_band_returns_no_modes(solver: str) -> None:
 
 
 def test_accurate_path_with_a_dense_mass_matrix_and_few_modes(rng: np.random.Generator) -> None:
-    # A spring factor with a full SPD mass matrix, large enough for the partial (Ritz) path.
-    n = 1600
-    system = free_chain(n)
-    B, w = system.spring_factor()
-    M = np.diag(rng.uniform(1.0, 2.0, n))
-    M[0, 1] = M[1, 0] = 0.1  # a small coupling makes M a true matrix
-    K = system.hessian()
-    modes = normal_modes(K, M, n_modes=4, spring_factor=(B, w))
+    """The accurate (Ritz) path keeps relative accuracy with a full SPD mass matrix.
+
+    Truth by congruence: for a free chain B 1 = 0, so with T = I - 1 v^T / (1 + v.1) (whose
+    inverse is I + 1 v^T) and M = T^T D T (dense, SPD), T^-T K T^-1 = K and the pencil (K, M)
+    has exactly the eigenvalues of (K, D), D diagonal. Those come from Sylvester inertia counts
+    of the tridiagonal K - sigma D (negative LDL^T pivots) in mpmath at 40 digits, bisected to
+    1e-16 relative, with K built from the spring constants (no float64 rounding of K).
+    Springs 1e-3..1 and masses 1..1e3 make ||K~|| / omega_1^2 ~ 1e10, so an absolute-accuracy
+    solver loses ~1e-7 relative (LAPACK's generalised eigh is checked to miss 1e-10 here), while
+    a relative-accuracy one keeps ~1e-14: the bound 1e-10 sees the difference. Rounding M's
+    entries perturbs the eigenvalues by ~eps cond(D^-1/2 M D^-1/2) ~ 1e-15 relative only.
+    """
+    n = 1600  # above DENSE_LIMIT, so that few modes take the Ritz path
+    springs = 10.0 ** rng.uniform(-3.0, 0.0, n - 1)
+    diagonal_mass = 10.0 ** rng.uniform(0.0, 3.0, n)
+    rows = np.r_[np.arange(n - 1), np.arange(n - 1)]
+    B = sp.csr_matrix((np.r_[-np.ones(n - 1), np.ones(n - 1)], (rows, np.r_[np.arange(n - 1), np.arange(1, n)])),
+                      shape=(n - 1, n))
+    K = (B.T @ sp.diags(springs) @ B).tocsr()
+    v = rng.uniform(0.0, 2.0 / n, n)
+    T = np.eye(n) - np.outer(np.ones(n), v) / (1.0 + v.sum())
+    M = T.T @ (diagonal_mass[:, None] * T)
+    M = 0.5 * (M + M.T)
+    modes = normal_modes(K, M, n_modes=5, spring_factor=(B, springs))
     assert modes.solver == "accurate-ritz"
-    reference = la.eigh(K.toarray(), M, subset_by_index=(0, 4), eigvals_only=True)
-    # Reference: LAPACK's generalised solver, absolute accuracy ~ n eps ||K|| / min(M).
-    np.testing.assert_allclose(modes.omega_squared[1:], reference[1:4], rtol=1e-6)
-    np.testing.assert_allclose(modes.shapes.T @ M @ modes.shapes, np.eye(4), atol=1e-10)
+    reference = mp_pencil_eigenvalues(springs, diagonal_mass, range(1, 5))
+    assert np.max(np.abs(modes.omega_squared[1:] / reference - 1.0)) < 1e-10
+    absolute = la.eigh(K.toarray(), M, subset_by_index=(0, 4), eigvals_only=True)
+    assert np.max(np.abs(absolute[1:] / reference - 1.0)) > 1e-10  # the case can show a loss
+    np.testing.assert_allclose(modes.shapes.T @ M @ modes.shapes, np.eye(5), atol=1e-10)

@@ -15,8 +15,29 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vibra import _validate
+
 _INT_P = ctypes.POINTER(ctypes.c_int)
 _DOUBLE_P = ctypes.POINTER(ctypes.c_double)
+
+
+def _bidiagonal(diagonal: ArrayLike, superdiagonal: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(d, e) as float64 arrays, e padded to length max(n, 1) as LAPACK's work space wants.
+
+    LAPACK reads NaN and inf without complaint (dlasq1 even returns finite values), so they
+    are refused here.
+    """
+    d = _validate.real_array(diagonal, "diagonal", ndim=1)
+    given = _validate.real_array(superdiagonal, "superdiagonal", ndim=1)
+    n = d.shape[0]
+    if given.shape[0] != max(n - 1, 0):
+        raise ValueError(f"superdiagonal must have {max(n - 1, 0)} entries for a {n} x {n} bidiagonal, "
+                         f"got {given.shape[0]}")
+    _validate.finite(d, "diagonal")
+    _validate.finite(given, "superdiagonal")
+    e = np.zeros(max(n, 1), dtype=np.float64)
+    e[: n - 1] = given
+    return np.array(d, dtype=np.float64, order="F"), e
 
 
 @lru_cache(maxsize=None)
@@ -51,13 +72,19 @@ def bidiagonal_singular_values(diagonal: ArrayLike, superdiagonal: ArrayLike) ->
 
     Raises
     ------
+    ValueError
+        d or e not finite, or e not of length n - 1.
     RuntimeError
         dqds failed to converge (LAPACK info > 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> bidiagonal_singular_values([1.0, 1.0], [1.0])  # [[1, 1], [0, 1]]: golden ratio and its inverse
+    array([0.61803399, 1.61803399])
     """
-    d = np.array(diagonal, dtype=np.float64, order="F")
+    d, e = _bidiagonal(diagonal, superdiagonal)
     n = d.shape[0]
-    e = np.zeros(max(n, 1), dtype=np.float64)
-    e[: n - 1] = superdiagonal
     if n == 0:
         return d
     work = np.empty(4 * n, dtype=np.float64)
@@ -91,11 +118,23 @@ def bidiagonal_svd(diagonal: ArrayLike, superdiagonal: ArrayLike, *, left: bool
         Ascending singular values.
     vectors : (n, n) ndarray
         Column k belongs to sigma[k].
+
+    Raises
+    ------
+    ValueError
+        d or e not finite, or e not of length n - 1.
+    RuntimeError
+        dbdsqr failed to converge (LAPACK info > 0).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sigma, vectors = bidiagonal_svd([1.0, 1.0], [1.0], left=True)
+    >>> np.round(sigma, 8), np.round(np.abs(vectors[:, 1]), 8)
+    (array([0.61803399, 1.61803399]), array([0.85065081, 0.52573111]))
     """
-    d = np.array(diagonal, dtype=np.float64)
+    d, e = _bidiagonal(diagonal, superdiagonal)
     n = d.shape[0]
-    e = np.zeros(max(n, 1), dtype=np.float64)
-    e[: n - 1] = superdiagonal
     identity = np.asfortranarray(np.eye(n))
     unused = np.zeros((1, 1), order="F")
     vt, u = (unused, identity) if left else (identity, unused)

@@ -17,14 +17,14 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra import _validate, solvers
 from vibra._frozen import _freeze_arrays, owned_arrays
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = ["Modes", "normal_modes", "SOLVERS"]
 
-#: Solver paths accepted by `normal_modes(solver=...)`; see `vibra.solvers`.
-SOLVERS = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
+#: Solver paths accepted by `normal_modes(solver=...)`: `vibra.solvers.SOLVER_NAMES`.
+SOLVERS = solvers.SOLVER_NAMES
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,6 +185,14 @@ class Modes:
         -------
         (n_dof,) or (n_t, n_dof) ndarray
             Displacements, in the length unit of `units`.
+
+        Examples
+        --------
+        >>> import numpy as np, vibra
+        >>> modes = vibra.normal_modes(np.array([[4.0]]), [1.0])        # omega = 2
+        >>> np.round(modes.evolve([1.0], [0.0], [0.0, np.pi / 2]), 12)   # cos(2 t)
+        array([[ 1.],
+               [-1.]])
         """
         shapes = self._require_shapes("evolve")
         q0 = self.normal_coordinates(_validate.real_array(u0, "u0", ndim=1))
@@ -274,8 +282,6 @@ def normal_modes(
     >>> np.round(modes.omega ** 2, 12)
     array([0., 1., 3.])
     """
-    from vibra import solvers
-
     K_matrix = _validate.square_matrix(K, "K")
     K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
     n_dof = K_matrix.shape[0]

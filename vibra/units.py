@@ -124,7 +124,15 @@ _BY_NAME = {"si": SI, "ase": ASE, "dimensionless": DIMENSIONLESS}
 
 
 def unit_system(units: str | UnitSystem) -> UnitSystem:
-    """Return the `UnitSystem` named `units` (``"SI"``, ``"ASE"``, ``"dimensionless"``)."""
+    """Return the `UnitSystem` named `units` (``"SI"``, ``"ASE"``, ``"dimensionless"``).
+
+    Examples
+    --------
+    >>> unit_system("SI").omega
+    'rad/s'
+    >>> round(float(unit_system("SI").omega_to_hz(2 * 3.141592653589793)), 12)
+    1.0
+    """
     if isinstance(units, UnitSystem):
         return units
     if not isinstance(units, str):

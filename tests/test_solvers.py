@@ -1,0 +1,266 @@
+"""Tests of vibra/solvers/: the accurate paths that test_modes.py does not reach, and validation.
+
+Truth: mpmath eigenvalues at 50 digits of K~ built from the spring factor in high precision
+(the Jacobi path), the closed-form spectrum of an anisotropic simple-cubic lattice whose
+x, y and z motions decouple into uniform free chains (the Rayleigh path), and the closed-form
+sine / cosine modes of uniform chains (vectors above the dbdsqr limit).
+"""
+
+from __future__ import annotations
+
+import mpmath
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from vibra import System, normal_modes, solvers
+
+EPS = np.finfo(float).eps
+
+
+# ---------------------------------------------------------------------- the exported names
+def test_solver_names_are_what_normal_modes_accepts() -> None:
+    from vibra.modes import SOLVERS
+
+    assert solvers.SOLVER_NAMES == SOLVERS == ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
+    assert all(isinstance(name, str) for name in solvers.SOLVER_PATHS)
+    K = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    for name in solvers.SOLVER_NAMES[:-1]:  # every name runs (accurate needs a spring factor)
+        kwargs = {"n_modes": 1} if name == "sparse" else {}
+        assert normal_modes(K, [1.0, 1.0], solver=name, **kwargs).solver in solvers.SOLVER_PATHS
+
+
+# ---------------------------------------------------------------------- accurate-jacobi
+def spring_network(rng: np.random.Generator, n_sites: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(B, w, masses) of a 3-D network: each of `n_sites` random sites joined by a central spring
+    to its 6 nearest neighbours, spring constants log-uniform in 1e-6..1e6, masses in 1e-3..1e3."""
+    positions = rng.normal(size=(n_sites, 3))
+    distance = np.linalg.norm(positions[:, None] - positions[None], axis=-1)
+    nearest = np.argsort(distance, axis=1)[:, 1:7]
+    pairs = np.array(sorted({(min(i, j), max(i, j)) for i in range(n_sites) for j in nearest[i].tolist()}))
+    directions = positions[pairs[:, 1]] - positions[pairs[:, 0]]
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    B = np.zeros((len(pairs), 3 * n_sites))
+    for row, ((i, j), e) in enumerate(zip(pairs, directions)):
+        B[row, 3 * j : 3 * j + 3] = e
+        B[row, 3 * i : 3 * i + 3] = -e
+    springs = 10.0 ** rng.uniform(-6.0, 6.0, len(pairs))
+    masses = np.repeat(10.0 ** rng.uniform(-3.0, 3.0, n_sites), 3)
+    return B, springs, masses
+
+
+def mp_spring_omegas(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, digits: int = 50) -> np.ndarray:
+    """omega of K~ = M^-1/2 B^T W B M^-1/2 from mpmath.eigsy at `digits` digits, with B~ = W^1/2 B M^-1/2
+    formed in mpmath from the float64 entries of B, w and M taken as exact (no float64 K)."""
+    with mpmath.workdps(digits):
+        n_terms, n = B.shape
+        root_w = [mpmath.sqrt(mpmath.mpf(float(x))) for x in springs]
+        inverse_root_m = [1 / mpmath.sqrt(mpmath.mpf(float(x))) for x in masses]
+        weighted = mpmath.matrix(n_terms, n)
+        for row, column in zip(*np.nonzero(B)):
+            weighted[int(row), int(column)] = root_w[row] * mpmath.mpf(float(B[row, column])) * inverse_root_m[column]
+        values = mpmath.eigsy(weighted.T * weighted, eigvals_only=True)
+        return np.array(sorted(float(mpmath.sqrt(abs(v))) for v in values))
+
+
+@pytest.mark.parametrize("vectors", [False, True])
+def test_jacobi_path_on_an_ill_conditioned_3d_network(rng: np.random.Generator, vectors: bool) -> None:
+    """Every non-rigid frequency to 1e-10 relative against 50-digit mpmath.
+
+    With springs over 12 decades and masses over 6, ||K~|| / omega_min^2 is ~1e20: an
+    absolute-accuracy solver keeps no digit of the lowest frequencies (checked below), while
+    one-sided Jacobi on B~ is accurate to ~eps times the condition of B~ with scaled rows and
+    columns (modest for a rigid, well-shaped network): 1e-10 leaves room for that factor.
+    """
+    B, springs, masses = spring_network(rng, 20)
+    K = B.T @ (springs[:, None] * B)
+    K = 0.5 * (K + K.T)
+    modes = normal_modes(K, masses, spring_factor=(sp.csr_matrix(B), springs), vectors=vectors)
+    assert modes.solver == "accurate-jacobi"
+    reference = mp_spring_omegas(B, springs, masses)
+    # Six rigid-body modes (zero up to the rounding of B's direction cosines), then no floppy
+    # mode: the network is rigid.
+    assert reference[5] < 1e-12 * reference[6]
+    flexible = slice(6, None)
+    relative = np.abs(modes.omega[flexible] - reference[flexible]) / reference[flexible]
+    assert relative.max() < 1e-10
+    fast = normal_modes(K, masses, vectors=False)
+    assert np.max(np.abs(fast.omega[flexible] - reference[flexible]) / reference[flexible]) > 1e-6
+    if vectors:
+        assert modes.residual < 1e-12 and modes.orthogonality < 1e-12
+
+
+# ---------------------------------------------------------------------- accurate-rayleigh
+def anisotropic_lattice(side: int, stiffness: tuple[float, float, float]) -> System:
+    """A simple-cubic lattice of side**3 unit masses with nearest-neighbour springs stiffness[axis]."""
+    grid = np.stack(np.meshgrid(*(np.arange(side),) * 3, indexing="ij"), axis=-1).reshape(-1, 3).astype(float)
+    index = np.arange(side**3).reshape((side,) * 3)
+    pairs, constants = [], []
+    for axis in range(3):
+        lines = np.moveaxis(index, axis, 0)
+        bonds = np.c_[lines[:-1].ravel(), lines[1:].ravel()]
+        pairs.append(bonds)
+        constants.append(np.full(len(bonds), stiffness[axis]))
+    return System.from_springs(grid, 1.0, np.vstack(pairs), np.concatenate(constants))
+
+
+def test_rayleigh_path_all_modes_of_a_large_anisotropic_lattice() -> None:
+    """The accurate path of a large (n > DENSE_LIMIT) non-chain system with all modes asked.
+
+    Truth: a central spring along axis a only feels displacements along a, so the lattice
+    splits into side^2 free chains per axis and its spectrum is 4 kappa_a sin^2(j pi / 2 side),
+    j = 0..side-1, each value side^2 times per axis. Stiffnesses 1e-4, 1, 1e4 give
+    ||K~|| / omega_min^2 ~ 7e8: an absolute-accuracy solver loses ~1e-7 relative (checked),
+    the Rayleigh quotients ||B~ v||^2 of its vectors keep ~1e-13.
+    """
+    side, stiffness = 8, (1.0, 1e-4, 1e4)
+    system = anisotropic_lattice(side, stiffness)
+    assert system.n_dof > solvers.DENSE_LIMIT
+    modes = system.modes()
+    assert modes.solver == "accurate-rayleigh"
+    j = np.arange(side)
+    exact = np.sort(np.concatenate([np.repeat(2.0 * np.sqrt(kappa) * np.sin(j * np.pi / (2 * side)), side**2)
+                                    for kappa in stiffness]))
+    flexible = exact > 0
+    relative = np.abs(modes.omega[flexible] - exact[flexible]) / exact[flexible]
+    assert relative.max() < 1e-10
+    # The 3 side^2 zero modes (one per free chain) stay at round-off of the largest omega.
+    assert np.abs(modes.omega[~flexible]).max() < 1e-6 * exact.max()
+    assert modes.residual < 1e-12 and modes.orthogonality < 1e-12
+    fast = system.modes(accuracy="fast", vectors=False)
+    assert fast.solver == "dense"
+    assert np.max(np.abs(fast.omega[flexible] - exact[flexible]) / exact[flexible]) > 1e-10
+
+
+def test_rayleigh_path_is_not_taken_below_the_dense_limit_or_for_few_modes() -> None:
+    small = anisotropic_lattice(4, (1.0, 1e-4, 1e4))
+    assert small.modes().solver == "accurate-jacobi"
+    large = anisotropic_lattice(8, (1.0, 1e-4, 1e4))
+    assert large.modes(n_modes=4).solver == "accurate-ritz"
+
+
+# ---------------------------------------------------------------------- chain vectors above 800
+@pytest.mark.parametrize("ends", ["free", "fixed"])
+def test_chain_vectors_above_the_dbdsqr_limit(ends: str) -> None:
+    """Above BDSQR_LIMIT dofs the accurate path takes MRRR vectors: every vector within
+    100 eps ||K~|| / gap_k of the closed-form mode (the Davis-Kahan sin-theta bound for a
+    residual of ~eps ||K~||, with 100 for LAPACK's modest growth factors in n).
+
+    Truth: free chain d_k(i) ~ cos(k pi (i + 1/2) / n); fixed chain (anchored by springs of
+    the same constant) d_k(i) ~ sin(k pi (i + 1) / (n + 1)); kappa = m = 1.
+    """
+    n = 1000
+    assert n > solvers.BDSQR_LIMIT
+    sites = np.arange(n)
+    pairs = np.c_[sites[:-1], sites[1:]]
+    if ends == "free":
+        system = System.from_springs(sites.astype(float), 1.0, pairs, 1.0)
+        k = np.arange(n)
+        omega = 2.0 * np.sin(k * np.pi / (2 * n))
+        exact = np.cos(np.outer(sites + 0.5, k) * np.pi / n)
+    else:
+        system = System.from_springs(sites.astype(float), 1.0, pairs, 1.0, anchors=[0, n - 1], anchor_stiffness=1.0)
+        k = np.arange(1, n + 1)
+        omega = 2.0 * np.sin(k * np.pi / (2 * (n + 1)))
+        exact = np.sin(np.outer(sites + 1, k) * np.pi / (n + 1))
+    exact /= np.linalg.norm(exact, axis=0)
+    modes = system.modes()
+    assert modes.solver == "accurate-bidiagonal"
+    vectors = np.asarray(modes.vectors)
+    overlap = np.sum(vectors * exact, axis=0)
+    # sin(angle) = ||d - (d . e) e|| for unit d and e, free of the cancellation in 1 - cos^2.
+    sine = np.linalg.norm(vectors - exact * overlap, axis=0)
+    lam = omega**2
+    gap = np.minimum(np.r_[np.inf, np.diff(lam)], np.r_[np.diff(lam), np.inf])
+    assert np.all(sine <= 100 * EPS * 4.0 / gap)
+    np.testing.assert_allclose(modes.omega[1:] if ends == "free" else modes.omega,
+                               omega[1:] if ends == "free" else omega, rtol=1e-12)
+
+
+# ---------------------------------------------------------------------- validation
+def chain_factor(n: int) -> tuple[sp.csr_matrix, np.ndarray]:
+    rows = np.r_[np.arange(n - 1), np.arange(n - 1)]
+    B = sp.csr_matrix((np.r_[-np.ones(n - 1), np.ones(n - 1)], (rows, np.r_[np.arange(n - 1), np.arange(1, n)])),
+                      shape=(n - 1, n))
+    return B, np.ones(n - 1)
+
+
+def chain_K(n: int) -> sp.csr_matrix:
+    B, w = chain_factor(n)
+    return sp.csr_matrix(B.T @ sp.diags(w) @ B)
+
+
+@pytest.mark.parametrize(
+    ("factor", "error", "match"),
+    [
+        ([np.eye(2), np.ones(2)], TypeError, r"spring_factor must be a tuple \(B, w\)"),
+        ((np.eye(2),), TypeError, r"spring_factor must be a tuple"),
+        ((np.ones((2, 4)), np.ones(2)), ValueError, r"spring_factor B must have 3 columns to match K, got shape \(2, 4\)"),
+        ((np.array([[1.0, np.nan, 0.0], [0.0, 1.0, -1.0]]), np.ones(2)), ValueError, r"spring_factor B"),
+        ((np.array([[1.0, -1.0, 0.0], [0.0, 1.0, -1.0]]), np.ones(3)), ValueError,
+         r"spring_factor w must have 2 entries \(rows of B\), got 3"),
+        ((np.array([[1.0, -1.0, 0.0], [0.0, 1.0, -1.0]]), np.array([1.0, -2.0])), ValueError, r"spring_factor w\[1\]"),
+        ((np.array([[1.0, -1.0, 0.0], [0.0, 1.0, -1.0]]), np.ones((2, 1))), ValueError, r"spring_factor w"),
+    ],
+)
+def test_spring_factor_validation_messages(factor, error, match) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(error, match=match):
+        normal_modes(chain_K(3), np.ones(3), spring_factor=factor)
+
+
+def test_solver_requests_that_cannot_be_served() -> None:
+    with pytest.raises(ValueError, match=r"solver='tridiagonal' needs a tridiagonal K and diagonal masses"):
+        normal_modes(np.ones((3, 3)), np.ones(3), solver="tridiagonal")
+    with pytest.raises(ValueError, match=r"solver='sparse' computes a few modes: give n_modes or band"):
+        normal_modes(chain_K(5), np.ones(5), solver="sparse")
+    n = solvers.DENSE_ALL_LIMIT + 1
+    with pytest.raises(ValueError, match=rf"K has {n} dofs: a dense solve would need 3.0 GiB"):
+        normal_modes(chain_K(n), np.ones(n), solver="dense")
+    # A band on a large K that is not tridiagonal (a chain with next-nearest springs).
+    wide = sp.diags([np.full(n - 2, -0.1), np.full(n - 1, -1.0), np.full(n, 2.2), np.full(n - 1, -1.0),
+                     np.full(n - 2, -0.1)], [-2, -1, 0, 1, 2], format="csr")
+    with pytest.raises(ValueError, match=r"band selection on a large non-tridiagonal K is not supported"):
+        normal_modes(wide, np.ones(n), band=(0.1, 0.2), solver="sparse")
+
+
+def test_solve_refuses_accurate_without_a_spring_factor() -> None:
+    # normal_modes checks this first; solve (the dispatch) guards its own contract too.
+    with pytest.raises(ValueError, match=r"solver='accurate' needs the spring factor \(B, w\) of K"):
+        solvers.solve(np.eye(2), np.ones(2), n_modes=None, vectors=True, band=None, solver="accurate",
+                      spring_factor=None)
+
+
+@pytest.mark.parametrize(
+    ("diagonal", "superdiagonal", "match"),
+    [
+        ([np.nan, 1.0], [1.0], r"diagonal\[0\] is nan; every entry must be finite"),
+        ([1.0, 1.0], [np.inf], r"superdiagonal\[0\] is inf"),
+        ([1.0, 1.0], [1.0, 2.0], r"superdiagonal must have 1 entries for a 2 x 2 bidiagonal, got 2"),
+        ([[1.0]], [], r"diagonal must be"),
+    ],
+)
+def test_bidiagonal_routines_refuse_what_lapack_would_misread(diagonal, superdiagonal, match) -> None:  # type: ignore[no-untyped-def]
+    # dlasq1 returns finite singular values for a NaN diagonal: the wrappers must refuse it.
+    from vibra._lapack import bidiagonal_singular_values, bidiagonal_svd
+
+    with pytest.raises(ValueError, match=match):
+        bidiagonal_singular_values(diagonal, superdiagonal)
+    with pytest.raises(ValueError, match=match):
+        bidiagonal_svd(diagonal, superdiagonal, left=True)
+
+
+def test_bidiagonal_singular_values_to_high_relative_accuracy() -> None:
+    """A graded bidiagonal (entries over 60 decades): dqds keeps every singular value to a few
+    ulps relative; truth from mpmath's SVD at 80 digits."""
+    from vibra._lapack import bidiagonal_singular_values
+
+    d = 10.0 ** -np.arange(0.0, 60.0, 6.0)
+    e = 0.5 * 10.0 ** -np.arange(3.0, 57.0, 6.0)
+    with mpmath.workdps(80):
+        A = mpmath.matrix(len(d), len(d))
+        for i, x in enumerate(d):
+            A[i, i] = mpmath.mpf(float(x))
+        for i, x in enumerate(e):
+            A[i, i + 1] = mpmath.mpf(float(x))
+        reference = np.sort([float(s) for s in mpmath.svd_r(A, compute_uv=False)])
+    np.testing.assert_allclose(bidiagonal_singular_values(d, e), reference, rtol=20 * EPS)

@@ -1,0 +1,240 @@
+"""Multi-dof frequency response x(w) = (K - w^2 M + i w C)^-1 f: `frequency_response`, `frf`.
+
+The three methods live in `vibra.response.direct` (direct, state space) and
+`vibra.response.modal`; this module validates, dispatches and builds the result.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+from vibra import _validate
+from vibra._frozen import _freeze_arrays
+from vibra.modes import Modes
+from vibra.response.direct import direct_response, state_space_response
+from vibra.response.matrices import check_structure
+from vibra.response.modal import modal_response
+from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
+
+
+#: Methods accepted by `frf` and `frequency_response`.
+METHODS = ("direct", "modal", "state_space")
+
+
+@dataclass(frozen=True, eq=False)
+class FrequencyResponse:
+    """Steady-state response x(w) = (K - w^2 M + i w C)^-1 f over many frequencies.
+
+    Attributes
+    ----------
+    omegas : (n_freq,) ndarray
+        Driving angular frequencies, in rad per time unit of `units`.
+    response : (n_freq, n_dof) complex ndarray
+        Complex displacement amplitudes x(w) (the force is Re{f exp(i w t)}), in length.
+    force : (n_dof,) ndarray
+        The force amplitudes f, in force units.
+    method : str
+        ``"direct"``, ``"modal"`` or ``"state_space"``.
+    solver : str
+        What ran: ``"tridiagonal"``, ``"banded"``, ``"sparse LU"``, ``"dense LU"`` (direct),
+        ``"modal"`` or ``"state space"``.
+    n_modes : int or None
+        Modes superposed (modal: real normal modes; state space: complex mode pairs); None for
+        the direct method.
+    residual_correction : bool
+        Whether the static contribution of the dropped modes was added (modal method).
+    truncation_error : (n_freq,) ndarray
+        Estimated relative error ||x - x_exact||_M / ||x||_M from the dropped modes
+        (M-norm ||x||_M = sqrt(x^H M x)); 0 where nothing was dropped (direct, state space,
+        all modes). See `frequency_response` for how it is estimated.
+    natural_frequencies : (n_modes,) ndarray or None
+        omega_k of the modes used (modal), or |Im s| of the complex modes (state space),
+        in rad per time unit; None for the direct method.
+    units : UnitSystem
+        Unit system of the inputs.
+    """
+
+    omegas: NDArray[np.float64]
+    response: NDArray[np.complex128]
+    force: NDArray[np.float64]
+    method: str
+    solver: str
+    n_modes: int | None
+    residual_correction: bool
+    truncation_error: NDArray[np.float64]
+    natural_frequencies: NDArray[np.float64] | None
+    units: UnitSystem = DIMENSIONLESS
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of degrees of freedom."""
+        return int(self.response.shape[1])
+
+    def amplitude(self) -> NDArray[np.float64]:
+        """(n_freq, n_dof) |x(w)|, in length."""
+        return np.abs(self.response)
+
+    def phase(self) -> NDArray[np.float64]:
+        """(n_freq, n_dof) arg x(w) in (-pi, pi], in rad (lag of each dof behind the force)."""
+        return np.angle(self.response)
+
+
+def frequency_response(
+    K: ArrayLike | sp.spmatrix,
+    M: ArrayLike,
+    C: ArrayLike | sp.spmatrix | None,
+    omegas: ArrayLike,
+    force: ArrayLike,
+    *,
+    method: Literal["direct", "modal", "state_space"] = "direct",
+    n_modes: int | None = None,
+    damping_ratios: ArrayLike | None = None,
+    residual_correction: bool = False,
+    modes: Modes | None = None,
+    units: str | UnitSystem = DIMENSIONLESS,
+) -> FrequencyResponse:
+    """Receptance response x(w) = (K - w^2 M + i w C)^-1 f at many frequencies.
+
+    Parameters
+    ----------
+    K : (n_dof, n_dof) array_like or scipy.sparse matrix
+        Symmetric stiffness, in force per length.
+    M : (n_dof,) or (n_dof, n_dof) array_like
+        Diagonal masses or an SPD mass matrix, as in `vibra.normal_modes`.
+    C : (n_dof, n_dof) array_like or scipy.sparse matrix, or None
+        Symmetric damping matrix with a non-negative diagonal, in mass per time unit
+        (`friction_damping`, `rayleigh_damping`, or any); None for no damping matrix.
+    omegas : (n_freq,) array_like
+        Driving angular frequencies >= 0, in rad per time unit.
+    force : (n_dof,) array_like
+        Force amplitudes f (force Re{f exp(i w t)}), in force units.
+    method : {"direct", "modal", "state_space"}
+        ``"direct"``: one LU per frequency, tridiagonal or banded when K, M and C are (half
+        bandwidth <= `BANDED_MAX_HALF_WIDTH`), sparse LU otherwise (dense LU for small dense
+        input); exact to round-off times the conditioning. ``"modal"``: superposition of the
+        lowest `n_modes` normal modes; C must be diagonal in the modal basis (friction,
+        Rayleigh) or replaced by `damping_ratios`. ``"state_space"``: complex modes of the
+        first-order form (dense, all modes), for non-proportional C.
+    n_modes : int, optional
+        Modal method: how many of the lowest modes to keep (all by default).
+    damping_ratios : float or (n_modes,) array_like, optional
+        Modal method only, instead of C: damping ratio zeta_k >= 0 of each kept mode
+        (modal damping c_k = 2 zeta_k omega_k).
+    residual_correction : bool
+        Modal method: add the static response of the dropped modes,
+        sum_{k dropped} phi_k phi_k^T f / omega_k^2, computed as K^+ f minus the kept modes'
+        share (K^+ the pseudo-inverse on the flexible subspace, so rigid-body modes are left
+        to the modal sum).
+    modes : Modes, optional
+        Modal method: normal modes of (K, M) already computed (at least `n_modes`; one more
+        sharpens the error estimate). Computed with `vibra.normal_modes` otherwise.
+    units : str or UnitSystem
+        Unit system of K, M, C, carried by the result.
+
+    Returns
+    -------
+    FrequencyResponse
+        With `truncation_error`: for the modal method with dropped modes, an estimate of
+        ||x - x_exact||_M / ||x||_M taken from the first dropped mode (omega_d, c_d) and
+        the static residual r = sum_dropped phi_k phi_k^T f / omega_k^2:
+        max(1, |omega_d^2 / (omega_d^2 - w^2 + i w c_d)|) ||r||_M / ||x||_M without the
+        correction (an upper bound below the first dropped mode), and
+        |(w^2 - i w c_d) / (omega_d^2 - w^2 + i w c_d)| ||r||_M / ||x||_M with it (its
+        leading term). 0 elsewhere.
+
+    Raises
+    ------
+    ValueError
+        K not square/symmetric/finite; M, C or force not matching K; C with a negative
+        diagonal; omegas negative; unknown method; n_modes out of range or given to a
+        method without modes; damping_ratios with C or outside the modal method; C not
+        diagonal in the modal basis (modal method); a frequency where the system is singular
+        (undamped resonance, or w = 0 with rigid-body modes).
+    TypeError
+        Arguments of the wrong kind.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> K = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    >>> x = frequency_response(K, [1.0, 1.0], None, [0.0], [1.0, 0.0]).response
+    >>> np.round(x.real, 12)           # K^-1 f
+    array([[0.66666667, 0.33333333]])
+    """
+    _validate.choice(method, "method", METHODS)
+    stiffness, mass, damping, loads = check_structure(K, M, C, force)
+    n_dof = stiffness.shape[0]
+    frequencies = _validate.real_array(omegas, "omegas", ndim=1)
+    _validate.nonnegative(frequencies, "omegas", "angular frequency")
+    if n_modes is not None:
+        if method != "modal":
+            raise ValueError(f"n_modes is {n_modes!r}; it applies to method='modal' only")
+        n_modes = _validate.count(n_modes, "n_modes", low=1, high=n_dof)
+    if damping_ratios is not None:
+        if method != "modal":
+            raise ValueError("damping_ratios applies to method='modal' only")
+        if damping is not None:
+            raise ValueError("give either C or damping_ratios, not both")
+    if not isinstance(residual_correction, (bool, np.bool_)):
+        raise TypeError(f"residual_correction must be a bool, got {type(residual_correction).__name__}")
+    if modes is not None and method != "modal":
+        raise ValueError("modes applies to method='modal' only")
+    unit = unit_system(units)
+
+    error = np.zeros(frequencies.size)
+    natural: NDArray[np.float64] | None = None
+    used: int | None = None
+    if method == "direct":
+        response, solver = direct_response(stiffness, mass, damping, frequencies, loads)
+    elif method == "modal":
+        response, error, used, natural = modal_response(
+            stiffness, mass, damping, frequencies, loads, n_modes, damping_ratios,
+            bool(residual_correction), modes,
+        )
+        solver = "modal"
+    else:
+        response, natural = state_space_response(stiffness, mass, damping, frequencies, loads)
+        used = n_dof
+        solver = "state space"
+    return FrequencyResponse(
+        omegas=frequencies, response=response, force=loads, method=method, solver=solver,
+        n_modes=used, residual_correction=bool(residual_correction) and method == "modal",
+        truncation_error=error, natural_frequencies=natural, units=unit,
+    )
+
+
+def frf(
+    K: ArrayLike | sp.spmatrix,
+    M: ArrayLike,
+    C: ArrayLike | sp.spmatrix | None,
+    omegas: ArrayLike,
+    force: ArrayLike,
+    *,
+    method: Literal["direct", "modal", "state_space"] = "direct",
+    n_modes: int | None = None,
+) -> NDArray[np.complex128]:
+    """(n_freq, n_dof) complex receptance response (K - w^2 M + i w C)^-1 f, in length.
+
+    The array of `frequency_response` (same arguments and errors), without the residual
+    correction; use `frequency_response` for the solver used, the truncation error estimate
+    and the other options.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = frf(np.array([[1.0]]), [1.0], np.array([[0.5]]), [1.0], [1.0])
+    >>> np.round(x, 12)                # 1 / (1 - 1 + 0.5 i)
+    array([[0.-2.j]])
+    """
+    return np.array(
+        frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes).response
+    )
+

@@ -1,0 +1,105 @@
+"""Checks and storage helpers shared by the multi-dof response methods.
+
+`check_structure` validates (K, M, C, f) for `frequency_response` and `transient_response`;
+the rest read diagonals, bands and dense copies of a matrix that may be dense, sparse, a
+mass vector or None (no damping).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from vibra import _validate
+
+
+def check_structure(K: Any, M: Any, C: Any, force: Any) -> tuple[Any, NDArray[np.float64], Any, NDArray[np.float64]]:
+    """Validate (K, M, C, f) in argument order; return K, the mass argument, C or None, f."""
+    stiffness = _validate.square_matrix(K, "K")
+    stiffness = _validate.symmetric(stiffness, "K")
+    n_dof = stiffness.shape[0]
+    mass = _validate.mass_argument(M, n_dof, "M")
+    damping = None
+    if C is not None:
+        damping = _validate.square_matrix(C, "C")
+        if damping.shape[0] != n_dof:
+            raise ValueError(f"C must be ({n_dof}, {n_dof}) to match K, got shape {damping.shape}")
+        damping = _validate.symmetric(damping, "C")
+        diagonal = damping.diagonal()
+        bad = np.flatnonzero(diagonal < 0)
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(
+                f"C[{i},{i}] is {diagonal[i]!r}; a damping matrix must have a non-negative "
+                "diagonal (no negative damping)"
+            )
+    loads = _validate.real_array(force, "force", ndim=1)
+    if loads.shape[0] != n_dof:
+        raise ValueError(f"force must have {n_dof} entries to match K, got shape {loads.shape}")
+    return stiffness, mass, damping, loads
+
+
+def half_bandwidth(matrix: Any) -> int:
+    """max |i - j| over the nonzeros of a dense/sparse matrix; 0 for a mass vector or None."""
+    if matrix is None:
+        return 0
+    if sp.issparse(matrix):
+        coo = sp.coo_matrix(matrix)
+        nonzero = coo.data != 0
+        if not nonzero.any():
+            return 0
+        return int(np.max(np.abs(coo.row[nonzero] - coo.col[nonzero])))
+    if matrix.ndim == 1:
+        return 0
+    rows, cols = np.nonzero(matrix)
+    return int(np.max(np.abs(rows - cols))) if rows.size else 0
+
+
+def diagonal_band(matrix: Any, n_dof: int, offset: int) -> NDArray[np.float64]:
+    """Diagonal `offset` (>= 0 above, < 0 below) of a dense/sparse matrix or mass vector."""
+    length = n_dof - abs(offset)
+    if matrix is None:
+        return np.zeros(length)
+    if not sp.issparse(matrix) and matrix.ndim == 1:
+        return matrix.astype(float) if offset == 0 else np.zeros(length)
+    return np.asarray(matrix.diagonal(offset), dtype=float)
+
+
+def as_operator(matrix: Any, n_dof: int) -> Any:
+    """A matrix usable in products: sparse diagonal for a mass vector, zero for None."""
+    if matrix is None:
+        return sp.csr_matrix((n_dof, n_dof))
+    if not sp.issparse(matrix) and matrix.ndim == 1:
+        return sp.diags(matrix, format="csr")
+    return matrix
+
+
+def dense_matrix(matrix: Any, n_dof: int) -> NDArray[np.float64]:
+    """(n_dof, n_dof) dense copy of a dense/sparse matrix, a mass vector or None (zeros)."""
+    if matrix is None:
+        return np.zeros((n_dof, n_dof))
+    if sp.issparse(matrix):
+        return matrix.toarray()
+    if matrix.ndim == 1:
+        return np.diag(matrix)
+    return np.asarray(matrix, dtype=float)
+
+
+def mass_times(mass: NDArray[np.float64], x: NDArray[Any]) -> NDArray[Any]:
+    """M x for diagonal masses (a vector) or a dense M; x (n_dof,) or (n_dof, k)."""
+    if mass.ndim == 1:
+        return mass[:, None] * x if x.ndim == 2 else mass * x
+    return mass @ x
+
+
+def singular_frequency_error(i: int, w: float) -> ValueError:
+    """The ValueError naming omegas[i] where K - w^2 M + i w C is singular."""
+    return ValueError(
+        f"omegas[{i}] is {w!r}: K - w^2 M + i w C is singular there (an undamped resonance, "
+        "or w = 0 for a free structure whose rigid-body modes have an unbounded static "
+        "response); add damping or leave out that frequency"
+    )
+

@@ -1,0 +1,61 @@
+"""Solver paths for the mass-weighted eigenproblem K~ d = omega^2 d (seed 003 eqs. 138-143).
+
+`solve` picks a path from the structure of K and from what is asked, unless told:
+
+=================  ==========================================================================
+``dense``          LAPACK symmetric eigensolver on the dense K~ (subset by index or value;
+                   values only when no vectors are asked). Absolute error ~ eps ||K~||.
+``tridiagonal``    K~ tridiagonal (a chain): LAPACK stemr/stebz on its diagonals.
+``banded``         K~ banded with a narrow band (a chain in 2-D or 3-D, a ladder): LAPACK
+                   sbevd / sbevx on the band storage, O(n b^2) per value.
+``sparse``         A few of the lowest modes (or a band) of a large sparse K~: shift-invert
+                   Lanczos (ARPACK) with a negative shift chosen from the spectrum's scale, so
+                   a singular K (free system) is never hit; tridiagonal K~ is factorised with
+                   LAPACK pttrf (O(N)), any other with SuperLU.
+``accurate``       The system knows its springs, K = B^T W B: frequencies are the singular
+                   values of B~ = W^1/2 B M^-1/2, computed to high *relative* accuracy.
+                   - a chain (the springs form a path): dqds on the Golub-Kahan bidiagonal;
+                   - few modes of a large system: sparse shift-invert vectors, then a
+                     Rayleigh-Ritz step in spring space (H = (B~V)^T (B~V), O(N k));
+                   - any other small system: one-sided Jacobi SVD (LAPACK gejsv) of B~.
+=================  ==========================================================================
+
+Every path returns a `SolveResult` with an error estimate per eigenvalue, the largest
+relative residual and the orthogonality error, which `vibra.modes.Modes` carries.
+
+Where each path lives:
+
+=====================  ======================================================================
+``common.py``          `SolveResult`, mass weighting, the accuracy figures, size limits
+``standard.py``        dense, tridiagonal, banded (absolute accuracy)
+``sparse.py``          shift-invert Lanczos for a few modes or a band
+``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal
+``accurate.py``        the accurate dispatch; accurate-ritz, accurate-rayleigh, accurate-jacobi
+``dispatch.py``        `solve` ("auto" chooses), `SOLVER_NAMES`, `SOLVER_PATHS`
+=====================  ======================================================================
+
+Examples
+--------
+>>> import numpy as np
+>>> from vibra import solvers
+>>> K = np.array([[1.0, -1.0], [-1.0, 1.0]])
+>>> result = solvers.solve(K, np.array([1.0, 1.0]), n_modes=None, vectors=False, band=None,
+...                        solver="auto", spring_factor=None)
+>>> result.solver, np.round(result.eigenvalues, 12)
+('dense', array([0., 2.]))
+"""
+
+from __future__ import annotations
+
+from vibra.solvers.common import (
+    BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, SAMPLE, SolveResult, check_spring_factor,
+    mass_weighted, physical_shapes,
+)
+from vibra.solvers.bidiagonal import Segment
+from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, solve
+
+__all__ = [
+    "SOLVER_NAMES", "SOLVER_PATHS", "SolveResult", "solve", "check_spring_factor", "physical_shapes",
+    "mass_weighted", "Segment", "EPS", "DENSE_LIMIT", "BAND_LIMIT", "DENSE_ALL_LIMIT", "BDSQR_LIMIT",
+    "SAMPLE",
+]
