@@ -1,4 +1,4 @@
-"""Tests of vibra/plan.py and vibra/report.py: plans that compute only what a scene asks, and
+"""Tests of vibra/plan/ and vibra/report.py: plans that compute only what a scene asks, and
 the batch report (isolation, atomic outputs, skipping, summary.json, index.html)."""
 
 from __future__ import annotations
@@ -281,10 +281,10 @@ def test_spectrum_labels_are_distinct_apart_and_inside(file_name: str) -> None:
 
 def test_response_chart_names_scene_and_receptance_unit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The generic FRF chart labels |x| in "length"; a report of an SI scene says m/N.
-    import vibra.plan
+    import vibra.plan.steps
 
     seen = []
-    monkeypatch.setattr(vibra.plan, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
     scene = load_scene(ROOT / "chains" / "forced-damped.toml")
     plan = make_plan(dataclasses.replace(scene, draw=dataclasses.replace(scene.draw, spectrum=False)))
     execute(plan, tmp_path, tmp_path)
@@ -295,11 +295,12 @@ def test_response_chart_names_scene_and_receptance_unit(tmp_path: Path, monkeypa
 
 def test_oscillator_chart_in_si_units(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The generic oscillator chart says "rad / time unit" and "length"; an SI scene says rad/s and m.
-    import vibra.plan
+    import vibra.plan.steps
 
     seen = []
-    monkeypatch.setattr(vibra.plan, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
-    scene = Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator"}, "draw": {"response": True}},
+    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    scene = Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": 0.5},
+                             "draw": {"response": True}},
                             source="osc.toml")
     execute(make_plan(scene), tmp_path, tmp_path)
     [figure] = seen
@@ -326,10 +327,10 @@ spectrum = true
 def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The modes image is rendered (into the scene's work folder) before the spectrum step
     # fails: the output folder must get neither that image nor a manifest.
-    import vibra.plan
+    import vibra.plan.steps
 
     rendered = []
-    render_step = vibra.plan._STEPS["render-modes"]
+    render_step = vibra.plan.steps.STEPS["render-modes"]
 
     def render_and_remember(plan: object, context: object, renderer: object) -> tuple[None, None]:
         result = render_step(plan, context, renderer)
@@ -340,8 +341,8 @@ def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monk
         assert all(path.is_file() for path in rendered) and rendered  # drawn, not yet published
         raise RuntimeError("disk full")
 
-    monkeypatch.setitem(vibra.plan._STEPS, "render-modes", render_and_remember)
-    monkeypatch.setitem(vibra.plan._STEPS, "chart-spectrum", fail)
+    monkeypatch.setitem(vibra.plan.steps.STEPS, "render-modes", render_and_remember)
+    monkeypatch.setitem(vibra.plan.steps.STEPS, "chart-spectrum", fail)
     path = write(tmp_path, "late.toml", CHAIN)
     out = tmp_path / "out"
     outcome = run_scene(path, out)

@@ -184,9 +184,9 @@ def test_every_builder_serves_a_known_kind() -> None:
      r"system\.M: must be a square matrix"),
     ({"kind": "generalized", "system": {"builder": "double_pendulum"}, "draw": {"gif": True}},
      r"draw\.gif: animates chains and molecules, not a 'generalized' scene"),
-    ({"kind": "oscillator", "system": {"builder": "oscillator"}, "draw": {"modes": True}},
+    ({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": 0.5}, "draw": {"modes": True}},
      r"draw\.modes: an oscillator scene draws only its response"),
-    ({"kind": "oscillator", "system": {"builder": "oscillator", "gamma": [0.5, -1.0]}},
+    ({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": [0.5, -1.0]}},
      r"system\.gamma: \[1\] must be >= 0, got -1\.0"),
     # impossible values caught before any work (they used to fail only while building)
     (chain(frozen_sites=[0, 9]), r"system\.frozen_sites\[1\]: is 9; sites run from 0 to 3"),
