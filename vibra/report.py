@@ -240,11 +240,13 @@ def run_scene(path: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, 
         atomic_write_text(_manifest_path(target, name), json.dumps(outcome.as_json(), indent=1))
         return outcome
     except Exception as error:  # a failing scene must not stop the batch
-        message = f"{source}: {type(error).__name__}: {error}"
-        detail = traceback.format_exc(limit=-3)
         _manifest_path(target, name).unlink(missing_ok=True)
-        return SceneOutcome(source=str(source), name=name, title=title, status="failed",
-                            error=message + "\n" + detail, seconds=time.perf_counter() - start)
+        if isinstance(error, SceneError):  # a builder refused a parameter: one line, at its key
+            text = str(error)
+        else:
+            text = f"{source}: {type(error).__name__}: {error}\n" + traceback.format_exc(limit=-3)
+        return SceneOutcome(source=str(source), name=name, title=title, status="failed", error=text,
+                            seconds=time.perf_counter() - start)
     finally:
         shutil.rmtree(work, ignore_errors=True)  # the .work root stays: other scenes may be starting
 
