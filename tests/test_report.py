@@ -519,3 +519,61 @@ def test_molecule_symmetry_is_computed_by_the_plan_and_drawn(tmp_path: Path) -> 
     assert "u: IR-allowed" in captions["co2_mode5.png"] and "degenerate" in captions["co2_mode5.png"]
     assert "g: IR-inactive" in captions["co2_mode7.png"]
     assert "u: IR-allowed" in captions["co2_mode8.png"] and "IR active" in captions["co2_mode8.png"]
+
+
+# ---------------------------------------------------------------------- layers
+def _vibra_imports() -> dict[str, set[str]]:
+    """module -> the vibra modules it imports anywhere (function bodies included), from the source."""
+    import ast
+
+    package = ROOT / "vibra"
+    modules = {}
+    for path in package.rglob("*.py"):
+        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    graph: dict[str, set[str]] = {name: set() for name in modules}
+    for name, path in modules.items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in modules else node.module
+                           for a in node.names]
+            else:
+                continue
+            for target in targets:
+                while target and target not in modules:
+                    target = target.rpartition(".")[0]
+                if target.startswith("vibra") and target != name:
+                    graph[name].add(target)
+    return graph
+
+
+def test_no_import_cycles_and_no_upward_imports() -> None:
+    # The layers: scene -> plan -> (system, solvers, analyses) -> charts / render; report above
+    # plan, cli on top. Nothing imports a higher layer, not even inside a function.
+    graph = _vibra_imports()
+
+    def reachable(start: str) -> set[str]:
+        seen, stack = set(), [start]
+        while stack:
+            for target in graph[stack.pop()]:
+                if target not in seen:
+                    seen.add(target)
+                    stack.append(target)
+        return seen
+
+    in_cycle = sorted(name for name in graph if name in reachable(name))
+    assert in_cycle == [], f"import cycles through {in_cycle}"
+
+    def layer(name: str) -> int:
+        for prefix, rank in (("vibra.cli", 5), ("vibra.report", 4), ("vibra.plan", 3), ("vibra.render", 2),
+                             ("vibra.charts", 2)):
+            if name == prefix or name.startswith(prefix + "."):
+                return rank
+        return 1 if name.startswith("vibra.scene") else 0
+
+    upward = sorted((name, target) for name, targets in graph.items() for target in targets
+                    if name not in ("vibra", "vibra.__main__") and layer(target) > layer(name)
+                    and not target.startswith(name + "."))
+    assert upward == [], upward

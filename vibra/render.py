@@ -280,13 +280,14 @@ class SceneRenderer:
     def render_gif(self, scene: Any, system: Any, modes: Any, index: int, out_dir: Path,
                    work_dir: Path, *, structure: MoleculeStructure | None = None) -> tuple[str, str]:
         """Animated GIF of mode `index` over one period; returns (file name, caption)."""
-        if scene.kind == "molecule" and structure is None:
-            structure = _default_structure(scene, system)
+        molecule = None
+        if scene.kind == "molecule":
+            molecule = structure or _default_structure(scene, system)
         frames = []
         for phase in np.linspace(0.0, 2.0 * np.pi, _GIF_FRAMES, endpoint=False):
             plotter = self._plotter((1, 1))
-            if structure is not None:
-                self._draw_molecule(plotter, scene, system, modes, index, structure, phase=phase, arrows=False)
+            if molecule is not None:
+                self._draw_molecule(plotter, scene, system, modes, index, molecule, phase=phase, arrows=False)
             else:
                 self._draw_chain(plotter, scene, system, modes, index, phase=phase)
             frames.append(self._snapshot(plotter))
