@@ -125,15 +125,19 @@ def test_molecule_arrows_stay_clear_of_the_bonds(builder: str, dims: int) -> Non
     # bond tube (radius 0.1 bond length, as drawn) and outside every other atom's sphere.
     from ase.data import covalent_radii
 
-    from vibra.render import _arrow_start, _bonds, _displacements3, _elements, _positions3
+    from ase.data import atomic_numbers
+
+    from vibra.molecules import bonds_from_distances, symbols_from_masses
+    from vibra.render import _arrow_start, _displacements3, _positions3
 
     system_table = {"builder": builder, **({"dims": dims} if builder == "co2" else {})}
     sc = scene({"kind": "molecule", "name": "m", "system": system_table})
     system = build_system(sc)
     modes = system.modes()
     positions = _positions3(system)
-    numbers = _elements(system, None)
-    bonds = _bonds(positions, numbers, None)
+    symbols = symbols_from_masses(system.masses)
+    numbers = [atomic_numbers[s] for s in symbols]
+    bonds = bonds_from_distances(positions, symbols)
     reference = min(np.linalg.norm(positions[i] - positions[j]) for i, j in bonds)
     radii = 0.35 * covalent_radii[numbers] + 0.1  # as drawn by SceneRenderer
     checked = 0

@@ -119,45 +119,20 @@ def _displacements3(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float
 
 
 def molecule_symbols(system: Any, symbols: Sequence[str] | None = None) -> list[str]:
-    """Chemical symbols of the sites: `symbols` if given, else the element of nearest standard mass."""
-    from ase.data import chemical_symbols
+    """Chemical symbols of the sites: `symbols` if given, else `vibra.molecules.symbols_from_masses`."""
+    from vibra.molecules import symbols_from_masses
 
-    return [chemical_symbols[z] for z in _elements(system, symbols)]
+    return list(symbols) if symbols is not None else list(symbols_from_masses(system.masses))
 
 
 def molecule_bonds(system: Any, symbols: Sequence[str] | None = None,
                    springs: Sequence[Sequence[int]] | None = None) -> list[tuple[int, int]]:
-    """Bonds of a molecule: the given springs, else pairs closer than 1.25 x covalent radii."""
-    return _bonds(_positions3(system), _elements(system, symbols), springs)
+    """Bonds of a molecule: the given springs, else `vibra.molecules.bonds_from_distances`."""
+    from vibra.molecules import bonds_from_distances
 
-
-def _elements(system: Any, symbols: Sequence[str] | None) -> list[int]:
-    """Atomic numbers: from given symbols, else the element whose standard mass is nearest."""
-    from ase.data import atomic_masses, atomic_numbers
-
-    if symbols is not None:
-        return [atomic_numbers[s] for s in symbols]
-    numbers = []
-    for mass in np.asarray(system.masses, dtype=float):
-        z = int(np.argmin(np.abs(atomic_masses[1:] - mass))) + 1
-        numbers.append(z)
-    return numbers
-
-
-def _bonds(positions: NDArray[np.float64], numbers: list[int],
-           springs: Sequence[Sequence[int]] | None) -> list[tuple[int, int]]:
-    """Bonds: the scene's springs, else pairs closer than 1.25 x the sum of covalent radii."""
     if springs is not None:
         return [(int(i), int(j)) for i, j in springs]
-    from ase.data import covalent_radii
-
-    bonds = []
-    for i in range(len(positions)):
-        for j in range(i + 1, len(positions)):
-            limit = 1.25 * (covalent_radii[numbers[i]] + covalent_radii[numbers[j]])
-            if np.linalg.norm(positions[i] - positions[j]) <= limit:
-                bonds.append((i, j))
-    return bonds
+    return list(bonds_from_distances(system.positions, molecule_symbols(system, symbols)))
 
 
 def _default_structure(scene: Any, system: Any) -> MoleculeStructure:

@@ -255,15 +255,16 @@ def _molecule_structure(scene: Scene, system: Any) -> Any:
     Without symbols, each site is the element of nearest standard mass; without springs,
     bonds join atoms closer than 1.25 x the sum of their covalent radii.
     """
-    from vibra.render import MoleculeStructure, molecule_bonds, molecule_symbols
+    from vibra.molecules import bonds_from_distances, symbols_from_masses
+    from vibra.render import MoleculeStructure
 
     params = scene.system.parameters
     symbols = params.get("symbols")
     if symbols is None:
-        symbols = molecule_symbols(system)
+        symbols = symbols_from_masses(system.masses)
     bonds = params.get("springs")
     if bonds is None:
-        bonds = molecule_bonds(system, symbols)
+        bonds = bonds_from_distances(system.positions, symbols)
     return MoleculeStructure(tuple(symbols), tuple((int(i), int(j)) for i, j in bonds))
 
 
