@@ -107,13 +107,12 @@ def interleaved(methods: dict[str, Callable[[], Any]], rounds: int | None = None
 
 
 def ratio(numerator: Timing, denominator: Timing) -> dict[str, Any]:
-    """numerator / denominator: the ratio of the best times, the range of the per-round ratios,
-    and whether it is a tie (1 inside that range, or the ratio of best times closer to 1 than
-    either method's own spread max/min)."""
+    """numerator / denominator: the ratio of the best times, the range of the per-round ratios
+    (round r of one method over round r of the other: they ran side by side), and whether it is
+    a tie (1 inside that range: the run-to-run spread covers "equal")."""
     per_round = [a / b for a, b in zip(numerator.seconds, denominator.seconds)]
     best = numerator.min / denominator.min
-    spread = max(numerator.max / numerator.min, denominator.max / denominator.min)
-    tie = (min(per_round) <= 1.0 <= max(per_round)) or (1.0 / spread <= best <= spread)
+    tie = min(per_round) <= 1.0 <= max(per_round)
     return {"of_min": best, "of_median": numerator.median / denominator.median,
             "round_min": min(per_round), "round_max": max(per_round), "tie": bool(tie)}
 
