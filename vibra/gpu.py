@@ -16,8 +16,8 @@ refused with both figures.
 Accuracy is that of the CPU's dense path: syevd is backward stable, so each eigenvalue is
 exact for K~ + E with ||E|| ~ eps ||K~||; the reported error of each eigenvalue is
 n eps ||K~||, raised to the measured residual ||K~ d - lambda d|| for the sampled columns
-(the lowest modes and an even spread, `vibra.solvers.SAMPLE` of them). Residuals and the
-orthogonality figure are computed on the GPU.
+(the lowest modes and an even spread, `vibra.solvers.SAMPLE` in all, as on the CPU).
+Residuals and the orthogonality figure are computed on the GPU.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers import SAMPLE, SolveResult, mass_weighted
+from vibra.solvers.common import sample_columns, selected
 
 __all__ = [
     "DEVICES",
@@ -165,8 +166,8 @@ def _memory_parts(n: int, vectors: bool, workspace: int) -> dict[str, int]:
     matrix = _DOUBLE * n * n  # K~, overwritten in place by the vectors
     small = _DOUBLE * 4 * n + 2**20  # eigenvalues, info, scratch
     # After the solve the workspace is released; with vectors, K~ is uploaded again for the
-    # residuals next to D, with four (n, 2 SAMPLE) blocks.
-    figures = _DOUBLE * (n * n + 4 * n * min(n, 2 * SAMPLE)) if vectors else 0
+    # residuals next to D, with four (n, SAMPLE) blocks.
+    figures = _DOUBLE * (n * n + 4 * n * min(n, SAMPLE)) if vectors else 0
     return {"matrix": matrix, "solve": workspace + small, "figures": figures}
 
 
@@ -226,14 +227,6 @@ def check_gpu_memory(n: int, *, vectors: bool, free: int | None = None) -> int:
 
 
 # ---------------------------------------------------------------------- solve
-def _sample_columns(k: int) -> NDArray[np.intp]:
-    """The columns whose residuals are measured: all of them up to 2 SAMPLE, else the lowest
-    SAMPLE (most at risk) and SAMPLE spread evenly over the rest."""
-    if k <= 2 * SAMPLE:
-        return np.arange(k)
-    return np.unique(np.concatenate([np.arange(SAMPLE), np.linspace(0, k - 1, SAMPLE).astype(np.intp)]))
-
-
 def dense_eigh_gpu(Kt: NDArray[np.float64], *, vectors: bool = True) -> SolveResult:
     """All eigenpairs of the dense symmetric K~ on the GPU (cuSOLVER syevd), with error figures.
 
@@ -321,7 +314,7 @@ def _solve_on_device(cupy: Any, matrix: NDArray[np.float64], vectors: bool
     if not vectors:
         return values, None, None
     basis_device = work_matrix.T  # column k (Fortran order) is the eigenvector of values[k]
-    columns = _sample_columns(n)
+    columns = sample_columns(n)  # as the CPU paths: the lowest modes and an even spread
     kt_device = cupy.asarray(matrix)
     sample = basis_device[:, cupy.asarray(columns)]
     residual_block = kt_device @ sample - sample * eigenvalues[cupy.asarray(columns)][None, :]
@@ -345,14 +338,10 @@ def solve_gpu(K: Any, mass: NDArray[np.float64], *, n_modes: int | None, vectors
     weighted = mass_weighted(K, mass)
     dense = weighted.toarray() if hasattr(weighted, "toarray") else np.asarray(weighted)
     result = dense_eigh_gpu(dense, vectors=vectors)
-    keep: NDArray[np.intp] | slice | None = None
-    if n_modes is not None:
-        keep = slice(0, n_modes)
-    elif band is not None:
-        omega = np.sign(result.eigenvalues) * np.sqrt(np.abs(result.eigenvalues))
-        keep = np.flatnonzero((omega >= band[0]) & (omega <= band[1]))
-    if keep is None:
+    if n_modes is None and band is None:
         return result
+    omega = np.sign(result.eigenvalues) * np.sqrt(np.abs(result.eigenvalues))
+    keep = selected(omega, n_modes=n_modes, band=band)
     # The figures keep those of all modes: each is a bound for the kept ones too.
     kept = None if result.vectors is None else np.array(result.vectors[:, keep])  # not a view of all n
     return SolveResult(result.eigenvalues[keep], kept,
