@@ -3,12 +3,11 @@
 Both models join every pair of sites (usually C-alpha atoms) closer than a cutoff by a
 spring whose rest length is their distance in the structure:
 
-- `anm` — the anisotropic network model: 3-D springs, K = sum_ij gamma_ij e_ij e_ij^T blocks
-  (`System.from_springs`); its Hessian is ProDy's ``ANM.buildHessian`` for the same cutoff
-  and gamma. 6 rigid-body zero modes for a connected network (5 for two sites).
-- `gnm` — the Gaussian network model: one scalar dof per site and the Kirchhoff (graph
-  Laplacian) matrix, Gamma_ij = -gamma_ij, Gamma_ii = sum_j gamma_ij: ProDy's
-  ``GNM.buildKirchhoff``. One zero mode per connected network.
+- `anm` — anisotropic network model: 3-D springs, K = sum_ij gamma_ij e_ij e_ij^T blocks
+  (`System.from_springs`), ProDy's ``ANM.buildHessian``. 6 rigid-body zero modes for a
+  connected network (5 for two sites; 2 n + 1 for n > 2 collinear sites).
+- `gnm` — Gaussian network model: one scalar dof per site, the Kirchhoff matrix
+  Gamma_ij = -gamma_ij, Gamma_ii = sum_j gamma_ij (ProDy's ``GNM.buildKirchhoff``).
 
 Units: positions in Å, gamma in energy / Å^2 (any energy unit; kcal/mol/Å^2 when a
 `temperature` in kelvin is given), masses dimensionless (1 by default, as in ProDy). The
@@ -18,8 +17,9 @@ Thermal fluctuations (classical equipartition, rigid modes left out):
 
     <u_i^2> = kT sum_k |u_k(i)|^2 / omega_k^2,        B_i = 8 pi^2 / 3 <|Delta R_i|^2>,
 
-with u_k the M-orthonormal shapes (`Modes.shapes`), so <u^2> does not depend on the masses.
-For the scalar GNM, <|Delta R_i|^2> = 3 <u_i^2> (isotropic), so B_i = 8 pi^2 <u_i^2>.
+with u_k the M-orthonormal shapes (`Modes.shapes`): the sum over all non-rigid modes is
+kT diag(M^-1/2 pinv(K~) M^-1/2), so masses only set the rigid-body frame left out. For the
+scalar GNM, <|Delta R_i|^2> = 3 <u_i^2> (isotropic), so B_i = 8 pi^2 <u_i^2>.
 """
 
 from __future__ import annotations
@@ -54,14 +54,9 @@ BOLTZMANN_KCAL_PER_MOL = scipy.constants.R / (1000.0 * scipy.constants.calorie)
 #: network (~1e-3 relative for 2,000 C-alpha sites).
 RIGID_RTOL = 1e-8
 
-#: Largest structure file `from_pdb` reads (bytes): bounded before it is read.
-MAX_FILE_BYTES = 512 * 2**20
-
-#: Longest C-N distance (Å) read as a peptide bond (1.33 Å in a chain).
-PEPTIDE_BOND_MAX = 2.0
-
-#: gamma: one stiffness for all springs, one per contact pair (in `contact_pairs` order), or a
-#: function gamma(i, j, distance) of the (n_pairs,) arrays of a contact list.
+MAX_FILE_BYTES = 512 * 2**20  #: largest structure file `from_pdb` reads, checked before reading
+PEPTIDE_BOND_MAX = 2.0  #: longest C-N distance (Å) read as a peptide bond (1.33 Å in a chain)
+#: gamma: one stiffness, one per pair of `contact_pairs`, or a function gamma(i, j, distance).
 Gamma = Union[float, ArrayLike, Callable[[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]], ArrayLike]]
 
 _SELECTIONS = ("CA", "all")
@@ -151,16 +146,13 @@ def contact_pairs(positions: ArrayLike, cutoff: float) -> tuple[NDArray[np.intp]
 
     Returns
     -------
-    pairs : (n_pairs, 2) ndarray of int
-        Pairs (i, j), i < j, sorted by i then j.
-    distances : (n_pairs,) ndarray
-        Their distances, in Å.
+    pairs, distances : (n_pairs, 2) ndarray of int, (n_pairs,) ndarray
+        Pairs (i, j), i < j, sorted by i then j, and their distances in Å.
 
     Raises
     ------
     ValueError
-        positions not (n_sites, dim) with n_sites >= 2 or not finite; cutoff <= 0 or not
-        finite; two sites at the same position.
+        positions not (n_sites, dim), n_sites >= 2, finite; cutoff <= 0; coincident sites.
     """
     coordinates = _site_positions(positions)
     radius = _validate.positive_scalar(cutoff, "cutoff", "cutoff distance")
@@ -191,14 +183,9 @@ def anm(positions: ArrayLike, cutoff: float = 15.0, gamma: Gamma = 1.0, masses: 
         of the pair arrays returning (n_pairs,) stiffnesses.
     masses : (n_sites,) array_like, optional
         Site masses (dimensionless; 1 by default, as in ProDy). They change the frequencies
-        but not the thermal fluctuations.
+        and the rigid-body frame of the fluctuations.
     name : str
         Name used in reports.
-
-    Returns
-    -------
-    System
-        Sites in 3-D (dimensionless units), K = sum over contacts of gamma e e^T blocks.
 
     Raises
     ------
@@ -209,7 +196,6 @@ def anm(positions: ArrayLike, cutoff: float = 15.0, gamma: Gamma = 1.0, masses: 
 
     Examples
     --------
-    >>> import numpy as np
     >>> from vibra import networks
     >>> tetrahedron = [[0, 0, 0], [3.8, 0, 0], [1.9, 3.3, 0], [1.9, 1.1, 3.1]]
     >>> int((networks.anm(tetrahedron).modes().omega ** 2 < 1e-9).sum())
@@ -227,17 +213,15 @@ def anm(positions: ArrayLike, cutoff: float = 15.0, gamma: Gamma = 1.0, masses: 
 def gnm(positions: ArrayLike, cutoff: float = 7.3, gamma: Gamma = 1.0, *, name: str = "gnm") -> System:
     """Gaussian network model: the Kirchhoff matrix of the contacts within `cutoff`, one dof per site.
 
-    The result is a 1-D `System` of unit masses whose Hessian is the Kirchhoff matrix
-    Gamma_ij = -gamma_ij (i != j in contact), Gamma_ii = sum_j gamma_ij. Its `positions`
-    are the site indices 0, 1, ... (the scalar model keeps no geometry; the coordinates only
-    decide the contacts).
+    A 1-D `System` of unit masses whose Hessian is the Kirchhoff matrix; its `positions` are
+    the site indices 0, 1, ... (the scalar model keeps no geometry beyond the contacts).
 
     Parameters
     ----------
     positions : (n_sites, dim) array_like
         Site coordinates, in Å.
     cutoff : float
-        Contact distance, in Å (ProDy's default 7.3 Å).
+        Contact distance, in Å (7.3 Å, Bahar et al.'s; ProDy's buildKirchhoff defaults to 10 Å).
     gamma : float, (n_pairs,) array_like or callable
         Spring constants, in energy / Å^2, as for `anm`.
     name : str
@@ -339,28 +323,29 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
         raise ValueError(f"{file}: {size} bytes, more than the {MAX_FILE_BYTES} that from_pdb reads")
     atoms = _read_atoms(file)
     if selection == "CA":
-        atoms = [atom for atom in atoms if atom[1] == "CA" and atom[5]]
+        atoms = [atom for atom in atoms if atom[1] == "CA" and atom[4]]
         if not atoms:
             raise ValueError(f"{file}: no C-alpha atoms (atoms named CA in amino-acid residues) in the first model")
     if not atoms:
         raise ValueError(f"{file}: no atoms in the first model")
     return Structure(
         path=str(file), selection=selection,
-        positions=_decimal_float64(np.array([atom[3] for atom in atoms], dtype=np.float32)),
-        b_factors=np.array([atom[4] for atom in atoms], dtype=float),
+        positions=_decimal_float64(np.array([atom[2] for atom in atoms], dtype=np.float32)),
+        b_factors=np.array([atom[3] for atom in atoms], dtype=float),
         labels=tuple(f"{atom[0]}:{atom[1]}" for atom in atoms),
     )
 
 
 def _decimal_float64(values: NDArray[np.float32]) -> NDArray[np.float64]:
-    """Biopython keeps coordinates in float32; recover the file's decimals (PDB: 8.3f, at most
-    7 significant digits, which float32's shortest repr reproduces exactly) as float64."""
+    """Biopython keeps coordinates in float32; its shortest repr gives back the file's decimals
+    (PDB 8.3f: at most 7 significant digits) as float64."""
     return np.asarray(values.astype(str), dtype=np.float64)
 
 
-def _read_atoms(file: Path) -> list[tuple[str, str, str, NDArray[np.float32], float, bool]]:
-    """(residue label, atom name, element, xyz, B, in an amino acid) of each atom of model 0."""
-    from Bio.PDB import MMCIFParser, PDBParser  # here only: `import vibra.networks` needs no Biopython
+def _read_atoms(file: Path) -> list[tuple[str, str, NDArray[np.float32], float, bool]]:
+    """(residue label, atom name, xyz, B, in an amino acid) of each atom of model 0."""
+    from Bio.PDB.MMCIFParser import MMCIFParser  # here only: `import vibra.networks` needs no Biopython
+    from Bio.PDB.PDBParser import PDBParser
     from Bio.PDB.Polypeptide import is_aa
 
     cif = file.suffix.lower() in (".cif", ".mmcif")
@@ -370,10 +355,8 @@ def _read_atoms(file: Path) -> list[tuple[str, str, str, NDArray[np.float32], fl
     except Exception as error:  # Biopython raises several types on malformed input
         raise ValueError(f"{file}: cannot be read as {'mmCIF' if cif else 'PDB'}: {error}") from None
     models = list(structure)
-    if not models:
-        return []
     atoms = []
-    for chain in models[0]:
+    for chain in models[0] if models else []:
         residues = [_first_variant(residue) for residue in chain]
         for index, residue in enumerate(residues):
             hetero, number, insertion = residue.get_id()
@@ -388,8 +371,7 @@ def _read_atoms(file: Path) -> list[tuple[str, str, str, NDArray[np.float32], fl
                     atom = atom.disordered_get(conformation)
                 elif atom.get_altloc() not in (" ", conformation):
                     continue
-                atoms.append((label, atom.get_id(), atom.element, atom.coord,
-                              float(atom.get_bfactor()), amino))
+                atoms.append((label, atom.get_id(), atom.coord, float(atom.get_bfactor()), amino))
     return atoms
 
 
@@ -427,8 +409,7 @@ def square_fluctuations(system: System, modes: Modes, *, kT: float | None = None
                         temperature: float | None = None, rigid_rtol: float = RIGID_RTOL) -> NDArray[np.float64]:
     """(n_sites,) <u_i^2> = kT sum_k |u_k(i)|^2 / omega_k^2 over the non-rigid modes in `modes`.
 
-    A truncated `modes` (the lowest ones only) gives a truncated sum; `fluctuations`
-    computes the modes and says whether the sum is complete.
+    A truncated `modes` gives a truncated sum; `fluctuations` says whether it is complete.
 
     Parameters
     ----------
@@ -471,10 +452,9 @@ def fluctuations(system: System, n_modes: int | None = 20, *, kT: float | None =
     system : System
         A network from `anm` or `gnm` (any `System` of sites works).
     n_modes : int or None
-        Non-rigid modes summed (ProDy's default 20, the softest ones, which carry most of the
-        fluctuation); None sums all of them (a dense solve of every mode). The rigid modes are
-        found and skipped: the solver is asked for more modes until `n_modes` non-rigid ones
-        are in hand.
+        Non-rigid modes summed (ProDy's default 20: the softest carry most of the fluctuation);
+        None (or n_modes >= n_dof) sums all (a dense solve). Rigid modes are skipped, asking the solver
+        for more modes until `n_modes` non-rigid ones are in hand.
     kT, temperature, rigid_rtol
         As for `square_fluctuations`.
     accuracy : {"fast", "high"}
@@ -490,16 +470,16 @@ def fluctuations(system: System, n_modes: int | None = 20, *, kT: float | None =
     Raises
     ------
     ValueError
-        n_modes not in 1 .. n_dof; kT or temperature as in `square_fluctuations`.
+        n_modes < 1; kT or temperature as in `square_fluctuations`.
     """
-    thermal = _thermal_energy(kT, temperature)
-    rigid_rtol = _validate.positive_scalar(rigid_rtol, "rigid_rtol")
     scale = _stiffness_scale(system)
     n_dof = system.n_dof
-    if n_modes is None:
+    wanted = None if n_modes is None else min(n_dof, _validate.count(n_modes, "n_modes", low=1, high=2**62))
+    thermal = _thermal_energy(kT, temperature)
+    rigid_rtol = _validate.positive_scalar(rigid_rtol, "rigid_rtol")
+    if wanted is None:
         modes = system.modes(accuracy=accuracy)
     else:
-        wanted = _validate.count(n_modes, "n_modes", low=1, high=n_dof)
         ask = min(n_dof, wanted + system.dim * (system.dim + 1) // 2)  # + rigid modes of a connected network
         while True:
             modes = system.modes(ask, accuracy=accuracy)
@@ -563,7 +543,7 @@ def _thermal_energy(kT: float | None, temperature: float | None) -> float:
     if kT is not None and temperature is not None:
         raise ValueError("give kT or temperature, not both")
     if temperature is not None:
-        return BOLTZMANN_KCAL_PER_MOL * _validate.positive_scalar(temperature, "temperature", "temperature")
+        return float(BOLTZMANN_KCAL_PER_MOL * _validate.positive_scalar(temperature, "temperature", "temperature"))
     return 1.0 if kT is None else _validate.positive_scalar(kT, "kT", "thermal energy")
 
 
