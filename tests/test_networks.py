@@ -81,36 +81,49 @@ def test_from_pdb_all_atoms_match_prody() -> None:
 
 
 # ---------------------------------------------------------------------- ANM against ProDy
-def test_anm_hessian_is_prodys(protein: tuple[networks.Structure, prody.AtomGroup]) -> None:
-    structure, reference = protein
-    model = prody.ANM()
-    model.buildHessian(reference.getCoords(), cutoff=15.0, gamma=1.0)
-    K = networks.anm(structure.positions).hessian().toarray()
-    np.testing.assert_allclose(K, model.getHessian(), rtol=0, atol=1e-12 * np.abs(K).max())
-
-
-def _prody_anm_and_vibra(protein: tuple[networks.Structure, prody.AtomGroup]
-                         ) -> tuple[prody.ANM, networks.Fluctuations]:
+@pytest.fixture(scope="module")
+def anm_pair(protein: tuple[networks.Structure, prody.AtomGroup]
+             ) -> tuple[prody.ANM, vibra.System, networks.Fluctuations]:
+    """ProDy's ANM (cutoff 15 Å, gamma 1, 20 modes) and vibra's, built once per protein."""
     structure, reference = protein
     model = prody.ANM()
     model.buildHessian(reference.getCoords(), cutoff=15.0, gamma=1.0)
     model.calcModes(n_modes=20)
-    return model, networks.fluctuations(networks.anm(structure.positions), n_modes=20)
+    system = networks.anm(structure.positions)
+    return model, system, networks.fluctuations(system, n_modes=20)
 
 
-def test_anm_eigenvalues_match_prody(protein: tuple[networks.Structure, prody.AtomGroup]) -> None:
+@pytest.fixture(scope="module")
+def gnm_pair(protein: tuple[networks.Structure, prody.AtomGroup]
+             ) -> tuple[prody.GNM, vibra.System, networks.Fluctuations]:
+    """ProDy's GNM with cutoff 7.3 Å (its default is 10 Å) and vibra's, built once per protein."""
+    structure, reference = protein
+    model = prody.GNM()
+    model.buildKirchhoff(reference.getCoords(), cutoff=7.3, gamma=1.0)
+    model.calcModes(n_modes=20)
+    system = networks.gnm(structure.positions)
+    return model, system, networks.fluctuations(system, n_modes=20)
+
+
+def test_anm_hessian_is_prodys(anm_pair: tuple[prody.ANM, vibra.System, networks.Fluctuations]) -> None:
+    model, system, _ = anm_pair
+    K = system.hessian().toarray()
+    np.testing.assert_allclose(K, model.getHessian(), rtol=0, atol=1e-12 * np.abs(K).max())
+
+
+def test_anm_eigenvalues_match_prody(anm_pair: tuple[prody.ANM, vibra.System, networks.Fluctuations]) -> None:
     """The 20 lowest non-rigid eigenvalues to 1e-7 relative; 6 rigid modes skipped."""
-    model, result = _prody_anm_and_vibra(protein)
+    model, _, result = anm_pair
     assert result.n_rigid == 6 and not result.complete
     assert _relative(result.eigenvalues, model.getEigvals()) < 1e-7
 
 
-def test_anm_square_fluctuations_match_prody(protein: tuple[networks.Structure, prody.AtomGroup],
+def test_anm_square_fluctuations_match_prody(anm_pair: tuple[prody.ANM, vibra.System, networks.Fluctuations],
                                              request: pytest.FixtureRequest) -> None:
     """Square fluctuations of the 20 lowest non-rigid modes to 1e-6 relative (prody.calcSqFlucts)."""
-    if 3 * protein[0].n_sites > 1500:  # vibra.solvers.DENSE_LIMIT: the sparse path
+    model, system, result = anm_pair
+    if system.n_dof > 1500:  # vibra.solvers.DENSE_LIMIT: the sparse path
         request.applymarker(SPARSE_VECTORS)
-    model, result = _prody_anm_and_vibra(protein)
     assert _relative(result.square, prody.calcSqFlucts(model)) < 1e-6
 
 
@@ -165,15 +178,11 @@ def test_contact_pairs_are_all_pairs_within_cutoff() -> None:
 
 # ---------------------------------------------------------------------- GNM against ProDy
 def test_gnm_kirchhoff_modes_and_fluctuations_match_prody(
+        gnm_pair: tuple[prody.GNM, vibra.System, networks.Fluctuations],
         protein: tuple[networks.Structure, prody.AtomGroup]) -> None:
-    structure, reference = protein
-    model = prody.GNM()
-    model.buildKirchhoff(reference.getCoords(), cutoff=7.3, gamma=1.0)
-    model.calcModes(n_modes=20)
-    system = networks.gnm(structure.positions)
-    assert system.dim == 1 and system.n_dof == structure.n_sites
+    model, system, result = gnm_pair
+    assert system.dim == 1 and system.n_dof == protein[0].n_sites
     np.testing.assert_array_equal(system.hessian().toarray(), model.getKirchhoff())
-    result = networks.fluctuations(system, n_modes=20)
     assert result.n_rigid == 1
     assert _relative(result.eigenvalues, model.getEigvals()) < 1e-7
     assert _relative(result.square, prody.calcSqFlucts(model)) < 1e-6
@@ -191,22 +200,13 @@ def test_gnm_all_modes_match_prody() -> None:
 
 
 # ---------------------------------------------------------------------- B-factors
-@pytest.mark.parametrize("model_name", ["ANM", "GNM"])
-def test_b_factor_correlation_reproduces_prodys(model_name: str,
-                                                protein: tuple[networks.Structure, prody.AtomGroup]) -> None:
+@pytest.mark.parametrize("pair", ["anm_pair", "gnm_pair"])
+def test_b_factor_correlation_reproduces_prodys(pair: str, protein: tuple[networks.Structure, prody.AtomGroup],
+                                                request: pytest.FixtureRequest) -> None:
     """r(predicted, file B-factors) equals numpy's r of ProDy's calcSqFlucts and ProDy's betas to 1e-6."""
     structure, reference = protein
-    if model_name == "ANM":
-        model = prody.ANM()
-        model.buildHessian(reference.getCoords(), cutoff=15.0)
-        system = networks.anm(structure.positions)
-    else:
-        model = prody.GNM()
-        model.buildKirchhoff(reference.getCoords(), cutoff=7.3)
-        system = networks.gnm(structure.positions)
-    model.calcModes(n_modes=20)
+    model, _, result = request.getfixturevalue(pair)
     expected = np.corrcoef(prody.calcSqFlucts(model), reference.getBetas())[0, 1]
-    result = networks.fluctuations(system)
     assert abs(result.correlation(structure.b_factors) - expected) < 1e-6
     assert abs(networks.b_factor_correlation(result.b_factors, structure.b_factors) - expected) < 1e-6
 
