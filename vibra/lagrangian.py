@@ -6,8 +6,8 @@ V(q) are linearised about an equilibrium q0:
     M = d2T/dq'dq'  at (q0, q' = 0),      K = d2V/dqdq  at q0,
 
 so that M u'' + K u = 0 for u = q - q0, with a non-diagonal, configuration-dependent M
-frozen at q0. `linearize` returns that as a `vibra.System` in generalised coordinates;
-`System.modes()` then gives the normal modes through the core solver.
+frozen at q0. `linearize` returns that as a `vibra.generalized.GeneralizedSystem` (built by
+`vibra.System.generalized`); its `modes()` then gives the normal modes through the core solver.
 
 Sign convention: V here is the potential energy (the Lagrangian is T - V). Vieille's "V"
 in seed 000 is the force function, i.e. minus the potential energy.
@@ -19,7 +19,7 @@ coordinates gyroscopically (its skew matrix d2T/dq'_i dq_j - d2T/dq'_j dq_i must
 always true for one coordinate), since a gyroscopic term has no place in M u'' + K u = 0.
 
 The module also holds seed 000's problem II, the double pendulum (two masses on a string):
-its linearised `System`, the closed forms (15), (16) and (19), and the full non-linear
+its linearised system, the closed forms (15), (16) and (19), and the full non-linear
 equations (13) for `scipy.integrate.solve_ivp`.
 """
 
@@ -34,8 +34,8 @@ import sympy
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.pendulum import _tolerances
 from vibra._frozen import _freeze_arrays
+from vibra.generalized import GeneralizedSystem
 from vibra.system import System
 from vibra.units import UnitSystem
 
@@ -71,8 +71,8 @@ def linearize(
     rtol: float = EQUILIBRIUM_RTOL,
     units: str | UnitSystem = "SI",
     name: str = "linearized",
-) -> System:
-    """Linearise T(q, q') and V(q) about the equilibrium q0: a `System` with M and K.
+) -> GeneralizedSystem:
+    """Linearise T(q, q') and V(q) about the equilibrium q0: a `GeneralizedSystem` with M and K.
 
     M = d2T/dq'dq' and K = d2V/dqdq (seed 000 eq. 5 linearised; seed 003 eq. 134), both
     evaluated at q = q0, q' = 0 with the parameter `values`. If T has terms of degree 0 in
@@ -106,7 +106,7 @@ def linearize(
 
     Returns
     -------
-    System
+    GeneralizedSystem
         In generalised coordinates (`System.generalized`), dense M (n, n) and K (n, n),
         coordinates named ``str(q[i])``.
 
@@ -330,7 +330,7 @@ def _pendulum_parameters(m: float, m_prime: float, a: float, b: float, g: float)
 def double_pendulum(
     m: float = 1.0, m_prime: float = 1.0, a: float = 1.0, b: float = 1.0, g: float = 9.81,
     *, units: str | UnitSystem = "SI",
-) -> System:
+) -> GeneralizedSystem:
     """Seed 000, problem II: a string hung at o carrying m at distance a and m' a further b below.
 
     theta is the angle of om with the downward vertical, phi that of mm'. Built by
@@ -355,7 +355,7 @@ def double_pendulum(
 
     Returns
     -------
-    System
+    GeneralizedSystem
         Coordinates ``("theta", "phi")``, in rad; M in kg m^2, K in J/rad^2.
     """
     _pendulum_parameters(m, m_prime, a, b, g)
@@ -512,7 +512,7 @@ def integrate_double_pendulum(
                       ((theta0, "theta0"), (phi0, "phi0"), (theta_dot0, "theta_dot0"), (phi_dot0, "phi_dot0"))])
     times = _times(t)
     parameters = _pendulum_parameters(m, m_prime, a, b, g)
-    rtol, atol = _tolerances(rtol, atol)
+    rtol, atol = _validate.integration_tolerances(rtol, atol)
     solution = solve_ivp(double_pendulum_rhs, (times[0], times[-1]), start, method="DOP853",
                          t_eval=times, args=parameters, rtol=rtol, atol=atol)
     if not solution.success:

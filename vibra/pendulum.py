@@ -172,15 +172,7 @@ def _release_angle(angle: float) -> float:
 _times = _validate.increasing_times
 
 
-def _tolerances(rtol: float, atol: float) -> tuple[float, float]:
-    """(rtol, atol) for `scipy.integrate.solve_ivp`, each positive and finite."""
-    out = []
-    for value, name in ((rtol, "rtol"), (atol, "atol")):
-        number = _real_scalar(value, name)
-        if not number > 0:
-            raise ValueError(f"{name} is {number!r}; an integration tolerance must be positive")
-        out.append(number)
-    return out[0], out[1]
+_tolerances = _validate.integration_tolerances
 
 
 # ---------------------------------------------------------------------- periods

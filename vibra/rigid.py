@@ -31,8 +31,9 @@ import sympy
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.lagrangian import _real_scalar, linearize
+from vibra.lagrangian import linearize
 from vibra._frozen import _freeze_arrays
+from vibra.generalized import GeneralizedSystem
 from vibra.system import System
 from vibra.units import UnitSystem
 
@@ -58,6 +59,7 @@ _AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
 
 # ---------------------------------------------------------------------- checks
 _positive_scalar = _validate.positive_scalar
+_real_scalar = _validate.real_scalar
 
 
 def _vector3(value: Any, name: str) -> NDArray[np.float64]:
@@ -330,7 +332,7 @@ def _body_index(value: Any, name: str) -> None:
 def compound_pendulum(
     body: RigidBody, pivot: ArrayLike, axis: ArrayLike = (1.0, 0.0, 0.0), *, g: float = 9.81,
     units: str | UnitSystem = "SI",
-) -> System:
+) -> GeneralizedSystem:
     """A rigid body swinging about a fixed axis through `pivot`, gravity along -z.
 
     Built with `vibra.lagrangian.linearize` from the exact T and V in the swing angle
@@ -430,7 +432,7 @@ def rigid_body_system(
     *,
     units: str | UnitSystem = "SI",
     name: str = "rigid bodies",
-) -> System:
+) -> GeneralizedSystem:
     """Rigid bodies joined by linear and torsion springs: a `System` with 6 dofs per body.
 
     Coordinates per body (in this order): the displacement of its centre of mass
@@ -455,7 +457,7 @@ def rigid_body_system(
 
     Returns
     -------
-    System
+    GeneralizedSystem
         In generalised coordinates, 6 * len(bodies) dofs labelled ``"<body>.x"`` ...
         ``"<body>.rz"`` (the body's name, made unique with its index when repeated).
 
