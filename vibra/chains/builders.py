@@ -182,6 +182,12 @@ def diatomic_chain(
     ValueError
         n_cells < 1, masses or stiffness not one positive value or a pair of them,
         spacing not positive, unknown ends.
+
+    Examples
+    --------
+    >>> chain = diatomic_chain(2, masses=(1.0, 2.0), ends="periodic")
+    >>> chain.n_dof, chain.mass_matrix().tolist()
+    (4, [1.0, 2.0, 1.0, 2.0])
     """
     n_cells = _validate.min_count(n_cells, "n_cells", low=1, what="a chain")
     m1, m2 = _validate.positive_pair(masses, "masses", "mass")
@@ -246,6 +252,12 @@ def beaded_string(
     ValueError
         n < 2; mass, tension or spacing not positive and finite; a mass array of the wrong
         length; unknown ends.
+
+    Examples
+    --------
+    >>> string = beaded_string(3, tension=2.0, spacing=0.5)
+    >>> string.n_dof, string.free_dofs.tolist()  # the y coordinate of each bead
+    (3, [1, 3, 5])
     """
     n = _validate.min_count(n, "n", low=2, what="a chain")
     masses = _per_site(mass, n, "mass")

@@ -67,6 +67,12 @@ def monatomic_shapes(n: int, *, ends: Ends = "free", modes: ArrayLike | None = N
     Free ends cos(k pi (i + 1/2) / n), fixed ends sin(k pi (i + 1) / (n + 1)); periodic ends
     the real pair cos(2 pi j i / n), sin(2 pi j i / n) in the order of
     `monatomic_frequencies`. `modes` picks columns by ascending index (all by default).
+
+    Examples
+    --------
+    >>> np.round(monatomic_shapes(2, ends="free") ** 2, 12)  # rigid translation, then opposition
+    array([[0.5, 0.5],
+           [0.5, 0.5]])
     """
     n = _site_count(n, "n", low=2, what="a chain")
     _validate.choice(ends, "ends", ENDS)
@@ -203,6 +209,12 @@ def diatomic_branches(q: ArrayLike, m1: float, m2: float, k1: float, k2: float, 
     -------
     acoustic, optical : (n_q,) ndarray
         Angular frequencies in rad per time unit (the acoustic branch to a few ulps relative).
+
+    Examples
+    --------
+    >>> acoustic, optical = diatomic_branches([0.0, np.pi / 2], 1.0, 2.0, 1.0, 1.0, cell_length=2.0)
+    >>> np.round(acoustic ** 2, 12), np.round(optical ** 2, 12)  # q = 0 and the zone edge
+    (array([0., 1.]), array([3., 2.]))
     """
     q_array = _validate.real_values(q, "q")
     m1, m2, k1, k2 = _branch_parameters(m1, m2, k1, k2)
@@ -216,6 +228,12 @@ def diatomic_band_edges(masses: ArrayLike = (1.0, 2.0), stiffness: ArrayLike = 1
 
     The acoustic maximum and optical minimum are at the zone boundary q = pi / a, the
     optical maximum sqrt(S) at q = 0; the gap is ``edges[1, 0] - edges[0, 1]``.
+
+    Examples
+    --------
+    >>> np.round(diatomic_band_edges((1.0, 2.0), 1.0) ** 2, 12)
+    array([[0., 1.],
+           [2., 3.]])
     """
     m1, m2 = _validate.positive_pair(masses, "masses", "mass")
     k1, k2 = _validate.positive_pair(stiffness, "stiffness", "spring constant")
@@ -236,6 +254,11 @@ def diatomic_frequencies(n_cells: int, masses: ArrayLike = (1.0, 2.0), stiffness
     ------
     ValueError
         n_cells < 1, bad masses or stiffness, or ends other than "periodic".
+
+    Examples
+    --------
+    >>> np.round(diatomic_frequencies(2, (1.0, 2.0), 1.0) ** 2, 12)
+    array([0., 1., 2., 3.])
     """
     n_cells = _site_count(n_cells, "n_cells", low=1, what="a chain")
     m1, m2 = _validate.positive_pair(masses, "masses", "mass")
@@ -257,6 +280,11 @@ def beaded_string_frequencies(n: int, mass: float = 1.0, tension: float = 1.0, s
 
     The beaded string is a monatomic chain of spring constant tension / spacing: for fixed
     ends omega_k = 2 sqrt(T / (m d)) sin(k pi / 2(n+1)), k = 1..n (Lagrange's result).
+
+    Examples
+    --------
+    >>> np.round(beaded_string_frequencies(3, 1.0, 2.0, 0.5) ** 2, 12)  # 4 (T / m d) sin^2(k pi / 8)
+    array([ 2.34314575,  8.        , 13.65685425])
     """
     T = _positive_scalar(tension, "tension", "tension")
     d = _positive_scalar(spacing, "spacing", "spacing")
@@ -274,6 +302,11 @@ def montroll_potts_frequency(omega_max: float, mass: float, defect_mass: float) 
     ------
     ValueError
         A non-positive argument, or defect_mass >= mass.
+
+    Examples
+    --------
+    >>> round(float(montroll_potts_frequency(2.0, 1.0, 0.5)) ** 2, 12)  # 4 / (1 - 1/4)
+    5.333333333333
     """
     w = _positive_scalar(omega_max, "omega_max", "frequency")
     m = _positive_scalar(mass, "mass", "mass")
@@ -291,6 +324,11 @@ def montroll_potts_decay(mass: float, defect_mass: float) -> float:
 
     The mode alternates in sign and decays as ((1 - eps)/(1 + eps))^|i - i_defect|,
     eps = (m - m') / m; the ratio equals m' / (2 m - m').
+
+    Examples
+    --------
+    >>> montroll_potts_decay(1.0, 0.5)  # m' / (2 m - m')
+    0.3333333333333333
     """
     m = _positive_scalar(mass, "mass", "mass")
     md = _positive_scalar(defect_mass, "defect_mass", "mass")

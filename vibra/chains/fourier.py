@@ -20,7 +20,9 @@ def _ring_parameters(system: System) -> tuple[NDArray[np.float64], NDArray[np.fl
     """Masses (n,) and bond stiffnesses (n,), bond i joining i and i + 1 mod n, of a ring."""
     if not isinstance(system, System):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
-    factor = None if system.is_generalized else system.spring_factor()
+    if system.is_generalized:
+        raise ValueError("system is in generalised coordinates; periodic_modes needs a ring of springs")
+    factor = system.spring_factor()
     if factor is None:
         raise ValueError("system must be a ring of springs (K = B^T W B); this one has a Hessian given directly")
     coupling, weights = factor
