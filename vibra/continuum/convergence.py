@@ -168,6 +168,13 @@ def convergence_study(
     ValueError
         A mode label < 1, fewer than two sizes, a size too small for the modes, bad length,
         speed, ends or method.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> study = convergence_study([1, 2], [20, 40, 80])
+    >>> np.round(study.order, 2), np.round(study.coefficient / study.expected_coefficient(), 2)
+    (array([2., 2.]), array([1., 1.]))
     """
     ks = np.asarray(modes)
     if ks.ndim != 1 or ks.size == 0 or not np.issubdtype(ks.dtype, np.integer):

@@ -76,6 +76,12 @@ def dispersion(q: ArrayLike, *, masses: ArrayLike = 1.0, stiffness: ArrayLike = 
     -------
     (n_branches, n_q) ndarray
         One row (monatomic) or two (acoustic, optical).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> np.round(dispersion([0.0, np.pi / 2, np.pi]), 12)  # 2 |sin(q / 2)|
+    array([[0.        , 1.41421356, 2.        ]])
     """
     q_array = np.atleast_1d(_validate.real_values(q, "q"))
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
@@ -93,6 +99,12 @@ def group_velocity(q: ArrayLike, *, masses: ArrayLike = 1.0, stiffness: ArrayLik
     Analytic derivative of `dispersion`; at q = 0 the acoustic branch gives its right
     derivative, the sound speed (Omega dx for a monatomic chain,
     2 dx sqrt(k1 k2 / ((k1 + k2)(m1 + m2))) for a diatomic one).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> np.round(group_velocity([0.0, np.pi]), 12)  # the sound speed Omega dx, then 0 at the zone edge
+    array([[1., 0.]])
     """
     q_array = np.atleast_1d(_validate.real_values(q, "q"))
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
@@ -126,6 +138,13 @@ def band_edges(*, masses: ArrayLike = 1.0, stiffness: ArrayLike = 1.0) -> NDArra
 
     Monatomic [[0, 2 Omega]]; diatomic [[0, acoustic max], [optical min, optical max]],
     the gap being ``edges[1, 0] - edges[0, 1]``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> np.round(band_edges(masses=(1.0, 2.0)) ** 2, 12)
+    array([[0., 1.],
+           [2., 3.]])
     """
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
     if n_branches == 1:
@@ -134,7 +153,13 @@ def band_edges(*, masses: ArrayLike = 1.0, stiffness: ArrayLike = 1.0) -> NDArra
 
 
 def wave_speed(mass: float, stiffness: float, spacing: float) -> float:
-    """c = Omega dx = sqrt(stiffness / mass) * spacing (eq. 164), in length per time unit."""
+    """c = Omega dx = sqrt(stiffness / mass) * spacing (eq. 164), in length per time unit.
+
+    Examples
+    --------
+    >>> wave_speed(1.0, 4.0, 0.5)
+    1.0
+    """
     m = _positive_scalar(mass, "mass", "mass")
     k = _positive_scalar(stiffness, "stiffness", "spring constant")
     a = _positive_scalar(spacing, "spacing", "spacing")
@@ -146,6 +171,11 @@ def continuum_length(n: int, spacing: float, *, ends: Ends = "free") -> float:
 
     Free and periodic ends L = n dx (each site owns one spacing); fixed ends L = (n + 1) dx
     (the walls are one spacing beyond the end masses).
+
+    Examples
+    --------
+    >>> continuum_length(10, 0.1), continuum_length(10, 0.1, ends="fixed")
+    (1.0, 1.1)
     """
     n = _site_count(n, "n", low=2, what="a chain")
     a = _positive_scalar(spacing, "spacing", "spacing")
@@ -159,6 +189,12 @@ def continuum_frequencies(n_modes: int, *, length: float = 1.0, wave_speed: floa
 
     Free-free omega_k = k pi c / L (k = 0, 1, ...), fixed-fixed k pi c / L (k = 1, 2, ...),
     periodic 2 pi j c / L with j = 0, 1, 1, 2, 2, ... (cos and sin pairs).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> np.round(continuum_frequencies(4, ends="periodic") / np.pi, 12)
+    array([0., 2., 2., 4.])
     """
     count = _validate.count(n_modes, "n_modes", low=1, high=np.iinfo(np.int64).max)
     L = _positive_scalar(length, "length", "length")
@@ -217,6 +253,13 @@ def assign_wavenumbers(modes: Modes | ArrayLike, *, ends: Ends = "free", spacing
     -------
     (n_modes,) ndarray
         q >= 0 of each mode, in rad per length unit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vibra.chains import linear_chain
+    >>> np.round(assign_wavenumbers(linear_chain(4).modes()) / np.pi, 12)  # nu pi / (4 dx)
+    array([0.  , 0.25, 0.5 , 0.75])
     """
     _validate.choice(ends, "ends", ENDS)
     a = _positive_scalar(spacing, "spacing", "spacing")
@@ -335,10 +378,12 @@ def dispersion_curves(*, masses: ArrayLike = 1.0, stiffness: ArrayLike = 1.0, sp
     >>> curves.n_branches, round(curves.zone_edge, 6), round(curves.gap, 6)
     (2, 1.570796, 0.414214)
     """
-    count = _validate.count(n_q, "n_q", low=2, high=10**8)
-    _validate.choice(ends, "ends", ENDS)
     edges = band_edges(masses=masses, stiffness=stiffness)
     a = _positive_scalar(spacing, "spacing", "spacing")
+    if modes is not None and not isinstance(modes, Modes):
+        raise TypeError(f"modes must be a vibra.Modes, got {type(modes).__name__}")
+    _validate.choice(ends, "ends", ENDS)
+    count = _validate.count(n_q, "n_q", low=2, high=10**8)
     unit = unit_system(units) if units is not None else (modes.units if modes is not None else DIMENSIONLESS)
     n_branches = edges.shape[0]
     zone = float(np.pi / (n_branches * a))
@@ -347,8 +392,6 @@ def dispersion_curves(*, masses: ArrayLike = 1.0, stiffness: ArrayLike = 1.0, sp
     mode_q = mode_omega = None
     n_sites = None
     if modes is not None:
-        if not isinstance(modes, Modes):
-            raise TypeError(f"modes must be a vibra.Modes, got {type(modes).__name__}")
         mode_q = assign_wavenumbers(modes, ends=ends, spacing=a, sites_per_cell=n_branches)
         mode_omega = np.asarray(modes.omega)
         n_sites = int(modes.n_dof)

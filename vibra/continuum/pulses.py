@@ -145,6 +145,12 @@ def gaussian_pulse(
     ValueError
         n_sites < 2, negative times, width not in (0, L / 10], center outside [0, L], a
         non-positive length, speed or amplitude, unknown ends.
+
+    Examples
+    --------
+    >>> pulse = gaussian_pulse(400, [0.0, 0.5], width=0.05)
+    >>> pulse.chain.shape, pulse.error.round(4).tolist()  # the chain lags: dispersion
+    ((2, 400), [0.0, 0.0014])
     """
     n = _validate.min_count(n_sites, "n_sites", low=2, what="a chain")
     t = np.atleast_1d(_validate.real_values(times, "times"))
@@ -266,6 +272,12 @@ def pulse_study(n_sites: Sequence[int] | ArrayLike, widths: Sequence[float] | Ar
     ValueError
         Fewer than two sizes or two widths, sizes or widths not increasing, time not
         positive, or any argument `gaussian_pulse` rejects.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> np.round(pulse_study([200, 400], [0.05, 0.1], time=0.5).order_in_n, 1)  # error ~ N^-2
+    array([2., 2.])
     """
     sizes = _validate.increasing_counts(n_sites, "n_sites")
     sigma = _validate.real_array(widths, "widths", ndim=1)
