@@ -102,6 +102,12 @@ class GeneralizedSystem:
         ValueError
             K not square, finite and symmetric; M not matching K or not positive definite;
             the wrong number of coordinate names; unknown units.
+
+        Examples
+        --------
+        >>> system = GeneralizedSystem.from_matrices([2.0, 1.0], [[8.0, 0.0], [0.0, 1.0]], coordinates=["x", "y"])
+        >>> system.M.tolist(), system.labels
+        ([[2.0, 0.0], [0.0, 1.0]], ('x', 'y'))
         """
         K_matrix = _validate.square_matrix(K, "K")
         if not isinstance(K_matrix, np.ndarray):

@@ -357,6 +357,12 @@ def double_pendulum(
     -------
     GeneralizedSystem
         Coordinates ``("theta", "phi")``, in rad; M in kg m^2, K in J/rad^2.
+
+    Examples
+    --------
+    >>> system = double_pendulum(g=1.0)
+    >>> system.M.tolist(), system.K.tolist()
+    ([[2.0, 1.0], [1.0, 1.0]], [[2.0, 0.0], [0.0, 1.0]])
     """
     _pendulum_parameters(m, m_prime, a, b, g)
     theta, phi, theta_dot, phi_dot = sympy.symbols("theta phi theta_dot phi_dot")
@@ -376,6 +382,11 @@ def double_pendulum_frequencies_squared(
 
     (15): [(m + m') g - m a r](g - b r) - m' a g r = 0, i.e.
     m a b r^2 - (m + m') g (a + b) r + (m + m') g^2 = 0, solved without cancellation.
+
+    Examples
+    --------
+    >>> np.round(double_pendulum_frequencies_squared(g=1.0), 12)  # 2 -+ sqrt(2)
+    array([0.58578644, 3.41421356])
     """
     m, m_prime, a, b, g = _pendulum_parameters(m, m_prime, a, b, g)
     total = m + m_prime
@@ -392,6 +403,11 @@ def double_pendulum_mode_ratios(
 
     mu = a r / (g - b r) with r the roots of (15), ascending r: mu_1 > 1 (in phase),
     mu_2 < 0 (opposite phase).
+
+    Examples
+    --------
+    >>> np.round(double_pendulum_mode_ratios(g=1.0), 12)  # phi / theta = +-sqrt(2)
+    array([ 1.41421356, -1.41421356])
     """
     m, m_prime, a, b, g = _pendulum_parameters(m, m_prime, a, b, g)
     r = double_pendulum_frequencies_squared(m, m_prime, a, b, g)
@@ -407,6 +423,12 @@ def double_pendulum_single_mode_offsets(
     With beta = `phi0` its two roots alpha give the two modes: row 0 the slow, in-phase
     mode (alpha / beta in (0, 1), the seed's case), row 1 the fast one (alpha / beta < 0).
     Angles in rad; g does not enter.
+
+    Examples
+    --------
+    >>> np.round(double_pendulum_single_mode_offsets(phi0=1.0), 12)  # alpha / beta = +-1/sqrt(2)
+    array([[ 0.70710678,  1.        ],
+           [-0.70710678,  1.        ]])
     """
     m, m_prime, a, b, _ = _pendulum_parameters(m, m_prime, a, b, 1.0)
     beta = _real_scalar(phi0, "phi0")
@@ -431,6 +453,11 @@ def double_pendulum_rhs(
     solved for the accelerations. Arguments as in `double_pendulum`; `t` (s) is unused (the
     system is autonomous) and is there for `scipy.integrate.solve_ivp`. No validation: this
     is the inner loop of an integration.
+
+    Examples
+    --------
+    >>> double_pendulum_rhs(0.0, [0.0, 0.0, 0.0, 0.0]).tolist()  # at rest, hanging: no acceleration
+    [0.0, 0.0, 0.0, -0.0]
     """
     theta, phi, theta_dot, phi_dot = np.asarray(y, dtype=float)
     c, s = np.cos(phi - theta), np.sin(phi - theta)
@@ -505,6 +532,12 @@ def integrate_double_pendulum(
         tolerances.
     RuntimeError
         The integrator fails.
+
+    Examples
+    --------
+    >>> motion = integrate_double_pendulum(0.1, 0.1, np.linspace(0.0, 5.0, 6))
+    >>> bool(np.ptp(motion.energy) < 1e-9 * motion.energy[0])  # energy is conserved
+    True
     """
     from scipy.integrate import solve_ivp
 

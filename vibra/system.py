@@ -69,6 +69,12 @@ class System(metaclass=abc.ABCMeta):
         One name per degree of freedom (free and frozen), e.g. ``"3x"``.
     name : str
         A short name used in reports.
+
+    Examples
+    --------
+    >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+    >>> np.round(chain.modes().omega_squared, 12)  # 0, kappa / m, 3 kappa / m
+    array([0., 1., 3.])
     """
 
     positions: NDArray[np.float64]
@@ -141,6 +147,12 @@ class System(metaclass=abc.ABCMeta):
         ValueError
             Wrong shapes, non-positive or non-finite masses or stiffnesses, site indices out
             of range, a spring joining a site to itself or two coincident sites.
+
+        Examples
+        --------
+        >>> corner = System.from_springs([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], 1.0, [[0, 1], [0, 2]], 2.0)
+        >>> corner.n_dof, corner.hessian()[0, 2], corner.hessian()[1, 5]  # each spring acts along its axis
+        (6, np.float64(-2.0), np.float64(-2.0))
         """
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
@@ -228,6 +240,13 @@ class System(metaclass=abc.ABCMeta):
             w, the force constant of each internal coordinate (> 0).
         extra_hessian : (n_sites * dim, n_sites * dim) array_like or sparse, optional
             A symmetric Hessian added to B^T W B, in energy / length^2.
+
+        Examples
+        --------
+        >>> system = System.from_terms([0.0, 1.0], [1.0, 2.0], [[-1.0, 1.0]], [3.0])
+        >>> system.hessian().toarray()
+        array([[ 3., -3.],
+               [-3.,  3.]])
         """
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
@@ -267,7 +286,14 @@ class System(metaclass=abc.ABCMeta):
         units: str | UnitSystem = "SI",
         name: str = "system",
     ) -> System:
-        """Sites with a Hessian K given directly, (n_sites * dim, n_sites * dim), energy / length^2."""
+        """Sites with a Hessian K given directly, (n_sites * dim, n_sites * dim), energy / length^2.
+
+        Examples
+        --------
+        >>> system = System.from_hessian([0.0, 1.0], 1.0, [[1.0, -1.0], [-1.0, 1.0]])
+        >>> system.spring_factor() is None, np.round(system.modes().omega_squared, 12).tolist()
+        (True, [0.0, 2.0])
+        """
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
         matrix = _validate.square_matrix(hessian, "hessian")
@@ -293,30 +319,14 @@ class System(metaclass=abc.ABCMeta):
     ) -> GeneralizedSystem:
         """A system in generalised coordinates q: T = 1/2 q'^T M q', V = 1/2 q^T K q.
 
-        Returns a `vibra.generalized.GeneralizedSystem` (no sites: ``freeze(sites=...)``
-        raises, ``freeze(dofs=...)`` holds coordinates at rest).
-
-        Parameters
-        ----------
-        M : (n_dof, n_dof) array_like
-            Symmetric positive-definite mass matrix (kg m^2 for angles in SI).
-        K : (n_dof, n_dof) array_like
-            Symmetric stiffness matrix (J per rad^2 for angles in SI).
-        coordinates : sequence of str, optional
-            Names of the coordinates (default ``q0, q1, ...``).
-        units : str or UnitSystem
-            Unit system.
-        name : str
-            Name used in reports.
-
-        Raises
-        ------
-        ValueError
-            As `GeneralizedSystem.from_matrices`.
+        Returns a `vibra.generalized.GeneralizedSystem` built by its `from_matrices` (see
+        there for the parameters, in the same order, and the checks): M (n, n) symmetric
+        positive definite (or its diagonal), K (n, n) symmetric, optional coordinate names.
+        It has no sites: ``freeze(sites=...)`` raises, ``freeze(dofs=...)`` holds coordinates
+        at rest.
 
         Examples
         --------
-        >>> import numpy as np
         >>> system = System.generalized(np.diag([2.0, 1.0]), np.diag([8.0, 1.0]), coordinates=["a", "b"])
         >>> system.is_generalized, system.labels, system.modes().omega.tolist()
         (True, ('a', 'b'), [1.0, 2.0])
@@ -325,11 +335,25 @@ class System(metaclass=abc.ABCMeta):
 
     # ------------------------------------------------------------------ derived systems
     def with_masses(self, masses: ArrayLike) -> System:
-        """The same potential with new site masses (isotopes), in the mass unit of `units`."""
+        """The same potential with new site masses (isotopes), in the mass unit of `units`.
+
+        Examples
+        --------
+        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+        >>> chain.with_masses([1.0, 2.0, 1.0]).mass_matrix().tolist()
+        [1.0, 2.0, 1.0]
+        """
         return dataclasses.replace(self, masses=_site_masses(masses, self.n_sites))
 
     def freeze(self, sites: ArrayLike | None = None, dofs: ArrayLike | None = None) -> System:
-        """A copy with more sites or flat degrees of freedom held at rest."""
+        """A copy with more sites or flat degrees of freedom held at rest.
+
+        Examples
+        --------
+        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+        >>> chain.freeze(sites=[0]).free_dofs.tolist()
+        [1, 2]
+        """
         mask = self.frozen | _frozen_mask(self.n_sites, self.dim, sites, dofs)
         if mask.all():
             raise ValueError("every degree of freedom is frozen; nothing is left to vibrate")
@@ -367,6 +391,12 @@ class System(metaclass=abc.ABCMeta):
 
         B is (n_terms, n_dof) CSR with the columns of frozen dofs removed and rows that
         touch no free dof dropped; w is (n_terms,).
+
+        Examples
+        --------
+        >>> B, w = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0).spring_factor()
+        >>> B.toarray().tolist(), w.tolist()
+        ([[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]], [1.0, 1.0])
         """
         if self.extra_hessian is not None:
             return None
@@ -392,11 +422,24 @@ class System(metaclass=abc.ABCMeta):
         return K
 
     def mass_matrix(self) -> NDArray[np.float64]:
-        """(n_dof,) masses of the free dofs (the diagonal of M), in the mass unit of `units`."""
+        """(n_dof,) masses of the free dofs (the diagonal of M), in the mass unit of `units`.
+
+        Examples
+        --------
+        >>> System.from_springs([[0.0, 0.0], [1.0, 0.0]], [1.0, 3.0], [[0, 1]], 1.0).mass_matrix().tolist()
+        [1.0, 1.0, 3.0, 3.0]
+        """
         return np.repeat(np.asarray(self.masses), self.dim)[self.free_dofs]
 
     def expand(self, vectors: ArrayLike) -> NDArray[np.float64]:
-        """(n_sites * dim, ...) full displacement array from (n_dof, ...) free-dof values (0 at frozen dofs)."""
+        """(n_sites * dim, ...) full displacement array from (n_dof, ...) free-dof values (0 at frozen dofs).
+
+        Examples
+        --------
+        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0, frozen_sites=[0])
+        >>> chain.expand(np.array([1.0, 2.0])).tolist()
+        [0.0, 1.0, 2.0]
+        """
         values = np.asarray(vectors)
         full = np.zeros((self.frozen.shape[0],) + values.shape[1:], dtype=values.dtype)
         full[self.free_dofs] = values
@@ -427,6 +470,12 @@ class System(metaclass=abc.ABCMeta):
             Only the modes with omega in [low, high], in rad per time unit.
         solver : str
             Override the automatic choice (see `vibra.normal_modes`).
+
+        Examples
+        --------
+        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+        >>> chain.modes(n_modes=2, vectors=False).omega.round(12).tolist()
+        [0.0, 1.0]
         """
         _validate.choice(accuracy, "accuracy", ("high", "fast"))
         factor = self.spring_factor() if accuracy == "high" else None
