@@ -28,11 +28,47 @@ from vibra._frozen import _freeze_arrays
 from vibra.modes import Modes, normal_modes
 from vibra.units import UnitSystem, unit_system
 
-__all__ = ["GeneralizedSystem"]
+__all__ = ["GeneralizedSystem", "FreeDofs"]
+
+
+class FreeDofs:
+    """Which degrees of freedom move: shared by `vibra.System` and `GeneralizedSystem`.
+
+    A subclass has a field ``frozen`` ((n_total,) ndarray of bool, True for a degree of
+    freedom held at rest); K, M and the modes refer to the free ones, in the order of
+    `free_dofs`.
+    """
+
+    frozen: NDArray[np.bool_]
+
+    @property
+    def free_dofs(self) -> NDArray[np.intp]:
+        """(n_dof,) flat indices of the degrees of freedom that move."""
+        return np.flatnonzero(~self.frozen)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of free degrees of freedom (the size of K and M)."""
+        return int((~self.frozen).sum())
+
+    def expand(self, vectors: ArrayLike) -> NDArray[np.float64]:
+        """(n_total, ...) values of every degree of freedom from (n_dof, ...) free ones (0 when frozen).
+
+        Examples
+        --------
+        >>> import vibra
+        >>> system = vibra.System.generalized(np.eye(3), np.eye(3)).freeze(dofs=[1])
+        >>> system.expand(np.array([1.0, 2.0])).tolist()
+        [1.0, 0.0, 2.0]
+        """
+        values = np.asarray(vectors)
+        full = np.zeros((self.frozen.shape[0],) + values.shape[1:], dtype=values.dtype)
+        full[self.free_dofs] = values
+        return full
 
 
 @dataclass(frozen=True, eq=False)
-class GeneralizedSystem:
+class GeneralizedSystem(FreeDofs):
     """A system in generalised coordinates q: T = 1/2 q'^T M q', V = 1/2 q^T K q.
 
     Attributes
@@ -163,16 +199,6 @@ class GeneralizedSystem:
         return 0
 
     @property
-    def free_dofs(self) -> NDArray[np.intp]:
-        """(n_dof,) indices of the coordinates that move."""
-        return np.flatnonzero(~self.frozen)
-
-    @property
-    def n_dof(self) -> int:
-        """Number of free coordinates (the size of K and M)."""
-        return int((~self.frozen).sum())
-
-    @property
     def is_generalized(self) -> bool:
         """True: this system is in generalised coordinates."""
         return True
@@ -191,13 +217,6 @@ class GeneralizedSystem:
         """(n_dof, n_dof) mass matrix M over the free coordinates."""
         free = self.free_dofs
         return np.array(self.M[np.ix_(free, free)])
-
-    def expand(self, vectors: ArrayLike) -> NDArray[np.float64]:
-        """(n_coordinates, ...) values of every coordinate from (n_dof, ...) free ones (0 when frozen)."""
-        values = np.asarray(vectors)
-        full = np.zeros((self.frozen.shape[0],) + values.shape[1:], dtype=values.dtype)
-        full[self.free_dofs] = values
-        return full
 
     def modes(
         self,

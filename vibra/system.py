@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import _freeze_arrays
-from vibra.generalized import GeneralizedSystem
+from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.units import UnitSystem, unit_system
 
@@ -41,7 +41,7 @@ _AXES = "xyz"
 
 
 @dataclass(frozen=True, eq=False)
-class System(metaclass=abc.ABCMeta):
+class System(FreeDofs, metaclass=abc.ABCMeta):
     """A vibrating system: sites, masses, and a factorised quadratic potential.
 
     Build one with `System.from_springs`, `System.from_terms`, `System.from_hessian` or
@@ -371,16 +371,6 @@ class System(metaclass=abc.ABCMeta):
         return int(self.positions.shape[1])
 
     @property
-    def free_dofs(self) -> NDArray[np.intp]:
-        """(n_dof,) flat indices of the degrees of freedom that move."""
-        return np.flatnonzero(~self.frozen)
-
-    @property
-    def n_dof(self) -> int:
-        """Number of free degrees of freedom (the size of K and M)."""
-        return int((~self.frozen).sum())
-
-    @property
     def is_generalized(self) -> bool:
         """False: a `System` has sites (a `GeneralizedSystem` answers True)."""
         return False
@@ -430,20 +420,6 @@ class System(metaclass=abc.ABCMeta):
         [1.0, 1.0, 3.0, 3.0]
         """
         return np.repeat(np.asarray(self.masses), self.dim)[self.free_dofs]
-
-    def expand(self, vectors: ArrayLike) -> NDArray[np.float64]:
-        """(n_sites * dim, ...) full displacement array from (n_dof, ...) free-dof values (0 at frozen dofs).
-
-        Examples
-        --------
-        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0, frozen_sites=[0])
-        >>> chain.expand(np.array([1.0, 2.0])).tolist()
-        [0.0, 1.0, 2.0]
-        """
-        values = np.asarray(vectors)
-        full = np.zeros((self.frozen.shape[0],) + values.shape[1:], dtype=values.dtype)
-        full[self.free_dofs] = values
-        return full
 
     def modes(
         self,

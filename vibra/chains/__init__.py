@@ -27,6 +27,7 @@ Layout: `vibra.chains.builders` (the builders and `ENDS`), `vibra.chains.closed_
 
 from __future__ import annotations
 
+from vibra.chains import builders, closed_forms, fourier
 from vibra.chains.builders import ENDS, beaded_string, diatomic_chain, linear_chain
 from vibra.chains.closed_forms import (beaded_string_frequencies, diatomic_band_edges, diatomic_branches,
                                        diatomic_eigenvalues, diatomic_frequencies, diatomic_half_splitting,
@@ -34,20 +35,4 @@ from vibra.chains.closed_forms import (beaded_string_frequencies, diatomic_band_
                                        montroll_potts_frequency)
 from vibra.chains.fourier import periodic_modes
 
-__all__ = [
-    "ENDS",
-    "linear_chain",
-    "diatomic_chain",
-    "beaded_string",
-    "monatomic_frequencies",
-    "monatomic_shapes",
-    "diatomic_eigenvalues",
-    "diatomic_half_splitting",
-    "diatomic_branches",
-    "diatomic_frequencies",
-    "diatomic_band_edges",
-    "beaded_string_frequencies",
-    "montroll_potts_frequency",
-    "montroll_potts_decay",
-    "periodic_modes",
-]
+__all__ = [*builders.__all__, *closed_forms.__all__, *fourier.__all__]

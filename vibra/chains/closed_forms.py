@@ -156,12 +156,8 @@ def diatomic_eigenvalues(phase: ArrayLike, m1: float, m2: float, k1: float, k2: 
 
     Parameters
     ----------
-    phase : float or (n_q,) array_like
-        Bloch phase q a across one cell, in rad.
-    m1, m2 : float
-        The two masses of the cell.
-    k1, k2 : float
-        Intra-cell and inter-cell spring constants.
+    phase, m1, m2, k1, k2
+        As in `diatomic_half_splitting`.
 
     Returns
     -------

@@ -5,7 +5,7 @@ u_i'' = Omega^2 (u_{i+1} - 2 u_i + u_{i-1}), Omega = sqrt(kappa / m). As dx -> 0
 c = Omega dx fixed (eq. 164) this becomes the wave equation u_tt = c^2 u_xx (eq. 165).
 This subpackage gives
 
-- `vibra.continuum.dispersion`: dispersion omega(q), group velocity and band edges of
+- `vibra.continuum.bands`: dispersion omega(q), group velocity and band edges of
   monatomic and diatomic chains, the assignment of a finite chain's modes to wavenumbers,
   `dispersion_curves` (all of it over the Brillouin zone, for a chart), and the continuum
   rod / string modes for each end condition;
@@ -21,27 +21,11 @@ frequencies are in any consistent unit system (the chains' own).
 
 from __future__ import annotations
 
+from vibra.continuum import bands, convergence, pulses
 from vibra.continuum.convergence import ConvergenceStudy, convergence_study, power_law_fit
-from vibra.continuum.dispersion import (DispersionCurves, assign_wavenumbers, band_edges, continuum_frequencies,
+from vibra.continuum.bands import (DispersionCurves, assign_wavenumbers, band_edges, continuum_frequencies,
                                         continuum_length, dispersion, dispersion_curves, group_velocity,
                                         wave_speed)
 from vibra.continuum.pulses import PulseResult, PulseStudy, gaussian_pulse, pulse_study
 
-__all__ = [
-    "dispersion",
-    "group_velocity",
-    "band_edges",
-    "wave_speed",
-    "assign_wavenumbers",
-    "continuum_frequencies",
-    "continuum_length",
-    "DispersionCurves",
-    "dispersion_curves",
-    "ConvergenceStudy",
-    "convergence_study",
-    "power_law_fit",
-    "PulseResult",
-    "gaussian_pulse",
-    "PulseStudy",
-    "pulse_study",
-]
+__all__ = [*bands.__all__, *convergence.__all__, *pulses.__all__]
