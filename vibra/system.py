@@ -44,9 +44,9 @@ _AXES = "xyz"
 class System(FreeDofs, metaclass=abc.ABCMeta):
     """A vibrating system: sites, masses, and a factorised quadratic potential.
 
-    Build one with `System.from_springs`, `System.from_terms`, `System.from_hessian` or
-    `System.generalized` (or a builder in `vibra.chains` / `vibra.molecules`), not with the
-    raw constructor.
+    Build one with `System.from_springs`, `System.from_terms` or `System.from_hessian` (or a
+    builder in `vibra.chains` / `vibra.molecules`), not with the raw constructor;
+    `System.generalized` builds a `GeneralizedSystem` instead.
 
     Attributes
     ----------
