@@ -13,9 +13,11 @@ lowest frequencies. This module keeps them:
    only when singular or indefinite to working precision, with its condition number.
 2. When K is positive definite, K_s = D K D is equilibrated and factored the same way,
    K_s = R^T R, and the squared frequencies are the squared singular values of
-   G = R L^-T, computed by one-sided Jacobi (LAPACK gejsv), which gives every singular
-   value to a relative accuracy of about eps * cond of G with its columns scaled:
-   the small frequencies are not measured against the large ones ("pencil-jacobi").
+   G = R L^-T, computed by one-sided Jacobi (LAPACK gejsv) after a pivoted QR that moves
+   the grading of K_s to one side (see `_jacobi`): every frequency to a relative accuracy
+   of about eps (cond(M_s) + cond(K_s)), the small ones not measured against the large
+   ones ("pencil-jacobi"). Pencils graded by diagonal scalings over 1e-6..1e6 on both M and K
+   (cond up to 1e24) keep 15 digits.
 3. Otherwise (K indefinite or singular) the equilibrated pencil (K_s, M_s) is solved by
    LAPACK sygv ("pencil-cholesky"), accurate to eps * ||L^-1 K_s L^-T|| absolutely.
 
@@ -103,7 +105,7 @@ def check_mass_matrix(M: ArrayLike, n_dof: int | None = None, name: str = "M") -
     diagonal = np.diag(matrix)
     if not np.all(diagonal > 0):
         i = int(np.argmin(diagonal))
-        raise ValueError(f"{name}[{i},{i}] is {diagonal[i]!r}; every diagonal entry of a mass matrix "
+        raise ValueError(f"{name}[{i},{i}] is {float(diagonal[i])!r}; every diagonal entry of a mass matrix "
                          "(the kinetic energy of one coordinate alone) must be positive")
     scale = 1.0 / np.sqrt(diagonal)
     scaled = matrix * scale[:, None] * scale[None, :]
@@ -113,11 +115,13 @@ def check_mass_matrix(M: ArrayLike, n_dof: int | None = None, name: str = "M") -
         np.linalg.cholesky(scaled)
     except np.linalg.LinAlgError:
         smallest = float(np.linalg.eigvalsh(scaled)[0])
-        raise ValueError(
-            f"{name} is not positive definite: D {name} D (D = diag({name})^-1/2) has smallest eigenvalue "
-            f"{smallest:.3g} and condition number {condition:.3g}; a mass matrix must be symmetric "
-            "positive definite"
-        ) from None
+        if smallest < -n * EPS * float(np.abs(scaled).sum(axis=0).max()):
+            raise ValueError(
+                f"{name} is not positive definite: D {name} D (D = diag({name})^-1/2) has smallest eigenvalue "
+                f"{smallest:.3g} and condition number {condition:.3g}; a mass matrix must be symmetric "
+                "positive definite"
+            ) from None
+        condition = float("inf") if not np.isfinite(condition) else max(condition, limit)
     if not condition < limit:
         raise ValueError(
             f"{name} is singular to working precision: D {name} D (D = diag({name})^-1/2) has condition "
@@ -242,17 +246,26 @@ def pencil_modes(
 def _jacobi(K_scaled: NDArray[np.float64], lower: NDArray[np.float64],
             stiffness_factor: tuple[NDArray[np.float64], NDArray[np.float64], float], mass_condition: float
             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """omega^2 = sigma^2(G), G = R L^-T with K_s = R^T R (equilibrated); y = L^-T v."""
+    """omega^2 = sigma^2(G^T), G^T = L^-1 E^-1 R0 with K_s = E^-1 R0 R0^T E^-1 (E diagonal).
+
+    The diagonal E sits between two well-conditioned factors, which one-sided Jacobi cannot
+    resolve; a QR factorisation with column pivoting of W = R0^T E^-1 (columns graded),
+    W P = Q R1, moves it out: G^T = L^-1 P R1^T Q^T, and R1^T = U^T D1 is a well-conditioned
+    matrix times a diagonal, so H = L^-1 P R1^T has the singular values of G^T to high
+    relative accuracy by gejsv (Demmel and Veselic 1992; Drmac 1999). The left singular
+    vectors of H are the eigenvectors z of L^-1 K_s L^-T; y = L^-T z.
+    """
     k_scale, k_lower, stiffness_condition = stiffness_factor
-    upper = (k_lower.T / k_scale[None, :])                # R = R0 E^-1: K_s = R^T R
-    G = la.solve_triangular(lower, upper.T, lower=True).T  # R L^-T
-    n = G.shape[0]
+    n = K_scaled.shape[0]
+    W = k_lower.T / k_scale[None, :]                        # K_s = W^T W, columns graded
+    _, R1, pivots = la.qr(W, pivoting=True)
+    H = la.solve_triangular(lower, np.eye(n)[:, pivots] @ R1.T, lower=True)   # L^-1 P R1^T
     gejsv = la.get_lapack_funcs("gejsv", dtype=np.float64)
-    sva, _, v, work, _, info = gejsv(np.asfortranarray(G), joba=1, jobu=3, jobv=0, jobr=1, jobt=0, jobp=0)
+    sva, u, _, work, _, info = gejsv(np.asfortranarray(H), joba=1, jobu=0, jobv=3, jobr=1, jobt=0, jobp=0)
     if info != 0:  # pragma: no cover - gejsv fails only on NaN, refused above
         raise RuntimeError(f"LAPACK gejsv failed with info={info}")
     sigma = (work[0] / work[1] if work[1] != 0 else 1.0) * sva
-    basis = la.solve_triangular(lower.T, v, lower=False)  # y = L^-T v
+    basis = la.solve_triangular(lower.T, u[:, :n], lower=False)  # y = L^-T z
     values = sigma**2
     relative = _FACTOR * n * EPS * (mass_condition + stiffness_condition)
     return values, basis, relative * values

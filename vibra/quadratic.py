@@ -274,15 +274,25 @@ def quadratic_modes(
     K_t, G_t, C_t = (P.T @ X @ P for X in (K_matrix, gyroscopic, damping))
     K_t, C_t = 0.5 * (K_t + K_t.T), 0.5 * (C_t + C_t.T)
     G_t = 0.5 * (G_t - G_t.T)
-    stiffness = equilibrated_cholesky(K_t) if not damping.any() else None
+    stiffness = equilibrated_cholesky(K_t)
+    inverse = None
     if damping.any():
         method = "companion"
-        A = np.block([[np.zeros((n, n)), np.eye(n)], [-K_t, -(G_t + C_t)]])
+        D_t = G_t + C_t
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-K_t, -D_t]])
         values, right, condition = _general(A)
         positions = right[:n]
+        if stiffness is not None:   # A^-1 = [[-K^-1 D, -K^-1], [I, 0]], K^-1 from its Cholesky factor
+            k_scale, k_lower, _ = stiffness
+
+            def solve_K(X: NDArray[np.float64]) -> NDArray[np.float64]:
+                return np.asarray(k_scale[:, None] * la.cho_solve((k_lower, True), k_scale[:, None] * X))
+            inverse_A = np.block([[-solve_K(D_t), -solve_K(np.eye(n))], [np.eye(n), np.zeros((n, n))]])
+            inverse_values, inverse_right, inverse_condition = _general(inverse_A)
+            inverse = (1.0 / inverse_values, inverse_right[:n], inverse_condition)
     elif stiffness is not None:
         method = "skew-symmetric"
-        values, positions, condition = _skew(K_t, G_t, stiffness)
+        values, positions, condition, inverse = _skew(K_t, G_t, stiffness)
     else:
         method = "hamiltonian"
         A = np.block([[-0.5 * G_t, np.eye(n)], [0.25 * G_t @ G_t - K_t, -0.5 * G_t]])
@@ -290,25 +300,69 @@ def quadratic_modes(
         norm = float(np.abs(A).sum(axis=0).max())
         values = _onto_axis(values, _FACTOR * EPS * norm * condition)
         positions = right[:n]
+    structure = mass_condition + (stiffness[2] if stiffness is not None else 0.0)
     norm_A = float(max(np.abs(values).max(initial=0.0), 1e-300))
-    value_error = _FACTOR * EPS * (norm_A * condition + 2 * n * mass_condition * np.abs(values))
+    value_error = _FACTOR * EPS * (norm_A * condition + 2 * n * structure * np.abs(values))
+    if inverse is not None:
+        values, positions, value_error = _refine_small(values, positions, value_error, inverse, 2 * n * structure)
     pairs = _pairs(values, positions)
     return _result(values, positions, value_error, pairs, P, method, unit_system(units), warn)
 
 
 def _skew(K_t: NDArray[np.float64], G_t: NDArray[np.float64],
           stiffness: tuple[NDArray[np.float64], NDArray[np.float64], float]
-          ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]:
-    """Eigenpairs of the real skew-symmetric A = [[0, F^T], [-F, -G~]] through eigh(i A)."""
+          ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64],
+                     tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]]:
+    """Eigenpairs of the real skew-symmetric A = [[0, F^T], [-F, -G~]] through eigh(i A).
+
+    Also those of A^-1 = [[-F^-1 G~ F^-T, -F^-1], [F^-T, 0]], skew-symmetric too, whose
+    eigenvalues 1/lambda give the small frequencies to high relative accuracy.
+    """
     n = K_t.shape[0]
-    k_scale, k_lower, k_condition = stiffness
+    k_scale, k_lower, _ = stiffness
     F = k_lower / k_scale[:, None]                     # K~ = F F^T
+    F_inverse = la.solve_triangular(k_lower, np.eye(n), lower=True) * k_scale[None, :]
     A = np.block([[np.zeros((n, n)), F.T], [-F, -G_t]])
-    mu, Z = la.eigh(1j * A)                            # A z = -i mu z: lambda = -i mu, exactly imaginary
-    values = -1j * mu
-    positions = Z[n:] / np.where(values == 0, 1.0, values)[None, :]   # v = lambda y
-    condition = np.full(2 * n, 1.0 + k_condition * EPS * n)      # normal matrix: well conditioned
-    return values.astype(complex), positions, condition
+    inverse_A = np.block([[-F_inverse @ G_t @ F_inverse.T, -F_inverse], [F_inverse.T, np.zeros((n, n))]])
+    out = []
+    for matrix, invert in ((A, False), (0.5 * (inverse_A - inverse_A.T), True)):
+        mu, Z = la.eigh(1j * matrix)                   # matrix z = -i mu z, exactly imaginary
+        values = -1j * mu
+        if invert:
+            values = 1.0 / np.where(values == 0, np.inf, values)
+        positions = Z[n:] / np.where(values == 0, 1.0, values)[None, :]   # v = lambda y
+        out.append((values.astype(complex), positions, np.ones(2 * n)))  # normal: condition 1
+    return out[0][0], out[0][1], out[0][2], out[1]
+
+
+def _refine_small(values: NDArray[np.complex128], positions: NDArray[np.complex128], error: NDArray[np.float64],
+                  inverse: tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]],
+                  structure: float) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]:
+    """Take the eigenvalues below the geometric mean of the spectrum from A^-1 (see `_skew`).
+
+    A^-1's eigenvalues 1/lambda carry an absolute error eps ||A^-1||, i.e. a relative error
+    eps |lambda| / min|lambda| on lambda: the small eigenvalues are resolved there, the
+    large ones in A itself.
+    """
+    inverse_values, inverse_positions, inverse_condition = inverse
+    size = np.abs(values)
+    nonzero = size[size > 0]
+    if nonzero.size == 0:
+        return values, positions, error
+    threshold = np.sqrt(nonzero.max() * nonzero.min())
+    finite = np.abs(inverse_values[(inverse_values != 0) & np.isfinite(inverse_values)])
+    inverse_norm = float(1.0 / finite.min()) if finite.size else 0.0
+    values, positions, error = values.copy(), positions.copy(), error.copy()
+    free = list(range(inverse_values.size))
+    for j in np.argsort(size):
+        if size[j] >= threshold or not free:
+            break
+        k = min(free, key=lambda i: abs(inverse_values[i] - values[j]) / max(abs(values[j]), 1e-300))
+        free.remove(k)
+        values[j], positions[:, j] = inverse_values[k], inverse_positions[:, k]
+        magnitude = abs(values[j])
+        error[j] = _FACTOR * EPS * (magnitude**2 * inverse_norm * inverse_condition[k] + structure * magnitude)
+    return values, positions, error
 
 
 def _general(A: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]:
