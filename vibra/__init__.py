@@ -33,7 +33,8 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "chains", "charts", "cli", "continuum", "crosscheck", "generalized", "lagrangian", "modes",
+    "chains", "charts", "cli", "continuum", "crosscheck", "generalized", "gyroscopic", "lagrangian",
+    "linearization", "modes", "pencil", "quadratic",
     "molecules", "pendulum", "plan", "render", "report", "response", "rigid", "scene", "solvers",
     "spectra", "system", "units",
 )

@@ -193,7 +193,7 @@ def pencil_modes(
     --------
     >>> modes = pencil_modes([[9810.00981, 0.0], [0.0, 9.81]], [[1000.001, 1.0], [1.0, 1e-3]])
     >>> modes.solver, [float(f"{w:.6e}") for w in modes.omega ** 2]
-    ('pencil-jacobi', [9.800209, 9.810009e+09])
+    ('pencil-jacobi', [9.8002, 9819820000.0])
     """
     K_matrix = _validate.real_array(K, "K", ndim=2)
     if K_matrix.shape[0] != K_matrix.shape[1]:

@@ -305,8 +305,13 @@ def quadratic_modes(
     value_error = _FACTOR * EPS * (norm_A * condition + 2 * n * structure * np.abs(values))
     if inverse is not None:
         values, positions, value_error = _refine_small(values, positions, value_error, inverse, 2 * n * structure)
+    quadratics = None
+    if method == "companion":
+        values, quadratics = _rayleigh(values, positions, K_t, G_t + C_t, value_error)
+        if not gyroscopic.any():   # y^H K y and y^H C y are real: drop their rounding
+            quadratics = quadratics.real.astype(complex)
     pairs = _pairs(values, positions)
-    return _result(values, positions, value_error, pairs, P, method, unit_system(units), warn)
+    return _result(values, positions, value_error, pairs, P, method, unit_system(units), warn, quadratics)
 
 
 def _skew(K_t: NDArray[np.float64], G_t: NDArray[np.float64],
@@ -365,6 +370,45 @@ def _refine_small(values: NDArray[np.complex128], positions: NDArray[np.complex1
     return values, positions, error
 
 
+def _rayleigh(values: NDArray[np.complex128], positions: NDArray[np.complex128], K_t: NDArray[np.float64],
+              D_t: NDArray[np.float64], error: NDArray[np.float64]
+              ) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Quadratic Rayleigh refinement: lambda from (y^H y) l^2 + (y^H D y) l + y^H K y = 0.
+
+    The root nearest the eigensolver's lambda replaces it when within its error bound. Its
+    real part comes from y^H C y directly, so a light damping ratio keeps its relative
+    accuracy (the eigensolver gives Re lambda only to eps |lambda|); a 1-dof oscillator gets
+    the exact roots of its quadratic. Real eigenvalues take real roots only, and conjugate
+    pairs stay conjugate. Also returns the coefficients (a, b, c) of each eigenvalue's
+    quadratic, from which `_result` takes a real pair's symmetric functions near critical
+    damping.
+    """
+    out = values.copy()
+    coefficients = np.zeros((values.size, 3), dtype=complex)
+    for j, value in enumerate(values):
+        y = positions[:, j]
+        a = float(np.vdot(y, y).real)
+        b, c = complex(np.vdot(y, D_t @ y)), complex(np.vdot(y, K_t @ y))
+        coefficients[j] = a, b, c
+        if value.imag < 0:
+            continue
+        if value.imag == 0:
+            if np.abs(np.imag([b, c])).max() > 0 or (b.real**2 < 4 * a * c.real):
+                continue
+        root = np.sqrt(b * b - 4 * a * c)
+        big = -0.5 * (b + root if abs(b + root) >= abs(b - root) else b - root)
+        candidates = [big / a] + ([c / big] if big != 0 else [])
+        best = min(candidates, key=lambda r: abs(r - value))
+        if value.imag == 0:
+            best = complex(best.real, 0.0)
+        if abs(best - value) <= max(error[j], 0.0):
+            out[j] = best
+            if value.imag > 0:
+                partner = int(np.argmin(np.abs(values - np.conj(value))))
+                out[partner] = np.conj(best)
+    return out, coefficients
+
+
 def _general(A: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]:
     """Eigenvalues, right eigenvectors and eigenvalue condition numbers 1 / |y^H x| of A."""
     values, left, right = la.eig(A, left=True, right=True)
@@ -414,12 +458,29 @@ def _pairs(values: NDArray[np.complex128], positions: NDArray[np.complex128]) ->
 
 
 def _result(values: NDArray[np.complex128], positions: NDArray[np.complex128], value_error: NDArray[np.float64],
-            pairs: list[tuple[int, int]], P: NDArray[np.float64], method: str, units: UnitSystem, warn: bool
-            ) -> QuadraticModes:
+            pairs: list[tuple[int, int]], P: NDArray[np.float64], method: str, units: UnitSystem, warn: bool,
+            quadratics: NDArray[np.complex128] | None = None) -> QuadraticModes:
     n = P.shape[0]
     physical = P @ positions
     product = np.array([(values[a] * values[b]).real for a, b in pairs])
     total = np.array([(values[a] + values[b]).real for a, b in pairs])
+    if quadratics is not None:
+        # A pair near critical damping: each root alone is good to sqrt(eps) only, but the real
+        # quadratic of its (nearly common) vector gives the product c / a and sum -b / a.
+        for k, (first, second) in enumerate(pairs):
+            a, b, c = quadratics[first]
+            if abs(b.imag) + abs(c.imag) > 0:
+                continue
+            root = np.sqrt(complex(b.real**2 - 4 * a.real * c.real))
+            roots = sorted([(-b.real + root) / (2 * a.real), (-b.real - root) / (2 * a.real)], key=abs)
+            pair = sorted([values[first], values[second]], key=abs)
+            tolerance = error_bound = value_error[first] + value_error[second]
+            if all(abs(r - v) <= tolerance for r, v in zip(roots, pair)) and error_bound > 0:
+                product[k], total[k] = c.real / a.real, -b.real / a.real
+                # The pair's symmetric functions are well conditioned even where each root is not.
+                size = max(abs(values[first]), abs(values[second]))
+                value_error = value_error.copy()
+                value_error[first] = value_error[second] = _FACTOR * EPS * size * (2 + 2 * n)
     magnitude = np.sqrt(np.abs(product))
     natural = np.sign(product) * magnitude
     ratio = -total / (2.0 * np.where(magnitude > 0, magnitude, 1.0)) + 0.0   # + 0.0: no -0.0
