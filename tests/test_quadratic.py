@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 import vibra
+from vibra.gyroscopic import charged_particle, foucault_pendulum, spinning_wheel
 from vibra.lagrangian import linearize
 from vibra.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
 
@@ -61,6 +62,21 @@ def _charged_closed_form(omega0, omega_c):
     """sqrt(omega0^2 + omega_c^2 / 4) -+ omega_c / 2, the smaller one as omega0^2 / the larger."""
     upper = np.hypot(omega0, omega_c / 2) + omega_c / 2
     return np.array([omega0**2 / upper, upper])
+
+
+def test_charged_particle_builder_matches_the_lagrangian():
+    # The public builder (for scenes) against the Lagrangian written here.
+    built = charged_particle(mass=2.0, omega0=3.0, charge=-1.5, field=0.4)
+    here = _charged_particle(3.0, -1.5 * 0.4 / 2.0, mass=2.0)
+    for name in ("M", "K", "G"):
+        np.testing.assert_allclose(getattr(built, name), getattr(here, name), rtol=1e-15)
+    np.testing.assert_allclose(built.modes().natural_frequency, _charged_closed_form(3.0, 0.3), rtol=1e-14)
+
+
+def test_foucault_builder_precesses_once_a_sidereal_day_at_the_pole():
+    modes = foucault_pendulum(latitude=np.pi / 2).modes()
+    turn = np.diff(modes.natural_frequency)[0] / 2
+    np.testing.assert_allclose(2 * np.pi / turn, 2 * np.pi / 7.2921159e-5, rtol=1e-9)
 
 
 def test_charged_particle_in_a_magnetic_field():
@@ -158,8 +174,6 @@ def test_spinning_top_rotating_wheel_with_its_coupling_kept():
     # A wheel spinning at rate s about its axis, pivoted at its lowest point and standing
     # upright (the sleeping top): tilts (a, b) with M = I1, G = I3 s J, K = -m g l. Stable when
     # I3 s > 2 sqrt(I1 m g l) (Maxwell's criterion), omega = (I3 s +- sqrt(I3^2 s^2 - 4 I1 m g l)) / (2 I1).
-    from vibra.gyroscopic import spinning_wheel
-
     mass, radius, height, g = 2.0, 0.3, 0.2, 9.81
     I3 = mass * radius**2 / 2
     I1 = mass * radius**2 / 4 + mass * height**2
@@ -315,6 +329,12 @@ def test_generalized_system_carries_G_and_C_through_freeze():
         (lambda: quadratic_modes(np.eye(3), np.eye(2)), ValueError, r"M must be \(2, 2\) to match K"),
         (lambda: quadratic_modes(np.eye(2), np.ones((2, 3))), ValueError, r"K must be square"),
         (lambda: check_gyroscopic("x", 2), TypeError, r"G"),
+        (lambda: foucault_pendulum(latitude=2.0), ValueError, r"latitude is 2.0 rad; it must lie in \[-pi/2, pi/2\]"),
+        (lambda: foucault_pendulum(length=0.0), ValueError, r"length"),
+        (lambda: charged_particle(mass=-1.0), ValueError, r"mass"),
+        (lambda: charged_particle(field=np.inf), ValueError, r"field is inf"),
+        (lambda: spinning_wheel(radius=0.0), ValueError, r"radius"),
+        (lambda: spinning_wheel(spin="fast"), TypeError, r"spin must be a real number"),
     ],
 )
 def test_validation_messages(call, error, pattern):

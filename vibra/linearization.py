@@ -187,7 +187,7 @@ def linearize(
             if V_plain.has(symbol):
                 raise ValueError(f"V depends on the velocity qd[{i}] ({velocities[i]}); V must be a function of q only")
     R_plain = plain(R_expr) if R_expr is not None else sympy.Integer(0)
-    at_point = _evaluation_point(L_plain + R_plain, parameters, q_dummy, qd_dummy, point)
+    at_point = _evaluation_point(sympy.Tuple(L_plain, R_plain), parameters, q_dummy, qd_dummy, point)
 
     def matrix(expression: sympy.Expr, first: list[sympy.Dummy], second: list[sympy.Dummy], what: str
                ) -> NDArray[np.float64]:
@@ -226,7 +226,7 @@ def linearize(
         coordinates=[str(s) for s in coordinates], units=units, name=name)
 
 
-def _evaluation_point(expression: sympy.Expr, parameters: dict[sympy.Symbol, float], q_dummy: list[sympy.Dummy],
+def _evaluation_point(expression: sympy.Basic, parameters: dict[sympy.Symbol, float], q_dummy: list[sympy.Dummy],
                       qd_dummy: list[sympy.Dummy], point: NDArray[np.float64]) -> dict[sympy.Basic, Any]:
     """Numbers (30 digits) for every parameter of `expression`, q = q0 and q' = 0."""
     resolved: dict[sympy.Basic, Any] = {}
@@ -324,7 +324,7 @@ def _from_mechanics(method: Any, q0: Any, values: Any, *, units: str | UnitSyste
         return expression.subs(dict(zip(velocities, qd_dummy))).subs(dict(zip(coordinates, q_dummy)))
 
     mass, forcing = plain(sympy.Matrix(mass)), plain(sympy.Matrix(forcing))
-    at_point = _evaluation_point(sympy.Add(*mass, *forcing), parameters, q_dummy, qd_dummy, point)
+    at_point = _evaluation_point(sympy.Tuple(*mass, *forcing), parameters, q_dummy, qd_dummy, point)
     M = np.array([[_number(mass[i, j], at_point, f"mass_matrix[{i}][{j}]") for j in range(n)] for i in range(n)])
     static = np.array([_number(forcing[i], at_point, f"forcing[{i}]") for i in range(n)])
     if np.abs(static).max() > 1e-8 * max(1.0, float(np.abs(M).max())):

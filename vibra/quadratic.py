@@ -412,7 +412,7 @@ def _rayleigh(values: NDArray[np.complex128], positions: NDArray[np.complex128],
 def _general(A: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]:
     """Eigenvalues, right eigenvectors and eigenvalue condition numbers 1 / |y^H x| of A."""
     values, left, right = la.eig(A, left=True, right=True)
-    right = right / np.linalg.norm(right, axis=0)
+    right = (right / np.linalg.norm(right, axis=0)).astype(complex)
     left = left / np.linalg.norm(left, axis=0)
     overlap = np.abs(np.einsum("ij,ij->j", left.conj(), right))
     return values, right, 1.0 / np.maximum(overlap, EPS)
