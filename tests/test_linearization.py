@@ -228,3 +228,25 @@ def test_rotating_wheel_problem_III_with_its_coupling_kept():
     fast = linearize(lagrangian=T - V, q=[w], qd=[wd], q0=[0.0], values={**numbers, k: 5.0})
     with pytest.warns(RuntimeWarning, match="imaginary"):
         assert fast.modes().omega[0] < 0
+
+
+def test_docs_generalized_runs_as_written(tmp_path, monkeypatch):
+    # docs/generalized.md must work exactly as written: its python blocks, in order, in a scratch folder.
+    import re
+    import warnings
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "docs" / "generalized.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert len(blocks) >= 8
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    namespace: dict = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for block in blocks:
+            exec(compile(block, "docs/generalized.md", "exec"), namespace)
+    # The numbers the docs state.
+    np.testing.assert_allclose(namespace["modes"].natural_frequency, np.sqrt(9 + 9 / 4) + np.array([-1.5, 1.5]),
+                               rtol=1e-14)
+    np.testing.assert_allclose(namespace["critical"].damping_ratio - 1, [1e-12], rtol=1e-3)
