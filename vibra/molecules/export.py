@@ -206,7 +206,7 @@ def to_vibrations_data(system: System, modes_or_analysis: Modes | VibrationalAna
         omega = np.asarray(modes.omega)
         hessian = root[:, None] * ((d * (omega * np.abs(omega))) @ d.T) * root[None, :]
         hessian = (hessian + hessian.T) / 2.0
-    return _VibrationsData.from_2d(atoms, hessian, indices=indices)
+    return _VibrationsData.from_2d(atoms, hessian, indices=indices.tolist())
 
 
 def _written_modes(system: System, modes: Modes, rigid: NDArray[np.bool_] | None) -> NDArray[np.intp]:

@@ -15,8 +15,8 @@ inertia, sigma the rotational symmetry number and S the total electron spin:
 - electronic: S = k ln(2S + 1), H = C_p = 0 (one spin multiplet, no excited states).
 
 Energies are counted from the bottom of the potential well (ASE's ``potentialenergy = 0``), so
-H includes the zero-point energy; G = H - T S. Constants: CODATA 2018 from `scipy.constants`
-(ASE's defaults are CODATA 2014: k differs by 3.5e-7 relative).
+H includes the zero-point energy; G = H - T S. Constants from `scipy.constants` (k and h exact
+since 2019; ASE's defaults are CODATA 2014, whose k differs by 3.5e-7 relative).
 """
 
 from __future__ import annotations
@@ -260,8 +260,8 @@ def ideal_gas_thermochemistry(
     n_dof = analysis.modes.n_dof if isinstance(analysis, VibrationalAnalysis) else (
         analysis.n_dof if isinstance(analysis, Modes) else None)
     if n_dof is not None and n_dof != 3 * n_atoms:
-        raise ValueError(f"analysis has {n_dof} degrees of freedom but geometry has {n_atoms} atoms "
-                         f"({3 * n_atoms}); pass the geometry of the same molecule")
+        raise ValueError(f"analysis has {n_dof} degrees of freedom but geometry has {n_atoms} atom(s) "
+                         f"({3 * n_atoms} degrees of freedom); pass the geometry of the same molecule")
     vibrations = thermochemistry(analysis, temperatures)
     temps = vibrations.temperatures
     p = _validate.positive_scalar(pressure, "pressure", "pressure (Pa)")
