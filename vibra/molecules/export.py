@@ -6,22 +6,22 @@ it they use ``system.symbols`` when the `System` has that field, else each mass 
 isotope table (`ISOTOPE_MASSES`: 2.0141 amu is H, 17.9992 amu is O) or, failing that, by the
 element of nearest standard atomic mass (`symbols_from_masses`).
 
-Every file is written atomically (a temporary file in the same folder, then `os.replace`), so
-a reader never sees half a file.
+Every file is written with `vibra._io.atomic_write` (a temporary file in the same folder, then
+`os.replace`), so a reader never sees half a file.
 """
 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
+from vibra._io import atomic_write
 from vibra.modes import Modes
 from vibra.molecules.analysis import VibrationalAnalysis
 from vibra.molecules.elements import symbols_from_masses
@@ -44,29 +44,6 @@ MOLDEN_ZERO_RTOL = 1e-4
 
 #: A mass within this many amu of a table isotope is named by that isotope's element.
 _ISOTOPE_MATCH_AMU = 1e-6
-
-
-def _atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], *, suffix: str = ".tmp") -> Path:
-    """Fill a temporary file beside `path` with `write(temporary)`, then rename it over `path`.
-
-    The same contract as ``vibra._io.atomic_write`` (the folder is created when missing, the
-    temporary file is removed on any failure); this function is the one place to swap for it.
-    """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=target.parent)
-    os.close(handle)
-    temporary = Path(name)
-    try:
-        write(temporary)
-        mask = os.umask(0o022)
-        os.umask(mask)
-        os.chmod(temporary, 0o666 & ~mask)
-        os.replace(temporary, target)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
-    return target
 
 
 def _molecular(system: Any, name: str = "system") -> System:
@@ -222,12 +199,13 @@ def write_molden(path: str | os.PathLike[str], system: System,
 
     Sections, as the Molden format defines them (www.theochem.ru.nl/molden/molden_format.html):
     ``[Molden Format]``; ``[FREQ]`` one wavenumber per vibration in cm^-1, ascending, an
-    imaginary one as a negative number; ``[FR-COORD]`` one line ``symbol x y z`` per atom in
-    bohr; ``[FR-NORM-COORD]`` a line ``vibration k`` (k from 1) then one ``dx dy dz`` line per
-    atom: the Cartesian displacement M^-1/2 d_k scaled to unit length (dimensionless); and
-    ``[INT]`` (optional in the format) one IR intensity per vibration, only when
-    `intensities` is given (vibra.molecules computes none: pass
-    ``vibra.spectra.ir_spectrum(system, analysis).intensities_km_per_mol()``).
+    imaginary one as a negative number; ``[INT]`` (optional in the format) one IR intensity per
+    vibration, only when `intensities` is given (vibra.molecules computes none: pass
+    ``vibra.spectra.ir_spectrum(system, analysis, ...).intensities_km_per_mol()``), placed
+    after ``[FREQ]`` as Open Babel's reader requires; ``[FR-COORD]`` one line
+    ``symbol x y z`` per atom in bohr; ``[FR-NORM-COORD]`` a line ``vibration k`` (k from 1)
+    then one ``dx dy dz`` line per atom: the Cartesian displacement M^-1/2 d_k scaled to unit
+    length (dimensionless).
 
     Rigid-body modes are not written: those the analysis matched to translations and
     rotations, or with plain `Modes` those with |omega| <= `MOLDEN_ZERO_RTOL` max|omega|.
@@ -287,6 +265,9 @@ def write_molden(path: str | os.PathLike[str], system: System,
     norms = np.sqrt(np.sum(shapes**2, axis=(1, 2)))
     lines = ["[Molden Format]", "[FREQ]"]
     lines += [f"{w:14.6f}" for w in wavenumbers]
+    if intensities is not None:   # right after [FREQ], where Open Babel's reader (Avogadro 1) expects it
+        lines.append("[INT]")
+        lines += [f"{value:16.8f}" for value in values]
     lines.append("[FR-COORD]")
     bohr = np.asarray(system.positions) / BOHR_ANGSTROM
     lines += [f"{symbol:<2} {x:18.10f} {y:18.10f} {z:18.10f}" for symbol, (x, y, z) in zip(names, bohr)]
@@ -294,11 +275,8 @@ def write_molden(path: str | os.PathLike[str], system: System,
     for k, (shape, norm) in enumerate(zip(shapes, norms), start=1):
         lines.append(f"vibration {k:d}")
         lines += [f"{x:14.10f} {y:14.10f} {z:14.10f}" for x, y, z in shape / norm]
-    if intensities is not None:
-        lines.append("[INT]")
-        lines += [f"{value:16.8f}" for value in values]
     text = "\n".join(lines) + "\n"
-    return _atomic_write(path, lambda temporary: temporary.write_text(text, encoding="ascii"))
+    return atomic_write(path, lambda temporary: temporary.write_text(text, encoding="ascii"))
 
 
 def write_mode_trajectory(path: str | os.PathLike[str], system: System,
@@ -376,7 +354,7 @@ def write_mode_trajectory(path: str | os.PathLike[str], system: System,
         image.set_positions(base.get_positions() + size * np.sin(2 * np.pi * f / frames) * shape / largest)
         image.info.update(mode_index=column, wavenumber_cm1=wavenumber)
         images.append(image)
-    return _atomic_write(path, lambda temporary: _write(temporary, images, format=formats[suffix]),
+    return atomic_write(path, lambda temporary: _write(temporary, images, format=formats[suffix]),
                          suffix=suffix)
 
 
@@ -410,4 +388,4 @@ def write_force_constants(path: str | os.PathLike[str], system: System) -> Path:
         raise ValueError("system has frozen degrees of freedom; force constants need every atom free")
     n = system.n_sites
     fc = system.hessian().toarray().reshape(n, 3, n, 3).transpose(0, 2, 1, 3).copy()
-    return _atomic_write(path, lambda temporary: write_FORCE_CONSTANTS(fc, filename=str(temporary)))
+    return atomic_write(path, lambda temporary: write_FORCE_CONSTANTS(fc, filename=str(temporary)))
