@@ -108,7 +108,8 @@ def test_molden_with_plain_modes_leaves_out_rigid_motion(tmp_path: Path) -> None
 
 def test_symbols_of_isotopes_are_their_elements(tmp_path: Path) -> None:
     system = mol.co2(isotopes=["18O", "13C", None])   # 18O is nearer F's standard mass
-    sections = _parse_molden(mol.write_molden(tmp_path / "x.molden", system, mol.vibrational_analysis(system)).read_text())
+    path = mol.write_molden(tmp_path / "x.molden", system, mol.vibrational_analysis(system))
+    sections = _parse_molden(path.read_text())
     assert [line.split()[0] for line in sections["[FR-COORD]"]] == ["O", "C", "O"]
 
 
