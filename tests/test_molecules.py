@@ -670,3 +670,17 @@ def test_docs_molecules_examples_run_as_written(tmp_path, monkeypatch) -> None:
     assert sorted(p.name for p in (tmp_path / "exports").iterdir()) == [
         "FORCE_CONSTANTS", "d2o.molden", "d2o_bend.traj", "d2o_bend.xyz"]
     assert [round(float(w)) for w in namespace["water"].vibration_wavenumbers_cm1()] == [1163, 2664, 2736]
+
+
+def test_molecular_systems_keep_their_chemical_symbols() -> None:
+    """Every molecule builder records the symbols of its atoms (truth: the ASE Atoms given)."""
+    from ase.build import molecule as ase_molecule
+
+    from vibra.molecules import co2, from_atoms, from_hessian, h2o, h2o_atoms, molecule
+
+    assert co2().symbols == ("O", "C", "O") and co2(dims=1).symbols == ("O", "C", "O")
+    assert h2o().symbols == ("O", "H", "H")
+    assert molecule("CH4").symbols == tuple(ase_molecule("CH4").get_chemical_symbols())
+    water = h2o_atoms()
+    assert from_atoms(water).symbols == ("O", "H", "H")
+    assert from_hessian(water, h2o().hessian().toarray()).symbols == ("O", "H", "H")

@@ -69,6 +69,9 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         One name per degree of freedom (free and frozen), e.g. ``"3x"``.
     name : str
         A short name used in reports.
+    symbols : tuple of str or None
+        Chemical symbol of each site for a molecule (set by `vibra.molecules` builders, or
+        `with_symbols`); None for other systems.
 
     Examples
     --------
@@ -86,6 +89,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
     frozen: NDArray[np.bool_]
     labels: tuple[str, ...]
     name: str = "system"
+    symbols: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
@@ -344,6 +348,35 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         [1.0, 2.0, 1.0]
         """
         return dataclasses.replace(self, masses=_site_masses(masses, self.n_sites))
+
+    def with_symbols(self, symbols: Sequence[str] | None) -> System:
+        """The same system with a chemical symbol per site (None clears them).
+
+        Raises
+        ------
+        TypeError
+            `symbols` is a single string or holds a non-string.
+        ValueError
+            Not one symbol per site, or an empty symbol.
+
+        Examples
+        --------
+        >>> System.from_springs([0.0, 1.1, 2.2], [16.0, 12.0, 16.0], [[0, 1], [1, 2]], 1.0
+        ...                     ).with_symbols(["O", "C", "O"]).symbols
+        ('O', 'C', 'O')
+        """
+        if symbols is None:
+            return dataclasses.replace(self, symbols=None)
+        if isinstance(symbols, str) or not isinstance(symbols, Sequence):
+            raise TypeError(f"symbols must be a sequence of str, one per site, got {symbols!r}")
+        if len(symbols) != self.n_sites:
+            raise ValueError(f"symbols has {len(symbols)} entries; expected one per site ({self.n_sites})")
+        for i, symbol in enumerate(symbols):
+            if not isinstance(symbol, str):
+                raise TypeError(f"symbols[{i}] is {symbol!r}; expected a str such as 'O'")
+            if not symbol.strip():
+                raise ValueError(f"symbols[{i}] is empty; expected a chemical symbol such as 'O'")
+        return dataclasses.replace(self, symbols=tuple(symbols))
 
     def freeze(self, sites: ArrayLike | None = None, dofs: ArrayLike | None = None) -> System:
         """A copy with more sites or flat degrees of freedom held at rest.

@@ -96,7 +96,7 @@ def co2(
     if dims == 1:
         return System.from_springs(np.array([0.0, length, 2.0 * length]), masses,
                                    springs=np.array([[0, 1], [1, 2]]), stiffness=stretch,
-                                   units="ASE", name="CO2 (axial)")
+                                   units="ASE", name="CO2 (axial)").with_symbols(("O", "C", "O"))
     atoms = _Atoms("OCO", positions=[(-length, 0, 0), (0, 0, 0), (length, 0, 0)], masses=masses)
     model = valence_model(atoms, bonds=np.array([[0, 1], [1, 2]]), stretch=stretch, bend=bend)
     return from_atoms(atoms, model, name="CO2")

@@ -63,7 +63,7 @@ def _symbols(system: System, symbols: Sequence[str] | None) -> tuple[str, ...]:
     from ase.data import atomic_numbers
 
     if symbols is None:
-        symbols = getattr(system, "symbols", None)   # the System field, once it exists
+        symbols = system.symbols
     if symbols is None:
         masses = np.asarray(system.masses)
         nearest = symbols_from_masses(masses)

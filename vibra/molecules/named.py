@@ -61,9 +61,8 @@ def molecule_atoms(
 ) -> Atoms:
     """A copy of the molecule as ASE `Atoms`, symbols and masses set (isotopes applied).
 
-    The `Atoms` keeps the chemical symbols that a `System` does not hold; pass it as the
-    geometry of `vibra.spectra.ideal_gas_thermochemistry` or to the writers of
-    `vibra.molecules` (``symbols=atoms.get_chemical_symbols()``).
+    Useful as the geometry of `vibra.spectra.ideal_gas_thermochemistry`, or wherever ASE
+    `Atoms` are wanted; the `System` of `molecule` carries the same symbols (`System.symbols`).
 
     Parameters
     ----------
