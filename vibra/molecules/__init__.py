@@ -26,6 +26,11 @@ rotations like the quantum-chemistry codes (Eckart, with the rigid-body vectors 
 reports 3N-6 (3N-5) vibrations, keeps imaginary modes and flags them, and gives per-mode reduced
 masses, force constants and the zero-point energy.
 
+Symmetry (`symmetry.py`, `character_tables.py`): `point_group(atoms_or_system, tolerance)` finds
+the Schoenflies point group (tolerance in Angstrom, linear groups included) with its operations,
+atom permutations and character table; `mode_species` and `VibrationalAnalysis.species` label
+each vibration with its Mulliken symbol; IR and Raman activity follow from the table.
+
 `co2` and `h2o` are ready-made models (`builders.py`); `substitute_isotopes` changes masses on
 the same K (`isotopes.py`); `symbols_from_masses` and `bonds_from_distances` (`elements.py`)
 recover elements and bonds from masses and positions.
@@ -48,6 +53,8 @@ from vibra.molecules.finite_difference import FiniteDifferenceHessian, finite_di
 from vibra.molecules.hessians import from_atoms, from_hessian, from_phonopy, from_vibrations_data
 from vibra.molecules.isotopes import ISOTOPE_MASSES, isotope_mass, substitute_isotopes
 from vibra.molecules.rigid_body import SoftModeWarning, is_linear, rigid_body_vectors
+from vibra.molecules.character_tables import CharacterTable, character_table
+from vibra.molecules.symmetry import SYMMETRY_TOLERANCE, PointGroup, mode_species, point_group, symmetry_number
 from vibra.molecules.valence import ValenceModel, valence_model
 from vibra.system import System
 from vibra.units import ASE
@@ -64,6 +71,8 @@ __all__ = [
     "CO2_STRETCH", "CO2_BEND", "CO2_BOND_LENGTH", "H2O_STRETCH", "H2O_BEND", "H2O_BOND_LENGTH",
     "H2O_ANGLE_DEG", "MIN_DISTANCE", "ISOTOPE_MASSES",
     "symbols_from_masses", "bonds_from_distances",
+    "point_group", "PointGroup", "mode_species", "symmetry_number", "SYMMETRY_TOLERANCE", "CharacterTable",
+    "character_table",
 ]
 
 # re-exported from the stages below, as the single-module vibra.molecules did
