@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra._frozen import _freeze_arrays
 
-__all__ = ["CharacterTable", "character_table", "LINEAR_ORDER"]
+__all__ = ["CharacterTable", "character_table", "symmetry_number", "LINEAR_ORDER"]
 
 #: Rotation order of the finite subgroups (C8v, D8h) that stand for C_inf_v and D_inf_h.
 LINEAR_ORDER = 8
@@ -159,6 +159,23 @@ def character_table(group: str, operations: ArrayLike) -> CharacterTable:
     raman = np.abs(characters @ squares) > 1e-6 * len(ops)
     return CharacterTable(group=group, labels=tuple(labels), characters=characters,
                           dimensions=np.rint(characters[:, 0]).astype(np.intp), ir_active=ir, raman_active=raman)
+
+
+def symmetry_number(name: str) -> int:
+    """Rotational symmetry number sigma of point group `name` (Schoenflies, ASCII).
+
+    C1, Ci, Cs: 1; Cn, Cnv, Cnh: n; Dn, Dnd, Dnh: 2n; S2n: n; T, Td, Th: 12; O, Oh: 24;
+    I, Ih: 60; Cinfv: 1; Dinfh: 2.
+    """
+    fixed = {"C1": 1, "Ci": 1, "Cs": 1, "Cinfv": 1, "Dinfh": 2, "T": 12, "Td": 12, "Th": 12,
+             "O": 24, "Oh": 24, "I": 60, "Ih": 60}
+    if name in fixed:
+        return fixed[name]
+    digits = "".join(ch for ch in name if ch.isdigit())
+    if not digits or name[0] not in "CDS":
+        raise ValueError(f"{name!r} is not a point-group symbol such as 'C2v', 'D6h' or 'Td'")
+    n = int(digits)
+    return {"C": n, "D": 2 * n, "S": n // 2}[name[0]]
 
 
 # ---------------------------------------------------------------------------------- cubic groups

@@ -33,6 +33,13 @@ Its characters are the traces over the set, reduced with the character table; a 
 reduces to one species of its own dimension gets that label for each of its modes. Otherwise
 (an accidental degeneracy, or a degeneracy split by a distortion smaller than the tolerance)
 each mode gets the species on which its projection is largest.
+
+Why not a library: spglib finds space groups of crystals, not molecular point groups; pymatgen's
+PointGroupAnalyzer would bring all of pymatgen; `pointgroup` returns only the symbol; libmsym's
+last wheel is from 2020; molsym (numpy only) mixes one tolerance across distances, moments of
+inertia and cosines, has no character table for the linear groups and no path to T, and names
+D2h's species "A_1g". The detector here states its tolerance in Angstrom and builds the standard
+frames that the labels depend on.
 """
 
 from __future__ import annotations
@@ -46,7 +53,7 @@ from scipy.optimize import linear_sum_assignment
 
 from vibra import _validate
 from vibra._frozen import _freeze_arrays
-from vibra.molecules.character_tables import LINEAR_ORDER, CharacterTable, character_table
+from vibra.molecules.character_tables import LINEAR_ORDER, CharacterTable, character_table, symmetry_number
 from vibra.system import System
 
 __all__ = ["PointGroup", "point_group", "mode_species", "SYMMETRY_TOLERANCE", "symmetry_number"]
@@ -56,23 +63,6 @@ SYMMETRY_TOLERANCE = 0.01
 _ALIGNED = np.cos(np.radians(10.0))     # two directions closer than 10 degrees are one axis
 _MAX_ORDER = 12                         # highest C_n tested (rings up to 12 atoms)
 _MAX_TRIPLE_ATOMS = 12                  # centroids of triples only for kinds with <= 12 atoms
-
-
-def symmetry_number(name: str) -> int:
-    """Rotational symmetry number sigma of point group `name` (Schoenflies, ASCII).
-
-    C1, Ci, Cs: 1; Cn, Cnv, Cnh: n; Dn, Dnd, Dnh: 2n; S2n: n; T, Td, Th: 12; O, Oh: 24;
-    I, Ih: 60; Cinfv: 1; Dinfh: 2.
-    """
-    fixed = {"C1": 1, "Ci": 1, "Cs": 1, "Cinfv": 1, "Dinfh": 2, "T": 12, "Td": 12, "Th": 12,
-             "O": 24, "Oh": 24, "I": 60, "Ih": 60}
-    if name in fixed:
-        return fixed[name]
-    digits = "".join(ch for ch in name if ch.isdigit())
-    if not digits or name[0] not in "CDS":
-        raise ValueError(f"{name!r} is not a point-group symbol such as 'C2v', 'D6h' or 'Td'")
-    n = int(digits)
-    return {"C": n, "D": 2 * n, "S": n // 2}[name[0]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,7 +155,9 @@ def _structure(molecule: Any) -> tuple[NDArray[np.float64], NDArray[np.float64],
                              f"{' (generalised coordinates)' if molecule.is_generalized else ''}")
         positions = np.asarray(molecule.positions, dtype=float)
         masses = np.asarray(molecule.masses, dtype=float)
-        symbols = getattr(molecule, "symbols", None) or [""] * len(masses)
+        symbols = getattr(molecule, "symbols", None)          # a System that keeps its symbols
+        if symbols is None or len(symbols) != len(masses):
+            symbols = [""] * len(masses)
     elif hasattr(molecule, "get_positions") and hasattr(molecule, "get_masses"):
         positions = np.asarray(molecule.get_positions(), dtype=float)
         masses = np.asarray(molecule.get_masses(), dtype=float)
@@ -468,10 +460,10 @@ def point_group(atoms_or_system: Any, tolerance: float = SYMMETRY_TOLERANCE) -> 
     >>> point_group(h2o()).name, point_group(co2()).name, point_group(co2()).symmetry_number
     ('C2v', 'Dinfh', 2)
     """
+    positions, masses, kinds = _structure(atoms_or_system)
     tolerance = _validate.real_scalar(tolerance, "tolerance")
     if not tolerance > 0:
         raise ValueError(f"tolerance is {tolerance!r}; it must be a positive distance in Angstrom")
-    positions, masses, kinds = _structure(atoms_or_system)
     center = masses @ positions / masses.sum()
     x = positions - center
     name, frames = _classify(x, masses, kinds, tolerance)
