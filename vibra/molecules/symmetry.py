@@ -13,8 +13,8 @@ standard frame and matched to the atoms (the permutation each induces).
 Standard frame (the convention behind every label; axes in `PointGroup.axes`):
 
 - z along the principal axis (the S_2n axis of D2d, S4, ...; any C2 of D2, D2h).
-- Cnv (n >= 3): x in the vertical mirror plane holding the most atoms. C2v: the mirror plane
-  holding the most atoms is yz (Mulliken's recommendation, J. Chem. Phys. 23, 1997 (1955)), so
+- Cnv (n >= 3): x in the vertical mirror plane holding the most atoms (ties: the most mass).
+  C2v: the mirror plane holding the most atoms is yz (Mulliken's recommendation, J. Chem. Phys. 23, 1997 (1955)), so
   a planar C2v molecule lies in yz: H2O's bend and symmetric stretch are A1, its antisymmetric
   stretch B2.
 - Dn, Dnh, Dnd (n >= 3) and D2d: x along the C2' axis through the most atoms (benzene: C2'
@@ -189,6 +189,10 @@ def _match(x: NDArray[np.float64], kinds: NDArray[np.intp], operation: NDArray[n
            limit: float) -> tuple[NDArray[np.intp], float] | None:
     """The permutation `operation` induces on like atoms and its largest miss, or None past `limit`."""
     moved = x @ operation.T
+    probe = int(np.argmax(np.einsum("ia,ia->i", x, x)))          # quick rejection on the outermost atom
+    like = kinds == kinds[probe]
+    if not np.linalg.norm(x[like] - moved[probe], axis=1).min() <= limit:
+        return None
     distance = np.linalg.norm(moved[:, None, :] - x[None, :, :], axis=2)
     distance[kinds[:, None] != kinds[None, :]] = np.inf
     nearest = np.argmin(distance, axis=1)
