@@ -121,8 +121,48 @@ OH = (octahedron(), 48,
           "T2u": ([3, 0, 1, -1, -1, -3, 1, 0, 1, -1], False, False)})
 
 
-@pytest.mark.parametrize("case", [C2V, C3V, TD, D2H, D6H, OH], ids=["C2v", "C3v", "Td", "D2h", "D6h", "Oh"])
-def test_character_table_matches_cotton(case: tuple) -> None:
+# D3h: E 2C3 3C2 sigma_h 2S3 3sigma_v (BF3, C2 along a B-F bond)
+D3H = (molecule("BF3"), 12, [np.eye(3), rot(Z, 120), rot(X, 180), refl(Z), improper(Z, 120), refl(Y)], {
+    "A1'": ([1, 1, 1, 1, 1, 1], False, True), "A2'": ([1, 1, -1, 1, 1, -1], False, False),
+    "E'": ([2, -1, 0, 2, -1, 0], True, True), "A1''": ([1, 1, 1, -1, -1, -1], False, False),
+    "A2''": ([1, 1, -1, -1, -1, 1], True, False), "E''": ([2, -1, 0, -2, 1, 0], False, True)})
+
+
+def icosahedron() -> Atoms:
+    """12 vertices: cyclic permutations of (0, +-1, +-phi), Angstrom."""
+    points = [np.roll([0.0, a, b * PHI], k) for k in range(3) for a in (1, -1) for b in (1, -1)]
+    return Atoms("B12", positions=np.array(points))
+
+
+# T (in the test): E 4C3 4C3^2 3C2; Cotton's complex pair {E} summed into one real E
+# Ih: E 12C5 12C5^2 20C3 15C2 i 12S10 12S10^3 20S6 15sigma (C5 through the vertex (0, 1, phi))
+C5_AXIS = [0, 1, PHI]
+IH = (icosahedron(), 120,
+      [np.eye(3), rot(C5_AXIS, 72), rot(C5_AXIS, 144), rot([1, 1, 1], 120), rot(Z, 180), INV,
+       improper(C5_AXIS, 36), improper(C5_AXIS, 108), improper([1, 1, 1], 60), refl(Z)], {
+          "Ag": ([1, 1, 1, 1, 1, 1, 1, 1, 1, 1], False, True),
+          "T1g": ([3, PHI, 1 - PHI, 0, -1, 3, 1 - PHI, PHI, 0, -1], False, False),
+          "T2g": ([3, 1 - PHI, PHI, 0, -1, 3, PHI, 1 - PHI, 0, -1], False, False),
+          "Gg": ([4, -1, -1, 1, 0, 4, -1, -1, 1, 0], False, False),
+          "Hg": ([5, 0, 0, -1, 1, 5, 0, 0, -1, 1], False, True),
+          "Au": ([1, 1, 1, 1, 1, -1, -1, -1, -1, -1], False, False),
+          "T1u": ([3, PHI, 1 - PHI, 0, -1, -3, PHI - 1, -PHI, 0, 1], True, False),
+          "T2u": ([3, 1 - PHI, PHI, 0, -1, -3, -PHI, PHI - 1, 0, 1], False, False),
+          "Gu": ([4, -1, -1, 1, 0, -4, 1, 1, -1, 0], False, False),
+          "Hu": ([5, 0, 0, -1, 1, -5, 0, 0, 1, -1], False, False)})
+
+
+def chiral_tetrahedral() -> Atoms:
+    points = orbit(tetrahedral_rotations(), [0.3, 0.7, 1.9])
+    return Atoms(f"C{len(points)}", positions=points)
+
+
+@pytest.mark.parametrize("case", [C2V, C3V, TD, D2H, D6H, OH, D3H, IH, "T"],
+                         ids=["C2v", "C3v", "Td", "D2h", "D6h", "Oh", "D3h", "Ih", "T"])
+def test_character_table_matches_cotton(case: tuple | str) -> None:
+    if case == "T":
+        case = (chiral_tetrahedral(), 12, [np.eye(3), rot([1, 1, 1], 120), rot([1, 1, 1], 240), rot(Z, 180)], {
+            "A": ([1, 1, 1, 1], False, True), "E": ([2, -1, -1, 2], False, True), "T": ([3, 0, 0, -1], True, True)})
     atoms, order, classes, expected = case
     group = mol.point_group(atoms)
     table = group.table
