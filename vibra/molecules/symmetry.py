@@ -61,6 +61,7 @@ __all__ = ["PointGroup", "point_group", "mode_species", "SYMMETRY_TOLERANCE", "s
 #: Default tolerance of `point_group`, in Angstrom.
 SYMMETRY_TOLERANCE = 0.01
 _ALIGNED = np.cos(np.radians(10.0))     # two directions closer than 10 degrees are one axis
+_SIDE = np.sin(np.radians(10.0))        # a direction within 10 degrees of perpendicular is perpendicular
 _MAX_ORDER = 12                         # highest C_n tested (rings up to 12 atoms)
 _MAX_TRIPLE_ATOMS = 12                  # centroids of triples only for kinds with <= 12 atoms
 
@@ -327,7 +328,7 @@ def _classify(x: NDArray[np.float64], masses: NDArray[np.float64], kinds: NDArra
             name = "Th" if inversion else ("Td" if mirrors else "T")
             frame_axes = [a for a, n in axes if n == 2]
         z = frame_axes[0]
-        x_axis = next(a for a in frame_axes if abs(float(a @ z)) < 1e-2 + (1 - _ALIGNED))
+        x_axis = next((a for a in frame_axes if abs(float(a @ z)) < _SIDE), far)
         frame = _frame(z, x_axis)
         return name, [frame, frame[[1, 0, 2]] * np.array([[1.0], [-1.0], [1.0]])]
     if not axes:
@@ -339,10 +340,9 @@ def _classify(x: NDArray[np.float64], masses: NDArray[np.float64], kinds: NDArra
     if n == 2 and len(principal) > 1:
         principal = [a for a in principal if symmetric(_improper(a, 4))] or principal
     z = principal[0]
-    side = 1 - _ALIGNED
-    perpendicular = [a for a in two_fold if abs(float(a @ z)) < side]
+    perpendicular = [a for a in two_fold if abs(float(a @ z)) < _SIDE]
     sigma_h = any(abs(float(m @ z)) > _ALIGNED for m in mirrors)
-    vertical = [m for m in mirrors if abs(float(m @ z)) < side]
+    vertical = [m for m in mirrors if abs(float(m @ z)) < _SIDE]
 
     def on_axis(a: NDArray[np.float64]) -> tuple[int, float]:
         return _on_axis(x, masses, a, tolerance)
