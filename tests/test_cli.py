@@ -70,6 +70,38 @@ def test_validate_broken_scene(name: str, message: str) -> None:
     assert message in run.stdout and name in run.stdout
 
 
+DRIFTED = {  # scenes that passed `vibra validate` and then failed in `vibra report` (issue 11)
+    "bead.toml": ('kind = "chain"\n[system]\nbuilder = "beaded_string"\nn = 1\n',
+                  "bead.toml: system.n: n is 1; a chain needs n >= 2"),
+    "uneven.toml": ('kind = "chain"\n[system]\nbuilder = "linear_chain"\nn = 4\nmass = [1.0, 2.0, 1.0, 2.0]\n'
+                    '[draw]\ndispersion = true\n',
+                    "uneven.toml: draw.dispersion: needs a uniform chain, but system.mass is a list"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(DRIFTED))
+def test_validate_refuses_what_report_cannot_run(name: str, tmp_path: Path) -> None:
+    text, message = DRIFTED[name]
+    path = tmp_path / name
+    path.write_text(text)
+    run = vibra("validate", str(path))
+    assert run.returncode == 1 and f"FAIL {tmp_path / message}" in run.stdout, run.stdout
+    assert "Traceback" not in run.stdout + run.stderr
+    out = tmp_path / "out"
+    reported = vibra("report", str(path), "--out", str(out), "--quiet")
+    assert reported.returncode == 1 and message in reported.stderr  # the same message, not a traceback
+    assert not [p for p in out.iterdir() if p.suffix == ".png"]
+
+
+def test_validate_accepts_the_banded_solver(tmp_path: Path) -> None:
+    path = tmp_path / "banded.toml"
+    path.write_text('kind = "chain"\n[system]\nbuilder = "linear_chain"\nn = 6\n[compute]\nsolver = "banded"\n')
+    run = vibra("validate", str(path))
+    assert run.returncode == 0, run.stdout
+    modes = vibra("modes", str(path))
+    assert modes.returncode == 0 and "solver banded" in modes.stdout, modes.stdout + modes.stderr
+
+
 def test_validate_missing_file() -> None:
     run = vibra("validate", "no/such/scene.toml")
     assert run.returncode == 1 and "no/such/scene.toml: file not found" in run.stdout

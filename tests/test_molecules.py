@@ -658,7 +658,7 @@ def test_docs_molecules_examples_run_as_written(tmp_path, monkeypatch) -> None:
 
     text = (Path(__file__).resolve().parent.parent / "docs" / "molecules.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
-    assert len(blocks) == 3
+    assert len(blocks) == 4
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     for block in blocks:
@@ -666,4 +666,8 @@ def test_docs_molecules_examples_run_as_written(tmp_path, monkeypatch) -> None:
     assert namespace["co2"].n_dof == 9 and namespace["axial"].n_dof == 3
     assert namespace["result"].n_rigid == 5
     assert namespace["group"].name == "C2v" and namespace["ch4"].point_group.name == "Td"
-    assert list(tmp_path.iterdir()) == []   # the cross-check leaves no cache behind
+    # the export example writes into exports/; the cross-check leaves no cache behind
+    assert [p.name for p in tmp_path.iterdir()] == ["exports"]
+    assert sorted(p.name for p in (tmp_path / "exports").iterdir()) == [
+        "FORCE_CONSTANTS", "d2o.molden", "d2o_bend.traj", "d2o_bend.xyz"]
+    assert [round(float(w)) for w in namespace["water"].vibration_wavenumbers_cm1()] == [1163, 2664, 2736]

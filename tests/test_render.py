@@ -15,7 +15,8 @@ import pytest
 from PIL import Image
 
 from vibra.plan import build_system
-from vibra.render import MAX_CHAIN_SITES, SceneRenderer, _inversion_parity, chain_sites, write_gif, write_png
+from vibra.plan.analysis import inversion_parity, symmetry_hints
+from vibra.render import MAX_CHAIN_SITES, MoleculeStructure, SceneRenderer, chain_sites, write_gif, write_png
 from vibra.scene import Scene
 
 SIZE = (320, 200)
@@ -70,11 +71,14 @@ def test_degenerate_bend_side_by_side(renderer: SceneRenderer, tmp_path: Path) -
     sc = scene({"kind": "molecule", "name": "co2", "system": {"builder": "co2", "dims": 3}})
     system = build_system(sc)
     modes = system.modes()
-    outputs = renderer.render_modes(sc, system, modes, [5, 6, 7, 8], tmp_path)
+    structure = MoleculeStructure(("O", "C", "O"), ((0, 1), (1, 2)))
+    hints = symmetry_hints(system, modes, [5, 6, 7, 8], structure.symbols, structure.bonds)
+    outputs = renderer.render_modes(sc, system, modes, [5, 6, 7, 8], tmp_path, structure=structure, hints=hints)
     names = [name for name, _ in outputs]
     assert names == ["co2_mode5.png", "co2_mode7.png", "co2_mode8.png"]  # the bend pair is one image
     assert "degenerate, x2, side by side" in outputs[0][1]
-    # mutual exclusion (centrosymmetric CO2): symmetric stretch g, bend and asymmetric stretch u
+    # mutual exclusion (centrosymmetric CO2): symmetric stretch g, bend and asymmetric stretch u;
+    # the renderer draws the texts it is given (computed by vibra.plan.analysis)
     assert "g: IR-inactive" in outputs[1][1]
     assert "u: IR-allowed" in outputs[0][1] and "u: IR-allowed" in outputs[2][1]
     assert "cm^-1" in outputs[0][1]
@@ -121,15 +125,19 @@ def test_molecule_arrows_stay_clear_of_the_bonds(builder: str, dims: int) -> Non
     # bond tube (radius 0.1 bond length, as drawn) and outside every other atom's sphere.
     from ase.data import covalent_radii
 
-    from vibra.render import _arrow_start, _bonds, _displacements3, _elements, _positions3
+    from ase.data import atomic_numbers
+
+    from vibra.molecules import bonds_from_distances, symbols_from_masses
+    from vibra.render import _arrow_start, _displacements3, _positions3
 
     system_table = {"builder": builder, **({"dims": dims} if builder == "co2" else {})}
     sc = scene({"kind": "molecule", "name": "m", "system": system_table})
     system = build_system(sc)
     modes = system.modes()
     positions = _positions3(system)
-    numbers = _elements(system, None)
-    bonds = _bonds(positions, numbers, None)
+    symbols = symbols_from_masses(system.masses)
+    numbers = [atomic_numbers[s] for s in symbols]
+    bonds = bonds_from_distances(positions, symbols)
     reference = min(np.linalg.norm(positions[i] - positions[j]) for i, j in bonds)
     radii = 0.35 * covalent_radii[numbers] + 0.1  # as drawn by SceneRenderer
     checked = 0
@@ -182,10 +190,10 @@ def test_inversion_parity_by_construction() -> None:
     m = np.array([16.0, 12.0, 16.0])
     symmetric = np.array([[-1.0, 0, 0], [0, 0, 0], [1.0, 0, 0]])
     asymmetric = np.array([[1.0, 0, 0], [-2.0, 0, 0], [1.0, 0, 0]])
-    assert _inversion_parity(x, m, symmetric) == "g"
-    assert _inversion_parity(x, m, asymmetric) == "u"
+    assert inversion_parity(x, m, symmetric) == "g"
+    assert inversion_parity(x, m, asymmetric) == "u"
     bent = np.array([[-1.0, 0.5, 0], [0.0, 0, 0], [1.0, 0.5, 0]])
-    assert _inversion_parity(bent, m, symmetric) is None
+    assert inversion_parity(bent, m, symmetric) is None
 
 
 def test_atomic_writers_leave_no_temp_files(tmp_path: Path) -> None:

@@ -1,4 +1,4 @@
-"""Tests of vibra/plan.py and vibra/report.py: plans that compute only what a scene asks, and
+"""Tests of vibra/plan/ and vibra/report.py: plans that compute only what a scene asks, and
 the batch report (isolation, atomic outputs, skipping, summary.json, index.html)."""
 
 from __future__ import annotations
@@ -281,10 +281,10 @@ def test_spectrum_labels_are_distinct_apart_and_inside(file_name: str) -> None:
 
 def test_response_chart_names_scene_and_receptance_unit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The generic FRF chart labels |x| in "length"; a report of an SI scene says m/N.
-    import vibra.plan
+    import vibra.plan.steps
 
     seen = []
-    monkeypatch.setattr(vibra.plan, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
     scene = load_scene(ROOT / "chains" / "forced-damped.toml")
     plan = make_plan(dataclasses.replace(scene, draw=dataclasses.replace(scene.draw, spectrum=False)))
     execute(plan, tmp_path, tmp_path)
@@ -295,11 +295,12 @@ def test_response_chart_names_scene_and_receptance_unit(tmp_path: Path, monkeypa
 
 def test_oscillator_chart_in_si_units(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The generic oscillator chart says "rad / time unit" and "length"; an SI scene says rad/s and m.
-    import vibra.plan
+    import vibra.plan.steps
 
     seen = []
-    monkeypatch.setattr(vibra.plan, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
-    scene = Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator"}, "draw": {"response": True}},
+    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    scene = Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": 0.5},
+                             "draw": {"response": True}},
                             source="osc.toml")
     execute(make_plan(scene), tmp_path, tmp_path)
     [figure] = seen
@@ -326,10 +327,10 @@ spectrum = true
 def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The modes image is rendered (into the scene's work folder) before the spectrum step
     # fails: the output folder must get neither that image nor a manifest.
-    import vibra.plan
+    import vibra.plan.steps
 
     rendered = []
-    render_step = vibra.plan._STEPS["render-modes"]
+    render_step = vibra.plan.steps.STEPS["render-modes"]
 
     def render_and_remember(plan: object, context: object, renderer: object) -> tuple[None, None]:
         result = render_step(plan, context, renderer)
@@ -340,8 +341,8 @@ def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monk
         assert all(path.is_file() for path in rendered) and rendered  # drawn, not yet published
         raise RuntimeError("disk full")
 
-    monkeypatch.setitem(vibra.plan._STEPS, "render-modes", render_and_remember)
-    monkeypatch.setitem(vibra.plan._STEPS, "chart-spectrum", fail)
+    monkeypatch.setitem(vibra.plan.steps.STEPS, "render-modes", render_and_remember)
+    monkeypatch.setitem(vibra.plan.steps.STEPS, "chart-spectrum", fail)
     path = write(tmp_path, "late.toml", CHAIN)
     out = tmp_path / "out"
     outcome = run_scene(path, out)
@@ -349,3 +350,230 @@ def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monk
     assert [p.name for p in rendered] == ["late_modes.png"]
     assert [p.name for p in out.iterdir() if not p.name.startswith(".")] == []
     assert not list(out.rglob("*.png")) and not (out / ".vibra" / "late.json").exists()
+
+
+# ---------------------------------------------------------------------- one atomic writer
+@pytest.fixture
+def umask_027() -> object:
+    """Run with umask 027 (files 0640), restored afterwards."""
+    import os
+
+    previous = os.umask(0o027)
+    yield
+    os.umask(previous)
+
+
+def test_every_writer_gives_files_the_umask_mode(tmp_path: Path, umask_027: object) -> None:
+    # Truth: what open() gives a new file under the same umask (0666 & ~027 = 0640).
+    import os
+    import stat
+
+    from vibra import _io
+    from vibra.charts import new_figure, save_figure
+    from vibra.render import write_gif, write_png
+
+    reference = tmp_path / "reference"
+    reference.write_text("x")
+    expected = stat.S_IMODE(reference.stat().st_mode)
+    assert expected == 0o640
+    frame = np.zeros((8, 8, 3), dtype=np.uint8)
+    figure, _ = new_figure()
+    written = [_io.atomic_write_text(tmp_path / "a.txt", "a"), _io.atomic_write_bytes(tmp_path / "b.bin", b"b"),
+               save_figure(figure, tmp_path / "c.png"), write_png(frame, tmp_path / "d.png"),
+               write_gif([frame, frame], tmp_path / "e.gif"), atomic_write_text(tmp_path / "f.txt", "f")]
+    for path in written:
+        assert stat.S_IMODE(os.stat(path).st_mode) == expected, path.name
+
+
+def test_report_outputs_get_the_umask_mode(tmp_path: Path) -> None:
+    # Every file `vibra report` writes (images, summary.json, index.html, manifests) gets
+    # 0666 & ~umask, 0644 under umask 022: no 0600 images beside 0644 summaries.
+    import os
+    import stat
+
+    previous = os.umask(0o022)
+    try:
+        write(tmp_path, "small.toml", CHAIN)
+        out = tmp_path / "out"
+        result = report([tmp_path / "small.toml"], out, progress=False)
+    finally:
+        os.umask(previous)
+    assert result.outcomes[0].status == "ok", result.outcomes[0].error
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert {p.name for p in files} >= {"small_modes.png", "small_spectrum.png", "summary.json", "index.html",
+                                       "small.json"}
+    for path in files:
+        assert stat.S_IMODE(path.stat().st_mode) == 0o644, path
+
+
+@pytest.mark.parametrize("error", [OSError("disk full"), KeyboardInterrupt()])
+def test_atomic_write_cleans_up_and_keeps_the_old_file(tmp_path: Path, error: BaseException) -> None:
+    from vibra._io import atomic_write
+
+    target = tmp_path / "result.png"
+    target.write_bytes(b"old complete file")
+
+    def write_half_then_fail(temporary: Path) -> None:
+        temporary.write_bytes(b"half of a new")
+        raise error
+
+    with pytest.raises(type(error)):
+        atomic_write(target, write_half_then_fail)
+    assert target.read_bytes() == b"old complete file"
+    assert [p.name for p in tmp_path.iterdir()] == ["result.png"]  # no temporary file left
+
+
+def test_atomic_write_is_a_rename_in_the_target_folder(tmp_path: Path) -> None:
+    from vibra._io import atomic_write
+
+    seen = []
+    atomic_write(tmp_path / "sub" / "x.txt", lambda temporary: (seen.append(temporary), temporary.write_text("x")))
+    assert seen[0].parent == tmp_path / "sub" and seen[0].name.startswith(".x.txt.")
+    assert (tmp_path / "sub" / "x.txt").read_text() == "x" and not seen[0].exists()
+
+
+# ---------------------------------------------------------------------- charts
+def test_charts_leave_the_matplotlib_backend_alone() -> None:
+    # A session's backend (a notebook's inline one, here 'svg') stays as it was, and pyplot is
+    # never imported: figures draw on their own Agg canvas.
+    code = """
+import sys, tempfile, pathlib
+import matplotlib
+before = matplotlib.get_backend()
+from vibra import chains
+from vibra.charts import save_figure
+from vibra.charts.chains import plot_dispersion
+from vibra.charts.modes import spectrum_figure
+from vibra.scene import Scene
+system = chains.linear_chain(6)
+modes = system.modes()
+scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 6}}, source="s.toml")
+figure, _ = spectrum_figure(scene, modes)
+save_figure(figure, pathlib.Path(tempfile.mkdtemp()) / "s.png")
+png = plot_dispersion(modes=modes)._repr_png_()
+print(before, matplotlib.get_backend(), "matplotlib.pyplot" in sys.modules, png[:4] == b"\\x89PNG")
+"""
+    import os
+
+    env = {**os.environ, "MPLBACKEND": "svg"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env,
+                         cwd=ROOT).stdout
+    assert out.split() == ["svg", "svg", "False", "True"]
+
+
+def test_dispersion_step_computes_what_the_chart_draws(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Truth: the monatomic chain's closed form omega = 2 sqrt(kappa/m) |sin(q a / 2)|; each mode
+    # of the finite chain sits on it at its assigned wavenumber (exact for a uniform chain).
+    import vibra.plan.steps
+
+    drawn = []
+    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: drawn.append(what))
+    scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 12, "mass": 2.0,
+                                                         "stiffness": 8.0, "spacing": 0.5, "ends": "fixed"},
+                             "draw": {"dispersion": True}}, source="d.toml")
+    plan = make_plan(scene)
+    assert plan.step_names == ("build", "modes", "dispersion", "chart-dispersion")
+    seen = {}
+    original = vibra.plan.steps.STEPS["chart-dispersion"]
+
+    def remember(plan: object, context: object, renderer: object) -> object:
+        seen["curves"] = context.dispersion  # type: ignore[attr-defined]
+        return original(plan, context, renderer)  # type: ignore[arg-type]
+
+    monkeypatch.setitem(vibra.plan.steps.STEPS, "chart-dispersion", remember)
+    execute(plan, tmp_path, tmp_path)
+    curves = seen["curves"]
+    assert drawn == ["dispersion"]
+    assert np.allclose(curves.branches[0], 2.0 * np.sqrt(8.0 / 2.0) * np.abs(np.sin(curves.q * 0.5 / 2.0)))
+    assert curves.q[-1] == pytest.approx(np.pi / 0.5)
+    assert np.allclose(curves.mode_omega, 2.0 * np.sqrt(8.0 / 2.0) * np.sin(curves.mode_q * 0.5 / 2.0), rtol=1e-9)
+    assert curves.n_sites == 12 and curves.ends == "fixed"
+    with pytest.raises(ValueError):
+        curves.q[0] = 1.0  # frozen result
+
+
+def test_banded_solver_scene_runs(tmp_path: Path) -> None:
+    # 'banded' (one of vibra.modes.SOLVERS) was missing from the schema; a scene asking for it
+    # now runs, and matches the free chain's closed form omega_k = 2 Omega sin(k pi / 2N).
+    scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 9},
+                             "compute": {"solver": "banded"}}, source="banded.toml")
+    result = execute(make_plan(scene), tmp_path, tmp_path)
+    assert result.modes.solver == "banded"
+    # compared as omega^2: a dense-type solver gets eigenvalues to about eps ||K~|| absolutely
+    omega = result.modes.omega
+    assert np.allclose(omega * np.abs(omega), (2.0 * np.sin(np.arange(9) * np.pi / 18.0)) ** 2, rtol=0, atol=1e-13)
+
+
+def test_molecule_symmetry_is_computed_by_the_plan_and_drawn(tmp_path: Path) -> None:
+    # Mutual exclusion for centrosymmetric CO2 (seed 003 Example 11): the symmetric stretch is
+    # g (IR-inactive), the bend and the asymmetric stretch u. The plan's structure step computes
+    # it; the captions of the rendered images carry it.
+    scene = Scene.from_dict({"kind": "molecule", "system": {"builder": "co2", "dims": 3},
+                             "draw": {"modes": True, "window_size": SMALL}}, source="co2.toml")
+    plan = make_plan(scene)
+    assert plan.step_names == ("build", "modes", "structure", "render-modes")
+    result = execute(plan, tmp_path, tmp_path)
+    [structure] = [r for r in result.records if r.name == "structure"]
+    assert structure.accuracy == "2 bonds"
+    captions = dict(zip(result.outputs, result.captions))
+    assert "u: IR-allowed" in captions["co2_mode5.png"] and "degenerate" in captions["co2_mode5.png"]
+    assert "g: IR-inactive" in captions["co2_mode7.png"]
+    assert "u: IR-allowed" in captions["co2_mode8.png"] and "IR active" in captions["co2_mode8.png"]
+
+
+# ---------------------------------------------------------------------- layers
+def _vibra_imports() -> dict[str, set[str]]:
+    """module -> the vibra modules it imports anywhere (function bodies included), from the source."""
+    import ast
+
+    package = ROOT / "vibra"
+    modules = {}
+    for path in package.rglob("*.py"):
+        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    graph: dict[str, set[str]] = {name: set() for name in modules}
+    for name, path in modules.items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in modules else node.module
+                           for a in node.names]
+            else:
+                continue
+            for target in targets:
+                while target and target not in modules:
+                    target = target.rpartition(".")[0]
+                if target.startswith("vibra") and target != name:
+                    graph[name].add(target)
+    return graph
+
+
+def test_no_import_cycles_and_no_upward_imports() -> None:
+    # The layers: scene -> plan -> (system, solvers, analyses) -> charts / render; report above
+    # plan, cli on top. Nothing imports a higher layer, not even inside a function.
+    graph = _vibra_imports()
+
+    def reachable(start: str) -> set[str]:
+        seen, stack = set(), [start]
+        while stack:
+            for target in graph[stack.pop()]:
+                if target not in seen:
+                    seen.add(target)
+                    stack.append(target)
+        return seen
+
+    in_cycle = sorted(name for name in graph if name in reachable(name))
+    assert in_cycle == [], f"import cycles through {in_cycle}"
+
+    def layer(name: str) -> int:
+        for prefix, rank in (("vibra.cli", 5), ("vibra.report", 4), ("vibra.plan", 3), ("vibra.render", 2),
+                             ("vibra.charts", 2)):
+            if name == prefix or name.startswith(prefix + "."):
+                return rank
+        return 1 if name.startswith("vibra.scene") else 0
+
+    upward = sorted((name, target) for name, targets in graph.items() for target in targets
+                    if name not in ("vibra", "vibra.__main__") and layer(target) > layer(name)
+                    and not target.startswith(name + "."))
+    assert upward == [], upward

@@ -1,13 +1,15 @@
-"""Tests of vibra/scene.py: the scene schema, its validation messages, and the bundled scenes."""
+"""Tests of vibra/scene/: the scene schema, its validation messages, and the bundled scenes."""
 
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import json
 from pathlib import Path
 
 import pytest
 
+from vibra.modes import SOLVERS
 from vibra.scene import BUILDERS, KINDS, Scene, SceneError, find_scene_files, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -114,9 +116,93 @@ def test_scene_is_immutable() -> None:
 
 
 def test_every_builder_serves_a_known_kind() -> None:
+    # Each builder's kinds are known, and a minimal scene of each of those kinds with that
+    # builder passes the builder check (a builder listed for a kind really makes it).
     for builder, (kinds, fields) in BUILDERS.items():
-        assert set(kinds) <= set(KINDS), builder
-        assert fields is not None
+        assert kinds and set(kinds) <= set(KINDS), builder
+        required = {name: spec for name, spec in fields.items() if spec.required}
+        assert fields and all(not isinstance(spec.default, list) for spec in fields.values()), builder
+        for kind in kinds:
+            with pytest.raises(SceneError) as info:
+                Scene.from_dict({"kind": kind, "system": {"builder": builder, "no_such_key": 1}}, source="s.toml")
+            assert "system.no_such_key: unknown key" in str(info.value) or any(
+                f"system.{name}: is required" in str(info.value) for name in required), (builder, kind)
+
+
+def _signature_parameters(builder: str) -> dict[str, inspect.Parameter]:
+    from vibra.scene import builder_function
+
+    return dict(inspect.signature(builder_function(builder)).parameters)
+
+
+@pytest.mark.parametrize("builder", sorted(BUILDERS))
+def test_every_builder_parameter_is_known_to_the_schema(builder: str) -> None:
+    # Truth: the builder's own signature. Every parameter is a scene key with the builder's
+    # default (required exactly when the builder has none, or the scene must say it), or is
+    # listed, with a reason, as not set by scenes. A new builder argument fails here.
+    from vibra.scene.builders import NOT_IN_SCENES, SCENE_ONLY, SCENE_REQUIRED
+
+    _, fields = BUILDERS[builder]
+    for name, parameter in _signature_parameters(builder).items():
+        if name in NOT_IN_SCENES[builder]:
+            assert name not in fields and NOT_IN_SCENES[builder][name], (builder, name)
+            continue
+        assert name in fields, f"{builder}({name}=...) is unknown to the scene schema"
+        has_default = parameter.default is not inspect.Parameter.empty
+        assert fields[name].required == (not has_default or name in SCENE_REQUIRED.get(builder, ())), name
+        if has_default:
+            default = parameter.default
+            assert fields[name].default == (tuple(default) if isinstance(default, list) else default), name
+    assert set(fields) - set(_signature_parameters(builder)) == set(SCENE_ONLY[builder]), builder
+
+
+def test_a_builder_argument_the_schema_does_not_know_stops_the_derivation(monkeypatch: pytest.MonkeyPatch) -> None:
+    import vibra.chains
+    from vibra.scene.builders import builder_fields
+
+    original = vibra.chains.beaded_string
+
+    def beaded_string(n: int, *, mass: float = 1.0, tension: float = 1.0, spacing: float = 1.0,
+                      ends: str = "fixed", damping: float = 0.0, units: str = "SI", name: str | None = None) -> object:
+        return original(n, mass=mass, tension=tension, spacing=spacing, ends=ends, units=units, name=name)
+
+    monkeypatch.setattr(vibra.chains, "beaded_string", beaded_string)
+    builder_fields.cache_clear()
+    try:
+        with pytest.raises(RuntimeError, match=r"builder 'beaded_string' has a parameter 'damping' that the scene "
+                           r"schema does not know"):
+            builder_fields("beaded_string")
+    finally:
+        monkeypatch.undo()
+        builder_fields.cache_clear()
+    assert "damping" not in builder_fields("beaded_string")
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_every_solver_of_normal_modes_is_a_scene_solver(solver: str) -> None:
+    # Truth: vibra.modes.SOLVERS, the list normal_modes validates against ("banded" included).
+    scene = Scene.from_dict({**chain(), "compute": {"solver": solver}}, source="s.toml")
+    assert scene.compute.solver == solver
+
+
+def test_dispersion_of_a_chain_with_a_mass_list_is_refused() -> None:
+    # A chain of unequal masses has no single dispersion relation: refused at validation,
+    # naming the key, instead of failing in `vibra report`.
+    with pytest.raises(SceneError, match=r"^s\.toml: draw\.dispersion: needs a uniform chain, but system\.mass is "
+                       r"a list; .*diatomic_chain"):
+        Scene.from_dict({**chain(mass=[1.0, 2.0, 1.0, 2.0]), "draw": {"dispersion": True}}, source="s.toml")
+    with pytest.raises(SceneError, match=r"draw\.dispersion: needs a uniform chain, but system\.stiffness is a list"):
+        Scene.from_dict({**chain(stiffness=[1.0, 2.0, 1.0]), "draw": {"dispersion": True}}, source="s.toml")
+
+
+def test_builder_refusal_is_a_scene_error_at_its_key() -> None:
+    # beaded_string with n = 1 passes the schema's type checks; building it (as `vibra validate`
+    # does) reports the builder's own check at system.n.
+    from vibra.plan import build_system
+
+    scene = Scene.from_dict({"kind": "chain", "system": {"builder": "beaded_string", "n": 1}}, source="b.toml")
+    with pytest.raises(SceneError, match=r"^b\.toml: system\.n: n is 1; a chain needs n >= 2$"):
+        build_system(scene)
 
 
 @pytest.mark.parametrize("data, message", [
@@ -184,9 +270,9 @@ def test_every_builder_serves_a_known_kind() -> None:
      r"system\.M: must be a square matrix"),
     ({"kind": "generalized", "system": {"builder": "double_pendulum"}, "draw": {"gif": True}},
      r"draw\.gif: animates chains and molecules, not a 'generalized' scene"),
-    ({"kind": "oscillator", "system": {"builder": "oscillator"}, "draw": {"modes": True}},
+    ({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": 0.5}, "draw": {"modes": True}},
      r"draw\.modes: an oscillator scene draws only its response"),
-    ({"kind": "oscillator", "system": {"builder": "oscillator", "gamma": [0.5, -1.0]}},
+    ({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": [0.5, -1.0]}},
      r"system\.gamma: \[1\] must be >= 0, got -1\.0"),
     # impossible values caught before any work (they used to fail only while building)
     (chain(frozen_sites=[0, 9]), r"system\.frozen_sites\[1\]: is 9; sites run from 0 to 3"),
@@ -265,14 +351,28 @@ def test_name_required_without_a_file() -> None:
 
 
 def test_valid_variants_of_every_kind() -> None:
-    Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": [0.5, 1, 2, 4]},
-                     "draw": {"response": True}}, source="osc.toml")
-    Scene.from_dict({"kind": "generalized", "system": {"builder": "matrices", "M": [[2.0, 1.0], [1.0, 2.0]],
-                                                        "K": [[1.0, 0.0], [0.0, 1.0]], "coordinates": ["a", "b"]}},
-                    source="gen.toml")
-    Scene.from_dict({"kind": "molecule", "system": {"builder": "springs", "positions": [[0, 0, 0], [1.1, 0, 0]],
-                                                     "masses": [12.0, 16.0], "springs": [[0, 1]], "stiffness": 50.0,
-                                                     "symbols": ["C", "O"]}}, source="co.toml")
+    # Each variant is accepted and its values arrive normalised: lists as tuples, integers
+    # as floats where a number is asked, defaults of the kind filled in.
+    osc = Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0,
+                                                            "gamma": [0.5, 1, 2, 4]},
+                           "draw": {"response": True}}, source="osc.toml")
+    assert (osc.kind, osc.units, osc.name) == ("oscillator", "SI", "osc")
+    assert osc.system.parameters["gamma"] == (0.5, 1.0, 2.0, 4.0)
+    assert all(isinstance(g, float) for g in osc.system.parameters["gamma"])
+    assert osc.system.parameters["m"] == 1.0 and osc.draw.response
+    gen = Scene.from_dict({"kind": "generalized", "system": {"builder": "matrices", "M": [[2.0, 1.0], [1.0, 2.0]],
+                                                              "K": [[1.0, 0.0], [0.0, 1.0]],
+                                                              "coordinates": ["a", "b"]}},
+                          source="gen.toml")
+    assert gen.system.parameters["M"] == ((2.0, 1.0), (1.0, 2.0))
+    assert gen.system.parameters["coordinates"] == ("a", "b") and gen.units == "SI"
+    co = Scene.from_dict({"kind": "molecule", "system": {"builder": "springs", "positions": [[0, 0, 0], [1.1, 0, 0]],
+                                                         "masses": [12.0, 16.0], "springs": [[0, 1]],
+                                                         "stiffness": 50.0, "symbols": ["C", "O"]}},
+                         source="co.toml")
+    assert co.units == "ASE" and co.system.parameters["springs"] == ((0, 1),)
+    assert co.system.parameters["positions"] == ((0.0, 0.0, 0.0), (1.1, 0.0, 0.0))
+    assert co.system.parameters["symbols"] == ("C", "O") and co.system.parameters["anchors"] is None
 
 
 def test_find_scene_files_expands_folders(tmp_path: Path) -> None:

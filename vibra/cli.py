@@ -50,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--window-size", type=_window, default=None, metavar="WxH",
                      help="override the image size of every scene, e.g. 800x500")
     rep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
-    val = sub.add_parser("validate", help="check scene files against the schema (no computation)")
+    val = sub.add_parser("validate", help="check scene files against the schema and build their systems (no solve)")
     val.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders")
     mod = sub.add_parser("modes", help="print a table of a scene's frequencies")
     mod.add_argument("scene", metavar="SCENE", help="one scene file")
@@ -58,6 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _validate(paths: Sequence[str]) -> int:
+    from vibra.plan import build_system
     from vibra.scene import SceneError, find_scene_files, load_scene
 
     files = find_scene_files(list(paths))
@@ -68,6 +69,7 @@ def _validate(paths: Sequence[str]) -> int:
     for file in files:
         try:
             scene = load_scene(file)
+            build_system(scene)  # the builders' own checks: what validates also builds
         except SceneError as error:
             failed += 1
             print(f"FAIL {error}")

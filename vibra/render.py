@@ -1,34 +1,55 @@
 """Off-screen pyvista renders of mode shapes: the only module of vibra that imports pyvista.
 
+The renderer draws what the plan computed and nothing more:
+
 - A molecule: atoms as spheres (sized and coloured by element, from `ase.data`), bonds as
   tubes, one arrow per atom along its displacement in the mode; degenerate modes side by
-  side in one image; the caption gives the wavenumber (cm^-1) and an IR-activity hint.
+  side in one image. The elements and bonds come in a `MoleculeStructure`, and the per-mode
+  symmetry / IR-activity text in `hints`, both computed by `vibra.plan`.
 - A chain: a row of masses (sphere volume proportional to mass) per mode, one row per mode,
   with displacement arrows (along the chain for axial motion, across it for a string).
   Long chains show an evenly decimated set of sites, and the caption says so.
 
-Every image is written atomically: rendered to an array, encoded to a temporary file in
-the destination folder, then renamed (`os.replace`), so an interrupted run never leaves a
-half-written PNG. One `SceneRenderer` reuses its plotters for all images of a scene.
+Every image is written atomically by `vibra._io.atomic_write` (a temporary file in the
+destination folder, then renamed), so an interrupted run never leaves a half-written PNG.
+One `SceneRenderer` reuses its plotters for all images of a scene.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import tempfile
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SceneRenderer", "write_png", "write_gif", "molecule_symbols", "molecule_bonds", "chain_sites",
-           "MAX_CHAIN_SITES"]
+from vibra._io import atomic_write
+
+__all__ = ["SceneRenderer", "MoleculeStructure", "write_png", "write_gif", "molecule_symbols", "molecule_bonds",
+           "chain_sites", "MAX_CHAIN_SITES"]
 
 #: Largest number of sites drawn in a chain row; longer chains are decimated evenly.
 MAX_CHAIN_SITES = 41
 _GIF_FRAMES = 16
+
+
+@dataclass(frozen=True)
+class MoleculeStructure:
+    """What the renderer draws of a molecule besides its positions: elements and bonds.
+
+    Attributes
+    ----------
+    symbols : tuple of str
+        Chemical symbol of each site (sets the sphere's size and colour).
+    bonds : tuple of (int, int)
+        Site pairs joined by a bond tube.
+    """
+
+    symbols: tuple[str, ...]
+    bonds: tuple[tuple[int, int], ...]
 
 
 def _report_theme() -> Any:
@@ -45,26 +66,12 @@ def _report_theme() -> Any:
     return theme
 
 
-def _atomic_target(path: Path, suffix: str) -> str:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
-    os.close(handle)
-    return temporary
-
-
 def write_png(image: NDArray[np.uint8], path: str | os.PathLike[str]) -> Path:
-    """Write an (height, width, 3 or 4) uint8 image to `path` as PNG, atomically."""
+    """Write an (height, width, 3 or 4) uint8 image to `path` as PNG, atomically (`vibra._io`)."""
     from PIL import Image
 
-    target = Path(path)
-    temporary = _atomic_target(target, ".tmp")
-    try:
-        Image.fromarray(np.ascontiguousarray(image)).save(temporary, format="PNG")
-        os.replace(temporary, target)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return target
+    picture = Image.fromarray(np.ascontiguousarray(image))
+    return atomic_write(path, lambda temporary: picture.save(temporary, format="PNG"))
 
 
 def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str], *,
@@ -72,18 +79,10 @@ def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str],
     """Write frames as a looping animated GIF at `path`, atomically (frame_ms per frame)."""
     from PIL import Image
 
-    target = Path(path)
-    temporary = _atomic_target(target, ".tmp")
-    try:
-        images = [Image.fromarray(np.ascontiguousarray(f)).convert("RGB").quantize(
-            colors=128, method=Image.Quantize.FASTOCTREE) for f in frames]
-        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
-                       duration=frame_ms, loop=0)
-        os.replace(temporary, target)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return target
+    images = [Image.fromarray(np.ascontiguousarray(f)).convert("RGB").quantize(
+        colors=128, method=Image.Quantize.FASTOCTREE) for f in frames]
+    return atomic_write(path, lambda temporary: images[0].save(
+        temporary, format="GIF", save_all=True, append_images=images[1:], duration=frame_ms, loop=0))
 
 
 # ---------------------------------------------------------------------- geometry helpers
@@ -120,45 +119,27 @@ def _displacements3(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float
 
 
 def molecule_symbols(system: Any, symbols: Sequence[str] | None = None) -> list[str]:
-    """Chemical symbols of the sites: `symbols` if given, else the element of nearest standard mass."""
-    from ase.data import chemical_symbols
+    """Chemical symbols of the sites: `symbols` if given, else `vibra.molecules.symbols_from_masses`."""
+    from vibra.molecules import symbols_from_masses
 
-    return [chemical_symbols[z] for z in _elements(system, symbols)]
+    return list(symbols) if symbols is not None else list(symbols_from_masses(system.masses))
 
 
 def molecule_bonds(system: Any, symbols: Sequence[str] | None = None,
                    springs: Sequence[Sequence[int]] | None = None) -> list[tuple[int, int]]:
-    """Bonds of a molecule: the given springs, else pairs closer than 1.25 x covalent radii."""
-    return _bonds(_positions3(system), _elements(system, symbols), springs)
+    """Bonds of a molecule: the given springs, else `vibra.molecules.bonds_from_distances`."""
+    from vibra.molecules import bonds_from_distances
 
-
-def _elements(system: Any, symbols: Sequence[str] | None) -> list[int]:
-    """Atomic numbers: from given symbols, else the element whose standard mass is nearest."""
-    from ase.data import atomic_masses, atomic_numbers
-
-    if symbols is not None:
-        return [atomic_numbers[s] for s in symbols]
-    numbers = []
-    for mass in np.asarray(system.masses, dtype=float):
-        z = int(np.argmin(np.abs(atomic_masses[1:] - mass))) + 1
-        numbers.append(z)
-    return numbers
-
-
-def _bonds(positions: NDArray[np.float64], numbers: list[int],
-           springs: Sequence[Sequence[int]] | None) -> list[tuple[int, int]]:
-    """Bonds: the scene's springs, else pairs closer than 1.25 x the sum of covalent radii."""
     if springs is not None:
         return [(int(i), int(j)) for i, j in springs]
-    from ase.data import covalent_radii
+    return list(bonds_from_distances(system.positions, molecule_symbols(system, symbols)))
 
-    bonds = []
-    for i in range(len(positions)):
-        for j in range(i + 1, len(positions)):
-            limit = 1.25 * (covalent_radii[numbers[i]] + covalent_radii[numbers[j]])
-            if np.linalg.norm(positions[i] - positions[j]) <= limit:
-                bonds.append((i, j))
-    return bonds
+
+def _default_structure(scene: Any, system: Any) -> MoleculeStructure:
+    """Elements and bonds for a caller that passed none (`vibra.plan` always passes them)."""
+    params = scene.system.parameters
+    symbols = molecule_symbols(system, params.get("symbols"))
+    return MoleculeStructure(tuple(symbols), tuple(molecule_bonds(system, symbols, params.get("springs"))))
 
 
 #: An arrow whose direction is within ~25 degrees of a bond (cosine above this) would run
@@ -193,42 +174,6 @@ def _arrow_start(positions: NDArray[np.float64], bonds: Sequence[tuple[int, int]
     lift = lift - (lift @ direction) * direction
     lift /= np.linalg.norm(lift)
     return positions[i] + 1.6 * radius * lift - 0.5 * vector
-
-
-def _inversion_parity(positions: NDArray[np.float64], masses: NDArray[np.float64],
-                      displacement: NDArray[np.float64]) -> str | None:
-    """'g' or 'u' for a centrosymmetric molecule (None otherwise): parity under inversion.
-
-    Inversion through the centre of mass maps atom i to its partner P(i) and a displacement
-    u_i to -u_P(i). A mode is 'g' when u_P(i) = -u_i for all i and 'u' when u_P(i) = u_i.
-    By the mutual-exclusion rule g modes are IR-inactive (Raman-allowed) and u modes are
-    IR-allowed.
-    """
-    centre = (masses[:, None] * positions).sum(axis=0) / masses.sum()
-    relative = positions - centre
-    scale = max(float(np.abs(relative).max()), 1e-12)
-    partner = []
-    for i in range(len(relative)):
-        distance = np.linalg.norm(relative + relative[i], axis=1)
-        j = int(np.argmin(distance))
-        if distance[j] > 1e-6 * scale or not np.isclose(masses[j], masses[i], rtol=1e-9):
-            return None
-        partner.append(j)
-    size = max(float(np.abs(displacement).max()), 1e-300)
-    mapped = displacement[partner]
-    if np.abs(mapped + displacement).max() <= 1e-6 * size:
-        return "g"
-    if np.abs(mapped - displacement).max() <= 1e-6 * size:
-        return "u"
-    return None
-
-
-def _ir_hint(parity: str | None) -> str:
-    if parity == "g":
-        return "g: IR-inactive (centrosymmetric, mutual exclusion)"
-    if parity == "u":
-        return "u: IR-allowed"
-    return "no inversion centre: IR activity not fixed by symmetry"
 
 
 def _frequency_text(scene: Any, modes: Any, k: int) -> str:
@@ -291,25 +236,33 @@ class SceneRenderer:
 
     # ------------------------------------------------------------------ public
     def render_modes(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
-                     out_dir: Path, *, hints: dict[int, str] | None = None) -> list[tuple[str, str]]:
+                     out_dir: Path, *, structure: MoleculeStructure | None = None,
+                     hints: Mapping[int, str] | None = None) -> list[tuple[str, str]]:
         """Render the modes `indices`; returns (file name, caption) per image written.
 
-        `hints` maps a mode index to an IR-activity text for the molecule captions.
+        `structure` gives a molecule's elements and bonds (`vibra.plan` passes the ones it
+        computed; when None they are taken from `molecule_symbols` and `molecule_bonds`).
+        `hints` maps a mode index to its symmetry / IR-activity text, drawn under the
+        frequency and added to the caption.
         """
         if modes.shapes is None:
             raise ValueError("render_modes needs mode shapes; the modes were computed with vectors=False")
         if scene.kind == "molecule":
-            return self._molecule_images(scene, system, modes, indices, out_dir, hints or {})
+            return self._molecule_images(scene, system, modes, indices, out_dir,
+                                         structure or _default_structure(scene, system), hints or {})
         return [self._chain_image(scene, system, modes, indices, out_dir)]
 
     def render_gif(self, scene: Any, system: Any, modes: Any, index: int, out_dir: Path,
-                   work_dir: Path) -> tuple[str, str]:
+                   work_dir: Path, *, structure: MoleculeStructure | None = None) -> tuple[str, str]:
         """Animated GIF of mode `index` over one period; returns (file name, caption)."""
+        molecule = None
+        if scene.kind == "molecule":
+            molecule = structure or _default_structure(scene, system)
         frames = []
         for phase in np.linspace(0.0, 2.0 * np.pi, _GIF_FRAMES, endpoint=False):
             plotter = self._plotter((1, 1))
-            if scene.kind == "molecule":
-                self._draw_molecule(plotter, scene, system, modes, index, phase=phase, arrows=False)
+            if molecule is not None:
+                self._draw_molecule(plotter, scene, system, modes, index, molecule, phase=phase, arrows=False)
             else:
                 self._draw_chain(plotter, scene, system, modes, index, phase=phase)
             frames.append(self._snapshot(plotter))
@@ -320,7 +273,8 @@ class SceneRenderer:
 
     # ------------------------------------------------------------------ molecules
     def _molecule_images(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
-                         out_dir: Path, hints: dict[int, str]) -> list[tuple[str, str]]:
+                         out_dir: Path, structure: MoleculeStructure,
+                         hints: Mapping[int, str]) -> list[tuple[str, str]]:
         groups: list[list[int]] = []
         degenerate = {int(i): [int(j) for j in g] for g in modes.degenerate_groups(1e-6) for i in g}
         for k in indices:
@@ -334,7 +288,7 @@ class SceneRenderer:
             texts = []
             for column, k in enumerate(group):
                 plotter.subplot(0, column)
-                texts.append(self._draw_molecule(plotter, scene, system, modes, k, hint=hints.get(k)))
+                texts.append(self._draw_molecule(plotter, scene, system, modes, k, structure, hint=hints.get(k)))
             name = f"{scene.name}_mode{group[0]}.png"
             write_png(self._snapshot(plotter), out_dir / name)
             label = " and ".join(str(k) for k in group)
@@ -342,17 +296,17 @@ class SceneRenderer:
             images.append((name, f"{scene.title}: mode {label}{together}: {texts[0]}"))
         return images
 
-    def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int, *,
-                       phase: float | None = None, arrows: bool = True, hint: str | None = None) -> str:
+    def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
+                       structure: MoleculeStructure, *, phase: float | None = None, arrows: bool = True,
+                       hint: str | None = None) -> str:
         pv = self._pv
-        from ase.data import covalent_radii
+        from ase.data import atomic_numbers, covalent_radii
         from ase.data.colors import jmol_colors
 
-        params = scene.system.parameters
         positions = _positions3(system)
-        numbers = _elements(system, params.get("symbols"))
+        numbers = [atomic_numbers[symbol] for symbol in structure.symbols]
         displacement = _displacements3(system, np.asarray(modes.shapes)[:, k])
-        bond_list = _bonds(positions, numbers, params.get("springs"))
+        bond_list = list(structure.bonds)
         lengths = [np.linalg.norm(positions[i] - positions[j]) for i, j in bond_list]
         reference = min(lengths) if lengths else 1.0
         size = max(float(np.linalg.norm(displacement, axis=1).max()), 1e-300)
@@ -377,13 +331,10 @@ class SceneRenderer:
                 arrow = pv.Arrow(start=start, direction=vector, scale=norm,
                                  tip_length=0.3, tip_radius=0.12, shaft_radius=0.04)
                 plotter.add_mesh(arrow, color="crimson", smooth_shading=True)
-        parity = _inversion_parity(positions, np.asarray(system.masses, dtype=float), displacement)
-        symmetry = _ir_hint(parity) if hint is None or parity is not None else hint
-        if hint is not None and parity is not None:
-            symmetry = f"{symmetry}; {hint}"
-        text = f"{_frequency_text(scene, modes, k)}, {symmetry}"
-        plotter.add_text(f"mode {k}: {_frequency_text(scene, modes, k)}\n" + symmetry.replace("; ", "\n"),
-                         position="upper_left", font_size=13, color="black")
+        frequency = _frequency_text(scene, modes, k)
+        text = frequency if hint is None else f"{frequency}, {hint}"
+        lines = [f"mode {k}: {frequency}"] + ([] if hint is None else hint.split("; "))
+        plotter.add_text("\n".join(lines), position="upper_left", font_size=13, color="black")
         extent = np.ptp(positions, axis=0)
         plotter.camera_position = "xz" if extent[2] > 1e-9 or extent[1] <= 1e-9 else "xy"
         plotter.camera.elevation = 30

@@ -18,12 +18,14 @@ import json
 import os
 import shutil
 import sys
-import tempfile
 import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
+
+from vibra._io import atomic_write_text
+from vibra.charts.modes import shapes_figure, spectrum_figure
 
 __all__ = [
     "SceneOutcome", "BatchResult", "run_scene", "report", "atomic_write_text",
@@ -145,22 +147,6 @@ class BatchResult:
         return "\n".join(lines)
 
 
-# ---------------------------------------------------------------------- atomic files
-def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
-    """Write `text` (UTF-8) to `path` atomically: temp file in the same folder, then rename."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text)
-        os.replace(temporary, target)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return target
-
-
 def _input_hash(path: Path, window_size: Sequence[int] | None) -> str:
     from vibra import __version__
 
@@ -168,12 +154,6 @@ def _input_hash(path: Path, window_size: Sequence[int] | None) -> str:
     digest.update(path.read_bytes())
     digest.update(f"\0vibra {__version__}\0{list(window_size) if window_size else None}".encode())
     return digest.hexdigest()
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _manifest_path(out_dir: Path, name: str) -> Path:
@@ -251,9 +231,7 @@ def run_scene(path: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, 
     scratch.mkdir(parents=True, exist_ok=True)
     try:
         result = execute(make_plan(scene), staging, scratch, on_step=on_step)
-        mode = 0o666 & ~_umask()  # mkstemp makes 0600 files; outputs get ordinary permissions
-        for output in result.outputs:  # publish: each rename is atomic
-            os.chmod(staging / output, mode)
+        for output in result.outputs:  # publish: each rename is atomic (modes set by vibra._io)
             os.replace(staging / output, target / output)
         outcome = SceneOutcome(source=str(source), name=name, title=title, status="ok",
                                outputs=result.outputs, captions=result.captions, steps=result.records,
@@ -262,11 +240,13 @@ def run_scene(path: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, 
         atomic_write_text(_manifest_path(target, name), json.dumps(outcome.as_json(), indent=1))
         return outcome
     except Exception as error:  # a failing scene must not stop the batch
-        message = f"{source}: {type(error).__name__}: {error}"
-        detail = traceback.format_exc(limit=-3)
         _manifest_path(target, name).unlink(missing_ok=True)
-        return SceneOutcome(source=str(source), name=name, title=title, status="failed",
-                            error=message + "\n" + detail, seconds=time.perf_counter() - start)
+        if isinstance(error, SceneError):  # a builder refused a parameter: one line, at its key
+            text = str(error)
+        else:
+            text = f"{source}: {type(error).__name__}: {error}\n" + traceback.format_exc(limit=-3)
+        return SceneOutcome(source=str(source), name=name, title=title, status="failed", error=text,
+                            seconds=time.perf_counter() - start)
     finally:
         shutil.rmtree(work, ignore_errors=True)  # the .work root stays: other scenes may be starting
 
@@ -428,9 +408,7 @@ def write_summary(result: BatchResult) -> Path:
         "n_scenes": len(result.outcomes), "n_failed": len(result.failed),
         "scenes": [o.as_json() for o in result.outcomes],
     }
-    path = atomic_write_text(result.out_dir / "summary.json", json.dumps(payload, indent=1))
-    os.chmod(path, 0o666 & ~_umask())
-    return path
+    return atomic_write_text(result.out_dir / "summary.json", json.dumps(payload, indent=1))
 
 
 def write_index(result: BatchResult) -> Path:
@@ -469,115 +447,4 @@ def write_index(result: BatchResult) -> Path:
                          + e("\n".join(o.frequencies)) + "</pre></details>")
         parts.append("</section>")
     parts.append("</body></html>")
-    path = atomic_write_text(result.out_dir / "index.html", "\n".join(parts) + "\n")
-    os.chmod(path, 0o666 & ~_umask())
-    return path
-
-
-# ---------------------------------------------------------------------- report charts
-def _frequency_axis(scene: Any, modes: Any) -> tuple[Any, str]:
-    import numpy as np
-
-    units = modes.units
-    if units.time_s is None:
-        return np.asarray(modes.omega), "angular frequency omega (dimensionless)"
-    if scene.kind == "molecule":
-        return modes.wavenumbers_cm1(), "wavenumber (cm$^{-1}$)"
-    return modes.omega_rad_per_s(), "angular frequency $\\omega$ (rad/s)"
-
-
-def spectrum_figure(scene: Any, modes: Any) -> tuple[Any, str]:
-    """Stick spectrum of the modes: one unit stick per mode (degenerate modes stack).
-
-    Returns the figure and its caption. The stick height counts modes (no intensity
-    model); rigid-body (zero) modes are drawn grey.
-    """
-    import numpy as np
-
-    from vibra.charts._style import new_figure
-
-    values, label = _frequency_axis(scene, modes)
-    zero = modes.zero_modes(1e-6)
-    figure, axes = new_figure()
-    scale = float(np.abs(values).max()) if len(values) else 1.0
-    merged: dict[float, int] = {}
-    for v in np.asarray(values):
-        key = round(float(v) / max(scale, 1e-300), 6) * scale
-        merged[key] = merged.get(key, 0) + 1
-    shown = [v for v in merged if abs(v) > 1e-6 * scale]
-    digits = 4  # more significant digits only where distinct sticks would read alike
-    while digits < 10 and len({f"{v:.{digits}g}" for v in shown}) < len(shown):
-        digits += 1
-    labels = []
-    for v, count in merged.items():
-        is_zero = abs(v) <= 1e-6 * scale
-        axes.vlines(v, 0, count, color="0.6" if is_zero else "C0", linewidth=2.0)
-        if len(merged) <= 16 and not is_zero:
-            labels.append(axes.annotate(f"{v:.{digits}g}", (v, count), textcoords="offset points", xytext=(0, 4),
-                                        ha="center", fontsize=10))
-    axes.set_xlabel(label)
-    axes.set_ylabel("number of modes")
-    axes.margins(x=0.06)  # the outermost labels stay inside the axes
-    axes.yaxis.get_major_locator().set_params(integer=True)
-    axes.set_title(f"{scene.title}: {modes.n_modes} modes")
-    axes.set_ylim(0, max(merged.values()) + 0.7)
-    _stagger_labels(figure, axes, labels)
-    n_zero = int(zero.sum())
-    caption = (f"{scene.title}: stick spectrum of {modes.n_modes} computed modes ({label}); "
-               f"stick height = number of modes at that frequency"
-               + (f", {n_zero} zero (rigid-body) mode(s) in grey" if n_zero else ""))
-    return figure, caption
-
-
-def _stagger_labels(figure: Any, axes: Any, labels: Sequence[Any]) -> None:
-    """Lift stick labels that would overlap a neighbour's, and make room for them.
-
-    Labels are taken left to right; one whose horizontal extent (in pixels) meets an
-    earlier label at the same stick height and level goes up one level (14 points). The
-    y range then grows until the highest label fits inside the axes.
-    """
-    if not labels:
-        return
-    renderer = figure.canvas.get_renderer()
-    placed: list[tuple[float, float, float, int]] = []  # (left, right, stick height, level)
-    for label in sorted(labels, key=lambda a: a.xy[0]):
-        box = label.get_window_extent(renderer)
-        level = 0
-        while any(level == lv and height == label.xy[1] and box.x0 < right + 2 and left < box.x1 + 2
-                  for left, right, height, lv in placed):
-            level += 1
-        label.xyann = (0, 4 + 14 * level)
-        placed.append((box.x0, box.x1, label.xy[1], level))
-    for _ in range(3):  # a taller y range lowers the labels: repeat until they fit
-        top = max(label.get_window_extent(renderer).y1 for label in labels)
-        limit = axes.get_window_extent(renderer).y1
-        if top <= limit - 4:
-            break
-        low, high = axes.get_ylim()
-        pixels_per_unit = axes.get_window_extent(renderer).height / (high - low)
-        axes.set_ylim(low, high + (top - limit + 8) / pixels_per_unit)
-
-
-def shapes_figure(scene: Any, system: Any, modes: Any, indices: Sequence[int]) -> tuple[Any, str]:
-    """Bar chart of mode shapes in generalised coordinates (one panel per mode)."""
-    import numpy as np
-
-    from vibra.charts._style import new_figure
-
-    n = len(indices)
-    figure, axes = new_figure(1, n, figsize=(4.0 * n + 1.0, 4.5), squeeze=False)
-    names = [system.labels[i] for i in system.free_dofs]
-    for panel, k in zip(axes[0], indices):
-        shape = np.asarray(modes.shapes)[:, k]
-        shape = shape / np.abs(shape).max()
-        panel.bar(range(len(shape)), shape, color=["C0" if s >= 0 else "C3" for s in shape])
-        panel.set_xticks(range(len(shape)), names)
-        panel.axhline(0.0, color="black", linewidth=0.8)
-        freq = modes.frequencies_hz()[k] if modes.units.time_s is not None else modes.omega[k]
-        unit = "Hz" if modes.units.time_s is not None else "(dimensionless omega)"
-        panel.set_title(f"mode {k}: {freq:.4g} {unit}")
-        panel.set_xlabel("generalised coordinate")
-        panel.set_ylabel("relative amplitude (largest = 1)")
-    caption = (f"{scene.title}: shapes of modes {', '.join(str(k) for k in indices)} in generalised "
-               "coordinates, normalised to a largest component of 1")
-    return figure, caption
+    return atomic_write_text(result.out_dir / "index.html", "\n".join(parts) + "\n")

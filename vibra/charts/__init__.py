@@ -1,6 +1,11 @@
 """Matplotlib charts (2-D plots) used by reports and notebooks, one module per analysis.
 
-Every function takes result objects, draws on a new figure with the shared style of
-`vibra.charts._style`, labels axes with units, and returns the `matplotlib.figure.Figure`
-(`save_figure` writes it atomically). matplotlib is imported here only, with the Agg backend.
+Every function takes result objects (what the analyses computed) and draws it, on a new
+figure with the shared style of `vibra.charts._style`; it labels axes with units and returns
+the `matplotlib.figure.Figure`. `save_figure` writes one atomically. Figures have their own
+Agg canvas: pyplot is never imported and the caller's matplotlib backend is left as it is.
 """
+
+from vibra.charts._style import new_figure, save_figure
+
+__all__ = ["new_figure", "save_figure"]

@@ -1,18 +1,28 @@
-"""Shared look of vibra's matplotlib charts, and an atomic PNG writer."""
+"""Shared look of vibra's matplotlib charts, and the PNG writer for them.
+
+Figures are plain `matplotlib.figure.Figure` objects with their own Agg canvas: vibra never
+imports `matplotlib.pyplot` nor calls `matplotlib.use`, so the backend of the caller's session
+(a notebook's inline plots included) is left alone, and no figure is registered with pyplot
+(nothing to close, no "too many open figures").
+
+>>> figure, axes = new_figure()
+>>> type(figure.canvas).__name__
+'FigureCanvasAgg'
+"""
 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import matplotlib
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")  # off-screen; charts never open a window
+from vibra._io import atomic_write
 
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
+__all__ = ["STYLE", "ChartFigure", "new_figure", "save_figure"]
 
 #: rcParams applied (locally, via rc_context) to every chart: legible at the default size.
 STYLE: Any = {
@@ -28,27 +38,40 @@ STYLE: Any = {
     "lines.linewidth": 1.8,
 }
 
+#: Keyword arguments of `new_figure` that describe the figure (the rest go to `Figure.subplots`).
+_FIGURE_KEYWORDS = ("figsize", "dpi", "facecolor", "edgecolor", "frameon")
 
-def new_figure(nrows: int = 1, ncols: int = 1, **kwargs: Any) -> tuple[Figure, Any]:
-    """A new figure and axes drawn with `STYLE` (does not touch global rcParams)."""
-    with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(nrows, ncols, layout="constrained", **kwargs)
-    return fig, axes
+
+class ChartFigure(Figure):
+    """A `Figure` that shows itself as a PNG in Jupyter and IPython, whatever the backend."""
+
+    def _repr_png_(self) -> bytes:
+        from io import BytesIO
+
+        buffer = BytesIO()
+        with matplotlib.rc_context(STYLE):
+            self.savefig(buffer, format="png")
+        return buffer.getvalue()
+
+
+def new_figure(nrows: int = 1, ncols: int = 1, **kwargs: Any) -> tuple[ChartFigure, Any]:
+    """A new figure on an Agg canvas and its axes, drawn with `STYLE` (global rcParams untouched).
+
+    `figsize` and the other figure keywords describe the figure; the remaining keywords
+    (``squeeze``, ``sharex``, ...) are those of `matplotlib.figure.Figure.subplots`.
+    """
+    figure_keywords = {k: kwargs.pop(k) for k in _FIGURE_KEYWORDS if k in kwargs}
+    with matplotlib.rc_context(STYLE):
+        figure = ChartFigure(layout="constrained", **figure_keywords)
+        FigureCanvasAgg(figure)
+        axes = figure.subplots(nrows, ncols, **kwargs)
+    return figure, axes
 
 
 def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
-    """Write `fig` to `path` as PNG atomically (temp file + rename) and close it."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(handle)
-    try:
-        with plt.rc_context(STYLE):
+    """Write `fig` to `path` as PNG atomically (`vibra._io.atomic_write`), mode 0666 less the umask."""
+    def write(temporary: Path) -> None:
+        with matplotlib.rc_context(STYLE):
             fig.savefig(temporary, format="png")
-        os.replace(temporary, target)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    finally:
-        plt.close(fig)
-    return target
+
+    return atomic_write(path, write)

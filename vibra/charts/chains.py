@@ -1,7 +1,7 @@
 """Charts of chains and the continuum limit: dispersion, convergence, mode shapes, pulses.
 
 Every function returns a `matplotlib.figure.Figure` drawn with vibra's shared style;
-save it with `vibra.charts._style.save_figure`.
+save it with `vibra.charts.save_figure`. They draw what `vibra.continuum` computed.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from vibra.modes import Modes
 from vibra.system import System
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
-__all__ = ["plot_dispersion", "plot_convergence", "plot_chain_mode_shapes", "plot_pulse_spacetime"]
+__all__ = ["plot_dispersion_curves", "plot_dispersion", "plot_convergence", "plot_chain_mode_shapes", "plot_pulse_spacetime"]
 
 
 def _unit_names(units: UnitSystem) -> tuple[str, str, str]:
@@ -28,6 +28,62 @@ def _unit_names(units: UnitSystem) -> tuple[str, str, str]:
         return "length unit", "time unit", "rad / time unit"
     time = "s" if units.time_s == 1.0 else f"{units.time_s:.4g} s"
     return units.length, time, units.omega
+
+
+def plot_dispersion_curves(
+    q: ArrayLike,
+    branches: ArrayLike,
+    *,
+    mode_q: ArrayLike | None = None,
+    mode_omega: ArrayLike | None = None,
+    n_sites: int | None = None,
+    ends: str = "free",
+    units: str | UnitSystem | None = None,
+    title: str | None = None,
+) -> Figure:
+    """Draw computed dispersion branches omega(q), and a finite chain's modes on top.
+
+    Parameters
+    ----------
+    q : (n_q,) array_like
+        Wavenumbers from 0 to the zone edge, in rad per length unit.
+    branches : (n_branches, n_q) array_like
+        omega(q) of each branch, in rad per time unit (`vibra.continuum.dispersion`); two
+        branches are drawn as acoustic and optical with the band gap shaded.
+    mode_q, mode_omega : (n_modes,) array_like, optional
+        Wavenumber (`vibra.continuum.assign_wavenumbers`) and omega of each mode of a finite
+        chain, drawn as points.
+    n_sites : int, optional
+        Sites of that chain (legend).
+    ends : str
+        Its end conditions (legend).
+    units : str or UnitSystem, optional
+        Units of the axes (dimensionless by default).
+    title : str, optional
+        Figure title.
+    """
+    unit = unit_system(units) if units is not None else DIMENSIONLESS
+    length, _, omega_unit = _unit_names(unit)
+    q_values = np.asarray(q, dtype=float)
+    curves = np.atleast_2d(np.asarray(branches, dtype=float))
+    n_branches = curves.shape[0]
+    fig, ax = new_figure()
+    names = ["acoustic branch", "optical branch"] if n_branches == 2 else ["infinite chain"]
+    for row, label in zip(curves, names):
+        ax.plot(q_values, row, label=label)
+    if n_branches == 2:
+        ax.axhspan(curves[0].max(), curves[1].min(), color="0.85", label="band gap")
+    if mode_q is not None and mode_omega is not None:
+        sites = f"{n_sites} sites, " if n_sites is not None else ""
+        ax.plot(np.asarray(mode_q), np.asarray(mode_omega), "o", ms=5, mfc="none",
+                label=f"finite chain, {sites}{ends} ends")
+    ax.set_xlim(0.0, float(q_values[-1]))
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlabel(f"wavenumber q (rad/{length})")
+    ax.set_ylabel(f"angular frequency ω ({omega_unit})")
+    ax.set_title(title or ("Diatomic chain dispersion" if n_branches == 2 else "Monatomic chain dispersion"))
+    ax.legend(loc="lower right")
+    return fig
 
 
 def plot_dispersion(
@@ -40,7 +96,9 @@ def plot_dispersion(
     units: str | UnitSystem | None = None,
     title: str | None = None,
 ) -> Figure:
-    """Dispersion branches omega(q) over the first Brillouin zone, with a finite chain's modes.
+    """Notebook shorthand: `vibra.continuum.dispersion` (and `assign_wavenumbers`), then `plot_dispersion_curves`.
+
+    Reports compute the curves in `vibra.plan` and call `plot_dispersion_curves` directly.
 
     Parameters
     ----------
@@ -59,30 +117,14 @@ def plot_dispersion(
         Figure title.
     """
     unit = unit_system(units) if units is not None else (modes.units if modes is not None else DIMENSIONLESS)
-    length, _, omega_unit = _unit_names(unit)
-    curves = dispersion(np.zeros(1), masses=masses, stiffness=stiffness, spacing=spacing)
-    n_branches = curves.shape[0]
-    zone = np.pi / (n_branches * spacing)
-    q = np.linspace(0.0, zone, 400)
-    curves = dispersion(q, masses=masses, stiffness=stiffness, spacing=spacing)
-    fig, ax = new_figure()
-    names = ["acoustic branch", "optical branch"] if n_branches == 2 else ["infinite chain"]
-    for row, label in zip(curves, names):
-        ax.plot(q, row, label=label)
-    if n_branches == 2:
-        gap_low, gap_high = curves[0].max(), curves[1].min()
-        ax.axhspan(gap_low, gap_high, color="0.85", label="band gap")
+    n_branches = dispersion(np.zeros(1), masses=masses, stiffness=stiffness, spacing=spacing).shape[0]
+    q = np.linspace(0.0, np.pi / (n_branches * spacing), 400)
+    branches = dispersion(q, masses=masses, stiffness=stiffness, spacing=spacing)
+    mode_q = None
     if modes is not None:
-        q_modes = assign_wavenumbers(modes, ends=ends, spacing=spacing, sites_per_cell=n_branches)  # type: ignore[arg-type]
-        ax.plot(q_modes, modes.omega, "o", ms=5, mfc="none",
-                label=f"finite chain, {modes.n_dof} sites, {ends} ends")
-    ax.set_xlim(0.0, zone)
-    ax.set_ylim(bottom=0.0)
-    ax.set_xlabel(f"wavenumber q (rad/{length})")
-    ax.set_ylabel(f"angular frequency ω ({omega_unit})")
-    ax.set_title(title or ("Diatomic chain dispersion" if n_branches == 2 else "Monatomic chain dispersion"))
-    ax.legend(loc="lower right")
-    return fig
+        mode_q = assign_wavenumbers(modes, ends=ends, spacing=spacing, sites_per_cell=n_branches)  # type: ignore[arg-type]
+    return plot_dispersion_curves(q, branches, mode_q=mode_q, mode_omega=None if modes is None else modes.omega,
+                                  n_sites=None if modes is None else modes.n_dof, ends=ends, units=unit, title=title)
 
 
 def plot_convergence(study: ConvergenceStudy, *, title: str | None = None) -> Figure:

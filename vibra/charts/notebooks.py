@@ -4,7 +4,7 @@
 trade); `plot_step_errors` draws a finite-difference error against the step, with the
 power laws it should follow; `plot_time_series` draws a few signals against time (a
 transient settling into its steady state). All return a `matplotlib.figure.Figure` drawn with vibra's
-shared style; save it with `vibra.charts._style.save_figure`.
+shared style; save it with `vibra.charts.save_figure`.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 exact versus harmonic trajectories (seed 003 figure 2; seed 000 problem II).
 
 Each function takes result objects, draws on a new figure with vibra's shared style and
-returns the `matplotlib.figure.Figure`; save it with `vibra.charts._style.save_figure`.
+returns the `matplotlib.figure.Figure`; save it with `vibra.charts.save_figure`.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Charts of forced, damped response: the seed's figure 7, a chain's FRF, Rayleigh damping.
 
 Each function takes result objects or arrays and returns a matplotlib Figure; save it with
-`vibra.charts._style.save_figure`.
+`vibra.charts.save_figure`.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Charts of `vibra.spectra` results: stick and broadened spectra, thermochemistry vs T.
 
 Each function takes result objects and returns a matplotlib Figure; save it with
-`vibra.charts._style.save_figure`. IR spectra are drawn with the wavenumber decreasing to
+`vibra.charts.save_figure`. IR spectra are drawn with the wavenumber decreasing to
 the right, as spectroscopists draw them (and the axis label says so); Raman spectra with the
 Raman shift increasing.
 """

@@ -1,19 +1,14 @@
-"""A `Scene` -> a `Plan`: the list of steps that compute exactly what the scene asks.
+"""Executing a `Plan`: each step computes (build, modes, analyses) or draws what was computed.
 
-DESIGN.md, "Model only what a scene requires": the plan solves only the degrees of freedom
-the scene models (the axial CO2 scene solves 3), passes ``n_modes`` / ``band`` to the
-solver (a partial solver for "the lowest 10 modes of 10^6 sites"), computes shapes only
-when a drawing needs them (``vectors=False`` otherwise), and imports ASE/phonopy only in
-the cross-check step. `execute` runs the steps in order and records, per step, what was
-computed, by which solver, its accuracy figure and its wall time.
-
-Builders are looked up in `BUILD_FUNCTIONS`, a fixed table of (module, function) inside
-vibra; nothing from a scene file is imported or executed.
+`execute` runs the steps in order and records, per step, what was computed, by which solver,
+its accuracy figure and its wall time. Analysis steps (``crosscheck``, ``response``,
+``continuum``, ``dispersion``, ``structure``) compute everything the drawings need; the
+``render-*`` and ``chart-*`` steps hand those results to `vibra.render` and `vibra.charts`,
+which only draw. Every file is written through `vibra._io` (atomically).
 """
 
 from __future__ import annotations
 
-import importlib
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,215 +16,15 @@ from typing import Any, Callable
 
 import numpy as np
 
+from vibra._io import atomic_write_text
+from vibra.plan.analysis import chain_dispersion, symmetry_hints
+from vibra.plan.build import build_system
+from vibra.plan.model import Plan, PlanResult, StepRecord
 from vibra.scene import Scene
 
-__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "execute", "BUILD_FUNCTIONS"]
-
-#: scene builder -> (vibra module, function). The only way a scene names code.
-BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
-    "linear_chain": ("vibra.chains", "linear_chain"),
-    "diatomic_chain": ("vibra.chains", "diatomic_chain"),
-    "beaded_string": ("vibra.chains", "beaded_string"),
-    "springs": ("vibra.system", "System.from_springs"),
-    "co2": ("vibra.molecules", "co2"),
-    "h2o": ("vibra.molecules", "h2o"),
-    "double_pendulum": ("vibra.lagrangian", "double_pendulum"),
-    "matrices": ("vibra.system", "System.generalized"),
-    "oscillator": ("vibra.response", "Oscillator"),
-}
+__all__ = ["execute", "frequency_lines", "STEPS"]
 
 
-@dataclass(frozen=True)
-class Step:
-    """One planned step.
-
-    Attributes
-    ----------
-    name : str
-        Short identifier (``"build"``, ``"modes"``, ``"render-modes"``, ...).
-    what : str
-        What the step computes or draws, in words, for the report.
-    """
-
-    name: str
-    what: str
-
-
-@dataclass(frozen=True)
-class Plan:
-    """The steps a scene needs, in order.
-
-    Attributes
-    ----------
-    scene : Scene
-    steps : tuple of Step
-    n_modes : int or None
-        Modes asked of the solver (None: all, or the band).
-    vectors : bool
-        Whether mode shapes are computed.
-    """
-
-    scene: Scene
-    steps: tuple[Step, ...]
-    n_modes: int | None
-    vectors: bool
-
-    @property
-    def step_names(self) -> tuple[str, ...]:
-        """Names of the steps, in order."""
-        return tuple(step.name for step in self.steps)
-
-
-@dataclass(frozen=True)
-class StepRecord:
-    """What one executed step did.
-
-    Attributes
-    ----------
-    name, what : str
-        As in `Step`.
-    seconds : float
-        Wall time of the step, in s.
-    solver : str or None
-        The solver path that ran (`Modes.solver`), for solving steps.
-    accuracy : str or None
-        Accuracy figure in words (residual, largest omega error, cross-check difference).
-    outputs : tuple of str
-        Files written by the step (names relative to the output folder).
-    """
-
-    name: str
-    what: str
-    seconds: float
-    solver: str | None = None
-    accuracy: str | None = None
-    outputs: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
-class PlanResult:
-    """Everything an executed plan produced.
-
-    Attributes
-    ----------
-    records : tuple of StepRecord
-    outputs : tuple of str
-        Every file written, in order (relative to the output folder).
-    captions : tuple of str
-        One caption per output.
-    frequencies : tuple of str
-        Lines of the frequency table (for the terminal and the report).
-    modes : Modes or None
-        The computed modes (None for an oscillator scene).
-    """
-
-    records: tuple[StepRecord, ...]
-    outputs: tuple[str, ...]
-    captions: tuple[str, ...]
-    frequencies: tuple[str, ...]
-    modes: Any = None
-
-
-def make_plan(scene: Scene) -> Plan:
-    """The steps that compute exactly what `scene` asks (no work is done here)."""
-    compute, draw = scene.compute, scene.draw
-    steps = [Step("build", f"build the system with builder {scene.system.builder!r}")]
-    vectors = bool(compute.shapes or draw.needs_shapes)
-    n_modes = compute.n_modes
-    if scene.kind != "oscillator":
-        if n_modes is not None:
-            how = f"lowest {n_modes} modes (partial solver)"
-        elif compute.band is not None:
-            how = f"modes with omega in [{compute.band[0]:g}, {compute.band[1]:g}]"
-        else:
-            how = "all modes"
-        shapes = "frequencies and shapes" if vectors else "frequencies only (no shapes)"
-        steps.append(Step("modes", f"{how}: {shapes}, accuracy={compute.accuracy!r}"))
-    if compute.crosscheck:
-        steps.append(Step("crosscheck", "same force field through ASE Vibrations and phonopy"))
-    if compute.response is not None:
-        r = compute.response
-        steps.append(Step("response", f"{r.method} response at {r.n_points} frequencies in "
-                          f"[{r.omega_min:g}, {r.omega_max:g}], C = {r.alpha:g} M + {r.beta:g} K"))
-    if compute.continuum is not None:
-        c = compute.continuum
-        steps.append(Step("continuum", f"modes {list(c.modes)} against the wave equation for "
-                          f"N = {list(c.sizes)} ({c.ends} ends)"))
-    if draw.modes:
-        steps.append(Step("render-modes", f"render {draw.n_draw} mode shapes off-screen (pyvista)"))
-    if draw.gif:
-        steps.append(Step("render-gif", "animated GIF of the lowest drawn mode (pyvista)"))
-    if draw.spectrum:
-        steps.append(Step("chart-spectrum", "stick spectrum of the frequencies"))
-    if draw.dispersion:
-        steps.append(Step("chart-dispersion", "dispersion relation with the chain's modes"))
-    if draw.response:
-        steps.append(Step("chart-response", "response amplitude and phase against frequency"))
-    if draw.convergence:
-        steps.append(Step("chart-convergence", "error of the chain's modes against N (log-log)"))
-    return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)
-
-
-# ---------------------------------------------------------------------- building
-def _function(builder: str) -> Callable[..., Any]:
-    module_name, attribute = BUILD_FUNCTIONS[builder]
-    target: Any = importlib.import_module(module_name)
-    for part in attribute.split("."):
-        target = getattr(target, part)
-    return target
-
-
-def build_system(scene: Scene) -> Any:
-    """The `System` (or, for an oscillator scene, the `Oscillator`) a scene describes."""
-    p = dict(scene.system.parameters)
-    builder = scene.system.builder
-    frozen_sites = p.pop("frozen_sites", None)
-    frozen_dofs = p.pop("frozen_dofs", None)
-    make = _function(builder)
-    lists = {k: (np.asarray(v) if isinstance(v, tuple) else v) for k, v in p.items()}
-    if builder == "linear_chain":
-        mass = lists.pop("mass")
-        site, defect = lists.pop("defect_site"), lists.pop("defect_mass")
-        if site is not None:
-            mass = np.full(p["n"], mass, dtype=float) if np.ndim(mass) == 0 else np.array(mass, dtype=float)
-            mass[site] = defect
-        system = make(lists.pop("n"), mass=mass, units=scene.units, name=scene.name, **lists)
-    elif builder in ("diatomic_chain", "beaded_string"):
-        if builder == "diatomic_chain":
-            lists["masses"] = tuple(p["masses"])
-            if isinstance(p["stiffness"], tuple):
-                lists["stiffness"] = tuple(p["stiffness"])
-        system = make(units=scene.units, name=scene.name, **lists)
-    elif builder == "springs":
-        lists.pop("symbols")
-        springs = np.asarray(p["springs"], dtype=np.intp).reshape(-1, 2)
-        anchors = lists.pop("anchors")
-        system = make(lists.pop("positions"), lists.pop("masses"), springs=springs,
-                      stiffness=lists.pop("stiffness"),
-                      anchors=None if anchors is None else np.asarray(anchors, dtype=np.intp),
-                      anchor_stiffness=lists.pop("anchor_stiffness"), units=scene.units,
-                      name=scene.name)
-    elif builder == "co2":
-        system = make(dims=p["dims"])
-    elif builder == "h2o":
-        system = make()
-    elif builder == "double_pendulum":
-        system = make(**p)
-    elif builder == "matrices":
-        system = make(np.asarray(p["M"]), np.asarray(p["K"]), coordinates=p["coordinates"],
-                      units=scene.units, name=scene.name)
-    elif builder == "oscillator":
-        gammas = p["gamma"] if isinstance(p["gamma"], tuple) else (p["gamma"],)
-        return tuple(make(p["w0"], g, p["m"]) for g in gammas)
-    else:  # pragma: no cover - BUILDERS and BUILD_FUNCTIONS are kept in step
-        raise KeyError(builder)
-    if frozen_sites or frozen_dofs:
-        system = system.freeze(sites=None if not frozen_sites else np.asarray(frozen_sites, dtype=np.intp),
-                               dofs=None if not frozen_dofs else np.asarray(frozen_dofs, dtype=np.intp))
-    return system
-
-
-# ---------------------------------------------------------------------- execution
 @dataclass
 class _Context:
     """Mutable state of one execution (private; results leave as frozen records)."""
@@ -242,6 +37,9 @@ class _Context:
     response: Any = None
     continuum: Any = None
     crosscheck: Any = None
+    dispersion: Any = None
+    structure: Any = None
+    hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)
     captions: list[str] = field(default_factory=list)
 
@@ -304,7 +102,7 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
             if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule"):
                 from vibra.render import SceneRenderer
                 renderer = SceneRenderer(plan.scene.draw.window_size)
-            solver, accuracy = _STEPS[step.name](plan, context, renderer)
+            solver, accuracy = STEPS[step.name](plan, context, renderer)
             seconds = time.perf_counter() - start
             records.append(StepRecord(name=step.name, what=step.what, seconds=seconds, solver=solver,
                                       accuracy=accuracy, outputs=tuple(context.outputs[before:])))
@@ -405,7 +203,7 @@ def _step_continuum(plan: Plan, context: _Context, renderer: Any) -> tuple[str |
 
 
 def _save_chart(context: _Context, figure: Any, what: str, caption: str) -> None:
-    from vibra.charts._style import save_figure
+    from vibra.charts import save_figure
 
     name = f"{context.scene.name}_{what}.png"
     save_figure(figure, context.out_dir / name)
@@ -414,8 +212,6 @@ def _save_chart(context: _Context, figure: Any, what: str, caption: str) -> None
 
 
 def _write_text(context: _Context, name: str, text: str, caption: str) -> None:
-    from vibra.report import atomic_write_text
-
     atomic_write_text(context.out_dir / name, text)
     context.outputs.append(name)
     context.captions.append(caption)
@@ -440,56 +236,63 @@ def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[st
             caption = (f"{plan.scene.title}: the two normal modes drawn as pendulum positions "
                        "(seed 000, eqs. 15-16)")
         else:
-            from vibra.report import shapes_figure
+            from vibra.charts.modes import shapes_figure
 
             figure, caption = shapes_figure(plan.scene, context.system, context.modes, indices)
         _save_chart(context, figure, "modes", caption)
         return None, None
-    hints = _ir_hints(plan.scene, context.system, context.modes)
     for name, caption in renderer.render_modes(plan.scene, context.system, context.modes, indices,
-                                               context.out_dir, hints=hints):
+                                               context.out_dir, structure=context.structure,
+                                               hints=context.hints):
         context.outputs.append(name)
         context.captions.append(caption)
     return None, None
 
 
-def _ir_hints(scene: Scene, system: Any, modes: Any) -> dict[int, str]:
-    """Per-mode IR intensity from the point-charge model of `vibra.spectra` (molecules only).
+def _molecule_structure(scene: Scene, system: Any) -> Any:
+    """Elements and bonds of a molecule scene: the scene's symbols and springs, else guessed.
 
-    Charges come from Pauling electronegativities over the drawn bonds; a mode whose
-    intensity is below 1e-8 of the strongest is called IR-inactive.
+    Without symbols, each site is the element of nearest standard mass; without springs,
+    bonds join atoms closer than 1.25 x the sum of their covalent radii.
     """
-    if scene.kind != "molecule" or system.dim != 3:
-        return {}
-    from vibra import spectra
-    from vibra.render import molecule_bonds, molecule_symbols
+    from vibra.molecules import bonds_from_distances, symbols_from_masses
+    from vibra.render import MoleculeStructure
 
-    symbols = molecule_symbols(system, scene.system.parameters.get("symbols"))
-    bonds = molecule_bonds(system, symbols, scene.system.parameters.get("springs"))
-    if not bonds:
-        return {}
-    charges = spectra.electronegativity_charges(symbols, bonds)
-    ir = spectra.ir_spectrum(system, modes, charges=charges)
-    strongest = float(np.max(ir.intensities)) if len(ir.intensities) else 0.0
-    hints = {}
-    for k, intensity in zip(ir.mode_indices, ir.intensities):
-        active = strongest > 0 and intensity > 1e-8 * strongest
-        hints[int(k)] = (f"IR {'active' if active else 'inactive'} "
-                         f"(point charges: {intensity / strongest if strongest else 0.0:.2f} of strongest)")
-    return hints
+    params = scene.system.parameters
+    symbols = params.get("symbols")
+    if symbols is None:
+        symbols = symbols_from_masses(system.masses)
+    bonds = params.get("springs")
+    if bonds is None:
+        bonds = bonds_from_distances(system.positions, symbols)
+    return MoleculeStructure(tuple(symbols), tuple((int(i), int(j)) for i, j in bonds))
+
+
+def _step_structure(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    """Elements, bonds, and each drawn mode's symmetry / IR-activity text (molecules)."""
+    context.structure = _molecule_structure(plan.scene, context.system)
+    structure = context.structure
+    context.hints = symmetry_hints(context.system, context.modes, _drawn_modes(plan, context),
+                                   structure.symbols, structure.bonds)
+    return None, f"{len(structure.bonds)} bonds"
+
+
+def _step_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    context.dispersion = chain_dispersion(plan.scene.system.parameters, context.modes)
+    return None, None
 
 
 def _step_render_gif(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     index = _drawn_modes(plan, context)[0]
     name, caption = renderer.render_gif(plan.scene, context.system, context.modes, index,
-                                        context.out_dir, context.work_dir)
+                                        context.out_dir, context.work_dir, structure=context.structure)
     context.outputs.append(name)
     context.captions.append(caption)
     return None, None
 
 
 def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.report import spectrum_figure
+    from vibra.charts.modes import spectrum_figure
 
     figure, caption = spectrum_figure(plan.scene, context.modes)
     _save_chart(context, figure, "spectrum", caption)
@@ -499,12 +302,11 @@ def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[
 def _step_chart_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     from vibra.charts import chains as chain_charts
 
-    p = plan.scene.system.parameters
-    masses = p["mass"] if "mass" in p else tuple(p["masses"])
-    stiffness = tuple(p["stiffness"]) if isinstance(p["stiffness"], tuple) else p["stiffness"]
-    figure = chain_charts.plot_dispersion(masses=masses, stiffness=stiffness, spacing=p["spacing"],
-                                          modes=context.modes, ends=p["ends"], units=plan.scene.units,
-                                          title=f"{plan.scene.title}: dispersion")
+    curves = context.dispersion
+    figure = chain_charts.plot_dispersion_curves(curves.q, curves.branches, mode_q=curves.mode_q,
+                                                 mode_omega=curves.mode_omega, n_sites=curves.n_sites,
+                                                 ends=curves.ends, units=plan.scene.units,
+                                                 title=f"{plan.scene.title}: dispersion")
     _save_chart(context, figure, "dispersion",
                 f"{plan.scene.title}: dispersion relation omega(q) over the Brillouin zone, with the "
                 f"{context.modes.n_modes} modes of the finite chain on top")
@@ -546,12 +348,15 @@ def _step_chart_convergence(plan: Plan, context: _Context, renderer: Any) -> tup
     return None, None
 
 
-_STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]] = {
+#: step name -> the function that runs it.
+STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]] = {
     "build": _step_build,
     "modes": _step_modes,
     "crosscheck": _step_crosscheck,
     "response": _step_response,
     "continuum": _step_continuum,
+    "dispersion": _step_dispersion,
+    "structure": _step_structure,
     "render-modes": _step_render_modes,
     "render-gif": _step_render_gif,
     "chart-spectrum": _step_chart_spectrum,

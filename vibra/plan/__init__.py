@@ -1,0 +1,25 @@
+"""A `Scene` -> a `Plan`: the list of steps that compute exactly what the scene asks.
+
+DESIGN.md, "Model only what a scene requires": the plan solves only the degrees of freedom
+the scene models (the axial CO2 scene solves 3), passes ``n_modes`` / ``band`` to the
+solver (a partial solver for "the lowest 10 modes of 10^6 sites"), computes shapes only
+when a drawing needs them (``vectors=False`` otherwise), and imports ASE/phonopy only in
+the cross-check step. `execute` runs the steps in order and records, per step, what was
+computed, by which solver, its accuracy figure and its wall time.
+
+- `vibra.plan.model`: `Step`, `Plan`, `StepRecord`, `PlanResult`, `make_plan`.
+- `vibra.plan.build`: `build_system` (builders from the fixed table `BUILD_FUNCTIONS`;
+  nothing from a scene file is imported or executed).
+- `vibra.plan.analysis`: what drawings need computed (symmetry and IR hints, dispersion).
+- `vibra.plan.steps`: `execute` and the step functions.
+"""
+
+from __future__ import annotations
+
+from vibra.plan.build import build_system
+from vibra.plan.model import Plan, PlanResult, Step, StepRecord, make_plan
+from vibra.plan.steps import execute, frequency_lines
+from vibra.scene import BUILD_FUNCTIONS
+
+__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "execute", "BUILD_FUNCTIONS",
+           "build_system", "frequency_lines"]

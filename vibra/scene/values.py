@@ -1,0 +1,149 @@
+"""Value checks of the scene schema: each takes (value, fail) and returns the normalised value.
+
+Lists become tuples; ``fail(message)`` raises a `SceneError` at the key being checked. Every
+value in a scene is a number, a string, a boolean, a list or a table: nothing is evaluated.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+__all__ = ["Check", "FieldSpec", "field_spec", "kind_name", "number", "positive", "nonnegative", "integer",
+           "boolean", "string", "one_of", "list_of", "scalar_or_list", "index_pairs", "matrix", "coordinates",
+           "table"]
+
+Check = Callable[[Any, Callable[[str], Any]], Any]
+
+
+def kind_name(value: Any) -> str:
+    names = {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
+             list: "a list", dict: "a table"}
+    return names.get(type(value), type(value).__name__)
+
+
+def number(value: Any, fail: Callable[[str], Any]) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        fail(f"expected a number, got {kind_name(value)} ({value!r})")
+    if not math.isfinite(value):
+        fail(f"expected a finite number, got {value!r}")
+    return float(value)
+
+
+def positive(value: Any, fail: Callable[[str], Any]) -> float:
+    checked = number(value, fail)
+    if checked <= 0:
+        fail(f"must be positive, got {value!r}")
+    return checked
+
+
+def nonnegative(value: Any, fail: Callable[[str], Any]) -> float:
+    checked = number(value, fail)
+    if checked < 0:
+        fail(f"must be >= 0, got {value!r}")
+    return checked
+
+
+def integer(low: int, high: int | None = None) -> Check:
+    def check(value: Any, fail: Callable[[str], Any]) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            fail(f"expected an integer, got {kind_name(value)} ({value!r})")
+        if value < low or (high is not None and value > high):
+            bound = f"{low} <= value <= {high}" if high is not None else f">= {low}"
+            fail(f"must be {bound}, got {value}")
+        return int(value)
+    return check
+
+
+def boolean(value: Any, fail: Callable[[str], Any]) -> bool:
+    if not isinstance(value, bool):
+        fail(f"expected true or false, got {kind_name(value)} ({value!r})")
+    return bool(value)
+
+
+def string(value: Any, fail: Callable[[str], Any]) -> str:
+    if not isinstance(value, str):
+        fail(f"expected a string, got {kind_name(value)} ({value!r})")
+    return str(value)
+
+
+def one_of(*allowed: Any) -> Check:
+    def check(value: Any, fail: Callable[[str], Any]) -> Any:
+        if value not in allowed or isinstance(value, bool) != isinstance(allowed[0], bool):
+            options = ", ".join(repr(a) for a in allowed)
+            fail(f"is {value!r}; expected one of {options}")
+        return value
+    return check
+
+
+def list_of(item: Check, *, length: int | None = None, min_length: int = 1) -> Check:
+    def check(value: Any, fail: Callable[[str], Any]) -> tuple[Any, ...]:
+        if not isinstance(value, list):
+            fail(f"expected a list, got {kind_name(value)} ({value!r})")
+        if length is not None and len(value) != length:
+            fail(f"needs {length} values, got {len(value)}")
+        if len(value) < min_length:
+            fail(f"needs at least {min_length} values, got {len(value)}")
+        out = []
+        for i, entry in enumerate(value):
+            out.append(item(entry, _prefixed(fail, f"[{i}] ")))
+        return tuple(out)
+    return check
+
+
+def _prefixed(fail: Callable[[str], Any], prefix: str) -> Callable[[str], Any]:
+    def prefixed(message: str) -> Any:
+        return fail(prefix + message)
+    return prefixed
+
+
+def scalar_or_list(item: Check) -> Check:
+    listed = list_of(item)
+
+    def check(value: Any, fail: Callable[[str], Any]) -> Any:
+        return listed(value, fail) if isinstance(value, list) else item(value, fail)
+    return check
+
+
+def index_pairs(value: Any, fail: Callable[[str], Any]) -> tuple[tuple[int, int], ...]:
+    return list_of(list_of(integer(0), length=2), min_length=0)(value, fail)
+
+
+def matrix(value: Any, fail: Callable[[str], Any]) -> tuple[tuple[float, ...], ...]:
+    rows = list_of(list_of(number))(value, fail)
+    if any(len(row) != len(rows) for row in rows):
+        fail(f"must be a square matrix (a list of {len(rows)} rows of {len(rows)} numbers)")
+    return rows
+
+
+def coordinates(value: Any, fail: Callable[[str], Any]) -> tuple[Any, ...]:
+    if not isinstance(value, list) or not value:
+        fail(f"expected a non-empty list of coordinates, got {kind_name(value)}")
+    if all(not isinstance(v, list) for v in value):
+        return list_of(number)(value, fail)
+    rows = list_of(list_of(number))(value, fail)
+    if len({len(r) for r in rows}) != 1 or len(rows[0]) not in (1, 2, 3):
+        fail("every site needs the same number (1, 2 or 3) of coordinates")
+    return rows
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """One key of a table: its check, its default, and whether a scene must give it."""
+
+    check: Check
+    default: Any = None
+    required: bool = False
+
+
+def field_spec(check: Check, default: Any = None, *, required: bool = False) -> FieldSpec:
+    return FieldSpec(check, default, required)
+
+
+
+def table(value: Any, fail: Callable[[str], Any]) -> Any:
+    """A ``[section]`` table, checked later against its own fields."""
+    if not isinstance(value, dict):
+        fail(f"expected a table ([section]), got {kind_name(value)} ({value!r})")
+    return value
