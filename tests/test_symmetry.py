@@ -437,3 +437,18 @@ def test_symmetry_selection_rules_match_intensity_based_activity(name: str, anal
     table = a.point_group.table
     assert ir.active(1e-6).tolist() == [table.is_ir_active(s) for s in a.species]
     assert raman.active(1e-6).tolist() == [table.is_raman_active(s) for s in a.species]
+
+
+def test_accidental_degeneracy_gets_each_species_once() -> None:
+    """Two stretches of H2O (A1 and B2) made degenerate and mixed by 30 degrees: the set reduces
+    to A1 + B2 (a sum, not one species), so each species is given once, to the mode with the
+    larger projection on it; mixed by 60 degrees the two labels swap."""
+    a = mol.vibrational_analysis(mol.h2o())
+    shapes = np.array(a.modes.shapes[:, a.vibrations])
+    omega = np.array(a.modes.omega[a.vibrations])
+    omega[2] = omega[1]
+    for degrees, expected in ((30, ("A1", "A1", "B2")), (60, ("A1", "B2", "A1"))):
+        c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+        mixed = shapes.copy()
+        mixed[:, 1], mixed[:, 2] = c * shapes[:, 1] + s * shapes[:, 2], -s * shapes[:, 1] + c * shapes[:, 2]
+        assert mol.mode_species(a.point_group, mixed, omega) == expected
