@@ -161,9 +161,6 @@ def test_symmetry_number_divides_the_rotational_partition_function() -> None:
     np.testing.assert_allclose(one.entropy - two.entropy, BOLTZMANN_EV_PER_K * np.log(2.0), rtol=1e-12)
 
 
-@pytest.mark.skipif(not hasattr(vibra.molecules, "point_group"),
-                    reason="vibra.molecules.point_group comes from symmetry.py (another branch); "
-                           "the lead removes this skip at merge")
 def test_symmetry_number_from_the_point_group() -> None:
     for system, sigma in ((mol.co2(), 2), (mol.h2o(), 2), (mol.molecule("NH3"), 3), (mol.molecule("CH4"), 12),
                           (mol.molecule("C6H6", torsion=0.1), 12), (mol.molecule("CH3OH", torsion=0.1), 1)):

@@ -658,13 +658,14 @@ def test_docs_molecules_examples_run_as_written(tmp_path, monkeypatch) -> None:
 
     text = (Path(__file__).resolve().parent.parent / "docs" / "molecules.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
-    assert len(blocks) == 3
+    assert len(blocks) == 4
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     for block in blocks:
         exec(compile(block, "docs/molecules.md", "exec"), namespace)
     assert namespace["co2"].n_dof == 9 and namespace["axial"].n_dof == 3
     assert namespace["result"].n_rigid == 5
+    assert namespace["group"].name == "C2v" and namespace["ch4"].point_group.name == "Td"
     # the export example writes into exports/; the cross-check leaves no cache behind
     assert [p.name for p in tmp_path.iterdir()] == ["exports"]
     assert sorted(p.name for p in (tmp_path / "exports").iterdir()) == [

@@ -186,7 +186,7 @@ def _geometry(geometry: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
 
 def _symmetry_number(geometry: System | Atoms) -> int:
     """sigma from the point group of `geometry` (`vibra.molecules.point_group`)."""
-    from vibra.molecules import point_group  # type: ignore[attr-defined]
+    from vibra.molecules import point_group
 
     return int(point_group(geometry).symmetry_number)
 
