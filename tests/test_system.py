@@ -290,3 +290,19 @@ def test_generalized_system_is_immutable() -> None:
     for array in (system.M, system.K, system.frozen):
         with pytest.raises(ValueError):
             array[0] = 0
+
+
+def test_with_symbols_keeps_one_symbol_per_site_and_refuses_others() -> None:
+    chain = System.from_springs([0.0, 1.1, 2.2], [16.0, 12.0, 16.0], [[0, 1], [1, 2]], 1.0)
+    assert chain.symbols is None
+    labelled = chain.with_symbols(["O", "C", "O"])
+    assert labelled.symbols == ("O", "C", "O") and labelled.with_masses([18.0, 12.0, 16.0]).symbols == ("O", "C", "O")
+    assert labelled.with_symbols(None).symbols is None
+    with pytest.raises(ValueError, match=r"symbols has 2 entries; expected one per site \(3\)"):
+        chain.with_symbols(["O", "C"])
+    with pytest.raises(TypeError, match=r"symbols must be a sequence of str"):
+        chain.with_symbols("OCO")
+    with pytest.raises(TypeError, match=r"symbols\[1\] is 6"):
+        chain.with_symbols(["O", 6, "O"])
+    with pytest.raises(ValueError, match=r"symbols\[2\] is empty"):
+        chain.with_symbols(["O", "C", " "])

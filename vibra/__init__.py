@@ -33,10 +33,9 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "chains", "charts", "cli", "continuum", "crosscheck", "generalized", "gyroscopic", "lagrangian",
-    "linearization", "modes", "pencil", "quadratic",
-    "molecules", "pendulum", "plan", "render", "report", "response", "rigid", "scene", "solvers",
-    "spectra", "system", "units",
+    "assembly", "chains", "charts", "cli", "continuum", "crosscheck", "generalized", "gpu", "gyroscopic",
+    "lagrangian", "linearization", "modes", "molecules", "networks", "pencil", "pendulum", "plan", "quadratic",
+    "render", "report", "response", "rigid", "scene", "solvers", "spectra", "system", "units",
 )
 
 

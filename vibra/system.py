@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra import _validate, assembly
 from vibra._frozen import _freeze_arrays
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
@@ -69,6 +69,9 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         One name per degree of freedom (free and frozen), e.g. ``"3x"``.
     name : str
         A short name used in reports.
+    symbols : tuple of str or None
+        Chemical symbol of each site for a molecule (set by `vibra.molecules` builders, or
+        `with_symbols`); None for other systems.
 
     Examples
     --------
@@ -86,6 +89,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
     frozen: NDArray[np.bool_]
     labels: tuple[str, ...]
     name: str = "system"
+    symbols: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
@@ -178,7 +182,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
                     "position; a spring needs distinct equilibrium positions to define its axis"
                 )
             unit = bond / length[:, None]
-            rows.append(_pair_rows(pairs, unit, n_sites, dim))
+            rows.append(assembly.pair_rows(pairs, unit, n_sites, dim))
             weight_parts.append(k)
         elif stiffness is not None:
             raise ValueError("stiffness was given without springs")
@@ -199,13 +203,13 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
                 if (norm == 0).any():
                     raise ValueError(f"anchor_directions[{int(np.argmin(norm))}] is the zero vector")
                 direction = direction / norm[:, None]
-            rows.append(_single_rows(sites, direction, n_sites, dim))
+            rows.append(assembly.single_rows(sites, direction, n_sites, dim))
             weight_parts.append(k)
         elif anchor_stiffness is not None:
             raise ValueError("anchor_stiffness was given without anchors")
-        coupling, weights = _stack_terms(rows, weight_parts, n_sites * dim)
+        coupling, weights = assembly.stack_terms(rows, weight_parts, n_sites * dim)
         frozen = _frozen_mask(n_sites, dim, frozen_sites, frozen_dofs)
-        extra = _hessian_blocks(blocks, n_sites, dim) if blocks is not None else None
+        extra = assembly.hessian_blocks(blocks, n_sites, dim) if blocks is not None else None
         return cls(
             positions=positions_array, masses=mass_array, units=unit_system(units),
             coupling=coupling, weights=weights, extra_hessian=extra, frozen=frozen,
@@ -348,6 +352,35 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         [1.0, 2.0, 1.0]
         """
         return dataclasses.replace(self, masses=_site_masses(masses, self.n_sites))
+
+    def with_symbols(self, symbols: Sequence[str] | None) -> System:
+        """The same system with a chemical symbol per site (None clears them).
+
+        Raises
+        ------
+        TypeError
+            `symbols` is a single string or holds a non-string.
+        ValueError
+            Not one symbol per site, or an empty symbol.
+
+        Examples
+        --------
+        >>> System.from_springs([0.0, 1.1, 2.2], [16.0, 12.0, 16.0], [[0, 1], [1, 2]], 1.0
+        ...                     ).with_symbols(["O", "C", "O"]).symbols
+        ('O', 'C', 'O')
+        """
+        if symbols is None:
+            return dataclasses.replace(self, symbols=None)
+        if isinstance(symbols, str) or not isinstance(symbols, Sequence):
+            raise TypeError(f"symbols must be a sequence of str, one per site, got {symbols!r}")
+        if len(symbols) != self.n_sites:
+            raise ValueError(f"symbols has {len(symbols)} entries; expected one per site ({self.n_sites})")
+        for i, symbol in enumerate(symbols):
+            if not isinstance(symbol, str):
+                raise TypeError(f"symbols[{i}] is {symbol!r}; expected a str such as 'O'")
+            if not symbol.strip():
+                raise ValueError(f"symbols[{i}] is empty; expected a chemical symbol such as 'O'")
+        return dataclasses.replace(self, symbols=tuple(symbols))
 
     def freeze(self, sites: ArrayLike | None = None, dofs: ArrayLike | None = None) -> System:
         """A copy with more sites or flat degrees of freedom held at rest.
@@ -503,57 +536,6 @@ def _per_item(value: ArrayLike | float | None, n: int, name: str) -> NDArray[np.
 
 
 _index_array = _validate.indices
-
-
-def _pair_rows(pairs: NDArray[np.intp], unit: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:
-    n = len(pairs)
-    axis = np.arange(dim)
-    rows = np.repeat(np.arange(n), 2 * dim)
-    cols = np.concatenate([pairs[:, :1] * dim + axis, pairs[:, 1:] * dim + axis], axis=1).ravel()
-    data = np.concatenate([-unit, unit], axis=1).ravel()
-    return sp.coo_matrix((data, (rows, cols)), shape=(n, n_sites * dim))
-
-
-def _single_rows(sites: NDArray[np.intp], direction: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:
-    n = len(sites)
-    rows = np.repeat(np.arange(n), dim)
-    cols = (sites[:, None] * dim + np.arange(dim)).ravel()
-    return sp.coo_matrix((direction.ravel(), (rows, cols)), shape=(n, n_sites * dim))
-
-
-def _stack_terms(rows: list[sp.coo_matrix], weights: list[NDArray[np.float64]], n_full: int
-                 ) -> tuple[sp.csr_matrix, NDArray[np.float64]]:
-    if not rows:
-        return sp.csr_matrix((0, n_full)), np.zeros(0)
-    b = sp.vstack(rows, format="csr")
-    b.eliminate_zeros()  # axis-aligned springs have zero components
-    return b, np.concatenate(weights)
-
-
-def _hessian_blocks(blocks: Sequence[tuple[ArrayLike, ArrayLike]], n_sites: int, dim: int) -> sp.csr_matrix:
-    """Sum user Hessian blocks into one sparse (n_sites * dim)^2 matrix."""
-    rows: list[NDArray[np.intp]] = []
-    cols: list[NDArray[np.intp]] = []
-    data: list[NDArray[np.float64]] = []
-    for b, block in enumerate(blocks):
-        try:
-            sites, matrix = block
-        except (TypeError, ValueError):
-            raise TypeError(f"blocks[{b}] must be a pair (sites, H)") from None
-        index = _index_array(sites, f"blocks[{b}] sites", n_sites, shape=(-1,))
-        dofs = (index[:, None] * dim + np.arange(dim)).ravel()
-        H = _validate.real_array(matrix, f"blocks[{b}] H", ndim=2)
-        if H.shape != (dofs.size, dofs.size):
-            raise ValueError(f"blocks[{b}] H must be ({dofs.size}, {dofs.size}) for {index.size} sites in {dim}-D, "
-                             f"got {H.shape}")
-        _validate.symmetric(H, f"blocks[{b}] H")
-        rows.append(np.repeat(dofs, dofs.size))
-        cols.append(np.tile(dofs, dofs.size))
-        data.append(H.ravel())
-    size = n_sites * dim
-    if not data:
-        return sp.csr_matrix((size, size))
-    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
 
 
 def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLike | None) -> NDArray[np.bool_]:
