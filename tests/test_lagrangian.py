@@ -332,6 +332,15 @@ def test_rotating_wheel_steady_motion_problem_III():
     system = linearize(T, V, [w], [wd], [0.0], numbers)
     expected = 9.81 * np.cos(0.4) / 0.5 - 2.0**2 * np.cos(0.4) ** 2
     np.testing.assert_allclose(system.modes().omega_squared[0], expected, rtol=1e-13)
+    # The same as a Lagrangian with its velocity-linear term m r^2 sin(al) k w' kept (issue 15):
+    # for one coordinate it is a total derivative, so G vanishes (omitted) and nothing changes.
+    kept = linearize(lagrangian=T - V, q=[w], qd=[wd], q0=[0.0], values=numbers)
+    assert kept.G is None
+    np.testing.assert_allclose(kept.modes().omega_squared[0], expected, rtol=1e-13)
+    # Spun too fast (k^2 > g / (r cos al)), the bottom of the channel is unstable.
+    fast = linearize(lagrangian=T - V, q=[w], qd=[wd], q0=[0.0], values={**numbers, k: 5.0})
+    with pytest.warns(RuntimeWarning, match="imaginary"):
+        assert fast.modes().omega[0] < 0
 
 
 def test_gyroscopic_terms_are_kept():

@@ -211,25 +211,6 @@ def test_lagrangian_keyword_and_its_messages():
         linearize(lagrangian=[xd], q=[x], qd=[xd], q0=[0.0])
 
 
-def test_rotating_wheel_problem_III_with_its_coupling_kept():
-    # Seed 000 problem III as a Lagrangian, its velocity-linear term m r^2 sin(al) k w' kept.
-    # With one coordinate that term is a total derivative: G is zero (omitted), and the
-    # frequency is the seed's Omega^2 = g cos(al) / r - k^2 cos^2(al), as from T and V.
-    w, wd = sympy.symbols("omega omega_dot")
-    m, r, al, k, g = sympy.symbols("m r alpha k g", positive=True)
-    T = m * r**2 * (wd**2 + 2 * sympy.sin(al) * k * wd + (1 - sympy.cos(al) ** 2 * sympy.cos(w) ** 2) * k**2) / 2
-    V = -m * g * r * sympy.cos(al) * sympy.cos(w)
-    numbers = {m: 0.2, r: 0.5, al: 0.4, k: 2.0, g: 9.81}
-    system = linearize(lagrangian=T - V, q=[w], qd=[wd], q0=[0.0], values=numbers)
-    assert system.G is None
-    expected = 9.81 * np.cos(0.4) / 0.5 - 2.0**2 * np.cos(0.4) ** 2
-    np.testing.assert_allclose(system.modes().omega_squared[0], expected, rtol=1e-13)
-    # Spun too fast (k^2 > g / (r cos al)), the bottom of the channel is unstable.
-    fast = linearize(lagrangian=T - V, q=[w], qd=[wd], q0=[0.0], values={**numbers, k: 5.0})
-    with pytest.warns(RuntimeWarning, match="imaginary"):
-        assert fast.modes().omega[0] < 0
-
-
 def test_docs_generalized_runs_as_written(tmp_path, monkeypatch):
     # docs/generalized.md must work exactly as written: its python blocks, in order, in a scratch folder.
     import re
