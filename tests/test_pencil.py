@@ -101,9 +101,6 @@ def test_graded_pencils_against_mpmath(seed):
     modes = pencil_modes(K, M, vectors=False)
     np.testing.assert_allclose(modes.omega**2, expected, rtol=1e-12)
     assert np.all(np.abs(modes.omega - np.sqrt(expected)) <= modes.omega_error)
-    # The mass-weighted eigendecomposition path loses the small ones (a regression witness).
-    plain = np.sort(la.eigh(K, M, eigvals_only=True))
-    assert np.abs(plain / expected - 1).max() > 1e-12 or True
 
 
 def test_pencil_agrees_with_scipy_when_well_conditioned():
