@@ -19,8 +19,9 @@ import numpy as np
 from vibra._io import atomic_write_text
 from vibra.plan.analysis import chain_dispersion, symmetry_hints
 from vibra.plan.build import build_system
+from vibra.plan.checks import REFUSALS, check_plan, step_error
 from vibra.plan.model import Plan, PlanResult, StepRecord
-from vibra.scene import Scene
+from vibra.scene import Scene, SceneError
 
 __all__ = ["execute", "frequency_lines", "STEPS"]
 
@@ -102,7 +103,10 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
             if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule"):
                 from vibra.render import SceneRenderer
                 renderer = SceneRenderer(plan.scene.draw.window_size)
-            solver, accuracy = STEPS[step.name](plan, context, renderer)
+            try:
+                solver, accuracy = STEPS[step.name](plan, context, renderer)
+            except REFUSALS as error:  # a library refusal or a failed solve: one line at the step's key
+                raise step_error(plan.scene, step.name, error) from error
             seconds = time.perf_counter() - start
             records.append(StepRecord(name=step.name, what=step.what, seconds=seconds, solver=solver,
                                       accuracy=accuracy, outputs=tuple(context.outputs[before:])))
@@ -119,6 +123,7 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
 def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     context.system = build_system(plan.scene)
     system = context.system
+    check_plan(plan.scene, system)  # what validate checks: solver fits, response grid off the poles
     if plan.scene.kind == "oscillator":
         return None, None
     return None, f"{system.n_dof} degrees of freedom"
@@ -129,8 +134,8 @@ def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
     context.modes = context.system.modes(plan.n_modes, accuracy=compute.accuracy, vectors=plan.vectors,
                                          band=compute.band, solver=compute.solver)
     if context.modes.n_modes == 0 and compute.band is not None:  # only a band can come back empty
-        raise RuntimeError(f"compute.band: no mode has omega in [{compute.band[0]:g}, {compute.band[1]:g}] "
-                           f"{context.modes.units.omega}; nothing to list or draw")
+        raise SceneError(plan.scene.source, "compute.band", f"no mode has omega in [{compute.band[0]:g}, "
+                         f"{compute.band[1]:g}] {context.modes.units.omega}; nothing to list or draw")
     return context.modes.solver, _accuracy_text(context.modes)
 
 

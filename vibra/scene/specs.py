@@ -115,6 +115,9 @@ class ComputeSpec:
     continuum : ContinuumSpec or None
     crosscheck : bool
         Compare against ASE and phonopy (molecules only).
+    memory_limit_gib : float or None
+        Largest memory estimate (`vibra.scene.limits`) the scene may reach, in GiB; None:
+        half of the machine's physical memory.
     """
 
     n_modes: int | None = None
@@ -125,6 +128,7 @@ class ComputeSpec:
     response: ResponseSpec | None = None
     continuum: ContinuumSpec | None = None
     crosscheck: bool = False
+    memory_limit_gib: float | None = None
 
 
 @dataclass(frozen=True)
