@@ -177,8 +177,10 @@ def read_scene_bytes(path: str | os.PathLike[str]) -> bytes:
         raise SceneError(source, "", "is a folder; expected a scene file (a folder is expanded only when "
                          "given on the command line)")
     if not stat.S_ISREG(info.st_mode):
-        raise SceneError(source, "", "is not a regular file (a FIFO, device or socket); scene files are read "
-                         "from regular files only")
+        what = ("a FIFO" if stat.S_ISFIFO(info.st_mode) else "a device" if stat.S_ISCHR(info.st_mode)
+                or stat.S_ISBLK(info.st_mode) else "a socket" if stat.S_ISSOCK(info.st_mode) else "not a file")
+        raise SceneError(source, "", f"is {what}, not a regular file; scene files are read from regular files "
+                         "only (nothing was read)")
     if info.st_size > MAX_SCENE_BYTES:
         raise SceneError(source, "", f"is {info.st_size} bytes; a scene file may hold at most "
                          f"{MAX_SCENE_BYTES} bytes (1 MiB)")
