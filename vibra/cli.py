@@ -99,8 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _validate(paths: Sequence[str]) -> int:
-    from vibra.plan import build_system, check_plan
-    from vibra.plan.checks import REFUSALS, step_error
+    from vibra.plan import validate
     from vibra.scene import SceneError, find_scene_files, load_scene
 
     files = find_scene_files(list(paths))
@@ -112,11 +111,7 @@ def _validate(paths: Sequence[str]) -> int:
     for file in files:
         try:
             scene = load_scene(file)
-            try:
-                system = build_system(scene)  # the builders' own checks: what validates also builds
-                check_plan(scene, system)  # and what the later steps would refuse
-            except REFUSALS as error:
-                raise step_error(scene, "build", error) from error
+            validate(scene)  # the builders' own checks, and what the later steps would refuse
         except SceneError as error:
             failed += 1
             print(f"FAIL {error}")
@@ -129,8 +124,7 @@ def _validate(paths: Sequence[str]) -> int:
 def _modes(path: str) -> int:
     import time
 
-    from vibra.plan import build_system, check_plan, frequency_lines
-    from vibra.plan.checks import REFUSALS, step_error
+    from vibra.plan import REFUSALS, build_system, check_plan, frequency_lines, step_error
     from vibra.scene import SceneError, load_scene
 
     try:
@@ -138,16 +132,14 @@ def _modes(path: str) -> int:
         if scene.kind == "oscillator":
             raise SceneError(path, "kind", "an oscillator scene has no normal modes to list")
         start = time.perf_counter()
-        step = "build"
+        compute = scene.compute
         try:
             system = build_system(scene)
-            check_plan(scene, system)
-            step = "modes"
-            compute = scene.compute
+            check_plan(scene, system, response=False)  # the table needs the modes only
             modes = system.modes(compute.n_modes, accuracy=compute.accuracy, vectors=False, band=compute.band,
                                  solver=compute.solver)
         except REFUSALS as error:
-            raise step_error(scene, step, error) from error
+            raise step_error(scene, "modes", error) from error
     except SceneError as error:
         print(f"vibra modes: {error}", file=sys.stderr)
         return EXIT_FAILED

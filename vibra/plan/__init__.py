@@ -19,10 +19,10 @@ computed, by which solver, its accuracy figure and its wall time.
 from __future__ import annotations
 
 from vibra.plan.build import build_system
-from vibra.plan.checks import check_plan, step_error
+from vibra.plan.checks import REFUSALS, check_plan, step_error, validate
 from vibra.plan.model import Plan, PlanResult, Step, StepRecord, make_plan
 from vibra.plan.steps import execute, frequency_lines
 from vibra.scene import BUILD_FUNCTIONS
 
 __all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "execute", "BUILD_FUNCTIONS",
-           "build_system", "frequency_lines", "check_plan", "step_error"]
+           "build_system", "frequency_lines", "check_plan", "step_error", "validate", "REFUSALS"]

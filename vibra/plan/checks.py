@@ -1,8 +1,11 @@
 """What `vibra validate` checks on a built system, and how a failing step becomes a `SceneError`.
 
 `check_plan(scene, system)` runs, on the system the builder returned, the cheap checks of
-what the later steps would refuse: a solver that cannot serve the system's structure, and a
-response grid that meets a pole of an undamped (or free) system. `step_error(scene, step,
+what the later steps would refuse: a solver that cannot serve the system's structure, a
+response grid that starts at omega = 0 on a free system, elements the drawings do not know,
+and, for a small system (up to `SPECTRUM_CHECK_LIMIT` dofs), a dry run of the solve
+(frequencies only: an empty band, a failing solver) and of the response grid (a pole of an
+undamped system) exactly as the plan will run them. `step_error(scene, step,
 error)` turns what a library function refused while a step ran into a `SceneError` at the
 scene key that controls that step, so the command line prints one line, never a traceback.
 """
@@ -14,14 +17,18 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from vibra.plan.build import build_system
 from vibra.scene import Scene, SceneError
 from vibra.solvers import DENSE_ALL_LIMIT
 
-__all__ = ["check_plan", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT"]
+__all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
+           "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
 
 #: A response grid is checked against the system's frequencies up to this many dofs (a fast
 #: frequencies-only solve); larger systems are checked when the response step runs.
 SPECTRUM_CHECK_LIMIT = 2000
+#: The response of a small system is computed as a dry run when n_dof x n_points is at most this.
+DRY_RESPONSE_LIMIT = 200_000
 
 #: step name -> the scene key that controls it (named in the error of a failing step).
 STEP_KEYS = {
@@ -76,43 +83,110 @@ def _solver(scene: Scene, system: Any) -> None:
                          f"{8 * n_dof * n_dof / 2**30:.1f} GiB; give compute.n_modes or use 'auto'")
 
 
-def _response(scene: Scene, system: Any) -> None:
+def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
+    """The arguments of `vibra.response.frequency_response` for the scene's ``[compute.response]``.
+
+    Returns ``(K, M, C, omegas, force, method, n_modes)``: a unit force at ``force_site``,
+    Rayleigh damping C = alpha M + beta K, omegas spaced linearly.
+    """
+    from vibra import response
+
     r = scene.compute.response
-    if r is None or scene.kind == "oscillator" or system.n_dof > SPECTRUM_CHECK_LIMIT:
-        return
-    omega = np.asarray(system.modes(vectors=False, accuracy="fast").omega, dtype=float)
-    top = float(np.max(np.abs(omega), initial=0.0))
-    zero = np.abs(omega) <= 1e-6 * top
-    if r.omega_min == 0.0 and zero.any():
-        raise SceneError(scene.source, "compute.response.omega_min", "is 0, where this free system (it has "
-                         f"{int(zero.sum())} rigid-body modes) has an unbounded static response; start the grid "
-                         "above 0 or hold the system (frozen_sites, anchors, fixed ends)")
-    if r.alpha > 0.0 or (r.beta > 0.0 and not zero.any()):
-        return
-    grid = np.linspace(r.omega_min, r.omega_max, r.n_points)
-    tolerance = 16 * system.n_dof * np.finfo(float).eps * max(top, r.omega_max) ** 2
-    moving = omega[~zero] if r.beta > 0.0 else omega
-    for w in grid:
-        hit = np.abs(moving ** 2 - w * w) <= tolerance
-        if hit.any():
-            raise SceneError(scene.source, "compute.response", f"the frequency grid meets the undamped resonance "
-                             f"omega = {float(moving[hit][0]):.6g}, where the response is infinite; add damping "
-                             "(alpha or beta) or change omega_min, omega_max or n_points")
+    assert r is not None  # called only with a response table
+    omegas = np.linspace(r.omega_min, r.omega_max, r.n_points)
+    force = np.zeros(system.n_dof)
+    force[r.force_site] = 1.0
+    K, M = system.hessian(), system.mass_matrix()
+    C = response.rayleigh_damping(K, M, r.alpha, r.beta)
+    return K, M, C, omegas, force, r.method, r.n_modes
 
 
-def check_plan(scene: Scene, system: Any) -> None:
+def empty_band(scene: Scene, modes: Any) -> SceneError | None:
+    """The error for a ``compute.band`` that holds no mode (None when it holds some or there is no band)."""
+    band = scene.compute.band
+    if band is None or modes.n_modes:
+        return None
+    return SceneError(scene.source, "compute.band", f"no mode has omega in [{band[0]:g}, {band[1]:g}] "
+                      f"{modes.units.omega}; nothing to list or draw")
+
+
+def _dry_run(scene: Scene, system: Any, response: bool) -> None:
+    """Run the cheap steps of a small system as the plan will (frequencies only, the response grid)."""
+    compute = scene.compute
+    r = compute.response
+    if response and r is not None and r.omega_min == 0.0:
+        omega = np.asarray(system.modes(vectors=False, accuracy="fast").omega, dtype=float) \
+            if system.n_dof <= SPECTRUM_CHECK_LIMIT else np.ones(1)
+        zero = np.abs(omega) <= 1e-6 * float(np.max(np.abs(omega), initial=0.0))
+        if zero.any():
+            raise SceneError(scene.source, "compute.response.omega_min", "is 0, where this free system (it has "
+                             f"{int(zero.sum())} rigid-body modes) has an unbounded static response; start the "
+                             "grid above 0 or hold the system (frozen_sites, anchors, fixed ends)")
+    if system.n_dof > SPECTRUM_CHECK_LIMIT:
+        return
+    try:
+        modes = system.modes(compute.n_modes, accuracy=compute.accuracy, vectors=False, band=compute.band,
+                             solver=compute.solver)
+    except REFUSALS as error:
+        raise step_error(scene, "modes", error) from error
+    error = empty_band(scene, modes)
+    if error is not None:
+        raise error
+    if response and r is not None and system.n_dof * r.n_points <= DRY_RESPONSE_LIMIT:
+        from vibra import response as analyses
+
+        K, M, C, omegas, force, method, n_modes = response_request(scene, system)
+        try:
+            analyses.frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes,
+                                        units=system.units)
+        except REFUSALS as failure:
+            raise step_error(scene, "response", failure) from failure
+
+
+def _symbols(scene: Scene, system: Any) -> None:
+    """Elements the structure step needs (point charges of 3-D molecules that draw their modes)."""
+    symbols = scene.system.parameters.get("symbols")
+    if symbols is None or scene.kind != "molecule" or not (scene.draw.modes or scene.draw.gif) or system.dim != 3:
+        return
+    from vibra.spectra import PAULING_ELECTRONEGATIVITY
+
+    for i, symbol in enumerate(symbols):
+        if symbol not in PAULING_ELECTRONEGATIVITY:
+            raise SceneError(scene.source, f"system.symbols[{i}]", f"is {symbol!r}, which the IR-activity hints "
+                             f"of drawn modes do not know; known: {', '.join(PAULING_ELECTRONEGATIVITY)}")
+
+
+def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
     """Check, on the built `system`, what the plan's later steps would refuse (cheap checks only).
 
     Raises
     ------
     SceneError
         A solver that cannot serve this system (``compute.solver``), or a response grid on
-        a pole: omega = 0 for a free system, an undamped resonance (``compute.response``).
+        a pole: omega = 0 for a free system, an undamped resonance (``compute.response``;
+        checked only when `response` is true).
     """
     if scene.kind == "oscillator":
         return
     try:
         _solver(scene, system)
-        _response(scene, system)
+        _symbols(scene, system)
+        _dry_run(scene, system, response)
     except REFUSALS as error:
         raise step_error(scene, "modes", error) from error
+
+
+def validate(scene: Scene) -> Any:
+    """What ``vibra validate`` runs on a scene: build its system and `check_plan`; return the system.
+
+    Raises
+    ------
+    SceneError
+        Whatever the builder or the checks refuse, at the key that controls it.
+    """
+    try:
+        system = build_system(scene)
+        check_plan(scene, system)
+    except REFUSALS as error:
+        raise step_error(scene, "build", error) from error
+    return system

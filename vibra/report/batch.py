@@ -195,6 +195,21 @@ def run_scene(path: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, 
             pass
 
 
+def _die_with_parent(parent: int) -> None:
+    """Worker initializer: end this worker when the report process dies (Linux), so a killed
+    report leaves no orphan still writing into the folder (its temporary files are then stale)."""
+    import ctypes
+    import signal
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not Linux: the worker ends after its current scene
+        pass
+    if os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
+
+
 def _worker(path: str, out_dir: str, force: bool, window_size: Sequence[int] | None) -> SceneOutcome:
     return run_scene(path, out_dir, force=force, window_size=window_size)
 
@@ -292,7 +307,8 @@ def _run_all(files: Sequence[Path], target: Path, *, jobs: int, force: bool, win
 
         # spawn: a fresh interpreter per worker (VTK and forked GL state do not mix).
         context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(jobs, len(pending)), mp_context=context) as pool:
+        with ProcessPoolExecutor(max_workers=min(jobs, len(pending)), mp_context=context,
+                                 initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
             futures = {pool.submit(_worker, str(files[i]), str(target), force, size): i for i in pending}
             try:
                 for future in as_completed(futures):
