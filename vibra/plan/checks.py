@@ -129,9 +129,9 @@ def _dry_run(scene: Scene, system: Any, response: bool) -> None:
                              solver=compute.solver)
     except REFUSALS as error:
         raise step_error(scene, "modes", error) from error
-    error = empty_band(scene, modes)
-    if error is not None:
-        raise error
+    empty = empty_band(scene, modes)
+    if empty is not None:
+        raise empty
     if response and r is not None and system.n_dof * r.n_points <= DRY_RESPONSE_LIMIT:
         from vibra import response as analyses
 

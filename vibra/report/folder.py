@@ -147,8 +147,8 @@ def clean_stale(out_dir: Path) -> list[Path]:
         if not folder.is_dir():
             continue
         for entry in folder.iterdir():
-            owner = temporary_owner(entry.name)
-            if owner is not None and not pid_alive(owner) and entry.is_file():
+            writer = temporary_owner(entry.name)
+            if writer is not None and not pid_alive(writer) and entry.is_file():
                 entry.unlink(missing_ok=True)
                 removed.append(entry)
     return removed
@@ -169,8 +169,9 @@ def output_is_sound(path: Path) -> bool:
 
             with Image.open(path) as image:
                 image.load()  # a truncated file raises here
-                if getattr(image, "n_frames", 1) > 1:
-                    image.seek(image.n_frames - 1)
+                frames = int(getattr(image, "n_frames", 1))
+                if frames > 1:  # an animation: its last frame must decode too
+                    image.seek(frames - 1)
                     image.load()
         elif suffix == ".json":
             json.loads(path.read_text(encoding="utf-8"))
