@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from vibra.plan.analysis import dispersion_branches
 from vibra.plan.build import build_system
 from vibra.scene import Scene, SceneError
 from vibra.solvers import DENSE_ALL_LIMIT
@@ -122,6 +123,11 @@ def _dry_run(scene: Scene, system: Any, response: bool) -> None:
             raise SceneError(scene.source, "compute.response.omega_min", "is 0, where this free system (it has "
                              f"{int(zero.sum())} rigid-body modes) has an unbounded static response; start the "
                              "grid above 0 or hold the system (frozen_sites, anchors, fixed ends)")
+    if scene.draw.dispersion:
+        try:
+            dispersion_branches(scene.system.parameters, n_q=2)
+        except REFUSALS as error:
+            raise step_error(scene, "dispersion", error) from error
     if system.n_dof > SPECTRUM_CHECK_LIMIT:
         return
     try:
