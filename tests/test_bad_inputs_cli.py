@@ -115,6 +115,9 @@ SCENES = [
     ("response-points-memory", chain(compute="[compute.response]\nomega_min = 0.1\nomega_max = 2.0\n"
                                      "n_points = 100000\n").replace("n = 4", "n = 100000"),
      "compute.response.n_points", "would need about"),
+    ("all-modes-of-1e7", chain().replace("n = 4", "n = 10000000"), "compute.n_modes",
+     "about 1e+06 s, more than the limit of 600 s"),
+    ("time-limit-negative", chain(compute="time_limit_s = 0.0\n"), "compute.time_limit_s", "must be positive"),
     ("memory-limit-tiny", chain(compute="memory_limit_gib = 1e-9\n"), "system.n", "compute.memory_limit_gib"),
     ("memory-limit-negative", chain(compute="memory_limit_gib = -1.0\n"), "compute.memory_limit_gib",
      "must be positive"),
@@ -262,6 +265,21 @@ def test_validate_refuses_in_one_line(case: str, text: str, key: str, fragment: 
 
 def test_scene_keys_of_the_refusals_are_distinct_cases() -> None:
     assert len({case[0] for case in SCENES}) == len(SCENES) >= 100
+
+
+def test_limits_can_be_raised() -> None:
+    from vibra.scene import Scene
+
+    table = {"kind": "chain", "system": {"builder": "linear_chain", "n": 300_000}}
+    with pytest.raises(ValueError, match=r"compute\.n_modes: is not given, so all 300000 modes"):
+        Scene.from_dict(table, source="s.toml")  # ~900 s of O(N^2) work
+    assert Scene.from_dict({**table, "compute": {"time_limit_s": 1000.0}}, source="s.toml").compute.time_limit_s == 1000
+    assert Scene.from_dict({**table, "compute": {"n_modes": 10}}, source="s.toml").compute.n_modes == 10
+    big = {"kind": "chain", "system": {"builder": "linear_chain", "n": 10**9}, "compute": {"n_modes": 3}}
+    with pytest.raises(ValueError, match=r"system\.n: would need about 596 GiB"):
+        Scene.from_dict(big, source="s.toml")
+    raised = {**big, "compute": {"n_modes": 3, "memory_limit_gib": 1000.0}}
+    assert Scene.from_dict(raised, source="s.toml").compute.memory_limit_gib == 1000.0
 
 
 def test_a_byte_order_mark_is_tolerated(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

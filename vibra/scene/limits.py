@@ -1,10 +1,12 @@
-"""How much memory a scene would take, estimated from its parameters before anything is built.
+"""How much memory (and time) a scene would take, estimated from its parameters before anything is built.
 
 `vibra validate` and `vibra report` refuse a scene whose estimate exceeds its memory limit
 (``compute.memory_limit_gib``; by default half of this machine's physical memory) before any
 array is allocated, saying what it would take and the cheaper request that answers the
 question (``n_modes``, no shapes, fewer response points). The figures are upper bounds of the
 arrays the plan keeps (float64, 8 bytes a number), not of the solvers' small workspaces.
+Likewise a request for all modes of a large system, O(N^2) work, is refused when its
+estimate exceeds ``compute.time_limit_s`` (default `DEFAULT_TIME_LIMIT_S`).
 
 >>> from types import MappingProxyType
 >>> sites_and_dim("linear_chain", MappingProxyType({"n": 10}))
@@ -17,10 +19,16 @@ import os
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-__all__ = ["BYTES_PER_DOF", "sites_and_dim", "default_memory_limit", "MemoryEstimate", "memory_estimate", "gib"]
+__all__ = ["BYTES_PER_DOF", "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "sites_and_dim", "n_dof_bound",
+           "default_memory_limit", "MemoryEstimate", "memory_estimate", "all_modes_seconds", "gib"]
 
 #: Bytes a built system keeps per degree of freedom (positions, masses, sparse K and M, spring factor).
 BYTES_PER_DOF = 512
+#: Seconds per N^2 of an all-frequency solve of N dofs (tridiagonal and bidiagonal paths are
+#: O(N^2): all 10^5 frequencies of a chain took 139 s on a shared 2-core machine).
+SECONDS_PER_DOF_SQUARED = 1e-8
+#: Longest estimated all-frequency solve a scene may ask for without ``compute.time_limit_s``, in s.
+DEFAULT_TIME_LIMIT_S = 600.0
 
 
 def sites_and_dim(builder: str, p: Mapping[str, Any]) -> tuple[int, int] | None:
@@ -71,6 +79,26 @@ class MemoryEstimate:
     advice: str
 
 
+def n_dof_bound(builder: str, parameters: Mapping[str, Any]) -> int | None:
+    """Degrees of freedom a builder's parameters describe, before freezing (None: not size-driven)."""
+    if builder == "matrices":
+        return len(parameters["M"])
+    geometry = sites_and_dim(builder, parameters)
+    return None if geometry is None else geometry[0] * geometry[1]
+
+
+def all_modes_seconds(builder: str, parameters: Mapping[str, Any], compute: Any) -> float:
+    """Estimated seconds of the scene's solve when it asks for all modes (0 for a partial request).
+
+    All N frequencies cost O(N^2) work (`SECONDS_PER_DOF_SQUARED`); ``n_modes`` or ``band``
+    use a partial solver instead.
+    """
+    n_dof = n_dof_bound(builder, parameters)
+    if n_dof is None or compute.n_modes is not None or compute.band is not None:
+        return 0.0
+    return SECONDS_PER_DOF_SQUARED * float(n_dof) ** 2
+
+
 def memory_estimate(builder: str, parameters: Mapping[str, Any], compute: Any, draw: Any) -> MemoryEstimate | None:
     """Estimate the memory of a scene's plan from its parameters (None: not size-driven).
 
@@ -83,13 +111,10 @@ def memory_estimate(builder: str, parameters: Mapping[str, Any], compute: Any, d
     compute, draw : ComputeSpec, DrawSpec
         What the scene computes and draws.
     """
-    geometry = sites_and_dim(builder, parameters)
-    if builder == "matrices":
-        n_dof = len(parameters["M"])
-    elif geometry is not None:
-        n_dof = geometry[0] * geometry[1]
-    else:
+    bound = n_dof_bound(builder, parameters)
+    if bound is None:
         return None
+    n_dof = bound
     size_key = {"linear_chain": "system.n", "beaded_string": "system.n", "diatomic_chain": "system.n_cells",
                 "springs": "system.positions", "matrices": "system.M"}.get(builder, "system")
     vectors = bool(compute.shapes or draw.modes or draw.gif)

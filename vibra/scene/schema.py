@@ -14,7 +14,9 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping
 
 from vibra.modes import SOLVERS
-from vibra.scene.limits import default_memory_limit, gib, memory_estimate, sites_and_dim
+from vibra.scene.limits import (
+    DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
+)
 from vibra.scene.builders import BUILDER_KINDS, BUILDERS, builder_fields
 from vibra.scene.specs import ComputeSpec, ContinuumSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec
 from vibra.scene.values import (
@@ -103,6 +105,7 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
         "continuum": field_spec(table),
         "crosscheck": field_spec(boolean, False),
         "memory_limit_gib": field_spec(positive),
+        "time_limit_s": field_spec(positive),
     })
     if values["n_modes"] is not None and values["band"] is not None:
         reader.fail("compute.band", "give either n_modes or band, not both")
@@ -151,7 +154,7 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
     return ComputeSpec(n_modes=values["n_modes"], band=values["band"], shapes=values["shapes"],
                        accuracy=values["accuracy"], solver=values["solver"], response=response,
                        continuum=continuum, crosscheck=values["crosscheck"],
-                       memory_limit_gib=values["memory_limit_gib"])
+                       memory_limit_gib=values["memory_limit_gib"], time_limit_s=values["time_limit_s"])
 
 
 def parse_draw(reader: Reader, data: Any) -> DrawSpec:
@@ -228,7 +231,7 @@ def check_combinations(reader: Reader, scene: Any) -> None:
 
 
 def _check_memory(reader: Reader, scene: Any) -> None:
-    """Refuse a scene whose memory estimate (`vibra.scene.limits`) exceeds its limit, before any allocation."""
+    """Refuse a scene whose memory or time estimate (`vibra.scene.limits`) exceeds its limit, before any work."""
     compute = scene.compute
     estimate = memory_estimate(scene.system.builder, scene.system.parameters, compute, scene.draw)
     if estimate is None:
@@ -239,6 +242,13 @@ def _check_memory(reader: Reader, scene: Any) -> None:
         reader.fail(estimate.key, f"would need about {gib(estimate.total)} of memory (mostly {estimate.largest}), "
                     f"more than the limit of {gib(limit)} ({source}); ask for {estimate.advice}, or raise "
                     "compute.memory_limit_gib if the machine has the memory")
+    seconds = all_modes_seconds(scene.system.builder, scene.system.parameters, compute)
+    time_limit = DEFAULT_TIME_LIMIT_S if compute.time_limit_s is None else compute.time_limit_s
+    if seconds > time_limit:
+        n_dof = n_dof_bound(scene.system.builder, scene.system.parameters)
+        reader.fail("compute.n_modes", f"is not given, so all {n_dof} modes are asked for: O(N^2) work, about "
+                    f"{seconds:.2g} s, more than the limit of {time_limit:g} s (compute.time_limit_s); ask for "
+                    "compute.n_modes or compute.band (a partial solver), or raise compute.time_limit_s")
 
 
 def _check_frozen(reader: Reader, scene: Any) -> int | None:
