@@ -18,7 +18,7 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import NoReturn, Sequence
+from typing import Any, NoReturn, Sequence
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERNAL"]
 
@@ -95,6 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders")
     mod = sub.add_parser("modes", help="print a table of a scene's frequencies")
     mod.add_argument("scene", metavar="SCENE", help="one scene file")
+    mod.add_argument("--molden", metavar="FILE", help="also write the vibrations of a molecule scene as a Molden "
+                     "normal-mode file (Avogadro, Jmol, Molden)")
     return parser
 
 
@@ -121,10 +123,28 @@ def _validate(paths: Sequence[str]) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
-def _modes(path: str) -> int:
+def _write_molden(scene: Any, system: Any, target: str) -> None:
+    """`vibra modes --molden FILE`: the molecule's vibrations as a Molden file; refusals as a SceneError."""
+    from vibra.molecules import vibrational_analysis, write_molden
+    from vibra.scene import SceneError
+
+    if scene.kind != "molecule" or getattr(system, "dim", None) != 3:
+        raise SceneError(scene.source, "kind", "--molden writes molecules only (a 3-D molecule scene); this is a "
+                         f"{scene.kind!r} scene" + ("" if scene.kind != "molecule" else " in 1-D"))
+    try:
+        write_molden(target, system, vibrational_analysis(system))
+    except OSError as error:
+        raise SceneError(scene.source, "", f"--molden: cannot write {target!r} "
+                         f"({error.strerror or type(error).__name__})") from None
+    except (ValueError, TypeError) as error:
+        raise SceneError(scene.source, "", f"--molden: {error}") from None
+
+
+def _modes(path: str, molden: str | None = None) -> int:
     import time
 
     from vibra.plan import REFUSALS, build_system, check_plan, frequency_lines, step_error
+    from vibra.plan.analysis import molecule_symmetry
     from vibra.scene import SceneError, load_scene
 
     try:
@@ -140,12 +160,18 @@ def _modes(path: str) -> int:
                                  solver=compute.solver)
         except REFUSALS as error:
             raise step_error(scene, "modes", error) from error
+        if molden is not None:
+            _write_molden(scene, system, molden)
     except SceneError as error:
         print(f"vibra modes: {error}", file=sys.stderr)
         return EXIT_FAILED
     seconds = time.perf_counter() - start
-    print(f"{scene.title}: {modes.n_modes} of {system.n_dof} modes, solver {modes.solver}, {seconds:.3f} s")
-    print("\n".join(frequency_lines(scene, modes)))
+    symmetry = molecule_symmetry(system, modes) if scene.kind == "molecule" else None
+    solver = getattr(modes, "solver", None) or getattr(modes, "method", "")  # QuadraticModes name a method
+    print(f"{scene.title}: {modes.n_modes} of {system.n_dof} modes, solver {solver}, {seconds:.3f} s")
+    print("\n".join(frequency_lines(scene, modes, symmetry)))
+    if molden is not None:
+        print(f"Molden file written: {molden}")
     return EXIT_OK
 
 
@@ -189,7 +215,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "validate":
             return _validate(args.paths)
         if args.command == "modes":
-            return _modes(args.scene)
+            return _modes(args.scene, args.molden)
         return _report(args)
     except KeyboardInterrupt:
         print("\nvibra: interrupted; finished images are complete, unfinished scenes left no output",

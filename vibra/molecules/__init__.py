@@ -55,6 +55,8 @@ from vibra.molecules.checks import MIN_DISTANCE
 from vibra.molecules.elements import bonds_from_distances, symbols_from_masses
 from vibra.molecules.finite_difference import FiniteDifferenceHessian, finite_difference_hessian, from_calculator
 from vibra.molecules.hessians import from_atoms, from_hessian, from_phonopy, from_vibrations_data
+from vibra.molecules.experimental import (EXPERIMENTAL, ExperimentalFundamentals, Fundamental,
+                                          experimental_fundamentals, match_fundamentals)
 from vibra.molecules.export import (BOHR_ANGSTROM, system_atoms, to_vibrations_data, write_force_constants,
                                     write_mode_trajectory, write_molden)
 from vibra.molecules.isotopes import ISOTOPE_MASSES, isotope_mass, isotope_masses, substitute_isotopes
@@ -69,6 +71,7 @@ if TYPE_CHECKING:
     from vibra.molecules.calculator import ValenceForceField
 
 __all__ = [
+    "EXPERIMENTAL", "ExperimentalFundamentals", "Fundamental", "experimental_fundamentals", "match_fundamentals",
     "SoftModeWarning", "ValenceModel", "ValenceForceField", "valence_model", "from_atoms",
     "FiniteDifferenceHessian", "finite_difference_hessian", "from_calculator", "from_hessian",
     "from_vibrations_data", "from_phonopy", "VibrationalAnalysis", "vibrational_analysis",

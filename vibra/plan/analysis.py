@@ -1,8 +1,9 @@
 """Analyses the plan runs for its drawings: what the renderer and the charts then only draw.
 
-- `inversion_parity`: g/u parity of a mode of a centrosymmetric molecule (mutual exclusion).
-- `symmetry_hints`: per-mode symmetry and IR-activity text of a molecule (parity, and the
-  point-charge IR intensities of `vibra.spectra`).
+- `molecule_symmetry`: point group, symmetry species, IR/Raman activity by symmetry and the
+  observed fundamentals of a molecule's modes (`vibra.molecules`).
+- `symmetry_hints`: per-mode symmetry and IR-activity text of a molecule (species and
+  activity from the character table, and the point-charge IR intensities of `vibra.spectra`).
 - `dispersion_branches`: omega(q) of a chain scene's parameters over its Brillouin zone.
 - `chain_dispersion`: the dispersion branches of a chain scene and the wavenumber of each of
   its finite chain's modes (`vibra.continuum`), for the dispersion chart.
@@ -16,85 +17,98 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["inversion_parity", "symmetry_hints", "DispersionCurves", "chain_dispersion", "dispersion_branches"]
+__all__ = ["MoleculeSymmetry", "molecule_symmetry", "symmetry_hints", "DispersionCurves", "chain_dispersion", "dispersion_branches"]
 
 #: A mode whose point-charge IR intensity is below this fraction of the strongest is IR-inactive.
 IR_INACTIVE_FRACTION = 1e-8
 
 
-def inversion_parity(positions: ArrayLike, masses: ArrayLike, displacement: ArrayLike) -> str | None:
-    """'g' or 'u' for a centrosymmetric molecule (None otherwise): parity of a mode under inversion.
+@dataclass(frozen=True)
+class MoleculeSymmetry:
+    """Point group, symmetry species and observed fundamentals of a molecule scene's modes.
 
-    Inversion through the centre of mass maps atom i to its partner P(i) and a displacement
-    u_i to -u_P(i). A mode is 'g' when u_P(i) = -u_i for all i and 'u' when u_P(i) = u_i.
-    By the mutual-exclusion rule g modes are IR-inactive (Raman-allowed) and u modes are
-    IR-allowed.
-
-    Parameters
+    Attributes
     ----------
-    positions : (n_atoms, 3) array_like
-        Atom positions, in a length unit.
-    masses : (n_atoms,) array_like
-        Atom masses (only compared with each other).
-    displacement : (n_atoms, 3) array_like
-        The mode's displacement of every atom.
-
-    Examples
-    --------
-    >>> x = [[-1.0, 0, 0], [0.0, 0, 0], [1.0, 0, 0]]
-    >>> inversion_parity(x, [16.0, 12.0, 16.0], [[-1.0, 0, 0], [0, 0, 0], [1.0, 0, 0]])
-    'g'
+    group : str
+        Schoenflies symbol (`vibra.molecules.point_group`), e.g. ``"Dinfh"``, ``"C2v"``, ``"Td"``.
+    species : tuple of str
+        Per computed mode its Mulliken label (`VibrationalAnalysis.species`), ``""`` for a
+        rigid-body (zero) mode.
+    ir_active, raman_active : tuple of (bool or None)
+        Per mode the activity by symmetry (the character table), None for a rigid mode.
+    experimental : tuple of (Fundamental or None)
+        Per mode the observed fundamental it corresponds to (`vibra.molecules.experimental`).
+    source : str or None
+        The source of the observed values (None when the molecule has none bundled).
     """
-    x = np.asarray(positions, dtype=float)
-    m = np.asarray(masses, dtype=float)
-    u = np.asarray(displacement, dtype=float)
-    centre = (m[:, None] * x).sum(axis=0) / m.sum()
-    relative = x - centre
-    scale = max(float(np.abs(relative).max()), 1e-12)
-    partner = []
-    for i in range(len(relative)):
-        distance = np.linalg.norm(relative + relative[i], axis=1)
-        j = int(np.argmin(distance))
-        if distance[j] > 1e-6 * scale or not np.isclose(m[j], m[i], rtol=1e-9):
-            return None
-        partner.append(j)
-    size = max(float(np.abs(u).max()), 1e-300)
-    mapped = u[partner]
-    if np.abs(mapped + u).max() <= 1e-6 * size:
-        return "g"
-    if np.abs(mapped - u).max() <= 1e-6 * size:
-        return "u"
-    return None
+
+    group: str
+    species: tuple[str, ...]
+    ir_active: tuple[bool | None, ...]
+    raman_active: tuple[bool | None, ...]
+    experimental: tuple[Any, ...]
+    source: str | None
 
 
-def _parity_text(parity: str | None) -> str:
-    if parity == "g":
-        return "g: IR-inactive (centrosymmetric, mutual exclusion)"
-    if parity == "u":
-        return "u: IR-allowed"
-    return "no inversion centre: IR activity not fixed by symmetry"
+def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
+    """Species, symmetry-based IR/Raman activity and observed fundamentals of `modes` of a 3-D molecule.
+
+    The vibrational analysis (`vibra.molecules.vibrational_analysis`, rigid motions projected
+    out) labels each vibration; each computed mode takes the label of the vibration of the
+    same frequency (within 1e-4 relative), a rigid (zero) mode none. None when the system is
+    not 3-D sites or its point group cannot be found.
+    """
+    from vibra.molecules import experimental_fundamentals, match_fundamentals, vibrational_analysis
+
+    if getattr(system, "dim", None) != 3 or getattr(system, "n_sites", 0) < 2 or system.frozen.any():
+        return None
+    try:
+        analysis = vibrational_analysis(system)
+        group = analysis.point_group
+        labels = analysis.species
+    except (ValueError, RuntimeError):
+        return None
+    vib_omega = np.asarray(analysis.modes.omega)[analysis.vibrations]
+    omega = np.asarray(modes.omega)
+    scale = max(float(np.abs(omega).max(initial=0.0)), float(np.abs(vib_omega).max(initial=0.0)), 1e-300)
+    species: list[str] = []
+    for value in omega:
+        distance = np.abs(vib_omega - value)
+        j = int(np.argmin(distance)) if len(distance) else -1
+        near = j >= 0 and distance[j] <= 1e-4 * scale and abs(value) > 1e-6 * scale
+        species.append(labels[j] if near else "")
+    table = group.table
+    ir = tuple(None if not s else table.is_ir_active(s) for s in species)
+    raman = tuple(None if not s else table.is_raman_active(s) for s in species)
+    entry = experimental_fundamentals(system.symbols or (), system.masses) if system.symbols else None
+    observed: list[Any] = [None] * len(species)
+    if entry is not None:
+        observed = match_fundamentals(entry, species, modes.wavenumbers_cm1())
+    return MoleculeSymmetry(group=group.name, species=tuple(species), ir_active=ir, raman_active=raman,
+                            experimental=tuple(observed), source=None if entry is None else entry.source)
 
 
-def _site_displacements(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(n_sites, 3) displacement of every site (zeros at frozen dofs and unused axes)."""
-    full = np.asarray(system.expand(shape)).reshape(system.n_sites, system.dim)
-    out = np.zeros((system.n_sites, 3))
-    out[:, : system.dim] = full
-    return out
+def _activity_text(symmetry: MoleculeSymmetry, k: int) -> str | None:
+    label = symmetry.species[k]
+    if not label:
+        return None
+    ir = "IR active" if symmetry.ir_active[k] else "IR inactive"
+    raman = "Raman active" if symmetry.raman_active[k] else "Raman inactive"
+    return f"{label} ({symmetry.group}): {ir}, {raman} by symmetry"
 
 
 def symmetry_hints(system: Any, modes: Any, indices: Sequence[int], symbols: Sequence[str],
-                   bonds: Sequence[tuple[int, int]]) -> dict[int, str]:
+                   bonds: Sequence[tuple[int, int]], symmetry: MoleculeSymmetry | None = None) -> dict[int, str]:
     """Symmetry and IR-activity text of the modes `indices` of a molecule, for captions.
 
-    Each text is the inversion parity (`inversion_parity`: g modes IR-inactive, u modes
-    IR-allowed) and, for a 3-D molecule with bonds, the point-charge IR intensity of
-    `vibra.spectra.ir_spectrum` (charges from Pauling electronegativities over `bonds`)
-    relative to the strongest mode; parts are joined by ``"; "``.
+    Each text is the mode's symmetry species in the molecule's point group with its IR and
+    Raman activity from the character table (`molecule_symmetry`; computed here when
+    `symmetry` is not given) and, for a 3-D molecule with bonds, the point-charge IR
+    intensity of `vibra.spectra.ir_spectrum` (charges from Pauling electronegativities over
+    `bonds`) relative to the strongest mode; parts are joined by ``"; "``.
     """
-    positions = np.zeros((system.n_sites, 3))
-    positions[:, : system.dim] = np.asarray(system.positions, dtype=float)
-    masses = np.asarray(system.masses, dtype=float)
+    if symmetry is None:
+        symmetry = molecule_symmetry(system, modes)
     intensity: dict[int, str] = {}
     if system.dim == 3 and bonds:
         from vibra import spectra
@@ -108,8 +122,10 @@ def symmetry_hints(system: Any, modes: Any, indices: Sequence[int], symbols: Seq
                                  f"(point charges: {value / strongest if strongest else 0.0:.2f} of strongest)")
     hints = {}
     for k in indices:
-        parity = inversion_parity(positions, masses, _site_displacements(system, np.asarray(modes.shapes)[:, k]))
-        parts = [_parity_text(parity)] if parity is not None or int(k) not in intensity else []
+        parts = []
+        text = None if symmetry is None else _activity_text(symmetry, int(k))
+        if text is not None:
+            parts.append(text)
         if int(k) in intensity:
             parts.append(intensity[int(k)])
         hints[int(k)] = "; ".join(parts)

@@ -10,7 +10,9 @@ from typing import Any
 
 import numpy as np
 
+from vibra.molecules import molecule_names
 from vibra.scene import Scene, SceneError, builder_function
+from vibra.scene.files import read_scene_data
 
 __all__ = ["build_system"]
 
@@ -36,6 +38,32 @@ def build_system(scene: Scene) -> Any:
         first = message.split(" ", 1)[0].split("[", 1)[0]
         key = f"system.{first}" if first in scene.system.parameters else "system"
         raise SceneError(scene.source, key, message) from error
+
+
+def _molecule(scene: Scene, make: Any, p: dict[str, Any]) -> Any:
+    """A 'molecule' scene's system: an ASE name, or an .xyz file beside the scene read with its size cap."""
+    options = {key: p[key] for key in ("stretch", "bend", "torsion") if p[key] is not None}
+    masses = None if p["masses"] is None else np.asarray(p["masses"], dtype=float)
+    if p["xyz"] is not None:
+        import io
+
+        from ase.io import read
+
+        text = read_scene_data(scene.source, "system.xyz", p["xyz"])
+        try:
+            atoms = read(io.StringIO(text), format="xyz")
+        except Exception as error:  # ASE's parsers raise many kinds on a malformed file
+            raise SceneError(scene.source, "system.xyz", f"{p['xyz']!r} is not a readable XYZ file "
+                             f"({type(error).__name__}: {error})") from None
+        source: Any = atoms
+    else:
+        source = p["name"]
+        if source not in molecule_names():
+            try:
+                make(source)
+            except ValueError as error:
+                raise SceneError(scene.source, "system.name", str(error)) from None
+    return make(source, isotopes=p["isotopes"], masses=masses, name=scene.name, **options)
 
 
 def _build(scene: Scene) -> Any:
@@ -68,10 +96,12 @@ def _build(scene: Scene) -> Any:
                       anchor_stiffness=lists.pop("anchor_stiffness"), units=scene.units,
                       name=scene.name)
     elif builder == "co2":
-        system = make(dims=p["dims"])
+        system = make(dims=p["dims"], isotopes=p["isotopes"])
     elif builder == "h2o":
-        system = make()
-    elif builder == "double_pendulum":
+        system = make(isotopes=p["isotopes"])
+    elif builder == "molecule":
+        system = _molecule(scene, make, p)
+    elif builder in ("double_pendulum", "charged_particle"):
         system = make(**p)
     elif builder == "matrices":
         system = make(np.asarray(p["M"]), np.asarray(p["K"]), coordinates=p["coordinates"],

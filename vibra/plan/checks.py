@@ -20,6 +20,7 @@ import scipy.sparse as sp
 from vibra.plan.analysis import dispersion_branches
 from vibra.plan.build import build_system
 from vibra.scene import Scene, SceneError
+from vibra.scene.values import element_symbol
 from vibra.solvers import DENSE_ALL_LIMIT
 
 __all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
@@ -157,7 +158,7 @@ def _symbols(scene: Scene, system: Any) -> None:
     from vibra.spectra import PAULING_ELECTRONEGATIVITY
 
     for i, symbol in enumerate(symbols):
-        if symbol not in PAULING_ELECTRONEGATIVITY:
+        if element_symbol(symbol) not in PAULING_ELECTRONEGATIVITY:
             raise SceneError(scene.source, f"system.symbols[{i}]", f"is {symbol!r}, which the IR-activity hints "
                              f"of drawn modes do not know; known: {', '.join(PAULING_ELECTRONEGATIVITY)}")
 

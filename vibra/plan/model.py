@@ -127,8 +127,11 @@ def make_plan(scene: Scene) -> Plan:
                           f"N = {list(c.sizes)} ({c.ends} ends)"))
     if draw.dispersion:
         steps.append(Step("dispersion", "dispersion branches omega(q) and the wavenumber of each mode"))
+    if scene.kind == "molecule":
+        steps.append(Step("symmetry", "point group and symmetry species of the modes, IR/Raman activity "
+                          "by symmetry, observed fundamentals of bundled molecules"))
     if scene.kind == "molecule" and (draw.modes or draw.gif):
-        steps.append(Step("structure", "elements and bonds of the molecule; inversion parity and "
+        steps.append(Step("structure", "elements and bonds of the molecule; symmetry species and "
                           "point-charge IR activity of the drawn modes"))
     if draw.modes:
         steps.append(Step("render-modes", f"render {draw.n_draw} mode shapes off-screen (pyvista)"))

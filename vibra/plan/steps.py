@@ -17,11 +17,12 @@ from typing import Any, Callable
 import numpy as np
 
 from vibra._io import atomic_write_text
-from vibra.plan.analysis import chain_dispersion, symmetry_hints
+from vibra.plan.analysis import chain_dispersion, molecule_symmetry, symmetry_hints
 from vibra.plan.build import build_system
 from vibra.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.plan.model import Plan, PlanResult, StepRecord
 from vibra.scene import Scene
+from vibra.scene.values import element_symbol
 
 __all__ = ["execute", "frequency_lines", "STEPS"]
 
@@ -40,6 +41,7 @@ class _Context:
     crosscheck: Any = None
     dispersion: Any = None
     structure: Any = None
+    symmetry: Any = None
     hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)
     captions: list[str] = field(default_factory=list)
@@ -55,8 +57,12 @@ def _accuracy_text(modes: Any) -> str:
     return ", ".join(parts) or "n/a"
 
 
-def frequency_lines(scene: Scene, modes: Any) -> tuple[str, ...]:
-    """A text table of the modes: index, omega (scene units) and a spectroscopic unit."""
+def frequency_lines(scene: Scene, modes: Any, symmetry: Any = None) -> tuple[str, ...]:
+    """A text table of the modes: index, omega (scene units) and a spectroscopic unit.
+
+    With `symmetry` (a `vibra.plan.analysis.MoleculeSymmetry`) two more columns: each mode's
+    symmetry species and the observed fundamental (name and cm^-1), with the source below.
+    """
     units = modes.units
     omega = np.asarray(modes.omega)
     header = f"{'mode':>5}  {'omega [' + units.omega + ']':>26}"
@@ -64,12 +70,23 @@ def frequency_lines(scene: Scene, modes: Any) -> tuple[str, ...]:
     if units.time_s is not None:
         extra = ("cm^-1", modes.wavenumbers_cm1()) if scene.kind == "molecule" else ("Hz", modes.frequencies_hz())
         header += f"  {extra[0]:>14}"
+    if symmetry is not None:
+        header += f"  {'species (' + symmetry.group + ')':<16}"
+        if symmetry.source is not None:
+            header += f"  {'observed (cm^-1)':<16}"
     lines = [header]
     for k in range(modes.n_modes):
         line = f"{k:>5}  {omega[k]:>26.10g}"
         if extra is not None:
             line += f"  {extra[1][k]:>14.6g}"
-        lines.append(line)
+        if symmetry is not None:
+            line += f"  {symmetry.species[k] or '(rigid)':<16}"
+            observed = symmetry.experimental[k]
+            if symmetry.source is not None and observed is not None:
+                line += f"  {observed.name} {observed.wavenumber_cm1:.0f}"
+        lines.append(line.rstrip())
+    if symmetry is not None and symmetry.source is not None:
+        lines.append(f"observed: gas-phase fundamentals, {symmetry.source}")
     return tuple(lines)
 
 
@@ -115,7 +132,7 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
             renderer.close()
     lines: tuple[str, ...] = ()
     if context.modes is not None:
-        lines = frequency_lines(plan.scene, context.modes)
+        lines = frequency_lines(plan.scene, context.modes, context.symmetry)
     return PlanResult(records=tuple(records), outputs=tuple(context.outputs),
                       captions=tuple(context.captions), frequencies=lines, modes=context.modes)
 
@@ -260,7 +277,9 @@ def _molecule_structure(scene: Scene, system: Any) -> Any:
 
     params = scene.system.parameters
     symbols = params.get("symbols") or system.symbols
-    if symbols is None:
+    if symbols is not None:
+        symbols = [element_symbol(s) for s in symbols]  # D and T are drawn as hydrogen
+    else:
         symbols = symbols_from_masses(system.masses)
     bonds = params.get("springs")
     if bonds is None:
@@ -273,8 +292,17 @@ def _step_structure(plan: Plan, context: _Context, renderer: Any) -> tuple[str |
     context.structure = _molecule_structure(plan.scene, context.system)
     structure = context.structure
     context.hints = symmetry_hints(context.system, context.modes, _drawn_modes(plan, context),
-                                   structure.symbols, structure.bonds)
+                                   structure.symbols, structure.bonds, context.symmetry)
     return None, f"{len(structure.bonds)} bonds"
+
+
+def _step_symmetry(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    """Point group, species and observed fundamentals of a 3-D molecule's modes (`molecule_symmetry`)."""
+    context.symmetry = molecule_symmetry(context.system, context.modes)
+    if context.symmetry is None:
+        return None, "no point group (not a free 3-D molecule)"
+    source = "" if context.symmetry.source is None else "; observed fundamentals shown"
+    return "vibra.molecules.point_group", f"point group {context.symmetry.group}{source}"
 
 
 def _step_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
@@ -356,6 +384,7 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "response": _step_response,
     "continuum": _step_continuum,
     "dispersion": _step_dispersion,
+    "symmetry": _step_symmetry,
     "structure": _step_structure,
     "render-modes": _step_render_modes,
     "render-gif": _step_render_gif,

@@ -25,11 +25,11 @@ from types import MappingProxyType
 from typing import Any, Callable, Iterator, Mapping
 
 from vibra.scene.values import (
-    Check, FieldSpec, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, one_of, positive,
+    Check, FieldSpec, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
     scalar_or_list, string,
 )
 
-__all__ = ["BUILD_FUNCTIONS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
+__all__ = ["isotope_labels", "BUILD_FUNCTIONS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
            "SCENE_REQUIRED", "builder_function", "builder_fields"]
 
 #: scene builder -> (vibra module, function). The only way a scene names code.
@@ -40,7 +40,9 @@ BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
     "springs": ("vibra.system", "System.from_springs"),
     "co2": ("vibra.molecules", "co2"),
     "h2o": ("vibra.molecules", "h2o"),
+    "molecule": ("vibra.molecules", "molecule"),
     "double_pendulum": ("vibra.lagrangian", "double_pendulum"),
+    "charged_particle": ("vibra.gyroscopic", "charged_particle"),
     "matrices": ("vibra.system", "System.generalized"),
     "oscillator": ("vibra.response", "Oscillator"),
 }
@@ -48,14 +50,27 @@ BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
 #: builder -> the scene kinds it serves.
 BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "linear_chain": ("chain",), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
-    "springs": ("chain", "molecule"), "co2": ("molecule",), "h2o": ("molecule",),
-    "double_pendulum": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
+    "springs": ("chain", "molecule"), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
+    "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
 })
 
 MASS = scalar_or_list(positive)
 ENDS = one_of("free", "fixed", "periodic")
 _SITES = list_of(integer(0), min_length=0)
 FROZEN = {"frozen_sites": field_spec(_SITES), "frozen_dofs": field_spec(_SITES)}
+
+
+def isotope_labels(value: Any, fail: Callable[[str], Any]) -> tuple[str | None, ...]:
+    """One isotope label per atom (``"D"``, ``"T"``, ``"13C"``, ``"18O"``), ``""`` keeping an atom's mass.
+
+    TOML has no null, so ``isotopes = ["", "D", "D"]`` is heavy water; the labels themselves
+    are checked by the builder (`vibra.molecules.isotope_masses`), which knows the atoms.
+    """
+    labels = list_of(string)(value, fail)
+    return tuple(label or None for label in labels)
+
+
+ISOTOPES = isotope_labels
 
 #: builder -> {parameter: value check}, for every builder parameter a scene may set.
 PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
@@ -68,9 +83,11 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
     "springs": {"positions": coordinates, "masses": MASS, "springs": index_pairs,
                 "stiffness": scalar_or_list(positive), "anchors": _SITES,
                 "anchor_stiffness": scalar_or_list(positive), "frozen_sites": _SITES, "frozen_dofs": _SITES},
-    "co2": {"dims": one_of(1, 3)},
-    "h2o": {},
+    "co2": {"dims": one_of(1, 3), "isotopes": ISOTOPES},
+    "h2o": {"isotopes": ISOTOPES},
+    "molecule": {"isotopes": ISOTOPES, "masses": list_of(positive)},
     "double_pendulum": {"m": positive, "m_prime": positive, "a": positive, "b": positive, "g": positive},
+    "charged_particle": {"mass": positive, "omega0": positive, "charge": number, "field": number},
     "matrices": {"M": matrix, "K": matrix, "coordinates": list_of(string)},
     "oscillator": {"w0": positive, "gamma": scalar_or_list(nonnegative), "m": positive},
 })
@@ -87,12 +104,13 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
                 "blocks": "scenes give pair springs only (no general Hessian blocks)"},
     "co2": {"bond_length": "the builder's constant (the cross-check reuses it)",
             "stretch": "the builder's constant (the cross-check reuses it)",
-            "bend": "the builder's constant (the cross-check reuses it)",
-            "isotopes": "isotope labels in scenes are not wired yet (issue 12)"},
+            "bend": "the builder's constant (the cross-check reuses it)"},
     "h2o": {"stretch": "the builder's constant (the cross-check reuses it)",
-            "bend": "the builder's constant (the cross-check reuses it)",
-            "isotopes": "isotope labels in scenes are not wired yet (issue 12)"},
+            "bend": "the builder's constant (the cross-check reuses it)"},
+    "molecule": {"name_or_atoms": "given by the scene's system.name (an ASE molecule name) or system.xyz (a file)",
+                 "name": "system.name names the molecule; the System is named after the scene"},
     "double_pendulum": {"units": "seed 000's problem is in SI"},
+    "charged_particle": {},
     "matrices": {"units": _UNITS, "name": _NAME,
                  "G": "gyroscopic and damped scenes are not wired yet (issue 15)",
                  "C": "gyroscopic and damped scenes are not wired yet (issue 15)"},
@@ -107,7 +125,10 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "springs": {"symbols": field_spec(list_of(string))},
     "co2": dict(FROZEN),
     "h2o": dict(FROZEN),
+    "molecule": {"name": field_spec(string), "xyz": field_spec(string), "stretch": field_spec(positive),
+                 "bend": field_spec(positive), "torsion": field_spec(positive)},
     "double_pendulum": {},
+    "charged_particle": {},
     "matrices": {},
     "oscillator": {},
 })

@@ -18,9 +18,10 @@ from vibra.scene.limits import (
     DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
 )
 from vibra.scene.builders import BUILDER_KINDS, BUILDERS, builder_fields
+from vibra.scene.files import scene_data_path
 from vibra.scene.specs import ComputeSpec, ContinuumSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec
 from vibra.scene.values import (
-    FieldSpec, boolean, brief, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive, table,
+    FieldSpec, boolean, brief, element_symbol, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive, table,
 )
 
 __all__ = ["Reader", "parse_system", "parse_compute", "parse_draw", "check_combinations"]
@@ -189,6 +190,8 @@ def check_combinations(reader: Reader, scene: Any) -> None:
                 reader.fail("draw.dispersion", f"needs a uniform chain, but system.{key} is a list; a chain of "
                             "unequal masses or springs has no single dispersion relation (for a two-site cell "
                             "use builder = \"diatomic_chain\", for one heavier site defect_site and defect_mass)")
+    if scene.system.builder == "molecule":
+        _check_molecule(reader, params)
     if compute.crosscheck and not (scene.system.builder == "h2o" or (
             scene.system.builder == "co2" and params["dims"] == 3)):
         reader.fail("compute.crosscheck", "is available for the 3-D molecules 'co2' (dims = 3) and 'h2o'")
@@ -316,5 +319,17 @@ def _check_springs(reader: Reader, params: Mapping[str, Any]) -> None:
         from ase.data import atomic_numbers  # the periodic table only; no calculator
 
         for i, symbol in enumerate(symbols):
-            if symbol not in atomic_numbers:
-                reader.fail(f"system.symbols[{i}]", f"is {symbol!r}, not a chemical symbol (e.g. 'H', 'C', 'O')")
+            if element_symbol(symbol) not in atomic_numbers:
+                reader.fail(f"system.symbols[{i}]", f"is {symbol!r}, not a chemical symbol (e.g. 'H', 'C', 'O'; "
+                            "'D' and 'T' for hydrogen's isotopes)")
+
+
+def _check_molecule(reader: Reader, params: Mapping[str, Any]) -> None:
+    """The 'molecule' builder: a name or an .xyz file beside the scene (inside its folder), isotopes or masses."""
+    if (params["name"] is None) == (params["xyz"] is None):
+        reader.fail("system.name", "give the molecule as name = \"CH4\" (any ase.build.molecule name) or as "
+                    "xyz = \"file.xyz\" (a file beside the scene), one of the two")
+    if params["xyz"] is not None:
+        scene_data_path(reader.source, "system.xyz", params["xyz"])
+    if params["isotopes"] is not None and params["masses"] is not None:
+        reader.fail("system.masses", "give isotopes (labels) or masses (amu), not both")

@@ -12,7 +12,15 @@ from typing import Any, Callable
 
 __all__ = ["brief", "Check", "FieldSpec", "field_spec", "kind_name", "number", "positive", "nonnegative", "integer",
            "boolean", "string", "one_of", "list_of", "scalar_or_list", "index_pairs", "matrix", "coordinates",
-           "table"]
+           "table", "HYDROGEN_ISOTOPES", "element_symbol"]
+
+#: Isotope symbols a scene may use as chemical symbols: D and T are hydrogen (2H, 3H).
+HYDROGEN_ISOTOPES = {"D": "H", "T": "H"}
+
+
+def element_symbol(symbol: str) -> str:
+    """The element of a scene's chemical symbol: ``"D"`` and ``"T"`` are ``"H"``, others unchanged."""
+    return HYDROGEN_ISOTOPES.get(symbol, symbol)
 
 Check = Callable[[Any, Callable[[str], Any]], Any]
 

@@ -1,0 +1,114 @@
+"""Experimental vibrational fundamentals of the bundled molecules, each with its source.
+
+Values in cm^-1 (gas phase, observed fundamentals), from T. Shimanouchi, *Tables of Molecular
+Vibrational Frequencies, Consolidated Volume I*, NSRDS-NBS 39, National Bureau of Standards
+(1972), as listed by the NIST Computational Chemistry Comparison and Benchmark Database
+(CCCBDB, https://cccbdb.nist.gov, "Experimental vibrational frequencies") and the NIST
+Chemistry WebBook. Each entry names the fundamental (nu1, nu2, ...), its symmetry species in
+the labels of `vibra.molecules.mode_species` and its wavenumber.
+
+CO2's nu1 (Sigma_g+) is in Fermi resonance with 2 nu2; Shimanouchi's 1333 cm^-1 is the
+unperturbed value between the observed 1285 and 1388 cm^-1 doublet.
+
+`experimental_fundamentals(symbols, masses)` finds the entry of a molecule from its symbols
+and masses (a hydrogen of mass near 2.014 amu counts as D), and `match_fundamentals` pairs
+the entry with computed vibrations by species (lowest with lowest within a species).
+
+>>> experimental_fundamentals(["O", "H", "H"], [15.999, 2.014, 2.014]).name
+'D2O'
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from vibra.molecules.isotopes import ISOTOPE_MASSES
+
+__all__ = ["Fundamental", "ExperimentalFundamentals", "EXPERIMENTAL", "SHIMANOUCHI_1972",
+           "experimental_fundamentals", "match_fundamentals"]
+
+#: The source of every value in `EXPERIMENTAL`.
+SHIMANOUCHI_1972 = ("T. Shimanouchi, Tables of Molecular Vibrational Frequencies, Consolidated Vol. I, "
+                    "NSRDS-NBS 39 (1972), via NIST CCCBDB")
+
+
+@dataclass(frozen=True)
+class Fundamental:
+    """One observed fundamental: its name (``"nu1"``), symmetry species and wavenumber in cm^-1."""
+
+    name: str
+    species: str
+    wavenumber_cm1: float
+
+
+@dataclass(frozen=True)
+class ExperimentalFundamentals:
+    """The observed fundamentals of one molecule (isotopologue) and where they come from."""
+
+    name: str
+    fundamentals: tuple[Fundamental, ...]
+    source: str
+
+
+def _entry(name: str, *values: tuple[str, str, float]) -> ExperimentalFundamentals:
+    return ExperimentalFundamentals(name, tuple(Fundamental(*v) for v in values), SHIMANOUCHI_1972)
+
+
+#: Formula (isotopes as D) -> observed fundamentals.
+EXPERIMENTAL: dict[str, ExperimentalFundamentals] = {
+    "CO2": _entry("CO2", ("nu1", "Sigma_g+", 1333.0), ("nu2", "Pi_u", 667.0), ("nu3", "Sigma_u+", 2349.0)),
+    "H2O": _entry("H2O", ("nu1", "A1", 3657.0), ("nu2", "A1", 1595.0), ("nu3", "B2", 3756.0)),
+    "D2O": _entry("D2O", ("nu1", "A1", 2671.0), ("nu2", "A1", 1178.0), ("nu3", "B2", 2788.0)),
+    "CH4": _entry("CH4", ("nu1", "A1", 2917.0), ("nu2", "E", 1534.0), ("nu3", "T2", 3019.0),
+                  ("nu4", "T2", 1306.0)),
+}
+
+# A hydrogen within this many amu of an isotope's mass is that isotope.
+_MASS_MATCH_AMU = 0.01
+
+
+def _formula(symbols: Sequence[str], masses: ArrayLike) -> str:
+    labels = []
+    for symbol, mass in zip(symbols, np.asarray(masses, dtype=float)):
+        if symbol in ("H", "D", "T"):
+            symbol = "D" if abs(mass - ISOTOPE_MASSES["D"]) < _MASS_MATCH_AMU else \
+                "T" if abs(mass - ISOTOPE_MASSES["T"]) < _MASS_MATCH_AMU else "H"
+        labels.append(symbol)
+    counts = Counter(labels)
+    order = sorted(counts, key=lambda s: (s != "C", s))  # C first, then alphabetical (Hill, isotopes as D, T)
+    return "".join(f"{s}{counts[s] if counts[s] > 1 else ''}" for s in order)
+
+
+def experimental_fundamentals(symbols: Sequence[str], masses: ArrayLike) -> ExperimentalFundamentals | None:
+    """The observed fundamentals of the molecule with these symbols and masses (amu), or None."""
+    return EXPERIMENTAL.get(_formula(symbols, masses))
+
+
+def match_fundamentals(entry: ExperimentalFundamentals, species: Sequence[str],
+                       wavenumbers: ArrayLike) -> list[Fundamental | None]:
+    """The observed fundamental of each computed vibration (None where none matches).
+
+    Vibrations of one species are grouped into degenerate sets (equal label, wavenumbers
+    within 1e-6 relative) and paired, lowest first, with the fundamentals of that species,
+    lowest first.
+    """
+    values = np.asarray(wavenumbers, dtype=float)
+    out: list[Fundamental | None] = [None] * len(species)
+    for label in set(species):
+        indices = sorted((i for i, s in enumerate(species) if s == label), key=lambda i: values[i])
+        sets: list[list[int]] = []
+        for i in indices:
+            if sets and abs(values[i] - values[sets[-1][0]]) <= 1e-6 * max(abs(values[i]), 1.0):
+                sets[-1].append(i)
+            else:
+                sets.append([i])
+        observed = sorted((f for f in entry.fundamentals if f.species == label), key=lambda f: f.wavenumber_cm1)
+        for members, fundamental in zip(sets, observed):
+            for i in members:
+                out[i] = fundamental
+    return out
