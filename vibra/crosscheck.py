@@ -200,11 +200,13 @@ class CrossCheck:
     def table(self) -> str:
         """Plain-text side-by-side table (cm^-1; an ``i`` marks an imaginary wavenumber)."""
         def wave(value: float) -> str:
-            return f"{abs(value):9.3f}{'i' if value < 0 else ' '}"
+            return f"{abs(value):10.3f}{'i' if value < 0 else ' '}"
 
         has_exp = self.experimental_cm1 is not None
-        header = (f"{'mode':>4} {'kind':<9} {'vibra':>10} {'ASE':>10} {'phonopy':>10} {'ASE-vibra':>10} "
-                  f"{'ph-vibra':>10} {'fd err':>9} {'ph fd err':>9}" + (f" {'exp':>7}" if has_exp else ""))
+        columns = [("mode", 4), ("kind", 9), ("vibra", 11), ("ASE", 11), ("phonopy", 11), ("ASE - vibra", 11),
+                   ("phonopy - vibra", 15), ("ASE fd error", 12), ("phonopy fd error", 16)]
+        columns += [("observed", 8)] if has_exp else []
+        header = "  ".join(f"{name:<{width}}" if name == "kind" else f"{name:>{width}}" for name, width in columns)
         lines = [
             f"{self.name}: wavenumbers in cm^-1; vibra: {self.source}; ASE Vibrations delta={self.delta:g} A, "
             f"nfree={self.nfree}; phonopy 1x1x1 supercell, +-{self.delta:g} A; residual force "
@@ -212,15 +214,16 @@ class CrossCheck:
             header,
         ]
         for row in self.rows():
-            text = (f"{row.index:>4} {row.kind:<9} {wave(row.vibra_cm1)} {wave(row.ase_cm1)} "
-                    f"{wave(row.phonopy_cm1)} {row.ase_cm1 - row.vibra_cm1:10.2e} "
-                    f"{row.phonopy_cm1 - row.vibra_cm1:10.2e} {row.fd_error_cm1:9.2e} "
-                    f"{row.phonopy_fd_error_cm1:9.2e}")
+            text = "  ".join((f"{row.index:>4}", f"{row.kind:<9}", wave(row.vibra_cm1), wave(row.ase_cm1),
+                              wave(row.phonopy_cm1), f"{row.ase_cm1 - row.vibra_cm1:11.2e}",
+                              f"{row.phonopy_cm1 - row.vibra_cm1:15.2e}", f"{row.fd_error_cm1:12.2e}",
+                              f"{row.phonopy_fd_error_cm1:16.2e}"))
             if has_exp:
-                text += f" {row.experimental_cm1:7.0f}" if row.experimental_cm1 is not None else f" {'':>7}"
-            lines.append(text)
-        lines.append("fd err: estimated finite-difference error of ASE's Hessian on each mode (Richardson "
-                     "+ round-off, first order); rigid modes matched by overlap with translations/rotations")
+                text += "  " + (f"{row.experimental_cm1:8.0f}" if row.experimental_cm1 is not None else f"{'':>8}")
+            lines.append(text.rstrip())
+        lines.append("an 'i' marks an imaginary wavenumber; fd error: estimated finite-difference error of the "
+                     "Hessian on each mode (Richardson + round-off, first order); rigid modes matched by overlap "
+                     "with translations/rotations")
         lines.extend(f"note: {note}" for note in self.notes)
         return "\n".join(lines)
 

@@ -276,7 +276,13 @@ class SceneRenderer:
                          out_dir: Path, structure: MoleculeStructure,
                          hints: Mapping[int, str]) -> list[tuple[str, str]]:
         groups: list[list[int]] = []
-        degenerate = {int(i): [int(j) for j in g] for g in modes.degenerate_groups(1e-6) for i in g}
+        # degenerate sets among the drawn modes; a mode's omega_error can be loose (a rigid mode's bound
+        # may span the lowest vibrations), so members must also agree to 1e-6 of the largest omega
+        omega = np.asarray(modes.omega)
+        scale = 1e-6 * float(np.abs(omega).max(initial=0.0))
+        drawn = {int(k) for k in indices}
+        degenerate = {int(i): [int(j) for j in g if int(j) in drawn and abs(omega[j] - omega[i]) <= scale]
+                      for g in modes.degenerate_groups(1e-6) for i in g if int(i) in drawn}
         for k in indices:
             group = degenerate.get(int(k), [int(k)])
             if any(int(k) in g for g in groups):
@@ -332,8 +338,8 @@ class SceneRenderer:
                                  tip_length=0.3, tip_radius=0.12, shaft_radius=0.04)
                 plotter.add_mesh(arrow, color="crimson", smooth_shading=True)
         frequency = _frequency_text(scene, modes, k)
-        text = frequency if hint is None else f"{frequency}, {hint}"
-        lines = [f"mode {k}: {frequency}"] + ([] if hint is None else hint.split("; "))
+        text = frequency if not hint else f"{frequency}, {hint}"
+        lines = [f"mode {k}: {frequency}"] + ([] if not hint else hint.split("; "))
         plotter.add_text("\n".join(lines), position="upper_left", font_size=13, color="black")
         extent = np.ptp(positions, axis=0)
         plotter.camera_position = "xz" if extent[2] > 1e-9 or extent[1] <= 1e-9 else "xy"

@@ -6,6 +6,6 @@ the `matplotlib.figure.Figure`. `save_figure` writes one atomically. Figures hav
 Agg canvas: pyplot is never imported and the caller's matplotlib backend is left as it is.
 """
 
-from vibra.charts._style import new_figure, save_figure
+from vibra.charts._style import new_figure, plain_math, save_figure
 
-__all__ = ["new_figure", "save_figure"]
+__all__ = ["new_figure", "save_figure", "plain_math"]

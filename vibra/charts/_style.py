@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 
 from vibra._io import atomic_write
 
-__all__ = ["STYLE", "ChartFigure", "new_figure", "save_figure"]
+__all__ = ["STYLE", "ChartFigure", "new_figure", "save_figure", "plain_math"]
 
 #: rcParams applied (locally, via rc_context) to every chart: legible at the default size.
 STYLE: Any = {
@@ -75,3 +75,27 @@ def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
             fig.savefig(temporary, format="png")
 
     return atomic_write(path, write)
+
+
+#: Matplotlib mathtext a caption may carry -> its plain Unicode (for HTML and terminals).
+_MATH_UNICODE = (("^{-1}", "⁻¹"), ("^{-2}", "⁻²"), ("^2", "²"), ("\\omega", "ω"), ("\\Omega", "Ω"),
+                 ("\\gamma", "γ"), ("\\zeta", "ζ"), ("\\lambda", "λ"), ("\\pi", "π"), ("\\rho", "ρ"),
+                 ("\\sigma", "σ"), ("\\Delta", "Δ"), ("\\mu", "μ"), ("\\theta", "θ"), ("\\phi", "φ"),
+                 ("\\alpha", "α"), ("\\beta", "β"), ("_0", "₀"), ("_c", "c"), ("\\,", " "), ("\\pm", "±"))
+
+
+def plain_math(text: str) -> str:
+    """`text` with matplotlib mathtext (``$\\omega$``, ``cm$^{-1}$``) replaced by plain Unicode (ω, cm⁻¹).
+
+    Plain-text exponents ``^-1`` and ``^-2`` (``cm^-1``) become superscripts too.
+
+    >>> plain_math("wavenumber (cm$^{-1}$), $\\\\omega$ (rad/s)")
+    'wavenumber (cm⁻¹), ω (rad/s)'
+    """
+    parts = text.split("$")
+    for i in range(1, len(parts), 2):  # the odd parts were between dollars
+        math = parts[i]
+        for latex, unicode in _MATH_UNICODE:
+            math = math.replace(latex, unicode)
+        parts[i] = math.replace("{", "").replace("}", "").replace("\\", "")
+    return "".join(parts).replace("^-1", "⁻¹").replace("^-2", "⁻²")

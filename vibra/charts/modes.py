@@ -11,7 +11,7 @@ from typing import Any, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from vibra.charts._style import new_figure
+from vibra.charts._style import new_figure, plain_math
 
 __all__ = ["spectrum_figure", "shapes_figure"]
 
@@ -58,7 +58,7 @@ def spectrum_figure(scene: Any, modes: Any) -> tuple[Any, str]:
     axes.set_ylim(0, max(merged.values()) + 0.7)
     _stagger_labels(figure, axes, labels)
     n_zero = int(zero.sum())
-    caption = (f"{scene.title}: stick spectrum of {modes.n_modes} computed modes ({label}); "
+    caption = (f"{scene.title}: stick spectrum of {modes.n_modes} computed modes ({plain_math(label)}); "
                f"stick height = number of modes at that frequency"
                + (f", {n_zero} zero (rigid-body) mode(s) in grey" if n_zero else ""))
     return figure, caption

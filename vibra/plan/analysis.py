@@ -60,23 +60,29 @@ def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
     """
     from vibra.molecules import experimental_fundamentals, match_fundamentals, vibrational_analysis
 
-    if getattr(system, "dim", None) != 3 or getattr(system, "n_sites", 0) < 2 or system.frozen.any():
+    if getattr(system, "n_sites", 0) < 2 or system.frozen.any():
         return None
-    try:
-        analysis = vibrational_analysis(system)
-        group = analysis.point_group
-        labels = analysis.species
-    except (ValueError, RuntimeError):
-        return None
-    vib_omega = np.asarray(analysis.modes.omega)[analysis.vibrations]
     omega = np.asarray(modes.omega)
-    scale = max(float(np.abs(omega).max(initial=0.0)), float(np.abs(vib_omega).max(initial=0.0)), 1e-300)
-    species: list[str] = []
-    for value in omega:
-        distance = np.abs(vib_omega - value)
-        j = int(np.argmin(distance)) if len(distance) else -1
-        near = j >= 0 and distance[j] <= 1e-4 * scale and abs(value) > 1e-6 * scale
-        species.append(labels[j] if near else "")
+    try:
+        if system.dim != 3:
+            found = _lifted_species(system, modes)
+            if found is None:
+                return None
+            group, species = found
+        else:
+            analysis = vibrational_analysis(system)
+            group = analysis.point_group
+            labels = analysis.species
+            vib_omega = np.asarray(analysis.modes.omega)[analysis.vibrations]
+            scale = max(float(np.abs(omega).max(initial=0.0)), float(np.abs(vib_omega).max(initial=0.0)), 1e-300)
+            species = []
+            for value in omega:
+                distance = np.abs(vib_omega - value)
+                j = int(np.argmin(distance)) if len(distance) else -1
+                near = j >= 0 and distance[j] <= 1e-4 * scale and abs(value) > 1e-6 * scale
+                species.append(labels[j] if near else "")
+    except (ValueError, RuntimeError, TypeError):
+        return None
     table = group.table
     ir = tuple(None if not s else table.is_ir_active(s) for s in species)
     raman = tuple(None if not s else table.is_raman_active(s) for s in species)
@@ -86,6 +92,39 @@ def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
         observed = match_fundamentals(entry, species, modes.wavenumbers_cm1())
     return MoleculeSymmetry(group=group.name, species=tuple(species), ir_active=ir, raman_active=raman,
                             experimental=tuple(observed), source=None if entry is None else entry.source)
+
+
+def _site_displacements(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n_sites, 3) displacement of every site (zeros at frozen dofs and unused axes)."""
+    full = np.asarray(system.expand(shape)).reshape(system.n_sites, system.dim)
+    out = np.zeros((system.n_sites, 3))
+    out[:, : system.dim] = full
+    return out
+
+
+def _lifted_species(system: Any, modes: Any) -> tuple[Any, list[str]] | None:
+    """Point group and species of the modes of a 1-D or 2-D molecule (the axial CO2), set in 3-D space.
+
+    The sites are placed in 3-D (missing axes zero) and each mode's shape padded likewise, so
+    the labels are those of the full molecule's group for motions along the modelled axes.
+    None without symbols or shapes.
+    """
+    from ase import Atoms
+
+    from vibra.molecules import mode_species, point_group
+
+    if not system.symbols or getattr(modes, "shapes", None) is None:
+        return None
+    positions = np.zeros((system.n_sites, 3))
+    positions[:, : system.dim] = np.asarray(system.positions, dtype=float).reshape(system.n_sites, system.dim)
+    group = point_group(Atoms(list(system.symbols), positions=positions, masses=np.asarray(system.masses)))
+    omega = np.asarray(modes.omega)
+    moving = np.flatnonzero(~modes.zero_modes(1e-6))
+    shapes = np.stack([_site_displacements(system, np.asarray(modes.shapes)[:, k]).ravel() for k in moving], axis=1)
+    species = [""] * len(omega)
+    for k, label in zip(moving, mode_species(group, shapes, omega[moving])):
+        species[int(k)] = label
+    return group, species
 
 
 def _activity_text(symmetry: MoleculeSymmetry, k: int) -> str | None:

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Sequence
 
 from vibra._io import atomic_write_text
+from vibra.charts import plain_math
 from vibra.report.folder import output_is_sound
 from vibra.report.outcome import BatchResult, SceneOutcome
 
@@ -92,10 +93,11 @@ def write_index(result: BatchResult, outcomes: Sequence[SceneOutcome] | None = N
             parts.append("<table><tr><th>step</th><th>what</th><th>solver</th><th>accuracy</th>"
                          "<th>time (s)</th></tr>")
             for s in o.steps:
-                parts.append(f"<tr><td>{e(s.name)}</td><td>{e(s.what)}</td><td>{e(s.solver or '')}</td>"
-                             f"<td>{e(s.accuracy or '')}</td><td>{s.seconds:.3f}</td></tr>")
+                parts.append(f"<tr><td>{e(s.name)}</td><td>{e(plain_math(s.what))}</td><td>{e(s.solver or '')}</td>"
+                             f"<td>{e(plain_math(s.accuracy or ''))}</td><td>{s.seconds:.3f}</td></tr>")
             parts.append("</table>")
-        for output, caption in zip(o.outputs, o.captions):
+        for output, raw_caption in zip(o.outputs, o.captions):
+            caption = plain_math(raw_caption)  # Unicode, never raw mathtext such as $\omega$
             link = e(output, quote=True)
             if output.endswith((".png", ".gif")):
                 parts.append(f"<figure><img src='{link}' alt='{e(caption, quote=True)}'>"
@@ -104,7 +106,7 @@ def write_index(result: BatchResult, outcomes: Sequence[SceneOutcome] | None = N
                 parts.append(f"<p><a href='{link}'>{e(output)}</a>: {e(caption)}</p>")
         if o.frequencies:
             parts.append("<details><summary>frequencies</summary><pre>"
-                         + e("\n".join(o.frequencies)) + "</pre></details>")
+                         + e(plain_math("\n".join(o.frequencies))) + "</pre></details>")
         parts.append("</section>")
     parts.append("</body></html>")
     return atomic_write_text(result.out_dir / "index.html", "\n".join(parts) + "\n")
