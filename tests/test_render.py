@@ -15,7 +15,7 @@ import pytest
 from PIL import Image
 
 from vibra.plan import build_system
-from vibra.plan.analysis import inversion_parity, symmetry_hints
+from vibra.plan.analysis import molecule_symmetry, symmetry_hints
 from vibra.render import MAX_CHAIN_SITES, MoleculeStructure, SceneRenderer, chain_sites, write_gif, write_png
 from vibra.scene import Scene
 
@@ -77,10 +77,11 @@ def test_degenerate_bend_side_by_side(renderer: SceneRenderer, tmp_path: Path) -
     names = [name for name, _ in outputs]
     assert names == ["co2_mode5.png", "co2_mode7.png", "co2_mode8.png"]  # the bend pair is one image
     assert "degenerate, x2, side by side" in outputs[0][1]
-    # mutual exclusion (centrosymmetric CO2): symmetric stretch g, bend and asymmetric stretch u;
-    # the renderer draws the texts it is given (computed by vibra.plan.analysis)
-    assert "g: IR-inactive" in outputs[1][1]
-    assert "u: IR-allowed" in outputs[0][1] and "u: IR-allowed" in outputs[2][1]
+    # mutual exclusion (centrosymmetric CO2, D_inf_h): symmetric stretch Sigma_g+ Raman only, bend Pi_u
+    # and asymmetric stretch Sigma_u+ IR only; the renderer draws the texts it is given (vibra.plan.analysis)
+    assert "Sigma_g+ (Dinfh): IR inactive, Raman active" in outputs[1][1]
+    assert "Pi_u (Dinfh): IR active, Raman inactive" in outputs[0][1]
+    assert "Sigma_u+ (Dinfh): IR active, Raman inactive" in outputs[2][1]
     assert "cm^-1" in outputs[0][1]
     for name in names:
         assert image(tmp_path / name).std() > MIN_STD
@@ -184,16 +185,19 @@ def test_render_needs_shapes(renderer: SceneRenderer, tmp_path: Path) -> None:
         renderer.render_modes(sc, system, system.modes(vectors=False), [1], tmp_path)
 
 
-def test_inversion_parity_by_construction() -> None:
-    # O-C-O on x: the symmetric stretch is g, the asymmetric stretch u; a bent molecule has no parity.
-    x = np.array([[-1.0, 0, 0], [0.0, 0, 0], [1.0, 0, 0]])
-    m = np.array([16.0, 12.0, 16.0])
-    symmetric = np.array([[-1.0, 0, 0], [0, 0, 0], [1.0, 0, 0]])
-    asymmetric = np.array([[1.0, 0, 0], [-2.0, 0, 0], [1.0, 0, 0]])
-    assert inversion_parity(x, m, symmetric) == "g"
-    assert inversion_parity(x, m, asymmetric) == "u"
-    bent = np.array([[-1.0, 0.5, 0], [0.0, 0, 0], [1.0, 0.5, 0]])
-    assert inversion_parity(bent, m, symmetric) is None
+def test_species_parity_by_construction() -> None:
+    # O-C-O on x (the seed's axial model, lifted to 3-D): the symmetric stretch is g (Sigma_g+), the
+    # asymmetric stretch u (Sigma_u+); a bent molecule (C2v) has no inversion centre, no g/u label.
+    from vibra import molecules
+
+    symmetry = molecule_symmetry(molecules.co2(dims=1), molecules.co2(dims=1).modes())
+    assert symmetry is not None and symmetry.group == "Dinfh"
+    assert symmetry.species == ("", "Sigma_g+", "Sigma_u+")
+    assert symmetry.ir_active[1:] == (False, True) and symmetry.raman_active[1:] == (True, False)
+    water = molecules.h2o()
+    bent = molecule_symmetry(water, water.modes())
+    assert bent is not None and bent.group == "C2v"
+    assert not any(label.endswith(("g", "u")) for label in bent.species if label)
 
 
 def test_atomic_writers_leave_no_temp_files(tmp_path: Path) -> None:

@@ -516,20 +516,43 @@ def test_banded_solver_scene_runs(tmp_path: Path) -> None:
 
 
 def test_molecule_symmetry_is_computed_by_the_plan_and_drawn(tmp_path: Path) -> None:
-    # Mutual exclusion for centrosymmetric CO2 (seed 003 Example 11): the symmetric stretch is
-    # g (IR-inactive), the bend and the asymmetric stretch u. The plan's structure step computes
-    # it; the captions of the rendered images carry it.
+    # Mutual exclusion for centrosymmetric CO2 (seed 003 Example 11), in the textbook labels of
+    # D_inf_h (Herzberg; issue 12): the bend Pi_u and the asymmetric stretch Sigma_u+ are IR-active
+    # and Raman-inactive, the symmetric stretch Sigma_g+ the reverse. The plan's symmetry step
+    # computes it; the captions of the rendered images carry it.
     scene = Scene.from_dict({"kind": "molecule", "system": {"builder": "co2", "dims": 3},
                              "draw": {"modes": True, "window_size": SMALL}}, source="co2.toml")
     plan = make_plan(scene)
-    assert plan.step_names == ("build", "modes", "structure", "render-modes")
+    assert plan.step_names == ("build", "modes", "symmetry", "structure", "render-modes")
     result = execute(plan, tmp_path, tmp_path)
     [structure] = [r for r in result.records if r.name == "structure"]
     assert structure.accuracy == "2 bonds"
+    [symmetry] = [r for r in result.records if r.name == "symmetry"]
+    assert "point group Dinfh" in (symmetry.accuracy or "")
     captions = dict(zip(result.outputs, result.captions))
-    assert "u: IR-allowed" in captions["co2_mode5.png"] and "degenerate" in captions["co2_mode5.png"]
-    assert "g: IR-inactive" in captions["co2_mode7.png"]
-    assert "u: IR-allowed" in captions["co2_mode8.png"] and "IR active" in captions["co2_mode8.png"]
+    assert "Pi_u (Dinfh): IR active, Raman inactive" in captions["co2_mode5.png"]
+    assert "degenerate" in captions["co2_mode5.png"]
+    assert "Sigma_g+ (Dinfh): IR inactive, Raman active" in captions["co2_mode7.png"]
+    assert "Sigma_u+ (Dinfh): IR active, Raman inactive" in captions["co2_mode8.png"]
+    assert "IR active (point charges" in captions["co2_mode8.png"]
+
+
+@pytest.mark.parametrize("builder, parameters, observed", [
+    # Shimanouchi (1972) via NIST CCCBDB, the source the data module cites
+    ("co2", {"dims": 3}, {"Pi_u": "nu2 667", "Sigma_g+": "nu1 1333", "Sigma_u+": "nu3 2349"}),
+    ("h2o", {}, {"A1": "nu2 1595", "B2": "nu3 3756"}),
+    ("h2o", {"isotopes": ["", "D", "D"]}, {"A1": "nu2 1178", "B2": "nu3 2788"}),
+    ("molecule", {"name": "CH4"}, {"T2": "nu4 1306", "E": "nu2 1534", "A1": "nu1 2917"}),
+])
+def test_frequency_table_has_species_and_observed_fundamentals(tmp_path: Path, builder: str,
+                                                               parameters: dict, observed: dict) -> None:
+    scene = Scene.from_dict({"kind": "molecule", "system": {"builder": builder, **parameters}},
+                            source="m.toml")
+    result = execute(make_plan(scene), tmp_path, tmp_path)
+    table = "\n".join(result.frequencies)
+    assert "NSRDS-NBS 39" in table and "Shimanouchi" in table
+    for species, text in observed.items():
+        assert any(species in line and text in line for line in result.frequencies), (species, text, table)
 
 
 # ---------------------------------------------------------------------- layers
