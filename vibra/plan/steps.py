@@ -47,8 +47,18 @@ class _Context:
     captions: list[str] = field(default_factory=list)
 
 
+def _is_quadratic(modes: Any) -> bool:
+    """True for the modes of a gyroscopic or damped system (`vibra.quadratic.QuadraticModes`)."""
+    return hasattr(modes, "damping_ratio")
+
+
 def _accuracy_text(modes: Any) -> str:
     parts = []
+    if _is_quadratic(modes):
+        scale = max(float(np.abs(modes.natural_frequency).max(initial=0.0)), np.finfo(float).tiny)
+        stable = "stable" if modes.stable else f"UNSTABLE ({int(np.sum(modes.unstable))} growing mode(s))"
+        return (f"max omega error {float(np.max(modes.omega_error, initial=0.0)) / scale:.2e} (relative to max "
+                f"omega), {stable}")
     if np.isfinite(modes.residual):
         parts.append(f"residual {modes.residual:.2e}")
     if modes.n_modes:
@@ -64,6 +74,8 @@ def frequency_lines(scene: Scene, modes: Any, symmetry: Any = None) -> tuple[str
     symmetry species and the observed fundamental (name and cm^-1), with the source below.
     """
     units = modes.units
+    if _is_quadratic(modes):
+        return _quadratic_lines(modes)
     omega = np.asarray(modes.omega)
     header = f"{'mode':>5}  {'omega [' + units.omega + ']':>26}"
     extra = None
@@ -87,6 +99,26 @@ def frequency_lines(scene: Scene, modes: Any, symmetry: Any = None) -> tuple[str
         lines.append(line.rstrip())
     if symmetry is not None and symmetry.source is not None:
         lines.append(f"observed: gas-phase fundamentals, {symmetry.source}")
+    return tuple(lines)
+
+
+def _quadratic_lines(modes: Any) -> tuple[str, ...]:
+    """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
+    units = modes.units
+    header = f"{'mode':>5}  {'omega_n [' + units.omega + ']':>26}"
+    hz = modes.frequencies_hz() if units.time_s is not None else None
+    if hz is not None:
+        header += f"  {'Hz':>14}"
+    header += f"  {'damping ratio':>14}  {'motion':<10}"
+    lines = [header]
+    for k in range(modes.n_modes):
+        line = f"{k:>5}  {modes.natural_frequency[k]:>26.10g}"
+        if hz is not None:
+            line += f"  {hz[k]:>14.6g}"
+        line += f"  {modes.damping_ratio[k]:>14.3g}  {'grows' if modes.unstable[k] else 'stable':<10}"
+        lines.append(line.rstrip())
+    lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.method} method): complex mode shapes, "
+                 "omega_n = sqrt(lambda_1 lambda_2) per eigenvalue pair")
     return tuple(lines)
 
 
@@ -153,7 +185,8 @@ def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
     error = empty_band(plan.scene, context.modes)  # only a band can come back empty
     if error is not None:
         raise error
-    return context.modes.solver, _accuracy_text(context.modes)
+    solver = context.modes.method if _is_quadratic(context.modes) else context.modes.solver
+    return solver, _accuracy_text(context.modes)
 
 
 def _crosscheck_inputs(scene: Scene) -> tuple[Any, Any]:
@@ -243,6 +276,17 @@ def _drawn_modes(plan: Plan, context: _Context) -> list[int]:
 
 
 def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    if _is_quadratic(context.modes):  # gyroscopic: complex shapes trace orbits in the (x, y) plane
+        from vibra.charts.orbits import plot_mode_orbits
+
+        system, modes = context.system, context.modes
+        names = [system.labels[i] for i in system.free_dofs][:2]
+        figure = plot_mode_orbits(modes, coordinates=names, title=f"{plan.scene.title}: mode orbits")
+        frequencies = " and ".join(f"{w:.4g}" for w in modes.natural_frequency)
+        _save_chart(context, figure, "orbits",
+                    f"{plan.scene.title}: orbit of each mode over one period, q(t) = Re{{x exp(i omega t)}} "
+                    f"(omega = {frequencies} {modes.units.omega}); the two modes turn in opposite senses")
+        return None, None
     indices = _drawn_modes(plan, context)
     if renderer is None:  # generalised coordinates: no geometry to render in 3-D
         if plan.scene.system.builder == "double_pendulum":

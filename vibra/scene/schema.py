@@ -197,6 +197,8 @@ def check_combinations(reader: Reader, scene: Any) -> None:
         reader.fail("compute.crosscheck", "is available for the 3-D molecules 'co2' (dims = 3) and 'h2o'")
     if draw.gif and kind not in ("chain", "molecule"):
         reader.fail("draw.gif", f"animates chains and molecules, not a {kind!r} scene")
+    if scene.system.builder == "charged_particle":
+        _check_gyroscopic(reader, compute, draw)
     if kind == "oscillator":
         for key in ("modes", "gif", "spectrum", "dispersion"):
             if getattr(draw, key):
@@ -233,6 +235,20 @@ def check_combinations(reader: Reader, scene: Any) -> None:
             reader.fail("system.coordinates", f"needs {len(params['M'])} names, got {len(params['coordinates'])}")
 
 
+def _check_gyroscopic(reader: Reader, compute: Any, draw: Any) -> None:
+    """A gyroscopic scene (M q'' + G q' + K q = 0) solves all its complex modes and draws their orbits."""
+    for key in ("n_modes", "band"):
+        if getattr(compute, key) is not None:
+            reader.fail(f"compute.{key}", "a gyroscopic system is solved for all its modes (complex shapes); "
+                        f"remove {key}")
+    if compute.response is not None:
+        reader.fail("compute.response", "the response of a gyroscopic scene is not wired; remove [compute.response]")
+    for key in ("spectrum", "gif", "response", "dispersion"):
+        if getattr(draw, key):
+            reader.fail(f"draw.{key}", "a gyroscopic scene draws its mode orbits (draw.modes) and lists its "
+                        "frequencies in the table")
+
+
 def _check_memory(reader: Reader, scene: Any) -> None:
     """Refuse a scene whose memory or time estimate (`vibra.scene.limits`) exceeds its limit, before any work."""
     compute = scene.compute
@@ -261,7 +277,7 @@ def _check_frozen(reader: Reader, scene: Any) -> int | None:
     """
     p = scene.system.parameters
     builder = scene.system.builder
-    if builder == "double_pendulum":
+    if builder in ("double_pendulum", "charged_particle"):
         return 2
     if builder == "matrices":
         return len(p["M"])
