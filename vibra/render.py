@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra._io import atomic_write
 
 __all__ = ["SceneRenderer", "MoleculeStructure", "write_png", "write_gif", "molecule_symbols", "molecule_bonds",
-           "chain_sites", "MAX_CHAIN_SITES"]
+           "chain_sites", "MAX_CHAIN_SITES", "MAX_NETWORK_ARROWS", "network_arrow_step"]
 
 #: Largest number of sites drawn in a chain row; longer chains are decimated evenly.
 MAX_CHAIN_SITES = 41
@@ -185,6 +185,19 @@ def _frequency_text(scene: Any, modes: Any, k: int) -> str:
     return f"omega = {float(modes.omega[k]):.4g} (dimensionless)"
 
 
+#: Most arrows drawn on a network's C-alpha trace (larger structures show every k-th residue).
+MAX_NETWORK_ARROWS = 100
+
+
+def network_arrow_step(n_sites: int) -> int:
+    """k: draw an arrow on every k-th residue, so that at most `MAX_NETWORK_ARROWS` are drawn.
+
+    >>> network_arrow_step(76), network_arrow_step(1500)
+    (1, 15)
+    """
+    return max(1, -(-int(n_sites) // MAX_NETWORK_ARROWS))
+
+
 # ---------------------------------------------------------------------- renderer
 class SceneRenderer:
     """Renders the images of one scene, reusing one off-screen plotter per layout.
@@ -247,6 +260,8 @@ class SceneRenderer:
         """
         if modes.shapes is None:
             raise ValueError("render_modes needs mode shapes; the modes were computed with vectors=False")
+        if scene.kind == "network":
+            return [self._network_image(scene, system, modes, indices, out_dir)]
         if scene.kind == "molecule":
             return self._molecule_images(scene, system, modes, indices, out_dir,
                                          structure or _default_structure(scene, system), hints or {})
@@ -350,6 +365,50 @@ class SceneRenderer:
         aspect = (self.window_size[0] / columns) / (self.window_size[1] / rows)
         plotter.camera.zoom(1.45 if aspect >= 1.2 else 1.0)
         return text
+
+    # ------------------------------------------------------------------ networks
+    def _network_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                       out_dir: Path) -> tuple[str, str]:
+        """The C-alpha trace as a tube, one panel per mode, arrows on every k-th site (k from the size)."""
+        pv = self._pv
+        positions = _positions3(system)
+        n = len(positions)
+        every = network_arrow_step(n)
+        columns = min(len(indices), 3)
+        rows = -(-len(indices) // columns)
+        plotter = self._plotter((rows, columns))
+        centre = positions.mean(axis=0)
+        extent = float(np.ptp(positions, axis=0).max())
+        line = pv.lines_from_points(positions)
+        shown = np.arange(0, n, every)
+        for panel, k in enumerate(indices):
+            plotter.subplot(panel // columns, panel % columns)
+            motion = np.linalg.norm(_displacements3(system, np.asarray(modes.shapes)[:, k]), axis=1)
+            trace = line.copy()
+            trace["motion"] = motion / max(float(motion.max()), 1e-300)  # the tube coloured by each site's share
+            plotter.add_mesh(trace.tube(radius=0.012 * extent, n_sides=12), scalars="motion", cmap="viridis",
+                             clim=(0.0, 1.0), show_scalar_bar=False, smooth_shading=True)
+            vectors = _displacements3(system, np.asarray(modes.shapes)[:, k])[shown]
+            size = max(float(np.linalg.norm(vectors, axis=1).max()), 1e-300)
+            arrows = [pv.Arrow(start=positions[i], direction=v, scale=0.18 * extent * float(np.linalg.norm(v)) / size,
+                               tip_length=0.3, tip_radius=0.1, shaft_radius=0.035)
+                      for i, v in zip(shown, vectors) if np.linalg.norm(v) > 0.05 * size]
+            if arrows:
+                plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
+            plotter.add_text(f"mode {k}: omega = {float(modes.omega[k]):.4g}", position="upper_left",
+                             font_size=11, color="black")
+            plotter.camera.focal_point = tuple(centre)
+            plotter.camera.position = tuple(centre + np.array([0.0, -2.6 * extent, 0.9 * extent]))
+            plotter.camera.up = (0.0, 0.0, 1.0)
+            plotter.reset_camera()
+            plotter.camera.zoom(1.5)
+        name = f"{scene.name}_modes.png"
+        write_png(self._snapshot(plotter), out_dir / name)
+        listed = ", ".join(f"{k} (omega = {float(modes.omega[k]):.4g}, dimensionless)" for k in indices)
+        note = f"one arrow every {every} residues" if every > 1 else "one arrow per residue"
+        return name, (f"{scene.title}: slowest non-rigid modes {listed} as arrows on the C-alpha trace "
+                      f"({n} residues, tube through the C-alpha atoms coloured by each residue's motion, dark to "
+                      f"yellow; {note}, length proportional to the motion, the smallest 5% left out)")
 
     # ------------------------------------------------------------------ chains
     def _chain_sites(self, system: Any) -> NDArray[np.intp]:

@@ -17,7 +17,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["MoleculeSymmetry", "molecule_symmetry", "symmetry_hints", "DispersionCurves", "chain_dispersion", "dispersion_branches"]
+__all__ = ["MoleculeSymmetry", "molecule_symmetry", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion", "dispersion_branches"]
 
 #: A mode whose point-charge IR intensity is below this fraction of the strongest is IR-inactive.
 IR_INACTIVE_FRACTION = 1e-8
@@ -246,3 +246,39 @@ def chain_dispersion(parameters: Any, modes: Any, *, n_q: int = 400) -> Dispersi
     mode_q = assign_wavenumbers(modes, ends=parameters["ends"], spacing=spacing, sites_per_cell=branches.shape[0])
     return DispersionCurves(q=q, branches=branches, mode_q=mode_q, mode_omega=np.asarray(modes.omega),
                             n_sites=int(modes.n_dof), ends=str(parameters["ends"]))
+
+
+@dataclass(frozen=True, eq=False)
+class NetworkFluctuations:
+    """Predicted and crystallographic B-factors of a network scene (`network_fluctuations`).
+
+    Attributes
+    ----------
+    labels : tuple of str
+        One ``"chain:RESNAMEnumber:CA"`` label per site (`vibra.networks.Structure.labels`).
+    experimental : (n_sites,) ndarray
+        B-factors of the structure file, in Å^2.
+    predicted : (n_sites,) ndarray
+        8 pi^2/3 <u^2> from the computed non-rigid modes (kT = 1 in gamma's energy unit), in Å^2.
+    correlation : float
+        Pearson correlation of the two (`vibra.networks.b_factor_correlation`).
+    n_modes : int
+        Modes computed (the rigid ones among them are left out of the sum).
+    """
+
+    labels: tuple[str, ...]
+    experimental: NDArray[np.float64]
+    predicted: NDArray[np.float64]
+    correlation: float
+    n_modes: int
+
+
+def network_fluctuations(structure: Any, system: Any, modes: Any) -> NetworkFluctuations:
+    """B-factors predicted from `modes` of an elastic network, against those of its `structure`."""
+    from vibra.networks import b_factor_correlation, predicted_b_factors, square_fluctuations
+
+    predicted = predicted_b_factors(square_fluctuations(system, modes))
+    experimental = np.asarray(structure.b_factors, dtype=float)
+    return NetworkFluctuations(labels=tuple(structure.labels), experimental=experimental, predicted=predicted,
+                               correlation=float(b_factor_correlation(predicted, experimental)),
+                               n_modes=int(modes.n_modes))

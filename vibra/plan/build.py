@@ -12,9 +12,9 @@ import numpy as np
 
 from vibra.molecules import molecule_names
 from vibra.scene import Scene, SceneError, builder_function
-from vibra.scene.files import read_scene_data
+from vibra.scene.files import read_scene_data, scene_data_path
 
-__all__ = ["build_system"]
+__all__ = ["build_system", "network_structure"]
 
 
 def build_system(scene: Scene) -> Any:
@@ -38,6 +38,25 @@ def build_system(scene: Scene) -> Any:
         first = message.split(" ", 1)[0].split("[", 1)[0]
         key = f"system.{first}" if first in scene.system.parameters else "system"
         raise SceneError(scene.source, key, message) from error
+
+
+def network_structure(scene: Scene) -> Any:
+    """The C-alpha sites and B-factors (`vibra.networks.Structure`) of a network scene's ``system.pdb``.
+
+    The file must lie inside the scene's folder (`vibra.scene.files.scene_data_path`).
+
+    Raises
+    ------
+    SceneError
+        A path outside the scene's folder, a missing or unreadable file, no C-alpha atoms.
+    """
+    from vibra.networks import from_pdb
+
+    path = scene_data_path(scene.source, "system.pdb", scene.system.parameters["pdb"])
+    try:
+        return from_pdb(path, selection="CA")
+    except (ValueError, OSError) as error:
+        raise SceneError(scene.source, "system.pdb", str(error)) from None
 
 
 def _molecule(scene: Scene, make: Any, p: dict[str, Any]) -> Any:
@@ -106,6 +125,9 @@ def _build(scene: Scene) -> Any:
     elif builder == "matrices":
         system = make(np.asarray(p["M"]), np.asarray(p["K"]), coordinates=p["coordinates"],
                       units=scene.units, name=scene.name)
+    elif builder == "anm":
+        structure = network_structure(scene)
+        system = make(structure.positions, cutoff=p["cutoff"], gamma=p["gamma"], name=scene.name)
     elif builder == "oscillator":
         gammas = p["gamma"] if isinstance(p["gamma"], tuple) else (p["gamma"],)
         return tuple(make(p["w0"], g, p["m"]) for g in gammas)

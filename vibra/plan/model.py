@@ -104,7 +104,7 @@ def make_plan(scene: Scene) -> Plan:
     """The steps that compute exactly what `scene` asks (no work is done here)."""
     compute, draw = scene.compute, scene.draw
     steps = [Step("build", f"build the system with builder {scene.system.builder!r}")]
-    vectors = bool(compute.shapes or draw.needs_shapes)
+    vectors = bool(compute.shapes or draw.needs_shapes or scene.kind == "network")  # fluctuations need shapes
     n_modes = compute.n_modes
     if scene.kind != "oscillator":
         if n_modes is not None:
@@ -115,6 +115,9 @@ def make_plan(scene: Scene) -> Plan:
             how = "all modes"
         shapes = "frequencies and shapes" if vectors else "frequencies only (no shapes)"
         steps.append(Step("modes", f"{how}: {shapes}, accuracy={compute.accuracy!r}"))
+    if scene.kind == "network":
+        steps.append(Step("fluctuations", "thermal fluctuations from the computed non-rigid modes, predicted "
+                          "B-factors (8 pi^2/3 <u^2>) and their correlation with the file's B-factors"))
     if compute.crosscheck:
         steps.append(Step("crosscheck", "same force field through ASE Vibrations and phonopy"))
     if compute.response is not None:
@@ -143,6 +146,8 @@ def make_plan(scene: Scene) -> Plan:
         steps.append(Step("chart-dispersion", "dispersion relation with the chain's modes"))
     if draw.response:
         steps.append(Step("chart-response", "response amplitude and phase against frequency"))
+    if draw.bfactors:
+        steps.append(Step("chart-bfactors", "predicted against crystallographic B-factors per residue"))
     if draw.convergence:
         steps.append(Step("chart-convergence", "error of the chain's modes against N (log-log)"))
     return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)

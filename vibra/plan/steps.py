@@ -17,8 +17,8 @@ from typing import Any, Callable
 import numpy as np
 
 from vibra._io import atomic_write_text
-from vibra.plan.analysis import chain_dispersion, molecule_symmetry, symmetry_hints
-from vibra.plan.build import build_system
+from vibra.plan.analysis import chain_dispersion, molecule_symmetry, network_fluctuations, symmetry_hints
+from vibra.plan.build import build_system, network_structure
 from vibra.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.plan.model import Plan, PlanResult, StepRecord
 from vibra.scene import Scene
@@ -42,6 +42,7 @@ class _Context:
     dispersion: Any = None
     structure: Any = None
     symmetry: Any = None
+    network: Any = None
     hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)
     captions: list[str] = field(default_factory=list)
@@ -149,7 +150,7 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
                 on_step(step.name)
             before = len(context.outputs)
             start = time.perf_counter()
-            if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule"):
+            if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule", "network"):
                 from vibra.render import SceneRenderer
                 renderer = SceneRenderer(plan.scene.draw.window_size)
             try:
@@ -349,6 +350,26 @@ def _step_symmetry(plan: Plan, context: _Context, renderer: Any) -> tuple[str | 
     return "vibra.molecules.point_group", f"point group {context.symmetry.group}{source}"
 
 
+def _step_fluctuations(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    """B-factors of a network scene predicted from its computed modes (`network_fluctuations`)."""
+    context.network = network_fluctuations(network_structure(plan.scene), context.system, context.modes)
+    return "kT sum |u_k|^2 / omega_k^2 (rigid modes left out)", \
+        f"B-factor correlation r = {context.network.correlation:.3f} over {len(context.network.labels)} residues"
+
+
+def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.networks import plot_b_factors
+
+    network = context.network
+    figure = plot_b_factors(network.labels, network.experimental, network.predicted, network.correlation,
+                            title=plan.scene.title)
+    _save_chart(context, figure, "bfactors",
+                f"{plan.scene.title}: B-factors per residue, crystallographic against predicted from the "
+                f"{network.n_modes} lowest modes (rigid ones left out; own axis, as the network fixes them "
+                f"only up to kT/gamma); Pearson correlation r = {network.correlation:.3f}")
+    return None, None
+
+
 def _step_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     context.dispersion = chain_dispersion(plan.scene.system.parameters, context.modes)
     return None, None
@@ -429,6 +450,8 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "continuum": _step_continuum,
     "dispersion": _step_dispersion,
     "symmetry": _step_symmetry,
+    "fluctuations": _step_fluctuations,
+    "chart-bfactors": _step_chart_bfactors,
     "structure": _step_structure,
     "render-modes": _step_render_modes,
     "render-gif": _step_render_gif,

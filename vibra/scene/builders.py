@@ -44,6 +44,7 @@ BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
     "double_pendulum": ("vibra.lagrangian", "double_pendulum"),
     "charged_particle": ("vibra.gyroscopic", "charged_particle"),
     "matrices": ("vibra.system", "System.generalized"),
+    "anm": ("vibra.networks", "anm"),
     "oscillator": ("vibra.response", "Oscillator"),
 }
 
@@ -52,6 +53,7 @@ BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "linear_chain": ("chain",), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
     "springs": ("chain", "molecule"), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
     "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
+    "anm": ("network",),
 })
 
 MASS = scalar_or_list(positive)
@@ -90,6 +92,7 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
     "charged_particle": {"mass": positive, "omega0": positive, "charge": number, "field": number},
     "matrices": {"M": matrix, "K": matrix, "coordinates": list_of(string)},
     "oscillator": {"w0": positive, "gamma": scalar_or_list(nonnegative), "m": positive},
+    "anm": {"cutoff": positive, "gamma": positive},
 })
 
 _UNITS = "the scene's top-level units"
@@ -115,6 +118,8 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
                  "G": "gyroscopic and damped scenes are not wired yet (issue 15)",
                  "C": "gyroscopic and damped scenes are not wired yet (issue 15)"},
     "oscillator": {},
+    "anm": {"positions": "the C-alpha atoms of the structure file system.pdb",
+            "masses": "unit masses, as ProDy's ANM", "name": _NAME},
 })
 
 #: builder -> keys a scene may set that are not builder parameters (the plan applies them).
@@ -131,6 +136,7 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "charged_particle": {},
     "matrices": {},
     "oscillator": {},
+    "anm": {"pdb": field_spec(string, required=True)},
 })
 
 #: builder -> parameters a scene must give although the builder has a default for them.

@@ -167,6 +167,7 @@ def parse_draw(reader: Reader, data: Any) -> DrawSpec:
         "response": field_spec(boolean, False),
         "convergence": field_spec(boolean, False),
         "gif": field_spec(boolean, False),
+        "bfactors": field_spec(boolean, False),
         "window_size": field_spec(list_of(integer(64, 4096), length=2), (1024, 640)),
     })
     return DrawSpec(**values)
@@ -197,6 +198,15 @@ def check_combinations(reader: Reader, scene: Any) -> None:
         reader.fail("compute.crosscheck", "is available for the 3-D molecules 'co2' (dims = 3) and 'h2o'")
     if draw.gif and kind not in ("chain", "molecule"):
         reader.fail("draw.gif", f"animates chains and molecules, not a {kind!r} scene")
+    if scene.system.builder == "anm":
+        scene_data_path(reader.source, "system.pdb", params["pdb"])
+        for key in ("gif", "dispersion", "response"):
+            if getattr(draw, key):
+                reader.fail(f"draw.{key}", "a network scene draws its slowest modes on the C-alpha trace "
+                            "(draw.modes), the B-factors (draw.bfactors) and the spectrum")
+    if draw.bfactors and kind != "network":
+        reader.fail("draw.bfactors", f"compares predicted and crystallographic B-factors of a network scene, "
+                    f"not of a {kind!r} scene")
     if scene.system.builder == "charged_particle":
         _check_gyroscopic(reader, compute, draw)
     if kind == "oscillator":

@@ -9,9 +9,9 @@ from typing import Any, Mapping
 __all__ = ["SceneError", "KINDS", "UNITS", "DEFAULT_UNITS", "SAFE_NAME", "SystemSpec", "ResponseSpec",
            "ContinuumSpec", "ComputeSpec", "DrawSpec"]
 
-KINDS = ("chain", "molecule", "oscillator", "generalized")
+KINDS = ("chain", "molecule", "oscillator", "generalized", "network")
 UNITS = ("SI", "ASE", "dimensionless")
-DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI"}
+DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI", "network": "dimensionless"}
 #: A scene name: letters, digits and ``_ . -`` (output files are ``<name>_<what>.png``).
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
@@ -155,6 +155,8 @@ class DrawSpec:
         Continuum-convergence chart (needs ``[compute.continuum]``).
     gif : bool
         Animated GIF of the lowest drawn mode.
+    bfactors : bool
+        Predicted against crystallographic B-factors (network scenes).
     window_size : (int, int)
         Size of rendered images in pixels (width, height).
     """
@@ -166,6 +168,7 @@ class DrawSpec:
     response: bool = False
     convergence: bool = False
     gif: bool = False
+    bfactors: bool = False
     window_size: tuple[int, int] = (1024, 640)
 
     @property
