@@ -52,9 +52,9 @@ def test_no_command_prints_help() -> None:
 
 
 def test_validate_bundled_scenes() -> None:
-    run = vibra("validate", "chains", "molecules")
+    run = vibra("validate", *BUNDLED_FOLDERS)
     assert run.returncode == 0, run.stdout
-    assert "11 scene(s), 0 invalid" in run.stdout
+    assert f"{len(EXPECTED)} scene(s), 0 invalid" in run.stdout
 
 
 @pytest.mark.parametrize("name, message", [
@@ -166,17 +166,24 @@ EXPECTED = {
     "co2-axial": ["mode1", "mode2", "spectrum"],  # mode 0 is the translation: not drawn
     "co2": ["mode5", "mode7", "mode8", "spectrum"],  # mode5: the degenerate bend pair, side by side
     "h2o": ["mode6", "mode7", "mode8", "spectrum"],
+    "ch4": ["mode6", "mode9", "mode11", "mode12", "spectrum"],  # T2 x3, E x2, A1, T2 x3: one image per set
+    "d2o": ["mode6", "mode7", "mode8", "spectrum"],
+    "charged-particle": ["orbits"],
+    "ubiquitin-anm": ["modes", "spectrum", "bfactors"],
 }
+#: The folders the README's first command renders.
+BUNDLED_FOLDERS = ("chains", "molecules", "networks/ubiquitin")
 
 
 @pytest.mark.slow
 def test_report_bundled_scenes_end_to_end(tmp_path: Path) -> None:
     out = tmp_path / "plots"
-    run = vibra("report", "chains", "molecules", "--out", str(out), "--jobs", "2", "--window-size", "320x200",
+    run = vibra("report", *BUNDLED_FOLDERS, "--out", str(out), "--jobs", "2", "--window-size", "320x200",
                 env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
     assert run.returncode == 0, run.stdout + run.stderr
-    assert "11 scene(s), 0 failed" in run.stdout
-    assert "11/11" in run.stderr  # the progress bar
+    n = len(EXPECTED)
+    assert f"{n} scene(s), 0 failed" in run.stdout
+    assert f"{n}/{n}" in run.stderr  # the progress bar
     summary = json.loads((out / "summary.json").read_text())
     assert {s["name"] for s in summary["scenes"]} == set(EXPECTED)
     for entry in summary["scenes"]:
@@ -185,7 +192,7 @@ def test_report_bundled_scenes_end_to_end(tmp_path: Path) -> None:
         assert [o for o in entry["outputs"] if o.endswith(".png")] == expected
         for name in expected:
             picture = complete_png(out / name)
-            rendered = "_mode" in name and entry["name"] != "double-pendulum"  # pyvista, not matplotlib
+            rendered = "_mode" in name and entry["name"] not in ("double-pendulum", "charged-particle")  # pyvista
             if rendered:
                 assert picture.shape == (200, 320, 3), name  # the --window-size asked for
             else:
@@ -195,8 +202,8 @@ def test_report_bundled_scenes_end_to_end(tmp_path: Path) -> None:
     assert (out / "monatomic-fixed_mode0.gif").is_file()
     index = (out / "index.html").read_text()
     assert all(f"src='{name}_{what}.png'" in index for name, whats in EXPECTED.items() for what in whats)
-    again = vibra("report", "chains", "molecules", "--out", str(out), "--window-size", "320x200")
-    assert again.returncode == 0 and again.stdout.count("skipped") == 11
+    again = vibra("report", *BUNDLED_FOLDERS, "--out", str(out), "--window-size", "320x200")
+    assert again.returncode == 0 and again.stdout.count("skipped") == n
 
 
 def _all_outputs_complete(out: Path) -> int:

@@ -13,7 +13,8 @@ from vibra.modes import SOLVERS
 from vibra.scene import BUILDERS, KINDS, Scene, SceneError, find_scene_files, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
-BUNDLED = sorted((ROOT / "chains").glob("*.toml")) + sorted((ROOT / "molecules").glob("*.toml"))
+BUNDLED = (sorted((ROOT / "chains").glob("*.toml")) + sorted((ROOT / "molecules").glob("*.toml"))
+           + sorted((ROOT / "networks" / "ubiquitin").glob("*.toml")))
 BROKEN = ROOT / "tests" / "broken_scenes"
 
 #: broken scene file -> the specific message it must produce (key path included).
@@ -39,7 +40,8 @@ def test_bundled_scenes_are_the_issue_list() -> None:
     names = {path.name for path in BUNDLED}
     expected = {"co2-axial.toml", "co2.toml", "h2o.toml", "monatomic-free.toml", "monatomic-fixed.toml",
                 "diatomic.toml", "mass-defect.toml", "continuum-limit.toml", "forced-damped.toml",
-                "long-chain.toml", "double-pendulum.toml"}
+                "long-chain.toml", "double-pendulum.toml", "ch4.toml", "d2o.toml", "charged-particle.toml",
+                "anm.toml"}
     assert expected <= names
 
 

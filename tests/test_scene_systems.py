@@ -1,0 +1,176 @@
+"""Gyroscopic (issue 15) and elastic-network (issue 14) scenes: validation, plans, renders.
+
+Truth from outside the code under test: the charged particle's closed form
+omega = sqrt(omega0^2 + omega_c^2/4) -+ omega_c/2 (seed 003, example 4) and the sense of the
+cyclotron motion from F = q v x B; ProDy's ANM on the same PDB file for the B-factor
+correlation.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from vibra.plan import execute, make_plan, validate
+from vibra.scene import Scene, SceneError, load_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+UBIQUITIN = ROOT / "networks" / "ubiquitin"
+SMALL = [320, 200]
+MIN_STD = 5.0  # a blank image has std 0 (see test_render.py)
+
+
+def picture(path: Path) -> np.ndarray:
+    with Image.open(path) as handle:
+        handle.load()
+        return np.asarray(handle.convert("RGB"))
+
+
+def gyroscopic(**system: object) -> dict[str, object]:
+    return {"kind": "generalized", "system": {"builder": "charged_particle", **system}, "draw": {"modes": True}}
+
+
+# ---------------------------------------------------------------------- gyroscopic
+def test_charged_particle_table_matches_the_closed_form(tmp_path: Path) -> None:
+    m, omega0, q, b = 2.0, 3.0, 0.5, 4.0
+    scene = Scene.from_dict(gyroscopic(mass=m, omega0=omega0, charge=q, field=b), source="cp.toml")
+    result = execute(make_plan(scene), tmp_path, tmp_path)
+    omega_c = q * b / m
+    centre = math.sqrt(omega0**2 + omega_c**2 / 4)
+    assert np.allclose(result.modes.natural_frequency, [centre - omega_c / 2, centre + omega_c / 2], rtol=1e-13)
+    rows = [line.split() for line in result.frequencies[1:3]]
+    assert [float(r[1]) for r in rows] == pytest.approx([centre - omega_c / 2, centre + omega_c / 2], rel=1e-9)
+    assert all(r[-1] == "stable" for r in rows)
+    [modes_step] = [r for r in result.records if r.name == "modes"]
+    assert modes_step.solver == "skew-symmetric" and "stable" in (modes_step.accuracy or "")
+    assert result.outputs == ("cp_orbits.png",)
+    image = picture(tmp_path / "cp_orbits.png")
+    assert image.shape[1] >= 600 and image.std() > MIN_STD
+
+
+def test_charged_particle_orbits_turn_as_the_lorentz_force_says() -> None:
+    # F = q v x B with B along +z and q > 0: free cyclotron motion turns clockwise seen from +z.
+    # The faster mode (omega0' + omega_c/2) turns with it, the slower one against it.
+    from vibra.charts.orbits import rotation_sense
+    from vibra.plan import build_system
+
+    for sign, faster in ((1.0, "clockwise"), (-1.0, "counter-clockwise")):
+        scene = Scene.from_dict(gyroscopic(field=sign * 1.0), source="cp.toml")
+        modes = build_system(scene).modes()
+        other = "counter-clockwise" if faster == "clockwise" else "clockwise"
+        assert rotation_sense(modes.shapes[:, 1]) == faster
+        assert rotation_sense(modes.shapes[:, 0]) == other
+
+
+def test_bundled_charged_particle_scene_and_modes_command() -> None:
+    scene = load_scene(ROOT / "chains" / "charged-particle.toml")
+    validate(scene)
+    run = subprocess.run([sys.executable, "-m", "vibra", "modes", str(ROOT / "chains" / "charged-particle.toml")],
+                         capture_output=True, text=True, cwd=ROOT, env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+    assert run.returncode == 0, run.stderr
+    golden = (math.sqrt(5) - 1) / 2
+    assert f"{golden:.10g}" in run.stdout and f"{golden + 1:.10g}" in run.stdout
+    assert "skew-symmetric" in run.stdout and "damping ratio" in run.stdout
+
+
+@pytest.mark.parametrize("extra, message", [
+    ({"compute": {"n_modes": 1}}, r"compute\.n_modes: a gyroscopic system is solved for all its modes"),
+    ({"compute": {"band": [0.0, 1.0]}}, r"compute\.band: a gyroscopic system is solved for all its modes"),
+    ({"draw": {"spectrum": True}}, r"draw\.spectrum: a gyroscopic scene draws its mode orbits"),
+    ({"draw": {"gif": True}}, r"draw\.gif: animates chains and molecules"),
+    ({"system": {"builder": "charged_particle", "mass": -1.0}}, r"system\.mass: must be positive"),
+    ({"system": {"builder": "charged_particle", "field": "strong"}}, r"system\.field: expected a number"),
+    ({"kind": "chain"}, r"builder 'charged_particle' does not make a 'chain' scene"),
+])
+def test_gyroscopic_scene_refusals(extra: dict[str, object], message: str) -> None:
+    with pytest.raises(SceneError, match=message):
+        Scene.from_dict({**gyroscopic(), **extra}, source="cp.toml")
+
+
+# ---------------------------------------------------------------------- networks
+def network_scene(folder: Path, pdb: str = "1ubi.pdb", extra: str = "") -> Path:
+    path = folder / "anm.toml"
+    path.write_text(f'kind = "network"\n[system]\nbuilder = "anm"\npdb = "{pdb}"\n{extra}')
+    return path
+
+
+def test_network_scene_b_factor_correlation_matches_prody(tmp_path: Path) -> None:
+    prody = pytest.importorskip("prody")
+    prody.confProDy(verbosity="none")
+    scene = load_scene(UBIQUITIN / "anm.toml")
+    result = execute(make_plan(scene), tmp_path, tmp_path)
+    [step] = [r for r in result.records if r.name == "fluctuations"]
+    mine = float((step.accuracy or "").split("r = ")[1].split()[0])
+    structure = prody.parsePDB(str(UBIQUITIN / "1ubi.pdb")).select("calpha")
+    anm = prody.ANM("1ubi")
+    anm.buildHessian(structure, cutoff=15.0, gamma=1.0)
+    anm.calcModes(n_modes=20)
+    reference = np.corrcoef(prody.calcSqFlucts(anm), structure.getBetas())[0, 1]
+    assert mine == pytest.approx(reference, abs=1e-3)  # the step prints r to 3 decimals
+    assert result.outputs == ("ubiquitin-anm_modes.png", "ubiquitin-anm_spectrum.png", "ubiquitin-anm_bfactors.png")
+    assert any(f"r = {reference:.3f}" in caption for caption in result.captions)
+
+
+def test_network_render_is_sized_and_not_blank(tmp_path: Path) -> None:
+    shutil.copy(UBIQUITIN / "1ubi.pdb", tmp_path / "1ubi.pdb")
+    scene = load_scene(network_scene(tmp_path, extra="[compute]\nn_modes = 9\n[draw]\nmodes = true\nn_draw = 2\n"
+                                     f"window_size = {SMALL}\nbfactors = true\n"))
+    (tmp_path / "out").mkdir()
+    execute(make_plan(scene), tmp_path / "out", tmp_path)
+    modes_png = picture(tmp_path / "out" / "anm_modes.png")
+    assert modes_png.shape == (SMALL[1], SMALL[0], 3) and modes_png.std() > MIN_STD
+    chart = picture(tmp_path / "out" / "anm_bfactors.png")
+    assert chart.shape[1] >= 600 and chart.std() > MIN_STD
+
+
+def test_network_arrows_are_decimated_for_large_structures() -> None:
+    from vibra.render import MAX_NETWORK_ARROWS, network_arrow_step
+
+    for n in (10, 76, 100, 101, 1500, 16716):
+        step = network_arrow_step(n)
+        assert len(range(0, n, step)) <= MAX_NETWORK_ARROWS
+        assert step == 1 or len(range(0, n, step - 1)) > MAX_NETWORK_ARROWS  # the smallest step that fits
+
+
+@pytest.mark.parametrize("pdb, extra, message", [
+    ("../1ubi.pdb", "", r"system\.pdb: '\.\./1ubi\.pdb' leads outside the scene's folder"),
+    ("missing.pdb", "", r"system\.pdb: 'missing\.pdb': file not found"),
+    ("1ubi.pdb", "cutoff = 0.0\n", r"system\.cutoff: must be positive"),
+    ("1ubi.pdb", "[draw]\ngif = true\n", r"draw\.gif"),
+])
+def test_network_scene_refusals(tmp_path: Path, pdb: str, extra: str, message: str) -> None:
+    (tmp_path / "scenes").mkdir()
+    shutil.copy(UBIQUITIN / "1ubi.pdb", tmp_path / "1ubi.pdb")
+    shutil.copy(UBIQUITIN / "1ubi.pdb", tmp_path / "scenes" / "1ubi.pdb")
+    with pytest.raises(SceneError, match=message):
+        load_scene(network_scene(tmp_path / "scenes", pdb, extra))
+
+
+def test_network_pdb_symlink_leaving_the_folder_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "scenes").mkdir()
+    shutil.copy(UBIQUITIN / "1ubi.pdb", tmp_path / "1ubi.pdb")
+    os.symlink(tmp_path / "1ubi.pdb", tmp_path / "scenes" / "link.pdb")
+    with pytest.raises(SceneError, match=r"system\.pdb: 'link\.pdb' leads outside the scene's folder"):
+        load_scene(network_scene(tmp_path / "scenes", "link.pdb"))
+
+
+def test_network_pdb_without_c_alpha_atoms_is_one_scene_error(tmp_path: Path) -> None:
+    (tmp_path / "water.pdb").write_text(
+        "HETATM    1  O   HOH A   1       0.000   0.000   0.000  1.00 10.00           O\n"
+        "HETATM    2  O   HOH A   2       3.000   0.000   0.000  1.00 10.00           O\nEND\n")
+    with pytest.raises(SceneError, match=r"system\.pdb: "):
+        validate(load_scene(network_scene(tmp_path, "water.pdb")))
+
+
+def test_bfactors_need_a_network_scene() -> None:
+    with pytest.raises(SceneError, match=r"draw\.bfactors: compares predicted and crystallographic B-factors"):
+        Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 4},
+                         "draw": {"bfactors": True}}, source="c.toml")
