@@ -495,9 +495,9 @@ def test_dispersion_step_computes_what_the_chart_draws(tmp_path: Path, monkeypat
     execute(plan, tmp_path, tmp_path)
     curves = seen["curves"]
     assert drawn == ["dispersion"]
-    assert np.allclose(curves.branches[0], 2.0 * np.sqrt(8.0 / 2.0) * np.abs(np.sin(curves.q * 0.5 / 2.0)))
+    assert np.allclose(curves.omega[0], 2.0 * np.sqrt(8.0 / 2.0) * np.abs(np.sin(curves.q * 0.5 / 2.0)))
     assert curves.q[-1] == pytest.approx(np.pi / 0.5)
-    assert np.allclose(curves.mode_omega, 2.0 * np.sqrt(8.0 / 2.0) * np.sin(curves.mode_q * 0.5 / 2.0), rtol=1e-9)
+    assert np.allclose(curves.mode_omega, 2.0 * np.sqrt(8.0 / 2.0) * np.sin(curves.mode_wavenumbers * 0.5 / 2.0), rtol=1e-9)
     assert curves.n_sites == 12 and curves.ends == "fixed"
     with pytest.raises(ValueError):
         curves.q[0] = 1.0  # frozen result

@@ -14,12 +14,12 @@ from numpy.typing import ArrayLike
 
 from vibra import _validate
 from vibra.charts._style import new_figure
-from vibra.continuum import ConvergenceStudy, PulseResult, assign_wavenumbers, dispersion
+from vibra.continuum import ConvergenceStudy, DispersionCurves, PulseResult, dispersion_curves
 from vibra.modes import Modes
 from vibra.system import System
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
-__all__ = ["plot_dispersion_curves", "plot_dispersion", "plot_convergence", "plot_chain_mode_shapes", "plot_pulse_spacetime"]
+__all__ = ["plot_dispersion_curves", "plot_dispersion", "plot_curves", "plot_convergence", "plot_chain_mode_shapes", "plot_pulse_spacetime"]
 
 
 def _unit_names(units: UnitSystem) -> tuple[str, str, str]:
@@ -96,7 +96,7 @@ def plot_dispersion(
     units: str | UnitSystem | None = None,
     title: str | None = None,
 ) -> Figure:
-    """Notebook shorthand: `vibra.continuum.dispersion` (and `assign_wavenumbers`), then `plot_dispersion_curves`.
+    """Notebook shorthand: `vibra.continuum.dispersion_curves`, then `plot_curves`.
 
     Reports compute the curves in `vibra.plan` and call `plot_dispersion_curves` directly.
 
@@ -116,15 +116,17 @@ def plot_dispersion(
     title : str, optional
         Figure title.
     """
-    unit = unit_system(units) if units is not None else (modes.units if modes is not None else DIMENSIONLESS)
-    n_branches = dispersion(np.zeros(1), masses=masses, stiffness=stiffness, spacing=spacing).shape[0]
-    q = np.linspace(0.0, np.pi / (n_branches * spacing), 400)
-    branches = dispersion(q, masses=masses, stiffness=stiffness, spacing=spacing)
-    mode_q = None
-    if modes is not None:
-        mode_q = assign_wavenumbers(modes, ends=ends, spacing=spacing, sites_per_cell=n_branches)  # type: ignore[arg-type]
-    return plot_dispersion_curves(q, branches, mode_q=mode_q, mode_omega=None if modes is None else modes.omega,
-                                  n_sites=None if modes is None else modes.n_dof, ends=ends, units=unit, title=title)
+    curves = dispersion_curves(masses=masses, stiffness=stiffness, spacing=spacing, modes=modes,
+                               ends=ends,  # type: ignore[arg-type]
+                               units=units)
+    return plot_curves(curves, title=title)
+
+
+def plot_curves(curves: DispersionCurves, *, title: str | None = None) -> Figure:
+    """Draw a `vibra.continuum.DispersionCurves` (branches, and the finite chain's modes when it has them)."""
+    return plot_dispersion_curves(curves.q, curves.omega, mode_q=curves.mode_wavenumbers,
+                                  mode_omega=curves.mode_omega, n_sites=curves.n_sites, ends=curves.ends,
+                                  units=curves.units, title=title)
 
 
 def plot_convergence(study: ConvergenceStudy, *, title: str | None = None) -> Figure:

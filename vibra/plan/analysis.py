@@ -4,9 +4,10 @@
   observed fundamentals of a molecule's modes (`vibra.molecules`).
 - `symmetry_hints`: per-mode symmetry and IR-activity text of a molecule (species and
   activity from the character table, and the point-charge IR intensities of `vibra.spectra`).
-- `dispersion_branches`: omega(q) of a chain scene's parameters over its Brillouin zone.
-- `chain_dispersion`: the dispersion branches of a chain scene and the wavenumber of each of
-  its finite chain's modes (`vibra.continuum`), for the dispersion chart.
+- `chain_dispersion`: `vibra.continuum.dispersion_curves` for a chain scene's parameters (its
+  finite chain's modes placed on the branches), for the dispersion chart;
+  `dispersion_branches` its (q, omega) pair.
+- `network_fluctuations`: predicted against crystallographic B-factors of a network scene.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
+
+from vibra.continuum import DispersionCurves
 
 __all__ = ["MoleculeSymmetry", "molecule_symmetry", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion", "dispersion_branches"]
 
@@ -171,81 +174,32 @@ def symmetry_hints(system: Any, modes: Any, indices: Sequence[int], symbols: Seq
     return hints
 
 
-@dataclass(frozen=True, eq=False)
-class DispersionCurves:
-    """Dispersion branches of an infinite chain and where a finite chain's modes sit on them.
-
-    Attributes
-    ----------
-    q : (n_q,) ndarray
-        Wavenumbers over the first Brillouin zone [0, pi / (cell length)], in rad per length unit.
-    branches : (n_branches, n_q) ndarray
-        omega(q) of each branch (acoustic first), in rad per time unit.
-    mode_q : (n_modes,) ndarray
-        Wavenumber assigned to each mode of the finite chain, in rad per length unit.
-    mode_omega : (n_modes,) ndarray
-        Those modes' omega, in rad per time unit.
-    n_sites : int
-        Sites of the finite chain.
-    ends : str
-        Its end conditions.
-    """
-
-    q: NDArray[np.float64]
-    branches: NDArray[np.float64]
-    mode_q: NDArray[np.float64]
-    mode_omega: NDArray[np.float64]
-    n_sites: int
-    ends: str
-
-    def __post_init__(self) -> None:
-        for name in ("q", "branches", "mode_q", "mode_omega"):
-            array = np.array(getattr(self, name), dtype=float)
-            array.flags.writeable = False
-            object.__setattr__(self, name, array)
-
-
-def dispersion_branches(parameters: Any, *, n_q: int = 400) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(q, branches): omega(q) of a ``linear_chain`` / ``diatomic_chain`` scene over its Brillouin zone.
-
-    Parameters
-    ----------
-    parameters : Mapping
-        ``mass`` (a number) or ``masses`` (a pair), ``stiffness`` (a number or a pair), ``spacing``.
-    n_q : int
-        Points along q (2: the zone's ends, a cheap check).
-    """
-    from vibra.continuum import dispersion
-
-    masses = parameters["mass"] if "mass" in parameters else tuple(parameters["masses"])
-    stiffness = parameters["stiffness"]
-    stiffness = tuple(stiffness) if isinstance(stiffness, (tuple, list)) else stiffness
-    spacing = parameters["spacing"]
-    n_branches = dispersion(np.zeros(1), masses=masses, stiffness=stiffness, spacing=spacing).shape[0]
-    q = np.linspace(0.0, np.pi / (n_branches * spacing), n_q)
-    return q, dispersion(q, masses=masses, stiffness=stiffness, spacing=spacing)
-
-
-def chain_dispersion(parameters: Any, modes: Any, *, n_q: int = 400) -> DispersionCurves:
-    """Dispersion of a ``linear_chain`` / ``diatomic_chain`` scene's parameters, with its modes placed.
+def chain_dispersion(parameters: Any, modes: Any = None, *, n_q: int = 400) -> DispersionCurves:
+    """`vibra.continuum.dispersion_curves` for a ``linear_chain`` / ``diatomic_chain`` scene's parameters.
 
     Parameters
     ----------
     parameters : Mapping
         The scene's system parameters: ``mass`` (a number) or ``masses`` (a pair),
         ``stiffness`` (a number or a pair), ``spacing`` and ``ends``.
-    modes : Modes
-        The finite chain's modes (their wavenumbers from `vibra.continuum.assign_wavenumbers`).
+    modes : Modes, optional
+        The finite chain's modes, placed at their wavenumbers (`vibra.continuum.assign_wavenumbers`).
     n_q : int
-        Points along q.
+        Points along q (2: the zone's ends, a cheap check).
     """
-    from vibra.continuum import assign_wavenumbers
+    from vibra.continuum import dispersion_curves
 
-    q, branches = dispersion_branches(parameters, n_q=n_q)
-    spacing = parameters["spacing"]
-    mode_q = assign_wavenumbers(modes, ends=parameters["ends"], spacing=spacing, sites_per_cell=branches.shape[0])
-    return DispersionCurves(q=q, branches=branches, mode_q=mode_q, mode_omega=np.asarray(modes.omega),
-                            n_sites=int(modes.n_dof), ends=str(parameters["ends"]))
+    masses = parameters["mass"] if "mass" in parameters else tuple(parameters["masses"])
+    stiffness = parameters["stiffness"]
+    stiffness = tuple(stiffness) if isinstance(stiffness, (tuple, list)) else stiffness
+    return dispersion_curves(masses=masses, stiffness=stiffness, spacing=parameters["spacing"], modes=modes,
+                             ends=parameters["ends"], n_q=n_q)
+
+
+def dispersion_branches(parameters: Any, *, n_q: int = 400) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(q, branches): omega(q) of a chain scene's parameters over its Brillouin zone (`chain_dispersion`)."""
+    curves = chain_dispersion(parameters, n_q=n_q)
+    return curves.q, curves.omega
 
 
 @dataclass(frozen=True, eq=False)
