@@ -41,7 +41,7 @@ def test_bundled_scenes_are_the_issue_list() -> None:
     expected = {"co2-axial.toml", "co2.toml", "h2o.toml", "monatomic-free.toml", "monatomic-fixed.toml",
                 "diatomic.toml", "mass-defect.toml", "continuum-limit.toml", "forced-damped.toml",
                 "long-chain.toml", "double-pendulum.toml", "ch4.toml", "d2o.toml", "charged-particle.toml",
-                "anm.toml"}
+                "ubiquitin-anm.toml"}
     assert expected <= names
 
 

@@ -105,7 +105,7 @@ def network_scene(folder: Path, pdb: str = "1ubi.pdb", extra: str = "") -> Path:
 def test_network_scene_b_factor_correlation_matches_prody(tmp_path: Path) -> None:
     prody = pytest.importorskip("prody")
     prody.confProDy(verbosity="none")
-    scene = load_scene(UBIQUITIN / "anm.toml")
+    scene = load_scene(UBIQUITIN / "ubiquitin-anm.toml")
     result = execute(make_plan(scene), tmp_path, tmp_path)
     [step] = [r for r in result.records if r.name == "fluctuations"]
     mine = float((step.accuracy or "").split("r = ")[1].split()[0])
