@@ -214,7 +214,9 @@ def test_solver_requests_that_cannot_be_served() -> None:
     with pytest.raises(ValueError, match=r"solver='sparse' computes a few modes: give n_modes or band"):
         normal_modes(chain_K(5), np.ones(5), solver="sparse")
     n = solvers.DENSE_ALL_LIMIT + 1
-    with pytest.raises(ValueError, match=rf"K has {n} dofs: a dense solve would need 3.0 GiB"):
+    with pytest.raises(solvers.ResourceLimitError,
+                       match=rf"K has {n} dofs: the dense path \(all {n} modes of {n} dofs, with vectors\) "
+                             r"would need about 8.9 GiB of memory"):
         normal_modes(chain_K(n), np.ones(n), solver="dense")
     # A band on a large K that is not tridiagonal (a chain with next-nearest springs).
     wide = sp.diags([np.full(n - 2, -0.1), np.full(n - 1, -1.0), np.full(n, 2.2), np.full(n - 1, -1.0),

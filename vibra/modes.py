@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -114,6 +114,7 @@ class Modes:
     # ------------------------------------------------------------------ groups
     def zero_modes(self, rtol: float = 1e-6) -> NDArray[np.bool_]:
         """(n_modes,) True where |omega| <= rtol * max|omega| (rigid-body / translation modes)."""
+        rtol = _validate.nonnegative_scalar(rtol, "rtol")
         scale = float(np.abs(self.omega).max()) if self.n_modes else 0.0
         return np.abs(self.omega) <= np.maximum(rtol * scale, np.abs(self.omega_error))
 
@@ -122,6 +123,7 @@ class Modes:
 
         Returns a list of index arrays, one per group of two or more modes, ascending.
         """
+        rtol = _validate.nonnegative_scalar(rtol, "rtol")
         if self.n_modes < 2:
             return []
         scale = float(np.abs(self.omega).max())
@@ -235,6 +237,9 @@ def normal_modes(
     symmetrize: bool = False,
     spring_factor: tuple[Any, ArrayLike] | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
+    max_memory: float | None = None,
+    max_seconds: float | None = None,
+    progress: bool | Callable[[float, str], None] | None = None,
 ) -> Modes:
     """Normal modes of M u'' + K u = 0 (seed 003 eqs. 137-151).
 
@@ -262,6 +267,16 @@ def normal_modes(
         enables the accurate path (frequencies as singular values of W^1/2 B M^-1/2).
     units : str or UnitSystem
         Unit system of K and M, carried by the result.
+    max_memory : float, optional
+        Bytes the solve may allocate beyond its input; default `vibra.solvers.budget.MEMORY_LIMIT`
+        (None: the memory available now). ``float("inf")`` disables the check.
+    max_seconds : float, optional
+        Refuse a solve estimated to take longer, in s; default
+        `vibra.solvers.budget.TIME_LIMIT_S` (120 s). ``float("inf")`` disables the check.
+    progress : bool or callable, optional
+        True writes progress lines to stderr, False keeps quiet, a callable receives
+        ``(fraction done, message)``; None (default) writes lines only for solves estimated
+        to take over `vibra.solvers.budget.PROGRESS_AFTER_S` (5 s).
 
     Returns
     -------
@@ -269,10 +284,17 @@ def normal_modes(
 
     Raises
     ------
+    TypeError
+        K, M or spring_factor not real numbers (complex, text); vectors or symmetrize not a
+        bool; solver not a str.
     ValueError
         K not square, not symmetric (beyond 1e-10 * max|K|) or not finite; M of the wrong
-        shape, non-positive, non-finite or not positive definite; n_modes out of range;
-        an unknown solver or a solver that cannot serve the request.
+        shape, non-positive, subnormal, non-finite or not positive definite; max|K| / min(M)
+        beyond 1e+-300 (omega^2 would overflow or underflow); spring_factor not a factor of
+        K; n_modes out of range; an unknown solver or a solver that cannot serve the request.
+    vibra.solvers.ResourceLimitError
+        (a ValueError) the solve's estimated memory or time exceeds the limits; the message
+        gives the figures and the cheaper requests.
 
     Examples
     --------
@@ -282,26 +304,49 @@ def normal_modes(
     >>> np.round(modes.omega ** 2, 12)
     array([0., 1., 3.])
     """
-    K_matrix = _validate.square_matrix(K, "K")
-    K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
+    # Kinds, shapes and options first (cheap), then the resource guard, then the checks that
+    # read every entry of K (finite, symmetric, scale, spring factor): a K too large to solve
+    # is refused before any pass over it, let alone a copy.
+    K_matrix = _validate.matrix_argument(K, "K")
     n_dof = K_matrix.shape[0]
     mass = _validate.mass_argument(M, n_dof, "M")
     if n_modes is not None:
         n_modes = _validate.count(n_modes, "n_modes", low=1, high=n_dof)
+    vectors = _validate.boolean(vectors, "vectors")
     if band is not None:
         band = _band(band)
         if n_modes is not None:
             raise ValueError("give either n_modes or band, not both")
+    if not isinstance(solver, str):
+        raise TypeError(f"solver must be a str, got {solver!r} ({type(solver).__name__})")
     _validate.choice(solver, "solver", SOLVERS)
+    symmetrize = _validate.boolean(symmetrize, "symmetrize")
     factor = None
     if spring_factor is not None:
         factor = solvers.check_spring_factor(spring_factor, n_dof)
     elif solver == "accurate":
         raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B")
     unit = unit_system(units)
+    max_memory = _validate.optional_limit(max_memory, "max_memory")
+    max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
+    if not (progress is None or isinstance(progress, (bool, np.bool_)) or callable(progress)):
+        raise TypeError(f"progress must be None, a bool or a callable(fraction, message), got {progress!r}")
+
+    request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
+                           spring_factor=factor)
+    solvers.guard(request.cost, n_dof=n_dof, max_memory=max_memory, max_seconds=max_seconds,
+                  alternatives=solvers.alternatives(request, n=n_dof, n_modes=n_modes, vectors=vectors,
+                                                    band=band))
+
+    if not sp.issparse(K_matrix):
+        _validate.finite(K_matrix, "K")
+    K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
+    _validate.eigenvalue_scale(_largest_entry(K_matrix), float(np.min(mass if mass.ndim == 1 else np.diag(mass))))
+    if factor is not None:
+        solvers.check_factor_matches(K_matrix, factor)
 
     result = solvers.solve(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band,
-                           solver=solver, spring_factor=factor)
+                           solver=solver, spring_factor=factor, progress=progress, request=request)
     if (result.eigenvalues < -result.error).any():
         n_negative = int((result.eigenvalues < -result.error).sum())
         warnings.warn(
@@ -322,6 +367,13 @@ def normal_modes(
             residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
             units=unit,
         )
+
+
+def _largest_entry(matrix: Any) -> float:
+    """max |K_ij| without an n x n temporary."""
+    if sp.issparse(matrix):
+        return float(abs(matrix.data).max()) if matrix.nnz else 0.0
+    return float(max(matrix.max(), -matrix.min()))
 
 
 def _band(band: Any) -> tuple[float, float]:

@@ -6,9 +6,14 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate import accurate_path
+from dataclasses import dataclass
+
+from vibra.solvers.accurate import accurate_path, accurate_subpath
+from vibra.solvers.budget import (
+    Estimate, Progress, ProgressCallback, describe_bytes, describe_seconds, estimate, guard,
+)
 from vibra.solvers.common import (
-    BAND_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted,
+    BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
 from vibra.solvers.sparse import sparse_path
 from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
@@ -23,7 +28,23 @@ SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal
                 "accurate-rayleigh", "accurate-jacobi")
 
 
-def solve(
+#: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
+BAND_MODES_ESTIMATE = 64
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What `solve` will run: the solver, the detailed path, K~'s half-bandwidth (after the
+    ring ordering when there is one), that ordering, and the cost estimate of the path."""
+
+    solver: str
+    path: str
+    width: int
+    ordering: NDArray[np.intp] | None
+    cost: Estimate
+
+
+def plan(
     K: NDArray[np.float64] | sp.csr_matrix,
     mass: NDArray[np.float64],
     *,
@@ -32,22 +53,20 @@ def solve(
     band: tuple[float, float] | None,
     solver: str,
     spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
-) -> SolveResult:
-    """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`.
+) -> Plan:
+    """Choose the path for this request ("auto" picks one) and estimate its cost; nothing allocated.
 
-    Examples
-    --------
-    >>> import numpy as np
-    >>> K = np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])   # CO2 axial, kappa = 1
-    >>> result = solve(K, np.array([1.0, 2.0, 1.0]), n_modes=None, vectors=False, band=None,
-    ...                solver="dense", spring_factor=None)
-    >>> np.round(result.eigenvalues, 12)          # 0, kappa / m, kappa (1/m + 2/M) (eq. 157)
-    array([0., 1., 2.])
+    Raises ValueError when the named solver cannot serve the request. Costs O(nnz) for a
+    sparse K and one pass over a dense one (its bandwidth); K~ is not formed.
     """
     n = K.shape[0]
-    Kt = mass_weighted(K, mass)
-    width = bandwidth(Kt) if mass.ndim == 1 else n
-    tridiagonal = width <= 1
+    width = bandwidth(K) if mass.ndim == 1 else n - 1
+    ordering = None
+    if mass.ndim == 1 and width > BAND_LIMIT and n > DENSE_LIMIT and solver in ("auto", "banded", "accurate"):
+        ring = ring_ordering(K)  # a ring: tridiagonal plus corners, banded once reordered
+        if ring is not None:
+            ordering, width = ring
+    tridiagonal = width <= 1 and ordering is None
     partial = n_modes is not None and n_modes < n
     if solver == "auto":
         if spring_factor is not None:
@@ -61,29 +80,98 @@ def solve(
             solver = "sparse"
         else:
             solver = "dense"
-    if solver == "dense" and n > DENSE_ALL_LIMIT:
-        raise ValueError(
-            f"K has {n} dofs: a dense solve would need {8 * n * n / 2**30:.1f} GiB; ask for "
-            "n_modes (a partial sparse solve) or use the accurate path of a spring system"
-        )
     if solver == "tridiagonal" and not tridiagonal:
         raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
     if solver == "banded" and mass.ndim != 1:
         raise ValueError("solver='banded' needs diagonal masses")
     if solver == "sparse" and n_modes is None and band is None:
         raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
+    if solver == "accurate" and spring_factor is None:
+        raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
+    path = solver
+    n_terms = 0
     if solver == "accurate":
-        if spring_factor is None:
-            raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
-        return accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band)
-    if solver == "tridiagonal":
+        assert spring_factor is not None
+        n_terms = spring_factor[0].shape[0]
+        path = accurate_subpath(spring_factor[0], mass, n_modes=n_modes, band=band,
+                                banded=ordering is not None)
+    k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
+    if path == "dense" and band is not None:
+        k = n
+    cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms)
+    return Plan(solver, path, width, ordering, cost)
+
+
+def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
+                 band: tuple[float, float] | None) -> list[str]:
+    """The cheaper requests that answer most questions, each with its own estimate."""
+    options = []
+    if vectors:
+        values = estimate(request.path, n, k=n_modes or n, vectors=False, width=request.width)
+        options.append(f"vectors=False (frequencies only: ~{_short(values)})")
+    if n_modes is None or n_modes > 50:
+        few = estimate("sparse", n, k=10, vectors=vectors, width=request.width)
+        options.append(f"n_modes=10 (the lowest modes by sparse shift-invert: ~{_short(few)})")
+    if band is None:
+        options.append("band=(low, high) (only the modes in a frequency window)")
+    return options
+
+
+def _short(cost: Estimate) -> str:
+    return f"{describe_bytes(cost.memory)}, {describe_seconds(cost.seconds)}"
+
+
+def solve(
+    K: NDArray[np.float64] | sp.csr_matrix,
+    mass: NDArray[np.float64],
+    *,
+    n_modes: int | None,
+    vectors: bool,
+    band: tuple[float, float] | None,
+    solver: str,
+    spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
+    max_memory: float | None = None,
+    max_seconds: float | None = None,
+    progress: bool | ProgressCallback | None = None,
+    request: Plan | None = None,
+) -> SolveResult:
+    """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`.
+
+    The request is planned and guarded first (`plan`, `vibra.solvers.budget.guard`): one
+    whose estimated memory or time exceeds `max_memory` / `max_seconds` (defaults: the
+    module-level limits of `vibra.solvers.budget`) raises `ResourceLimitError` before
+    anything is allocated. `progress` reports long solves (see `budget.Progress`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> K = np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])   # CO2 axial, kappa = 1
+    >>> result = solve(K, np.array([1.0, 2.0, 1.0]), n_modes=None, vectors=False, band=None,
+    ...                solver="dense", spring_factor=None)
+    >>> np.round(result.eigenvalues, 12)          # 0, kappa / m, kappa (1/m + 2/M) (eq. 157)
+    array([0., 1., 2.])
+    """
+    n = K.shape[0]
+    if request is None:
+        request = plan(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
+                       spring_factor=spring_factor)
+        guard(request.cost, n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
+              alternatives=alternatives(request, n=n, n_modes=n_modes, vectors=vectors, band=band))
+    report = Progress(progress, request.cost)
+    Kt = mass_weighted(K, mass)
+    report.step(0.05, "mass-weighted K~ formed")
+    solver, width, ordering = request.solver, request.width, request.ordering
+    if solver == "accurate":
+        assert spring_factor is not None
+        result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
+                               ordering=ordering, width=width)
+    elif solver == "tridiagonal":
         result = tridiagonal_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
     elif solver == "banded":
-        result = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band)
+        result = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
     elif solver == "sparse":
         result = sparse_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
     else:
-        result = dense_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
+        result = dense_path(Kt, n_modes=n_modes, vectors=vectors, band=band, overwrite=Kt is not K)
+    report.done()
     return result
-
-
