@@ -98,7 +98,8 @@ def available_memory() -> float | None:
     return available
 
 
-def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0) -> Estimate:
+def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
+             nnz: int = 0) -> Estimate:
     """Memory and time of `path` computing `k` of `n` modes (with vectors or not)."""
     n2 = float(n) * n
     vector_bytes = 8.0 * n * k if vectors else 0.0
@@ -106,7 +107,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         ", with vectors" if vectors else ", frequencies only")
     if path == "dense":
         memory = 8.0 * n2 * (2 if vectors else 1) + vector_bytes + 8.0 * 26 * n
-        seconds = (DENSE_VECTORS_S if vectors else DENSE_VALUES_S) * n2 * n
+        seconds = (DENSE_VECTORS_S * k / n + DENSE_VALUES_S) * n2 * n if vectors else DENSE_VALUES_S * n2 * n
     elif path in ("tridiagonal", "accurate-bidiagonal"):
         # LAPACK stemr and the dqds + MRRR pairing allocate all n vectors unless a subset is asked.
         memory = 8.0 * 12 * n + (8.0 * n2 if vectors and k == n else vector_bytes)
@@ -117,7 +118,8 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         seconds = BANDED_S * (width + 1) * n2 + TRIDIAGONAL_S * n2 + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
     elif path in ("sparse", "accurate-ritz"):
         columns = max(2 * k + 1, 20)
-        memory = 8.0 * columns * n * 2 + 8.0 * 40 * n * max(width, 1)
+        # Lanczos basis + the factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) else
+        memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if width <= 1 else 12.0 * 20 * max(nnz, n))
         seconds = LANCZOS_S * n * columns * 10 + 1e-9 * n * k * k
     elif path in ("accurate-rayleigh",):
         memory = 8.0 * n2 * 2 + 8.0 * n2

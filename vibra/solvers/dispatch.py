@@ -42,6 +42,7 @@ class Plan:
     width: int
     ordering: NDArray[np.intp] | None
     cost: Estimate
+    nnz: int
 
 
 def plan(
@@ -76,8 +77,8 @@ def plan(
         elif width <= BAND_LIMIT and not (vectors and (partial or band is not None)):
             # (LAPACK's banded and tridiagonal drivers allocate n x n vectors even for a subset)
             solver = "tridiagonal" if tridiagonal else "banded"
-        elif partial or band is not None:
-            solver = "sparse"
+        elif (partial or band is not None) and sp.issparse(K):
+            solver = "sparse"  # (a dense K takes the dense subset: its sparse LU would fill in)
         else:
             solver = "dense"
     if solver == "tridiagonal" and not tridiagonal:
@@ -98,8 +99,13 @@ def plan(
     k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
     if path == "dense" and band is not None:
         k = n
-    cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms)
-    return Plan(solver, path, width, ordering, cost)
+    cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
+    return Plan(solver, path, width, ordering, cost, _stored(K))
+
+
+def _stored(K: NDArray[np.float64] | sp.csr_matrix) -> int:
+    """Entries stored: nnz of a sparse K, n^2 of a dense one."""
+    return int(K.nnz) if sp.issparse(K) else int(K.shape[0]) * int(K.shape[1])
 
 
 def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
@@ -110,8 +116,10 @@ def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
         values = estimate(request.path, n, k=n_modes or n, vectors=False, width=request.width)
         options.append(f"vectors=False (frequencies only: ~{_short(values)})")
     if n_modes is None or n_modes > 50:
-        few = estimate("sparse", n, k=10, vectors=vectors, width=request.width)
-        options.append(f"n_modes=10 (the lowest modes by sparse shift-invert: ~{_short(few)})")
+        how = "sparse shift-invert" if request.nnz < 0.1 * n * n else "a dense subset"
+        few = estimate("sparse" if how.startswith("sparse") else "dense", n, k=10, vectors=vectors,
+                       width=request.width, nnz=request.nnz)
+        options.append(f"n_modes=10 (the lowest modes by {how}: ~{_short(few)})")
     if band is None:
         options.append("band=(low, high) (only the modes in a frequency window)")
     return options
