@@ -352,6 +352,8 @@ SCALE_LIMIT = 1e300
 
 def not_subnormal(values: NDArray[np.float64], name: str) -> None:
     """Raise if a nonzero entry of `values` is subnormal (|x| < 2.2e-308): digits are already lost."""
+    if values.size and (values.min() >= TINY or values.max() <= -TINY):
+        return  # one sign, all normal: no n-sized temporaries
     small = (values != 0) & (np.abs(values) < TINY)
     if small.any():
         i = int(np.argmax(small))

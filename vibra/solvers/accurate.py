@@ -28,12 +28,16 @@ from vibra.solvers.sparse import lowest_shift, shift_invert, sparse_path
 from vibra.solvers.standard import banded_path, dense_path
 
 
-def accurate_subpath(coupling: sp.csr_matrix, mass: NDArray[np.float64], *, n_modes: int | None,
-                     band: tuple[float, float] | None, banded: bool) -> str:
-    """The path `accurate_path` will take (for the cost estimate), from B's pattern: O(nnz)."""
-    n = coupling.shape[1]
+def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
+                     band: tuple[float, float] | None, tridiagonal: bool, banded: bool) -> str:
+    """The path `accurate_path` will take (for the cost estimate), without touching B.
+
+    Springs that form a path join dofs c and c + 1 only, so K is tridiagonal: a tridiagonal
+    K with diagonal masses is estimated as a path (parallel springs between one pair, the
+    exception, take the Rayleigh path, at most the dense cost).
+    """
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
-    if mass.ndim == 1 and not few and path_bidiagonals(coupling) is not None:
+    if mass.ndim == 1 and not few and tridiagonal:
         return "accurate-bidiagonal"
     if few:
         return "accurate-ritz"

@@ -192,8 +192,16 @@ def tridiagonal_bands(Kt: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]
 def bandwidth(Kt: Any) -> int:
     """Half-bandwidth max |i - j| over the stored nonzeros of K~ (0 for a diagonal)."""
     if sp.issparse(Kt):
-        coo = Kt.tocoo()
-        return int(np.abs(coo.row - coo.col).max()) if coo.nnz else 0
+        matrix = sp.csr_matrix(Kt)
+        if not matrix.nnz:
+            return 0
+        if not matrix.has_sorted_indices:
+            matrix = matrix.sorted_indices()
+        # sorted rows: only each row's first and last column can be farthest from the diagonal
+        rows = np.flatnonzero(np.diff(matrix.indptr))
+        first = matrix.indices[matrix.indptr[rows]]
+        last = matrix.indices[matrix.indptr[rows + 1] - 1]
+        return int(max((rows - first).max(), (last - rows).max(), 0))
     n = Kt.shape[0]
     step = max(1, (1 << 20) // max(n, 1))  # row blocks: no index arrays of n^2 entries
     width = 0

@@ -94,7 +94,7 @@ def plan(
     if solver == "accurate":
         assert spring_factor is not None
         n_terms = spring_factor[0].shape[0]
-        path = accurate_subpath(spring_factor[0], mass, n_modes=n_modes, band=band,
+        path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1,
                                 banded=ordering is not None)
     k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
     if path == "dense" and band is not None:
