@@ -58,6 +58,28 @@ def increasing_times(t: Any, name: str = "t") -> NDArray[np.float64]:
     return times
 
 
+def real_numbers(value: Any, name: str) -> NDArray[np.float64]:
+    """`value` as a float64 ndarray of any shape, NaN and inf allowed; complex, text, None refused."""
+    if sp.issparse(value):
+        raise TypeError(f"{name} must be a dense array here, got a scipy.sparse matrix")
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be real numbers, got {value!r}")
+    return _float_array(value, name)
+
+
+def complex_array(value: Any, name: str, *, ndim: int) -> NDArray[np.complex128]:
+    """`value` as a finite complex128 ndarray of `ndim` dimensions (real input allowed)."""
+    raw = np.asarray(value) if not isinstance(value, (str, bytes)) and value is not None else None
+    if raw is None or raw.dtype.kind not in "iufc" or (raw.dtype.kind == "b"):
+        raise TypeError(f"{name} must be an array of real or complex numbers, got {type(value).__name__}"
+                        + (f" of {raw.dtype}" if raw is not None else ""))
+    array = np.asarray(raw, dtype=complex)
+    if array.ndim != ndim:
+        raise ValueError(f"{name} must be {ndim}-D, got shape {array.shape}")
+    finite(array, name)
+    return array
+
+
 def real_array(value: Any, name: str, *, ndim: int | tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """`value` as a finite float64 ndarray; raise naming `name` otherwise."""
     if sp.issparse(value):
@@ -231,33 +253,41 @@ def positive_semidefinite(matrix: Any, name: str, *, rtol: float = 1e-10) -> Non
 
     The diagonal is checked first (a negative diagonal entry is a negative eigenvalue's
     witness); then a Cholesky factorisation of matrix + rtol * max|matrix| I decides, whose
-    failure gives the smallest eigenvalue for the message (dense: eigvalsh; sparse: the lowest
-    eigenvalue by Lanczos).
+    failure gives the smallest eigenvalue for the message (up to 2000 rows: dense; larger
+    sparse matrices: the pivots of an unpivoted LDL^T, then Lanczos for the message).
     """
     is_sparse = sp.issparse(matrix)
     diagonal = np.asarray(matrix.diagonal(), dtype=float)
     bad = np.flatnonzero(diagonal < 0)
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"{name}[{i},{i}] is {diagonal[i]!r}; {name} must be positive semi-definite "
-                         "(a negative diagonal entry means negative damping)")
+        raise ValueError(f"{name}[{i},{i}] is {diagonal[i]!r}; a damping matrix must have a non-negative "
+                         f"diagonal and be positive semi-definite (no negative damping)")
     scale = float(abs(matrix).max()) if (not is_sparse or matrix.nnz) else 0.0
     if scale == 0:
         return
     n = matrix.shape[0]
     shift = rtol * scale
-    if not is_sparse:
+    if is_sparse and n > 2000:
+        # LDL^T of C + shift I without pivoting: all pivots > 0 exactly when it is positive
+        # definite (Sylvester's inertia), i.e. when C has no eigenvalue below -shift.
+        shifted = (sp.csc_matrix(matrix) + shift * sp.identity(n, format="csc")).tocsc()
         try:
-            np.linalg.cholesky(matrix + shift * np.eye(n))
+            pivots = sla.splu(shifted, diag_pivot_thresh=0.0, permc_spec="MMD_AT_PLUS_A",
+                              options={"SymmetricMode": True}).U.diagonal()
+            if (pivots > 0).all():
+                return
+        except RuntimeError:  # an exactly zero pivot: an eigenvalue at -shift
+            pass
+        start = np.random.default_rng(0).standard_normal(n)
+        smallest = float(sla.eigsh(sp.csr_matrix(matrix), k=1, which="SA", v0=start, tol=1e-8)[0][0])
+    else:
+        dense = matrix.toarray() if is_sparse else matrix
+        try:
+            np.linalg.cholesky(dense + shift * np.eye(n))
             return
         except np.linalg.LinAlgError:
-            smallest = float(np.linalg.eigvalsh(matrix)[0])
-    else:
-        smallest = float(sla.eigsh(sp.csr_matrix(matrix), k=1, which="SA", tol=1e-6,
-                                   v0=np.ones(n))[0][0]) if n > 2 else float(
-            np.linalg.eigvalsh(matrix.toarray())[0])
-        if smallest >= -shift:
-            return
+            smallest = float(np.linalg.eigvalsh(dense)[0])
     if smallest < -shift:
         raise ValueError(
             f"{name} is not positive semi-definite: its smallest eigenvalue is {smallest:.3g} "

@@ -7,7 +7,7 @@ The three methods live in `vibra.response.direct` (direct, state space) and
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -37,7 +37,7 @@ class FrequencyResponse:
     response : (n_freq, n_dof) complex ndarray
         Complex displacement amplitudes x(w) (the force is Re{f exp(i w t)}), in length.
     force : (n_dof,) ndarray
-        The force amplitudes f, in force units.
+        The force amplitudes f, in force units (complex when a phase was given).
     method : str
         ``"direct"``, ``"modal"`` or ``"state_space"``.
     solver : str
@@ -61,7 +61,7 @@ class FrequencyResponse:
 
     omegas: NDArray[np.float64]
     response: NDArray[np.complex128]
-    force: NDArray[np.float64]
+    force: NDArray[Any]
     method: str
     solver: str
     n_modes: int | None
@@ -110,12 +110,13 @@ def frequency_response(
     M : (n_dof,) or (n_dof, n_dof) array_like
         Diagonal masses or an SPD mass matrix, as in `vibra.normal_modes`.
     C : (n_dof, n_dof) array_like or scipy.sparse matrix, or None
-        Symmetric damping matrix with a non-negative diagonal, in mass per time unit
+        Symmetric positive semi-definite damping matrix, in mass per time unit
         (`friction_damping`, `rayleigh_damping`, or any); None for no damping matrix.
     omegas : (n_freq,) array_like
         Driving angular frequencies >= 0, in rad per time unit.
     force : (n_dof,) array_like
-        Force amplitudes f (force Re{f exp(i w t)}), in force units.
+        Force amplitudes f (force Re{f exp(i w t)}), in force units; complex amplitudes
+        carry a phase per dof (f_j = |f_j| exp(i phi_j)), which the response keeps.
     method : {"direct", "modal", "state_space"}
         ``"direct"``: one LU per frequency, tridiagonal or banded when K, M and C are (half
         bandwidth <= `BANDED_MAX_HALF_WIDTH`), sparse LU otherwise (dense LU for small dense
@@ -153,8 +154,8 @@ def frequency_response(
     Raises
     ------
     ValueError
-        K not square/symmetric/finite; M, C or force not matching K; C with a negative
-        diagonal; omegas negative; unknown method; n_modes out of range or given to a
+        K not square/symmetric/finite; M, C or force not matching K; C not positive
+        semi-definite (negative damping); omegas negative; unknown method; n_modes out of range or given to a
         method without modes; damping_ratios with C or outside the modal method; C not
         diagonal in the modal basis (modal method); a frequency where the system is singular
         (undamped resonance, or w = 0 with rigid-body modes).
@@ -170,7 +171,7 @@ def frequency_response(
     array([[0.66666667, 0.33333333]])
     """
     _validate.choice(method, "method", METHODS)
-    stiffness, mass, damping, loads = check_structure(K, M, C, force)
+    stiffness, mass, damping, loads = check_structure(K, M, C, force, complex_force=True)
     n_dof = stiffness.shape[0]
     frequencies = _validate.real_array(omegas, "omegas", ndim=1)
     _validate.nonnegative(frequencies, "omegas", "angular frequency")
@@ -188,6 +189,26 @@ def frequency_response(
     if modes is not None and method != "modal":
         raise ValueError("modes applies to method='modal' only")
     unit = unit_system(units)
+
+    if np.iscomplexobj(loads) and loads.imag.any():
+        # x(f) is linear in f: x(f_r + i f_i) = x(f_r) + i x(f_i), which keeps the phase of f
+        parts = [frequency_response(stiffness, mass, damping, frequencies, part, method=method,
+                                    n_modes=n_modes, damping_ratios=damping_ratios,
+                                    residual_correction=residual_correction, modes=modes, units=unit)
+                 for part in (loads.real.copy(), loads.imag.copy())]
+        response = parts[0].response + 1j * parts[1].response
+        # ||e_r + i e_i||_M <= err_r ||x_r||_M + err_i ||x_i||_M, relative to ||x||_M
+        norms = [_mass_norms(mass, part.response) for part in parts]
+        total = _mass_norms(mass, response)
+        bound = parts[0].truncation_error * norms[0] + parts[1].truncation_error * norms[1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            error = np.where(total > 0, bound / total, np.where(bound > 0, np.inf, 0.0))
+        return FrequencyResponse(
+            omegas=frequencies, response=response, force=loads, method=method, solver=parts[0].solver,
+            n_modes=parts[0].n_modes, residual_correction=parts[0].residual_correction,
+            truncation_error=error, natural_frequencies=parts[0].natural_frequencies, units=unit,
+        )
+    loads = np.asarray(loads.real if np.iscomplexobj(loads) else loads, dtype=float)
 
     error = np.zeros(frequencies.size)
     natural: NDArray[np.float64] | None = None
@@ -209,6 +230,13 @@ def frequency_response(
         n_modes=used, residual_correction=bool(residual_correction) and method == "modal",
         truncation_error=error, natural_frequencies=natural, units=unit,
     )
+
+
+def _mass_norms(mass: NDArray[np.float64], rows: NDArray[np.complex128]) -> NDArray[np.float64]:
+    """(n_freq,) M-norms sqrt(x^H M x) of the rows of a response."""
+    if mass.ndim == 1:
+        return np.sqrt(np.sum(mass * np.abs(rows) ** 2, axis=1))
+    return np.sqrt(np.maximum(np.einsum("fi,ij,fj->f", rows.conj(), mass, rows).real, 0.0))
 
 
 def frf(

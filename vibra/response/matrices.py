@@ -16,8 +16,13 @@ from numpy.typing import NDArray
 from vibra import _validate
 
 
-def check_structure(K: Any, M: Any, C: Any, force: Any) -> tuple[Any, NDArray[np.float64], Any, NDArray[np.float64]]:
-    """Validate (K, M, C, f) in argument order; return K, the mass argument, C or None, f."""
+def check_structure(K: Any, M: Any, C: Any, force: Any, *, complex_force: bool = False
+                    ) -> tuple[Any, NDArray[np.float64], Any, NDArray[Any]]:
+    """Validate (K, M, C, f) in argument order; return K, the mass argument, C or None, f.
+
+    C must be symmetric positive semi-definite (an indefinite C has a mode with negative
+    damping, which gains energy). With `complex_force`, f may be complex (a phase per dof).
+    """
     stiffness = _validate.square_matrix(K, "K")
     stiffness = _validate.symmetric(stiffness, "K")
     n_dof = stiffness.shape[0]
@@ -28,15 +33,11 @@ def check_structure(K: Any, M: Any, C: Any, force: Any) -> tuple[Any, NDArray[np
         if damping.shape[0] != n_dof:
             raise ValueError(f"C must be ({n_dof}, {n_dof}) to match K, got shape {damping.shape}")
         damping = _validate.symmetric(damping, "C")
-        diagonal = damping.diagonal()
-        bad = np.flatnonzero(diagonal < 0)
-        if bad.size:
-            i = int(bad[0])
-            raise ValueError(
-                f"C[{i},{i}] is {diagonal[i]!r}; a damping matrix must have a non-negative "
-                "diagonal (no negative damping)"
-            )
-    loads = _validate.real_array(force, "force", ndim=1)
+        _validate.positive_semidefinite(damping, "C")  # the diagonal first, then the eigenvalues
+    if complex_force:
+        loads: NDArray[Any] = _validate.complex_array(force, "force", ndim=1)
+    else:
+        loads = _validate.real_array(force, "force", ndim=1)
     if loads.shape[0] != n_dof:
         raise ValueError(f"force must have {n_dof} entries to match K, got shape {loads.shape}")
     return stiffness, mass, damping, loads
