@@ -29,6 +29,8 @@ def real_scalar(value: Any, name: str) -> float:
         array = np.asarray(value) if not isinstance(value, str) else None
         if array is None or array.ndim != 0 or not np.issubdtype(array.dtype, np.number):
             raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+        if array.dtype.kind == "c":
+            raise TypeError(f"{name} must be a real number, got the complex {value!r}")
         value = array.item()
     number = float(value)
     if not np.isfinite(number):
@@ -116,8 +118,8 @@ def _float_array(value: Any, name: str) -> NDArray[np.float64]:
                         "explicitly if the imaginary part is meant to be dropped")
     if kind in "USV":
         raise TypeError(f"{name} must be an array of real numbers, got an array of {raw.dtype} (text)")
-    if kind == "b" and raw.ndim > 0:
-        raise TypeError(f"{name} must be an array of real numbers, got a bool array")
+    if kind == "b":
+        raise TypeError(f"{name} must be real numbers, got {'a bool array' if raw.ndim else repr(value)}")
     if kind == "O":
         items = [item for item in raw.flat]
         if any(isinstance(item, (bool, np.bool_, str, bytes, complex, np.complexfloating)) or item is None
@@ -261,7 +263,7 @@ def positive_semidefinite(matrix: Any, name: str, *, rtol: float = 1e-10) -> Non
     bad = np.flatnonzero(diagonal < 0)
     if bad.size:
         i = int(bad[0])
-        raise ValueError(f"{name}[{i},{i}] is {diagonal[i]!r}; a damping matrix must have a non-negative "
+        raise ValueError(f"{name}[{i},{i}] is {_scalar(diagonal[i])}; a damping matrix must have a non-negative "
                          f"diagonal and be positive semi-definite (no negative damping)")
     scale = float(abs(matrix).max()) if (not is_sparse or matrix.nnz) else 0.0
     if scale == 0:

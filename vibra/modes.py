@@ -214,8 +214,8 @@ class Modes:
 
     def energy(self, u: ArrayLike, v: ArrayLike) -> float:
         """Total energy 1/2 v^T M v + 1/2 sum_k omega_k|omega_k| q_k^2 within the computed modes."""
-        q = self.normal_coordinates(u)
-        qd = self.normal_coordinates(v)
+        q = self.normal_coordinates(_validate.real_array(u, "u", ndim=(1, 2)))
+        qd = self.normal_coordinates(_validate.real_array(v, "v", ndim=(1, 2)))
         return float(0.5 * np.sum(qd**2) + 0.5 * np.sum(self.omega_squared * q**2))
 
 
