@@ -764,3 +764,24 @@ def test_an_indefinite_damping_matrix_is_refused_beyond_its_diagonal() -> None:
     small = np.array([[1.0, 2.0], [2.0, 1.0]])  # eigenvalues 3 and -1, the dense branch
     with pytest.raises(ValueError, match=r"C is not positive semi-definite: its smallest eigenvalue is -1"):
         R.frf(np.eye(2), [1.0, 1.0], small, [1.0], [1.0, 0.0])
+
+
+def test_a_response_too_large_to_hold_is_refused_before_it_starts() -> None:
+    """10^4 frequencies x 10^6 dofs of complex output is 16e10 bytes = 149 GiB: refused at once."""
+    import time
+
+    n = 10**6
+    K = chain(n, K_SPRING)
+    M = np.full(n, MASS)
+    force = np.zeros(n)
+    force[0] = 1.0
+    omegas = np.linspace(0.1, 1.0, 10**4)
+    start = time.process_time()
+    with pytest.raises(ValueError, match=r"K has 1000000 dofs: the direct path \(10000 frequencies x 1000000 dofs\) "
+                                         r"would need about 149\.0 GiB"):
+        R.frf(K, M, None, omegas, force)
+    assert time.process_time() - start < 1.0
+    assert f"{16e10 / 2**30:.1f}" == "149.0"
+    small = R.frequency_response(chain(8, K_SPRING), np.full(8, MASS), None, [0.1], np.eye(8)[0],
+                                 max_memory=float("inf"), max_seconds=float("inf"))
+    assert small.response.shape == (1, 8)

@@ -17,7 +17,8 @@ from vibra import _validate
 from vibra._frozen import _freeze_arrays
 from vibra.modes import Modes
 from vibra.response.direct import direct_response, state_space_response
-from vibra.response.matrices import check_structure
+from vibra.response.matrices import check_structure, half_bandwidth, response_cost
+from vibra.solvers.budget import guard
 from vibra.response.modal import modal_response
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -100,6 +101,8 @@ def frequency_response(
     residual_correction: bool = False,
     modes: Modes | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
+    max_memory: float | None = None,
+    max_seconds: float | None = None,
 ) -> FrequencyResponse:
     """Receptance response x(w) = (K - w^2 M + i w C)^-1 f at many frequencies.
 
@@ -139,6 +142,9 @@ def frequency_response(
         sharpens the error estimate). Computed with `vibra.normal_modes` otherwise.
     units : str or UnitSystem
         Unit system of K, M, C, carried by the result.
+    max_memory, max_seconds : float, optional
+        Limits of the estimated memory (bytes) and time (s), as in `vibra.normal_modes`:
+        a larger request raises `vibra.solvers.ResourceLimitError` before any allocation.
 
     Returns
     -------
@@ -189,12 +195,21 @@ def frequency_response(
     if modes is not None and method != "modal":
         raise ValueError("modes applies to method='modal' only")
     unit = unit_system(units)
+    max_memory = _validate.optional_limit(max_memory, "max_memory")
+    max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
+    width = max(half_bandwidth(stiffness), half_bandwidth(mass), half_bandwidth(damping))
+    stored = int(stiffness.nnz) if sp.issparse(stiffness) else n_dof * n_dof
+    cost = response_cost(method, n_dof, frequencies.size, width, stored,
+                         parts=2 if np.iscomplexobj(loads) and loads.imag.any() else 1)
+    guard(cost, n_dof=n_dof, max_memory=max_memory, max_seconds=max_seconds,
+          alternatives=["fewer frequencies in omegas", "method='modal' with n_modes (the lowest modes only)"])
 
     if np.iscomplexobj(loads) and loads.imag.any():
         # x(f) is linear in f: x(f_r + i f_i) = x(f_r) + i x(f_i), which keeps the phase of f
         parts = [frequency_response(stiffness, mass, damping, frequencies, part, method=method,
                                     n_modes=n_modes, damping_ratios=damping_ratios,
-                                    residual_correction=residual_correction, modes=modes, units=unit)
+                                    residual_correction=residual_correction, modes=modes, units=unit,
+                                    max_memory=float("inf"), max_seconds=float("inf"))
                  for part in (loads.real.copy(), loads.imag.copy())]
         response = parts[0].response + 1j * parts[1].response
         # ||e_r + i e_i||_M <= err_r ||x_r||_M + err_i ||x_i||_M, relative to ||x||_M
