@@ -105,7 +105,9 @@ def plan(
 
 def _stored(K: NDArray[np.float64] | sp.csr_matrix) -> int:
     """Entries stored: nnz of a sparse K, n^2 of a dense one."""
-    return int(K.nnz) if sp.issparse(K) else int(K.shape[0]) * int(K.shape[1])
+    if isinstance(K, np.ndarray):
+        return int(K.shape[0]) * int(K.shape[1])
+    return int(K.nnz)
 
 
 def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,

@@ -70,9 +70,9 @@ def banded_path(Kt: Any, width: int, *, n_modes: int | None, vectors: bool, band
         matrix = sp.csr_matrix(Kt)
         result = banded_path(matrix[ordering][:, ordering], width, n_modes=n_modes, vectors=vectors, band=band)
         if result.vectors is not None:
-            basis = np.empty_like(result.vectors)
-            basis[ordering] = result.vectors
-            result.vectors = basis
+            in_dof_order = np.empty_like(result.vectors)
+            in_dof_order[ordering] = result.vectors
+            result.vectors = in_dof_order
         return result
     matrix = sp.csr_matrix(Kt)
     n = matrix.shape[0]
@@ -84,9 +84,10 @@ def banded_path(Kt: Any, width: int, *, n_modes: int | None, vectors: bool, band
         kwargs.update(select="i", select_range=(0, n_modes - 1))
     elif band is not None:
         kwargs.update(select="v", select_range=squared_range(band))
+    basis: NDArray[np.float64] | None = None
     if vectors:
         values, basis = la.eig_banded(storage, **kwargs)
     else:
-        values, basis = la.eigvals_banded(storage, **kwargs), None
+        values = la.eigvals_banded(storage, **kwargs)
     return absolute_figures(matrix, np.asarray(values), basis, "banded", floor=float(n))
 
