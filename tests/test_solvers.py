@@ -400,3 +400,25 @@ def test_long_solves_report_progress_by_default(monkeypatch: pytest.MonkeyPatch,
     monkeypatch.setattr(solvers.budget, "PROGRESS_AFTER_S", 0.0)  # every solve counts as long
     normal_modes(chain_K(20), np.ones(20))
     assert "vibra: [100%" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("stiffness, mass", [(1e-200, 1e100), (1e199, 1e-100)])
+def test_extreme_scales_reach_every_path_intact(stiffness: float, mass: float) -> None:
+    """omega^2 ~ 1e-300 or 1e+300: bisection (stebz), ARPACK and dqds run on K~ scaled by a power
+    of 2 and give the closed form 2 Omega sin(k pi / 2n) of the free chain (eq. 161)."""
+    from vibra.chains import linear_chain, monatomic_frequencies
+
+    n = 2000
+    chain = linear_chain(n, mass=mass, stiffness=stiffness)
+    exact = monatomic_frequencies(n, mass, stiffness)
+    omega_0 = np.sqrt(stiffness / mass)
+    for kwargs in ({"accuracy": "fast", "vectors": False}, {"accuracy": "fast", "n_modes": 3}, {"vectors": False},
+                   {"accuracy": "fast", "band": (0.1 * omega_0, 0.2 * omega_0), "vectors": False}):
+        modes = chain.modes(**kwargs)
+        assert np.all(np.isfinite(modes.omega))
+        expected = exact[:modes.n_modes] if "band" not in kwargs else exact[(exact >= 0.1 * omega_0)
+                                                                            & (exact <= 0.2 * omega_0)]
+        assert modes.n_modes == expected.size
+        flexible = expected > 0
+        assert np.abs(modes.omega[flexible] - expected[flexible]).max() <= 1e-10 * exact.max()
+        assert np.all(np.abs(modes.omega[~flexible]) <= 1e-6 * exact.max())  # the translation

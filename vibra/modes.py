@@ -341,7 +341,8 @@ def normal_modes(
     if not sp.issparse(K_matrix):
         _validate.finite(K_matrix, "K")
     K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
-    _validate.eigenvalue_scale(_largest_entry(K_matrix), float(np.min(mass if mass.ndim == 1 else np.diag(mass))))
+    smallest_mass = float(np.min(mass if mass.ndim == 1 else np.diag(mass)))
+    _validate.eigenvalue_scale(solvers.largest_entry(K_matrix), smallest_mass)
     if factor is not None:
         solvers.check_factor_matches(K_matrix, factor)
 
@@ -367,13 +368,6 @@ def normal_modes(
             residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
             units=unit,
         )
-
-
-def _largest_entry(matrix: Any) -> float:
-    """max |K_ij| without an n x n temporary."""
-    if sp.issparse(matrix):
-        return float(abs(matrix.data).max()) if matrix.nnz else 0.0
-    return float(max(matrix.max(), -matrix.min()))
 
 
 def _band(band: Any) -> tuple[float, float]:

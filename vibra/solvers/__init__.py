@@ -57,7 +57,7 @@ from __future__ import annotations
 
 from vibra.solvers.common import (
     BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
-    check_factor_matches, check_spring_factor,
+    check_factor_matches, check_spring_factor, largest_entry,
     mass_weighted, physical_shapes,
 )
 from vibra.solvers import budget
@@ -72,4 +72,5 @@ __all__ = [
     "mass_weighted", "Segment", "EPS", "DENSE_LIMIT", "BAND_LIMIT", "DENSE_ALL_LIMIT", "BDSQR_LIMIT",
     "SAMPLE", "Plan", "plan", "alternatives", "Estimate", "Progress", "ResourceLimitError",
     "available_memory", "estimate", "guard", "budget", "check_factor_matches", "FACTOR_RTOL",
+    "largest_entry",
 ]

@@ -60,7 +60,12 @@ def check_spring_factor(factor: Any, n_dof: int) -> tuple[sp.csr_matrix, NDArray
     if not isinstance(factor, tuple) or len(factor) != 2:
         raise TypeError("spring_factor must be a tuple (B, w)")
     coupling, weights = factor
-    b = sp.csr_matrix(coupling, dtype=float)
+    if sp.issparse(coupling):
+        if coupling.dtype.kind not in "biuf":
+            raise TypeError(f"spring_factor B must be real, got a sparse matrix of {coupling.dtype}")
+        b = sp.csr_matrix(coupling, dtype=float)
+    else:
+        b = sp.csr_matrix(_validate.real_array(coupling, "spring_factor B", ndim=2))
     if b.shape[1] != n_dof:
         raise ValueError(f"spring_factor B must have {n_dof} columns to match K, got shape {b.shape}")
     _validate.finite(b.data, "spring_factor B")
@@ -84,13 +89,18 @@ def check_factor_matches(K: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64
     coupling, weights = factor
     n = K.shape[0]
     rng = np.random.default_rng(12345)
-    stiffness_norm = float(sp.linalg.norm(K)) if sp.issparse(K) else float(np.linalg.norm(K))
+    # Everything in units of s = max|K| (or of the factor's largest term): no overflow for K
+    # entries near 1e300, no underflow near 1e-300.
+    largest_term = float(weights.max(initial=0.0)) * float(abs(coupling).max() if coupling.nnz else 0.0) ** 2
+    s = max(largest_entry(K), largest_term) or 1.0
+    stiffness_norm = _scaled_frobenius(K, s)
     row_norms = np.asarray(coupling.multiply(coupling).sum(axis=1)).ravel()
-    factor_norm = float(np.sum(weights * row_norms))  # ||B^T W B||_F <= sum_t w_t ||b_t||^2
+    factor_norm = float(np.sum((weights / s) * row_norms))  # ||B^T W B||_F / s <= sum_t w_t ||b_t||^2 / s
     scale = max(stiffness_norm, factor_norm)
     for _ in range(samples):
         x = rng.standard_normal(n)
-        gap = float(np.linalg.norm(coupling.T @ (weights * (coupling @ x)) - K @ x))
+        y = x / s
+        gap = float(np.linalg.norm(coupling.T @ (weights * (coupling @ y)) - K @ y))
         if gap > FACTOR_RTOL * scale * float(np.linalg.norm(x)):
             relative = gap / (scale * float(np.linalg.norm(x)))
             raise ValueError(
@@ -98,6 +108,21 @@ def check_factor_matches(K: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64
                 f"||K|| ||x|| for a random x (must be <= {FACTOR_RTOL:g}); pass the (B, w) that K "
                 "was assembled from, or leave spring_factor out"
             )
+
+
+def largest_entry(K: Any) -> float:
+    """max |K_ij| without an n x n temporary."""
+    if sp.issparse(K):
+        return float(abs(K.data).max()) if K.nnz else 0.0
+    return float(max(K.max(), -K.min()))
+
+
+def _scaled_frobenius(K: Any, s: float) -> float:
+    """||K / s||_F, in row blocks for a dense K (no n x n temporary)."""
+    if sp.issparse(K):
+        return float(np.linalg.norm(K.data / s))
+    step = max(1, (1 << 20) // max(K.shape[0], 1))
+    return float(np.sqrt(sum(np.sum((K[i:i + step] / s) ** 2) for i in range(0, K.shape[0], step))))
 
 
 def physical_shapes(vectors: NDArray[np.float64], mass: NDArray[np.float64]) -> NDArray[np.float64]:

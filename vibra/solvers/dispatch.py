@@ -171,6 +171,19 @@ def solve(
     Kt = mass_weighted(K, mass)
     report.step(0.05, "mass-weighted K~ formed")
     solver, width, ordering = request.solver, request.width, request.ordering
+    # Far from 1, K~'s scale trips LAPACK's bisection and ARPACK (omega^2 ~ 1e-300 or 1e+300):
+    # scale by an even power of 2 (exact in floating point) and scale the results back.
+    exponent = _scale_exponent(Kt)
+    if exponent:
+        factor = 2.0**-exponent
+        if sp.issparse(Kt):
+            Kt.data *= factor
+        else:
+            Kt *= factor
+        if band is not None:
+            band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
+        if spring_factor is not None:
+            spring_factor = (spring_factor[0], spring_factor[1] * factor)
     if solver == "accurate":
         assert spring_factor is not None
         result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
@@ -183,5 +196,24 @@ def solve(
         result = sparse_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
     else:
         result = dense_path(Kt, n_modes=n_modes, vectors=vectors, band=band, overwrite=Kt is not K)
+    if exponent:
+        result.eigenvalues = result.eigenvalues * 2.0**exponent
+        result.error = result.error * 2.0**exponent
     report.done()
     return result
+
+
+#: K~ whose largest diagonal entry lies within 2^+-SCALE_EXPONENT is solved as it is.
+SCALE_EXPONENT = 64
+
+
+def _scale_exponent(Kt: NDArray[np.float64] | sp.csr_matrix) -> int:
+    """An even e with max|diag K~| 2^-e near 1, or 0 when the scale is already moderate."""
+    diagonal = np.abs(Kt.diagonal())
+    largest = float(diagonal.max()) if diagonal.size else 0.0
+    if largest == 0.0 or not np.isfinite(largest):
+        return 0
+    exponent = int(np.frexp(largest)[1])
+    if abs(exponent) <= SCALE_EXPONENT:
+        return 0
+    return exponent - exponent % 2
