@@ -176,10 +176,10 @@ def solve(
     exponent = _scale_exponent(Kt)
     if exponent:
         factor = 2.0**-exponent
-        if sp.issparse(Kt):
-            Kt.data *= factor
-        else:
+        if isinstance(Kt, np.ndarray):
             Kt *= factor
+        else:
+            Kt = sp.csr_matrix(Kt * factor)
         if band is not None:
             band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
         if spring_factor is not None:
