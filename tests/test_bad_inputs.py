@@ -304,6 +304,37 @@ CASES: list[Case] = [
 ]
 
 
+# Checks that belong in files another branch is restructuring (vibra/system.py, vibra/chains.py):
+# listed for the lead, strict xfail until they are wired (then the mark comes off).
+PENDING = "validation pending in system.py / chains.py (issue 16, item 5; other branch)"
+PENDING_CASES: list[Case] = [
+    ("from_springs name None", lambda: System.from_springs([[0.0], [1.0]], [1.0, 1.0], [(0, 1)], 1.0, name=None),
+     TypeError, r"name must be a str, got None"),
+    ("System.from_hessian name None", lambda: System.from_hessian([[0.0], [1.0]], [1.0, 1.0], K2, name=None),
+     TypeError, r"name must be a str, got None"),
+    ("generalized name None", lambda: System.generalized(np.eye(2), K2, name=None), TypeError,
+     r"name must be a str, got None"),
+    ("generalized coordinates 'ab'", lambda: System.generalized(np.eye(2), K2, coordinates="ab"), TypeError,
+     r"coordinates must be a sequence of str, got 'ab'"),
+    ("System.from_hessian symmetrize 'no'",
+     lambda: System.from_hessian([[0.0], [1.0]], [1.0, 1.0], K2, symmetrize="no"), TypeError,
+     r"symmetrize must be True or False, got 'no'"),
+    ("linear_chain name int", lambda: chains.linear_chain(3, name=3), TypeError, r"name must be a str, got 3"),
+    ("periodic_modes vectors 'no'",
+     lambda: chains.periodic_modes(chains.linear_chain(4, ends="periodic"), vectors="no"), TypeError,
+     r"vectors must be True or False, got 'no'"),
+]
+
+
+@pytest.mark.xfail(strict=True, reason=PENDING)
+@pytest.mark.parametrize("call, error, match", [case[1:] for case in PENDING_CASES],
+                         ids=[case[0] for case in PENDING_CASES])
+def test_pending_bad_input_is_refused_naming_the_argument(call: Callable[[], Any], error: type[BaseException],
+                                                          match: str) -> None:
+    with pytest.raises(error, match=match):
+        call()
+
+
 def test_the_table_is_large_and_its_ids_distinct() -> None:
     ids = [case[0] for case in CASES]
     assert len(ids) == len(set(ids)) and len(ids) >= 80
