@@ -16,18 +16,18 @@ overrides them per call):
   on stderr: a line when they start (the estimate), one per stage, one when done.
 
 Costs (n dofs, k modes wanted, b half-bandwidth; rates measured on one ~3 GHz core with
-OpenBLAS, rounded so that estimates err on the high side by a small factor):
+OpenBLAS, rounded so that estimates err on the high side by a small factor), memory beyond
+the input, then time:
 
-=====================  ====================================  ======================================
-path                   memory beyond the input               time
-=====================  ====================================  ======================================
-dense                  8 n^2 (K~), twice with vectors, + 8 n k          5e-11 n^3, 1.5e-10 n^3 with vectors
-tridiagonal            O(n); 8 n^2 with all vectors          1e-8 n^2; + 1e-7 n k with vectors
-banded                 O(n b); + 8 n^2 with vectors          5e-9 (b + 1) n^2; + 1.5e-10 n^3
-sparse                 ~ (2k + 20) n words + factor          O(n k) per Lanczos step
-accurate-bidiagonal    O(n); 8 n^2 with all vectors          1e-8 n^2; + 1e-7 n k with vectors
-accurate-jacobi        8 n (n_terms + n)                     5e-10 n^3
-=====================  ====================================  ======================================
+- dense: 8 n^2 (K~; twice with vectors) + 8 n k; 5e-11 n^3 (values), 1.5e-10 n^3 (vectors).
+- tridiagonal, accurate-bidiagonal: O(n), 8 n^2 with all vectors (LAPACK allocates them);
+  1e-8 n^2 for all values (dqds / MRRR), + 1e-7 n k with vectors.
+- banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
+- sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
+  otherwise); 2e-8 n ncv per Lanczos run.
+- accurate-rayleigh: 24 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
+- A `band` request is estimated as `dispatch.BAND_MODES_ESTIMATE` (64) modes (its count is unknown
+  before the solve).
 """
 
 from __future__ import annotations
