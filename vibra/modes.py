@@ -334,9 +334,8 @@ def normal_modes(
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                            spring_factor=factor)
-    solvers.guard(request.cost, n_dof=n_dof, max_memory=max_memory, max_seconds=max_seconds,
-                  alternatives=solvers.alternatives(request, n=n_dof, n_modes=n_modes, vectors=vectors,
-                                                    band=band))
+    solvers.check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
+                       max_seconds=max_seconds)
 
     if not sp.issparse(K_matrix):
         _validate.finite(K_matrix, "K")

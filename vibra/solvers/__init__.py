@@ -65,12 +65,12 @@ from vibra.solvers.bidiagonal import Segment
 from vibra.solvers.budget import (
     Estimate, Progress, ResourceLimitError, available_memory, estimate, guard,
 )
-from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, Plan, alternatives, plan, solve
+from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, Plan, alternatives, check_plan, plan, solve
 
 __all__ = [
     "SOLVER_NAMES", "SOLVER_PATHS", "SolveResult", "solve", "check_spring_factor", "physical_shapes",
     "mass_weighted", "Segment", "EPS", "DENSE_LIMIT", "BAND_LIMIT", "DENSE_ALL_LIMIT", "BDSQR_LIMIT",
-    "SAMPLE", "Plan", "plan", "alternatives", "Estimate", "Progress", "ResourceLimitError",
+    "SAMPLE", "Plan", "plan", "check_plan", "alternatives", "Estimate", "Progress", "ResourceLimitError",
     "available_memory", "estimate", "guard", "budget", "check_factor_matches", "FACTOR_RTOL",
     "largest_entry",
 ]

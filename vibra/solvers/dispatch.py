@@ -43,6 +43,7 @@ class Plan:
     ordering: NDArray[np.intp] | None
     cost: Estimate
     nnz: int
+    n_dof: int
 
 
 def plan(
@@ -100,7 +101,7 @@ def plan(
     if path == "dense" and band is not None:
         k = n
     cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
-    return Plan(solver, path, width, ordering, cost, _stored(K))
+    return Plan(solver, path, width, ordering, cost, _stored(K), n)
 
 
 def _stored(K: NDArray[np.float64] | sp.csr_matrix) -> int:
@@ -125,6 +126,14 @@ def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
     if band is None:
         options.append("band=(low, high) (only the modes in a frequency window)")
     return options
+
+
+def check_plan(request: Plan, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+               max_memory: float | None, max_seconds: float | None) -> None:
+    """`budget.guard` on a plan's cost, with the cheaper requests as the way out."""
+    n = request.n_dof
+    guard(request.cost, n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
+          alternatives=alternatives(request, n=n, n_modes=n_modes, vectors=vectors, band=band))
 
 
 def _short(cost: Estimate) -> str:
@@ -161,12 +170,11 @@ def solve(
     >>> np.round(result.eigenvalues, 12)          # 0, kappa / m, kappa (1/m + 2/M) (eq. 157)
     array([0., 1., 2.])
     """
-    n = K.shape[0]
     if request is None:
         request = plan(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                        spring_factor=spring_factor)
-        guard(request.cost, n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
-              alternatives=alternatives(request, n=n, n_modes=n_modes, vectors=vectors, band=band))
+        check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
+                   max_seconds=max_seconds)
     report = Progress(progress, request.cost)
     Kt = mass_weighted(K, mass)
     report.step(0.05, "mass-weighted K~ formed")
