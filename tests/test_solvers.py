@@ -422,3 +422,14 @@ def test_extreme_scales_reach_every_path_intact(stiffness: float, mass: float) -
         flexible = expected > 0
         assert np.abs(modes.omega[flexible] - expected[flexible]).max() <= 1e-10 * exact.max()
         assert np.all(np.abs(modes.omega[~flexible]) <= 1e-6 * exact.max())  # the translation
+
+
+def test_progress_names_the_stages_of_a_chain_with_vectors() -> None:
+    """The accurate chain path reports when its frequencies are done and its vectors start."""
+    calls: list[tuple[float, str]] = []
+    B, w = chain_factor(30)
+    normal_modes(chain_K(30), np.ones(30), spring_factor=(B, w),
+                 progress=lambda fraction, message: calls.append((fraction, message)))
+    messages = [message for _, message in calls]
+    assert any(message.startswith("frequencies done") for message in messages)
+    assert [fraction for fraction, _ in calls] == sorted(fraction for fraction, _ in calls)

@@ -13,7 +13,7 @@ accuracy where the structure allows (`accurate_path` chooses):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import scipy.linalg as la
@@ -48,7 +48,8 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
 
 def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matrix, NDArray[np.float64]], *,
                   n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
-                  ordering: NDArray[np.intp] | None = None, width: int = 0) -> SolveResult:
+                  ordering: NDArray[np.intp] | None = None, width: int = 0,
+                  on_stage: Callable[[float, str], None] | None = None) -> SolveResult:
     """Frequencies as singular values of B~ = W^1/2 B M^-1/2: picks the accurate-* path that fits.
 
     A large ring (`ordering` given: K~ banded once reordered) is not a path: its frequencies
@@ -61,7 +62,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     path = path_bidiagonals(weighted) if mass.ndim == 1 and not few else None
     if path is not None:
-        return bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band)
+        return bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage)
     if ordering is not None and not few and n > DENSE_LIMIT:
         ring = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
         if ring.vectors is None:

@@ -195,7 +195,7 @@ def solve(
     if solver == "accurate":
         assert spring_factor is not None
         result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
-                               ordering=ordering, width=width)
+                               ordering=ordering, width=width, on_stage=report.step)
     elif solver == "tridiagonal":
         result = tridiagonal_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
     elif solver == "banded":
