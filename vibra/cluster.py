@@ -155,7 +155,7 @@ def connect(client: Any, *, n_workers: int | None = None, timeout: float = 10.0)
         if workers < 1:
             raise ValueError(f"n_workers is {workers}; expected >= 1")
         cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                           dashboard_address=None, silence_logs=logging.ERROR)
+                                           dashboard_address=":0", silence_logs=logging.ERROR)
         try:
             with distributed.Client(cluster) as opened:
                 yield opened
