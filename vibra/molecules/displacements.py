@@ -185,7 +185,7 @@ class CalculatorSource:
                 data = pickle.dumps(self.factory, protocol=pickle.HIGHEST_PROTOCOL)
             except Exception:
                 try:
-                    import cloudpickle  # installed with dask: lambdas and local functions by value
+                    import cloudpickle  # type: ignore[import-untyped]  # with dask: lambdas, local functions
                     data = cloudpickle.dumps(self.factory, protocol=pickle.HIGHEST_PROTOCOL)
                 except Exception as error:
                     raise TypeError(f"the calculator factory cannot be pickled ({type(error).__name__}: {error}); "
