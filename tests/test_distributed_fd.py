@@ -260,3 +260,16 @@ def test_unpicklable_calculator_needs_a_factory_on_a_cluster_and_a_key_for_the_c
     serial = mol.finite_difference_hessian(atoms, calc)      # serially it is used directly
     keyed = mol.finite_difference_hessian(atoms, calc, cache=tmp_path, calculator_key="valence h2o")
     _assert_identical(serial, keyed)
+
+
+def test_default_cache_key_is_the_same_in_every_process() -> None:
+    """A rerun (a new process, another hash seed) must find the files of the killed run."""
+    code = ("import functools; from vibra import molecules as mol; "
+            "from vibra.molecules.displacements import CalculatorSource; from tblite.ase import TBLite; "
+            "a = mol.h2o_atoms(); "
+            "print(CalculatorSource(mol.ValenceForceField(mol.valence_model(a))).digest(), "
+            "CalculatorSource(functools.partial(TBLite, method='GFN2-xTB')).digest())")
+    outputs = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                              env=dict(os.environ, PYTHONHASHSEED=seed, PYTHONPATH=str(ROOT))).stdout
+               for seed in ("1", "2")}
+    assert len(outputs) == 1 and len(outputs.pop().split()) == 2

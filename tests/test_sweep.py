@@ -169,3 +169,17 @@ def test_unreachable_scheduler_fails_within_the_timeout(tmp_path) -> None:
     with pytest.raises(ClusterError, match=r"tcp://127\.0\.0\.1:9"):
         sweep(DEFECT, vary("system.defect_mass", 0.2, 0.6, 3), client="tcp://127.0.0.1:9", timeout=1.0)
     assert time.perf_counter() - start < 15
+
+
+def test_sweep_chart_is_a_non_blank_png(tmp_path) -> None:
+    from matplotlib.image import imread
+
+    from vibra.charts import save_figure
+    from vibra.charts.sweep import sweep_figure
+
+    table = sweep(DEFECT, vary("system.defect_mass", 0.2, 0.6, 5))
+    figure, caption = sweep_figure(table)
+    path = save_figure(figure, tmp_path / "sweep.png")
+    image = imread(path)
+    assert image.shape[:2] == (600, 960) and image[..., :3].std() > 0.05
+    assert "5 points of system.defect_mass" in caption

@@ -12,9 +12,11 @@ which calls ran before it on the same worker (tblite, for instance, starts each 
 previous wavefunction): either a **factory** (a callable with no arguments returning a new
 ASE calculator, e.g. ``functools.partial(TBLite, method="GFN2-xTB")``) is called, or the
 given calculator **instance** is pickled once and unpickled for every call. A run on a
-cluster needs one of the two to be picklable: the factory (by reference for a module-level
-function, class or ``functools.partial``; Dask's cloudpickle also ships lambdas and local
-functions) or the instance (which also carries whatever it computed before). An instance that
+cluster needs one of the two to be picklable: the factory or the instance (which also
+carries whatever it computed before). Pickling uses cloudpickle when it is installed (it comes
+with Dask): module-level functions, classes and ``functools.partial`` go by reference (the
+workers import them), while lambdas and classes or functions defined in a script or notebook
+go by value. An instance that
 cannot be pickled (tblite after a calculation holds C objects) still works serially, used
 directly as before; on a cluster pass a factory instead.
 
@@ -146,7 +148,7 @@ class CalculatorSource:
             self.kind = "factory"
             return
         try:
-            self.blob = pickle.dumps(calculator, protocol=pickle.HIGHEST_PROTOCOL)
+            self.blob = _dumps(calculator)
             self.kind = "pickled"
             self.pickle_error = ""
         except Exception as error:  # any pickling failure: used directly, in this process only
@@ -182,14 +184,10 @@ class CalculatorSource:
             return hashlib.sha256(b"instance\0" + self.blob).hexdigest()
         if self.kind == "factory":
             try:
-                data = pickle.dumps(self.factory, protocol=pickle.HIGHEST_PROTOCOL)
-            except Exception:
-                try:
-                    import cloudpickle  # type: ignore[import-untyped]  # with dask: lambdas, local functions
-                    data = cloudpickle.dumps(self.factory, protocol=pickle.HIGHEST_PROTOCOL)
-                except Exception as error:
-                    raise TypeError(f"the calculator factory cannot be pickled ({type(error).__name__}: {error}); "
-                                    "the cache needs calculator_key= naming its settings") from None
+                data = _dumps(self.factory)
+            except Exception as error:
+                raise TypeError(f"the calculator factory cannot be pickled ({type(error).__name__}: {error}); "
+                                "the cache needs calculator_key= naming its settings") from None
             return hashlib.sha256(b"factory\0" + data).hexdigest()
         raise TypeError(f"calculator cannot be pickled ({self.pickle_error}); the cache needs "
                         "calculator_key= naming its settings (or pass a factory)")
@@ -197,6 +195,16 @@ class CalculatorSource:
     def __getstate__(self) -> dict[str, Any]:
         self.require_picklable()
         return dict(self.__dict__)
+
+
+def _dumps(value: Any) -> bytes:
+    """Pickled bytes of `value`: with cloudpickle when installed (it comes with Dask, and ships
+    classes and functions defined in a script or notebook by value), else with pickle."""
+    try:
+        import cloudpickle  # type: ignore[import-untyped]
+    except ImportError:
+        return pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    return bytes(cloudpickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))
 
 
 def is_calculator(value: Any) -> bool:
