@@ -140,6 +140,7 @@ def test_progress_line_per_point(capsys) -> None:
     (lambda: grid({"n": []}), ValueError, r"n: no values; an empty range"),
     (lambda: grid(vary("n", 2, 3, 2), vary("n", 2, 3, 2)), ValueError, r"n: the key is swept twice"),
     (lambda: sweep(DEFECT, ensemble(1, 3)), ValueError, r"an ensemble of a scene needs draw"),
+    (lambda: sweep(DEFECT, {"system.defect_mass": [0.2]}, chunk_size=0), ValueError, r"chunk_size is 0"),
     (lambda: ensemble(1, 0), ValueError, r"n is 0; an ensemble needs at least 1 member"),
     (lambda: sweep(DEFECT, {"system.defect_mass": [0.2, -0.3]}), SceneError, r"system\.defect_mass: must be positive"),
     (lambda: sweep(42, {"n": [3]}), TypeError, r"target must be a scene file"),
@@ -160,8 +161,17 @@ def test_every_point_is_validated_before_any_is_solved() -> None:
 
 
 def test_failing_point_on_the_cluster_is_named(dask_client) -> None:
-    with pytest.raises(RuntimeError, match=r"1 of 3 sweep points failed: point 1: n=5: ValueError: no chain of 5"):
+    with pytest.raises(RuntimeError, match=r"1 of 3 sweep tasks failed: point 1: n=5: ValueError: no chain of 5"):
         sweep(broken_builder, {"n": [4, 5, 6]}, client=dask_client)
+    with pytest.raises(RuntimeError, match=r"1 of 2 sweep tasks failed: points 0-1: RuntimeError: point 1: n=5: "
+                       r"ValueError: no chain of 5"):
+        sweep(broken_builder, {"n": [4, 5, 6]}, client=dask_client, chunk_size=2)
+
+
+def test_chunks_give_the_same_table(dask_client) -> None:
+    axis = vary("system.defect_mass", 0.2, 0.6, 7)
+    assert (sweep(DEFECT, axis, client=dask_client, chunk_size=3).json_text()
+            == sweep(DEFECT, axis, client=dask_client).json_text())
 
 
 def test_unreachable_scheduler_fails_within_the_timeout(tmp_path) -> None:

@@ -402,12 +402,26 @@ def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str,
                     omega_error=float(errors.max()) if errors.size else 0.0, units=str(modes.units.name))
 
 
+def _chunk_task(arguments: Sequence[tuple[Any, ...]], labels: Sequence[str]) -> list[SweepRow]:
+    """Several points in one task (`sweep`'s ``chunk_size``); a failure names its point."""
+    if len(arguments) == 1:
+        return [_point_task(*arguments[0])]
+    rows = []
+    for args, label in zip(arguments, labels):
+        try:
+            rows.append(_point_task(*args))
+        except Exception as error:
+            raise RuntimeError(f"{label}: {type(error).__name__}: {error}") from error
+    return rows
+
+
 # ---------------------------------------------------------------------- the sweep
 def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
           derive: Callable[[Any, Any], Mapping[str, float]] | None = None, client: Any = None,
           progress: ProgressOption = None, n_workers: int | None = None, timeout: float = 10.0,
           n_modes: int | None = None, band: tuple[float, float] | None = None,
-          accuracy: Literal["high", "fast"] = "high", solver: str = "auto", name: str | None = None) -> SweepTable:
+          accuracy: Literal["high", "fast"] = "high", solver: str = "auto", name: str | None = None,
+          chunk_size: int = 1) -> SweepTable:
     """Solve `target` at every point of `points`; one row per point, in point order.
 
     Parameters
@@ -432,6 +446,10 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         For a builder: what to solve (as in `System.modes`); a scene uses its ``[compute]``.
     name : str, optional
         Name of the table (default: the scene's name, or the builder's).
+    chunk_size : int
+        Points per Dask task. 1 (one task per point) balances the load best when points are
+        expensive; points that take about a millisecond run several times faster in chunks
+        (the per-task cost of Dask is a few milliseconds: benchmarks/RESULTS_distributed.md).
 
     Returns
     -------
@@ -457,6 +475,9 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     [3, 4]
     """
     check_client(client)
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
+        raise ValueError(f"chunk_size is {chunk_size!r}; expected an integer >= 1 (points per task)")
+    chunk_size = int(chunk_size)
     if isinstance(points, Axis) or (isinstance(points, Mapping) and not isinstance(points, Grid)):
         points = grid(points)
     if not isinstance(points, (Grid, Ensemble)):
@@ -481,14 +502,18 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
             if callback is not None:
                 callback(done, len(arguments), labels[done - 1])
     else:
+        starts = range(0, len(arguments), chunk_size)
+        chunks = [(arguments[i:i + chunk_size], labels[i:i + chunk_size]) for i in starts]
+        chunk_labels = [labels[i] if chunk_size == 1 else f"points {i}-{min(i + chunk_size, len(arguments)) - 1}"
+                        for i in starts]
         with connect(client, n_workers=n_workers, timeout=timeout) as opened:
-            results, failures = run_tasks(opened, _point_task, arguments, labels=labels, progress=progress,
+            results, failures = run_tasks(opened, _chunk_task, chunks, labels=chunk_labels, progress=progress,
                                           name="vibra-sweep")
         if failures:
-            raise RuntimeError(f"{len(failures)} of {len(arguments)} sweep points failed: "
+            raise RuntimeError(f"{len(failures)} of {len(chunks)} sweep tasks failed: "
                                + "; ".join(f.describe() for f in failures[:5])
                                + ("; ..." if len(failures) > 5 else ""))
-        rows = list(results)
+        rows = [row for chunk_rows in results for row in chunk_rows]
     if units is None:
         units = rows[0].units if rows else ""
     keys = points.keys if isinstance(points, Grid) else ("member",)
