@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import mpmath
 import numpy as np
 import pytest
 import scipy.linalg as la
@@ -405,3 +406,63 @@ def test_monatomic_shapes_rejects_non_integer_mode_indices():
     with pytest.raises(ValueError, match=r"modes must be 1-D mode indices in \[0, 3\] \(ints\), got \[1.7\]"):
         chains.monatomic_shapes(4, modes=[1.7])
     np.testing.assert_array_equal(chains.monatomic_shapes(4, modes=[2]), chains.monatomic_shapes(4)[:, [2]])
+
+
+def test_periodic_modes_rejects_rings_that_are_not_chains():
+    # n springs, each a difference of two dofs with unit weight, but one joins 0 and 2.
+    shortcut = System.from_springs(np.arange(4.0), 1.0, [[0, 1], [1, 2], [2, 3], [0, 2]], 1.0)
+    with pytest.raises(ValueError, match=r"^system is not a periodic chain: its springs do not join i to i \+ 1"):
+        chains.periodic_modes(shortcut)
+    # A term measuring u_0 + u_1 (a sum, not a difference), closing a 2-site ring.
+    summed = System.from_terms(np.arange(2.0), 1.0, [[-1.0, 1.0], [1.0, 1.0]], [1.0, 1.0])
+    with pytest.raises(ValueError, match=r"^system is not a periodic chain: a spring does not measure a difference"):
+        chains.periodic_modes(summed)
+    pendulums = System.generalized(np.eye(2), [[2.0, -1.0], [-1.0, 2.0]])
+    with pytest.raises(ValueError, match=r"^system is in generalised coordinates; periodic_modes needs a ring"):
+        chains.periodic_modes(pendulums)
+    with pytest.raises(TypeError, match=r"^n_modes must be an int, got float$"):
+        chains.periodic_modes(chains.linear_chain(5, ends="periodic"), n_modes=2.0)  # type: ignore[arg-type]
+
+
+def bloch_matrix(phase: float, m1: float, m2: float, k1: float, k2: float) -> np.ndarray:
+    """Mass-weighted 2x2 dynamical matrix of the cell m1 -k1- m2 -k2- at Bloch phase q a (Hermitian)."""
+    off = -(k1 + k2 * np.exp(-1j * phase)) / np.sqrt(m1 * m2)
+    return np.array([[(k1 + k2) / m1, off], [np.conj(off), (k1 + k2) / m2]])
+
+
+@pytest.mark.parametrize(("m1", "m2", "k1", "k2"), [(1.0, 2.0, 1.0, 1.0), (1.0, 1.0, 3.0, 0.5), (2.0, 7.0, 0.3, 4.0)])
+def test_diatomic_eigenvalues_are_those_of_the_bloch_matrix(m1, m2, k1, k2):
+    phases = np.linspace(-np.pi, np.pi, 9)
+    low, high = chains.diatomic_eigenvalues(phases, m1, m2, k1, k2)
+    expected = np.array([la.eigvalsh(bloch_matrix(p, m1, m2, k1, k2)) for p in phases])
+    scale = (k1 + k2) * (m1 + m2) / (m1 * m2)
+    np.testing.assert_allclose(low, expected[:, 0], atol=8 * EPS * scale)
+    np.testing.assert_allclose(high, expected[:, 1], atol=8 * EPS * scale)
+    half = chains.diatomic_half_splitting(phases, m1, m2, k1, k2)
+    np.testing.assert_allclose(half, (expected[:, 1] - expected[:, 0]) / 2, atol=8 * EPS * scale)
+
+
+def test_diatomic_eigenvalues_keep_relative_accuracy_near_q_zero():
+    """Truth: lambda = S/2 -+ sqrt(S^2/4 - P) evaluated with mpmath at 50 digits."""
+    m1, m2, k1, k2 = 1.0, 3.0, 2.0, 0.5
+    for phase in (1e-3, 1e-6, 1e-9):
+        low, high = chains.diatomic_eigenvalues(phase, m1, m2, k1, k2)
+        with mpmath.workdps(50):
+            S = mpmath.mpf(k1 + k2) * (m1 + m2) / (m1 * m2)
+            P = 4 * mpmath.mpf(k1 * k2) * mpmath.sin(mpmath.mpf(phase) / 2) ** 2 / (m1 * m2)
+            root = mpmath.sqrt(S ** 2 / 4 - P)
+            low_exact, high_exact = float(S / 2 - root), float(S / 2 + root)
+        assert float(low) == pytest.approx(low_exact, rel=8 * EPS)
+        assert float(high) == pytest.approx(high_exact, rel=8 * EPS)
+        assert float(chains.diatomic_half_splitting(phase, m1, m2, k1, k2)) == pytest.approx(float(root), rel=8 * EPS)
+
+
+def test_bloch_problem_validation_messages():
+    with pytest.raises(ValueError, match=r"^phase\[1\] is nan; every entry must be finite$"):
+        chains.diatomic_eigenvalues([0.0, np.nan], 1.0, 1.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match=r"^m2 is -1.0; a mass must be positive and finite$"):
+        chains.diatomic_eigenvalues(0.0, 1.0, -1.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match=r"^k2 is 0.0; a spring constant must be positive and finite$"):
+        chains.diatomic_half_splitting(0.0, 1.0, 1.0, 1.0, 0.0)
+    with pytest.raises(ValueError, match=r"^phase must be 1-D, got shape \(1, 1\)$"):
+        chains.diatomic_half_splitting([[0.0]], 1.0, 1.0, 1.0, 1.0)

@@ -316,6 +316,64 @@ def test_continuum_validation_messages():
         continuum.gaussian_pulse(100, [0.0], width=0.05, center=float("nan"))
 
 
+# ---------------------------------------------------------------------- dispersion curves, power-law fit
+def test_dispersion_curves_over_the_zone_with_a_finite_chain():
+    """Truth: omega = 2 sqrt(k/m) |sin(q dx / 2)|; a free chain's mode j sits at q = j pi / (N dx)."""
+    system = chains.linear_chain(6, mass=2.0, stiffness=8.0, spacing=0.5)
+    modes = dense_modes(system.hessian().toarray(), system.masses)
+    curves = continuum.dispersion_curves(masses=2.0, stiffness=8.0, spacing=0.5, modes=modes, n_q=5)
+    assert curves.n_branches == 1 and curves.gap == 0.0 and curves.n_sites == 6 and curves.ends == "free"
+    assert curves.zone_edge == pytest.approx(np.pi / 0.5, rel=1e-15)
+    np.testing.assert_allclose(curves.q, np.linspace(0.0, 2.0 * np.pi, 5), rtol=1e-15)
+    np.testing.assert_allclose(curves.omega[0], 4.0 * np.abs(np.sin(curves.q * 0.25)), rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(curves.band_edges, [[0.0, 4.0]], rtol=1e-15)
+    np.testing.assert_allclose(curves.mode_wavenumbers, np.arange(6) * np.pi / 3.0, rtol=1e-14)
+    # Each mode of the uniform chain lies on the infinite chain's branch (seed 003 eq. 161).
+    # atol: eigh gives the zero mode's omega^2 to ~eps |K|, so its omega to ~sqrt(eps |K|) ~ 3e-8.
+    np.testing.assert_allclose(curves.mode_omega, 4.0 * np.sin(curves.mode_wavenumbers * 0.25), atol=1e-7)
+    assert curves.units == modes.units
+
+
+def test_dispersion_curves_diatomic_gap():
+    """Truth: zone-boundary frequencies sqrt(2k/m2) and sqrt(2k/m1) bound the gap (m1 < m2)."""
+    curves = continuum.dispersion_curves(masses=(1.0, 3.0), stiffness=2.0, spacing=1.0, units="SI")
+    assert curves.n_branches == 2 and curves.zone_edge == pytest.approx(np.pi / 2.0, rel=1e-15)
+    assert curves.gap == pytest.approx(np.sqrt(4.0) - np.sqrt(4.0 / 3.0), rel=1e-14)
+    assert curves.mode_wavenumbers is None and curves.mode_omega is None and curves.n_sites is None
+    assert curves.units.name == "SI"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        curves.q = None  # type: ignore[misc]
+    with pytest.raises(ValueError, match="read-only"):
+        curves.omega[0, 0] = 1.0
+
+
+def test_power_law_fit_recovers_an_exact_power_law():
+    x = np.array([10.0, 20.0, 40.0, 80.0])
+    order, coefficient = continuum.power_law_fit(x, -0.7 * x ** -2.5)  # the sign is ignored
+    assert order == pytest.approx(2.5, rel=1e-12) and coefficient == pytest.approx(0.7, rel=1e-12)
+
+
+def test_dispersion_curves_and_power_law_fit_validation():
+    with pytest.raises(TypeError, match=r"^modes must be a vibra.Modes, got list$"):
+        continuum.dispersion_curves(modes=[1.0, 2.0])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"^n_q is 1; expected 2 <= n_q"):
+        continuum.dispersion_curves(n_q=1)
+    with pytest.raises(TypeError, match=r"^n_q must be an int, got float$"):
+        continuum.dispersion_curves(n_q=10.0)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"^ends is 'open'"):
+        continuum.dispersion_curves(ends="open")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"^x and errors must be two 1-D arrays of the same length >= 2"):
+        continuum.power_law_fit([1.0, 2.0], [1.0])
+    with pytest.raises(ValueError, match=r"^errors\[1\] is 0.0; a power law needs non-zero errors$"):
+        continuum.power_law_fit([1.0, 2.0], [1.0, 0.0])
+    with pytest.raises(ValueError, match=r"^x holds one value only; a fit needs two distinct abscissae$"):
+        continuum.power_law_fit([2.0, 2.0], [1.0, 0.5])
+    with pytest.raises(ValueError, match=r"^x\[0\] is -1.0; every abscissa must be positive"):
+        continuum.power_law_fit([-1.0, 2.0], [1.0, 0.5])
+    with pytest.raises(TypeError, match=r"^n_modes must be an int, got float$"):
+        continuum.continuum_frequencies(1.5)  # type: ignore[arg-type]
+
+
 # ---------------------------------------------------------------------- charts
 def _check_png(fig: Figure, path) -> None:
     import matplotlib.image as mpimg

@@ -658,11 +658,30 @@ def test_docs_molecules_examples_run_as_written(tmp_path, monkeypatch) -> None:
 
     text = (Path(__file__).resolve().parent.parent / "docs" / "molecules.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
-    assert len(blocks) == 2
+    assert len(blocks) == 4
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
     for block in blocks:
         exec(compile(block, "docs/molecules.md", "exec"), namespace)
     assert namespace["co2"].n_dof == 9 and namespace["axial"].n_dof == 3
     assert namespace["result"].n_rigid == 5
-    assert list(tmp_path.iterdir()) == []   # the cross-check leaves no cache behind
+    assert namespace["group"].name == "C2v" and namespace["ch4"].point_group.name == "Td"
+    # the export example writes into exports/; the cross-check leaves no cache behind
+    assert [p.name for p in tmp_path.iterdir()] == ["exports"]
+    assert sorted(p.name for p in (tmp_path / "exports").iterdir()) == [
+        "FORCE_CONSTANTS", "d2o.molden", "d2o_bend.traj", "d2o_bend.xyz"]
+    assert [round(float(w)) for w in namespace["water"].vibration_wavenumbers_cm1()] == [1163, 2664, 2736]
+
+
+def test_molecular_systems_keep_their_chemical_symbols() -> None:
+    """Every molecule builder records the symbols of its atoms (truth: the ASE Atoms given)."""
+    from ase.build import molecule as ase_molecule
+
+    from vibra.molecules import co2, from_atoms, from_hessian, h2o, h2o_atoms, molecule
+
+    assert co2().symbols == ("O", "C", "O") and co2(dims=1).symbols == ("O", "C", "O")
+    assert h2o().symbols == ("O", "H", "H")
+    assert molecule("CH4").symbols == tuple(ase_molecule("CH4").get_chemical_symbols())
+    water = h2o_atoms()
+    assert from_atoms(water).symbols == ("O", "H", "H")
+    assert from_hessian(water, h2o().hessian().toarray()).symbols == ("O", "H", "H")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from vibra import System
+from vibra import GeneralizedSystem, System
 
 
 def numeric_hessian(positions: np.ndarray, pairs: np.ndarray, stiffness: np.ndarray, h: float = 1e-4) -> np.ndarray:
@@ -99,12 +99,28 @@ def test_isotopes_change_masses_only() -> None:
     assert heavy.modes().omega[1] == pytest.approx(np.sqrt(2.0 / (3.0 / 4.0)), rel=1e-14)
 
 
-def test_assembly_is_vectorised_for_a_million_springs() -> None:
+def test_a_million_springs_assemble_to_the_closed_form_tridiagonal(rng: np.random.Generator) -> None:
+    """K of a free 1-D chain of 10^6 springs k_i is the tridiagonal Laplacian of the chain.
+
+    Truth (independent of vibra): (K u)_i = k_{i-1} (u_i - u_{i-1}) + k_i (u_i - u_{i+1}), so
+    diag(K) = (k_0, k_0 + k_1, ..., k_{n-2}) and K[i, i+1] = -k_i; a rigid translation has
+    no restoring force, and u_i = i^2 on unit springs gives -2 inside and -1, 2n - 3 at the ends.
+    """
     n = 1_000_001
-    system = System.from_springs(np.arange(n, dtype=float), 1.0, np.c_[np.arange(n - 1), np.arange(1, n)], 1.0)
+    k = rng.uniform(0.5, 2.0, n - 1)
+    system = System.from_springs(np.arange(n, dtype=float), 1.0, np.c_[np.arange(n - 1), np.arange(1, n)], k)
     K = system.hessian()
     assert K.shape == (n, n) and K.nnz == 3 * n - 2
-    assert K[0, 0] == 1.0 and K[5, 5] == 2.0 and K[5, 6] == -1.0
+    diagonal = np.concatenate([[0.0], k]) + np.concatenate([k, [0.0]])
+    expected = sp.diags([-k, diagonal, -k], [-1, 0, 1], format="csr")
+    gap = abs(K - expected)
+    assert gap.max() <= 4 * np.finfo(float).eps * diagonal.max()
+    assert np.abs(K @ np.ones(n)).max() <= 4 * np.finfo(float).eps * diagonal.max()
+    unit = System.from_springs(np.arange(n, dtype=float), 1.0, np.c_[np.arange(n - 1), np.arange(1, n)], 1.0)
+    u = np.arange(n, dtype=float) ** 2
+    force = unit.hessian() @ u
+    assert force[0] == -1.0 and force[-1] == 2.0 * n - 3.0
+    np.testing.assert_array_equal(force[1:-1], -2.0)
 
 
 def test_system_is_immutable() -> None:
@@ -155,3 +171,138 @@ def test_generalized_validation() -> None:
 def test_frozen_dofs_out_of_range_names_dof_indices() -> None:
     with pytest.raises(ValueError, match=r"frozen_dofs\[0\] is 9; dof indices run from 0 to 3"):
         System.from_springs(np.zeros((2, 2)) + [[0.0, 0.0], [1.0, 0.0]], 1.0, [[0, 1]], 1.0, frozen_dofs=[9])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"springs": None}, ValueError, r"^stiffness was given without springs$"),
+        ({"stiffness": None}, ValueError, r"^stiffness is required$"),
+        ({"stiffness": [1.0, 2.0]}, ValueError, r"^stiffness must have 1 entries, got 2$"),
+        ({"springs": [0, 1, 1]}, ValueError, r"springs must have shape \('n', 2\), got \(3,\)"),
+        ({"anchor_stiffness": 1.0}, ValueError, r"^anchor_stiffness was given without anchors$"),
+        ({"anchors": [0], "anchor_stiffness": 1.0, "anchor_directions": [[1.0, 0.0]]}, ValueError,
+         r"anchor_directions must have shape \(1, 1\), got \(1, 2\)"),
+        ({"anchors": [0], "anchor_stiffness": 1.0, "anchor_directions": [[0.0]]}, ValueError,
+         r"anchor_directions\[0\] is the zero vector"),
+        ({"positions": np.zeros((0, 1)), "masses": [], "springs": None, "stiffness": None}, ValueError,
+         r"positions must hold at least one site, got none"),
+        ({"positions": ["a", "b"]}, TypeError, r"positions must be an array of real numbers, got list"),
+        ({"positions": sp.eye(2)}, TypeError, r"positions must be a dense array here, got a scipy.sparse matrix"),
+        ({"blocks": [5]}, TypeError, r"blocks\[0\] must be a pair \(sites, H\)"),
+    ],
+)
+def test_from_springs_argument_pairing_and_shapes(kwargs, error, match) -> None:  # type: ignore[no-untyped-def]
+    arguments = {"positions": [0.0, 1.0], "masses": [1.0, 1.0], "springs": [[0, 1]], "stiffness": 1.0}
+    arguments.update(kwargs)
+    with pytest.raises(error, match=match):
+        System.from_springs(**arguments)
+
+
+def test_from_terms_and_from_hessian_validation() -> None:
+    B = sp.csr_matrix([[-1.0, 1.0]])
+    with pytest.raises(ValueError, match=r"^coupling must have 3 columns \(n_sites \* dim\), got shape \(1, 2\)$"):
+        System.from_terms([0.0, 1.0, 2.0], 1.0, B, [1.0])
+    with pytest.raises(ValueError, match=r"^weights must have 1 entries \(one per row of coupling\), got 2$"):
+        System.from_terms([0.0, 1.0], 1.0, B, [1.0, 2.0])
+    with pytest.raises(ValueError, match=r"^extra_hessian must be \(2, 2\), got \(3, 3\)$"):
+        System.from_terms([0.0, 1.0], 1.0, B, [1.0], extra_hessian=np.eye(3))
+    with pytest.raises(ValueError, match=r"^hessian must be \(2, 2\), got \(3, 3\)$"):
+        System.from_hessian([0.0, 1.0], 1.0, np.eye(3))
+    with pytest.raises(ValueError, match=r"^hessian must be square, got shape \(2, 3\)$"):
+        System.from_hessian([0.0, 1.0], 1.0, np.ones((2, 3)))
+
+
+def test_freezing_the_last_free_dof_is_refused() -> None:
+    system = System.from_springs([0.0, 1.0], 1.0, [[0, 1]], 1.0, frozen_sites=[1])
+    with pytest.raises(ValueError, match=r"^every degree of freedom is frozen; nothing is left to vibrate$"):
+        system.freeze(sites=[0])
+
+
+def test_a_system_of_sites_is_not_generalized() -> None:
+    system = System.from_springs([0.0, 1.0], 1.0, [[0, 1]], 1.0)
+    assert not system.is_generalized and system.dim == 1 and system.n_sites == 2
+
+
+# ---------------------------------------------------------------------- generalised coordinates
+def two_coordinates() -> GeneralizedSystem:
+    """M = diag(2, 1), K = [[8, -1], [-1, 1]] (J/rad^2), coordinates a and b."""
+    return System.generalized(np.diag([2.0, 1.0]), [[8.0, -1.0], [-1.0, 1.0]], coordinates=["a", "b"])
+
+
+def test_generalized_system_stores_M_and_K_and_solves_the_pencil() -> None:
+    system = two_coordinates()
+    assert isinstance(system, GeneralizedSystem) and isinstance(system, System)
+    assert system.is_generalized and system.n_sites == 0 and system.dim == 0
+    assert system.spring_factor() is None
+    np.testing.assert_array_equal(system.M, np.diag([2.0, 1.0]))
+    np.testing.assert_array_equal(system.K, [[8.0, -1.0], [-1.0, 1.0]])
+    assert sp.isspmatrix_csr(system.hessian())
+    # det(K - w^2 M) = (8 - 2 r)(1 - r) - 1 = 0: r = (5 -+ sqrt(11)) / 2.
+    expected = np.array([(5.0 - np.sqrt(11.0)) / 2.0, (5.0 + np.sqrt(11.0)) / 2.0])
+    for accuracy in ("high", "fast"):
+        np.testing.assert_allclose(system.modes(accuracy=accuracy).omega_squared, expected, rtol=1e-14)
+    same = System.generalized([2.0, 1.0], [[8.0, -1.0], [-1.0, 1.0]])  # M as its diagonal
+    np.testing.assert_array_equal(same.M, system.M)
+    assert same.labels == ("q0", "q1")
+
+
+def test_generalized_freeze_holds_coordinates_at_rest() -> None:
+    frozen = two_coordinates().freeze(dofs=[0])
+    assert frozen.n_dof == 1 and frozen.labels == ("a", "b")
+    np.testing.assert_array_equal(frozen.free_dofs, [1])
+    np.testing.assert_array_equal(frozen.hessian().toarray(), [[1.0]])
+    np.testing.assert_array_equal(frozen.mass_matrix(), [[1.0]])
+    # q_a = 0: b alone, K_bb / M_bb = 1.
+    assert frozen.modes().omega_squared[0] == pytest.approx(1.0, rel=1e-15)
+    np.testing.assert_array_equal(frozen.expand(np.array([3.0])), [0.0, 3.0])
+
+
+def test_generalized_freeze_validation() -> None:
+    system = two_coordinates()
+    with pytest.raises(ValueError, match=r"generalised coordinates have no sites; freeze coordinates with freeze\(dofs"):
+        system.freeze(sites=[0])
+    with pytest.raises(ValueError, match=r"^dofs\[0\] is 5; coordinate indices run from 0 to 1$"):
+        system.freeze(dofs=[5])
+    with pytest.raises(TypeError, match=r"^dofs must hold integer coordinate indices, got dtype float64$"):
+        system.freeze(dofs=[0.5])
+    with pytest.raises(ValueError, match=r"^every degree of freedom is frozen; nothing is left to vibrate$"):
+        system.freeze(dofs=[0]).freeze(dofs=[1])
+
+
+def test_generalized_matrix_validation() -> None:
+    with pytest.raises(ValueError, match=r"^M must have 2 masses to match K, got shape \(3,\)$"):
+        System.generalized([1.0, 1.0, 1.0], np.eye(2))
+    with pytest.raises(ValueError, match=r"^M must be \(2, 2\) to match K, got shape \(3, 3\)$"):
+        System.generalized(np.eye(3), np.eye(2))
+    with pytest.raises(ValueError, match=r"^K must be square, got shape \(2, 3\)$"):
+        System.generalized(np.eye(2), np.ones((2, 3)))
+    with pytest.raises(ValueError, match=r"^K must have at least one row, got shape \(0, 0\)$"):
+        System.generalized(np.eye(2), np.zeros((0, 0)))
+    with pytest.raises(ValueError, match=r"^units is 'imperial'"):
+        System.generalized(np.eye(2), np.eye(2), units="imperial")
+
+
+def test_generalized_system_is_immutable() -> None:
+    system = two_coordinates()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        system.K = np.eye(2)  # type: ignore[misc]
+    for array in (system.M, system.K, system.frozen):
+        with pytest.raises(ValueError):
+            array[0] = 0
+
+
+def test_with_symbols_keeps_one_symbol_per_site_and_refuses_others() -> None:
+    chain = System.from_springs([0.0, 1.1, 2.2], [16.0, 12.0, 16.0], [[0, 1], [1, 2]], 1.0)
+    assert chain.symbols is None
+    labelled = chain.with_symbols(["O", "C", "O"])
+    assert labelled.symbols == ("O", "C", "O") and labelled.with_masses([18.0, 12.0, 16.0]).symbols == ("O", "C", "O")
+    assert labelled.with_symbols(None).symbols is None
+    with pytest.raises(ValueError, match=r"symbols has 2 entries; expected one per site \(3\)"):
+        chain.with_symbols(["O", "C"])
+    with pytest.raises(TypeError, match=r"symbols must be a sequence of str"):
+        chain.with_symbols("OCO")
+    with pytest.raises(TypeError, match=r"symbols\[1\] is 6"):
+        chain.with_symbols(["O", 6, "O"])
+    with pytest.raises(ValueError, match=r"symbols\[2\] is empty"):
+        chain.with_symbols(["O", "C", " "])

@@ -1,15 +1,26 @@
 """vibra: normal-mode and vibration analysis.
 
-Library entry points: `normal_modes` and `Modes` (vibra.modes), `System` (vibra.system),
-and the submodules `chains`, `molecules`, `response`, `continuum`, `lagrangian`, loaded on
-first access so that ``import vibra`` stays light (no pyvista, ase or phonopy).
+Two kinds of public names, listed in one place each below:
+
+- ``__all__``: the eager API, imported with the package and cheap to bind:
+  `normal_modes` and `Modes` (vibra.modes), `System` (vibra.system), `GeneralizedSystem`
+  (vibra.generalized), the unit systems (vibra.units). ``from vibra import *`` binds these
+  and nothing else, so it costs no more than ``import vibra``.
+- ``SUBMODULES``: every public submodule (`vibra.chains`, `vibra.molecules`,
+  `vibra.response`, `vibra.continuum`, `vibra.lagrangian`, ...). Those not already imported
+  load on first attribute access (``vibra.chains.linear_chain``), so that ``import vibra``
+  stays light: no pyvista, ase, phonopy or matplotlib. Import them by name
+  (``from vibra import chains``).
+
+``dir(vibra)`` lists both, plus ``__version__``.
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from importlib import import_module as _import_module
+from typing import Any as _Any
 
+from vibra.generalized import GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.system import System
 from vibra.units import ASE, DIMENSIONLESS, SI, UnitSystem
@@ -17,18 +28,22 @@ from vibra.units import ASE, DIMENSIONLESS, SI, UnitSystem
 __version__ = "0.1.0"
 
 __all__ = [
-    "ASE", "DIMENSIONLESS", "Modes", "SI", "System", "UnitSystem", "normal_modes",
-    "chains", "continuum", "lagrangian", "molecules", "response", "rigid", "pendulum",
-    "spectra", "crosscheck", "scene", "report",
+    "ASE", "DIMENSIONLESS", "GeneralizedSystem", "Modes", "SI", "System", "UnitSystem", "normal_modes",
 ]
 
-_SUBMODULES = {
-    "chains", "continuum", "lagrangian", "molecules", "response", "rigid", "pendulum",
-    "spectra", "crosscheck", "scene", "report", "charts", "render", "solvers", "units",
-}
+#: Every public submodule of vibra, loaded (if not yet) on first attribute access.
+SUBMODULES: tuple[str, ...] = (
+    "chains", "charts", "cli", "continuum", "crosscheck", "generalized", "gpu", "lagrangian", "modes",
+    "molecules", "networks", "pendulum", "plan", "render", "report", "response", "rigid", "scene",
+    "solvers", "spectra", "system", "units",
+)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _SUBMODULES:
-        return importlib.import_module(f"vibra.{name}")
+def __getattr__(name: str) -> _Any:
+    if name in SUBMODULES:
+        return _import_module(f"vibra.{name}")
     raise AttributeError(f"module 'vibra' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*__all__, *SUBMODULES, "SUBMODULES", "__version__"})

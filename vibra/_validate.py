@@ -196,3 +196,79 @@ def choice(value: Any, name: str, allowed: tuple[str, ...]) -> str:
         options = ", ".join(repr(a) for a in allowed)
         raise ValueError(f"{name} is {value!r}; expected one of {options}")
     return str(value)
+
+
+def min_count(value: Any, name: str, *, low: int, what: str) -> int:
+    """An integer >= low; `what` names what needs it ("n is 1; a chain needs n >= 2")."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+    if value < low:
+        raise ValueError(f"{name} is {value}; {what} needs {name} >= {low}")
+    return int(value)
+
+
+def real_values(value: Any, name: str) -> NDArray[np.float64]:
+    """One real number (as a 0-d array) or a 1-D array; a bad scalar is named without an index."""
+    if np.ndim(value) == 0:
+        return np.asarray(real_scalar(value, name))
+    return real_array(value, name, ndim=1)
+
+
+def positive_pair(value: Any, name: str, what: str) -> tuple[float, float]:
+    """One positive value (used twice) or a pair (first, second) of positive values."""
+    array = real_values(value, name)
+    if array.ndim == 0:
+        array = np.array([float(array), float(array)])
+    if array.shape != (2,):
+        raise ValueError(f"{name} must be one value or a pair (first, second), got shape {array.shape}")
+    positive(array, name, what)
+    return float(array[0]), float(array[1])
+
+
+def increasing(values: NDArray[Any], name: str, what: str) -> None:
+    """Raise naming the first entry of 1-D `values` that is not above the one before it."""
+    step = np.diff(values)
+    if (step <= 0).any():
+        i = int(np.argmax(step <= 0)) + 1
+        raise ValueError(f"{name}[{i}] is {values[i].item()!r} <= {name}[{i - 1}] = {values[i - 1].item()!r}; "
+                         f"{what} must increase")
+
+
+def increasing_counts(value: Any, name: str) -> NDArray[np.int64]:
+    """(n,) strictly increasing integers, n >= 2 (e.g. chain sizes for a fit)."""
+    sizes = np.asarray(value)
+    if sizes.ndim != 1 or sizes.size < 2 or not np.issubdtype(sizes.dtype, np.integer):
+        raise ValueError(f"{name} must be a 1-D sequence of at least two int sizes, got {value!r}")
+    increasing(sizes, name, "sizes")
+    return sizes.astype(np.int64)
+
+
+def integration_tolerances(rtol: Any, atol: Any) -> tuple[float, float]:
+    """(rtol, atol) for `scipy.integrate.solve_ivp`, each positive and finite."""
+    out = []
+    for value, name in ((rtol, "rtol"), (atol, "atol")):
+        number = real_scalar(value, name)
+        if not number > 0:
+            raise ValueError(f"{name} is {number!r}; an integration tolerance must be positive")
+        out.append(number)
+    return out[0], out[1]
+
+
+def indices(value: Any, name: str, size: int, *, shape: tuple[int, ...] = (-1,), what: str = "site"
+            ) -> NDArray[np.intp]:
+    """Integer indices in [0, size), reshaped to `shape` (an empty input gives no indices)."""
+    array = np.asarray(value)
+    if array.size == 0:
+        return np.zeros((0,) + shape[1:], dtype=np.intp)
+    if not np.issubdtype(array.dtype, np.integer):
+        raise TypeError(f"{name} must hold integer {what} indices, got dtype {array.dtype}")
+    try:
+        array = array.reshape(shape)
+    except ValueError:
+        raise ValueError(f"{name} must have shape {('n',) + shape[1:]}, got {np.shape(value)}") from None
+    bad = (array < 0) | (array >= size)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = ",".join(str(i) for i in index)
+        raise ValueError(f"{name}[{where}] is {array[index]}; {what} indices run from 0 to {size - 1}")
+    return array.astype(np.intp)

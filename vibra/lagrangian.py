@@ -6,8 +6,8 @@ V(q) are linearised about an equilibrium q0:
     M = d2T/dq'dq'  at (q0, q' = 0),      K = d2V/dqdq  at q0,
 
 so that M u'' + K u = 0 for u = q - q0, with a non-diagonal, configuration-dependent M
-frozen at q0. `linearize` returns that as a `vibra.System` in generalised coordinates;
-`System.modes()` then gives the normal modes through the core solver.
+frozen at q0. `linearize` returns that as a `vibra.generalized.GeneralizedSystem` (built by
+`vibra.System.generalized`); its `modes()` then gives the normal modes through the core solver.
 
 Sign convention: V here is the potential energy (the Lagrangian is T - V). Vieille's "V"
 in seed 000 is the force function, i.e. minus the potential energy.
@@ -19,7 +19,7 @@ coordinates gyroscopically (its skew matrix d2T/dq'_i dq_j - d2T/dq'_j dq_i must
 always true for one coordinate), since a gyroscopic term has no place in M u'' + K u = 0.
 
 The module also holds seed 000's problem II, the double pendulum (two masses on a string):
-its linearised `System`, the closed forms (15), (16) and (19), and the full non-linear
+its linearised system, the closed forms (15), (16) and (19), and the full non-linear
 equations (13) for `scipy.integrate.solve_ivp`.
 """
 
@@ -34,8 +34,8 @@ import sympy
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.pendulum import _tolerances
 from vibra._frozen import _freeze_arrays
+from vibra.generalized import GeneralizedSystem
 from vibra.system import System
 from vibra.units import UnitSystem
 
@@ -71,8 +71,8 @@ def linearize(
     rtol: float = EQUILIBRIUM_RTOL,
     units: str | UnitSystem = "SI",
     name: str = "linearized",
-) -> System:
-    """Linearise T(q, q') and V(q) about the equilibrium q0: a `System` with M and K.
+) -> GeneralizedSystem:
+    """Linearise T(q, q') and V(q) about the equilibrium q0: a `GeneralizedSystem` with M and K.
 
     M = d2T/dq'dq' and K = d2V/dqdq (seed 000 eq. 5 linearised; seed 003 eq. 134), both
     evaluated at q = q0, q' = 0 with the parameter `values`. If T has terms of degree 0 in
@@ -106,7 +106,7 @@ def linearize(
 
     Returns
     -------
-    System
+    GeneralizedSystem
         In generalised coordinates (`System.generalized`), dense M (n, n) and K (n, n),
         coordinates named ``str(q[i])``.
 
@@ -330,7 +330,7 @@ def _pendulum_parameters(m: float, m_prime: float, a: float, b: float, g: float)
 def double_pendulum(
     m: float = 1.0, m_prime: float = 1.0, a: float = 1.0, b: float = 1.0, g: float = 9.81,
     *, units: str | UnitSystem = "SI",
-) -> System:
+) -> GeneralizedSystem:
     """Seed 000, problem II: a string hung at o carrying m at distance a and m' a further b below.
 
     theta is the angle of om with the downward vertical, phi that of mm'. Built by
@@ -355,8 +355,14 @@ def double_pendulum(
 
     Returns
     -------
-    System
+    GeneralizedSystem
         Coordinates ``("theta", "phi")``, in rad; M in kg m^2, K in J/rad^2.
+
+    Examples
+    --------
+    >>> system = double_pendulum(g=1.0)
+    >>> system.M.tolist(), system.K.tolist()
+    ([[2.0, 1.0], [1.0, 1.0]], [[2.0, 0.0], [0.0, 1.0]])
     """
     _pendulum_parameters(m, m_prime, a, b, g)
     theta, phi, theta_dot, phi_dot = sympy.symbols("theta phi theta_dot phi_dot")
@@ -376,6 +382,11 @@ def double_pendulum_frequencies_squared(
 
     (15): [(m + m') g - m a r](g - b r) - m' a g r = 0, i.e.
     m a b r^2 - (m + m') g (a + b) r + (m + m') g^2 = 0, solved without cancellation.
+
+    Examples
+    --------
+    >>> np.round(double_pendulum_frequencies_squared(g=1.0), 12)  # 2 -+ sqrt(2)
+    array([0.58578644, 3.41421356])
     """
     m, m_prime, a, b, g = _pendulum_parameters(m, m_prime, a, b, g)
     total = m + m_prime
@@ -392,6 +403,11 @@ def double_pendulum_mode_ratios(
 
     mu = a r / (g - b r) with r the roots of (15), ascending r: mu_1 > 1 (in phase),
     mu_2 < 0 (opposite phase).
+
+    Examples
+    --------
+    >>> np.round(double_pendulum_mode_ratios(g=1.0), 12)  # phi / theta = +-sqrt(2)
+    array([ 1.41421356, -1.41421356])
     """
     m, m_prime, a, b, g = _pendulum_parameters(m, m_prime, a, b, g)
     r = double_pendulum_frequencies_squared(m, m_prime, a, b, g)
@@ -407,6 +423,12 @@ def double_pendulum_single_mode_offsets(
     With beta = `phi0` its two roots alpha give the two modes: row 0 the slow, in-phase
     mode (alpha / beta in (0, 1), the seed's case), row 1 the fast one (alpha / beta < 0).
     Angles in rad; g does not enter.
+
+    Examples
+    --------
+    >>> np.round(double_pendulum_single_mode_offsets(phi0=1.0), 12)  # alpha / beta = +-1/sqrt(2)
+    array([[ 0.70710678,  1.        ],
+           [-0.70710678,  1.        ]])
     """
     m, m_prime, a, b, _ = _pendulum_parameters(m, m_prime, a, b, 1.0)
     beta = _real_scalar(phi0, "phi0")
@@ -431,6 +453,11 @@ def double_pendulum_rhs(
     solved for the accelerations. Arguments as in `double_pendulum`; `t` (s) is unused (the
     system is autonomous) and is there for `scipy.integrate.solve_ivp`. No validation: this
     is the inner loop of an integration.
+
+    Examples
+    --------
+    >>> double_pendulum_rhs(0.0, [0.0, 0.0, 0.0, 0.0]).tolist()  # at rest, hanging: no acceleration
+    [0.0, 0.0, 0.0, -0.0]
     """
     theta, phi, theta_dot, phi_dot = np.asarray(y, dtype=float)
     c, s = np.cos(phi - theta), np.sin(phi - theta)
@@ -505,6 +532,12 @@ def integrate_double_pendulum(
         tolerances.
     RuntimeError
         The integrator fails.
+
+    Examples
+    --------
+    >>> motion = integrate_double_pendulum(0.1, 0.1, np.linspace(0.0, 5.0, 6))
+    >>> bool(np.ptp(motion.energy) < 1e-9 * motion.energy[0])  # energy is conserved
+    True
     """
     from scipy.integrate import solve_ivp
 
@@ -512,7 +545,7 @@ def integrate_double_pendulum(
                       ((theta0, "theta0"), (phi0, "phi0"), (theta_dot0, "theta_dot0"), (phi_dot0, "phi_dot0"))])
     times = _times(t)
     parameters = _pendulum_parameters(m, m_prime, a, b, g)
-    rtol, atol = _tolerances(rtol, atol)
+    rtol, atol = _validate.integration_tolerances(rtol, atol)
     solution = solve_ivp(double_pendulum_rhs, (times[0], times[-1]), start, method="DOP853",
                          t_eval=times, args=parameters, rtol=rtol, atol=atol)
     if not solution.success:

@@ -31,8 +31,9 @@ import sympy
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.lagrangian import _real_scalar, linearize
+from vibra.lagrangian import linearize
 from vibra._frozen import _freeze_arrays
+from vibra.generalized import GeneralizedSystem
 from vibra.system import System
 from vibra.units import UnitSystem
 
@@ -58,6 +59,7 @@ _AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
 
 # ---------------------------------------------------------------------- checks
 _positive_scalar = _validate.positive_scalar
+_real_scalar = _validate.real_scalar
 
 
 def _vector3(value: Any, name: str) -> NDArray[np.float64]:
@@ -87,6 +89,11 @@ def rod_inertia(mass: float, length: float) -> NDArray[np.float64]:
         m, in kg.
     length : float
         L, in m.
+
+    Examples
+    --------
+    >>> rod_inertia(3.0, 2.0).diagonal().tolist()  # m L^2 / 12 about x and y
+    [1.0, 1.0, 0.0]
     """
     m, L = _positive_scalar(mass, "mass"), _positive_scalar(length, "length")
     side = m * L * L / 12.0
@@ -97,6 +104,11 @@ def disk_inertia(mass: float, radius: float) -> NDArray[np.float64]:
     """(3, 3) inertia of a thin uniform disk in the xy plane about its centre, in kg m^2.
 
     diag(m R^2 / 4, m R^2 / 4, m R^2 / 2).
+
+    Examples
+    --------
+    >>> disk_inertia(2.0, 1.0).diagonal().tolist()  # m R^2 / 4, m R^2 / 4, m R^2 / 2
+    [0.5, 0.5, 1.0]
     """
     m, R = _positive_scalar(mass, "mass"), _positive_scalar(radius, "radius")
     return m * R * R * np.diag([0.25, 0.25, 0.5])
@@ -106,19 +118,36 @@ def ring_inertia(mass: float, radius: float) -> NDArray[np.float64]:
     """(3, 3) inertia of a thin ring (hoop) in the xy plane about its centre, in kg m^2.
 
     diag(m R^2 / 2, m R^2 / 2, m R^2).
+
+    Examples
+    --------
+    >>> ring_inertia(2.0, 1.0).diagonal().tolist()  # m R^2 / 2, m R^2 / 2, m R^2
+    [1.0, 1.0, 2.0]
     """
     m, R = _positive_scalar(mass, "mass"), _positive_scalar(radius, "radius")
     return m * R * R * np.diag([0.5, 0.5, 1.0])
 
 
 def sphere_inertia(mass: float, radius: float) -> NDArray[np.float64]:
-    """(3, 3) inertia of a solid uniform sphere about its centre: (2/5) m R^2 1, in kg m^2."""
+    """(3, 3) inertia of a solid uniform sphere about its centre: (2/5) m R^2 1, in kg m^2.
+
+    Examples
+    --------
+    >>> sphere_inertia(5.0, 1.0).diagonal().tolist()  # 2 m R^2 / 5
+    [2.0, 2.0, 2.0]
+    """
     m, R = _positive_scalar(mass, "mass"), _positive_scalar(radius, "radius")
     return 0.4 * m * R * R * np.eye(3)
 
 
 def hollow_sphere_inertia(mass: float, radius: float) -> NDArray[np.float64]:
-    """(3, 3) inertia of a thin spherical shell about its centre: (2/3) m R^2 1, in kg m^2."""
+    """(3, 3) inertia of a thin spherical shell about its centre: (2/3) m R^2 1, in kg m^2.
+
+    Examples
+    --------
+    >>> hollow_sphere_inertia(3.0, 1.0).diagonal().tolist()  # 2 m R^2 / 3
+    [2.0, 2.0, 2.0]
+    """
     m, R = _positive_scalar(mass, "mass"), _positive_scalar(radius, "radius")
     return (2.0 / 3.0) * m * R * R * np.eye(3)
 
@@ -127,6 +156,11 @@ def cylinder_inertia(mass: float, radius: float, height: float) -> NDArray[np.fl
     """(3, 3) inertia of a solid uniform cylinder, axis z, about its centre, in kg m^2.
 
     diag(m (3 R^2 + h^2) / 12, m (3 R^2 + h^2) / 12, m R^2 / 2).
+
+    Examples
+    --------
+    >>> cylinder_inertia(12.0, 1.0, 2.0).diagonal().tolist()  # m (3 R^2 + h^2) / 12, m R^2 / 2
+    [7.0, 7.0, 6.0]
     """
     m, R = _positive_scalar(mass, "mass"), _positive_scalar(radius, "radius")
     h = _positive_scalar(height, "height")
@@ -146,6 +180,11 @@ def block_inertia(mass: float, size: ArrayLike) -> NDArray[np.float64]:
         m, in kg.
     size : (3,) array_like
         Side lengths (a, b, c), in m, each > 0.
+
+    Examples
+    --------
+    >>> block_inertia(12.0, (1.0, 2.0, 3.0)).diagonal().tolist()  # m (b^2 + c^2) / 12, ...
+    [13.0, 10.0, 5.0]
     """
     m = _positive_scalar(mass, "mass")
     sides = _vector3(size, "size")
@@ -168,6 +207,11 @@ def parallel_axis(inertia_center: ArrayLike, mass: float, offset: ArrayLike) -> 
         m, in kg.
     offset : (3,) array_like
         AG = G - A, the vector from A to the centre of mass, in m.
+
+    Examples
+    --------
+    >>> parallel_axis(rod_inertia(3.0, 2.0), 3.0, (0.0, 0.0, 1.0)).diagonal().tolist()  # + m d^2 off the axis
+    [4.0, 4.0, 0.0]
     """
     tensor = _inertia_tensor(inertia_center, "inertia_center")
     m = _positive_scalar(mass, "mass")
@@ -330,7 +374,7 @@ def _body_index(value: Any, name: str) -> None:
 def compound_pendulum(
     body: RigidBody, pivot: ArrayLike, axis: ArrayLike = (1.0, 0.0, 0.0), *, g: float = 9.81,
     units: str | UnitSystem = "SI",
-) -> System:
+) -> GeneralizedSystem:
     """A rigid body swinging about a fixed axis through `pivot`, gravity along -z.
 
     Built with `vibra.lagrangian.linearize` from the exact T and V in the swing angle
@@ -363,6 +407,13 @@ def compound_pendulum(
     ValueError
         Bad pivot or axis; the body not at equilibrium under gravity (from `linearize`);
         no inertia about the axis.
+
+    Examples
+    --------
+    >>> rod = RigidBody(mass=3.0, inertia=rod_inertia(3.0, 2.0), center=(0.0, 0.0, -1.0), name="rod")
+    >>> pendulum = compound_pendulum(rod, (0.0, 0.0, 0.0), g=9.81)
+    >>> round(float(pendulum.modes().omega_squared[0]), 10)  # g / (2 L / 3), L = 2
+    7.3575
     """
     if not isinstance(body, RigidBody):
         raise TypeError(f"body must be a RigidBody, got {type(body).__name__}")
@@ -430,7 +481,7 @@ def rigid_body_system(
     *,
     units: str | UnitSystem = "SI",
     name: str = "rigid bodies",
-) -> System:
+) -> GeneralizedSystem:
     """Rigid bodies joined by linear and torsion springs: a `System` with 6 dofs per body.
 
     Coordinates per body (in this order): the displacement of its centre of mass
@@ -455,7 +506,7 @@ def rigid_body_system(
 
     Returns
     -------
-    System
+    GeneralizedSystem
         In generalised coordinates, 6 * len(bodies) dofs labelled ``"<body>.x"`` ...
         ``"<body>.rz"`` (the body's name, made unique with its index when repeated).
 

@@ -1,8 +1,10 @@
 """`System`: what is vibrating, and how its Hessian K and mass matrix M are assembled.
 
 A system is a set of sites (equilibrium coordinates in 1, 2 or 3 dimensions, one mass each)
-with a quadratic potential, or a set of generalised coordinates with a dense mass matrix.
-The potential is stored factorised whenever possible (seed 003 eq. 133):
+with a quadratic potential. A set of generalised coordinates with a dense mass matrix is a
+class of its own, `vibra.generalized.GeneralizedSystem`, built by `System.generalized`; it
+shares the protocol below and counts as a `System` for ``isinstance`` (a registered virtual
+subclass, told apart by `System.is_generalized`). The potential is stored factorised whenever possible (seed 003 eq. 133):
 
     V = 1/2 u^T K u,    K = B^T diag(w) B + K_extra,
 
@@ -18,9 +20,10 @@ then refer to the free degrees of freedom only, in the order of `free_dofs`.
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, Sequence
+from typing import Literal, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -28,29 +31,27 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import _freeze_arrays
+from vibra.generalized import FreeDofs, GeneralizedSystem
+from vibra.modes import Modes, normal_modes
 from vibra.units import UnitSystem, unit_system
 
-if TYPE_CHECKING:
-    from vibra.modes import Modes
-
-__all__ = ["System"]
+__all__ = ["System", "GeneralizedSystem"]
 
 _AXES = "xyz"
 
 
 @dataclass(frozen=True, eq=False)
-class System:
+class System(FreeDofs, metaclass=abc.ABCMeta):
     """A vibrating system: sites, masses, and a factorised quadratic potential.
 
-    Build one with `System.from_springs`, `System.from_terms`, `System.from_hessian` or
-    `System.generalized` (or a builder in `vibra.chains` / `vibra.molecules`), not with the
-    raw constructor.
+    Build one with `System.from_springs`, `System.from_terms` or `System.from_hessian` (or a
+    builder in `vibra.chains` / `vibra.molecules`), not with the raw constructor;
+    `System.generalized` builds a `GeneralizedSystem` instead.
 
     Attributes
     ----------
     positions : (n_sites, dim) ndarray
-        Equilibrium coordinates, in the length unit of `units`. Empty (n_sites, 0) for a
-        system in generalised coordinates.
+        Equilibrium coordinates, in the length unit of `units`.
     masses : (n_sites,) ndarray
         Site masses, in the mass unit of `units`.
     units : UnitSystem
@@ -64,13 +65,19 @@ class System:
         Hessian blocks given directly (not factorised), in energy / length^2.
     frozen : (n_sites * dim,) ndarray of bool
         True for a degree of freedom held at rest.
-    generalized_mass : (n_dof, n_dof) ndarray or None
-        Dense SPD mass matrix of a system in generalised coordinates (then `masses` is
-        empty), in the units of the kinetic energy's coefficients.
     labels : tuple of str
-        One name per degree of freedom (free and frozen), e.g. ``"3x"`` or ``"theta1"``.
+        One name per degree of freedom (free and frozen), e.g. ``"3x"``.
     name : str
         A short name used in reports.
+    symbols : tuple of str or None
+        Chemical symbol of each site for a molecule (set by `vibra.molecules` builders, or
+        `with_symbols`); None for other systems.
+
+    Examples
+    --------
+    >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+    >>> np.round(chain.modes().omega_squared, 12)  # 0, kappa / m, 3 kappa / m
+    array([0., 1., 3.])
     """
 
     positions: NDArray[np.float64]
@@ -80,9 +87,9 @@ class System:
     weights: NDArray[np.float64]
     extra_hessian: sp.csr_matrix | None
     frozen: NDArray[np.bool_]
-    generalized_mass: NDArray[np.float64] | None
     labels: tuple[str, ...]
     name: str = "system"
+    symbols: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
@@ -144,6 +151,12 @@ class System:
         ValueError
             Wrong shapes, non-positive or non-finite masses or stiffnesses, site indices out
             of range, a spring joining a site to itself or two coincident sites.
+
+        Examples
+        --------
+        >>> corner = System.from_springs([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], 1.0, [[0, 1], [0, 2]], 2.0)
+        >>> corner.n_dof, corner.hessian()[0, 2], corner.hessian()[1, 5]  # each spring acts along its axis
+        (6, np.float64(-2.0), np.float64(-2.0))
         """
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
@@ -200,7 +213,7 @@ class System:
         return cls(
             positions=positions_array, masses=mass_array, units=unit_system(units),
             coupling=coupling, weights=weights, extra_hessian=extra, frozen=frozen,
-            generalized_mass=None, labels=_site_labels(n_sites, dim), name=name,
+            labels=_site_labels(n_sites, dim), name=name,
         )
 
     @classmethod
@@ -231,6 +244,13 @@ class System:
             w, the force constant of each internal coordinate (> 0).
         extra_hessian : (n_sites * dim, n_sites * dim) array_like or sparse, optional
             A symmetric Hessian added to B^T W B, in energy / length^2.
+
+        Examples
+        --------
+        >>> system = System.from_terms([0.0, 1.0], [1.0, 2.0], [[-1.0, 1.0]], [3.0])
+        >>> system.hessian().toarray()
+        array([[ 3., -3.],
+               [-3.,  3.]])
         """
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
@@ -254,7 +274,7 @@ class System:
             positions=positions_array, masses=mass_array, units=unit_system(units),
             coupling=b, weights=w, extra_hessian=extra,
             frozen=_frozen_mask(n_sites, dim, frozen_sites, frozen_dofs),
-            generalized_mass=None, labels=_site_labels(n_sites, dim), name=name,
+            labels=_site_labels(n_sites, dim), name=name,
         )
 
     @classmethod
@@ -270,7 +290,14 @@ class System:
         units: str | UnitSystem = "SI",
         name: str = "system",
     ) -> System:
-        """Sites with a Hessian K given directly, (n_sites * dim, n_sites * dim), energy / length^2."""
+        """Sites with a Hessian K given directly, (n_sites * dim, n_sites * dim), energy / length^2.
+
+        Examples
+        --------
+        >>> system = System.from_hessian([0.0, 1.0], 1.0, [[1.0, -1.0], [-1.0, 1.0]])
+        >>> system.spring_factor() is None, np.round(system.modes().omega_squared, 12).tolist()
+        (True, [0.0, 2.0])
+        """
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
         matrix = _validate.square_matrix(hessian, "hessian")
@@ -282,86 +309,104 @@ class System:
             coupling=sp.csr_matrix((0, n_sites * dim)), weights=np.zeros(0),
             extra_hessian=sp.csr_matrix(matrix),
             frozen=_frozen_mask(n_sites, dim, frozen_sites, frozen_dofs),
-            generalized_mass=None, labels=_site_labels(n_sites, dim), name=name,
+            labels=_site_labels(n_sites, dim), name=name,
         )
 
-    @classmethod
+    @staticmethod
     def generalized(
-        cls,
         M: ArrayLike,
         K: ArrayLike,
         *,
         coordinates: Sequence[str] | None = None,
         units: str | UnitSystem = "SI",
         name: str = "system",
-    ) -> System:
+    ) -> GeneralizedSystem:
         """A system in generalised coordinates q: T = 1/2 q'^T M q', V = 1/2 q^T K q.
 
-        Parameters
-        ----------
-        M : (n_dof, n_dof) array_like
-            Symmetric positive-definite mass matrix (kg m^2 for angles in SI).
-        K : (n_dof, n_dof) array_like
-            Symmetric stiffness matrix (J per rad^2 for angles in SI).
-        coordinates : sequence of str, optional
-            Names of the coordinates (default ``q0, q1, ...``).
+        Returns a `vibra.generalized.GeneralizedSystem` built by its `from_matrices` (see
+        there for the parameters, in the same order, and the checks): M (n, n) symmetric
+        positive definite (or its diagonal), K (n, n) symmetric, optional coordinate names.
+        It has no sites: ``freeze(sites=...)`` raises, ``freeze(dofs=...)`` holds coordinates
+        at rest.
+
+        Examples
+        --------
+        >>> system = System.generalized(np.diag([2.0, 1.0]), np.diag([8.0, 1.0]), coordinates=["a", "b"])
+        >>> system.is_generalized, system.labels, system.modes().omega.tolist()
+        (True, ('a', 'b'), [1.0, 2.0])
         """
-        K_matrix = _validate.square_matrix(K, "K")
-        if not isinstance(K_matrix, np.ndarray):
-            K_matrix = np.asarray(K_matrix.toarray())
-        K_matrix = _validate.symmetric(K_matrix, "K")
-        n_dof = K_matrix.shape[0]
-        M_matrix = _validate.mass_argument(M, n_dof, "M")
-        if M_matrix.ndim == 1:
-            M_matrix = np.diag(M_matrix)
-        names = tuple(coordinates) if coordinates is not None else tuple(f"q{i}" for i in range(n_dof))
-        if len(names) != n_dof:
-            raise ValueError(f"coordinates must name {n_dof} coordinates, got {len(names)}")
-        return cls(
-            positions=np.zeros((0, 0)), masses=np.zeros(0), units=unit_system(units),
-            coupling=sp.csr_matrix((0, n_dof)), weights=np.zeros(0),
-            extra_hessian=sp.csr_matrix(K_matrix), frozen=np.zeros(n_dof, dtype=bool),
-            generalized_mass=M_matrix, labels=names, name=name,
-        )
+        return GeneralizedSystem.from_matrices(M, K, coordinates=coordinates, units=units, name=name)
 
     # ------------------------------------------------------------------ derived systems
     def with_masses(self, masses: ArrayLike) -> System:
-        """The same potential with new site masses (isotopes), in the mass unit of `units`."""
-        if self.generalized_mass is not None:
-            raise TypeError("with_masses needs a system of sites; this one is in generalised coordinates")
+        """The same potential with new site masses (isotopes), in the mass unit of `units`.
+
+        Examples
+        --------
+        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+        >>> chain.with_masses([1.0, 2.0, 1.0]).mass_matrix().tolist()
+        [1.0, 2.0, 1.0]
+        """
         return dataclasses.replace(self, masses=_site_masses(masses, self.n_sites))
 
+    def with_symbols(self, symbols: Sequence[str] | None) -> System:
+        """The same system with a chemical symbol per site (None clears them).
+
+        Raises
+        ------
+        TypeError
+            `symbols` is a single string or holds a non-string.
+        ValueError
+            Not one symbol per site, or an empty symbol.
+
+        Examples
+        --------
+        >>> System.from_springs([0.0, 1.1, 2.2], [16.0, 12.0, 16.0], [[0, 1], [1, 2]], 1.0
+        ...                     ).with_symbols(["O", "C", "O"]).symbols
+        ('O', 'C', 'O')
+        """
+        if symbols is None:
+            return dataclasses.replace(self, symbols=None)
+        if isinstance(symbols, str) or not isinstance(symbols, Sequence):
+            raise TypeError(f"symbols must be a sequence of str, one per site, got {symbols!r}")
+        if len(symbols) != self.n_sites:
+            raise ValueError(f"symbols has {len(symbols)} entries; expected one per site ({self.n_sites})")
+        for i, symbol in enumerate(symbols):
+            if not isinstance(symbol, str):
+                raise TypeError(f"symbols[{i}] is {symbol!r}; expected a str such as 'O'")
+            if not symbol.strip():
+                raise ValueError(f"symbols[{i}] is empty; expected a chemical symbol such as 'O'")
+        return dataclasses.replace(self, symbols=tuple(symbols))
+
     def freeze(self, sites: ArrayLike | None = None, dofs: ArrayLike | None = None) -> System:
-        """A copy with more sites or flat degrees of freedom held at rest."""
-        extra = _frozen_mask(self.n_sites, self.dim, sites, dofs) if self.generalized_mass is None else (
-            _frozen_mask(len(self.labels), 1, None, dofs))
-        return dataclasses.replace(self, frozen=self.frozen | extra)
+        """A copy with more sites or flat degrees of freedom held at rest.
+
+        Examples
+        --------
+        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+        >>> chain.freeze(sites=[0]).free_dofs.tolist()
+        [1, 2]
+        """
+        mask = self.frozen | _frozen_mask(self.n_sites, self.dim, sites, dofs)
+        if mask.all():
+            raise ValueError("every degree of freedom is frozen; nothing is left to vibrate")
+        return dataclasses.replace(self, frozen=mask)
 
     # ------------------------------------------------------------------ sizes
     @property
     def n_sites(self) -> int:
-        """Number of sites (0 for generalised coordinates)."""
+        """Number of sites."""
         return int(self.masses.shape[0])
 
     @property
     def dim(self) -> int:
-        """Spatial dimension of the sites (0 for generalised coordinates)."""
-        return int(self.positions.shape[1]) if self.positions.ndim == 2 else 0
-
-    @property
-    def free_dofs(self) -> NDArray[np.intp]:
-        """(n_dof,) flat indices of the degrees of freedom that move."""
-        return np.flatnonzero(~self.frozen)
-
-    @property
-    def n_dof(self) -> int:
-        """Number of free degrees of freedom (the size of K and M)."""
-        return int((~self.frozen).sum())
+        """Spatial dimension of the sites (1, 2 or 3)."""
+        return int(self.positions.shape[1])
 
     @property
     def is_generalized(self) -> bool:
-        """True for a system in generalised coordinates (dense mass matrix)."""
-        return self.generalized_mass is not None
+        """False: a `System` has sites (a `GeneralizedSystem` answers True)."""
+        return False
 
     # ------------------------------------------------------------------ assembly
     def spring_factor(self) -> tuple[sp.csr_matrix, NDArray[np.float64]] | None:
@@ -369,6 +414,12 @@ class System:
 
         B is (n_terms, n_dof) CSR with the columns of frozen dofs removed and rows that
         touch no free dof dropped; w is (n_terms,).
+
+        Examples
+        --------
+        >>> B, w = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0).spring_factor()
+        >>> B.toarray().tolist(), w.tolist()
+        ([[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]], [1.0, 1.0])
         """
         if self.extra_hessian is not None:
             return None
@@ -394,18 +445,14 @@ class System:
         return K
 
     def mass_matrix(self) -> NDArray[np.float64]:
-        """Masses of the free dofs: (n_dof,) diagonal, or (n_dof, n_dof) in generalised coordinates."""
-        free = self.free_dofs
-        if self.generalized_mass is not None:
-            return np.array(self.generalized_mass[np.ix_(free, free)])
-        return np.repeat(np.asarray(self.masses), self.dim)[free]
+        """(n_dof,) masses of the free dofs (the diagonal of M), in the mass unit of `units`.
 
-    def expand(self, vectors: ArrayLike) -> NDArray[np.float64]:
-        """(n_sites * dim, ...) full displacement array from (n_dof, ...) free-dof values (0 at frozen dofs)."""
-        values = np.asarray(vectors)
-        full = np.zeros((self.frozen.shape[0],) + values.shape[1:], dtype=values.dtype)
-        full[self.free_dofs] = values
-        return full
+        Examples
+        --------
+        >>> System.from_springs([[0.0, 0.0], [1.0, 0.0]], [1.0, 3.0], [[0, 1]], 1.0).mass_matrix().tolist()
+        [1.0, 1.0, 3.0, 3.0]
+        """
+        return np.repeat(np.asarray(self.masses), self.dim)[self.free_dofs]
 
     def modes(
         self,
@@ -432,15 +479,23 @@ class System:
             Only the modes with omega in [low, high], in rad per time unit.
         solver : str
             Override the automatic choice (see `vibra.normal_modes`).
-        """
-        from vibra.modes import normal_modes
 
+        Examples
+        --------
+        >>> chain = System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+        >>> chain.modes(n_modes=2, vectors=False).omega.round(12).tolist()
+        [0.0, 1.0]
+        """
         _validate.choice(accuracy, "accuracy", ("high", "fast"))
         factor = self.spring_factor() if accuracy == "high" else None
         return normal_modes(
             self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
             solver=solver, spring_factor=factor, units=self.units,
         )
+
+
+# Every vibrating system counts as a System for isinstance(); is_generalized tells them apart.
+System.register(GeneralizedSystem)
 
 
 # ---------------------------------------------------------------------- helpers
@@ -476,23 +531,7 @@ def _per_item(value: ArrayLike | float | None, n: int, name: str) -> NDArray[np.
     return array
 
 
-def _index_array(value: ArrayLike, name: str, n_sites: int, *, shape: tuple[int, ...], what: str = "site"
-                 ) -> NDArray[np.intp]:
-    array = np.asarray(value)
-    if array.size == 0:
-        return np.zeros((0,) + shape[1:], dtype=np.intp)
-    if not np.issubdtype(array.dtype, np.integer):
-        raise TypeError(f"{name} must hold integer {what} indices, got dtype {array.dtype}")
-    try:
-        array = array.reshape(shape)
-    except ValueError:
-        raise ValueError(f"{name} must have shape {('n',) + shape[1:]}, got {np.shape(value)}") from None
-    bad = (array < 0) | (array >= n_sites)
-    if bad.any():
-        index = tuple(int(i) for i in np.argwhere(bad)[0])
-        where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {array[index]}; {what} indices run from 0 to {n_sites - 1}")
-    return array.astype(np.intp)
+_index_array = _validate.indices
 
 
 def _pair_rows(pairs: NDArray[np.intp], unit: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:

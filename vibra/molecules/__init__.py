@@ -26,8 +26,16 @@ rotations like the quantum-chemistry codes (Eckart, with the rigid-body vectors 
 reports 3N-6 (3N-5) vibrations, keeps imaginary modes and flags them, and gives per-mode reduced
 masses, force constants and the zero-point energy.
 
-`co2` and `h2o` are ready-made models (`builders.py`); `substitute_isotopes` changes masses on
-the same K (`isotopes.py`); `symbols_from_masses` and `bonds_from_distances` (`elements.py`)
+Symmetry (`symmetry.py`, `character_tables.py`): `point_group(atoms_or_system, tolerance)` finds
+the Schoenflies point group (tolerance in Angstrom, linear groups included) with its operations,
+atom permutations and character table; `mode_species` and `VibrationalAnalysis.species` label
+each vibration with its Mulliken symbol; IR and Raman activity follow from the table.
+
+`co2` and `h2o` are ready-made models (`builders.py`); `molecule` builds any molecule of ASE's
+collection or any `Atoms` at its valence-force-field equilibrium (`named.py`); isotope labels
+(``isotopes=``) work in all three, and `substitute_isotopes` changes masses on the same K
+(`isotopes.py`); `export.py` writes ASE `VibrationsData`, Molden files, mode trajectories and
+phonopy force constants; `symbols_from_masses` and `bonds_from_distances` (`elements.py`)
 recover elements and bonds from masses and positions.
 
 ``import vibra.molecules`` does not import ASE: functions that need it import it when called,
@@ -42,12 +50,17 @@ from vibra.modes import Modes, normal_modes
 from vibra.molecules.analysis import VibrationalAnalysis, vibrational_analysis
 from vibra.molecules.builders import (CO2_BEND, CO2_BOND_LENGTH, CO2_STRETCH, H2O_ANGLE_DEG, H2O_BEND,
                                       H2O_BOND_LENGTH, H2O_STRETCH, co2, co2_atoms, h2o, h2o_atoms)
+from vibra.molecules.character_tables import CharacterTable, character_table
 from vibra.molecules.checks import MIN_DISTANCE
 from vibra.molecules.elements import bonds_from_distances, symbols_from_masses
 from vibra.molecules.finite_difference import FiniteDifferenceHessian, finite_difference_hessian, from_calculator
 from vibra.molecules.hessians import from_atoms, from_hessian, from_phonopy, from_vibrations_data
-from vibra.molecules.isotopes import ISOTOPE_MASSES, isotope_mass, substitute_isotopes
-from vibra.molecules.rigid_body import SoftModeWarning, is_linear, rigid_body_vectors
+from vibra.molecules.export import (BOHR_ANGSTROM, system_atoms, to_vibrations_data, write_force_constants,
+                                    write_mode_trajectory, write_molden)
+from vibra.molecules.isotopes import ISOTOPE_MASSES, isotope_mass, isotope_masses, substitute_isotopes
+from vibra.molecules.named import EQUILIBRIUM_FORCE, molecule, molecule_atoms, molecule_names
+from vibra.molecules.rigid_body import SoftModeWarning, is_linear, principal_moments, rigid_body_vectors
+from vibra.molecules.symmetry import SYMMETRY_TOLERANCE, PointGroup, mode_species, point_group, symmetry_number
 from vibra.molecules.valence import ValenceModel, valence_model
 from vibra.system import System
 from vibra.units import ASE
@@ -64,6 +77,11 @@ __all__ = [
     "CO2_STRETCH", "CO2_BEND", "CO2_BOND_LENGTH", "H2O_STRETCH", "H2O_BEND", "H2O_BOND_LENGTH",
     "H2O_ANGLE_DEG", "MIN_DISTANCE", "ISOTOPE_MASSES",
     "symbols_from_masses", "bonds_from_distances",
+    "molecule", "molecule_atoms", "molecule_names", "EQUILIBRIUM_FORCE", "isotope_masses", "principal_moments",
+    "system_atoms", "to_vibrations_data", "write_molden", "write_mode_trajectory", "write_force_constants",
+    "BOHR_ANGSTROM",
+    "point_group", "PointGroup", "mode_species", "symmetry_number", "SYMMETRY_TOLERANCE", "CharacterTable",
+    "character_table",
 ]
 
 # re-exported from the stages below, as the single-module vibra.molecules did

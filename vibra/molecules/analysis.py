@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -16,6 +17,7 @@ from vibra._frozen import _freeze_arrays
 from vibra.modes import Modes, normal_modes
 from vibra.molecules.checks import nonnegative_scalar
 from vibra.molecules.rigid_body import is_linear, rigid_body_vectors, warn_soft_modes
+from vibra.molecules.symmetry import PointGroup, mode_species, point_group
 from vibra.system import System
 
 __all__ = ["VibrationalAnalysis", "vibrational_analysis"]
@@ -50,6 +52,8 @@ class VibrationalAnalysis:
         Translations and rotations were projected out of K~ (Eckart) before solving.
     name : str
         Name of the system.
+    system : System or None
+        The molecule analysed (for `point_group` and `species`).
     """
 
     modes: Modes
@@ -62,9 +66,29 @@ class VibrationalAnalysis:
     n_rigid: int
     projected: bool
     name: str = "molecule"
+    system: System | None = None
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
+
+    @cached_property
+    def point_group(self) -> PointGroup:
+        """Point group of the molecule (`vibra.molecules.point_group`, tolerance 0.01 Angstrom)."""
+        if self.system is None:
+            raise ValueError("this analysis was built without its system; call point_group(system)")
+        return point_group(self.system)
+
+    @cached_property
+    def species(self) -> tuple[str, ...]:
+        """Mulliken label of each vibration, in the order of `vibrations` (ASCII, e.g. "A1", "Pi_u").
+
+        From the characters of the vibrations' Cartesian shapes under `point_group`'s operations,
+        degenerate sets (frequencies within 1e-6 of the largest) taken together
+        (`vibra.molecules.mode_species`). IR and Raman activity by symmetry:
+        ``self.point_group.table.is_ir_active(label)``, ``.is_raman_active(label)``.
+        """
+        shapes = np.asarray(self.modes.shapes)[:, self.vibrations]
+        return mode_species(self.point_group, shapes, self.modes.omega[self.vibrations])
 
     @property
     def vibrations(self) -> NDArray[np.intp]:
@@ -228,5 +252,5 @@ def vibrational_analysis(
     return VibrationalAnalysis(
         modes=modes, rigid=rigid, imaginary=(~rigid) & (modes.omega < 0), rigid_overlap=overlap,
         reduced_mass=reduced_mass, force_constant=reduced_mass * modes.omega * np.abs(modes.omega),
-        linear=bool(linear), n_rigid=n_rigid, projected=bool(project), name=system.name,
+        linear=bool(linear), n_rigid=n_rigid, projected=bool(project), name=system.name, system=system,
     )

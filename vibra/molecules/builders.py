@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, Mapping, Sequence
 
 import numpy as np
 
 from vibra import _validate
 from vibra.molecules.hessians import from_atoms
+from vibra.molecules.isotopes import isotope_masses
 from vibra.molecules.valence import valence_model
 from vibra.system import System
 
@@ -46,6 +47,7 @@ def co2(
     bond_length: float = CO2_BOND_LENGTH,
     stretch: float = CO2_STRETCH,
     bend: float = CO2_BEND,
+    isotopes: Sequence[str | None] | Mapping[int, str] | None = None,
 ) -> System:
     """Carbon dioxide O=C=O with a valence force field (ASE units).
 
@@ -66,6 +68,9 @@ def co2(
         kappa, eV / Angstrom^2; default `CO2_STRETCH` (fitted to 1333 and 2349 cm^-1).
     bend : float
         Linear-bend constant, eV / rad^2; default `CO2_BEND` (fitted to 667 cm^-1).
+    isotopes : sequence of (str or None) or mapping of int to str, optional
+        Isotope labels for the atoms O, C, O (``[None, "13C", None]`` or ``{0: "18O"}``); see
+        `isotope_masses`. The force field is unchanged.
 
     Examples
     --------
@@ -86,11 +91,12 @@ def co2(
     length = _validate.real_scalar(bond_length, "bond_length")
     if not length > 0:
         raise ValueError(f"bond_length is {length!r}; it must be positive (Angstrom)")
-    masses = atomic_masses[[atomic_numbers["O"], atomic_numbers["C"], atomic_numbers["O"]]]
+    masses = isotope_masses(("O", "C", "O"), atomic_masses[[atomic_numbers[z] for z in "OCO"]],
+                            isotopes=isotopes)
     if dims == 1:
         return System.from_springs(np.array([0.0, length, 2.0 * length]), masses,
                                    springs=np.array([[0, 1], [1, 2]]), stiffness=stretch,
-                                   units="ASE", name="CO2 (axial)")
+                                   units="ASE", name="CO2 (axial)").with_symbols(("O", "C", "O"))
     atoms = _Atoms("OCO", positions=[(-length, 0, 0), (0, 0, 0), (length, 0, 0)], masses=masses)
     model = valence_model(atoms, bonds=np.array([[0, 1], [1, 2]]), stretch=stretch, bend=bend)
     return from_atoms(atoms, model, name="CO2")
@@ -131,19 +137,25 @@ def h2o_atoms(bond_length: float = H2O_BOND_LENGTH, angle_deg: float = H2O_ANGLE
     return _Atoms("OHH", positions=positions, masses=masses)
 
 
-def h2o(*, stretch: float = H2O_STRETCH, bend: float = H2O_BEND) -> System:
+def h2o(*, stretch: float = H2O_STRETCH, bend: float = H2O_BEND,
+        isotopes: Sequence[str | None] | Mapping[int, str] | None = None) -> System:
     """Water with a simple valence force field (two stretches, one bend), ASE units.
 
     Geometry: r = 0.9572 Angstrom, angle 104.52 degrees; constants `H2O_STRETCH` (eV/A^2) and
     `H2O_BEND` (eV/rad^2), fitted to the experimental fundamentals (see the module constants).
-    9 degrees of freedom: 3 vibrations and 6 rigid-body modes.
+    9 degrees of freedom: 3 vibrations and 6 rigid-body modes. `isotopes` relabels atoms
+    O, H, H (``[None, "D", "D"]`` gives D2O on the same force field; see `isotope_masses`).
 
     Examples
     --------
     >>> from vibra import molecules
     >>> [round(float(w)) for w in molecules.vibrational_analysis(h2o()).vibration_wavenumbers_cm1()]
     [1595, 3680, 3733]
+    >>> d2o = h2o(isotopes=[None, "D", "D"])
+    >>> [round(float(w)) for w in molecules.vibrational_analysis(d2o).vibration_wavenumbers_cm1()]
+    [1163, 2664, 2736]
     """
     atoms = h2o_atoms()
+    masses = isotope_masses(atoms.get_chemical_symbols(), atoms.get_masses(), isotopes=isotopes)
     model = valence_model(atoms, bonds=np.array([[0, 1], [0, 2]]), stretch=stretch, bend=bend)
-    return from_atoms(atoms, model, name="H2O")
+    return from_atoms(atoms, model, masses=masses, name="H2O")

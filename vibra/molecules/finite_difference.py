@@ -83,8 +83,11 @@ class FiniteDifferenceHessian:
 
     def system(self, *, masses: ArrayLike | None = None, name: str = "molecule") -> System:
         """The `System` with this Hessian (ASE units), optionally with other masses (amu)."""
-        return System.from_hessian(self.positions, masses_or_default(masses, self.masses), self.hessian,
-                                   units="ASE", name=name)
+        from ase.data import chemical_symbols
+
+        system = System.from_hessian(self.positions, masses_or_default(masses, self.masses), self.hessian,
+                                     units="ASE", name=name)
+        return system.with_symbols([chemical_symbols[int(z)] for z in self.numbers])
 
     def omega_errors(self, modes: Modes) -> NDArray[np.float64]:
         """(n_modes,) first-order bound on how far each omega moves under `error`.

@@ -111,7 +111,8 @@ def from_atoms(
     label = molecule_name(atoms, name)
     n_zero = _zero_count_of_factor(b, site_masses, 3)
     warn_soft_modes(n_zero, expected_rigid_count(positions, site_masses, 1e-6), label)
-    return System.from_terms(positions, site_masses, coupling=b, weights=model.weights(), units="ASE", name=label)
+    system = System.from_terms(positions, site_masses, coupling=b, weights=model.weights(), units="ASE", name=label)
+    return system.with_symbols(atoms.get_chemical_symbols())
 
 
 
@@ -146,8 +147,9 @@ def from_hessian(
     (9, 'H2O')
     """
     positions, default_masses = check_atoms(atoms)
-    return System.from_hessian(positions, masses_or_default(masses, default_masses), hessian,
-                               symmetrize=symmetrize, units="ASE", name=molecule_name(atoms, name))
+    system = System.from_hessian(positions, masses_or_default(masses, default_masses), hessian,
+                                 symmetrize=symmetrize, units="ASE", name=molecule_name(atoms, name))
+    return system.with_symbols(atoms.get_chemical_symbols())
 
 
 def from_vibrations_data(data: Any, *, name: str | None = None) -> System:
@@ -175,8 +177,9 @@ def from_vibrations_data(data: Any, *, name: str | None = None) -> System:
     dofs = (indices[:, None] * 3 + np.arange(3)).ravel()
     full[np.ix_(dofs, dofs)] = data.get_hessian_2d()
     frozen = np.setdiff1d(np.arange(n), indices)
-    return System.from_hessian(positions, masses, full, frozen_sites=frozen if len(frozen) else None,
-                               units="ASE", name=molecule_name(atoms, name))
+    system = System.from_hessian(positions, masses, full, frozen_sites=frozen if len(frozen) else None,
+                                 units="ASE", name=molecule_name(atoms, name))
+    return system.with_symbols(atoms.get_chemical_symbols())
 
 
 def from_phonopy(phonon: Any, *, name: str = "molecule") -> System:
@@ -205,5 +208,6 @@ def from_phonopy(phonon: Any, *, name: str = "molecule") -> System:
     if fc.shape != (n, n, 3, 3):
         raise ValueError(f"phonon.force_constants must be full, shape ({n}, {n}, 3, 3), got {fc.shape}")
     hessian = np.asarray(fc).transpose(0, 2, 1, 3).reshape(3 * n, 3 * n)
-    return System.from_hessian(np.asarray(cell.positions), np.asarray(cell.masses), hessian,
-                               symmetrize=True, units="ASE", name=name)
+    system = System.from_hessian(np.asarray(cell.positions), np.asarray(cell.masses), hessian,
+                                 symmetrize=True, units="ASE", name=name)
+    return system.with_symbols(list(cell.symbols))

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import re
 from types import MappingProxyType
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
+from vibra import _validate
 from vibra.system import System
 from vibra.units import ASE
 
-__all__ = ["ISOTOPE_MASSES", "isotope_mass", "substitute_isotopes"]
+__all__ = ["ISOTOPE_MASSES", "isotope_mass", "isotope_masses", "substitute_isotopes"]
 
 # Isotope masses in amu: NIST "Atomic Weights and Isotopic Compositions" (AME2012/AME2016
 # values; the AME2020 evaluation moved them by at most 1.2e-9 relative, 3.4e-9 amu for 3H,
@@ -120,3 +122,74 @@ def substitute_isotopes(
             raise TypeError(f"substitutions[{index}] must be a mass in amu or an isotope label, got {type(value).__name__}")
         masses[index] = mass
     return system.with_masses(masses)
+
+
+def isotope_masses(
+    symbols: Sequence[str],
+    masses: ArrayLike,
+    *,
+    isotopes: Sequence[str | None] | Mapping[int, str] | None = None,
+) -> NDArray[np.float64]:
+    """(n_atoms,) masses in amu with some atoms replaced by labelled isotopes.
+
+    Parameters
+    ----------
+    symbols : sequence of str
+        Chemical symbols, one per atom; a label must name the atom's element.
+    masses : (n_atoms,) array_like
+        Masses in amu of the atoms not relabelled (standard atomic weights, usually).
+    isotopes : sequence of (str or None) or mapping of int to str, optional
+        Per atom an isotope label (``"D"``, ``"T"``, ``"13C"``, ``"18O"``, any key of
+        `ISOTOPE_MASSES`) or None to keep its mass; or a mapping atom index -> label.
+
+    Raises
+    ------
+    TypeError
+        `isotopes` neither a sequence nor a mapping; a label that is not a str; a key that is
+        not an int.
+    ValueError
+        A sequence of the wrong length, an index out of range, a label vibra does not know
+        (the message lists the valid ones) or a label of another element than the atom's.
+
+    Examples
+    --------
+    >>> isotope_masses(["O", "H", "H"], [15.999, 1.008, 1.008], isotopes=[None, "D", "D"]).round(4).tolist()
+    [15.999, 2.0141, 2.0141]
+    >>> isotope_masses(["O", "C", "O"], [15.999, 12.011, 15.999], isotopes={1: "13C"}).round(4).tolist()
+    [15.999, 13.0034, 15.999]
+    """
+    names = list(symbols)
+    values = np.array(_validate.real_array(masses, "masses", ndim=1))
+    if values.shape[0] != len(names):
+        raise ValueError(f"masses must have {len(names)} entries (one per atom), got {values.shape[0]}")
+    if isotopes is None:
+        return values
+    if isinstance(isotopes, Mapping):
+        items = list(isotopes.items())
+        for index, _ in items:
+            if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+                raise TypeError(f"isotopes key {index!r} must be an int atom index")
+            if not 0 <= index < len(names):
+                raise ValueError(f"isotopes[{index}]: atom index out of range 0..{len(names) - 1}")
+    elif isinstance(isotopes, Sequence) and not isinstance(isotopes, str):
+        if len(isotopes) != len(names):
+            raise ValueError(f"isotopes must give {len(names)} labels or None (one per atom), got {len(isotopes)}")
+        items = [(i, label) for i, label in enumerate(isotopes) if label is not None]
+    else:
+        raise TypeError("isotopes must be a sequence of labels (None to keep an atom) or a mapping "
+                        f"index -> label, got {type(isotopes).__name__}")
+    for index, label in items:
+        if not isinstance(label, str):
+            raise TypeError(f"isotopes[{index}] must be an isotope label (str) such as 'D' or '13C', "
+                            f"got {type(label).__name__}")
+        if label not in ISOTOPE_MASSES:
+            known = ", ".join(sorted(ISOTOPE_MASSES, key=lambda key: (_isotope_element(key), key)))
+            raise ValueError(f"isotopes[{index}] is {label!r}, not an isotope label vibra knows; "
+                             f"valid labels: {known}")
+        element = _isotope_element(label)
+        if element != names[index]:
+            same = ", ".join(key for key in sorted(ISOTOPE_MASSES) if _isotope_element(key) == names[index])
+            raise ValueError(f"isotopes[{index}] is {label!r} ({element}) but atom {index} is {names[index]!r}"
+                             + (f"; labels for {names[index]}: {same}" if same else ""))
+        values[int(index)] = ISOTOPE_MASSES[label]
+    return values

@@ -9,7 +9,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 
-__all__ = ["SoftModeWarning", "is_linear", "rigid_body_vectors", "expected_rigid_count", "warn_soft_modes"]
+__all__ = ["SoftModeWarning", "is_linear", "rigid_body_vectors", "expected_rigid_count", "warn_soft_modes",
+           "principal_moments"]
 
 
 class SoftModeWarning(UserWarning):
@@ -106,3 +107,20 @@ def warn_soft_modes(n_zero: int, n_rigid: int, name: str, stacklevel: int = 3) -
             "motion: add bends, linear bends or torsions)",
             SoftModeWarning, stacklevel=stacklevel,
         )
+
+
+def principal_moments(positions: ArrayLike, masses: ArrayLike) -> NDArray[np.float64]:
+    """(3,) principal moments of inertia about the centre of mass, ascending, in mass * length^2.
+
+    Amu Angstrom^2 for a molecule in ASE units; 1-D and 2-D positions are padded with zeros.
+
+    Examples
+    --------
+    >>> principal_moments([[-1.0, 0, 0], [0, 0, 0], [1.0, 0, 0]], [16.0, 12.0, 16.0]).tolist()
+    [0.0, 32.0, 32.0]
+    """
+    x = _validate.real_array(positions, "positions", ndim=2)
+    m = _validate.real_array(masses, "masses", ndim=1)
+    if m.shape[0] != x.shape[0]:
+        raise ValueError(f"masses must have {x.shape[0]} entries (one per position), got {m.shape[0]}")
+    return np.clip(_principal_moments(x, m)[0], 0.0, None)

@@ -259,7 +259,7 @@ def _molecule_structure(scene: Scene, system: Any) -> Any:
     from vibra.render import MoleculeStructure
 
     params = scene.system.parameters
-    symbols = params.get("symbols")
+    symbols = params.get("symbols") or system.symbols
     if symbols is None:
         symbols = symbols_from_masses(system.masses)
     bonds = params.get("springs")

@@ -18,14 +18,15 @@ Models (see docs/spectra.md):
   the bond stretch and the bond rotation terms; the activity is 45 a'^2 + 7 g'^2 with the
   isotropic invariant a' = tr(alpha')/3 and the anisotropy g'^2 (Long, "The Raman Effect").
 - Thermochemistry of independent harmonic oscillators, with the same formulas as ASE's
-  ``HarmonicThermo``.
+  ``HarmonicThermo``; ideal-gas thermochemistry (translation, rotation, vibration, spin: H, S,
+  G, C_p at any T and p), as ASE's ``IdealGasThermo``.
 
 Rigid-body modes (|omega| <= zero_rtol * max|omega|, or within the mode's own error, and,
 when a `vibra.molecules.VibrationalAnalysis` is passed as the modes, every mode it matched to
 a translation or rotation) are skipped everywhere; imaginary modes are skipped with a
 RuntimeWarning.
 
-Modules: `ir.py`, `raman.py`, `broadening.py` (stick and broadened spectra), `thermochemistry.py`,
+Modules: `ir.py`, `raman.py`, `broadening.py` (stick and broadened spectra), `thermochemistry.py`, `ideal_gas.py`,
 `isotopes.py` (isotope shifts), and `common.py` (mode selection and checks they share).
 """
 
@@ -35,6 +36,8 @@ from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
 from vibra.spectra.broadening import BroadenedSpectrum, StickSpectrum, broadened_spectrum
 from vibra.spectra.common import ZERO_RTOL
+from vibra.spectra.ideal_gas import (STANDARD_PRESSURE, IdealGasThermochemistry, ThermoContribution,
+                                     ideal_gas_thermochemistry)
 from vibra.spectra.ir import (KM_PER_MOL_PER_E2_AMU, PAULING_ELECTRONEGATIVITY, IRSpectrum, dipole_derivatives,
                               electronegativity_charges, ir_spectrum)
 from vibra.spectra.isotopes import ISOTOPE_MASSES, IsotopeShifts, isotope_shifts
@@ -49,6 +52,7 @@ __all__ = [
     "IsotopeShifts",
     "ir_spectrum", "raman_spectrum", "dipole_derivatives", "electronegativity_charges",
     "broadened_spectrum", "thermochemistry", "isotope_shifts",
+    "STANDARD_PRESSURE", "IdealGasThermochemistry", "ThermoContribution", "ideal_gas_thermochemistry",
 ]
 
 # re-exported from the stages below, as the single-module vibra.spectra did

@@ -1,0 +1,237 @@
+"""`GeneralizedSystem`: small oscillations in generalised coordinates, T = 1/2 q'^T M q'.
+
+Lagrange's equations linearised about an equilibrium (seed 000 eq. 5; seed 003 eqs. 134-137)
+give M q'' + K q = 0 with a dense, symmetric positive-definite mass matrix M and a symmetric
+stiffness matrix K. Such a system has coordinates (angles, lengths, ...) but no sites:
+no positions, no site masses, no spring factorisation, so it is a class of its own rather
+than a mode of `vibra.System`. It offers the same protocol (`hessian`, `mass_matrix`,
+`modes`, `freeze`, `expand`, `n_dof`, `free_dofs`, `labels`, `units`, `name`), and
+``isinstance(s, vibra.System)`` holds for it (a registered virtual subclass), so a function
+that takes any system tells the two apart with `is_generalized`.
+
+Build one with ``vibra.System.generalized(M, K)`` (or `GeneralizedSystem.from_matrices`);
+`vibra.lagrangian.linearize` and `vibra.rigid` return them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+from vibra import _validate
+from vibra._frozen import _freeze_arrays
+from vibra.modes import Modes, normal_modes
+from vibra.units import UnitSystem, unit_system
+
+__all__ = ["GeneralizedSystem", "FreeDofs"]
+
+
+class FreeDofs:
+    """Which degrees of freedom move: shared by `vibra.System` and `GeneralizedSystem`.
+
+    A subclass has a field ``frozen`` ((n_total,) ndarray of bool, True for a degree of
+    freedom held at rest); K, M and the modes refer to the free ones, in the order of
+    `free_dofs`.
+    """
+
+    frozen: NDArray[np.bool_]
+
+    @property
+    def free_dofs(self) -> NDArray[np.intp]:
+        """(n_dof,) flat indices of the degrees of freedom that move."""
+        return np.flatnonzero(~self.frozen)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of free degrees of freedom (the size of K and M)."""
+        return int((~self.frozen).sum())
+
+    def expand(self, vectors: ArrayLike) -> NDArray[np.float64]:
+        """(n_total, ...) values of every degree of freedom from (n_dof, ...) free ones (0 when frozen).
+
+        Examples
+        --------
+        >>> import vibra
+        >>> system = vibra.System.generalized(np.eye(3), np.eye(3)).freeze(dofs=[1])
+        >>> system.expand(np.array([1.0, 2.0])).tolist()
+        [1.0, 0.0, 2.0]
+        """
+        values = np.asarray(vectors)
+        full = np.zeros((self.frozen.shape[0],) + values.shape[1:], dtype=values.dtype)
+        full[self.free_dofs] = values
+        return full
+
+
+@dataclass(frozen=True, eq=False)
+class GeneralizedSystem(FreeDofs):
+    """A system in generalised coordinates q: T = 1/2 q'^T M q', V = 1/2 q^T K q.
+
+    Attributes
+    ----------
+    M : (n_coordinates, n_coordinates) ndarray
+        Symmetric positive-definite mass matrix, in the units of the kinetic energy's
+        coefficients (kg m^2 for angles in SI).
+    K : (n_coordinates, n_coordinates) ndarray
+        Symmetric stiffness matrix (J per rad^2 for angles in SI).
+    frozen : (n_coordinates,) ndarray of bool
+        True for a coordinate held at rest.
+    labels : tuple of str
+        One name per coordinate (free and frozen), e.g. ``"theta1"``.
+    units : UnitSystem
+        The unit system of the system and of its results.
+    name : str
+        A short name used in reports.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import vibra
+    >>> pendulums = vibra.System.generalized(np.eye(2), [[2.0, -1.0], [-1.0, 2.0]])
+    >>> np.round(pendulums.modes().omega ** 2, 12)
+    array([1., 3.])
+    >>> pendulums.freeze(dofs=[1]).n_dof
+    1
+    """
+
+    M: NDArray[np.float64]
+    K: NDArray[np.float64]
+    frozen: NDArray[np.bool_]
+    labels: tuple[str, ...]
+    units: UnitSystem
+    name: str = "system"
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    @classmethod
+    def from_matrices(
+        cls,
+        M: ArrayLike,
+        K: ArrayLike,
+        *,
+        coordinates: Sequence[str] | None = None,
+        units: str | UnitSystem = "SI",
+        name: str = "system",
+    ) -> GeneralizedSystem:
+        """The system M q'' + K q = 0 (the same as ``vibra.System.generalized``).
+
+        Parameters
+        ----------
+        M : (n, n) or (n,) array_like
+            Symmetric positive-definite mass matrix, or its diagonal (kg m^2 for angles in SI).
+        K : (n, n) array_like
+            Symmetric stiffness matrix (J per rad^2 for angles in SI).
+        coordinates : sequence of str, optional
+            Names of the coordinates (default ``q0, q1, ...``).
+        units : str or UnitSystem
+            Unit system.
+        name : str
+            Name used in reports.
+
+        Raises
+        ------
+        ValueError
+            K not square, finite and symmetric; M not matching K or not positive definite;
+            the wrong number of coordinate names; unknown units.
+
+        Examples
+        --------
+        >>> system = GeneralizedSystem.from_matrices([2.0, 1.0], [[8.0, 0.0], [0.0, 1.0]], coordinates=["x", "y"])
+        >>> system.M.tolist(), system.labels
+        ([[2.0, 0.0], [0.0, 1.0]], ('x', 'y'))
+        """
+        K_matrix = _validate.square_matrix(K, "K")
+        if not isinstance(K_matrix, np.ndarray):
+            K_matrix = np.asarray(K_matrix.toarray())
+        K_matrix = np.asarray(_validate.symmetric(K_matrix, "K"))
+        n = K_matrix.shape[0]
+        M_matrix = _validate.mass_argument(M, n, "M")
+        if M_matrix.ndim == 1:
+            M_matrix = np.diag(M_matrix)
+        names = tuple(coordinates) if coordinates is not None else tuple(f"q{i}" for i in range(n))
+        if len(names) != n:
+            raise ValueError(f"coordinates must name {n} coordinates, got {len(names)}")
+        return cls(M=M_matrix, K=K_matrix, frozen=np.zeros(n, dtype=bool), labels=names,
+                   units=unit_system(units), name=name)
+
+    # ------------------------------------------------------------------ derived systems
+    def freeze(self, sites: ArrayLike | None = None, dofs: ArrayLike | None = None) -> GeneralizedSystem:
+        """A copy with more coordinates held at rest (q_j = 0).
+
+        Parameters
+        ----------
+        sites : None
+            Must be None: generalised coordinates have no sites.
+        dofs : (n_frozen,) array_like of int, optional
+            Indices of the coordinates to hold at rest.
+
+        Raises
+        ------
+        ValueError
+            `sites` given; an index out of range; every coordinate frozen.
+        TypeError
+            Indices that are not integers.
+        """
+        if sites is not None:
+            raise ValueError("sites is given, but generalised coordinates have no sites; "
+                             "freeze coordinates with freeze(dofs=...)")
+        mask = np.array(self.frozen)
+        if dofs is not None:
+            mask[_validate.indices(dofs, "dofs", mask.shape[0], what="coordinate")] = True
+        if mask.all():
+            raise ValueError("every degree of freedom is frozen; nothing is left to vibrate")
+        return dataclasses.replace(self, frozen=mask)
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_sites(self) -> int:
+        """0: generalised coordinates have no sites."""
+        return 0
+
+    @property
+    def dim(self) -> int:
+        """0: generalised coordinates have no spatial dimension."""
+        return 0
+
+    @property
+    def is_generalized(self) -> bool:
+        """True: this system is in generalised coordinates."""
+        return True
+
+    # ------------------------------------------------------------------ assembly
+    def spring_factor(self) -> None:
+        """None: K of generalised coordinates is not factorised into springs."""
+        return None
+
+    def hessian(self) -> sp.csr_matrix:
+        """(n_dof, n_dof) CSR stiffness matrix K over the free coordinates."""
+        free = self.free_dofs
+        return sp.csr_matrix(self.K[np.ix_(free, free)])
+
+    def mass_matrix(self) -> NDArray[np.float64]:
+        """(n_dof, n_dof) mass matrix M over the free coordinates."""
+        free = self.free_dofs
+        return np.array(self.M[np.ix_(free, free)])
+
+    def modes(
+        self,
+        n_modes: int | None = None,
+        *,
+        accuracy: Literal["high", "fast"] = "high",
+        vectors: bool = True,
+        band: tuple[float, float] | None = None,
+        solver: str = "auto",
+    ) -> Modes:
+        """Normal modes of the free coordinates (seed 003 eqs. 137-151); see `vibra.System.modes`.
+
+        `accuracy` is checked for the same protocol as `vibra.System.modes`; with no spring
+        factor both values take the same path.
+        """
+        _validate.choice(accuracy, "accuracy", ("high", "fast"))
+        return normal_modes(self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
+                            solver=solver, units=self.units)
