@@ -116,3 +116,9 @@ def test_bad_progress_option_is_refused() -> None:
 
 def test_default_workers_is_the_usable_cores() -> None:
     assert cluster.default_workers() == len(os.sched_getaffinity(0))
+
+
+def test_dask_progress_bar_option_runs_to_the_end(dask_client) -> None:
+    results, failures = cluster.run_tasks(dask_client, operator.add, [(1, 2), (3, 4)], labels=["a", "b"],
+                                          progress="dask")
+    assert results == [3, 7] and failures == []
