@@ -273,3 +273,12 @@ def test_default_cache_key_is_the_same_in_every_process() -> None:
                               env=dict(os.environ, PYTHONHASHSEED=seed, PYTHONPATH=str(ROOT))).stdout
                for seed in ("1", "2")}
     assert len(outputs) == 1 and len(outputs.pop().split()) == 2
+
+
+def test_from_calculator_passes_client_and_cache_on(dask_client, tmp_path) -> None:
+    atoms = mol.co2_atoms()
+    calc = mol.ValenceForceField(mol.valence_model(atoms))
+    serial = mol.from_calculator(atoms, calc)
+    parallel = mol.from_calculator(atoms, calc, client=dask_client, cache=tmp_path)
+    np.testing.assert_array_equal(serial.hessian().toarray(), parallel.hessian().toarray())
+    assert len(list(tmp_path.glob("*.npy"))) == 1 + 6 * 3

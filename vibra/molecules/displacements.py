@@ -7,18 +7,20 @@ Dask worker runs), and keeps the results on disk (`ForceCache`).
 
 Calculators (`CalculatorSource`)
 --------------------------------
-Every force call gets a calculator in its initial state, so that a result does not depend on
-which calls ran before it on the same worker (tblite, for instance, starts each SCF from the
-previous wavefunction): either a **factory** (a callable with no arguments returning a new
-ASE calculator, e.g. ``functools.partial(TBLite, method="GFN2-xTB")``) is called, or the
-given calculator **instance** is pickled once and unpickled for every call. A run on a
-cluster needs one of the two to be picklable: the factory or the instance (which also
-carries whatever it computed before). Pickling uses cloudpickle when it is installed (it comes
+A calculator is given as an **instance** or as a **factory** (a class or a callable with no
+arguments returning a new ASE calculator, e.g. ``functools.partial(TBLite, method="GFN2-xTB")``).
+A factory is called for every force call, serially and on the workers, so every call starts
+from scratch. An instance is used as it is in a serial run (as vibra always did); on a cluster
+it is pickled once and every call on a worker unpickles a fresh copy, so that no result
+depends on which calls ran before it on the same worker. For calculators whose result depends
+on the previous call (tblite starts each SCF from the previous wavefunction) only a factory
+gives the same numbers serially and on a cluster, bit for bit. A run on a cluster needs the
+factory or the instance (which also carries whatever it computed before) to be picklable. Pickling uses cloudpickle when it is installed (it comes
 with Dask): module-level functions, classes and ``functools.partial`` go by reference (the
 workers import them), while lambdas and classes or functions defined in a script or notebook
 go by value. An instance that
-cannot be pickled (tblite after a calculation holds C objects) still works serially, used
-directly as before; on a cluster pass a factory instead.
+cannot be pickled (tblite after a calculation holds C objects) works serially; on a cluster
+pass a factory instead.
 
 The cache
 ---------
@@ -29,8 +31,9 @@ displacement (degree of freedom, sign and step multiple m: the stencil enters as
 multiples it evaluates, so a 4-point run reuses the +-h forces of a 2-point run on the same
 geometry), the step h, and the calculator's settings: ``calculator_key`` when given, else
 the pickled bytes of the factory (its qualified name and, for a ``functools.partial``, its
-arguments) or of the instance (its class and state, e.g. the force field of a
-`ValenceForceField`). The cache does not know the calculator's code or version: after
+arguments) or of a copy of the instance after its ``reset()`` (ASE's `Calculator.reset`
+forgets the last geometry and results): its class and settings (e.g. the force field of a
+`ValenceForceField`), whether or not it computed anything before. The cache does not know the calculator's code or version: after
 changing either, use a new folder. A file is verified when read (it must load as a finite
 ``(n_atoms, 3)`` float64 array without pickles); a file that does not is recomputed and
 replaced, with a `CacheWarning`.
@@ -127,7 +130,11 @@ def force_problem(values: NDArray[np.float64], n_atoms: int, label: str) -> str 
 
 
 class CalculatorSource:
-    """Where each force call gets its calculator: a factory, a pickled instance, or (serial only) the instance.
+    """Where each force call gets its calculator: a factory, the instance, or a copy of it on a worker.
+
+    In this process the instance itself is used (as a serial run always did); what is sent to
+    a worker holds the instance's pickled bytes instead, and every call there unpickles a
+    fresh copy. A factory is called for every call, here and on the workers.
 
     Parameters
     ----------
@@ -140,61 +147,71 @@ class CalculatorSource:
 
     def __init__(self, calculator: Any, key: str | None = None) -> None:
         self.key = key
-        self.blob: bytes | None = None
-        self.factory: Any = None
-        self.instance: Any = None
-        if is_factory(calculator):
-            self.factory = calculator
-            self.kind = "factory"
-            return
-        try:
-            self.blob = _dumps(calculator)
-            self.kind = "pickled"
-            self.pickle_error = ""
-        except Exception as error:  # any pickling failure: used directly, in this process only
-            self.instance = calculator
-            self.kind = "shared"
-            self.pickle_error = f"{type(error).__name__}: {error}"
+        self.factory: Any = calculator if is_factory(calculator) else None
+        self.instance: Any = None if self.factory is not None else calculator
+        self.blob: bytes | None = None       # the instance, pickled (made when first needed)
+        self.pickle_error = ""
+
+    @property
+    def kind(self) -> str:
+        """``"factory"`` or ``"instance"``."""
+        return "factory" if self.factory is not None else "instance"
+
+    def _pickled(self) -> bytes:
+        if self.blob is None:
+            try:
+                self.blob = _dumps(self.instance)
+            except Exception as error:  # any pickling failure: the instance stays in this process
+                self.pickle_error = f"{type(error).__name__}: {error}"
+                raise TypeError(f"calculator cannot be pickled ({self.pickle_error})") from None
+        return self.blob
 
     def make(self) -> Any:
-        """A calculator in its initial state (the instance itself for an unpicklable one)."""
-        if self.kind == "factory":
+        """The calculator for one force call: the factory's new one, the instance, or a fresh copy of it."""
+        if self.factory is not None:
             made = self.factory()
             if not is_calculator(made):
                 raise TypeError(f"the calculator factory returned {type(made).__name__}, not an ASE calculator")
             return made
-        if self.kind == "pickled":
-            assert self.blob is not None
-            return pickle.loads(self.blob)
-        return self.instance
+        if self.instance is not None:
+            return self.instance
+        assert self.blob is not None  # a copy sent to a worker carries the pickled instance
+        return pickle.loads(self.blob)
 
     def require_picklable(self) -> None:
         """TypeError, saying what to do, for an instance that cannot be sent to workers."""
-        if self.kind == "shared":
-            raise TypeError(
-                f"calculator cannot be pickled ({self.pickle_error}), so it cannot be sent to workers; "
-                "pass a factory instead, e.g. calculator=functools.partial(TBLite, method='GFN2-xTB')")
+        if self.factory is not None:
+            return
+        try:
+            self._pickled()
+        except TypeError as error:
+            raise TypeError(f"{error}, so it cannot be sent to workers; pass a factory instead, e.g. "
+                            "calculator=functools.partial(TBLite, method='GFN2-xTB')") from None
 
     def digest(self) -> str:
         """SHA-256 (hex) of the calculator's settings, for the cache key."""
         if self.key is not None:
             return hashlib.sha256(b"key\0" + self.key.encode("utf-8")).hexdigest()
-        if self.kind == "pickled":
-            assert self.blob is not None
-            return hashlib.sha256(b"instance\0" + self.blob).hexdigest()
-        if self.kind == "factory":
-            try:
-                data = _dumps(self.factory)
-            except Exception as error:
-                raise TypeError(f"the calculator factory cannot be pickled ({type(error).__name__}: {error}); "
-                                "the cache needs calculator_key= naming its settings") from None
-            return hashlib.sha256(b"factory\0" + data).hexdigest()
-        raise TypeError(f"calculator cannot be pickled ({self.pickle_error}); the cache needs "
-                        "calculator_key= naming its settings (or pass a factory)")
+        try:
+            if self.factory is not None:
+                return hashlib.sha256(b"factory\0" + _dumps(self.factory)).hexdigest()
+            settings = pickle.loads(self._pickled())  # a copy, without its last geometry and results
+            if callable(getattr(settings, "reset", None)):
+                settings.reset()
+            return hashlib.sha256(b"instance\0" + _dumps(settings)).hexdigest()
+        except Exception as error:
+            what = "the calculator factory" if self.factory is not None else "calculator"
+            reason = str(error) if isinstance(error, TypeError) and self.factory is None else \
+                f"{what} cannot be pickled ({type(error).__name__}: {error})"
+            raise TypeError(f"{reason}; the cache needs calculator_key= naming its settings"
+                            + (" (or pass a factory)" if self.factory is None else "")) from None
 
     def __getstate__(self) -> dict[str, Any]:
+        """What a worker gets: the factory, or the pickled instance (never the instance itself)."""
         self.require_picklable()
-        return dict(self.__dict__)
+        state = dict(self.__dict__)
+        state["instance"] = None
+        return state
 
 
 def _dumps(value: Any) -> bytes:

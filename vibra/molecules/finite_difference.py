@@ -145,10 +145,11 @@ def finite_difference_hessian(
     Each geometry is one force call: serially in this process (``client=None``), or one task
     each on a Dask cluster (`vibra.cluster`). The forces are gathered first and the Hessian is
     then assembled in one fixed order, so a run on any number of workers gives the serial
-    result bit for bit. Each call gets a calculator in its initial state (a factory's new one,
-    or an unpickled copy of `calculator`; see `vibra.molecules.displacements`), so no call
-    depends on the ones before it. With `cache`, each geometry's forces are written to their
-    own file as they arrive; a killed run started again computes only what is missing.
+    result bit for bit, provided no force call depends on the ones before it: a factory starts
+    every call from scratch; an instance is used as it is serially and copied fresh for every
+    call on a worker (see `vibra.molecules.displacements`). With `cache`, each geometry's
+    forces are written to their own file as they arrive; a killed run started again computes
+    only what is missing.
 
     Parameters
     ----------
@@ -157,7 +158,8 @@ def finite_difference_hessian(
     calculator : ase Calculator or callable, optional
         Evaluates the forces; ``atoms.calc`` by default. Or a factory: a class or a callable
         with no arguments that returns a new calculator (for calculators that cannot be
-        pickled, e.g. ``functools.partial(TBLite, method="GFN2-xTB")``). On a cluster the
+        pickled or that carry state from one call to the next, e.g.
+        ``functools.partial(TBLite, method="GFN2-xTB")``). On a cluster the
         calculator (or the factory) is pickled and sent to the workers, which must have vibra
         and the calculator's package installed.
     step : float
@@ -395,11 +397,16 @@ def from_calculator(
     force_tolerance: float | None = 1e-3,
     masses: ArrayLike | None = None,
     name: str | None = None,
+    client: Any = None,
+    cache: str | os.PathLike[str] | None = None,
+    calculator_key: str | None = None,
+    progress: ProgressOption = None,
 ) -> System:
     """A molecule whose Hessian is a finite difference of any ASE calculator's forces.
 
     See `finite_difference_hessian` (which also returns the error estimate); this runs it
-    without the extra Richardson step and returns the `System` (ASE units).
+    without the extra Richardson step and returns the `System` (ASE units); `client`, `cache`,
+    `calculator_key` and `progress` are passed on to it.
 
     Examples
     --------
@@ -408,6 +415,7 @@ def from_calculator(
     >>> from_calculator(atoms, ValenceForceField(valence_model(atoms))).n_dof
     9
     """
-    result = finite_difference_hessian(atoms, calculator, step=step, stencil=stencil,
-                                       estimate_error=False, force_tolerance=force_tolerance)
+    result = finite_difference_hessian(atoms, calculator, step=step, stencil=stencil, estimate_error=False,
+                                       force_tolerance=force_tolerance, client=client, cache=cache,
+                                       calculator_key=calculator_key, progress=progress)
     return result.system(masses=masses, name=molecule_name(atoms, name))
