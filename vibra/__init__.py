@@ -33,9 +33,9 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "chains", "charts", "cli", "continuum", "crosscheck", "generalized", "gpu", "lagrangian", "modes",
+    "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized", "gpu", "lagrangian", "modes",
     "molecules", "networks", "pendulum", "plan", "render", "report", "response", "rigid", "scene",
-    "solvers", "spectra", "system", "units",
+    "solvers", "spectra", "sweep", "system", "units",
 )
 
 
