@@ -101,7 +101,8 @@ def check_client(client: Any, name: str = "client") -> None:
         if client == "local" or _is_address(client):
             return
         raise ValueError(f"{name} is {client!r}; expected 'local' or a scheduler address like 'tcp://host:8786'")
-    if type(client).__name__ == "Client" and hasattr(client, "submit"):
+    distributed = sys.modules.get("distributed")  # a Client exists only once Dask is imported
+    if distributed is not None and isinstance(client, distributed.Client):
         return
     raise TypeError(f"{name} must be None, 'local', a scheduler address or a dask.distributed.Client, "
                     f"got {type(client).__name__}")
