@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra import _validate, assembly
 from vibra._frozen import _freeze_arrays
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
@@ -182,7 +182,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
                     "position; a spring needs distinct equilibrium positions to define its axis"
                 )
             unit = bond / length[:, None]
-            rows.append(_pair_rows(pairs, unit, n_sites, dim))
+            rows.append(assembly.pair_rows(pairs, unit, n_sites, dim))
             weight_parts.append(k)
         elif stiffness is not None:
             raise ValueError("stiffness was given without springs")
@@ -203,13 +203,13 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
                 if (norm == 0).any():
                     raise ValueError(f"anchor_directions[{int(np.argmin(norm))}] is the zero vector")
                 direction = direction / norm[:, None]
-            rows.append(_single_rows(sites, direction, n_sites, dim))
+            rows.append(assembly.single_rows(sites, direction, n_sites, dim))
             weight_parts.append(k)
         elif anchor_stiffness is not None:
             raise ValueError("anchor_stiffness was given without anchors")
-        coupling, weights = _stack_terms(rows, weight_parts, n_sites * dim)
+        coupling, weights = assembly.stack_terms(rows, weight_parts, n_sites * dim)
         frozen = _frozen_mask(n_sites, dim, frozen_sites, frozen_dofs)
-        extra = _hessian_blocks(blocks, n_sites, dim) if blocks is not None else None
+        extra = assembly.hessian_blocks(blocks, n_sites, dim) if blocks is not None else None
         return cls(
             positions=positions_array, masses=mass_array, units=unit_system(units),
             coupling=coupling, weights=weights, extra_hessian=extra, frozen=frozen,
@@ -317,15 +317,19 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         M: ArrayLike,
         K: ArrayLike,
         *,
+        G: ArrayLike | None = None,
+        C: ArrayLike | None = None,
         coordinates: Sequence[str] | None = None,
         units: str | UnitSystem = "SI",
         name: str = "system",
     ) -> GeneralizedSystem:
-        """A system in generalised coordinates q: T = 1/2 q'^T M q', V = 1/2 q^T K q.
+        """A system in generalised coordinates q: M q'' + (G + C) q' + K q = 0.
 
         Returns a `vibra.generalized.GeneralizedSystem` built by its `from_matrices` (see
         there for the parameters, in the same order, and the checks): M (n, n) symmetric
-        positive definite (or its diagonal), K (n, n) symmetric, optional coordinate names.
+        positive definite (or its diagonal; ill-conditioned is fine), K (n, n) symmetric,
+        optional G (skew-symmetric, gyroscopic) and C (symmetric, damping), optional
+        coordinate names. With G or C, ``modes()`` returns a `vibra.quadratic.QuadraticModes`.
         It has no sites: ``freeze(sites=...)`` raises, ``freeze(dofs=...)`` holds coordinates
         at rest.
 
@@ -335,7 +339,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         >>> system.is_generalized, system.labels, system.modes().omega.tolist()
         (True, ('a', 'b'), [1.0, 2.0])
         """
-        return GeneralizedSystem.from_matrices(M, K, coordinates=coordinates, units=units, name=name)
+        return GeneralizedSystem.from_matrices(M, K, G=G, C=C, coordinates=coordinates, units=units, name=name)
 
     # ------------------------------------------------------------------ derived systems
     def with_masses(self, masses: ArrayLike) -> System:
@@ -532,57 +536,6 @@ def _per_item(value: ArrayLike | float | None, n: int, name: str) -> NDArray[np.
 
 
 _index_array = _validate.indices
-
-
-def _pair_rows(pairs: NDArray[np.intp], unit: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:
-    n = len(pairs)
-    axis = np.arange(dim)
-    rows = np.repeat(np.arange(n), 2 * dim)
-    cols = np.concatenate([pairs[:, :1] * dim + axis, pairs[:, 1:] * dim + axis], axis=1).ravel()
-    data = np.concatenate([-unit, unit], axis=1).ravel()
-    return sp.coo_matrix((data, (rows, cols)), shape=(n, n_sites * dim))
-
-
-def _single_rows(sites: NDArray[np.intp], direction: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:
-    n = len(sites)
-    rows = np.repeat(np.arange(n), dim)
-    cols = (sites[:, None] * dim + np.arange(dim)).ravel()
-    return sp.coo_matrix((direction.ravel(), (rows, cols)), shape=(n, n_sites * dim))
-
-
-def _stack_terms(rows: list[sp.coo_matrix], weights: list[NDArray[np.float64]], n_full: int
-                 ) -> tuple[sp.csr_matrix, NDArray[np.float64]]:
-    if not rows:
-        return sp.csr_matrix((0, n_full)), np.zeros(0)
-    b = sp.vstack(rows, format="csr")
-    b.eliminate_zeros()  # axis-aligned springs have zero components
-    return b, np.concatenate(weights)
-
-
-def _hessian_blocks(blocks: Sequence[tuple[ArrayLike, ArrayLike]], n_sites: int, dim: int) -> sp.csr_matrix:
-    """Sum user Hessian blocks into one sparse (n_sites * dim)^2 matrix."""
-    rows: list[NDArray[np.intp]] = []
-    cols: list[NDArray[np.intp]] = []
-    data: list[NDArray[np.float64]] = []
-    for b, block in enumerate(blocks):
-        try:
-            sites, matrix = block
-        except (TypeError, ValueError):
-            raise TypeError(f"blocks[{b}] must be a pair (sites, H)") from None
-        index = _index_array(sites, f"blocks[{b}] sites", n_sites, shape=(-1,))
-        dofs = (index[:, None] * dim + np.arange(dim)).ravel()
-        H = _validate.real_array(matrix, f"blocks[{b}] H", ndim=2)
-        if H.shape != (dofs.size, dofs.size):
-            raise ValueError(f"blocks[{b}] H must be ({dofs.size}, {dofs.size}) for {index.size} sites in {dim}-D, "
-                             f"got {H.shape}")
-        _validate.symmetric(H, f"blocks[{b}] H")
-        rows.append(np.repeat(dofs, dofs.size))
-        cols.append(np.tile(dofs, dofs.size))
-        data.append(H.ravel())
-    size = n_sites * dim
-    if not data:
-        return sp.csr_matrix((size, size))
-    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
 
 
 def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLike | None) -> NDArray[np.bool_]:
