@@ -44,6 +44,7 @@ from __future__ import annotations
 import hashlib
 import io
 import os
+import copy
 import pickle
 import warnings
 from dataclasses import dataclass
@@ -149,7 +150,8 @@ class CalculatorSource:
         self.key = key
         self.factory: Any = calculator if is_factory(calculator) else None
         self.instance: Any = None if self.factory is not None else calculator
-        self.blob: bytes | None = None       # the instance, pickled (made when first needed)
+        self.blob: bytes | None = None       # the instance, pickled (made when first needed; hashed only)
+        self.template: Any = None            # on a worker: the instance it copies for each call
         self.pickle_error = ""
 
     @property
@@ -175,8 +177,8 @@ class CalculatorSource:
             return made
         if self.instance is not None:
             return self.instance
-        assert self.blob is not None  # a copy sent to a worker carries the pickled instance
-        return pickle.loads(self.blob)
+        assert self.template is not None  # a copy sent to a worker carries the instance as a template
+        return copy.deepcopy(self.template)
 
     def require_picklable(self) -> None:
         """TypeError, saying what to do, for an instance that cannot be sent to workers."""
@@ -195,7 +197,8 @@ class CalculatorSource:
         try:
             if self.factory is not None:
                 return hashlib.sha256(b"factory\0" + _dumps(self.factory)).hexdigest()
-            settings = pickle.loads(self._pickled())  # a copy, without its last geometry and results
+            self._pickled()                      # TypeError, as a worker would meet it, if it cannot travel
+            settings = copy.deepcopy(self.instance)  # a copy, without its last geometry and results
             if callable(getattr(settings, "reset", None)):
                 settings.reset()
             return hashlib.sha256(b"instance\0" + _dumps(settings)).hexdigest()
@@ -207,9 +210,10 @@ class CalculatorSource:
                             + (" (or pass a factory)" if self.factory is None else "")) from None
 
     def __getstate__(self) -> dict[str, Any]:
-        """What a worker gets: the factory, or the pickled instance (never the instance itself)."""
+        """What a worker gets: the factory, or the instance as a template it copies for each call."""
         self.require_picklable()
         state = dict(self.__dict__)
+        state["template"] = self.instance if self.instance is not None else self.template
         state["instance"] = None
         return state
 
