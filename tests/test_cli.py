@@ -147,7 +147,8 @@ def test_report_with_broken_scenes_exits_nonzero_and_writes_nothing_for_them(tmp
     n_broken = len(list(BROKEN.glob("*.toml")))
     assert f"{n_broken} scene(s), {n_broken} failed, 0 image(s)" in run.stdout
     assert "did you mean 'stiffness'?" in run.stdout  # the final table says why
-    assert sorted(p.name for p in out.iterdir()) == ["index.html", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [".vibra", "index.html", "summary.json"]
+    assert [p.name for p in (out / ".vibra").iterdir()] == ["lock"]  # the folder's lock; no manifest
     assert not Path("/tmp/vibra-escaped_modes.png").exists()
     assert not (tmp_path / "escaped").exists()
 

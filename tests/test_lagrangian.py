@@ -332,15 +332,33 @@ def test_rotating_wheel_steady_motion_problem_III():
     system = linearize(T, V, [w], [wd], [0.0], numbers)
     expected = 9.81 * np.cos(0.4) / 0.5 - 2.0**2 * np.cos(0.4) ** 2
     np.testing.assert_allclose(system.modes().omega_squared[0], expected, rtol=1e-13)
+    # The same as a Lagrangian with its velocity-linear term m r^2 sin(al) k w' kept (issue 15):
+    # for one coordinate it is a total derivative, so G vanishes (omitted) and nothing changes.
+    kept = linearize(lagrangian=T - V, q=[w], qd=[wd], q0=[0.0], values=numbers)
+    assert kept.G is None
+    np.testing.assert_allclose(kept.modes().omega_squared[0], expected, rtol=1e-13)
+    # Spun too fast (k^2 > g / (r cos al)), the bottom of the channel is unstable.
+    fast = linearize(lagrangian=T - V, q=[w], qd=[wd], q0=[0.0], values={**numbers, k: 5.0})
+    with pytest.warns(RuntimeWarning, match="imaginary"):
+        assert fast.modes().omega[0] < 0
 
 
-def test_gyroscopic_terms_are_refused():
-    # A particle seen from a frame turning at rate k: T has x' y - y' x terms (Coriolis).
+def test_gyroscopic_terms_are_kept():
+    # A particle seen from a frame turning at unit rate: T has x' y - y' x terms (Coriolis).
+    # Formerly refused; now G = N - N^T = [[0, -2], [2, 0]] and K = diag(6 - 1, 6 - 1)
+    # (centrifugal -1). In the fixed frame the particle oscillates at sqrt(6); seen from the
+    # rotating frame its frequencies are sqrt(6) -+ 1.
     x, y, xd, yd = sympy.symbols("x y x_dot y_dot")
     T = ((xd - y) ** 2 + (yd + x) ** 2) / 2
     V = 3 * (x**2 + y**2)
-    with pytest.raises(ValueError, match="gyroscopic"):
-        linearize(T, V, [x, y], [xd, yd], [0.0, 0.0])
+    system = linearize(T, V, [x, y], [xd, yd], [0.0, 0.0])
+    np.testing.assert_array_equal(system.G, [[0.0, -2.0], [2.0, 0.0]])
+    np.testing.assert_array_equal(system.K, np.diag([5.0, 5.0]))
+    modes = system.modes()
+    expected = np.sqrt(6.0) + np.array([-1.0, 1.0])
+    # A 4 x 4 Hermitian eigensolve of norm ~3.4: a few ulps of it (measured 4.4e-15).
+    np.testing.assert_allclose(modes.natural_frequency, expected, rtol=1e-14)
+    assert np.all(np.abs(modes.natural_frequency - expected) <= modes.omega_error)
 
 
 def test_q0_as_mapping_and_values_by_name():

@@ -178,17 +178,28 @@ def test_failing_scene_does_not_stop_others_and_leaves_nothing(tmp_path: Path) -
     bad = write(tmp_path, "bad.toml", FAILING)
     broken = ROOT / "tests" / "broken_scenes" / "typo-key.toml"
     out = tmp_path / "out"
-    result = report([bad, good, broken, tmp_path / "missing.toml"], out, progress=False)
+    unreadable = write(tmp_path, "empty.toml", "")  # readable, but no scene: fails alone
+    result = report([bad, good, broken, unreadable], out, progress=False)
     status = {o.name: o for o in result.outcomes}
     assert status["good"].status == "ok"
     assert status["bad"].status == "failed" and "not positive definite" in status["bad"].error
     assert status["typo-key"].status == "failed" and "did you mean 'stiffness'" in status["typo-key"].error
-    assert status["missing"].status == "failed" and "file not found" in status["missing"].error
+    assert status["empty"].status == "failed" and "kind: is required" in status["empty"].error
     assert len(result.failed) == 3
     assert not list(out.glob("bad_*")) and not list(out.glob("typo-key*"))
     assert not (out / ".work").exists()
     table = result.table()
     assert "bad" in table and "failed" in table and "3 failed" in table
+
+
+def test_a_missing_path_is_refused_before_anything_is_written(tmp_path: Path) -> None:
+    # Issue 16: a typo used to count as a failed scene and rewrite index.html and summary.json
+    # with that one entry. Now nothing is touched: not even the output folder is created.
+    good = write(tmp_path, "good.toml", CHAIN)
+    out = tmp_path / "out"
+    with pytest.raises(FileNotFoundError, match=r"missing\.toml: no such file or folder"):
+        report([good, tmp_path / "missing.toml"], out, progress=False)
+    assert not out.exists()
 
 
 def test_unchanged_scenes_are_skipped_until_forced_or_edited(tmp_path: Path) -> None:
@@ -567,8 +578,8 @@ def test_no_import_cycles_and_no_upward_imports() -> None:
     assert in_cycle == [], f"import cycles through {in_cycle}"
 
     def layer(name: str) -> int:
-        for prefix, rank in (("vibra.cli", 5), ("vibra.report", 4), ("vibra.plan", 3), ("vibra.render", 2),
-                             ("vibra.charts", 2)):
+        for prefix, rank in (("vibra.cli", 5), ("vibra.report", 4), ("vibra.sweep", 4), ("vibra.plan", 3),
+                             ("vibra.render", 2), ("vibra.charts", 2)):
             if name == prefix or name.startswith(prefix + "."):
                 return rank
         return 1 if name.startswith("vibra.scene") else 0

@@ -1,6 +1,7 @@
 """The one atomic file writer of vibra: every file vibra writes goes through `atomic_write`.
 
-A file is written to a temporary name in its destination folder (so the final rename never
+A file is written to a temporary name in its destination folder (hidden, with the writer's pid:
+``.<name>.<pid>~tmp~<random>``, see `temporary_owner`) (so the final rename never
 crosses file systems), given the mode an ordinary ``open()`` would give it (0666 less the
 user's umask: 0644 under umask 022), then renamed over the target with `os.replace`. A reader
 therefore sees the old file or the complete new one, never half of one; on any exception
@@ -24,7 +25,13 @@ import threading
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["atomic_write", "atomic_write_text", "atomic_write_bytes", "file_mode"]
+__all__ = ["atomic_write", "atomic_write_text", "atomic_write_bytes", "file_mode", "TEMPORARY_MARK",
+           "temporary_owner"]
+
+#: Between the writer's pid and mkstemp's random letters in a temporary name:
+#: ``.<target name>.<pid>~tmp~<random><suffix>``, so a temporary file left by a killed process
+#: can be told from one being written (`temporary_owner`).
+TEMPORARY_MARK = "~tmp~"
 
 _UMASK_LOCK = threading.Lock()
 
@@ -42,6 +49,15 @@ def file_mode() -> int:
         mask = os.umask(0o022)
         os.umask(mask)
     return 0o666 & ~mask
+
+
+def temporary_owner(name: str) -> int | None:
+    """The pid that created the temporary file called `name` (None when `name` is not one of ours)."""
+    if not name.startswith(".") or TEMPORARY_MARK not in name:
+        return None
+    head = name.rsplit(TEMPORARY_MARK, 1)[0]
+    pid = head.rsplit(".", 1)[-1]
+    return int(pid) if pid.isdigit() else None
 
 
 def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], *,
@@ -65,7 +81,8 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], 
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix, dir=target.parent)
+    handle, name = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}{TEMPORARY_MARK}", suffix=suffix,
+                                    dir=target.parent)
     os.close(handle)
     temporary = Path(name)
     try:

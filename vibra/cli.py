@@ -1,20 +1,35 @@
-"""The ``vibra`` command: ``report``, ``validate`` and ``modes``.
+"""The ``vibra`` command: ``report``, ``validate``, ``modes`` and ``sweep``.
 
 Only argparse and pathlib are imported at start-up, so ``vibra --help`` answers fast;
 numpy, scipy, pyvista and the analyses load inside the command that needs them.
 
-Exit codes: 0 success; 1 one or more scenes failed (invalid or failing); 2 usage error;
-130 interrupted (Ctrl-C).
+Every failure is one line on stderr (``file: key.path: what is wrong; what is expected``)
+and a non-zero exit, never a traceback; an unexpected exception is reported in one line too,
+with a hint to rerun with ``--debug``, which shows the traceback.
+
+Exit codes: 0 success; 1 one or more scenes failed (invalid or failing), or the output folder
+is busy or unusable; 2 usage error (a bad option, a scene path that does not exist: nothing
+is written); 3 an unexpected internal error; 130 interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
-from typing import Sequence
+from typing import NoReturn, Sequence
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERNAL"]
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, with usage errors in one line: ``vibra report: error: ...; see vibra report --help``."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}; see {self.prog} --help\n")
 
 
 def _window(text: str) -> tuple[int, int]:
@@ -37,91 +52,199 @@ def _jobs(text: str) -> int:
     return value
 
 
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--wait must be a number of seconds, got {text!r}") from None
+    if not 0 <= value <= 86400:
+        raise argparse.ArgumentTypeError(f"--wait must be between 0 and 86400 s, got {text}")
+    return value
+
+
+def _timeout(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--timeout must be a number of seconds, got {text!r}") from None
+    if not 0 < value <= 3600:
+        raise argparse.ArgumentTypeError(f"--timeout must be between 0 and 3600 s, got {text}")
+    return value
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("vibra")
+    except PackageNotFoundError:  # run from a source tree that is not installed
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``vibra`` command."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vibra", description="Normal-mode and vibration analysis: render scene files to PNG reports.")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    parser.add_argument("--version", action="version", version=f"vibra {_version()}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     rep = sub.add_parser("report", help="render scene files (or folders of *.toml) to PNG, summary.json, index.html")
-    rep.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders")
+    rep.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders (each must exist)")
     rep.add_argument("--out", default="plots", metavar="DIR", help="output folder (default: plots/)")
-    rep.add_argument("--jobs", "-j", type=_jobs, default=1, metavar="N", help="parallel worker processes")
+    rep.add_argument("--jobs", "-j", type=_jobs, default=None, metavar="N",
+                     help="parallel worker processes (default: the cores this process may use)")
     rep.add_argument("--force", action="store_true", help="redo scenes whose inputs did not change")
     rep.add_argument("--window-size", type=_window, default=None, metavar="WxH",
                      help="override the image size of every scene, e.g. 800x500")
+    rep.add_argument("--wait", type=_seconds, default=60.0, metavar="SECONDS",
+                     help="how long to wait for another report writing into the same folder (default 60; "
+                          "0: refuse at once)")
     rep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
-    val = sub.add_parser("validate", help="check scene files against the schema and build their systems (no solve)")
+    _add_scheduler(rep, "scenes")
+    val = sub.add_parser("validate", help="check scene files and build their systems: every check the report runs "
+                         "before solving")
     val.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders")
     mod = sub.add_parser("modes", help="print a table of a scene's frequencies")
     mod.add_argument("scene", metavar="SCENE", help="one scene file")
+    swp = sub.add_parser("sweep", help="solve one scene over ranges of parameter values: a table (CSV, JSON) "
+                         "and a chart")
+    swp.add_argument("scene", metavar="SCENE", help="one scene file")
+    swp.add_argument("--vary", action="append", required=True, metavar="KEY=START:STOP:N",
+                     help="a dotted key of the scene and its range, e.g. system.defect_mass=0.2:0.8:7 "
+                          "(KEY=log:START:STOP:N for logarithmic spacing); repeat for a grid")
+    swp.add_argument("--out", default="plots", metavar="DIR", help="output folder (default: plots/)")
+    swp.add_argument("--jobs", "-j", type=_jobs, default=None, metavar="N",
+                     help="worker processes of --scheduler local (default: the cores this process may use)")
+    swp.add_argument("--chunk-size", type=_jobs, default=1, metavar="N", help="points per Dask task (default 1)")
+    swp.add_argument("--quiet", "-q", action="store_true", help="no progress lines")
+    _add_scheduler(swp, "points")
     return parser
 
 
+def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help=f"run the {what} on Dask: 'local' (a local cluster of --jobs processes) or a "
+                             "scheduler address such as tcp://host:8786; needs vibra[distributed]")
+    parser.add_argument("--timeout", type=_timeout, default=10.0, metavar="SECONDS",
+                        help="how long to wait for the scheduler to answer (default 10)")
+
+
 def _validate(paths: Sequence[str]) -> int:
-    from vibra.plan import build_system
+    from vibra.plan import validate
     from vibra.scene import SceneError, find_scene_files, load_scene
 
     files = find_scene_files(list(paths))
     if not files:
-        print(f"vibra validate: no scene file (*.toml) in {list(paths)}", file=sys.stderr)
-        return 1
+        print(f"vibra validate: {', '.join(paths)}: no scene file (*.toml) there; expected scene files or folders "
+              "of them", file=sys.stderr)
+        return EXIT_FAILED
     failed = 0
     for file in files:
         try:
             scene = load_scene(file)
-            build_system(scene)  # the builders' own checks: what validates also builds
+            validate(scene)  # the builders' own checks, and what the later steps would refuse
         except SceneError as error:
             failed += 1
             print(f"FAIL {error}")
         else:
             print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r})")
     print(f"{len(files)} scene(s), {failed} invalid")
-    return 1 if failed else 0
+    return EXIT_FAILED if failed else EXIT_OK
 
 
 def _modes(path: str) -> int:
     import time
 
-    from vibra.plan import build_system, frequency_lines
+    from vibra.plan import REFUSALS, build_system, check_plan, frequency_lines, step_error
     from vibra.scene import SceneError, load_scene
 
     try:
         scene = load_scene(path)
+        if scene.kind == "oscillator":
+            raise SceneError(path, "kind", "an oscillator scene has no normal modes to list")
+        start = time.perf_counter()
+        compute = scene.compute
+        try:
+            system = build_system(scene)
+            check_plan(scene, system, response=False)  # the table needs the modes only
+            modes = system.modes(compute.n_modes, accuracy=compute.accuracy, vectors=False, band=compute.band,
+                                 solver=compute.solver)
+        except REFUSALS as error:
+            raise step_error(scene, "modes", error) from error
     except SceneError as error:
         print(f"vibra modes: {error}", file=sys.stderr)
-        return 1
-    if scene.kind == "oscillator":
-        print(f"vibra modes: {path}: an oscillator scene has no normal modes to list", file=sys.stderr)
-        return 1
-    start = time.perf_counter()
-    try:
-        system = build_system(scene)
-        compute = scene.compute
-        modes = system.modes(compute.n_modes, accuracy=compute.accuracy, vectors=False, band=compute.band,
-                             solver=compute.solver)
-    except Exception as error:
-        print(f"vibra modes: {path}: {type(error).__name__}: {error}", file=sys.stderr)
-        return 1
+        return EXIT_FAILED
     seconds = time.perf_counter() - start
     print(f"{scene.title}: {modes.n_modes} of {system.n_dof} modes, solver {modes.solver}, {seconds:.3f} s")
     print("\n".join(frequency_lines(scene, modes)))
-    return 0
+    return EXIT_OK
 
 
 def _report(args: argparse.Namespace) -> int:
-    from vibra.report import report
+    from vibra.cluster import ClusterError
+    from vibra.report import FolderBusy, available_cores, missing_paths, report
 
+    missing = missing_paths(args.paths)
+    if missing:  # a typo: a usage error that touches nothing
+        print(f"vibra report: {missing[0]}: no such file or folder; expected scene files (*.toml) or folders of "
+              "them (nothing was written)", file=sys.stderr)
+        return EXIT_USAGE
     try:
-        result = report(args.paths, Path(args.out), jobs=args.jobs, force=args.force,
-                        window_size=args.window_size, progress=not args.quiet)
-    except ValueError as error:
+        result = report(args.paths, Path(args.out), jobs=args.jobs or available_cores(), force=args.force,
+                        window_size=args.window_size, progress=not args.quiet, wait=args.wait,
+                        scheduler=args.scheduler, timeout=args.timeout)
+    except (ValueError, FolderBusy, ClusterError, ImportError) as error:
         print(f"vibra report: {error}", file=sys.stderr)
-        return 1
+        return EXIT_FAILED
+    except OSError as error:  # the output folder refused (check_out_dir), or failed while writing
+        text = str(error) if not error.strerror else (
+            f"--out {args.out}: {error.strerror}" + (f" ({error.filename})" if error.filename else "")
+            + "; expected a writable folder")
+        print(f"vibra report: {text}", file=sys.stderr)
+        return EXIT_FAILED
     print(result.table())
     for outcome in result.failed:
-        print(f"\nFAILED {outcome.name}:\n{outcome.error}", file=sys.stderr)
+        print(f"FAILED {outcome.error}", file=sys.stderr)
+        if args.debug and outcome.detail:
+            print(outcome.detail, file=sys.stderr)
     print(f"open {Path(args.out) / 'index.html'}")
-    return 1 if result.failed else 0
+    return EXIT_FAILED if result.failed else EXIT_OK
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from vibra.charts import save_figure
+    from vibra.charts.sweep import sweep_figure
+    from vibra.cluster import ClusterError, check_client
+    from vibra.scene import SceneError
+    from vibra.sweep import grid, parse_vary, sweep
+
+    try:
+        points = grid(*(parse_vary(text) for text in args.vary))
+        if args.scheduler is not None:
+            check_client(args.scheduler, "--scheduler")
+    except (ValueError, TypeError) as error:  # a usage error: nothing is read or written
+        print(f"vibra sweep: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    if not Path(args.scene).is_file():
+        print(f"vibra sweep: {args.scene}: no such scene file; expected one scene file (*.toml) (nothing was written)",
+              file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        table = sweep(args.scene, points, client=args.scheduler, n_workers=args.jobs, timeout=args.timeout,
+                      chunk_size=args.chunk_size, progress=not args.quiet)
+        out = Path(args.out)
+        written = [table.to_csv(out / f"{table.name}_sweep.csv"), table.to_json(out / f"{table.name}_sweep.json"),
+                   save_figure(sweep_figure(table)[0], out / f"{table.name}_sweep.png")]
+    except SceneError as error:
+        print(f"vibra sweep: {error}", file=sys.stderr)
+        return EXIT_FAILED
+    except (ClusterError, ImportError, RuntimeError, ValueError, OSError) as error:
+        print(f"vibra sweep: {args.scene}: {' '.join(str(error).split())}", file=sys.stderr)
+        return EXIT_FAILED
+    print(f"{table.name}: {len(table.rows)} point(s) of {', '.join(table.keys)}, solver {table.rows[0].solver}")
+    for path in written:
+        print(f"wrote {path}")
+    return EXIT_OK
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -130,22 +253,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help()
-        return 2
+        return EXIT_USAGE
     try:
         if args.command == "validate":
             return _validate(args.paths)
         if args.command == "modes":
             return _modes(args.scene)
+        if args.command == "sweep":
+            return _sweep(args)
         return _report(args)
     except KeyboardInterrupt:
         print("\nvibra: interrupted; finished images are complete, unfinished scenes left no output",
               file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except BrokenPipeError:  # output piped into a reader that stopped (`vibra validate ... | head`)
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
-        return 1
+        return EXIT_FAILED
+    except Exception as error:  # a bug: one line, the traceback only when asked for
+        if args.debug:
+            import traceback
+
+            traceback.print_exc()
+        text = " ".join(str(error).split())[:300]
+        print(f"vibra {args.command}: internal error: {type(error).__name__}: {text}; rerun with --debug for "
+              "the traceback and report it", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

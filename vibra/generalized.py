@@ -11,6 +11,12 @@ that takes any system tells the two apart with `is_generalized`.
 
 Build one with ``vibra.System.generalized(M, K)`` (or `GeneralizedSystem.from_matrices`);
 `vibra.lagrangian.linearize` and `vibra.rigid` return them.
+
+With a skew-symmetric gyroscopic matrix G and/or a symmetric damping matrix C
+(``System.generalized(M, K, G=..., C=...)``) the equations are M q'' + (G + C) q' + K q = 0
+and `modes` returns a `vibra.quadratic.QuadraticModes` (natural frequency, damping ratio,
+complex shapes) instead of `Modes`. Without them a dense M goes through
+`vibra.pencil.pencil_modes`, which keeps the accuracy of ill-conditioned mass matrices.
 """
 
 from __future__ import annotations
@@ -26,6 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import _freeze_arrays
 from vibra.modes import Modes, normal_modes
+from vibra.pencil import check_mass_matrix, pencil_modes
+from vibra.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
 from vibra.units import UnitSystem, unit_system
 
 __all__ = ["GeneralizedSystem", "FreeDofs"]
@@ -86,6 +94,11 @@ class GeneralizedSystem(FreeDofs):
         The unit system of the system and of its results.
     name : str
         A short name used in reports.
+    G : (n_coordinates, n_coordinates) ndarray or None
+        Skew-symmetric gyroscopic matrix (kg m^2 / s for angles in SI), or None.
+    C : (n_coordinates, n_coordinates) ndarray or None
+        Symmetric damping matrix of the Rayleigh function R = 1/2 q'^T C q' (kg m^2 / s for
+        angles in SI), or None.
 
     Examples
     --------
@@ -104,6 +117,8 @@ class GeneralizedSystem(FreeDofs):
     labels: tuple[str, ...]
     units: UnitSystem
     name: str = "system"
+    G: NDArray[np.float64] | None = None
+    C: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
@@ -114,18 +129,26 @@ class GeneralizedSystem(FreeDofs):
         M: ArrayLike,
         K: ArrayLike,
         *,
+        G: ArrayLike | None = None,
+        C: ArrayLike | None = None,
         coordinates: Sequence[str] | None = None,
         units: str | UnitSystem = "SI",
         name: str = "system",
     ) -> GeneralizedSystem:
-        """The system M q'' + K q = 0 (the same as ``vibra.System.generalized``).
+        """The system M q'' + (G + C) q' + K q = 0 (the same as ``vibra.System.generalized``).
 
         Parameters
         ----------
         M : (n, n) or (n,) array_like
             Symmetric positive-definite mass matrix, or its diagonal (kg m^2 for angles in SI).
+            An ill-conditioned M is accepted; it is refused only when singular or indefinite
+            to working precision (`vibra.pencil.check_mass_matrix`).
         K : (n, n) array_like
             Symmetric stiffness matrix (J per rad^2 for angles in SI).
+        G : (n, n) array_like, optional
+            Skew-symmetric gyroscopic matrix (kg m^2 / s for angles in SI).
+        C : (n, n) array_like, optional
+            Symmetric damping matrix (kg m^2 / s for angles in SI).
         coordinates : sequence of str, optional
             Names of the coordinates (default ``q0, q1, ...``).
         units : str or UnitSystem
@@ -136,8 +159,10 @@ class GeneralizedSystem(FreeDofs):
         Raises
         ------
         ValueError
-            K not square, finite and symmetric; M not matching K or not positive definite;
-            the wrong number of coordinate names; unknown units.
+            K not square, finite and symmetric; M not matching K, or singular or indefinite
+            to working precision (the message gives its condition number); G not
+            skew-symmetric; C not symmetric; the wrong number of coordinate names; unknown
+            units.
 
         Examples
         --------
@@ -150,14 +175,24 @@ class GeneralizedSystem(FreeDofs):
             K_matrix = np.asarray(K_matrix.toarray())
         K_matrix = np.asarray(_validate.symmetric(K_matrix, "K"))
         n = K_matrix.shape[0]
-        M_matrix = _validate.mass_argument(M, n, "M")
+        if np.ndim(M) == 2 and not hasattr(M, "toarray"):
+            M_matrix = check_mass_matrix(M, n, "M")
+        else:
+            M_matrix = _validate.mass_argument(M, n, "M")
         if M_matrix.ndim == 1:
             M_matrix = np.diag(M_matrix)
+        G_matrix = check_gyroscopic(G, n, "G") if G is not None else None
+        C_matrix = None
+        if C is not None:
+            C_matrix = _validate.real_array(C, "C", ndim=2)
+            if C_matrix.shape != (n, n):
+                raise ValueError(f"C must be ({n}, {n}) to match K, got shape {C_matrix.shape}")
+            C_matrix = np.array(_validate.symmetric(C_matrix, "C"), dtype=float)
         names = tuple(coordinates) if coordinates is not None else tuple(f"q{i}" for i in range(n))
         if len(names) != n:
             raise ValueError(f"coordinates must name {n} coordinates, got {len(names)}")
         return cls(M=M_matrix, K=K_matrix, frozen=np.zeros(n, dtype=bool), labels=names,
-                   units=unit_system(units), name=name)
+                   units=unit_system(units), name=name, G=G_matrix, C=C_matrix)
 
     # ------------------------------------------------------------------ derived systems
     def freeze(self, sites: ArrayLike | None = None, dofs: ArrayLike | None = None) -> GeneralizedSystem:
@@ -218,6 +253,41 @@ class GeneralizedSystem(FreeDofs):
         free = self.free_dofs
         return np.array(self.M[np.ix_(free, free)])
 
+    def gyroscopic_matrix(self) -> NDArray[np.float64] | None:
+        """(n_dof, n_dof) skew gyroscopic matrix G over the free coordinates, or None."""
+        free = self.free_dofs
+        return None if self.G is None else np.array(self.G[np.ix_(free, free)])
+
+    def damping_matrix(self) -> NDArray[np.float64] | None:
+        """(n_dof, n_dof) symmetric damping matrix C over the free coordinates, or None.
+
+        Pass it to `vibra.response.frequency_response` / `transient_response` with
+        `hessian()` and `mass_matrix()` (as C).
+        """
+        free = self.free_dofs
+        return None if self.C is None else np.array(self.C[np.ix_(free, free)])
+
+    @property
+    def is_quadratic(self) -> bool:
+        """True when G or C is present: `modes` returns `QuadraticModes`."""
+        return self.G is not None or self.C is not None
+
+    def quadratic_modes(self) -> QuadraticModes:
+        """Modes of M q'' + (G + C) q' + K q = 0 over the free coordinates (`vibra.quadratic`).
+
+        Works without G and C too (then every damping ratio is 0 for a stable system).
+        Warns (RuntimeWarning) when the system is unstable.
+
+        Examples
+        --------
+        >>> import vibra
+        >>> charged = vibra.System.generalized(np.eye(2), np.eye(2), G=[[0.0, -1.0], [1.0, 0.0]])
+        >>> np.round(charged.quadratic_modes().natural_frequency, 9).tolist()   # sqrt(5)/2 -+ 1/2
+        [0.618033989, 1.618033989]
+        """
+        return quadratic_modes(self.mass_matrix(), self.hessian().toarray(), G=self.gyroscopic_matrix(),
+                               C=self.damping_matrix(), units=self.units)
+
     def modes(
         self,
         n_modes: int | None = None,
@@ -226,12 +296,31 @@ class GeneralizedSystem(FreeDofs):
         vectors: bool = True,
         band: tuple[float, float] | None = None,
         solver: str = "auto",
-    ) -> Modes:
+    ) -> Modes | QuadraticModes:
         """Normal modes of the free coordinates (seed 003 eqs. 137-151); see `vibra.System.modes`.
 
-        `accuracy` is checked for the same protocol as `vibra.System.modes`; with no spring
-        factor both values take the same path.
+        Returns `Modes`, or a `vibra.quadratic.QuadraticModes` when the system has G or C
+        (`is_quadratic`; all modes, so n_modes and band must be None there). A dense,
+        non-diagonal M with ``solver="auto"`` is solved by `vibra.pencil.pencil_modes`
+        (solver ``"pencil-jacobi"`` or ``"pencil-cholesky"``), which keeps the accuracy that
+        an ill-conditioned M would cost the mass-weighted form. `accuracy` is checked for
+        the same protocol as `vibra.System.modes`; with no spring factor both values take
+        the same path.
+
+        Raises
+        ------
+        ValueError
+            An unknown accuracy; n_modes or band with G or C.
         """
         _validate.choice(accuracy, "accuracy", ("high", "fast"))
-        return normal_modes(self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
+        if self.is_quadratic:
+            if n_modes is not None or band is not None:
+                raise ValueError("n_modes and band are not available for a system with G or C: "
+                                 "its modes are computed all at once (dense quadratic eigenproblem)")
+            return self.quadratic_modes()
+        mass = self.mass_matrix()
+        if solver == "auto" and np.count_nonzero(mass - np.diag(np.diag(mass))):
+            return pencil_modes(self.hessian().toarray(), mass, n_modes=n_modes, vectors=vectors, band=band,
+                                units=self.units)
+        return normal_modes(self.hessian(), mass, n_modes=n_modes, vectors=vectors, band=band,
                             solver=solver, units=self.units)

@@ -14,9 +14,11 @@ in seed 000 is the force function, i.e. minus the potential energy.
 
 Steady motions (seed 000, problem III, the rotating wheel): when a moving constraint has
 been eliminated, T may keep terms of degree 0 and 1 in q'. T0 = T(q, 0) then acts as a
-centrifugal potential and K = d2(V - T0)/dqdq; the degree-1 part must not couple the
-coordinates gyroscopically (its skew matrix d2T/dq'_i dq_j - d2T/dq'_j dq_i must vanish,
-always true for one coordinate), since a gyroscopic term has no place in M u'' + K u = 0.
+centrifugal potential and K = d2(V - T0)/dqdq; the degree-1 part gives the skew gyroscopic
+matrix G = N - N^T, N_ij = d2T/dq'_i dq_j (zero for one coordinate), kept in the system:
+M u'' + G u' + K u = 0. `linearize` also takes the Lagrangian L itself, a Rayleigh
+dissipation function (C), and sympy.physics.mechanics' LagrangesMethod and KanesMethod; it
+lives in `vibra.linearization` and is re-exported here.
 
 The module also holds seed 000's problem II, the double pendulum (two masses on a string):
 its linearised system, the closed forms (15), (16) and (19), and the full non-linear
@@ -25,9 +27,7 @@ equations (13) for `scipy.integrate.solve_ivp`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import sympy
@@ -36,8 +36,10 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import _freeze_arrays
 from vibra.generalized import GeneralizedSystem
-from vibra.system import System
+from vibra.linearization import EQUILIBRIUM_RTOL, linearize
 from vibra.units import UnitSystem
+
+_real_scalar = _validate.real_scalar
 
 __all__ = [
     "linearize",
@@ -50,273 +52,6 @@ __all__ = [
     "DoublePendulumMotion",
     "EQUILIBRIUM_RTOL",
 ]
-
-#: Default relative tolerance of the equilibrium check of `linearize` (see there).
-EQUILIBRIUM_RTOL = 1e-8
-
-# Digits used when sympy evaluates the derivatives numerically: well beyond float64, so the
-# numbers handed to numpy are correctly rounded.
-_EVALF_DIGITS = 30
-
-
-# ---------------------------------------------------------------------- linearize
-def linearize(
-    T: Any,
-    V: Any,
-    q: Sequence[Any],
-    qd: Sequence[Any],
-    q0: ArrayLike | Mapping[Any, float],
-    values: Mapping[Any, float] | None = None,
-    *,
-    rtol: float = EQUILIBRIUM_RTOL,
-    units: str | UnitSystem = "SI",
-    name: str = "linearized",
-) -> GeneralizedSystem:
-    """Linearise T(q, q') and V(q) about the equilibrium q0: a `GeneralizedSystem` with M and K.
-
-    M = d2T/dq'dq' and K = d2V/dqdq (seed 000 eq. 5 linearised; seed 003 eq. 134), both
-    evaluated at q = q0, q' = 0 with the parameter `values`. If T has terms of degree 0 in
-    q' (a steady motion, seed 000 problem III), K = d2(V - T(q, 0))/dqdq.
-
-    Parameters
-    ----------
-    T : sympy expression
-        Kinetic energy in the coordinates `q` and velocities `qd` (and parameters), in the
-        energy unit of `units` (J in SI).
-    V : sympy expression
-        Potential energy (not Vieille's force function) in `q` and parameters, same unit.
-    q : (n,) sequence of sympy.Symbol (or sympy.physics.mechanics dynamicsymbols)
-        The generalised coordinates; their names label the degrees of freedom.
-    qd : (n,) sequence of sympy.Symbol (or dynamicsymbols(..., 1))
-        The generalised velocities, qd[i] = dq[i]/dt.
-    q0 : (n,) array_like or mapping of coordinate to float
-        The operating point, in the units of the coordinates (rad for angles).
-    values : mapping of sympy.Symbol (or its name) to float, optional
-        A number for every other symbol of T and V (masses, lengths, g, ...).
-    rtol : float
-        Relative tolerance of the equilibrium check. q0 is accepted when, for every i,
-        |dV_eff/dq_i| <= rtol * (sum_terms |term of dV_eff/dq_i| + sum_j |K_ij| |q0_j|):
-        the first sum (the sizes of the separate forces that must cancel, e.g. gravity
-        against a spring) measures rounding in the forces, the second the generalised
-        force that an error of relative size rtol in q0 itself would leave.
-    units : str or UnitSystem
-        Unit system of the result ("SI": M in kg m^2 for angles, K in J/rad^2).
-    name : str
-        Name used in reports.
-
-    Returns
-    -------
-    GeneralizedSystem
-        In generalised coordinates (`System.generalized`), dense M (n, n) and K (n, n),
-        coordinates named ``str(q[i])``.
-
-    Raises
-    ------
-    TypeError
-        T or V not a sympy expression (strings are refused: they would be evaluated), an
-        entry of q or qd that is not a symbol, values or q0 of the wrong kind.
-    ValueError
-        q and qd of different lengths or with repeated or shared symbols; q0 of the wrong
-        length; a value that is not finite; symbols left without values; V depending on
-        a velocity; T or V not real at q0; q0 not an equilibrium (the message gives the
-        residual generalised force); T not positive definite at q0; gyroscopic terms.
-
-    Examples
-    --------
-    >>> import sympy
-    >>> from vibra.lagrangian import linearize
-    >>> th, thd, m, l, g = sympy.symbols("theta theta_dot m l g")
-    >>> system = linearize(m * l**2 * thd**2 / 2, -m * g * l * sympy.cos(th), [th], [thd],
-    ...                    [0.0], {m: 2.0, l: 0.5, g: 9.81})
-    >>> float(system.mass_matrix()[0, 0]), float(system.hessian().toarray()[0, 0])
-    (0.5, 9.81)
-    """
-    T_expr = _expression(T, "T")
-    V_expr = _expression(V, "V")
-    coordinates = _symbol_list(q, "q")
-    velocities = _symbol_list(qd, "qd")
-    if len(velocities) != len(coordinates):
-        raise ValueError(
-            f"q has {len(coordinates)} coordinate(s) but qd has {len(velocities)} velocity "
-            "symbol(s); give one velocity per coordinate"
-        )
-    for i, symbol in enumerate(velocities):
-        if symbol in coordinates:
-            raise ValueError(f"qd[{i}] ({symbol}) is also a coordinate in q; velocities need their own symbols")
-    n = len(coordinates)
-    point = _operating_point(q0, coordinates)
-    parameters = _parameter_values(values, coordinates, velocities)
-    rtol = _real_scalar(rtol, "rtol")
-    if not rtol > 0:
-        raise ValueError(f"rtol is {rtol!r}; it must be positive")
-
-    # Plain symbols stand in for the coordinates and velocities (dynamicsymbols are
-    # functions of t; velocities are replaced first, as they contain the coordinates).
-    q_dummy = [sympy.Dummy(f"q{i}") for i in range(n)]
-    qd_dummy = [sympy.Dummy(f"qd{i}") for i in range(n)]
-    swap = dict(zip(velocities, qd_dummy))
-    T_plain = T_expr.subs(swap).subs(dict(zip(coordinates, q_dummy)))
-    V_plain = V_expr.subs(swap).subs(dict(zip(coordinates, q_dummy)))
-    for i, symbol in enumerate(qd_dummy):
-        if V_plain.has(symbol):
-            raise ValueError(f"V depends on the velocity qd[{i}] ({velocities[i]}); V must be a function of q only")
-    resolved: dict[sympy.Basic, Any] = {}
-    missing = []
-    by_name = {str(s): v for s, v in parameters.items()}
-    for symbol in (T_plain.free_symbols | V_plain.free_symbols) - set(q_dummy) - set(qd_dummy):
-        # A value keyed by a symbol, or by its name (whatever the symbol's assumptions:
-        # sympy.Symbol("m") != sympy.Symbol("m", positive=True)).
-        value = parameters.get(symbol, by_name.get(str(symbol)))
-        if value is None:
-            missing.append(str(symbol))
-        else:
-            resolved[symbol] = sympy.Float(value, _EVALF_DIGITS)
-    if missing:
-        raise ValueError(
-            f"symbols left without values: {sorted(missing)}; give a number for each in values "
-            "(or list it in q / qd if it is a coordinate or velocity)"
-        )
-
-    at_point: dict[sympy.Basic, Any] = dict(resolved)
-    at_point.update({s: sympy.Float(float(v), _EVALF_DIGITS) for s, v in zip(q_dummy, point)})
-    at_point.update({s: sympy.Integer(0) for s in qd_dummy})
-
-    # Mass matrix, positive definite at q0.
-    M = np.empty((n, n))
-    for i in range(n):
-        for j in range(i, n):
-            M[i, j] = M[j, i] = _number(sympy.diff(T_plain, qd_dummy[i], qd_dummy[j]), at_point, f"d2T/dqd[{i}]dqd[{j}]")
-    eigenvalues = np.linalg.eigvalsh(M)
-    if not eigenvalues[0] > 1e-12 * max(abs(eigenvalues[-1]), np.finfo(float).tiny):
-        raise ValueError(
-            f"T is not positive definite at q0: the mass matrix d2T/dqd2 has eigenvalues "
-            f"{np.array2string(eigenvalues, precision=4)}; every direction of motion needs kinetic energy"
-        )
-
-    # Gyroscopic part of the terms of degree 1 in q' (steady motions): must vanish.
-    if n > 1:
-        mixed = np.empty((n, n))
-        for i in range(n):
-            for j in range(n):
-                mixed[i, j] = _number(sympy.diff(T_plain, qd_dummy[i], q_dummy[j]), at_point, f"d2T/dqd[{i}]dq[{j}]")
-        gyroscopic = mixed - mixed.T
-        # A degree-1 part b(q) . q' that is a gradient (no coupling) cancels here to rounding.
-        if np.abs(gyroscopic).max() > 1e-10 * np.abs(mixed).max():
-            i, j = (int(x) for x in np.unravel_index(np.argmax(np.abs(gyroscopic)), gyroscopic.shape))
-            raise ValueError(
-                f"T has gyroscopic (velocity-coupling) terms at q0: d2T/dqd[{i}]dq[{j}] - "
-                f"d2T/dqd[{j}]dq[{i}] = {gyroscopic[i, j]:.4g}; M u'' + K u = 0 cannot hold them"
-            )
-
-    # Effective potential, its gradient (the equilibrium check) and Hessian.
-    effective = V_plain - T_plain.subs({s: 0 for s in qd_dummy})
-    gradient = [sympy.diff(effective, s) for s in q_dummy]
-    K = np.empty((n, n))
-    for i in range(n):
-        for j in range(i, n):
-            K[i, j] = K[j, i] = _number(sympy.diff(gradient[i], q_dummy[j]), at_point, f"d2V/dq[{i}]dq[{j}]")
-    force = np.empty(n)
-    scale = np.empty(n)
-    for i in range(n):
-        force[i] = -_number(gradient[i], at_point, f"dV/dq[{i}]")
-        terms = sympy.Add.make_args(sympy.expand(gradient[i]))
-        scale[i] = sum(abs(_number(term, at_point, f"dV/dq[{i}]")) for term in terms)
-    scale += np.abs(K) @ np.abs(point)
-    excess = np.abs(force) - rtol * scale
-    if (excess > 0).any():
-        i = int(np.argmax(excess))
-        raise ValueError(
-            f"q0 is not an equilibrium: the generalised force -dV/dq at q0 is "
-            f"{np.array2string(force, precision=6)}; |Q[{i}]| = {abs(force[i]):.4g} for "
-            f"{coordinates[i]} exceeds rtol * scale = {rtol:g} * {scale[i]:.4g}"
-        )
-    return System.generalized(M, K, coordinates=[str(s) for s in coordinates], units=units, name=name)
-
-
-# ---------------------------------------------------------------------- input checks
-_real_scalar = _validate.real_scalar
-
-
-def _expression(value: Any, name: str) -> sympy.Expr:
-    if isinstance(value, str):
-        raise TypeError(f"{name} must be a sympy expression, got a str (strings are not evaluated)")
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return sympy.Float(value)
-    if not isinstance(value, sympy.Expr):
-        raise TypeError(f"{name} must be a sympy expression, got {type(value).__name__}")
-    return value
-
-
-def _symbol_list(value: Any, name: str) -> list[sympy.Expr]:
-    if isinstance(value, (str, sympy.Basic)) or not isinstance(value, Sequence):
-        raise TypeError(f"{name} must be a list of sympy symbols, got {type(value).__name__}")
-    if len(value) == 0:
-        raise ValueError(f"{name} is empty; give at least one coordinate")
-    out: list[sympy.Expr] = []
-    for i, item in enumerate(value):
-        is_function = isinstance(item, sympy.core.function.AppliedUndef)
-        is_derivative = isinstance(item, sympy.Derivative) and isinstance(item.expr, sympy.core.function.AppliedUndef)
-        if not (isinstance(item, sympy.Symbol) or is_function or is_derivative):
-            raise TypeError(f"{name}[{i}] must be a sympy Symbol (or dynamicsymbol), got {item!r} of type {type(item).__name__}")
-        if item in out:
-            raise ValueError(f"{name}[{i}] repeats {name}[{out.index(item)}] ({item}); every symbol must be distinct")
-        out.append(item)
-    return out
-
-
-def _operating_point(q0: Any, coordinates: list[sympy.Expr]) -> NDArray[np.float64]:
-    n = len(coordinates)
-    if isinstance(q0, Mapping):
-        point = np.empty(n)
-        by_name = {str(k): v for k, v in q0.items()}
-        for i, symbol in enumerate(coordinates):
-            if symbol in q0:
-                raw = q0[symbol]
-            elif str(symbol) in by_name:
-                raw = by_name[str(symbol)]
-            else:
-                raise ValueError(f"q0 has no value for coordinate q[{i}] ({symbol})")
-            point[i] = _real_scalar(raw, f"q0[{symbol}]")
-        unknown = sorted(str(k) for k in q0 if k not in coordinates and str(k) not in {str(c) for c in coordinates})
-        if unknown:
-            raise ValueError(f"q0 names {unknown}, which are not coordinates in q")
-        return point
-    point = _validate.real_array(q0, "q0", ndim=1)
-    if point.shape[0] != n:
-        raise ValueError(f"q0 must have {n} value(s), one per coordinate in q, got {point.shape[0]}")
-    return point
-
-
-def _parameter_values(values: Any, coordinates: list[sympy.Expr], velocities: list[sympy.Expr]
-                      ) -> dict[sympy.Symbol, float]:
-    if values is None:
-        return {}
-    if not isinstance(values, Mapping):
-        raise TypeError(f"values must be a mapping of symbol to number, got {type(values).__name__}")
-    out: dict[sympy.Symbol, float] = {}
-    for key, raw in values.items():
-        if isinstance(key, str):
-            symbol = sympy.Symbol(key)
-        elif isinstance(key, sympy.Symbol):
-            symbol = key
-        else:
-            raise TypeError(f"values has key {key!r} of type {type(key).__name__}; keys must be sympy Symbols or names")
-        if symbol in coordinates or symbol in velocities:
-            raise ValueError(f"values gives a number to {symbol}, a coordinate or velocity; the operating point goes in q0")
-        if isinstance(raw, bool) or not isinstance(raw, (int, float, np.integer, np.floating, sympy.Number)):
-            raise TypeError(f"values[{symbol}] must be a real number, got {type(raw).__name__}")
-        number = float(raw)
-        if not np.isfinite(number):
-            raise ValueError(f"values[{symbol}] is {number!r}; every value must be finite")
-        out[symbol] = number
-    return out
-
-
-def _number(expression: sympy.Expr, at_point: Mapping[sympy.Basic, Any], what: str) -> float:
-    value = complex(sympy.N(expression.subs(at_point), _EVALF_DIGITS))
-    if not np.isfinite(value.real) or abs(value.imag) > 1e-12 * max(abs(value.real), 1.0):
-        raise ValueError(f"{what} is {value} at q0; T and V must be real and finite there")
-    return value.real
 
 
 # ---------------------------------------------------------------------- double pendulum

@@ -7,7 +7,16 @@ from the amplitude theta0 has the period
 
 (K the complete elliptic integral of the first kind in scipy's parameter convention
 m = k^2), and the closed form sin(theta/2) = k cd(Omega t | k^2), with cd = cn / dn the
-Jacobi elliptic functions. The harmonic approximation theta0 cos(Omega t) has the period
+Jacobi elliptic functions.
+
+Near the top (theta0 -> pi) everything depends on the small complementary parameter
+m1 = 1 - m = cos^2(theta0 / 2), which is computed directly (never as 1 - sin^2): the period
+is 4 K(m) = 4 ellipkm1(m1), and the motion uses Jacobi functions evaluated from m1 by the
+arithmetic-geometric mean after reducing Omega t modulo the period, so both stay accurate
+to a few ulps up to theta0 = pi. ``amplitude = np.pi`` is read as pi itself, the
+separatrix: an infinite period, and a pendulum released at rest on top stays there;
+`separatrix_motion` is the motion on the separatrix that takes infinite time to reach it,
+theta = 2 arcsin(tanh(Omega t)). The harmonic approximation theta0 cos(Omega t) has the period
 2 pi / Omega whatever the amplitude (seed 003 section 2.5); its period error grows as
 theta0^2 / 16 and its trajectory error over a fixed number of periods as theta0^3.
 
@@ -35,6 +44,7 @@ __all__ = [
     "PendulumMotion",
     "HarmonicError",
     "exact_period",
+    "separatrix_motion",
     "harmonic_period",
     "exact_motion",
     "harmonic_motion",
@@ -60,8 +70,9 @@ class PendulumMotion:
     eta : float
         Linear friction rate (seed 003 example 6), in 1 / time unit; 0 without friction.
     method : str
-        ``"elliptic"`` (Jacobi closed form), ``"harmonic"`` (theta0 cos(Omega t) and its
-        damped counterpart) or ``"solve_ivp"`` (DOP853 integration).
+        ``"elliptic"`` (Jacobi closed form), ``"separatrix"`` (`separatrix_motion`),
+        ``"harmonic"`` (theta0 cos(Omega t) and its damped counterpart) or ``"solve_ivp"``
+        (DOP853 integration).
     """
 
     t: NDArray[np.float64]
@@ -147,26 +158,79 @@ def _amplitudes(amplitude: ArrayLike, name: str = "amplitude") -> NDArray[np.flo
         values = np.asarray(_real_scalar(amplitude, name))
     else:
         values = _validate.real_array(amplitude, name, ndim=1)
-    bad = ~((values > 0) & (values < np.pi))
+    bad = ~((values > 0) & (values <= np.pi))
     if bad.any():
         index = int(np.argmax(np.atleast_1d(bad)))
         shown = f"{name}[{index}]" if values.ndim else name
         raise ValueError(
-            f"{shown} is {float(np.atleast_1d(values)[index])!r} rad; a release angle must lie in (0, pi) "
-            "(at pi the pendulum stands on its unstable equilibrium and never swings)"
+            f"{shown} is {float(np.atleast_1d(values)[index])!r} rad; a release angle must lie in (0, pi] "
+            "(a period depends on |theta0| only; pi itself is the separatrix, of infinite period)"
         )
     return values
 
 
 def _release_angle(angle: float) -> float:
-    """A starting angle of a motion released at rest: |theta0| < pi (0 is the trivial rest)."""
+    """A starting angle of a motion released at rest: |theta0| <= pi (0 is the trivial rest)."""
     value = _real_scalar(angle, "amplitude")
-    if not abs(value) < np.pi:
+    if not abs(value) <= np.pi:
         raise ValueError(
-            f"amplitude is {value!r} rad; a release angle must lie in (-pi, pi) "
-            "(at +-pi the pendulum stands on its unstable equilibrium and never swings)"
+            f"amplitude is {value!r} rad; a release angle must lie in [-pi, pi] "
+            "(beyond pi the same motion is released from theta0 - 2 pi)"
         )
     return value
+
+
+def _complement(theta0: NDArray[np.float64]) -> NDArray[np.float64]:
+    """m1 = cos^2(theta0 / 2) = 1 - sin^2(theta0 / 2), without cancellation; 0 at theta0 = np.pi."""
+    half = np.cos(0.5 * np.abs(theta0))
+    return np.where(np.abs(theta0) == np.pi, 0.0, half * half)
+
+
+def jacobi_sn_cn_dn(u: ArrayLike, m: float, m1: float
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """sn, cn, dn(u | m), 0 <= m <= 1 given with its complement m1 = 1 - m (both accurate).
+
+    For m < 1/2 scipy's `ellipj` (Cephes' arithmetic-geometric mean) is accurate. Nearer to
+    1 the AGM's backward phase recursion takes arcsin of numbers close to 1 and loses digits,
+    so the ascending Landen transformation (Abramowitz and Stegun 16.14) is applied instead:
+    m -> mu = 4k / (1 + k)^2 with complement mu1 = ((1 - k) / (1 + k))^2, where
+    1 - k = m1 / (1 + k) keeps the small quantity, until the complement is below 1e-18 of
+    the first one; there sn, cn, dn are tanh, sech, sech plus their first-order terms in the
+    complement (A&S 16.15). Accurate to a few ulps absolute for |u| <= K(m).
+
+    Examples
+    --------
+    >>> sn, cn, dn = jacobi_sn_cn_dn(np.array([0.5]), 1.0 - 1e-20, 1e-20)
+    >>> bool(abs(sn[0] - np.tanh(0.5)) < 1e-15)
+    True
+    """
+    x = np.asarray(u, dtype=float)
+    if m < 0.5:
+        sn, cn, dn, _ = special.ellipj(x, m)
+        return sn, cn, dn
+    chain: list[float] = []   # sqrt(mu1) of each ascending step
+    complement, root = m1, np.sqrt(m)
+    while complement * 16.0 > 1e-18 * m1 and len(chain) < 64:
+        one_minus_k = complement / (1.0 + root)
+        ratio = one_minus_k / (1.0 + root)            # sqrt(mu1) = (1 - k) / (1 + k)
+        chain.append(ratio)
+        x = x / (1.0 + ratio)
+        complement = ratio * ratio
+        root = np.sqrt(4.0 * root) / (1.0 + root)     # sqrt(mu) = 2 sqrt(k) / (1 + k)
+    tanh, sech = np.tanh(x), 1.0 / np.cosh(x)
+    product = np.sinh(x) * np.cosh(x)
+    sn = tanh + 0.25 * complement * (product - x) * sech * sech
+    cn = sech - 0.25 * complement * (product - x) * tanh * sech
+    dn = sech + 0.25 * complement * (product + x) * tanh * sech
+    for ratio in reversed(chain):
+        mu = (1.0 - ratio) * (1.0 + ratio)            # the parameter one level down: 1 - mu1
+        sn, cn, dn = ((1.0 + ratio) * sn * cn / dn,
+                      (1.0 + ratio) / mu * (dn * dn - ratio) / dn,
+                      (1.0 - ratio) / mu * (dn * dn + ratio) / dn)
+    return sn, cn, dn
+
+
+_EPS = float(np.finfo(float).eps)
 
 
 _times = _validate.increasing_times
@@ -179,10 +243,14 @@ _tolerances = _validate.integration_tolerances
 def exact_period(amplitude: ArrayLike, omega: float = 1.0) -> NDArray[np.float64]:
     """Exact period 4 K(sin^2(theta0/2)) / Omega of the pendulum released at rest.
 
+    Computed as 4 ellipkm1(cos^2(theta0/2)) / Omega, which keeps the small complement
+    1 - sin^2(theta0/2): a few ulps relative up to theta0 = pi (inf at ``np.pi``, the
+    separatrix).
+
     Parameters
     ----------
     amplitude : float or (n,) array_like
-        Release angle theta0, in rad, in (0, pi).
+        Release angle theta0, in rad, in (0, pi] (np.pi: the separatrix).
     omega : float
         Omega = sqrt(g / l), in rad per time unit.
 
@@ -196,7 +264,7 @@ def exact_period(amplitude: ArrayLike, omega: float = 1.0) -> NDArray[np.float64
     TypeError
         amplitude or omega not real numbers.
     ValueError
-        An amplitude outside (0, pi) (a period depends on |theta0| only); omega not positive.
+        An amplitude outside (0, pi] (a period depends on |theta0| only); omega not positive.
 
     Examples
     --------
@@ -209,7 +277,9 @@ def exact_period(amplitude: ArrayLike, omega: float = 1.0) -> NDArray[np.float64
     1.180341
     """
     theta0 = _amplitudes(amplitude)
-    return 4.0 * special.ellipk(np.sin(0.5 * theta0) ** 2) / _omega(omega)
+    w = _omega(omega)
+    with np.errstate(divide="ignore"):
+        return 4.0 * special.ellipkm1(_complement(theta0)) / w
 
 
 def harmonic_period(omega: float = 1.0) -> float:
@@ -230,7 +300,8 @@ def exact_motion(amplitude: float, t: ArrayLike, omega: float = 1.0) -> Pendulum
     Parameters
     ----------
     amplitude : float
-        Release angle theta0, in rad, in (-pi, pi) (negative: released on the other side).
+        Release angle theta0, in rad, in [-pi, pi] (negative: released on the other side;
+        +-np.pi: at rest on the top, where it stays).
     t : (n_t,) array_like
         Increasing times, in time units (t = 0 is the release).
     omega : float
@@ -239,15 +310,17 @@ def exact_motion(amplitude: float, t: ArrayLike, omega: float = 1.0) -> Pendulum
     Returns
     -------
     PendulumMotion
-        method ``"elliptic"``; theta' = 2 k Omega (d cd/du) / cos(theta/2), with
-        d cd/du = -(1 - k^2) sn / dn^2.
+        method ``"elliptic"``. With v = K - Omega t (reduced modulo the period 4K), the
+        motion is sin(theta/2) = k sn(v), cos(theta/2) = dn(v), theta' = -2 k Omega cn(v),
+        with the Jacobi functions of parameter m = k^2 taken from m1 = cos^2(theta0/2)
+        (`jacobi_sn_cn_dn`): a few ulps up to theta0 = pi.
 
     Raises
     ------
     TypeError
         amplitude or omega not a real number.
     ValueError
-        |amplitude| >= pi; omega not positive; t not 1-D, finite and increasing.
+        |amplitude| > pi; omega not positive; t not 1-D, finite and increasing.
 
     Examples
     --------
@@ -258,11 +331,64 @@ def exact_motion(amplitude: float, t: ArrayLike, omega: float = 1.0) -> Pendulum
     theta0 = _release_angle(amplitude)
     times = _times(t)
     w = _omega(omega)
-    k = np.sin(0.5 * theta0)
-    sn, cn, dn, _ = special.ellipj(w * times, k * k)
-    half = np.arcsin(np.clip(k * cn / dn, -1.0, 1.0))
-    theta_dot = 2.0 * k * w * (-(1.0 - k * k) * sn / dn**2) / np.cos(half)
-    return PendulumMotion(t=times, theta=2.0 * half, theta_dot=theta_dot, omega=w, eta=0.0, method="elliptic")
+    if abs(theta0) == np.pi:  # at rest on the unstable top: it stays there
+        return PendulumMotion(t=times, theta=np.full(times.shape, theta0), theta_dot=np.zeros(times.shape),
+                              omega=w, eta=0.0, method="elliptic")
+    k = np.sin(0.5 * abs(theta0))
+    m1 = float(_complement(np.asarray(theta0)))
+    quarter = float(special.ellipkm1(m1))
+    # v = K - Omega t, reduced into [-K, K] with sn(v + 2K) = -sn v, cn(v + 2K) = -cn v, dn(v + 2K) = dn v.
+    v = np.mod(quarter - w * times + 2.0 * quarter, 4.0 * quarter) - 2.0 * quarter
+    flip = np.where(np.abs(v) > quarter, -1.0, 1.0)
+    v = np.where(v > quarter, v - 2.0 * quarter, np.where(v < -quarter, v + 2.0 * quarter, v))
+    sn, cn, dn = jacobi_sn_cn_dn(v, k * k, m1)
+    sign = np.sign(theta0)
+    theta = 2.0 * sign * np.arctan2(k * flip * sn, dn)
+    theta_dot = -2.0 * sign * k * w * flip * cn
+    return PendulumMotion(t=times, theta=theta, theta_dot=theta_dot, omega=w, eta=0.0, method="elliptic")
+
+
+def separatrix_motion(t: ArrayLike, omega: float = 1.0) -> PendulumMotion:
+    """The motion on the separatrix (energy 2 Omega^2): theta = 2 arcsin(tanh(Omega t)).
+
+    It passes the bottom at t = 0 with theta' = 2 Omega and creeps up to the top, theta -> pi
+    as t -> +inf (and -> -pi as t -> -inf): the limit of `exact_motion` as theta0 -> pi,
+    whose period 4 K / Omega grows like 4 ln(8 / (pi - theta0)) / Omega.
+
+    Parameters
+    ----------
+    t : (n_t,) array_like
+        Increasing times, in time units (any sign).
+    omega : float
+        Omega, in rad per time unit.
+
+    Returns
+    -------
+    PendulumMotion
+        method ``"separatrix"``: theta = 2 arctan(sinh(Omega t)) (twice the Gudermannian,
+        the same as 2 arcsin(tanh(Omega t)) without its rounding near the top) and
+        theta' = 2 Omega / cosh(Omega t).
+
+    Raises
+    ------
+    TypeError
+        omega not a real number.
+    ValueError
+        omega not positive; t not 1-D, finite and increasing.
+
+    Examples
+    --------
+    >>> motion = separatrix_motion([0.0, 1.0, 40.0])
+    >>> motion.theta.round(12).tolist(), float(motion.theta_dot[0])
+    ([0.0, 1.731538966479, 3.14159265359], 2.0)
+    """
+    times = _times(t)
+    w = _omega(omega)
+    x = w * times
+    # sin(theta/2) = tanh x, cos(theta/2) = sech x: theta / 2 = atan2(sinh x, 1), the Gudermannian.
+    theta = 2.0 * np.arctan(np.sinh(x))
+    theta_dot = 2.0 * w / np.cosh(x)
+    return PendulumMotion(t=times, theta=theta, theta_dot=theta_dot, omega=w, eta=0.0, method="separatrix")
 
 
 def harmonic_motion(amplitude: float, t: ArrayLike, omega: float = 1.0, *, eta: float = 0.0) -> PendulumMotion:
@@ -397,7 +523,7 @@ def harmonic_error(
     Parameters
     ----------
     amplitudes : (n,) array_like
-        Release angles theta0 (at rest), in rad, in (0, pi).
+        Release angles theta0 (at rest), in rad, in (0, pi].
     omega : float
         Omega, in rad per time unit.
     n_periods : float
@@ -414,7 +540,7 @@ def harmonic_error(
     TypeError
         A scalar argument that is not a real number; n_points not an int.
     ValueError
-        An amplitude outside (0, pi); omega or n_periods not positive; n_points < 2.
+        An amplitude outside (0, pi]; omega or n_periods not positive; n_points < 2.
 
     Examples
     --------

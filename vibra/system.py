@@ -317,15 +317,19 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         M: ArrayLike,
         K: ArrayLike,
         *,
+        G: ArrayLike | None = None,
+        C: ArrayLike | None = None,
         coordinates: Sequence[str] | None = None,
         units: str | UnitSystem = "SI",
         name: str = "system",
     ) -> GeneralizedSystem:
-        """A system in generalised coordinates q: T = 1/2 q'^T M q', V = 1/2 q^T K q.
+        """A system in generalised coordinates q: M q'' + (G + C) q' + K q = 0.
 
         Returns a `vibra.generalized.GeneralizedSystem` built by its `from_matrices` (see
         there for the parameters, in the same order, and the checks): M (n, n) symmetric
-        positive definite (or its diagonal), K (n, n) symmetric, optional coordinate names.
+        positive definite (or its diagonal; ill-conditioned is fine), K (n, n) symmetric,
+        optional G (skew-symmetric, gyroscopic) and C (symmetric, damping), optional
+        coordinate names. With G or C, ``modes()`` returns a `vibra.quadratic.QuadraticModes`.
         It has no sites: ``freeze(sites=...)`` raises, ``freeze(dofs=...)`` holds coordinates
         at rest.
 
@@ -335,7 +339,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         >>> system.is_generalized, system.labels, system.modes().omega.tolist()
         (True, ('a', 'b'), [1.0, 2.0])
         """
-        return GeneralizedSystem.from_matrices(M, K, coordinates=coordinates, units=units, name=name)
+        return GeneralizedSystem.from_matrices(M, K, G=G, C=C, coordinates=coordinates, units=units, name=name)
 
     # ------------------------------------------------------------------ derived systems
     def with_masses(self, masses: ArrayLike) -> System:

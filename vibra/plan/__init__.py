@@ -11,15 +11,18 @@ computed, by which solver, its accuracy figure and its wall time.
 - `vibra.plan.build`: `build_system` (builders from the fixed table `BUILD_FUNCTIONS`;
   nothing from a scene file is imported or executed).
 - `vibra.plan.analysis`: what drawings need computed (symmetry and IR hints, dispersion).
+- `vibra.plan.checks`: `check_plan` (what validate checks on the built system) and
+  `step_error` (a failing step -> a `SceneError` at the scene key that controls it).
 - `vibra.plan.steps`: `execute` and the step functions.
 """
 
 from __future__ import annotations
 
 from vibra.plan.build import build_system
+from vibra.plan.checks import REFUSALS, check_plan, step_error, validate
 from vibra.plan.model import Plan, PlanResult, Step, StepRecord, make_plan
 from vibra.plan.steps import execute, frequency_lines
 from vibra.scene import BUILD_FUNCTIONS
 
 __all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "execute", "BUILD_FUNCTIONS",
-           "build_system", "frequency_lines"]
+           "build_system", "frequency_lines", "check_plan", "step_error", "validate", "REFUSALS"]

@@ -3,6 +3,7 @@
 - `inversion_parity`: g/u parity of a mode of a centrosymmetric molecule (mutual exclusion).
 - `symmetry_hints`: per-mode symmetry and IR-activity text of a molecule (parity, and the
   point-charge IR intensities of `vibra.spectra`).
+- `dispersion_branches`: omega(q) of a chain scene's parameters over its Brillouin zone.
 - `chain_dispersion`: the dispersion branches of a chain scene and the wavenumber of each of
   its finite chain's modes (`vibra.continuum`), for the dispersion chart.
 """
@@ -15,7 +16,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["inversion_parity", "symmetry_hints", "DispersionCurves", "chain_dispersion"]
+__all__ = ["inversion_parity", "symmetry_hints", "DispersionCurves", "chain_dispersion", "dispersion_branches"]
 
 #: A mode whose point-charge IR intensity is below this fraction of the strongest is IR-inactive.
 IR_INACTIVE_FRACTION = 1e-8
@@ -149,6 +150,27 @@ class DispersionCurves:
             object.__setattr__(self, name, array)
 
 
+def dispersion_branches(parameters: Any, *, n_q: int = 400) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(q, branches): omega(q) of a ``linear_chain`` / ``diatomic_chain`` scene over its Brillouin zone.
+
+    Parameters
+    ----------
+    parameters : Mapping
+        ``mass`` (a number) or ``masses`` (a pair), ``stiffness`` (a number or a pair), ``spacing``.
+    n_q : int
+        Points along q (2: the zone's ends, a cheap check).
+    """
+    from vibra.continuum import dispersion
+
+    masses = parameters["mass"] if "mass" in parameters else tuple(parameters["masses"])
+    stiffness = parameters["stiffness"]
+    stiffness = tuple(stiffness) if isinstance(stiffness, (tuple, list)) else stiffness
+    spacing = parameters["spacing"]
+    n_branches = dispersion(np.zeros(1), masses=masses, stiffness=stiffness, spacing=spacing).shape[0]
+    q = np.linspace(0.0, np.pi / (n_branches * spacing), n_q)
+    return q, dispersion(q, masses=masses, stiffness=stiffness, spacing=spacing)
+
+
 def chain_dispersion(parameters: Any, modes: Any, *, n_q: int = 400) -> DispersionCurves:
     """Dispersion of a ``linear_chain`` / ``diatomic_chain`` scene's parameters, with its modes placed.
 
@@ -162,15 +184,10 @@ def chain_dispersion(parameters: Any, modes: Any, *, n_q: int = 400) -> Dispersi
     n_q : int
         Points along q.
     """
-    from vibra.continuum import assign_wavenumbers, dispersion
+    from vibra.continuum import assign_wavenumbers
 
-    masses = parameters["mass"] if "mass" in parameters else tuple(parameters["masses"])
-    stiffness = parameters["stiffness"]
-    stiffness = tuple(stiffness) if isinstance(stiffness, (tuple, list)) else stiffness
+    q, branches = dispersion_branches(parameters, n_q=n_q)
     spacing = parameters["spacing"]
-    n_branches = dispersion(np.zeros(1), masses=masses, stiffness=stiffness, spacing=spacing).shape[0]
-    q = np.linspace(0.0, np.pi / (n_branches * spacing), n_q)
-    branches = dispersion(q, masses=masses, stiffness=stiffness, spacing=spacing)
-    mode_q = assign_wavenumbers(modes, ends=parameters["ends"], spacing=spacing, sites_per_cell=n_branches)
+    mode_q = assign_wavenumbers(modes, ends=parameters["ends"], spacing=spacing, sites_per_cell=branches.shape[0])
     return DispersionCurves(q=q, branches=branches, mode_q=mode_q, mode_omega=np.asarray(modes.omega),
                             n_sites=int(modes.n_dof), ends=str(parameters["ends"]))

@@ -32,7 +32,7 @@ def build_system(scene: Scene) -> Any:
     except (ValueError, TypeError) as error:
         if isinstance(error, SceneError):
             raise
-        message = str(error)
+        message = str(error).replace("; pass symmetrize=True to use (K + K^T) / 2", "; a scene's K must be symmetric")
         first = message.split(" ", 1)[0].split("[", 1)[0]
         key = f"system.{first}" if first in scene.system.parameters else "system"
         raise SceneError(scene.source, key, message) from error

@@ -19,6 +19,7 @@ import numpy as np
 from vibra._io import atomic_write_text
 from vibra.plan.analysis import chain_dispersion, symmetry_hints
 from vibra.plan.build import build_system
+from vibra.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.plan.model import Plan, PlanResult, StepRecord
 from vibra.scene import Scene
 
@@ -102,7 +103,10 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
             if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule"):
                 from vibra.render import SceneRenderer
                 renderer = SceneRenderer(plan.scene.draw.window_size)
-            solver, accuracy = STEPS[step.name](plan, context, renderer)
+            try:
+                solver, accuracy = STEPS[step.name](plan, context, renderer)
+            except REFUSALS as error:  # a library refusal or a failed solve: one line at the step's key
+                raise step_error(plan.scene, step.name, error) from error
             seconds = time.perf_counter() - start
             records.append(StepRecord(name=step.name, what=step.what, seconds=seconds, solver=solver,
                                       accuracy=accuracy, outputs=tuple(context.outputs[before:])))
@@ -119,6 +123,7 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
 def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     context.system = build_system(plan.scene)
     system = context.system
+    check_plan(plan.scene, system)  # what validate checks: solver fits, response grid off the poles
     if plan.scene.kind == "oscillator":
         return None, None
     return None, f"{system.n_dof} degrees of freedom"
@@ -128,9 +133,9 @@ def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
     compute = plan.scene.compute
     context.modes = context.system.modes(plan.n_modes, accuracy=compute.accuracy, vectors=plan.vectors,
                                          band=compute.band, solver=compute.solver)
-    if context.modes.n_modes == 0 and compute.band is not None:  # only a band can come back empty
-        raise RuntimeError(f"compute.band: no mode has omega in [{compute.band[0]:g}, {compute.band[1]:g}] "
-                           f"{context.modes.units.omega}; nothing to list or draw")
+    error = empty_band(plan.scene, context.modes)  # only a band can come back empty
+    if error is not None:
+        raise error
     return context.modes.solver, _accuracy_text(context.modes)
 
 
@@ -170,17 +175,12 @@ def _step_response(plan: Plan, context: _Context, renderer: Any) -> tuple[str | 
 
     r = plan.scene.compute.response
     assert r is not None  # make_plan adds this step only with a response table
-    omegas = np.linspace(r.omega_min, r.omega_max, r.n_points)
     if plan.scene.kind == "oscillator":
-        context.response = omegas
+        context.response = np.linspace(r.omega_min, r.omega_max, r.n_points)
         return "closed form (seed 003 eq. 120)", None
     system = context.system
-    force = np.zeros(system.n_dof)
-    force[r.force_site] = 1.0
-    K, M = system.hessian(), system.mass_matrix()
-    C = response.rayleigh_damping(K, M, r.alpha, r.beta)
-    method: Any = r.method  # "direct" or "modal", checked by the scene schema
-    result = response.frequency_response(K, M, C, omegas, force, method=method, n_modes=r.n_modes,
+    K, M, C, omegas, force, method, n_modes = response_request(plan.scene, system)
+    result = response.frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes,
                                          units=system.units)
     context.response = result
     error = float(np.max(result.truncation_error)) if len(result.truncation_error) else 0.0

@@ -26,6 +26,7 @@ table, and every value is a number, a string, a boolean or a list of those.
 from __future__ import annotations
 
 import os
+import stat
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +48,7 @@ else:  # pragma: no cover - Python 3.10
 __all__ = [
     "SceneError", "Scene", "SystemSpec", "ComputeSpec", "ResponseSpec", "ContinuumSpec",
     "DrawSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
-    "tomllib",
+    "tomllib", "MAX_SCENE_BYTES", "MAX_SCENE_DEPTH", "read_scene_bytes", "parse_scene_text",
 ]
 
 
@@ -148,27 +149,120 @@ class Scene:
         return {k: plain(getattr(self, k)) for k in self.__dataclass_fields__}
 
 
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate one scene file.
+#: Largest scene file `load_scene` reads, in bytes (1 MiB; the bundled scenes are under 2 KiB).
+MAX_SCENE_BYTES = 1 << 20
+#: Deepest nesting of lists and tables a scene may use (a matrix is 2 deep, ``compute.response`` 2).
+MAX_SCENE_DEPTH = 8
+
+
+def read_scene_bytes(path: str | os.PathLike[str]) -> bytes:
+    """The bytes of the scene file `path`, read only when it is a regular file of at most `MAX_SCENE_BYTES`.
+
+    A FIFO, a device (a symlink to ``/dev/zero``), a socket or a folder is refused before
+    anything is read, so a bad path can neither hang the command nor fill the memory.
 
     Raises
     ------
     SceneError
-        Missing or unreadable file, invalid TOML, or an invalid scene.
+        Missing, unreadable, not a regular file, or larger than `MAX_SCENE_BYTES`.
     """
-    file = Path(path)
+    source = str(path)
     try:
-        text = file.read_bytes()
+        info = os.stat(path)  # follows symlinks: the target is what would be read
     except FileNotFoundError:
-        raise SceneError(str(path), "", "file not found") from None
+        raise SceneError(source, "", "file not found (or a symlink to a missing file)") from None
     except OSError as error:
-        raise SceneError(str(path), "", f"cannot read file ({error.strerror})") from None
+        raise SceneError(source, "", f"cannot read file ({error.strerror}); expected a readable scene file") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise SceneError(source, "", "is a folder; expected a scene file (a folder is expanded only when "
+                         "given on the command line)")
+    if not stat.S_ISREG(info.st_mode):
+        what = ("a FIFO" if stat.S_ISFIFO(info.st_mode) else "a device" if stat.S_ISCHR(info.st_mode)
+                or stat.S_ISBLK(info.st_mode) else "a socket" if stat.S_ISSOCK(info.st_mode) else "not a file")
+        raise SceneError(source, "", f"is {what}, not a regular file; scene files are read from regular files "
+                         "only (nothing was read)")
+    if info.st_size > MAX_SCENE_BYTES:
+        raise SceneError(source, "", f"is {info.st_size} bytes; a scene file may hold at most "
+                         f"{MAX_SCENE_BYTES} bytes (1 MiB)")
     try:
-        data = tomllib.loads(text.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise SceneError(str(path), "", "not UTF-8 text") from None
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except OSError as error:
+        raise SceneError(source, "", f"cannot read file ({error.strerror}); expected a readable scene file") from None
+    try:
+        if not stat.S_ISREG(os.fstat(descriptor).st_mode):  # replaced between stat and open
+            raise SceneError(source, "", "is not a regular file; scene files are read from regular files only")
+        chunks, size = [], 0
+        while size <= MAX_SCENE_BYTES:
+            chunk = os.read(descriptor, MAX_SCENE_BYTES + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as error:
+        raise SceneError(source, "", f"cannot read file ({error.strerror}); expected a readable scene file") from None
+    finally:
+        os.close(descriptor)
+    if size > MAX_SCENE_BYTES:
+        raise SceneError(source, "", f"holds more than {MAX_SCENE_BYTES} bytes; a scene file may hold at most "
+                         "1 MiB")
+    return b"".join(chunks)
+
+
+def _depth(data: Any) -> tuple[int, str]:
+    """Deepest nesting of lists and tables in `data` and the key path that reaches it (no recursion)."""
+    deepest, where = 0, ""
+    stack: list[tuple[Any, int, str]] = [(data, 0, "")]
+    while stack:
+        value, level, path = stack.pop()
+        if level > deepest:
+            deepest, where = level, path
+        if level > MAX_SCENE_DEPTH:
+            break
+        if isinstance(value, dict):
+            stack.extend((v, level + 1, f"{path}.{k}" if path else str(k)) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((v, level + 1, f"{path}[{i}]") for i, v in enumerate(value))
+    return deepest, where
+
+
+def parse_scene_text(data: bytes, source: str) -> dict[str, Any]:
+    """The TOML table in `data` (UTF-8, a leading byte-order mark allowed), nesting checked.
+
+    Raises
+    ------
+    SceneError
+        Not UTF-8, invalid TOML, or lists and tables nested deeper than `MAX_SCENE_DEPTH`.
+    """
+    try:
+        text = data.decode("utf-8-sig")  # editors on some systems start UTF-8 files with a BOM
+    except UnicodeDecodeError as error:
+        raise SceneError(source, "", f"not UTF-8 text (byte {error.start}); save the file as UTF-8") from None
+    try:
+        parsed = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
-        raise SceneError(str(path), "", f"invalid TOML: {error}") from None
+        raise SceneError(source, "", f"invalid TOML: {error}") from None
+    except RecursionError:
+        raise SceneError(source, "", f"lists or tables nested too deeply to parse; a scene nests at most "
+                         f"{MAX_SCENE_DEPTH} levels") from None
+    depth, where = _depth(parsed)
+    if depth > MAX_SCENE_DEPTH:
+        raise SceneError(source, where.split("[", 1)[0], f"nested more than {MAX_SCENE_DEPTH} levels deep; a scene "
+                         f"nests at most {MAX_SCENE_DEPTH} levels (a matrix is 2)")
+    return parsed
+
+
+def load_scene(path: str | os.PathLike[str]) -> Scene:
+    """Read and validate one scene file.
+
+    The file must be a regular file of at most `MAX_SCENE_BYTES` (checked before reading),
+    UTF-8 (a byte-order mark is allowed) and TOML nested at most `MAX_SCENE_DEPTH` levels.
+
+    Raises
+    ------
+    SceneError
+        Missing, unreadable, not a regular file, too large, invalid TOML, or an invalid scene.
+    """
+    data = parse_scene_text(read_scene_bytes(path), str(path))
     return Scene.from_dict(data, source=str(path))
 
 

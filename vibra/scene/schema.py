@@ -14,10 +14,13 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping
 
 from vibra.modes import SOLVERS
+from vibra.scene.limits import (
+    DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
+)
 from vibra.scene.builders import BUILDER_KINDS, BUILDERS, builder_fields
 from vibra.scene.specs import ComputeSpec, ContinuumSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec
 from vibra.scene.values import (
-    FieldSpec, boolean, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive, table,
+    FieldSpec, boolean, brief, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive, table,
 )
 
 __all__ = ["Reader", "parse_system", "parse_compute", "parse_draw", "check_combinations"]
@@ -39,10 +42,11 @@ class Reader:
 
     def table(self, data: Any, path: str, fields: Mapping[str, FieldSpec]) -> dict[str, Any]:
         if not isinstance(data, Mapping):
-            self.fail(path, f"expected a table, got {kind_name(data)} ({data!r})")
+            self.fail(path, f"expected a table, got {kind_name(data)} ({brief(data)})")
         for key in data:
             if key not in fields:
-                full = f"{path}.{key}" if path else key
+                full = f"{path}.{key}" if path else str(key)
+                full = full if len(full) <= 60 and "\n" not in full else brief(full).strip("'")
                 close = difflib.get_close_matches(key, list(fields), n=1, cutoff=0.6)
                 hint = f"; did you mean {close[0]!r}?" if close else ""
                 allowed = ", ".join(sorted(fields))
@@ -67,11 +71,11 @@ def parse_system(reader: Reader, data: Any, kind: str) -> SystemSpec:
         reader.fail("system.builder", f"is required (for kind {kind!r}: {', '.join(builders)})")
     builder = data["builder"]
     if not isinstance(builder, str):
-        reader.fail("system.builder", f"expected a string, got {kind_name(builder)} ({builder!r})")
+        reader.fail("system.builder", f"expected a string, got {kind_name(builder)} ({brief(builder)})")
     if builder not in BUILDERS:
         close = difflib.get_close_matches(builder, list(BUILDERS), n=1, cutoff=0.6)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        reader.fail("system.builder", f"unknown builder {builder!r}{hint} (known: {', '.join(BUILDERS)})")
+        reader.fail("system.builder", f"unknown builder {brief(builder)}{hint} (known: {', '.join(BUILDERS)})")
     kinds = BUILDER_KINDS[builder]
     if kind not in kinds:
         reader.fail("system.builder", f"builder {builder!r} does not make a {kind!r} scene "
@@ -86,7 +90,7 @@ def parse_system(reader: Reader, data: Any, kind: str) -> SystemSpec:
 def _band(value: Any, fail: Callable[[str], Any]) -> tuple[float, float]:
     low, high = list_of(number, length=2)(value, fail)
     if not low < high:
-        fail(f"must be [low, high] with low < high, got {value!r}")
+        fail(f"must be [low, high] with low < high, got {brief(value)}")
     return (low, high)
 
 
@@ -100,6 +104,8 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
         "response": field_spec(table),
         "continuum": field_spec(table),
         "crosscheck": field_spec(boolean, False),
+        "memory_limit_gib": field_spec(positive),
+        "time_limit_s": field_spec(positive),
     })
     if values["n_modes"] is not None and values["band"] is not None:
         reader.fail("compute.band", "give either n_modes or band, not both")
@@ -115,6 +121,9 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
             "method": field_spec(one_of("direct", "modal"), "direct"),
             "n_modes": field_spec(integer(1)),
         })
+        if r["n_modes"] is not None and r["method"] != "modal":
+            reader.fail("compute.response.n_modes", "applies to method = \"modal\" only (the direct method "
+                        "solves the full system at every frequency); remove n_modes or set method = \"modal\"")
         if not r["omega_min"] < r["omega_max"]:
             reader.fail("compute.response.omega_max",
                         f"must exceed omega_min ({r['omega_min']:g}), got {r['omega_max']:g}")
@@ -128,13 +137,24 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
         })
         if len(c["sizes"]) < 2:
             reader.fail("compute.continuum.sizes", "needs at least 2 sizes to show convergence")
+        for i in range(1, len(c["sizes"])):
+            if c["sizes"][i] <= c["sizes"][i - 1]:
+                reader.fail(f"compute.continuum.sizes[{i}]", f"is {c['sizes'][i]} <= sizes[{i - 1}] = "
+                            f"{c['sizes'][i - 1]}; the chain lengths must increase")
         if max(c["modes"]) >= min(c["sizes"]):
             reader.fail("compute.continuum.modes",
                         f"mode {max(c['modes'])} needs chains longer than the smallest size {min(c['sizes'])}")
         continuum = ContinuumSpec(**c)
+    if values["solver"] == "sparse" and values["n_modes"] is None and values["band"] is None:
+        reader.fail("compute.solver", "'sparse' computes a few modes; give compute.n_modes or compute.band, "
+                    "or choose another solver")
+    if values["solver"] == "accurate" and values["accuracy"] == "fast":
+        reader.fail("compute.solver", "'accurate' needs accuracy = \"high\" (the fast path drops the spring "
+                    "factor the accurate solver works on)")
     return ComputeSpec(n_modes=values["n_modes"], band=values["band"], shapes=values["shapes"],
                        accuracy=values["accuracy"], solver=values["solver"], response=response,
-                       continuum=continuum, crosscheck=values["crosscheck"])
+                       continuum=continuum, crosscheck=values["crosscheck"],
+                       memory_limit_gib=values["memory_limit_gib"], time_limit_s=values["time_limit_s"])
 
 
 def parse_draw(reader: Reader, data: Any) -> DrawSpec:
@@ -178,6 +198,7 @@ def check_combinations(reader: Reader, scene: Any) -> None:
         for key in ("modes", "gif", "spectrum", "dispersion"):
             if getattr(draw, key):
                 reader.fail(f"draw.{key}", "an oscillator scene draws only its response")
+    _check_memory(reader, scene)  # before anything counts sites one by one
     if scene.system.builder == "springs":
         _check_springs(reader, params)  # before counting: the site count comes from positions
     n_dof = _check_frozen(reader, scene)
@@ -209,24 +230,25 @@ def check_combinations(reader: Reader, scene: Any) -> None:
             reader.fail("system.coordinates", f"needs {len(params['M'])} names, got {len(params['coordinates'])}")
 
 
-def _sites_and_dim(scene: Any) -> tuple[int, int] | None:
-    """(number of sites, coordinates per site) of a site-based builder (None otherwise)."""
-    p = scene.system.parameters
-    builder = scene.system.builder
-    if builder == "linear_chain":
-        return p["n"], 1
-    if builder == "diatomic_chain":
-        return 2 * p["n_cells"], 1
-    if builder == "beaded_string":
-        return p["n"], 2  # (x, y) per bead, x held at rest: transverse motion only
-    if builder == "springs":
-        first = p["positions"][0]
-        return len(p["positions"]), len(first) if isinstance(first, tuple) else 1
-    if builder == "co2":
-        return 3, p["dims"]
-    if builder == "h2o":
-        return 3, 3
-    return None
+def _check_memory(reader: Reader, scene: Any) -> None:
+    """Refuse a scene whose memory or time estimate (`vibra.scene.limits`) exceeds its limit, before any work."""
+    compute = scene.compute
+    estimate = memory_estimate(scene.system.builder, scene.system.parameters, compute, scene.draw)
+    if estimate is None:
+        return
+    limit = default_memory_limit() if compute.memory_limit_gib is None else compute.memory_limit_gib * 2**30
+    if estimate.total > limit:
+        source = "compute.memory_limit_gib" if compute.memory_limit_gib is not None else "half the physical memory"
+        reader.fail(estimate.key, f"would need about {gib(estimate.total)} of memory (mostly {estimate.largest}), "
+                    f"more than the limit of {gib(limit)} ({source}); ask for {estimate.advice}, or raise "
+                    "compute.memory_limit_gib if the machine has the memory")
+    seconds = all_modes_seconds(scene.system.builder, scene.system.parameters, compute)
+    time_limit = DEFAULT_TIME_LIMIT_S if compute.time_limit_s is None else compute.time_limit_s
+    if seconds > time_limit:
+        n_dof = n_dof_bound(scene.system.builder, scene.system.parameters)
+        reader.fail("compute.n_modes", f"is not given, so all {n_dof} modes are asked for: O(N^2) work, about "
+                    f"{seconds:.2g} s, more than the limit of {time_limit:g} s (compute.time_limit_s); ask for "
+                    "compute.n_modes or compute.band (a partial solver), or raise compute.time_limit_s")
 
 
 def _check_frozen(reader: Reader, scene: Any) -> int | None:
@@ -240,7 +262,7 @@ def _check_frozen(reader: Reader, scene: Any) -> int | None:
         return 2
     if builder == "matrices":
         return len(p["M"])
-    geometry = _sites_and_dim(scene)
+    geometry = sites_and_dim(builder, p)
     if geometry is None:
         return None
     n_sites, dim = geometry

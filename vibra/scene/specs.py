@@ -115,6 +115,12 @@ class ComputeSpec:
     continuum : ContinuumSpec or None
     crosscheck : bool
         Compare against ASE and phonopy (molecules only).
+    memory_limit_gib : float or None
+        Largest memory estimate (`vibra.scene.limits`) the scene may reach, in GiB; None:
+        half of the machine's physical memory.
+    time_limit_s : float or None
+        Longest estimated all-modes solve (O(N^2) work) the scene may ask for, in s; None:
+        `vibra.scene.limits.DEFAULT_TIME_LIMIT_S` (600 s).
     """
 
     n_modes: int | None = None
@@ -125,6 +131,8 @@ class ComputeSpec:
     response: ResponseSpec | None = None
     continuum: ContinuumSpec | None = None
     crosscheck: bool = False
+    memory_limit_gib: float | None = None
+    time_limit_s: float | None = None
 
 
 @dataclass(frozen=True)

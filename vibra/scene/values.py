@@ -10,11 +10,19 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-__all__ = ["Check", "FieldSpec", "field_spec", "kind_name", "number", "positive", "nonnegative", "integer",
+__all__ = ["brief", "Check", "FieldSpec", "field_spec", "kind_name", "number", "positive", "nonnegative", "integer",
            "boolean", "string", "one_of", "list_of", "scalar_or_list", "index_pairs", "matrix", "coordinates",
            "table"]
 
 Check = Callable[[Any, Callable[[str], Any]], Any]
+
+
+def brief(value: Any, limit: int = 60) -> str:
+    """``repr(value)`` cut to `limit` characters (``...`` marks the cut): messages stay one short line."""
+    text = repr(value) if not isinstance(value, (list, dict)) or len(value) < 64 else \
+        f"{type(value).__name__} of {len(value)} entries"
+    text = text.replace("\n", "\\n")
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def kind_name(value: Any) -> str:
@@ -25,30 +33,30 @@ def kind_name(value: Any) -> str:
 
 def number(value: Any, fail: Callable[[str], Any]) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        fail(f"expected a number, got {kind_name(value)} ({value!r})")
+        fail(f"expected a number, got {kind_name(value)} ({brief(value)})")
     if not math.isfinite(value):
-        fail(f"expected a finite number, got {value!r}")
+        fail(f"expected a finite number, got {brief(value)}")
     return float(value)
 
 
 def positive(value: Any, fail: Callable[[str], Any]) -> float:
     checked = number(value, fail)
     if checked <= 0:
-        fail(f"must be positive, got {value!r}")
+        fail(f"must be positive, got {brief(value)}")
     return checked
 
 
 def nonnegative(value: Any, fail: Callable[[str], Any]) -> float:
     checked = number(value, fail)
     if checked < 0:
-        fail(f"must be >= 0, got {value!r}")
+        fail(f"must be >= 0, got {brief(value)}")
     return checked
 
 
 def integer(low: int, high: int | None = None) -> Check:
     def check(value: Any, fail: Callable[[str], Any]) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
-            fail(f"expected an integer, got {kind_name(value)} ({value!r})")
+            fail(f"expected an integer, got {kind_name(value)} ({brief(value)})")
         if value < low or (high is not None and value > high):
             bound = f"{low} <= value <= {high}" if high is not None else f">= {low}"
             fail(f"must be {bound}, got {value}")
@@ -58,13 +66,13 @@ def integer(low: int, high: int | None = None) -> Check:
 
 def boolean(value: Any, fail: Callable[[str], Any]) -> bool:
     if not isinstance(value, bool):
-        fail(f"expected true or false, got {kind_name(value)} ({value!r})")
+        fail(f"expected true or false, got {kind_name(value)} ({brief(value)})")
     return bool(value)
 
 
 def string(value: Any, fail: Callable[[str], Any]) -> str:
     if not isinstance(value, str):
-        fail(f"expected a string, got {kind_name(value)} ({value!r})")
+        fail(f"expected a string, got {kind_name(value)} ({brief(value)})")
     return str(value)
 
 
@@ -72,7 +80,7 @@ def one_of(*allowed: Any) -> Check:
     def check(value: Any, fail: Callable[[str], Any]) -> Any:
         if value not in allowed or isinstance(value, bool) != isinstance(allowed[0], bool):
             options = ", ".join(repr(a) for a in allowed)
-            fail(f"is {value!r}; expected one of {options}")
+            fail(f"is {brief(value)}; expected one of {options}")
         return value
     return check
 
@@ -80,7 +88,7 @@ def one_of(*allowed: Any) -> Check:
 def list_of(item: Check, *, length: int | None = None, min_length: int = 1) -> Check:
     def check(value: Any, fail: Callable[[str], Any]) -> tuple[Any, ...]:
         if not isinstance(value, list):
-            fail(f"expected a list, got {kind_name(value)} ({value!r})")
+            fail(f"expected a list, got {kind_name(value)} ({brief(value)})")
         if length is not None and len(value) != length:
             fail(f"needs {length} values, got {len(value)}")
         if len(value) < min_length:
@@ -145,5 +153,5 @@ def field_spec(check: Check, default: Any = None, *, required: bool = False) -> 
 def table(value: Any, fail: Callable[[str], Any]) -> Any:
     """A ``[section]`` table, checked later against its own fields."""
     if not isinstance(value, dict):
-        fail(f"expected a table ([section]), got {kind_name(value)} ({value!r})")
+        fail(f"expected a table ([section]), got {kind_name(value)} ({brief(value)})")
     return value
