@@ -321,7 +321,7 @@ def test_all_frequencies_of_a_ten_million_site_chain_are_refused_by_time() -> No
     message = refused_quickly(lambda: normal_modes(K, masses, spring_factor=(B, w), vectors=False),
                               r"K has 10000000 dofs: the accurate-bidiagonal path \(all 10000000 modes of "
                               r"10000000 dofs, frequencies only\)")
-    assert "days" in message and "longer than max_seconds=120" in message and "n_modes=10" in message
+    assert "days" in message and "longer than max_seconds=600" in message and "n_modes=10" in message
 
 
 def test_frequencies_of_a_million_site_system_chain_refused_in_modes() -> None:

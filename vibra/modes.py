@@ -272,7 +272,7 @@ def normal_modes(
         (None: the memory available now). ``float("inf")`` disables the check.
     max_seconds : float, optional
         Refuse a solve estimated to take longer, in s; default
-        `vibra.solvers.budget.TIME_LIMIT_S` (120 s). ``float("inf")`` disables the check.
+        `vibra.solvers.budget.TIME_LIMIT_S` (600 s). ``float("inf")`` disables the check.
     progress : bool or callable, optional
         True writes progress lines to stderr, False keeps quiet, a callable receives
         ``(fraction done, message)``; None (default) writes lines only for solves estimated

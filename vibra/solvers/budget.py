@@ -10,8 +10,8 @@ overrides them per call):
 
 - `MEMORY_LIMIT`: bytes a solve may allocate; None (the default) means the memory available
   now (``MemAvailable`` of /proc/meminfo, or the cgroup limit when lower).
-- `TIME_LIMIT_S`: estimated seconds above which a solve is refused (120 s by default; pass
-  ``max_seconds=float("inf")`` to run anyway).
+- `TIME_LIMIT_S`: estimated seconds above which a solve is refused (600 s by default, as a
+  scene's `vibra.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
 - `PROGRESS_AFTER_S`: solves estimated to take longer than this (5 s) report their progress
   on stderr: a line when they start (the estimate), one per stage, one when done.
 
@@ -42,7 +42,7 @@ from typing import Callable, TextIO
 MEMORY_LIMIT: float | None = None
 
 #: Estimated seconds above which a solve is refused (override: ``max_seconds=``).
-TIME_LIMIT_S = 120.0
+TIME_LIMIT_S = 600.0
 
 #: Solves estimated to take longer than this report progress on stderr.
 PROGRESS_AFTER_S = 5.0
