@@ -33,7 +33,7 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized", "gpu",
+    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized",
     "gyroscopic", "lagrangian", "linearization", "modes", "molecules", "networks", "pencil", "pendulum", "plan",
     "quadratic", "render", "report", "response", "rigid", "scene", "solvers", "spectra", "sweep", "system",
     "units",

@@ -18,6 +18,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate, solvers
+from vibra.solvers import gpu
 from vibra._frozen import _freeze_arrays, owned_arrays
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -240,6 +241,7 @@ def normal_modes(
     max_memory: float | None = None,
     max_seconds: float | None = None,
     progress: bool | Callable[[float, str], None] | None = None,
+    device: str = "cpu",
 ) -> Modes:
     """Normal modes of M u'' + K u = 0 (seed 003 eqs. 137-151).
 
@@ -277,6 +279,12 @@ def normal_modes(
         True writes progress lines to stderr, False keeps quiet, a callable receives
         ``(fraction done, message)``; None (default) writes lines only for solves estimated
         to take over `vibra.solvers.budget.PROGRESS_AFTER_S` (5 s).
+    device : {"cpu", "gpu"}
+        "gpu" ("cuda" is the same) solves all modes densely on an NVIDIA GPU through CuPy
+        (``pip install "vibra[gpu]"``), then keeps `n_modes` or `band`; only with solver
+        "auto" or "dense". Its memory (K~ and cuSOLVER's workspace, about 5 n^2 doubles) is
+        checked against the GPU's free memory before anything is allocated. Without CuPy or a
+        GPU it raises `vibra.solvers.gpu.GPUUnavailableError`; it never falls back to the CPU.
 
     Returns
     -------
@@ -287,7 +295,11 @@ def normal_modes(
     TypeError
         K, M or spring_factor not real numbers (complex, text); vectors or symmetrize not a
         bool; solver not a str.
+    vibra.solvers.gpu.GPUUnavailableError
+        device="gpu" without CuPy or without a usable GPU (the message names the extra).
     ValueError
+        An unknown device, or device="gpu" with a solver other than "auto" or "dense", or a
+        GPU solve that would not fit in the GPU's free memory (with the figures);
         K not square, not symmetric (beyond 1e-10 * max|K|) or not finite; M of the wrong
         shape, non-positive, subnormal, non-finite or not positive definite; max|K| / min(M)
         beyond 1e+-300 (omega^2 would overflow or underflow); spring_factor not a factor of
@@ -331,6 +343,15 @@ def normal_modes(
     max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
     if not (progress is None or isinstance(progress, (bool, np.bool_)) or callable(progress)):
         raise TypeError(f"progress must be None, a bool or a callable(fraction, message), got {progress!r}")
+    device = gpu.check_device(device)
+    if device == "gpu":
+        if solver not in ("auto", "dense"):
+            raise ValueError(f"device='gpu' runs the dense path only; solver is {solver!r} (use 'auto' or 'dense')")
+        if not sp.issparse(K_matrix):
+            _validate.finite(K_matrix, "K")
+        K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
+        result = gpu.solve_gpu(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band)
+        return _modes_from(result, K_matrix, mass, unit)
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                            spring_factor=factor)
@@ -347,11 +368,16 @@ def normal_modes(
 
     result = solvers.solve(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band,
                            solver=solver, spring_factor=factor, progress=progress, request=request)
+    return _modes_from(result, K_matrix, mass, unit)
+
+
+def _modes_from(result: solvers.SolveResult, K_matrix: Any, mass: NDArray[np.float64], unit: UnitSystem) -> Modes:
+    """The `Modes` of one solver path's raw result (warns about imaginary modes)."""
     if (result.eigenvalues < -result.error).any():
         n_negative = int((result.eigenvalues < -result.error).sum())
         warnings.warn(
             f"K is not positive semi-definite: {n_negative} imaginary mode(s), reported as "
-            "negative omega", RuntimeWarning, stacklevel=2,
+            "negative omega", RuntimeWarning, stacklevel=3,
         )
     omega = np.sign(result.eigenvalues) * np.sqrt(np.abs(result.eigenvalues))
     # d(omega) = d(omega^2) / (2 |omega|), capped by sqrt(d(omega^2)) near zero.
