@@ -301,13 +301,6 @@ CASES: list[Case] = [
      r"bonds must hold integer site indices"),
     ("thermochemistry temperatures negative", lambda: spectra.thermochemistry([1.0, 2.0], [-1.0]), ValueError,
      r"temperatures"),
-]
-
-
-# Checks that belong in files another branch is restructuring (vibra/system.py, vibra/chains.py):
-# listed for the lead, strict xfail until they are wired (then the mark comes off).
-PENDING = "validation pending in system.py / chains.py (issue 16, item 5; other branch)"
-PENDING_CASES: list[Case] = [
     ("from_springs name None", lambda: System.from_springs([[0.0], [1.0]], [1.0, 1.0], [(0, 1)], 1.0, name=None),
      TypeError, r"name must be a str, got None"),
     ("System.from_hessian name None", lambda: System.from_hessian([[0.0], [1.0]], [1.0, 1.0], K2, name=None),
@@ -326,15 +319,8 @@ PENDING_CASES: list[Case] = [
 ]
 
 
-@pytest.mark.xfail(strict=True, reason=PENDING)
-@pytest.mark.parametrize("call, error, match", [case[1:] for case in PENDING_CASES],
-                         ids=[case[0] for case in PENDING_CASES])
-def test_pending_bad_input_is_refused_naming_the_argument(call: Callable[[], Any], error: type[BaseException],
-                                                          match: str) -> None:
-    with pytest.raises(error, match=match):
-        call()
-
-
+# Checks that belong in files another branch is restructuring (vibra/system.py, vibra/chains.py):
+# listed for the lead, strict xfail until they are wired (then the mark comes off).
 def test_the_table_is_large_and_its_ids_distinct() -> None:
     ids = [case[0] for case in CASES]
     assert len(ids) == len(set(ids)) and len(ids) >= 80

@@ -158,6 +158,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         >>> corner.n_dof, corner.hessian()[0, 2], corner.hessian()[1, 5]  # each spring acts along its axis
         (6, np.float64(-2.0), np.float64(-2.0))
         """
+        name = _validate.text(name, "name")
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
         mass_array = _site_masses(masses, n_sites)
@@ -252,6 +253,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         array([[ 3., -3.],
                [-3.,  3.]])
         """
+        name = _validate.text(name, "name")
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
         mass_array = _site_masses(masses, n_sites)
@@ -298,8 +300,10 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         >>> system.spring_factor() is None, np.round(system.modes().omega_squared, 12).tolist()
         (True, [0.0, 2.0])
         """
+        name = _validate.text(name, "name")
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
+        symmetrize = _validate.boolean(symmetrize, "symmetrize")
         matrix = _validate.square_matrix(hessian, "hessian")
         matrix = _validate.symmetric(matrix, "hessian", symmetrize=symmetrize)
         if matrix.shape[0] != n_sites * dim:
