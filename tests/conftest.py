@@ -17,3 +17,20 @@ settings.load_profile("ci" if os.environ.get("CI") else "dev")
 def rng() -> np.random.Generator:
     """A seeded generator: tests are reproducible."""
     return np.random.default_rng(20261122)
+
+
+@pytest.fixture(scope="session")
+def dask_client():
+    """A Dask client on a local cluster of 2 separate worker processes, 1 thread each (shared by the session)."""
+    import logging
+
+    import distributed  # in the test extra: these tests run in CI, never skip
+
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       dashboard_address=":0", silence_logs=logging.ERROR)
+    client = distributed.Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        cluster.close()

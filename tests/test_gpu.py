@@ -1,4 +1,4 @@
-"""Tests of `vibra/gpu.py`, the optional GPU path (CuPy, cuSOLVER syevd).
+"""Tests of `vibra/solvers/gpu.py`, the optional GPU path (CuPy, cuSOLVER syevd).
 
 The plumbing (device names, the missing-extra errors, the memory estimate and the refusal
 before any allocation) runs everywhere, with CuPy hidden or faked. The numbers run only where
@@ -18,7 +18,7 @@ import scipy.linalg as la
 from scipy.spatial import cKDTree
 
 import vibra
-from vibra import gpu
+from vibra.solvers import gpu
 
 EPS = float(np.finfo(float).eps)
 GPU_READY, GPU_REASON = gpu.gpu_available()
@@ -97,7 +97,7 @@ def test_cupy_without_a_device(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_import_vibra_does_not_import_cupy() -> None:
     import subprocess
 
-    code = "import sys, vibra, vibra.gpu; print('cupy' in sys.modules)"
+    code = "import sys, vibra, vibra.solvers.gpu; print('cupy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -244,3 +244,40 @@ def test_gpu_estimate_uses_cusolver_query() -> None:
     queried = gpu.estimate_gpu_memory(n, vectors=True)
     assert queried <= 8 * n * n + gpu.syevd_workspace_formula(n) + 8 * 4 * n + 2**20
     assert queried >= 0.99 * 5 * 8 * n * n
+
+
+# ---------------------------------------------------------------------- normal_modes(device=...)
+def test_normal_modes_rejects_an_unknown_device() -> None:
+    K = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    with pytest.raises(ValueError, match=r"device is 'tpu'; expected one of 'cpu', 'gpu'"):
+        vibra.normal_modes(K, [1.0, 1.0], device="tpu")
+    with pytest.raises(TypeError, match=r"device must be a string"):
+        vibra.normal_modes(K, [1.0, 1.0], device=1)
+
+
+def test_normal_modes_on_the_gpu_runs_the_dense_path_only() -> None:
+    K = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    with pytest.raises(ValueError, match=r"device='gpu' runs the dense path only; solver is 'tridiagonal'"):
+        vibra.normal_modes(K, [1.0, 1.0], device="gpu", solver="tridiagonal")
+
+
+def test_normal_modes_and_system_modes_never_fall_back_to_the_cpu(no_cupy: None) -> None:
+    chain = vibra.System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+    with pytest.raises(gpu.GPUUnavailableError, match=r'pip install "vibra\[gpu\]"'):
+        vibra.normal_modes(chain.hessian(), chain.mass_matrix(), device="gpu")
+    with pytest.raises(gpu.GPUUnavailableError, match=r'pip install "vibra\[gpu\]"'):
+        chain.modes(device="cuda")
+
+
+@needs_gpu
+def test_system_modes_on_the_gpu_match_the_cpu_within_the_reported_bounds() -> None:
+    """The same `Modes` from device="gpu" as from the CPU, within omega_error (truth: LAPACK)."""
+    K, mass = spring_network(400)
+    system = vibra.System.from_hessian(np.zeros((400, 3)), mass[::3], K, units="dimensionless")
+    on_gpu = system.modes(device="gpu")
+    on_cpu = system.modes(accuracy="fast")
+    assert on_gpu.solver == "gpu" and on_gpu.n_modes == on_cpu.n_modes == 1200
+    gap = np.abs(on_gpu.omega_squared - on_cpu.omega_squared)
+    assert (gap <= on_gpu.omega_error * 2 * np.abs(on_gpu.omega) + 2 * 1200 * EPS * np.abs(on_cpu.omega_squared).max()).all()
+    lowest = vibra.normal_modes(K, mass, n_modes=10, device="gpu")
+    np.testing.assert_allclose(lowest.omega_squared, on_cpu.omega_squared[:10], atol=1e-10)

@@ -500,3 +500,37 @@ def test_accurate_path_with_a_dense_mass_matrix_and_few_modes(rng: np.random.Gen
     absolute = la.eigh(K.toarray(), M, subset_by_index=(0, 4), eigvals_only=True)
     assert np.max(np.abs(absolute[1:] / reference - 1.0)) > 1e-10  # the case can show a loss
     np.testing.assert_allclose(modes.shapes.T @ M @ modes.shapes, np.eye(5), atol=1e-10)
+
+
+# ---------------------------------------------------------------------- issue 16: factor and scale
+def test_the_spring_factor_is_checked_against_K() -> None:
+    """(B, w) must factor K: round-off differences pass, a 1e-6 change in one spring does not.
+
+    Truth: the CO2 axial K = kappa [[1,-1,0],[-1,2,-1],[0,-1,1]] (eq. 157) is B^T diag(w) B for
+    the two springs B = [[-1,1,0],[0,-1,1]], w = (kappa, kappa).
+    """
+    kappa = 1.7
+    B = np.array([[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]])
+    K = co2_K(kappa) * (1.0 + 1e-15)  # a few ulps from B^T W B, as assembly leaves it
+    masses = np.array([16.0, 12.0, 16.0])
+    modes = normal_modes(K, masses, spring_factor=(B, np.array([kappa, kappa])))
+    assert modes.solver.startswith("accurate")
+    with pytest.raises(ValueError, match=r"spring_factor \(B, w\) does not factor K: .* for a random x"):
+        normal_modes(K, masses, spring_factor=(B, np.array([kappa, kappa * (1 + 1e-6)])))
+    other_springs = np.array([[-1.0, 0.0, 1.0], [0.0, -1.0, 1.0]])  # 0-2 and 1-2: another system
+    with pytest.raises(ValueError, match=r"does not factor K"):
+        normal_modes(K, masses, spring_factor=(other_springs, np.array([kappa, kappa])))
+
+
+def test_extreme_but_representable_scales_are_solved_and_beyond_them_refused() -> None:
+    """max|K| / min(m) up to 1e300 is solved to full relative accuracy; past it, refused.
+
+    Truth: the CO2 axial closed form omega^2 = 0, kappa/m, kappa (1/m + 2/M) (eq. 157).
+    """
+    kappa, m, big = 1e290, 1e-5, 2e-5
+    modes = normal_modes(co2_K(kappa), [m, big, m], vectors=False)
+    exact = np.array([kappa / m, kappa * (1 / m + 2 / big)])
+    assert np.all(np.isfinite(modes.omega))
+    assert np.max(np.abs(modes.omega[1:] ** 2 - exact) / exact) < 1e-13
+    with pytest.raises(ValueError, match=r"max\|K\| / min\(M\) is about 1e305 .* would overflow float64"):
+        normal_modes(co2_K(1e300), [1e-5, 1.0, 1e-5])

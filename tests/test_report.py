@@ -601,8 +601,8 @@ def test_no_import_cycles_and_no_upward_imports() -> None:
     assert in_cycle == [], f"import cycles through {in_cycle}"
 
     def layer(name: str) -> int:
-        for prefix, rank in (("vibra.cli", 5), ("vibra.report", 4), ("vibra.plan", 3), ("vibra.render", 2),
-                             ("vibra.charts", 2)):
+        for prefix, rank in (("vibra.cli", 5), ("vibra.report", 4), ("vibra.sweep", 4), ("vibra.plan", 3),
+                             ("vibra.render", 2), ("vibra.charts", 2)):
             if name == prefix or name.startswith(prefix + "."):
                 return rank
         return 1 if name.startswith("vibra.scene") else 0

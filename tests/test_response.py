@@ -716,3 +716,72 @@ def test_charts_name_the_units_of_the_system() -> None:
     assert figure.axes[0].get_ylabel().endswith("(m)") and figure.axes[0].get_xlabel().endswith("(rad/s)")
     generic = plot_oscillator_response()
     assert generic.axes[0].get_xlabel().endswith("(rad / time unit)")
+
+
+# ====================================================================== issue 16: phases and damping
+@pytest.mark.parametrize("method", ["direct", "modal", "state_space"])
+def test_a_complex_force_keeps_its_phase(fixed_chain, method: str) -> None:
+    """f = |f| exp(i phi) per dof: the response is the closed-form modal sum for the complex f.
+
+    Truth: the closed-form modes of the fixed chain (modal_sum_truth), linear in f, so a force
+    with a quarter-period lag at one end and in phase at the other is the sum of the two.
+    """
+    K, M, _, omegas = fixed_chain
+    force = np.zeros(N, dtype=complex)
+    force[0], force[-1] = 1.0, 0.5j
+    eta = 0.05
+    C = R.friction_damping(M, eta)
+    truth = modal_sum_truth(omegas, force, lambda w: np.full_like(w, eta))
+    C_in = C.toarray() if method == "state_space" else C
+    K_in = K.toarray() if method == "state_space" else K
+    result = R.frequency_response(K_in, M, C_in, omegas, force, method=method)
+    assert rel(result.response, truth) <= 1e-11
+    assert np.iscomplexobj(result.force) and result.force[-1] == 0.5j
+    assert np.all(result.truncation_error == 0.0)
+    # the phase is not dropped: the real part alone gives another response
+    real_only = R.frf(K_in, M, C_in, omegas, force.real, method=method)
+    assert rel(real_only, truth) > 0.1
+
+
+def test_an_indefinite_damping_matrix_is_refused_beyond_its_diagonal() -> None:
+    """C with a non-negative diagonal but a negative eigenvalue (negative damping) is refused.
+
+    Truth: C = c (2 I - A), A the adjacency of a ring, has eigenvalues c (2 - 2 cos theta) >= 0;
+    C = c (I + A) has eigenvalue c (1 - 2) = -c < 0 (theta = pi, even n): the diagonal is c > 0.
+    """
+    n = 2400  # above the dense limit of the check: the sparse LDL^T pivots decide
+    ring = sp.diags([np.ones(n - 1), np.ones(n - 1)], [-1, 1], format="lil")
+    ring[0, n - 1] = ring[n - 1, 0] = 1.0
+    ring = ring.tocsr()
+    K = chain(n, K_SPRING)
+    M = np.full(n, MASS)
+    force = np.zeros(n)
+    force[0] = 1.0
+    psd = 0.1 * (2 * sp.identity(n, format="csr") - ring)
+    assert R.frf(K, M, psd, [1.0], force).shape == (1, n)  # singular but semi-definite: accepted
+    with pytest.raises(ValueError, match=r"C is not positive semi-definite: its smallest eigenvalue is -0\.1"):
+        R.frf(K, M, 0.1 * (sp.identity(n, format="csr") + ring), [1.0], force)
+    small = np.array([[1.0, 2.0], [2.0, 1.0]])  # eigenvalues 3 and -1, the dense branch
+    with pytest.raises(ValueError, match=r"C is not positive semi-definite: its smallest eigenvalue is -1"):
+        R.frf(np.eye(2), [1.0, 1.0], small, [1.0], [1.0, 0.0])
+
+
+def test_a_response_too_large_to_hold_is_refused_before_it_starts() -> None:
+    """10^4 frequencies x 10^6 dofs of complex output is 16e10 bytes = 149 GiB: refused at once."""
+    import time
+
+    n = 10**6
+    K = chain(n, K_SPRING)
+    M = np.full(n, MASS)
+    force = np.zeros(n)
+    force[0] = 1.0
+    omegas = np.linspace(0.1, 1.0, 10**4)
+    start = time.process_time()
+    with pytest.raises(ValueError, match=r"K has 1000000 dofs: the direct path \(10000 frequencies x 1000000 dofs\) "
+                                         r"would need about 149\.\d GiB"):  # 149.0 GiB of output + work
+        R.frf(K, M, None, omegas, force)
+    assert time.process_time() - start < 1.0
+    assert f"{16e10 / 2**30:.1f}" == "149.0"
+    small = R.frequency_response(chain(8, K_SPRING), np.full(8, MASS), None, [0.1], np.eye(8)[0],
+                                 max_memory=float("inf"), max_seconds=float("inf"))
+    assert small.response.shape == (1, 8)

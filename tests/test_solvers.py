@@ -8,6 +8,8 @@ sine / cosine modes of uniform chains (vectors above the dbdsqr limit).
 
 from __future__ import annotations
 
+import time
+
 import mpmath
 import numpy as np
 import pytest
@@ -214,7 +216,9 @@ def test_solver_requests_that_cannot_be_served() -> None:
     with pytest.raises(ValueError, match=r"solver='sparse' computes a few modes: give n_modes or band"):
         normal_modes(chain_K(5), np.ones(5), solver="sparse")
     n = solvers.DENSE_ALL_LIMIT + 1
-    with pytest.raises(ValueError, match=rf"K has {n} dofs: a dense solve would need 3.0 GiB"):
+    with pytest.raises(solvers.ResourceLimitError,
+                       match=rf"K has {n} dofs: the dense path \(all {n} modes of {n} dofs, with vectors\) "
+                             r"would need about 8.9 GiB of memory"):
         normal_modes(chain_K(n), np.ones(n), solver="dense")
     # A band on a large K that is not tridiagonal (a chain with next-nearest springs).
     wide = sp.diags([np.full(n - 2, -0.1), np.full(n - 1, -1.0), np.full(n, 2.2), np.full(n - 1, -1.0),
@@ -264,3 +268,168 @@ def test_bidiagonal_singular_values_to_high_relative_accuracy() -> None:
             A[i, i + 1] = mpmath.mpf(float(x))
         reference = np.sort([float(s) for s in mpmath.svd_r(A, compute_uv=False)])
     np.testing.assert_allclose(bidiagonal_singular_values(d, e), reference, rtol=20 * EPS)
+
+
+# ---------------------------------------------------------------------- resource guard
+# The cases of issue 16's "Memory and time without a guard": each refused before anything is
+# allocated, in well under a second, with the figures and the cheaper requests. The figures are
+# checked against their closed forms (8 n^2 bytes of vectors; 8 n k bytes), not against the code.
+def refused_quickly(call, match: str) -> str:  # type: ignore[no-untyped-def]
+    start = time.process_time()  # CPU time of this process: other jobs on the machine do not count
+    with pytest.raises(solvers.ResourceLimitError, match=match) as caught:
+        call()
+    assert time.process_time() - start < 1.0
+    return str(caught.value)
+
+
+def test_dense_20000_is_refused_before_the_symmetry_check_copies_it() -> None:
+    n = 20000
+    K = np.broadcast_to(np.ones(n), (n, n))  # 3 GiB as seen by numpy, no memory behind it
+    message = refused_quickly(lambda: normal_modes(K, np.ones(n)),
+                              r"K has 20000 dofs: the dense path \(all 20000 modes of 20000 dofs, with vectors\)")
+    # K~ (8 n^2 = 2.98 GiB), LAPACK's working copy and the vectors: 3 x 2.98 GiB = 8.9 GiB
+    assert "8.9 GiB" in message and "vectors=False" in message and "n_modes=" in message
+    assert "max_memory=" in message and "max_seconds=" in message
+
+
+def test_all_modes_of_a_100000_site_chain_are_refused_with_their_74_5_gib() -> None:
+    from vibra.chains import linear_chain
+
+    chain = linear_chain(10**5)
+    message = refused_quickly(chain.modes, r"K has 100000 dofs: the accurate-bidiagonal path")
+    assert f"{8 * 10**10 / 2**30:.1f} GiB" == "74.5 GiB" and "74.5 GiB" in message
+    assert "vectors=False" in message and "band=(low, high)" in message
+
+
+def test_a_sparse_tridiagonal_k_with_a_million_dofs_is_refused_with_its_7_28_tib() -> None:
+    n = 10**6
+    K, masses = chain_K(n), np.ones(n)
+    message = refused_quickly(lambda: normal_modes(K, masses), r"K has 1000000 dofs")
+    assert f"{8 * n * n / 2**40:.3g} TiB" == "7.28 TiB" and "7.28 TiB" in message
+    # the cheaper request works: the lowest modes of the same K by shift-invert
+    modes = normal_modes(chain_K(n), np.ones(n), n_modes=2, vectors=False)
+    assert modes.solver in ("sparse", "tridiagonal") and modes.omega[0] < 1e-5
+
+
+def test_all_frequencies_of_a_ten_million_site_chain_are_refused_by_time() -> None:
+    n = 10**7
+    B, w = chain_factor(n)
+    diagonal = np.full(n, 2.0)
+    diagonal[[0, -1]] = 1.0
+    K = sp.diags([-np.ones(n - 1), diagonal, -np.ones(n - 1)], [-1, 0, 1], format="csr")  # = B^T B
+    masses = np.ones(n)
+    message = refused_quickly(lambda: normal_modes(K, masses, spring_factor=(B, w), vectors=False),
+                              r"K has 10000000 dofs: the accurate-bidiagonal path \(all 10000000 modes of "
+                              r"10000000 dofs, frequencies only\)")
+    assert "days" in message and "longer than max_seconds=600" in message and "n_modes=10" in message
+
+
+def test_frequencies_of_a_million_site_system_chain_refused_in_modes() -> None:
+    from vibra.chains import linear_chain
+
+    chain = linear_chain(10**6)
+    refused_quickly(lambda: chain.modes(vectors=False), r"K has 1000000 dofs: the accurate-bidiagonal path")
+
+
+def test_a_30000_site_ring_uses_its_band_not_a_dense_eigh() -> None:
+    """A ring is tridiagonal plus two corners: reordered 0, n-1, 1, n-2, ... it is a band of half-width 2."""
+    from vibra.chains import linear_chain
+
+    ring = linear_chain(30000, ends="periodic")
+    for accuracy in ("high", "fast"):
+        factor = ring.spring_factor() if accuracy == "high" else None
+        request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=None, vectors=False, band=None,
+                               solver="auto", spring_factor=factor)
+        assert request.path == "banded" and request.width == 2
+        assert request.cost.memory < 10 * 2**20  # O(n b) words, not the 6.7 GiB of a dense K~
+
+
+def test_ring_frequencies_from_the_band_match_the_closed_form_and_a_dense_solve() -> None:
+    from vibra.chains import linear_chain, monatomic_frequencies
+
+    n = 3000
+    modes = linear_chain(n, ends="periodic").modes(vectors=False)
+    assert modes.solver == "banded"
+    exact = monatomic_frequencies(n, ends="periodic")  # 2 Omega |sin(pi j / n)|
+    # absolute accuracy: error ~ sqrt(eps ||K~||) for the zero mode, eps ||K~|| / omega otherwise
+    assert np.abs(np.sort(modes.omega) - np.sort(exact)).max() < 1e-7
+    rng = np.random.default_rng(3)
+    masses, springs = rng.uniform(1.0, 3.0, 2000), rng.uniform(1.0, 2.0, 2000)
+    ring = linear_chain(2000, ends="periodic", mass=masses, stiffness=springs)
+    K = ring.hessian().toarray()
+    import scipy.linalg as la
+
+    reference = la.eigh(K, np.diag(ring.mass_matrix()), eigvals_only=True)
+    fast = ring.modes(accuracy="fast")
+    assert fast.solver == "banded" and np.abs(fast.omega_squared - reference).max() < 1e-12 * reference.max()
+    assert fast.residual < 1e-12 and fast.orthogonality < 1e-12
+    accurate = ring.modes()
+    assert accurate.solver == "accurate-rayleigh"
+    assert np.abs(accurate.omega_squared - reference).max() < 1e-12 * reference.max()
+
+
+def test_limits_are_overridable_per_call_and_module_wide(monkeypatch: pytest.MonkeyPatch) -> None:
+    K = chain_K(50).toarray()
+    with pytest.raises(solvers.ResourceLimitError, match=r"more memory than the 1000 B max_memory"):
+        normal_modes(K, np.ones(50), max_memory=1000)
+    monkeypatch.setattr(solvers.budget, "TIME_LIMIT_S", 1e-12)
+    with pytest.raises(solvers.ResourceLimitError, match=r"longer than max_seconds=1e-12"):
+        normal_modes(K, np.ones(50))
+    modes = normal_modes(K, np.ones(50), max_seconds=float("inf"))
+    assert modes.n_modes == 50
+    monkeypatch.setattr(solvers.budget, "MEMORY_LIMIT", 100.0)
+    with pytest.raises(solvers.ResourceLimitError, match=r"max_memory"):
+        normal_modes(K, np.ones(50), max_seconds=float("inf"))
+
+
+def test_progress_reports_to_a_callback_and_to_stderr(capsys: pytest.CaptureFixture[str]) -> None:
+    calls: list[tuple[float, str]] = []
+    normal_modes(chain_K(20), np.ones(20), progress=lambda fraction, message: calls.append((fraction, message)))
+    fractions = [fraction for fraction, _ in calls]
+    assert fractions[0] == 0.0 and fractions[-1] == 1.0 and fractions == sorted(fractions)
+    assert "estimated" in calls[0][1] and calls[-1][1].startswith("done in")
+    normal_modes(chain_K(20), np.ones(20), progress=True)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("vibra: [  0%") and "done in" in lines[-1]
+    normal_modes(chain_K(20), np.ones(20))  # short solves stay quiet by default
+    assert capsys.readouterr().err == ""
+
+
+def test_long_solves_report_progress_by_default(monkeypatch: pytest.MonkeyPatch,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(solvers.budget, "PROGRESS_AFTER_S", 0.0)  # every solve counts as long
+    normal_modes(chain_K(20), np.ones(20))
+    assert "vibra: [100%" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("stiffness, mass", [(1e-200, 1e100), (1e199, 1e-100)])
+def test_extreme_scales_reach_every_path_intact(stiffness: float, mass: float) -> None:
+    """omega^2 ~ 1e-300 or 1e+300: bisection (stebz), ARPACK and dqds run on K~ scaled by a power
+    of 2 and give the closed form 2 Omega sin(k pi / 2n) of the free chain (eq. 161)."""
+    from vibra.chains import linear_chain, monatomic_frequencies
+
+    n = 2000
+    chain = linear_chain(n, mass=mass, stiffness=stiffness)
+    exact = monatomic_frequencies(n, mass, stiffness)
+    omega_0 = np.sqrt(stiffness / mass)
+    for kwargs in ({"accuracy": "fast", "vectors": False}, {"accuracy": "fast", "n_modes": 3}, {"vectors": False},
+                   {"accuracy": "fast", "band": (0.1 * omega_0, 0.2 * omega_0), "vectors": False}):
+        modes = chain.modes(**kwargs)
+        assert np.all(np.isfinite(modes.omega))
+        expected = exact[:modes.n_modes] if "band" not in kwargs else exact[(exact >= 0.1 * omega_0)
+                                                                            & (exact <= 0.2 * omega_0)]
+        assert modes.n_modes == expected.size
+        flexible = expected > 0
+        assert np.abs(modes.omega[flexible] - expected[flexible]).max() <= 1e-10 * exact.max()
+        assert np.all(np.abs(modes.omega[~flexible]) <= 1e-6 * exact.max())  # the translation
+
+
+def test_progress_names_the_stages_of_a_chain_with_vectors() -> None:
+    """The accurate chain path reports when its frequencies are done and its vectors start."""
+    calls: list[tuple[float, str]] = []
+    B, w = chain_factor(30)
+    normal_modes(chain_K(30), np.ones(30), spring_factor=(B, w),
+                 progress=lambda fraction, message: calls.append((fraction, message)))
+    messages = [message for _, message in calls]
+    assert any(message.startswith("frequencies done") for message in messages)
+    assert [fraction for fraction, _ in calls] == sorted(fraction for fraction, _ in calls)

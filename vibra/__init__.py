@@ -33,9 +33,10 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "assembly", "chains", "charts", "cli", "continuum", "crosscheck", "generalized", "gpu", "gyroscopic",
-    "lagrangian", "linearization", "modes", "molecules", "networks", "pencil", "pendulum", "plan", "quadratic",
-    "render", "report", "response", "rigid", "scene", "solvers", "spectra", "system", "units",
+    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized",
+    "gyroscopic", "lagrangian", "linearization", "modes", "molecules", "networks", "pencil", "pendulum", "plan",
+    "quadratic", "render", "report", "response", "rigid", "scene", "solvers", "spectra", "sweep", "system",
+    "units",
 )
 
 

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 # Relative tolerance of the symmetry check: |K_ij - K_ji| <= SYMMETRY_RTOL * max|K|.
@@ -28,6 +29,8 @@ def real_scalar(value: Any, name: str) -> float:
         array = np.asarray(value) if not isinstance(value, str) else None
         if array is None or array.ndim != 0 or not np.issubdtype(array.dtype, np.number):
             raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+        if array.dtype.kind == "c":
+            raise TypeError(f"{name} must be a real number, got the complex {value!r}")
         value = array.item()
     number = float(value)
     if not np.isfinite(number):
@@ -57,16 +60,33 @@ def increasing_times(t: Any, name: str = "t") -> NDArray[np.float64]:
     return times
 
 
+def real_numbers(value: Any, name: str) -> NDArray[np.float64]:
+    """`value` as a float64 ndarray of any shape, NaN and inf allowed; complex, text, None refused."""
+    if sp.issparse(value):
+        raise TypeError(f"{name} must be a dense array here, got a scipy.sparse matrix")
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be real numbers, got {value!r}")
+    return _float_array(value, name)
+
+
+def complex_array(value: Any, name: str, *, ndim: int) -> NDArray[np.complex128]:
+    """`value` as a finite complex128 ndarray of `ndim` dimensions (real input allowed)."""
+    raw = np.asarray(value) if not isinstance(value, (str, bytes)) and value is not None else None
+    if raw is None or raw.dtype.kind not in "iufc" or (raw.dtype.kind == "b"):
+        raise TypeError(f"{name} must be an array of real or complex numbers, got {type(value).__name__}"
+                        + (f" of {raw.dtype}" if raw is not None else ""))
+    array = np.asarray(raw, dtype=complex)
+    if array.ndim != ndim:
+        raise ValueError(f"{name} must be {ndim}-D, got shape {array.shape}")
+    finite(array, name)
+    return array
+
+
 def real_array(value: Any, name: str, *, ndim: int | tuple[int, ...] | None = None) -> NDArray[np.float64]:
     """`value` as a finite float64 ndarray; raise naming `name` otherwise."""
     if sp.issparse(value):
         raise TypeError(f"{name} must be a dense array here, got a scipy.sparse matrix")
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise TypeError(
-            f"{name} must be an array of real numbers, got {type(value).__name__}"
-        ) from None
+    array = _float_array(value, name)
     if ndim is not None:
         allowed = (ndim,) if isinstance(ndim, int) else ndim
         if array.ndim not in allowed:
@@ -76,8 +96,52 @@ def real_array(value: Any, name: str, *, ndim: int | tuple[int, ...] | None = No
     return array
 
 
+def _float_array(value: Any, name: str) -> NDArray[np.float64]:
+    """`value` as a float64 ndarray (no copy when it is one); complex, text and bool refused.
+
+    ``np.asarray(z, dtype=float)`` silently drops the imaginary part of a complex array and
+    parses strings such as "1.5": both are refused here, naming `name` and what arrived.
+    """
+    raw = value if isinstance(value, np.ndarray) else None
+    if raw is None:
+        if isinstance(value, (str, bytes)) or value is None or isinstance(value, (dict, set)):
+            raise TypeError(f"{name} must be an array of real numbers, got {type(value).__name__}")
+        try:
+            raw = np.asarray(value)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"{name} must be an array of real numbers, got {type(value).__name__}"
+            ) from None
+    kind = raw.dtype.kind
+    if kind == "c":
+        raise TypeError(f"{name} must be real, got a complex array ({raw.dtype}); pass the real part "
+                        "explicitly if the imaginary part is meant to be dropped")
+    if kind in "USV":
+        raise TypeError(f"{name} must be an array of real numbers, got {type(value).__name__} of text ({raw.dtype})")
+    if kind == "b":
+        raise TypeError(f"{name} must be real numbers, got {'a bool array' if raw.ndim else repr(value)}")
+    if kind == "O":
+        items = [item for item in raw.flat]
+        if any(isinstance(item, (bool, np.bool_, str, bytes, complex, np.complexfloating)) or item is None
+               for item in items):
+            bad = next(item for item in items if isinstance(item, (bool, np.bool_, str, bytes, complex,
+                                                                    np.complexfloating)) or item is None)
+            raise TypeError(f"{name} must be an array of real numbers, got an entry {bad!r} "
+                            f"({type(bad).__name__})")
+    try:
+        return np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"{name} must be an array of real numbers, got {type(value).__name__}"
+        ) from None
+
+
 def finite(array: NDArray[Any], name: str) -> None:
     """Raise if `array` holds NaN or inf, giving the first offending index."""
+    if array.dtype.kind == "f" and array.size > 4096:
+        with np.errstate(all="ignore"):
+            if np.isfinite(np.sum(array)):  # a finite sum has no NaN or inf: no n-sized mask needed
+                return
     bad = ~np.isfinite(array)
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
@@ -107,16 +171,130 @@ def nonnegative(array: NDArray[np.float64], name: str, what: str = "value") -> N
 
 def square_matrix(value: Any, name: str) -> NDArray[np.float64] | sp.csr_matrix:
     """`value` as a finite square float matrix, dense ndarray or CSR."""
+    matrix = matrix_argument(value, name)
+    if not sp.issparse(matrix):
+        finite(matrix, name)
+    return matrix
+
+
+def matrix_argument(value: Any, name: str) -> NDArray[np.float64] | sp.csr_matrix:
+    """`value` as a square float matrix, dense ndarray (never copied when already float64) or CSR.
+
+    Kind and shape only, plus the finiteness of a sparse matrix's stored entries (O(nnz));
+    a dense matrix's entries are checked by `finite` (call it after any size guard).
+    """
     if sp.issparse(value):
+        if value.dtype.kind == "c":
+            raise TypeError(f"{name} must be real, got a complex sparse matrix ({value.dtype})")
+        if value.dtype.kind not in "biuf":
+            raise TypeError(f"{name} must be a matrix of real numbers, got a sparse matrix of {value.dtype}")
         matrix = sp.csr_matrix(value, dtype=float)
         finite(matrix.data, f"{name}.data")
     else:
-        matrix = real_array(value, name, ndim=2)
+        matrix = _float_array(value, name)
+        if matrix.ndim != 2:
+            raise ValueError(f"{name} must be 2-D, got shape {matrix.shape}")
     if matrix.shape[0] != matrix.shape[1]:
         raise ValueError(f"{name} must be square, got shape {matrix.shape}")
     if matrix.shape[0] == 0:
         raise ValueError(f"{name} must have at least one row, got shape {matrix.shape}")
     return matrix
+
+
+def _dense_asymmetry(matrix: NDArray[np.float64]) -> tuple[float, int, int, float]:
+    """(max |A_ij - A_ji|, i, j, max |A|) of a dense square A, in row blocks (no n x n temporary)."""
+    n = matrix.shape[0]
+    step = max(1, (1 << 21) // n)
+    gap, i, j, scale = 0.0, 0, 0, 0.0
+    for start in range(0, n, step):
+        rows = matrix[start:start + step]
+        difference = np.abs(rows - matrix[:, start:start + step].T)
+        k = int(np.argmax(difference))
+        r, c = divmod(k, n)
+        if difference[r, c] > gap:
+            gap, i, j = float(difference[r, c]), start + r, c
+        scale = max(scale, float(np.abs(rows).max()))
+    return gap, i, j, scale
+
+
+def boolean(value: Any, name: str) -> bool:
+    """`value` as a bool: True, False or a numpy bool; anything else (1, "no", None) refused."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {value!r} ({type(value).__name__})")
+    return bool(value)
+
+
+def text(value: Any, name: str) -> str:
+    """`value` as a non-empty str."""
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a str, got {value!r} ({type(value).__name__})")
+    if not value.strip():
+        raise ValueError(f"{name} is {value!r}; it must be a non-empty name")
+    return value
+
+
+def optional_limit(value: Any, name: str) -> float | None:
+    """None, or a positive number (``float("inf")`` allowed: no limit)."""
+    if value is None:
+        return None
+    if isinstance(value, (float, np.floating)) and np.isposinf(value):
+        return float("inf")
+    return positive_scalar(value, name)
+
+
+def nonnegative_scalar(value: Any, name: str) -> float:
+    """`value` as a finite float >= 0."""
+    number = real_scalar(value, name)
+    if number < 0:
+        raise ValueError(f"{name} is {number!r}; it must be >= 0 and finite")
+    return number
+
+
+def positive_semidefinite(matrix: Any, name: str, *, rtol: float = 1e-10) -> None:
+    """Raise if the symmetric `matrix` (dense or sparse) has an eigenvalue below -rtol * max|matrix|.
+
+    The diagonal is checked first (a negative diagonal entry is a negative eigenvalue's
+    witness); then a Cholesky factorisation of matrix + rtol * max|matrix| I decides, whose
+    failure gives the smallest eigenvalue for the message (up to 2000 rows: dense; larger
+    sparse matrices: the pivots of an unpivoted LDL^T, then Lanczos for the message).
+    """
+    is_sparse = sp.issparse(matrix)
+    diagonal = np.asarray(matrix.diagonal(), dtype=float)
+    bad = np.flatnonzero(diagonal < 0)
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"{name}[{i},{i}] is {_scalar(diagonal[i])}; a damping matrix must have a non-negative "
+                         f"diagonal and be positive semi-definite (no negative damping)")
+    scale = float(abs(matrix).max()) if (not is_sparse or matrix.nnz) else 0.0
+    if scale == 0:
+        return
+    n = matrix.shape[0]
+    shift = rtol * scale
+    if is_sparse and n > 2000:
+        # LDL^T of C + shift I without pivoting: all pivots > 0 exactly when it is positive
+        # definite (Sylvester's inertia), i.e. when C has no eigenvalue below -shift.
+        shifted = (sp.csc_matrix(matrix) + shift * sp.identity(n, format="csc")).tocsc()
+        try:
+            pivots = sla.splu(shifted, diag_pivot_thresh=0.0, permc_spec="MMD_AT_PLUS_A",
+                              options={"SymmetricMode": True}).U.diagonal()
+            if (pivots > 0).all():
+                return
+        except RuntimeError:  # an exactly zero pivot: an eigenvalue at -shift
+            pass
+        start = np.random.default_rng(0).standard_normal(n)
+        smallest = float(sla.eigsh(sp.csr_matrix(matrix), k=1, which="SA", v0=start, tol=1e-8)[0][0])
+    else:
+        dense = matrix.toarray() if is_sparse else matrix
+        try:
+            np.linalg.cholesky(dense + shift * np.eye(n))
+            return
+        except np.linalg.LinAlgError:
+            smallest = float(np.linalg.eigvalsh(dense)[0])
+    if smallest < -shift:
+        raise ValueError(
+            f"{name} is not positive semi-definite: its smallest eigenvalue is {smallest:.3g} "
+            f"(< -{shift:.3g}); a damping matrix must have no negative eigenvalue (negative damping)"
+        )
 
 
 def symmetric(
@@ -134,10 +312,7 @@ def symmetric(
         else:
             gap, i, j = 0.0, 0, 0
     else:
-        difference = np.abs(matrix - matrix.T)
-        i, j = (int(x) for x in np.unravel_index(np.argmax(difference), difference.shape))
-        gap = float(difference[i, j])
-        scale = float(np.abs(matrix).max())
+        gap, i, j, scale = _dense_asymmetry(matrix)
     atol = rtol * scale
     if gap > atol:
         if not symmetrize:
@@ -166,6 +341,7 @@ def mass_argument(value: Any, n_dof: int, name: str = "M") -> NDArray[np.float64
         if masses.shape[0] != n_dof:
             raise ValueError(f"{name} must have {n_dof} masses to match K, got shape {masses.shape}")
         positive(masses, name, "mass")
+        not_subnormal(masses, name)
         return masses
     if masses.shape != (n_dof, n_dof):
         raise ValueError(f"{name} must be ({n_dof}, {n_dof}) to match K, got shape {masses.shape}")
@@ -196,6 +372,48 @@ def choice(value: Any, name: str, allowed: tuple[str, ...]) -> str:
         options = ", ".join(repr(a) for a in allowed)
         raise ValueError(f"{name} is {value!r}; expected one of {options}")
     return str(value)
+
+
+#: Smallest normal float64; a mass below it is subnormal and has lost digits already.
+TINY = float(np.finfo(float).tiny)
+
+#: Largest eigenvalue scale max|K| / min(m) that vibra accepts: omega^2 = 1e300 leaves room
+#: for the products of a solver (K~ entries, norms, residuals) below float64's 1.8e308.
+SCALE_LIMIT = 1e300
+
+
+def not_subnormal(values: NDArray[np.float64], name: str) -> None:
+    """Raise if a nonzero entry of `values` is subnormal (|x| < 2.2e-308): digits are already lost."""
+    if values.size and (values.min() >= TINY or values.max() <= -TINY):
+        return  # one sign, all normal: no n-sized temporaries
+    small = (values != 0) & (np.abs(values) < TINY)
+    if small.any():
+        i = int(np.argmax(small))
+        raise ValueError(f"{name}[{i}] is {_scalar(values.flat[i])}, a subnormal number (below {TINY:.3g}) "
+                         "that has lost digits; rescale the units so that it is a normal float")
+
+
+def eigenvalue_scale(stiffness_max: float, mass_min: float, k_name: str = "K", m_name: str = "M") -> None:
+    """Raise if max|K| / min(m) (the scale of omega^2) would overflow or underflow float64.
+
+    K entries near 1e300 with masses near 1e-300 give K~ = M^-1/2 K M^-1/2 entries of 1e600
+    (inf); the reverse gives 1e-600 (0): both are refused with the figures instead.
+    """
+    if stiffness_max == 0 or mass_min == 0:
+        return
+    exponent = np.log10(stiffness_max) - np.log10(mass_min)
+    if exponent > np.log10(SCALE_LIMIT):
+        raise ValueError(
+            f"max|{k_name}| / min({m_name}) is about 1e{exponent:.0f} (max|{k_name}| = {stiffness_max:.3g}, "
+            f"min {m_name} = {mass_min:.3g}): omega^2 would overflow float64 (limit {SCALE_LIMIT:g}); "
+            "rescale the units (e.g. stiffness in kN/m, masses in g)"
+        )
+    if exponent < -np.log10(SCALE_LIMIT):
+        raise ValueError(
+            f"max|{k_name}| / min({m_name}) is about 1e{exponent:.0f} (max|{k_name}| = {stiffness_max:.3g}, "
+            f"min {m_name} = {mass_min:.3g}): omega^2 would underflow float64 (limit {1 / SCALE_LIMIT:g}); "
+            "rescale the units"
+        )
 
 
 def min_count(value: Any, name: str, *, low: int, what: str) -> int:

@@ -1,4 +1,4 @@
-"""The ``vibra`` command: ``report``, ``validate`` and ``modes``.
+"""The ``vibra`` command: ``report``, ``validate``, ``modes`` and ``sweep``.
 
 Only argparse and pathlib are imported at start-up, so ``vibra --help`` answers fast;
 numpy, scipy, pyvista and the analyses load inside the command that needs them.
@@ -62,6 +62,16 @@ def _seconds(text: str) -> float:
     return value
 
 
+def _timeout(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--timeout must be a number of seconds, got {text!r}") from None
+    if not 0 < value <= 3600:
+        raise argparse.ArgumentTypeError(f"--timeout must be between 0 and 3600 s, got {text}")
+    return value
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -90,6 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="how long to wait for another report writing into the same folder (default 60; "
                           "0: refuse at once)")
     rep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    _add_scheduler(rep, "scenes")
     val = sub.add_parser("validate", help="check scene files and build their systems: every check the report runs "
                          "before solving")
     val.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders")
@@ -97,7 +108,27 @@ def build_parser() -> argparse.ArgumentParser:
     mod.add_argument("scene", metavar="SCENE", help="one scene file")
     mod.add_argument("--molden", metavar="FILE", help="also write the vibrations of a molecule scene as a Molden "
                      "normal-mode file (Avogadro, Jmol, Molden)")
+    swp = sub.add_parser("sweep", help="solve one scene over ranges of parameter values: a table (CSV, JSON) "
+                         "and a chart")
+    swp.add_argument("scene", metavar="SCENE", help="one scene file")
+    swp.add_argument("--vary", action="append", required=True, metavar="KEY=START:STOP:N",
+                     help="a dotted key of the scene and its range, e.g. system.defect_mass=0.2:0.8:7 "
+                          "(KEY=log:START:STOP:N for logarithmic spacing); repeat for a grid")
+    swp.add_argument("--out", default="plots", metavar="DIR", help="output folder (default: plots/)")
+    swp.add_argument("--jobs", "-j", type=_jobs, default=None, metavar="N",
+                     help="worker processes of --scheduler local (default: the cores this process may use)")
+    swp.add_argument("--chunk-size", type=_jobs, default=1, metavar="N", help="points per Dask task (default 1)")
+    swp.add_argument("--quiet", "-q", action="store_true", help="no progress lines")
+    _add_scheduler(swp, "points")
     return parser
+
+
+def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help=f"run the {what} on Dask: 'local' (a local cluster of --jobs processes) or a "
+                             "scheduler address such as tcp://host:8786; needs vibra[distributed]")
+    parser.add_argument("--timeout", type=_timeout, default=10.0, metavar="SECONDS",
+                        help="how long to wait for the scheduler to answer (default 10)")
 
 
 def _validate(paths: Sequence[str]) -> int:
@@ -176,6 +207,7 @@ def _modes(path: str, molden: str | None = None) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
+    from vibra.cluster import ClusterError
     from vibra.report import FolderBusy, available_cores, missing_paths, report
 
     missing = missing_paths(args.paths)
@@ -185,8 +217,9 @@ def _report(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     try:
         result = report(args.paths, Path(args.out), jobs=args.jobs or available_cores(), force=args.force,
-                        window_size=args.window_size, progress=not args.quiet, wait=args.wait)
-    except (ValueError, FolderBusy) as error:
+                        window_size=args.window_size, progress=not args.quiet, wait=args.wait,
+                        scheduler=args.scheduler, timeout=args.timeout)
+    except (ValueError, FolderBusy, ClusterError, ImportError) as error:
         print(f"vibra report: {error}", file=sys.stderr)
         return EXIT_FAILED
     except OSError as error:  # the output folder refused (check_out_dir), or failed while writing
@@ -204,6 +237,42 @@ def _report(args: argparse.Namespace) -> int:
     return EXIT_FAILED if result.failed else EXIT_OK
 
 
+def _sweep(args: argparse.Namespace) -> int:
+    from vibra.charts import save_figure
+    from vibra.charts.sweep import sweep_figure
+    from vibra.cluster import ClusterError, check_client
+    from vibra.scene import SceneError
+    from vibra.sweep import grid, parse_vary, sweep
+
+    try:
+        points = grid(*(parse_vary(text) for text in args.vary))
+        if args.scheduler is not None:
+            check_client(args.scheduler, "--scheduler")
+    except (ValueError, TypeError) as error:  # a usage error: nothing is read or written
+        print(f"vibra sweep: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    if not Path(args.scene).is_file():
+        print(f"vibra sweep: {args.scene}: no such scene file; expected one scene file (*.toml) (nothing was written)",
+              file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        table = sweep(args.scene, points, client=args.scheduler, n_workers=args.jobs, timeout=args.timeout,
+                      chunk_size=args.chunk_size, progress=not args.quiet)
+        out = Path(args.out)
+        written = [table.to_csv(out / f"{table.name}_sweep.csv"), table.to_json(out / f"{table.name}_sweep.json"),
+                   save_figure(sweep_figure(table)[0], out / f"{table.name}_sweep.png")]
+    except SceneError as error:
+        print(f"vibra sweep: {error}", file=sys.stderr)
+        return EXIT_FAILED
+    except (ClusterError, ImportError, RuntimeError, ValueError, OSError) as error:
+        print(f"vibra sweep: {args.scene}: {' '.join(str(error).split())}", file=sys.stderr)
+        return EXIT_FAILED
+    print(f"{table.name}: {len(table.rows)} point(s) of {', '.join(table.keys)}, solver {table.rows[0].solver}")
+    for path in written:
+        print(f"wrote {path}")
+    return EXIT_OK
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``vibra`` command with `argv` (default: the process arguments); return the exit code."""
     parser = build_parser()
@@ -216,6 +285,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _validate(args.paths)
         if args.command == "modes":
             return _modes(args.scene, args.molden)
+        if args.command == "sweep":
+            return _sweep(args)
         return _report(args)
     except KeyboardInterrupt:
         print("\nvibra: interrupted; finished images are complete, unfinished scenes left no output",

@@ -170,6 +170,7 @@ class GeneralizedSystem(FreeDofs):
         >>> system.M.tolist(), system.labels
         ([[2.0, 0.0], [0.0, 1.0]], ('x', 'y'))
         """
+        name = _validate.text(name, "name")
         K_matrix = _validate.square_matrix(K, "K")
         if not isinstance(K_matrix, np.ndarray):
             K_matrix = np.asarray(K_matrix.toarray())
@@ -188,6 +189,8 @@ class GeneralizedSystem(FreeDofs):
             if C_matrix.shape != (n, n):
                 raise ValueError(f"C must be ({n}, {n}) to match K, got shape {C_matrix.shape}")
             C_matrix = np.array(_validate.symmetric(C_matrix, "C"), dtype=float)
+        if coordinates is not None and (isinstance(coordinates, str) or not isinstance(coordinates, Sequence)):
+            raise TypeError(f"coordinates must be a sequence of str, got {coordinates!r}")
         names = tuple(coordinates) if coordinates is not None else tuple(f"q{i}" for i in range(n))
         if len(names) != n:
             raise ValueError(f"coordinates must name {n} coordinates, got {len(names)}")

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate, solvers
+from vibra.solvers import gpu
 from vibra._frozen import _freeze_arrays, owned_arrays
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -114,6 +115,7 @@ class Modes:
     # ------------------------------------------------------------------ groups
     def zero_modes(self, rtol: float = 1e-6) -> NDArray[np.bool_]:
         """(n_modes,) True where |omega| <= rtol * max|omega| (rigid-body / translation modes)."""
+        rtol = _validate.nonnegative_scalar(rtol, "rtol")
         scale = float(np.abs(self.omega).max()) if self.n_modes else 0.0
         return np.abs(self.omega) <= np.maximum(rtol * scale, np.abs(self.omega_error))
 
@@ -122,6 +124,7 @@ class Modes:
 
         Returns a list of index arrays, one per group of two or more modes, ascending.
         """
+        rtol = _validate.nonnegative_scalar(rtol, "rtol")
         if self.n_modes < 2:
             return []
         scale = float(np.abs(self.omega).max())
@@ -212,8 +215,8 @@ class Modes:
 
     def energy(self, u: ArrayLike, v: ArrayLike) -> float:
         """Total energy 1/2 v^T M v + 1/2 sum_k omega_k|omega_k| q_k^2 within the computed modes."""
-        q = self.normal_coordinates(u)
-        qd = self.normal_coordinates(v)
+        q = self.normal_coordinates(_validate.real_array(u, "u", ndim=(1, 2)))
+        qd = self.normal_coordinates(_validate.real_array(v, "v", ndim=(1, 2)))
         return float(0.5 * np.sum(qd**2) + 0.5 * np.sum(self.omega_squared * q**2))
 
 
@@ -235,6 +238,10 @@ def normal_modes(
     symmetrize: bool = False,
     spring_factor: tuple[Any, ArrayLike] | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
+    max_memory: float | None = None,
+    max_seconds: float | None = None,
+    progress: bool | Callable[[float, str], None] | None = None,
+    device: str = "cpu",
 ) -> Modes:
     """Normal modes of M u'' + K u = 0 (seed 003 eqs. 137-151).
 
@@ -262,6 +269,22 @@ def normal_modes(
         enables the accurate path (frequencies as singular values of W^1/2 B M^-1/2).
     units : str or UnitSystem
         Unit system of K and M, carried by the result.
+    max_memory : float, optional
+        Bytes the solve may allocate beyond its input; default `vibra.solvers.budget.MEMORY_LIMIT`
+        (None: the memory available now). ``float("inf")`` disables the check.
+    max_seconds : float, optional
+        Refuse a solve estimated to take longer, in s; default
+        `vibra.solvers.budget.TIME_LIMIT_S` (600 s). ``float("inf")`` disables the check.
+    progress : bool or callable, optional
+        True writes progress lines to stderr, False keeps quiet, a callable receives
+        ``(fraction done, message)``; None (default) writes lines only for solves estimated
+        to take over `vibra.solvers.budget.PROGRESS_AFTER_S` (5 s).
+    device : {"cpu", "gpu"}
+        "gpu" ("cuda" is the same) solves all modes densely on an NVIDIA GPU through CuPy
+        (``pip install "vibra[gpu]"``), then keeps `n_modes` or `band`; only with solver
+        "auto" or "dense". Its memory (K~ and cuSOLVER's workspace, about 5 n^2 doubles) is
+        checked against the GPU's free memory before anything is allocated. Without CuPy or a
+        GPU it raises `vibra.solvers.gpu.GPUUnavailableError`; it never falls back to the CPU.
 
     Returns
     -------
@@ -269,10 +292,21 @@ def normal_modes(
 
     Raises
     ------
+    TypeError
+        K, M or spring_factor not real numbers (complex, text); vectors or symmetrize not a
+        bool; solver not a str.
+    vibra.solvers.gpu.GPUUnavailableError
+        device="gpu" without CuPy or without a usable GPU (the message names the extra).
     ValueError
+        An unknown device, or device="gpu" with a solver other than "auto" or "dense", or a
+        GPU solve that would not fit in the GPU's free memory (with the figures);
         K not square, not symmetric (beyond 1e-10 * max|K|) or not finite; M of the wrong
-        shape, non-positive, non-finite or not positive definite; n_modes out of range;
-        an unknown solver or a solver that cannot serve the request.
+        shape, non-positive, subnormal, non-finite or not positive definite; max|K| / min(M)
+        beyond 1e+-300 (omega^2 would overflow or underflow); spring_factor not a factor of
+        K; n_modes out of range; an unknown solver or a solver that cannot serve the request.
+    vibra.solvers.ResourceLimitError
+        (a ValueError) the solve's estimated memory or time exceeds the limits; the message
+        gives the figures and the cheaper requests.
 
     Examples
     --------
@@ -282,31 +316,68 @@ def normal_modes(
     >>> np.round(modes.omega ** 2, 12)
     array([0., 1., 3.])
     """
-    K_matrix = _validate.square_matrix(K, "K")
-    K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
+    # Kinds, shapes and options first (cheap), then the resource guard, then the checks that
+    # read every entry of K (finite, symmetric, scale, spring factor): a K too large to solve
+    # is refused before any pass over it, let alone a copy.
+    K_matrix = _validate.matrix_argument(K, "K")
     n_dof = K_matrix.shape[0]
     mass = _validate.mass_argument(M, n_dof, "M")
     if n_modes is not None:
         n_modes = _validate.count(n_modes, "n_modes", low=1, high=n_dof)
+    vectors = _validate.boolean(vectors, "vectors")
     if band is not None:
         band = _band(band)
         if n_modes is not None:
             raise ValueError("give either n_modes or band, not both")
+    if not isinstance(solver, str):
+        raise TypeError(f"solver must be a str, got {solver!r} ({type(solver).__name__})")
     _validate.choice(solver, "solver", SOLVERS)
+    symmetrize = _validate.boolean(symmetrize, "symmetrize")
     factor = None
     if spring_factor is not None:
         factor = solvers.check_spring_factor(spring_factor, n_dof)
     elif solver == "accurate":
         raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B")
     unit = unit_system(units)
+    max_memory = _validate.optional_limit(max_memory, "max_memory")
+    max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
+    if not (progress is None or isinstance(progress, (bool, np.bool_)) or callable(progress)):
+        raise TypeError(f"progress must be None, a bool or a callable(fraction, message), got {progress!r}")
+    device = gpu.check_device(device)
+    if device == "gpu":
+        if solver not in ("auto", "dense"):
+            raise ValueError(f"device='gpu' runs the dense path only; solver is {solver!r} (use 'auto' or 'dense')")
+        if not sp.issparse(K_matrix):
+            _validate.finite(K_matrix, "K")
+        K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
+        result = gpu.solve_gpu(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band)
+        return _modes_from(result, K_matrix, mass, unit)
+
+    request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
+                           spring_factor=factor)
+    solvers.check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
+                       max_seconds=max_seconds)
+
+    if not sp.issparse(K_matrix):
+        _validate.finite(K_matrix, "K")
+    K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
+    smallest_mass = float(np.min(mass if mass.ndim == 1 else np.diag(mass)))
+    _validate.eigenvalue_scale(solvers.largest_entry(K_matrix), smallest_mass)
+    if factor is not None:
+        solvers.check_factor_matches(K_matrix, factor)
 
     result = solvers.solve(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band,
-                           solver=solver, spring_factor=factor)
+                           solver=solver, spring_factor=factor, progress=progress, request=request)
+    return _modes_from(result, K_matrix, mass, unit)
+
+
+def _modes_from(result: solvers.SolveResult, K_matrix: Any, mass: NDArray[np.float64], unit: UnitSystem) -> Modes:
+    """The `Modes` of one solver path's raw result (warns about imaginary modes)."""
     if (result.eigenvalues < -result.error).any():
         n_negative = int((result.eigenvalues < -result.error).sum())
         warnings.warn(
             f"K is not positive semi-definite: {n_negative} imaginary mode(s), reported as "
-            "negative omega", RuntimeWarning, stacklevel=2,
+            "negative omega", RuntimeWarning, stacklevel=3,
         )
     omega = np.sign(result.eigenvalues) * np.sqrt(np.abs(result.eigenvalues))
     # d(omega) = d(omega^2) / (2 |omega|), capped by sqrt(d(omega^2)) near zero.

@@ -23,7 +23,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Callable, Literal, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -158,6 +158,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         >>> corner.n_dof, corner.hessian()[0, 2], corner.hessian()[1, 5]  # each spring acts along its axis
         (6, np.float64(-2.0), np.float64(-2.0))
         """
+        name = _validate.text(name, "name")
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
         mass_array = _site_masses(masses, n_sites)
@@ -252,6 +253,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         array([[ 3., -3.],
                [-3.,  3.]])
         """
+        name = _validate.text(name, "name")
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
         mass_array = _site_masses(masses, n_sites)
@@ -298,8 +300,10 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         >>> system.spring_factor() is None, np.round(system.modes().omega_squared, 12).tolist()
         (True, [0.0, 2.0])
         """
+        name = _validate.text(name, "name")
         positions_array = _positions(positions)
         n_sites, dim = positions_array.shape
+        symmetrize = _validate.boolean(symmetrize, "symmetrize")
         matrix = _validate.square_matrix(hessian, "hessian")
         matrix = _validate.symmetric(matrix, "hessian", symmetrize=symmetrize)
         if matrix.shape[0] != n_sites * dim:
@@ -466,6 +470,10 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         vectors: bool = True,
         band: tuple[float, float] | None = None,
         solver: str = "auto",
+        device: str = "cpu",
+        max_memory: float | None = None,
+        max_seconds: float | None = None,
+        progress: bool | Callable[[float, str], None] | None = None,
     ) -> Modes:
         """Normal modes of the free dofs (seed 003 eqs. 137-151).
 
@@ -483,6 +491,11 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
             Only the modes with omega in [low, high], in rad per time unit.
         solver : str
             Override the automatic choice (see `vibra.normal_modes`).
+        device : {"cpu", "gpu"}
+            "gpu": all modes densely on an NVIDIA GPU through CuPy (``vibra[gpu]``), the
+            standard (absolute-accuracy) path whatever `accuracy` says; see `vibra.normal_modes`.
+        max_memory, max_seconds, progress
+            The resource limits and progress reporting of `vibra.normal_modes`.
 
         Examples
         --------
@@ -491,10 +504,12 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         [0.0, 1.0]
         """
         _validate.choice(accuracy, "accuracy", ("high", "fast"))
-        factor = self.spring_factor() if accuracy == "high" else None
+        on_gpu = isinstance(device, str) and device in ("gpu", "cuda")
+        factor = self.spring_factor() if accuracy == "high" and not on_gpu else None
         return normal_modes(
             self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
-            solver=solver, spring_factor=factor, units=self.units,
+            solver=solver, spring_factor=factor, units=self.units, device=device,
+            max_memory=max_memory, max_seconds=max_seconds, progress=progress,
         )
 
 

@@ -20,6 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
+from vibra import _validate
+
 __all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "unit_system"]
 
 
@@ -46,6 +48,13 @@ class UnitSystem:
     length: str
     energy: str
     time_s: float | None
+
+    def __post_init__(self) -> None:
+        for field in ("name", "mass", "length", "energy"):
+            _validate.text(getattr(self, field), field)
+        if self.time_s is not None:
+            # a zero or negative time unit would turn every conversion into inf, NaN or a sign flip
+            object.__setattr__(self, "time_s", _validate.positive_scalar(self.time_s, "time_s", "time unit"))
 
     @property
     def stiffness(self) -> str:
@@ -85,7 +94,7 @@ class UnitSystem:
 
     def omega_to_rad_per_s(self, omega: ArrayLike) -> NDArray[np.float64]:
         """(n,) angular frequencies converted to rad/s."""
-        return np.asarray(omega, dtype=float) / self._require_physical("rad/s")
+        return _validate.real_numbers(omega, "omega") / self._require_physical("rad/s")
 
     def omega_to_hz(self, omega: ArrayLike) -> NDArray[np.float64]:
         """(n,) ordinary frequencies omega / 2 pi, in Hz."""
@@ -105,7 +114,7 @@ class UnitSystem:
 
     def cm1_to_omega(self, wavenumber: ArrayLike) -> NDArray[np.float64]:
         """(n,) wavenumbers in cm^-1 converted to omega in this system's units."""
-        hz = np.asarray(wavenumber, dtype=float) * (constants.c / constants.centi)
+        hz = _validate.real_numbers(wavenumber, "wavenumber") * (constants.c / constants.centi)
         return 2.0 * np.pi * hz * self._require_physical("cm^-1")
 
 

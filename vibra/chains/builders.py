@@ -126,7 +126,7 @@ def linear_chain(
     k = _per_bond(stiffness, n, ends, "stiffness")
     a = _validate.positive_scalar(spacing, "spacing", "spacing")
     positions = np.arange(n) * a
-    label = name if name is not None else f"linear chain (n={n}, {ends} ends)"
+    label = _validate.text(name, "name") if name is not None else f"linear chain (n={n}, {ends} ends)"
     if ends == "fixed":
         return System.from_springs(
             positions, masses, _bonds(n, "free"), k[1:-1], anchors=np.array([0, n - 1]),
@@ -198,7 +198,7 @@ def diatomic_chain(
     site_masses = np.tile([m1, m2], n_cells)
     inner = np.tile([k1, k2], n_cells)[: n - 1]  # bonds (i, i+1): k1, k2, ..., k1
     bond_k = {"free": inner, "periodic": np.append(inner, k2), "fixed": np.concatenate([[k2], inner, [k2]])}[ends]
-    label = name if name is not None else f"diatomic chain (n_cells={n_cells}, {ends} ends)"
+    label = _validate.text(name, "name") if name is not None else f"diatomic chain (n_cells={n_cells}, {ends} ends)"
     return linear_chain(n, mass=site_masses, stiffness=bond_k, spacing=spacing, ends=ends,
                         units=units, name=label)
 
@@ -280,6 +280,6 @@ def beaded_string(
         shape=(n_pairs + (2 if ends == "fixed" else 0), 2 * n),
     )
     weights = np.full(coupling.shape[0], T / a)
-    label = name if name is not None else f"beaded string (n={n}, {ends} ends)"
+    label = _validate.text(name, "name") if name is not None else f"beaded string (n={n}, {ends} ends)"
     return System.from_terms(positions, masses, coupling, weights, frozen_dofs=2 * np.arange(n),
                              units=units, name=label)

@@ -94,6 +94,7 @@ def periodic_modes(system: System, n_modes: int | None = None, *, vectors: bool 
     >>> np.round(modes.omega ** 2, 12)
     array([0., 2., 2.])
     """
+    vectors = _validate.boolean(vectors, "vectors")
     masses, stiffness = _ring_parameters(system)
     n = masses.shape[0]
     if n_modes is not None:

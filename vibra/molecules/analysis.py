@@ -200,6 +200,7 @@ def vibrational_analysis(
             f"system has {int(system.frozen.sum())} frozen degree(s) of freedom; translations and "
             "rotations are not free, so there are no rigid-body modes to separate"
         )
+    project = _validate.boolean(project, "project")
     _validate.choice(accuracy, "accuracy", ("high", "fast"))
     linear_rtol = nonnegative_scalar(linear_rtol, "linear_rtol", "relative")
     zero_rtol = nonnegative_scalar(zero_rtol, "zero_rtol", "relative")

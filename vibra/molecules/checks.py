@@ -60,7 +60,9 @@ def nonnegative_scalar(value: Any, name: str, unit: str) -> float:
 
 
 def molecule_name(atoms: Any, name: str | None) -> str:
-    return name if name is not None else atoms.get_chemical_formula(mode="hill")
+    if name is not None:
+        return _validate.text(name, "name")
+    return str(atoms.get_chemical_formula(mode="hill"))
 
 
 def masses_or_default(masses: ArrayLike | None, default: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -11,7 +12,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import _freeze_arrays
+from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.modes import Modes
+from vibra.molecules.displacements import (CalculatorSource, Displacement, ForceCache, displaced_forces,
+                                           displaced_positions, displacement_plan, force_problem, is_calculator,
+                                           is_factory)
 from vibra.molecules.checks import check_atoms, masses_or_default, molecule_name, nonnegative_scalar
 from vibra.system import System
 
@@ -53,7 +58,9 @@ class FiniteDifferenceHessian:
     error_method : str
         ``"richardson"`` or ``"asymmetry"``.
     n_force_calls : int
-        Calculator force evaluations spent, including the reference geometry.
+        Calculator force evaluations spent in this run, including the reference geometry.
+    n_cached : int
+        Geometries whose forces were read from the cache instead (0 without a cache).
     """
 
     hessian: NDArray[np.float64]
@@ -69,6 +76,7 @@ class FiniteDifferenceHessian:
     stencil: int
     error_method: str
     n_force_calls: int
+    n_cached: int = 0
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
@@ -118,6 +126,12 @@ def finite_difference_hessian(
     estimate_error: bool = True,
     force_noise: float | None = None,
     force_tolerance: float | None = None,
+    client: Any = None,
+    cache: str | os.PathLike[str] | None = None,
+    calculator_key: str | None = None,
+    progress: ProgressOption = None,
+    n_workers: int | None = None,
+    timeout: float = 10.0,
 ) -> FiniteDifferenceHessian:
     """Hessian of any ASE calculator by central differences of its forces.
 
@@ -126,14 +140,28 @@ def finite_difference_hessian(
     `estimate_error` one more step size is evaluated (2h for the 2-point stencil, 4h for the
     4-point one) and the truncation error is estimated by Richardson extrapolation:
     |D(h) - D(2h)| / 3, or |R(h) - R(2h)| / 15 for the 4-point result R. The round-off error is
-    ~ force_noise / h. Everything stays in memory (no cache files).
+    ~ force_noise / h.
+
+    Each geometry is one force call: serially in this process (``client=None``), or one task
+    each on a Dask cluster (`vibra.cluster`). The forces are gathered first and the Hessian is
+    then assembled in one fixed order, so a run on any number of workers gives the serial
+    result bit for bit, provided no force call depends on the ones before it: a factory starts
+    every call from scratch; an instance is used as it is serially and copied fresh for every
+    call on a worker (see `vibra.molecules.displacements`). With `cache`, each geometry's
+    forces are written to their own file as they arrive; a killed run started again computes
+    only what is missing.
 
     Parameters
     ----------
     atoms : ase.Atoms
         Reference geometry, Angstrom; masses (amu) are read from it. Not modified.
-    calculator : ase Calculator, optional
-        Evaluates the forces; ``atoms.calc`` by default.
+    calculator : ase Calculator or callable, optional
+        Evaluates the forces; ``atoms.calc`` by default. Or a factory: a class or a callable
+        with no arguments that returns a new calculator (for calculators that cannot be
+        pickled or that carry state from one call to the next, e.g.
+        ``functools.partial(TBLite, method="GFN2-xTB")``). On a cluster the
+        calculator (or the factory) is pickled and sent to the workers, which must have vibra
+        and the calculator's package installed.
     step : float
         Displacement h, Angstrom.
     stencil : {2, 4}
@@ -146,6 +174,25 @@ def finite_difference_hessian(
     force_tolerance : float, optional
         Raise if the largest force at the reference geometry exceeds this (eV / Angstrom): the
         Hessian of a non-equilibrium geometry gives meaningless frequencies. None: no check.
+    client : None, "local", str or distributed.Client
+        Where the force calls run (`vibra.cluster.connect`): None in this process; ``"local"``
+        a local cluster of worker processes started and closed here; a scheduler address
+        (``"tcp://host:8786"``) or an open ``distributed.Client``. Needs ``vibra[distributed]``.
+    cache : path-like, optional
+        Folder of per-geometry force files (``<key>.npy``, keyed by geometry, step, stencil
+        and calculator settings; see `vibra.molecules.displacements`). Files found there are
+        verified and reused instead of calling the calculator; the client writes each new
+        result as it arrives, so the folder need not be shared with the workers.
+    calculator_key : str, optional
+        The calculator's settings, spelled out for the cache key (default: the pickled bytes
+        of the calculator or factory). Needed for a calculator that cannot be pickled.
+    progress : None, bool, "dask" or callable
+        A line per finished geometry on stderr (True), ``dask.distributed.progress`` (a widget
+        in a notebook), or ``callable(done, total, label)``.
+    n_workers : int, optional
+        Worker processes of ``client="local"`` (default: the usable cores).
+    timeout : float
+        Seconds to wait for a scheduler address to answer.
 
     Returns
     -------
@@ -154,13 +201,19 @@ def finite_difference_hessian(
     Raises
     ------
     TypeError
-        `atoms` is not an ase.Atoms, or no calculator.
+        `atoms` is not an ase.Atoms, or no calculator; a calculator that cannot be pickled
+        with a `client` (pass a factory) or a `cache` (pass `calculator_key`).
     ValueError
         Bad step, stencil or noise; unknown elements or overlapping atoms; a residual force
-        above `force_tolerance` (reported).
+        above `force_tolerance` (reported); a malformed `client`.
     RuntimeError
-        The calculator returned forces that are not finite or of the wrong shape (the
-        displacement is named); nothing is written anywhere.
+        The calculator raised, or returned forces that are not finite or of the wrong shape:
+        every such geometry is named (atom, sign, step multiple, axis). The forces that were
+        computed stay in `cache`; nothing else is written anywhere.
+    ImportError
+        `client` given but Dask is not installed (the message names ``vibra[distributed]``).
+    vibra.cluster.ClusterError
+        No scheduler answered at the address within `timeout`.
 
     Examples
     --------
@@ -174,8 +227,8 @@ def finite_difference_hessian(
     calc = calculator if calculator is not None else atoms.calc
     if calc is None:
         raise TypeError("calculator is None and atoms has no calculator attached; pass calculator=")
-    if not hasattr(calc, "get_forces") and not hasattr(calc, "get_property"):
-        raise TypeError(f"calculator must be an ASE calculator, got {type(calc).__name__}")
+    if not is_calculator(calc) and not is_factory(calc):
+        raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got {type(calc).__name__}")
     h = _validate.real_scalar(step, "step")
     if not h > 0:
         raise ValueError(f"step is {h!r}; the displacement must be positive (Angstrom)")
@@ -184,52 +237,128 @@ def finite_difference_hessian(
     noise = None if force_noise is None else nonnegative_scalar(force_noise, "force_noise", "eV/Angstrom")
     tolerance = None if force_tolerance is None else nonnegative_scalar(force_tolerance, "force_tolerance",
                                                                    "eV/Angstrom")
-    work = atoms.copy()
-    work.calc = calc
-    n = len(work)
-    n_dof = 3 * n
-    calls = 0
-    largest = 0.0
-
-    def forces_at(shift: NDArray[np.float64] | None, where: str) -> NDArray[np.float64]:
-        nonlocal calls, largest
-        work.set_positions(positions if shift is None else positions + shift)
-        calls += 1
-        values = np.asarray(work.get_forces(), dtype=float)
-        if values.shape != (n, 3):
-            raise RuntimeError(f"calculator returned forces of shape {values.shape} at {where}; expected ({n}, 3)")
-        bad = ~np.isfinite(values)
-        if bad.any():
-            a, c = (int(v) for v in np.argwhere(bad)[0])
-            raise RuntimeError(
-                f"calculator returned non-finite forces at {where}: forces[{a},{c}] = {values[a, c]!r}"
-            )
-        largest = max(largest, float(np.abs(values).max()))
-        return values.ravel()
-
-    reference = forces_at(None, "the reference geometry").reshape(n, 3)
-    residual = float(np.linalg.norm(reference, axis=1).max())
-    if tolerance is not None:
-        if residual > tolerance:
-            worst = int(np.argmax(np.linalg.norm(reference, axis=1)))
-            raise ValueError(
-                f"atoms is not an equilibrium of the calculator: residual force {residual:.3g} eV/Angstrom "
-                f"on atom {worst} (force_tolerance={tolerance:g}); relax the geometry first"
-            )
+    check_client(client)
+    if calculator_key is not None and not isinstance(calculator_key, str):
+        raise TypeError(f"calculator_key must be a str, got {type(calculator_key).__name__}")
+    source = CalculatorSource(calc, key=calculator_key)
+    if client is not None:
+        source.require_picklable()
+    template = atoms.copy()
+    template.calc = None
+    store = None if cache is None else ForceCache(cache, template, h, source.digest())
+    n = len(template)
     # step multiples evaluated: the stencil's own, plus one coarser for the Richardson estimate
     multiples = [1] if stencil == 2 else [1, 2]
     if estimate_error:
         multiples.append(2 if stencil == 2 else 4)
+    plan = displacement_plan(n, multiples)
+    forces = _gather_forces(plan, template, source, positions, h, store, tolerance, client=client,
+                            progress=progress, n_workers=n_workers, timeout=timeout)
+    return _assemble(forces, plan, multiples, h, int(stencil), noise, positions, masses,
+                     template.get_atomic_numbers(), estimate_error)
+
+
+def _check_reference(reference: NDArray[np.float64], tolerance: float | None) -> None:
+    if tolerance is None:
+        return
+    norms = np.linalg.norm(reference, axis=1)
+    residual = float(norms.max())
+    if residual > tolerance:
+        raise ValueError(
+            f"atoms is not an equilibrium of the calculator: residual force {residual:.3g} eV/Angstrom "
+            f"on atom {int(np.argmax(norms))} (force_tolerance={tolerance:g}); relax the geometry first"
+        )
+
+
+@dataclass(frozen=True)
+class _Gathered:
+    forces: tuple[NDArray[np.float64], ...]   # one (n_atoms, 3) array per geometry of the plan
+    computed: int                              # force calls made in this run
+    cached: int                                # geometries read from the cache
+
+
+def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: CalculatorSource,
+                   positions: NDArray[np.float64], h: float, store: ForceCache | None, tolerance: float | None,
+                   *, client: Any, progress: ProgressOption, n_workers: int | None, timeout: float) -> _Gathered:
+    """Forces at every geometry of `plan`: from the cache, in this process, or on a cluster."""
+    n = len(template)
+    found: dict[int, NDArray[np.float64]] = {}
+    if store is not None:
+        for d in plan:
+            values = store.load(d)
+            if values is not None:
+                found[d.index] = values
+    if 0 in found:
+        _check_reference(found[0], tolerance)
+    missing = [d for d in plan if d.index not in found]
+    n_cached = len(found)
+
+    def accept(d: Displacement, values: NDArray[np.float64]) -> str | None:
+        problem = force_problem(values, n, d.label)
+        if problem is not None:
+            return problem
+        if store is not None:
+            store.store(d, values)
+        found[d.index] = values
+        if d.index == 0:
+            _check_reference(values, tolerance)
+        return None
+
+    if missing and client is None:
+        callback = progress_callback(progress, len(missing))
+        for done, d in enumerate(missing, start=1):
+            try:
+                values = displaced_forces(template, source, displaced_positions(positions, d, h))
+            except Exception as error:
+                raise RuntimeError(f"calculator failed at {d.label}: {type(error).__name__}: {error}"
+                                   + _kept(store, len(found))) from error
+            problem = accept(d, values)
+            if problem is not None:
+                raise RuntimeError(problem + _kept(store, len(found)))
+            if callback is not None:
+                callback(done, len(missing), d.label)
+    elif missing:
+        problems: list[str] = []
+
+        def on_result(i: int, values: NDArray[np.float64]) -> None:
+            problem = accept(missing[i], values)
+            if problem is not None:
+                problems.append(problem)
+
+        with connect(client, n_workers=n_workers, timeout=timeout) as opened:
+            _, failures = run_tasks(
+                opened, displaced_forces,
+                [(template, source, displaced_positions(positions, d, h)) for d in missing],
+                labels=[d.label for d in missing], on_result=on_result, progress=progress,
+                name="vibra-fd")
+        problems.extend(f"calculator failed at {f.describe()}" for f in failures)
+        if problems:
+            raise RuntimeError(f"{len(problems)} of {len(plan)} force calls failed: " + "; ".join(problems)
+                               + _kept(store, len(found)))
+    return _Gathered(forces=tuple(found[d.index] for d in plan), computed=len(missing), cached=n_cached)
+
+
+def _kept(store: ForceCache | None, n_done: int) -> str:
+    if store is None:
+        return " (pass cache= to keep the finished force calls of a run)"
+    return f" ({n_done} finished force call(s) kept in the cache {str(store.folder)!r}; a rerun computes only the rest)"
+
+
+def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: list[int], h: float, stencil: int,
+              noise: float | None, positions: NDArray[np.float64], masses: NDArray[np.float64],
+              numbers: NDArray[np.int_], estimate_error: bool) -> FiniteDifferenceHessian:
+    """The Hessian and its error estimate from the forces of every geometry, in the plan's order."""
+    n_dof = positions.size
+    forces = gathered.forces
+    largest = 0.0
+    for values in forces:
+        largest = max(largest, float(np.abs(values).max()))
+    residual = float(np.linalg.norm(forces[0], axis=1).max())
     quotient = {m: np.empty((n_dof, n_dof)) for m in multiples}
-    axes = "xyz"
-    for i in range(n_dof):
-        for m in multiples:
-            shift = np.zeros((n, 3))
-            shift.flat[i] = m * h
-            where = f"atom {i // 3} displaced by {{}}{m}h along {axes[i % 3]}"
-            plus = forces_at(shift, where.format("+"))
-            minus = forces_at(-shift, where.format("-"))
-            quotient[m][i] = (minus - plus) / (2.0 * m * h)
+    for d_plus, d_minus in zip(plan[1::2], plan[2::2]):
+        m = d_plus.multiple
+        plus, minus = forces[d_plus.index].ravel(), forces[d_minus.index].ravel()
+        quotient[m][d_plus.dof] = (minus - plus) / (2.0 * m * h)
     if stencil == 2:
         raw = quotient[1]
         truncation_raw = np.abs(quotient[1] - quotient[2]) / 3.0 if estimate_error else None
@@ -254,8 +383,8 @@ def finite_difference_hessian(
     return FiniteDifferenceHessian(
         hessian=hessian, error=truncation + roundoff, truncation=truncation, roundoff=roundoff,
         asymmetry=float(asymmetry_matrix.max()), residual_force=residual, positions=positions,
-        masses=masses, numbers=atoms.get_atomic_numbers(), step=h, stencil=int(stencil),
-        error_method=method, n_force_calls=calls,
+        masses=masses, numbers=numbers, step=h, stencil=stencil,
+        error_method=method, n_force_calls=gathered.computed, n_cached=gathered.cached,
     )
 
 
@@ -268,11 +397,16 @@ def from_calculator(
     force_tolerance: float | None = 1e-3,
     masses: ArrayLike | None = None,
     name: str | None = None,
+    client: Any = None,
+    cache: str | os.PathLike[str] | None = None,
+    calculator_key: str | None = None,
+    progress: ProgressOption = None,
 ) -> System:
     """A molecule whose Hessian is a finite difference of any ASE calculator's forces.
 
     See `finite_difference_hessian` (which also returns the error estimate); this runs it
-    without the extra Richardson step and returns the `System` (ASE units).
+    without the extra Richardson step and returns the `System` (ASE units); `client`, `cache`,
+    `calculator_key` and `progress` are passed on to it.
 
     Examples
     --------
@@ -281,6 +415,7 @@ def from_calculator(
     >>> from_calculator(atoms, ValenceForceField(valence_model(atoms))).n_dof
     9
     """
-    result = finite_difference_hessian(atoms, calculator, step=step, stencil=stencil,
-                                       estimate_error=False, force_tolerance=force_tolerance)
+    result = finite_difference_hessian(atoms, calculator, step=step, stencil=stencil, estimate_error=False,
+                                       force_tolerance=force_tolerance, client=client, cache=cache,
+                                       calculator_key=calculator_key, progress=progress)
     return result.system(masses=masses, name=molecule_name(atoms, name))

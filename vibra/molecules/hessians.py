@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
+from vibra import _validate
 from vibra.molecules.checks import check_atoms, masses_or_default, molecule_name, nonnegative_scalar
 from vibra.molecules.rigid_body import expected_rigid_count, warn_soft_modes
 from vibra.molecules.valence import ValenceModel, valence_model
@@ -147,7 +148,9 @@ def from_hessian(
     (9, 'H2O')
     """
     positions, default_masses = check_atoms(atoms)
-    system = System.from_hessian(positions, masses_or_default(masses, default_masses), hessian,
+    site_masses = masses_or_default(masses, default_masses)
+    symmetrize = _validate.boolean(symmetrize, "symmetrize")
+    system = System.from_hessian(positions, site_masses, hessian,
                                  symmetrize=symmetrize, units="ASE", name=molecule_name(atoms, name))
     return system.with_symbols(atoms.get_chemical_symbols())
 

@@ -17,6 +17,7 @@ hashes the scene file, vibra's version, vibra's code (`code_hash`) and the optio
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -27,6 +28,7 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from vibra.cluster import check_client, connect, run_tasks
 from vibra.report.folder import (
     MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
 )
@@ -217,7 +219,7 @@ def _worker(path: str, out_dir: str, force: bool, window_size: Sequence[int] | N
 # ---------------------------------------------------------------------- batch
 def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[str] = "plots", *,
            jobs: int = 1, force: bool = False, window_size: Sequence[int] | None = None,
-           progress: bool = True, wait: float = 60.0) -> BatchResult:
+           progress: bool = True, wait: float = 60.0, scheduler: Any = None, timeout: float = 10.0) -> BatchResult:
     """Render every scene in `paths` (files or folders of ``*.toml``) into `out_dir`.
 
     Parameters
@@ -237,6 +239,13 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
         Show a progress bar on stderr.
     wait : float
         Seconds to wait for another run that holds the folder's lock, in s.
+    scheduler : None, "local", str or distributed.Client
+        Run each scene as a Dask task (`vibra.cluster.connect`): ``"local"`` (a local cluster of
+        `jobs` worker processes), a scheduler address or a ``Client``; the outputs are those of
+        the local run. On a remote cluster `out_dir` must be a folder every worker can write (a
+        shared file system). The scheduler is reached before the folder is touched.
+    timeout : float
+        Seconds to wait for a scheduler address to answer.
 
     Returns
     -------
@@ -266,23 +275,28 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
     files = find_scene_files(list(paths))
     if not files:
         raise ValueError(f"paths holds no scene file (*.toml): {[str(p) for p in paths]}")
-    target = check_out_dir(out_dir)
-    with FolderLock(target, wait=wait):
-        clean_stale(target)
-        result = _run_all(files, target, jobs=jobs, force=force, window_size=window_size, progress=progress)
-        merged = merged_outcomes(target, result.outcomes)
-        write_summary(result, merged)
-        write_index(result, merged)
-        clean_stale(target)
-        try:
-            (target / ".work").rmdir()  # every scene is done; removed only when empty
-        except OSError:
-            pass
+    if scheduler is not None:
+        check_client(scheduler, "scheduler")
+    cluster = contextlib.nullcontext() if scheduler is None else connect(scheduler, n_workers=jobs, timeout=timeout)
+    with cluster as client:  # an unreachable scheduler fails here, before the folder is touched
+        target = check_out_dir(out_dir)
+        with FolderLock(target, wait=wait):
+            clean_stale(target)
+            result = _run_all(files, target, jobs=jobs, force=force, window_size=window_size, progress=progress,
+                              client=client)
+            merged = merged_outcomes(target, result.outcomes)
+            write_summary(result, merged)
+            write_index(result, merged)
+            clean_stale(target)
+            try:
+                (target / ".work").rmdir()  # every scene is done; removed only when empty
+            except OSError:
+                pass
     return result
 
 
 def _run_all(files: Sequence[Path], target: Path, *, jobs: int, force: bool, window_size: Sequence[int] | None,
-             progress: bool) -> BatchResult:
+             progress: bool, client: Any = None) -> BatchResult:
     start = time.perf_counter()
     bar = ProgressBar(len(files), enabled=progress)
     outcomes: list[SceneOutcome | None] = [None] * len(files)
@@ -297,7 +311,10 @@ def _run_all(files: Sequence[Path], target: Path, *, jobs: int, force: bool, win
         else:
             pending.append(i)
     size = None if window_size is None else (int(window_size[0]), int(window_size[1]))
-    if jobs == 1 or len(pending) <= 1:
+    if client is not None:
+        _run_on_dask(client, files, pending, outcomes, bar, target, force, size)
+        jobs = len(client.scheduler_info()["workers"])
+    elif jobs == 1 or len(pending) <= 1:
         for i in pending:
             outcomes[i] = run_scene(files[i], target, force=force, window_size=size)
             bar.update(outcomes[i])  # type: ignore[arg-type]
@@ -326,6 +343,23 @@ def _run_all(files: Sequence[Path], target: Path, *, jobs: int, force: bool, win
                 raise
     return BatchResult(out_dir=target, outcomes=tuple(o for o in outcomes if o is not None),
                        seconds=time.perf_counter() - start, jobs=jobs)
+
+
+def _run_on_dask(client: Any, files: Sequence[Path], pending: Sequence[int], outcomes: list[SceneOutcome | None],
+                 bar: ProgressBar, target: Path, force: bool, size: tuple[int, int] | None) -> None:
+    """Each pending scene as one Dask task (`run_scene` on a worker); a lost task is a failed scene."""
+    def finished(k: int, outcome: SceneOutcome) -> None:
+        outcomes[pending[k]] = outcome
+        bar.update(outcome)
+
+    _, failures = run_tasks(client, _worker, [(str(files[i]), str(target), force, size) for i in pending],
+                            labels=[str(files[i]) for i in pending], on_result=finished, name="vibra-report")
+    for failure in failures:  # run_scene never raises for a bad scene: the worker itself failed
+        i = pending[failure.index]
+        lost = SceneOutcome(source=str(files[i]), name=files[i].stem, title=files[i].stem, status="failed",
+                            error=f"{files[i]}: worker failed: {failure.error!r}")
+        outcomes[i] = lost
+        bar.update(lost)
 
 
 def _claim_names(files: Sequence[Path]) -> list[str | None]:

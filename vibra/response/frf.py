@@ -7,7 +7,7 @@ The three methods live in `vibra.response.direct` (direct, state space) and
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -17,7 +17,8 @@ from vibra import _validate
 from vibra._frozen import _freeze_arrays
 from vibra.modes import Modes
 from vibra.response.direct import direct_response, state_space_response
-from vibra.response.matrices import check_structure
+from vibra.response.matrices import check_structure, half_bandwidth, response_cost
+from vibra.solvers.budget import guard
 from vibra.response.modal import modal_response
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -37,7 +38,7 @@ class FrequencyResponse:
     response : (n_freq, n_dof) complex ndarray
         Complex displacement amplitudes x(w) (the force is Re{f exp(i w t)}), in length.
     force : (n_dof,) ndarray
-        The force amplitudes f, in force units.
+        The force amplitudes f, in force units (complex when a phase was given).
     method : str
         ``"direct"``, ``"modal"`` or ``"state_space"``.
     solver : str
@@ -61,7 +62,7 @@ class FrequencyResponse:
 
     omegas: NDArray[np.float64]
     response: NDArray[np.complex128]
-    force: NDArray[np.float64]
+    force: NDArray[Any]
     method: str
     solver: str
     n_modes: int | None
@@ -100,6 +101,8 @@ def frequency_response(
     residual_correction: bool = False,
     modes: Modes | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
+    max_memory: float | None = None,
+    max_seconds: float | None = None,
 ) -> FrequencyResponse:
     """Receptance response x(w) = (K - w^2 M + i w C)^-1 f at many frequencies.
 
@@ -110,12 +113,13 @@ def frequency_response(
     M : (n_dof,) or (n_dof, n_dof) array_like
         Diagonal masses or an SPD mass matrix, as in `vibra.normal_modes`.
     C : (n_dof, n_dof) array_like or scipy.sparse matrix, or None
-        Symmetric damping matrix with a non-negative diagonal, in mass per time unit
+        Symmetric positive semi-definite damping matrix, in mass per time unit
         (`friction_damping`, `rayleigh_damping`, or any); None for no damping matrix.
     omegas : (n_freq,) array_like
         Driving angular frequencies >= 0, in rad per time unit.
     force : (n_dof,) array_like
-        Force amplitudes f (force Re{f exp(i w t)}), in force units.
+        Force amplitudes f (force Re{f exp(i w t)}), in force units; complex amplitudes
+        carry a phase per dof (f_j = |f_j| exp(i phi_j)), which the response keeps.
     method : {"direct", "modal", "state_space"}
         ``"direct"``: one LU per frequency, tridiagonal or banded when K, M and C are (half
         bandwidth <= `BANDED_MAX_HALF_WIDTH`), sparse LU otherwise (dense LU for small dense
@@ -138,6 +142,9 @@ def frequency_response(
         sharpens the error estimate). Computed with `vibra.normal_modes` otherwise.
     units : str or UnitSystem
         Unit system of K, M, C, carried by the result.
+    max_memory, max_seconds : float, optional
+        Limits of the estimated memory (bytes) and time (s), as in `vibra.normal_modes`:
+        a larger request raises `vibra.solvers.ResourceLimitError` before any allocation.
 
     Returns
     -------
@@ -153,8 +160,8 @@ def frequency_response(
     Raises
     ------
     ValueError
-        K not square/symmetric/finite; M, C or force not matching K; C with a negative
-        diagonal; omegas negative; unknown method; n_modes out of range or given to a
+        K not square/symmetric/finite; M, C or force not matching K; C not positive
+        semi-definite (negative damping); omegas negative; unknown method; n_modes out of range or given to a
         method without modes; damping_ratios with C or outside the modal method; C not
         diagonal in the modal basis (modal method); a frequency where the system is singular
         (undamped resonance, or w = 0 with rigid-body modes).
@@ -170,7 +177,7 @@ def frequency_response(
     array([[0.66666667, 0.33333333]])
     """
     _validate.choice(method, "method", METHODS)
-    stiffness, mass, damping, loads = check_structure(K, M, C, force)
+    stiffness, mass, damping, loads = check_structure(K, M, C, force, complex_force=True)
     n_dof = stiffness.shape[0]
     frequencies = _validate.real_array(omegas, "omegas", ndim=1)
     _validate.nonnegative(frequencies, "omegas", "angular frequency")
@@ -188,6 +195,35 @@ def frequency_response(
     if modes is not None and method != "modal":
         raise ValueError("modes applies to method='modal' only")
     unit = unit_system(units)
+    max_memory = _validate.optional_limit(max_memory, "max_memory")
+    max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
+    width = max(half_bandwidth(stiffness), half_bandwidth(mass), half_bandwidth(damping))
+    stored = int(stiffness.nnz) if sp.issparse(stiffness) else n_dof * n_dof
+    cost = response_cost(method, n_dof, frequencies.size, width, stored,
+                         parts=2 if np.iscomplexobj(loads) and loads.imag.any() else 1)
+    guard(cost, n_dof=n_dof, max_memory=max_memory, max_seconds=max_seconds,
+          alternatives=["fewer frequencies in omegas", "method='modal' with n_modes (the lowest modes only)"])
+
+    if np.iscomplexobj(loads) and loads.imag.any():
+        # x(f) is linear in f: x(f_r + i f_i) = x(f_r) + i x(f_i), which keeps the phase of f
+        parts = [frequency_response(stiffness, mass, damping, frequencies, part, method=method,
+                                    n_modes=n_modes, damping_ratios=damping_ratios,
+                                    residual_correction=residual_correction, modes=modes, units=unit,
+                                    max_memory=float("inf"), max_seconds=float("inf"))
+                 for part in (loads.real.copy(), loads.imag.copy())]
+        response = parts[0].response + 1j * parts[1].response
+        # ||e_r + i e_i||_M <= err_r ||x_r||_M + err_i ||x_i||_M, relative to ||x||_M
+        norms = [_mass_norms(mass, part.response) for part in parts]
+        total = _mass_norms(mass, response)
+        bound = parts[0].truncation_error * norms[0] + parts[1].truncation_error * norms[1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            error = np.where(total > 0, bound / total, np.where(bound > 0, np.inf, 0.0))
+        return FrequencyResponse(
+            omegas=frequencies, response=response, force=loads, method=method, solver=parts[0].solver,
+            n_modes=parts[0].n_modes, residual_correction=parts[0].residual_correction,
+            truncation_error=error, natural_frequencies=parts[0].natural_frequencies, units=unit,
+        )
+    loads = np.asarray(loads.real if np.iscomplexobj(loads) else loads, dtype=float)
 
     error = np.zeros(frequencies.size)
     natural: NDArray[np.float64] | None = None
@@ -209,6 +245,13 @@ def frequency_response(
         n_modes=used, residual_correction=bool(residual_correction) and method == "modal",
         truncation_error=error, natural_frequencies=natural, units=unit,
     )
+
+
+def _mass_norms(mass: NDArray[np.float64], rows: NDArray[np.complex128]) -> NDArray[np.float64]:
+    """(n_freq,) M-norms sqrt(x^H M x) of the rows of a response."""
+    if mass.ndim == 1:
+        return np.sqrt(np.sum(mass * np.abs(rows) ** 2, axis=1))
+    return np.sqrt(np.maximum(np.einsum("fi,ij,fj->f", rows.conj(), mass, rows).real, 0.0))
 
 
 def frf(

@@ -7,7 +7,9 @@
                    values only when no vectors are asked). Absolute error ~ eps ||K~||.
 ``tridiagonal``    K~ tridiagonal (a chain): LAPACK stemr/stebz on its diagonals.
 ``banded``         K~ banded with a narrow band (a chain in 2-D or 3-D, a ladder): LAPACK
-                   sbevd / sbevx on the band storage, O(n b^2) per value.
+                   sbevd / sbevx on the band storage, O(n b^2) per value. A ring (periodic
+                   chain, any masses and springs: tridiagonal plus two corners) is reordered
+                   0, n-1, 1, n-2, ... (reverse Cuthill-McKee) into a band of half-width 2.
 ``sparse``         A few of the lowest modes (or a band) of a large sparse K~: shift-invert
                    Lanczos (ARPACK) with a negative shift chosen from the spectrum's scale, so
                    a singular K (free system) is never hit; tridiagonal K~ is factorised with
@@ -20,6 +22,11 @@
                    - any other small system: one-sided Jacobi SVD (LAPACK gejsv) of B~.
 =================  ==========================================================================
 
+Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and
+time; `budget.guard` refuses (`ResourceLimitError`, a ValueError) a request over the limits
+with the figures and the cheaper requests (`vectors=False`, `n_modes`, `band`), and
+`budget.Progress` reports solves estimated to take over `budget.PROGRESS_AFTER_S` on stderr.
+
 Every path returns a `SolveResult` with an error estimate per eigenvalue, the largest
 relative residual and the orthogonality error, which `vibra.modes.Modes` carries.
 
@@ -31,7 +38,8 @@ Where each path lives:
 ``sparse.py``          shift-invert Lanczos for a few modes or a band
 ``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal
 ``accurate.py``        the accurate dispatch; accurate-ritz, accurate-rayleigh, accurate-jacobi
-``dispatch.py``        `solve` ("auto" chooses), `SOLVER_NAMES`, `SOLVER_PATHS`
+``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
+``budget.py``          memory / time estimates, the guard and its limits, progress reports
 =====================  ======================================================================
 
 Examples
@@ -48,14 +56,21 @@ Examples
 from __future__ import annotations
 
 from vibra.solvers.common import (
-    BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, SAMPLE, SolveResult, check_spring_factor,
+    BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
+    check_factor_matches, check_spring_factor, largest_entry,
     mass_weighted, physical_shapes,
 )
+from vibra.solvers import budget
 from vibra.solvers.bidiagonal import Segment
-from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, solve
+from vibra.solvers.budget import (
+    Estimate, Progress, ResourceLimitError, available_memory, estimate, guard,
+)
+from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, Plan, alternatives, check_plan, plan, solve
 
 __all__ = [
     "SOLVER_NAMES", "SOLVER_PATHS", "SolveResult", "solve", "check_spring_factor", "physical_shapes",
     "mass_weighted", "Segment", "EPS", "DENSE_LIMIT", "BAND_LIMIT", "DENSE_ALL_LIMIT", "BDSQR_LIMIT",
-    "SAMPLE",
+    "SAMPLE", "Plan", "plan", "check_plan", "alternatives", "Estimate", "Progress", "ResourceLimitError",
+    "available_memory", "estimate", "guard", "budget", "check_factor_matches", "FACTOR_RTOL",
+    "largest_entry",
 ]

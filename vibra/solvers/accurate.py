@@ -13,7 +13,7 @@ accuracy where the structure allows (`accurate_path` chooses):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import scipy.linalg as la
@@ -25,19 +25,49 @@ from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil,
 )
 from vibra.solvers.sparse import lowest_shift, shift_invert, sparse_path
-from vibra.solvers.standard import dense_path
+from vibra.solvers.standard import banded_path, dense_path
+
+
+def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
+                     band: tuple[float, float] | None, tridiagonal: bool, banded: bool) -> str:
+    """The path `accurate_path` will take (for the cost estimate), without touching B.
+
+    Springs that form a path join dofs c and c + 1 only, so K is tridiagonal: a tridiagonal
+    K with diagonal masses is estimated as a path (parallel springs between one pair, the
+    exception, take the Rayleigh path, at most the dense cost).
+    """
+    few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
+    if mass.ndim == 1 and not few and tridiagonal:
+        return "accurate-bidiagonal"
+    if few:
+        return "accurate-ritz"
+    if n > DENSE_LIMIT:
+        return "banded" if banded else "accurate-rayleigh"
+    return "accurate-jacobi"
 
 
 def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matrix, NDArray[np.float64]], *,
-              n_modes: int | None, vectors: bool, band: tuple[float, float] | None) -> SolveResult:
-    """Frequencies as singular values of B~ = W^1/2 B M^-1/2: picks the accurate-* path that fits."""
+                  n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+                  ordering: NDArray[np.intp] | None = None, width: int = 0,
+                  on_stage: Callable[[float, str], None] | None = None) -> SolveResult:
+    """Frequencies as singular values of B~ = W^1/2 B M^-1/2: picks the accurate-* path that fits.
+
+    A large ring (`ordering` given: K~ banded once reordered) is not a path: its frequencies
+    come from the banded solver (absolute accuracy, reported as ``"banded"``), and with
+    vectors from the spring-space Rayleigh quotients of the banded vectors.
+    """
     coupling, weights = factor
     n = Kt.shape[0]
     weighted = _weighted_factor(coupling, weights, mass)  # B~ (n_terms, n)
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     path = path_bidiagonals(weighted) if mass.ndim == 1 and not few else None
     if path is not None:
-        return bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band)
+        return bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage)
+    if ordering is not None and not few and n > DENSE_LIMIT:
+        ring = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
+        if ring.vectors is None:
+            return ring
+        return _spring_rayleigh(weighted, ring.vectors, vectors=vectors)
     if few and band is None:
         sigma, shifted = lowest_shift(sp.csr_matrix(Kt))
         _, basis = shift_invert(sp.csr_matrix(Kt), int(n_modes), sigma, shifted)  # type: ignore[arg-type]

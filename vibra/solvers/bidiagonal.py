@@ -8,7 +8,7 @@ from LAPACK dlasq1 (dqds) to high relative accuracy, its vectors from dbdsqr (se
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import scipy.linalg as la
@@ -103,9 +103,15 @@ def _path_values(segments: list[Segment]) -> tuple[NDArray[np.float64], NDArray[
 
 
 def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes: int | None, vectors: bool,
-                   band: tuple[float, float] | None) -> SolveResult:
-    """accurate-bidiagonal: dqds values of each path segment, dbdsqr or MRRR vectors."""
+                   band: tuple[float, float] | None, on_stage: Callable[[float, str], None] | None = None
+                   ) -> SolveResult:
+    """accurate-bidiagonal: dqds values of each path segment, dbdsqr or MRRR vectors.
+
+    `on_stage(fraction, message)` hears when the frequencies are done and the vectors start.
+    """
     omega, relative = _path_values(segments)
+    if on_stage is not None and vectors:
+        on_stage(0.5, "frequencies done (dqds); computing the vectors")
     n = omega.shape[0]
     select = selected(omega, n_modes=n_modes, band=band)
     eigenvalues = omega[select] ** 2

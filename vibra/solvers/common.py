@@ -13,7 +13,9 @@ from typing import Any
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
+import scipy.sparse.linalg  # noqa: F401  (sp.linalg.norm)
 from numpy.typing import NDArray
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from vibra import _validate
 
@@ -58,7 +60,12 @@ def check_spring_factor(factor: Any, n_dof: int) -> tuple[sp.csr_matrix, NDArray
     if not isinstance(factor, tuple) or len(factor) != 2:
         raise TypeError("spring_factor must be a tuple (B, w)")
     coupling, weights = factor
-    b = sp.csr_matrix(coupling, dtype=float)
+    if sp.issparse(coupling):
+        if coupling.dtype.kind not in "biuf":
+            raise TypeError(f"spring_factor B must be real, got a sparse matrix of {coupling.dtype}")
+        b = sp.csr_matrix(coupling, dtype=float)
+    else:
+        b = sp.csr_matrix(_validate.real_array(coupling, "spring_factor B", ndim=2))
     if b.shape[1] != n_dof:
         raise ValueError(f"spring_factor B must have {n_dof} columns to match K, got shape {b.shape}")
     _validate.finite(b.data, "spring_factor B")
@@ -67,6 +74,55 @@ def check_spring_factor(factor: Any, n_dof: int) -> tuple[sp.csr_matrix, NDArray
         raise ValueError(f"spring_factor w must have {b.shape[0]} entries (rows of B), got {w.shape[0]}")
     _validate.positive(w, "spring_factor w", "spring constant")
     return b, w
+
+
+#: Relative tolerance of the spring-factor check ||B^T W B x - K x|| <= tol ||K||_F ||x||.
+FACTOR_RTOL = 1e-8
+
+
+def check_factor_matches(K: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], *, samples: int = 3) -> None:
+    """Raise if B^T diag(w) B is not K, tested on a few random vectors (O(nnz) each).
+
+    The accurate path solves the spring factor's problem, not K's: a factor from another
+    system would give another system's frequencies without a word.
+    """
+    coupling, weights = factor
+    n = K.shape[0]
+    rng = np.random.default_rng(12345)
+    # Everything in units of s = max|K| (or of the factor's largest term): no overflow for K
+    # entries near 1e300, no underflow near 1e-300.
+    largest_term = float(weights.max(initial=0.0)) * float(abs(coupling).max() if coupling.nnz else 0.0) ** 2
+    s = max(largest_entry(K), largest_term) or 1.0
+    stiffness_norm = _scaled_frobenius(K, s)
+    row_norms = np.asarray(coupling.multiply(coupling).sum(axis=1)).ravel()
+    factor_norm = float(np.sum((weights / s) * row_norms))  # ||B^T W B||_F / s <= sum_t w_t ||b_t||^2 / s
+    scale = max(stiffness_norm, factor_norm)
+    for _ in range(samples):
+        x = rng.standard_normal(n)
+        y = x / s
+        gap = float(np.linalg.norm(coupling.T @ (weights * (coupling @ y)) - K @ y))
+        if gap > FACTOR_RTOL * scale * float(np.linalg.norm(x)):
+            relative = gap / (scale * float(np.linalg.norm(x)))
+            raise ValueError(
+                f"spring_factor (B, w) does not factor K: ||B^T diag(w) B x - K x|| = {relative:.3g} "
+                f"||K|| ||x|| for a random x (must be <= {FACTOR_RTOL:g}); pass the (B, w) that K "
+                "was assembled from, or leave spring_factor out"
+            )
+
+
+def largest_entry(K: Any) -> float:
+    """max |K_ij| without an n x n temporary."""
+    if sp.issparse(K):
+        return float(abs(K.data).max()) if K.nnz else 0.0
+    return float(max(K.max(), -K.min()))
+
+
+def _scaled_frobenius(K: Any, s: float) -> float:
+    """||K / s||_F, in row blocks for a dense K (no n x n temporary)."""
+    if sp.issparse(K):
+        return float(np.linalg.norm(K.data / s))
+    step = max(1, (1 << 20) // max(K.shape[0], 1))
+    return float(np.sqrt(sum(np.sum((K[i:i + step] / s) ** 2) for i in range(0, K.shape[0], step))))
 
 
 def physical_shapes(vectors: NDArray[np.float64], mass: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -89,7 +145,9 @@ def mass_weighted(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float
         scale = 1.0 / np.sqrt(mass)
         if sp.issparse(K):
             return sp.csr_matrix(sp.diags(scale) @ K @ sp.diags(scale))
-        return K * scale[:, None] * scale[None, :]
+        weighted = K * scale[:, None]  # one n x n result, scaled in place (no second temporary)
+        weighted *= scale[None, :]
+        return weighted
     root = mass_power(mass, -0.5)
     dense = K if isinstance(K, np.ndarray) else np.asarray(K.toarray())
     weighted = root @ dense @ root
@@ -159,10 +217,50 @@ def tridiagonal_bands(Kt: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]
 def bandwidth(Kt: Any) -> int:
     """Half-bandwidth max |i - j| over the stored nonzeros of K~ (0 for a diagonal)."""
     if sp.issparse(Kt):
-        coo = Kt.tocoo()
-        return int(np.abs(coo.row - coo.col).max()) if coo.nnz else 0
-    rows, cols = np.nonzero(Kt)
-    return int(np.abs(rows - cols).max()) if rows.size else 0
+        matrix = sp.csr_matrix(Kt)
+        if not matrix.nnz:
+            return 0
+        if not matrix.has_sorted_indices:
+            matrix = matrix.sorted_indices()
+        # sorted rows: only each row's first and last column can be farthest from the diagonal
+        rows = np.flatnonzero(np.diff(matrix.indptr))
+        first = matrix.indices[matrix.indptr[rows]]
+        last = matrix.indices[matrix.indptr[rows + 1] - 1]
+        return int(max((rows - first).max(), (last - rows).max(), 0))
+    n = Kt.shape[0]
+    step = max(1, (1 << 20) // max(n, 1))  # row blocks: no index arrays of n^2 entries
+    width = 0
+    for start in range(0, n, step):
+        rows, cols = np.nonzero(Kt[start:start + step])
+        if rows.size:
+            width = max(width, int(np.abs(rows + start - cols).max()))
+        if width == n - 1:
+            break
+    return width
+
+
+def ring_ordering(K: Any) -> tuple[NDArray[np.intp], int] | None:
+    """A bandwidth-reducing ordering of a periodic-banded sparse K and the width it gives.
+
+    A ring (a periodic chain, any masses and springs) is tridiagonal plus two corner entries;
+    in the zig-zag order that RCM finds, 0, n-1, 1, n-2, ..., it is banded with half-bandwidth
+    2. None when K is dense, has entries away from both the diagonal band and the corners,
+    or the reordering leaves a band wider than `BAND_LIMIT`.
+    """
+    if not sp.issparse(K):
+        return None
+    matrix = sp.csr_matrix(K)
+    coo = matrix.tocoo()
+    n = matrix.shape[0]
+    distance = np.abs(coo.row - coo.col)
+    # periodic-banded: every entry within BAND_LIMIT of the diagonal or of the corners
+    if not ((distance <= BAND_LIMIT) | (distance >= n - 1 - BAND_LIMIT)).all():
+        return None
+    order = np.asarray(reverse_cuthill_mckee(matrix, symmetric_mode=True), dtype=np.intp)
+    width = bandwidth(matrix[order][:, order])
+    if width > BAND_LIMIT:
+        return None
+    return order, width
 
 
 def small_pencil(H: NDArray[np.float64], S: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -6,9 +6,14 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate import accurate_path
+from dataclasses import dataclass
+
+from vibra.solvers.accurate import accurate_path, accurate_subpath
+from vibra.solvers.budget import (
+    Estimate, Progress, ProgressCallback, describe_bytes, describe_seconds, estimate, guard,
+)
 from vibra.solvers.common import (
-    BAND_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted,
+    BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
 from vibra.solvers.sparse import sparse_path
 from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
@@ -23,6 +28,118 @@ SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal
                 "accurate-rayleigh", "accurate-jacobi")
 
 
+#: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
+BAND_MODES_ESTIMATE = 64
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What `solve` will run: the solver, the detailed path, K~'s half-bandwidth (after the
+    ring ordering when there is one), that ordering, and the cost estimate of the path."""
+
+    solver: str
+    path: str
+    width: int
+    ordering: NDArray[np.intp] | None
+    cost: Estimate
+    nnz: int
+    n_dof: int
+
+
+def plan(
+    K: NDArray[np.float64] | sp.csr_matrix,
+    mass: NDArray[np.float64],
+    *,
+    n_modes: int | None,
+    vectors: bool,
+    band: tuple[float, float] | None,
+    solver: str,
+    spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
+) -> Plan:
+    """Choose the path for this request ("auto" picks one) and estimate its cost; nothing allocated.
+
+    Raises ValueError when the named solver cannot serve the request. Costs O(nnz) for a
+    sparse K and one pass over a dense one (its bandwidth); K~ is not formed.
+    """
+    n = K.shape[0]
+    width = bandwidth(K) if mass.ndim == 1 else n - 1
+    ordering = None
+    if mass.ndim == 1 and width > BAND_LIMIT and n > DENSE_LIMIT and solver in ("auto", "banded", "accurate"):
+        ring = ring_ordering(K)  # a ring: tridiagonal plus corners, banded once reordered
+        if ring is not None:
+            ordering, width = ring
+    tridiagonal = width <= 1 and ordering is None
+    partial = n_modes is not None and n_modes < n
+    if solver == "auto":
+        if spring_factor is not None:
+            solver = "accurate"
+        elif n <= DENSE_LIMIT:
+            solver = "dense"
+        elif width <= BAND_LIMIT and not (vectors and (partial or band is not None)):
+            # (LAPACK's banded and tridiagonal drivers allocate n x n vectors even for a subset)
+            solver = "tridiagonal" if tridiagonal else "banded"
+        elif (partial or band is not None) and sp.issparse(K):
+            solver = "sparse"  # (a dense K takes the dense subset: its sparse LU would fill in)
+        else:
+            solver = "dense"
+    if solver == "tridiagonal" and not tridiagonal:
+        raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
+    if solver == "banded" and mass.ndim != 1:
+        raise ValueError("solver='banded' needs diagonal masses")
+    if solver == "sparse" and n_modes is None and band is None:
+        raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
+    if solver == "accurate" and spring_factor is None:
+        raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
+    path = solver
+    n_terms = 0
+    if solver == "accurate":
+        assert spring_factor is not None
+        n_terms = spring_factor[0].shape[0]
+        path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1,
+                                banded=ordering is not None)
+    k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
+    if path == "dense" and band is not None:
+        k = n
+    cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
+    return Plan(solver, path, width, ordering, cost, _stored(K), n)
+
+
+def _stored(K: NDArray[np.float64] | sp.csr_matrix) -> int:
+    """Entries stored: nnz of a sparse K, n^2 of a dense one."""
+    if isinstance(K, np.ndarray):
+        return int(K.shape[0]) * int(K.shape[1])
+    return int(K.nnz)
+
+
+def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
+                 band: tuple[float, float] | None) -> list[str]:
+    """The cheaper requests that answer most questions, each with its own estimate."""
+    options = []
+    if vectors:
+        values = estimate(request.path, n, k=n_modes or n, vectors=False, width=request.width)
+        options.append(f"vectors=False (frequencies only: ~{_short(values)})")
+    if n_modes is None or n_modes > 50:
+        how = "sparse shift-invert" if request.nnz < 0.1 * n * n else "a dense subset"
+        few = estimate("sparse" if how.startswith("sparse") else "dense", n, k=10, vectors=vectors,
+                       width=request.width, nnz=request.nnz)
+        options.append(f"n_modes=10 (the lowest modes by {how}: ~{_short(few)})")
+    if band is None:
+        options.append("band=(low, high) (only the modes in a frequency window)")
+    return options
+
+
+def check_plan(request: Plan, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+               max_memory: float | None, max_seconds: float | None) -> None:
+    """`budget.guard` on a plan's cost, with the cheaper requests as the way out."""
+    n = request.n_dof
+    guard(request.cost, n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
+          alternatives=alternatives(request, n=n, n_modes=n_modes, vectors=vectors, band=band))
+
+
+def _short(cost: Estimate) -> str:
+    return f"{describe_bytes(cost.memory)}, {describe_seconds(cost.seconds)}"
+
+
 def solve(
     K: NDArray[np.float64] | sp.csr_matrix,
     mass: NDArray[np.float64],
@@ -32,8 +149,17 @@ def solve(
     band: tuple[float, float] | None,
     solver: str,
     spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
+    max_memory: float | None = None,
+    max_seconds: float | None = None,
+    progress: bool | ProgressCallback | None = None,
+    request: Plan | None = None,
 ) -> SolveResult:
     """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`.
+
+    The request is planned and guarded first (`plan`, `vibra.solvers.budget.guard`): one
+    whose estimated memory or time exceeds `max_memory` / `max_seconds` (defaults: the
+    module-level limits of `vibra.solvers.budget`) raises `ResourceLimitError` before
+    anything is allocated. `progress` reports long solves (see `budget.Progress`).
 
     Examples
     --------
@@ -44,46 +170,58 @@ def solve(
     >>> np.round(result.eigenvalues, 12)          # 0, kappa / m, kappa (1/m + 2/M) (eq. 157)
     array([0., 1., 2.])
     """
-    n = K.shape[0]
+    if request is None:
+        request = plan(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
+                       spring_factor=spring_factor)
+        check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
+                   max_seconds=max_seconds)
+    report = Progress(progress, request.cost)
     Kt = mass_weighted(K, mass)
-    width = bandwidth(Kt) if mass.ndim == 1 else n
-    tridiagonal = width <= 1
-    partial = n_modes is not None and n_modes < n
-    if solver == "auto":
-        if spring_factor is not None:
-            solver = "accurate"
-        elif n <= DENSE_LIMIT:
-            solver = "dense"
-        elif width <= BAND_LIMIT and not (vectors and (partial or band is not None)):
-            # (LAPACK's banded and tridiagonal drivers allocate n x n vectors even for a subset)
-            solver = "tridiagonal" if tridiagonal else "banded"
-        elif partial or band is not None:
-            solver = "sparse"
+    report.step(0.05, "mass-weighted K~ formed")
+    solver, width, ordering = request.solver, request.width, request.ordering
+    # Far from 1, K~'s scale trips LAPACK's bisection and ARPACK (omega^2 ~ 1e-300 or 1e+300):
+    # scale by an even power of 2 (exact in floating point) and scale the results back.
+    exponent = _scale_exponent(Kt)
+    if exponent:
+        factor = 2.0**-exponent
+        if isinstance(Kt, np.ndarray):
+            Kt *= factor
         else:
-            solver = "dense"
-    if solver == "dense" and n > DENSE_ALL_LIMIT:
-        raise ValueError(
-            f"K has {n} dofs: a dense solve would need {8 * n * n / 2**30:.1f} GiB; ask for "
-            "n_modes (a partial sparse solve) or use the accurate path of a spring system"
-        )
-    if solver == "tridiagonal" and not tridiagonal:
-        raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
-    if solver == "banded" and mass.ndim != 1:
-        raise ValueError("solver='banded' needs diagonal masses")
-    if solver == "sparse" and n_modes is None and band is None:
-        raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
+            Kt = sp.csr_matrix(Kt * factor)
+        if band is not None:
+            band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
+        if spring_factor is not None:
+            spring_factor = (spring_factor[0], spring_factor[1] * factor)
     if solver == "accurate":
-        if spring_factor is None:
-            raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
-        return accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band)
-    if solver == "tridiagonal":
+        assert spring_factor is not None
+        result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
+                               ordering=ordering, width=width, on_stage=report.step)
+    elif solver == "tridiagonal":
         result = tridiagonal_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
     elif solver == "banded":
-        result = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band)
+        result = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
     elif solver == "sparse":
         result = sparse_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
     else:
-        result = dense_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
+        result = dense_path(Kt, n_modes=n_modes, vectors=vectors, band=band, overwrite=Kt is not K)
+    if exponent:
+        result.eigenvalues = result.eigenvalues * 2.0**exponent
+        result.error = result.error * 2.0**exponent
+    report.done()
     return result
 
 
+#: K~ whose largest diagonal entry lies within 2^+-SCALE_EXPONENT is solved as it is.
+SCALE_EXPONENT = 64
+
+
+def _scale_exponent(Kt: NDArray[np.float64] | sp.csr_matrix) -> int:
+    """An even e with max|diag K~| 2^-e near 1, or 0 when the scale is already moderate."""
+    diagonal = np.abs(Kt.diagonal())
+    largest = float(diagonal.max()) if diagonal.size else 0.0
+    if largest == 0.0 or not np.isfinite(largest):
+        return 0
+    exponent = int(np.frexp(largest)[1])
+    if abs(exponent) <= SCALE_EXPONENT:
+        return 0
+    return exponent - exponent % 2

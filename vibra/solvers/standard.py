@@ -10,24 +10,36 @@ from typing import Any
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
+from numpy.typing import NDArray
 
 from vibra.solvers.common import SolveResult, absolute_figures, squared_range, tridiagonal_bands
 
 
-def dense_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None) -> SolveResult:
-    """Dense LAPACK eigh (syevr) on K~, a subset by index or value when asked."""
+def dense_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+               overwrite: bool = False) -> SolveResult:
+    """Dense LAPACK eigh (syevr) on K~, a subset by index or value when asked.
+
+    `overwrite` lets LAPACK reduce a K~ that the caller owns in place when only values are
+    asked (saves one n x n copy; the figures then need only the diagonal, saved beforehand).
+    """
     dense = Kt.toarray() if sp.issparse(Kt) else np.asarray(Kt)
     n = dense.shape[0]
+    overwrite = overwrite or sp.issparse(Kt)  # toarray() made a private copy
     kwargs: dict[str, Any] = {"eigvals_only": not vectors, "check_finite": False}
     if n_modes is not None and n_modes < n:
         kwargs["subset_by_index"] = (0, n_modes - 1)
     elif band is not None:
         kwargs["subset_by_value"] = squared_range(band)
+    reference: Any = dense
+    if overwrite and not vectors:
+        # values only: the figures need just K~'s diagonal, so LAPACK may reduce K~ in place
+        reference = sp.diags(np.diag(dense).copy())
+        kwargs["overwrite_a"] = True
     if vectors:
         values, basis = la.eigh(dense, **kwargs)
     else:
         values, basis = la.eigh(dense, **kwargs), None
-    return absolute_figures(dense, np.asarray(values), basis, "dense", floor=float(n))
+    return absolute_figures(reference, np.asarray(values), basis, "dense", floor=float(n))
 
 
 def tridiagonal_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None) -> SolveResult:
@@ -47,9 +59,21 @@ def tridiagonal_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple
     return absolute_figures(sp.csr_matrix(Kt), np.asarray(values), basis, "tridiagonal", floor=float(n))
 
 
-def banded_path(Kt: Any, width: int, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None
-            ) -> SolveResult:
-    """LAPACK sbevd / sbevx on the lower band storage of K~ (half-bandwidth `width`)."""
+def banded_path(Kt: Any, width: int, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+                ordering: NDArray[np.intp] | None = None) -> SolveResult:
+    """LAPACK sbevd / sbevx on the lower band storage of K~ (half-bandwidth `width`).
+
+    With `ordering` (a ring's bandwidth-reducing permutation, `common.ring_ordering`), the
+    solve runs on K~[ordering][:, ordering] and the vectors are put back in dof order.
+    """
+    if ordering is not None:
+        matrix = sp.csr_matrix(Kt)
+        result = banded_path(matrix[ordering][:, ordering], width, n_modes=n_modes, vectors=vectors, band=band)
+        if result.vectors is not None:
+            in_dof_order = np.empty_like(result.vectors)
+            in_dof_order[ordering] = result.vectors
+            result.vectors = in_dof_order
+        return result
     matrix = sp.csr_matrix(Kt)
     n = matrix.shape[0]
     storage = np.zeros((width + 1, n))  # lower band storage: storage[i, j] = K~[j + i, j]
@@ -60,9 +84,10 @@ def banded_path(Kt: Any, width: int, *, n_modes: int | None, vectors: bool, band
         kwargs.update(select="i", select_range=(0, n_modes - 1))
     elif band is not None:
         kwargs.update(select="v", select_range=squared_range(band))
+    basis: NDArray[np.float64] | None = None
     if vectors:
         values, basis = la.eig_banded(storage, **kwargs)
     else:
-        values, basis = la.eigvals_banded(storage, **kwargs), None
+        values = la.eigvals_banded(storage, **kwargs)
     return absolute_figures(matrix, np.asarray(values), basis, "banded", floor=float(n))
 

@@ -27,7 +27,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers import SAMPLE, SolveResult, mass_weighted
+from vibra.solvers.common import SAMPLE, SolveResult, mass_weighted
 from vibra.solvers.common import sample_columns, selected
 
 __all__ = [
@@ -333,8 +333,10 @@ def solve_gpu(K: Any, mass: NDArray[np.float64], *, n_modes: int | None, vectors
     """`vibra.solvers.solve` for ``device="gpu"``: weight K by the masses, solve all modes on the
     GPU, keep the lowest `n_modes` or those with omega in `band` (signed, rad per time unit).
 
-    K (n, n) ndarray or sparse, and `mass` ((n,) or (n, n)), are validated by the caller.
+    K (n, n) ndarray or sparse, and `mass` ((n,) or (n, n)), are validated by the caller. The GPU
+    and its free memory are checked before K~ is formed densely on the host.
     """
+    check_gpu_memory(K.shape[0], vectors=vectors)
     weighted = mass_weighted(K, mass)
     dense = weighted.toarray() if hasattr(weighted, "toarray") else np.asarray(weighted)
     result = dense_eigh_gpu(dense, vectors=vectors)

@@ -1,0 +1,217 @@
+"""Resource guard of the solver paths: memory and time estimated before any allocation.
+
+`estimate` gives, for one solver path and one request, the memory the path allocates beyond
+its input and the time it takes, from operation counts (the cost of each path below) and the
+rates in this module. `guard` refuses a request whose estimate exceeds the limits, with the
+figures and the cheaper requests that answer the question; `Progress` reports long solves.
+
+Limits (module-level settings; `normal_modes(max_memory=..., max_seconds=..., progress=...)`
+overrides them per call):
+
+- `MEMORY_LIMIT`: bytes a solve may allocate; None (the default) means the memory available
+  now (``MemAvailable`` of /proc/meminfo, or the cgroup limit when lower).
+- `TIME_LIMIT_S`: estimated seconds above which a solve is refused (600 s by default, as a
+  scene's `vibra.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
+- `PROGRESS_AFTER_S`: solves estimated to take longer than this (5 s) report their progress
+  on stderr: a line when they start (the estimate), one per stage, one when done.
+
+Costs (n dofs, k modes wanted, b half-bandwidth; rates measured on one ~3 GHz core with
+OpenBLAS, rounded so that estimates err on the high side by a small factor), memory beyond
+the input, then time:
+
+- dense: 8 n^2 (K~; twice with vectors) + 8 n k; 5e-11 n^3 (values), 1.5e-10 n^3 (vectors).
+- tridiagonal, accurate-bidiagonal: O(n), 8 n^2 with all vectors (LAPACK allocates them);
+  1e-8 n^2 for all values (dqds / MRRR), + 1e-7 n k with vectors.
+- banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
+- sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
+  otherwise); 2e-8 n ncv per Lanczos run.
+- accurate-rayleigh: 24 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
+- A `band` request is estimated as `dispatch.BAND_MODES_ESTIMATE` (64) modes (its count is unknown
+  before the solve).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from dataclasses import dataclass
+from typing import Callable, TextIO
+
+#: Bytes a solve may allocate; None means the memory available when the solve starts.
+MEMORY_LIMIT: float | None = None
+
+#: Estimated seconds above which a solve is refused (override: ``max_seconds=``).
+TIME_LIMIT_S = 600.0
+
+#: Solves estimated to take longer than this report progress on stderr.
+PROGRESS_AFTER_S = 5.0
+
+# Seconds per unit of work (see the table in the module docstring).
+DENSE_VALUES_S = 5e-11        # per n^3: Householder tridiagonalisation + MRRR values
+DENSE_VECTORS_S = 1.5e-10     # per n^3: the same with back-transformed vectors
+TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or bidiagonal
+TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
+BANDED_S = 5e-9               # per (b + 1) n^2: band reduction to tridiagonal form
+LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
+JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
+
+
+class ResourceLimitError(ValueError):
+    """A request refused before it starts: its estimated memory or time exceeds the limit."""
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Memory (bytes beyond the input) and time (seconds) of one solver path for one request."""
+
+    path: str
+    memory: float
+    seconds: float
+    what: str
+
+
+def available_memory() -> float | None:
+    """Bytes available now (MemAvailable, capped by the cgroup's memory.max), None if unknown."""
+    available: float | None = None
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    available = float(line.split()[1]) * 1024
+                    break
+    except OSError:
+        try:
+            available = float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (ValueError, OSError, AttributeError):
+            available = None
+    try:
+        with open("/sys/fs/cgroup/memory.max") as limit_file:
+            text = limit_file.read().strip()
+        if text != "max":
+            with open("/sys/fs/cgroup/memory.current") as current_file:
+                used = float(current_file.read().strip())
+            room = float(text) - used
+            available = room if available is None else min(available, room)
+    except (OSError, ValueError):
+        pass
+    return available
+
+
+def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
+             nnz: int = 0) -> Estimate:
+    """Memory and time of `path` computing `k` of `n` modes (with vectors or not)."""
+    n2 = float(n) * n
+    vector_bytes = 8.0 * n * k if vectors else 0.0
+    what = f"{'all ' if k == n else ''}{k} mode{'s' if k != 1 else ''} of {n} dofs" + (
+        ", with vectors" if vectors else ", frequencies only")
+    if path == "dense":
+        memory = 8.0 * n2 * (2 if vectors else 1) + vector_bytes + 8.0 * 26 * n
+        seconds = (DENSE_VECTORS_S * k / n + DENSE_VALUES_S) * n2 * n if vectors else DENSE_VALUES_S * n2 * n
+    elif path in ("tridiagonal", "accurate-bidiagonal"):
+        # LAPACK stemr and the dqds + MRRR pairing allocate all n vectors unless a subset is asked.
+        memory = 8.0 * 12 * n + (8.0 * n2 if vectors and k == n else vector_bytes)
+        seconds = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k) + (
+            TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
+    elif path == "banded":
+        memory = 8.0 * (width + 1) * n * 3 + (8.0 * n2 + vector_bytes if vectors else 0.0)
+        seconds = BANDED_S * (width + 1) * n2 + TRIDIAGONAL_S * n2 + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
+    elif path in ("sparse", "accurate-ritz"):
+        columns = max(2 * k + 1, 20)
+        # Lanczos basis + the factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) else
+        memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if width <= 1 else 12.0 * 20 * max(nnz, n))
+        seconds = LANCZOS_S * n * columns * 10 + 1e-9 * n * k * k
+    elif path in ("accurate-rayleigh",):
+        memory = 8.0 * n2 * 2 + 8.0 * n2
+        seconds = DENSE_VECTORS_S * n2 * n
+    else:  # accurate-jacobi
+        rows = max(n_terms, n)
+        memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)
+        seconds = JACOBI_S * rows * n * n
+    return Estimate(path, memory, seconds, what)
+
+
+def describe_bytes(count: float) -> str:
+    """A byte count as '512 KiB', '3.0 GiB', '7.28 TiB'."""
+    for unit, size in (("TiB", 2.0**40), ("GiB", 2.0**30), ("MiB", 2.0**20), ("KiB", 2.0**10)):
+        if count >= size:
+            return f"{count / size:.3g} {unit}" if unit == "TiB" else f"{count / size:.1f} {unit}"
+    return f"{count:.0f} B"
+
+
+def describe_seconds(seconds: float) -> str:
+    """A duration as '3 s', '12 min', '5.2 h', '40 days'."""
+    if seconds < 90:
+        return f"{seconds:.2g} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 2 * 86400:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds / 86400:.3g} days"
+
+
+def guard(cost: Estimate, *, n_dof: int, max_memory: float | None, max_seconds: float | None,
+          alternatives: list[str]) -> None:
+    """Raise `ResourceLimitError` if `cost` exceeds the memory or time limit, naming the way out.
+
+    `max_memory` / `max_seconds` None take `MEMORY_LIMIT` (or the available memory) and
+    `TIME_LIMIT_S`; ``float("inf")`` disables a limit.
+    """
+    memory_limit = max_memory if max_memory is not None else MEMORY_LIMIT
+    if memory_limit is None:
+        memory_limit = available_memory()
+    time_limit = max_seconds if max_seconds is not None else TIME_LIMIT_S
+    reasons = []
+    if memory_limit is not None and cost.memory > memory_limit:
+        source = "available" if max_memory is None and MEMORY_LIMIT is None else "max_memory"
+        reasons.append(f"more memory than the {describe_bytes(memory_limit)} {source}")
+    if cost.seconds > time_limit:
+        reasons.append(f"longer than max_seconds={time_limit:g}")
+    if not reasons:
+        return
+    options = "; ".join(alternatives) if alternatives else "ask for fewer modes"
+    raise ResourceLimitError(
+        f"K has {n_dof} dofs: the {cost.path} path ({cost.what}) would need about "
+        f"{describe_bytes(cost.memory)} of memory and ~{describe_seconds(cost.seconds)}, "
+        f"{' and '.join(reasons)}. Cheaper requests: {options}; or pass max_memory= / "
+        "max_seconds= (float('inf')) to run it anyway"
+    )
+
+
+ProgressCallback = Callable[[float, str], None]
+
+
+class Progress:
+    """Progress of one solve: a callback ``(fraction done, message)``, stderr lines, or nothing.
+
+    `report` is True (lines on stderr), False / None (silent), or a callable. Lines are written
+    only when the estimate exceeds `PROGRESS_AFTER_S`, unless `report` is True.
+    """
+
+    def __init__(self, report: bool | ProgressCallback | None, cost: Estimate, *,
+                 stream: TextIO | None = None) -> None:
+        self.cost = cost
+        self.start = time.perf_counter()
+        self._stream = stream
+        self._callback: ProgressCallback | None = None
+        if callable(report):
+            self._callback = report
+        elif report is True or (report is None and cost.seconds > PROGRESS_AFTER_S):
+            self._callback = self._write
+        self.step(0.0, f"{cost.path} path, {cost.what}: estimated ~{describe_seconds(cost.seconds)}, "
+                       f"{describe_bytes(cost.memory)}")
+
+    def _write(self, fraction: float, message: str) -> None:
+        stream = self._stream if self._stream is not None else sys.stderr
+        elapsed = time.perf_counter() - self.start
+        stream.write(f"vibra: [{100 * fraction:3.0f}% {elapsed:7.1f} s] {message}\n")
+        stream.flush()
+
+    def step(self, fraction: float, message: str) -> None:
+        """Report that `fraction` (0..1) of the work is done, with a short message."""
+        if self._callback is not None:
+            self._callback(min(max(fraction, 0.0), 1.0), message)
+
+    def done(self) -> None:
+        """Report the end of the solve and its elapsed time."""
+        self.step(1.0, f"done in {time.perf_counter() - self.start:.1f} s")
