@@ -78,46 +78,43 @@ def frequency_lines(scene: Scene, modes: Any, symmetry: Any = None) -> tuple[str
     if _is_quadratic(modes):
         return _quadratic_lines(modes)
     omega = np.asarray(modes.omega)
-    header = f"{'mode':>5}  {'omega [' + units.omega + ']':>26}"
-    extra = None
+    columns: list[tuple[str, str, Callable[[int], str]]] = [
+        ("mode", ">5", str), (f"omega [{units.omega}]", ">26", lambda k: f"{omega[k]:.10g}")]
     if units.time_s is not None:
-        extra = ("cm^-1", modes.wavenumbers_cm1()) if scene.kind == "molecule" else ("Hz", modes.frequencies_hz())
-        header += f"  {extra[0]:>14}"
+        name, values = (("cm^-1", modes.wavenumbers_cm1()) if scene.kind == "molecule"
+                        else ("Hz", modes.frequencies_hz()))
+        columns.append((name, ">14", lambda k: f"{values[k]:.6g}"))
     if symmetry is not None:
-        header += f"  {'species (' + symmetry.group + ')':<16}"
+        columns.append((f"species ({symmetry.group})", "<16", lambda k: symmetry.species[k] or "(rigid)"))
         if symmetry.source is not None:
-            header += f"  {'observed (cm^-1)':<16}"
-    lines = [header]
-    for k in range(modes.n_modes):
-        line = f"{k:>5}  {omega[k]:>26.10g}"
-        if extra is not None:
-            line += f"  {extra[1][k]:>14.6g}"
-        if symmetry is not None:
-            line += f"  {symmetry.species[k] or '(rigid)':<16}"
-            observed = symmetry.experimental[k]
-            if symmetry.source is not None and observed is not None:
-                line += f"  {observed.name} {observed.wavenumber_cm1:.0f}"
-        lines.append(line.rstrip())
+            observed = symmetry.experimental
+            columns.append(("observed (cm^-1)", "<16", lambda k: "" if observed[k] is None else
+                            f"{observed[k].name} {observed[k].wavenumber_cm1:.0f}"))
+    lines = _text_table(modes.n_modes, columns)
     if symmetry is not None and symmetry.source is not None:
         lines.append(f"observed: gas-phase fundamentals, {symmetry.source}")
     return tuple(lines)
 
 
+def _text_table(n_rows: int, columns: list[tuple[str, str, Callable[[int], str]]]) -> list[str]:
+    """Lines of a text table: per column (header, format spec such as ``">26"``, cell text of row k)."""
+    lines = ["  ".join(f"{header:{spec}}" for header, spec, _ in columns).rstrip()]
+    lines += ["  ".join(f"{cell(k):{spec}}" for _, spec, cell in columns).rstrip() for k in range(n_rows)]
+    return lines
+
+
 def _quadratic_lines(modes: Any) -> tuple[str, ...]:
     """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
     units = modes.units
-    header = f"{'mode':>5}  {'omega_n [' + units.omega + ']':>26}"
-    hz = modes.frequencies_hz() if units.time_s is not None else None
-    if hz is not None:
-        header += f"  {'Hz':>14}"
-    header += f"  {'damping ratio':>14}  {'motion':<10}"
-    lines = [header]
-    for k in range(modes.n_modes):
-        line = f"{k:>5}  {modes.natural_frequency[k]:>26.10g}"
-        if hz is not None:
-            line += f"  {hz[k]:>14.6g}"
-        line += f"  {modes.damping_ratio[k]:>14.3g}  {'grows' if modes.unstable[k] else 'stable':<10}"
-        lines.append(line.rstrip())
+    columns: list[tuple[str, str, Callable[[int], str]]] = [
+        ("mode", ">5", str),
+        (f"omega_n [{units.omega}]", ">26", lambda k: f"{modes.natural_frequency[k]:.10g}")]
+    if units.time_s is not None:
+        hz = modes.frequencies_hz()
+        columns.append(("Hz", ">14", lambda k: f"{hz[k]:.6g}"))
+    columns += [("damping ratio", ">14", lambda k: f"{modes.damping_ratio[k]:.3g}"),
+                ("motion", "<10", lambda k: "grows" if modes.unstable[k] else "stable")]
+    lines = _text_table(modes.n_modes, columns)
     lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.method} method): complex mode shapes, "
                  "omega_n = sqrt(lambda_1 lambda_2) per eigenvalue pair")
     return tuple(lines)
