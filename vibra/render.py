@@ -401,7 +401,7 @@ class SceneRenderer:
             plotter.camera.position = tuple(centre + np.array([0.0, -2.6 * extent, 0.9 * extent]))
             plotter.camera.up = (0.0, 0.0, 1.0)
             plotter.reset_camera()
-            plotter.camera.zoom(1.5)
+            plotter.camera.zoom(1.3 if rows == 1 else 1.05)  # the tallest structure part stays in view
         name = f"{scene.name}_modes.png"
         write_png(self._snapshot(plotter), out_dir / name)
         listed = ", ".join(f"{k} (omega = {float(modes.omega[k]):.4g}, dimensionless)" for k in indices)
