@@ -1,0 +1,92 @@
+"""The accurate dense path of spring systems: checked fast result, refinement only when needed.
+
+Truth: 50-digit mpmath eigenvalues of B~^T B~ (`test_solvers.mp_spring_omegas`), numpy's dense
+eigh for well-conditioned cases, and rigid-body mechanics (a free 3-D cluster has exactly six
+zero modes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from test_solvers import mp_spring_omegas
+
+from vibra import normal_modes, solvers
+
+
+def network(rng: np.random.Generator, n_sites: int, spring_decades: float, mass_decades: float
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(B, w, masses) of a rigid 3-D network: each random site joined to its 8 nearest neighbours,
+    spring constants log-uniform over +-spring_decades, masses over +-mass_decades."""
+    positions = rng.normal(size=(n_sites, 3))
+    distance = np.linalg.norm(positions[:, None] - positions[None], axis=-1)
+    nearest = np.argsort(distance, axis=1)[:, 1:9]
+    pairs = np.array(sorted({(min(i, j), max(i, j)) for i in range(n_sites) for j in nearest[i].tolist()}))
+    directions = positions[pairs[:, 1]] - positions[pairs[:, 0]]
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    B = np.zeros((len(pairs), 3 * n_sites))
+    rows = np.arange(len(pairs))
+    for axis in range(3):
+        B[rows, 3 * pairs[:, 1] + axis] = directions[:, axis]
+        B[rows, 3 * pairs[:, 0] + axis] = -directions[:, axis]
+    springs = 10.0 ** rng.uniform(-spring_decades, spring_decades, len(pairs))
+    masses = np.repeat(10.0 ** rng.uniform(-mass_decades, mass_decades, n_sites), 3)
+    return B, springs, masses
+
+
+def solve(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, **kwargs: object) -> object:
+    K = B.T @ (springs[:, None] * B)
+    return normal_modes(0.5 * (K + K.T), masses, spring_factor=(sp.csr_matrix(B), springs), **kwargs)
+
+
+@pytest.mark.parametrize("vectors", [False, True])
+def test_well_conditioned_network_keeps_the_checked_fast_result(rng: np.random.Generator, vectors: bool) -> None:
+    """No refinement is needed: the path is accurate-checked, every frequency within 1e-10 of
+    mpmath, the reported bound covers the true error, and exactly six zero modes."""
+    B, springs, masses = network(rng, 30, 0.3, 0.3)
+    modes = solve(B, springs, masses, vectors=vectors)
+    assert modes.solver == "accurate-checked"  # type: ignore[attr-defined]
+    reference = mp_spring_omegas(B, springs, masses)
+    flexible = slice(6, None)
+    omega = modes.omega  # type: ignore[attr-defined]
+    assert np.max(np.abs(omega[flexible] - reference[flexible]) / reference[flexible]) < 1e-10
+    bound = modes.omega_error[flexible]  # type: ignore[attr-defined]
+    assert np.all(bound >= np.abs(omega[flexible] - reference[flexible]))
+    assert np.all(bound <= 1e-10 * reference[flexible])
+    # and it guides: within 1000 times the true error, or 1e-13 relative (issue 15, item 6)
+    true_error = np.abs(omega[flexible] - reference[flexible])
+    assert np.all(bound <= np.maximum(1000 * true_error, 1e-13 * reference[flexible]))
+    assert int(modes.zero_modes().sum()) == 6  # type: ignore[attr-defined]
+
+
+def test_ill_conditioned_network_is_refined_on_the_default_path(rng: np.random.Generator) -> None:
+    """Springs 1e-6..1e6 and masses 1e-3..1e3 (30 sites): the fast result's bounds miss, Jacobi
+    runs, and every non-rigid frequency is within 1e-10 relative of 50-digit mpmath."""
+    B, springs, masses = network(rng, 30, 6.0, 3.0)
+    modes = solve(B, springs, masses)
+    assert modes.solver == "accurate-jacobi"  # type: ignore[attr-defined]
+    reference = mp_spring_omegas(B, springs, masses)
+    assert reference[5] < 1e-12 * reference[6]  # rigid: six zero modes, no floppy one
+    flexible = slice(6, None)
+    omega = modes.omega  # type: ignore[attr-defined]
+    assert np.max(np.abs(omega[flexible] - reference[flexible]) / reference[flexible]) < 1e-10
+
+
+@pytest.mark.parametrize("accuracy", ["fast", "high"])
+@pytest.mark.parametrize("decades", [0.3, 2.0])
+def test_rigid_cluster_has_six_zero_modes_on_every_path(rng: np.random.Generator, accuracy: str,
+                                                        decades: float) -> None:
+    """A free rigid cluster: exactly six zero modes, on the fast path, the checked path and after
+    refinement (springs over +-2 decades force it)."""
+    B, springs, masses = network(rng, 25, decades, 0.5)
+    K = B.T @ (springs[:, None] * B)
+    factor = (sp.csr_matrix(B), springs) if accuracy == "high" else None
+    modes = normal_modes(0.5 * (K + K.T), masses, spring_factor=factor)
+    if accuracy == "high":
+        assert modes.solver == ("accurate-checked" if decades < 1 else "accurate-jacobi")
+    assert int(modes.zero_modes().sum()) == 6
+
+
+def test_checked_path_is_listed() -> None:
+    assert "accurate-checked" in solvers.SOLVER_PATHS
