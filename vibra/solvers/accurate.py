@@ -80,9 +80,10 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
             return ring
         return _spring_rayleigh(weighted, ring.vectors, vectors=vectors)
     if few and band is None:
+        k = int(n_modes)  # type: ignore[arg-type]
         sigma, shifted = lowest_shift(sp.csr_matrix(Kt))
-        _, basis = shift_invert(sp.csr_matrix(Kt), int(n_modes), sigma, shifted)  # type: ignore[arg-type]
-        return _spring_ritz(weighted, basis, vectors=vectors)
+        _, basis = shift_invert(sp.csr_matrix(Kt), min(k + 1, n - 2), sigma, shifted)  # one more: the gap
+        return _checked_ritz(weighted, basis, k, vectors=vectors)
     if few:
         standard = sparse_path(Kt, n_modes=None, vectors=True, band=band)
         return _spring_ritz(weighted, standard.vectors, vectors=vectors)  # type: ignore[arg-type]
@@ -109,6 +110,23 @@ def _spring_ritz(weighted: Any, basis: NDArray[np.float64], *, vectors: bool) ->
     values, rotation = small_pencil(elongations.T @ elongations, basis.T @ basis)
     values = np.maximum(values, 0.0)  # H is a Gram matrix: positive semi-definite
     return _spring_figures(weighted, values, basis @ rotation, vectors, "accurate-ritz")
+
+
+def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool) -> SolveResult:
+    """Spring-space Rayleigh-Ritz on k + 1 shift-invert vectors; the lowest k kept, each with the
+    quadratic residual bound of `_cluster_bounds` (the (k+1)-th value, less its residual, bounds
+    the gap of the k-th from above)."""
+    B = sp.csr_matrix(weighted)
+    elongations = np.asarray(B @ basis)
+    values, rotation = small_pencil(elongations.T @ elongations, basis.T @ basis)
+    values = np.maximum(values, 0.0)
+    basis = basis @ rotation
+    residuals = np.linalg.norm(np.asarray(B.T @ (B @ basis)) - basis * values, axis=0)
+    terms = float(max(np.diff(B.indptr).max(initial=1), np.bincount(B.indices, minlength=B.shape[1]).max(initial=1)))
+    theta, basis, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True)
+    result = _spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
+    result.error = np.maximum(error[:k], 4 * EPS * theta[:k])
+    return result
 
 
 def _spring_rayleigh(weighted: Any, basis: NDArray[np.float64], *, vectors: bool) -> SolveResult:
@@ -206,24 +224,39 @@ def checked_dense(Kt: Any, weighted: Any, *, n_modes: int | None, vectors: bool,
     keep[selected(np.sqrt(np.maximum(theta, 0.0)), n_modes=n_modes, band=band)] = True
     zero = theta + error <= (terms * n * EPS) ** 2 * norm
     refine = keep & (error > TARGET * np.abs(theta)) & ~zero
+    solver = "accurate-checked"
     if refine.any():
         # One-sided Jacobi on B~ (gejsv reduces the tall B~ by a pivoted QR first). Its vectors
-        # are taken for every mode: mixing them with the fast vectors would cost orthogonality.
-        return _accurate_jacobi(weighted, n_modes=n_modes, vectors=vectors, band=band)
+        # are taken for every mode (mixing them with the fast vectors would cost orthogonality)
+        # and checked the same way: its own estimate (eps times a condition number it cannot
+        # see) is not a bound, a ring's 1e12 springs beat it by 1e4.
+        exact = _accurate_jacobi(weighted, n_modes=None, vectors=True, band=None)
+        theta, basis, error = _cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
+                                              delta, terms, complete=True, precise=True)
+        keep = np.zeros(theta.shape[0], dtype=bool)
+        keep[selected(np.sqrt(np.maximum(theta, 0.0)), n_modes=n_modes, band=band)] = True
+        solver = "accurate-jacobi"
     theta, basis, error = theta[keep], basis[:, keep], error[keep]
-    result = _spring_figures(B, theta, basis, vectors, "accurate-checked")
+    result = _spring_figures(B, theta, basis, vectors, solver)
     result.error = error
     return result
 
 
-def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: float,
-                    terms: float, *, complete: bool) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
+                    terms: float, *, complete: bool, precise: bool = False) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see checked_dense).
 
     Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
+    `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
+    times smaller; the bound, quadratic in the residual, then stays near the true error where
+    stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
     """
+    unit = float(np.finfo(np.longdouble).eps) if precise else EPS
+    if precise:
+        B = B.astype(np.longdouble)
     k = values.shape[0]
-    breaks = np.flatnonzero(np.diff(values) > 2 * delta + TARGET * np.abs(values[1:]))
+    delta = np.broadcast_to(np.asarray(delta, dtype=float), values.shape)  # each value's absolute error
+    breaks = np.flatnonzero(np.diff(values) > delta[:-1] + delta[1:] + TARGET * np.abs(values[1:]))
     starts, stops = np.r_[0, breaks + 1], np.r_[breaks + 1, k]
     theta, error = np.empty(k), np.empty(k)
     vectors = np.empty_like(basis)
@@ -233,29 +266,30 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
         last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
         last = max(last, first + 1)
         columns = slice(int(starts[first]), int(stops[last - 1]))
-        V = basis[:, columns]
+        V = basis[:, columns].astype(B.dtype)
         E = np.asarray(B @ V)
         w = np.empty(V.shape[1])
         for start, stop in zip(starts[first:last] - columns.start, stops[first:last] - columns.start):
             if stop - start == 1:
-                w[start] = float(E[:, start] @ E[:, start]) / float(V[:, start] @ V[:, start])
+                w[start] = float((E[:, start] @ E[:, start]) / (V[:, start] @ V[:, start]))
                 continue
-            part, rotation = small_pencil(E[:, start:stop].T @ E[:, start:stop], V[:, start:stop].T @ V[:, start:stop])
+            part, rotation = small_pencil((E[:, start:stop].T @ E[:, start:stop]).astype(float),
+                                          (V[:, start:stop].T @ V[:, start:stop]).astype(float))
             w[start:stop] = part
             V[:, start:stop] = V[:, start:stop] @ rotation
             E[:, start:stop] = E[:, start:stop] @ rotation
         w = np.maximum(w, 0.0)  # H is a Gram matrix
         squares = np.sum((np.asarray(B.T @ E) - V * w) ** 2, axis=0)
         # rounding of B~^T (B~ V) (sums of <= `terms` products)
-        margins = 2 * terms * EPS * np.linalg.norm(np.asarray(A.T @ (A @ np.abs(V))), axis=0)
+        margins = 2 * terms * unit * np.linalg.norm(np.asarray(A.T @ (A @ np.abs(V))), axis=0).astype(float)
         vectors[:, columns], theta[columns] = V, w
         for start, stop in zip(starts[first:last], stops[first:last]):
             local = slice(start - columns.start, stop - columns.start)
-            residual = float(np.sqrt(squares[local].sum())) + float(margins[local].max())
-            lower = values[start - 1] + delta if start > 0 else -np.inf
-            upper = values[stop] - delta if stop < k else (np.inf if complete else -np.inf)
+            residual = float(np.sqrt(squares[local].sum())) + float(margins[local].max())  # (to float64)
+            lower = values[start - 1] + delta[start - 1] if start > 0 else -np.inf
+            upper = values[stop] - delta[stop] if stop < k else (np.inf if complete else -np.inf)
             gap = min(float(w[local].min()) - lower, upper - float(w[local].max()))
             bound = residual**2 / gap if gap > residual else residual
-            error[start:stop] = bound + 2 * terms * EPS * w[local]
+            error[start:stop] = bound + (2 * terms * unit + EPS) * w[local]
         first = last
     return theta, vectors, error
