@@ -7,6 +7,8 @@ zero modes).
 
 from __future__ import annotations
 
+from typing import Any
+
 import mpmath
 import numpy as np
 import pytest
@@ -37,7 +39,7 @@ def network(rng: np.random.Generator, n_sites: int, spring_decades: float, mass_
     return B, springs, masses
 
 
-def solve(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, **kwargs: object) -> object:
+def solve(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, **kwargs: Any) -> Any:
     K = B.T @ (springs[:, None] * B)
     return normal_modes(0.5 * (K + K.T), masses, spring_factor=(sp.csr_matrix(B), springs), **kwargs)
 
