@@ -122,7 +122,7 @@ def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors:
     values = np.maximum(values, 0.0)
     basis = basis @ rotation
     residuals = np.linalg.norm(np.asarray(B.T @ (B @ basis)) - basis * values, axis=0)
-    terms = float(max(np.diff(B.indptr).max(initial=1), np.bincount(B.indices, minlength=B.shape[1]).max(initial=1)))
+    terms = _most_terms(B)
     theta, basis, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True)
     result = _spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
     result.error = np.maximum(error[:k], 4 * EPS * theta[:k])
@@ -218,7 +218,7 @@ def checked_dense(Kt: Any, weighted: Any, *, n_modes: int | None, vectors: bool,
     values, basis = la.eigh(dense, **kwargs)
     norm = max(float(np.abs(np.diag(dense)).max(initial=0.0)), float(np.abs(values).max(initial=0.0)), 1e-300)
     delta = n * EPS * norm
-    terms = float(max(np.diff(B.indptr).max(initial=1), np.bincount(B.indices, minlength=n).max(initial=1)))
+    terms = _most_terms(B)
     theta, basis, error = _cluster_bounds(B, values, basis, delta, terms, complete=not subset)
     keep = np.zeros(theta.shape[0], dtype=bool)
     keep[selected(np.sqrt(np.maximum(theta, 0.0)), n_modes=n_modes, band=band)] = True
@@ -240,6 +240,11 @@ def checked_dense(Kt: Any, weighted: Any, *, n_modes: int | None, vectors: bool,
     result = _spring_figures(B, theta, basis, vectors, solver)
     result.error = error
     return result
+
+
+def _most_terms(B: sp.csr_matrix) -> float:
+    """The most stored entries in a row or a column of B~ (the length of its dot products)."""
+    return float(max(np.diff(B.indptr).max(initial=1), np.bincount(B.indices, minlength=B.shape[1]).max(initial=1)))
 
 
 def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
