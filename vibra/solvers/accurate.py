@@ -54,7 +54,7 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
         return "accurate-ritz"
     if n > DENSE_LIMIT:
         return "banded" if banded else "accurate-rayleigh"
-    return "accurate-jacobi"
+    return "accurate-checked"
 
 
 def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matrix, NDArray[np.float64]], *,
