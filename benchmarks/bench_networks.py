@@ -16,6 +16,13 @@ the ANM (cutoff 15 Å, gamma 1, unit masses):
 Accuracy: largest relative error of the 20 non-rigid eigenvalues and of the square
 fluctuations (sum over those 20 modes, as prody.calcSqFlucts) against ProDy's dense result.
 
+With ``--random3d``: random 3-D spring networks instead (uniform sites at density 0.05, ANM
+springs within 8.5 units: ~42 per site, the issue's "500 sites, 21,000 springs"), lowest 26
+modes by vibra fast, vibra high (the checked path), scipy ``eigsh(sigma=-1e-6 ||K||)`` with
+its default factorisation and numpy ``eigh`` (dense, n <= 3,000 only); errors against eigh
+(or against vibra high where eigh is skipped). Timed with `_common.interleaved`; results in
+results/networks_3d.json.
+
 Protocol: BLAS threads pinned to 1 before numpy loads; one warm-up of every method on 1ubi;
 then 3 rounds, the methods interleaved within each round; best time, all times and the
 spread (max / min - 1) per method go to results/networks.json. The machine has 2 cores
@@ -43,7 +50,7 @@ import scipy.sparse.linalg as sla  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's vibra
-from _common import write_json  # noqa: E402
+from _common import interleaved, write_json  # noqa: E402
 
 from vibra import networks  # noqa: E402
 
@@ -86,10 +93,54 @@ def run_eigsh(K: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
     return kept, square
 
 
+def random_network(n_sites: int, seed: int = 0) -> Any:
+    """The issue's random 3-D network: uniform sites at density 0.05, springs within 8.5 units."""
+    rng = np.random.default_rng(seed)
+    side = (n_sites / 0.05) ** (1.0 / 3.0)
+    return networks.anm(rng.uniform(0.0, side, size=(n_sites, 3)), cutoff=8.5)
+
+
+def random3d(sizes: list[int], rounds: int) -> None:
+    """Lowest 26 modes of random 3-D networks: vibra fast / high, scipy eigsh, numpy eigh."""
+    cases = []
+    for n_sites in sizes:
+        system = random_network(n_sites)
+        K = sp.csr_matrix(system.hessian())
+        springs = int(round((K.nnz / 9 - n_sites) / 2))
+        methods: dict[str, Callable[[], np.ndarray]] = {
+            "vibra_fast": lambda: system.modes(26, accuracy="fast").omega_squared,
+            "vibra_high": lambda: system.modes(26).omega_squared,
+            "scipy_eigsh": lambda: np.sort(sla.eigsh(K, k=26, sigma=-1e-6 * float(abs(K).sum(axis=1).max()),
+                                                     which="LM", tol=0.0)[0]),
+        }
+        if K.shape[0] <= 3000:
+            methods["numpy_eigh"] = lambda: np.linalg.eigvalsh(K.toarray())[:26]
+        print(f"{n_sites} sites, {K.shape[0]} dofs, {springs} springs", flush=True)
+        timings = interleaved(methods, rounds, warmup=rounds > 1)
+        reference = timings["numpy_eigh" if "numpy_eigh" in timings else "vibra_high"].result
+        scale = float(np.abs(reference).max())
+        case: dict[str, Any] = {"n_sites": n_sites, "n_dof": int(K.shape[0]), "springs": springs, "methods": {}}
+        for key, timing in timings.items():
+            error = np.abs(np.asarray(timing.result)[6:] - reference[6:]) / np.maximum(reference[6:], 1e-300 * scale)
+            case["methods"][key] = {**timing.summary(), "eigenvalue_rel_error": float(error.max()),
+                                    "vs_fast": timing.min / timings["vibra_fast"].min}
+        solver = system.modes(26).solver
+        case["vibra_high_path"] = solver
+        cases.append(case)
+    write_json("networks_3d", {"benchmark": "random 3-D spring networks, lowest 26 modes", "cases": cases,
+                               "threads": {key: os.environ.get(key) for key in ("OPENBLAS_NUM_THREADS",)}},
+               rounds)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one small protein, one round (smoke run)")
+    parser.add_argument("--random3d", type=int, nargs="*", metavar="SITES",
+                        help="random 3-D networks of these sizes instead of the proteins (default 500)")
     args = parser.parse_args()
+    if args.random3d is not None:
+        random3d(args.random3d or [500], 1 if args.quick else ROUNDS)
+        return
     files = ["pdb3enl.pdb"] if args.quick else ["pdb3o21.pdb", "pdb7pbl.pdb"]
     rounds = 1 if args.quick else ROUNDS
 

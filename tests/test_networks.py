@@ -37,15 +37,6 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1.0)))
 
 
-#: The sparse shift-invert path of vibra.solvers (n_dof > DENSE_LIMIT) factorises K~ - sigma I with
-#: sigma = -1e4 eps ||K~||: for a free 3-D network (6 zero modes) that factor is conditioned
-#: ~1e12 and the non-rigid vectors come back with ~1e-5 relative errors (eigenvalues, second order,
-#: stay within 1e-7). A solver fix (a shift scaled to the lowest non-zero eigenvalue, or deflating
-#: the zero modes) belongs in vibra/solvers.py; until then these cases fail, strictly.
-SPARSE_VECTORS = pytest.mark.xfail(strict=True, reason="solvers: shift -1e4 eps ||K~|| spoils the vectors of a "
-                                   "free 3-D network (see SPARSE_VECTORS)")
-
-
 @pytest.fixture(scope="module", params=PROTEINS)
 def protein(request: pytest.FixtureRequest) -> tuple[networks.Structure, prody.AtomGroup]:
     return networks.from_pdb(DATA / request.param), _prody_calpha(request.param)
@@ -122,12 +113,10 @@ def test_anm_eigenvalues_match_prody(anm_pair: tuple[prody.ANM, vibra.System, ne
     assert _relative(result.eigenvalues, model.getEigvals()) < 1e-7
 
 
-def test_anm_square_fluctuations_match_prody(anm_pair: tuple[prody.ANM, vibra.System, networks.Fluctuations],
-                                             request: pytest.FixtureRequest) -> None:
+def test_anm_square_fluctuations_match_prody(anm_pair: tuple[prody.ANM, vibra.System, networks.Fluctuations]
+                                             ) -> None:
     """Square fluctuations of the 20 lowest non-rigid modes to 1e-6 relative (prody.calcSqFlucts)."""
-    model, system, result = anm_pair
-    if system.n_dof > 1500:  # vibra.solvers.DENSE_LIMIT: the sparse path
-        request.applymarker(SPARSE_VECTORS)
+    model, _, result = anm_pair
     assert _relative(result.square, prody.calcSqFlucts(model)) < 1e-6
 
 

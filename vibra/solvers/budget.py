@@ -26,6 +26,8 @@ the input, then time:
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
 - accurate-rayleigh: 24 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
+- accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
+  larger of that and accurate-jacobi's (a refinement may run).
 - A `band` request is estimated as `dispatch.BAND_MODES_ESTIMATE` (64) modes (its count is unknown
   before the solve).
 """
@@ -124,6 +126,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
     elif path in ("accurate-rayleigh",):
         memory = 8.0 * n2 * 2 + 8.0 * n2
         seconds = DENSE_VECTORS_S * n2 * n
+    elif path == "accurate-checked":
+        fast = estimate("dense", n, k=min(k + 1, n), vectors=True)
+        refined = estimate("accurate-jacobi", n, k=k, vectors=vectors, n_terms=n_terms)
+        memory, seconds = max(fast.memory, refined.memory), fast.seconds
     else:  # accurate-jacobi
         rows = max(n_terms, n)
         memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)

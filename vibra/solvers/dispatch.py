@@ -25,7 +25,7 @@ SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
 #: The paths a result can report in `Modes.solver` (``"accurate"`` runs one of the four
 #: ``accurate-*`` paths).
 SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal", "accurate-ritz",
-                "accurate-rayleigh", "accurate-jacobi")
+                "accurate-rayleigh", "accurate-checked", "accurate-jacobi")
 
 
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
