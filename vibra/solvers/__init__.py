@@ -19,7 +19,12 @@
                    - a chain (the springs form a path): dqds on the Golub-Kahan bidiagonal;
                    - few modes of a large system: sparse shift-invert vectors, then a
                      Rayleigh-Ritz step in spring space (H = (B~V)^T (B~V), O(N k));
-                   - any other small system: one-sided Jacobi SVD (LAPACK gejsv) of B~.
+                   - all modes of a large non-path system: Rayleigh quotients ||B~ v||^2 of
+                     the fast path's vectors (accurate-rayleigh);
+                   - any other small system: the fast dense solve, a Rayleigh-Ritz step in
+                     spring space and a Kato-Temple bound per mode (accurate-checked); the
+                     one-sided Jacobi SVD (LAPACK gejsv) of B~ only when a requested mode's
+                     bound misses 1e-10 relative (accurate-jacobi).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and
@@ -37,7 +42,7 @@ Where each path lives:
 ``standard.py``        dense, tridiagonal, banded (absolute accuracy)
 ``sparse.py``          shift-invert Lanczos for a few modes or a band
 ``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal
-``accurate.py``        the accurate dispatch; accurate-ritz, accurate-rayleigh, accurate-jacobi
+``accurate.py``        the accurate dispatch; accurate-checked, -ritz, -rayleigh, -jacobi
 ``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
 ``budget.py``          memory / time estimates, the guard and its limits, progress reports
 =====================  ======================================================================
