@@ -45,6 +45,7 @@ Where each path lives:
 ``accurate.py``        the accurate dispatch; accurate-checked, -ritz, -rayleigh, -jacobi
 ``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
 ``budget.py``          memory / time estimates, the guard and its limits, progress reports
+``gpu.py``             ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
 =====================  ======================================================================
 
 Examples
