@@ -23,7 +23,8 @@ from vibra._lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by
 from vibra.solvers.bidiagonal import Segment, path_bidiagonals
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
 
-__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "relative_bound", "DQDS_FACTOR"]
+__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "relative_bound", "DQDS_FACTOR",
+           "spring_factor_of_chain", "lowest_chain_modes"]
 
 #: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~2e-9 s^2
 #: seconds) rather than bisection for k of them (~3e-6 s k seconds), whichever is cheaper.
@@ -146,3 +147,79 @@ def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors
     basis = np.hstack(found_vectors)[:, order]
     figures = absolute_figures(sp.csr_matrix(Kt), eigenvalues, basis, "accurate-bisection", floor=4.0)
     return SolveResult(eigenvalues, basis, error, figures.residual, figures.orthogonality, "accurate-bisection")
+
+
+def _exact_row_sums(K: sp.csr_matrix) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(row sums of a tridiagonal K, their rounding bound): diagonal plus both neighbours, by TwoSum."""
+    n = K.shape[0]
+    lower = np.r_[0.0, K.diagonal(-1)]
+    upper = np.r_[K.diagonal(1), 0.0]
+    diagonal = K.diagonal()
+    first = diagonal + lower
+    err = (diagonal - (first - (first - diagonal))) + (lower - (first - diagonal))  # TwoSum's error
+    total = first + upper
+    err2 = (first - (total - (total - first))) + (upper - (total - first))
+    return total + (err + err2), np.abs(diagonal) * EPS * (n > 0)
+
+
+def spring_factor_of_chain(K: Any) -> tuple[sp.csr_matrix, NDArray[np.float64]] | None:
+    """The spring factor (B, w) of a chain's stiffness K (tridiagonal), or None if K is not one.
+
+    Springs are -K[i, i+1] (all must be >= 0); each dof's anchor is its row sum, computed
+    without cancellation, and taken as zero where it lies within the rounding of K[i, i]
+    (K was assembled as a sum of springs). A negative spring or anchor beyond that: None.
+    B has one row per spring (-1, +1 on dofs i, i+1) and one per nonzero anchor.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp
+    >>> B, w = spring_factor_of_chain(sp.csr_matrix(np.array([[3.0, -1.0], [-1.0, 1.0]])))
+    >>> B.toarray(), w
+    (array([[-1.,  1.],
+           [ 1.,  0.]]), array([1., 2.]))
+    """
+    matrix = sp.csr_matrix(K, dtype=float)
+    n = matrix.shape[0]
+    coo = matrix.tocoo()
+    if np.any(np.abs(coo.row - coo.col) > 1) or np.any(matrix.diagonal(1) != matrix.diagonal(-1)):
+        return None
+    springs = -matrix.diagonal(1)
+    if np.any(springs < 0):
+        return None
+    anchors, rounding = _exact_row_sums(matrix)
+    if np.any(anchors < -4.0 * rounding):
+        return None
+    anchored = np.flatnonzero(anchors > 4.0 * rounding)
+    pairs = np.arange(n - 1)
+    keep = np.flatnonzero(springs > 0)
+    rows = np.r_[np.repeat(np.arange(keep.size), 2), keep.size + np.arange(anchored.size)]
+    cols = np.r_[np.ravel(np.c_[pairs[keep], pairs[keep] + 1]), anchored].astype(np.intp)
+    values = np.r_[np.tile([-1.0, 1.0], keep.size), np.ones(anchored.size)]
+    coupling = sp.csr_matrix((values, (rows, cols)), shape=(keep.size + anchored.size, n))
+    return coupling, np.r_[springs[keep], anchors[anchored]]
+
+
+def lowest_chain_modes(Kt: Any, K: Any, mass: NDArray[np.float64],
+                       spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, *, n_modes: int,
+                       vectors: bool, scale: float = 1.0) -> SolveResult | None:
+    """`lowest_chain_path` for a request as `dispatch.solve` holds it, or None if K is not a chain.
+
+    Parameters
+    ----------
+    Kt : K~ as solved (already multiplied by `scale`); K : the stiffness as given; mass :
+    diagonal masses (a dense M: None); spring_factor : (B, w) with w already multiplied by
+    `scale`, or None to derive it from K (`spring_factor_of_chain`, then scaled here).
+    """
+    if mass.ndim != 1:
+        return None
+    if spring_factor is None:
+        derived = spring_factor_of_chain(K)
+        if derived is None:
+            return None
+        spring_factor = (derived[0], derived[1] * scale)
+    coupling, weights = spring_factor
+    weighted = sp.csr_matrix(sp.diags(np.sqrt(weights)) @ coupling @ sp.diags(1.0 / np.sqrt(mass)))
+    segments = chain_segments(weighted)
+    if segments is None:
+        return None
+    return lowest_chain_path(Kt, segments, n_modes, vectors=vectors)
