@@ -20,25 +20,15 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
-from vibra.solvers.bidiagonal import Segment, path_bidiagonals
+from vibra.solvers.bidiagonal import Segment, path_bidiagonals, relative_bound
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
 
-__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "relative_bound", "DQDS_FACTOR",
+__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "DQDS_FACTOR",
            "spring_factor_of_chain", "lowest_chain_modes"]
 
 #: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~2e-9 s^2
 #: seconds) rather than bisection for k of them (~3e-6 s k seconds), whichever is cheaper.
 DQDS_FACTOR = 1500
-
-
-def relative_bound(size: int) -> float:
-    """Relative error bound of a singular value of a size x size bidiagonal formed from B~.
-
-    Demmel-Kahan: relative entry errors eta (forming B~: a square root and a division,
-    eta ~ 3 eps) move each singular value by at most (2 size - 1) eta relative; the
-    algorithm (bisection to two ulps, or dqds) adds a few eps: 10 size eps in all.
-    """
-    return 10.0 * size * EPS
 
 
 def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool
