@@ -142,3 +142,15 @@ def test_lowest_chain_bound_is_tight_on_a_long_uniform_chain() -> None:
     relative_error = (np.abs(omega[1:] - truth[1:]) / truth[1:]).max()
     relative_bound = (result.error[1:] / (2 * truth[1:] ** 2)).max()
     assert relative_bound <= max(1000 * relative_error, 1e-13)
+
+
+def test_norm_upper_bounds_the_spectral_norm_with_empty_rows() -> None:
+    """Truth: numpy's 2-norm; sparse rows left empty (a frozen or isolated dof) are allowed."""
+    import scipy.sparse as sp
+
+    from vibra.solvers.common import norm_upper
+
+    dense = np.zeros((5, 5))
+    dense[:2, :2] = [[2.0, -1.0], [-1.0, 2.0]]
+    for matrix in (dense, sp.csr_matrix(dense)):
+        assert np.linalg.norm(dense, 2) <= norm_upper(matrix) <= 3.0 + 1e-15

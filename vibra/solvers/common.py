@@ -167,7 +167,7 @@ def norm_upper(Kt: Any) -> float:
     """An upper bound of ||K~||_2: the largest absolute row sum (K~ symmetric), O(nnz), no n x n temporary."""
     if sp.issparse(Kt):
         matrix = sp.csr_matrix(Kt)
-        return float(np.add.reduceat(np.abs(matrix.data), matrix.indptr[:-1]).max(initial=0.0)) if matrix.nnz else 0.0
+        return float(np.asarray(abs(matrix).sum(axis=1)).max(initial=0.0)) if matrix.nnz else 0.0
     dense = np.asarray(Kt)
     step = max(1, (1 << 20) // max(dense.shape[0], 1))
     return max((float(np.abs(dense[i:i + step]).sum(axis=1).max()) for i in range(0, dense.shape[0], step)),
