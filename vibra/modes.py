@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate, solvers
 from vibra.solvers import gpu
 from vibra._frozen import _freeze_arrays, owned_arrays
+from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = ["Modes", "normal_modes", "SOLVERS"]
@@ -111,6 +112,16 @@ class Modes:
     def energies_mev(self) -> NDArray[np.float64]:
         """(n_modes,) signed quantum energies hbar omega, in meV."""
         return self.units.omega_to_mev(self.omega)
+
+    @property
+    def sign_uncertain(self) -> NDArray[np.bool_]:
+        """(n_modes,) True where the error bound spans zero: stable or unstable is not decided.
+
+        Such a mode's true omega may have either sign (omega_error >= |omega|); a negative
+        omega there is not evidence of an instability.
+        """
+        uncertain: NDArray[np.bool_] = np.abs(self.omega) <= self.omega_error
+        return uncertain
 
     # ------------------------------------------------------------------ groups
     def zero_modes(self, rtol: float = 1e-6) -> NDArray[np.bool_]:
@@ -379,9 +390,8 @@ def _modes_from(result: solvers.SolveResult, K_matrix: Any, mass: NDArray[np.flo
             f"K is not positive semi-definite: {n_negative} imaginary mode(s), reported as "
             "negative omega", RuntimeWarning, stacklevel=3,
         )
-    omega = np.sign(result.eigenvalues) * np.sqrt(np.abs(result.eigenvalues))
-    # d(omega) = d(omega^2) / (2 |omega|), capped by sqrt(d(omega^2)) near zero.
-    omega_error = np.minimum(result.error / np.maximum(2.0 * np.abs(omega), 1e-300), np.sqrt(result.error))
+    # the images of [omega^2 - error, omega^2 + error]: covers a sign flip near zero
+    omega, omega_error = omega_and_error(result.eigenvalues, result.error)
     shapes = None
     if result.vectors is not None:
         shapes = solvers.physical_shapes(result.vectors, mass)

@@ -163,11 +163,26 @@ def _norm_estimate(Kt: NDArray[np.float64] | sp.csr_matrix, eigenvalues: NDArray
     return scale if scale > 0 else 1.0
 
 
+def norm_upper(Kt: Any) -> float:
+    """An upper bound of ||K~||_2: the largest absolute row sum (K~ symmetric), O(nnz), no n x n temporary."""
+    if sp.issparse(Kt):
+        matrix = sp.csr_matrix(Kt)
+        return float(np.asarray(abs(matrix).sum(axis=1)).max(initial=0.0)) if matrix.nnz else 0.0
+    dense = np.asarray(Kt)
+    step = max(1, (1 << 20) // max(dense.shape[0], 1))
+    return max((float(np.abs(dense[i:i + step]).sum(axis=1).max()) for i in range(0, dense.shape[0], step)),
+               default=0.0)
+
+
 def absolute_figures(Kt: Any, eigenvalues: NDArray[np.float64], vectors: NDArray[np.float64] | None,
-             solver: str, floor: float) -> SolveResult:
-    """Residual, orthogonality and error estimates of a standard (absolute-accuracy) path."""
+             solver: str, floor: float, norm: float | None = None) -> SolveResult:
+    """Residual, orthogonality and error estimates of a standard (absolute-accuracy) path.
+
+    `norm` is an upper bound of ||K~||_2 (`norm_upper`) when the caller has one (K~ itself
+    may be gone: LAPACK reduced it in place); else it is taken from Kt.
+    """
     n = Kt.shape[0]
-    norm = _norm_estimate(Kt, eigenvalues)
+    norm = max(_norm_estimate(Kt, eigenvalues), norm_upper(Kt) if norm is None else norm)
     # Eigenvalues of a backward-stable symmetric solver are exact for K~ + E, ||E|| ~ eps ||K~||.
     error = np.full(eigenvalues.shape, floor * EPS * norm)
     if vectors is None:
@@ -267,3 +282,36 @@ def small_pencil(H: NDArray[np.float64], S: NDArray[np.float64]) -> tuple[NDArra
     """Eigenpairs of the k x k pencil (H, S), S the Gram matrix of a nearly orthonormal basis."""
     return la.eigh(0.5 * (H + H.T), 0.5 * (S + S.T))
 
+
+
+def omega_and_error(eigenvalues: NDArray[np.float64], error: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Signed omega = sign(lambda) sqrt|lambda| and a bound on its error from |lambda - lambda~| <= error.
+
+    omega itself is rounded to a double: half an ulp of it is part of the bound.
+    The true lambda lies in [lambda~ - error, lambda~ + error]; the signed square root is
+    monotone, so the true omega lies between the images of the two ends and the bound is the
+    larger distance to them. Where |lambda~| < error the interval holds zero: the sign of the
+    mode is uncertain and the bound exceeds |omega| (`Modes.sign_uncertain`).
+    Formed without cancellation: sqrt(a) - sqrt(a - d) = d / (sqrt(a) + sqrt(a - d)).
+
+    Examples
+    --------
+    >>> omega, bound = omega_and_error(np.array([-2.56e-3, 4.0]), np.array([2.6e-3, 1e-12]))
+    >>> bool(bound[0] > abs(omega[0]))   # interval holds zero: sign uncertain
+    True
+    >>> float(np.round(bound[1] / 2.5e-13, 2))   # ~ error / (2 omega) when small
+    1.0
+    """
+    magnitude = np.abs(eigenvalues)
+    omega = np.sign(eigenvalues) * np.sqrt(magnitude)
+    delta = np.abs(error)
+    root = np.sqrt(magnitude)
+    certain = magnitude > delta
+    bound = np.empty_like(root)
+    # same sign throughout: the far end is the one toward zero
+    bound[certain] = delta[certain] / (root[certain] + np.sqrt(magnitude[certain] - delta[certain]))
+    uncertain = ~certain
+    bound[uncertain] = root[uncertain] + np.sqrt(delta[uncertain] - magnitude[uncertain])
+    # (+ the rounding of the bound's own arithmetic, and of omega to a double: half an ulp)
+    return omega, bound * (1.0 + 4.0 * EPS) + 0.5 * EPS * root

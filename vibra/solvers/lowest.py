@@ -1,0 +1,215 @@
+"""The lowest modes of a chain, by bisection on its Golub-Kahan form: no shift to choose.
+
+A chain's frequencies are the singular values of its bidiagonal spring factor B~
+(`vibra.solvers.bidiagonal.path_bidiagonals`). The singular values of an upper bidiagonal
+(d, e) are the positive eigenvalues of the Golub-Kahan tridiagonal TGK (zero diagonal,
+off-diagonal d1, e1, d2, e2, ..., dn), whose Sturm counts are relatively accurate
+(Demmel and Kahan 1990). Bisection (LAPACK dstebz) therefore finds the lowest k to a few
+ulps of themselves however far below ||K~|| they lie, in O(n k) per bit: a disordered chain
+whose masses and springs spread over 1e12, where a shift chosen from ||K~|| sees the lowest
+eigenvalues as one cluster, costs no more than a uniform one. Vectors come from inverse
+iteration on TGK (LAPACK dstein); their accuracy is the residual's.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from vibra._lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
+from vibra.solvers.bidiagonal import Segment, path_bidiagonals, relative_bound
+from vibra.solvers.common import EPS, SolveResult, absolute_figures
+
+__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "DQDS_FACTOR",
+           "spring_factor_of_chain", "lowest_chain_modes"]
+
+#: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~2e-9 s^2
+#: seconds) rather than bisection for k of them (~3e-6 s k seconds), whichever is cheaper.
+DQDS_FACTOR = 1500
+
+
+def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]:
+    """Singular values skip..skip+k-1 (ascending, 0-based) of the upper bidiagonal (d, e).
+
+    Returns (sigma, u, v): u (s, k) left and v (s, k) right singular vectors when `vectors`
+    (None otherwise), from the Golub-Kahan eigenvectors z = [v1, u1, v2, u2, ...] / sqrt 2.
+    """
+    s = d.shape[0]
+    off = np.empty(2 * s - 1)
+    off[0::2] = d
+    off[1::2] = e
+    zero = np.zeros(2 * s)
+    first = s + skip
+    lower = first - 1 if vectors else first  # the -sigma partner of the lowest: a zero pair needs both
+    if not vectors and s <= DQDS_FACTOR * k:
+        # dqds on all s values (O(s^2)) beats bisection for k of them (O(s k) per bit) here
+        return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
+    values, block, split = tridiagonal_eigenvalues_by_index(zero, off, lower, first + k - 1)
+    order = np.argsort(values, kind="stable")  # dstebz groups the values by split-off block
+    sigma = np.abs(values[order][first - lower:])
+    if not vectors:
+        return sigma, None, None
+    z = tridiagonal_vectors(zero, off, values, block, split)[:, order]
+    right, left = z[0::2], z[1::2]
+    u = left[:, first - lower:].copy()
+    v = right[:, first - lower:].copy()
+    if sigma.size and sigma[0] <= 4.0 * EPS * float(np.abs(off).max(initial=0.0)):
+        # sigma ~ 0 (a free chain's translation): TGK's null space mixes [v; 0] and [0; u];
+        # each side's null vector is the dominant direction of that side's parts of the pair.
+        u[:, 0] = _dominant(left[:, :2])
+        v[:, 0] = _dominant(right[:, :2])
+    u /= np.maximum(np.linalg.norm(u, axis=0), np.finfo(float).tiny)
+    v /= np.maximum(np.linalg.norm(v, axis=0), np.finfo(float).tiny)
+    return sigma, u, v
+
+
+def _dominant(parts: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The leading left singular vector of a (s, 2) block."""
+    basis, _, _ = np.linalg.svd(parts, full_matrices=False)
+    column: NDArray[np.float64] = basis[:, 0]
+    return column
+
+
+def chain_segments(weighted: Any) -> list[Segment] | None:
+    """The path segments of a spring factor B~ (`path_bidiagonals`), None if not a chain."""
+    return path_bidiagonals(sp.csr_matrix(weighted))
+
+
+def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors: bool) -> SolveResult:
+    """accurate-bisection: the lowest `n_modes` frequencies of a chain by Golub-Kahan bisection.
+
+    Parameters
+    ----------
+    Kt : (n, n) sparse or dense
+        K~ (for the residual figures of the vectors).
+    segments : list
+        `chain_segments(B~)`: the chain's bidiagonals.
+    n_modes : int
+        How many of the lowest modes.
+    vectors : bool
+        Whether to compute the mass-weighted vectors.
+
+    Returns
+    -------
+    SolveResult
+        eigenvalues omega^2 ascending, each to `relative_bound` of the segment relative in
+        omega (twice that in omega^2); solver ``"accurate-bisection"``.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp
+    >>> B = sp.csr_matrix(np.array([[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]]))  # free 3-site chain
+    >>> result = lowest_chain_path(B.T @ B, chain_segments(B), 2, vectors=False)
+    >>> np.round(result.eigenvalues, 12)
+    array([0., 1.])
+    """
+    n = Kt.shape[0]
+    found_sigma = []
+    found_bound = []
+    found_vectors = []
+    for c0, c1, d, e, keep, dofs_are_rows in segments:
+        k = min(n_modes, keep)
+        skip = d.shape[0] - keep  # padding zeros below the segment's frequencies
+        sigma, u, v = golub_kahan_lowest(d, e, skip, k, vectors=vectors)
+        found_sigma.append(sigma)
+        found_bound.append(np.full(k, relative_bound(d.shape[0])))
+        if vectors:
+            side = u if dofs_are_rows else v
+            assert side is not None
+            full = np.zeros((n, k))
+            block = side[: c1 - c0 + 1]
+            full[c0 : c1 + 1] = block / np.maximum(np.linalg.norm(block, axis=0), np.finfo(float).tiny)
+            found_vectors.append(full)
+    sigma = np.concatenate(found_sigma)
+    order = np.argsort(sigma, kind="stable")[:n_modes]
+    eigenvalues = sigma[order] ** 2
+    # bisection's absolute floor: intervals shrink to the pivot minimum (safe minimum x ||B~||^2)
+    scale = max((float(np.abs(np.r_[d, e]).max(initial=0.0)) for _, _, d, e, _, _ in segments), default=0.0)
+    floor = 4.0 * np.finfo(float).tiny * max(1.0, scale * scale)
+    sigma_error = np.concatenate(found_bound)[order] * sigma[order] + floor
+    error = sigma_error * (2.0 * sigma[order] + sigma_error)
+    if not vectors:
+        return SolveResult(eigenvalues, None, error, float("nan"), float("nan"), "accurate-bisection")
+    basis = np.hstack(found_vectors)[:, order]
+    figures = absolute_figures(sp.csr_matrix(Kt), eigenvalues, basis, "accurate-bisection", floor=4.0)
+    return SolveResult(eigenvalues, basis, error, figures.residual, figures.orthogonality, "accurate-bisection")
+
+
+def _exact_row_sums(K: sp.csr_matrix) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(row sums of a tridiagonal K, their rounding bound): diagonal plus both neighbours, by TwoSum."""
+    n = K.shape[0]
+    lower = np.r_[0.0, K.diagonal(-1)]
+    upper = np.r_[K.diagonal(1), 0.0]
+    diagonal = K.diagonal()
+    first = diagonal + lower
+    err = (diagonal - (first - (first - diagonal))) + (lower - (first - diagonal))  # TwoSum's error
+    total = first + upper
+    err2 = (first - (total - (total - first))) + (upper - (total - first))
+    return total + (err + err2), np.abs(diagonal) * EPS * (n > 0)
+
+
+def spring_factor_of_chain(K: Any) -> tuple[sp.csr_matrix, NDArray[np.float64]] | None:
+    """The spring factor (B, w) of a chain's stiffness K (tridiagonal), or None if K is not one.
+
+    Springs are -K[i, i+1] (all must be >= 0); each dof's anchor is its row sum, computed
+    without cancellation, and taken as zero where it lies within the rounding of K[i, i]
+    (K was assembled as a sum of springs). A negative spring or anchor beyond that: None.
+    B has one row per spring (-1, +1 on dofs i, i+1) and one per nonzero anchor.
+
+    Examples
+    --------
+    >>> import numpy as np, scipy.sparse as sp
+    >>> B, w = spring_factor_of_chain(sp.csr_matrix(np.array([[3.0, -1.0], [-1.0, 1.0]])))
+    >>> B.toarray(), w
+    (array([[-1.,  1.],
+           [ 1.,  0.]]), array([1., 2.]))
+    """
+    matrix = sp.csr_matrix(K, dtype=float)
+    n = matrix.shape[0]
+    coo = matrix.tocoo()
+    if np.any(np.abs(coo.row - coo.col) > 1) or np.any(matrix.diagonal(1) != matrix.diagonal(-1)):
+        return None
+    springs = -matrix.diagonal(1)
+    if np.any(springs < 0):
+        return None
+    anchors, rounding = _exact_row_sums(matrix)
+    if np.any(anchors < -4.0 * rounding):
+        return None
+    anchored = np.flatnonzero(anchors > 4.0 * rounding)
+    pairs = np.arange(n - 1)
+    keep = np.flatnonzero(springs > 0)
+    rows = np.r_[np.repeat(np.arange(keep.size), 2), keep.size + np.arange(anchored.size)]
+    cols = np.r_[np.ravel(np.c_[pairs[keep], pairs[keep] + 1]), anchored].astype(np.intp)
+    values = np.r_[np.tile([-1.0, 1.0], keep.size), np.ones(anchored.size)]
+    coupling = sp.csr_matrix((values, (rows, cols)), shape=(keep.size + anchored.size, n))
+    return coupling, np.r_[springs[keep], anchors[anchored]]
+
+
+def lowest_chain_modes(Kt: Any, K: Any, mass: NDArray[np.float64],
+                       spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, *, n_modes: int,
+                       vectors: bool, scale: float = 1.0) -> SolveResult | None:
+    """`lowest_chain_path` for a request as `dispatch.solve` holds it, or None if K is not a chain.
+
+    Parameters
+    ----------
+    Kt : K~ as solved (already multiplied by `scale`); K : the stiffness as given; mass :
+    diagonal masses (a dense M: None); spring_factor : (B, w) with w already multiplied by
+    `scale`, or None to derive it from K (`spring_factor_of_chain`, then scaled here).
+    """
+    if mass.ndim != 1:
+        return None
+    if spring_factor is None:
+        derived = spring_factor_of_chain(K)
+        if derived is None:
+            return None
+        spring_factor = (derived[0], derived[1] * scale)
+    coupling, weights = spring_factor
+    weighted = sp.csr_matrix(sp.diags(np.sqrt(weights)) @ coupling @ sp.diags(1.0 / np.sqrt(mass)))
+    segments = chain_segments(weighted)
+    if segments is None:
+        return None
+    return lowest_chain_path(Kt, segments, n_modes, vectors=vectors)
