@@ -142,7 +142,6 @@ def test_spring_factor_of_chain_refuses_what_is_not_a_chain() -> None:
     assert spring_factor_of_chain(ring) is None
 
 
-@pytest.mark.xfail(strict=False, reason="routing: dispatch must send partial chain solves to accurate-bisection")
 def test_normal_modes_partial_solve_of_a_disordered_chain() -> None:
     """normal_modes(K, M, n_modes=10) on 2,000 sites spread over 1e12 (ARPACK fails without the route)."""
     _, K, mass, springs, anchor = _chain(2000, 1e12, 5)
@@ -151,3 +150,20 @@ def test_normal_modes_partial_solve_of_a_disordered_chain() -> None:
     assert modes.omega.shape == (10,)
     assert abs(modes.omega[0]) <= modes.omega_error[0]
     assert np.all(np.abs(modes.omega[1:4] - truth[1:]) <= 1e-10 * truth[1:])
+
+
+@pytest.mark.parametrize("accuracy", ["high", "fast"])
+def test_system_modes_partial_solve_of_a_disordered_chain_routes_to_bisection(accuracy: str) -> None:
+    """System.modes(n_modes=10), either accuracy, with vectors, on 2,000 sites spread over 1e12
+    (ArpackNoConvergence before): frequencies against 60-digit mpmath, vectors by residual."""
+    from vibra.chains import linear_chain
+
+    _, K, mass, springs, anchor = _chain(2000, 1e12, 5)
+    chain = linear_chain(2000, mass=mass, stiffness=springs, ends="free", units="dimensionless")
+    modes = chain.modes(n_modes=10, accuracy=accuracy)
+    assert modes.solver == "accurate-bisection"
+    truth = np.array([float(mpmath.sqrt(v)) for v in _truth(mass, springs, anchor, 4)])
+    assert np.all(np.abs(modes.omega[1:4] - truth[1:]) <= 1e-10 * truth[1:])
+    Kt = chain.hessian().toarray() / np.sqrt(np.outer(mass, mass))
+    residual = Kt @ modes.vectors - modes.vectors * modes.omega_squared
+    assert np.abs(residual).max() <= 1e-12 * np.abs(Kt).max()

@@ -57,6 +57,7 @@ TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, writt
 BANDED_S = 5e-9               # per (b + 1) n^2: band reduction to tridiagonal form
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
+BISECTION_S = 3e-6            # per n k: Sturm bisection + inverse iteration on a chain (measured 2.4e-6)
 
 
 class ResourceLimitError(ValueError):
@@ -123,6 +124,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # Lanczos basis + the factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) else
         memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if width <= 1 else 12.0 * 20 * max(nnz, n))
         seconds = LANCZOS_S * n * columns * 10 + 1e-9 * n * k * k
+    elif path == "accurate-bisection":
+        # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein)
+        memory = 8.0 * 16 * n + vector_bytes
+        seconds = BISECTION_S * n * k
     elif path in ("accurate-rayleigh",):
         memory = 8.0 * n2 * 2 + 8.0 * n2
         seconds = DENSE_VECTORS_S * n2 * n

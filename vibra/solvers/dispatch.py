@@ -15,6 +15,7 @@ from vibra.solvers.budget import (
 from vibra.solvers.common import (
     BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
+from vibra.solvers.lowest import lowest_chain_modes
 from vibra.solvers.sparse import sparse_path
 from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
 
@@ -24,8 +25,14 @@ SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
 
 #: The paths a result can report in `Modes.solver` (``"accurate"`` runs one of the four
 #: ``accurate-*`` paths).
-SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal", "accurate-ritz",
-                "accurate-rayleigh", "accurate-checked", "accurate-jacobi")
+SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal", "accurate-bisection",
+                "accurate-ritz", "accurate-rayleigh", "accurate-checked", "accurate-jacobi")
+
+#: A partial solve of a chain whose K~ diagonal spans more than this ratio (disorder in the
+#: masses or springs) goes to bisection on the bidiagonal spring factor (`lowest.py`): its cost
+#: does not depend on the spectrum's spread, while shift-invert Lanczos, shifted from the
+#: spectrum's scale, sees the lowest eigenvalues as one cluster there and may not converge.
+BISECTION_SPREAD = 1e4
 
 
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
@@ -62,6 +69,7 @@ def plan(
     sparse K and one pass over a dense one (its bandwidth); K~ is not formed.
     """
     n = K.shape[0]
+    requested = solver
     width = bandwidth(K) if mass.ndim == 1 else n - 1
     ordering = None
     if mass.ndim == 1 and width > BAND_LIMIT and n > DENSE_LIMIT and solver in ("auto", "banded", "accurate"):
@@ -97,11 +105,21 @@ def plan(
         n_terms = spring_factor[0].shape[0]
         path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1,
                                 banded=ordering is not None)
+    if (requested in ("auto", "accurate") and partial and band is None and tridiagonal and mass.ndim == 1
+            and _diagonal_spread(K, mass) > BISECTION_SPREAD):
+        path = "accurate-bisection"
     k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
     if path == "dense" and band is not None:
         k = n
     cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
     return Plan(solver, path, width, ordering, cost, _stored(K), n)
+
+
+def _diagonal_spread(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64]) -> float:
+    """max / min of K~'s nonzero diagonal entries |K_ii| / m_i (1 for a uniform chain); O(n)."""
+    diagonal = np.abs(np.asarray(K.diagonal(), dtype=float)) / mass
+    diagonal = diagonal[diagonal > 0]
+    return float(diagonal.max() / diagonal.min()) if diagonal.size else 1.0
 
 
 def _stored(K: NDArray[np.float64] | sp.csr_matrix) -> int:
@@ -192,7 +210,13 @@ def solve(
             band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
         if spring_factor is not None:
             spring_factor = (spring_factor[0], spring_factor[1] * factor)
-    if solver == "accurate":
+    result = None
+    if request.path == "accurate-bisection":  # None when the springs do not form a path after all
+        result = lowest_chain_modes(Kt, K, mass, spring_factor, n_modes=int(n_modes or 0), vectors=vectors,
+                                    scale=2.0**-exponent if exponent else 1.0)
+    if result is not None:
+        pass
+    elif solver == "accurate":
         assert spring_factor is not None
         result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
                                ordering=ordering, width=width, on_stage=report.step)
