@@ -387,7 +387,7 @@ def _check_png(fig: Figure, path) -> None:
 def test_charts_render(tmp_path):
     system = chains.diatomic_chain(8, masses=(1.0, 3.0), ends="free")
     modes = dense_modes(system.hessian().toarray(), system.masses)
-    fig = charts.plot_dispersion(masses=(1.0, 3.0), modes=modes, ends="free", units="SI")
+    fig = charts.plot_dispersion(continuum.dispersion_curves(masses=(1.0, 3.0), modes=modes, ends="free", units="SI"))
     assert "rad/m" in fig.axes[0].get_xlabel() and "rad/s" in fig.axes[0].get_ylabel()
     _check_png(fig, tmp_path / "dispersion.png")
     study = continuum.convergence_study([1, 2], [10, 20, 40], method="closed form")

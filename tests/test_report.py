@@ -454,6 +454,7 @@ before = matplotlib.get_backend()
 from vibra import chains
 from vibra.charts import save_figure
 from vibra.charts.chains import plot_dispersion
+from vibra.continuum import dispersion_curves
 from vibra.charts.modes import spectrum_figure
 from vibra.scene import Scene
 system = chains.linear_chain(6)
@@ -461,7 +462,7 @@ modes = system.modes()
 scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 6}}, source="s.toml")
 figure, _ = spectrum_figure(scene, modes)
 save_figure(figure, pathlib.Path(tempfile.mkdtemp()) / "s.png")
-png = plot_dispersion(modes=modes)._repr_png_()
+png = plot_dispersion(dispersion_curves(modes=modes))._repr_png_()
 print(before, matplotlib.get_backend(), "matplotlib.pyplot" in sys.modules, png[:4] == b"\\x89PNG")
 """
     import os

@@ -1,6 +1,6 @@
 """Immutability of result objects: frozen dataclasses whose arrays are read-only.
 
-Every result type calls `_freeze_arrays(self)` in `__post_init__` (STYLE.md, "Results are
+Every result type calls `freeze_arrays(self)` in `__post_init__` (STYLE.md, "Results are
 frozen, documented values").
 """
 
@@ -30,7 +30,7 @@ def owned_arrays() -> Iterator[None]:
         _OWNED.reset(token)
 
 
-def _freeze_arrays(obj: object) -> None:
+def freeze_arrays(obj: object) -> None:
     """Copy every ndarray field of a frozen dataclass and make the copy read-only."""
     owned = _OWNED.get()
     for field in dataclasses.fields(obj):  # type: ignore[arg-type]

@@ -38,7 +38,7 @@ from scipy import constants
 from vibra import _validate
 from vibra import molecules
 from vibra.molecules.checks import check_atoms, nonnegative_scalar
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.units import ASE
 
 if TYPE_CHECKING:
@@ -156,7 +156,7 @@ class CrossCheck:
     notes: tuple[str, ...]
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def ase_difference_cm1(self) -> NDArray[np.float64]:

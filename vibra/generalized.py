@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
 from vibra.pencil import check_mass_matrix, pencil_modes
 from vibra.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
@@ -121,7 +121,7 @@ class GeneralizedSystem(FreeDofs):
     C: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @classmethod
     def from_matrices(

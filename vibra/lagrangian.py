@@ -34,7 +34,7 @@ import sympy
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.generalized import GeneralizedSystem
 from vibra.linearization import EQUILIBRIUM_RTOL, linearize
 from vibra.units import UnitSystem
@@ -231,7 +231,7 @@ class DoublePendulumMotion:
     parameters: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
 
 def integrate_double_pendulum(

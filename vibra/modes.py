@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate, solvers
 from vibra.solvers import gpu
-from vibra._frozen import _freeze_arrays, owned_arrays
+from vibra._frozen import freeze_arrays, owned_arrays
 from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -69,7 +69,7 @@ class Modes:
     units: UnitSystem = DIMENSIONLESS
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     # ------------------------------------------------------------------ sizes
     @property

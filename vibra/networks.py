@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.system import System
 
@@ -88,7 +88,7 @@ class Structure:
     labels: tuple[str, ...]
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def n_sites(self) -> int:
@@ -126,7 +126,7 @@ class Fluctuations:
     complete: bool
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def correlation(self, experimental: ArrayLike) -> float:
         """Pearson correlation of `b_factors` with measured B-factors (`b_factor_correlation`)."""

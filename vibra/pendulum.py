@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 
 __all__ = [
     "PendulumMotion",
@@ -83,7 +83,7 @@ class PendulumMotion:
     method: str
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def kinetic(self) -> NDArray[np.float64]:
@@ -134,7 +134,7 @@ class HarmonicError:
     omega: float
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def relative_trajectory_error(self) -> NDArray[np.float64]:

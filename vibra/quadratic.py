@@ -45,7 +45,7 @@ import scipy.linalg as la
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays, owned_arrays
+from vibra._frozen import freeze_arrays, owned_arrays
 from vibra.pencil import check_mass_matrix, equilibrated_cholesky
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -101,7 +101,7 @@ class QuadraticModes:
     units: UnitSystem = DIMENSIONLESS
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def n_modes(self) -> int:

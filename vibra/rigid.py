@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra.lagrangian import linearize
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.generalized import GeneralizedSystem
 from vibra.system import System
 from vibra.units import UnitSystem
@@ -272,7 +272,7 @@ class RigidBody:
         object.__setattr__(self, "center", _vector3(self.center, "center"))
         if not isinstance(self.name, str):
             raise TypeError(f"name must be a str, got {type(self.name).__name__}")
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def inertia_about(self, point: ArrayLike) -> NDArray[np.float64]:
         """(3, 3) inertia about `point` (m), by Huygens' theorem, in kg m^2."""
@@ -318,7 +318,7 @@ class LinearSpring:
             object.__setattr__(self, "direction", axis / np.linalg.norm(axis))
         else:
             object.__setattr__(self, "direction", _unit3(self.direction, "direction"))
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
 
 @dataclass(frozen=True, eq=False)
@@ -348,7 +348,7 @@ class TorsionSpring:
         object.__setattr__(self, "stiffness", _positive_scalar(self.stiffness, "stiffness"))
         if self.axis is not None:
             object.__setattr__(self, "axis", _unit3(self.axis, "axis"))
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
 
 def _body_pair(body_a: Any, body_b: Any, what: str) -> None:

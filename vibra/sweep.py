@@ -46,7 +46,7 @@ from typing import Any, Callable, Literal, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra._io import atomic_write_text
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.plan import build_system
@@ -253,7 +253,7 @@ class SweepRow:
     units: str = ""
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def as_json(self) -> dict[str, Any]:
         """JSON-ready row (floats as floats)."""

@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate, assembly
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.units import UnitSystem, unit_system
@@ -92,7 +92,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
     symbols: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     # ------------------------------------------------------------------ constructors
     @classmethod

@@ -14,12 +14,12 @@ from numpy.typing import ArrayLike
 
 from vibra import _validate
 from vibra.charts._style import new_figure
-from vibra.continuum import ConvergenceStudy, DispersionCurves, PulseResult, dispersion_curves
+from vibra.continuum import ConvergenceStudy, DispersionCurves, PulseResult
 from vibra.modes import Modes
 from vibra.system import System
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
-__all__ = ["plot_dispersion_curves", "plot_dispersion", "plot_curves", "plot_convergence", "plot_chain_mode_shapes", "plot_pulse_spacetime"]
+__all__ = ["plot_dispersion_curves", "plot_dispersion", "plot_convergence", "plot_chain_mode_shapes", "plot_pulse_spacetime"]
 
 
 def _unit_names(units: UnitSystem) -> tuple[str, str, str]:
@@ -86,44 +86,11 @@ def plot_dispersion_curves(
     return fig
 
 
-def plot_dispersion(
-    *,
-    masses: ArrayLike = 1.0,
-    stiffness: ArrayLike = 1.0,
-    spacing: float = 1.0,
-    modes: Modes | None = None,
-    ends: str = "free",
-    units: str | UnitSystem | None = None,
-    title: str | None = None,
-) -> Figure:
-    """Notebook shorthand: `vibra.continuum.dispersion_curves`, then `plot_curves`.
+def plot_dispersion(curves: DispersionCurves, *, title: str | None = None) -> Figure:
+    """Draw a `vibra.continuum.DispersionCurves` (branches, and the finite chain's modes when it has them).
 
-    Reports compute the curves in `vibra.plan` and call `plot_dispersion_curves` directly.
-
-    Parameters
-    ----------
-    masses, stiffness : float or (2,) array_like
-        As in `vibra.continuum.dispersion` (a pair gives the diatomic branches).
-    spacing : float
-        Site spacing dx, in the length unit.
-    modes : Modes, optional
-        Modes of a finite chain with these parameters; drawn as points at the wavenumbers
-        of `vibra.continuum.assign_wavenumbers`.
-    ends : {"free", "fixed", "periodic"}
-        End conditions of that chain.
-    units : str or UnitSystem, optional
-        Units of the axes (those of `modes` by default, else dimensionless).
-    title : str, optional
-        Figure title.
+    The curves come from `vibra.continuum.dispersion_curves`; this only draws them.
     """
-    curves = dispersion_curves(masses=masses, stiffness=stiffness, spacing=spacing, modes=modes,
-                               ends=ends,  # type: ignore[arg-type]
-                               units=units)
-    return plot_curves(curves, title=title)
-
-
-def plot_curves(curves: DispersionCurves, *, title: str | None = None) -> Figure:
-    """Draw a `vibra.continuum.DispersionCurves` (branches, and the finite chain's modes when it has them)."""
     return plot_dispersion_curves(curves.q, curves.omega, mode_q=curves.mode_wavenumbers,
                                   mode_omega=curves.mode_omega, n_sites=curves.n_sites, ends=curves.ends,
                                   units=curves.units, title=title)

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.chains import ENDS, diatomic_band_edges, diatomic_eigenvalues, diatomic_half_splitting
 from vibra.modes import Modes
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
@@ -327,7 +327,7 @@ class DispersionCurves:
     units: UnitSystem
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def n_branches(self) -> int:

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.chains import ENDS, linear_chain, monatomic_frequencies, periodic_modes
 
 __all__ = ["ConvergenceStudy", "convergence_study", "power_law_fit"]
@@ -63,7 +63,7 @@ class ConvergenceStudy:
     solver: str
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def expected_coefficient(self) -> NDArray[np.float64]:
         """(n_k,) leading coefficient of |error| N^2 from the small-angle expansion.

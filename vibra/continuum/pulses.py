@@ -14,7 +14,7 @@ import scipy.fft
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.chains import ENDS
 from vibra.continuum.convergence import power_law_fit
 
@@ -70,7 +70,7 @@ class PulseResult:
     ends: str
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def n_sites(self) -> int:
@@ -240,7 +240,7 @@ class PulseStudy:
     ends: str
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
 
 def pulse_study(n_sites: Sequence[int] | ArrayLike, widths: Sequence[float] | ArrayLike, *, time: float,

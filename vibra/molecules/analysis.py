@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
 from vibra.molecules.checks import nonnegative_scalar
 from vibra.molecules.rigid_body import is_linear, rigid_body_vectors, warn_soft_modes
@@ -69,7 +69,7 @@ class VibrationalAnalysis:
     system: System | None = None
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @cached_property
     def point_group(self) -> PointGroup:

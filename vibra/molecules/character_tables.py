@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 
 __all__ = ["CharacterTable", "character_table", "symmetry_number", "LINEAR_ORDER"]
 
@@ -89,7 +89,7 @@ class CharacterTable:
     raman_active: NDArray[np.bool_]
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def index(self, label: str) -> int:
         """Row of `label`; ValueError naming the known labels when it is not one."""

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.modes import Modes
 from vibra.molecules.displacements import (CalculatorSource, Displacement, ForceCache, displaced_forces,
@@ -80,7 +80,7 @@ class FiniteDifferenceHessian:
     n_cached: int = 0
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def system(self, *, masses: ArrayLike | None = None, name: str = "molecule") -> System:
         """The `System` with this Hessian (ASE units), optionally with other masses (amu)."""

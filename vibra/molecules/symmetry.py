@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.molecules.character_tables import LINEAR_ORDER, CharacterTable, character_table, symmetry_number
 from vibra.system import System
 
@@ -103,7 +103,7 @@ class PointGroup:
     table: CharacterTable
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def symmetry_number(self) -> int:

@@ -392,7 +392,7 @@ def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[
 def _step_chart_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     from vibra.charts import chains as chain_charts
 
-    figure = chain_charts.plot_curves(context.dispersion, title=f"{plan.scene.title}: dispersion")
+    figure = chain_charts.plot_dispersion(context.dispersion, title=f"{plan.scene.title}: dispersion")
     _save_chart(context, figure, "dispersion",
                 f"{plan.scene.title}: dispersion relation omega(q) over the Brillouin zone, with the "
                 f"{context.modes.n_modes} modes of the finite chain on top")

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.response.direct import direct_response, state_space_response
 from vibra.response.matrices import check_structure, half_bandwidth, response_cost
@@ -72,7 +72,7 @@ class FrequencyResponse:
     units: UnitSystem = DIMENSIONLESS
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def n_dof(self) -> int:

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
 from vibra.response.damping import modal_damping
 from vibra.response.matrices import check_structure, mass_times
@@ -43,7 +43,7 @@ class Transient:
     n_modes: int
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
 
 def transient_response(

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.spectra.common import nonnegative_float
 
 __all__ = ["StickSpectrum", "BroadenedSpectrum", "stick_spectrum", "broadened_spectrum"]
@@ -40,7 +40,7 @@ class StickSpectrum:
     kind: str
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def broadened(self, grid: ArrayLike, width: float,
                   shape: Literal["lorentzian", "gaussian"] = "lorentzian") -> BroadenedSpectrum:
@@ -78,7 +78,7 @@ class BroadenedSpectrum:
     kind: str
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
 
 def stick_spectrum(wavenumbers: NDArray[np.float64], values: NDArray[np.float64], merge_cm1: float,

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis, vibrational_analysis
 from vibra.molecules.checks import check_atoms
@@ -73,7 +73,7 @@ class ThermoContribution:
     heat_capacity: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
 
 def _part(temperatures: NDArray[np.float64], enthalpy: ArrayLike, entropy: ArrayLike,
@@ -138,7 +138,7 @@ class IdealGasThermochemistry:
     n_imaginary: int
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def entropy_j_per_mol_k(self) -> NDArray[np.float64]:
         """(n_T,) S per mole, in J/(mol K)."""

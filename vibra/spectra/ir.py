@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
 from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, nonnegative_float,
@@ -70,7 +70,7 @@ class IRSpectrum:
     model: str
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def intensities_km_per_mol(self) -> NDArray[np.float64]:
         """(n_vib,) integrated absorption coefficients, in km/mol."""

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.molecules import ISOTOPE_MASSES
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
 from vibra.system import System
@@ -45,7 +45,7 @@ class IsotopeShifts:
     shifted_wavenumbers: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def shifts(self) -> NDArray[np.float64]:

@@ -8,7 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
 from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, nonnegative_float,
@@ -47,7 +47,7 @@ class RamanSpectrum:
     activities: NDArray[np.float64]
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     def active(self, rtol: float = 1e-8) -> NDArray[np.bool_]:
         """(n_vib,) True where the activity exceeds `rtol` times the strongest line."""

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import _freeze_arrays
+from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
@@ -76,7 +76,7 @@ class Thermochemistry:
     n_imaginary: int
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_arrays(self)
 
     @property
     def partition_function(self) -> NDArray[np.float64]:
