@@ -116,7 +116,7 @@ def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors
         skip = d.shape[0] - keep  # padding zeros below the segment's frequencies
         sigma, u, v = golub_kahan_lowest(d, e, skip, k, vectors=vectors)
         found_sigma.append(sigma)
-        found_bound.append(np.full(k, relative_bound(d.shape[0])))
+        found_bound.append(np.full(k, relative_bound(d, e)))
         if vectors:
             side = u if dofs_are_rows else v
             assert side is not None
