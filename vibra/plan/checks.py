@@ -15,12 +15,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 
 from vibra.plan.analysis import dispersion_branches
 from vibra.plan.build import build_system
 from vibra.scene import Scene, SceneError
 from vibra.scene.values import element_symbol
+from vibra import solvers
 from vibra.solvers import DENSE_ALL_LIMIT
 
 __all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
@@ -62,27 +62,24 @@ def step_error(scene: Scene, step: str, error: BaseException) -> SceneError:
 
 
 def _solver(scene: Scene, system: Any) -> None:
-    solver = scene.compute.solver
-    if solver == "auto":
+    """The scene's solver, asked of the dispatcher itself (`vibra.solvers.plan`: no solve, no
+    allocation), so that validate refuses exactly what the solve would refuse."""
+    compute = scene.compute
+    if compute.solver == "auto" or getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
         return
-    n_dof = system.n_dof
-    diagonal_masses = np.ndim(system.mass_matrix()) == 1
-    if solver == "accurate" and system.spring_factor() is None:
+    factor = system.spring_factor() if compute.accuracy == "high" else None
+    if compute.solver == "accurate" and factor is None:
         raise SceneError(scene.source, "compute.solver", f"'accurate' needs a spring system (K = B^T W B); the "
                          f"{scene.system.builder!r} builder gives none; use 'auto' or 'dense'")
-    if solver in ("tridiagonal", "banded") and not diagonal_masses:
-        raise SceneError(scene.source, "compute.solver", f"{solver!r} needs diagonal masses; this system has a "
-                         "full mass matrix; use 'auto' or 'dense'")
-    if solver == "tridiagonal":
-        K = sp.coo_matrix(system.hessian())
-        width = int(np.max(np.abs(K.row - K.col), initial=0))
-        if width > 1:
-            raise SceneError(scene.source, "compute.solver", f"'tridiagonal' needs a tridiagonal K; this K couples "
-                             f"dofs {width} apart (a periodic or 2-D/3-D system); use 'banded' or 'auto'")
-    wanted = scene.compute.n_modes is None and scene.compute.band is None
-    if solver == "dense" and wanted and n_dof > DENSE_ALL_LIMIT:
-        raise SceneError(scene.source, "compute.solver", f"'dense' on {n_dof} dofs would need "
-                         f"{8 * n_dof * n_dof / 2**30:.1f} GiB; give compute.n_modes or use 'auto'")
+    try:
+        solvers.plan(system.hessian(), system.mass_matrix(), n_modes=compute.n_modes, vectors=False,
+                     band=compute.band, solver=compute.solver, spring_factor=factor)
+    except ValueError as error:
+        raise SceneError(scene.source, "compute.solver", f"{error}; use 'auto'") from error
+    wanted = compute.n_modes is None and compute.band is None
+    if compute.solver == "dense" and wanted and system.n_dof > DENSE_ALL_LIMIT:
+        raise SceneError(scene.source, "compute.solver", f"'dense' on {system.n_dof} dofs would need "
+                         f"{8 * system.n_dof**2 / 2**30:.1f} GiB; give compute.n_modes or use 'auto'")
 
 
 def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
