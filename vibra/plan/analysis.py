@@ -5,8 +5,7 @@
 - `symmetry_hints`: per-mode symmetry and IR-activity text of a molecule (species and
   activity from the character table, and the point-charge IR intensities of `vibra.spectra`).
 - `chain_dispersion`: `vibra.continuum.dispersion_curves` for a chain scene's parameters (its
-  finite chain's modes placed on the branches), for the dispersion chart;
-  `dispersion_branches` its (q, omega) pair.
+  finite chain's modes placed on the branches), for the dispersion chart.
 - `network_fluctuations`: predicted against crystallographic B-factors of a network scene.
 """
 
@@ -20,7 +19,7 @@ from numpy.typing import NDArray
 
 from vibra.continuum import DispersionCurves
 
-__all__ = ["MoleculeSymmetry", "molecule_symmetry", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion", "dispersion_branches"]
+__all__ = ["MoleculeSymmetry", "molecule_symmetry", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion"]
 
 #: A mode whose point-charge IR intensity is below this fraction of the strongest is IR-inactive.
 IR_INACTIVE_FRACTION = 1e-8
@@ -194,12 +193,6 @@ def chain_dispersion(parameters: Any, modes: Any = None, *, n_q: int = 400) -> D
     stiffness = tuple(stiffness) if isinstance(stiffness, (tuple, list)) else stiffness
     return dispersion_curves(masses=masses, stiffness=stiffness, spacing=parameters["spacing"], modes=modes,
                              ends=parameters["ends"], n_q=n_q)
-
-
-def dispersion_branches(parameters: Any, *, n_q: int = 400) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(q, branches): omega(q) of a chain scene's parameters over its Brillouin zone (`chain_dispersion`)."""
-    curves = chain_dispersion(parameters, n_q=n_q)
-    return curves.q, curves.omega
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from vibra.plan.analysis import dispersion_branches
+from vibra.plan.analysis import chain_dispersion
 from vibra.plan.build import build_system
 from vibra.scene import Scene, SceneError
 from vibra.scene.values import element_symbol
@@ -123,7 +123,7 @@ def _dry_run(scene: Scene, system: Any, response: bool) -> None:
                              "grid above 0 or hold the system (frozen_sites, anchors, fixed ends)")
     if scene.draw.dispersion:
         try:
-            dispersion_branches(scene.system.parameters, n_q=2)
+            chain_dispersion(scene.system.parameters, n_q=2)
         except REFUSALS as error:
             raise step_error(scene, "dispersion", error) from error
     if system.n_dof > SPECTRUM_CHECK_LIMIT:
