@@ -612,3 +612,23 @@ def test_no_import_cycles_and_no_upward_imports() -> None:
                     if name not in ("vibra", "vibra.__main__") and layer(target) > layer(name)
                     and not target.startswith(name + "."))
     assert upward == [], upward
+
+
+def test_limits_a_scene_raises_reach_the_solvers_guard(tmp_path, monkeypatch) -> None:
+    """compute.memory_limit_gib / time_limit_s, which validate honours, are the limits of the solve too."""
+    from vibra.system import System
+
+    seen = []
+    original = System.modes
+
+    def spy(self, *args, **kwargs):
+        seen.append((kwargs.get("max_memory"), kwargs.get("max_seconds")))
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(System, "modes", spy)
+    scene = tmp_path / "lim.toml"
+    scene.write_text('kind = "chain"\nname = "lim"\n[system]\nbuilder = "linear_chain"\nn = 8\n'
+                     "[compute]\nmemory_limit_gib = 3.0\ntime_limit_s = 900.0\n")
+    outcome = run_scene(scene, tmp_path / "out")
+    assert outcome.status == "ok", outcome.error
+    assert (3.0 * 2**30, 900.0) in seen

@@ -17,6 +17,7 @@ from typing import Any, Callable
 import numpy as np
 
 from vibra._io import atomic_write_text
+from vibra.generalized import GeneralizedSystem
 from vibra.plan.analysis import chain_dispersion, molecule_symmetry, network_fluctuations, symmetry_hints
 from vibra.plan.build import build_system, network_structure
 from vibra.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
@@ -178,8 +179,14 @@ def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
 
 def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     compute = plan.scene.compute
+    limits = {}  # limits the scene raised reach the solver's own guard (validate checked them)
+    if not isinstance(context.system, GeneralizedSystem):  # (it has no resource options)
+        if compute.memory_limit_gib is not None:
+            limits["max_memory"] = compute.memory_limit_gib * 2.0**30
+        if compute.time_limit_s is not None:
+            limits["max_seconds"] = compute.time_limit_s
     context.modes = context.system.modes(plan.n_modes, accuracy=compute.accuracy, vectors=plan.vectors,
-                                         band=compute.band, solver=compute.solver)
+                                         band=compute.band, solver=compute.solver, **limits)
     error = empty_band(plan.scene, context.modes)  # only a band can come back empty
     if error is not None:
         raise error
