@@ -18,6 +18,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
+from vibra._frozen import freeze_arrays, owned_arrays
 from vibra.generalized import GeneralizedSystem
 from vibra.response.frf import FrequencyResponse, frequency_response
 from vibra.response.matrices import velocity_matrix
@@ -52,6 +53,9 @@ class SystemMatrices:
     G: NDArray[np.float64] | None
     units: UnitSystem
 
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
 
 def system_matrices(system: System) -> SystemMatrices:
     """K, M, C, G of `system` over its free degrees of freedom (C, G None for a site system).
@@ -73,7 +77,8 @@ def system_matrices(system: System) -> SystemMatrices:
     C = G = None
     if isinstance(system, GeneralizedSystem):
         C, G = system.damping_matrix(), system.gyroscopic_matrix()
-    return SystemMatrices(K=system.hessian(), M=system.mass_matrix(), C=C, G=G, units=system.units)
+    with owned_arrays():  # fresh copies from the system's accessors: frozen without another copy
+        return SystemMatrices(K=system.hessian(), M=system.mass_matrix(), C=C, G=G, units=system.units)
 
 
 def _damping(parts: SystemMatrices, C: Any) -> Any:
