@@ -240,6 +240,21 @@ def test_undamped_gyroscopic_resonance_grows_instead_of_being_refused() -> None:
     assert late > 5 * early                          # it grows (about linearly)
 
 
+@pytest.mark.parametrize(("spin", "stable"), [(1.0, False), (3.0, True)])
+def test_gyroscopic_stabilisation_of_an_indefinite_K(spin: float, stable: bool) -> None:
+    # K = -diag(1, 2) alone diverges; G = spin J holds it when spin > 1 + sqrt(2) (the
+    # Hamiltonian threshold). The state-space motion follows solve_ivp either way: bounded
+    # when stabilised, growing when not.
+    K = -np.diag([1.0, 2.0])
+    G = spin * J
+    t = np.linspace(0.0, 10.0, 51)
+    result = R.transient_response(K, [1.0, 1.0], None, t, [0.0, 0.0], G=G, u0=[1e-3, 0.0])
+    u, _ = integrate(K, np.eye(2), G, np.zeros(2), 0.0, np.array([1e-3, 0.0]), np.zeros(2), t)
+    assert np.allclose(result.displacement, u, rtol=0, atol=1e-8 * np.abs(u).max())
+    growth = np.abs(result.displacement).max() / 1e-3
+    assert (growth < 10) if stable else (growth > 100)
+
+
 @settings(max_examples=40, deadline=None)
 @given(omega_c=st.floats(1e-2, 1e2), force=st.floats(1e-3, 1e3), t=st.floats(0.0, 50.0))
 def test_free_charge_pushed_by_a_constant_force_drifts_across_it(omega_c: float, force: float, t: float) -> None:
