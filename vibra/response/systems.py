@@ -57,7 +57,7 @@ class SystemMatrices:
         freeze_arrays(self)
 
 
-def system_matrices(system: System) -> SystemMatrices:
+def system_matrices(system: System | GeneralizedSystem) -> SystemMatrices:
     """K, M, C, G of `system` over its free degrees of freedom (C, G None for a site system).
 
     Raises
@@ -93,7 +93,7 @@ def _damping(parts: SystemMatrices, C: Any) -> Any:
     return extra if parts.C is None else velocity_matrix(parts.C, extra)
 
 
-def system_frequency_response(system: System, omegas: ArrayLike, force: ArrayLike, *,
+def system_frequency_response(system: System | GeneralizedSystem, omegas: ArrayLike, force: ArrayLike, *,
                               C: ArrayLike | sp.spmatrix | None = None, **options: Any) -> FrequencyResponse:
     """`frequency_response` of a system with its own C and G: x(w) = (K - w^2 M + i w (C + G))^-1 f.
 
@@ -139,7 +139,7 @@ def system_frequency_response(system: System, omegas: ArrayLike, force: ArrayLik
                               **options)
 
 
-def system_transient_response(system: System, t: ArrayLike, force: ArrayLike, *,
+def system_transient_response(system: System | GeneralizedSystem, t: ArrayLike, force: ArrayLike, *,
                               C: ArrayLike | sp.spmatrix | None = None, **options: Any) -> Transient:
     """`transient_response` of a system with its own C and G (state space when they need it).
 
