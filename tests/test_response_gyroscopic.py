@@ -449,7 +449,7 @@ K2, M2 = np.eye(2), [1.0, 1.0]
          r"G must be square, got shape \(2, 3\)"),
         (lambda: R.frf(K2, M2, None, [1.0], [1.0, 0.0], G=[[0.0, np.nan], [0.0, 0.0]]), ValueError,
          r"G\[0,1\] is .*nan.*must be finite"),
-        (lambda: R.frf(K2, M2, None, [1.0], [1.0, 0.0], G="J"), TypeError, r"G"),
+        (lambda: R.frf(K2, M2, None, [1.0], [1.0, 0.0], G="J"), TypeError, r"G must be an array of real numbers, got str"),
         (lambda: R.frequency_response(K2, M2, None, [1.0], [1.0, 0.0], G=J, method="modal"), ValueError,
          r"G is given, and method='modal' superposes real normal modes.*method='direct' or method='state_space'"),
         (lambda: R.transient_response(K2, M2, None, [1.0], [1.0, 0.0], G=np.eye(2)), ValueError,
