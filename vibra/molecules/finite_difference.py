@@ -185,7 +185,8 @@ def finite_difference_hessian(
     every call from scratch; an instance is used as it is serially and copied fresh for every
     call on a worker (see `vibra.molecules.displacements`). With `cache`, each geometry's
     forces are written to their own file as they arrive; a killed run started again computes
-    only what is missing.
+    only what is missing. The force-noise probe (`force_noise`) runs after them, where they
+    ran (one task on the cluster), and is never cached.
 
     Parameters
     ----------
@@ -253,8 +254,9 @@ def finite_difference_hessian(
         above `force_tolerance` (reported); a malformed `client`.
     RuntimeError
         The calculator raised, or returned forces that are not finite or of the wrong shape:
-        every such geometry is named (atom, sign, step multiple, axis). The forces that were
-        computed stay in `cache`; nothing else is written anywhere.
+        every such geometry is named (atom, sign, step multiple, axis); or it failed during
+        the force-noise probe (said so). The forces that were computed stay in `cache`;
+        nothing else is written anywhere.
     ImportError
         `client` given but Dask is not installed (the message names ``vibra[distributed]``).
     vibra.cluster.ClusterError
