@@ -108,6 +108,8 @@ def test_table_and_rows() -> None:
     assert "vibra" in text and "ASE" in text and "phonopy" in text and "cm^-1" in text
     assert "Fermi resonance" in text
     assert len(text.splitlines()) == 2 + 9 + 1 + len(result.notes)
+    # the valence force field is a listed closed-form calculator: rounding alone, never probed
+    assert result.noise_source == "analytic" and f"force noise {result.force_noise:.2g} eV/A (analytic)" in text
 
 
 def test_default_model_is_guessed() -> None:
