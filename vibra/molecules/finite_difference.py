@@ -311,10 +311,12 @@ def finite_difference_hessian(
         forces = _gather_forces(plan, template, source, positions, h, store, tolerance, cluster=cluster,
                                 progress=progress)
         floor = rounding_noise(max(float(np.abs(values).max()) for values in forces.forces))
-        if given == "auto":
+        if given is None:
+            noise = ForceNoise(0.0, "rounding", 0)
+        elif isinstance(given, str):                   # "auto"
             noise = _probe(template, source, calc, forces.forces[0], floor, cluster)
         else:
-            noise = ForceNoise(0.0 if given is None else float(given), "rounding" if given is None else "given", 0)
+            noise = ForceNoise(given, "given", 0)
     return _assemble(forces, plan, multiples, h, int(stencil), noise, floor, positions, masses,
                      template.get_atomic_numbers(), estimate_error)
 
