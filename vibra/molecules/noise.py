@@ -269,13 +269,13 @@ def probe_force_noise(atoms: Atoms, calculator: Any = None, *, reference_forces:
     ValueError
         repeats < 1, jitter <= 0, a negative floor, or reference forces of the wrong shape.
     RuntimeError
-        The calculator returned forces that are not finite or of the wrong shape.
+        The calculator failed or returned forces that are not finite or of the wrong shape.
 
     Examples
     --------
-    >>> from vibra.molecules import ValenceForceField, co2_atoms, valence_model
-    >>> atoms = co2_atoms()
-    >>> probe_force_noise(atoms, ValenceForceField(valence_model(atoms)))   # listed: not called
+    >>> from vibra import molecules
+    >>> water = molecules.h2o_atoms()
+    >>> probe_force_noise(water, molecules.ValenceForceField(molecules.valence_model(water)))  # listed: not called
     ForceNoise(value=0.0, source='analytic', n_force_calls=0)
     """
     calc = _calculator(atoms, calculator)
