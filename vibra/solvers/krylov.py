@@ -53,6 +53,7 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
                tol: float = 1e-12, max_dim: int | None = None, block: int = BLOCK,
                deflate: NDArray[np.float64] | None = None, seed: int = 0,
                enough: Callable[[NDArray[np.float64], NDArray[np.float64]], bool] | None = None,
+               start: NDArray[np.float64] | None = None,
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool]:
     """The k largest eigenpairs of the symmetric operator `apply` (n x n), by block Arnoldi.
 
@@ -72,6 +73,9 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
     enough : callable, optional
         enough(mu, residual) -> bool on the current Ritz values (descending) and their residuals:
         another stopping test (the probe for zero modes uses it).
+    start : (n, j) array, optional
+        Starting directions (e.g. Ritz vectors of an earlier run); random columns fill the
+        first block up to its width.
 
     Returns
     -------
@@ -90,7 +94,11 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
     limit = min(n - (0 if deflate is None else deflate.shape[1]), max_dim or max(10 * k, 200))
     b = max(1, min(block, limit // 2))
     rng = np.random.default_rng(seed)
-    X, _ = np.linalg.qr(_project(rng.standard_normal((n, b)), deflate))
+    first = rng.standard_normal((n, b))
+    if start is not None:
+        given = np.asarray(start, dtype=float).reshape(n, -1)[:, :b]
+        first[:, : given.shape[1]] = given
+    X, _ = np.linalg.qr(_project(first, deflate))
     basis = X
     H = np.zeros((b, b))  # the block Hessenberg matrix of the Arnoldi relation, grown as it goes
     applied = 0

@@ -180,7 +180,7 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     # one more sweep of F on the zero modes: their error shrinks by mu_other / mu_zero ~ 1e-9
     Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, zero])[0]))[0]
     mu, rest, _, done = block_eigs(factor.solve, n, k - Z.shape[1], tol=TOLERANCE, block=BLOCK_LOWEST,
-                                   deflate=Z if Z.shape[1] else None)
+                                   deflate=Z if Z.shape[1] else None, start=basis[:, ~zero])
     if not done:
         raise RuntimeError(f"shift-invert block Krylov did not converge for the {k} lowest modes of a "
                            f"{n}-dof system; ask for fewer modes or use solver='dense'")
