@@ -15,7 +15,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from vibra import networks
-from vibra.solvers import krylov, ordering
+from vibra.solvers import krylov, ordering, pardiso
 from vibra.solvers.sparse import ShiftedInverse, lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 
 
@@ -171,3 +171,61 @@ def test_sparse_path_band_still_served() -> None:
     result = sparse_path(K, n_modes=None, vectors=False, band=(low, high))
     np.testing.assert_allclose(result.eigenvalues, reference[(reference >= low**2) & (reference <= high**2)],
                                rtol=1e-12)
+
+
+# ---------------------------------------------------------------------- the PARDISO backend
+needs_pardiso = pytest.mark.skipif(not pardiso.pardiso_available(),
+                                   reason="pypardiso (MKL PARDISO, the vibra[pardiso] extra) is not installed here")
+
+
+@needs_pardiso
+def test_pardiso_cholesky_solves_and_refuses_indefinite() -> None:
+    K = sp.csr_matrix(_lattice(1100).hessian())
+    A = (K + 1e-3 * sp.identity(K.shape[0])).tocsr()
+    factor = pardiso.PardisoCholesky(A)
+    B = np.random.default_rng(5).standard_normal((K.shape[0], 3))
+    # no iterative refinement: backward stable to ~ cond eps (cond ~ ||K|| / 1e-3 here)
+    assert np.linalg.norm(A @ factor.solve(B) - B) <= 1e-9 * np.linalg.norm(B)
+    factor.close()
+    factor.close()  # twice is harmless
+    with pytest.raises(ValueError, match="not positive definite"):
+        pardiso.PardisoCholesky((K - 0.05 * sp.identity(K.shape[0])).tocsr())
+
+
+@needs_pardiso
+def test_backends_agree_on_the_lowest_modes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """PARDISO's Cholesky and SuperLU's LU give the same modes (Ritz values to rounding)."""
+    system = _lattice(1200)
+    reference = np.linalg.eigvalsh(system.hessian().toarray())[6:26]
+    found = {}
+    for backend in ("pardiso", "superlu"):
+        monkeypatch.setattr(pardiso, "BACKEND", backend)
+        K = sp.csr_matrix(system.hessian())
+        norm = float(abs(K).sum(axis=1).max())
+        assert ShiftedInverse(K, -1e-12 * norm).backend == backend
+        found[backend] = system.modes(26, accuracy="fast").omega_squared
+        np.testing.assert_allclose(found[backend][6:], reference, rtol=1e-12)
+    np.testing.assert_allclose(found["pardiso"][6:], found["superlu"][6:], rtol=1e-13)
+
+
+@needs_pardiso
+def test_pardiso_indefinite_shift_falls_back_to_superlu_inertia(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(pardiso, "BACKEND", "auto")
+    K = sp.csr_matrix(_lattice(1100).hessian())
+    reference = np.linalg.eigvalsh(K.toarray())
+    factor = ShiftedInverse(K, float(reference[40]))  # 40 eigenvalues below the shift
+    assert factor.backend == "superlu" and not factor.below_spectrum
+
+
+def test_backend_setting_is_checked(monkeypatch: pytest.MonkeyPatch) -> None:
+    K = sp.csr_matrix(_lattice(1100).hessian())
+    monkeypatch.setattr(pardiso, "BACKEND", "mumps")
+    with pytest.raises(ValueError, match=r"BACKEND \(or VIBRA_SPARSE_BACKEND\) is 'mumps'; expected 'auto', "
+                                         r"'superlu' or 'pardiso'"):
+        ShiftedInverse(K, -1e-9)
+    monkeypatch.setattr(pardiso, "BACKEND", "pardiso")
+    monkeypatch.setattr(pardiso, "_AVAILABLE", False)
+    with pytest.raises(ImportError, match=r"pip install \"vibra\[pardiso\]\""):
+        ShiftedInverse(K, -1e-9)
+    monkeypatch.setattr(pardiso, "BACKEND", "auto")
+    assert ShiftedInverse(K, -1e-9).backend == "superlu"  # auto without PARDISO: SuperLU

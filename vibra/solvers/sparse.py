@@ -17,12 +17,14 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
+from vibra.solvers import pardiso
 from vibra.solvers.common import (
     DENSE_ALL_LIMIT, EPS, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
     tridiagonal_bands,
 )
 from vibra.solvers.krylov import block_eigs
-from vibra.solvers.ordering import nested_dissection
+from vibra.solvers.ordering import DISSECTION_MIN, nested_dissection
+from vibra.solvers.pardiso import PardisoCholesky, pardiso_available
 from vibra.solvers.standard import dense_path
 
 
@@ -33,7 +35,8 @@ class ShiftedInverse:
     positive definite. Otherwise SuperLU in symmetric mode without pivoting, whose pivots
     give the inertia (Sylvester): no negative pivot means sigma is below every eigenvalue.
     Large K~ are first put in nested-dissection order (`vibra.solvers.ordering`), a symmetric
-    permutation that SuperLU then keeps.
+    permutation that SuperLU then keeps; or, where `pypardiso` is installed (``vibra[pardiso]``,
+    `vibra.solvers.pardiso`), factorised by PARDISO's Cholesky, whose success is the inertia.
     """
 
     def __init__(self, Kt: sp.csr_matrix, sigma: float, *, need_inertia: bool = True) -> None:
@@ -41,6 +44,8 @@ class ShiftedInverse:
         self.below_spectrum = False
         self._pt: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._order: NDArray[np.intp] | None = None
+        self._cholesky: PardisoCholesky | None = None
+        self.backend = "lapack pttrf"
         if bandwidth(Kt) <= 1:
             d, e = tridiagonal_bands(Kt)
             pttrf = la.get_lapack_funcs("pttrf", dtype=np.float64)
@@ -51,6 +56,15 @@ class ShiftedInverse:
                 self.below_spectrum = True
                 return
         shifted = (Kt - sigma * sp.identity(self.n, format="csr")).tocsr()
+        if _use_pardiso(self.n):
+            try:
+                self._cholesky = PardisoCholesky(shifted)
+                self.below_spectrum = True
+                self.backend = "pardiso"
+                return
+            except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
+                pass
+        self.backend = "superlu"
         self._order = nested_dissection(shifted)
         ordering = "MMD_AT_PLUS_A"
         if self._order is not None:
@@ -75,6 +89,8 @@ class ShiftedInverse:
         if self._pt is not None:
             solution, info = self._pttrs(*self._pt, x)
             return np.asarray(solution)
+        if self._cholesky is not None:
+            return self._cholesky.solve(x)
         if self._order is None:
             return np.asarray(self._lu.solve(x))
         result = np.empty_like(x)
@@ -86,6 +102,20 @@ class ShiftedInverse:
             return self.solve(np.asarray(x, dtype=float).reshape(self.n))
 
         return sla.LinearOperator((self.n, self.n), matvec=apply, dtype=float)
+
+
+def _use_pardiso(n: int) -> bool:
+    """PARDISO for this size? `vibra.solvers.pardiso.BACKEND`: "auto" uses it when installed."""
+    backend = pardiso.BACKEND
+    if backend not in ("auto", "superlu", "pardiso"):
+        raise ValueError(f"vibra.solvers.pardiso.BACKEND (or VIBRA_SPARSE_BACKEND) is {backend!r}; "
+                         "expected 'auto', 'superlu' or 'pardiso'")
+    if backend == "superlu" or n < DISSECTION_MIN:
+        return False
+    if backend == "pardiso" and not pardiso_available():
+        raise ImportError("the sparse backend 'pardiso' needs pypardiso and MKL; install them with "
+                          'pip install "vibra[pardiso]", or set VIBRA_SPARSE_BACKEND=auto')
+    return pardiso_available()
 
 
 def lowest_shift(Kt: sp.csr_matrix, *, rounding: float | None = None) -> tuple[float, ShiftedInverse]:
@@ -178,7 +208,7 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     if zero.all():
         return values[order], basis[:, order]
     # one more sweep of F on the zero modes: their error shrinks by mu_other / mu_zero ~ 1e-9
-    Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, zero])[0]))[0]
+    Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, zero])[0]))[0] if zero.any() else basis[:, :0]
     mu, rest, _, done = block_eigs(factor.solve, n, k - Z.shape[1], tol=TOLERANCE, block=BLOCK_LOWEST,
                                    deflate=Z if Z.shape[1] else None, start=basis[:, ~zero])
     if not done:
