@@ -6,13 +6,19 @@ accuracy where the structure allows (`accurate_path` chooses):
 - ``accurate-bidiagonal``: the springs form a path (a chain); see `vibra.solvers.bidiagonal`;
 - ``accurate-ritz``: a few modes of a large system: shift-invert vectors, then Rayleigh-Ritz
   in spring space (H = (B~V)^T (B~V), O(N k));
-- ``accurate-rayleigh``: all modes of a large (n > DENSE_LIMIT) non-path system: dense
-  vectors, then per-vector Rayleigh quotients ||B~ v||^2;
 - ``accurate-checked`` / ``accurate-jacobi``: any other system (n <= DENSE_LIMIT): the fast
-  dense solve first, spring-space Rayleigh-Ritz on each cluster of its vectors and a
-  gap-based (Kato-Temple) bound per mode (`checked_dense`); only when some requested mode's
-  bound misses `TARGET` relative does one-sided Jacobi SVD (LAPACK gejsv) of B~ run
-  (``accurate-jacobi``; ``accurate-checked`` when the fast result passed).
+  dense solve first (for values only: the tridiagonal reduction and its values), which the
+  a-priori bound n eps ||K~|| certifies to `TARGET` relative for every omega^2 above
+  ~n eps ||K~|| / TARGET; the modes below that (and their clusters) get vectors, spring-space
+  Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound each (`checked_dense`); only
+  when some requested mode's bound still misses `TARGET` does one-sided Jacobi SVD (LAPACK
+  gejsv) of B~ run (``accurate-jacobi``; ``accurate-checked`` when the checked result passed);
+- ``accurate-rayleigh``: all modes of a large (n > DENSE_LIMIT) non-path system: the same
+  checked dense solve without the Jacobi fallback (or, for a large ring, Rayleigh quotients
+  ||B~ v||^2 of the banded solver's vectors).
+
+Every path fills `SolveResult.refined` (which modes' values come from the accurate machinery)
+and `refinement` (how many, and why).
 """
 
 from __future__ import annotations
@@ -29,7 +35,7 @@ from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil,
 )
 from vibra.solvers.sparse import lowest_shift, shift_invert, sparse_path
-from vibra.solvers.standard import DENSE_FLOOR, banded_path, dense_path
+from vibra.solvers.standard import DENSE_FLOOR, banded_path
 
 #: Relative accuracy of omega^2 that `checked_dense` asks of each requested mode before it
 #: accepts the fast solve's result for it (omega then to ~TARGET / 2).
@@ -98,11 +104,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
         standard = sparse_path(Kt, n_modes=None, vectors=True, band=band)
         return relative_account(_spring_ritz(weighted, standard.vectors, vectors=vectors),  # type: ignore[arg-type]
                                 "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
-    if n > DENSE_LIMIT:
-        standard = dense_path(Kt, n_modes=None, vectors=True, band=band)
-        return relative_account(_spring_rayleigh(weighted, standard.vectors, vectors=vectors),  # type: ignore[arg-type]
-                                "as spring-space Rayleigh quotients ||B~ v||^2 of the dense solver's vectors")
-    return checked_dense(weighted, n_modes=n_modes, vectors=vectors, band=band)
+    return checked_dense(weighted, n_modes=n_modes, vectors=vectors, band=band, jacobi=n <= DENSE_LIMIT)
 
 
 def relative_account(result: SolveResult, how: str) -> SolveResult:
@@ -215,8 +217,8 @@ def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band:
 
 
 
-def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None
-                  ) -> SolveResult:
+def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+                  jacobi: bool = True) -> SolveResult:
     """The fast dense solve, checked mode by mode; refinement only for the modes that need it.
 
     1. K~ = B~^T B~ formed from the spring factor, then one dense solve of it: LAPACK eigh when
@@ -244,6 +246,11 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
        result is gejsv's on B~ (``accurate-jacobi``); else the checked fast result
        (``accurate-checked``), its bounds as `error`. `refined` marks the modes whose values
        come from step 2 (all of them after Jacobi), `refinement` says how many and why.
+
+    `jacobi` False (all modes of a system over DENSE_LIMIT dofs, where gejsv on the
+    n_terms x n B~ would cost many times the dense solve): no step 4, the bounds stand as
+    they are, and the path is ``accurate-rayleigh`` (its single-mode clusters are Rayleigh
+    quotients ||B~ v||^2).
     """
     B = sp.csr_matrix(weighted)
     n = B.shape[1]
@@ -281,9 +288,14 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     refined = np.arange(k) < low
     zero = values + error <= (terms * n * EPS) ** 2 * norm
     missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
-    solver = "accurate-checked"
+    solver = "accurate-checked" if jacobi else "accurate-rayleigh"
     text = _checked_text(values[keep], error[keep], refined[keep], zero[keep], posteriori=posteriori)
-    if missed.any():
+    if missed.any() and not jacobi:
+        with np.errstate(divide="ignore"):
+            worst = float(np.max(error[missed] / np.abs(values[missed])))
+        text += (f"; {int(missed.sum())} of them miss {TARGET:g} relative (error/omega^2 up to {worst:.1g}), "
+                 f"no Jacobi SVD above {DENSE_LIMIT} dofs")
+    elif missed.any():
         # One-sided Jacobi on B~ (gejsv reduces the tall B~ by a pivoted QR first). Its vectors
         # are taken for every mode (mixing them with the fast vectors would cost orthogonality)
         # and checked the same way: its own estimate (eps times a condition number it cannot
