@@ -83,6 +83,11 @@ class Modes:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickling: the fields, then read-only arrays again (pickle skips __post_init__)."""
+        self.__dict__.update(state)
+        freeze_arrays(self)
+
     def summary(self) -> str:
         """A few lines: how many modes, the omega range, the path, its accuracy and refinement.
 

@@ -362,12 +362,20 @@ def _tridiagonal_values(dense: NDArray[np.float64], last: int | None) -> tuple[N
 
 def _tridiagonal_vectors(reduced: tuple[Any, ...], count: int) -> NDArray[np.float64]:
     """(n, count) eigenvectors of K~ for its `count` lowest values: MRRR on T (stemr) for that
-    subset, then the reduction's Householder reflectors applied to them (what LAPACK's ormtr
+    subset (inverse iteration, stebz + stein, where MRRR fails), then the reduction's Householder reflectors applied to them (what LAPACK's ormtr
     does for a lower reduction: ormqr on the reflectors below the subdiagonal), O(n^2 count)."""
     reflectors, tau, diagonal, off = reduced
     n = diagonal.shape[0]
-    _, tridiagonal = la.eigh_tridiagonal(diagonal, off, select="i", select_range=(0, count - 1),
-                                         check_finite=False, lapack_driver="stemr")
+    tridiagonal = None
+    for driver in ("stemr", "stebz"):  # MRRR; where it fails (large tight clusters), inverse iteration
+        try:
+            _, tridiagonal = la.eigh_tridiagonal(diagonal, off, select="i", select_range=(0, count - 1),
+                                                 check_finite=False, lapack_driver=driver)
+            break
+        except np.linalg.LinAlgError:
+            continue
+    if tridiagonal is None:  # every vector of T by divide and conquer (stevd), the lowest kept
+        tridiagonal = la.eigh_tridiagonal(diagonal, off, check_finite=False, lapack_driver="stevd")[1][:, :count]
     if n == 1:
         return np.asarray(tridiagonal)
     ormqr = la.get_lapack_funcs("ormqr", (reflectors,))
@@ -460,6 +468,8 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
             upper = values[stop] - delta[stop] if stop < k else (np.inf if complete else -np.inf)
             gap = min(float(w[local].min()) - lower, upper - float(w[local].max()))
             bound = residual**2 / gap if gap > residual else residual
-            error[start:stop] = bound + (2 * terms * unit + EPS) * w[local]
+            # (+ the c x c pencil's own rounding, c eps ||H||, for a cluster of c > 1 modes)
+            pencil = (stop - start) * EPS * float(w[local].max()) if stop - start > 1 else 0.0
+            error[start:stop] = bound + (2 * terms * unit + EPS) * w[local] + pencil
         first = last
     return theta, vectors, error
