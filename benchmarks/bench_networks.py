@@ -150,6 +150,8 @@ def random3d(sizes: list[int], rounds: int) -> None:
 TRADEOFF_SITES = {"uniform": [34, 100, 334, 1000, 3334, 10000, 16667], "spread": [30, 100, 334, 1000, 3334, 10000]}
 QUICK_LIMIT = 3000
 EIGH_LIMIT = 3000
+#: A method that failed, or took longer than this at one size, is skipped at the larger ones.
+SKIP_AFTER_S = 60.0
 #: The six rigid-body modes are left out of the relative error: modes 7..26 count.
 RIGID = 6
 
@@ -194,7 +196,7 @@ def _tradeoff_methods(system: Any) -> dict[str, Callable[[], np.ndarray]]:
     masses = np.diag(masses) if masses.ndim == 2 else masses
     root = 1.0 / np.sqrt(masses)
     sigma = -1e-6 * float(abs(sp.diags(root) @ K @ sp.diags(root)).sum(axis=1).max())
-    methods: dict[str, Callable[[], np.ndarray]] = {
+    methods: dict[str, Callable[[], Any]] = {
         "vibra_fast": lambda: system.modes(26, accuracy="fast").omega_squared,
         "vibra_high": lambda: system.modes(26).omega_squared,
         "scipy_eigsh": lambda: np.sort(sla.eigsh(K, k=26, M=sp.diags(masses), sigma=sigma, which="LM")[0]),
@@ -202,7 +204,17 @@ def _tradeoff_methods(system: Any) -> dict[str, Callable[[], np.ndarray]]:
     if K.shape[0] <= EIGH_LIMIT:
         weighted = (K.toarray() * root[:, None]) * root[None, :]
         methods["numpy_eigh"] = lambda: np.linalg.eigh(weighted)[0][:26]
-    return methods
+    return {key: _recorded(method) for key, method in methods.items()}
+
+
+def _recorded(method: Callable[[], Any]) -> Callable[[], Any]:
+    """`method`, with a failure (ARPACK not converging, say) returned as its message, not raised."""
+    def run() -> Any:
+        try:
+            return method()
+        except (sla.ArpackNoConvergence, np.linalg.LinAlgError, RuntimeError) as failure:
+            return f"{type(failure).__name__}: {failure}"
+    return run
 
 
 def _relative_error(values: np.ndarray, truth: np.ndarray) -> float:
@@ -210,12 +222,14 @@ def _relative_error(values: np.ndarray, truth: np.ndarray) -> float:
     return float(np.max(np.abs(np.asarray(values)[flexible] - truth[flexible]) / np.abs(truth[flexible])))
 
 
-def tradeoff_case(family: str, n_sites: int, rounds: int) -> dict[str, Any]:
-    """One network: every path timed (interleaved), its error against the truth named in the case."""
+def tradeoff_case(family: str, n_sites: int, rounds: int, skip: dict[str, str]) -> dict[str, Any]:
+    """One network: every path timed (interleaved), its error against the truth named in the case.
+    `skip`: methods left out, with the reason (failed or over SKIP_AFTER_S at a smaller size)."""
     system = random_network(n_sites) if family == "uniform" else spread_network(n_sites)
     n_dof = int(system.hessian().shape[0])
     print(f"{family}: {n_sites} sites, {n_dof} dofs", flush=True)
-    timings = interleaved(_tradeoff_methods(system), rounds, warmup=rounds > 1)
+    methods = {key: method for key, method in _tradeoff_methods(system).items() if key not in skip}
+    timings = interleaved(methods, rounds, warmup=rounds > 1)
     high = system.modes(26)
     if family == "spread" and n_dof <= 90:
         truth, source = mp_eigenvalues(system, 26), "mpmath, 50 digits, of B~^T B~ from the spring factor"
@@ -224,7 +238,15 @@ def tradeoff_case(family: str, n_sites: int, rounds: int) -> dict[str, Any]:
     case: dict[str, Any] = {"family": family, "n_sites": n_sites, "n_dof": n_dof, "truth": source,
                             "vibra_high_path": high.solver, "vibra_high_refinement": high.refinement,
                             "vibra_fast_path": system.modes(26, accuracy="fast", vectors=False).solver, "methods": {}}
+    for key, reason in skip.items():
+        case["methods"][key] = {"skipped": reason}
     for key, timing in timings.items():
+        if timing.min > SKIP_AFTER_S:
+            skip[key] = f"took {timing.min:.0f} s at {n_dof} dofs"
+        if isinstance(timing.result, str):  # failed: no error figure, the reason instead
+            skip[key] = f"failed at {n_dof} dofs"
+            case["methods"][key] = {**timing.summary(), "eigenvalue_rel_error": None, "failed": timing.result}
+            continue
         error = _relative_error(timing.result, truth)
         entry = {**timing.summary(), "eigenvalue_rel_error": error}
         if key == "vibra_high" and source.startswith("vibra"):
@@ -262,10 +284,11 @@ def tradeoff(sizes: list[int] | None, *, quick: bool) -> None:
     rounds = 1 if quick else ROUNDS
     cases = []
     for family, default in TRADEOFF_SITES.items():
+        skip: dict[str, str] = {}
         for n_sites in sizes or default:
             if quick and 3 * n_sites > QUICK_LIMIT:
                 continue
-            cases.append(tradeoff_case(family, n_sites, rounds))
+            cases.append(tradeoff_case(family, n_sites, rounds, skip))
     cost = [high_cost(n_sites, family, max(rounds, 3)) for family, n_sites in
             (("uniform", 500), ("uniform", 1000), ("spread", 500))]
     write_json("networks_tradeoff", {
@@ -289,16 +312,22 @@ def plot_tradeoff(cases: list[dict[str, Any]]) -> Path:
               "spread": "8-neighbour networks, springs 1e-6..1e6, masses 1e-3..1e3"}
     for ax, family in zip(axes, ("uniform", "spread")):
         for key, (colour, marker) in styles.items():
-            points = [(case["methods"][key]["min_s"], max(case["methods"][key]["eigenvalue_rel_error"], 1e-17),
-                       case["n_dof"], case["methods"][key].get("error_is_reported_bound", False))
-                      for case in cases if case["family"] == family and key in case["methods"]]
-            if not points:
-                continue
-            xs, ys = [p[0] for p in points], [p[1] for p in points]
-            ax.loglog(xs, ys, linestyle=":", color=colour, marker=marker, label=key, markersize=7)
+            entries = [(case["n_dof"], case["methods"][key]) for case in cases
+                       if case["family"] == family and "min_s" in case["methods"].get(key, {})]
+            points = [(entry["min_s"], max(entry["eigenvalue_rel_error"], 1e-17), dofs,
+                       entry.get("error_is_reported_bound", False)) for dofs, entry in entries if not entry.get("failed")]
+            failed = [(entry["min_s"], dofs) for dofs, entry in entries if entry.get("failed")]
+            if points:
+                xs, ys = [p[0] for p in points], [p[1] for p in points]
+                ax.loglog(xs, ys, linestyle=":", color=colour, marker=marker, label=key, markersize=7)
             for x, y, dofs, bound in points:
                 ax.annotate(f"{dofs}" + ("*" if bound else ""), (x, y), textcoords="offset points", xytext=(4, 4),
                             fontsize=7, color=colour)
+            for x, dofs in failed:  # drawn at error 1 (no digit), marked x
+                ax.loglog([x], [1.0], linestyle="none", color=colour, marker="x", markersize=9,
+                          label=None if points else key)
+                ax.annotate(f"{dofs} failed", (x, 1.0), textcoords="offset points", xytext=(4, -10), fontsize=7,
+                            color=colour)
         ax.axhline(1e-10, color="black", linewidth=0.8, linestyle="--")
         ax.text(ax.get_xlim()[0], 1.3e-10, " 1e-10 target", fontsize=7, va="bottom")
         ax.set_xlabel("wall time (s), best of the rounds")
