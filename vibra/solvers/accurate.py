@@ -306,8 +306,12 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
                 f"spring-space Rayleigh-Ritz (error/omega^2 up to {worst:.1g}): one-sided Jacobi SVD "
                 "(gejsv) of B~ on all")
         exact = _accurate_jacobi(B, n_modes=None, vectors=True, band=None)
+        # Jacobi's values are relatively accurate: their neighbours' places (for the gaps and
+        # the clusters) from each vector's own residual, not from the dense solve's delta,
+        # which would merge every omega^2 below it into one cluster with no gap.
+        located = np.minimum(delta, 2 * _residual_bounds(B, exact.eigenvalues, exact.vectors, terms))  # type: ignore[arg-type]
         values, basis, error = _cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
-                                               delta, terms, complete=True, precise=True)
+                                               located, terms, complete=True, precise=True)
         keep = np.zeros(values.shape[0], dtype=bool)
         keep[selected(np.sqrt(np.maximum(values, 0.0)), n_modes=n_modes, band=band)] = True
         refined = np.ones(values.shape[0], dtype=bool)
@@ -322,6 +326,24 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         result = SolveResult(values, None, error, float("nan"), float("nan"), solver)
     result.refined, result.refinement = refined, text
     return result
+
+
+def _residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], terms: float
+                     ) -> NDArray[np.float64]:
+    """||B~^T B~ v - theta v|| per column, in extended precision, plus the margin for its own
+    rounding (2 t eps_ext || |B~|^T |B~| |v| ||): each column has an eigenvalue within it of
+    theta (for unit v), in blocks of BLOCK columns."""
+    unit = float(np.finfo(np.longdouble).eps)
+    precise = B.astype(np.longdouble)
+    absolute = abs(B)
+    bounds = np.empty(values.shape[0])
+    for start in range(0, values.shape[0], BLOCK):
+        V = basis[:, start:start + BLOCK]
+        product = np.asarray(precise.T @ (precise @ V.astype(np.longdouble)))
+        residual = np.linalg.norm((product - V * values[start:start + BLOCK]).astype(float), axis=0)
+        margin = 2 * terms * unit * np.linalg.norm(np.asarray(absolute.T @ (absolute @ np.abs(V))), axis=0)
+        bounds[start:start + BLOCK] = (residual + margin) / np.linalg.norm(V, axis=0) ** 2
+    return bounds
 
 
 def _spring_gram(B: sp.csr_matrix, terms: float) -> tuple[NDArray[np.float64], float, float]:
