@@ -29,8 +29,9 @@ of 3-D networks: the random networks above (uniform springs) and "spread" networ
 random site joined to its 8 nearest neighbours, springs log-uniform over 1e-6..1e6, masses over
 1e-3..1e3: the issue's ill-conditioned case, where "high" must win). Error: the largest
 relative error of omega^2 over modes 7..26 (the six rigid-body modes have no relative
-error). Truth: 50-digit mpmath for the 30-site spread network; vibra high (the accurate path,
-whose own figure is then its reported bound) for the others; each case names its truth.
+error). Truth: 40-digit mpmath for the spread networks up to 300 dofs; vibra high (the
+accurate path, whose own figure is then its reported bound, an upper bound of its error) for
+the others; each case names its truth.
 Also the cost of "high" against "fast" for all modes, with and without vectors (best of 3
 interleaved rounds even with --quick). results/networks_tradeoff.json and .png. Default
 sizes 100..50,000 dofs; --quick stops at ~3,000 dofs and runs one round:
@@ -150,6 +151,9 @@ def random3d(sizes: list[int], rounds: int) -> None:
 TRADEOFF_SITES = {"uniform": [34, 100, 334, 1000, 3334, 10000, 16667], "spread": [30, 100, 334, 1000, 3334, 10000]}
 QUICK_LIMIT = 3000
 EIGH_LIMIT = 3000
+#: Spread networks up to this many dofs take their truth from mpmath (~3 minutes at 300 dofs).
+MPMATH_LIMIT = 300
+MP_DIGITS = 40
 #: A method that failed, or took longer than this at one size, is skipped at the larger ones.
 SKIP_AFTER_S = 60.0
 #: The six rigid-body modes are left out of the relative error: modes 7..26 count.
@@ -170,7 +174,7 @@ def spread_network(n_sites: int, seed: int = 0) -> Any:
     return System.from_springs(positions, masses, pairs, springs)
 
 
-def mp_eigenvalues(system: Any, count: int, digits: int = 50) -> np.ndarray:
+def mp_eigenvalues(system: Any, count: int, digits: int = MP_DIGITS) -> np.ndarray:
     """The lowest `count` omega^2 of B~^T B~, B~ = W^1/2 B M^-1/2 formed in mpmath at `digits`
     digits from the float64 spring factor and masses taken as exact (no float64 K)."""
     import mpmath
@@ -231,8 +235,8 @@ def tradeoff_case(family: str, n_sites: int, rounds: int, skip: dict[str, str]) 
     methods = {key: method for key, method in _tradeoff_methods(system).items() if key not in skip}
     timings = interleaved(methods, rounds, warmup=rounds > 1)
     high = system.modes(26)
-    if family == "spread" and n_dof <= 90:
-        truth, source = mp_eigenvalues(system, 26), "mpmath, 50 digits, of B~^T B~ from the spring factor"
+    if family == "spread" and n_dof <= MPMATH_LIMIT:
+        truth, source = mp_eigenvalues(system, 26), f"mpmath, {MP_DIGITS} digits, of B~^T B~ from the spring factor"
     else:
         truth, source = high.omega_squared, f"vibra high ({high.solver}); its own figure is its reported bound"
     case: dict[str, Any] = {"family": family, "n_sites": n_sites, "n_dof": n_dof, "truth": source,

@@ -274,7 +274,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     low = _cluster_end(values, delta, keep & (values < threshold))  # modes [0, low) are refined
     error = np.full(k, delta)
     if posteriori:
-        theta, ritz, bound = _cluster_bounds(B, values, basis, delta, terms, complete=not subset)
+        theta, ritz, bound = _cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low)
         # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
         error = np.minimum(delta, np.abs(values - theta) + bound)
         values, error = values.copy(), error.copy()
@@ -443,10 +443,12 @@ def _most_terms(B: sp.csr_matrix) -> float:
 
 
 def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
-                    terms: float, *, complete: bool, precise: bool = False) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+                    terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see checked_dense).
 
     Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
+    The rounding of B~^T (B~ V) is bounded by 2 t unit || |B~|^T |B~| |v| || per column.
     `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
     times smaller; the bound, quadratic in the residual, then stays near the true error where
     stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
@@ -455,12 +457,19 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
     if precise:
         B = B.astype(np.longdouble)
     k = values.shape[0]
+    cheap_from = k if cheap_from is None else cheap_from
     delta = np.broadcast_to(np.asarray(delta, dtype=float), values.shape)  # each value's absolute error
     breaks = np.flatnonzero(np.diff(values) > delta[:-1] + delta[1:] + TARGET * np.abs(values[1:]))
     starts, stops = np.r_[0, breaks + 1], np.r_[breaks + 1, k]
     theta, error = np.empty(k), np.empty(k)
     vectors = np.empty_like(basis)
+    B_T = B.T.tocsr()  # (a row-major product: faster than the transposed view)
     A = abs(B)
+    A_T = A.T.tocsr()
+    # from column `cheap_from` on: || |B~|^T |B~| |v| || <= || |B~|^T |B~| ||_2 ||v||, that norm
+    # <= its largest row sum (non-negative, symmetric): no products per block, and a margin
+    # that only matters where omega^2 is far below ||K~|| (the columns before cheap_from)
+    reach = float(np.asarray((A_T @ A).sum(axis=1)).max(initial=0.0)) if cheap_from < k else 0.0
     first = 0
     while first < len(starts):
         last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
@@ -468,10 +477,10 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
         columns = slice(int(starts[first]), int(stops[last - 1]))
         V = basis[:, columns].astype(B.dtype)
         E = np.asarray(B @ V)
-        w = np.empty(V.shape[1])
+        # single-mode clusters: Rayleigh quotients ||B~ v||^2 / ||v||^2, all at once
+        w = (np.einsum("ij,ij->j", E, E) / np.einsum("ij,ij->j", V, V)).astype(float)
         for start, stop in zip(starts[first:last] - columns.start, stops[first:last] - columns.start):
             if stop - start == 1:
-                w[start] = float((E[:, start] @ E[:, start]) / (V[:, start] @ V[:, start]))
                 continue
             part, rotation = small_pencil((E[:, start:stop].T @ E[:, start:stop]).astype(float),
                                           (V[:, start:stop].T @ V[:, start:stop]).astype(float))
@@ -479,9 +488,12 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
             V[:, start:stop] = V[:, start:stop] @ rotation
             E[:, start:stop] = E[:, start:stop] @ rotation
         w = np.maximum(w, 0.0)  # H is a Gram matrix
-        squares = np.sum((np.asarray(B.T @ E) - V * w) ** 2, axis=0)
+        squares = np.sum((np.asarray(B_T @ E) - V * w) ** 2, axis=0)
         # rounding of B~^T (B~ V) (sums of <= `terms` products)
-        margins = 2 * terms * unit * np.linalg.norm(np.asarray(A.T @ (A @ np.abs(V))), axis=0).astype(float)
+        if columns.start >= cheap_from:
+            margins = 2 * terms * unit * reach * np.linalg.norm(V, axis=0).astype(float)
+        else:
+            margins = 2 * terms * unit * np.linalg.norm(np.asarray(A_T @ (A @ np.abs(V))), axis=0).astype(float)
         vectors[:, columns], theta[columns] = V, w
         for start, stop in zip(starts[first:last], stops[first:last]):
             local = slice(start - columns.start, stop - columns.start)
