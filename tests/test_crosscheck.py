@@ -108,6 +108,8 @@ def test_table_and_rows() -> None:
     assert "vibra" in text and "ASE" in text and "phonopy" in text and "cm^-1" in text
     assert "Fermi resonance" in text
     assert len(text.splitlines()) == 2 + 9 + 1 + len(result.notes)
+    # the valence force field is a listed closed-form calculator: rounding alone, never probed
+    assert result.noise_source == "analytic" and f"force noise {result.force_noise:.2g} eV/A (analytic)" in text
 
 
 def test_default_model_is_guessed() -> None:
@@ -130,10 +132,13 @@ class _CountingNaN(mol.ValenceForceField):
             self.results["forces"] = np.full((len(self.atoms), 3), np.nan)
 
 
+# _CountingNaN is a subclass, not a listed closed-form class: force_noise="auto" probes it with 2
+# calls (a perturbed geometry, then the reference) after vibra's 37 and finds no noise
 @pytest.mark.parametrize(("good", "pattern"), [
     (3, r"non-finite forces at atom 0 displaced"),   # caught by vibra's own finite differences
-    (37, r"ASE Vibrations got non-finite forces"),   # vibra's 37 calls pass, ASE's cache gets NaN
-    (37 + 19, r"phonopy: the calculator returned non-finite forces"),  # then ASE's 1 + 18 pass
+    (37, r"failed while measuring its force noise: .*non-finite forces at a perturbed start"),  # the probe
+    (37 + 2, r"ASE Vibrations got non-finite forces"),   # vibra's 37 + 2 calls pass, ASE's cache gets NaN
+    (37 + 2 + 19, r"phonopy: the calculator returned non-finite forces"),  # then ASE's 1 + 18 pass
 ])
 def test_nan_calculator_raises_and_leaves_no_cache(good: int, pattern: str, tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)

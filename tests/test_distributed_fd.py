@@ -31,7 +31,10 @@ from vibra.molecules.displacements import CacheWarning
 
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
-FIELDS = ("hessian", "error", "truncation", "roundoff", "asymmetry", "residual_force")
+FIELDS = ("hessian", "error", "truncation", "roundoff", "force_noise", "asymmetry", "residual_force")
+# force_noise="auto" (the default) probes a calculator that is not a listed closed-form class (the
+# subclasses below are not) with 2 force calls, where the displaced forces ran: one task on the cluster
+PROBE_CALLS = 2
 
 
 def _atoms(name: str):
@@ -60,6 +63,18 @@ class SlowField(mol.ValenceForceField):
         if self.count_dir is not None:
             Path(self.count_dir, uuid.uuid4().hex).touch()
         time.sleep(self.delay)
+
+
+class PidField(mol.ValenceForceField):
+    """The valence force field; every calculation leaves a file named after its process id in `count_dir`."""
+
+    def __init__(self, model, count_dir: str) -> None:
+        super().__init__(model)
+        self.count_dir = count_dir
+
+    def calculate(self, atoms=None, properties=("energy",), system_changes=None):  # type: ignore[override]
+        super().calculate(atoms, properties, system_changes or [])
+        Path(self.count_dir, f"{os.getpid()}-{uuid.uuid4().hex}").touch()
 
 
 class FailingField(mol.ValenceForceField):
@@ -99,8 +114,9 @@ def test_tblite_on_the_cluster_equals_serial_bit_for_bit(name, dask_client) -> N
     serial = dask_client.submit(mol.finite_difference_hessian, atoms, factory, stencil=4,
                                 estimate_error=False, pure=False).result()
     parallel = mol.finite_difference_hessian(atoms, factory, stencil=4, estimate_error=False, client=dask_client)
-    _assert_identical(serial, parallel)
+    _assert_identical(serial, parallel)  # the noise measured too: the probe ran on a worker both times
     assert np.abs(serial.hessian).max() > 1.0  # a real Hessian (eV/A^2), not zeros
+    assert serial.noise_source == parallel.noise_source == "measured"  # SCF noise, found without asking
 
 
 def test_local_cluster_started_and_closed_by_vibra_equals_serial() -> None:
@@ -162,10 +178,30 @@ def test_killed_client_rerun_computes_only_the_missing_geometries(dask_client, t
     model = mol.valence_model(atoms)
     rerun = mol.finite_difference_hessian(atoms, SlowField(model, count_dir=str(counts)), client=dask_client,
                                           cache=cache, calculator_key="valence h2o")
-    assert (rerun.n_cached, rerun.n_force_calls) == (12, 37 - 12)
-    assert len(list(counts.iterdir())) == 37 - 12         # counted in the worker processes
+    assert (rerun.n_cached, rerun.n_force_calls, rerun.n_noise_calls) == (12, 37 - 12, PROBE_CALLS)
+    assert len(list(counts.iterdir())) == 37 - 12 + PROBE_CALLS  # counted in the worker processes
+    assert rerun.noise_source == "probed"                  # deterministic: rounding, as the listed class gets
     assert len(list(cache.glob("*.npy"))) == 37
     _assert_identical(mol.finite_difference_hessian(atoms, mol.ValenceForceField(model)), rerun)
+
+
+def test_noise_probe_runs_on_the_cluster_even_when_every_force_is_cached(dask_client, tmp_path) -> None:
+    """The probe goes where the force calls go (a worker), also when the cache holds every geometry."""
+    cache, counts = tmp_path / "cache", tmp_path / "counts"
+    counts.mkdir()
+    atoms = mol.h2o_atoms()
+    calc = PidField(mol.valence_model(atoms), str(counts))
+    serial = mol.finite_difference_hessian(atoms, calc, cache=cache, calculator_key="valence h2o")
+    here = {p.name.split("-")[0] for p in counts.iterdir()}
+    assert here == {str(os.getpid())} and len(list(counts.iterdir())) == 37 + PROBE_CALLS
+    for p in counts.iterdir():
+        p.unlink()
+    again = mol.finite_difference_hessian(atoms, calc, cache=cache, calculator_key="valence h2o", client=dask_client)
+    assert (again.n_cached, again.n_force_calls, again.n_noise_calls) == (37, 0, PROBE_CALLS)
+    workers = {str(pid) for pid in dask_client.run(os.getpid).values()}
+    assert len(list(counts.iterdir())) == PROBE_CALLS
+    assert {p.name.split("-")[0] for p in counts.iterdir()} <= workers
+    _assert_identical(serial, again)
 
 
 def test_failing_geometry_is_named_and_the_others_stay_in_the_cache(dask_client, tmp_path) -> None:

@@ -400,8 +400,11 @@ def test_reciprocity(rng: np.random.Generator) -> None:
     assert rel(ss, dense[:, :, :3]) <= 1e-10      # eigen-decomposition route: ~1e-12, 1e-10 bound
     with pytest.raises(ValueError, match=r"C is not diagonal in the modal basis.*use method='direct'"):
         R.frf(K, M, C, omegas, np.eye(n)[0], method="modal")
-    with pytest.raises(ValueError, match=r"C is not diagonal in the modal basis.*needs friction, Rayleigh"):
-        R.transient_response(K, M, C, [0.0, 1.0], np.eye(n)[0])
+    # transient_response no longer refuses this C (issue 15, item 4): it moves in state space
+    # (checked against solve_ivp in test_response_gyroscopic.py), and keeps every dof.
+    assert R.transient_response(K, M, C, [0.0, 1.0], np.eye(n)[0]).method == "state space"
+    with pytest.raises(ValueError, match=r"n_modes is 3: C is not diagonal in the modal basis.*leave n_modes out"):
+        R.transient_response(K, M, C, [0.0, 1.0], np.eye(n)[0], n_modes=3)
 
 
 def test_modal_truncation_error_shrinks_and_is_estimated_honestly(fixed_chain) -> None:

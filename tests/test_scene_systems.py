@@ -81,6 +81,38 @@ def test_bundled_charged_particle_scene_and_modes_command() -> None:
     assert "skew-symmetric" in run.stdout and "damping ratio" in run.stdout
 
 
+def test_charged_particle_response_peaks_at_the_split_frequencies(tmp_path: Path) -> None:
+    """The scene's forced response takes G: x0(w) from the 2x2 closed form, peaks at the split pair.
+
+    Closed form (F = q v x B, B along z, drive f along x, C = alpha m):
+    [[k - m w^2 + i w c, -i w q B], [i w q B, k - m w^2 + i w c]] (x, y) = (1, 0), up to G's sign,
+    which |x0| does not see: |x0| = |a| / |a^2 - (w q B)^2| with a = k - m w^2 + i w c.
+    """
+    m, omega0, q, b, alpha = 1.0, 1.0, 1.0, 1.0, 0.05
+    spec = {**gyroscopic(mass=m, omega0=omega0, charge=q, field=b),
+            "compute": {"response": {"omega_min": 0.05, "omega_max": 2.5, "n_points": 500, "alpha": alpha,
+                                     "force_site": 0, "method": "direct"}},
+            "draw": {"modes": True, "response": True}}
+    from vibra import response
+    from vibra.plan import build_system
+    from vibra.plan.checks import response_request
+
+    scene = Scene.from_dict(spec, source="cp.toml")
+    K, M, C, G, omegas, force, method, n_modes = response_request(scene, build_system(scene))
+    assert G is not None and np.allclose(G, -np.asarray(G).T)
+    w = np.linspace(0.05, 2.5, 500)
+    a = m * omega0**2 - m * w**2 + 1j * w * alpha * m
+    expected = np.abs(a) / np.abs(a**2 - (w * q * b) ** 2)
+    amplitude = np.abs(response.frequency_response(K, M, C, omegas, force, method=method, G=G).response[:, 0])
+    np.testing.assert_allclose(amplitude, expected, rtol=1e-12)
+    golden = (math.sqrt(5) - 1) / 2
+    peaks = [int(np.argmax(np.where(w < 1.0, amplitude, 0))), int(np.argmax(np.where(w > 1.0, amplitude, 0)))]
+    assert abs(w[peaks[0]] - golden) < 0.02 and abs(w[peaks[1]] - (golden + 1)) < 0.02
+    result = execute(make_plan(scene), tmp_path, tmp_path)
+    assert "cp_response.png" in result.outputs
+    assert picture(tmp_path / "cp_response.png").std() > MIN_STD
+
+
 @pytest.mark.parametrize("extra, message", [
     ({"compute": {"n_modes": 1}}, r"compute\.n_modes: a gyroscopic system is solved for all its modes"),
     ({"compute": {"band": [0.0, 1.0]}}, r"compute\.band: a gyroscopic system is solved for all its modes"),

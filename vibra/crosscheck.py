@@ -18,7 +18,8 @@ One call, `crosscheck(atoms, ...)`, computes the wavenumbers three ways with the
 Rigid-body modes are matched by their overlap with the rigid-body subspace (not by position in
 the list), vibrations by ascending wavenumber. The finite-difference error that explains the
 differences is estimated by vibra's `finite_difference_hessian` with the same step and stencil
-(Richardson extrapolation + round-off), propagated to each mode to first order.
+(Richardson extrapolation + round-off from the calculator's force noise, probed and measured
+by default), propagated to each mode to first order.
 
 ASE and phonopy are imported inside the functions (STYLE.md: they stay at the edge).
 """
@@ -134,6 +135,12 @@ class CrossCheck:
     residual_force : float
         Largest force norm at the reference geometry, eV / Angstrom (0 at an exact
         equilibrium; finite differences of a non-equilibrium geometry mix in rotations).
+    force_noise : float
+        Noise of one force component in the round-off part of `fd_error_cm1`, eV / Angstrom
+        (`FiniteDifferenceHessian.force_noise`).
+    noise_source : str
+        Where it came from: ``"measured"``, ``"probed"``, ``"analytic"``, ``"given"`` or
+        ``"rounding"`` (`FiniteDifferenceHessian.noise_source`).
     notes : tuple of str
         What the comparison does not show (anharmonicity, Fermi resonance).
     """
@@ -153,6 +160,8 @@ class CrossCheck:
     nfree: int
     n_rigid: int
     residual_force: float
+    force_noise: float
+    noise_source: str
     notes: tuple[str, ...]
 
     def __post_init__(self) -> None:
@@ -210,7 +219,7 @@ class CrossCheck:
         lines = [
             f"{self.name}: wavenumbers in cm^-1; vibra: {self.source}; ASE Vibrations delta={self.delta:g} A, "
             f"nfree={self.nfree}; phonopy 1x1x1 supercell, +-{self.delta:g} A; residual force "
-            f"{self.residual_force:.2g} eV/A",
+            f"{self.residual_force:.2g} eV/A; force noise {self.force_noise:.2g} eV/A ({self.noise_source})",
             header,
         ]
         for row in self.rows():
@@ -319,7 +328,7 @@ def crosscheck(
     box: float = 20.0,
     project: bool = True,
     experimental_cm1: ArrayLike | None = None,
-    force_noise: float | None = None,
+    force_noise: float | Literal["auto"] | None = "auto",
     force_tolerance: float | None = 1e-3,
     name: str | None = None,
 ) -> CrossCheck:
@@ -347,9 +356,12 @@ def crosscheck(
     experimental_cm1 : (n_vibrations,) array_like, optional
         Experimental fundamentals, ascending, shown in the table (e.g.
         `CO2_FUNDAMENTALS_CM1`); adds notes on what the harmonic model misses.
-    force_noise : float, optional
+    force_noise : "auto", float or None
         Noise of one force component of `calculator`, eV / Angstrom, for the round-off part of
-        the error estimate (see `finite_difference_hessian`).
+        the error estimate, as in `finite_difference_hessian`: ``"auto"`` (default) probes a
+        calculator that is not a listed closed-form one (2 force calls) and measures its noise
+        when it shows some (6 in all); a number gives it; None takes rounding alone. With
+        ``nfree=4`` the second estimate (phonopy's 2-point stencil) reuses what the first found.
     force_tolerance : float or None
         Largest residual force (eV / Angstrom) accepted from `calculator` at `atoms`: the
         frequencies of a geometry that is not an equilibrium mean nothing (relax it first).
@@ -424,8 +436,10 @@ def crosscheck(
                                                        force_noise=force_noise, force_tolerance=tolerance)
         system = estimate.system(name=label)
         source = f"finite differences ({nfree}-point, step {step:g} A) of {type(calculator).__name__}"
+    # the 2-point estimate for phonopy: the noise the first run found or was given (no second probe)
+    found = estimate.force_noise if estimate.noise_source in ("measured", "given") else None
     phonopy_estimate = estimate if nfree == 2 else molecules.finite_difference_hessian(
-        work, calc, step=step, stencil=2, force_noise=force_noise)
+        work, calc, step=step, stencil=2, force_noise=found)
 
     with warnings.catch_warnings():
         # an imaginary mode is kept and flagged in the table, not raised
@@ -452,5 +466,6 @@ def crosscheck(
         fd_error_cm1=to_cm1(estimate.omega_errors(modes)),
         phonopy_fd_error_cm1=to_cm1(phonopy_estimate.omega_errors(modes)),
         experimental_cm1=experimental, delta=step, nfree=int(nfree), n_rigid=analysis.n_rigid,
-        residual_force=estimate.residual_force, notes=tuple(notes),
+        residual_force=estimate.residual_force, force_noise=estimate.force_noise,
+        noise_source=estimate.noise_source, notes=tuple(notes),
     )

@@ -24,6 +24,7 @@ scalar GNM, <|Delta R_i|^2> = 3 <u_i^2> (isotropic), so B_i = 8 pi^2 <u_i^2>.
 
 from __future__ import annotations
 
+import io
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -321,7 +322,7 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
     size = file.stat().st_size
     if size > MAX_FILE_BYTES:
         raise ValueError(f"{file}: {size} bytes, more than the {MAX_FILE_BYTES} that from_pdb reads")
-    atoms = _read_atoms(file)
+    atoms = _read_atoms(file, backbone=selection == "CA")
     if selection == "CA":
         atoms = [atom for atom in atoms if atom[1] == "CA" and atom[4]]
         if not atoms:
@@ -342,16 +343,31 @@ def _decimal_float64(values: NDArray[np.float32]) -> NDArray[np.float64]:
     return np.asarray(values.astype(str), dtype=np.float64)
 
 
-def _read_atoms(file: Path) -> list[tuple[str, str, NDArray[np.float32], float, bool]]:
-    """(residue label, atom name, xyz, B, in an amino acid) of each atom of model 0."""
+#: Atoms a C-alpha selection needs: CA, and N and C to tell a peptide-linked HETATM (MSE).
+_BACKBONE = frozenset({"N", "CA", "C"})
+
+
+def _read_atoms(file: Path, *, backbone: bool = False) -> list[tuple[str, str, NDArray[np.float32], float, bool]]:
+    """(residue label, atom name, xyz, B, in an amino acid) of each atom of model 0.
+
+    `backbone`: a PDB file's ATOM/HETATM records of other atoms than N, CA and C are dropped
+    before Biopython parses it (a C-alpha selection needs no more; 2.5 times fewer atoms to
+    parse in a protein).
+    """
     from Bio.PDB.MMCIFParser import MMCIFParser  # here only: `import vibra.networks` needs no Biopython
     from Bio.PDB.PDBParser import PDBParser
     from Bio.PDB.Polypeptide import is_aa
 
     cif = file.suffix.lower() in (".cif", ".mmcif")
     parser = MMCIFParser(QUIET=True) if cif else PDBParser(QUIET=True)
+    source: Any = str(file)
+    if backbone and not cif:
+        with open(file, encoding="latin-1") as handle:
+            lines = [line for line in handle
+                     if not line.startswith(("ATOM", "HETATM")) or line[12:16].strip() in _BACKBONE]
+        source = io.StringIO("".join(lines))
     try:
-        structure = parser.get_structure(file.stem, str(file))
+        structure = parser.get_structure(file.stem, source)
     except Exception as error:  # Biopython raises several types on malformed input
         raise ValueError(f"{file}: cannot be read as {'mmCIF' if cif else 'PDB'}: {error}") from None
     models = list(structure)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
@@ -17,7 +18,7 @@ from vibra.modes import Modes
 from vibra.molecules.displacements import (CalculatorSource, Displacement, ForceCache, displaced_forces,
                                            displaced_positions, displacement_plan, force_problem, is_calculator,
                                            is_factory)
-from vibra.molecules.noise import measure_force_noise
+from vibra.molecules.noise import ForceNoise, force_noise_task, is_deterministic_calculator, rounding_noise
 from vibra.molecules.checks import check_atoms, masses_or_default, molecule_name, nonnegative_scalar
 from vibra.system import System
 
@@ -42,6 +43,17 @@ class FiniteDifferenceHessian:
         asymmetry |D - D^T| / 2, a weaker indicator), eV / Angstrom^2.
     roundoff : float
         Round-off part, ~ force_noise / step, eV / Angstrom^2.
+    force_noise : float
+        Noise of one force component behind `roundoff`, eV / Angstrom: the measured or given
+        value, or the rounding level (8 machine epsilons of the largest force).
+    noise_source : str
+        Where `force_noise` came from: ``"measured"`` (the calculator was probed and found
+        noisy), ``"probed"`` (probed, no noise above rounding), ``"analytic"`` (a listed
+        closed-form calculator, not probed), ``"given"`` (a number passed as `force_noise`)
+        or ``"rounding"`` (``force_noise=None``: not checked). See `vibra.molecules.noise`.
+    n_noise_calls : int
+        Force calls spent on the noise probe (0 analytic, 2 probed, 6 measured; not in
+        `n_force_calls`).
     asymmetry : float
         Largest |D_ij - D_ji| / 2 before symmetrisation, eV / Angstrom^2.
     residual_force : float
@@ -68,6 +80,9 @@ class FiniteDifferenceHessian:
     error: NDArray[np.float64]
     truncation: NDArray[np.float64]
     roundoff: float
+    force_noise: float
+    noise_source: str
+    n_noise_calls: int
     asymmetry: float
     residual_force: float
     positions: NDArray[np.float64]
@@ -105,8 +120,29 @@ class FiniteDifferenceHessian:
         """
         return _omega_bound(self.error, self.masses, modes)
 
+    @property
+    def noise_measured(self) -> bool:
+        """Whether the calculator's force noise was measured here (it showed noise above rounding)."""
+        return self.noise_source == "measured"
+
+    def noise_share(self, modes: Modes) -> NDArray[np.float64]:
+        """(n_modes,) share of each mode's error bound that comes from the force noise, 0 to 1.
+
+        The part of delta omega_k^2 in `omega_errors` due to `roundoff` over the whole of it
+        (both are linear in the Hessian error); 0 for a mode without any estimated error.
+        """
+        total = _weighted(self.error, self.masses, modes)
+        noise = _weighted(np.full(self.error.shape, self.roundoff), self.masses, modes)
+        return np.divide(noise, total, out=np.zeros_like(total), where=total > 0)
+
 
 def _omega_bound(error: NDArray[np.float64], masses: NDArray[np.float64], modes: Modes) -> NDArray[np.float64]:
+    lam = _weighted(error, masses, modes)
+    return np.minimum(lam / np.maximum(2.0 * np.abs(modes.omega), 1e-300), np.sqrt(lam))
+
+
+def _weighted(error: NDArray[np.float64], masses: NDArray[np.float64], modes: Modes) -> NDArray[np.float64]:
+    """(n_modes,) d_k^T W d_k: the bound on |delta omega_k^2| from a Hessian error `error`."""
     if modes.vectors is None:
         raise ValueError("modes has no vectors; compute the modes with vectors=True")
     scale = 1.0 / np.sqrt(np.repeat(masses, 3))
@@ -114,8 +150,7 @@ def _omega_bound(error: NDArray[np.float64], masses: NDArray[np.float64], modes:
     d = np.abs(modes.vectors)
     if d.shape[0] != weighted.shape[0]:
         raise ValueError(f"modes has {d.shape[0]} dofs; the Hessian has {weighted.shape[0]}")
-    lam = np.sum(d * (weighted @ d), axis=0)      # d_k^T W d_k for every k, one matrix product
-    return np.minimum(lam / np.maximum(2.0 * np.abs(modes.omega), 1e-300), np.sqrt(lam))
+    return np.asarray(np.sum(d * (weighted @ d), axis=0))  # d_k^T W d_k for every k, one matrix product
 
 
 def finite_difference_hessian(
@@ -125,7 +160,7 @@ def finite_difference_hessian(
     step: float = 0.01,
     stencil: Literal[2, 4] = 2,
     estimate_error: bool = True,
-    force_noise: float | Literal["auto"] | None = None,
+    force_noise: float | Literal["auto"] | None = "auto",
     force_tolerance: float | None = None,
     client: Any = None,
     cache: str | os.PathLike[str] | None = None,
@@ -150,7 +185,8 @@ def finite_difference_hessian(
     every call from scratch; an instance is used as it is serially and copied fresh for every
     call on a worker (see `vibra.molecules.displacements`). With `cache`, each geometry's
     forces are written to their own file as they arrive; a killed run started again computes
-    only what is missing.
+    only what is missing. The force-noise probe (`force_noise`) runs after them, where they
+    ran (one task on the cluster), and is never cached.
 
     Parameters
     ----------
@@ -169,12 +205,18 @@ def finite_difference_hessian(
         Points per degree of freedom.
     estimate_error : bool
         Spend 6 n_atoms extra force calls on the Richardson truncation estimate.
-    force_noise : float, optional
-        Absolute noise of one force component, eV / Angstrom (e.g. the SCF convergence of a
-        quantum-chemistry calculator). Default: 8 machine epsilons of the largest force seen.
-        ``"auto"``: measured here first (`vibra.molecules.noise.measure_force_noise`, 1 + 2 x 3
-        extra force calls in this process, not counted in `n_force_calls`); a calculator that
-        shows none takes the default.
+    force_noise : "auto", float or None
+        Noise of one force component, eV / Angstrom, for the round-off part of the error.
+        ``"auto"`` (default): found out after the displaced forces, where they ran (here or
+        as one task on the cluster; `vibra.molecules.noise.probe_force_noise`): a listed
+        closed-form calculator (vibra's valence force field, ASE's EMT, Lennard-Jones, Morse,
+        ...) is not called again; any other is evaluated at a perturbed geometry and then at
+        the reference (2 force calls), and if that differs from the first reference forces
+        by more than rounding, its noise is measured (4 calls more: 6 in all; tblite's
+        GFN2-xTB at its default accuracy, ~2e-4 eV/Angstrom on CO2). A number: that noise
+        (``0.0`` leaves the round-off out). None: not checked, 8 machine epsilons of the
+        largest force (right for a deterministic calculator only). The result says which
+        (`noise_source`, `force_noise`, `n_noise_calls`, `noise_share`).
     force_tolerance : float, optional
         Raise if the largest force at the reference geometry exceeds this (eV / Angstrom): the
         Hessian of a non-equilibrium geometry gives meaningless frequencies. None: no check.
@@ -212,8 +254,9 @@ def finite_difference_hessian(
         above `force_tolerance` (reported); a malformed `client`.
     RuntimeError
         The calculator raised, or returned forces that are not finite or of the wrong shape:
-        every such geometry is named (atom, sign, step multiple, axis). The forces that were
-        computed stay in `cache`; nothing else is written anywhere.
+        every such geometry is named (atom, sign, step multiple, axis); or it failed during
+        the force-noise probe (said so). The forces that were computed stay in `cache`;
+        nothing else is written anywhere.
     ImportError
         `client` given but Dask is not installed (the message names ``vibra[distributed]``).
     vibra.cluster.ClusterError
@@ -226,6 +269,8 @@ def finite_difference_hessian(
     >>> result = finite_difference_hessian(atoms, ValenceForceField(valence_model(atoms)))
     >>> result.hessian.shape, result.n_force_calls, result.error_method
     ((9, 9), 37, 'richardson')
+    >>> result.noise_source, result.n_noise_calls       # a closed-form force field: not probed
+    ('analytic', 0)
     """
     positions, masses = check_atoms(atoms)
     calc = calculator if calculator is not None else atoms.calc
@@ -241,10 +286,9 @@ def finite_difference_hessian(
     if isinstance(force_noise, str):
         if force_noise != "auto":
             raise ValueError(f"force_noise is {force_noise!r}; expected a number (eV/Angstrom), 'auto' or None")
-        measured = measure_force_noise(atoms, calc)
-        noise: float | None = measured if measured > 0 else None  # deterministic: the default floor
+        given: float | str | None = "auto"
     else:
-        noise = None if force_noise is None else nonnegative_scalar(force_noise, "force_noise", "eV/Angstrom")
+        given = None if force_noise is None else nonnegative_scalar(force_noise, "force_noise", "eV/Angstrom")
     tolerance = None if force_tolerance is None else nonnegative_scalar(force_tolerance, "force_tolerance",
                                                                    "eV/Angstrom")
     check_client(client)
@@ -262,10 +306,56 @@ def finite_difference_hessian(
     if estimate_error:
         multiples.append(2 if stencil == 2 else 4)
     plan = displacement_plan(n, multiples)
-    forces = _gather_forces(plan, template, source, positions, h, store, tolerance, client=client,
-                            progress=progress, n_workers=n_workers, timeout=timeout)
-    return _assemble(forces, plan, multiples, h, int(stencil), noise, positions, masses,
+    with contextlib.ExitStack() as stack:
+        cluster = _Cluster(client, stack, n_workers, timeout)
+        forces = _gather_forces(plan, template, source, positions, h, store, tolerance, cluster=cluster,
+                                progress=progress)
+        floor = rounding_noise(max(float(np.abs(values).max()) for values in forces.forces))
+        if given is None:
+            noise = ForceNoise(0.0, "rounding", 0)
+        elif isinstance(given, str):                   # "auto"
+            noise = _probe(template, source, calc, forces.forces[0], floor, cluster)
+        else:
+            noise = ForceNoise(given, "given", 0)
+    return _assemble(forces, plan, multiples, h, int(stencil), noise, floor, positions, masses,
                      template.get_atomic_numbers(), estimate_error)
+
+
+class _Cluster:
+    """Where the force calls of one run go: None (this process), or a client connected when first needed."""
+
+    def __init__(self, client: Any, stack: contextlib.ExitStack, n_workers: int | None, timeout: float) -> None:
+        self.client = client
+        self.stack = stack
+        self.n_workers = n_workers
+        self.timeout = timeout
+        self.opened: Any = None
+
+    def get(self) -> Any:
+        if self.opened is None:
+            self.opened = self.stack.enter_context(connect(self.client, n_workers=self.n_workers,
+                                                           timeout=self.timeout))
+        return self.opened
+
+
+def _probe(template: Atoms, source: CalculatorSource, calc: Any, reference: NDArray[np.float64], floor: float,
+           cluster: _Cluster) -> ForceNoise:
+    """force_noise="auto": the probe of `vibra.molecules.noise`, where the force calls ran."""
+    if is_deterministic_calculator(calc):
+        return ForceNoise(0.0, "analytic", 0)
+    advice = " (force_noise='auto' probes the calculator; pass force_noise=<number> or None to skip it)"
+    if cluster.client is None:
+        try:
+            return force_noise_task(template, source, reference, floor)
+        except Exception as error:
+            raise RuntimeError(f"calculator failed while measuring its force noise: {type(error).__name__}: "
+                               f"{error}{advice}") from error
+    results, failures = run_tasks(cluster.get(), force_noise_task, [(template, source, reference, floor)],
+                                  labels=["the force-noise probe"], name="vibra-noise")
+    if failures:
+        raise RuntimeError(f"calculator failed while measuring its force noise: {failures[0].describe()}{advice}")
+    found: ForceNoise = results[0]
+    return found
 
 
 def _check_reference(reference: NDArray[np.float64], tolerance: float | None) -> None:
@@ -289,7 +379,7 @@ class _Gathered:
 
 def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: CalculatorSource,
                    positions: NDArray[np.float64], h: float, store: ForceCache | None, tolerance: float | None,
-                   *, client: Any, progress: ProgressOption, n_workers: int | None, timeout: float) -> _Gathered:
+                   *, cluster: _Cluster, progress: ProgressOption) -> _Gathered:
     """Forces at every geometry of `plan`: from the cache, in this process, or on a cluster."""
     n = len(template)
     found: dict[int, NDArray[np.float64]] = {}
@@ -314,7 +404,7 @@ def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: Calc
             _check_reference(values, tolerance)
         return None
 
-    if missing and client is None:
+    if missing and cluster.client is None:
         callback = progress_callback(progress, len(missing))
         for done, d in enumerate(missing, start=1):
             try:
@@ -335,12 +425,11 @@ def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: Calc
             if problem is not None:
                 problems.append(problem)
 
-        with connect(client, n_workers=n_workers, timeout=timeout) as opened:
-            _, failures = run_tasks(
-                opened, displaced_forces,
-                [(template, source, displaced_positions(positions, d, h)) for d in missing],
-                labels=[d.label for d in missing], on_result=on_result, progress=progress,
-                name="vibra-fd")
+        _, failures = run_tasks(
+            cluster.get(), displaced_forces,
+            [(template, source, displaced_positions(positions, d, h)) for d in missing],
+            labels=[d.label for d in missing], on_result=on_result, progress=progress,
+            name="vibra-fd")
         problems.extend(f"calculator failed at {f.describe()}" for f in failures)
         if problems:
             raise RuntimeError(f"{len(problems)} of {len(plan)} force calls failed: " + "; ".join(problems)
@@ -355,14 +444,11 @@ def _kept(store: ForceCache | None, n_done: int) -> str:
 
 
 def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: list[int], h: float, stencil: int,
-              noise: float | None, positions: NDArray[np.float64], masses: NDArray[np.float64],
+              noise: ForceNoise, floor: float, positions: NDArray[np.float64], masses: NDArray[np.float64],
               numbers: NDArray[np.int_], estimate_error: bool) -> FiniteDifferenceHessian:
     """The Hessian and its error estimate from the forces of every geometry, in the plan's order."""
     n_dof = positions.size
     forces = gathered.forces
-    largest = 0.0
-    for values in forces:
-        largest = max(largest, float(np.abs(values).max()))
     residual = float(np.linalg.norm(forces[0], axis=1).max())
     quotient = {m: np.empty((n_dof, n_dof)) for m in multiples}
     for d_plus, d_minus in zip(plan[1::2], plan[2::2]):
@@ -388,10 +474,14 @@ def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: li
     else:
         truncation = asymmetry_matrix
         method = "asymmetry"
-    sigma = noise if noise is not None else 8.0 * np.finfo(float).eps * largest
+    if noise.source == "given":
+        sigma = noise.value
+    else:  # measured noise never below rounding; a deterministic calculator: rounding alone
+        sigma = max(noise.value, floor) if noise.noisy else floor
     roundoff = float(noise_gain * sigma / h)
     return FiniteDifferenceHessian(
         hessian=hessian, error=truncation + roundoff, truncation=truncation, roundoff=roundoff,
+        force_noise=float(sigma), noise_source=noise.source, n_noise_calls=noise.n_force_calls,
         asymmetry=float(asymmetry_matrix.max()), residual_force=residual, positions=positions,
         masses=masses, numbers=numbers, step=h, stencil=stencil,
         error_method=method, n_force_calls=gathered.computed, n_cached=gathered.cached,
@@ -415,8 +505,9 @@ def from_calculator(
     """A molecule whose Hessian is a finite difference of any ASE calculator's forces.
 
     See `finite_difference_hessian` (which also returns the error estimate); this runs it
-    without the extra Richardson step and returns the `System` (ASE units); `client`, `cache`,
-    `calculator_key` and `progress` are passed on to it.
+    without the extra Richardson step and without the force-noise probe (no error estimate is
+    returned) and returns the `System` (ASE units); `client`, `cache`, `calculator_key` and
+    `progress` are passed on to it.
 
     Examples
     --------
@@ -426,6 +517,6 @@ def from_calculator(
     9
     """
     result = finite_difference_hessian(atoms, calculator, step=step, stencil=stencil, estimate_error=False,
-                                       force_tolerance=force_tolerance, client=client, cache=cache,
+                                       force_noise=None, force_tolerance=force_tolerance, client=client, cache=cache,
                                        calculator_key=calculator_key, progress=progress)
     return result.system(masses=masses, name=molecule_name(atoms, name))

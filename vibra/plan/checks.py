@@ -85,8 +85,9 @@ def _solver(scene: Scene, system: Any) -> None:
 def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
     """The arguments of `vibra.response.frequency_response` for the scene's ``[compute.response]``.
 
-    Returns ``(K, M, C, omegas, force, method, n_modes)``: a unit force at ``force_site``,
-    Rayleigh damping C = alpha M + beta K, omegas spaced linearly.
+    Returns ``(K, M, C, G, omegas, force, method, n_modes)``: a unit force at ``force_site``,
+    Rayleigh damping C = alpha M + beta K (plus a generalised system's own C), the system's
+    gyroscopic G (None if it has none), omegas spaced linearly.
     """
     from vibra import response
 
@@ -95,9 +96,12 @@ def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
     omegas = np.linspace(r.omega_min, r.omega_max, r.n_points)
     force = np.zeros(system.n_dof)
     force[r.force_site] = 1.0
-    K, M = system.hessian(), system.mass_matrix()
+    parts = response.system_matrices(system)
+    K, M = parts.K, parts.M
     C = response.rayleigh_damping(K, M, r.alpha, r.beta)
-    return K, M, C, omegas, force, r.method, r.n_modes
+    if parts.C is not None:
+        C = C + parts.C
+    return K, M, C, parts.G, omegas, force, r.method, r.n_modes
 
 
 def empty_band(scene: Scene, modes: Any) -> SceneError | None:
@@ -139,10 +143,10 @@ def _dry_run(scene: Scene, system: Any, response: bool) -> None:
     if response and r is not None and system.n_dof * r.n_points <= DRY_RESPONSE_LIMIT:
         from vibra import response as analyses
 
-        K, M, C, omegas, force, method, n_modes = response_request(scene, system)
+        K, M, C, G, omegas, force, method, n_modes = response_request(scene, system)
         try:
             analyses.frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes,
-                                        units=system.units)
+                                        units=system.units, G=G)
         except REFUSALS as failure:
             raise step_error(scene, "response", failure) from failure
 

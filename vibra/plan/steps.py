@@ -234,9 +234,9 @@ def _step_response(plan: Plan, context: _Context, renderer: Any) -> tuple[str | 
         context.response = np.linspace(r.omega_min, r.omega_max, r.n_points)
         return "closed form (seed 003 eq. 120)", None
     system = context.system
-    K, M, C, omegas, force, method, n_modes = response_request(plan.scene, system)
+    K, M, C, G, omegas, force, method, n_modes = response_request(plan.scene, system)
     result = response.frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes,
-                                         units=system.units)
+                                         units=system.units, G=G)
     context.response = result
     error = float(np.max(result.truncation_error)) if len(result.truncation_error) else 0.0
     return result.solver, f"estimated truncation error {error:.2g} (relative, M-norm)"

@@ -167,12 +167,25 @@ def rayleigh_coefficients(omega_1: float, omega_2: float, zeta_1: float, zeta_2:
 MODAL_DIAGONAL_RTOL = 1e-8
 
 
+def modal_projection(shapes: NDArray[np.float64], C: Any) -> NDArray[np.float64]:
+    """(n_modes, n_modes) Phi^T C Phi of a damping matrix C (dense, sparse) on the mode shapes Phi."""
+    return np.asarray(shapes.T @ (as_operator(C, shapes.shape[0]) @ shapes), dtype=float)
+
+
+def is_modal(projected: NDArray[np.float64]) -> bool:
+    """Whether Phi^T C Phi is diagonal within MODAL_DIAGONAL_RTOL (C proportional on these modes)."""
+    off = projected - np.diag(np.diagonal(projected))
+    size = float(np.max(np.abs(projected))) if projected.size else 0.0
+    return not (off.size and float(np.max(np.abs(off))) > MODAL_DIAGONAL_RTOL * size)
+
+
 def modal_damping(shapes: NDArray[np.float64], omega: NDArray[np.float64], C: Any, damping_ratios: Any,
-                   remedy: str) -> NDArray[np.float64]:
+                   remedy: str, projected: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """(n_modes,) modal damping c_k (q'' + c_k q' + omega_k^2 q = phi_k^T f), in 1 / time unit.
 
     2 zeta_k |omega_k| from `damping_ratios`, else diag(Phi^T C Phi) when C is diagonal in
     the modal basis (within MODAL_DIAGONAL_RTOL), zero without C; `remedy` ends the error.
+    `projected` is Phi^T C Phi when the caller has it already (`modal_projection`).
     """
     n_dof, wanted = shapes.shape
     if damping_ratios is not None:
@@ -184,7 +197,8 @@ def modal_damping(shapes: NDArray[np.float64], omega: NDArray[np.float64], C: An
         return 2.0 * ratios * np.abs(omega)
     if C is None:
         return np.zeros(wanted)
-    projected = shapes.T @ (as_operator(C, n_dof) @ shapes)
+    if projected is None:
+        projected = modal_projection(shapes, C)
     modal_c = np.diagonal(projected).copy()
     off = projected - np.diag(modal_c)
     size = float(np.max(np.abs(projected))) if projected.size else 0.0

@@ -2,8 +2,12 @@
 
 ``direct``: one factorisation of K - w^2 M + i w C per frequency, tridiagonal (LAPACK
 zgtsv) or banded (zgbsv) when K, M and C are, sparse LU otherwise, dense LU for small dense
-input. ``state space``: complex modes of the first-order form, for any symmetric C (dense;
-all modes).
+input. ``state space``: complex modes of the first-order form (dense; all modes).
+
+Both take the matrix of the velocity term as `C`: a symmetric damping matrix, or C + G with a
+skew gyroscopic G (`vibra.response.matrices.velocity_matrix`). Neither method assumes
+symmetry (general LU; left and right eigenvectors), so G needs nothing else; `gyroscopic`
+only changes the wording of a singular-frequency error.
 """
 
 from __future__ import annotations
@@ -38,8 +42,14 @@ def _singular(pivots: NDArray[Any], scale: float, n_dof: int) -> bool:
 
 
 def direct_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[np.float64],
-            force: NDArray[np.float64]) -> tuple[NDArray[np.complex128], str]:
-    """(n_freq, n_dof) response by one LU per frequency, and the solver that ran."""
+            force: NDArray[np.float64], *, gyroscopic: bool = False) -> tuple[NDArray[np.complex128], str]:
+    """(n_freq, n_dof) response by one LU per frequency, and the solver that ran.
+
+    `C` is the velocity matrix (C, or C + G); `gyroscopic` says it holds a G (error wording).
+    """
+    def singular(i: int, w: float) -> ValueError:
+        return singular_frequency_error(i, w, gyroscopic=gyroscopic)
+
     n_dof = K.shape[0]
     width = max(half_bandwidth(K), half_bandwidth(mass), half_bandwidth(C))
     response = np.empty((omegas.size, n_dof), dtype=complex)
@@ -72,7 +82,7 @@ def direct_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[n
             _, pivots, _, x, info = gtsv(bands[0], bands[1], bands[2], rhs.copy(),
                                          overwrite_dl=1, overwrite_d=1, overwrite_du=1, overwrite_b=1)
             if info > 0 or _singular(pivots, _scale(scale_base, w), n_dof):
-                raise singular_frequency_error(i, float(w))
+                raise singular(i, float(w))
             response[i] = x.ravel()
         return response, "tridiagonal"
     if n_dof >= 2 and width <= BANDED_MAX_HALF_WIDTH:
@@ -84,7 +94,7 @@ def direct_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[n
             ab[kl:] = storage[0] - (w * w) * storage[1] + (1j * w) * storage[2]
             lu, _, x, info = gbsv(kl, ku, ab, rhs.copy(), overwrite_ab=1, overwrite_b=1)
             if info > 0 or _singular(lu[kl + ku], _scale(scale_base, w), n_dof):
-                raise singular_frequency_error(i, float(w))
+                raise singular(i, float(w))
             response[i] = x.ravel()
         return response, "banded"
     if sp.issparse(K) or sp.issparse(C) or n_dof > 1000:
@@ -94,9 +104,9 @@ def direct_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[n
             try:
                 lu = spla.splu(A)
             except RuntimeError:  # "Factor is exactly singular"
-                raise singular_frequency_error(i, float(w)) from None
+                raise singular(i, float(w)) from None
             if _singular(lu.U.diagonal(), _scale(scale_base, w), n_dof):
-                raise singular_frequency_error(i, float(w))
+                raise singular(i, float(w))
             response[i] = lu.solve(rhs)
         return response, "sparse LU"
     K_dense = dense_matrix(K, n_dof)
@@ -106,7 +116,7 @@ def direct_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[n
         A = K_dense - (w * w) * M_dense + (1j * w) * C_dense
         lu, piv = la.lu_factor(A, check_finite=False)
         if _singular(np.diagonal(lu), _scale(scale_base, w), n_dof):
-            raise singular_frequency_error(i, float(w))
+            raise singular(i, float(w))
         response[i] = la.lu_solve((lu, piv), rhs, check_finite=False)
     return response, "dense LU"
 
@@ -137,14 +147,20 @@ def _band_storage(matrix: Any, n_dof: int, width: int) -> NDArray[np.float64]:
 
 
 def state_space_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[np.float64],
-                 force: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
-    """(n_freq, n_dof) response from the complex modes of the first-order form, and |Im s|."""
+                 force: NDArray[np.float64], *, gyroscopic: bool = False,
+                 ) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
+    """(n_freq, n_dof) response from the complex modes of the first-order form, and |Im s|.
+
+    `C` is the velocity matrix (C, or C + G); the first-order pencil is then not symmetric,
+    which the left eigenvectors take care of.
+    """
     n_dof = K.shape[0]
     if n_dof > 2000:
         raise ValueError(f"method='state_space' is dense (2 n_dof = {2 * n_dof}); use method='direct' for n_dof > 2000")
     K_dense, M_dense, C_dense = dense_matrix(K, n_dof), dense_matrix(mass, n_dof), dense_matrix(C, n_dof)
     zero = np.zeros((n_dof, n_dof))
-    # First-order form with z = (u, u'): A z' + B z = (f, 0), both symmetric.
+    # First-order form with z = (u, u'): A z' + B z = (f, 0), both symmetric when C is (with G,
+    # A is not: the modal weights below use the left eigenvectors y_r, which hold either way).
     A = np.block([[C_dense, M_dense], [M_dense, zero]])
     B = np.block([[K_dense, zero], [zero, -M_dense]])
     eigenvalues, left, right = la.eig(-B, A, left=True, right=True)
@@ -156,7 +172,7 @@ def state_space_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDAr
     denominators = 1j * omegas[:, None] - eigenvalues[None, :]
     if (denominators == 0).any():
         i = int(np.argwhere(denominators == 0)[0, 0])
-        raise singular_frequency_error(i, float(omegas[i]))
+        raise singular_frequency_error(i, float(omegas[i]), gyroscopic=gyroscopic)
     response = (participation / denominators) @ right[:n_dof].T
     natural = np.sort(np.abs(eigenvalues.imag))[::2]
     return response, natural

@@ -1,7 +1,10 @@
-"""Multi-dof frequency response x(w) = (K - w^2 M + i w C)^-1 f: `frequency_response`, `frf`.
+"""Multi-dof frequency response x(w) = (K - w^2 M + i w (C + G))^-1 f: `frequency_response`, `frf`.
 
 The three methods live in `vibra.response.direct` (direct, state space) and
-`vibra.response.modal`; this module validates, dispatches and builds the result.
+`vibra.response.modal`; this module validates, dispatches and builds the result. A gyroscopic
+G (skew) and a non-proportional C go to the direct or state-space method, which take the
+velocity matrix C + G as it is; the modal method, whose real normal modes they couple,
+refuses them and names those two.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.response.direct import direct_response, state_space_response
-from vibra.response.matrices import check_structure, half_bandwidth, response_cost
+from vibra.response.matrices import check_skew, check_structure, half_bandwidth, response_cost, velocity_matrix
 from vibra.solvers.budget import guard
 from vibra.response.modal import modal_response
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
@@ -29,7 +32,7 @@ METHODS = ("direct", "modal", "state_space")
 
 @dataclass(frozen=True, eq=False)
 class FrequencyResponse:
-    """Steady-state response x(w) = (K - w^2 M + i w C)^-1 f over many frequencies.
+    """Steady-state response x(w) = (K - w^2 M + i w (C + G))^-1 f over many frequencies.
 
     Attributes
     ----------
@@ -58,6 +61,8 @@ class FrequencyResponse:
         in rad per time unit; None for the direct method.
     units : UnitSystem
         Unit system of the inputs.
+    gyroscopic : bool
+        Whether a gyroscopic matrix G took part (x(w) = (K - w^2 M + i w (C + G))^-1 f).
     """
 
     omegas: NDArray[np.float64]
@@ -70,6 +75,7 @@ class FrequencyResponse:
     truncation_error: NDArray[np.float64]
     natural_frequencies: NDArray[np.float64] | None
     units: UnitSystem = DIMENSIONLESS
+    gyroscopic: bool = False
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -95,6 +101,7 @@ def frequency_response(
     omegas: ArrayLike,
     force: ArrayLike,
     *,
+    G: ArrayLike | sp.spmatrix | None = None,
     method: Literal["direct", "modal", "state_space"] = "direct",
     n_modes: int | None = None,
     damping_ratios: ArrayLike | None = None,
@@ -104,7 +111,11 @@ def frequency_response(
     max_memory: float | None = None,
     max_seconds: float | None = None,
 ) -> FrequencyResponse:
-    """Receptance response x(w) = (K - w^2 M + i w C)^-1 f at many frequencies.
+    """Receptance response x(w) = (K - w^2 M + i w (C + G))^-1 f at many frequencies.
+
+    The steady state of M u'' + (C + G) u' + K u = Re{f exp(i w t)}: C symmetric positive
+    semi-definite (proportional or not), G skew-symmetric (gyroscopic: a magnetic field, a
+    rotating frame). `vibra.response.system_frequency_response` takes them from a system.
 
     Parameters
     ----------
@@ -114,19 +125,24 @@ def frequency_response(
         Diagonal masses or an SPD mass matrix, as in `vibra.normal_modes`.
     C : (n_dof, n_dof) array_like or scipy.sparse matrix, or None
         Symmetric positive semi-definite damping matrix, in mass per time unit
-        (`friction_damping`, `rayleigh_damping`, or any); None for no damping matrix.
+        (`friction_damping`, `rayleigh_damping`, or any, non-proportional too); None for no
+        damping matrix.
     omegas : (n_freq,) array_like
         Driving angular frequencies >= 0, in rad per time unit.
     force : (n_dof,) array_like
         Force amplitudes f (force Re{f exp(i w t)}), in force units; complex amplitudes
         carry a phase per dof (f_j = |f_j| exp(i phi_j)), which the response keeps.
+    G : (n_dof, n_dof) array_like or scipy.sparse matrix, optional
+        Skew-symmetric gyroscopic matrix (G^T = -G within `vibra.quadratic.SKEW_RTOL` * max|G|),
+        in mass per time unit; it does no work. Methods ``"direct"`` and ``"state_space"``;
+        a zero G counts as none.
     method : {"direct", "modal", "state_space"}
         ``"direct"``: one LU per frequency, tridiagonal or banded when K, M and C are (half
         bandwidth <= `BANDED_MAX_HALF_WIDTH`), sparse LU otherwise (dense LU for small dense
         input); exact to round-off times the conditioning. ``"modal"``: superposition of the
         lowest `n_modes` normal modes; C must be diagonal in the modal basis (friction,
-        Rayleigh) or replaced by `damping_ratios`. ``"state_space"``: complex modes of the
-        first-order form (dense, all modes), for non-proportional C.
+        Rayleigh) or replaced by `damping_ratios`, and no G. ``"state_space"``: complex modes
+        of the first-order form (dense, all modes), for non-proportional C and for G.
     n_modes : int, optional
         Modal method: how many of the lowest modes to keep (all by default).
     damping_ratios : float or (n_modes,) array_like, optional
@@ -161,7 +177,9 @@ def frequency_response(
     ------
     ValueError
         K not square/symmetric/finite; M, C or force not matching K; C not positive
-        semi-definite (negative damping); omegas negative; unknown method; n_modes out of range or given to a
+        semi-definite (negative damping); G not square, not matching K, not finite or not
+        skew-symmetric (the message gives |G[i,j] + G[j,i]|); G with method='modal';
+        omegas negative; unknown method; n_modes out of range or given to a
         method without modes; damping_ratios with C or outside the modal method; C not
         diagonal in the modal basis (modal method); a frequency where the system is singular
         (undamped resonance, or w = 0 with rigid-body modes).
@@ -175,12 +193,24 @@ def frequency_response(
     >>> x = frequency_response(K, [1.0, 1.0], None, [0.0], [1.0, 0.0]).response
     >>> np.round(x.real, 12)           # K^-1 f
     array([[0.66666667, 0.33333333]])
+
+    A charge in a 2-D well (w0 = 1) and a field with w_c = 1: the undamped response is
+    singular at sqrt(5)/2 -+ 1/2, and the field turns a push along x into motion along y.
+
+    >>> G = np.array([[0.0, -1.0], [1.0, 0.0]])
+    >>> x = frequency_response(np.eye(2), [1.0, 1.0], None, [0.5], [1.0, 0.0], G=G).response
+    >>> np.round(x, 12)                # ((0.75, -0.5 i), (0.5 i, 0.75))^-1 (1, 0)
+    array([[2.4+0.j , 0. -1.6j]])
     """
     _validate.choice(method, "method", METHODS)
     stiffness, mass, damping, loads = check_structure(K, M, C, force, complex_force=True)
     n_dof = stiffness.shape[0]
     frequencies = _validate.real_array(omegas, "omegas", ndim=1)
     _validate.nonnegative(frequencies, "omegas", "angular frequency")
+    gyroscopic = check_skew(G, n_dof)
+    if gyroscopic is not None and method == "modal":
+        raise ValueError("G is given, and method='modal' superposes real normal modes, which a gyroscopic "
+                         "matrix couples; use method='direct' or method='state_space' (complex modes)")
     if n_modes is not None:
         if method != "modal":
             raise ValueError(f"n_modes is {n_modes!r}; it applies to method='modal' only")
@@ -197,7 +227,8 @@ def frequency_response(
     unit = unit_system(units)
     max_memory = _validate.optional_limit(max_memory, "max_memory")
     max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
-    width = max(half_bandwidth(stiffness), half_bandwidth(mass), half_bandwidth(damping))
+    width = max(half_bandwidth(stiffness), half_bandwidth(mass), half_bandwidth(damping),
+                half_bandwidth(gyroscopic))
     stored = int(stiffness.nnz) if sp.issparse(stiffness) else n_dof * n_dof
     cost = response_cost(method, n_dof, frequencies.size, width, stored,
                          parts=2 if np.iscomplexobj(loads) and loads.imag.any() else 1)
@@ -206,7 +237,7 @@ def frequency_response(
 
     if np.iscomplexobj(loads) and loads.imag.any():
         # x(f) is linear in f: x(f_r + i f_i) = x(f_r) + i x(f_i), which keeps the phase of f
-        parts = [frequency_response(stiffness, mass, damping, frequencies, part, method=method,
+        parts = [frequency_response(stiffness, mass, damping, frequencies, part, G=gyroscopic, method=method,
                                     n_modes=n_modes, damping_ratios=damping_ratios,
                                     residual_correction=residual_correction, modes=modes, units=unit,
                                     max_memory=float("inf"), max_seconds=float("inf"))
@@ -222,14 +253,17 @@ def frequency_response(
             omegas=frequencies, response=response, force=loads, method=method, solver=parts[0].solver,
             n_modes=parts[0].n_modes, residual_correction=parts[0].residual_correction,
             truncation_error=error, natural_frequencies=parts[0].natural_frequencies, units=unit,
+            gyroscopic=gyroscopic is not None,
         )
     loads = np.asarray(loads.real if np.iscomplexobj(loads) else loads, dtype=float)
 
     error = np.zeros(frequencies.size)
     natural: NDArray[np.float64] | None = None
     used: int | None = None
+    has_g = gyroscopic is not None
     if method == "direct":
-        response, solver = direct_response(stiffness, mass, damping, frequencies, loads)
+        response, solver = direct_response(stiffness, mass, velocity_matrix(damping, gyroscopic), frequencies,
+                                           loads, gyroscopic=has_g)
     elif method == "modal":
         response, error, used, natural = modal_response(
             stiffness, mass, damping, frequencies, loads, n_modes, damping_ratios,
@@ -237,13 +271,14 @@ def frequency_response(
         )
         solver = "modal"
     else:
-        response, natural = state_space_response(stiffness, mass, damping, frequencies, loads)
+        response, natural = state_space_response(stiffness, mass, velocity_matrix(damping, gyroscopic),
+                                                 frequencies, loads, gyroscopic=has_g)
         used = n_dof
         solver = "state space"
     return FrequencyResponse(
         omegas=frequencies, response=response, force=loads, method=method, solver=solver,
         n_modes=used, residual_correction=bool(residual_correction) and method == "modal",
-        truncation_error=error, natural_frequencies=natural, units=unit,
+        truncation_error=error, natural_frequencies=natural, units=unit, gyroscopic=has_g,
     )
 
 
@@ -261,10 +296,11 @@ def frf(
     omegas: ArrayLike,
     force: ArrayLike,
     *,
+    G: ArrayLike | sp.spmatrix | None = None,
     method: Literal["direct", "modal", "state_space"] = "direct",
     n_modes: int | None = None,
 ) -> NDArray[np.complex128]:
-    """(n_freq, n_dof) complex receptance response (K - w^2 M + i w C)^-1 f, in length.
+    """(n_freq, n_dof) complex receptance response (K - w^2 M + i w (C + G))^-1 f, in length.
 
     The array of `frequency_response` (same arguments and errors), without the residual
     correction; use `frequency_response` for the solver used, the truncation error estimate
@@ -278,6 +314,6 @@ def frf(
     array([[0.-2.j]])
     """
     return np.array(
-        frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes).response
+        frequency_response(K, M, C, omegas, force, G=G, method=method, n_modes=n_modes).response
     )
 

@@ -1,6 +1,7 @@
 """Checks and storage helpers shared by the multi-dof response methods.
 
-`check_structure` validates (K, M, C, f) for `frequency_response` and `transient_response`;
+`check_structure` validates (K, M, C, f) and a gyroscopic G for `frequency_response` and
+`transient_response`; `velocity_matrix` adds C and G into the matrix of the velocity term;
 the rest read diagonals, bands and dense copies of a matrix that may be dense, sparse, a
 mass vector or None (no damping).
 """
@@ -14,6 +15,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra import _validate
+from vibra.quadratic import SKEW_RTOL, check_gyroscopic
 from vibra.solvers.budget import Estimate
 from vibra.solvers.common import bandwidth
 
@@ -24,6 +26,7 @@ def check_structure(K: Any, M: Any, C: Any, force: Any, *, complex_force: bool =
 
     C must be symmetric positive semi-definite (an indefinite C has a mode with negative
     damping, which gains energy). With `complex_force`, f may be complex (a phase per dof).
+    A gyroscopic G is checked after them by `check_skew`.
     """
     stiffness = _validate.square_matrix(K, "K")
     stiffness = _validate.symmetric(stiffness, "K")
@@ -43,6 +46,62 @@ def check_structure(K: Any, M: Any, C: Any, force: Any, *, complex_force: bool =
     if loads.shape[0] != n_dof:
         raise ValueError(f"force must have {n_dof} entries to match K, got shape {loads.shape}")
     return stiffness, mass, damping, loads
+
+
+def check_skew(G: Any, n_dof: int, name: str = "G") -> Any:
+    """G as a skew-symmetric (n_dof, n_dof) matrix (dense or CSR), or None when G is None or zero.
+
+    Skew within `vibra.quadratic.SKEW_RTOL` * max|G|, as `System.generalized` checks it (a
+    dense G goes through `vibra.quadratic.check_gyroscopic`, the same message). A zero G is
+    returned as None, so that the undamped or proportionally damped fast paths still apply.
+
+    Raises
+    ------
+    ValueError
+        G not square, not (n_dof, n_dof), not finite, or not skew-symmetric (the message names
+        the worst pair of entries and the measured asymmetry |G[i,j] + G[j,i]|).
+    TypeError
+        G not a matrix of real numbers.
+    """
+    if G is None:
+        return None
+    matrix = _validate.square_matrix(G, name)
+    if matrix.shape[0] != n_dof:
+        raise ValueError(f"{name} must be ({n_dof}, {n_dof}) to match K, got shape {matrix.shape}")
+    if not sp.issparse(matrix):
+        dense = check_gyroscopic(matrix, n_dof, name)
+        return dense if dense.any() else None
+    sparse_matrix: Any = matrix
+    if not sparse_matrix.nnz or not sparse_matrix.data.any():
+        return None
+    gap_matrix = (sparse_matrix + sparse_matrix.T).tocoo()
+    scale = float(abs(sparse_matrix).max())
+    gap, i, j = 0.0, 0, 0
+    if gap_matrix.nnz:
+        k = int(np.argmax(np.abs(gap_matrix.data)))
+        gap, i, j = float(abs(gap_matrix.data[k])), int(gap_matrix.row[k]), int(gap_matrix.col[k])
+    atol = SKEW_RTOL * scale
+    if gap > atol:
+        raise ValueError(
+            f"{name} is not skew-symmetric: |{name}[{i},{j}] + {name}[{j},{i}]| = {gap:.3g} > "
+            f"atol={atol:.3g} ({SKEW_RTOL:g} * max|{name}|); a gyroscopic matrix satisfies "
+            f"{name}^T = -{name} (its symmetric part belongs in C)"
+        )
+    return sparse_matrix
+
+
+def velocity_matrix(C: Any, G: Any) -> Any:
+    """C + G, the matrix of the velocity term M u'' + (C + G) u' + K u (None when both are None).
+
+    Sparse when either is sparse, dense otherwise.
+    """
+    if G is None:
+        return C
+    if C is None:
+        return G
+    if sp.issparse(C) or sp.issparse(G):
+        return sp.csr_matrix(sp.csr_matrix(C) + sp.csr_matrix(G))
+    return np.asarray(C, dtype=float) + np.asarray(G, dtype=float)
 
 
 def half_bandwidth(matrix: Any) -> int:
@@ -97,10 +156,11 @@ def mass_times(mass: NDArray[np.float64], x: NDArray[Any]) -> NDArray[Any]:
     return mass @ x
 
 
-def singular_frequency_error(i: int, w: float) -> ValueError:
-    """The ValueError naming omegas[i] where K - w^2 M + i w C is singular."""
+def singular_frequency_error(i: int, w: float, *, gyroscopic: bool = False) -> ValueError:
+    """The ValueError naming omegas[i] where K - w^2 M + i w C (+ i w G) is singular."""
+    matrix = "K - w^2 M + i w (C + G)" if gyroscopic else "K - w^2 M + i w C"
     return ValueError(
-        f"omegas[{i}] is {w!r}: K - w^2 M + i w C is singular there (an undamped resonance, "
+        f"omegas[{i}] is {w!r}: {matrix} is singular there (an undamped resonance, "
         "or w = 0 for a free structure whose rigid-body modes have an unbounded static "
         "response); add damping or leave out that frequency"
     )

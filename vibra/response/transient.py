@@ -1,13 +1,17 @@
-"""Transient motion of a multi-dof system under a harmonic force, by modal superposition.
+"""Transient motion of a multi-dof system under a harmonic force.
 
-Each normal coordinate moves as one `Oscillator` (eq. 129, continuous across critical
-damping); rigid-body modes move as damped free masses.
+With proportional damping (friction, Rayleigh, modal ratios) and no gyroscopic term, by modal
+superposition: each normal coordinate moves as one `Oscillator` (eq. 129, continuous across
+critical damping); rigid-body modes move as damped free masses. With a non-proportional C or
+a skew G, by exact exponential integration of the first-order form
+(`vibra.response.state_space`).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -16,14 +20,18 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
-from vibra.response.damping import modal_damping
-from vibra.response.matrices import check_structure, mass_times
+from vibra.response.damping import is_modal, modal_damping, modal_projection
+from vibra.response.matrices import check_skew, check_structure, mass_times, velocity_matrix
 from vibra.response.oscillator import oscillator_state, receptance_denominator
+from vibra.response.state_space import state_space_motion
+
+#: How `transient_response` computed the motion (`Transient.method`).
+TRANSIENT_METHODS = ("modal", "state space")
 
 
 @dataclass(frozen=True, eq=False)
 class Transient:
-    """Motion of a multi-dof system under a harmonic force, by modal superposition.
+    """Motion of a multi-dof system under a harmonic force.
 
     Attributes
     ----------
@@ -34,13 +42,19 @@ class Transient:
     velocity : (n_t, n_dof) ndarray
         u'(t), in length per time unit.
     n_modes : int
-        Number of normal modes superposed.
+        Number of normal modes superposed (modal method); n_dof for the state-space method,
+        which keeps every degree of freedom.
+    method : str
+        ``"modal"`` (superposition of normal modes: no G, C diagonal in the modal basis) or
+        ``"state space"`` (exact exponential of the first-order form: a non-proportional C or
+        a gyroscopic G).
     """
 
     t: NDArray[np.float64]
     displacement: NDArray[np.float64]
     velocity: NDArray[np.float64]
     n_modes: int
+    method: str = "modal"
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -53,6 +67,7 @@ def transient_response(
     t: ArrayLike,
     force: ArrayLike,
     *,
+    G: ArrayLike | sp.spmatrix | None = None,
     omega: float = 0.0,
     u0: ArrayLike | None = None,
     v0: ArrayLike | None = None,
@@ -60,9 +75,12 @@ def transient_response(
     damping_ratios: ArrayLike | None = None,
     modes: Modes | None = None,
 ) -> Transient:
-    """Motion of M u'' + C u' + K u = Re{f exp(i w t)} by modal superposition.
+    """Motion of M u'' + (C + G) u' + K u = Re{f exp(i w t)} from u0, v0 at t = 0.
 
-    Each normal coordinate q_k = phi_k^T M u obeys q'' + c_k q' + omega_k^2 q = phi_k^T f
+    Two methods, chosen from the matrices (`Transient.method` says which ran):
+
+    ``"modal"``, when there is no G and C is diagonal in the modal basis (friction,
+    Rayleigh, `damping_ratios`, or None): each normal coordinate q_k = phi_k^T M u obeys q'' + c_k q' + omega_k^2 q = phi_k^T f
     Re{exp(i w t)} and moves as one `Oscillator` (eq. 129, continuous across critical
     damping); u = sum_k phi_k q_k (eq. 150). Rigid-body modes (omega_k = 0) move as damped
     free masses. With n_modes < n_dof the result is the motion of the kept modes (the
@@ -70,25 +88,37 @@ def transient_response(
     free structure makes its rigid-body modes drift: q = q0 + v0 t + f_k t^2 / 2 without
     damping, terminal velocity f_k / c_k with it (f_k = phi_k^T f).
 
+    ``"state space"``, for a non-proportional C (detected on the modes) or a nonzero G:
+    z = (u, u') obeys z' = A z + b cos(w t), integrated exactly as the matrix exponential of
+    A augmented with the force's own (cos, sin) oscillator (`vibra.response.state_space`):
+    every dof is kept, resonances grow as t sin(w t) rather than being refused, an unstable
+    system grows, and critical damping is passed without loss of digits. Its cost is one
+    exponential of a (2 n_dof + 2)-square matrix per distinct time step (dense up to
+    `vibra.response.state_space.DENSE_STATE_MAX` states; sparse, expm_multiply, above it
+    when M is diagonal).
+
     Parameters
     ----------
     K, M, C :
-        As in `frequency_response` (C diagonal in the modal basis, or None).
+        As in `frequency_response` (C symmetric positive semi-definite, or None).
     t : (n_t,) array_like
         Times >= 0, in time units.
     force : (n_dof,) array_like
         Force amplitudes f, in force units; omega = 0 gives a constant force switched on at
         t = 0 (a step), F0 = 0 the free damped motion.
+    G : (n_dof, n_dof) array_like or scipy.sparse matrix, optional
+        Skew-symmetric gyroscopic matrix, in mass per time unit (as in
+        `frequency_response`); a zero G counts as none.
     omega : float
         Driving angular frequency >= 0, in rad per time unit.
     u0, v0 : (n_dof,) array_like, optional
         Initial displacement (length) and velocity (length per time unit); zero by default.
     n_modes : int, optional
-        How many of the lowest modes to superpose (all by default).
+        Modal method: how many of the lowest modes to superpose (all by default).
     damping_ratios : float or (n_modes,) array_like, optional
-        Modal damping ratios instead of C.
+        Modal method: modal damping ratios instead of C.
     modes : Modes, optional
-        Normal modes of (K, M) already computed.
+        Normal modes of (K, M) already computed (they also decide whether C is proportional).
 
     Returns
     -------
@@ -98,7 +128,9 @@ def transient_response(
     ------
     ValueError
         As `frequency_response`; t negative; u0, v0 of the wrong length; a flexible mode
-        with no damping driven exactly at its frequency, whose amplitude grows without bound.
+        with no damping driven exactly at its frequency, whose amplitude grows without bound
+        (modal method); n_modes, damping_ratios or modes with G, n_modes below n_dof with a
+        non-proportional C (the state-space method keeps every dof).
 
     Examples
     --------
@@ -109,6 +141,17 @@ def transient_response(
     >>> np.round(motion.displacement, 12) + 0.0
     array([[ 0.5, -0.5],
            [-0.5,  0.5]])
+
+    A free charge in a magnetic field (K = 0, omega_c = q B / m = 2) launched along x turns on
+    a circle of radius v / omega_c = 1/2; half a turn later it is at (0, -1), moving along -x:
+
+    >>> G = np.array([[0.0, -2.0], [2.0, 0.0]])
+    >>> motion = transient_response(np.zeros((2, 2)), [1.0, 1.0], None, [np.pi / 2], [0.0, 0.0],
+    ...                             G=G, v0=[1.0, 0.0])
+    >>> np.round(motion.displacement, 12) + 0.0, np.round(motion.velocity, 12) + 0.0
+    (array([[ 0., -1.]]), array([[-1.,  0.]]))
+    >>> motion.method
+    'state space'
     """
     stiffness, mass, damping, loads = check_structure(K, M, C, force)
     n_dof = stiffness.shape[0]
@@ -127,6 +170,14 @@ def transient_response(
         n_modes = _validate.count(n_modes, "n_modes", low=1, high=n_dof)
     if damping_ratios is not None and damping is not None:
         raise ValueError("give either C or damping_ratios, not both")
+    gyroscopic = check_skew(G, n_dof)
+    if gyroscopic is not None:
+        given: dict[str, Any] = {"n_modes": n_modes, "damping_ratios": damping_ratios, "modes": modes}
+        for name in given:
+            if given[name] is not None:
+                raise ValueError(f"{name} is given with G: a gyroscopic system moves in state space with all "
+                                 f"{n_dof} dofs, and {name} applies to the modal method (give damping as C)")
+        return _state_space(stiffness, mass, velocity_matrix(damping, gyroscopic), times, loads, w, starts)
     wanted = n_dof if n_modes is None else n_modes
     if modes is None:
         modes = normal_modes(stiffness, mass, n_modes=wanted)
@@ -140,9 +191,18 @@ def transient_response(
     omega_k = np.where(np.asarray(modes.zero_modes())[:wanted], 0.0, np.asarray(modes.omega)[:wanted])
     if np.any(omega_k < 0):
         raise ValueError("K has imaginary (unstable) modes; transient_response needs K positive semi-definite")
+    projected = None
+    if damping is not None:
+        projected = modal_projection(shapes, damping)
+        if not is_modal(projected):
+            if wanted < n_dof:
+                raise ValueError(f"n_modes is {wanted}: C is not diagonal in the modal basis (non-proportional "
+                                 f"damping), so the motion is computed in state space with all {n_dof} dofs; "
+                                 "leave n_modes out")
+            return _state_space(stiffness, mass, damping, times, loads, w, starts)
     modal_c = modal_damping(shapes, omega_k, damping, damping_ratios,
                              "transient_response superposes real normal modes and needs friction, "
-                             "Rayleigh or modal damping")
+                             "Rayleigh or modal damping", projected=projected)
     loads_q = shapes.T @ loads
     q0 = shapes.T @ mass_times(mass, starts[0])
     qd0 = shapes.T @ mass_times(mass, starts[1])
@@ -166,6 +226,14 @@ def transient_response(
         q[:, drift], qd[:, drift] = _pushed_free_mass(column, modal_c[drift], q0[drift], qd0[drift],
                                                       loads_q[drift])
     return Transient(t=times, displacement=q @ shapes.T, velocity=qd @ shapes.T, n_modes=wanted)
+
+
+def _state_space(stiffness: Any, mass: NDArray[np.float64], velocity: Any, times: NDArray[np.float64],
+                 loads: NDArray[np.float64], w: float, starts: list[NDArray[np.float64]]) -> Transient:
+    """The state-space method of `transient_response` (velocity matrix C + G, or C)."""
+    displacement, speed, _ = state_space_motion(stiffness, mass, velocity, times, loads, w, starts[0], starts[1])
+    return Transient(t=times, displacement=displacement, velocity=speed, n_modes=stiffness.shape[0],
+                     method="state space")
 
 
 def _phi(x: NDArray[np.float64], order: int) -> NDArray[np.float64]:

@@ -246,17 +246,16 @@ def check_combinations(reader: Reader, scene: Any) -> None:
 
 
 def _check_gyroscopic(reader: Reader, compute: Any, draw: Any) -> None:
-    """A gyroscopic scene (M q'' + G q' + K q = 0) solves all its complex modes and draws their orbits."""
+    """A gyroscopic scene (M q'' + G q' + K q = 0) solves all its complex modes and draws their orbits
+    (and its forced response, `vibra.response` taking G: K - w^2 M + i w (C + G))."""
     for key in ("n_modes", "band"):
         if getattr(compute, key) is not None:
             reader.fail(f"compute.{key}", "a gyroscopic system is solved for all its modes (complex shapes); "
                         f"remove {key}")
-    if compute.response is not None:
-        reader.fail("compute.response", "the response of a gyroscopic scene is not wired; remove [compute.response]")
-    for key in ("spectrum", "gif", "response", "dispersion"):
+    for key in ("spectrum", "gif", "dispersion"):
         if getattr(draw, key):
-            reader.fail(f"draw.{key}", "a gyroscopic scene draws its mode orbits (draw.modes) and lists its "
-                        "frequencies in the table")
+            reader.fail(f"draw.{key}", "a gyroscopic scene draws its mode orbits (draw.modes), its forced "
+                        "response (draw.response) and lists its frequencies in the table")
 
 
 def _check_memory(reader: Reader, scene: Any) -> None:

@@ -34,7 +34,7 @@ from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil,
 )
-from vibra.solvers.sparse import lowest_shift, shift_invert, sparse_path
+from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.standard import DENSE_FLOOR, banded_path
 
 #: Relative accuracy of omega^2 that `checked_dense` asks of each requested mode before it
@@ -96,7 +96,8 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 "as spring-space Rayleigh quotients ||B~ v||^2 of the banded solver's vectors")
     if few and band is None:
         k = int(n_modes)  # type: ignore[arg-type]
-        sigma, shifted = lowest_shift(sp.csr_matrix(Kt))
+        rounding = semidefinite_rounding(factor, float(abs(sp.csr_matrix(Kt)).sum(axis=1).max()))
+        sigma, shifted = lowest_shift(sp.csr_matrix(Kt), rounding=rounding)
         _, basis = shift_invert(sp.csr_matrix(Kt), min(k + 1, n - 2), sigma, shifted)  # one more: the gap
         return relative_account(_checked_ritz(weighted, basis, k, vectors=vectors),
                                 f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")

@@ -225,7 +225,7 @@ def solve(
     elif solver == "banded":
         result = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
     elif solver == "sparse":
-        result = sparse_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
+        result = sparse_path(Kt, n_modes=n_modes, vectors=vectors, band=band, spring_factor=spring_factor)
     else:
         result = dense_path(Kt, n_modes=n_modes, vectors=vectors, band=band, overwrite=Kt is not K)
     if exponent:

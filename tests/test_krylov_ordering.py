@@ -1,0 +1,173 @@
+"""Block Krylov iteration and nested-dissection ordering of the sparse path (issue 14, item 2).
+
+Truth: numpy's dense eigh of the same matrices, permutation invariants, and SuperLU's fill
+with SuperLU's own minimum-degree ordering as the yardstick.
+"""
+
+from __future__ import annotations
+
+import builtins
+from typing import Any
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+from vibra import networks
+from vibra.solvers import krylov, ordering
+from vibra.solvers.sparse import ShiftedInverse, lowest_shift, semidefinite_rounding, shift_invert, sparse_path
+
+
+def _lattice(n_sites: int, seed: int = 3, cutoff: float = 1.75) -> Any:
+    rng = np.random.default_rng(seed)
+    side = int(np.ceil(n_sites ** (1 / 3)))
+    grid = np.stack(np.meshgrid(*(np.arange(side),) * 3, indexing="ij"), axis=-1).reshape(-1, 3)[:n_sites]
+    return networks.anm(grid + rng.uniform(-0.2, 0.2, (n_sites, 3)), cutoff=cutoff)
+
+
+def test_block_eigs_matches_dense_eigh() -> None:
+    rng = np.random.default_rng(0)
+    Q = np.linalg.qr(rng.standard_normal((300, 300)))[0]
+    values = np.geomspace(1e-3, 1e3, 300)
+    A = (Q * values) @ Q.T
+    mu, Y, applied, done = krylov.block_eigs(lambda X: A @ X, 300, 10, tol=1e-13)
+    assert done and applied <= 300
+    np.testing.assert_allclose(mu, values[::-1][:10], rtol=1e-12)
+    assert np.linalg.norm(A @ Y - Y * mu) <= 1e-10 * values.max()
+    assert np.abs(Y.T @ Y - np.eye(10)).max() < 1e-13
+
+
+@pytest.mark.parametrize("block", [1, 3, 8])
+def test_block_eigs_deflation_keeps_directions_out(block: int) -> None:
+    """Deflated directions (a free system's zero modes) never come back; the rest are exact."""
+    rng = np.random.default_rng(1)
+    Q = np.linalg.qr(rng.standard_normal((200, 200)))[0]
+    values = np.r_[np.full(3, 1e12), np.linspace(1.0, 100.0, 197)[::-1]]  # 3 huge (zero modes inverted)
+    # applied in factored form, as a factorisation's solve is: the huge values reach the result
+    # only through the (rounding-sized) components along Q[:, :3], which the projection removes
+
+    def apply(X: np.ndarray) -> np.ndarray:
+        return np.asarray(Q @ (values[:, None] * (Q.T @ X)))
+
+    mu, Y, _, done = krylov.block_eigs(apply, 200, 5, tol=1e-12, deflate=Q[:, :3], block=block)
+    assert done
+    np.testing.assert_allclose(mu, values[3:8], rtol=1e-11)
+    assert np.abs(Q[:, :3].T @ Y).max() < 1e-12
+
+
+def test_block_eigs_reports_no_convergence() -> None:
+    rng = np.random.default_rng(2)
+    A = np.diag(1.0 + 1e-9 * rng.random(400))  # one tight cluster: not resolved in 20 columns
+    _, _, applied, done = krylov.block_eigs(lambda X: A @ X, 400, 10, tol=1e-15, max_dim=20)
+    assert not done and applied == 20
+
+
+def test_nested_dissection_is_a_site_permutation() -> None:
+    system = _lattice(1200)
+    K = sp.csr_matrix(system.hessian())
+    assert ordering.site_block(K) == 3
+    p = ordering.nested_dissection(K)
+    assert p is not None
+    assert np.array_equal(np.sort(p), np.arange(K.shape[0]))
+    assert np.array_equal(p.reshape(-1, 3) % 3, np.tile(np.arange(3), (K.shape[0] // 3, 1)))  # sites stay whole
+
+
+def test_site_block_of_scalar_and_chain_patterns() -> None:
+    chain = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(30, 30), format="csr")
+    assert ordering.site_block(chain) == 1
+    assert ordering.nested_dissection(chain) is None  # small: SuperLU's own ordering
+
+
+def test_dissection_fills_less_than_minimum_degree() -> None:
+    """The reason for the ordering: fewer factor entries than SuperLU's best own ordering."""
+    K = sp.csr_matrix(_lattice(1500).hessian())
+    A = (K + 1e-9 * sp.identity(K.shape[0])).tocsr()
+    p = ordering.nested_dissection(A)
+    assert p is not None
+    options = {"SymmetricMode": True}
+    nd = sla.splu(A[p][:, p].tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0, options=options)
+    mmd = sla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options=options)
+    assert nd.L.nnz + nd.U.nnz < 0.8 * (mmd.L.nnz + mmd.U.nnz)
+
+
+def test_without_pymetis_minimum_degree_serves(monkeypatch: pytest.MonkeyPatch) -> None:
+    real_import = builtins.__import__
+
+    def no_pymetis(name: str, *args: Any, **kwargs: Any) -> Any:
+        if name == "pymetis":
+            raise ImportError("pymetis hidden by the test")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_pymetis)
+    K = sp.csr_matrix(_lattice(1200).hessian())
+    assert ordering.nested_dissection(K) is None
+    factor = ShiftedInverse(K, -1e-9)
+    b = np.random.default_rng(0).standard_normal(K.shape[0])
+    x = factor.solve(b)
+    assert np.linalg.norm((K - 1e-9 * sp.identity(K.shape[0])) @ x - b) < 1e-6 * np.linalg.norm(b) * 1e9
+
+
+def test_permuted_factor_solves_blocks() -> None:
+    K = sp.csr_matrix(_lattice(1200).hessian())
+    A = K + 0.5 * sp.identity(K.shape[0])
+    factor = ShiftedInverse(K, -0.5)
+    assert factor.below_spectrum
+    B = np.random.default_rng(4).standard_normal((K.shape[0], 5))
+    X = factor.solve(B)
+    assert np.linalg.norm(A @ X - B) <= 1e-12 * np.linalg.norm(B)
+    np.testing.assert_allclose(factor.solve(B[:, 2]), X[:, 2], rtol=1e-12, atol=1e-14)
+
+
+def test_large_free_network_lowest_modes_match_dense() -> None:
+    """3,600 dofs (nested dissection on): 6 zero modes, then the lowest 20 to 1e-12 of eigh."""
+    system = _lattice(1200)
+    K = system.hessian()
+    reference = np.linalg.eigvalsh(K.toarray() if sp.issparse(K) else K)
+    fast = system.modes(26, accuracy="fast")
+    high = system.modes(26)
+    assert fast.solver == "sparse" and high.solver == "accurate-ritz"
+    for modes in (fast, high):
+        omega2 = modes.omega_squared
+        assert np.all(np.abs(omega2[:6]) <= 1e-10 * reference[-1])
+        np.testing.assert_allclose(omega2[6:], reference[6:26], rtol=1e-12)
+        assert modes.residual < 1e-13
+
+
+def test_anchored_network_has_no_zero_probe() -> None:
+    system = _lattice(1100)
+    frozen = system.freeze([0, 1, 2])
+    K = frozen.hessian()
+    spectrum = np.linalg.eigvalsh(K.toarray() if sp.issparse(K) else K)
+    reference = spectrum[:12]
+    modes = frozen.modes(12, accuracy="fast")
+    # eigvalsh is accurate to ~n eps ||K|| absolute (the lowest here is 6e-7, nearly floppy)
+    norm = float(spectrum[-1])
+    np.testing.assert_allclose(modes.omega_squared, reference, rtol=1e-11, atol=K.shape[0] * 2.3e-16 * norm)
+
+
+def test_semidefinite_rounding_only_for_nonnegative_springs() -> None:
+    system = _lattice(200)
+    B, w = system.spring_factor()  # type: ignore[misc]
+    bound = semidefinite_rounding((B, w), 10.0)
+    assert bound is not None and 0 < bound < 1e4 * np.finfo(float).eps * 10.0
+    assert semidefinite_rounding((B, -w), 10.0) is None
+    assert semidefinite_rounding(None, 10.0) is None
+
+
+def test_shift_known_below_skips_inertia_but_stays_correct() -> None:
+    K = sp.csr_matrix(_lattice(1100).hessian())
+    norm = float(abs(K).sum(axis=1).max())
+    sigma, factor = lowest_shift(K, rounding=1e-3 * 1e4 * np.finfo(float).eps * norm)
+    assert factor.below_spectrum and sigma < 0
+    values, _ = shift_invert(K, 10, sigma, factor)
+    np.testing.assert_allclose(values[6:], np.linalg.eigvalsh(K.toarray())[6:10], rtol=1e-12)
+
+
+def test_sparse_path_band_still_served() -> None:
+    K = sp.csr_matrix(_lattice(400).hessian())
+    reference = np.linalg.eigvalsh(K.toarray())
+    low, high = np.sqrt(reference[20]) * 0.999, np.sqrt(reference[24]) * 1.001
+    result = sparse_path(K, n_modes=None, vectors=False, band=(low, high))
+    np.testing.assert_allclose(result.eigenvalues, reference[(reference >= low**2) & (reference <= high**2)],
+                               rtol=1e-12)
