@@ -56,6 +56,16 @@ class Modes:
         The solver path that ran (see `vibra.solvers`).
     units : UnitSystem
         Units of omega and of the shapes.
+    refined : (n_modes,) bool ndarray or None
+        True where the mode's frequency comes from the accurate machinery (Rayleigh-Ritz in
+        spring space, a relative-accuracy SVD) because the fast solve's own bound could not
+        vouch for it (on ``accurate-checked``: omega^2 below ~n eps ||K~|| / 1e-10; after
+        ``accurate-jacobi``, or on the paths that never keep a fast value, every mode); False
+        where the fast value was kept. None on the standard paths (no such notion).
+    refinement : str or None
+        One line saying which modes were refined and why, e.g. ``"6 of 1500 modes below that
+        bound's reach refined by spring-space Rayleigh-Ritz (6 zero within rounding); 1494
+        kept from the dense solve, ..."``; None where `refined` is None.
     """
 
     omega: NDArray[np.float64]
@@ -67,9 +77,39 @@ class Modes:
     orthogonality: float
     solver: str
     units: UnitSystem = DIMENSIONLESS
+    refined: NDArray[np.bool_] | None = None
+    refinement: str | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickling: the fields, then read-only arrays again (pickle skips __post_init__)."""
+        self.__dict__.update(state)
+        freeze_arrays(self)
+
+    def summary(self) -> str:
+        """A few lines: how many modes, the omega range, the path, its accuracy and refinement.
+
+        Examples
+        --------
+        >>> import numpy as np, vibra
+        >>> K = np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+        >>> print(vibra.normal_modes(K, [1.0, 1.0, 1.0], vectors=False).summary().splitlines()[0])
+        3 modes of 3 dofs by the dense path
+        """
+        lines = [f"{self.n_modes} modes of {self.n_dof} dofs by the {self.solver} path"]
+        if self.n_modes:
+            nonzero = np.abs(self.omega) > self.omega_error
+            relative = self.omega_error[nonzero] / np.abs(self.omega[nonzero])
+            lines.append(f"omega {float(self.omega[0]):.6g} .. {float(self.omega[-1]):.6g} ({self.units.name}); "
+                         f"largest omega_error / |omega| {float(relative.max(initial=0.0)):.1e}"
+                         f" ({int((~nonzero).sum())} within their bound of zero)")
+        if self.vectors is not None:
+            lines.append(f"residual {self.residual:.1e}, orthogonality {self.orthogonality:.1e}")
+        if self.refined is not None:
+            lines.append(f"refined: {int(self.refined.sum())} of {self.n_modes}: {self.refinement}")
+        return "\n".join(lines)
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -401,7 +441,7 @@ def _modes_from(result: solvers.SolveResult, K_matrix: Any, mass: NDArray[np.flo
         return Modes(
             omega=omega, vectors=result.vectors, shapes=shapes, mass=mass.copy(), omega_error=omega_error,
             residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
-            units=unit,
+            units=unit, refined=result.refined, refinement=result.refinement,
         )
 
 

@@ -19,12 +19,13 @@
                    - a chain (the springs form a path): dqds on the Golub-Kahan bidiagonal;
                    - few modes of a large system: sparse shift-invert vectors, then a
                      Rayleigh-Ritz step in spring space (H = (B~V)^T (B~V), O(N k));
-                   - all modes of a large non-path system: Rayleigh quotients ||B~ v||^2 of
-                     the fast path's vectors (accurate-rayleigh);
-                   - any other small system: the fast dense solve, a Rayleigh-Ritz step in
+                   - any other small system: the fast dense solve, certified by its a-priori
+                     bound where that reaches 1e-10 relative; below, a Rayleigh-Ritz step in
                      spring space and a Kato-Temple bound per mode (accurate-checked); the
                      one-sided Jacobi SVD (LAPACK gejsv) of B~ only when a requested mode's
-                     bound misses 1e-10 relative (accurate-jacobi).
+                     bound misses 1e-10 relative (accurate-jacobi);
+                   - all modes of a large non-path system: the same without the Jacobi
+                     fallback (accurate-rayleigh).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and

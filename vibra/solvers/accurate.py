@@ -6,13 +6,19 @@ accuracy where the structure allows (`accurate_path` chooses):
 - ``accurate-bidiagonal``: the springs form a path (a chain); see `vibra.solvers.bidiagonal`;
 - ``accurate-ritz``: a few modes of a large system: shift-invert vectors, then Rayleigh-Ritz
   in spring space (H = (B~V)^T (B~V), O(N k));
-- ``accurate-rayleigh``: all modes of a large (n > DENSE_LIMIT) non-path system: dense
-  vectors, then per-vector Rayleigh quotients ||B~ v||^2;
 - ``accurate-checked`` / ``accurate-jacobi``: any other system (n <= DENSE_LIMIT): the fast
-  dense solve first, spring-space Rayleigh-Ritz on each cluster of its vectors and a
-  gap-based (Kato-Temple) bound per mode (`checked_dense`); only when some requested mode's
-  bound misses `TARGET` relative does one-sided Jacobi SVD (LAPACK gejsv) of B~ run
-  (``accurate-jacobi``; ``accurate-checked`` when the fast result passed).
+  dense solve first (for values only: the tridiagonal reduction and its values), which the
+  a-priori bound n eps ||K~|| certifies to `TARGET` relative for every omega^2 above
+  ~n eps ||K~|| / TARGET; the modes below that (and their clusters) get vectors, spring-space
+  Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound each (`checked_dense`); only
+  when some requested mode's bound still misses `TARGET` does one-sided Jacobi SVD (LAPACK
+  gejsv) of B~ run (``accurate-jacobi``; ``accurate-checked`` when the checked result passed);
+- ``accurate-rayleigh``: all modes of a large (n > DENSE_LIMIT) non-path system: the same
+  checked dense solve without the Jacobi fallback (or, for a large ring, Rayleigh quotients
+  ||B~ v||^2 of the banded solver's vectors).
+
+Every path fills `SolveResult.refined` (which modes' values come from the accurate machinery)
+and `refinement` (how many, and why).
 """
 
 from __future__ import annotations
@@ -29,7 +35,7 @@ from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil,
 )
 from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
-from vibra.solvers.standard import banded_path, dense_path
+from vibra.solvers.standard import DENSE_FLOOR, banded_path
 
 #: Relative accuracy of omega^2 that `checked_dense` asks of each requested mode before it
 #: accepts the fast solve's result for it (omega then to ~TARGET / 2).
@@ -37,6 +43,13 @@ TARGET = 1e-10
 
 #: Columns per block in `checked_dense`'s bounds (memory n_terms x BLOCK).
 BLOCK = 128
+
+#: Up to this many dofs `checked_dense` computes every vector even for values only (a few ms
+#: at 256), so that every mode's bound comes from its residual and follows the true error;
+#: above it, values only keep the a-priori bound n eps ||K~|| for the modes it certifies
+#: (within TARGET, but up to ~n times the true error): vectors for all would cost ~3.5 times
+#: the values (eigh against eigvalsh, n = 1500).
+POSTERIORI_LIMIT = 256
 
 
 def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
@@ -73,25 +86,40 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     path = path_bidiagonals(weighted) if mass.ndim == 1 and not few else None
     if path is not None:
-        return bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage)
+        chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage)
+        return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
     if ordering is not None and not few and n > DENSE_LIMIT:
         ring = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
         if ring.vectors is None:
             return ring
-        return _spring_rayleigh(weighted, ring.vectors, vectors=vectors)
+        return relative_account(_spring_rayleigh(weighted, ring.vectors, vectors=vectors),
+                                "as spring-space Rayleigh quotients ||B~ v||^2 of the banded solver's vectors")
     if few and band is None:
         k = int(n_modes)  # type: ignore[arg-type]
         rounding = semidefinite_rounding(factor, float(abs(sp.csr_matrix(Kt)).sum(axis=1).max()))
         sigma, shifted = lowest_shift(sp.csr_matrix(Kt), rounding=rounding)
         _, basis = shift_invert(sp.csr_matrix(Kt), min(k + 1, n - 2), sigma, shifted)  # one more: the gap
-        return _checked_ritz(weighted, basis, k, vectors=vectors)
+        return relative_account(_checked_ritz(weighted, basis, k, vectors=vectors),
+                                f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
     if few:
         standard = sparse_path(Kt, n_modes=None, vectors=True, band=band)
-        return _spring_ritz(weighted, standard.vectors, vectors=vectors)  # type: ignore[arg-type]
-    if n > DENSE_LIMIT:
-        standard = dense_path(Kt, n_modes=None, vectors=True, band=band)
-        return _spring_rayleigh(weighted, standard.vectors, vectors=vectors)  # type: ignore[arg-type]
-    return checked_dense(Kt, weighted, n_modes=n_modes, vectors=vectors, band=band)
+        return relative_account(_spring_ritz(weighted, standard.vectors, vectors=vectors),  # type: ignore[arg-type]
+                                "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
+    return checked_dense(weighted, n_modes=n_modes, vectors=vectors, band=band, jacobi=n <= DENSE_LIMIT)
+
+
+def relative_account(result: SolveResult, how: str) -> SolveResult:
+    """Fill `refined` (every mode) and `refinement` ("all k modes <how>, ...") of a path whose
+    every value comes from the spring factor, with no fast value kept; unless already filled."""
+    if result.refined is None:
+        k = result.eigenvalues.shape[0]
+        result.refined = np.ones(k, dtype=bool)
+        magnitude = np.abs(result.eigenvalues)
+        finite = magnitude > result.error  # zero modes (bound above the value) left out
+        worst = (f", error/omega^2 up to {float(np.max(result.error[finite] / magnitude[finite])):.1g}"
+                 if finite.any() else "")
+        result.refinement = f"all {k} modes {how}{worst}"
+    return result
 
 
 def _weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> Any:
@@ -190,57 +218,224 @@ def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band:
 
 
 
-def checked_dense(Kt: Any, weighted: Any, *, n_modes: int | None, vectors: bool,
-                  band: tuple[float, float] | None) -> SolveResult:
-    """The fast dense solve, checked mode by mode; Jacobi only for the modes that need it.
+def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+                  jacobi: bool = True) -> SolveResult:
+    """The fast dense solve, checked mode by mode; refinement only for the modes that need it.
 
-    1. LAPACK eigh on K~ (one mode beyond a requested subset, for the gap), absolute error
-       <= `delta` = n eps ||K~|| per eigenvalue (backward stable).
-    2. The eigenvalues are grouped into clusters (closer than 2 delta + TARGET |value|); on each
-       cluster's vectors, Rayleigh-Ritz in spring space: H = (B~V)^T (B~V), whose small
-       eigenvalues keep their relative accuracy.
+    1. K~ = B~^T B~ formed from the spring factor, then one dense solve of it: LAPACK eigh when
+       vectors are asked (one mode beyond a requested subset, for the gap); for values only,
+       the Householder reduction to a tridiagonal T (sytrd) and T's values (sterf / stebz), as
+       the fast path does. Each value is then within the a-priori bound `delta` =
+       (n + DENSE_FLOOR) eps ||K~|| + gamma_t || |B~|^T |B~| || (backward stable solve, and
+       the rounding of forming K~ in sums of t terms), ||.|| the largest absolute row sum.
+    2. A mode with lambda - delta >= delta / TARGET is certified by that bound alone (its
+       relative error is <= TARGET): it keeps the fast value. Only the lowest modes, those
+       below the threshold, and the rest of their cluster (values closer than 2 delta +
+       TARGET |value|) are refined: their vectors (for values only: MRRR on T for that subset,
+       stemr, and the reduction's reflectors applied to them, ormqr), then Rayleigh-Ritz in
+       spring space per cluster, H = (B~V)^T (B~V), whose small eigenvalues keep their
+       relative accuracy.
     3. Per cluster, the quadratic residual bound |lambda_i - theta_i| <= ||R||_F^2 / gap (Kato-
        Temple for one vector), gap from the cluster's Ritz values to the neighbouring eigenvalues
        (each moved by delta towards it); ||R||_F with a margin for its own rounding. A cluster
-       with no valid gap is bounded by ||R||_F (Weyl).
+       with no valid gap is bounded by ||R||_F (Weyl). With vectors, the certified modes get
+       the same a-posteriori bound too (|lambda - theta| plus theta's bound, when below
+       delta): it follows the true error, where the a-priori bound can be ~n times above it.
     4. If a requested mode's bound exceeds TARGET theta, and it is not a zero mode within rounding
        (theta + bound <= (t n eps)^2 ||K~||, t the most terms in a row or column of B~: omega
        below ~1e-11 of the largest, where B~'s own rounding leaves no relative digit), the
        result is gejsv's on B~ (``accurate-jacobi``); else the checked fast result
-       (``accurate-checked``), its bounds as `error`.
+       (``accurate-checked``), its bounds as `error`. `refined` marks the modes whose values
+       come from step 2 (all of them after Jacobi), `refinement` says how many and why.
+
+    `jacobi` False (all modes of a system over DENSE_LIMIT dofs, where gejsv on the
+    n_terms x n B~ would cost many times the dense solve): no step 4, the bounds stand as
+    they are, and the path is ``accurate-rayleigh`` (its single-mode clusters are Rayleigh
+    quotients ||B~ v||^2).
     """
-    dense = Kt.toarray() if sp.issparse(Kt) else np.asarray(Kt)
-    n = dense.shape[0]
     B = sp.csr_matrix(weighted)
-    subset = n_modes is not None and n_modes < n
-    kwargs: dict[str, Any] = {"check_finite": False}
-    if subset:
-        kwargs["subset_by_index"] = (0, int(n_modes))  # type: ignore[arg-type]  # one beyond, for the gap
-    values, basis = la.eigh(dense, **kwargs)
-    norm = max(float(np.abs(np.diag(dense)).max(initial=0.0)), float(np.abs(values).max(initial=0.0)), 1e-300)
-    delta = n * EPS * norm
+    n = B.shape[1]
     terms = _most_terms(B)
-    theta, basis, error = _cluster_bounds(B, values, basis, delta, terms, complete=not subset)
-    keep = np.zeros(theta.shape[0], dtype=bool)
-    keep[selected(np.sqrt(np.maximum(theta, 0.0)), n_modes=n_modes, band=band)] = True
-    zero = theta + error <= (terms * n * EPS) ** 2 * norm
-    refine = keep & (error > TARGET * np.abs(theta)) & ~zero
-    solver = "accurate-checked"
-    if refine.any():
+    dense, delta, norm = _spring_gram(B, terms)
+    subset = n_modes is not None and n_modes < n
+    last = min(int(n_modes), n - 1) if subset else n - 1  # type: ignore[arg-type]  # one beyond, for the gap
+    reduced: tuple[Any, ...] | None = None
+    posteriori = vectors or n <= POSTERIORI_LIMIT  # every vector, so every bound from residuals
+    if posteriori:
+        kwargs: dict[str, Any] = {"check_finite": False, "overwrite_a": True}
+        if subset:
+            kwargs["subset_by_index"] = (0, last)
+        values, basis = la.eigh(dense, **kwargs)
+    else:
+        values, reduced = _tridiagonal_values(dense, last if subset else None)
+    k = values.shape[0]
+    keep = np.zeros(k, dtype=bool)
+    keep[selected(np.sqrt(np.maximum(values, 0.0)), n_modes=n_modes, band=band)] = True
+    threshold = delta * (1.0 + 1.0 / TARGET)  # lambda >= threshold: delta <= TARGET (lambda - delta)
+    low = _cluster_end(values, delta, keep & (values < threshold))  # modes [0, low) are refined
+    error = np.full(k, delta)
+    if posteriori:
+        theta, ritz, bound = _cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low)
+        # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
+        error = np.minimum(delta, np.abs(values - theta) + bound)
+        values, error = values.copy(), error.copy()
+        values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
+    elif low:
+        count = min(low + 1, k)  # one beyond, for the gap
+        basis = _tridiagonal_vectors(reduced, count)  # type: ignore[arg-type]
+        theta, ritz, bound = _cluster_bounds(B, values[:count], basis, delta, terms, complete=count == n)
+        values = values.copy()
+        values[:low], error[:low] = theta[:low], bound[:low]
+    refined = np.arange(k) < low
+    zero = values + error <= (terms * n * EPS) ** 2 * norm
+    missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
+    solver = "accurate-checked" if jacobi else "accurate-rayleigh"
+    text = _checked_text(values[keep], error[keep], refined[keep], zero[keep], posteriori=posteriori)
+    if missed.any() and not jacobi:
+        with np.errstate(divide="ignore"):
+            worst = float(np.max(error[missed] / np.abs(values[missed])))
+        text += (f"; {int(missed.sum())} of them miss {TARGET:g} relative (error/omega^2 up to {worst:.1g}), "
+                 f"no Jacobi SVD above {DENSE_LIMIT} dofs")
+    elif missed.any():
         # One-sided Jacobi on B~ (gejsv reduces the tall B~ by a pivoted QR first). Its vectors
         # are taken for every mode (mixing them with the fast vectors would cost orthogonality)
         # and checked the same way: its own estimate (eps times a condition number it cannot
         # see) is not a bound, a ring's 1e12 springs beat it by 1e4.
-        exact = _accurate_jacobi(weighted, n_modes=None, vectors=True, band=None)
-        theta, basis, error = _cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
-                                              delta, terms, complete=True, precise=True)
-        keep = np.zeros(theta.shape[0], dtype=bool)
-        keep[selected(np.sqrt(np.maximum(theta, 0.0)), n_modes=n_modes, band=band)] = True
+        with np.errstate(divide="ignore"):  # (a value of 0 with a bound above rounding: inf)
+            worst = float(np.max(error[missed] / np.abs(values[missed])))
+        text = (f"{int(missed.sum())} of {int(keep.sum())} modes missed {TARGET:g} relative after "
+                f"spring-space Rayleigh-Ritz (error/omega^2 up to {worst:.1g}): one-sided Jacobi SVD "
+                "(gejsv) of B~ on all")
+        exact = _accurate_jacobi(B, n_modes=None, vectors=True, band=None)
+        # Jacobi's values are relatively accurate: their neighbours' places (for the gaps and
+        # the clusters) from each vector's own residual, not from the dense solve's delta,
+        # which would merge every omega^2 below it into one cluster with no gap.
+        located = np.minimum(delta, 2 * _residual_bounds(B, exact.eigenvalues, exact.vectors, terms))  # type: ignore[arg-type]
+        values, basis, error = _cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
+                                               located, terms, complete=True, precise=True)
+        keep = np.zeros(values.shape[0], dtype=bool)
+        keep[selected(np.sqrt(np.maximum(values, 0.0)), n_modes=n_modes, band=band)] = True
+        refined = np.ones(values.shape[0], dtype=bool)
         solver = "accurate-jacobi"
-    theta, basis, error = theta[keep], basis[:, keep], error[keep]
-    result = _spring_figures(B, theta, basis, vectors, solver)
-    result.error = error
+    order = np.flatnonzero(keep)
+    order = order[np.argsort(values[order], kind="stable")]  # a refined value may cross its neighbour
+    values, error, refined = values[order], error[order], refined[order]
+    if vectors:
+        result = _spring_figures(B, values, basis[:, order], True, solver)
+        result.error = error
+    else:
+        result = SolveResult(values, None, error, float("nan"), float("nan"), solver)
+    result.refined, result.refinement = refined, text
     return result
+
+
+def _residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], terms: float
+                     ) -> NDArray[np.float64]:
+    """||B~^T B~ v - theta v|| per column, in extended precision, plus the margin for its own
+    rounding (2 t eps_ext || |B~|^T |B~| |v| ||): each column has an eigenvalue within it of
+    theta (for unit v), in blocks of BLOCK columns."""
+    unit = float(np.finfo(np.longdouble).eps)
+    precise = B.astype(np.longdouble)
+    absolute = abs(B)
+    bounds = np.empty(values.shape[0])
+    for start in range(0, values.shape[0], BLOCK):
+        V = basis[:, start:start + BLOCK]
+        product = np.asarray(precise.T @ (precise @ V.astype(np.longdouble)))
+        residual = np.linalg.norm((product - V * values[start:start + BLOCK]).astype(float), axis=0)
+        margin = 2 * terms * unit * np.linalg.norm(np.asarray(absolute.T @ (absolute @ np.abs(V))), axis=0)
+        bounds[start:start + BLOCK] = (residual + margin) / np.linalg.norm(V, axis=0) ** 2
+    return bounds
+
+
+def _spring_gram(B: sp.csr_matrix, terms: float) -> tuple[NDArray[np.float64], float, float]:
+    """K~ = B~^T B~ dense (Fortran order, for LAPACK), the a-priori bound `delta` of a backward
+    stable solve of it (see checked_dense) and the upper bound ||K~|| it uses.
+
+    ||K~||_2 <= || |B~|^T |B~| ||_2 <= the largest row sum of |B~|^T |B~| (sparse, O(nnz)); each
+    entry of K~ is a sum of at most t products, formed within gamma_t of that absolute sum.
+    """
+    n = B.shape[1]
+    absolute = abs(B)
+    norm = max(float(np.asarray((absolute.T @ absolute).sum(axis=1)).max(initial=0.0)), 1e-300)
+    gamma = terms * EPS / (1.0 - terms * EPS)
+    delta = ((n + DENSE_FLOOR) * EPS * (1.0 + gamma) + gamma) * norm
+    return np.asfortranarray((B.T @ B).toarray()), delta, norm
+
+
+def _tridiagonal_values(dense: NDArray[np.float64], last: int | None) -> tuple[NDArray[np.float64], tuple[Any, ...]]:
+    """Eigenvalues 0..last (all when None) of the dense K~ via its reduction to a tridiagonal T
+    (LAPACK sytrd, in place), T's values by sterf (all) or stebz (a subset); and the reduction
+    (reflectors, tau, T's diagonals) for `_tridiagonal_vectors`."""
+    n = dense.shape[0]
+    sytrd, sytrd_lwork = la.get_lapack_funcs(("sytrd", "sytrd_lwork"), (dense,))
+    lwork, info = sytrd_lwork(n, lower=1)
+    reflectors, diagonal, off, tau, info = sytrd(dense, lower=1, lwork=int(lwork), overwrite_a=1)
+    if info != 0:
+        raise RuntimeError(f"LAPACK sytrd failed with info={info}")
+    if last is None:
+        values, info = la.get_lapack_funcs("sterf", (dense,))(diagonal, off)
+    else:
+        count, values, _, _, info = la.get_lapack_funcs("stebz", (dense,))(diagonal, off, 3, 0.0, 0.0, 1, last + 1,
+                                                                           0.0, "E")
+        values = values[:count]
+    if info != 0:
+        raise RuntimeError(f"LAPACK sterf/stebz failed with info={info}")
+    return np.sort(values), (reflectors, tau, diagonal, off)
+
+
+def _tridiagonal_vectors(reduced: tuple[Any, ...], count: int) -> NDArray[np.float64]:
+    """(n, count) eigenvectors of K~ for its `count` lowest values: MRRR on T (stemr) for that
+    subset (inverse iteration, stebz + stein, where MRRR fails), then the reduction's Householder reflectors applied to them (what LAPACK's ormtr
+    does for a lower reduction: ormqr on the reflectors below the subdiagonal), O(n^2 count)."""
+    reflectors, tau, diagonal, off = reduced
+    n = diagonal.shape[0]
+    tridiagonal = None
+    for driver in ("stemr", "stebz"):  # MRRR; where it fails (large tight clusters), inverse iteration
+        try:
+            _, tridiagonal = la.eigh_tridiagonal(diagonal, off, select="i", select_range=(0, count - 1),
+                                                 check_finite=False, lapack_driver=driver)
+            break
+        except np.linalg.LinAlgError:
+            continue
+    if tridiagonal is None:  # every vector of T by divide and conquer (stevd), the lowest kept
+        tridiagonal = la.eigh_tridiagonal(diagonal, off, check_finite=False, lapack_driver="stevd")[1][:, :count]
+    if n == 1:
+        return np.asarray(tridiagonal)
+    ormqr = la.get_lapack_funcs("ormqr", (reflectors,))
+    below = np.asfortranarray(reflectors[1:, : n - 1])
+    lower = np.asfortranarray(tridiagonal[1:])
+    work = ormqr("L", "N", below, tau, lower, -1)[1]
+    product, _, info = ormqr("L", "N", below, tau, lower, int(work[0]), overwrite_c=1)
+    if info != 0:
+        raise RuntimeError(f"LAPACK ormqr failed with info={info}")
+    return np.vstack([tridiagonal[:1], product])
+
+
+def _cluster_end(values: NDArray[np.float64], delta: float, needed: NDArray[np.bool_]) -> int:
+    """The end of the cluster (values closer than 2 delta + TARGET |value|, as `_cluster_bounds`
+    groups them) that holds the last `needed` mode; 0 when none is needed."""
+    if not needed.any():
+        return 0
+    breaks = np.flatnonzero(np.diff(values) > 2 * delta + TARGET * np.abs(values[1:]))
+    last = int(np.flatnonzero(needed)[-1])
+    after = breaks[breaks >= last]
+    return int(after[0]) + 1 if after.size else values.shape[0]
+
+
+def _checked_text(values: NDArray[np.float64], error: NDArray[np.float64], refined: NDArray[np.bool_],
+                  zero: NDArray[np.bool_], *, posteriori: bool) -> str:
+    """`refinement` of an accurate-checked result (the requested modes only)."""
+    k, count = values.shape[0], int(refined.sum())
+    kept = (f"{k - count} kept from the dense solve, certified by its a-priori bound n eps ||K~|| <= "
+            f"{TARGET:g} omega^2" + (" (bounds from their residuals)" if posteriori else ""))
+    if not count:
+        return f"all {k} modes " + kept[len(f"{k} "):]
+    with np.errstate(divide="ignore"):
+        relative = error[refined & ~zero] / np.abs(values[refined & ~zero])
+    worst = f", error/omega^2 up to {float(relative.max()):.1g}" if relative.size else ""
+    zeros = int((refined & zero).sum())
+    return (f"{count} of {k} modes below that bound's reach refined by spring-space Rayleigh-Ritz"
+            f"{worst}" + (f" ({zeros} zero within rounding)" if zeros else "") + f"; {kept}")
 
 
 def _most_terms(B: sp.csr_matrix) -> float:
@@ -249,10 +444,12 @@ def _most_terms(B: sp.csr_matrix) -> float:
 
 
 def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
-                    terms: float, *, complete: bool, precise: bool = False) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+                    terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see checked_dense).
 
     Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
+    The rounding of B~^T (B~ V) is bounded by 2 t unit || |B~|^T |B~| |v| || per column.
     `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
     times smaller; the bound, quadratic in the residual, then stays near the true error where
     stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
@@ -261,12 +458,19 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
     if precise:
         B = B.astype(np.longdouble)
     k = values.shape[0]
+    cheap_from = k if cheap_from is None else cheap_from
     delta = np.broadcast_to(np.asarray(delta, dtype=float), values.shape)  # each value's absolute error
     breaks = np.flatnonzero(np.diff(values) > delta[:-1] + delta[1:] + TARGET * np.abs(values[1:]))
     starts, stops = np.r_[0, breaks + 1], np.r_[breaks + 1, k]
     theta, error = np.empty(k), np.empty(k)
     vectors = np.empty_like(basis)
+    B_T = B.T.tocsr()  # (a row-major product: faster than the transposed view)
     A = abs(B)
+    A_T = A.T.tocsr()
+    # from column `cheap_from` on: || |B~|^T |B~| |v| || <= || |B~|^T |B~| ||_2 ||v||, that norm
+    # <= its largest row sum (non-negative, symmetric): no products per block, and a margin
+    # that only matters where omega^2 is far below ||K~|| (the columns before cheap_from)
+    reach = float(np.asarray((A_T @ A).sum(axis=1)).max(initial=0.0)) if cheap_from < k else 0.0
     first = 0
     while first < len(starts):
         last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
@@ -274,10 +478,10 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
         columns = slice(int(starts[first]), int(stops[last - 1]))
         V = basis[:, columns].astype(B.dtype)
         E = np.asarray(B @ V)
-        w = np.empty(V.shape[1])
+        # single-mode clusters: Rayleigh quotients ||B~ v||^2 / ||v||^2, all at once
+        w = (np.einsum("ij,ij->j", E, E) / np.einsum("ij,ij->j", V, V)).astype(float)
         for start, stop in zip(starts[first:last] - columns.start, stops[first:last] - columns.start):
             if stop - start == 1:
-                w[start] = float((E[:, start] @ E[:, start]) / (V[:, start] @ V[:, start]))
                 continue
             part, rotation = small_pencil((E[:, start:stop].T @ E[:, start:stop]).astype(float),
                                           (V[:, start:stop].T @ V[:, start:stop]).astype(float))
@@ -285,9 +489,12 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
             V[:, start:stop] = V[:, start:stop] @ rotation
             E[:, start:stop] = E[:, start:stop] @ rotation
         w = np.maximum(w, 0.0)  # H is a Gram matrix
-        squares = np.sum((np.asarray(B.T @ E) - V * w) ** 2, axis=0)
+        squares = np.sum((np.asarray(B_T @ E) - V * w) ** 2, axis=0)
         # rounding of B~^T (B~ V) (sums of <= `terms` products)
-        margins = 2 * terms * unit * np.linalg.norm(np.asarray(A.T @ (A @ np.abs(V))), axis=0).astype(float)
+        if columns.start >= cheap_from:
+            margins = 2 * terms * unit * reach * np.linalg.norm(V, axis=0).astype(float)
+        else:
+            margins = 2 * terms * unit * np.linalg.norm(np.asarray(A_T @ (A @ np.abs(V))), axis=0).astype(float)
         vectors[:, columns], theta[columns] = V, w
         for start, stop in zip(starts[first:last], stops[first:last]):
             local = slice(start - columns.start, stop - columns.start)
@@ -296,6 +503,8 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
             upper = values[stop] - delta[stop] if stop < k else (np.inf if complete else -np.inf)
             gap = min(float(w[local].min()) - lower, upper - float(w[local].max()))
             bound = residual**2 / gap if gap > residual else residual
-            error[start:stop] = bound + (2 * terms * unit + EPS) * w[local]
+            # (+ the c x c pencil's own rounding, c eps ||H||, for a cluster of c > 1 modes)
+            pencil = (stop - start) * EPS * float(w[local].max()) if stop - start > 1 else 0.0
+            error[start:stop] = bound + (2 * terms * unit + EPS) * w[local] + pencil
         first = last
     return theta, vectors, error

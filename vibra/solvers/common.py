@@ -45,6 +45,10 @@ class SolveResult:
 
     eigenvalues : (k,) ascending omega^2; vectors : (n, k) mass-weighted or None;
     error : (k,) absolute error estimate of each eigenvalue; residual, orthogonality: floats.
+    refined : (k,) bool or None: True where the value comes from the accurate machinery (spring-
+    space Rayleigh-Ritz, a relative-accuracy SVD) rather than from a fast solve kept as it is;
+    None on the paths with no such notion (the standard ones). refinement : a one-line account
+    of what was refined and why, or None likewise (`vibra.modes.Modes.refined`).
     """
 
     eigenvalues: NDArray[np.float64]
@@ -53,6 +57,8 @@ class SolveResult:
     residual: float
     orthogonality: float
     solver: str
+    refined: NDArray[np.bool_] | None = None
+    refinement: str | None = None
 
 
 def check_spring_factor(factor: Any, n_dof: int) -> tuple[sp.csr_matrix, NDArray[np.float64]]:

@@ -8,7 +8,7 @@ from numpy.typing import NDArray
 
 from dataclasses import dataclass
 
-from vibra.solvers.accurate import accurate_path, accurate_subpath
+from vibra.solvers.accurate import accurate_path, accurate_subpath, relative_account
 from vibra.solvers.budget import (
     Estimate, Progress, ProgressCallback, describe_bytes, describe_seconds, estimate, guard,
 )
@@ -215,7 +215,7 @@ def solve(
         result = lowest_chain_modes(Kt, K, mass, spring_factor, n_modes=int(n_modes or 0), vectors=vectors,
                                     scale=2.0**-exponent if exponent else 1.0)
     if result is not None:
-        pass
+        result = relative_account(result, "by bisection on the chain's bidiagonal spring factor")
     elif solver == "accurate":
         assert spring_factor is not None
         result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
