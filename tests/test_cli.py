@@ -168,7 +168,7 @@ EXPECTED = {
     "h2o": ["mode6", "mode7", "mode8", "spectrum"],
     "ch4": ["mode6", "mode9", "mode11", "mode12", "spectrum"],  # T2 x3, E x2, A1, T2 x3: one image per set
     "d2o": ["mode6", "mode7", "mode8", "spectrum"],
-    "charged-particle": ["orbits"],
+    "charged-particle": ["orbits", "response"],
     "ubiquitin-anm": ["modes", "spectrum", "bfactors"],
 }
 #: The folders the README's first command renders.
