@@ -16,7 +16,9 @@ the Rayleigh-Ritz step in K~ does not see.
 
 from __future__ import annotations
 
+import glob
 import os
+import sys
 from typing import Any
 
 import numpy as np
@@ -43,6 +45,10 @@ def pardiso_available() -> bool:
         try:
             import pypardiso
 
+            if "PYPARDISO_MKL_RT" not in os.environ:  # the mkl wheel's place: no recursive search
+                found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.so*")), key=len)
+                if found:
+                    os.environ["PYPARDISO_MKL_RT"] = found[0]
             solver = pypardiso.PyPardisoSolver(mtype=2)  # loads mkl_rt, or raises ImportError
             # pypardiso searches sys.prefix for mkl_rt on every construction (~1 s in a large
             # environment) unless PYPARDISO_MKL_RT names it: name the one it found
