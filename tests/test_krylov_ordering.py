@@ -229,3 +229,23 @@ def test_backend_setting_is_checked(monkeypatch: pytest.MonkeyPatch) -> None:
         ShiftedInverse(K, -1e-9)
     monkeypatch.setattr(pardiso, "BACKEND", "auto")
     assert ShiftedInverse(K, -1e-9).backend == "superlu"  # auto without PARDISO: SuperLU
+
+
+def test_cheap_factor_keeps_arpack_and_its_small_basis(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A chain's factor (pttrf, 2 entries a row) runs ARPACK: the block basis (~200 columns of
+    10^6 entries each) would cost more than its solves save; a 3-D factor runs the block Krylov."""
+    from vibra.chains import linear_chain
+    from vibra.solvers import sparse
+
+    calls: list[str] = []
+    monkeypatch.setattr(sparse, "block_eigs", lambda *a, **k: calls.append("block") or krylov.block_eigs(*a, **k))
+    chain = linear_chain(3000, ends="fixed")
+    omega = chain.modes(n_modes=5, accuracy="fast").omega
+    exact = 2.0 * np.sin(np.arange(1, 6) * np.pi / (2 * 3001))  # fixed ends, unit masses and springs
+    np.testing.assert_allclose(omega, exact, rtol=1e-11)
+    assert calls == []
+    K = sp.csr_matrix(_lattice(1200).hessian())
+    factor = ShiftedInverse(K, -1e-12 * float(abs(K).sum(axis=1).max()))
+    assert factor.fill >= sparse.BLOCK_FILL
+    shift_invert(K, 10, -1e-12 * float(abs(K).sum(axis=1).max()), factor)
+    assert calls

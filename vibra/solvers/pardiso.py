@@ -92,6 +92,7 @@ class PardisoCholesky:
             raise ValueError(f"not positive definite (PARDISO: {error})") from None
         # PARDISO filled in its defaults (iparm(1) = 1 now): only now is a setting of ours kept
         self._solver.set_iparm(8, REFINEMENT)
+        self.factor_entries = int(self._solver.get_iparm(18))  # nonzeros in the factor
 
     def solve(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """A^-1 x for a vector or a block of columns."""

@@ -84,6 +84,15 @@ class ShiftedInverse:
                 pass
         self._lu = sla.splu(shifted, permc_spec=ordering)
 
+    @property
+    def fill(self) -> float:
+        """Factor entries one solve reads per row (L and U, or L twice): its cost in units of n."""
+        if self._pt is not None:
+            return 2.0
+        if self._cholesky is not None:
+            return 2.0 * self._cholesky.factor_entries / self.n
+        return float(self._lu.nnz) / self.n
+
     def solve(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """(K~ - sigma I)^-1 x for a vector or a block of columns (one triangular sweep for all)."""
         if self._pt is not None:
@@ -172,19 +181,28 @@ PROBE = 8
 TOLERANCE = 1e-13
 
 
+#: Factor entries per row from which the block iteration pays: a solve then costs more than
+#: orthogonalising against the whole basis (~4 m n flops per column, m up to ~200 columns);
+#: below it (chains, 2-D meshes) ARPACK's restarted Lanczos keeps the basis small.
+BLOCK_FILL = 400
+
+
 def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse | None = None
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The k lowest eigenpairs of K~, sigma below the spectrum, by shift-invert block Krylov, ascending.
+    """The k lowest eigenpairs of K~, sigma below the spectrum, by shift-invert Krylov, ascending.
 
-    `vibra.solvers.krylov.block_eigs` in blocks of
-    `BLOCK_LOWEST` columns. Zero modes (a free system) dominate (K~ - sigma I)^-1 by
-    ||K~|| / |sigma| ~ 1e12 and would hold every other Ritz pair at ~1e-4 relative: a first run
-    (`PROBE` modes, doubled while all it finds are zero) finds them, and the rest are computed
-    with them deflated, whose dominant value is then 1 / (lambda_1 - sigma). Solves stay
-    accurate once projected (their error lies in the near-null space).
+    Zero modes (a free system) dominate (K~ - sigma I)^-1 by ||K~|| / |sigma| ~ 1e12 and would
+    hold every other Ritz pair at ~1e-4 relative: a first run (`PROBE` modes, doubled while all
+    it finds are zero) finds them, and the rest are computed with them deflated, whose
+    dominant value is then 1 / (lambda_1 - sigma). Solves stay accurate once projected (their
+    error lies in the near-null space). An expensive factor (3-D networks: `fill` >=
+    `BLOCK_FILL`) runs `vibra.solvers.krylov.block_eigs` in blocks of `BLOCK_LOWEST` columns
+    (one triangular sweep serves them all); a cheap one, ARPACK (`_shift_invert_arpack`).
     """
     if factor is None:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
+    if factor.fill < BLOCK_FILL:
+        return _shift_invert_arpack(Kt, k, sigma, factor)
     n = Kt.shape[0]
     scale = float(abs(Kt).sum(axis=1).max())
     threshold = 1.0 / (1e-8 * scale - sigma)  # 1 / (lambda - sigma) of a zero mode (lambda <= 1e-8 ||K~||) is above
@@ -225,10 +243,41 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
 BLOCK_LOWEST = 4
 
 
-def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator
-            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The k eigenpairs of K~ nearest sigma (ARPACK shift-invert), ascending."""
-    start = np.random.default_rng(0).standard_normal(Kt.shape[0])  # reproducible runs
+def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`shift_invert` by ARPACK (one vector at a time, restarted): probe, deflate, rerun."""
+    inverse = factor.operator()
+    scale = float(abs(Kt).sum(axis=1).max())
+    probe = min(k, PROBE)
+    while True:
+        values, basis = _arpack(Kt, probe, sigma, inverse)
+        zero = np.abs(values) <= 1e-8 * scale
+        if not zero.all() or probe == k:
+            break
+        probe = min(2 * probe, k)
+    if zero.all() or (probe == k and not zero.any()):
+        return values, basis
+    if not zero.any():
+        return _arpack(Kt, k, sigma, inverse)
+    Z = np.linalg.qr(basis[:, zero])[0]
+
+    def deflated(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        x = np.asarray(x).reshape(-1)
+        y = inverse.matvec(x - Z @ (Z.T @ x))
+        return y - Z @ (Z.T @ y)
+
+    rest, rest_basis = _arpack(Kt, k - Z.shape[1], sigma, sla.LinearOperator(Kt.shape, matvec=deflated, dtype=float),
+                               deflate=Z)
+    return np.r_[values[zero], rest], np.column_stack([Z, rest_basis])
+
+
+def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator,
+            deflate: NDArray[np.float64] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The k eigenpairs of K~ nearest sigma (ARPACK shift-invert), ascending; the start vector
+    is seeded (reproducible runs) and kept off `deflate`."""
+    start = np.random.default_rng(0).standard_normal(Kt.shape[0])
+    if deflate is not None:
+        start = start - deflate @ (deflate.T @ start)
     values, basis = sla.eigsh(Kt, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=0.0,
                               ncv=min(Kt.shape[0], max(2 * k + 1, 20)), v0=start)
     order = np.argsort(values)
