@@ -24,6 +24,19 @@ from vibra.solvers.rounding import UNIT, Scalings, entry_deviation, kato_temple,
 
 Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
 
+#: Values only: a segment up to this size has every value certified by inverse-iteration
+#: triplets (`inverse_iteration`, O(size) each: O(size^2) in all, a few times dqds' cost);
+#: a longer one keeps the measured size law (`solving_bound`).
+CERTIFY_ALL = 3000
+
+#: Entries per block of modes certified together (size x block doubles per temporary).
+CHUNK = 1 << 21
+
+
+def chunk(size: int) -> int:
+    """Modes per block for a bidiagonal of `size`: CHUNK entries, 1 to 256 modes."""
+    return max(1, min(256, CHUNK // max(size, 1)))
+
 
 def path_bidiagonals(weighted: sp.csr_matrix) -> list[Segment] | None:
     """Split B~ into chains whose springs form a path; None if the spring graph is not one.
@@ -235,6 +248,34 @@ def certify_modes(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray
     return value, compose(solving, forming)
 
 
+def inverse_iteration(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64]
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(u, v) of the upper bidiagonal (d, e) at each sigma: two steps of inverse iteration on the
+    Golub-Kahan form (LAPACK gtsv), unit columns. Not orthogonalised: for the bounds only."""
+    s = d.shape[0]
+    off = np.empty(2 * s - 1)
+    off[0::2] = d
+    off[1::2] = e
+    gtsv = la.get_lapack_funcs("gtsv", dtype=np.float64)
+    start = np.random.default_rng(2024).standard_normal(2 * s)
+    left = np.empty((s, sigma.shape[0]))
+    right = np.empty((s, sigma.shape[0]))
+    for j, value in enumerate(sigma.tolist()):
+        z = start.copy()
+        for _ in range(2):
+            shift = value
+            for _attempt in range(3):
+                _, _, _, solved, info = gtsv(off, np.full(2 * s, -shift), off, z)
+                if info == 0 and np.all(np.isfinite(solved)):
+                    break
+                shift = shift * (1 + 4 * EPS) + np.finfo(float).tiny  # an exact pivot of zero
+            z = solved / np.linalg.norm(solved)
+        right[:, j], left[:, j] = z[0::2], z[1::2]
+    left /= np.maximum(np.linalg.norm(left, axis=0), np.finfo(float).tiny)
+    right /= np.maximum(np.linalg.norm(right, axis=0), np.finfo(float).tiny)
+    return left, right
+
+
 def _segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], factor: Any,
                       mass: NDArray[np.float64] | None) -> list[Scalings]:
     """`segment_scalings` where the spring factor and diagonal masses are known, else the worst case."""
@@ -243,17 +284,48 @@ def _segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], factor: 
     return [Scalings.worst_case(d.shape[0], worst_forming(d, e)) for _, _, d, e, _, _ in segments]
 
 
+def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64],
+                     forming: Scalings, triplets: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """All singular values of (d, e) (ascending, `sigma`) refined and certified by `certify_modes`.
+
+    The triplets' vectors are `triplets` (left, right), or inverse iteration's, in blocks of
+    `chunk(size)`. A zero diagonal entry makes the lowest value exactly zero.
+    """
+    size = d.shape[0]
+    zeros = int((d == 0).any())
+    value = sigma.copy()
+    relative = np.full(size, compose(solving_bound(size), forming.bound()))
+    if zeros:
+        value[0], relative[0] = 0.0, 0.0
+    below, above = neighbour_bounds(sigma, 0, zeros, 4 * solving_bound(size))
+    step = chunk(size)
+    for start in range(zeros, size, step):
+        block = slice(start, min(start + step, size))
+        if triplets is not None:
+            left, right = triplets[0][:, block], triplets[1][:, block]
+        else:
+            left, right = inverse_iteration(d, e, sigma[block])
+        value[block], relative[block] = certify_modes(d, e, sigma[block], left, right, below[block],
+                                                      above[block], forming)
+    return value, relative
+
+
 def _path_values(segments: list[Segment], scalings: list[Scalings]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(omega ascending, relative error bound) of all path segments by dqds."""
+    """(omega ascending, relative error bound) of all path segments by dqds, certified up to CERTIFY_ALL."""
     omegas = []
     bounds = []
     for (_, _, d, e, keep, _), forming in zip(segments, scalings):
         sigma = bidiagonal_singular_values(d, e)
-        if (d == 0).any():
-            sigma[0] = 0.0  # a zero diagonal entry: singular, exactly (the stored and the exact B~)
+        if d.shape[0] <= CERTIFY_ALL:
+            sigma, relative = certified_values(d, e, sigma, forming)
+        else:
+            relative = np.full(d.shape[0], compose(solving_bound(d.shape[0]), forming.bound()))
+            if (d == 0).any():
+                sigma[0] = 0.0  # a zero diagonal entry: singular, exactly (the stored and the exact B~)
         omegas.append(sigma[-keep:])
-        bounds.append(np.full(keep, compose(solving_bound(d.shape[0]), forming.bound())))
+        bounds.append(relative[-keep:])
     omega = np.concatenate(omegas)
     bound = np.concatenate(bounds)
     order = np.argsort(omega)
@@ -269,14 +341,15 @@ def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes:
     `on_stage(fraction, message)` hears when the frequencies are done and the vectors start.
     `factor` (B, w) and `mass` (diagonal), the spring factor and masses B~ was formed from:
     with them the forming error comes from each entry's actual rounding (`segment_scalings`),
-    without them from the worst case (`worst_forming`). Values only: `solving_bound` (the
-    measured size law; no residual is available to certify dqds' values at O(n) each).
-    dbdsqr vectors (segments up to `BDSQR_LIMIT`): every value refined to the Rayleigh
-    quotient of its triplet and certified by `certify_modes` (Kato-Temple).
+    without them from the worst case (`worst_forming`). Solving: every value of a segment
+    up to `CERTIFY_ALL` (dbdsqr's triplets up to `BDSQR_LIMIT` with vectors, inverse iteration
+    otherwise) refined to the Rayleigh quotient of its triplet and certified by
+    `certify_modes` (Kato-Temple); a longer segment's values keep the measured size law,
+    `solving_bound` (certifying all of them would cost O(size^2) beyond dqds' own).
     """
     scalings = _segment_scalings(weighted, segments, factor, mass)
     if vectors and all(d.shape[0] <= BDSQR_LIMIT for _, _, d, _, _, _ in segments):
-        return _certified_path(Kt, segments, scalings, n_modes=n_modes, band=band)
+        return _certified_path(Kt, segments, scalings, n_modes=n_modes, band=band, on_stage=on_stage)
     omega, relative = _path_values(segments, scalings)
     if on_stage is not None and vectors:
         on_stage(0.5, "frequencies done (dqds); computing the vectors")
@@ -302,22 +375,16 @@ def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes:
 
 
 def _certified_path(Kt: Any, segments: list[Segment], scalings: list[Scalings], *, n_modes: int | None,
-                    band: tuple[float, float] | None) -> SolveResult:
+                    band: tuple[float, float] | None, on_stage: Callable[[float, str], None] | None
+                    ) -> SolveResult:
     """Every segment by dbdsqr (both sides' vectors), each value certified by `certify_modes`."""
     n = Kt.shape[0]
     values, bounds, blocks = [], [], []
-    for (c0, c1, d, e, keep, dofs_are_rows), forming in zip(segments, scalings):
-        sigma, left, right = bidiagonal_triplets(d, e)
-        size = d.shape[0]
-        zeros = int((d == 0).any())
-        value = sigma.copy()
-        relative = np.full(size, compose(solving_bound(size), forming.bound()))
-        below, above = neighbour_bounds(sigma, 0, zeros, 4 * solving_bound(size))
-        if zeros:
-            value[0], relative[0] = 0.0, 0.0
-        modes = slice(zeros, size)
-        value[modes], relative[modes] = certify_modes(d, e, sigma[modes], left[:, modes], right[:, modes],
-                                                      below[modes], above[modes], forming)
+    triplets = [bidiagonal_triplets(d, e) for _, _, d, e, _, _ in segments]
+    if on_stage is not None:
+        on_stage(0.5, "frequencies done with their vectors (dbdsqr); certifying each by its residual")
+    for (c0, c1, d, e, keep, dofs_are_rows), forming, (sigma, left, right) in zip(segments, scalings, triplets):
+        value, relative = certified_values(d, e, sigma, forming, (left, right))
         side = (left if dofs_are_rows else right)[: c1 - c0 + 1, -keep:]  # drop the padding
         full = np.zeros((n, keep))
         full[c0 : c1 + 1] = side / np.maximum(np.linalg.norm(side, axis=0), np.finfo(float).tiny)

@@ -16,13 +16,13 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.linalg as la
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
 from vibra.solvers.bidiagonal import (
-    Segment, certify_modes, compose, neighbour_bounds, path_bidiagonals, segment_scalings, solving_bound, worst_forming,
+    Segment, certify_modes, chunk, compose, inverse_iteration, neighbour_bounds, path_bidiagonals,
+    segment_scalings, solving_bound, worst_forming,
 )
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
 from vibra.solvers.rounding import UNIT, Scalings
@@ -83,38 +83,6 @@ def chain_segments(weighted: Any) -> list[Segment] | None:
     return path_bidiagonals(sp.csr_matrix(weighted))
 
 
-#: Modes certified per block (temporaries of size x CHUNK doubles).
-CHUNK = 16
-
-
-def _inverse_iteration(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64]
-                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(u, v) of the upper bidiagonal (d, e) at each sigma: two steps of inverse iteration on the
-    Golub-Kahan form (LAPACK gtsv), unit columns. Not orthogonalised: for the bounds only."""
-    s = d.shape[0]
-    off = np.empty(2 * s - 1)
-    off[0::2] = d
-    off[1::2] = e
-    gtsv = la.get_lapack_funcs("gtsv", dtype=np.float64)
-    start = np.random.default_rng(2024).standard_normal(2 * s)
-    left = np.empty((s, sigma.shape[0]))
-    right = np.empty((s, sigma.shape[0]))
-    for j, value in enumerate(sigma.tolist()):
-        z = start.copy()
-        for _ in range(2):
-            shift = value
-            for _attempt in range(3):
-                _, _, _, solved, info = gtsv(off, np.full(2 * s, -shift), off, z)
-                if info == 0 and np.all(np.isfinite(solved)):
-                    break
-                shift = shift * (1 + 4 * EPS) + np.finfo(float).tiny  # an exact pivot of zero
-            z = solved / np.linalg.norm(solved)
-        right[:, j], left[:, j] = z[0::2], z[1::2]
-    left /= np.maximum(np.linalg.norm(left, axis=0), np.finfo(float).tiny)
-    right /= np.maximum(np.linalg.norm(right, axis=0), np.finfo(float).tiny)
-    return left, right
-
-
 def certified_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool,
                      scalings: Scalings | None = None
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None,
@@ -146,12 +114,13 @@ def certified_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, 
     first = max(zeros - skip, 0)  # exact zeros are not certified
     if zeros and skip == 0:
         sigma[0], relative[0] = 0.0, 0.0
-    for start in range(first, k, CHUNK):
-        block = slice(start, min(start + CHUNK, k))
+    step = chunk(size)
+    for start in range(first, k, step):
+        block = slice(start, min(start + step, k))
         if u is not None and v is not None:
             left, right = u[:, block], v[:, block]
         else:
-            left, right = _inverse_iteration(d, e, sigma[block])
+            left, right = inverse_iteration(d, e, sigma[block])
         sigma[block], relative[block] = certify_modes(d, e, sigma[block], left, right, below[block],
                                                       above[block], forming)
     if u is not None and v is not None:
