@@ -104,7 +104,7 @@ def entry_deviation(values: NDArray[np.float64], weights: NDArray[np.float64], c
     --------
     >>> x = np.sqrt(np.array([2.0])) * (1.0 / np.sqrt(np.array([3.0])))
     >>> delta, slack = entry_deviation(x, np.array([2.0]), np.array([1.0]), np.array([3.0]))
-    >>> bool(abs(delta[0]) <= 2 * np.finfo(float).eps and slack[0] < 1e-30)
+    >>> bool(abs(delta[0]) <= 2 * np.finfo(float).eps and slack[0] < 1e-29)
     True
     """
     x = np.abs(np.asarray(values, dtype=float))
