@@ -318,7 +318,7 @@ def _path_values(segments: list[Segment], scalings: list[Scalings]
     bounds = []
     for (_, _, d, e, keep, _), forming in zip(segments, scalings):
         sigma = bidiagonal_singular_values(d, e)
-        if d.shape[0] <= CERTIFY_ALL:
+        if keep <= CERTIFY_ALL:
             sigma, relative = certified_values(d, e, sigma, forming)
         else:
             relative = np.full(d.shape[0], compose(solving_bound(d.shape[0]), forming.bound()))
