@@ -228,7 +228,8 @@ def certify_modes(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray
     Solving: the Rayleigh quotient rho of each triplet in double-double and its Kato-Temple
     bound ||r||^2 / gap (`vibra.solvers.rounding.kato_temple`), gap to `below` / `above`;
     where no gap serves (a cluster), the value stays as given with `solving_bound`. Forming:
-    `Scalings.weighted`, the scalings weighted by each mode's vectors. Returns (values,
+    `Scalings.weighted`, the scalings weighted by each certified mode's vectors (their angle
+    error residual / gap counted), `Scalings.bound` for the others. Returns (values,
     relative bound of each against the exact bidiagonal).
     """
     size = d.shape[0]
@@ -244,7 +245,10 @@ def certify_modes(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray
         low = 1.0 - np.maximum(below, 0.0) / value
         high = np.where(np.isinf(above), 1.0, (above - value) / above)
         gap = np.minimum(low, high)  # relative gap; nan (unknown) counts as none
-    forming = scalings.weighted(left, right, np.where(np.isnan(gap), 0.0, np.maximum(gap, 0.0)))
+        angle = residual / np.minimum(rho - below, above - rho)  # sin of each pair's angle (Davis-Kahan)
+    angle = np.where(good & (angle < 1), angle, 1.0)
+    weighted = scalings.weighted(left, right, np.where(np.isnan(gap), 0.0, np.maximum(gap, 0.0)), angle)
+    forming = np.where(good, weighted, scalings.bound())  # vectors without a certificate: no weights
     return value, compose(solving, forming)
 
 

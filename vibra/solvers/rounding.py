@@ -147,7 +147,8 @@ def scaling_logs(diagonal_delta: NDArray[np.float64], upper_delta: NDArray[np.fl
         step = np.where(zero, log_e - log_e.mean(), step)  # a free a_i: keep b near the walk
         b[1:] = np.cumsum(step)
     a = log_d - b
-    padding = diagonal == 0
+    padding = np.zeros(size, dtype=bool)
+    padding[-1:] = diagonal[-1:] == 0  # a zero last row: its a is free (a middle one keeps the step's)
     if padding.any():
         others = a[~padding]
         a[padding] = float(np.median(others)) if others.size else 0.0
@@ -176,7 +177,8 @@ def walk_bound(a: NDArray[np.float64], b: NDArray[np.float64], slack: float,
 def weighted_forming(a: NDArray[np.float64], b: NDArray[np.float64], left: NDArray[np.float64],
                      right: NDArray[np.float64], relative_gap: NDArray[np.float64], slack: float,
                      row_slack: NDArray[np.float64] | None = None,
-                     column_slack: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+                     column_slack: NDArray[np.float64] | None = None,
+                     angle: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """Per-mode relative bound of forming with vectors: |sum a u^2 + sum b v^2| + second order.
 
     left (s, k) and right (s, k) are the stored bidiagonal's singular vectors (unit columns),
@@ -186,6 +188,8 @@ def weighted_forming(a: NDArray[np.float64], b: NDArray[np.float64], left: NDArr
     spread), so the integral stays within 8 eta^2 / relative gap of its value at t = 0. Where
     that margin would reach eta itself, the vector-free `walk_bound` is returned instead.
     Row and column slacks count with the mode's weight there: + row_slack u^2 + column_slack v^2.
+    `angle` (k,) bounds each computed vector pair's angle to the exact one (residual / gap): the
+    weighted sum then moves by at most 8 eta angle (2 eta (|du| + |dv|), |du| + |dv| <= 2 sqrt 2 angle).
     """
     rows = np.zeros_like(a) if row_slack is None else row_slack
     columns = np.zeros_like(b) if column_slack is None else column_slack
@@ -196,6 +200,8 @@ def weighted_forming(a: NDArray[np.float64], b: NDArray[np.float64], left: NDArr
     first = np.abs(a_centred @ left**2 + b_centred @ right**2) + rows @ left**2 + columns @ right**2
     norms = np.sum(left**2, axis=0) + np.sum(right**2, axis=0)  # 2 for unit columns (their rounding)
     first = first + 2 * eta * np.abs(norms - 2.0) + slack
+    if angle is not None:
+        first = first + 8 * eta * angle
     with np.errstate(divide="ignore", invalid="ignore"):
         margin = np.where(relative_gap > 0, 8.0 * eta * eta / relative_gap, np.inf)
     whole = walk_bound(a, b, slack, rows, columns)
@@ -317,7 +323,8 @@ class Scalings:
         return walk_bound(self.a, self.b, self.slack, self.row_slack, self.column_slack)
 
     def weighted(self, left: NDArray[np.float64], right: NDArray[np.float64],
-                 relative_gap: NDArray[np.float64]) -> NDArray[np.float64]:
+                 relative_gap: NDArray[np.float64], angle: NDArray[np.float64] | None = None
+                 ) -> NDArray[np.float64]:
         """Per-mode relative bounds with the stored bidiagonal's vectors (`weighted_forming`)."""
         return weighted_forming(self.a, self.b, left, right, relative_gap, self.slack, self.row_slack,
-                                self.column_slack)
+                                self.column_slack, angle)
