@@ -30,7 +30,7 @@ Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
 CERTIFY_ALL = 3000
 
 #: Entries per block of modes certified together (size x block doubles per temporary).
-CHUNK = 1 << 21
+CHUNK = 1 << 18
 
 
 def chunk(size: int) -> int:
