@@ -60,9 +60,13 @@ def two_product(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray
     >>> float(p[0] - 1.0) == 2.0**-29, float(e[0]) == 2.0**-60
     (True, True)
     """
+    return _product(a, b, *_split(a), *_split(b))
+
+
+def _product(a: NDArray[np.float64], b: NDArray[np.float64], ah: NDArray[np.float64], al: NDArray[np.float64],
+             bh: NDArray[np.float64], bl: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`two_product` with the halves of a and b already split (shared by many products)."""
     p = a * b
-    ah, al = _split(a)
-    bh, bl = _split(b)
     return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
@@ -218,16 +222,20 @@ def _residual(diagonal: NDArray[np.float64], upper: NDArray[np.float64], sigma: 
     u^2-level terms; the rounded result then differs from the exact one by <= u |r| + 8 u^2 sum|p|.
     """
     d = diagonal[:, None]
-    p1, e1 = two_product(np.broadcast_to(d, there.shape), there)
-    shifted = np.zeros_like(there)
+    there_high, there_low = _split(there)
+    p1, e1 = _product(d, there, *_split(d), there_high, there_low)
+    shifted, shifted_high, shifted_low = (np.zeros_like(there) for _ in range(3))
     if transpose:  # (B^T u)_i = d_i u_i + e_{i-1} u_{i-1}
-        shifted[1:] = there[:-1]
+        for target, source in ((shifted, there), (shifted_high, there_high), (shifted_low, there_low)):
+            target[1:] = source[:-1]
         coefficient = np.r_[0.0, upper][:, None]
     else:  # (B v)_i = d_i v_i + e_i v_{i+1}
-        shifted[:-1] = there[1:]
+        for target, source in ((shifted, there), (shifted_high, there_high), (shifted_low, there_low)):
+            target[:-1] = source[1:]
         coefficient = np.r_[upper, 0.0][:, None]
-    p2, e2 = two_product(np.broadcast_to(coefficient, there.shape), shifted)
-    p3, e3 = two_product(np.broadcast_to(-sigma[None, :], here.shape), here)
+    p2, e2 = _product(coefficient, shifted, *_split(coefficient), shifted_high, shifted_low)
+    minus = -sigma[None, :]
+    p3, e3 = _product(minus, here, *_split(minus), *_split(here))
     s, t1 = two_sum(p1, p2)
     s, t2 = two_sum(s, p3)
     result = s + (((t1 + t2) + (e1 + e2)) + e3)
