@@ -24,9 +24,12 @@ from vibra.solvers.rounding import UNIT, Scalings, entry_deviation, kato_temple,
 
 Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
 
-#: Values only: a segment up to this size has every value certified by inverse-iteration
-#: triplets (`inverse_iteration`, O(size) each: O(size^2) in all, a few times dqds' cost);
-#: a longer one keeps the measured size law (`solving_bound`).
+#: Values only: a segment of CERTIFY_FROM < size <= CERTIFY_ALL sites has every value
+#: certified by inverse-iteration triplets (`inverse_iteration`, O(size) each: O(size^2) in
+#: all, ~15x dqds' own time at 3000); a shorter one keeps the measured size law
+#: (`solving_bound`), under 7e-14 there (so dqds' speed), and so does a longer one
+#: (certifying it would cost far more than the solve).
+CERTIFY_FROM = 1200
 CERTIFY_ALL = 3000
 
 #: Entries per block of modes certified together (size x block doubles per temporary).
@@ -252,10 +255,14 @@ def certify_modes(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray
     return value, compose(solving, forming)
 
 
-def inverse_iteration(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64]
-                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(u, v) of the upper bidiagonal (d, e) at each sigma: two steps of inverse iteration on the
-    Golub-Kahan form (LAPACK gtsv), unit columns. Not orthogonalised: for the bounds only."""
+def inverse_iteration(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64], *,
+                      steps: int = 1) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(u, v) of the upper bidiagonal (d, e) at each sigma: `steps` of inverse iteration on the
+    Golub-Kahan form (LAPACK gtsv), unit columns. Not orthogonalised: for the bounds only.
+
+    With sigma from dqds or bisection (relative error delta ~ size eps), one step leaves an
+    angle ~ sqrt(size) delta / relative gap, a residual whose square over the gap is far below
+    eps: enough for `certify_modes`, which falls back to the size law where it is not."""
     s = d.shape[0]
     off = np.empty(2 * s - 1)
     off[0::2] = d
@@ -266,7 +273,7 @@ def inverse_iteration(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDA
     right = np.empty((s, sigma.shape[0]))
     for j, value in enumerate(sigma.tolist()):
         z = start.copy()
-        for _ in range(2):
+        for _ in range(steps):
             shift = value
             for _attempt in range(3):
                 _, _, _, solved, info = gtsv(off, np.full(2 * s, -shift), off, z)
@@ -317,12 +324,12 @@ def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDAr
 
 def _path_values(segments: list[Segment], scalings: list[Scalings]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(omega ascending, relative error bound) of all path segments by dqds, certified up to CERTIFY_ALL."""
+    """(omega ascending, relative error bound) of all path segments by dqds, certified in CERTIFY_FROM..CERTIFY_ALL."""
     omegas = []
     bounds = []
     for (_, _, d, e, keep, _), forming in zip(segments, scalings):
         sigma = bidiagonal_singular_values(d, e)
-        if keep <= CERTIFY_ALL:
+        if CERTIFY_FROM < keep <= CERTIFY_ALL:
             sigma, relative = certified_values(d, e, sigma, forming)
         else:
             relative = np.full(d.shape[0], compose(solving_bound(d.shape[0]), forming.bound()))
@@ -346,10 +353,11 @@ def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes:
     `factor` (B, w) and `mass` (diagonal), the spring factor and masses B~ was formed from:
     with them the forming error comes from each entry's actual rounding (`segment_scalings`),
     without them from the worst case (`worst_forming`). Solving: every value of a segment
-    up to `CERTIFY_ALL` (dbdsqr's triplets up to `BDSQR_LIMIT` with vectors, inverse iteration
-    otherwise) refined to the Rayleigh quotient of its triplet and certified by
-    `certify_modes` (Kato-Temple); a longer segment's values keep the measured size law,
-    `solving_bound` (certifying all of them would cost O(size^2) beyond dqds' own).
+    refined to the Rayleigh quotient of its triplet and certified by `certify_modes`
+    (Kato-Temple) where that is cheap beside the solve: with vectors up to `BDSQR_LIMIT`
+    (dbdsqr's triplets), and from `CERTIFY_FROM` to `CERTIFY_ALL` sites (inverse iteration);
+    other values keep the measured size law, `solving_bound` (below 7e-14 under
+    CERTIFY_FROM; certifying all values of a longer segment would cost O(size^2) beyond dqds').
     """
     scalings = _segment_scalings(weighted, segments, factor, mass)
     if vectors and all(d.shape[0] <= BDSQR_LIMIT for _, _, d, _, _, _ in segments):
