@@ -20,10 +20,14 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
-from vibra.solvers.bidiagonal import Segment, path_bidiagonals, relative_bound
+from vibra.solvers.bidiagonal import (
+    Segment, certify_modes, chunk, compose, inverse_iteration, neighbour_bounds, path_bidiagonals,
+    segment_scalings, solving_bound, worst_forming,
+)
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
+from vibra.solvers.rounding import UNIT, Scalings
 
-__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "DQDS_FACTOR",
+__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certified_lowest", "DQDS_FACTOR",
            "spring_factor_of_chain", "lowest_chain_modes"]
 
 #: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~2e-9 s^2
@@ -79,7 +83,53 @@ def chain_segments(weighted: Any) -> list[Segment] | None:
     return path_bidiagonals(sp.csr_matrix(weighted))
 
 
-def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors: bool) -> SolveResult:
+def certified_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool,
+                     scalings: Scalings | None = None
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None,
+                                NDArray[np.float64] | None]:
+    """Singular values skip..skip+k-1 of the upper bidiagonal (d, e), each with its relative bound.
+
+    Returns (sigma, relative, u, v); u, v as `golub_kahan_lowest` (None unless `vectors`).
+    The bound holds against the exact bidiagonal, of which (d, e) is the stored form with the
+    forming error `scalings` (the worst case, `worst_forming`, if None).
+
+    - Solving: bisection (or dqds) values, then for each the Rayleigh quotient of its triplet
+      in double-double and its Kato-Temple bound, gap to the neighbouring values (one more
+      value is found for the gap above the last): `bidiagonal.certify_modes`. The triplets
+      are the asked-for vectors (LAPACK dstein), or for values only two steps of inverse
+      iteration, dropped after use (O(size) per value, less than finding it). A value whose
+      residual leaves no gap (a cluster) keeps the measured size law, `solving_bound`.
+    - Forming: `Scalings.weighted` with vectors, `Scalings.bound` without.
+    - A zero diagonal entry (a free chain's padding) makes the lowest value exactly zero.
+    """
+    size = d.shape[0]
+    forming = scalings if scalings is not None else Scalings.worst_case(size, worst_forming(d, e))
+    zeros = int((d == 0).any())
+    a_priori = compose(solving_bound(size), forming.bound())
+    extra = 1 if skip + k < size else 0  # one value beyond: the gap above the last
+    values, u, v = golub_kahan_lowest(d, e, skip, k + extra, vectors=vectors)
+    below, above = neighbour_bounds(values, skip, zeros, 4 * solving_bound(size))
+    sigma = values[:k].copy()
+    relative = np.full(k, a_priori)
+    first = max(zeros - skip, 0)  # exact zeros are not certified
+    if zeros and skip == 0:
+        sigma[0], relative[0] = 0.0, 0.0
+    step = chunk(size)
+    for start in range(first, k, step):
+        block = slice(start, min(start + step, k))
+        if u is not None and v is not None:
+            left, right = u[:, block], v[:, block]
+        else:
+            left, right = inverse_iteration(d, e, sigma[block])
+        sigma[block], relative[block] = certify_modes(d, e, sigma[block], left, right, below[block],
+                                                      above[block], forming)
+    if u is not None and v is not None:
+        u, v = u[:, :k], v[:, :k]
+    return sigma, relative, u, v
+
+
+def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors: bool,
+                      scalings: list[Scalings] | None = None) -> SolveResult:
     """accurate-bisection: the lowest `n_modes` frequencies of a chain by Golub-Kahan bisection.
 
     Parameters
@@ -92,12 +142,14 @@ def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors
         How many of the lowest modes.
     vectors : bool
         Whether to compute the mass-weighted vectors.
+    scalings : list of Scalings, optional
+        Each segment's forming error (`bidiagonal.segment_scalings`); the worst case if None.
 
     Returns
     -------
     SolveResult
-        eigenvalues omega^2 ascending, each to `relative_bound` of the segment relative in
-        omega (twice that in omega^2); solver ``"accurate-bisection"``.
+        eigenvalues omega^2 ascending, each with the bound of `certified_lowest` (relative
+        in omega, about twice that in omega^2); solver ``"accurate-bisection"``.
 
     Examples
     --------
@@ -111,12 +163,13 @@ def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors
     found_sigma = []
     found_bound = []
     found_vectors = []
-    for c0, c1, d, e, keep, dofs_are_rows in segments:
+    for index, (c0, c1, d, e, keep, dofs_are_rows) in enumerate(segments):
         k = min(n_modes, keep)
         skip = d.shape[0] - keep  # padding zeros below the segment's frequencies
-        sigma, u, v = golub_kahan_lowest(d, e, skip, k, vectors=vectors)
+        sigma, relative, u, v = certified_lowest(d, e, skip, k, vectors=vectors,
+                                                 scalings=None if scalings is None else scalings[index])
         found_sigma.append(sigma)
-        found_bound.append(np.full(k, relative_bound(d, e)))
+        found_bound.append(relative)
         if vectors:
             side = u if dofs_are_rows else v
             assert side is not None
@@ -131,7 +184,7 @@ def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors
     scale = max((float(np.abs(np.r_[d, e]).max(initial=0.0)) for _, _, d, e, _, _ in segments), default=0.0)
     floor = 4.0 * np.finfo(float).tiny * max(1.0, scale * scale)
     sigma_error = np.concatenate(found_bound)[order] * sigma[order] + floor
-    error = sigma_error * (2.0 * sigma[order] + sigma_error)
+    error = sigma_error * (2.0 * sigma[order] + sigma_error) + UNIT * eigenvalues  # (+ squaring's rounding)
     if not vectors:
         return SolveResult(eigenvalues, None, error, float("nan"), float("nan"), "accurate-bisection")
     basis = np.hstack(found_vectors)[:, order]
@@ -150,6 +203,19 @@ def _exact_row_sums(K: sp.csr_matrix) -> tuple[NDArray[np.float64], NDArray[np.f
     total = first + upper
     err2 = (first - (total - (total - first))) + (upper - (total - first))
     return total + (err + err2), np.abs(diagonal) * EPS * (n > 0)
+
+
+def _anchor_slack(K: Any, coupling: sp.csr_matrix, weights: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Relative uncertainty of each weight of `spring_factor_of_chain(K)`: springs are exact; an
+    anchor, K's row sum (compensated, ~2 u), also carries the rounding of assembling K[i, i] from
+    the springs it sums (2 u |K[i, i]|), as the anchors that code drops for lying within it."""
+    rows = sp.csr_matrix(coupling)
+    single = np.flatnonzero(np.diff(rows.indptr) == 1)
+    slack = np.zeros(weights.shape[0])
+    diagonal = np.abs(sp.csr_matrix(K).diagonal())
+    column = rows.indices[rows.indptr[single]]
+    slack[single] = 4 * UNIT + 4 * UNIT * diagonal[column] / weights[single]
+    return slack
 
 
 def spring_factor_of_chain(K: Any) -> tuple[sp.csr_matrix, NDArray[np.float64]] | None:
@@ -202,14 +268,17 @@ def lowest_chain_modes(Kt: Any, K: Any, mass: NDArray[np.float64],
     """
     if mass.ndim != 1:
         return None
+    weight_slack = None
     if spring_factor is None:
         derived = spring_factor_of_chain(K)
         if derived is None:
             return None
         spring_factor = (derived[0], derived[1] * scale)
+        weight_slack = _anchor_slack(K, *derived)
     coupling, weights = spring_factor
     weighted = sp.csr_matrix(sp.diags(np.sqrt(weights)) @ coupling @ sp.diags(1.0 / np.sqrt(mass)))
     segments = chain_segments(weighted)
     if segments is None:
         return None
-    return lowest_chain_path(Kt, segments, n_modes, vectors=vectors)
+    scalings = segment_scalings(weighted, segments, coupling, weights, mass, weight_slack=weight_slack)
+    return lowest_chain_path(Kt, segments, n_modes, vectors=vectors, scalings=scalings)
