@@ -86,6 +86,9 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     path = path_bidiagonals(weighted) if mass.ndim == 1 and not few else None
     if path is not None:
+        # (factor=, mass= would let bidiagonal_path weigh each entry's actual rounding; not
+        # passed: on a 6-site chain with springs 1e12 apart that bound fell 2x below the true
+        # error (test_modes, mpmath), so all-mode chains keep the worst case, 5 eps per entry)
         chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage)
         return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
     if ordering is not None and not few and n > DENSE_LIMIT:

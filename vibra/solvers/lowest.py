@@ -120,7 +120,7 @@ def certified_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, 
         if u is not None and v is not None:
             left, right = u[:, block], v[:, block]
         else:
-            left, right = inverse_iteration(d, e, sigma[block])
+            left, right = inverse_iteration(d, e, sigma[block], steps=2)
         sigma[block], relative[block] = certify_modes(d, e, sigma[block], left, right, below[block],
                                                       above[block], forming)
     if u is not None and v is not None:
