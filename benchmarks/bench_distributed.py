@@ -91,9 +91,10 @@ def main() -> None:
     clients = {w: Client(c) for w, c in clusters.items()}
     try:
         for w in WORKERS:  # warm-up: imports and the first pickles on every worker
-            finite_difference_hessian(small, small_calc, estimate_error=False, client=clients[w])
+            finite_difference_hessian(small, small_calc, estimate_error=False, force_noise=None, client=clients[w])
+        # force_noise=None: the fan-out alone (the default probes the calculator's noise first)
         methods = {f"{w} worker(s)": (lambda w=w: finite_difference_hessian(atoms, calc, estimate_error=False,
-                                                                            client=clients[w]))
+                                                                            force_noise=None, client=clients[w]))
                    for w in WORKERS}
         fd = interleaved(methods, warmup=False)
         hessians = [t.result.hessian for t in fd.values()]
