@@ -11,9 +11,11 @@
                    chain, any masses and springs: tridiagonal plus two corners) is reordered
                    0, n-1, 1, n-2, ... (reverse Cuthill-McKee) into a band of half-width 2.
 ``sparse``         A few of the lowest modes (or a band) of a large sparse K~: shift-invert
-                   Lanczos (ARPACK) with a negative shift chosen from the spectrum's scale, so
-                   a singular K (free system) is never hit; tridiagonal K~ is factorised with
-                   LAPACK pttrf (O(N)), any other with SuperLU.
+                   with a negative shift chosen from the spectrum's scale, so a singular K
+                   (free system) is never hit; tridiagonal K~ is factorised with LAPACK
+                   pttrf (O(N)) and iterated by ARPACK, any other with SuperLU in nested-
+                   dissection order (or MKL PARDISO's Cholesky where installed) and, for 3-D
+                   factors, a block Krylov iteration.
 ``accurate``       The system knows its springs, K = B^T W B: frequencies are the singular
                    values of B~ = W^1/2 B M^-1/2, computed to high *relative* accuracy.
                    - a chain (the springs form a path): dqds on the Golub-Kahan bidiagonal;
@@ -41,8 +43,13 @@ Where each path lives:
 =====================  ======================================================================
 ``common.py``          `SolveResult`, mass weighting, the accuracy figures, size limits
 ``standard.py``        dense, tridiagonal, banded (absolute accuracy)
-``sparse.py``          shift-invert Lanczos for a few modes or a band
-``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal
+``sparse.py``          shift-invert for a few modes or a band (the factor, the shift, the probe)
+``ordering.py``        nested-dissection ordering (METIS through pymetis) for SuperLU
+``pardiso.py``         the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
+``krylov.py``          block Krylov iteration (block Arnoldi, full reorthogonalisation)
+``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal; certificates
+``lowest.py``          accurate-bisection: the lowest modes of a chain by Golub-Kahan bisection
+``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
 ``accurate.py``        the accurate dispatch; accurate-checked, -ritz, -rayleigh, -jacobi
 ``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
 ``budget.py``          memory / time estimates, the guard and its limits, progress reports
