@@ -614,6 +614,48 @@ def test_no_import_cycles_and_no_upward_imports() -> None:
     assert upward == [], upward
 
 
+def test_no_import_cycle_through_a_package_init() -> None:
+    """`from vibra.solvers import pardiso` at module level runs vibra/solvers/__init__ first: a
+    module the package's __init__ imports must not import the package back (a cycle the
+    submodule-level graph above does not see). Module-level imports only; the root package
+    `vibra` is lazy (SUBMODULES load on access), so it is no edge."""
+    import ast
+
+    package = ROOT / "vibra"
+    modules = {}
+    for path in package.rglob("*.py"):
+        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    graph: dict[str, set[str]] = {name: set() for name in modules}
+    for name, path in modules.items():
+        top = ast.parse(path.read_text(encoding="utf-8")).body
+        for node in (n for statement in top for n in ast.walk(statement)
+                     if not isinstance(statement, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))):
+            if isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            else:
+                continue
+            graph[name].update(t for t in targets if t in modules and t not in ("vibra", name))
+
+    def cycle_from(start: str) -> list[str] | None:
+        paths = [[start]]
+        seen = {start}
+        while paths:
+            path = paths.pop(0)
+            for target in sorted(graph[path[-1]]):
+                if target == start:
+                    return path + [start]
+                if target not in seen:
+                    seen.add(target)
+                    paths.append(path + [target])
+        return None
+
+    cycles = [cycle for cycle in map(cycle_from, sorted(graph)) if cycle]
+    assert cycles == [], " ; ".join(" -> ".join(cycle) for cycle in cycles)
+
+
 def test_limits_a_scene_raises_reach_the_solvers_guard(tmp_path, monkeypatch) -> None:
     """compute.memory_limit_gib / time_limit_s, which validate honours, are the limits of the solve too."""
     from vibra.system import System

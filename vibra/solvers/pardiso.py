@@ -8,10 +8,10 @@ machine), in about half the memory. It is used, when installed, for matrices of 
 
 The factorisation is asked as positive definite (PARDISO matrix type 2): it succeeds exactly
 when K~ - sigma I is (PARDISO reports a non-positive pivot as error -4), which is the
-inertia the shift needs; an indefinite matrix goes back to SuperLU. Its solves carry two
-steps of iterative refinement (PARDISO's default); their remaining error lies, like
-SuperLU's, in the near-null space of a free system, which the Krylov iteration deflates and
-the Rayleigh-Ritz step in K~ does not see.
+inertia the shift needs; an indefinite matrix goes back to SuperLU. Its solves carry no
+iterative refinement (`REFINEMENT`); their remaining error lies, like SuperLU's, in the
+near-null space of a free system, which the Krylov iteration deflates and the Rayleigh-Ritz
+step in K~ does not see.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-__all__ = ["BACKEND", "pardiso_available", "PardisoCholesky"]
+__all__ = ["BACKEND", "pardiso_available", "use_pardiso", "PardisoCholesky"]
 
 #: "auto" (PARDISO when `pypardiso` loads, else SuperLU), "superlu" or "pardiso"; the
 #: environment variable VIBRA_SPARSE_BACKEND sets it at import (benchmarks compare the two).
@@ -57,6 +57,23 @@ def pardiso_available() -> bool:
         except (ImportError, OSError):
             _AVAILABLE = False
     return _AVAILABLE
+
+
+def use_pardiso(n: int, minimum: int) -> bool:
+    """PARDISO for a matrix of `n` dofs? `BACKEND` "auto" uses it from `minimum` dofs when installed.
+
+    A `BACKEND` other than "auto", "superlu" or "pardiso" is a ValueError; "pardiso" without
+    `pypardiso` and MKL an ImportError naming the extra.
+    """
+    if BACKEND not in ("auto", "superlu", "pardiso"):
+        raise ValueError(f"vibra.solvers.pardiso.BACKEND (or VIBRA_SPARSE_BACKEND) is {BACKEND!r}; "
+                         "expected 'auto', 'superlu' or 'pardiso'")
+    if BACKEND == "superlu" or n < minimum:
+        return False
+    if BACKEND == "pardiso" and not pardiso_available():
+        raise ImportError("the sparse backend 'pardiso' needs pypardiso and MKL; install them with "
+                          'pip install "vibra[pardiso]", or set VIBRA_SPARSE_BACKEND=auto')
+    return pardiso_available()
 
 
 class PardisoCholesky:

@@ -17,14 +17,13 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
-from vibra.solvers import pardiso
 from vibra.solvers.common import (
     DENSE_ALL_LIMIT, EPS, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
     tridiagonal_bands,
 )
 from vibra.solvers.krylov import block_eigs
 from vibra.solvers.ordering import DISSECTION_MIN, nested_dissection
-from vibra.solvers.pardiso import PardisoCholesky, pardiso_available
+from vibra.solvers.pardiso import PardisoCholesky, use_pardiso
 from vibra.solvers.standard import dense_path
 
 
@@ -56,7 +55,7 @@ class ShiftedInverse:
                 self.below_spectrum = True
                 return
         shifted = (Kt - sigma * sp.identity(self.n, format="csr")).tocsr()
-        if _use_pardiso(self.n):
+        if use_pardiso(self.n, DISSECTION_MIN):
             try:
                 self._cholesky = PardisoCholesky(shifted)
                 self.below_spectrum = True
@@ -111,20 +110,6 @@ class ShiftedInverse:
             return self.solve(np.asarray(x, dtype=float).reshape(self.n))
 
         return sla.LinearOperator((self.n, self.n), matvec=apply, dtype=float)
-
-
-def _use_pardiso(n: int) -> bool:
-    """PARDISO for this size? `vibra.solvers.pardiso.BACKEND`: "auto" uses it when installed."""
-    backend = pardiso.BACKEND
-    if backend not in ("auto", "superlu", "pardiso"):
-        raise ValueError(f"vibra.solvers.pardiso.BACKEND (or VIBRA_SPARSE_BACKEND) is {backend!r}; "
-                         "expected 'auto', 'superlu' or 'pardiso'")
-    if backend == "superlu" or n < DISSECTION_MIN:
-        return False
-    if backend == "pardiso" and not pardiso_available():
-        raise ImportError("the sparse backend 'pardiso' needs pypardiso and MKL; install them with "
-                          'pip install "vibra[pardiso]", or set VIBRA_SPARSE_BACKEND=auto')
-    return pardiso_available()
 
 
 def lowest_shift(Kt: sp.csr_matrix, *, rounding: float | None = None) -> tuple[float, ShiftedInverse]:
