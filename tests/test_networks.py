@@ -18,7 +18,7 @@ import scipy.constants
 from scipy.spatial.distance import pdist, squareform
 
 import vibra
-from vibra import networks
+from vibra import networks, structures
 
 prody.confProDy(verbosity="none")
 
@@ -384,7 +384,7 @@ def test_from_pdb_path_checks(tmp_path: Path) -> None:
 
 
 def test_from_pdb_size_cap(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(networks, "MAX_FILE_BYTES", 1000)
+    monkeypatch.setattr(structures, "MAX_FILE_BYTES", 1000)  # where the reader reads it
     with pytest.raises(ValueError, match=r"pdb1ubi.pdb: 77355 bytes, more than the 1000"):
         networks.from_pdb(DATA / "pdb1ubi.pdb")
 

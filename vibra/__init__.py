@@ -35,8 +35,8 @@ __all__ = [
 SUBMODULES: tuple[str, ...] = (
     "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized",
     "gyroscopic", "lagrangian", "linearization", "modes", "molecules", "networks", "pencil", "pendulum", "plan",
-    "quadratic", "render", "report", "response", "rigid", "scene", "solvers", "spectra", "sweep", "system",
-    "units",
+    "quadratic", "render", "report", "response", "rigid", "scene", "solvers", "spectra", "structures", "sweep",
+    "system", "units",
 )
 
 
