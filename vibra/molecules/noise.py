@@ -27,8 +27,8 @@ Why a probe and not the finite-difference data alone: the asymmetry D_ij - D_ji 
 difference quotients and the Richardson difference D(h) - D(2h) both contain the truncation
 error, whose size is not known in advance and which, for an analytic force field, lies far
 above rounding (CO2's valence field at h = 0.01 Angstrom: asymmetry 1.7e-4 and Richardson
-estimate 9e-4 eV/Angstrom^2, against a round-off of 1.5e-13); neither tells noise from truncation with one pair of steps. The
-probe asks the calculator directly.
+estimate 9e-4 eV/Angstrom^2, against a round-off of 1.5e-13); neither tells noise from
+truncation with one pair of steps. The probe asks the calculator directly.
 
 What the probe cannot see: a calculator that restarts every call from the same guess (a
 file-based code without restart files) returns the same forces for the same geometry

@@ -200,10 +200,9 @@ def modal_damping(shapes: NDArray[np.float64], omega: NDArray[np.float64], C: An
     if projected is None:
         projected = modal_projection(shapes, C)
     modal_c = np.diagonal(projected).copy()
-    off = projected - np.diag(modal_c)
-    size = float(np.max(np.abs(projected))) if projected.size else 0.0
-    gap = float(np.max(np.abs(off))) if off.size else 0.0
-    if gap > MODAL_DIAGONAL_RTOL * size:
+    if not is_modal(projected):
+        off = projected - np.diag(modal_c)
+        size, gap = float(np.max(np.abs(projected))), float(np.max(np.abs(off)))
         i, j = np.unravel_index(int(np.argmax(np.abs(off))), off.shape)
         raise ValueError(
             f"C is not diagonal in the modal basis (non-proportional damping): "

@@ -67,7 +67,7 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
     tol : float
         Stop when every wanted Ritz pair has ||F y - mu y|| <= tol |mu| (relative residual).
     max_dim : int, optional
-        Largest basis (default max(6 k, 120) columns, at most n).
+        Largest basis (default max(10 k, 200) columns; at most n less the deflated directions).
     deflate : (n, z) orthonormal, optional
         Directions kept out of the iteration (projected out before and after F).
     enough : callable, optional

@@ -191,16 +191,17 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     n = Kt.shape[0]
     scale = float(abs(Kt).sum(axis=1).max())
     threshold = 1.0 / (1e-8 * scale - sigma)  # 1 / (lambda - sigma) of a zero mode (lambda <= 1e-8 ||K~||) is above
+
+    def found(mu: NDArray[np.float64], residual: NDArray[np.float64]) -> bool:
+        # every zero mode converged, and the largest other one to 1e-3: the spectrum below
+        # them is really seen (a first crude Ritz value may look non-zero)
+        zero = mu >= threshold
+        other = np.flatnonzero(~zero)
+        return bool(other.size and residual[other[0]] <= 1e-3 * mu[other[0]]
+                    and np.all(residual[zero] <= TOLERANCE * mu[zero]))
+
     probe = min(k, PROBE)
     while True:
-        def found(mu: NDArray[np.float64], residual: NDArray[np.float64]) -> bool:
-            # every zero mode converged, and the largest other one to 1e-3: the spectrum below
-            # them is really seen (a first crude Ritz value may look non-zero)
-            zero = mu >= threshold
-            other = np.flatnonzero(~zero)
-            return bool(other.size and residual[other[0]] <= 1e-3 * mu[other[0]]
-                        and np.all(residual[zero] <= TOLERANCE * mu[zero]))
-
         mu, basis, _, done = block_eigs(factor.solve, n, probe, block=BLOCK_LOWEST, enough=found)
         values = sigma + 1.0 / mu
         zero = mu >= threshold
