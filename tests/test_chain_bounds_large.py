@@ -205,6 +205,29 @@ def test_every_mode_of_a_disordered_chain_guides(vectors: bool) -> None:
     assert_guides_by_counts(mass, springs, (0.0, 0.0), result.eigenvalues, result.error, [1, 2, 3, 150, 300, 599])
 
 
+def test_public_all_mode_values_of_a_disordered_chain_are_certified() -> None:
+    """normal_modes(K, M, spring_factor=(B, w), vectors=False), 1,500 sites spread over 1e10
+    (inside CERTIFY_FROM..CERTIFY_ALL): the forming error from each entry's rounding and the
+    solving error from each value's triplet, so every bound is tight; a sample against mpmath
+    counts (covers, and within 1000x or 1e-13). Before the spring factor reached this path the
+    bound was the worst case, 10 n eps = 3.3e-12 relative for every mode."""
+    mass, springs = disordered(1500, 1e10, 21)
+    B, w, K = chain(mass, springs, (0.0, 0.0))
+    modes = normal_modes(K, mass, spring_factor=(B, w), vectors=False)
+    assert modes.solver == "accurate-bidiagonal"
+    relative = modes.omega_error[1:] / modes.omega[1:]
+    assert float(relative.max()) < 1e-14
+    for j in [1, 2, 3, 700, 1499]:
+        omega, bound = mpmath.mpf(float(modes.omega[j])), mpmath.mpf(float(modes.omega_error[j]))
+        with mpmath.workdps(40):
+            assert sturm_count(mass, springs, (0.0, 0.0), (omega - bound) ** 2) <= j
+            assert sturm_count(mass, springs, (0.0, 0.0), (omega + bound) ** 2) > j
+            if bound / 1000 > 1e-13 * omega:
+                inside = (sturm_count(mass, springs, (0.0, 0.0), (omega - bound / 1000) ** 2) <= j
+                          < sturm_count(mass, springs, (0.0, 0.0), (omega + bound / 1000) ** 2))
+                assert not inside
+
+
 def test_public_partial_solve_of_a_disordered_chain_covers_and_guides() -> None:
     """normal_modes(K, M, n_modes=8): K's own anchor read back from its row sums; 3,000 sites.
     In omega, as Modes reports it: (omega +- omega_error)^2 brackets the j-th eigenvalue, and

@@ -86,10 +86,8 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     path = path_bidiagonals(weighted) if mass.ndim == 1 and not few else None
     if path is not None:
-        # (factor=, mass= would let bidiagonal_path weigh each entry's actual rounding; not
-        # passed: on a 6-site chain with springs 1e12 apart that bound fell 2x below the true
-        # error (test_modes, mpmath), so all-mode chains keep the worst case, 5 eps per entry)
-        chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage)
+        chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage,
+                                factor=factor, mass=mass)
         return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
     if ordering is not None and not few and n > DENSE_LIMIT:
         ring = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
@@ -99,9 +97,10 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 "as spring-space Rayleigh quotients ||B~ v||^2 of the banded solver's vectors")
     if few and band is None:
         k = int(n_modes)  # type: ignore[arg-type]
-        rounding = semidefinite_rounding(factor, float(abs(sp.csr_matrix(Kt)).sum(axis=1).max()))
-        sigma, shifted = lowest_shift(sp.csr_matrix(Kt), rounding=rounding)
-        _, basis = shift_invert(sp.csr_matrix(Kt), min(k + 1, n - 2), sigma, shifted)  # one more: the gap
+        matrix = sp.csr_matrix(Kt)
+        rounding = semidefinite_rounding(factor, float(abs(matrix).sum(axis=1).max()))
+        sigma, shifted = lowest_shift(matrix, rounding=rounding)
+        _, basis = shift_invert(matrix, min(k + 1, n - 2), sigma, shifted)  # one more: the gap
         return relative_account(_checked_ritz(weighted, basis, k, vectors=vectors),
                                 f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
     if few:
@@ -395,9 +394,12 @@ def _tridiagonal_values(dense: NDArray[np.float64], last: int | None) -> tuple[N
 
 
 def _tridiagonal_vectors(reduced: tuple[Any, ...], count: int) -> NDArray[np.float64]:
-    """(n, count) eigenvectors of K~ for its `count` lowest values: MRRR on T (stemr) for that
-    subset (inverse iteration, stebz + stein, where MRRR fails), then the reduction's Householder reflectors applied to them (what LAPACK's ormtr
-    does for a lower reduction: ormqr on the reflectors below the subdiagonal), O(n^2 count)."""
+    """(n, count) eigenvectors of K~ for its `count` lowest values, O(n^2 count).
+
+    MRRR on T (stemr) for that subset (inverse iteration, stebz + stein, where MRRR fails),
+    then the reduction's Householder reflectors applied to them (what LAPACK's ormtr does for
+    a lower reduction: ormqr on the reflectors below the subdiagonal).
+    """
     reflectors, tau, diagonal, off = reduced
     n = diagonal.shape[0]
     tridiagonal = None

@@ -26,9 +26,9 @@ Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
 
 #: Values only: a segment of CERTIFY_FROM < size <= CERTIFY_ALL sites has every value
 #: certified by inverse-iteration triplets (`inverse_iteration`, O(size) each: O(size^2) in
-#: all, ~15x dqds' own time at 3000); a shorter one keeps the measured size law
-#: (`solving_bound`), under 7e-14 there (so dqds' speed), and so does a longer one
-#: (certifying it would cost far more than the solve).
+#: all, ~1 s at 3000); a shorter one keeps the a-priori bound (the measured size law
+#: `solving_bound` plus `worst_forming`: under 3e-12 relative there, at dqds' speed), and so
+#: does a longer one (certifying it would cost far more than the solve).
 CERTIFY_FROM = 1200
 CERTIFY_ALL = 3000
 
@@ -335,7 +335,9 @@ def _path_values(segments: list[Segment], scalings: list[Scalings]
         if CERTIFY_FROM < keep <= CERTIFY_ALL:
             sigma, relative = certified_values(d, e, sigma, forming)
         else:
-            relative = np.full(d.shape[0], compose(solving_bound(d.shape[0]), forming.bound()))
+            # no certificate: the size law with the worst-case forming term, which covers what
+            # the law alone misses on tiny extreme chains (see `certify_modes`)
+            relative = np.full(d.shape[0], compose(solving_bound(d.shape[0]), max(forming.bound(), worst_forming(d, e))))
             if (d == 0).any():
                 sigma[0] = 0.0  # a zero diagonal entry: singular, exactly (the stored and the exact B~)
         omegas.append(sigma[-keep:])
@@ -359,8 +361,10 @@ def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes:
     refined to the Rayleigh quotient of its triplet and certified by `certify_modes`
     (Kato-Temple) where that is cheap beside the solve: with vectors up to `BDSQR_LIMIT`
     (dbdsqr's triplets), and from `CERTIFY_FROM` to `CERTIFY_ALL` sites (inverse iteration);
-    other values keep the measured size law, `solving_bound` (below 7e-14 under
-    CERTIFY_FROM; certifying all values of a longer segment would cost O(size^2) beyond dqds').
+    other values keep the measured size law, `solving_bound`, with the worst-case forming
+    term, which covers what the law alone misses on tiny extreme chains (10 size eps in all:
+    below 3e-12 under CERTIFY_FROM; certifying all values of a longer segment would cost
+    O(size^2) beyond dqds').
     """
     scalings = _segment_scalings(weighted, segments, factor, mass)
     if vectors and all(d.shape[0] <= BDSQR_LIMIT for _, _, d, _, _, _ in segments):
