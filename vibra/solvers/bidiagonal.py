@@ -136,17 +136,6 @@ def worst_forming(d: NDArray[np.float64], e: NDArray[np.float64]) -> float:
     return 2.0 * EPS if uniform else 5.0 * (2 * size - 1) * EPS
 
 
-def relative_bound(d: NDArray[np.float64], e: NDArray[np.float64]) -> float:
-    """A-priori relative error bound of each singular value of the bidiagonal (d, e) formed from B~.
-
-    `solving_bound` (the measured size law) plus `worst_forming` (no entry-wise figures).
-    Where the spring factor and masses are known, `segment_scalings` computes the forming
-    error from each entry's actual rounding, and `certify_modes` the solving error from the
-    residuals: both much smaller on long chains.
-    """
-    return solving_bound(d.shape[0]) + worst_forming(d, e)
-
-
 def segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], coupling: Any, weights: NDArray[np.float64],
                      mass: NDArray[np.float64], *, weight_slack: NDArray[np.float64] | None = None
                      ) -> list[Scalings]:
