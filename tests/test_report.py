@@ -557,15 +557,20 @@ def test_frequency_table_has_species_and_observed_fundamentals(tmp_path: Path, b
 
 
 # ---------------------------------------------------------------------- layers
+def _vibra_modules() -> dict[str, Path]:
+    """Dotted module name -> source file, for every module of the vibra package."""
+    modules = {}
+    for path in (ROOT / "vibra").rglob("*.py"):
+        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return modules
+
+
 def _vibra_imports() -> dict[str, set[str]]:
     """module -> the vibra modules it imports anywhere (function bodies included), from the source."""
     import ast
 
-    package = ROOT / "vibra"
-    modules = {}
-    for path in package.rglob("*.py"):
-        parts = list(path.relative_to(ROOT).with_suffix("").parts)
-        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    modules = _vibra_modules()
     graph: dict[str, set[str]] = {name: set() for name in modules}
     for name, path in modules.items():
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
@@ -621,11 +626,7 @@ def test_no_import_cycle_through_a_package_init() -> None:
     `vibra` is lazy (SUBMODULES load on access), so it is no edge."""
     import ast
 
-    package = ROOT / "vibra"
-    modules = {}
-    for path in package.rglob("*.py"):
-        parts = list(path.relative_to(ROOT).with_suffix("").parts)
-        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    modules = _vibra_modules()
     graph: dict[str, set[str]] = {name: set() for name in modules}
     for name, path in modules.items():
         top = ast.parse(path.read_text(encoding="utf-8")).body
