@@ -146,11 +146,13 @@ def test_ritz_and_bidiagonal_and_bisection_paths_fill_it() -> None:
 
 
 @pytest.mark.parametrize("vectors", [False, True])
-def test_rayleigh_path_reached_on_purpose_values_and_vectors(vectors: bool) -> None:
-    """All modes of a 1,536-dof lattice (over DENSE_LIMIT, not a path): ``accurate-rayleigh``,
-    the checked solve without Jacobi. Truth: the lattice's closed form (see the module doc);
+def test_rayleigh_path_reached_on_purpose_values_and_vectors(vectors: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """All modes of a 1,536-dof lattice (over DENSE_LIMIT, not a path) with JACOBI_WORK set to
+    0 (as for a network whose n_terms n^2 exceeds it): ``accurate-rayleigh``, the checked solve
+    without Jacobi. Truth: the lattice's closed form (see the module doc);
     stiffnesses 1e-4, 1, 1e4: the soft and unit chains' modes lie below the a-priori bound's
     reach and are refined, the stiff chains' upper modes keep the fast values."""
+    monkeypatch.setattr(solvers.accurate, "JACOBI_WORK", 0)
     side, stiffness = 8, (1.0, 1e-4, 1e4)
     system = anisotropic_lattice(side, stiffness)
     assert system.n_dof > solvers.DENSE_LIMIT

@@ -26,8 +26,11 @@
                      spring space and a Kato-Temple bound per mode (accurate-checked); the
                      one-sided Jacobi SVD (LAPACK gejsv) of B~ only when a requested mode's
                      bound misses 1e-10 relative (accurate-jacobi);
-                   - all modes of a large non-path system: the same without the Jacobi
-                     fallback (accurate-rayleigh).
+                   - all modes of a large non-path system: the same, with the Jacobi
+                     fallback while gejsv's n_terms n^2 stays within `accurate.JACOBI_WORK`
+                     (rings to 4,000 sites), else without (accurate-rayleigh);
+                   - a ring up to 6,000 sites: each bound then certified by Sturm counts of
+                     its pencil in double-double (`cycle.py`).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and
@@ -50,6 +53,7 @@ Where each path lives:
 ``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal; certificates
 ``lowest.py``          accurate-bisection: the lowest modes of a chain by Golub-Kahan bisection
 ``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
+``cycle.py``           a ring's pencil and its Sturm counts in double-double (certified bounds)
 ``accurate.py``        the accurate dispatch; accurate-checked, -ritz, -rayleigh, -jacobi
 ``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
 ``budget.py``          memory / time estimates, the guard and its limits, progress reports

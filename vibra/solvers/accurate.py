@@ -13,9 +13,12 @@ accuracy where the structure allows (`accurate_path` chooses):
   Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound each (`checked_dense`); only
   when some requested mode's bound still misses `TARGET` does one-sided Jacobi SVD (LAPACK
   gejsv) of B~ run (``accurate-jacobi``; ``accurate-checked`` when the checked result passed);
-- ``accurate-rayleigh``: all modes of a large (n > DENSE_LIMIT) non-path system: the same
-  checked dense solve without the Jacobi fallback (or, for a large ring, Rayleigh quotients
-  ||B~ v||^2 of the banded solver's vectors).
+- ``accurate-rayleigh``: all modes of a large non-path system where gejsv on B~ would cost many
+  times the dense solve (n_terms n^2 over `JACOBI_WORK`, n > DENSE_LIMIT): the same checked
+  dense solve without the Jacobi fallback. Rings (n_terms = n) keep the fallback up to 4,000
+  dofs and the checked dense solve up to `RING_DENSE_LIMIT`; a longer ring takes its band
+  (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
+  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual.
 
 Every path fills `SolveResult.refined` (which modes' values come from the accurate machinery)
 and `refinement` (how many, and why).
@@ -31,8 +34,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
+from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
 from vibra.solvers.common import (
-    DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil,
+    DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil, squared_range,
 )
 from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.standard import DENSE_FLOOR, banded_path
@@ -51,9 +55,23 @@ BLOCK = 128
 #: the values (eigh against eigvalsh, n = 1500).
 POSTERIORI_LIMIT = 256
 
+#: One-sided Jacobi (gejsv) on the n_terms x n B~ is the fallback of `checked_dense` while
+#: n_terms n^2 stays within this (a ring of 4,000 sites: ~40 s); above DENSE_LIMIT only systems
+#: with few springs per dof (rings, ladders) qualify, a 3-D network never does.
+JACOBI_WORK = 4000**3
+
+#: A ring (tridiagonal plus corners, K~ banded once reordered) up to this many dofs takes the
+#: checked dense solve, which bounds every mode relatively; above it, its band (absolute accuracy).
+RING_DENSE_LIMIT = 6000
+
+
+def jacobi_allowed(n: int, n_terms: int) -> bool:
+    """Whether `checked_dense` may fall back to one-sided Jacobi on the n_terms x n B~."""
+    return n <= DENSE_LIMIT or float(n_terms) * n * n <= JACOBI_WORK
+
 
 def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
-                     band: tuple[float, float] | None, tridiagonal: bool, banded: bool) -> str:
+                     band: tuple[float, float] | None, tridiagonal: bool, banded: bool, n_terms: int) -> str:
     """The path `accurate_path` will take (for the cost estimate), without touching B.
 
     Springs that form a path join dofs c and c + 1 only, so K is tridiagonal: a tridiagonal
@@ -65,9 +83,9 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
         return "accurate-bidiagonal"
     if few:
         return "accurate-ritz"
-    if n > DENSE_LIMIT:
-        return "banded" if banded else "accurate-rayleigh"
-    return "accurate-checked"
+    if banded and n > RING_DENSE_LIMIT:
+        return "banded"
+    return "accurate-checked" if jacobi_allowed(n, n_terms) else "accurate-rayleigh"
 
 
 def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matrix, NDArray[np.float64]], *,
@@ -89,11 +107,25 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
         chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage,
                                 factor=factor, mass=mass)
         return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
-    if ordering is not None and not few and n > DENSE_LIMIT:
+    result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
+                          ordering=ordering, width=width)
+    if n <= RING_DENSE_LIMIT and result.error.shape[0]:
+        pencil = ring_pencil(coupling, weights, mass)
+        if pencil is not None:
+            return _ring_certified(result, pencil, weighted, band)
+    return result
+
+
+def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], weighted: Any, *,
+                 n_modes: int | None, vectors: bool, band: tuple[float, float] | None, few: bool,
+                 ordering: NDArray[np.intp] | None, width: int) -> SolveResult:
+    """`accurate_path` for a system whose springs do not form a path."""
+    n = Kt.shape[0]
+    if ordering is not None and not few and n > RING_DENSE_LIMIT:
         ring = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
         if ring.vectors is None:
             return ring
-        return relative_account(_spring_rayleigh(weighted, ring.vectors, vectors=vectors),
+        return relative_account(_spring_rayleigh(weighted, ring, vectors=vectors),
                                 "as spring-space Rayleigh quotients ||B~ v||^2 of the banded solver's vectors")
     if few and band is None:
         k = int(n_modes)  # type: ignore[arg-type]
@@ -105,9 +137,41 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
     if few:
         standard = sparse_path(Kt, n_modes=None, vectors=True, band=band)
-        return relative_account(_spring_ritz(weighted, standard.vectors, vectors=vectors),  # type: ignore[arg-type]
+        return relative_account(_spring_ritz(weighted, standard, band, vectors=vectors),  # type: ignore[arg-type]
                                 "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
-    return checked_dense(weighted, n_modes=n_modes, vectors=vectors, band=band, jacobi=n <= DENSE_LIMIT)
+    return checked_dense(weighted, n_modes=n_modes, vectors=vectors, band=band,
+                         jacobi=jacobi_allowed(n, weighted.shape[0]))
+
+
+def _ring_certified(result: SolveResult, pencil: RingPencil, weighted: Any,
+                    band: tuple[float, float] | None) -> SolveResult:
+    """A ring's result with each bound replaced by its Sturm-count certificate (`vibra.solvers.cycle`):
+    the counts are of K - x M built from the springs and masses as given, so the certificate
+    also covers the rounding of forming B~ (entries within 3 eps each), which the residual
+    bounds, computed on the stored B~, do not see. A mode the counts cannot certify keeps its
+    bound plus that forming term, by Weyl: |d omega| <= 3 eps || |B~| ||."""
+    values = result.eigenvalues
+    offset = 0
+    if band is not None:
+        low, _ = squared_range(band)
+        if low > 0:
+            counts, certain = count_below(pencil, np.array([low]))
+            offset = int(counts[0]) if certain[0] else -1
+    B = sp.csr_matrix(weighted)
+    absolute = abs(B)
+    forming = 3 * EPS * np.sqrt(float(np.asarray((absolute.T @ absolute).sum(axis=1)).max(initial=0.0)))
+    root = np.sqrt(np.maximum(values, 0.0))
+    fallback = result.error + 2 * root * forming + forming**2
+    if offset < 0:
+        result.error = fallback
+        return result
+    bound, certified = certify(pencil, values, offset + np.arange(values.shape[0]), fallback)
+    result.error = bound
+    count = int(certified.sum())
+    note = (f"{count} of {values.shape[0]} bounds certified by Sturm counts of the ring's pencil "
+            "(double-double; mpmath where that cannot resolve them)")
+    result.refinement = f"{result.refinement}; {note}" if result.refinement else note
+    return result
 
 
 def relative_account(result: SolveResult, how: str) -> SolveResult:
@@ -131,16 +195,22 @@ def _weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass
     return np.asarray((left @ coupling).toarray() @ mass_power(mass, -0.5))
 
 
-def _spring_products(weighted: Any, basis: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.asarray(weighted @ basis)
-
-
-def _spring_ritz(weighted: Any, basis: NDArray[np.float64], *, vectors: bool) -> SolveResult:
-    """Rayleigh-Ritz in spring space: H = (B~V)^T (B~V) keeps small eigenvalues' relative accuracy."""
-    elongations = _spring_products(weighted, basis)
-    values, rotation = small_pencil(elongations.T @ elongations, basis.T @ basis)
-    values = np.maximum(values, 0.0)  # H is a Gram matrix: positive semi-definite
-    return _spring_figures(weighted, values, basis @ rotation, vectors, "accurate-ritz")
+def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float], *, vectors: bool) -> SolveResult:
+    """Rayleigh-Ritz in spring space on every vector the sparse path found in `band`, per
+    cluster (`_cluster_bounds`): H = (B~V)^T (B~V) keeps small eigenvalues' relative accuracy;
+    each mode bounded from its residual, the gaps to the modes outside the band taken at the
+    band's edges (the sparse path returns every mode inside it)."""
+    B = sp.csr_matrix(weighted)
+    low, high = squared_range(band)
+    if standard.eigenvalues.shape[0] == 0:
+        return standard
+    theta, basis, error = _cluster_bounds(B, standard.eigenvalues, standard.vectors,  # type: ignore[arg-type]
+                                          np.maximum(standard.error, 0.0), _most_terms(B), complete=False,
+                                          floor=low if low > 0 else -np.inf, ceiling=high)
+    order = np.argsort(theta, kind="stable")
+    result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-ritz")
+    result.error = error[order]
+    return result
 
 
 def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool) -> SolveResult:
@@ -168,12 +238,17 @@ def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors:
     return result
 
 
-def _spring_rayleigh(weighted: Any, basis: NDArray[np.float64], *, vectors: bool) -> SolveResult:
-    """Per-vector Rayleigh quotients ||B~ v||^2 (all modes of a large non-path system)."""
-    elongations = _spring_products(weighted, basis)
-    values = np.sum(elongations**2, axis=0) / np.sum(basis**2, axis=0)
-    order = np.argsort(values)
-    return _spring_figures(weighted, values[order], basis[:, order], vectors, "accurate-rayleigh")
+def _spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool) -> SolveResult:
+    """All modes of a long ring: spring-space Rayleigh-Ritz per cluster of the banded solver's
+    vectors (Rayleigh quotients ||B~ v||^2 for single modes), each bounded from its residual
+    (`_cluster_bounds`, gaps from the banded values' absolute bounds)."""
+    B = sp.csr_matrix(weighted)
+    theta, basis, error = _cluster_bounds(B, ring.eigenvalues, ring.vectors,  # type: ignore[arg-type]
+                                          np.maximum(ring.error, 0.0), _most_terms(B), complete=True)
+    order = np.argsort(theta, kind="stable")
+    result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-rayleigh")
+    result.error = error[order]
+    return result
 
 
 def _spring_figures(weighted: Any, values: NDArray[np.float64], basis: NDArray[np.float64], vectors: bool,
@@ -284,21 +359,34 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     threshold = delta * (1.0 + 1.0 / TARGET)  # lambda >= threshold: delta <= TARGET (lambda - delta)
     low = _cluster_end(values, delta, keep & (values < threshold))  # modes [0, low) are refined
     error = np.full(k, delta)
+    count = min(low + 1, k)  # the refined modes and one beyond, for the gap
+    fast_values = values
     if posteriori:
+        fast_basis = basis[:, :count].copy() if low else basis
         theta, ritz, bound = _cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low)
         # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
         error = np.minimum(delta, np.abs(values - theta) + bound)
         values, error = values.copy(), error.copy()
         values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
     elif low:
-        count = min(low + 1, k)  # one beyond, for the gap
-        basis = _tridiagonal_vectors(reduced, count)  # type: ignore[arg-type]
+        basis = fast_basis = _tridiagonal_vectors(reduced, count)  # type: ignore[arg-type]
         theta, ritz, bound = _cluster_bounds(B, values[:count], basis, delta, terms, complete=count == n)
         values = values.copy()
         values[:low], error[:low] = theta[:low], bound[:low]
     refined = np.arange(k) < low
     zero = values + error <= (terms * n * EPS) ** 2 * norm
     missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
+    if missed.any():
+        # the refined clusters again with extended-precision products (their float64 rounding
+        # margin, eps |B~|^T |B~| |v|, can dominate a residual: a ring's rigid mode, stiff
+        # springs), before any Jacobi SVD
+        theta, ritz, bound = _cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
+                                             complete=count == n, precise=True)
+        values[:low], error[:low] = theta[:low], bound[:low]
+        if posteriori:
+            basis[:, :low] = ritz[:, :low]
+        zero = values + error <= (terms * n * EPS) ** 2 * norm
+        missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
     solver = "accurate-checked" if jacobi else "accurate-rayleigh"
     text = _checked_text(values[keep], error[keep], refined[keep], zero[keep], posteriori=posteriori)
     if missed.any() and not jacobi:
@@ -457,12 +545,16 @@ def _most_terms(B: sp.csr_matrix) -> float:
 
 
 def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
-                    terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None
+                    terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None,
+                    floor: float = -np.inf, ceiling: float | None = None
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see checked_dense).
 
     Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
     The rounding of B~^T (B~ V) is bounded by 2 t unit || |B~|^T |B~| |v| || per column.
+    `floor` / `ceiling`: no eigenvalue outside `values` lies above floor (below the first) or
+    below ceiling (above the last); default: none below, and none above when `complete`
+    (else the last cluster has no gap above).
     `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
     times smaller; the bound, quadratic in the residual, then stays near the true error where
     stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
@@ -512,8 +604,9 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
         for start, stop in zip(starts[first:last], stops[first:last]):
             local = slice(start - columns.start, stop - columns.start)
             residual = float(np.sqrt(squares[local].sum())) + float(margins[local].max())  # (to float64)
-            lower = values[start - 1] + delta[start - 1] if start > 0 else -np.inf
-            upper = values[stop] - delta[stop] if stop < k else (np.inf if complete else -np.inf)
+            lower = values[start - 1] + delta[start - 1] if start > 0 else floor
+            upper = values[stop] - delta[stop] if stop < k else (
+                ceiling if ceiling is not None else (np.inf if complete else -np.inf))
             gap = min(float(w[local].min()) - lower, upper - float(w[local].max()))
             bound = residual**2 / gap if gap > residual else residual
             # (+ the c x c pencil's own rounding, c eps ||H||, for a cluster of c > 1 modes)

@@ -110,7 +110,7 @@ def plan(
     if solver == "accurate":
         assert spring_factor is not None
         n_terms = spring_factor[0].shape[0]
-        path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1,
+        path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1, n_terms=n_terms,
                                 banded=ordering is not None)
     if (requested in ("auto", "accurate") and partial and band is None and tridiagonal and mass.ndim == 1
             and ((solver == "accurate" and n > BISECTION_SIZE) or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
