@@ -26,7 +26,7 @@ and `refinement` (how many, and why).
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Optional, Tuple
 
 import numpy as np
 import scipy.linalg as la
@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
+from vibra.solvers.rounding import WORST_ENTRY, entry_deviation
 from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil, squared_range,
 )
@@ -63,6 +64,53 @@ JACOBI_WORK = 4000**3
 #: A ring (tridiagonal plus corners, K~ banded once reordered) up to this many dofs takes the
 #: checked dense solve, which bounds every mode relatively; above it, its band (absolute accuracy).
 RING_DENSE_LIMIT = 6000
+
+
+#: Relative rounding of each entry of B~ = W^1/2 B M^-1/2 as formed in float64 (two square
+#: roots, a reciprocal, two products: `vibra.solvers.rounding.WORST_ENTRY`). Every bound is for
+#: the exact B~ of the inputs: K~ exact - K~ stored = Delta with |Delta| <= (2 eta + eta^2)
+#: |B~|^T |B~| entry-wise, which moves a unit vector's Rayleigh quotient by at most
+#: 2 eta |B~ v|^T |B~| |v| + eta^2 || |B~| |v| ||^2 and its residual by || Delta v ||.
+FORMING = WORST_ENTRY
+
+
+#: B~'s rounding entry by entry, (D, S): exact B~ = stored - D, each entry of D known to within
+#: S (sparse, B~'s pattern); None where it cannot be computed (a full mass matrix).
+Deviation = Optional[Tuple[sp.csr_matrix, sp.csr_matrix]]
+
+
+def forming_deviation(weighted: Any, coupling: sp.csr_matrix, weights: NDArray[np.float64],
+                      mass: NDArray[np.float64]) -> Deviation:
+    """(D, S) of the stored B~ = W^1/2 B M^-1/2 (`vibra.solvers.rounding.entry_deviation`: each
+    entry x = (1 + delta) sqrt(w) c / sqrt(m), delta to ~eps^2): D = x delta / (1 + delta), S
+    bounds D's own error (WORST_ENTRY |x| where an entry's deviation is not available)."""
+    if np.ndim(mass) != 1 or not sp.issparse(weighted):
+        return None
+    stored = sp.csr_matrix(weighted, dtype=float, copy=True)
+    stored.sort_indices()
+    source = sp.csr_matrix(coupling, dtype=float, copy=True)
+    source.sort_indices()
+    source.eliminate_zeros()
+    stored.eliminate_zeros()
+    if stored.nnz != source.nnz or not (np.array_equal(stored.indptr, source.indptr)
+                                        and np.array_equal(stored.indices, source.indices)):
+        return None
+    rows = np.repeat(np.arange(stored.shape[0]), np.diff(stored.indptr))
+    x = stored.data
+    delta, slack = entry_deviation(x, np.asarray(weights, dtype=float)[rows], source.data,
+                                   np.asarray(mass, dtype=float)[stored.indices])
+    D = sp.csr_matrix((x * delta / (1.0 + delta), stored.indices, stored.indptr), shape=stored.shape)
+    S = sp.csr_matrix((np.abs(x) * (slack * (1.0 + 4 * EPS) + 4 * EPS * np.abs(delta) ** 2) + 1e-300,
+                       stored.indices, stored.indptr), shape=stored.shape)
+    return D, S
+
+
+def zero_level(terms: float, n: int, norm: float) -> float:
+    """omega^2 below which a mode is zero within rounding: ((t + 4 eta / eps) n eps)^2 ||K~||, t
+    the most terms in a row or column of B~ (its products' rounding), eta = `FORMING` (B~'s own:
+    a rigid mode's bound, (2 eta ||K~||)^2 / omega_1^2 with omega_1^2 ~ ||K~|| / n^2 on a chain
+    or ring, reaches ~16 (eta n)^2 ||K~||)."""
+    return ((terms + 4 * FORMING / EPS) * n * EPS) ** 2 * norm
 
 
 def jacobi_allowed(n: int, n_terms: int) -> bool:
@@ -107,8 +155,9 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
         chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage,
                                 factor=factor, mass=mass)
         return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
+    deviation = forming_deviation(weighted, coupling, weights, mass)
     result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
-                          ordering=ordering, width=width)
+                          ordering=ordering, width=width, deviation=deviation)
     if n <= RING_DENSE_LIMIT and result.error.shape[0]:
         pencil = ring_pencil(coupling, weights, mass)
         if pencil is not None:
@@ -118,14 +167,14 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
 
 def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], weighted: Any, *,
                  n_modes: int | None, vectors: bool, band: tuple[float, float] | None, few: bool,
-                 ordering: NDArray[np.intp] | None, width: int) -> SolveResult:
+                 ordering: NDArray[np.intp] | None, width: int, deviation: Deviation) -> SolveResult:
     """`accurate_path` for a system whose springs do not form a path."""
     n = Kt.shape[0]
     if ordering is not None and not few and n > RING_DENSE_LIMIT:
         ring = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
         if ring.vectors is None:
             return ring
-        return relative_account(_spring_rayleigh(weighted, ring, vectors=vectors),
+        return relative_account(_spring_rayleigh(weighted, ring, vectors=vectors, deviation=deviation),
                                 "as spring-space Rayleigh quotients ||B~ v||^2 of the banded solver's vectors")
     if few and band is None:
         k = int(n_modes)  # type: ignore[arg-type]
@@ -133,14 +182,14 @@ def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], wei
         rounding = semidefinite_rounding(factor, float(abs(matrix).sum(axis=1).max()))
         sigma, shifted = lowest_shift(matrix, rounding=rounding)
         _, basis = shift_invert(matrix, min(k + 1, n - 2), sigma, shifted)  # one more: the gap
-        return relative_account(_checked_ritz(weighted, basis, k, vectors=vectors),
+        return relative_account(_checked_ritz(weighted, basis, k, vectors=vectors, deviation=deviation),
                                 f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
     if few:
         standard = sparse_path(Kt, n_modes=None, vectors=True, band=band)
-        return relative_account(_spring_ritz(weighted, standard, band, vectors=vectors),  # type: ignore[arg-type]
+        return relative_account(_spring_ritz(weighted, standard, band, vectors=vectors, deviation=deviation),  # type: ignore[arg-type]
                                 "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
     return checked_dense(weighted, n_modes=n_modes, vectors=vectors, band=band,
-                         jacobi=jacobi_allowed(n, weighted.shape[0]))
+                         jacobi=jacobi_allowed(n, weighted.shape[0]), deviation=deviation)
 
 
 def _ring_certified(result: SolveResult, pencil: RingPencil, weighted: Any,
@@ -195,7 +244,8 @@ def _weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass
     return np.asarray((left @ coupling).toarray() @ mass_power(mass, -0.5))
 
 
-def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float], *, vectors: bool) -> SolveResult:
+def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float], *, vectors: bool,
+                 deviation: Deviation = None) -> SolveResult:
     """Rayleigh-Ritz in spring space on every vector the sparse path found in `band`, per
     cluster (`_cluster_bounds`): H = (B~V)^T (B~V) keeps small eigenvalues' relative accuracy;
     each mode bounded from its residual, the gaps to the modes outside the band taken at the
@@ -206,14 +256,15 @@ def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float]
         return standard
     theta, basis, error = _cluster_bounds(B, standard.eigenvalues, standard.vectors,  # type: ignore[arg-type]
                                           np.maximum(standard.error, 0.0), _most_terms(B), complete=False,
-                                          floor=low if low > 0 else -np.inf, ceiling=high)
+                                          floor=low if low > 0 else -np.inf, ceiling=high, deviation=deviation)
     order = np.argsort(theta, kind="stable")
     result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-ritz")
     result.error = error[order]
     return result
 
 
-def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool) -> SolveResult:
+def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool,
+                  deviation: Deviation = None) -> SolveResult:
     """Spring-space Rayleigh-Ritz on k + 1 shift-invert vectors; the lowest k kept, each with the
     quadratic residual bound of `_cluster_bounds` (the (k+1)-th value, less its residual, bounds
     the gap of the k-th from above)."""
@@ -227,24 +278,24 @@ def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors:
     # float64 products first; extended precision (4 products of B~ in np.longdouble, ~3 s at
     # 50,000 dofs) only if a mode's bound then misses TARGET (stiff springs: the float64
     # rounding margin of B~^T B~ v dominates the residual)
-    theta, ritz, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False)
+    theta, ritz, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, deviation=deviation)
     norm = float(np.asarray(B.multiply(B).sum(axis=0)).max(initial=0.0))  # max diagonal of K~
-    zero = theta + error <= (terms * B.shape[1] * EPS) ** 2 * norm
+    zero = theta + error <= zero_level(terms, B.shape[1], norm)
     if np.any((error > TARGET * theta) & ~zero):
-        theta, ritz, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True)
+        theta, ritz, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True, deviation=deviation)
     basis = ritz
     result = _spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
     result.error = np.maximum(error[:k], 4 * EPS * theta[:k])
     return result
 
 
-def _spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool) -> SolveResult:
+def _spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviation: Deviation = None) -> SolveResult:
     """All modes of a long ring: spring-space Rayleigh-Ritz per cluster of the banded solver's
     vectors (Rayleigh quotients ||B~ v||^2 for single modes), each bounded from its residual
     (`_cluster_bounds`, gaps from the banded values' absolute bounds)."""
     B = sp.csr_matrix(weighted)
     theta, basis, error = _cluster_bounds(B, ring.eigenvalues, ring.vectors,  # type: ignore[arg-type]
-                                          np.maximum(ring.error, 0.0), _most_terms(B), complete=True)
+                                          np.maximum(ring.error, 0.0), _most_terms(B), complete=True, deviation=deviation)
     order = np.argsort(theta, kind="stable")
     result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-rayleigh")
     result.error = error[order]
@@ -304,7 +355,7 @@ def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band:
 
 
 def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
-                  jacobi: bool = True) -> SolveResult:
+                  jacobi: bool = True, deviation: Deviation = None) -> SolveResult:
     """The fast dense solve, checked mode by mode; refinement only for the modes that need it.
 
     1. K~ = B~^T B~ formed from the spring factor, then one dense solve of it: LAPACK eigh when
@@ -327,8 +378,9 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
        the same a-posteriori bound too (|lambda - theta| plus theta's bound, when below
        delta): it follows the true error, where the a-priori bound can be ~n times above it.
     4. If a requested mode's bound exceeds TARGET theta, and it is not a zero mode within rounding
-       (theta + bound <= (t n eps)^2 ||K~||, t the most terms in a row or column of B~: omega
-       below ~1e-11 of the largest, where B~'s own rounding leaves no relative digit), the
+       (theta + bound <= `zero_level`, ((t + 12) n eps)^2 ||K~||, t the most terms in a row or
+       column of B~: omega below ~1e-11 of the largest, where B~'s own rounding leaves no
+       relative digit), the
        result is gejsv's on B~ (``accurate-jacobi``); else the checked fast result
        (``accurate-checked``), its bounds as `error`. `refined` marks the modes whose values
        come from step 2 (all of them after Jacobi), `refinement` says how many and why.
@@ -363,29 +415,29 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     fast_values = values
     if posteriori:
         fast_basis = basis[:, :count].copy() if low else basis
-        theta, ritz, bound = _cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low)
+        theta, ritz, bound = _cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low, deviation=deviation)
         # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
         error = np.minimum(delta, np.abs(values - theta) + bound)
         values, error = values.copy(), error.copy()
         values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
     elif low:
         basis = fast_basis = _tridiagonal_vectors(reduced, count)  # type: ignore[arg-type]
-        theta, ritz, bound = _cluster_bounds(B, values[:count], basis, delta, terms, complete=count == n)
+        theta, ritz, bound = _cluster_bounds(B, values[:count], basis, delta, terms, complete=count == n, deviation=deviation)
         values = values.copy()
         values[:low], error[:low] = theta[:low], bound[:low]
     refined = np.arange(k) < low
-    zero = values + error <= (terms * n * EPS) ** 2 * norm
+    zero = values + error <= zero_level(terms, n, norm)
     missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
     if missed.any():
         # the refined clusters again with extended-precision products (their float64 rounding
         # margin, eps |B~|^T |B~| |v|, can dominate a residual: a ring's rigid mode, stiff
         # springs), before any Jacobi SVD
         theta, ritz, bound = _cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
-                                             complete=count == n, precise=True)
+                                             complete=count == n, precise=True, deviation=deviation)
         values[:low], error[:low] = theta[:low], bound[:low]
         if posteriori:
             basis[:, :low] = ritz[:, :low]
-        zero = values + error <= (terms * n * EPS) ** 2 * norm
+        zero = values + error <= zero_level(terms, n, norm)
         missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
     solver = "accurate-checked" if jacobi else "accurate-rayleigh"
     text = _checked_text(values[keep], error[keep], refined[keep], zero[keep], posteriori=posteriori)
@@ -410,7 +462,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         # which would merge every omega^2 below it into one cluster with no gap.
         located = np.minimum(delta, 2 * _residual_bounds(B, exact.eigenvalues, exact.vectors, terms))  # type: ignore[arg-type]
         values, basis, error = _cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
-                                               located, terms, complete=True, precise=True)
+                                               located, terms, complete=True, precise=True, deviation=deviation)
         keep = np.zeros(values.shape[0], dtype=bool)
         keep[selected(np.sqrt(np.maximum(values, 0.0)), n_modes=n_modes, band=band)] = True
         refined = np.ones(values.shape[0], dtype=bool)
@@ -430,8 +482,8 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
 def _residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], terms: float
                      ) -> NDArray[np.float64]:
     """||B~^T B~ v - theta v|| per column, in extended precision, plus the margin for its own
-    rounding (2 t eps_ext || |B~|^T |B~| |v| ||): each column has an eigenvalue within it of
-    theta (for unit v), in blocks of BLOCK columns."""
+    rounding (2 t eps_ext || |B~|^T |B~| |v| ||) and for B~'s (`FORMING`): each column has an
+    eigenvalue of the exact K~ within it of theta, in blocks of BLOCK columns."""
     unit = float(np.finfo(np.longdouble).eps)
     precise = B.astype(np.longdouble)
     absolute = abs(B)
@@ -440,8 +492,13 @@ def _residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArr
         V = basis[:, start:start + BLOCK]
         product = np.asarray(precise.T @ (precise @ V.astype(np.longdouble)))
         residual = np.linalg.norm((product - V * values[start:start + BLOCK]).astype(float), axis=0)
-        margin = 2 * terms * unit * np.linalg.norm(np.asarray(absolute.T @ (absolute @ np.abs(V))), axis=0)
-        bounds[start:start + BLOCK] = (residual + margin) / np.linalg.norm(V, axis=0) ** 2
+        spread = np.asarray(absolute @ np.abs(V))  # |B~| |v|
+        margin = (2 * terms * unit + FORMING * (2 + FORMING)) * np.linalg.norm(np.asarray(absolute.T @ spread), axis=0)
+        # B~'s own rounding moves the Rayleigh quotient too (`FORMING`)
+        moved = 2 * FORMING * np.einsum("ij,ij->j", np.abs(np.asarray(B @ V)), spread) + FORMING**2 * np.einsum(
+            "ij,ij->j", spread, spread)
+        norms = np.linalg.norm(V, axis=0)
+        bounds[start:start + BLOCK] = (residual + margin) / norms + moved / norms**2
     return bounds
 
 
@@ -450,13 +507,14 @@ def _spring_gram(B: sp.csr_matrix, terms: float) -> tuple[NDArray[np.float64], f
     stable solve of it (see checked_dense) and the upper bound ||K~|| it uses.
 
     ||K~||_2 <= || |B~|^T |B~| ||_2 <= the largest row sum of |B~|^T |B~| (sparse, O(nnz)); each
-    entry of K~ is a sum of at most t products, formed within gamma_t of that absolute sum.
+    entry of K~ is a sum of at most t products, formed within gamma_t of that absolute sum;
+    B~'s own rounding (`FORMING`) moves K~ by at most (2 eta + eta^2) that norm.
     """
     n = B.shape[1]
     absolute = abs(B)
     norm = max(float(np.asarray((absolute.T @ absolute).sum(axis=1)).max(initial=0.0)), 1e-300)
     gamma = terms * EPS / (1.0 - terms * EPS)
-    delta = ((n + DENSE_FLOOR) * EPS * (1.0 + gamma) + gamma) * norm
+    delta = ((n + DENSE_FLOOR) * EPS * (1.0 + gamma) + gamma + FORMING * (2.0 + FORMING)) * norm
     return np.asfortranarray((B.T @ B).toarray()), delta, norm
 
 
@@ -546,7 +604,7 @@ def _most_terms(B: sp.csr_matrix) -> float:
 
 def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
                     terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None,
-                    floor: float = -np.inf, ceiling: float | None = None
+                    floor: float = -np.inf, ceiling: float | None = None, deviation: Deviation = None
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see checked_dense).
 
@@ -558,10 +616,20 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
     `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
     times smaller; the bound, quadratic in the residual, then stays near the true error where
     stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
+    `deviation` (`forming_deviation`): B~'s own rounding, entry by entry; the Ritz step then
+    works with the exact B~ = stored - D (B~ v - D v), so values and bounds are the exact
+    problem's, up to the deviations' own uncertainty S. Without it, the worst case `FORMING`
+    per entry: the residual grows by || Delta v || and the Rayleigh quotient may move by
+    2 eta |B~ v|^T |B~| |v| (first order, far above the true effect on the lowest modes of a
+    long chain, whose entry roundings act as diagonal scalings).
     """
     unit = float(np.finfo(np.longdouble).eps) if precise else EPS
+    D = S = None
+    if deviation is not None:
+        D, S = deviation
     if precise:
         B = B.astype(np.longdouble)
+        D = None if D is None else D.astype(np.longdouble)
     k = values.shape[0]
     cheap_from = k if cheap_from is None else cheap_from
     delta = np.broadcast_to(np.asarray(delta, dtype=float), values.shape)  # each value's absolute error
@@ -570,12 +638,15 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
     theta, error = np.empty(k), np.empty(k)
     vectors = np.empty_like(basis)
     B_T = B.T.tocsr()  # (a row-major product: faster than the transposed view)
+    D_T = None if D is None else D.T.tocsr()
     A = abs(B)
     A_T = A.T.tocsr()
     # from column `cheap_from` on: || |B~|^T |B~| |v| || <= || |B~|^T |B~| ||_2 ||v||, that norm
     # <= its largest row sum (non-negative, symmetric): no products per block, and a margin
     # that only matters where omega^2 is far below ||K~|| (the columns before cheap_from)
     reach = float(np.asarray((A_T @ A).sum(axis=1)).max(initial=0.0)) if cheap_from < k else 0.0
+    eta = FORMING if S is None else float(np.max(S.data / np.maximum(np.abs(A.data.astype(float)), 1e-300),
+                                                initial=0.0))
     first = 0
     while first < len(starts):
         last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
@@ -583,6 +654,11 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
         columns = slice(int(starts[first]), int(stops[last - 1]))
         V = basis[:, columns].astype(B.dtype)
         E = np.asarray(B @ V)
+        # the exact B~ v where it matters (below cheap_from); above, the worst case, which
+        # costs no products and stays below those modes' own a-priori bound
+        exact = D is not None and columns.start < cheap_from
+        if exact:
+            E = E - np.asarray(D @ V)
         # single-mode clusters: Rayleigh quotients ||B~ v||^2 / ||v||^2, all at once
         w = (np.einsum("ij,ij->j", E, E) / np.einsum("ij,ij->j", V, V)).astype(float)
         for start, stop in zip(starts[first:last] - columns.start, stops[first:last] - columns.start):
@@ -594,21 +670,45 @@ def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
             V[:, start:stop] = V[:, start:stop] @ rotation
             E[:, start:stop] = E[:, start:stop] @ rotation
         w = np.maximum(w, 0.0)  # H is a Gram matrix
-        squares = np.sum((np.asarray(B_T @ E) - V * w) ** 2, axis=0)
-        # rounding of B~^T (B~ V) (sums of <= `terms` products)
+        product = np.asarray(B_T @ E)
+        if exact:
+            product = product - np.asarray(D_T @ E)
+        squares = np.sum((product - V * w) ** 2, axis=0)
+        # rounding of B~^T (B~ V) (sums of <= `terms` products; D's, eta times smaller, alike),
+        # and what is left of B~'s own rounding: Delta v added to the residual, the Rayleigh
+        # quotient moved by `moved` (per unit column)
+        lengths = np.linalg.norm(V, axis=0).astype(float)
+        grow = 2 * eta + eta * eta if exact else FORMING * (2 + FORMING)
         if columns.start >= cheap_from:
-            margins = 2 * terms * unit * reach * np.linalg.norm(V, axis=0).astype(float)
+            margins = 2 * terms * unit * reach * lengths * (1 + 4 * FORMING)
+            shifts = grow * reach * lengths
+            moved = grow * reach * np.ones_like(lengths)
         else:
-            margins = 2 * terms * unit * np.linalg.norm(np.asarray(A_T @ (A @ np.abs(V))), axis=0).astype(float)
+            spread = np.asarray(A @ np.abs(V))  # |B~| |v|
+            products = np.linalg.norm(np.asarray(A_T @ spread), axis=0).astype(float)
+            margins = 2 * terms * unit * products * (1 + 4 * eta)
+            if not exact:
+                shifts = grow * products
+                moved = ((2 * FORMING * np.einsum("ij,ij->j", np.abs(E), spread)
+                          + FORMING**2 * np.einsum("ij,ij->j", spread, spread)).astype(float) / lengths**2)
+            else:  # only the deviations' uncertainty S (|S| <= eta |B~|) is left
+                unsure = np.asarray(S @ np.abs(V).astype(float))
+                shifts = (np.linalg.norm(np.asarray(A_T @ unsure), axis=0)
+                          + np.linalg.norm(np.asarray(S.T @ np.abs(E).astype(float)), axis=0)) * (1 + 4 * eta) \
+                    + eta * eta * products
+                moved = (2 * np.einsum("ij,ij->j", np.abs(E).astype(float), unsure)
+                         + np.einsum("ij,ij->j", unsure, unsure)) / lengths**2
         vectors[:, columns], theta[columns] = V, w
         for start, stop in zip(starts[first:last], stops[first:last]):
             local = slice(start - columns.start, stop - columns.start)
-            residual = float(np.sqrt(squares[local].sum())) + float(margins[local].max())  # (to float64)
+            residual = float(np.sqrt(squares[local].sum())) + float(margins[local].max()) + float(
+                np.sqrt(np.sum(shifts[local] ** 2)))  # (to float64)
+            shift = float(moved[local].max())
             lower = values[start - 1] + delta[start - 1] if start > 0 else floor
             upper = values[stop] - delta[stop] if stop < k else (
                 ceiling if ceiling is not None else (np.inf if complete else -np.inf))
-            gap = min(float(w[local].min()) - lower, upper - float(w[local].max()))
-            bound = residual**2 / gap if gap > residual else residual
+            gap = min(float(w[local].min()) - lower, upper - float(w[local].max())) - shift
+            bound = (residual**2 / gap if gap > residual else residual) + shift
             # (+ the c x c pencil's own rounding, c eps ||H||, for a cluster of c > 1 modes)
             pencil = (stop - start) * EPS * float(w[local].max()) if stop - start > 1 else 0.0
             error[start:stop] = bound + (2 * terms * unit + EPS) * w[local] + pencil
