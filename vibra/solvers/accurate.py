@@ -156,12 +156,11 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 factor=factor, mass=mass)
         return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
     deviation = forming_deviation(weighted, coupling, weights, mass)
+    pencil = ring_pencil(coupling, weights, mass) if n <= RING_DENSE_LIMIT else None
     result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
                           ordering=ordering, width=width, deviation=deviation)
-    if n <= RING_DENSE_LIMIT and result.error.shape[0]:
-        pencil = ring_pencil(coupling, weights, mass)
-        if pencil is not None:
-            return _ring_certified(result, pencil, weighted, band)
+    if pencil is not None and result.error.shape[0]:
+        return _ring_certified(result, pencil, weighted, band)
     return result
 
 
@@ -386,9 +385,9 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
        come from step 2 (all of them after Jacobi), `refinement` says how many and why.
 
     `jacobi` False (all modes of a system over DENSE_LIMIT dofs, where gejsv on the
-    n_terms x n B~ would cost many times the dense solve): no step 4, the bounds stand as
-    they are, and the path is ``accurate-rayleigh`` (its single-mode clusters are Rayleigh
-    quotients ||B~ v||^2).
+    n_terms x n B~ would cost many times the dense solve: `jacobi_allowed`): no step 4, the
+    bounds stand as they are, and the path is ``accurate-rayleigh`` (its single-mode clusters
+    are Rayleigh quotients ||B~ v||^2).
     """
     B = sp.csr_matrix(weighted)
     n = B.shape[1]
@@ -428,10 +427,12 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     refined = np.arange(k) < low
     zero = values + error <= zero_level(terms, n, norm)
     missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
-    if missed.any():
+    if missed.any() and _largest_cluster(fast_values[:count], delta) <= PRECISE_CLUSTER:
         # the refined clusters again with extended-precision products (their float64 rounding
         # margin, eps |B~|^T |B~| |v|, can dominate a residual: a ring's rigid mode, stiff
-        # springs), before any Jacobi SVD
+        # springs), before any Jacobi SVD; not where the fast values merge into large clusters
+        # (their rotation in np.longdouble costs n c^2 without BLAS: 39 s for c = 861, n = 1,600),
+        # which only Jacobi resolves
         theta, ritz, bound = _cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
                                              complete=count == n, precise=True, deviation=deviation)
         values[:low], error[:low] = theta[:low], bound[:low]
@@ -445,7 +446,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         with np.errstate(divide="ignore"):
             worst = float(np.max(error[missed] / np.abs(values[missed])))
         text += (f"; {int(missed.sum())} of them miss {TARGET:g} relative (error/omega^2 up to {worst:.1g}), "
-                 f"no Jacobi SVD above {DENSE_LIMIT} dofs")
+                 f"no Jacobi SVD (its cost, n_terms n^2, over {JACOBI_WORK:.1e})")
     elif missed.any():
         # One-sided Jacobi on B~ (gejsv reduces the tall B~ by a pivoted QR first). Its vectors
         # are taken for every mode (mixing them with the fast vectors would cost orthogonality)
@@ -568,6 +569,16 @@ def _tridiagonal_vectors(reduced: tuple[Any, ...], count: int) -> NDArray[np.flo
     if info != 0:
         raise RuntimeError(f"LAPACK ormqr failed with info={info}")
     return np.vstack([tridiagonal[:1], product])
+
+
+#: Largest cluster of the fast solve for which `checked_dense` retries in extended precision.
+PRECISE_CLUSTER = 64
+
+
+def _largest_cluster(values: NDArray[np.float64], delta: float) -> int:
+    """The most values in one cluster as `_cluster_bounds` groups them (delta the same for all)."""
+    breaks = np.flatnonzero(np.diff(values) > 2 * delta + TARGET * np.abs(values[1:]))
+    return int(np.diff(np.r_[0, breaks + 1, values.shape[0]]).max(initial=0))
 
 
 def _cluster_end(values: NDArray[np.float64], delta: float, needed: NDArray[np.bool_]) -> int:
