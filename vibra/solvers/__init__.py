@@ -55,6 +55,7 @@ Where each path lives:
 ``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
 ``cycle.py``           a ring's pencil and its Sturm counts in double-double (certified bounds)
 ``accurate.py``        the accurate dispatch; accurate-checked, -ritz, -rayleigh, -jacobi
+``spring_ritz.py``     spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s own rounding
 ``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
 ``budget.py``          memory / time estimates, the guard and its limits, progress reports
 ``gpu.py``             ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)

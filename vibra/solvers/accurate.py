@@ -26,7 +26,7 @@ and `refinement` (how many, and why).
 
 from __future__ import annotations
 
-from typing import Any, Callable, Optional, Tuple
+from typing import Any, Callable
 
 import numpy as np
 import scipy.linalg as la
@@ -35,19 +35,16 @@ from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
-from vibra.solvers.rounding import WORST_ENTRY, entry_deviation
+from vibra.solvers.spring_ritz import (
+    FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, residual_bounds, zero_level,
+)
 from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil, squared_range,
 )
 from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.standard import DENSE_FLOOR, banded_path
 
-#: Relative accuracy of omega^2 that `checked_dense` asks of each requested mode before it
-#: accepts the fast solve's result for it (omega then to ~TARGET / 2).
-TARGET = 1e-10
 
-#: Columns per block in `checked_dense`'s bounds (memory n_terms x BLOCK).
-BLOCK = 128
 
 #: Up to this many dofs `checked_dense` computes every vector even for values only (a few ms
 #: at 256), so that every mode's bound comes from its residual and follows the true error;
@@ -64,53 +61,6 @@ JACOBI_WORK = 4000**3
 #: A ring (tridiagonal plus corners, K~ banded once reordered) up to this many dofs takes the
 #: checked dense solve, which bounds every mode relatively; above it, its band (absolute accuracy).
 RING_DENSE_LIMIT = 6000
-
-
-#: Relative rounding of each entry of B~ = W^1/2 B M^-1/2 as formed in float64 (two square
-#: roots, a reciprocal, two products: `vibra.solvers.rounding.WORST_ENTRY`). Every bound is for
-#: the exact B~ of the inputs: K~ exact - K~ stored = Delta with |Delta| <= (2 eta + eta^2)
-#: |B~|^T |B~| entry-wise, which moves a unit vector's Rayleigh quotient by at most
-#: 2 eta |B~ v|^T |B~| |v| + eta^2 || |B~| |v| ||^2 and its residual by || Delta v ||.
-FORMING = WORST_ENTRY
-
-
-#: B~'s rounding entry by entry, (D, S): exact B~ = stored - D, each entry of D known to within
-#: S (sparse, B~'s pattern); None where it cannot be computed (a full mass matrix).
-Deviation = Optional[Tuple[sp.csr_matrix, sp.csr_matrix]]
-
-
-def forming_deviation(weighted: Any, coupling: sp.csr_matrix, weights: NDArray[np.float64],
-                      mass: NDArray[np.float64]) -> Deviation:
-    """(D, S) of the stored B~ = W^1/2 B M^-1/2 (`vibra.solvers.rounding.entry_deviation`: each
-    entry x = (1 + delta) sqrt(w) c / sqrt(m), delta to ~eps^2): D = x delta / (1 + delta), S
-    bounds D's own error (WORST_ENTRY |x| where an entry's deviation is not available)."""
-    if np.ndim(mass) != 1 or not sp.issparse(weighted):
-        return None
-    stored = sp.csr_matrix(weighted, dtype=float, copy=True)
-    stored.sort_indices()
-    source = sp.csr_matrix(coupling, dtype=float, copy=True)
-    source.sort_indices()
-    source.eliminate_zeros()
-    stored.eliminate_zeros()
-    if stored.nnz != source.nnz or not (np.array_equal(stored.indptr, source.indptr)
-                                        and np.array_equal(stored.indices, source.indices)):
-        return None
-    rows = np.repeat(np.arange(stored.shape[0]), np.diff(stored.indptr))
-    x = stored.data
-    delta, slack = entry_deviation(x, np.asarray(weights, dtype=float)[rows], source.data,
-                                   np.asarray(mass, dtype=float)[stored.indices])
-    D = sp.csr_matrix((x * delta / (1.0 + delta), stored.indices, stored.indptr), shape=stored.shape)
-    S = sp.csr_matrix((np.abs(x) * (slack * (1.0 + 4 * EPS) + 4 * EPS * np.abs(delta) ** 2) + 1e-300,
-                       stored.indices, stored.indptr), shape=stored.shape)
-    return D, S
-
-
-def zero_level(terms: float, n: int, norm: float) -> float:
-    """omega^2 below which a mode is zero within rounding: ((t + 4 eta / eps) n eps)^2 ||K~||, t
-    the most terms in a row or column of B~ (its products' rounding), eta = `FORMING` (B~'s own:
-    a rigid mode's bound, (2 eta ||K~||)^2 / omega_1^2 with omega_1^2 ~ ||K~|| / n^2 on a chain
-    or ring, reaches ~16 (eta n)^2 ||K~||)."""
-    return ((terms + 4 * FORMING / EPS) * n * EPS) ** 2 * norm
 
 
 def jacobi_allowed(n: int, n_terms: int) -> bool:
@@ -246,15 +196,15 @@ def _weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass
 def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float], *, vectors: bool,
                  deviation: Deviation = None) -> SolveResult:
     """Rayleigh-Ritz in spring space on every vector the sparse path found in `band`, per
-    cluster (`_cluster_bounds`): H = (B~V)^T (B~V) keeps small eigenvalues' relative accuracy;
+    cluster (`cluster_bounds`): H = (B~V)^T (B~V) keeps small eigenvalues' relative accuracy;
     each mode bounded from its residual, the gaps to the modes outside the band taken at the
     band's edges (the sparse path returns every mode inside it)."""
     B = sp.csr_matrix(weighted)
     low, high = squared_range(band)
     if standard.eigenvalues.shape[0] == 0:
         return standard
-    theta, basis, error = _cluster_bounds(B, standard.eigenvalues, standard.vectors,  # type: ignore[arg-type]
-                                          np.maximum(standard.error, 0.0), _most_terms(B), complete=False,
+    theta, basis, error = cluster_bounds(B, standard.eigenvalues, standard.vectors,  # type: ignore[arg-type]
+                                          np.maximum(standard.error, 0.0), most_terms(B), complete=False,
                                           floor=low if low > 0 else -np.inf, ceiling=high, deviation=deviation)
     order = np.argsort(theta, kind="stable")
     result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-ritz")
@@ -265,7 +215,7 @@ def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float]
 def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool,
                   deviation: Deviation = None) -> SolveResult:
     """Spring-space Rayleigh-Ritz on k + 1 shift-invert vectors; the lowest k kept, each with the
-    quadratic residual bound of `_cluster_bounds` (the (k+1)-th value, less its residual, bounds
+    quadratic residual bound of `cluster_bounds` (the (k+1)-th value, less its residual, bounds
     the gap of the k-th from above)."""
     B = sp.csr_matrix(weighted)
     elongations = np.asarray(B @ basis)
@@ -273,15 +223,15 @@ def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors:
     values = np.maximum(values, 0.0)
     basis = basis @ rotation
     residuals = np.linalg.norm(np.asarray(B.T @ (elongations @ rotation)) - basis * values, axis=0)
-    terms = _most_terms(B)
+    terms = most_terms(B)
     # float64 products first; extended precision (4 products of B~ in np.longdouble, ~3 s at
     # 50,000 dofs) only if a mode's bound then misses TARGET (stiff springs: the float64
     # rounding margin of B~^T B~ v dominates the residual)
-    theta, ritz, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, deviation=deviation)
+    theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, deviation=deviation)
     norm = float(np.asarray(B.multiply(B).sum(axis=0)).max(initial=0.0))  # max diagonal of K~
     zero = theta + error <= zero_level(terms, B.shape[1], norm)
     if np.any((error > TARGET * theta) & ~zero):
-        theta, ritz, error = _cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True, deviation=deviation)
+        theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True, deviation=deviation)
     basis = ritz
     result = _spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
     result.error = np.maximum(error[:k], 4 * EPS * theta[:k])
@@ -291,10 +241,10 @@ def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors:
 def _spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviation: Deviation = None) -> SolveResult:
     """All modes of a long ring: spring-space Rayleigh-Ritz per cluster of the banded solver's
     vectors (Rayleigh quotients ||B~ v||^2 for single modes), each bounded from its residual
-    (`_cluster_bounds`, gaps from the banded values' absolute bounds)."""
+    (`cluster_bounds`, gaps from the banded values' absolute bounds)."""
     B = sp.csr_matrix(weighted)
-    theta, basis, error = _cluster_bounds(B, ring.eigenvalues, ring.vectors,  # type: ignore[arg-type]
-                                          np.maximum(ring.error, 0.0), _most_terms(B), complete=True, deviation=deviation)
+    theta, basis, error = cluster_bounds(B, ring.eigenvalues, ring.vectors,  # type: ignore[arg-type]
+                                          np.maximum(ring.error, 0.0), most_terms(B), complete=True, deviation=deviation)
     order = np.argsort(theta, kind="stable")
     result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-rayleigh")
     result.error = error[order]
@@ -391,7 +341,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     """
     B = sp.csr_matrix(weighted)
     n = B.shape[1]
-    terms = _most_terms(B)
+    terms = most_terms(B)
     dense, delta, norm = _spring_gram(B, terms)
     subset = n_modes is not None and n_modes < n
     last = min(int(n_modes), n - 1) if subset else n - 1  # type: ignore[arg-type]  # one beyond, for the gap
@@ -414,14 +364,14 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     fast_values = values
     if posteriori:
         fast_basis = basis[:, :count].copy() if low else basis
-        theta, ritz, bound = _cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low, deviation=deviation)
+        theta, ritz, bound = cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low, deviation=deviation)
         # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
         error = np.minimum(delta, np.abs(values - theta) + bound)
         values, error = values.copy(), error.copy()
         values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
     elif low:
         basis = fast_basis = _tridiagonal_vectors(reduced, count)  # type: ignore[arg-type]
-        theta, ritz, bound = _cluster_bounds(B, values[:count], basis, delta, terms, complete=count == n, deviation=deviation)
+        theta, ritz, bound = cluster_bounds(B, values[:count], basis, delta, terms, complete=count == n, deviation=deviation)
         values = values.copy()
         values[:low], error[:low] = theta[:low], bound[:low]
     refined = np.arange(k) < low
@@ -433,7 +383,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         # springs), before any Jacobi SVD; not where the fast values merge into large clusters
         # (their rotation in np.longdouble costs n c^2 without BLAS: 39 s for c = 861, n = 1,600),
         # which only Jacobi resolves
-        theta, ritz, bound = _cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
+        theta, ritz, bound = cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
                                              complete=count == n, precise=True, deviation=deviation)
         values[:low], error[:low] = theta[:low], bound[:low]
         if posteriori:
@@ -461,8 +411,8 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         # Jacobi's values are relatively accurate: their neighbours' places (for the gaps and
         # the clusters) from each vector's own residual, not from the dense solve's delta,
         # which would merge every omega^2 below it into one cluster with no gap.
-        located = np.minimum(delta, 2 * _residual_bounds(B, exact.eigenvalues, exact.vectors, terms))  # type: ignore[arg-type]
-        values, basis, error = _cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
+        located = np.minimum(delta, 2 * residual_bounds(B, exact.eigenvalues, exact.vectors, terms))  # type: ignore[arg-type]
+        values, basis, error = cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
                                                located, terms, complete=True, precise=True, deviation=deviation)
         keep = np.zeros(values.shape[0], dtype=bool)
         keep[selected(np.sqrt(np.maximum(values, 0.0)), n_modes=n_modes, band=band)] = True
@@ -478,29 +428,6 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         result = SolveResult(values, None, error, float("nan"), float("nan"), solver)
     result.refined, result.refinement = refined, text
     return result
-
-
-def _residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], terms: float
-                     ) -> NDArray[np.float64]:
-    """||B~^T B~ v - theta v|| per column, in extended precision, plus the margin for its own
-    rounding (2 t eps_ext || |B~|^T |B~| |v| ||) and for B~'s (`FORMING`): each column has an
-    eigenvalue of the exact K~ within it of theta, in blocks of BLOCK columns."""
-    unit = float(np.finfo(np.longdouble).eps)
-    precise = B.astype(np.longdouble)
-    absolute = abs(B)
-    bounds = np.empty(values.shape[0])
-    for start in range(0, values.shape[0], BLOCK):
-        V = basis[:, start:start + BLOCK]
-        product = np.asarray(precise.T @ (precise @ V.astype(np.longdouble)))
-        residual = np.linalg.norm((product - V * values[start:start + BLOCK]).astype(float), axis=0)
-        spread = np.asarray(absolute @ np.abs(V))  # |B~| |v|
-        margin = (2 * terms * unit + FORMING * (2 + FORMING)) * np.linalg.norm(np.asarray(absolute.T @ spread), axis=0)
-        # B~'s own rounding moves the Rayleigh quotient too (`FORMING`)
-        moved = 2 * FORMING * np.einsum("ij,ij->j", np.abs(np.asarray(B @ V)), spread) + FORMING**2 * np.einsum(
-            "ij,ij->j", spread, spread)
-        norms = np.linalg.norm(V, axis=0)
-        bounds[start:start + BLOCK] = (residual + margin) / norms + moved / norms**2
-    return bounds
 
 
 def _spring_gram(B: sp.csr_matrix, terms: float) -> tuple[NDArray[np.float64], float, float]:
@@ -576,13 +503,13 @@ PRECISE_CLUSTER = 64
 
 
 def _largest_cluster(values: NDArray[np.float64], delta: float) -> int:
-    """The most values in one cluster as `_cluster_bounds` groups them (delta the same for all)."""
+    """The most values in one cluster as `cluster_bounds` groups them (delta the same for all)."""
     breaks = np.flatnonzero(np.diff(values) > 2 * delta + TARGET * np.abs(values[1:]))
     return int(np.diff(np.r_[0, breaks + 1, values.shape[0]]).max(initial=0))
 
 
 def _cluster_end(values: NDArray[np.float64], delta: float, needed: NDArray[np.bool_]) -> int:
-    """The end of the cluster (values closer than 2 delta + TARGET |value|, as `_cluster_bounds`
+    """The end of the cluster (values closer than 2 delta + TARGET |value|, as `cluster_bounds`
     groups them) that holds the last `needed` mode; 0 when none is needed."""
     if not needed.any():
         return 0
@@ -606,122 +533,3 @@ def _checked_text(values: NDArray[np.float64], error: NDArray[np.float64], refin
     zeros = int((refined & zero).sum())
     return (f"{count} of {k} modes below that bound's reach refined by spring-space Rayleigh-Ritz"
             f"{worst}" + (f" ({zeros} zero within rounding)" if zeros else "") + f"; {kept}")
-
-
-def _most_terms(B: sp.csr_matrix) -> float:
-    """The most stored entries in a row or a column of B~ (the length of its dot products)."""
-    return float(max(np.diff(B.indptr).max(initial=1), np.bincount(B.indices, minlength=B.shape[1]).max(initial=1)))
-
-
-def _cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
-                    terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None,
-                    floor: float = -np.inf, ceiling: float | None = None, deviation: Deviation = None
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see checked_dense).
-
-    Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
-    The rounding of B~^T (B~ V) is bounded by 2 t unit || |B~|^T |B~| |v| || per column.
-    `floor` / `ceiling`: no eigenvalue outside `values` lies above floor (below the first) or
-    below ceiling (above the last); default: none below, and none above when `complete`
-    (else the last cluster has no gap above).
-    `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
-    times smaller; the bound, quadratic in the residual, then stays near the true error where
-    stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
-    `deviation` (`forming_deviation`): B~'s own rounding, entry by entry; the Ritz step then
-    works with the exact B~ = stored - D (B~ v - D v), so values and bounds are the exact
-    problem's, up to the deviations' own uncertainty S. Without it, the worst case `FORMING`
-    per entry: the residual grows by || Delta v || and the Rayleigh quotient may move by
-    2 eta |B~ v|^T |B~| |v| (first order, far above the true effect on the lowest modes of a
-    long chain, whose entry roundings act as diagonal scalings).
-    """
-    unit = float(np.finfo(np.longdouble).eps) if precise else EPS
-    D = S = None
-    if deviation is not None:
-        D, S = deviation
-    if precise:
-        B = B.astype(np.longdouble)
-        D = None if D is None else D.astype(np.longdouble)
-    k = values.shape[0]
-    cheap_from = k if cheap_from is None else cheap_from
-    delta = np.broadcast_to(np.asarray(delta, dtype=float), values.shape)  # each value's absolute error
-    breaks = np.flatnonzero(np.diff(values) > delta[:-1] + delta[1:] + TARGET * np.abs(values[1:]))
-    starts, stops = np.r_[0, breaks + 1], np.r_[breaks + 1, k]
-    theta, error = np.empty(k), np.empty(k)
-    vectors = np.empty_like(basis)
-    B_T = B.T.tocsr()  # (a row-major product: faster than the transposed view)
-    D_T = None if D is None else D.T.tocsr()
-    A = abs(B)
-    A_T = A.T.tocsr()
-    # from column `cheap_from` on: || |B~|^T |B~| |v| || <= || |B~|^T |B~| ||_2 ||v||, that norm
-    # <= its largest row sum (non-negative, symmetric): no products per block, and a margin
-    # that only matters where omega^2 is far below ||K~|| (the columns before cheap_from)
-    reach = float(np.asarray((A_T @ A).sum(axis=1)).max(initial=0.0)) if cheap_from < k else 0.0
-    eta = FORMING if S is None else float(np.max(S.data / np.maximum(np.abs(A.data.astype(float)), 1e-300),
-                                                initial=0.0))
-    first = 0
-    while first < len(starts):
-        last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
-        last = max(last, first + 1)
-        columns = slice(int(starts[first]), int(stops[last - 1]))
-        V = basis[:, columns].astype(B.dtype)
-        E = np.asarray(B @ V)
-        # the exact B~ v where it matters (below cheap_from); above, the worst case, which
-        # costs no products and stays below those modes' own a-priori bound
-        exact = D is not None and columns.start < cheap_from
-        if exact:
-            E = E - np.asarray(D @ V)
-        # single-mode clusters: Rayleigh quotients ||B~ v||^2 / ||v||^2, all at once
-        w = (np.einsum("ij,ij->j", E, E) / np.einsum("ij,ij->j", V, V)).astype(float)
-        for start, stop in zip(starts[first:last] - columns.start, stops[first:last] - columns.start):
-            if stop - start == 1:
-                continue
-            part, rotation = small_pencil((E[:, start:stop].T @ E[:, start:stop]).astype(float),
-                                          (V[:, start:stop].T @ V[:, start:stop]).astype(float))
-            w[start:stop] = part
-            V[:, start:stop] = V[:, start:stop] @ rotation
-            E[:, start:stop] = E[:, start:stop] @ rotation
-        w = np.maximum(w, 0.0)  # H is a Gram matrix
-        product = np.asarray(B_T @ E)
-        if exact:
-            product = product - np.asarray(D_T @ E)
-        squares = np.sum((product - V * w) ** 2, axis=0)
-        # rounding of B~^T (B~ V) (sums of <= `terms` products; D's, eta times smaller, alike),
-        # and what is left of B~'s own rounding: Delta v added to the residual, the Rayleigh
-        # quotient moved by `moved` (per unit column)
-        lengths = np.linalg.norm(V, axis=0).astype(float)
-        grow = 2 * eta + eta * eta if exact else FORMING * (2 + FORMING)
-        if columns.start >= cheap_from:
-            margins = 2 * terms * unit * reach * lengths * (1 + 4 * FORMING)
-            shifts = grow * reach * lengths
-            moved = grow * reach * np.ones_like(lengths)
-        else:
-            spread = np.asarray(A @ np.abs(V))  # |B~| |v|
-            products = np.linalg.norm(np.asarray(A_T @ spread), axis=0).astype(float)
-            margins = 2 * terms * unit * products * (1 + 4 * eta)
-            if not exact:
-                shifts = grow * products
-                moved = ((2 * FORMING * np.einsum("ij,ij->j", np.abs(E), spread)
-                          + FORMING**2 * np.einsum("ij,ij->j", spread, spread)).astype(float) / lengths**2)
-            else:  # only the deviations' uncertainty S (|S| <= eta |B~|) is left
-                unsure = np.asarray(S @ np.abs(V).astype(float))
-                shifts = (np.linalg.norm(np.asarray(A_T @ unsure), axis=0)
-                          + np.linalg.norm(np.asarray(S.T @ np.abs(E).astype(float)), axis=0)) * (1 + 4 * eta) \
-                    + eta * eta * products
-                moved = (2 * np.einsum("ij,ij->j", np.abs(E).astype(float), unsure)
-                         + np.einsum("ij,ij->j", unsure, unsure)) / lengths**2
-        vectors[:, columns], theta[columns] = V, w
-        for start, stop in zip(starts[first:last], stops[first:last]):
-            local = slice(start - columns.start, stop - columns.start)
-            residual = float(np.sqrt(squares[local].sum())) + float(margins[local].max()) + float(
-                np.sqrt(np.sum(shifts[local] ** 2)))  # (to float64)
-            shift = float(moved[local].max())
-            lower = values[start - 1] + delta[start - 1] if start > 0 else floor
-            upper = values[stop] - delta[stop] if stop < k else (
-                ceiling if ceiling is not None else (np.inf if complete else -np.inf))
-            gap = min(float(w[local].min()) - lower, upper - float(w[local].max())) - shift
-            bound = (residual**2 / gap if gap > residual else residual) + shift
-            # (+ the c x c pencil's own rounding, c eps ||H||, for a cluster of c > 1 modes)
-            pencil = (stop - start) * EPS * float(w[local].max()) if stop - start > 1 else 0.0
-            error[start:stop] = bound + (2 * terms * unit + EPS) * w[local] + pencil
-        first = last
-    return theta, vectors, error

@@ -120,8 +120,8 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     terms = (position[B.indices], np.asarray(weights, dtype=float)[rows_of], B.data.copy())
     first = B.indptr[pairs[np.array(edges)]]
     edge_terms = (np.asarray(weights, dtype=float)[pairs[np.array(edges)]], B.data[first], B.data[first + 1])
-    a, b = _entries(terms, edge_terms, n, 40)
-    a, b = _split_mp(a), _split_mp(b)
+    diagonal, off = _entries(terms, edge_terms, n, 40)
+    a, b = _split_mp(diagonal), _split_mp(off)
     m = np.asarray(mass, dtype=float)[np.array(order)]
     root = np.sqrt(m)
     rows = np.abs(a[0]) / m + np.abs(b[0]) / (root * np.roll(root, -1)) + np.abs(np.roll(b[0], 1)) / (
@@ -306,9 +306,9 @@ def certify(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.i
             if budget < 2 * pencil.n:
                 break
             budget -= 2 * pencil.n
-            below, sure_low = count_below_mp(pencil, values[j] - t, digits)
-            above, sure_high = count_below_mp(pencil, values[j] + t, digits)
-            if sure_low and sure_high and below <= index[j] < above:
+            under, low_sure = count_below_mp(pencil, values[j] - t, digits)
+            over, high_sure = count_below_mp(pencil, values[j] + t, digits)
+            if low_sure and high_sure and under <= index[j] < over:
                 best[j] = width
                 break
     certified = np.isfinite(best)

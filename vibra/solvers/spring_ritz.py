@@ -1,0 +1,220 @@
+"""Spring-space Rayleigh-Ritz with quadratic residual bounds, for the problem as given.
+
+The accurate paths (`vibra.solvers.accurate`) hand their vectors here: `cluster_bounds`
+groups the values into clusters, does Rayleigh-Ritz per cluster in spring space (H =
+(B~V)^T (B~V), whose small eigenvalues keep their relative accuracy) and bounds each mode
+from its residual against the gap to its neighbours (Kato-Temple; Weyl where no gap serves).
+`residual_bounds` gives the plain residual of each vector. Both count the rounding of their
+own products and that of B~ = W^1/2 B M^-1/2 itself (`forming_deviation`: each entry's
+rounding, computed), so that every bound is for the exact B~ of the inputs.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Optional, Tuple
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from vibra.solvers.common import EPS, small_pencil
+from vibra.solvers.rounding import WORST_ENTRY, entry_deviation
+
+__all__ = ["TARGET", "BLOCK", "FORMING", "Deviation", "forming_deviation", "zero_level", "most_terms",
+           "cluster_bounds", "residual_bounds"]
+
+#: Relative accuracy of omega^2 that `accurate.checked_dense` asks of each requested mode before it
+#: accepts the fast solve's result for it (omega then to ~TARGET / 2).
+TARGET = 1e-10
+
+#: Columns per block in `cluster_bounds` (memory n_terms x BLOCK).
+BLOCK = 128
+
+#: Relative rounding of each entry of B~ = W^1/2 B M^-1/2 as formed in float64 (two square
+#: roots, a reciprocal, two products: `vibra.solvers.rounding.WORST_ENTRY`). Every bound is for
+#: the exact B~ of the inputs: K~ exact - K~ stored = Delta with |Delta| <= (2 eta + eta^2)
+#: |B~|^T |B~| entry-wise, which moves a unit vector's Rayleigh quotient by at most
+#: 2 eta |B~ v|^T |B~| |v| + eta^2 || |B~| |v| ||^2 and its residual by || Delta v ||.
+FORMING = WORST_ENTRY
+
+
+#: B~'s rounding entry by entry, (D, S): exact B~ = stored - D, each entry of D known to within
+#: S (sparse, B~'s pattern); None where it cannot be computed (a full mass matrix).
+Deviation = Optional[Tuple[sp.csr_matrix, sp.csr_matrix]]
+
+
+def forming_deviation(weighted: Any, coupling: sp.csr_matrix, weights: NDArray[np.float64],
+                      mass: NDArray[np.float64]) -> Deviation:
+    """(D, S) of the stored B~ = W^1/2 B M^-1/2 (`vibra.solvers.rounding.entry_deviation`: each
+    entry x = (1 + delta) sqrt(w) c / sqrt(m), delta to ~eps^2): D = x delta / (1 + delta), S
+    bounds D's own error (WORST_ENTRY |x| where an entry's deviation is not available)."""
+    if np.ndim(mass) != 1 or not sp.issparse(weighted):
+        return None
+    stored = sp.csr_matrix(weighted, dtype=float, copy=True)
+    stored.sort_indices()
+    source = sp.csr_matrix(coupling, dtype=float, copy=True)
+    source.sort_indices()
+    source.eliminate_zeros()
+    stored.eliminate_zeros()
+    if stored.nnz != source.nnz or not (np.array_equal(stored.indptr, source.indptr)
+                                        and np.array_equal(stored.indices, source.indices)):
+        return None
+    rows = np.repeat(np.arange(stored.shape[0]), np.diff(stored.indptr))
+    x = stored.data
+    delta, slack = entry_deviation(x, np.asarray(weights, dtype=float)[rows], source.data,
+                                   np.asarray(mass, dtype=float)[stored.indices])
+    D = sp.csr_matrix((x * delta / (1.0 + delta), stored.indices, stored.indptr), shape=stored.shape)
+    S = sp.csr_matrix((np.abs(x) * (slack * (1.0 + 4 * EPS) + 4 * EPS * np.abs(delta) ** 2) + 1e-300,
+                       stored.indices, stored.indptr), shape=stored.shape)
+    return D, S
+
+
+def zero_level(terms: float, n: int, norm: float) -> float:
+    """omega^2 below which a mode is zero within rounding: ((t + 4 eta / eps) n eps)^2 ||K~||, t
+    the most terms in a row or column of B~ (its products' rounding), eta = `FORMING` (B~'s own:
+    a rigid mode's bound, (2 eta ||K~||)^2 / omega_1^2 with omega_1^2 ~ ||K~|| / n^2 on a chain
+    or ring, reaches ~16 (eta n)^2 ||K~||)."""
+    return ((terms + 4 * FORMING / EPS) * n * EPS) ** 2 * norm
+
+
+def most_terms(B: sp.csr_matrix) -> float:
+    """The most stored entries in a row or a column of B~ (the length of its dot products)."""
+    return float(max(np.diff(B.indptr).max(initial=1), np.bincount(B.indices, minlength=B.shape[1]).max(initial=1)))
+
+
+def residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], terms: float
+                     ) -> NDArray[np.float64]:
+    """||B~^T B~ v - theta v|| per column, in extended precision, plus the margin for its own
+    rounding (2 t eps_ext || |B~|^T |B~| |v| ||) and for B~'s (`FORMING`): each column has an
+    eigenvalue of the exact K~ within it of theta, in blocks of BLOCK columns."""
+    unit = float(np.finfo(np.longdouble).eps)
+    precise = B.astype(np.longdouble)
+    absolute = abs(B)
+    bounds = np.empty(values.shape[0])
+    for start in range(0, values.shape[0], BLOCK):
+        V = basis[:, start:start + BLOCK]
+        product = np.asarray(precise.T @ (precise @ V.astype(np.longdouble)))
+        residual = np.linalg.norm((product - V * values[start:start + BLOCK]).astype(float), axis=0)
+        spread = np.asarray(absolute @ np.abs(V))  # |B~| |v|
+        margin = (2 * terms * unit + FORMING * (2 + FORMING)) * np.linalg.norm(np.asarray(absolute.T @ spread), axis=0)
+        # B~'s own rounding moves the Rayleigh quotient too (`FORMING`)
+        moved = 2 * FORMING * np.einsum("ij,ij->j", np.abs(np.asarray(B @ V)), spread) + FORMING**2 * np.einsum(
+            "ij,ij->j", spread, spread)
+        norms = np.linalg.norm(V, axis=0)
+        bounds[start:start + BLOCK] = (residual + margin) / norms + moved / norms**2
+    return bounds
+
+
+def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
+                    terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None,
+                    floor: float = -np.inf, ceiling: float | None = None, deviation: Deviation = None
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see `accurate.checked_dense`).
+
+    Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
+    The rounding of B~^T (B~ V) is bounded by 2 t unit || |B~|^T |B~| |v| || per column.
+    `floor` / `ceiling`: no eigenvalue outside `values` lies above floor (below the first) or
+    below ceiling (above the last); default: none below, and none above when `complete`
+    (else the last cluster has no gap above).
+    `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
+    times smaller; the bound, quadratic in the residual, then stays near the true error where
+    stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
+    `deviation` (`forming_deviation`): B~'s own rounding, entry by entry; the Ritz step then
+    works with the exact B~ = stored - D (B~ v - D v), so values and bounds are the exact
+    problem's, up to the deviations' own uncertainty S. Without it, the worst case `FORMING`
+    per entry: the residual grows by || Delta v || and the Rayleigh quotient may move by
+    2 eta |B~ v|^T |B~| |v| (first order, far above the true effect on the lowest modes of a
+    long chain, whose entry roundings act as diagonal scalings).
+    """
+    unit = float(np.finfo(np.longdouble).eps) if precise else EPS
+    D = S = None
+    if deviation is not None:
+        D, S = deviation
+    if precise:
+        B = B.astype(np.longdouble)
+        D = None if D is None else D.astype(np.longdouble)
+    k = values.shape[0]
+    cheap_from = k if cheap_from is None else cheap_from
+    delta = np.broadcast_to(np.asarray(delta, dtype=float), values.shape)  # each value's absolute error
+    breaks = np.flatnonzero(np.diff(values) > delta[:-1] + delta[1:] + TARGET * np.abs(values[1:]))
+    starts, stops = np.r_[0, breaks + 1], np.r_[breaks + 1, k]
+    theta, error = np.empty(k), np.empty(k)
+    vectors = np.empty_like(basis)
+    B_T = B.T.tocsr()  # (a row-major product: faster than the transposed view)
+    D_T = None if D is None else D.T.tocsr()
+    A = abs(B)
+    A_T = A.T.tocsr()
+    # from column `cheap_from` on: || |B~|^T |B~| |v| || <= || |B~|^T |B~| ||_2 ||v||, that norm
+    # <= its largest row sum (non-negative, symmetric): no products per block, and a margin
+    # that only matters where omega^2 is far below ||K~|| (the columns before cheap_from)
+    reach = float(np.asarray((A_T @ A).sum(axis=1)).max(initial=0.0)) if cheap_from < k else 0.0
+    eta = FORMING if S is None else float(np.max(S.data / np.maximum(np.abs(A.data.astype(float)), 1e-300),
+                                                initial=0.0))
+    first = 0
+    while first < len(starts):
+        last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
+        last = max(last, first + 1)
+        columns = slice(int(starts[first]), int(stops[last - 1]))
+        V = basis[:, columns].astype(B.dtype)
+        E = np.asarray(B @ V)
+        # the exact B~ v where it matters (below cheap_from); above, the worst case, which
+        # costs no products and stays below those modes' own a-priori bound
+        exact = D is not None and columns.start < cheap_from
+        if exact:
+            E = E - np.asarray(D @ V)
+        # single-mode clusters: Rayleigh quotients ||B~ v||^2 / ||v||^2, all at once
+        w = (np.einsum("ij,ij->j", E, E) / np.einsum("ij,ij->j", V, V)).astype(float)
+        for start, stop in zip(starts[first:last] - columns.start, stops[first:last] - columns.start):
+            if stop - start == 1:
+                continue
+            part, rotation = small_pencil((E[:, start:stop].T @ E[:, start:stop]).astype(float),
+                                          (V[:, start:stop].T @ V[:, start:stop]).astype(float))
+            w[start:stop] = part
+            V[:, start:stop] = V[:, start:stop] @ rotation
+            E[:, start:stop] = E[:, start:stop] @ rotation
+        w = np.maximum(w, 0.0)  # H is a Gram matrix
+        product = np.asarray(B_T @ E)
+        if exact:
+            product = product - np.asarray(D_T @ E)
+        squares = np.sum((product - V * w) ** 2, axis=0)
+        # rounding of B~^T (B~ V) (sums of <= `terms` products; D's, eta times smaller, alike),
+        # and what is left of B~'s own rounding: Delta v added to the residual, the Rayleigh
+        # quotient moved by `moved` (per unit column)
+        lengths = np.linalg.norm(V, axis=0).astype(float)
+        grow = 2 * eta + eta * eta if exact else FORMING * (2 + FORMING)
+        if columns.start >= cheap_from:
+            margins = 2 * terms * unit * reach * lengths * (1 + 4 * FORMING)
+            shifts = grow * reach * lengths
+            moved = grow * reach * np.ones_like(lengths)
+        else:
+            spread = np.asarray(A @ np.abs(V))  # |B~| |v|
+            products = np.linalg.norm(np.asarray(A_T @ spread), axis=0).astype(float)
+            margins = 2 * terms * unit * products * (1 + 4 * eta)
+            if not exact:
+                shifts = grow * products
+                moved = ((2 * FORMING * np.einsum("ij,ij->j", np.abs(E), spread)
+                          + FORMING**2 * np.einsum("ij,ij->j", spread, spread)).astype(float) / lengths**2)
+            else:  # only the deviations' uncertainty S (|S| <= eta |B~|) is left
+                assert S is not None
+                unsure = np.asarray(S @ np.abs(V).astype(float))
+                shifts = (np.linalg.norm(np.asarray(A_T @ unsure), axis=0)
+                          + np.linalg.norm(np.asarray(S.T @ np.abs(E).astype(float)), axis=0)) * (1 + 4 * eta) \
+                    + eta * eta * products
+                moved = (2 * np.einsum("ij,ij->j", np.abs(E).astype(float), unsure)
+                         + np.einsum("ij,ij->j", unsure, unsure)) / lengths**2
+        vectors[:, columns], theta[columns] = V, w
+        for start, stop in zip(starts[first:last], stops[first:last]):
+            local = slice(start - columns.start, stop - columns.start)
+            residual = float(np.sqrt(squares[local].sum())) + float(margins[local].max()) + float(
+                np.sqrt(np.sum(shifts[local] ** 2)))  # (to float64)
+            shift = float(moved[local].max())
+            lower = values[start - 1] + delta[start - 1] if start > 0 else floor
+            upper = values[stop] - delta[stop] if stop < k else (
+                ceiling if ceiling is not None else (np.inf if complete else -np.inf))
+            gap = min(float(w[local].min()) - lower, upper - float(w[local].max())) - shift
+            bound = (residual**2 / gap if gap > residual else residual) + shift
+            # (+ the c x c pencil's own rounding, c eps ||H||, for a cluster of c > 1 modes)
+            pencil = (stop - start) * EPS * float(w[local].max()) if stop - start > 1 else 0.0
+            error[start:stop] = bound + (2 * terms * unit + EPS) * w[local] + pencil
+        first = last
+    return theta, vectors, error
