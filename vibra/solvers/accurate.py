@@ -36,7 +36,8 @@ from numpy.typing import NDArray
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
 from vibra.solvers.spring_ritz import (
-    FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, residual_bounds, zero_level,
+    FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
+    zero_level,
 )
 from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil, squared_range,
@@ -111,6 +112,13 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                           ordering=ordering, width=width, deviation=deviation)
     if pencil is not None and result.error.shape[0]:
         return _ring_certified(result, pencil, weighted, band)
+    if band is None and mass.ndim == 1 and result.error.shape[0] and np.all(np.diff(result.eigenvalues) >= 0):
+        values, error, count = refine_modes(coupling, weights, mass, result.eigenvalues, result.error,
+                                                complete=result.eigenvalues.shape[0] == n)
+        if count:
+            result.eigenvalues, result.error = values, error
+            note = f"{count} bounds tightened by inverse iteration in double-double"
+            result.refinement = f"{result.refinement}; {note}" if result.refinement else note
     return result
 
 
@@ -143,11 +151,9 @@ def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], wei
 
 def _ring_certified(result: SolveResult, pencil: RingPencil, weighted: Any,
                     band: tuple[float, float] | None) -> SolveResult:
-    """A ring's result with each bound replaced by its Sturm-count certificate (`vibra.solvers.cycle`):
-    the counts are of K - x M built from the springs and masses as given, so the certificate
-    also covers the rounding of forming B~ (entries within 3 eps each), which the residual
-    bounds, computed on the stored B~, do not see. A mode the counts cannot certify keeps its
-    bound plus that forming term, by Weyl: |d omega| <= 3 eps || |B~| ||."""
+    """A ring's result with each bound replaced by its Sturm-count certificate (`vibra.solvers.cycle`)
+    where that is tighter: the counts are of K - x M built from the springs and masses as
+    given. A mode the counts cannot certify keeps its residual bound (also for the exact B~)."""
     values = result.eigenvalues
     offset = 0
     if band is not None:
@@ -155,15 +161,9 @@ def _ring_certified(result: SolveResult, pencil: RingPencil, weighted: Any,
         if low > 0:
             counts, certain = count_below(pencil, np.array([low]))
             offset = int(counts[0]) if certain[0] else -1
-    B = sp.csr_matrix(weighted)
-    absolute = abs(B)
-    forming = 3 * EPS * np.sqrt(float(np.asarray((absolute.T @ absolute).sum(axis=1)).max(initial=0.0)))
-    root = np.sqrt(np.maximum(values, 0.0))
-    fallback = result.error + 2 * root * forming + forming**2
     if offset < 0:
-        result.error = fallback
         return result
-    bound, certified = certify(pencil, values, offset + np.arange(values.shape[0]), fallback)
+    bound, certified = certify(pencil, values, offset + np.arange(values.shape[0]), result.error)
     result.error = bound
     count = int(certified.sum())
     note = (f"{count} of {values.shape[0]} bounds certified by Sturm counts of the ring's pencil "

@@ -32,7 +32,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.rounding import _product, _split, two_product, two_sum
+from vibra.solvers.dd import add as _add, div as _div, mul as _mul
+from vibra.solvers.rounding import _product, _split
 
 __all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
            "MP_WORK"]
@@ -142,37 +143,6 @@ def _entries(terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.floa
     return a, b
 
 
-# -- double-double arithmetic on arrays (hi, lo), hi = fl(hi + lo) ----------------------------
-
-def _fast(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    s = a + b
-    return s, b - (s - a)
-
-
-def _add(ah: Any, al: Any, bh: Any, bl: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    s, e = two_sum(ah, bh)
-    t, f = two_sum(al, bl)
-    s, e = _fast(s, e + t)
-    return _fast(s, e + f)
-
-
-def _mul(ah: Any, al: Any, bh: Any, bl: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    p, e = two_product(ah, bh)
-    return _fast(p, e + (ah * bl + al * bh))
-
-
-def _div(ah: Any, al: Any, bh: Any, bl: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    q1 = ah / bh
-    ph, pl = _mul(bh, bl, q1, 0.0)
-    rh, rl = _add(ah, al, -ph, -pl)
-    q2 = rh / bh
-    ph, pl = _mul(bh, bl, q2, 0.0)
-    rh, _ = _add(rh, rl, -ph, -pl)
-    q3 = rh / bh
-    s, e = _fast(q1, q2)
-    return _add(s, e, q3, 0.0)
-
-
 def count_below(pencil: RingPencil, x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
     """(count, certain): how many eigenvalues of a pencil within RHO_UNIT (R + |x|) of (K, M)
     lie below each x; `certain` False where the last pivot's sign is not decided (or a pivot
@@ -268,7 +238,8 @@ def certify(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.i
     tightest `LADDER` bracket [v - t, v + t] that two counts prove holds that eigenvalue,
     widened by the counts' own perturbation: (bound, certified). Double-double first; a value
     it leaves wider than 1e-13 relative is tried in mpmath with the digits its ratio
-    ||K~|| / v needs (within `MP_WORK`). A value certified by neither keeps `error`."""
+    ||K~|| / v needs (within `MP_WORK`). Each value keeps `error` where that is smaller (or
+    where the counts certify nothing)."""
     values = np.asarray(values, dtype=float)
     k = values.shape[0]
     best = np.full(k, np.inf)
@@ -312,4 +283,4 @@ def certify(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.i
                 best[j] = width
                 break
     certified = np.isfinite(best)
-    return np.where(certified, best, error), certified
+    return np.minimum(best, error), certified
