@@ -46,3 +46,12 @@ def test_lu_solve_to_the_condition_times_the_unit() -> None:
         x = mpmath.lu_solve(mpmath.matrix(A.tolist()), mpmath.matrix(b.tolist()))
         worst = max(abs(v - x[i]) / abs(x[i]) for i, v in enumerate(exact(xh, xl)))
     assert worst < np.linalg.cond(A) * 1e3 * dd.UNIT
+
+
+def test_split_mp_keeps_the_low_part_outside_a_raised_precision() -> None:
+    """The low word is v - hi of the full-precision v, even when split at 15 digits."""
+    with mpmath.workdps(40):
+        value = mpmath.mpf(1) / 3
+    hi, lo = dd.split_mp([value])
+    with mpmath.workdps(40):
+        assert abs(mpmath.mpf(float(hi[0])) + mpmath.mpf(float(lo[0])) - value) < mpmath.mpf(2) ** -100

@@ -54,6 +54,7 @@ Where each path lives:
 ``lowest.py``          accurate-bisection: the lowest modes of a chain by Golub-Kahan bisection
 ``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
 ``cycle.py``           a ring's pencil and its Sturm counts in double-double (certified bounds)
+``dd.py``              double-double arithmetic on arrays: sums, LU and its solves
 ``accurate.py``        the accurate dispatch; accurate-checked, -ritz, -rayleigh, -jacobi
 ``spring_ritz.py``     spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s own rounding
 ``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`

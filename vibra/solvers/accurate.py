@@ -111,10 +111,10 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
                           ordering=ordering, width=width, deviation=deviation)
     if pencil is not None and result.error.shape[0]:
-        return _ring_certified(result, pencil, weighted, band)
+        return _ring_certified(result, pencil, band)
     if band is None and mass.ndim == 1 and result.error.shape[0] and np.all(np.diff(result.eigenvalues) >= 0):
         values, error, count = refine_modes(coupling, weights, mass, result.eigenvalues, result.error,
-                                                complete=result.eigenvalues.shape[0] == n)
+                                            complete=result.eigenvalues.shape[0] == n)
         if count:
             result.eigenvalues, result.error = values, error
             note = f"{count} bounds tightened by inverse iteration in double-double"
@@ -149,8 +149,7 @@ def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], wei
                          jacobi=jacobi_allowed(n, weighted.shape[0]), deviation=deviation)
 
 
-def _ring_certified(result: SolveResult, pencil: RingPencil, weighted: Any,
-                    band: tuple[float, float] | None) -> SolveResult:
+def _ring_certified(result: SolveResult, pencil: RingPencil, band: tuple[float, float] | None) -> SolveResult:
     """A ring's result with each bound replaced by its Sturm-count certificate (`vibra.solvers.cycle`)
     where that is tighter: the counts are of K - x M built from the springs and masses as
     given. A mode the counts cannot certify keeps its residual bound (also for the exact B~)."""

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.dd import add as _add, div as _div, mul as _mul
+from vibra.solvers.dd import add as _add, div as _div, mul as _mul, split_mp
 from vibra.solvers.rounding import _product, _split
 
 __all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
@@ -73,12 +73,6 @@ class RingPencil:
     @property
     def n(self) -> int:
         return int(self.order.shape[0])
-
-
-def _split_mp(values: list[Any]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    hi = np.array([float(v) for v in values])
-    lo = np.array([float(v - mpmath.mpf(h)) for v, h in zip(values, hi)])
-    return hi, lo
 
 
 def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> RingPencil | None:
@@ -122,7 +116,7 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     first = B.indptr[pairs[np.array(edges)]]
     edge_terms = (np.asarray(weights, dtype=float)[pairs[np.array(edges)]], B.data[first], B.data[first + 1])
     diagonal, off = _entries(terms, edge_terms, n, 40)
-    a, b = _split_mp(diagonal), _split_mp(off)
+    a, b = split_mp(diagonal), split_mp(off)
     m = np.asarray(mass, dtype=float)[np.array(order)]
     root = np.sqrt(m)
     rows = np.abs(a[0]) / m + np.abs(b[0]) / (root * np.roll(root, -1)) + np.abs(np.roll(b[0], 1)) / (

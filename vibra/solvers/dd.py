@@ -60,7 +60,8 @@ def split_mp(values: Any) -> Pair:
 
     flat = np.asarray(values, dtype=object)
     hi = np.vectorize(float, otypes=[float])(flat)
-    lo = np.vectorize(lambda v, h: float(mpmath.mpf(v) - mpmath.mpf(h)), otypes=[float])(flat, hi)
+    # (v - h rounded once; mpf(v) itself would first round v to the working precision)
+    lo = np.vectorize(lambda v, h: float(v - mpmath.mpf(h)), otypes=[float])(flat, hi)
     return hi, lo
 
 

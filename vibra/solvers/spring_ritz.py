@@ -13,10 +13,13 @@ from __future__ import annotations
 
 from typing import Any, Optional, Tuple
 
+import mpmath
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from vibra.solvers.dd import UNIT as DD_UNIT, add as dd_add, div as dd_div, lu as dd_lu, lu_solve as dd_lu_solve
+from vibra.solvers.dd import mul as dd_mul, split_mp, tree_sum
 from vibra.solvers.common import EPS, small_pencil
 from vibra.solvers.rounding import WORST_ENTRY, entry_deviation
 
@@ -250,10 +253,6 @@ def refine_modes(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
     `values` ascending, the lowest ones of the system (`complete`: all). Returns (values,
     error, how many refined).
     """
-    import mpmath
-
-    from vibra.solvers import dd
-
     values = np.asarray(values, dtype=float).copy()
     error = np.asarray(error, dtype=float).copy()
     n = coupling.shape[1]
@@ -264,37 +263,29 @@ def refine_modes(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
     B = sp.csr_matrix(coupling, dtype=float, copy=True)
     B.sum_duplicates()
     B.eliminate_zeros()
-    rows = [(B.indices[B.indptr[r]:B.indptr[r + 1]].tolist(), B.data[B.indptr[r]:B.indptr[r + 1]].tolist())
-            for r in range(B.shape[0])]
-    with mpmath.workdps(40):
-        Kh, Kl = dd.split_mp(_mp_stiffness(rows, weights, mass, n).tolist())
-        roots = [1 / mpmath.sqrt(mpmath.mpf(float(m))) for m in mass]
-        entries = [mpmath.sqrt(mpmath.mpf(float(w))) * mpmath.mpf(c) * roots[j]
-                   for (columns, values_), w in zip(rows, weights.tolist()) for j, c in zip(columns, values_)]
-        Bh, Bl = dd.split_mp(entries)
-    width = int(np.diff(B.indptr).max(initial=1))
-    # B~ padded to `width` entries per row (zeros beyond), for row sums in double-double
-    slots = np.full((B.shape[0], width), -1, dtype=np.intp)  # -1: padding (value 0)
-    ph, pl = np.zeros((B.shape[0], width)), np.zeros((B.shape[0], width))
-    for r in range(B.shape[0]):
-        count = B.indptr[r + 1] - B.indptr[r]
-        slots[r, :count] = B.indices[B.indptr[r]:B.indptr[r + 1]]
-        ph[r, :count], pl[r, :count] = Bh[B.indptr[r]:B.indptr[r + 1]], Bl[B.indptr[r]:B.indptr[r + 1]]
+    with mpmath.workdps(40):  # B~'s entries from the inputs, and K~ = B~^T B~ from them
+        rows = _mp_rows(B, weights, mass)
+        Kh, Kl = split_mp(_mp_stiffness(rows, B, n).tolist())
+        Bh, Bl = split_mp([entry for row in rows for entry in row])
+    # B~ and B~^T padded to their longest row, for row sums in double-double
+    slots, ph, pl = _padded(B.indptr, B.indices, Bh, Bl)
+    position = sp.csr_matrix((np.arange(B.nnz, dtype=float), B.indices, B.indptr), shape=B.shape).T.tocsr()
+    order = position.data.astype(np.intp)  # B~^T's entries in B~'s storage order
+    t_slots, t_ph, t_pl = _padded(position.indptr, position.indices, Bh[order], Bl[order])
     absolute = sp.csr_matrix((np.abs(Bh), B.indices, B.indptr), shape=B.shape)
-    transpose = sp.csr_matrix((Bh, B.indices, B.indptr), shape=B.shape).T.tocsr()  # for B~^T E's pattern
-    terms = float(max(width, np.bincount(B.indices, minlength=n).max(initial=1)))
-    u = dd.UNIT
+    terms = float(max(slots.shape[1], t_slots.shape[1]))
+    u = DD_UNIT
     start = np.random.default_rng(2024).standard_normal(n)
     budget, refined = REFINE_WORK, 0
     for j in loose.tolist():
         if (j == k - 1 and not complete) or budget < n**3 / 3:
             continue
         budget -= n**3 / 3
-        Ah, Al = dd.add(Kh, Kl, -values[j] * np.eye(n), np.zeros((n, n)))
-        factors = dd.lu(Ah, Al)
+        Ah, Al = dd_add(Kh, Kl, -values[j] * np.eye(n), np.zeros((n, n)))
+        factors = dd_lu(Ah, Al)
         yh, yl = start.copy(), np.zeros(n)
         for _ in range(2):
-            yh, yl = dd.lu_solve(*factors, yh, yl)
+            yh, yl = dd_lu_solve(*factors, yh, yl)
             if not np.all(np.isfinite(yh)):
                 break
             scale = 2.0 ** -np.round(np.log2(np.linalg.norm(yh)))  # exact: a power of two
@@ -302,27 +293,18 @@ def refine_modes(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
         if not np.all(np.isfinite(yh)):
             continue
         # E = B~ y, per row over its padded entries
-        gather = np.maximum(slots, 0)
-        Eh, El = dd.tree_sum(*dd.mul(ph, pl, yh[gather], yl[gather]), axis=-1)
+        Eh, El = _row_sums(slots, ph, pl, yh, yl)
         spread = np.asarray(absolute @ np.abs(yh)) * (1 + 1e-12) + 1e-300
         E_error = 2 * terms * u * spread  # (row sums of <= t products, each within a few units)
-        norm_y = dd.tree_sum(*dd.mul(yh, yl, yh, yl))
-        norm_E = dd.tree_sum(*dd.mul(Eh, El, Eh, El))
-        rho_h, rho_l = dd.div(norm_E[0], norm_E[1], norm_y[0], norm_y[1])
+        norm_y = tree_sum(*dd_mul(yh, yl, yh, yl))
+        norm_E = tree_sum(*dd_mul(Eh, El, Eh, El))
+        rho_h, rho_l = dd_div(norm_E[0], norm_E[1], norm_y[0], norm_y[1])
         length = float(np.sqrt(norm_y[0]))
         rho_error = ((2 * float(np.sqrt(norm_E[0])) * float(np.linalg.norm(E_error)) + float(np.sum(E_error**2)))
                      / norm_y[0] + 8 * u * abs(float(rho_h))) * (1 + 1e-10)
-        # residual B~^T E - rho y: per column (sparse, the transpose's rows)
-        Rh, Rl = dd.mul(yh, yl, np.full(n, -float(rho_h)), np.full(n, -float(rho_l)))
-        for column in range(n):
-            lo_, hi_ = transpose.indptr[column], transpose.indptr[column + 1]
-            rows_here = transpose.indices[lo_:hi_]
-            # the entries of B~'s column in double-double, found in the padded rows
-            mask = slots[rows_here] == column
-            holder = np.nonzero(mask)[0]  # (a row holds the column once; B is in canonical form)
-            bh_, bl_ = ph[rows_here][mask], pl[rows_here][mask]
-            sh, sl = dd.tree_sum(*dd.mul(bh_, bl_, Eh[rows_here[holder]], El[rows_here[holder]]))
-            Rh[column], Rl[column] = dd.add(Rh[column], Rl[column], sh, sl)
+        # residual B~^T E - rho y
+        Rh, Rl = _row_sums(t_slots, t_ph, t_pl, Eh, El)
+        Rh, Rl = dd_add(Rh, Rl, *dd_mul(yh, yl, np.full(n, -float(rho_h)), np.full(n, -float(rho_l))))
         R_error = (np.asarray(absolute.T @ (np.abs(Eh) + E_error)) * 2 * terms * u
                    + np.asarray(absolute.T @ E_error) + rho_error * np.abs(yh)) * (1 + 1e-10)
         r = (float(np.linalg.norm(Rh)) * (1 + 4 * n * 2.0**-53) + float(np.linalg.norm(R_error))) / length
@@ -340,16 +322,38 @@ def refine_modes(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
     return values, error, refined
 
 
-def _mp_stiffness(rows: list[tuple[list[int], list[float]]], weights: NDArray[np.float64],
-                  mass: NDArray[np.float64], n: int) -> Any:
-    """K~ = M^-1/2 B^T W B M^-1/2 in mpmath at the current precision, spring by spring."""
-    import mpmath
-
-    K = mpmath.zeros(n, n)
+def _mp_rows(B: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> list[list[Any]]:
+    """Each row's entries sqrt(w) c / sqrt(m) of B~, in mpmath at the current precision."""
     roots = [1 / mpmath.sqrt(mpmath.mpf(float(m))) for m in mass]
-    for (columns, entries), w in zip(rows, weights.tolist()):
-        scaled = [mpmath.sqrt(mpmath.mpf(w)) * mpmath.mpf(c) * roots[j] for j, c in zip(columns, entries)]
+    return [[mpmath.sqrt(mpmath.mpf(float(weights[r]))) * mpmath.mpf(float(c)) * roots[j]
+             for j, c in zip(B.indices[B.indptr[r]:B.indptr[r + 1]].tolist(), B.data[B.indptr[r]:B.indptr[r + 1]].tolist())]
+            for r in range(B.shape[0])]
+
+
+def _mp_stiffness(rows: list[list[Any]], B: sp.csr_matrix, n: int) -> Any:
+    """K~ = B~^T B~ in mpmath from `_mp_rows`, spring by spring."""
+    K = mpmath.zeros(n, n)
+    for r, scaled in enumerate(rows):
+        columns = B.indices[B.indptr[r]:B.indptr[r + 1]].tolist()
         for a, ja in zip(scaled, columns):
             for b, jb in zip(scaled, columns):
                 K[ja, jb] += a * b
     return K
+
+
+def _padded(indptr: NDArray[np.intp], indices: NDArray[np.intp], hi: NDArray[np.float64], lo: NDArray[np.float64]
+            ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]:
+    """A CSR matrix's rows padded to the longest: (columns, hi, lo), padding column 0 and value 0."""
+    counts = np.diff(indptr)
+    width = int(counts.max(initial=1))
+    inside = np.arange(width)[None, :] < counts[:, None]
+    slots = np.zeros((counts.shape[0], width), dtype=np.intp)
+    ph, pl = np.zeros(slots.shape), np.zeros(slots.shape)
+    slots[inside], ph[inside], pl[inside] = indices, hi, lo
+    return slots, ph, pl
+
+
+def _row_sums(slots: NDArray[np.intp], ph: NDArray[np.float64], pl: NDArray[np.float64],
+              xh: NDArray[np.float64], xl: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The padded matrix times x, in double-double."""
+    return tree_sum(*dd_mul(ph, pl, xh[slots], xl[slots]), axis=-1)
