@@ -48,7 +48,7 @@ RHO_UNIT = 16 * _UNIT_DD
 
 #: Half-widths of the brackets tried, relative to each eigenvalue, tightest first; a mode
 #: certified at one level is not tried again.
-LADDER = (8 * 2.0**-53, 64 * 2.0**-53, 1e-13, 1e-11)
+LADDER = (8 * 2.0**-53, 64 * 2.0**-53, 1e-13, 1e-12, 1e-11)
 
 
 @dataclass
