@@ -8,6 +8,7 @@ from LAPACK dlasq1 (dqds) to high relative accuracy, its vectors from dbdsqr (se
 
 from __future__ import annotations
 
+import importlib
 from typing import Any, Callable
 
 import numpy as np
@@ -19,7 +20,9 @@ from vibra._lapack import bidiagonal_singular_values, bidiagonal_triplets
 from vibra.solvers.common import (
     BDSQR_LIMIT, EPS, SolveResult, absolute_figures, selected, tridiagonal_bands,
 )
-from vibra.solvers.rounding import UNIT, Scalings, entry_deviation, kato_temple, rayleigh_refinement, scaling_logs
+from vibra.solvers.rounding import (
+    UNIT, Scalings, centred, entry_deviation, kato_temple, rayleigh_refinement, scaling_logs,
+)
 
 
 Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
@@ -31,6 +34,10 @@ Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
 #: does a longer one (certifying it would cost far more than the solve).
 CERTIFY_FROM = 1200
 CERTIFY_ALL = 3000
+
+#: With the compiled kernel, values only: every segment whose a-priori bound exceeds this is
+#: certified (smaller ones: ~40 sites or fewer, the bound already within the 1e-13 target).
+CERTIFY_ABOVE = 1e-13
 
 #: Entries per block of modes certified together (size x block doubles per temporary).
 CHUNK = 1 << 18
@@ -224,8 +231,21 @@ def certify_modes(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray
     error residual / gap counted), `Scalings.bound` for the others. Returns (values,
     relative bound of each against the exact bidiagonal).
     """
-    size = d.shape[0]
     rho, uncertainty, residual = rayleigh_refinement(d, e, sigma, left, right)
+
+    def forming(gap: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
+        return scalings.weighted(left, right, gap, angle)
+
+    return _certified(d, e, sigma, rho, uncertainty, residual, below, above, scalings, forming)
+
+
+def _certified(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64],
+               rho: NDArray[np.float64], uncertainty: NDArray[np.float64], residual: NDArray[np.float64],
+               below: NDArray[np.float64], above: NDArray[np.float64], scalings: Scalings,
+               weighted_forming: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`certify_modes` from the triplets' figures (`rayleigh_refinement`'s) and their weighted forming bound."""
+    size = d.shape[0]
     bound = kato_temple(rho, residual, below, above) + uncertainty
     a_priori = solving_bound(size)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -239,7 +259,7 @@ def certify_modes(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray
         gap = np.minimum(low, high)  # relative gap; nan (unknown) counts as none
         angle = residual / np.minimum(rho - below, above - rho)  # sin of each pair's angle (Davis-Kahan)
     angle = np.where(good & (angle < 1), angle, 1.0)
-    weighted = scalings.weighted(left, right, np.where(np.isnan(gap), 0.0, np.maximum(gap, 0.0)), angle)
+    weighted = weighted_forming(np.where(np.isnan(gap), 0.0, np.maximum(gap, 0.0)), angle)
     # A value without a certificate keeps the whole a-priori bound, worst-case forming included:
     # the size law alone missed a dqds value of a 6-site chain with masses 1e12 apart by 4x
     # (40 eps against 9.5 eps), which the worst-case forming term (55 eps there) covers.
@@ -287,6 +307,27 @@ def _segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], factor: 
     return [Scalings.worst_case(d.shape[0], worst_forming(d, e)) for _, _, d, e, _, _ in segments]
 
 
+def certify_all(size: int, a_priori: float) -> bool:
+    """Whether every value of a segment of `size` sites is certified (values only).
+
+    With the compiled kernel (`vibra.solvers.triplets`, about dqds' own cost): wherever the
+    a-priori bound exceeds `CERTIFY_ABOVE` (below it, it is tight enough). Without it (numpy,
+    ~15x dqds): only from `CERTIFY_FROM` to `CERTIFY_ALL` sites.
+    """
+    if _compiled() is not None:
+        return a_priori > CERTIFY_ABOVE
+    return CERTIFY_FROM < size <= CERTIFY_ALL
+
+
+def _compiled() -> Any:
+    """`vibra.solvers.triplets` where numba imports (compiled on first use, cached on disk), else None."""
+    try:
+        module = importlib.import_module("vibra.solvers.triplets")
+    except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
+        return None
+    return module if module.AVAILABLE else None
+
+
 def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64],
                      forming: Scalings, triplets: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -302,6 +343,23 @@ def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDAr
     if zeros:
         value[0], relative[0] = 0.0, 0.0
     below, above = neighbour_bounds(sigma, 0, zeros, 4 * solving_bound(size))
+    compiled = _compiled()
+    if triplets is None and compiled is not None:
+        block = slice(zeros, size)
+        start = np.random.default_rng(2024).standard_normal(2 * size)  # as `inverse_iteration`
+        a, b = centred(forming.a, forming.b)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            gaps = np.minimum(sigma - below, above - sigma)[block] / sigma[block]  # nan: none known
+        figures = compiled.triplet_figures(d, e, sigma[block], start, a, b,
+                                           forming.row_slack, forming.column_slack, np.nan_to_num(gaps, nan=0.0))
+        rho, uncertainty, residual, first, norms, _ = figures.T
+
+        def weighted(gap: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
+            return forming.from_sums(first, norms, gap, angle)
+
+        value[block], relative[block] = _certified(d, e, sigma[block], rho, uncertainty, residual, below[block],
+                                                   above[block], forming, weighted)
+        return value, relative
     step = chunk(size)
     for start in range(zeros, size, step):
         block = slice(start, min(start + step, size))
@@ -321,12 +379,13 @@ def _path_values(segments: list[Segment], scalings: list[Scalings]
     bounds = []
     for (_, _, d, e, keep, _), forming in zip(segments, scalings):
         sigma = bidiagonal_singular_values(d, e)
-        if CERTIFY_FROM < keep <= CERTIFY_ALL:
+        a_priori = compose(solving_bound(d.shape[0]), max(forming.bound(), worst_forming(d, e)))
+        if certify_all(keep, a_priori):
             sigma, relative = certified_values(d, e, sigma, forming)
         else:
             # no certificate: the size law with the worst-case forming term, which covers what
             # the law alone misses on tiny extreme chains (see `certify_modes`)
-            relative = np.full(d.shape[0], compose(solving_bound(d.shape[0]), max(forming.bound(), worst_forming(d, e))))
+            relative = np.full(d.shape[0], a_priori)
             if (d == 0).any():
                 sigma[0] = 0.0  # a zero diagonal entry: singular, exactly (the stored and the exact B~)
         omegas.append(sigma[-keep:])

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["two_sum", "two_product", "entry_deviation", "scaling_logs", "walk_bound", "weighted_forming",
-           "rayleigh_refinement", "kato_temple", "Scalings", "UNIT", "WORST_ENTRY"]
+           "rayleigh_refinement", "kato_temple", "Scalings", "UNIT", "WORST_ENTRY", "centred", "forming_from_sums"]
 
 #: Unit roundoff of float64 (half of machine epsilon).
 UNIT = float(np.finfo(float).eps) / 2
@@ -197,12 +197,27 @@ def weighted_forming(a: NDArray[np.float64], b: NDArray[np.float64], left: NDArr
     """
     rows = np.zeros_like(a) if row_slack is None else row_slack
     columns = np.zeros_like(b) if column_slack is None else column_slack
-    centre = 0.5 * (float(b.max()) + float(b.min())) if b.size else 0.0
-    a_centred, b_centred = a + centre, b - centre
-    eta = float(np.abs(a_centred).max(initial=0.0) + np.abs(b_centred).max(initial=0.0)) + slack
-    eta += float(rows.max(initial=0.0) + columns.max(initial=0.0))
+    a_centred, b_centred = centred(a, b)
     first = np.abs(a_centred @ left**2 + b_centred @ right**2) + rows @ left**2 + columns @ right**2
     norms = np.sum(left**2, axis=0) + np.sum(right**2, axis=0)  # 2 for unit columns (their rounding)
+    return forming_from_sums(a, b, first, norms, relative_gap, slack, rows, columns, angle)
+
+
+def centred(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(a + c, b - c), c centring b's range: the same scalings, the smallest first-order sums."""
+    centre = 0.5 * (float(b.max()) + float(b.min())) if b.size else 0.0
+    return a + centre, b - centre
+
+
+def forming_from_sums(a: NDArray[np.float64], b: NDArray[np.float64], first: NDArray[np.float64],
+                      norms: NDArray[np.float64], relative_gap: NDArray[np.float64], slack: float,
+                      rows: NDArray[np.float64], columns: NDArray[np.float64],
+                      angle: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """`weighted_forming` from its vector sums: first = |a_c . u^2 + b_c . v^2| + rows . u^2 +
+    columns . v^2 (a_c, b_c from `centred`) and norms = |u|^2 + |v|^2, per mode."""
+    a_centred, b_centred = centred(a, b)
+    eta = float(np.abs(a_centred).max(initial=0.0) + np.abs(b_centred).max(initial=0.0)) + slack
+    eta += float(rows.max(initial=0.0) + columns.max(initial=0.0))
     first = first + 2 * eta * np.abs(norms - 2.0) + slack
     if angle is not None:
         first = first + 8 * eta * angle
@@ -336,3 +351,9 @@ class Scalings:
         """Per-mode relative bounds with the stored bidiagonal's vectors (`weighted_forming`)."""
         return weighted_forming(self.a, self.b, left, right, relative_gap, self.slack, self.row_slack,
                                 self.column_slack, angle)
+
+    def from_sums(self, first: NDArray[np.float64], norms: NDArray[np.float64], relative_gap: NDArray[np.float64],
+                  angle: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """`weighted` from the vectors' sums (`forming_from_sums`), as `triplets.triplet_figures` returns them."""
+        return forming_from_sums(self.a, self.b, first, norms, relative_gap, self.slack, self.row_slack,
+                                 self.column_slack, angle)

@@ -1,0 +1,84 @@
+"""The compiled certificates of every chain frequency (`vibra.solvers.triplets`, issue 15 item 6).
+
+Truth from outside the code under test: 40-digit mpmath Sturm counts of the mass-weighted
+tridiagonal built from the springs and masses themselves (`sturm_count` of
+test_chain_bounds_large), and exact singular values where the bidiagonal is built to have them.
+The compiled route must give bounds that cover the truth and lie within 1000 times it (or
+1e-13 relative), like the numpy route it replaces, at any size.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from test_chain_bounds_large import all_modes, assert_guides_by_counts, disordered
+from vibra.solvers import bidiagonal
+from vibra.solvers.rounding import Scalings
+
+triplets = pytest.importorskip("vibra.solvers.triplets")
+
+
+@settings(max_examples=25, deadline=None)
+@given(n=st.integers(2, 60), exponent=st.integers(0, 12), seed=st.integers(0, 10_000),
+       walls=st.sampled_from([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)]))
+def test_every_value_of_small_extreme_chains_is_covered(n: int, exponent: int, seed: int, walls) -> None:
+    """Chains of 2..60 sites, masses and springs log-uniform over 1..1e12: every mode's bound
+    covers the mpmath count and is within 1000x of the error (or 1e-13). Certified wherever the
+    a-priori bound exceeds 1e-13 (`bidiagonal.CERTIFY_ABOVE`)."""
+    mass, springs = disordered(n, 10.0**exponent, seed) if n > 1 else (np.ones(1), np.ones(0))
+    walls = (walls[0] * (springs[0] if n > 1 else 1.0), walls[1] * (springs[-1] if n > 1 else 1.0))
+    result = all_modes(mass, springs, walls, False)
+    zero = 1 if walls == (0.0, 0.0) else 0
+    assert_guides_by_counts(mass, springs, walls, result.eigenvalues, result.error, range(zero, n))
+
+
+@pytest.mark.parametrize("spread", [1.0, 1e4, 1e12])
+def test_compiled_and_numpy_routes_both_cover(spread: float, monkeypatch: pytest.MonkeyPatch) -> None:
+    """800 sites: the compiled and the numpy certificates (both in the old CERTIFY_FROM..ALL band
+    sense, here forced) cover the truth on a sample; compiled bounds within 100x of numpy's."""
+    n = 800
+    mass, springs = (np.ones(n), np.ones(n - 1)) if spread == 1.0 else disordered(n, spread, 7)
+    walls = (springs[0], 0.0)
+    compiled = all_modes(mass, springs, walls, False)
+    monkeypatch.setattr(bidiagonal, "_compiled", lambda: None)
+    monkeypatch.setattr(bidiagonal, "CERTIFY_FROM", 100)
+    reference = all_modes(mass, springs, walls, False)
+    sample = [0, 1, 2, 5, 100, 399, 400, 650, 798, 799]
+    for result in (compiled, reference):
+        assert_guides_by_counts(mass, springs, walls, result.eigenvalues, result.error, sample)
+    assert np.all(compiled.error <= 100 * reference.error + 1e-13 * compiled.eigenvalues)
+
+
+def test_a_cluster_keeps_the_a_priori_bound() -> None:
+    """d = 1, e = 0: every singular value exactly 1, no gap; no certificate can be formed, each
+    value keeps the a-priori bound (finite, covering the exact 1)."""
+    size = 50
+    d, e = np.ones(size), np.zeros(size - 1)
+    sigma = np.ones(size)
+    value, relative = bidiagonal.certified_values(d, e, sigma, Scalings.worst_case(size, 1e-15))
+    assert np.all(np.isfinite(relative)) and np.all(np.abs(value - 1.0) <= relative * value)
+
+
+def test_an_exact_zero_pivot_is_stepped_over() -> None:
+    """sigma = d_0 exactly makes the first stationary-qd pivot zero; the value is still
+    finite (the Golub-Kahan solve with a shift moved by 4 eps), and a true value beside it in
+    the same block is refined to its SVD value (numpy's SVD of the 3 x 3 bidiagonal)."""
+    d, e = np.ones(3), np.full(2, 0.5)
+    exact = np.sort(np.linalg.svd(np.diag(d) + np.diag(e, 1), compute_uv=False))
+    sigma = np.array([1.0, exact[2]])
+    out = triplets.triplet_figures(d, e, sigma, np.random.default_rng(0).standard_normal(6),
+                                   np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.full(2, 0.1))
+    assert np.all(np.isfinite(out))
+    assert abs(out[1, 0] - exact[2]) < 1e-14
+
+
+def test_non_contiguous_input_is_copied() -> None:
+    """The kernel reads its arrays unchecked; the wrapper hands it contiguous float64 copies
+    (a reversed view here), and the values come back refined to the SVD's."""
+    d, e = np.ones(4)[::-1], np.full(3, 0.25)
+    sigma = np.sort(np.linalg.svd(np.diag(d) + np.diag(e, 1), compute_uv=False))
+    out = triplets.triplet_figures(d, e, sigma, np.ones(8), *(np.zeros(4),) * 4, np.full(4, 0.05))
+    assert out.shape == (4, 6) and np.all(np.abs(out[:, 0] - sigma) <= 1e-14 * sigma)
