@@ -48,7 +48,7 @@ def run(sizes: list[int]) -> dict:
         for n in sizes:
             system = chain(n, disordered)
             K, M = system.hessian(), system.mass_matrix()
-            scale = 1.0 / np.sqrt(M.diagonal())
+            scale = 1.0 / np.sqrt(M if np.ndim(M) == 1 else M.diagonal())
             Kt = (K.multiply(scale[:, None]).multiply(scale[None, :])).tocsr()
             d, e = Kt.diagonal(), Kt.diagonal(1)
             cases = {

@@ -9,7 +9,7 @@ at ~9 ns per value and site: about what dqds itself costs, at every size.
 
 Per block of values:
 
-1. float64 first (`_float_figures`, four passes): v from one step of inverse iteration on
+1. float64 first (`_float_figures`, three passes): v from one step of inverse iteration on
    B^T B - sigma^2 by the stationary qd transform (relatively accurate, no pivoting), u = B v,
    the residuals with a rigorous float64 rounding bound. Kept where the resulting solving bound
    is within `FLOAT_ENOUGH` eps (most values: the rounding of B v is small beside sigma).
@@ -99,13 +99,10 @@ def _product(a: float, ah: float, b: float, bh: float) -> tuple[float, float]:
 @_jit
 def _residuals(d: NDArray[np.float64], padded: NDArray[np.float64], lanes: NDArray[np.float64],
                u: NDArray[np.float64], v: NDArray[np.float64], r1: NDArray[np.float64],
-               r2: NDArray[np.float64], err1: NDArray[np.float64], err2: NDArray[np.float64],
-               exact: bool) -> None:
-    """r1 = B v - sigma u, r2 = B^T u - sigma v per lane, with bounds on their rounding.
-
-    exact: in double-double (`rounding._residual`: error u |r| + 8 u^2 sum |p|); else in
-    float64 (three rounded products and two sums: error <= 4 u sum |p|, gamma_3 with margin).
-    u and v hold the vectors at rows 1..s between zero rows 0 and s + 1."""
+               r2: NDArray[np.float64], err1: NDArray[np.float64], err2: NDArray[np.float64]) -> None:
+    """r1 = B v - sigma u, r2 = B^T u - sigma v per lane, in double-double (`rounding._residual`:
+    error u |r| + 8 u^2 sum |p|). u and v hold the vectors at rows 1..s between zero rows 0 and
+    s + 1."""
     s = d.shape[0]
     m = lanes.shape[0]
     for i in range(s):
@@ -117,33 +114,21 @@ def _residuals(d: NDArray[np.float64], padded: NDArray[np.float64], lanes: NDArr
         ebh = _hi(eb)
         for k in range(m):
             mk = -lanes[k]
+            mh = _hi(mk)
             x0 = v[i + 1, k]
             x1 = v[i + 2, k]
             y0 = u[i + 1, k]
             y1 = u[i, k]
-            if exact:
-                mh = _hi(mk)
-                x0h = _hi(x0)
-                y0h = _hi(y0)
-                p1, q1 = _product(di, dh, x0, x0h)
-                p2, q2 = _product(en, enh, x1, _hi(x1))
-                p3, q3 = _product(mk, mh, y0, y0h)
-                r1[i, k], err1[i, k] = _residual(p1, q1, p2, q2, p3, q3)
-                p1, q1 = _product(di, dh, y0, y0h)
-                p2, q2 = _product(eb, ebh, y1, _hi(y1))
-                p3, q3 = _product(mk, mh, x0, x0h)
-                r2[i, k], err2[i, k] = _residual(p1, q1, p2, q2, p3, q3)
-            else:
-                p1 = di * x0
-                p2 = en * x1
-                p3 = mk * y0
-                r1[i, k] = (p1 + p2) + p3
-                err1[i, k] = 4 * _UNIT * (abs(p1) + abs(p2) + abs(p3))
-                p1 = di * y0
-                p2 = eb * y1
-                p3 = mk * x0
-                r2[i, k] = (p1 + p2) + p3
-                err2[i, k] = 4 * _UNIT * (abs(p1) + abs(p2) + abs(p3))
+            x0h = _hi(x0)
+            y0h = _hi(y0)
+            p1, q1 = _product(di, dh, x0, x0h)
+            p2, q2 = _product(en, enh, x1, _hi(x1))
+            p3, q3 = _product(mk, mh, y0, y0h)
+            r1[i, k], err1[i, k] = _residual(p1, q1, p2, q2, p3, q3)
+            p1, q1 = _product(di, dh, y0, y0h)
+            p2, q2 = _product(eb, ebh, y1, _hi(y1))
+            p3, q3 = _product(mk, mh, x0, x0h)
+            r2[i, k], err2[i, k] = _residual(p1, q1, p2, q2, p3, q3)
 
 
 @_jit
@@ -302,17 +287,19 @@ def _float_figures(d: NDArray[np.float64], padded: NDArray[np.float64], e2: NDAr
                    a: NDArray[np.float64], b: NDArray[np.float64], rows: NDArray[np.float64],
                    columns: NDArray[np.float64], x: NDArray[np.float64], pivots: NDArray[np.float64],
                    factors: NDArray[np.float64], sums: NDArray[np.float64], result: NDArray[np.float64]) -> None:
-    """Every figure of each lane in float64, four passes over the sites (a non-finite lane: a zero pivot).
+    """Every figure of each lane in float64, three passes over the sites (a non-finite lane: a zero pivot).
 
     v: one inverse-iteration step on B^T B - sigma^2 I from `start`. B^T B = L D L^T with
     D = diag(d^2), L unit lower bidiagonal (l = e / d); the stationary qd transform (dstqds,
     Dhillon and Parlett) gives L+ D+ L+^T = L D L^T - sigma^2 I with D+_i = s_i + d_i^2,
     L+_i = d_i e_i / D+_i, s_(i+1) = e_i^2 s_i / D+_i - sigma^2: relative accuracy in the
-    entries, no division by d (a zero d is allowed). u = B v / |B v| (good where sigma is not
-    far below ||B||; the others go to double-double). Residuals r1 = B v - sigma u,
-    r2 = B^T u - sigma v with bounds 4 u sum |p| (three rounded products, two sums: gamma_3
-    with margin); the residual at rho bounded by |r| + |rho - sigma| |z| (the triangle
-    inequality: no second pass over stored residuals).
+    entries, no division by d (a zero d is allowed). u = B v / sigma, about a unit vector (its
+    norm enters the figures as it is), formed with the residuals: good where sigma is not far
+    below ||B|| (B v magnifies v's error by ||B|| / sigma; those go to double-double). Then
+    r1 = B v - sigma u is only u's rounding: 0, within 5 u (|d_i v_i| + |e_i v_(i+1)|);
+    r2 = B^T u - sigma v within 4 u sum |p| (three rounded products, two sums: gamma_3 with
+    margin). The residual at rho is bounded by |r| + |rho - sigma| |z| (the triangle
+    inequality: no pass over stored residuals).
     """
     s = d.shape[0]
     m = lanes.shape[0]
@@ -321,72 +308,70 @@ def _float_figures(d: NDArray[np.float64], padded: NDArray[np.float64], e2: NDAr
         x[0, k] = start[0]
     for i in range(s - 1):  # factor and forward substitution
         di2 = d[i] * d[i]
-        for k in range(m):
+        for k in range(m):  # one division per row: pivots[i] keeps 1 / D+_i
             shift = lanes[k] * lanes[k]
-            plus = pivots[i, k] + di2
-            factor = de[i] / plus
+            inverse = 1.0 / (pivots[i, k] + di2)
+            factor = de[i] * inverse
             factors[i, k] = factor
-            pivots[i + 1, k] = e2[i] * pivots[i, k] / plus - shift
-            pivots[i, k] = plus
+            pivots[i + 1, k] = e2[i] * pivots[i, k] * inverse - shift
+            pivots[i, k] = inverse
             x[i + 1, k] = start[i + 1] - factor * x[i, k]
     last = d[s - 1] * d[s - 1]
     for k in range(m):
-        pivots[s - 1, k] += last
-        x[s - 1, k] /= pivots[s - 1, k]
+        x[s - 1, k] /= pivots[s - 1, k] + last
         sums[0, k] = x[s - 1, k] * x[s - 1, k]
     for i in range(s - 2, -1, -1):  # diagonal and back substitution, |x|^2
         for k in range(m):
-            value = x[i, k] / pivots[i, k] - factors[i, k] * x[i + 1, k]
+            value = x[i, k] * pivots[i, k] - factors[i, k] * x[i + 1, k]
             x[i, k] = value
             sums[0, k] += value * value
-    for k in range(m):
-        sums[0, k] = 1.0 / max(np.sqrt(sums[0, k]), _TINY)
-        sums[1, k] = 0.0
-    for i in range(s):  # B v, |B v|^2
-        en = padded[i + 1]
-        for k in range(m):
-            nxt = x[i + 1, k] if i < s - 1 else 0.0
-            w = (d[i] * x[i, k] + en * nxt) * sums[0, k]
-            factors[i, k] = w
-            sums[1, k] += w * w
-    for k in range(m):
-        sums[1, k] = 1.0 / max(np.sqrt(sums[1, k]), _TINY)
-        for j in range(2, 13):
-            sums[j, k] = 0.0
-    for i in range(s):  # residuals and every sum
-        di = d[i]
-        en = padded[i + 1]
-        eb = padded[i]
-        for k in range(m):
-            x0 = x[i, k] * sums[0, k]
-            x1 = x[i + 1, k] * sums[0, k] if i < s - 1 else 0.0
-            y0 = factors[i, k] * sums[1, k]
-            y1 = factors[i - 1, k] * sums[1, k] if i > 0 else 0.0
-            mk = -lanes[k]
+    for k in range(m):  # B v, the residuals and every sum, one lane at a time (sums in registers)
+        sv = 1.0 / max(np.sqrt(sums[0, k]), _TINY)
+        inverse = 1.0 / lanes[k]
+        minus = -lanes[k]
+        s2 = s3 = s4 = s6 = s7 = s8 = s9 = s10 = s11 = 0.0
+        before = 0.0  # u_(i - 1)
+        after = x[0, k] * sv  # v_i, then v_(i + 1)
+        for i in range(s):
+            di = d[i]
+            en = padded[i + 1]
+            x0 = after
+            after = x[i + 1, k] * sv if i < s - 1 else 0.0
             p1 = di * x0
-            p2 = en * x1
-            p3 = mk * y0
-            r1 = (p1 + p2) + p3
-            err1 = 4 * _UNIT * (abs(p1) + abs(p2) + abs(p3))
-            p1 = di * y0
-            p2 = eb * y1
-            p3 = mk * x0
-            r2 = (p1 + p2) + p3
-            err2 = 4 * _UNIT * (abs(p1) + abs(p2) + abs(p3))
+            p2 = en * after
+            y0 = (p1 + p2) * inverse  # u_i = (B v)_i / sigma
+            # r1_i = (B v)_i - sigma u_i: |r1_i| <= 2.01 u (|p1| + |p2|) (the sum) + 2.01 u |p1 + p2|
+            # (sigma fl(fl(w / sigma)) = w (1 + d1)(1 + d2)): taken as 0 with error 5 u (|p1| + |p2|)
+            err1 = 5 * _UNIT * (abs(p1) + abs(p2))
+            q1 = di * y0
+            q2 = padded[i] * before
+            q3 = minus * x0
+            r2 = (q1 + q2) + q3
+            err2 = 4 * _UNIT * (abs(q1) + abs(q2) + abs(q3))
+            before = y0
             uu = y0 * y0
             vv = x0 * x0
             au = abs(y0)
             av = abs(x0)
-            sums[2, k] += uu + vv
-            sums[3, k] += y0 * r1 + x0 * r2
-            sums[4, k] += au * (abs(r1) + err1)
-            sums[5, k] += au * err1
-            sums[6, k] += av * (abs(r2) + err2)
-            sums[7, k] += av * err2
-            sums[8, k] += err1 * err1 + err2 * err2
-            sums[9, k] += r1 * r1 + r2 * r2
-            sums[10, k] += a[i] * uu + b[i] * vv
-            sums[11, k] += rows[i] * uu + columns[i] * vv
+            s2 += uu + vv
+            s3 += x0 * r2
+            s4 += au * err1
+            s6 += av * (abs(r2) + err2)
+            s7 += av * err2
+            s8 += err1 * err1 + err2 * err2
+            s9 += r2 * r2
+            s10 += a[i] * uu + b[i] * vv
+            s11 += rows[i] * uu + columns[i] * vv
+        sums[2, k] = s2
+        sums[3, k] = s3
+        sums[4, k] = s4  # sum |u| (|r1| + err1), |r1| taken as 0
+        sums[5, k] = s4  # sum |u| err1
+        sums[6, k] = s6
+        sums[7, k] = s7
+        sums[8, k] = s8
+        sums[9, k] = s9
+        sums[10, k] = s10
+        sums[11, k] = s11
     for k in range(m):
         value = lanes[k]
         norm2 = sums[2, k]
@@ -462,7 +447,7 @@ def _figures(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.f
                 exact = True
         if exact:  # both sides from the Golub-Kahan form, the residuals in double-double
             _pairs(off, start, lanes, u, v, z, diag, up, fill, shift, scale)
-            _residuals(d, padded, lanes, u, v, r1, r2, err1, err2, True)
+            _residuals(d, padded, lanes, u, v, r1, r2, err1, err2)
             _rayleigh(lanes, u, v, r1, r2, err1, err2, sums, result)
             for k in range(m):
                 sums[0, k] = 0.0
