@@ -231,7 +231,7 @@ def _pairs(off: NDArray[np.float64], start: NDArray[np.float64], lanes: NDArray[
            up: NDArray[np.float64], fill: NDArray[np.float64], shift: NDArray[np.float64],
            scale: NDArray[np.float64]) -> None:
     """u and v (unit, per lane) from one inverse-iteration step on the Golub-Kahan form
-    [[0, B^T], [B, 0]] (off-diagonal `off`) from `start`: both sides consistent to the value's
+    [[0, B^T], [B, 0]] (off-diagonal `off`) from `start` (2 s, lanes): both sides consistent to the value's
     own accuracy, which u = B v / sigma is not for a low value (B v magnifies v's error by
     ||B|| / sigma). A lane meeting a zero pivot is solved again at a shift moved by 4 eps
     (three tries). z, diag, up, fill: (2 s, lanes) work space; shift: (lanes,)."""
@@ -243,7 +243,7 @@ def _pairs(off: NDArray[np.float64], start: NDArray[np.float64], lanes: NDArray[
     for _attempt in range(4):
         for i in range(2 * s):
             for k in range(m):
-                z[i, k] = start[i]
+                z[i, k] = start[i, k]
         _solve(off, shift, z, diag, up, fill)
         for k in range(m):
             if done[k]:
@@ -394,6 +394,20 @@ def _float_figures(d: NDArray[np.float64], padded: NDArray[np.float64], e2: NDAr
 
 
 @_jit
+def _enough(result: NDArray[np.float64], gaps: NDArray[np.float64], first_mode: int, count: int) -> bool:
+    """Whether every lane's solving bound (Kato-Temple with the nearest neighbour's distance,
+    `gaps` relative, plus rho's uncertainty) is within `FLOAT_ENOUGH` eps (a nan fails)."""
+    for k in range(count):
+        rho = result[0, k]
+        r = result[2, k]
+        gap = gaps[first_mode + k] * rho
+        solving = (r * r / gap + result[1, k]) / rho if gap > r and rho > 0 else np.inf
+        if not solving <= FLOAT_ENOUGH * _EPS:
+            return False
+    return True
+
+
+@_jit
 def _figures(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64],
              start: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64],
              rows: NDArray[np.float64], columns: NDArray[np.float64], gaps: NDArray[np.float64],
@@ -413,6 +427,7 @@ def _figures(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.f
         off[2 * i + 1] = e[i]
     m = LANES
     z = np.empty((2 * s, m))
+    begin = np.empty((2 * s, m))
     diag = np.empty((2 * s, m))
     up = np.empty((2 * s, m))
     fill = np.empty((2 * s, m))
@@ -437,18 +452,21 @@ def _figures(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.f
         for k in range(m):
             lanes[k] = sigma[first_mode + min(k, count - 1)]  # a short last block repeats its last value
         _float_figures(d, padded, e2, de, lanes, start, a, b, rows, columns, x, pivots, factors, sums, result)
-        exact = False
-        for k in range(count):
-            rho = result[0, k]
-            r = result[2, k]
-            gap = gaps[first_mode + k] * rho  # the nearest neighbour's distance, lower bound
-            solving = (r * r / gap + result[1, k]) / rho if gap > r and rho > 0 else np.inf
-            if not solving <= FLOAT_ENOUGH * _EPS:  # (a nan from a zero pivot included)
-                exact = True
+        exact = not _enough(result, gaps, first_mode, count)
         if exact:  # both sides from the Golub-Kahan form, the residuals in double-double
-            _pairs(off, start, lanes, u, v, z, diag, up, fill, shift, scale)
-            _residuals(d, padded, lanes, u, v, r1, r2, err1, err2)
-            _rayleigh(lanes, u, v, r1, r2, err1, err2, sums, result)
+            for i in range(2 * s):
+                for k in range(m):
+                    begin[i, k] = start[i]
+            for step in range(2):
+                _pairs(off, begin, lanes, u, v, z, diag, up, fill, shift, scale)
+                _residuals(d, padded, lanes, u, v, r1, r2, err1, err2)
+                _rayleigh(lanes, u, v, r1, r2, err1, err2, sums, result)
+                if step == 1 or _enough(result, gaps, first_mode, count):
+                    break
+                for i in range(s):  # a second step from the first's vectors (near-degenerate values)
+                    for k in range(m):
+                        begin[2 * i, k] = v[i + 1, k]
+                        begin[2 * i + 1, k] = u[i + 1, k]
             for k in range(m):
                 sums[0, k] = 0.0
                 sums[1, k] = 0.0
