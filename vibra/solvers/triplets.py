@@ -165,21 +165,28 @@ def _rayleigh(lanes: NDArray[np.float64], u: NDArray[np.float64], v: NDArray[np.
             y = r2[i, k] - sums[7, k] * v[i + 1, k]
             sums[8, k] += x * x + y * y
     for k in range(m):
-        value = lanes[k]
-        norm2 = sums[0, k]
-        dot_error = (sums[2, k] * (2 * s + 4) * _UNIT + sums[3, k] + sums[5, k]
-                     + sums[4, k] * (2 * s + 4) * _UNIT)
-        shift = sums[7, k]
-        correction_error = dot_error / norm2 + abs(shift) * (2 * s + 8) * _UNIT
-        rho = value + shift
-        bb = rho - value
-        rounding = (value - (rho - bb)) + (shift - bb)
-        uncertainty = abs(rounding) + correction_error
-        root = np.sqrt(norm2)
-        result[0, k] = rho
-        result[1, k] = uncertainty
-        result[2, k] = (np.sqrt(sums[8, k]) * (1 + (s + 8) * _UNIT) + np.sqrt(sums[6, k])
-                        + (uncertainty + 4 * _UNIT * abs(shift)) * root) / (root * (1 - 4 * _UNIT))
+        result[0, k], result[1, k], result[2, k] = _finish(
+            lanes[k], s, sums[0, k], sums[7, k], sums[2, k], sums[3, k], sums[4, k], sums[5, k],
+            np.sqrt(sums[8, k]), sums[6, k])
+
+
+@_jit
+def _finish(value: float, s: int, norm2: float, shift: float, left_part: float, left_err: float,
+            right_part: float, right_err: float, raw: float, rounding2: float) -> tuple[float, float, float]:
+    """rho, its uncertainty and the residual bound at rho (`rounding.rayleigh_refinement`'s
+    formulas) from one lane's sums: |z|^2, the correction rho - sigma = z^T r / |z|^2 (`shift`),
+    sum |u| (|r1| + err1), sum |u| err1, sum |v| (|r2| + err2), sum |v| err2, |r - shift z|
+    (`raw`, or a bound on it) and sum err1^2 + err2^2."""
+    dot_error = (left_part * (2 * s + 4) * _UNIT + left_err + right_err + right_part * (2 * s + 4) * _UNIT)
+    correction_error = dot_error / norm2 + abs(shift) * (2 * s + 8) * _UNIT
+    rho = value + shift
+    bb = rho - value
+    rounding = (value - (rho - bb)) + (shift - bb)
+    uncertainty = abs(rounding) + correction_error
+    root = np.sqrt(norm2)
+    residual = (raw * (1 + (s + 8) * _UNIT) + np.sqrt(rounding2)
+                + (uncertainty + 4 * _UNIT * abs(shift)) * root) / (root * (1 - 4 * _UNIT))
+    return rho, uncertainty, residual
 
 
 @_jit
@@ -373,22 +380,11 @@ def _float_figures(d: NDArray[np.float64], padded: NDArray[np.float64], e2: NDAr
         sums[10, k] = s10
         sums[11, k] = s11
     for k in range(m):
-        value = lanes[k]
         norm2 = sums[2, k]
-        dot_error = (sums[4, k] * (2 * s + 4) * _UNIT + sums[5, k] + sums[7, k]
-                     + sums[6, k] * (2 * s + 4) * _UNIT)
         shift = sums[3, k] / norm2
-        correction_error = dot_error / norm2 + abs(shift) * (2 * s + 8) * _UNIT
-        rho = value + shift
-        bb = rho - value
-        rounding = (value - (rho - bb)) + (shift - bb)
-        uncertainty = abs(rounding) + correction_error
-        root = np.sqrt(norm2)
-        raw = np.sqrt(sums[9, k]) + abs(shift) * root  # |r - shift z| <= |r| + |shift| |z|
-        result[0, k] = rho
-        result[1, k] = uncertainty
-        result[2, k] = (raw * (1 + (s + 8) * _UNIT) + np.sqrt(sums[8, k])
-                        + (uncertainty + 4 * _UNIT * abs(shift)) * root) / (root * (1 - 4 * _UNIT))
+        raw = np.sqrt(sums[9, k]) + abs(shift) * np.sqrt(norm2)  # |r - shift z| <= |r| + |shift| |z|
+        result[0, k], result[1, k], result[2, k] = _finish(
+            lanes[k], s, norm2, shift, sums[4, k], sums[5, k], sums[6, k], sums[7, k], raw, sums[8, k])
         result[3, k] = abs(sums[10, k]) + sums[11, k]
         result[4, k] = norm2
 
