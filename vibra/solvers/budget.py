@@ -21,7 +21,8 @@ the input, then time:
 
 - dense: 8 n^2 (K~; twice with vectors) + 8 n k; 5e-11 n^3 (values), 1.5e-10 n^3 (vectors).
 - tridiagonal, accurate-bidiagonal: O(n), 8 n^2 with all vectors (LAPACK allocates them);
-  1e-8 n^2 for all values (dqds / MRRR), + 1e-7 n k with vectors.
+  1e-8 n^2 for all values (dqds / MRRR), + 1e-7 n k with vectors. accurate-bidiagonal adds
+  the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
@@ -58,6 +59,8 @@ BANDED_S = 5e-9               # per (b + 1) n^2: band reduction to tridiagonal f
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: Sturm bisection + inverse iteration on a chain (measured 2.4e-6)
+CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
+CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
 
 
 class ResourceLimitError(ValueError):
@@ -116,6 +119,9 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         memory = 8.0 * 12 * n + (8.0 * n2 if vectors and k == n else vector_bytes)
         seconds = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k) + (
             TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
+        if path == "accurate-bidiagonal":  # dqds of all values, each certified (`triplets`)
+            memory += CERTIFY_BYTES * n
+            seconds = TRIDIAGONAL_S * n2 + CERTIFY_S * n2 + (TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
     elif path == "banded":
         memory = 8.0 * (width + 1) * n * 3 + (8.0 * n2 + vector_bytes if vectors else 0.0)
         seconds = BANDED_S * (width + 1) * n2 + TRIDIAGONAL_S * n2 + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
