@@ -232,19 +232,15 @@ def certify_modes(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray
     relative bound of each against the exact bidiagonal).
     """
     rho, uncertainty, residual = rayleigh_refinement(d, e, sigma, left, right)
-
-    def forming(gap: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
-        return scalings.weighted(left, right, gap, angle)
-
-    return _certified(d, e, sigma, rho, uncertainty, residual, below, above, scalings, forming)
+    return _certified(d, e, sigma, rho, uncertainty, residual, *scalings.sums(left, right), below, above, scalings)
 
 
 def _certified(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64],
                rho: NDArray[np.float64], uncertainty: NDArray[np.float64], residual: NDArray[np.float64],
-               below: NDArray[np.float64], above: NDArray[np.float64], scalings: Scalings,
-               weighted_forming: Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
-               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """`certify_modes` from the triplets' figures (`rayleigh_refinement`'s) and their weighted forming bound."""
+               first: NDArray[np.float64], norms: NDArray[np.float64], below: NDArray[np.float64],
+               above: NDArray[np.float64], scalings: Scalings) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`certify_modes` from the triplets' figures: `rayleigh_refinement`'s (rho, uncertainty,
+    residual) and the vectors' sums for the forming bound (`Scalings.sums`: first, norms)."""
     size = d.shape[0]
     bound = kato_temple(rho, residual, below, above) + uncertainty
     a_priori = solving_bound(size)
@@ -259,7 +255,7 @@ def _certified(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np
         gap = np.minimum(low, high)  # relative gap; nan (unknown) counts as none
         angle = residual / np.minimum(rho - below, above - rho)  # sin of each pair's angle (Davis-Kahan)
     angle = np.where(good & (angle < 1), angle, 1.0)
-    weighted = weighted_forming(np.where(np.isnan(gap), 0.0, np.maximum(gap, 0.0)), angle)
+    weighted = scalings.from_sums(first, norms, np.where(np.isnan(gap), 0.0, np.maximum(gap, 0.0)), angle)
     # A value without a certificate keeps the whole a-priori bound, worst-case forming included:
     # the size law alone missed a dqds value of a 6-site chain with masses 1e12 apart by 4x
     # (40 eps against 9.5 eps), which the worst-case forming term (55 eps there) covers.
@@ -346,19 +342,15 @@ def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDAr
     compiled = _compiled()
     if triplets is None and compiled is not None:
         block = slice(zeros, size)
-        start = np.random.default_rng(2024).standard_normal(2 * size)  # as `inverse_iteration`
+        start = np.random.default_rng(2024).standard_normal(2 * size)
         a, b = centred(forming.a, forming.b)
         with np.errstate(divide="ignore", invalid="ignore"):
             gaps = np.minimum(sigma - below, above - sigma)[block] / sigma[block]  # nan: none known
         figures = compiled.triplet_figures(d, e, sigma[block], start, a, b,
                                            forming.row_slack, forming.column_slack, np.nan_to_num(gaps, nan=0.0))
         rho, uncertainty, residual, first, norms, _ = figures.T
-
-        def weighted(gap: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
-            return forming.from_sums(first, norms, gap, angle)
-
-        value[block], relative[block] = _certified(d, e, sigma[block], rho, uncertainty, residual, below[block],
-                                                   above[block], forming, weighted)
+        value[block], relative[block] = _certified(d, e, sigma[block], rho, uncertainty, residual, first, norms,
+                                                   below[block], above[block], forming)
         return value, relative
     step = chunk(size)
     for start in range(zeros, size, step):

@@ -117,11 +117,12 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
     elif path in ("tridiagonal", "accurate-bidiagonal"):
         # LAPACK stemr and the dqds + MRRR pairing allocate all n vectors unless a subset is asked.
         memory = 8.0 * 12 * n + (8.0 * n2 if vectors and k == n else vector_bytes)
-        seconds = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k) + (
-            TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
         if path == "accurate-bidiagonal":  # dqds of all values, each certified (`triplets`)
             memory += CERTIFY_BYTES * n
-            seconds = TRIDIAGONAL_S * n2 + CERTIFY_S * n2 + (TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
+            values_s = (TRIDIAGONAL_S + CERTIFY_S) * n2
+        else:
+            values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
+        seconds = values_s + (TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
     elif path == "banded":
         memory = 8.0 * (width + 1) * n * 3 + (8.0 * n2 + vector_bytes if vectors else 0.0)
         seconds = BANDED_S * (width + 1) * n2 + TRIDIAGONAL_S * n2 + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)

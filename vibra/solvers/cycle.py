@@ -32,18 +32,15 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.dd import add as _add, div as _div, mul as _mul, split_mp
+from vibra.solvers.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul, split_mp
 from vibra.solvers.rounding import _product, _split
 
 __all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
            "MP_WORK"]
 
-#: Unit roundoff of double-double, with a factor 16 for its operations (not correctly
-#: rounded, each within ~4 u) and the few roundings a pivot's backward error collects.
-_UNIT_DD = 16 * 2.0**-104
-
 #: The counts are exact for a pencil within RHO_UNIT (R + |x|) of (K, M): pivots within
-#: 4 operations' rounding of each entry (diagonal, off-diagonal squared), 4 _UNIT_DD each.
+#: 4 operations' rounding of each entry (diagonal, off-diagonal squared), 4 `dd.UNIT` each
+#: (dd.UNIT: 16 units of 2^-104, double-double's operations not being correctly rounded).
 RHO_UNIT = 16 * _UNIT_DD
 
 #: Half-widths of the brackets tried, relative to each eigenvalue, tightest first; a mode

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = ["two_sum", "two_product", "entry_deviation", "scaling_logs", "walk_bound", "weighted_forming",
-           "rayleigh_refinement", "kato_temple", "Scalings", "UNIT", "WORST_ENTRY", "centred", "forming_from_sums"]
+           "rayleigh_refinement", "kato_temple", "Scalings", "UNIT", "WORST_ENTRY", "centred", "vector_sums", "forming_from_sums"]
 
 #: Unit roundoff of float64 (half of machine epsilon).
 UNIT = float(np.finfo(float).eps) / 2
@@ -197,10 +197,19 @@ def weighted_forming(a: NDArray[np.float64], b: NDArray[np.float64], left: NDArr
     """
     rows = np.zeros_like(a) if row_slack is None else row_slack
     columns = np.zeros_like(b) if column_slack is None else column_slack
+    first, norms = vector_sums(a, b, rows, columns, left, right)
+    return forming_from_sums(a, b, first, norms, relative_gap, slack, rows, columns, angle)
+
+
+def vector_sums(a: NDArray[np.float64], b: NDArray[np.float64], rows: NDArray[np.float64],
+                columns: NDArray[np.float64], left: NDArray[np.float64], right: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per mode (column of left, right), the sums `forming_from_sums` needs: |a_c . u^2 +
+    b_c . v^2| + rows . u^2 + columns . v^2 (a_c, b_c from `centred`) and |u|^2 + |v|^2."""
     a_centred, b_centred = centred(a, b)
     first = np.abs(a_centred @ left**2 + b_centred @ right**2) + rows @ left**2 + columns @ right**2
     norms = np.sum(left**2, axis=0) + np.sum(right**2, axis=0)  # 2 for unit columns (their rounding)
-    return forming_from_sums(a, b, first, norms, relative_gap, slack, rows, columns, angle)
+    return first, norms
 
 
 def centred(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -213,8 +222,7 @@ def forming_from_sums(a: NDArray[np.float64], b: NDArray[np.float64], first: NDA
                       norms: NDArray[np.float64], relative_gap: NDArray[np.float64], slack: float,
                       rows: NDArray[np.float64], columns: NDArray[np.float64],
                       angle: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-    """`weighted_forming` from its vector sums: first = |a_c . u^2 + b_c . v^2| + rows . u^2 +
-    columns . v^2 (a_c, b_c from `centred`) and norms = |u|^2 + |v|^2, per mode."""
+    """`weighted_forming` from its vector sums (`vector_sums`, or `triplets.triplet_figures`)."""
     a_centred, b_centred = centred(a, b)
     eta = float(np.abs(a_centred).max(initial=0.0) + np.abs(b_centred).max(initial=0.0)) + slack
     eta += float(rows.max(initial=0.0) + columns.max(initial=0.0))
@@ -352,8 +360,13 @@ class Scalings:
         return weighted_forming(self.a, self.b, left, right, relative_gap, self.slack, self.row_slack,
                                 self.column_slack, angle)
 
+    def sums(self, left: NDArray[np.float64], right: NDArray[np.float64]
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The vectors' sums that `from_sums` takes (`vector_sums`)."""
+        return vector_sums(self.a, self.b, self.row_slack, self.column_slack, left, right)
+
     def from_sums(self, first: NDArray[np.float64], norms: NDArray[np.float64], relative_gap: NDArray[np.float64],
                   angle: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-        """`weighted` from the vectors' sums (`forming_from_sums`), as `triplets.triplet_figures` returns them."""
+        """`weighted` from the vectors' sums (`sums`, or `triplets.triplet_figures`'s)."""
         return forming_from_sums(self.a, self.b, first, norms, relative_gap, self.slack, self.row_slack,
                                  self.column_slack, angle)

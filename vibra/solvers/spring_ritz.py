@@ -23,8 +23,8 @@ from vibra.solvers.dd import mul as dd_mul, split_mp, tree_sum
 from vibra.solvers.common import EPS, small_pencil
 from vibra.solvers.rounding import WORST_ENTRY, entry_deviation
 
-__all__ = ["TARGET", "BLOCK", "FORMING", "Deviation", "forming_deviation", "zero_level", "most_terms",
-           "cluster_bounds", "residual_bounds"]
+__all__ = ["TARGET", "BLOCK", "FORMING", "REFINE_WORK", "Deviation", "forming_deviation", "zero_level",
+           "most_terms", "cluster_bounds", "residual_bounds", "refine_modes"]
 
 #: Relative accuracy of omega^2 that `accurate.checked_dense` asks of each requested mode before it
 #: accepts the fast solve's result for it (omega then to ~TARGET / 2).

@@ -35,6 +35,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vibra.solvers.rounding import _SPLIT, UNIT as _UNIT
+
 try:
     import numba
 except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
@@ -45,10 +47,8 @@ __all__ = ["AVAILABLE", "triplet_figures"]
 #: Whether the compiled kernel can run here.
 AVAILABLE = numba is not None
 
-_UNIT = float(np.finfo(float).eps) / 2
-_SPLIT = 134217729.0  # 2^27 + 1, Dekker's splitter
 _TINY = float(np.finfo(float).tiny)
-_EPS = float(np.finfo(float).eps)
+_EPS = 2 * _UNIT
 
 
 def _jit(function: Any) -> Any:
