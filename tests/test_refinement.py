@@ -1,8 +1,8 @@
 """High accuracy that costs only what it buys, and says what it did (issue 14, item 1).
 
 `Modes.refined` / `Modes.refinement` on every accurate path, None on the standard ones; the
-checked path's values-only branch (one tridiagonal reduction, vectors only below the a-priori
-bound's reach) and the large-system branch (``accurate-rayleigh``).
+checked path (vectors for every mode, Rayleigh-Ritz only below the a-priori bound's reach) and
+the large-system branch (``accurate-rayleigh``).
 
 Truth: closed forms (CO2 axial; the anisotropic simple-cubic lattice whose x, y and z motions
 split into uniform free chains, 4 kappa_a sin^2(j pi / 2 side)), 50-digit mpmath
@@ -17,6 +17,7 @@ import pickle
 import re
 from pathlib import Path
 
+import mpmath
 import numpy as np
 import pytest
 import scipy.linalg
@@ -26,7 +27,6 @@ from test_solvers import anisotropic_lattice, lattice_frequencies, mp_spring_ome
 
 from vibra import System, normal_modes, solvers
 from vibra.chains.builders import linear_chain
-from vibra.solvers import accurate
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -83,6 +83,8 @@ def test_jacobi_refines_every_mode_and_says_why(rng: np.random.Generator) -> Non
     assert modes.refined is not None and modes.refined.all()
     match = re.match(r"(\d+) of 90 modes missed 1e-10 relative after spring-space Rayleigh-Ritz "
                      r"\(error/omega\^2 up to [^)]+\): one-sided Jacobi SVD \(gejsv\) of B~ on all"
+                     r"(; (\d+) bounds tightened by singular triplets \(Golub-Kahan inverse iteration\)"
+                     r"(, \d+ still above 2e-13 omega\^2)?)?"
                      r"(; (\d+) bounds tightened by inverse iteration in double-double)?$", modes.refinement)
     assert match and 1 <= int(match.group(1)) <= 90
     reference = mp_spring_omegas(B, springs, masses)
@@ -91,12 +93,10 @@ def test_jacobi_refines_every_mode_and_says_why(rng: np.random.Generator) -> Non
 
 @pytest.mark.parametrize("vectors", [False, True])
 def test_checked_path_refines_only_below_the_a_priori_reach(vectors: bool) -> None:
-    """A well-conditioned 900-dof network (over POSTERIORI_LIMIT: values only keep the a-priori
-    bound): only the six rigid-body modes (omega^2 ~ 0, out of any relative bound's reach) are
+    """A well-conditioned 900-dof network: only the six rigid-body modes (omega^2 ~ 0, out of any relative bound's reach) are
     refined; every flexible frequency within 1e-10 relative of numpy's dense eigh (itself within
     ~1e-13 here), bounds within 1e-10 relative and covering that difference less eigh's error."""
     system = random_network(300)
-    assert system.n_dof > accurate.POSTERIORI_LIMIT
     modes = system.modes(vectors=vectors)
     assert modes.solver == "accurate-checked"
     assert modes.refined is not None and int(modes.refined.sum()) == 6 and modes.refined[:6].all()
@@ -111,21 +111,6 @@ def test_checked_path_refines_only_below_the_a_priori_reach(vectors: bool) -> No
     assert np.all(modes.omega_error[flexible] <= 1e-10 * reference[flexible])
     eigh_error = 1e-13 * reference[flexible]  # well conditioned: omega^2 >= 1e-2 ||K~||
     assert np.all(modes.omega_error[flexible] + eigh_error >= difference)
-
-
-def test_values_only_reduces_once_and_solves_no_full_eigenproblem(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Values only over POSTERIORI_LIMIT: no dense eigh of the n x n K~ (the cost of vectors for
-    every mode, ~3.5 times the values); only the small cluster pencils reach eigh."""
-    system = random_network(300)
-    full = scipy.linalg.eigh
-
-    def small_only(a, *args, **kwargs):  # type: ignore[no-untyped-def]
-        assert np.shape(a)[0] < 100, "a dense eigh of K~ on the values-only path"
-        return full(a, *args, **kwargs)
-
-    monkeypatch.setattr(scipy.linalg, "eigh", small_only)
-    modes = system.modes(vectors=False)
-    assert modes.solver == "accurate-checked" and modes.vectors is None
 
 
 def test_ritz_and_bidiagonal_and_bisection_paths_fill_it() -> None:
@@ -192,3 +177,21 @@ def test_spring_factor_rounding_enters_the_a_priori_bound() -> None:
     eigh_error = (K.shape[0] + 32) * np.finfo(float).eps * norm / (2 * reference[kept])
     assert np.all(np.abs(modes.omega[kept] - reference[kept]) <= modes.omega_error[kept] + eigh_error)
     assert sp.issparse(system.spring_factor()[0])
+
+
+def test_triplet_work_cap_leaves_the_rest_as_they_were_and_says_so(rng: np.random.Generator,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """`golub_kahan.TRIPLET_WORK` spent after the first mode: one bound tightened, the count of
+    those still above 2e-13 omega^2 in the text, and every bound still covers 50-digit mpmath."""
+    from vibra.solvers import golub_kahan
+
+    B, springs, masses = network(rng, 30, 6.0, 3.0)
+    monkeypatch.setattr(golub_kahan, "TRIPLET_WORK", 1.0)
+    modes = solve(B, springs, masses, vectors=False)
+    match = re.search(r"; 1 bounds tightened by singular triplets \(Golub-Kahan inverse iteration\), "
+                      r"(\d+) still above 2e-13 omega\^2", modes.refinement)
+    assert match and int(match.group(1)) >= 1
+    exact = mp_spring_omegas(B, springs, masses, exact=True)
+    with mpmath.workdps(50):  # the error in mpmath: a float64 truth rounds by ~1e-16 itself
+        errors = [float(abs(mpmath.mpf(float(w)) - value)) for w, value in zip(modes.omega[6:], exact[6:])]
+    assert np.all(modes.omega_error[6:] >= np.array(errors))

@@ -8,6 +8,8 @@ sine / cosine modes of uniform chains (vectors above the dbdsqr limit).
 
 from __future__ import annotations
 
+from typing import Any
+
 import time
 
 import mpmath
@@ -51,9 +53,11 @@ def spring_network(rng: np.random.Generator, n_sites: int) -> tuple[np.ndarray, 
     return B, springs, masses
 
 
-def mp_spring_omegas(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, digits: int = 50) -> np.ndarray:
+def mp_spring_omegas(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, digits: int = 50,
+                     exact: bool = False) -> Any:
     """omega of K~ = M^-1/2 B^T W B M^-1/2 from mpmath.eigsy at `digits` digits, with B~ = W^1/2 B M^-1/2
-    formed in mpmath from the float64 entries of B, w and M taken as exact (no float64 K)."""
+    formed in mpmath from the float64 entries of B, w and M taken as exact (no float64 K);
+    rounded to float64, or (`exact`) the mpmath numbers themselves, ascending."""
     with mpmath.workdps(digits):
         n_terms, n = B.shape
         root_w = [mpmath.sqrt(mpmath.mpf(float(x))) for x in springs]
@@ -62,7 +66,8 @@ def mp_spring_omegas(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, dig
         for row, column in zip(*np.nonzero(B)):
             weighted[int(row), int(column)] = root_w[row] * mpmath.mpf(float(B[row, column])) * inverse_root_m[column]
         values = mpmath.eigsy(weighted.T * weighted, eigvals_only=True)
-        return np.array(sorted(float(mpmath.sqrt(abs(v))) for v in values))
+        omegas = sorted(mpmath.sqrt(abs(v)) for v in values)
+        return omegas if exact else np.array([float(w) for w in omegas])
 
 
 @pytest.mark.parametrize("vectors", [False, True])

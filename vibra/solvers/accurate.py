@@ -7,10 +7,11 @@ accuracy where the structure allows (`accurate_path` chooses):
 - ``accurate-ritz``: a few modes of a large system: shift-invert vectors, then Rayleigh-Ritz
   in spring space (H = (B~V)^T (B~V), O(N k));
 - ``accurate-checked`` / ``accurate-jacobi``: any other system (n <= DENSE_LIMIT): the fast
-  dense solve first (for values only: the tridiagonal reduction and its values), which the
-  a-priori bound n eps ||K~|| certifies to `TARGET` relative for every omega^2 above
-  ~n eps ||K~|| / TARGET; the modes below that (and their clusters) get vectors, spring-space
-  Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound each (`checked_dense`); only
+  dense solve first (with vectors, also for values only), which the a-priori bound
+  n eps ||K~|| certifies to `TARGET` relative for every omega^2 above ~n eps ||K~|| / TARGET;
+  every mode then gets a bound from its own residual, and the modes below that (and their
+  clusters) spring-space Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound each
+  (`checked_dense`); only
   when some requested mode's bound still misses `TARGET` does one-sided Jacobi SVD (LAPACK
   gejsv) of B~ run (``accurate-jacobi``; ``accurate-checked`` when the checked result passed);
 - ``accurate-rayleigh``: all modes of a large non-path system where gejsv on B~ would cost many
@@ -35,6 +36,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
+from vibra.solvers.golub_kahan import WANTED, refine_triplets
 from vibra.solvers.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
     zero_level,
@@ -46,13 +48,6 @@ from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_inve
 from vibra.solvers.standard import DENSE_FLOOR, banded_path
 
 
-
-#: Up to this many dofs `checked_dense` computes every vector even for values only (a few ms
-#: at 256), so that every mode's bound comes from its residual and follows the true error;
-#: above it, values only keep the a-priori bound n eps ||K~|| for the modes it certifies
-#: (within TARGET, but up to ~n times the true error): vectors for all would cost ~3.5 times
-#: the values (eigh against eigvalsh, n = 1500).
-POSTERIORI_LIMIT = 256
 
 #: One-sided Jacobi (gejsv) on the n_terms x n B~ is the fallback of `checked_dense` while
 #: n_terms n^2 stays within this (a ring of 4,000 sites: ~40 s); above DENSE_LIMIT only systems
@@ -113,8 +108,17 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     if pencil is not None and result.error.shape[0]:
         return _ring_certified(result, pencil, band)
     if band is None and mass.ndim == 1 and result.error.shape[0] and np.all(np.diff(result.eigenvalues) >= 0):
+        complete = result.eigenvalues.shape[0] == n
+        values, error, count = refine_triplets(weighted, deviation, result.eigenvalues, result.error,
+                                               complete=complete)
+        if count:
+            result.eigenvalues, result.error = values, error
+            loose = int(np.count_nonzero((error > WANTED * np.abs(values)) & (values > error)))
+            note = (f"{count} bounds tightened by singular triplets (Golub-Kahan inverse iteration)"
+                    + (f", {loose} still above {WANTED:g} omega^2" if loose else ""))
+            result.refinement = f"{result.refinement}; {note}" if result.refinement else note
         values, error, count = refine_modes(coupling, weights, mass, result.eigenvalues, result.error,
-                                            complete=result.eigenvalues.shape[0] == n)
+                                            complete=complete)
         if count:
             result.eigenvalues, result.error = values, error
             note = f"{count} bounds tightened by inverse iteration in double-double"
@@ -162,11 +166,19 @@ def _ring_certified(result: SolveResult, pencil: RingPencil, band: tuple[float, 
             offset = int(counts[0]) if certain[0] else -1
     if offset < 0:
         return result
-    bound, certified = certify(pencil, values, offset + np.arange(values.shape[0]), result.error)
-    result.error = bound
+    before = values
+    values, bound, certified = certify(pencil, values, offset + np.arange(values.shape[0]), result.error)
+    moved = int(np.count_nonzero(values != before))
+    order = np.argsort(values, kind="stable")  # a narrowed value may pass a neighbour left as it was
+    result.eigenvalues, result.error = values[order], bound[order]
+    if result.vectors is not None:
+        result.vectors = result.vectors[:, order]
+    if result.refined is not None:
+        result.refined = result.refined[order] | (values != before)[order]
     count = int(certified.sum())
     note = (f"{count} of {values.shape[0]} bounds certified by Sturm counts of the ring's pencil "
-            "(double-double; mpmath where that cannot resolve them)")
+            "(double-double; for the lowest, of its spring form; mpmath where neither resolves them)"
+            + (f", {moved} values narrowed by them" if moved else ""))
     result.refinement = f"{result.refinement}; {note}" if result.refinement else note
     return result
 
@@ -306,25 +318,24 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
                   jacobi: bool = True, deviation: Deviation = None) -> SolveResult:
     """The fast dense solve, checked mode by mode; refinement only for the modes that need it.
 
-    1. K~ = B~^T B~ formed from the spring factor, then one dense solve of it: LAPACK eigh when
-       vectors are asked (one mode beyond a requested subset, for the gap); for values only,
-       the Householder reduction to a tridiagonal T (sytrd) and T's values (sterf / stebz), as
-       the fast path does. Each value is then within the a-priori bound `delta` =
+    1. K~ = B~^T B~ formed from the spring factor, then one dense solve of it: LAPACK eigh with
+       vectors (one mode beyond a requested subset, for the gap), also for values only (step 3
+       needs them). Each value is then
+       within the a-priori bound `delta` =
        (n + DENSE_FLOOR) eps ||K~|| + gamma_t || |B~|^T |B~| || (backward stable solve, and
        the rounding of forming K~ in sums of t terms), ||.|| the largest absolute row sum.
     2. A mode with lambda - delta >= delta / TARGET is certified by that bound alone (its
        relative error is <= TARGET): it keeps the fast value. Only the lowest modes, those
        below the threshold, and the rest of their cluster (values closer than 2 delta +
-       TARGET |value|) are refined: their vectors (for values only: MRRR on T for that subset,
-       stemr, and the reduction's reflectors applied to them, ormqr), then Rayleigh-Ritz in
-       spring space per cluster, H = (B~V)^T (B~V), whose small eigenvalues keep their
-       relative accuracy.
+       TARGET |value|) are refined: Rayleigh-Ritz in spring space per cluster,
+       H = (B~V)^T (B~V), whose small eigenvalues keep their relative accuracy.
     3. Per cluster, the quadratic residual bound |lambda_i - theta_i| <= ||R||_F^2 / gap (Kato-
        Temple for one vector), gap from the cluster's Ritz values to the neighbouring eigenvalues
        (each moved by delta towards it); ||R||_F with a margin for its own rounding. A cluster
-       with no valid gap is bounded by ||R||_F (Weyl). With vectors, the certified modes get
-       the same a-posteriori bound too (|lambda - theta| plus theta's bound, when below
-       delta): it follows the true error, where the a-priori bound can be ~n times above it.
+       with no valid gap is bounded by ||R||_F (Weyl). The certified modes get the same
+       a-posteriori bound too (|lambda - theta| plus theta's bound, when below delta): it
+       follows the true error, where the a-priori bound can be ~n times above it (and above
+       1e-13 relative for every mode once n passes ~900: delta / omega^2 >= n eps).
     4. If a requested mode's bound exceeds TARGET theta, and it is not a zero mode within rounding
        (theta + bound <= `zero_level`, ((t + 12) n eps)^2 ||K~||, t the most terms in a row or
        column of B~: omega below ~1e-11 of the largest, where B~'s own rounding leaves no
@@ -344,15 +355,16 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     dense, delta, norm = _spring_gram(B, terms)
     subset = n_modes is not None and n_modes < n
     last = min(int(n_modes), n - 1) if subset else n - 1  # type: ignore[arg-type]  # one beyond, for the gap
-    reduced: tuple[Any, ...] | None = None
-    posteriori = vectors or n <= POSTERIORI_LIMIT  # every vector, so every bound from residuals
-    if posteriori:
-        kwargs: dict[str, Any] = {"check_finite": False, "overwrite_a": True}
-        if subset:
-            kwargs["subset_by_index"] = (0, last)
-        values, basis = la.eigh(dense, **kwargs)
+    # every vector, also for values only: each bound from its own residual follows the true
+    # error, where the a-priori delta is up to ~n times above it (see `checked_dense`, step 3)
+    # all modes: divide and conquer (evd; 1.5-2.7 times the values alone, n = 650-3,000, where
+    # MRRR, evr, takes 2-4.7 times; its 2 n^2 work space is in `budget`); a subset: MRRR
+    kwargs: dict[str, Any] = {"check_finite": False, "overwrite_a": True}
+    if subset:
+        kwargs["subset_by_index"] = (0, last)
     else:
-        values, reduced = _tridiagonal_values(dense, last if subset else None)
+        kwargs["driver"] = "evd"
+    values, basis = la.eigh(dense, **kwargs)
     k = values.shape[0]
     keep = np.zeros(k, dtype=bool)
     keep[selected(np.sqrt(np.maximum(values, 0.0)), n_modes=n_modes, band=band)] = True
@@ -361,18 +373,12 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     error = np.full(k, delta)
     count = min(low + 1, k)  # the refined modes and one beyond, for the gap
     fast_values = values
-    if posteriori:
-        fast_basis = basis[:, :count].copy() if low else basis
-        theta, ritz, bound = cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low, deviation=deviation)
-        # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
-        error = np.minimum(delta, np.abs(values - theta) + bound)
-        values, error = values.copy(), error.copy()
-        values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
-    elif low:
-        basis = fast_basis = _tridiagonal_vectors(reduced, count)  # type: ignore[arg-type]
-        theta, ritz, bound = cluster_bounds(B, values[:count], basis, delta, terms, complete=count == n, deviation=deviation)
-        values = values.copy()
-        values[:low], error[:low] = theta[:low], bound[:low]
+    fast_basis = basis[:, :count].copy() if low else basis
+    theta, ritz, bound = cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low, deviation=deviation)
+    # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
+    error = np.minimum(delta, np.abs(values - theta) + bound)
+    values, error = values.copy(), error.copy()
+    values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
     refined = np.arange(k) < low
     zero = values + error <= zero_level(terms, n, norm)
     missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
@@ -384,13 +390,11 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         # which only Jacobi resolves
         theta, ritz, bound = cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
                                              complete=count == n, precise=True, deviation=deviation)
-        values[:low], error[:low] = theta[:low], bound[:low]
-        if posteriori:
-            basis[:, :low] = ritz[:, :low]
+        values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
         zero = values + error <= zero_level(terms, n, norm)
         missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
     solver = "accurate-checked" if jacobi else "accurate-rayleigh"
-    text = _checked_text(values[keep], error[keep], refined[keep], zero[keep], posteriori=posteriori)
+    text = _checked_text(values[keep], error[keep], refined[keep], zero[keep])
     if missed.any() and not jacobi:
         with np.errstate(divide="ignore"):
             worst = float(np.max(error[missed] / np.abs(values[missed])))
@@ -445,58 +449,6 @@ def _spring_gram(B: sp.csr_matrix, terms: float) -> tuple[NDArray[np.float64], f
     return np.asfortranarray((B.T @ B).toarray()), delta, norm
 
 
-def _tridiagonal_values(dense: NDArray[np.float64], last: int | None) -> tuple[NDArray[np.float64], tuple[Any, ...]]:
-    """Eigenvalues 0..last (all when None) of the dense K~ via its reduction to a tridiagonal T
-    (LAPACK sytrd, in place), T's values by sterf (all) or stebz (a subset); and the reduction
-    (reflectors, tau, T's diagonals) for `_tridiagonal_vectors`."""
-    n = dense.shape[0]
-    sytrd, sytrd_lwork = la.get_lapack_funcs(("sytrd", "sytrd_lwork"), (dense,))
-    lwork, info = sytrd_lwork(n, lower=1)
-    reflectors, diagonal, off, tau, info = sytrd(dense, lower=1, lwork=int(lwork), overwrite_a=1)
-    if info != 0:
-        raise RuntimeError(f"LAPACK sytrd failed with info={info}")
-    if last is None:
-        values, info = la.get_lapack_funcs("sterf", (dense,))(diagonal, off)
-    else:
-        count, values, _, _, info = la.get_lapack_funcs("stebz", (dense,))(diagonal, off, 3, 0.0, 0.0, 1, last + 1,
-                                                                           0.0, "E")
-        values = values[:count]
-    if info != 0:
-        raise RuntimeError(f"LAPACK sterf/stebz failed with info={info}")
-    return np.sort(values), (reflectors, tau, diagonal, off)
-
-
-def _tridiagonal_vectors(reduced: tuple[Any, ...], count: int) -> NDArray[np.float64]:
-    """(n, count) eigenvectors of K~ for its `count` lowest values, O(n^2 count).
-
-    MRRR on T (stemr) for that subset (inverse iteration, stebz + stein, where MRRR fails),
-    then the reduction's Householder reflectors applied to them (what LAPACK's ormtr does for
-    a lower reduction: ormqr on the reflectors below the subdiagonal).
-    """
-    reflectors, tau, diagonal, off = reduced
-    n = diagonal.shape[0]
-    tridiagonal = None
-    for driver in ("stemr", "stebz"):  # MRRR; where it fails (large tight clusters), inverse iteration
-        try:
-            _, tridiagonal = la.eigh_tridiagonal(diagonal, off, select="i", select_range=(0, count - 1),
-                                                 check_finite=False, lapack_driver=driver)
-            break
-        except np.linalg.LinAlgError:
-            continue
-    if tridiagonal is None:  # every vector of T by divide and conquer (stevd), the lowest kept
-        tridiagonal = la.eigh_tridiagonal(diagonal, off, check_finite=False, lapack_driver="stevd")[1][:, :count]
-    if n == 1:
-        return np.asarray(tridiagonal)
-    ormqr = la.get_lapack_funcs("ormqr", (reflectors,))
-    below = np.asfortranarray(reflectors[1:, : n - 1])
-    lower = np.asfortranarray(tridiagonal[1:])
-    work = ormqr("L", "N", below, tau, lower, -1)[1]
-    product, _, info = ormqr("L", "N", below, tau, lower, int(work[0]), overwrite_c=1)
-    if info != 0:
-        raise RuntimeError(f"LAPACK ormqr failed with info={info}")
-    return np.vstack([tridiagonal[:1], product])
-
-
 #: Largest cluster of the fast solve for which `checked_dense` retries in extended precision.
 PRECISE_CLUSTER = 64
 
@@ -519,11 +471,11 @@ def _cluster_end(values: NDArray[np.float64], delta: float, needed: NDArray[np.b
 
 
 def _checked_text(values: NDArray[np.float64], error: NDArray[np.float64], refined: NDArray[np.bool_],
-                  zero: NDArray[np.bool_], *, posteriori: bool) -> str:
+                  zero: NDArray[np.bool_]) -> str:
     """`refinement` of an accurate-checked result (the requested modes only)."""
     k, count = values.shape[0], int(refined.sum())
     kept = (f"{k - count} kept from the dense solve, certified by its a-priori bound n eps ||K~|| <= "
-            f"{TARGET:g} omega^2" + (" (bounds from their residuals)" if posteriori else ""))
+            f"{TARGET:g} omega^2 (bounds from their residuals)")
     if not count:
         return f"all {k} modes " + kept[len(f"{k} "):]
     with np.errstate(divide="ignore"):

@@ -26,7 +26,7 @@ the input, then time:
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
-- accurate-rayleigh: 24 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
+- accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
 - accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
   larger of that and accurate-jacobi's (a refinement may run).
 - A `band` request is estimated as `dispatch.BAND_MODES_ESTIMATE` (64) modes (its count is unknown
@@ -139,7 +139,8 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         memory = 8.0 * 64 * n + vector_bytes
         seconds = BISECTION_S * n * k
     elif path in ("accurate-rayleigh",):
-        memory = 8.0 * n2 * 2 + 8.0 * n2
+        # K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K
+        memory = 8.0 * n2 * 4
         seconds = DENSE_VECTORS_S * n2 * n
     elif path == "accurate-checked":
         fast = estimate("dense", n, k=min(k + 1, n), vectors=True)

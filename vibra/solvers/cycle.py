@@ -1,4 +1,4 @@
-"""A ring's frequencies certified by Sturm counts of its pencil in double-double.
+"""A ring's frequencies certified by Sturm counts of its pencil (and spring form) in double-double.
 
 A ring (each spring joins two sites, the springs close one cycle through every dof; springs
 to a wall are allowed) has a cyclic tridiagonal K once its dofs are taken around the cycle.
@@ -17,9 +17,17 @@ sum of M^-1/2 |K| M^-1/2). The fill g and the last pivot are sums over the whole
 rounding is carried along (a running error bound, in float64) and a count whose last pivot
 is not farther from zero than that bound is reported as uncertain, never guessed.
 
+Below omega^2 ~ 1e-17 R that perturbation exceeds 1e-13 omega^2 (rings with masses and
+springs over 1e12 reach ||K~|| / omega^2 ~ 1e30). There `count_below_springs` counts the
+inertia of the spring form [[W^-1, B], [B^T, x M]], in which no entry is a difference: its
+counts are exact for masses and springs within ~1e-27 relatively of the given ones (and one
+entry of B~ within as much), which moves omega by ~1e-27 relatively at any x; `certify`
+brackets each such value with them and narrows the bracket by multisection.
+
 Cost: O(n) per count, vectorised over the points x: all modes of a 1,600-site ring, two
-counts each, in about half a second. Written here because no library offers inertia counts
-of a cyclic tridiagonal in extended precision (mpmath does, ~1,000 times slower).
+counts each, in about half a second (the spring form: ~0.5 s per ~900 points). Written here
+because no library offers inertia counts of a cyclic tridiagonal in extended precision
+(mpmath does, ~1,000 times slower).
 """
 
 from __future__ import annotations
@@ -35,7 +43,7 @@ from numpy.typing import NDArray
 from vibra.solvers.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul, split_mp
 from vibra.solvers.rounding import _product, _split
 
-__all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
+__all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_springs", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
            "MP_WORK"]
 
 #: The counts are exact for a pencil within RHO_UNIT (R + |x|) of (K, M): pivots within
@@ -55,7 +63,9 @@ class RingPencil:
     order[n - 1] with order[0]), masses m (float64, as given) and R, the largest absolute
     row sum of M^-1/2 |K| M^-1/2 (rounded up); `walls` whether a spring ties a site to a
     wall; the inputs themselves, for `count_below_mp`: `terms` (position, w, c) of every entry
-    of B (a_i = sum w c^2 over the position's terms), `edges` (w, c1, c2) of each b_i."""
+    of B (a_i = sum w c^2 over the position's terms), `edges` (w, c1, c2) of each b_i; for
+    `count_below_springs`: `ends`, each cycle spring's entries of B on order[i] and on
+    order[i + 1], and `wall`, the springs to a wall at each position (sum of w c^2, double-double)."""
 
     order: NDArray[np.intp]
     a: tuple[NDArray[np.float64], NDArray[np.float64]]
@@ -65,6 +75,8 @@ class RingPencil:
     walls: bool
     terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]
     edges: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+    ends: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros(0), np.zeros(0))  # c at order[i], order[i + 1]
+    wall: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros(0), np.zeros(0))  # sum of w c^2 to a wall
     built: dict[int, tuple[list[Any], list[Any]]] = field(default_factory=dict)  # digits -> (a, b)
 
     @property
@@ -118,8 +130,12 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     root = np.sqrt(m)
     rows = np.abs(a[0]) / m + np.abs(b[0]) / (root * np.roll(root, -1)) + np.abs(np.roll(b[0], 1)) / (
         root * np.roll(root, 1))
+    here = B.indices[first] == np.array(order)
+    ends = (np.where(here, B.data[first], B.data[first + 1]), np.where(here, B.data[first + 1], B.data[first]))
+    walls = per_row[rows_of] == 1
+    wall = _entries((terms[0][walls], terms[1][walls], terms[2][walls]), (np.zeros(0),) * 3, n, 40)[0]
     return RingPencil(np.array(order), a, b, m, float(rows.max()) * (1 + 1e-12), bool(np.any(per_row == 1)),
-                      terms, edge_terms)
+                      terms, edge_terms, ends, split_mp(wall))
 
 
 def _entries(terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]],
@@ -184,6 +200,99 @@ def count_below(pencil: RingPencil, x: NDArray[np.float64]) -> tuple[NDArray[np.
     return negative + (lh < 0), certain
 
 
+def count_below_springs(pencil: RingPencil, x: NDArray[np.float64]
+                        ) -> tuple[NDArray[np.intp], NDArray[np.bool_], NDArray[np.float64]]:
+    """(count, certain, widening): counts of eigenvalues below x, relatively accurate at every x.
+
+    Where `count_below` perturbs K - x M absolutely (by RHO_UNIT R: blind to omega^2 below
+    ~1e-17 R), this counts the inertia of the spring form
+    A(x) = [[W^-1, B], [B^T, x M]] (walls eliminated into x M - sum w c^2), whose Schur
+    complement is x M - K: the eigenvalues above x are A(x)'s negative pivots. Its 2n nodes
+    (site, spring, site, ...) form a cycle; no entry is a difference of K's entries, so the
+    pivots along the path are exact for A with each coupling c relatively perturbed by a few
+    units of double-double. Along a path such perturbations are a diagonal scaling of A: a
+    multiplicative change of w and m (omega within `phi` relatively), except for the cycle's
+    closing coupling, whose relative change (`theta`) moves omega by at most theta |b~| (Weyl,
+    b~ = sqrt(w) c / sqrt(m) that entry of B~). The cycle is closed at the spring with the
+    smallest such entry. The fill and the last pivot carry a running error bound, as in
+    `count_below`; a count whose last pivot is within it is uncertain.
+
+    Per-node unit u = 4 `dd.UNIT` (an operation's rounding and its attribution to a coupling):
+    phi = 2 (2n + 1) u, theta = 4 n u. `widening` (`spring_widening`, the same for every x):
+    (phi, theta |b~|); where the count is exact for omega'^2 = x, the true omega lies within
+    omega' (1 +- phi) +- theta |b~|."""
+    x = np.asarray(x, dtype=float)
+    n = pencil.n
+    w = pencil.edges[0]
+    c_in, c_out = pencil.ends
+    m = pencil.m
+    closing = np.sqrt(w) * np.abs(c_out) / np.sqrt(np.roll(m, -1))  # spring i's entry on site i + 1
+    r = int(np.argmin(closing))
+    turn = (r + 1) % n  # the path starts at site r + 1 and ends at spring r
+    w, c_in, c_out = np.roll(w, -turn), np.roll(c_in, -turn), np.roll(c_out, -turn)
+    m = np.roll(m, -turn)
+    wall_h, wall_l = np.roll(pencil.wall[0], -turn), np.roll(pencil.wall[1], -turn)
+    size = 2 * n
+    u = 4 * _UNIT_DD  # each operation's rounding, and its attribution to a coupling (see above)
+    off = np.empty(size - 1)
+    off[0::2], off[1::2] = c_in, c_out[: n - 1]
+    square_h, square_l = _mul(off, np.zeros_like(off), off, np.zeros_like(off))
+    x_high, x_low = _split(x)
+    zero, one = np.zeros_like(x), np.ones_like(x)
+
+    compliance = _div(np.ones(n), np.zeros(n), w, np.zeros(n))  # 1 / w, once
+
+    def diagonal(j: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        i = j // 2
+        if j % 2:  # spring i: 1 / w_i
+            return compliance[0][i] + zero, compliance[1][i] + zero
+        mh, ml = _split(m[i])
+        ph, pl = _product(x, m[i], x_high, x_low, mh, ml)
+        return _add(ph, pl, -wall_h[i] + zero, -wall_l[i] + zero)
+
+    ph, pl = diagonal(0)
+    gh, gl = c_out[n - 1] + zero, zero.copy()  # the closing coupling: fill of the last row
+    g_error = zero.copy()
+    lh, ll = diagonal(size - 1)
+    last_error = u * np.abs(lh)
+    negative = np.zeros(x.shape, dtype=np.intp)
+    vanished = np.zeros(x.shape, dtype=bool)
+    with np.errstate(all="ignore"):
+        for j in range(size - 1):
+            negative += ph < 0
+            vanished |= ph == 0
+            rh, rl = _div(one, zero, ph, pl)  # 1 / p, then g / p and c_j^2 / p as products
+            qh, ql = _mul(gh, gl, rh, rl)
+            sh, sl = _mul(gh, gl, qh, ql)  # g^2 / p
+            lh, ll = _add(lh, ll, -sh, -sl)
+            last_error = last_error + (2 * np.abs(gh) + g_error) * g_error / np.abs(ph) + u * (
+                2 * np.abs(sh) + np.abs(lh))
+            if j == size - 2:
+                break
+            fh, fl = _mul(-off[j] + zero, zero, qh, ql)  # the next fill: -c_j g / p
+            g_error = np.abs(off[j] / ph) * g_error * (1 + 1e-12) + 4 * u * np.abs(fh)
+            if j == size - 3:  # the last row's own coupling
+                fh, fl = _add(fh, fl, off[size - 2] + zero, zero)
+                g_error = g_error + u * (np.abs(fh) + abs(off[size - 2]))
+            th, tl = _mul(rh, rl, square_h[j], square_l[j])  # c_j^2 / p
+            dh, dl = diagonal(j + 1)
+            ph, pl = _add(dh, dl, -th, -tl)
+            gh, gl = fh, fl
+        certain = (np.isfinite(lh) & np.isfinite(last_error) & (np.abs(lh) > 1.01 * last_error + 1e-290)
+                   & ~vanished)
+    return n - (negative + (lh < 0)), certain, spring_widening(pencil)
+
+
+def spring_widening(pencil: RingPencil) -> NDArray[np.float64]:
+    """(phi, theta |b~|) of `count_below_springs`: where its counts are exact for omega', the
+    true omega lies within omega' (1 +- phi) +- theta |b~|."""
+    n = pencil.n
+    u = 4 * _UNIT_DD
+    closing = np.sqrt(pencil.edges[0]) * np.abs(pencil.ends[1]) / np.sqrt(np.roll(pencil.m, -1))
+    phi = 2 * (2 * n + 1) * u
+    return np.array([phi, 4 * n * u * float(closing.min()) * (1 + phi)])
+
+
 def count_below_mp(pencil: RingPencil, x: float, digits: int) -> tuple[int, bool]:
     """`count_below` at one x in mpmath with `digits` digits (pivots within a few units of
     10^-digits of each entry: a pencil within `mp_rho` of (K, M)); for the values that
@@ -223,12 +332,77 @@ def mp_rho(pencil: RingPencil, x: float, digits: int) -> float:
 MP_WORK = 100_000
 
 
-def certify(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.intp],
-            error: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+#: Multisection of the spring form's brackets: points per bracket and pass, and passes.
+SECTIONS = 16
+SECTION_PASSES = 4
+
+
+def _spring_brackets(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.intp],
+                     error: NDArray[np.float64], best: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """For each value still wider than 1e-13 relative: a bracket [lo, hi] that two
+    `count_below_springs` counts prove holds its eigenvalue (the `LADDER` around it, then its
+    own `error`), narrowed by multisection (SECTIONS - 1 counts per bracket and pass) to
+    LADDER[0] relative (8 eps) or for SECTION_PASSES passes; the value becomes the bracket's middle where
+    that certifies it more tightly than before. Returns (values, best), updated."""
+    todo = np.flatnonzero((best > 1e-13 * values) & (values > 0))
+    if todo.shape[0] == 0:
+        return values, best
+    v, j = values[todo], index[todo]
+    lo, hi = np.full(v.shape, np.nan), np.full(v.shape, np.nan)
+    # the tightest level first (most values need no other), then every other at once
+    for levels in (LADDER[:1], (*LADDER[1:], None)):
+        open_ = np.flatnonzero(np.isnan(lo))
+        if open_.shape[0] == 0:
+            break
+        t = np.array([level * v[open_] if level is not None else np.minimum(error[todo][open_], 0.5 * v[open_])
+                      for level in levels])  # (levels, k), tightest first
+        a, b = v[open_] - t, v[open_] + t
+        counts, sure, _ = count_below_springs(pencil, np.r_[a.ravel(), b.ravel()])
+        below, above = counts[: a.size].reshape(a.shape), counts[a.size:].reshape(a.shape)
+        good = sure[: a.size].reshape(a.shape) & sure[a.size:].reshape(a.shape) & (below <= j[open_]) & (
+            j[open_] < above)
+        first = np.argmax(good, axis=0)  # the tightest proven level of each value
+        some = good.any(axis=0)
+        columns = np.flatnonzero(some)
+        lo[open_[some]], hi[open_[some]] = a[first[some], columns], b[first[some], columns]
+    found = np.flatnonzero(~np.isnan(lo))
+    fractions = np.arange(1, SECTIONS) / SECTIONS
+    for _ in range(SECTION_PASSES):
+        wide = found[hi[found] - lo[found] > 2 * LADDER[0] * hi[found]]
+        if wide.shape[0] == 0:
+            break
+        points = lo[wide, None] + (hi[wide] - lo[wide])[:, None] * fractions  # (k, SECTIONS - 1)
+        counts, sure, _ = count_below_springs(pencil, points.ravel())
+        counts, sure = counts.reshape(points.shape), sure.reshape(points.shape)
+        for row, mode in enumerate(wide.tolist()):  # the tightest proven sub-bracket
+            below = np.flatnonzero(sure[row] & (counts[row] <= j[mode]))
+            over = np.flatnonzero(sure[row] & (counts[row] > j[mode]))
+            if below.shape[0]:
+                lo[mode] = max(lo[mode], points[row, below[-1]])
+            if over.shape[0]:
+                hi[mode] = min(hi[mode], points[row, over[0]])
+    if found.shape[0] == 0:
+        return values, best
+    phi, shift = spring_widening(pencil)
+    middle = 0.5 * (lo[found] + hi[found])
+    top = (np.sqrt(hi[found]) * (1 + phi) + shift) ** 2 - middle
+    bottom = middle - np.maximum(np.sqrt(lo[found]) * (1 - phi) - shift, 0.0) ** 2
+    width = np.maximum(top, bottom) * (1 + 1e-12)
+    better = width < best[todo[found]]
+    values, best = values.copy(), best.copy()
+    values[todo[found[better]]], best[todo[found[better]]] = middle[better], width[better]
+    return values, best
+
+
+def certify(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.intp], error: NDArray[np.float64]
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     """Per value (an approximation of the eigenvalue number `index`, 0-based ascending), the
     tightest `LADDER` bracket [v - t, v + t] that two counts prove holds that eigenvalue,
-    widened by the counts' own perturbation: (bound, certified). Double-double first; a value
-    it leaves wider than 1e-13 relative is tried in mpmath with the digits its ratio
+    widened by the counts' own perturbation: (values, bound, certified). Double-double counts
+    of K - x M first; a value they leave wider than 1e-13 relative gets the spring form's
+    counts (`count_below_springs`), which may narrow it (the value returned is then the
+    narrowed bracket's middle); one still wider is tried in mpmath with the digits its ratio
     ||K~|| / v needs (within `MP_WORK`). Each value keeps `error` where that is smaller (or
     where the counts certify nothing)."""
     values = np.asarray(values, dtype=float)
@@ -254,6 +428,9 @@ def certify(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.i
     if not pencil.walls:  # a free ring: exactly one zero eigenvalue, the rigid rotation
         zero = index == 0
         best[zero] = np.minimum(best[zero], np.abs(values[zero]) * (1 + 1e-12) + np.finfo(float).tiny)
+    # below omega^2 ~ 1e-17 R double-double's perturbation of K exceeds 1e-13 omega^2: the
+    # spring form's counts, relatively accurate at every x, bracket the value and narrow it
+    values, best = _spring_brackets(pencil, values, index, error, best)
     # where double-double's perturbation is too large (||K~|| / omega^2 over ~1e16): mpmath,
     # with as many digits as the ratio needs, while the work stays within MP_WORK
     budget = MP_WORK
@@ -274,4 +451,4 @@ def certify(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.i
                 best[j] = width
                 break
     certified = np.isfinite(best)
-    return np.minimum(best, error), certified
+    return values, np.minimum(best, error), certified
