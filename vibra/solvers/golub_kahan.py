@@ -23,8 +23,8 @@ B~^T u - sigma v round to eps ||B~||, not eps ||B~||^2:
    for a well-separated mode, ~1e-16 where omega / ||B~|| ~ 1e-8.
 
 Cost: one sparse LU of the (n_terms + n) square H per mode refined (~2-20 ms on 3-D networks
-of 180 to 900 dofs); only the modes whose bound exceeds `WANTED` relative are refined, while
-the factors' entries stay within `TRIPLET_WORK`. Written here: no package bounds
+of 180 to 900 dofs, ~9 ms on a ring of 8,000 sites); only the modes whose bound exceeds
+`WANTED` relative and whose neighbours' bounds leave a gap are refined, within `TRIPLET_WORK`. Written here: no package bounds
 singular triplets of a sparse matrix (the chains' compiled kernel, `triplets`, is for
 bidiagonals).
 """
@@ -45,9 +45,11 @@ __all__ = ["refine_triplets", "WANTED", "TRIPLET_WORK"]
 #: Bounds above this, relative to omega^2, are refined.
 WANTED = 2e-13
 
-#: Most entries of the LU factors (summed over the modes refined) one solve may compute:
-#: ~20 s on one core (SuperLU, ~2.6e7 entries a second on 3-D networks), e.g. 1,100 modes of a
-#: 900-dof network whose H factors with 4.5e5 entries. Modes beyond it keep their bounds.
+#: Most work (summed over the modes refined) one solve may spend, in units of one entry of the
+#: LU factors: each mode costs its factors' entries plus 8 per row of H (SuperLU's fixed cost;
+#: measured: 17 ms for 4.5e5 entries and 2,465 rows on a 3-D network, 9 ms for a ring of 8,000
+#: sites, 16,000 rows). 5e8 is ~18 s on one core, e.g. ~880 modes of a 900-dof network or ~550
+#: of an 8,000-site ring. Modes beyond it keep their bounds (and `modes.refinement` says how many).
 TRIPLET_WORK = 5e8
 
 _UNIT = float(np.finfo(np.longdouble).eps)
@@ -87,6 +89,8 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
     for j in loose.tolist():
         if work >= TRIPLET_WORK:
             break
+        if not _isolated(values, error, j):  # no gap to bound it by: no factorisation spent
+            continue
         sigma = float(np.sqrt(values[j]))
         pair, fill = _inverse_iteration(B, sigma, start)
         work += fill
@@ -104,6 +108,14 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
     return values, error, refined
 
 
+def _isolated(values: NDArray[np.float64], error: NDArray[np.float64], j: int) -> bool:
+    """Whether value j lies clear of its neighbours' bounds (a Kato-Temple gap may exist)."""
+    k = values.shape[0]
+    below = j == 0 or values[j - 1] + error[j - 1] < values[j]
+    above = j + 1 >= k or values[j + 1] - error[j + 1] > values[j]
+    return bool(below and above)
+
+
 def _inverse_iteration(B: sp.csr_matrix, sigma: float, start: NDArray[np.float64]
                        ) -> tuple[tuple[NDArray[np.float64], NDArray[np.float64]] | None, float]:
     """((u, v), unit vectors, or None where the LU fails; the factors' entries) from two solves
@@ -114,8 +126,8 @@ def _inverse_iteration(B: sp.csr_matrix, sigma: float, start: NDArray[np.float64
     try:
         factor = spla.splu(H, permc_spec="COLAMD")
     except RuntimeError:  # exactly singular (sigma an exact singular value in float64)
-        return None, float(H.nnz)
-    fill = float(factor.L.nnz + factor.U.nnz)
+        return None, float(H.nnz) + 8.0 * (rows + n)
+    fill = float(factor.L.nnz + factor.U.nnz) + 8.0 * (rows + n)
     x = start
     for _ in range(2):
         with np.errstate(all="ignore"):
