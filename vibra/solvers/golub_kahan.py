@@ -24,13 +24,16 @@ B~^T u - sigma v round to eps ||B~||, not eps ||B~||^2:
 
 Cost: one sparse LU of the (n_terms + n) square H per mode refined (~2-20 ms on 3-D networks
 of 180 to 900 dofs, ~9 ms on a ring of 8,000 sites); only the modes whose bound exceeds
-`WANTED` relative and whose neighbours' bounds leave a gap are refined, within `TRIPLET_WORK`. Written here: no package bounds
+`WANTED` relative and whose neighbours' bounds leave a gap are refined, within `TRIPLET_WORK`
+and `TRIPLET_SECONDS` (which modes get refined can then depend on the machine's speed; every
+bound is rigorous either way). Written here: no package bounds
 singular triplets of a sparse matrix (the chains' compiled kernel, `triplets`, is for
 bidiagonals).
 """
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
@@ -40,7 +43,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.spring_ritz import Deviation
 
-__all__ = ["refine_triplets", "WANTED", "TRIPLET_WORK"]
+__all__ = ["refine_triplets", "WANTED", "TRIPLET_WORK", "TRIPLET_SECONDS"]
 
 #: Bounds above this, relative to omega^2, are refined.
 WANTED = 2e-13
@@ -51,6 +54,11 @@ WANTED = 2e-13
 #: sites, 16,000 rows). 5e8 is ~18 s on one core, e.g. ~880 modes of a 900-dof network or ~550
 #: of an 8,000-site ring. Modes beyond it keep their bounds (and `modes.refinement` says how many).
 TRIPLET_WORK = 5e8
+
+#: And at most this many seconds in all: the factors of a large or densely coupled H (a
+#: 30,000-dof network's partial solve, a network with ~100 springs per site) cost far more per
+#: entry than the measurements above; the step stops there, the bounds left as they are.
+TRIPLET_SECONDS = 10.0
 
 _UNIT = float(np.finfo(np.longdouble).eps)
 
@@ -85,9 +93,9 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
     A_T = A.T.tocsr()
     S_T = S.T.tocsr()
     start = np.random.default_rng(2025).standard_normal(rows + n)
-    refined, work = 0, 0.0
+    refined, work, began = 0, 0.0, time.perf_counter()
     for j in loose.tolist():
-        if work >= TRIPLET_WORK:
+        if work >= TRIPLET_WORK or time.perf_counter() - began >= TRIPLET_SECONDS:
             break
         if not _isolated(values, error, j):  # no gap to bound it by: no factorisation spent
             continue
