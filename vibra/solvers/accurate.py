@@ -9,9 +9,9 @@ accuracy where the structure allows (`accurate_path` chooses):
 - ``accurate-checked`` / ``accurate-jacobi``: any other system (n <= DENSE_LIMIT): the fast
   dense solve first (with vectors, also for values only), which the a-priori bound
   n eps ||K~|| certifies to `TARGET` relative for every omega^2 above ~n eps ||K~|| / TARGET;
-  every mode then gets a bound from its own residual, and the modes below that (and their
-  clusters) spring-space Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound each
-  (`checked_dense`); only
+  every mode then gets a bound from its own residual; the modes below that (and their
+  clusters) get spring-space Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound
+  each (`checked_dense`); only
   when some requested mode's bound still misses `TARGET` does one-sided Jacobi SVD (LAPACK
   gejsv) of B~ run (``accurate-jacobi``; ``accurate-checked`` when the checked result passed);
 - ``accurate-rayleigh``: all modes of a large non-path system where gejsv on B~ would cost many
@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
-from vibra.solvers.golub_kahan import WANTED, refine_triplets
+from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets
 from vibra.solvers.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
     zero_level,
@@ -113,7 +113,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                                complete=complete)
         if count:
             result.eigenvalues, result.error = values, error
-            loose = int(np.count_nonzero((error > WANTED * np.abs(values)) & (values > error)))
+            loose = int(np.count_nonzero(loose_modes(values, error)))
             note = (f"{count} bounds tightened by singular triplets (Golub-Kahan inverse iteration)"
                     + (f", {loose} still above {WANTED:g} omega^2" if loose else ""))
             result.refinement = f"{result.refinement}; {note}" if result.refinement else note
@@ -320,8 +320,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
 
     1. K~ = B~^T B~ formed from the spring factor, then one dense solve of it: LAPACK eigh with
        vectors (one mode beyond a requested subset, for the gap), also for values only (step 3
-       needs them). Each value is then
-       within the a-priori bound `delta` =
+       needs them). Each value is then within the a-priori bound `delta` =
        (n + DENSE_FLOOR) eps ||K~|| + gamma_t || |B~|^T |B~| || (backward stable solve, and
        the rounding of forming K~ in sums of t terms), ||.|| the largest absolute row sum.
     2. A mode with lambda - delta >= delta / TARGET is certified by that bound alone (its

@@ -75,8 +75,8 @@ class RingPencil:
     walls: bool
     terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]
     edges: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
-    ends: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros(0), np.zeros(0))  # c at order[i], order[i + 1]
-    wall: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros(0), np.zeros(0))  # sum of w c^2 to a wall
+    ends: tuple[NDArray[np.float64], NDArray[np.float64]]  # c at order[i], order[i + 1]
+    wall: tuple[NDArray[np.float64], NDArray[np.float64]]  # sum of w c^2 to a wall, per position
     built: dict[int, tuple[list[Any], list[Any]]] = field(default_factory=dict)  # digits -> (a, b)
 
     @property
@@ -226,9 +226,7 @@ def count_below_springs(pencil: RingPencil, x: NDArray[np.float64]
     w = pencil.edges[0]
     c_in, c_out = pencil.ends
     m = pencil.m
-    closing = np.sqrt(w) * np.abs(c_out) / np.sqrt(np.roll(m, -1))  # spring i's entry on site i + 1
-    r = int(np.argmin(closing))
-    turn = (r + 1) % n  # the path starts at site r + 1 and ends at spring r
+    turn = (int(np.argmin(_closing(pencil))) + 1) % n  # the path starts at site r + 1, ends at spring r
     w, c_in, c_out = np.roll(w, -turn), np.roll(c_in, -turn), np.roll(c_out, -turn)
     m = np.roll(m, -turn)
     wall_h, wall_l = np.roll(pencil.wall[0], -turn), np.roll(pencil.wall[1], -turn)
@@ -288,9 +286,14 @@ def spring_widening(pencil: RingPencil) -> NDArray[np.float64]:
     true omega lies within omega' (1 +- phi) +- theta |b~|."""
     n = pencil.n
     u = 4 * _UNIT_DD
-    closing = np.sqrt(pencil.edges[0]) * np.abs(pencil.ends[1]) / np.sqrt(np.roll(pencil.m, -1))
     phi = 2 * (2 * n + 1) * u
-    return np.array([phi, 4 * n * u * float(closing.min()) * (1 + phi)])
+    return np.array([phi, 4 * n * u * float(_closing(pencil).min()) * (1 + phi)])
+
+
+def _closing(pencil: RingPencil) -> NDArray[np.float64]:
+    """|b~| of each cycle spring's entry on the next site, sqrt(w_i) |c| / sqrt(m_{i+1}): the
+    spring form closes its cycle at the smallest."""
+    return np.sqrt(pencil.edges[0]) * np.abs(pencil.ends[1]) / np.sqrt(np.roll(pencil.m, -1))
 
 
 def count_below_mp(pencil: RingPencil, x: float, digits: int) -> tuple[int, bool]:

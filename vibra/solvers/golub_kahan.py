@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.spring_ritz import Deviation
 
-__all__ = ["refine_triplets", "WANTED", "TRIPLET_WORK", "TRIPLET_SECONDS"]
+__all__ = ["refine_triplets", "loose_modes", "WANTED", "TRIPLET_WORK", "TRIPLET_SECONDS"]
 
 #: Bounds above this, relative to omega^2, are refined.
 WANTED = 2e-13
@@ -78,7 +78,7 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
     if deviation is None or not sp.issparse(weighted):
         return values, error, 0
     k = values.shape[0]
-    loose = np.flatnonzero((error > WANTED * np.abs(values)) & (values > error))
+    loose = np.flatnonzero(loose_modes(values, error))
     if not complete:
         loose = loose[loose < k - 1]
     if loose.size == 0:
@@ -114,6 +114,11 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
             values[j], error[j] = rho**2, width
             refined += 1
     return values, error, refined
+
+
+def loose_modes(values: NDArray[np.float64], error: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """The modes this step would refine: bound over WANTED |value|, yet clear of zero."""
+    return (error > WANTED * np.abs(values)) & (values > error)
 
 
 def _isolated(values: NDArray[np.float64], error: NDArray[np.float64], j: int) -> bool:
