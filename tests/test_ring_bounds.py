@@ -94,21 +94,26 @@ def sampled(n: int, relative: np.ndarray, rng: np.random.Generator) -> list[int]
 @pytest.mark.parametrize(("spread", "vectors"), [(0.3, False), (0.3, True), (6.0, False)])
 def test_bounds_of_a_disordered_ring_above_the_dense_limit_cover_the_truth(spread: float, vectors: bool) -> None:
     """1,600 sites (over DENSE_LIMIT: the ring is detected and reordered), masses and springs
-    log-uniform over 10^spread. Mild disorder: every bound within 1e-10 relative; a spread of
-    1e6 (||K~|| / omega_1^2 ~ 4e14) takes one-sided Jacobi. Every sampled mode: the bound
-    covers the truth, and the frequency is within 1e-10 relative of it."""
+    log-uniform over 10^spread. With vectors the checked dense solve (mild disorder: every
+    bound within 1e-10 relative); frequencies only ``accurate-ring`` (every bound within 1e-13
+    relative). Every sampled mode: the bound covers the truth, and the frequency is within 1e-10
+    relative of it."""
     n = 1600
     mass, springs = disordered_ring(n, spread, 7)
     ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
     assert ring.n_dof > solvers.DENSE_LIMIT
     modes = ring.modes(vectors=vectors)
-    assert modes.solver in ("accurate-checked", "accurate-jacobi")
+    assert modes.solver in (("accurate-checked", "accurate-jacobi") if vectors else ("accurate-ring",))
     omega, error = modes.omega, modes.omega_error
     assert np.all(np.diff(omega) >= 0)
     relative = error[1:] / omega[1:]
+    if not vectors:
+        assert relative.max() <= 1e-13
     if spread < 1:
-        assert modes.solver == "accurate-checked" and relative.max() <= 1e-10
+        assert relative.max() <= 1e-10
     for j in sampled(n, np.r_[0.0, relative], np.random.default_rng(1)):
+        if j == 0 and omega[0] == 0.0:
+            continue  # the rigid rotation, exactly zero (B 1 = 0): no count needed, none resolves it
         assert covered(mass, springs, omega[j], error[j], j), (j, omega[j], error[j])
         if j > 0:  # (the rigid mode: omega = 0 within its bound, checked above)
             assert within(mass, springs, omega[j], 1e-10, j), j
@@ -258,6 +263,8 @@ def test_a_long_ring_with_a_spread_of_1e12_is_certified_to_1e13() -> None:
     loosest = np.argsort(relative)[-12:] + 1
     others = np.random.default_rng(4).choice(np.arange(13, n), 16, replace=False)
     for j in sorted({*range(12), *loosest.tolist(), *others.tolist()}):
+        if j == 0 and modes.omega[0] == 0.0:
+            continue  # the rigid rotation, exactly zero (B 1 = 0): no count needed, none resolves it
         with mp.workdps(90):
             low = mp.mpf(modes.omega[j]) - mp.mpf(modes.omega_error[j])
             high = mp.mpf(modes.omega[j]) + mp.mpf(modes.omega_error[j])

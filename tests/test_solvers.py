@@ -365,14 +365,16 @@ def test_a_30000_site_ring_uses_its_band_not_a_dense_eigh() -> None:
 
 
 def test_ring_frequencies_match_the_closed_form_and_a_dense_solve() -> None:
-    """A ring up to RING_DENSE_LIMIT sites takes the checked dense solve in "high" (relative
-    accuracy, every bound certified by Sturm counts); "fast" takes its band (absolute accuracy);
-    a longer ring takes its band in "high" too (see the 30,000-site ring above)."""
+    """A ring above DENSE_LIMIT sites, frequencies only, takes ``accurate-ring`` in "high"
+    (relative accuracy, every bound certified by Sturm counts of its spring form; with vectors,
+    up to RING_DENSE_LIMIT, the checked dense solve); "fast" takes its band (absolute accuracy);
+    a ring longer than RING_VALUES_LIMIT takes its band in "high" too (the 30,000-site ring
+    above)."""
     from vibra.chains import linear_chain, monatomic_frequencies
 
     n = 3000
     modes = linear_chain(n, ends="periodic").modes(vectors=False)
-    assert modes.solver == "accurate-checked"
+    assert modes.solver == "accurate-ring"
     exact = np.sort(monatomic_frequencies(n, ends="periodic"))  # 2 Omega |sin(pi j / n)|
     flexible = exact > 1e-9
     error = np.abs(modes.omega - exact)
@@ -382,7 +384,7 @@ def test_ring_frequencies_match_the_closed_form_and_a_dense_solve() -> None:
     assert np.all(modes.omega_error[flexible] <= 1e-13 * exact[flexible])
     assert "bounds certified by Sturm counts" in modes.refinement
     longer = linear_chain(solvers.accurate.RING_DENSE_LIMIT + 2, ends="periodic").modes(vectors=False)
-    assert longer.solver == "banded"
+    assert longer.solver == "accurate-ring"
     rng = np.random.default_rng(3)
     masses, springs = rng.uniform(1.0, 3.0, 2000), rng.uniform(1.0, 2.0, 2000)
     ring = linear_chain(2000, ends="periodic", mass=masses, stiffness=springs)

@@ -19,7 +19,10 @@ accuracy where the structure allows (`accurate_path` chooses):
   dense solve without the Jacobi fallback. Rings (n_terms = n) keep the fallback up to 4,000
   dofs and the checked dense solve up to `RING_DENSE_LIMIT`; a longer ring takes its band
   (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
-  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual.
+  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual;
+- ``accurate-ring``: all frequencies, no vectors, of a free ring of DENSE_LIMIT to
+  `RING_VALUES_LIMIT` sites: roots of its spring form's last pivot between the eigenvalues of
+  the chain it is cut into, each certified by Sturm counts (`vibra.solvers.ring_path`).
 
 Every path fills `SolveResult.refined` (which modes' values come from the accurate machinery)
 and `refinement` (how many, and why).
@@ -35,7 +38,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
+from vibra.solvers import ring_kernel
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
+from vibra.solvers.ring_path import ring_values
 from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets
 from vibra.solvers.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
@@ -59,13 +64,26 @@ JACOBI_WORK = 4000**3
 RING_DENSE_LIMIT = 6000
 
 
+#: Rings above DENSE_LIMIT (detected by their band) up to this many sites take ``accurate-ring``
+#: for all their frequencies without vectors: O(n^2), ~7 s at 8,000 sites on two cores, ~30 s
+#: at 16,000 (`vibra.solvers.ring_path`); a longer ring takes its band (absolute accuracy).
+RING_VALUES_LIMIT = 20000
+
+
+def ring_values_apply(n: int, *, vectors: bool, band: tuple[float, float] | None) -> bool:
+    """Whether a free ring of n > DENSE_LIMIT sites takes ``accurate-ring`` (all values, none of the
+    vectors, the compiled loops available; a ring with a spring to a wall falls back at solve time)."""
+    return not vectors and band is None and DENSE_LIMIT < n <= RING_VALUES_LIMIT and ring_kernel.AVAILABLE
+
+
 def jacobi_allowed(n: int, n_terms: int) -> bool:
     """Whether `checked_dense` may fall back to one-sided Jacobi on the n_terms x n B~."""
     return n <= DENSE_LIMIT or float(n_terms) * n * n <= JACOBI_WORK
 
 
 def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
-                     band: tuple[float, float] | None, tridiagonal: bool, banded: bool, n_terms: int) -> str:
+                     band: tuple[float, float] | None, tridiagonal: bool, banded: bool, n_terms: int,
+                     vectors: bool = True) -> str:
     """The path `accurate_path` will take (for the cost estimate), without touching B.
 
     Springs that form a path join dofs c and c + 1 only, so K is tridiagonal: a tridiagonal
@@ -77,6 +95,8 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
         return "accurate-bidiagonal"
     if few:
         return "accurate-ritz"
+    if banded and ring_values_apply(n, vectors=vectors, band=band):
+        return "accurate-ring"
     if banded and n > RING_DENSE_LIMIT:
         return "banded"
     return "accurate-checked" if jacobi_allowed(n, n_terms) else "accurate-rayleigh"
@@ -101,6 +121,10 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
         chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage,
                                 factor=factor, mass=mass)
         return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
+    if ordering is not None and not few and ring_values_apply(n, vectors=vectors, band=band):
+        ring = _ring_values(coupling, weights, mass, n_modes)
+        if ring is not None:
+            return ring
     deviation = forming_deviation(weighted, coupling, weights, mass)
     pencil = ring_pencil(coupling, weights, mass) if n <= RING_DENSE_LIMIT else None
     result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
@@ -123,6 +147,30 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
             result.eigenvalues, result.error = values, error
             note = f"{count} bounds tightened by inverse iteration in double-double"
             result.refinement = f"{result.refinement}; {note}" if result.refinement else note
+    return result
+
+
+def _ring_values(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64],
+                 n_modes: int | None) -> SolveResult | None:
+    """``accurate-ring``: a free ring's frequencies by `ring_path.ring_values` (the lowest
+    n_modes of them when given), or None (not one free ring: the caller goes on)."""
+    pencil = ring_pencil(coupling, weights, mass)
+    if pencil is None:
+        return None
+    found = ring_values(pencil)
+    if found is None:
+        return None
+    k = found.values.shape[0] if n_modes is None else min(int(n_modes), found.values.shape[0])
+    values, bound, certified = found.values[:k], found.bound[:k], found.certified[:k]
+    if not certified.all():  # (not seen: the multisection proves every root) keep the widest honest bound
+        bound = np.where(certified, bound, np.maximum(np.abs(values), pencil.R))
+    result = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")
+    finite = values > 0
+    worst = float(np.max(bound[finite] / values[finite])) if finite.any() else 0.0
+    result.refined = np.ones(k, dtype=bool)
+    result.refinement = (f"all {k} modes from roots of the ring's spring form (interlacing with the chain cut at "
+                         f"its weakest spring), {int(certified.sum())} of {k} bounds certified by Sturm counts of "
+                         f"the spring form in double-double, error/omega^2 up to {worst:.1g}")
     return result
 
 

@@ -26,6 +26,8 @@ the input, then time:
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
+- accurate-ring (a free ring's values): ~40 n words; 2e-7 n^2 (measured ~1e-7 on two cores:
+  roots of its spring form, two double-double counts of 2n nodes per value).
 - accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
 - accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
   larger of that and accurate-jacobi's (a refinement may run).
@@ -60,6 +62,7 @@ LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: Sturm bisection + inverse iteration on a chain (measured 2.4e-6)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
+RING_S = 2e-7                 # per n^2: a ring's values, each certified by counts (`ring_path`)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
 
 
@@ -138,6 +141,9 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
         seconds = BISECTION_S * n * k
+    elif path == "accurate-ring":
+        memory = 8.0 * 40 * n
+        seconds = RING_S * n2
     elif path in ("accurate-rayleigh",):
         # K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K
         memory = 8.0 * n2 * 4

@@ -44,7 +44,7 @@ from vibra.solvers.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as 
 from vibra.solvers.rounding import _product, _split
 
 __all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_springs", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
-           "MP_WORK"]
+           "MP_WORK", "spring_width"]
 
 #: The counts are exact for a pencil within RHO_UNIT (R + |x|) of (K, M): pivots within
 #: 4 operations' rounding of each entry (diagonal, off-diagonal squared), 4 `dd.UNIT` each
@@ -290,6 +290,21 @@ def spring_widening(pencil: RingPencil) -> NDArray[np.float64]:
     return np.array([phi, 4 * n * u * float(_closing(pencil).min()) * (1 + phi)])
 
 
+def spring_width(lo: NDArray[np.float64], hi: NDArray[np.float64], middle: NDArray[np.float64],
+                 widening: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Half-width about `middle` of the omega^2 that a bracket [lo, hi] of `count_below_springs`
+    counts proves (its `widening` (phi, theta |b~|)): omega within sqrt(lo) (1 - phi) - s ..
+    sqrt(hi) (1 + phi) + s, squared. Each side is formed as a sum of nonnegative terms (the
+    difference hi - middle exact by Sterbenz, the widening's terms tiny beside it): squaring
+    sqrt(hi) (1 + phi) in float64 would round by more than phi ~ 1e-26 and could leave the
+    width at zero."""
+    phi, shift = float(widening[0]), float(widening[1])
+    root_hi, root_lo = np.sqrt(hi) * (1 + 1e-15), np.sqrt(np.maximum(lo, 0.0)) * (1 + 1e-15)
+    above = (hi - middle) + hi * (2 * phi + phi * phi) + shift * (2 * root_hi * (1 + phi) + shift)
+    below = np.minimum(middle, (middle - lo) + 2 * phi * lo + 2 * shift * root_lo)
+    return np.maximum(above, below) * (1 + 1e-12)
+
+
 def _closing(pencil: RingPencil) -> NDArray[np.float64]:
     """|b~| of each cycle spring's entry on the next site, sqrt(w_i) |c| / sqrt(m_{i+1}): the
     spring form closes its cycle at the smallest."""
@@ -389,11 +404,8 @@ def _spring_brackets(pencil: RingPencil, values: NDArray[np.float64], index: NDA
                 hi[mode] = min(hi[mode], points[row, over[0]])
     if found.shape[0] == 0:
         return values, best
-    phi, shift = spring_widening(pencil)
     middle = 0.5 * (lo[found] + hi[found])
-    top = (np.sqrt(hi[found]) * (1 + phi) + shift) ** 2 - middle
-    bottom = middle - np.maximum(np.sqrt(lo[found]) * (1 - phi) - shift, 0.0) ** 2
-    width = np.maximum(top, bottom) * (1 + 1e-12)
+    width = spring_width(lo[found], hi[found], middle, spring_widening(pencil))
     better = width < best[todo[found]]
     values, best = values.copy(), best.copy()
     values[todo[found[better]]], best[todo[found[better]]] = middle[better], width[better]

@@ -26,7 +26,7 @@ SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
 #: The paths a result can report in `Modes.solver` (``"accurate"`` runs one of the four
 #: ``accurate-*`` paths).
 SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal", "accurate-bisection",
-                "accurate-ritz", "accurate-rayleigh", "accurate-checked", "accurate-jacobi")
+                "accurate-ritz", "accurate-rayleigh", "accurate-checked", "accurate-jacobi", "accurate-ring")
 
 #: A partial solve of a chain whose K~ diagonal spans more than this ratio (disorder in the
 #: masses or springs), or asked accurately with more than `BISECTION_SIZE` dofs, goes to bisection on the
@@ -111,7 +111,7 @@ def plan(
         assert spring_factor is not None
         n_terms = spring_factor[0].shape[0]
         path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1, n_terms=n_terms,
-                                banded=ordering is not None)
+                                banded=ordering is not None, vectors=vectors)
     if (requested in ("auto", "accurate") and partial and band is None and tridiagonal and mass.ndim == 1
             and ((solver == "accurate" and n > BISECTION_SIZE) or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
         path = "accurate-bisection"

@@ -1,0 +1,144 @@
+"""All frequencies of a ring, values only, "high": ``accurate-ring`` against the paths it replaces.
+
+    python benchmarks/bench_ring_values.py [--quick]
+
+Issue 15, item 6: a ring over 6,000 sites took its band in "high" (absolute accuracy: the
+lowest frequencies of a uniform 8,000-site ring off by 4.5e-9 relative, ~8,000 bounds over 1e-13
+and over 1000 times their true error), and rings of 1,500 to 6,000 sites the dense checked
+solve (O(n^3), 8 s at 1,600 sites with a spread of 1e12). ``accurate-ring`` (`ring_path`):
+roots of the spring form's last pivot between the cut chain's eigenvalues, each certified by
+two double-double Sturm counts; O(n^2).
+
+Per ring, by the protocol of STYLE.md (one process, warm-up, interleaved rounds, BLAS threads 1;
+numba's threads: the machine's cores, 2 here):
+
+- time of `modes(vectors=False)` in "high" (``accurate-ring``), of the path it replaces (the
+  same call with `accurate.ring_values_apply` switched off: the band solver and the triplet
+  step above 6,000 sites, the checked dense solve below), of "fast" (the band solver), and of
+  the strongest peer for the eigenvalues of a banded symmetric matrix: scipy
+  `eigvals_banded` (LAPACK sbevd) of the reordered K~ (half-width 2), formed outside the timing;
+- the bounds: largest and median of omega_error / omega; the true error where a truth exists:
+  the closed form 2 |sin(pi j / n)| (uniform rings, 30-digit mpmath), and for disordered rings
+  40 + 2 spread digit mpmath Sturm counts (`tests/test_ring_bounds.ring_count`) on a sample of
+  24 modes (the lowest, the loosest, random), which must hold each reported interval.
+
+Writes results/ring_values.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from _common import ROUNDS, format_ratio, interleaved, ratio, write_json  # noqa: I001  (sets BLAS threads)
+
+import mpmath
+import numpy as np
+import scipy.linalg as la
+
+from vibra.chains import linear_chain
+from vibra.solvers import accurate
+from vibra.solvers.common import ring_ordering
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from test_ring_bounds import disordered_ring, ring_count, sampled  # noqa: E402  (the tests' oracles)
+
+PEER = "scipy eigvals_banded (LAPACK sbevd, reordered K~)"
+
+
+def previous(ring: object) -> object:
+    """The path this replaces: `accurate.ring_values_apply` off for one call."""
+    switch = accurate.ring_values_apply
+    accurate.ring_values_apply = lambda *args, **kwargs: False  # type: ignore[assignment]
+    try:
+        return ring.modes(vectors=False)  # type: ignore[attr-defined]
+    finally:
+        accurate.ring_values_apply = switch  # type: ignore[assignment]
+
+
+def figures(modes: object, truth: np.ndarray | None, mass: np.ndarray, springs: np.ndarray, spread: float) -> dict:
+    omega, error = modes.omega, modes.omega_error  # type: ignore[attr-defined]
+    relative = error[1:] / omega[1:]
+    entry = {"solver": modes.solver, "bound_max": float(relative.max()),  # type: ignore[attr-defined]
+             "bound_median": float(np.median(relative)), "over_1e-13": int(np.sum(relative > 1e-13))}
+    if truth is not None:
+        errors = np.abs(omega[1:] - truth[1:])
+        entry.update(true_error_max=float(np.max(errors / truth[1:])),
+                     covered=bool(np.all(errors <= error[1:] + 1e-16 * truth[1:])),
+                     over_criterion=int(np.sum((error[1:] > 1000 * errors) & (relative > 1e-13))))
+    else:
+        digits = 40 + int(2 * spread)
+        checked = [j for j in sampled(omega.shape[0], np.r_[0.0, relative], np.random.default_rng(5)) if j > 0]
+        held = 0
+        for j in checked:
+            with mpmath.workdps(digits):
+                low = (mpmath.mpf(omega[j]) - mpmath.mpf(error[j])) ** 2
+                high = (mpmath.mpf(omega[j]) + mpmath.mpf(error[j])) ** 2
+            held += ring_count(mass, springs, low, digits) <= j < ring_count(mass, springs, high, digits)
+        entry.update(sampled=len(checked), sampled_covered=held)
+    return entry
+
+
+def run(cases: list[tuple[int, float]], rounds: int) -> list[dict]:
+    rows = []
+    for n, spread in cases:
+        if spread == 0.0:
+            mass, springs = np.ones(n), np.ones(n)
+        else:
+            mass, springs = disordered_ring(n, spread, 7)
+        ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
+        K = ring.hessian()
+        order, width = ring_ordering(K)
+        band = _band(K, mass, order, width)
+        methods = {
+            PEER: lambda: la.eigvals_banded(band, lower=True, check_finite=False),
+            "vibra fast": lambda: ring.modes(vectors=False, accuracy="fast"),
+            "vibra high (previous path)": lambda: previous(ring),
+            "vibra high": lambda: ring.modes(vectors=False),
+        }
+        print(f"ring of {n} sites, spread 10^{spread:g}", flush=True)
+        timings = interleaved(methods, rounds)
+        truth = None
+        if spread == 0.0:
+            with mpmath.workdps(30):
+                truth = np.sort(np.array([float(2 * abs(mpmath.sin(mpmath.pi * j / n))) for j in range(n)]))
+        row = {"n": n, "spread": spread, "times_s": {k: t.summary() for k, t in timings.items()},
+               "high_vs_fast": ratio(timings["vibra high"], timings["vibra fast"]),
+               "high_vs_peer": ratio(timings["vibra high"], timings[PEER]),
+               "high_vs_previous": ratio(timings["vibra high"], timings["vibra high (previous path)"])}
+        for key, label in (("now", "vibra high"), ("before", "vibra high (previous path)"), ("fast", "vibra fast")):
+            row[key] = figures(timings[label].result, truth, mass, springs, spread)
+            print(f"  {key}: {row[key]}", flush=True)
+        print(f"  high/fast {format_ratio(row['high_vs_fast'])}, high/peer {format_ratio(row['high_vs_peer'])}, "
+              f"high/previous {format_ratio(row['high_vs_previous'])}", flush=True)
+        rows.append(row)
+    return rows
+
+
+def _band(K: object, mass: np.ndarray, order: np.ndarray, width: int) -> np.ndarray:
+    """K~ reordered, in LAPACK's lower band storage (width + 1 rows)."""
+    import scipy.sparse as sp
+
+    scale = 1.0 / np.sqrt(mass)
+    Kt = sp.csr_matrix(sp.diags(scale) @ K @ sp.diags(scale))[order][:, order].tocsr()
+    n = Kt.shape[0]
+    band = np.zeros((width + 1, n))
+    for offset in range(width + 1):
+        band[offset, : n - offset] = Kt.diagonal(-offset)
+    return band
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one small ring, one round (smoke run)")
+    args = parser.parse_args()
+    rounds = 1 if args.quick else ROUNDS
+    cases = [(2000, 0.0)] if args.quick else [(2000, 0.0), (2000, 12.0), (8000, 0.0), (8000, 6.0), (16000, 6.0)]
+    rows = run(cases, rounds)
+    path = write_json("ring_values", {"rows": rows, "peer": PEER}, rounds)
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()

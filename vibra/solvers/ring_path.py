@@ -1,0 +1,349 @@
+"""Every frequency of a free ring to high relative accuracy, values only, in O(n^2): ``accurate-ring``.
+
+A ring is a chain closed by one spring. Cut there (at the spring whose entry of B~ is smallest,
+as `cycle.count_below_springs` closes its cycle), the chain's eigenvalues p_0 = 0 < p_1 < ...
+come from dqds on its bidiagonal spring factor (relatively accurate); the ring's eigenvalue i
+lies in [p_i, p_i+1] (interlacing: the ring is the chain plus a positive rank-one term), where
+it is the root of the spring form's last pivot (`ring_kernel.pivot_roots`, float64, a few
+O(n) evaluations each). Each root is then certified by two double-double inertia counts of
+the spring form (`ring_kernel.spring_counts`, the arithmetic and error analysis of
+`cycle.count_below_springs`): [v (1 - t), v (1 + t)] holds eigenvalue i when the counts there
+are <= i and > i, for the tightest t of `LEVELS` that proves it; a root no level proves
+is bracketed by multisection from its interlacing interval. The bound is that bracket widened
+by the counts' own perturbation (`cycle.spring_widening`, ~1e-27 relatively): every bound is
+rigorous for the masses and springs as given, whatever the float64 roots' accuracy.
+
+Cost: per mode ~5-10 float64 evaluations and two double-double counts of 2n nodes; with
+numba's threads, ~6 s for 8,000 sites on two cores, where the dense Jacobi route of the
+smaller rings would take minutes and the band solver gives absolute accuracy only.
+Without numba (or for a ring with springs to a wall, whose cut is not a bidiagonal chain)
+`ring_values` returns None and the ring keeps its previous path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vibra._lapack import bidiagonal_singular_values
+from vibra.solvers import ring_kernel
+from vibra.solvers.cycle import RingPencil, _closing, count_below_mp, mp_rho, spring_widening, spring_width
+from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
+
+__all__ = ["ring_values", "RingValues", "spring_arrays", "sorted_bounds"]
+
+#: Half-widths of the brackets tried around each root, relative, tightest first (`cycle.LADDER`
+#: with steps between: a root at a pole, a double eigenvalue of a uniform ring or a mode
+#: localised far from the cut, has counts uncertain within ~sqrt(n) 1e-15 of it).
+LEVELS = (8 * 2.0**-53, 64 * 2.0**-53, 3e-14, 1e-13, 1.4e-13, 1.9e-13, 3e-13, 1e-12, 1e-11)
+
+#: The levels tried first for a root taken at a pole.
+SNAPPED_LEVELS = LEVELS[1:3]
+
+#: Most regula falsi steps for a root taken at a pole (`_polish`).
+POLISH = 12
+
+#: Bounds above this (omega^2 relative, 1e-13 in omega) get mpmath counts, at most MP_COUNTS
+#: per solve (~0.15 s each at 8,000 sites), at MP_LEVELS around the value.
+MP_WANTED = 1.95e-13
+MP_COUNTS = 24
+MP_LEVELS = (64 * 2.0**-53, 3e-14, 1e-13)
+
+#: Multisection for the roots the LEVELS does not prove: points per bracket and pass, and passes
+#: (16^16 ~ 2e19: an interlacing bracket as wide as its value to 8 eps, or a full range to ~1e-19).
+SECTIONS = 16
+PASSES = 16
+
+
+@dataclass
+class RingValues:
+    """What `ring_values` found: values (omega^2 ascending), bound (absolute, per value),
+    certified (per value: proven by counts), evaluations (float64 pivots per root, summed),
+    counts (double-double counts spent)."""
+
+    values: NDArray[np.float64]
+    bound: NDArray[np.float64]
+    certified: NDArray[np.bool_]
+    evaluations: int
+    counts: int
+
+
+def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                               NDArray[np.float64]]:
+    """(m, w, c_in, c_out) in path order: `cycle.count_below_springs`' rotation, the cycle cut
+    after its smallest closing entry (c_in, c_out: each spring's entries of B on its two sites)."""
+    turn = (int(np.argmin(_closing(pencil))) + 1) % pencil.n
+    w = np.roll(pencil.edges[0], -turn)
+    c_in, c_out = np.roll(pencil.ends[0], -turn), np.roll(pencil.ends[1], -turn)
+    return np.roll(pencil.m, -turn), w, c_in, c_out
+
+
+def ring_values(pencil: RingPencil) -> RingValues | None:
+    """All eigenvalues of a free ring's pencil, each with a count-certified bound (see above);
+    None where the compiled loops are unavailable or the ring has a spring to a wall."""
+    if pencil.walls or not ring_kernel.AVAILABLE:
+        return None
+    n = pencil.n
+    m, w, c_in, c_out = spring_arrays(pencil)
+    compliance = _div(np.ones(n), np.zeros(n), w, np.zeros(n))
+    off = np.empty(2 * n - 1)
+    off[0::2], off[1::2] = c_in, c_out[: n - 1]
+    squares = _mul(off, np.zeros_like(off), off, np.zeros_like(off))
+    closing = float(c_out[n - 1])
+    u = 4 * _UNIT_DD
+
+    # the cut chain's eigenvalues: its (n - 1) x n bidiagonal B~, squared with a zero row
+    root_w, root_m = np.sqrt(w[: n - 1]), np.sqrt(m)
+    d = np.r_[np.abs(root_w * c_in[: n - 1] / root_m[: n - 1]), 0.0]
+    e = np.abs(root_w * c_out[: n - 1] / root_m[1:])
+    poles = bidiagonal_singular_values(d, e) ** 2
+    poles[0] = 0.0
+    top = pencil.R * (1 + 1e-12)
+    low = poles[1:]
+    high = np.r_[poles[2:], max(top, poles[-1])]
+    roots, evaluations, side = ring_kernel.pivot_roots(low, high, low, np.r_[poles[2:], np.inf], m, compliance[0],
+                                                       off, closing)
+
+    def counts(x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+        count, certain, _ = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, u)
+        return count, certain
+
+    def pivots(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return ring_kernel.spring_counts(x, m, compliance, off, squares, closing, u)[2]
+
+    inside = np.flatnonzero((side == 0) & (roots > 0))
+    roots[inside], spent = _secant(pivots, roots[inside])
+    values = np.r_[0.0, roots]
+    index = np.arange(n)
+    bound = np.full(n, np.inf)
+    bound[0] = 0.0  # the free ring's rigid rotation: exactly zero (B 1 = 0), as the chains report it
+
+    widening = spring_widening(pencil)
+
+    def widened(lo: NDArray[np.float64], hi: NDArray[np.float64], middle: NDArray[np.float64]) -> NDArray[np.float64]:
+        return spring_width(lo, hi, middle, widening)
+
+    def ladder(modes: NDArray[np.intp], levels: tuple[float, ...]) -> int:
+        """Certify `modes` at the tightest of `levels` that proves them (bound set); counts spent."""
+        used = 0
+        for level in levels:
+            todo = modes[~np.isfinite(bound[modes])]
+            if todo.shape[0] == 0:
+                break
+            v = values[todo]
+            lo, hi = v * (1 - level), v * (1 + level)
+            count, certain = counts(np.r_[lo, hi])
+            used += count.shape[0]
+            k = todo.shape[0]
+            good = certain[:k] & certain[k:] & (count[:k] <= index[todo]) & (index[todo] < count[k:])
+            bound[todo[good]] = widened(lo[good], hi[good], v[good])
+        return used
+
+    # a root taken at a pole: mostly a mode localised far from the cut (or a double eigenvalue),
+    # the pole itself but for the pole's own error (dqds of the cut chain's float64 B~: ~sqrt(n)
+    # eps from forming it), so its brackets start at SNAPPED_LEVELS; those they do not prove
+    # are refined in double-double (`_polish`) and go through every level
+    spent += ladder(np.flatnonzero(np.r_[False, side == 0]), LEVELS)
+    snapped = np.flatnonzero(np.r_[False, side != 0])
+    spent += ladder(snapped, SNAPPED_LEVELS)
+    left = snapped[~np.isfinite(bound[snapped])]
+    if left.shape[0]:
+        pole = np.where(side[left - 1] < 0, low[left - 1], high[left - 1])
+        values[left], used = _polish(pivots, pole, side[left - 1])
+        # a root 1e-8..1e-6 from its pole: the model's neglected smooth part matters there,
+        # and l is smooth enough for `_secant`'s step of 1e-10
+        far = left[np.abs(values[left] - pole) > 1e-8 * pole]
+        values[far], more = _secant(pivots, values[far])
+        spent += used + more + ladder(left, LEVELS)
+
+    todo = np.flatnonzero(~np.isfinite(bound))
+    if todo.shape[0]:
+        lo = np.r_[0.0, poles[1:]][todo] * (1 - 1e-9)
+        hi = np.r_[poles[1:], top][todo] * (1 + 1e-9)
+        lo, hi, used = _multisection(counts, lo, hi, index[todo])
+        spent += used
+        proven = lo < hi
+        middle = 0.5 * (lo + hi)
+        values[todo[proven]] = middle[proven]
+        bound[todo[proven]] = widened(lo[proven], hi[proven], middle[proven])
+    spent += _mp_counts(pencil, values, bound)
+    certified = np.isfinite(bound)
+    order = np.argsort(values, kind="stable")
+    values = values[order]
+    bound = sorted_bounds(values, bound[order], order)
+    return RingValues(values, bound, certified[order] & np.isfinite(bound), int(evaluations.sum()), spent)
+
+
+def sorted_bounds(values: NDArray[np.float64], bound: NDArray[np.float64], order: NDArray[np.intp]
+                  ) -> NDArray[np.float64]:
+    """Bounds for the eigenvalues in ascending order, given values sorted by `order` (value k
+    was bounded for eigenvalue order[k]): unchanged where the order is the identity. Within a
+    block of positions that `order` maps onto itself (indices a..b), the first j values hold j of
+    the eigenvalues a..b below max (v + bound), so eigenvalue a + j - 1 does too; likewise from
+    the top with min (v - bound)."""
+    k = values.shape[0]
+    if k == 0 or np.array_equal(order, np.arange(k)):
+        return bound
+    bound = bound.copy()
+    ends = np.flatnonzero(np.maximum.accumulate(order) == np.arange(k))
+    start = 0
+    for end in ends.tolist():
+        if end > start:
+            v, b = values[start: end + 1], bound[start: end + 1]
+            with np.errstate(invalid="ignore"):
+                upper = np.maximum.accumulate(v + b)
+                lower = np.minimum.accumulate((v - b)[::-1])[::-1]
+                # (+ 4 eps |v|: the rounding of v +- bound and of the differences)
+                widest = np.maximum(upper - v, v - lower) * (1 + 1e-12) + 4 * np.finfo(float).eps * np.abs(v)
+                bound[start: end + 1] = np.maximum(b, widest)
+        start = end + 1
+    return bound
+
+
+def _mp_counts(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[np.float64]) -> int:
+    """Tighten, in place, the bounds still above MP_WANTED relative (the lowest modes of a long
+    uniform ring: double eigenvalues, where double-double's counts stay uncertain within a few
+    1e-13) by `cycle.count_below_mp` counts of K - x M with 40 digits more than R / value needs,
+    loosest first, at most MP_COUNTS counts. Returns the counts spent."""
+    loose = np.flatnonzero((bound > MP_WANTED * values) & (values > 0))
+    loose = loose[np.argsort(-(bound[loose] / values[loose]), kind="stable")]
+    used = 0
+    for j in loose.tolist():
+        if used + 2 > MP_COUNTS:
+            break
+        v = float(values[j])
+        digits = 40 + int(np.ceil(np.log10(max(pencil.R / v, 1.0))))
+        for level in MP_LEVELS:
+            t = level * v
+            width = (t + max(mp_rho(pencil, v - t, digits), mp_rho(pencil, v + t, digits))) * (1 + 1e-12)
+            if width >= bound[j] or used + 2 > MP_COUNTS:
+                break
+            under, low_sure = count_below_mp(pencil, v - t, digits)
+            over, high_sure = count_below_mp(pencil, v + t, digits)
+            used += 2
+            if low_sure and high_sure and under <= j < over:
+                bound[j] = width
+                break
+    return used
+
+
+Pivots = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+Counts = Callable[[NDArray[np.float64]], tuple[NDArray[np.intp], NDArray[np.bool_]]]
+
+
+def _secant(pivots: Pivots, roots: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
+    """One secant step on double-double values of l at each float64 root x and at x (1 + 1e-10):
+    the float64 roots carry l's float64 noise (~n eps relatively, 1e-14 at 1,600 sites); l is
+    smooth there (no pole within `ring_kernel.NEAR`), so the step leaves ~1e-4 of that error.
+    Returns (roots, pivots evaluated)."""
+    evaluate = pivots
+    k = roots.shape[0]
+    if k == 0:
+        return roots.copy(), 0
+    other = roots * (1 + 1e-10)
+    both = evaluate(np.r_[roots, other])
+    la, lb = both[:k], both[k:]
+    with np.errstate(all="ignore"):
+        new = roots - la * (other - roots) / (lb - la)
+    fine = np.isfinite(new) & (np.abs(new - roots) <= 1e-8 * roots)
+    return np.where(fine, new, roots), 2 * k
+
+
+def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
+            ) -> tuple[NDArray[np.float64], int]:
+    """Roots taken at a pole (`ring_kernel.NEAR`; side -1: just above it, +1: just below),
+    each refined on double-double values of l, whose noise (~1e-31 over the distance to the
+    pole) float64's (~1e-16 over it) would swamp.
+
+    l at y = 2 NEAR, 1e-7, 1e-9, 1e-11, 1e-13 times p from the pole p, on the root's side: l is
+    increasing between poles, so where two samples differ in sign they bracket the root, which
+    regula falsi (Illinois) in the variable 1 / y narrows (there l ~ s - c / y, c the pole's
+    residue: tiny for a mode localised away from the cut). No sign change: the root lies within
+    1e-13 p of the pole, or the pole is none (a double eigenvalue, a uniform ring's: l is
+    linear through its zero there, on either side of the computed pole, whose float64 error
+    it is): the secant of the two nearest samples where their slopes agree with the next,
+    else the pole itself. Returns (roots, pivots evaluated)."""
+    evaluate = pivots
+    k = pole.shape[0]
+    if k == 0:
+        return pole.copy(), 0
+    direction = -side.astype(float)  # the root's side of the pole
+    steps = np.array([2 * ring_kernel.NEAR, 1e-7, 1e-9, 1e-11, 1e-13])
+    y = pole[:, None] * direction[:, None] * steps
+    values = evaluate((pole[:, None] + y).ravel()).reshape(y.shape)
+    used = y.size
+    # l increases with x, so along |y| it rises for direction +1 and falls for -1
+    rising = values * direction[:, None]
+    change = (rising[:, :-1] > 0) & (rising[:, 1:] < 0)  # a root between samples i and i + 1
+    bracketed = change.any(axis=1)
+    rows = np.arange(k)
+    first = change.argmax(axis=1)
+    ya, la = y[rows, first + 1].copy(), values[rows, first + 1].copy()  # the end nearer the pole
+    yb, lb = y[rows, first].copy(), values[rows, first].copy()
+    kept_a, kept_b = np.zeros(k, dtype=int), np.zeros(k, dtype=int)  # Illinois: how often each end was kept
+
+    def interpolate() -> NDArray[np.float64]:
+        with np.errstate(all="ignore"):
+            t = la / (la - lb)  # the zero of l, taken linear in 1 / y between the ends
+            new = 1.0 / (1.0 / ya + t * (1.0 / yb - 1.0 / ya))
+        low, high = np.minimum(ya * direction, yb * direction), np.maximum(ya * direction, yb * direction)
+        inside = np.isfinite(new) & (new * direction > low) & (new * direction < high)
+        return np.where(inside, new, 0.5 * (ya + yb))
+
+    active = bracketed.copy()
+    for _ in range(POLISH):
+        active &= np.abs(yb - ya) > 4 * np.finfo(float).eps * pole
+        todo = np.flatnonzero(active)
+        if todo.shape[0] == 0:
+            break
+        root = interpolate()[todo]
+        fresh = evaluate(pole[todo] + root)
+        used += todo.shape[0]
+        same = np.sign(fresh) == np.sign(la[todo])  # replaces the end of its sign
+        ya[todo], la[todo] = np.where(same, root, ya[todo]), np.where(same, fresh, la[todo])
+        yb[todo], lb[todo] = np.where(same, yb[todo], root), np.where(same, lb[todo], fresh)
+        kept_a[todo], kept_b[todo] = np.where(same, 0, kept_a[todo] + 1), np.where(same, kept_b[todo] + 1, 0)
+        la[todo] = np.where(kept_a[todo] > 1, 0.5 * la[todo], la[todo])  # an end kept again: its value halved
+        lb[todo] = np.where(kept_b[todo] > 1, 0.5 * lb[todo], lb[todo])
+    # no bracket: a double eigenvalue (linear through its zero) or a root within 1e-13 p
+    with np.errstate(all="ignore"):
+        slope_far = (values[:, 2] - values[:, 3]) / (y[:, 2] - y[:, 3])
+        slope_near = (values[:, 3] - values[:, 4]) / (y[:, 3] - y[:, 4])
+        linear = np.isfinite(slope_far) & (np.abs(slope_near - slope_far) <= 1e-2 * np.abs(slope_far))
+        secant = y[:, 4] - values[:, 4] / slope_near
+    linear &= ~bracketed & np.isfinite(secant) & (np.abs(secant) <= 1e-9 * pole)
+    root = np.where(bracketed, interpolate(), np.where(linear, secant, 0.0))
+    return pole + root, used
+
+
+def _multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+    """Narrow each [lo, hi] around eigenvalue `index` by SECTIONS - 1 counts per pass, to 8 eps
+    relative or PASSES passes; first proves the ends themselves (lo = hi = nan where they fail)."""
+    count_at = counts
+    k = lo.shape[0]
+    count, certain = count_at(np.r_[lo, hi])
+    used = 2 * k
+    ok = certain[:k] & certain[k:] & (count[:k] <= index) & (index < count[k:])
+    lo, hi = np.where(ok, lo, np.nan), np.where(ok, hi, np.nan)
+    fractions = np.arange(1, SECTIONS) / SECTIONS
+    for _ in range(PASSES):
+        wide = np.flatnonzero(ok & (hi - lo > 16 * np.finfo(float).eps * hi))
+        if wide.shape[0] == 0:
+            break
+        points = lo[wide, None] + (hi[wide] - lo[wide])[:, None] * fractions
+        count, certain = count_at(points.ravel())
+        used += count.shape[0]
+        count, certain = count.reshape(points.shape), certain.reshape(points.shape)
+        below = certain & (count <= index[wide, None])
+        over = certain & (count > index[wide, None])
+        has_below, has_over = below.any(axis=1), over.any(axis=1)
+        last_below = points.shape[1] - 1 - np.argmax(below[:, ::-1], axis=1)
+        first_over = np.argmax(over, axis=1)
+        rows = np.arange(wide.shape[0])
+        lo[wide[has_below]] = np.maximum(lo[wide[has_below]], points[rows[has_below], last_below[has_below]])
+        hi[wide[has_over]] = np.minimum(hi[wide[has_over]], points[rows[has_over], first_over[has_over]])
+    return lo, hi, used
