@@ -73,9 +73,10 @@ def figures(modes: object, truth: np.ndarray | None, mass: np.ndarray, springs: 
         held = 0
         for j in checked:
             with mpmath.workdps(digits):
-                low = (mpmath.mpf(omega[j]) - mpmath.mpf(error[j])) ** 2
+                low = mpmath.mpf(omega[j]) - mpmath.mpf(error[j])
                 high = (mpmath.mpf(omega[j]) + mpmath.mpf(error[j])) ** 2
-            held += ring_count(mass, springs, low, digits) <= j < ring_count(mass, springs, high, digits)
+            below = 0 if low <= 0 else ring_count(mass, springs, low**2, digits)
+            held += below <= j < ring_count(mass, springs, high, digits)
         entry.update(sampled=len(checked), sampled_covered=held)
     return entry
 

@@ -30,7 +30,11 @@
                      fallback while gejsv's n_terms n^2 stays within `accurate.JACOBI_WORK`
                      (rings to 4,000 sites), else without (accurate-rayleigh);
                    - a ring up to 6,000 sites: each bound then certified by Sturm counts of
-                     its pencil in double-double (`cycle.py`).
+                     its pencil in double-double (`cycle.py`);
+                   - all frequencies, no vectors, of a free ring of 1,500 to 20,000 sites:
+                     roots of its spring form's last pivot between the eigenvalues of the
+                     chain it is cut into, each certified by compiled double-double Sturm
+                     counts, O(n^2) (accurate-ring; `ring_path.py`, `ring_kernel.py`).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and
@@ -51,12 +55,16 @@ Where each path lives:
 ``pardiso.py``         the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
 ``krylov.py``          block Krylov iteration (block Arnoldi, full reorthogonalisation)
 ``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal; certificates
+``triplets.py``        the chains' compiled certificates (numba), one triplet per value
 ``lowest.py``          accurate-bisection: the lowest modes of a chain by Golub-Kahan bisection
 ``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
 ``cycle.py``           a ring's pencil and its Sturm counts in double-double (certified bounds)
+``ring_path.py``       accurate-ring: a free ring's frequencies, roots certified by counts
+``ring_kernel.py``     its compiled loops (numba): the spring form's pivots, roots and counts
 ``dd.py``              double-double arithmetic on arrays: sums, LU and its solves
-``accurate.py``        the accurate dispatch; accurate-checked, -ritz, -rayleigh, -jacobi
+``accurate.py``        accurate dispatch; -checked, -ritz, -rayleigh, -jacobi, -ring
 ``spring_ritz.py``     spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s own rounding
+``golub_kahan.py``     B~'s singular triplets by Golub-Kahan inverse iteration (Kato-Temple)
 ``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
 ``budget.py``          memory / time estimates, the guard and its limits, progress reports
 ``gpu.py``             ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)

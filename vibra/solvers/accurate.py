@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers import ring_kernel
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
+from vibra.solvers.path_counts import certify_path_values, path_form
 from vibra.solvers.ring_path import ring_values
 from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets
 from vibra.solvers.spring_ritz import (
@@ -120,7 +121,8 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     if path is not None:
         chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage,
                                 factor=factor, mass=mass)
-        return relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
+        chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
+        return _chain_counted(chain, coupling, weights, mass, band)
     if ordering is not None and not few and ring_values_apply(n, vectors=vectors, band=band):
         ring = _ring_values(coupling, weights, mass, n_modes)
         if ring is not None:
@@ -171,6 +173,26 @@ def _ring_values(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
     result.refinement = (f"all {k} modes from roots of the ring's spring form (interlacing with the chain cut at "
                          f"its weakest spring), {int(certified.sum())} of {k} bounds certified by Sturm counts of "
                          f"the spring form in double-double, error/omega^2 up to {worst:.1g}")
+    return result
+
+
+def _chain_counted(result: SolveResult, coupling: sp.csr_matrix, weights: NDArray[np.float64],
+                   mass: NDArray[np.float64], band: tuple[float, float] | None) -> SolveResult:
+    """A chain's result with the bounds its triplets left above `golub_kahan.WANTED` (values in a
+    cluster) certified by Sturm counts of its spring form (`vibra.solvers.path_counts`)."""
+    values, error = result.eigenvalues, result.error
+    if band is not None or not np.any((error > WANTED * values) & (values > error)):
+        return result
+    form = path_form(coupling, weights, mass)
+    if form is None:
+        return result
+    result.error, count = certify_path_values(form, values, error)
+    if count:
+        finite = result.eigenvalues > result.error
+        worst = float(np.max(result.error[finite] / result.eigenvalues[finite])) if finite.any() else 0.0
+        note = (f"{count} bounds certified by Sturm counts of the chain's spring form (values in clusters), "
+                f"error/omega^2 now up to {worst:.1g}")
+        result.refinement = f"{result.refinement}; {note}" if result.refinement else note
     return result
 
 

@@ -31,6 +31,9 @@ the input, then time:
 - accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
 - accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
   larger of that and accurate-jacobi's (a refinement may run).
+- Refinement on the accurate paths with a spring factor (checked, jacobi, rayleigh, a long
+  ring's band): the singular-triplet step, at most `golub_kahan.TRIPLET_SECONDS` (10 s), and on
+  rings up to 6,000 sites the Sturm counts of their certificates, 2e-6 n^2 (`refinement_seconds`).
 - A `band` request is estimated as `dispatch.BAND_MODES_ESTIMATE` (64) modes (its count is unknown
   before the solve).
 """
@@ -63,6 +66,9 @@ JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: Sturm bisection + inverse iteration on a chain (measured 2.4e-6)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
 RING_S = 2e-7                 # per n^2: a ring's values, each certified by counts (`ring_path`)
+RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)
+TRIPLET_UNIT_S = 3.6e-8       # per work unit of `golub_kahan` (TRIPLET_WORK = 5e8 units ~ 18 s)
+TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and mode (8 + ~20 of fill)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
 
 
@@ -156,7 +162,23 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         rows = max(n_terms, n)
         memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)
         seconds = JACOBI_S * rows * n * n
+    if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "banded"):
+        seconds += refinement_seconds(n, n_terms)
     return Estimate(path, memory, seconds, what)
+
+
+def refinement_seconds(n: int, n_terms: int) -> float:
+    """What the accurate paths may add after their solve (a spring factor given): the singular-
+    triplet step (`golub_kahan`: per loose mode a sparse LU of the (n_terms + n) Golub-Kahan
+    matrix, ~TRIPLET_ROW work units per row at TRIPLET_UNIT_S, capped by TRIPLET_SECONDS), and
+    for a ring (n_terms = n) up to `accurate.RING_DENSE_LIMIT` the Sturm counts that certify its
+    bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's)."""
+    from vibra.solvers.accurate import RING_DENSE_LIMIT
+    from vibra.solvers.golub_kahan import TRIPLET_SECONDS
+
+    triplets = min(TRIPLET_SECONDS, TRIPLET_UNIT_S * TRIPLET_ROW * float(n) * (n_terms + n))
+    counts = RING_COUNTS_S * float(n) * n if n_terms == n and n <= RING_DENSE_LIMIT else 0.0
+    return triplets + counts
 
 
 def describe_bytes(count: float) -> str:

@@ -36,7 +36,7 @@ try:
 except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
     numba = None  # type: ignore[assignment]
 
-__all__ = ["AVAILABLE", "pivot_roots", "spring_counts"]
+__all__ = ["AVAILABLE", "pivot_roots", "spring_counts", "path_counts"]
 
 #: Whether the compiled loops can run here.
 AVAILABLE = numba is not None
@@ -337,3 +337,61 @@ def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: N
     roots, evaluations, side = _roots(*(np.ascontiguousarray(a, dtype=float) for a in (low, high, pole_low, pole_high)),
                                 m, np.ascontiguousarray(compliance, dtype=float), off, float(closing))
     return roots, evaluations.astype(np.intp), side.astype(np.intp)
+
+
+# --- a path's counts (chains: no closing coupling, no fill) ---
+
+@_jit()
+def _path_count(x: float, site: NDArray[np.bool_], m: NDArray[np.float64], compliance_h: NDArray[np.float64],
+                compliance_l: NDArray[np.float64], square_h: NDArray[np.float64], square_l: NDArray[np.float64]
+                ) -> tuple[int, bool]:
+    """(negative pivots, certain) of the spring form of a path at x: node k is a site (mass
+    m[k]) or a spring (compliance 1 / w, double-double), coupled to node k + 1 by c_k (its
+    square given, 0 between separate paths). No fill: every pivot is exact for couplings,
+    masses and springs perturbed by a few units of double-double; a vanished pivot makes the
+    count uncertain."""
+    x_high, x_low = _split(x)
+    negative = 0
+    ph, pl = 0.0, 0.0
+    for k in range(site.shape[0]):
+        if site[k]:
+            mh, ml = _split(m[k])
+            dh = x * m[k]
+            dl = ((x_high * mh - dh) + x_high * ml + x_low * mh) + x_low * ml
+        else:
+            dh, dl = compliance_h[k], compliance_l[k]
+        if k > 0 and square_h[k - 1] != 0.0:
+            rh, rl = _reciprocal(ph, pl)
+            th, tl = _mul(rh, rl, square_h[k - 1], square_l[k - 1])  # c^2 / p
+            ph, pl = _add(dh, dl, -th, -tl)
+        else:
+            ph, pl = dh, dl
+        if ph == 0.0:
+            return negative, False
+        if ph < 0:
+            negative += 1
+    return negative, True
+
+
+@_jit(parallel=True)
+def _path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                 compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
+                 square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    k = x.shape[0]
+    negative = np.zeros(k, dtype=np.int64)
+    certain = np.zeros(k, dtype=np.bool_)
+    for t in prange(k):
+        negative[t], certain[t] = _path_count(x[t], site, m, compliance_h, compliance_l, square_h, square_l)
+    return negative, certain
+
+
+def path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
+                squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """(count below x, certain) of the eigenvalues of paths of sites and springs (`_path_count`:
+    node k a site with mass m[k] or a spring with compliance 1 / w, squares[k] the square of the
+    coupling of nodes k and k + 1, 0 where two paths meet): sites less negative pivots, the
+    spring form's Schur complement being x M - K."""
+    negative, certain = _path_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m,
+                                     compliance[0], compliance[1], squares[0], squares[1])
+    return int(np.count_nonzero(site)) - negative.astype(np.intp), certain
