@@ -90,11 +90,8 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     spring to a wall, is allowed)."""
     if np.ndim(mass) != 1:
         return None
-    B = sp.csr_matrix(coupling, dtype=float, copy=True)
-    B.sort_indices()
-    B.eliminate_zeros()
+    B, per_row = stored_factor(coupling)
     n = B.shape[1]
-    per_row = np.diff(B.indptr)
     if n < 3 or per_row.max(initial=0) > 2:
         return None
     pairs = np.flatnonzero(per_row == 2)
@@ -136,6 +133,14 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     wall = _entries((terms[0][walls], terms[1][walls], terms[2][walls]), (np.zeros(0),) * 3, n, 40)[0]
     return RingPencil(np.array(order), a, b, m, float(rows.max()) * (1 + 1e-12), bool(np.any(per_row == 1)),
                       terms, edge_terms, ends, split_mp(wall))
+
+
+def stored_factor(coupling: Any) -> tuple[sp.csr_matrix, NDArray[np.intp]]:
+    """B as a float CSR copy, indices sorted, explicit zeros dropped, and its entries per row."""
+    B = sp.csr_matrix(coupling, dtype=float, copy=True)
+    B.sort_indices()
+    B.eliminate_zeros()
+    return B, np.diff(B.indptr)
 
 
 def _entries(terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]],

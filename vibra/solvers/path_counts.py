@@ -21,11 +21,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers import ring_kernel
-from vibra.solvers.cycle import spring_width
+from vibra.solvers.cycle import spring_width, stored_factor
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 from vibra.solvers.golub_kahan import WANTED
 from vibra.solvers.ring_path import LEVELS
@@ -57,11 +56,8 @@ def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.floa
     the inputs themselves; None for any other system or where numba is unavailable."""
     if np.ndim(mass) != 1 or not ring_kernel.AVAILABLE:
         return None
-    B = sp.csr_matrix(coupling, dtype=float, copy=True)
-    B.sort_indices()
-    B.eliminate_zeros()
+    B, per_row = stored_factor(coupling)
     n = B.shape[1]
-    per_row = np.diff(B.indptr)
     if per_row.min(initial=1) < 1 or per_row.max(initial=0) > 2:
         return None
     weights = np.asarray(weights, dtype=float)

@@ -106,19 +106,6 @@ def _mul(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
 
 
 @_jit()
-def _div(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
-    q1 = ah / bh
-    ph, pl = _mul(bh, bl, q1, 0.0)
-    rh, rl = _add(ah, al, -ph, -pl)
-    q2 = rh / bh
-    ph, pl = _mul(bh, bl, q2, 0.0)
-    rh, _ = _add(rh, rl, -ph, -pl)
-    q3 = rh / bh
-    s, e = _fast(q1, q2)
-    return _add(s, e, q3, 0.0)
-
-
-@_jit()
 def _reciprocal(ph: float, pl: float) -> tuple[float, float]:
     """1 / (ph + pl) in double-double by one Newton step: r = fl(1 / ph), e = 1 - (ph + pl) r
     formed from Dekker's exact product (|e| <= 2^-51.9, its own rounding ~2^-104 |r e|
