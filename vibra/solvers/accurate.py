@@ -19,7 +19,8 @@ accuracy where the structure allows (`accurate_path` chooses):
   dense solve without the Jacobi fallback. Rings (n_terms = n) keep the fallback up to 4,000
   dofs and the checked dense solve up to `RING_DENSE_LIMIT`; a longer ring takes its band
   (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
-  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual;
+  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (up to
+  `RING_VALUES_LIMIT`, a free ring's frequencies then come from `ring_path`, certified);
 - ``accurate-ring``: all frequencies, no vectors, of a free ring of DENSE_LIMIT to
   `RING_VALUES_LIMIT` sites: roots of its spring form's last pivot between the eigenvalues of
   the chain it is cut into, each certified by Sturm counts (`vibra.solvers.ring_path`).
@@ -133,6 +134,15 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                           ordering=ordering, width=width, deviation=deviation)
     if pencil is not None and result.error.shape[0]:
         return _ring_certified(result, pencil, band)
+    if (ordering is not None and vectors and not few and band is None and n <= RING_VALUES_LIMIT
+            and ring_kernel.AVAILABLE):
+        certified = _ring_values(coupling, weights, mass, n_modes)
+        if certified is not None and certified.eigenvalues.shape == result.eigenvalues.shape:
+            # the band solver's vectors, each paired by rank with its certified frequency
+            result.eigenvalues, result.error = certified.eigenvalues, certified.error
+            result.refined = certified.refined
+            result.refinement = f"{certified.refinement}; vectors from the band solver"
+            return result
     if band is None and mass.ndim == 1 and result.error.shape[0] and np.all(np.diff(result.eigenvalues) >= 0):
         complete = result.eigenvalues.shape[0] == n
         values, error, count = refine_triplets(weighted, deviation, result.eigenvalues, result.error,

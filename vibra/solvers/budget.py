@@ -164,6 +164,8 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         seconds = JACOBI_S * rows * n * n
     if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "banded"):
         seconds += refinement_seconds(n, n_terms)
+    if path == "banded" and n_terms == n and vectors:  # a ring's vectors: its frequencies by `ring_path` too
+        seconds += RING_S * n2
     return Estimate(path, memory, seconds, what)
 
 
