@@ -39,7 +39,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
-from vibra.solvers import ring_kernel
+from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
 from vibra.solvers.path_counts import certify_path_values, path_form
 from vibra.solvers.ring_path import ring_values
@@ -75,7 +75,7 @@ RING_VALUES_LIMIT = 20000
 def ring_values_apply(n: int, *, vectors: bool, band: tuple[float, float] | None) -> bool:
     """Whether a free ring of n > DENSE_LIMIT sites takes ``accurate-ring`` (all values, none of the
     vectors, the compiled loops available; a ring with a spring to a wall falls back at solve time)."""
-    return not vectors and band is None and DENSE_LIMIT < n <= RING_VALUES_LIMIT and ring_kernel.AVAILABLE
+    return not vectors and band is None and DENSE_LIMIT < n <= RING_VALUES_LIMIT and COMPILED
 
 
 def jacobi_allowed(n: int, n_terms: int) -> bool:
@@ -135,7 +135,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     if pencil is not None and result.error.shape[0]:
         return _ring_certified(result, pencil, band)
     if (ordering is not None and vectors and not few and band is None and n <= RING_VALUES_LIMIT
-            and ring_kernel.AVAILABLE):
+            and COMPILED):
         certified = _ring_values(coupling, weights, mass, n_modes)
         if certified is not None and certified.eigenvalues.shape == result.eigenvalues.shape:
             # the band solver's vectors, each paired by rank with its certified frequency

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers import ring_kernel
+from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, path_counts
 from vibra.solvers.cycle import spring_width, stored_factor
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 from vibra.solvers.golub_kahan import WANTED
@@ -47,14 +47,14 @@ class PathForm:
         self.widening = np.array([2.0 * (k + 1) * 4 * _UNIT_DD, 0.0])
 
     def counts(self, x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        return ring_kernel.path_counts(x, self.site, self.m, self.compliance, self.squares)
+        return path_counts(x, self.site, self.m, self.compliance, self.squares)
 
 
 def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> PathForm | None:
     """The spring form of a system whose springs join dofs c and c + 1 only, with at most one
     spring to a wall at each end of each chain (`bidiagonal.path_bidiagonals`' structure), from
     the inputs themselves; None for any other system or where numba is unavailable."""
-    if np.ndim(mass) != 1 or not ring_kernel.AVAILABLE:
+    if np.ndim(mass) != 1 or not COMPILED:
         return None
     B, per_row = stored_factor(coupling)
     n = B.shape[1]

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values
-from vibra.solvers import ring_kernel
+from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts
 from vibra.solvers.cycle import RingPencil, _closing, count_below_mp, mp_rho, spring_widening, spring_width
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
@@ -84,7 +84,7 @@ def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.f
 def ring_values(pencil: RingPencil) -> RingValues | None:
     """All eigenvalues of a free ring's pencil, each with a count-certified bound (see above);
     None where the compiled loops are unavailable or the ring has a spring to a wall."""
-    if pencil.walls or not ring_kernel.AVAILABLE:
+    if pencil.walls or not COMPILED:
         return None
     n = pencil.n
     m, w, c_in, c_out = spring_arrays(pencil)
@@ -104,15 +104,15 @@ def ring_values(pencil: RingPencil) -> RingValues | None:
     top = pencil.R * (1 + 1e-12)
     low = poles[1:]
     high = np.r_[poles[2:], max(top, poles[-1])]
-    roots, evaluations, side = ring_kernel.pivot_roots(low, high, low, np.r_[poles[2:], np.inf], m, compliance[0],
+    roots, evaluations, side = pivot_roots(low, high, low, np.r_[poles[2:], np.inf], m, compliance[0],
                                                        off, closing)
 
     def counts(x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        count, certain, _ = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, u)
+        count, certain, _ = spring_counts(x, m, compliance, off, squares, closing, u)
         return count, certain
 
     def pivots(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return ring_kernel.spring_counts(x, m, compliance, off, squares, closing, u)[2]
+        return spring_counts(x, m, compliance, off, squares, closing, u)[2]
 
     inside = np.flatnonzero((side == 0) & (roots > 0))
     roots[inside], spent = _secant(pivots, roots[inside])
@@ -237,7 +237,7 @@ Counts = Callable[[NDArray[np.float64]], tuple[NDArray[np.intp], NDArray[np.bool
 def _secant(pivots: Pivots, roots: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
     """One secant step on double-double values of l at each float64 root x and at x (1 + 1e-10):
     the float64 roots carry l's float64 noise (~n eps relatively, 1e-14 at 1,600 sites); l is
-    smooth there (no pole within `ring_kernel.NEAR`), so the step leaves ~1e-4 of that error.
+    smooth there (no pole within `NEAR`), so the step leaves ~1e-4 of that error.
     Returns (roots, pivots evaluated)."""
     evaluate = pivots
     k = roots.shape[0]
@@ -271,7 +271,7 @@ def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
     if k == 0:
         return pole.copy(), 0
     direction = -side.astype(float)  # the root's side of the pole
-    steps = np.array([2 * ring_kernel.NEAR, 1e-7, 1e-9, 1e-11, 1e-13])
+    steps = np.array([2 * NEAR, 1e-7, 1e-9, 1e-11, 1e-13])
     y = pole[:, None] * direction[:, None] * steps
     values = evaluate((pole[:, None] + y).ravel()).reshape(y.shape)
     used = y.size
