@@ -259,9 +259,12 @@ def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
     pole) float64's (~1e-16 over it) would swamp.
 
     l at y = 2 NEAR, 1e-7, 1e-9, 1e-11, 1e-13 times p from the pole p, on the root's side: l is
-    increasing between poles, so where two samples differ in sign they bracket the root, which
-    regula falsi (Illinois) in the variable 1 / y narrows (there l ~ s - c / y, c the pole's
-    residue: tiny for a mode localised away from the cut). No sign change: the root lies within
+    increasing between poles, so where two samples differ in sign they bracket the root (near
+    the pole l ~ s + g y - c / y, c the pole's residue: tiny for a mode localised away from the
+    cut, s ~ 0 for a pair split by the pole). The bracket is narrowed on q = y l(y), which has
+    l's sign there and no pole: first the root of that model through three samples
+    (`_model_root`), then the secant through the last two points while it stays inside the
+    bracket, regula falsi (Illinois) where it does not. No sign change: the root lies within
     1e-13 p of the pole, or the pole is none (a double eigenvalue, a uniform ring's: l is
     linear through its zero there, on either side of the computed pole, whose float64 error
     it is): the secant of the two nearest samples where their slopes agree with the next,
@@ -281,27 +284,44 @@ def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
     bracketed = change.any(axis=1)
     rows = np.arange(k)
     first = change.argmax(axis=1)
-    ya, la = y[rows, first + 1].copy(), values[rows, first + 1].copy()  # the end nearer the pole
-    yb, lb = y[rows, first].copy(), values[rows, first].copy()
+    # regula falsi on q = y l(y), of l's sign along the bracket (y keeps its sign) and with no
+    # pole: ~ s y + g y^2 - c, smooth through a localised mode's root (~c / s) and a split pair's
+    ya, la = y[rows, first + 1].copy(), (y * values)[rows, first + 1].copy()  # the end nearer the pole
+    yb, lb = y[rows, first].copy(), (y * values)[rows, first].copy()
     kept_a, kept_b = np.zeros(k, dtype=int), np.zeros(k, dtype=int)  # Illinois: how often each end was kept
 
     def interpolate() -> NDArray[np.float64]:
         with np.errstate(all="ignore"):
-            t = la / (la - lb)  # the zero of l, taken linear in 1 / y between the ends
-            new = 1.0 / (1.0 / ya + t * (1.0 / yb - 1.0 / ya))
+            new = ya + la / (la - lb) * (yb - ya)  # the zero of q, taken linear between the ends
         low, high = np.minimum(ya * direction, yb * direction), np.maximum(ya * direction, yb * direction)
         inside = np.isfinite(new) & (new * direction > low) & (new * direction < high)
         return np.where(inside, new, 0.5 * (ya + yb))
 
+    # the first step: the model's root (`_model_root`); then the secant through the last two
+    # points where it stays inside the bracket, regula falsi (Illinois) where it does not
+    guess = _model_root(y, values, first, rows, direction)
+    y1, q1, y2, q2 = yb.copy(), lb.copy(), ya.copy(), la.copy()
     active = bracketed.copy()
+    previous = np.full(k, np.nan)
     for _ in range(POLISH):
-        active &= np.abs(yb - ya) > 4 * np.finfo(float).eps * pole
+        with np.errstate(all="ignore"):
+            secant = y2 - q2 * (y2 - y1) / (q2 - q1)
+        guess = np.where(np.isfinite(guess), guess, secant)
+        low, high = np.minimum(ya * direction, yb * direction), np.maximum(ya * direction, yb * direction)
+        inside = np.isfinite(guess) & (guess * direction > low) & (guess * direction < high)
+        estimate = np.where(inside, guess, interpolate())
+        guess = np.full(k, np.nan)
+        # done: a bracket within 4 eps, or an estimate that moved by under 2 eps since the last
+        active &= (np.abs(yb - ya) > 4 * np.finfo(float).eps * pole) & ~(
+            np.abs(estimate - previous) <= 2 * np.finfo(float).eps * pole)
+        previous = estimate
         todo = np.flatnonzero(active)
         if todo.shape[0] == 0:
             break
-        root = interpolate()[todo]
-        fresh = evaluate(pole[todo] + root)
+        root = estimate[todo]
+        fresh = root * evaluate(pole[todo] + root)
         used += todo.shape[0]
+        y1[todo], q1[todo], y2[todo], q2[todo] = y2[todo], q2[todo], root, fresh
         same = np.sign(fresh) == np.sign(la[todo])  # replaces the end of its sign
         ya[todo], la[todo] = np.where(same, root, ya[todo]), np.where(same, fresh, la[todo])
         yb[todo], lb[todo] = np.where(same, yb[todo], root), np.where(same, lb[todo], fresh)
@@ -317,6 +337,35 @@ def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
     linear &= ~bracketed & np.isfinite(secant) & (np.abs(secant) <= 1e-9 * pole)
     root = np.where(bracketed, interpolate(), np.where(linear, secant, 0.0))
     return pole + root, used
+
+
+def _model_root(y: NDArray[np.float64], values: NDArray[np.float64], first: NDArray[np.intp],
+                rows: NDArray[np.intp], direction: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A first guess for `_polish`'s regula falsi: l ~ s + g y - c / y through the bracket's two
+    samples and the next one (a pole's residue c, the smooth part s + g y; exact for a split pair
+    of a nearly uniform ring, where regula falsi alone creeps from the far end), its root
+    g y^2 + s y - c = 0 on the root's side nearest the pole (nan where none)."""
+    third = np.where(first + 2 < y.shape[1], first + 2, first - 1)
+    Y = np.stack([y[rows, first], y[rows, first + 1], y[rows, third]], axis=1)
+    L = np.stack([values[rows, first], values[rows, first + 1], values[rows, third]], axis=1)
+    scale = np.abs(Y).max(axis=1, keepdims=True)
+    small = np.abs(Y).min(axis=1, keepdims=True)
+    system = np.stack([np.ones_like(Y), Y / scale, -small / Y], axis=2)
+    with np.errstate(all="ignore"):
+        fine = np.isfinite(system).all(axis=(1, 2)) & np.isfinite(L).all(axis=1) & (
+            np.abs(np.linalg.det(np.where(np.isfinite(system), system, 0.0))) > 1e-300)
+        guess = np.full(y.shape[0], np.nan)
+        if fine.any():
+            solved = np.linalg.solve(system[fine], L[fine][:, :, None])[:, :, 0]
+            s, g, c = solved[:, 0], solved[:, 1] / scale[fine, 0], solved[:, 2] * small[fine, 0]
+            disc = np.sqrt(np.maximum(s * s + 4 * g * c, 0.0))
+            q = -0.5 * (s + np.copysign(disc, s))
+            candidates = np.stack([q / g, -c / q], axis=1)
+            on_side = np.isfinite(candidates) & (candidates * direction[fine, None] > 0)
+            nearest = np.where(on_side, np.abs(candidates), np.inf).argmin(axis=1)
+            chosen = candidates[np.arange(candidates.shape[0]), nearest]
+            guess[fine] = np.where(on_side.any(axis=1), chosen, np.nan)
+    return guess
 
 
 def _multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp]
