@@ -67,14 +67,16 @@ RING_DENSE_LIMIT = 6000
 
 
 #: Rings above DENSE_LIMIT (detected by their band) up to this many sites take ``accurate-ring``
-#: for all their frequencies without vectors: O(n^2), ~7 s at 8,000 sites on two cores, ~30 s
-#: at 16,000 (`vibra.solvers.ring_path`); a longer ring takes its band (absolute accuracy).
+#: for their frequencies without vectors (all: O(n^2), ~7 s at 8,000 sites on two cores, ~26 s
+#: at 16,000; the lowest k: dqds of the cut chain plus O(k n)) (`vibra.solvers.ring_path`); a
+#: longer ring takes its band (absolute accuracy), or shift-invert for a few modes.
 RING_VALUES_LIMIT = 20000
 
 
 def ring_values_apply(n: int, *, vectors: bool, band: tuple[float, float] | None) -> bool:
-    """Whether a free ring of n > DENSE_LIMIT sites takes ``accurate-ring`` (all values, none of the
-    vectors, the compiled loops available; a ring with a spring to a wall falls back at solve time)."""
+    """Whether a free ring of n > DENSE_LIMIT sites takes ``accurate-ring`` (all values or the
+    lowest n_modes, no vectors, no band, the compiled loops available; a ring with a spring to a
+    wall falls back at solve time)."""
     return not vectors and band is None and DENSE_LIMIT < n <= RING_VALUES_LIMIT and COMPILED
 
 
@@ -95,10 +97,10 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     if mass.ndim == 1 and not few and tridiagonal:
         return "accurate-bidiagonal"
-    if few:
-        return "accurate-ritz"
     if banded and ring_values_apply(n, vectors=vectors, band=band):
         return "accurate-ring"
+    if few:
+        return "accurate-ritz"
     if banded and n > RING_DENSE_LIMIT:
         return "banded"
     return "accurate-checked" if jacobi_allowed(n, n_terms) else "accurate-rayleigh"
@@ -124,7 +126,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 factor=factor, mass=mass)
         chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
         return _chain_counted(chain, coupling, weights, mass, band)
-    if ordering is not None and not few and ring_values_apply(n, vectors=vectors, band=band):
+    if ordering is not None and ring_values_apply(n, vectors=vectors, band=band):
         ring = _ring_values(coupling, weights, mass, n_modes)
         if ring is not None:
             return ring
@@ -169,11 +171,11 @@ def _ring_values(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
     pencil = ring_pencil(coupling, weights, mass)
     if pencil is None:
         return None
-    found = ring_values(pencil)
+    found = ring_values(pencil, n_modes)
     if found is None:
         return None
-    k = found.values.shape[0] if n_modes is None else min(int(n_modes), found.values.shape[0])
-    values, bound, certified = found.values[:k], found.bound[:k], found.certified[:k]
+    k = found.values.shape[0]
+    values, bound, certified = found.values, found.bound, found.certified
     if not certified.all():  # (not seen: the multisection proves every root) keep the widest honest bound
         bound = np.where(certified, bound, np.maximum(np.abs(values), pencil.R))
     result = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")

@@ -26,8 +26,9 @@ the input, then time:
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
-- accurate-ring (a free ring's values): ~40 n words; 2e-7 n^2 (measured ~1e-7 on two cores:
-  roots of its spring form, two double-double counts of 2n nodes per value).
+- accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain) + 2e-7 n k
+  (measured ~1e-7 on two cores: roots of its spring form, ~2.5 double-double counts of 2n nodes
+  per value).
 - accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
 - accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
   larger of that and accurate-jacobi's (a refinement may run).
@@ -147,9 +148,9 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
         seconds = BISECTION_S * n * k
-    elif path == "accurate-ring":
+    elif path == "accurate-ring":  # dqds of the cut chain, then each value's roots and counts
         memory = 8.0 * 40 * n
-        seconds = RING_S * n2
+        seconds = TRIDIAGONAL_S * n2 + RING_S * float(n) * k
     elif path in ("accurate-rayleigh",):
         # K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K
         memory = 8.0 * n2 * 4

@@ -81,12 +81,14 @@ def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.f
     return np.roll(pencil.m, -turn), w, c_in, c_out
 
 
-def ring_values(pencil: RingPencil) -> RingValues | None:
-    """All eigenvalues of a free ring's pencil, each with a count-certified bound (see above);
-    None where the compiled loops are unavailable or the ring has a spring to a wall."""
+def ring_values(pencil: RingPencil, count: int | None = None) -> RingValues | None:
+    """All eigenvalues of a free ring's pencil (the lowest `count` of them when given: O(count n)
+    beyond the chain's dqds), each with a count-certified bound (see above); None where the
+    compiled loops are unavailable or the ring has a spring to a wall."""
     if pencil.walls or not COMPILED:
         return None
     n = pencil.n
+    wanted = n if count is None else max(1, min(int(count), n))
     m, w, c_in, c_out = spring_arrays(pencil)
     compliance = _div(np.ones(n), np.zeros(n), w, np.zeros(n))
     off = np.empty(2 * n - 1)
@@ -102,10 +104,10 @@ def ring_values(pencil: RingPencil) -> RingValues | None:
     poles = bidiagonal_singular_values(d, e) ** 2
     poles[0] = 0.0
     top = pencil.R * (1 + 1e-12)
-    low = poles[1:]
-    high = np.r_[poles[2:], max(top, poles[-1])]
-    roots, evaluations, side = pivot_roots(low, high, low, np.r_[poles[2:], np.inf], m, compliance[0],
-                                                       off, closing)
+    low = poles[1:wanted]
+    high = np.r_[poles[2:], max(top, poles[-1])][: wanted - 1]
+    roots, evaluations, side = pivot_roots(low, high, low, np.r_[poles[2:], np.inf][: wanted - 1], m,
+                                           compliance[0], off, closing)
 
     def counts(x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
         count, certain, _ = spring_counts(x, m, compliance, off, squares, closing, u)
@@ -117,8 +119,8 @@ def ring_values(pencil: RingPencil) -> RingValues | None:
     inside = np.flatnonzero((side == 0) & (roots > 0))
     roots[inside], spent = _secant(pivots, roots[inside])
     values = np.r_[0.0, roots]
-    index = np.arange(n)
-    bound = np.full(n, np.inf)
+    index = np.arange(wanted)
+    bound = np.full(wanted, np.inf)
     bound[0] = 0.0  # the free ring's rigid rotation: exactly zero (B 1 = 0), as the chains report it
 
     widening = spring_widening(pencil)
