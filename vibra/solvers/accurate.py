@@ -44,6 +44,7 @@ from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
 from vibra.solvers.path_counts import certify_path_values, path_form
 from vibra.solvers.ring_path import ring_values
 from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets
+from vibra.solvers.golub_kahan import _inverse_iteration as golub_inverse_iteration
 from vibra.solvers.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
     zero_level,
@@ -130,6 +131,14 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
         ring = _ring_values(coupling, weights, mass, n_modes)
         if ring is not None:
             return ring
+    if (ordering is not None and few and vectors and band is None and ring_values_apply(n, vectors=False, band=None)):
+        ring = _ring_values(coupling, weights, mass, n_modes)
+        if ring is not None:  # the lowest modes of a ring with vectors: singular pairs of B~ for those
+            basis = _ring_vectors(sp.csr_matrix(weighted), ring.eigenvalues, mass)
+            figures = _spring_figures(sp.csr_matrix(weighted), ring.eigenvalues, basis, True, "accurate-ring")
+            ring.vectors, ring.residual, ring.orthogonality = basis, figures.residual, figures.orthogonality
+            ring.refinement = f"{ring.refinement}; vectors by Golub-Kahan inverse iteration"
+            return ring
     deviation = forming_deviation(weighted, coupling, weights, mass)
     pencil = ring_pencil(coupling, weights, mass) if n <= RING_DENSE_LIMIT else None
     result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
@@ -206,6 +215,38 @@ def _chain_counted(result: SolveResult, coupling: sp.csr_matrix, weights: NDArra
                 f"error/omega^2 now up to {worst:.1g}")
         result.refinement = f"{result.refinement}; {note}" if result.refinement else note
     return result
+
+
+def _ring_vectors(weighted: sp.csr_matrix, values: NDArray[np.float64], mass: NDArray[np.float64]
+                  ) -> NDArray[np.float64]:
+    """Mass-weighted vectors of a free ring's lowest modes, given their certified omega^2: the rigid
+    rotation M^1/2 1, then each mode's right singular vector of B~ by two steps of inverse
+    iteration on the Golub-Kahan matrix shifted by omega (`golub_kahan.inverse_iteration`: no
+    K~ - omega^2 formed, whose rounding, eps ||K~||, would swamp omega^2 down to ~1e-16 ||K~||);
+    a cluster of values within 1e-9 relative (a uniform ring's pairs) from as many starts,
+    orthonormalised."""
+    n = weighted.shape[1]
+    k = values.shape[0]
+    basis = np.zeros((n, k))
+    rng = np.random.default_rng(2026)
+    j = 0
+    while j < k:
+        end = j + 1
+        while end < k and values[end] - values[end - 1] <= 1e-9 * values[end]:
+            end += 1
+        if values[j] <= 0.0:
+            basis[:, j] = np.sqrt(mass) / np.linalg.norm(np.sqrt(mass))
+            j += 1
+            continue
+        sigma = float(np.sqrt(values[j:end].mean()))
+        block = []
+        for _ in range(end - j):
+            pair, _ = golub_inverse_iteration(weighted, sigma * (1 + 1e-13), rng.standard_normal(weighted.shape[0] + n))
+            block.append(pair[1] if pair is not None else rng.standard_normal(n))
+        q, _ = np.linalg.qr(np.column_stack(block))
+        basis[:, j:end] = q
+        j = end
+    return basis
 
 
 def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], weighted: Any, *,
