@@ -162,14 +162,14 @@ def test_roots_and_bounds_of_ring_values_are_sorted_and_finite() -> None:
 
 
 def test_the_plan_takes_accurate_ring_for_values_only_and_the_band_above_its_limit() -> None:
-    """Planning: a 3,000-site ring, frequencies only, "high": ``accurate-ring`` (all of them or
-    the lowest 10); with vectors the checked dense solve (all) or shift-invert (10); above
-    RING_VALUES_LIMIT the band."""
+    """Planning: a 3,000-site ring, "high": ``accurate-ring`` for all frequencies without vectors
+    and for the lowest 10 with or without (the plan names the path that runs); all modes with
+    vectors the checked dense solve; above RING_VALUES_LIMIT the band."""
     from vibra.solvers.accurate import RING_VALUES_LIMIT
 
     for n, k, vectors, path in ((3000, None, False, "accurate-ring"), (3000, None, True, "accurate-checked"),
                                 (RING_VALUES_LIMIT + 1, None, False, "banded"), (3000, 10, False, "accurate-ring"),
-                                (3000, 10, True, "accurate-ritz")):
+                                (3000, 10, True, "accurate-ring")):
         ring = linear_chain(n, ends="periodic")
         request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=k, vectors=vectors, band=None,
                                solver="auto", spring_factor=ring.spring_factor())

@@ -21,9 +21,12 @@ accuracy where the structure allows (`accurate_path` chooses):
   (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
   quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (up to
   `RING_VALUES_LIMIT`, a free ring's frequencies then come from `ring_path`, certified);
-- ``accurate-ring``: all frequencies, no vectors, of a free ring of DENSE_LIMIT to
-  `RING_VALUES_LIMIT` sites: roots of its spring form's last pivot between the eigenvalues of
-  the chain it is cut into, each certified by Sturm counts (`vibra.solvers.ring_path`).
+- ``accurate-ring``: the frequencies of a free ring of DENSE_LIMIT to `RING_VALUES_LIMIT` sites,
+  all of them without vectors or the lowest n_modes: roots of its spring form's last pivot
+  between the eigenvalues of the chain it is cut into, each certified by Sturm counts
+  (`vibra.solvers.ring_path`); the lowest modes' vectors by Golub-Kahan inverse iteration;
+- a chain's values in clusters (no gap for their triplets) are certified by Sturm counts of its
+  spring form (`vibra.solvers.path_counts`).
 
 Every path fills `SolveResult.refined` (which modes' values come from the accurate machinery)
 and `refinement` (how many, and why).
@@ -41,10 +44,9 @@ from numpy.typing import NDArray
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
-from vibra.solvers.path_counts import certify_path_values, path_form
-from vibra.solvers.ring_path import ring_values
-from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets
-from vibra.solvers.golub_kahan import _inverse_iteration as golub_inverse_iteration
+from vibra.solvers.path_counts import chain_counted
+from vibra.solvers.ring_path import ring_result
+from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets, singular_vectors
 from vibra.solvers.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
     zero_level,
@@ -74,11 +76,12 @@ RING_DENSE_LIMIT = 6000
 RING_VALUES_LIMIT = 20000
 
 
-def ring_values_apply(n: int, *, vectors: bool, band: tuple[float, float] | None) -> bool:
-    """Whether a free ring of n > DENSE_LIMIT sites takes ``accurate-ring`` (all values or the
-    lowest n_modes, no vectors, no band, the compiled loops available; a ring with a spring to a
-    wall falls back at solve time)."""
-    return not vectors and band is None and DENSE_LIMIT < n <= RING_VALUES_LIMIT and COMPILED
+def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
+    """Whether a free ring of n > DENSE_LIMIT sites has its frequencies from `ring_path` (no band,
+    the compiled loops available; a ring with a spring to a wall falls back at solve time):
+    ``accurate-ring`` for all of them without vectors or for the lowest n_modes (their vectors by
+    Golub-Kahan inverse iteration); with all vectors, the band solver's, paired with them."""
+    return band is None and DENSE_LIMIT < n <= RING_VALUES_LIMIT and COMPILED
 
 
 def jacobi_allowed(n: int, n_terms: int) -> bool:
@@ -98,7 +101,7 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     if mass.ndim == 1 and not few and tridiagonal:
         return "accurate-bidiagonal"
-    if banded and ring_values_apply(n, vectors=vectors, band=band):
+    if banded and ring_values_apply(n, band=band) and (few or not vectors):
         return "accurate-ring"
     if few:
         return "accurate-ritz"
@@ -126,18 +129,16 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
         chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage,
                                 factor=factor, mass=mass)
         chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
-        return _chain_counted(chain, coupling, weights, mass, band)
-    if ordering is not None and ring_values_apply(n, vectors=vectors, band=band):
-        ring = _ring_values(coupling, weights, mass, n_modes)
+        return chain_counted(chain, coupling, weights, mass, band)
+    if ordering is not None and ring_values_apply(n, band=band) and (few or not vectors):
+        ring = ring_result(coupling, weights, mass, n_modes)
         if ring is not None:
-            return ring
-    if (ordering is not None and few and vectors and band is None and ring_values_apply(n, vectors=False, band=None)):
-        ring = _ring_values(coupling, weights, mass, n_modes)
-        if ring is not None:  # the lowest modes of a ring with vectors: singular pairs of B~ for those
-            basis = _ring_vectors(sp.csr_matrix(weighted), ring.eigenvalues, mass)
-            figures = _spring_figures(sp.csr_matrix(weighted), ring.eigenvalues, basis, True, "accurate-ring")
-            ring.vectors, ring.residual, ring.orthogonality = basis, figures.residual, figures.orthogonality
-            ring.refinement = f"{ring.refinement}; vectors by Golub-Kahan inverse iteration"
+            if vectors:  # the lowest modes: each one's singular vector of B~
+                B = sp.csr_matrix(weighted)
+                basis = singular_vectors(B, ring.eigenvalues, mass)
+                figures = _spring_figures(B, ring.eigenvalues, basis, True, "accurate-ring")
+                ring.vectors, ring.residual, ring.orthogonality = basis, figures.residual, figures.orthogonality
+                ring.refinement = f"{ring.refinement}; vectors by Golub-Kahan inverse iteration"
             return ring
     deviation = forming_deviation(weighted, coupling, weights, mass)
     pencil = ring_pencil(coupling, weights, mass) if n <= RING_DENSE_LIMIT else None
@@ -145,9 +146,8 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                           ordering=ordering, width=width, deviation=deviation)
     if pencil is not None and result.error.shape[0]:
         return _ring_certified(result, pencil, band)
-    if (ordering is not None and vectors and not few and band is None and n <= RING_VALUES_LIMIT
-            and COMPILED):
-        certified = _ring_values(coupling, weights, mass, n_modes)
+    if ordering is not None and vectors and not few and ring_values_apply(n, band=band):
+        certified = ring_result(coupling, weights, mass, n_modes)
         if certified is not None and certified.eigenvalues.shape == result.eigenvalues.shape:
             # the band solver's vectors, each paired by rank with its certified frequency
             result.eigenvalues, result.error = certified.eigenvalues, certified.error
@@ -171,82 +171,6 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
             note = f"{count} bounds tightened by inverse iteration in double-double"
             result.refinement = f"{result.refinement}; {note}" if result.refinement else note
     return result
-
-
-def _ring_values(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64],
-                 n_modes: int | None) -> SolveResult | None:
-    """``accurate-ring``: a free ring's frequencies by `ring_path.ring_values` (the lowest
-    n_modes of them when given), or None (not one free ring: the caller goes on)."""
-    pencil = ring_pencil(coupling, weights, mass)
-    if pencil is None:
-        return None
-    found = ring_values(pencil, n_modes)
-    if found is None:
-        return None
-    k = found.values.shape[0]
-    values, bound, certified = found.values, found.bound, found.certified
-    if not certified.all():  # (not seen: the multisection proves every root) keep the widest honest bound
-        bound = np.where(certified, bound, np.maximum(np.abs(values), pencil.R))
-    result = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")
-    finite = values > 0
-    worst = float(np.max(bound[finite] / values[finite])) if finite.any() else 0.0
-    result.refined = np.ones(k, dtype=bool)
-    result.refinement = (f"all {k} modes from roots of the ring's spring form (interlacing with the chain cut at "
-                         f"its weakest spring), {int(certified.sum())} of {k} bounds certified by Sturm counts of "
-                         f"the spring form in double-double, error/omega^2 up to {worst:.1g}")
-    return result
-
-
-def _chain_counted(result: SolveResult, coupling: sp.csr_matrix, weights: NDArray[np.float64],
-                   mass: NDArray[np.float64], band: tuple[float, float] | None) -> SolveResult:
-    """A chain's result with the bounds its triplets left above `golub_kahan.WANTED` (values in a
-    cluster) certified by Sturm counts of its spring form (`vibra.solvers.path_counts`)."""
-    values, error = result.eigenvalues, result.error
-    if band is not None or not np.any((error > WANTED * values) & (values > error)):
-        return result
-    form = path_form(coupling, weights, mass)
-    if form is None:
-        return result
-    result.error, count = certify_path_values(form, values, error)
-    if count:
-        finite = result.eigenvalues > result.error
-        worst = float(np.max(result.error[finite] / result.eigenvalues[finite])) if finite.any() else 0.0
-        note = (f"{count} bounds certified by Sturm counts of the chain's spring form (values in clusters), "
-                f"error/omega^2 now up to {worst:.1g}")
-        result.refinement = f"{result.refinement}; {note}" if result.refinement else note
-    return result
-
-
-def _ring_vectors(weighted: sp.csr_matrix, values: NDArray[np.float64], mass: NDArray[np.float64]
-                  ) -> NDArray[np.float64]:
-    """Mass-weighted vectors of a free ring's lowest modes, given their certified omega^2: the rigid
-    rotation M^1/2 1, then each mode's right singular vector of B~ by two steps of inverse
-    iteration on the Golub-Kahan matrix shifted by omega (`golub_kahan.inverse_iteration`: no
-    K~ - omega^2 formed, whose rounding, eps ||K~||, would swamp omega^2 down to ~1e-16 ||K~||);
-    a cluster of values within 1e-9 relative (a uniform ring's pairs) from as many starts,
-    orthonormalised."""
-    n = weighted.shape[1]
-    k = values.shape[0]
-    basis = np.zeros((n, k))
-    rng = np.random.default_rng(2026)
-    j = 0
-    while j < k:
-        end = j + 1
-        while end < k and values[end] - values[end - 1] <= 1e-9 * values[end]:
-            end += 1
-        if values[j] <= 0.0:
-            basis[:, j] = np.sqrt(mass) / np.linalg.norm(np.sqrt(mass))
-            j += 1
-            continue
-        sigma = float(np.sqrt(values[j:end].mean()))
-        block = []
-        for _ in range(end - j):
-            pair, _ = golub_inverse_iteration(weighted, sigma * (1 + 1e-13), rng.standard_normal(weighted.shape[0] + n))
-            block.append(pair[1] if pair is not None else rng.standard_normal(n))
-        q, _ = np.linalg.qr(np.column_stack(block))
-        basis[:, j:end] = q
-        j = end
-    return basis
 
 
 def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], weighted: Any, *,

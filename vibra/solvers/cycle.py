@@ -33,7 +33,7 @@ because no library offers inertia counts of a cyclic tridiagonal in extended pre
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 import mpmath
 import numpy as np
@@ -44,7 +44,7 @@ from vibra.solvers.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as 
 from vibra.solvers.rounding import _product, _split
 
 __all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_springs", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
-           "MP_WORK", "spring_width"]
+           "MP_WORK", "spring_width", "multisection"]
 
 #: The counts are exact for a pencil within RHO_UNIT (R + |x|) of (K, M): pivots within
 #: 4 operations' rounding of each entry (diagonal, off-diagonal squared), 4 `dd.UNIT` each
@@ -362,6 +362,35 @@ SECTIONS = 16
 SECTION_PASSES = 14
 
 
+def multisection(count_at: Callable[[NDArray[np.float64]], tuple[NDArray[np.intp], NDArray[np.bool_]]],
+                 lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp], passes: int
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+    """Narrow each bracket [lo, hi] that holds eigenvalue `index` (proven by two counts) by
+    SECTIONS - 1 counts (`count_at` gives (count, certain) per point) per pass, to the tightest
+    proven sub-bracket, until 2 LADDER[0] relative (8 eps either side) or `passes` passes.
+    Returns (lo, hi, counts spent)."""
+    lo, hi = lo.copy(), hi.copy()
+    fractions = np.arange(1, SECTIONS) / SECTIONS
+    used = 0
+    for _ in range(passes):
+        wide = np.flatnonzero(hi - lo > 2 * LADDER[0] * hi)
+        if wide.shape[0] == 0:
+            break
+        points = lo[wide, None] + (hi[wide] - lo[wide])[:, None] * fractions  # (k, SECTIONS - 1)
+        count, certain = count_at(points.ravel())
+        used += count.shape[0]
+        count, certain = count.reshape(points.shape), certain.reshape(points.shape)
+        below = certain & (count <= index[wide, None])
+        over = certain & (count > index[wide, None])
+        has_below, has_over = below.any(axis=1), over.any(axis=1)
+        last_below = points.shape[1] - 1 - np.argmax(below[:, ::-1], axis=1)
+        first_over = np.argmax(over, axis=1)
+        rows = np.arange(wide.shape[0])
+        lo[wide[has_below]] = np.maximum(lo[wide[has_below]], points[rows[has_below], last_below[has_below]])
+        hi[wide[has_over]] = np.minimum(hi[wide[has_over]], points[rows[has_over], first_over[has_over]])
+    return lo, hi, used
+
+
 def _spring_brackets(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.intp],
                      error: NDArray[np.float64], best: NDArray[np.float64]
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -392,21 +421,8 @@ def _spring_brackets(pencil: RingPencil, values: NDArray[np.float64], index: NDA
         columns = np.flatnonzero(some)
         lo[open_[some]], hi[open_[some]] = a[first[some], columns], b[first[some], columns]
     found = np.flatnonzero(~np.isnan(lo))
-    fractions = np.arange(1, SECTIONS) / SECTIONS
-    for _ in range(SECTION_PASSES):
-        wide = found[hi[found] - lo[found] > 2 * LADDER[0] * hi[found]]
-        if wide.shape[0] == 0:
-            break
-        points = lo[wide, None] + (hi[wide] - lo[wide])[:, None] * fractions  # (k, SECTIONS - 1)
-        counts, sure, _ = count_below_springs(pencil, points.ravel())
-        counts, sure = counts.reshape(points.shape), sure.reshape(points.shape)
-        for row, mode in enumerate(wide.tolist()):  # the tightest proven sub-bracket
-            below = np.flatnonzero(sure[row] & (counts[row] <= j[mode]))
-            over = np.flatnonzero(sure[row] & (counts[row] > j[mode]))
-            if below.shape[0]:
-                lo[mode] = max(lo[mode], points[row, below[-1]])
-            if over.shape[0]:
-                hi[mode] = min(hi[mode], points[row, over[0]])
+    lo[found], hi[found], _ = multisection(lambda x: count_below_springs(pencil, x)[:2], lo[found], hi[found],
+                                           j[found], SECTION_PASSES)
     if found.shape[0] == 0:
         return values, best
     middle = 0.5 * (lo[found] + hi[found])

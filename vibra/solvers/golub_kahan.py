@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.spring_ritz import Deviation
 
-__all__ = ["refine_triplets", "loose_modes", "WANTED", "TRIPLET_WORK", "TRIPLET_SECONDS"]
+__all__ = ["refine_triplets", "singular_vectors", "loose_modes", "WANTED", "TRIPLET_WORK", "TRIPLET_SECONDS"]
 
 #: Bounds above this, relative to omega^2, are refined.
 WANTED = 2e-13
@@ -114,6 +114,36 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
             values[j], error[j] = rho**2, width
             refined += 1
     return values, error, refined
+
+
+def singular_vectors(weighted: sp.csr_matrix, values: NDArray[np.float64], mass: NDArray[np.float64]
+                     ) -> NDArray[np.float64]:
+    """Mass-weighted vectors of a free system's lowest modes, given their omega^2 (ascending,
+    certified elsewhere): the rigid translation M^1/2 1 for a zero, then each mode's right
+    singular vector of B~ by `_inverse_iteration` at omega (no K~ - omega^2 formed, whose
+    rounding, eps ||K~||, would swamp omega^2 down to ~1e-16 ||K~||); a cluster of values within
+    1e-9 relative (a uniform ring's pairs) from as many starts, orthonormalised."""
+    n = weighted.shape[1]
+    k = values.shape[0]
+    basis = np.zeros((n, k))
+    rng = np.random.default_rng(2026)
+    j = 0
+    while j < k:
+        end = j + 1
+        while end < k and values[end] - values[end - 1] <= 1e-9 * values[end]:
+            end += 1
+        if values[j] <= 0.0:
+            basis[:, j] = np.sqrt(mass) / np.linalg.norm(np.sqrt(mass))
+            j += 1
+            continue
+        sigma = float(np.sqrt(values[j:end].mean())) * (1 + 1e-13)  # (beside it: H - sigma stays regular)
+        block = []
+        for _ in range(end - j):
+            pair, _ = _inverse_iteration(weighted, sigma, rng.standard_normal(weighted.shape[0] + n))
+            block.append(pair[1] if pair is not None else rng.standard_normal(n))
+        basis[:, j:end] = np.linalg.qr(np.column_stack(block))[0]
+        j = end
+    return basis
 
 
 def loose_modes(values: NDArray[np.float64], error: NDArray[np.float64]) -> NDArray[np.bool_]:

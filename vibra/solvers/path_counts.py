@@ -24,12 +24,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, path_counts
+from vibra.solvers.common import SolveResult
 from vibra.solvers.cycle import spring_width, stored_factor
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 from vibra.solvers.golub_kahan import WANTED
 from vibra.solvers.ring_path import LEVELS
 
-__all__ = ["PathForm", "path_form", "certify_path_values"]
+__all__ = ["PathForm", "path_form", "certify_path_values", "chain_counted"]
 
 
 class PathForm:
@@ -77,7 +78,10 @@ def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.floa
         start, stop = B.indptr[row], B.indptr[row + 1]
         return float(B.data[start:stop][B.indices[start:stop] == column][0])
 
-    site, m, w, off = [], [], [], []  # off[k]: coupling of node k and k + 1
+    site: list[bool] = []
+    m: list[float] = []
+    w: list[float] = []
+    off: list[float] = []  # off[k]: coupling of node k and k + 1
 
     def node(is_site: bool, value: float, coupling_before: float) -> None:
         if site:
@@ -130,3 +134,24 @@ def certify_path_values(form: PathForm, values: NDArray[np.float64], error: NDAr
         certified += int(np.count_nonzero(tighter))
         loose = loose[~good]
     return error, certified
+
+
+def chain_counted(result: SolveResult, coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64],
+                  band: tuple[float, float] | None) -> SolveResult:
+    """A chain's result (``accurate-bidiagonal``, the lowest modes) with the bounds its triplets
+    left above WANTED (values in a cluster) certified by `certify_path_values`; as it is with a
+    band, or where no bound needs it, or for no path form."""
+    values, error = result.eigenvalues, result.error
+    if band is not None or not np.any((error > WANTED * values) & (values > error)):
+        return result
+    form = path_form(coupling, weights, mass)
+    if form is None:
+        return result
+    result.error, count = certify_path_values(form, values, error)
+    if count:
+        finite = result.eigenvalues > result.error
+        worst = float(np.max(result.error[finite] / result.eigenvalues[finite])) if finite.any() else 0.0
+        note = (f"{count} bounds certified by Sturm counts of the chain's spring form (values in clusters), "
+                f"error/omega^2 now up to {worst:.1g}")
+        result.refinement = f"{result.refinement}; {note}" if result.refinement else note
+    return result

@@ -23,17 +23,20 @@ Without numba (or for a ring with springs to a wall, whose cut is not a bidiagon
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts
-from vibra.solvers.cycle import RingPencil, _closing, count_below_mp, mp_rho, spring_widening, spring_width
+from vibra.solvers.common import SolveResult
+from vibra.solvers.cycle import (
+    RingPencil, _closing, count_below_mp, mp_rho, multisection, ring_pencil, spring_widening, spring_width,
+)
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
-__all__ = ["ring_values", "RingValues", "spring_arrays", "sorted_bounds"]
+__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds"]
 
 #: Half-widths of the brackets tried around each root, relative, tightest first (`cycle.LADDER`
 #: with steps between: a root at a pole, a double eigenvalue of a uniform ring or a mode
@@ -52,9 +55,8 @@ MP_WANTED = 1.95e-13
 MP_COUNTS = 24
 MP_LEVELS = (64 * 2.0**-53, 3e-14, 1e-13)
 
-#: Multisection for the roots the LEVELS does not prove: points per bracket and pass, and passes
-#: (16^16 ~ 2e19: an interlacing bracket as wide as its value to 8 eps, or a full range to ~1e-19).
-SECTIONS = 16
+#: Passes of `cycle.multisection` for the roots the LEVELS do not prove (16^16 ~ 2e19: an
+#: interlacing bracket as wide as its value to 8 eps, or a full range to ~1e-19).
 PASSES = 16
 
 
@@ -179,6 +181,30 @@ def ring_values(pencil: RingPencil, count: int | None = None) -> RingValues | No
     return RingValues(values, bound, certified[order] & np.isfinite(bound), int(evaluations.sum()), spent)
 
 
+def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None
+                ) -> SolveResult | None:
+    """``accurate-ring``: a free ring's frequencies by `ring_values` (the lowest n_modes of them
+    when given) as a result without vectors, or None (not one free ring: the caller goes on)."""
+    pencil = ring_pencil(coupling, weights, mass)
+    if pencil is None:
+        return None
+    found = ring_values(pencil, n_modes)
+    if found is None:
+        return None
+    k = found.values.shape[0]
+    values, bound, certified = found.values, found.bound, found.certified
+    if not certified.all():  # (not seen: the multisection proves every root) keep the widest honest bound
+        bound = np.where(certified, bound, np.maximum(np.abs(values), pencil.R))
+    result = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")
+    finite = values > 0
+    worst = float(np.max(bound[finite] / values[finite])) if finite.any() else 0.0
+    result.refined = np.ones(k, dtype=bool)
+    result.refinement = (f"all {k} modes from roots of the ring's spring form (interlacing with the chain cut at "
+                         f"its weakest spring), {int(certified.sum())} of {k} bounds certified by Sturm counts of "
+                         f"the spring form in double-double, error/omega^2 up to {worst:.1g}")
+    return result
+
+
 def sorted_bounds(values: NDArray[np.float64], bound: NDArray[np.float64], order: NDArray[np.intp]
                   ) -> NDArray[np.float64]:
     """Bounds for the eigenvalues in ascending order, given values sorted by `order` (value k
@@ -241,12 +267,11 @@ def _secant(pivots: Pivots, roots: NDArray[np.float64]) -> tuple[NDArray[np.floa
     the float64 roots carry l's float64 noise (~n eps relatively, 1e-14 at 1,600 sites); l is
     smooth there (no pole within `NEAR`), so the step leaves ~1e-4 of that error.
     Returns (roots, pivots evaluated)."""
-    evaluate = pivots
     k = roots.shape[0]
     if k == 0:
         return roots.copy(), 0
     other = roots * (1 + 1e-10)
-    both = evaluate(np.r_[roots, other])
+    both = pivots(np.r_[roots, other])
     la, lb = both[:k], both[k:]
     with np.errstate(all="ignore"):
         new = roots - la * (other - roots) / (lb - la)
@@ -271,14 +296,13 @@ def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
     linear through its zero there, on either side of the computed pole, whose float64 error
     it is): the secant of the two nearest samples where their slopes agree with the next,
     else the pole itself. Returns (roots, pivots evaluated)."""
-    evaluate = pivots
     k = pole.shape[0]
     if k == 0:
         return pole.copy(), 0
     direction = -side.astype(float)  # the root's side of the pole
     steps = np.array([2 * NEAR, 1e-7, 1e-9, 1e-11, 1e-13])
     y = pole[:, None] * direction[:, None] * steps
-    values = evaluate((pole[:, None] + y).ravel()).reshape(y.shape)
+    values = pivots((pole[:, None] + y).ravel()).reshape(y.shape)
     used = y.size
     # l increases with x, so along |y| it rises for direction +1 and falls for -1
     rising = values * direction[:, None]
@@ -321,7 +345,7 @@ def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
         if todo.shape[0] == 0:
             break
         root = estimate[todo]
-        fresh = root * evaluate(pole[todo] + root)
+        fresh = root * pivots(pole[todo] + root)
         used += todo.shape[0]
         y1[todo], q1[todo], y2[todo], q2[todo] = y2[todo], q2[todo], root, fresh
         same = np.sign(fresh) == np.sign(la[todo])  # replaces the end of its sign
@@ -372,29 +396,11 @@ def _model_root(y: NDArray[np.float64], values: NDArray[np.float64], first: NDAr
 
 def _multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp]
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-    """Narrow each [lo, hi] around eigenvalue `index` by SECTIONS - 1 counts per pass, to 8 eps
-    relative or PASSES passes; first proves the ends themselves (lo = hi = nan where they fail)."""
-    count_at = counts
+    """`cycle.multisection` for up to PASSES passes, the ends first proven by two counts
+    (lo = hi = nan where they fail)."""
     k = lo.shape[0]
-    count, certain = count_at(np.r_[lo, hi])
-    used = 2 * k
+    count, certain = counts(np.r_[lo, hi])
     ok = certain[:k] & certain[k:] & (count[:k] <= index) & (index < count[k:])
     lo, hi = np.where(ok, lo, np.nan), np.where(ok, hi, np.nan)
-    fractions = np.arange(1, SECTIONS) / SECTIONS
-    for _ in range(PASSES):
-        wide = np.flatnonzero(ok & (hi - lo > 16 * np.finfo(float).eps * hi))
-        if wide.shape[0] == 0:
-            break
-        points = lo[wide, None] + (hi[wide] - lo[wide])[:, None] * fractions
-        count, certain = count_at(points.ravel())
-        used += count.shape[0]
-        count, certain = count.reshape(points.shape), certain.reshape(points.shape)
-        below = certain & (count <= index[wide, None])
-        over = certain & (count > index[wide, None])
-        has_below, has_over = below.any(axis=1), over.any(axis=1)
-        last_below = points.shape[1] - 1 - np.argmax(below[:, ::-1], axis=1)
-        first_over = np.argmax(over, axis=1)
-        rows = np.arange(wide.shape[0])
-        lo[wide[has_below]] = np.maximum(lo[wide[has_below]], points[rows[has_below], last_below[has_below]])
-        hi[wide[has_over]] = np.minimum(hi[wide[has_over]], points[rows[has_over], first_over[has_over]])
-    return lo, hi, used
+    lo[ok], hi[ok], used = multisection(counts, lo[ok], hi[ok], index[ok], PASSES)
+    return lo, hi, used + 2 * k
