@@ -351,24 +351,25 @@ def test_frequencies_of_a_million_site_system_chain_refused_in_modes() -> None:
     refused_quickly(lambda: chain.modes(vectors=False), r"K has 1000000 dofs: the accurate-bidiagonal path")
 
 
-def test_a_30000_site_ring_uses_its_band_not_a_dense_eigh() -> None:
-    """A ring is tridiagonal plus two corners: reordered 0, n-1, 1, n-2, ... it is a band of half-width 2."""
+def test_a_60000_site_ring_uses_its_band_not_a_dense_eigh() -> None:
+    """A ring is tridiagonal plus two corners: reordered 0, n-1, 1, n-2, ... it is a band of
+    half-width 2 (in "high" too for all frequencies, above `accurate.RING_VALUES_LIMIT`)."""
     from vibra.chains import linear_chain
 
-    ring = linear_chain(30000, ends="periodic")
+    ring = linear_chain(60000, ends="periodic")
     for accuracy in ("high", "fast"):
         factor = ring.spring_factor() if accuracy == "high" else None
         request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=None, vectors=False, band=None,
                                solver="auto", spring_factor=factor)
         assert request.path == "banded" and request.width == 2
-        assert request.cost.memory < 10 * 2**20  # O(n b) words, not the 6.7 GiB of a dense K~
+        assert request.cost.memory < 20 * 2**20  # O(n b) words, not the 27 GiB of a dense K~
 
 
 def test_ring_frequencies_match_the_closed_form_and_a_dense_solve() -> None:
     """A ring above DENSE_LIMIT sites, frequencies only, takes ``accurate-ring`` in "high"
     (relative accuracy, every bound certified by Sturm counts of its spring form; with vectors,
     up to RING_DENSE_LIMIT, the checked dense solve); "fast" takes its band (absolute accuracy);
-    a ring longer than RING_VALUES_LIMIT takes its band in "high" too (the 30,000-site ring
+    a ring longer than RING_VALUES_LIMIT takes its band in "high" too (the 60,000-site ring
     above)."""
     from vibra.chains import linear_chain, monatomic_frequencies
 

@@ -31,10 +31,11 @@
                      (rings to 4,000 sites), else without (accurate-rayleigh);
                    - a ring up to 6,000 sites: each bound then certified by Sturm counts of
                      its pencil in double-double (`cycle.py`);
-                   - all frequencies, no vectors, of a free ring of 1,500 to 20,000 sites:
-                     roots of its spring form's last pivot between the eigenvalues of the
-                     chain it is cut into, each certified by compiled double-double Sturm
-                     counts, O(n^2) (accurate-ring; `ring_path.py`, `ring_kernel.py`).
+                   - all frequencies, no vectors, of a free ring of 1,500 to 50,000 sites,
+                     or its lowest n_modes at any length: roots of its spring form's last
+                     pivot between the eigenvalues of the chain it is cut into, each
+                     certified by compiled double-double Sturm counts, O(n^2) for all,
+                     O(n k) for the lowest k (accurate-ring; `ring_path.py`, `ring_kernel.py`).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and

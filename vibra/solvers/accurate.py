@@ -21,10 +21,12 @@ accuracy where the structure allows (`accurate_path` chooses):
   (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
   quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (up to
   `RING_VALUES_LIMIT`, a free ring's frequencies then come from `ring_path`, certified);
-- ``accurate-ring``: the frequencies of a free ring of DENSE_LIMIT to `RING_VALUES_LIMIT` sites,
-  all of them without vectors or the lowest n_modes: roots of its spring form's last pivot
-  between the eigenvalues of the chain it is cut into, each certified by Sturm counts
-  (`vibra.solvers.ring_path`); the lowest modes' vectors by Golub-Kahan inverse iteration;
+- ``accurate-ring``: the frequencies of a free ring over DENSE_LIMIT sites, all of them without
+  vectors up to `RING_VALUES_LIMIT` sites, or the lowest n_modes at any length (`RING_LOWEST_WORK`):
+  roots of its spring form's last pivot between the eigenvalues of the chain it is cut into,
+  each certified by Sturm counts (`vibra.solvers.ring_path`); the lowest modes' vectors by
+  Golub-Kahan inverse iteration, and a double eigenvalue's bound by spring-space Rayleigh-Ritz
+  on them (`ring_path.pair_step`);
 - a chain's values in clusters (no gap for their triplets) are certified by Sturm counts of its
   spring form (`vibra.solvers.path_counts`).
 
@@ -45,14 +47,14 @@ from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
 from vibra.solvers.path_counts import chain_counted
-from vibra.solvers.ring_path import ring_result
-from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets, singular_vectors
+from vibra.solvers.ring_path import lowest_result, pair_step, ring_result
+from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets
 from vibra.solvers.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
-    zero_level,
+    spring_figures, zero_level,
 )
 from vibra.solvers.common import (
-    DENSE_LIMIT, EPS, SolveResult, mass_power, sample_columns, selected, small_pencil, squared_range,
+    DENSE_LIMIT, EPS, SolveResult, mass_power, selected, small_pencil, squared_range,
 )
 from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.standard import DENSE_FLOOR, banded_path
@@ -70,18 +72,28 @@ RING_DENSE_LIMIT = 6000
 
 
 #: Rings above DENSE_LIMIT (detected by their band) up to this many sites take ``accurate-ring``
-#: for their frequencies without vectors (all: O(n^2), ~7 s at 8,000 sites on two cores, ~26 s
-#: at 16,000; the lowest k: dqds of the cut chain plus O(k n)) (`vibra.solvers.ring_path`); a
-#: longer ring takes its band (absolute accuracy), or shift-invert for a few modes.
-RING_VALUES_LIMIT = 20000
+#: for all their frequencies without vectors (O(n^2), ~1.2e-7 n^2 s on two cores: 8 s at 8,000
+#: sites, 108 s at 30,000, ~300 s here) (`vibra.solvers.ring_path`); a longer ring takes its band
+#: (absolute accuracy) for all of them, and ``accurate-ring`` for the lowest n_modes.
+RING_VALUES_LIMIT = 50000
+
+#: The lowest n_modes of a longer ring take ``accurate-ring`` too while n_modes n stays within
+#: this (O(n k): the cut chain's lowest eigenvalues by bisection, then k roots; ~2e-7 n k s, i.e.
+#: ~20 s at this limit, 10 modes of a 10^7-site ring), where shift-invert's shift, chosen from
+#: ||K~||, sees a disordered ring's lowest values as one cluster.
+RING_LOWEST_WORK = 1e8
 
 
-def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
+def ring_values_apply(n: int, *, band: tuple[float, float] | None, n_modes: int | None = None) -> bool:
     """Whether a free ring of n > DENSE_LIMIT sites has its frequencies from `ring_path` (no band,
     the compiled loops available; a ring with a spring to a wall falls back at solve time):
     ``accurate-ring`` for all of them without vectors or for the lowest n_modes (their vectors by
-    Golub-Kahan inverse iteration); with all vectors, the band solver's, paired with them."""
-    return band is None and DENSE_LIMIT < n <= RING_VALUES_LIMIT and COMPILED
+    Golub-Kahan inverse iteration); with all vectors, the band solver's, paired with them. Above
+    `RING_VALUES_LIMIT`, only the lowest n_modes (n_modes n within `RING_LOWEST_WORK`)."""
+    if band is not None or n <= DENSE_LIMIT or not COMPILED:
+        return False
+    return n <= RING_VALUES_LIMIT or (n_modes is not None and n_modes < n - 1
+                                      and float(n_modes) * n <= RING_LOWEST_WORK)
 
 
 def jacobi_allowed(n: int, n_terms: int) -> bool:
@@ -101,7 +113,7 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     if mass.ndim == 1 and not few and tridiagonal:
         return "accurate-bidiagonal"
-    if banded and ring_values_apply(n, band=band) and (few or not vectors):
+    if banded and ring_values_apply(n, band=band, n_modes=n_modes) and (few or not vectors):
         return "accurate-ring"
     if few:
         return "accurate-ritz"
@@ -130,16 +142,13 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 factor=factor, mass=mass)
         chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
         return chain_counted(chain, coupling, weights, mass, band)
-    if ordering is not None and ring_values_apply(n, band=band) and (few or not vectors):
-        ring = ring_result(coupling, weights, mass, n_modes)
+    if ordering is not None and ring_values_apply(n, band=band, n_modes=n_modes) and (few or not vectors):
+        pairs = pair_step(weighted, forming_deviation(weighted, coupling, weights, mass), mass)
+        # the lowest n_modes: two more values, the gap above the last or above its pair
+        ring = ring_result(coupling, weights, mass, int(n_modes) + 2 if few else n_modes,  # type: ignore[arg-type]
+                           tighten=pairs, needed=n_modes)
         if ring is not None:
-            if vectors:  # the lowest modes: each one's singular vector of B~
-                B = sp.csr_matrix(weighted)
-                basis = singular_vectors(B, ring.eigenvalues, mass)
-                figures = _spring_figures(B, ring.eigenvalues, basis, True, "accurate-ring")
-                ring.vectors, ring.residual, ring.orthogonality = basis, figures.residual, figures.orthogonality
-                ring.refinement = f"{ring.refinement}; vectors by Golub-Kahan inverse iteration"
-            return ring
+            return lowest_result(weighted, mass, ring, vectors=vectors) if few else ring
     deviation = forming_deviation(weighted, coupling, weights, mass)
     pencil = ring_pencil(coupling, weights, mass) if n <= RING_DENSE_LIMIT else None
     result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
@@ -147,7 +156,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
     if pencil is not None and result.error.shape[0]:
         return _ring_certified(result, pencil, band)
     if ordering is not None and vectors and not few and ring_values_apply(n, band=band):
-        certified = ring_result(coupling, weights, mass, n_modes)
+        certified = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass))
         if certified is not None and certified.eigenvalues.shape == result.eigenvalues.shape:
             # the band solver's vectors, each paired by rank with its certified frequency
             result.eigenvalues, result.error = certified.eigenvalues, certified.error
@@ -265,7 +274,7 @@ def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float]
                                           np.maximum(standard.error, 0.0), most_terms(B), complete=False,
                                           floor=low if low > 0 else -np.inf, ceiling=high, deviation=deviation)
     order = np.argsort(theta, kind="stable")
-    result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-ritz")
+    result = spring_figures(B, theta[order], basis[:, order], vectors, "accurate-ritz")
     result.error = error[order]
     return result
 
@@ -291,7 +300,7 @@ def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors:
     if np.any((error > TARGET * theta) & ~zero):
         theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True, deviation=deviation)
     basis = ritz
-    result = _spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
+    result = spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
     result.error = np.maximum(error[:k], 4 * EPS * theta[:k])
     return result
 
@@ -304,32 +313,9 @@ def _spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviati
     theta, basis, error = cluster_bounds(B, ring.eigenvalues, ring.vectors,  # type: ignore[arg-type]
                                           np.maximum(ring.error, 0.0), most_terms(B), complete=True, deviation=deviation)
     order = np.argsort(theta, kind="stable")
-    result = _spring_figures(B, theta[order], basis[:, order], vectors, "accurate-rayleigh")
+    result = spring_figures(B, theta[order], basis[:, order], vectors, "accurate-rayleigh")
     result.error = error[order]
     return result
-
-
-def _spring_figures(weighted: Any, values: NDArray[np.float64], basis: NDArray[np.float64], vectors: bool,
-                    solver: str) -> SolveResult:
-    columns = sample_columns(basis.shape[1])
-    sample = basis[:, columns]
-    product = np.asarray(weighted.T @ (weighted @ sample))
-    residuals = np.linalg.norm(product - sample * values[columns], axis=0)
-    squares = weighted.multiply(weighted) if sp.issparse(weighted) else np.asarray(weighted) ** 2
-    norm = max(float(values.max(initial=0.0)), float(np.asarray(squares.sum(axis=0)).max()))  # max diag of K~
-    # Kato-Temple: |lambda - theta| <= r^2 / gap, gap to the nearest other Ritz value;
-    # plus the rounding of the Gram sums (a few eps relative).
-    gaps = np.full(values.shape, norm)
-    if values.shape[0] > 1:
-        spacing = np.diff(values)
-        gaps = np.minimum(np.r_[spacing, np.inf], np.r_[np.inf, spacing])
-        gaps = np.where(gaps > 0, gaps, norm)
-    error = 4 * EPS * np.abs(values)
-    error[columns] += residuals**2 / gaps[columns]
-    gram = basis.T @ sample
-    gram[columns, np.arange(len(columns))] -= 1.0
-    return SolveResult(values, basis if vectors else None, error, float(residuals.max(initial=0.0) / norm),
-                       float(np.abs(gram).max(initial=0.0)), solver)
 
 
 def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None
@@ -356,7 +342,7 @@ def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band:
         error = 2.0 * 4 * n * EPS * eigenvalues
         return SolveResult(eigenvalues, None, error, float("nan"), float("nan"), "accurate-jacobi")
     basis = v[:, order][:, select]
-    result = _spring_figures(sp.csr_matrix(dense), eigenvalues, basis, True, "accurate-jacobi")
+    result = spring_figures(sp.csr_matrix(dense), eigenvalues, basis, True, "accurate-jacobi")
     return result
 
 
@@ -471,7 +457,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
     order = order[np.argsort(values[order], kind="stable")]  # a refined value may cross its neighbour
     values, error, refined = values[order], error[order], refined[order]
     if vectors:
-        result = _spring_figures(B, values, basis[:, order], True, solver)
+        result = spring_figures(B, values, basis[:, order], True, solver)
         result.error = error
     else:
         result = SolveResult(values, None, error, float("nan"), float("nan"), solver)

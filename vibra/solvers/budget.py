@@ -26,9 +26,11 @@ the input, then time:
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
-- accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain) + 2e-7 n k
-  (measured ~1e-7 on two cores: roots of its spring form, ~2.5 double-double counts of 2n nodes
-  per value); with vectors (the lowest k), a Golub-Kahan LU per mode, ~2e-6 n k.
+- accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
+  lowest k of a long ring, bisection, 3e-6 n k, when cheaper) + 1.2e-7 n k
+  (measured 1.0-1.3e-7 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
+  nodes per value) + at most 5e5 sites of mpmath counts (2e-5 s each); with vectors (the lowest k), a
+  Golub-Kahan LU per mode, ~2e-6 n k.
 - accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
 - accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
   larger of that and accurate-jacobi's (a refinement may run).
@@ -66,7 +68,9 @@ LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: Sturm bisection + inverse iteration on a chain (measured 2.4e-6)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
-RING_S = 2e-7                 # per n k: a ring's values, each certified by counts (`ring_path`)
+RING_S = 1.2e-7               # per n k: a ring's values, each certified by counts (`ring_path`; 1.0-1.3e-7 measured)
+RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring_path.MP_WORK`)
+MP_COUNT_S = 2e-5             # per site: one mpmath count (~0.15 s at 8,000 sites)
 RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)
 TRIPLET_UNIT_S = 3.6e-8       # per work unit of `golub_kahan` (TRIPLET_WORK = 5e8 units ~ 18 s)
 TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and mode (8 + ~20 of fill)
@@ -148,9 +152,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
         seconds = BISECTION_S * n * k
-    elif path == "accurate-ring":  # dqds of the cut chain, then each value's roots and counts
-        memory = 8.0 * 40 * n + vector_bytes
-        seconds = TRIDIAGONAL_S * n2 + RING_S * float(n) * k
+    elif path == "accurate-ring":  # the cut chain's values (dqds, or bisection for the lowest k + 1),
+        memory = 8.0 * 40 * n + vector_bytes  # then each value's roots and counts
+        poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, BISECTION_S * n * (k + 1.0))
+        seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, 24.0 * n)
         if vectors:  # each mode's sparse LU of the 2n Golub-Kahan matrix (`golub_kahan.singular_vectors`)
             seconds += TRIPLET_UNIT_S * TRIPLET_ROW * 2.0 * n * k
     elif path in ("accurate-rayleigh",):

@@ -68,20 +68,43 @@ class RingPencil:
     order[i + 1], and `wall`, the springs to a wall at each position (sum of w c^2, double-double)."""
 
     order: NDArray[np.intp]
-    a: tuple[NDArray[np.float64], NDArray[np.float64]]
-    b: tuple[NDArray[np.float64], NDArray[np.float64]]
     m: NDArray[np.float64]
     R: float
     walls: bool
     terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]
     edges: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
     ends: tuple[NDArray[np.float64], NDArray[np.float64]]  # c at order[i], order[i + 1]
-    wall: tuple[NDArray[np.float64], NDArray[np.float64]]  # sum of w c^2 to a wall, per position
+    wall_terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]]  # the terms of springs to a wall
     built: dict[int, tuple[list[Any], list[Any]]] = field(default_factory=dict)  # digits -> (a, b)
+    exact: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
         return int(self.order.shape[0])
+
+    @property
+    def a(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """K's diagonal in double-double (formed in mpmath on first use: O(n) mpmath operations,
+        ~1 s per 10^4 sites, which `ring_path` does not need)."""
+        self._form()
+        return self.exact["a"]
+
+    @property
+    def b(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        self._form()
+        return self.exact["b"]
+
+    @property
+    def wall(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The springs to a wall at each position (sum of w c^2, double-double)."""
+        if "wall" not in self.exact:
+            self.exact["wall"] = split_mp(_entries(self.wall_terms, (np.zeros(0),) * 3, self.n, 40)[0])
+        return self.exact["wall"]
+
+    def _form(self) -> None:
+        if "a" not in self.exact:
+            diagonal, off = _entries(self.terms, self.edges, self.n, 40)
+            self.exact["a"], self.exact["b"] = split_mp(diagonal), split_mp(off)
 
 
 def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> RingPencil | None:
@@ -121,18 +144,18 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     terms = (position[B.indices], np.asarray(weights, dtype=float)[rows_of], B.data.copy())
     first = B.indptr[pairs[np.array(edges)]]
     edge_terms = (np.asarray(weights, dtype=float)[pairs[np.array(edges)]], B.data[first], B.data[first + 1])
-    diagonal, off = _entries(terms, edge_terms, n, 40)
-    a, b = split_mp(diagonal), split_mp(off)
+    # R from float64 entries: sum |w| c^2 >= |a_i| and |w c1 c2| = |b_i|, each within a few eps of
+    # the exact one, inside the 1e-12 (the exact entries are formed in mpmath only if counted)
+    a = np.bincount(terms[0], weights=np.abs(terms[1]) * terms[2] ** 2, minlength=n)
+    b = edge_terms[0] * edge_terms[1] * edge_terms[2]
     m = np.asarray(mass, dtype=float)[np.array(order)]
     root = np.sqrt(m)
-    rows = np.abs(a[0]) / m + np.abs(b[0]) / (root * np.roll(root, -1)) + np.abs(np.roll(b[0], 1)) / (
-        root * np.roll(root, 1))
+    rows = np.abs(a) / m + np.abs(b) / (root * np.roll(root, -1)) + np.abs(np.roll(b, 1)) / (root * np.roll(root, 1))
     here = B.indices[first] == np.array(order)
     ends = (np.where(here, B.data[first], B.data[first + 1]), np.where(here, B.data[first + 1], B.data[first]))
     walls = per_row[rows_of] == 1
-    wall = _entries((terms[0][walls], terms[1][walls], terms[2][walls]), (np.zeros(0),) * 3, n, 40)[0]
-    return RingPencil(np.array(order), a, b, m, float(rows.max()) * (1 + 1e-12), bool(np.any(per_row == 1)),
-                      terms, edge_terms, ends, split_mp(wall))
+    return RingPencil(np.array(order), m, float(rows.max()) * (1 + 1e-12), bool(np.any(per_row == 1)),
+                      terms, edge_terms, ends, (terms[0][walls], terms[1][walls], terms[2][walls]))
 
 
 def stored_factor(coupling: Any) -> tuple[sp.csr_matrix, NDArray[np.intp]]:

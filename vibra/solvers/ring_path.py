@@ -13,6 +13,10 @@ is bracketed by multisection from its interlacing interval. The bound is that br
 by the counts' own perturbation (`cycle.spring_widening`, ~1e-27 relatively): every bound is
 rigorous for the masses and springs as given, whatever the float64 roots' accuracy.
 
+The lowest k only (`ring_values(pencil, count=k)`): the cut chain's lowest k + 1 eigenvalues by
+bisection on its Golub-Kahan form (`lowest.golub_kahan_lowest`, O(n k)) instead of dqds of all
+of them, so that a ring of any length costs O(n k) (54 s for 10 of 10^6 sites on two cores).
+
 Cost: per mode ~5-10 float64 evaluations and two double-double counts of 2n nodes; with
 numba's threads, ~6 s for 8,000 sites on two cores, where the dense Jacobi route of the
 smaller rings would take minutes and the band solver gives absolute accuracy only.
@@ -26,17 +30,21 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts
 from vibra.solvers.common import SolveResult
+from vibra.solvers.golub_kahan import singular_vectors
+from vibra.solvers.spring_ritz import Deviation, cluster_bounds, most_terms, spring_figures
+from vibra.solvers.lowest import golub_kahan_lowest
 from vibra.solvers.cycle import (
     RingPencil, _closing, count_below_mp, mp_rho, multisection, ring_pencil, spring_widening, spring_width,
 )
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
-__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds"]
+__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "lowest_result"]
 
 #: Half-widths of the brackets tried around each root, relative, tightest first (`cycle.LADDER`
 #: with steps between: a root at a pole, a double eigenvalue of a uniform ring or a mode
@@ -53,6 +61,10 @@ POLISH = 12
 #: per solve (~0.15 s each at 8,000 sites), at MP_LEVELS around the value.
 MP_WANTED = 1.95e-13
 MP_COUNTS = 24
+
+#: And at most this many sites counted in mpmath per solve (~10 s): fewer counts on a longer
+#: ring (5 at 10^5 sites, none at 10^6, whose bounds stay double-double's).
+MP_WORK = 5e5
 MP_LEVELS = (64 * 2.0**-53, 3e-14, 1e-13)
 
 #: Passes of `cycle.multisection` for the roots the LEVELS do not prove (16^16 ~ 2e19: an
@@ -64,13 +76,14 @@ PASSES = 16
 class RingValues:
     """What `ring_values` found: values (omega^2 ascending), bound (absolute, per value),
     certified (per value: proven by counts), evaluations (float64 pivots per root, summed),
-    counts (double-double counts spent)."""
+    counts (double-double counts spent), tightened (bounds the caller's `tighten` step narrowed)."""
 
     values: NDArray[np.float64]
     bound: NDArray[np.float64]
     certified: NDArray[np.bool_]
     evaluations: int
     counts: int
+    tightened: int = 0
 
 
 def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
@@ -83,10 +96,17 @@ def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.f
     return np.roll(pencil.m, -turn), w, c_in, c_out
 
 
-def ring_values(pencil: RingPencil, count: int | None = None) -> RingValues | None:
-    """All eigenvalues of a free ring's pencil (the lowest `count` of them when given: O(count n)
-    beyond the chain's dqds), each with a count-certified bound (see above); None where the
-    compiled loops are unavailable or the ring has a spring to a wall."""
+Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], int]
+
+
+def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighten | None = None,
+                needed: int | None = None) -> RingValues | None:
+    """All eigenvalues of a free ring's pencil (the lowest `count` of them when given: O(count n),
+    the cut chain's lowest by bisection), each with a count-certified bound (see above); None
+    where the compiled loops are unavailable or the ring has a spring to a wall. `tighten`
+    (values, bound) -> how many tightened: the caller's step on the bounds still over MP_WANTED
+    (values and bounds per eigenvalue index, changed in place) before mpmath counts the loosest
+    of the first `needed` (default: all; the rest only bound their neighbours' gaps)."""
     if pencil.walls or not COMPILED:
         return None
     n = pencil.n
@@ -103,7 +123,10 @@ def ring_values(pencil: RingPencil, count: int | None = None) -> RingValues | No
     root_w, root_m = np.sqrt(w[: n - 1]), np.sqrt(m)
     d = np.r_[np.abs(root_w * c_in[: n - 1] / root_m[: n - 1]), 0.0]
     e = np.abs(root_w * c_out[: n - 1] / root_m[1:])
-    poles = bidiagonal_singular_values(d, e) ** 2
+    if wanted < n:  # the lowest wanted + 1 only: bisection on the Golub-Kahan form, O(n k)
+        poles = golub_kahan_lowest(d, e, 0, wanted + 1, vectors=False)[0] ** 2
+    else:
+        poles = bidiagonal_singular_values(d, e) ** 2
     poles[0] = 0.0
     top = pencil.R * (1 + 1e-12)
     low = poles[1:wanted]
@@ -173,22 +196,23 @@ def ring_values(pencil: RingPencil, count: int | None = None) -> RingValues | No
         middle = 0.5 * (lo + hi)
         values[todo[proven]] = middle[proven]
         bound[todo[proven]] = widened(lo[proven], hi[proven], middle[proven])
-    spent += _mp_counts(pencil, values, bound)
+    tightened = tighten(values, bound) if tighten is not None else 0
+    spent += _mp_counts(pencil, values[:needed], bound[:needed])
     certified = np.isfinite(bound)
     order = np.argsort(values, kind="stable")
     values = values[order]
     bound = sorted_bounds(values, bound[order], order)
-    return RingValues(values, bound, certified[order] & np.isfinite(bound), int(evaluations.sum()), spent)
+    return RingValues(values, bound, certified[order] & np.isfinite(bound), int(evaluations.sum()), spent, tightened)
 
 
-def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None
-                ) -> SolveResult | None:
+def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None,
+                *, tighten: Tighten | None = None, needed: int | None = None) -> SolveResult | None:
     """``accurate-ring``: a free ring's frequencies by `ring_values` (the lowest n_modes of them
     when given) as a result without vectors, or None (not one free ring: the caller goes on)."""
     pencil = ring_pencil(coupling, weights, mass)
     if pencil is None:
         return None
-    found = ring_values(pencil, n_modes)
+    found = ring_values(pencil, n_modes, tighten=tighten, needed=needed)
     if found is None:
         return None
     k = found.values.shape[0]
@@ -202,6 +226,9 @@ def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     result.refinement = (f"all {k} modes from roots of the ring's spring form (interlacing with the chain cut at "
                          f"its weakest spring), {int(certified.sum())} of {k} bounds certified by Sturm counts of "
                          f"the spring form in double-double, error/omega^2 up to {worst:.1g}")
+    if found.tightened:
+        result.refinement += (f"; {found.tightened} bounds (double eigenvalues) tightened by spring-space Rayleigh-Ritz "
+                              "on their Golub-Kahan singular vectors")
     return result
 
 
@@ -235,19 +262,20 @@ def _mp_counts(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[n
     """Tighten, in place, the bounds still above MP_WANTED relative (the lowest modes of a long
     uniform ring: double eigenvalues, where double-double's counts stay uncertain within a few
     1e-13) by `cycle.count_below_mp` counts of K - x M with 40 digits more than R / value needs,
-    loosest first, at most MP_COUNTS counts. Returns the counts spent."""
+    loosest first, at most MP_COUNTS counts (and MP_WORK sites). Returns the counts spent."""
     loose = np.flatnonzero((bound > MP_WANTED * values) & (values > 0))
     loose = loose[np.argsort(-(bound[loose] / values[loose]), kind="stable")]
     used = 0
+    most = min(MP_COUNTS, int(MP_WORK // pencil.n))
     for j in loose.tolist():
-        if used + 2 > MP_COUNTS:
+        if used + 2 > most:
             break
         v = float(values[j])
         digits = 40 + int(np.ceil(np.log10(max(pencil.R / v, 1.0))))
         for level in MP_LEVELS:
             t = level * v
             width = (t + max(mp_rho(pencil, v - t, digits), mp_rho(pencil, v + t, digits))) * (1 + 1e-12)
-            if width >= bound[j] or used + 2 > MP_COUNTS:
+            if width >= bound[j] or used + 2 > most:
                 break
             under, low_sure = count_below_mp(pencil, v - t, digits)
             over, high_sure = count_below_mp(pencil, v + t, digits)
@@ -404,3 +432,76 @@ def _multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float6
     lo, hi = np.where(ok, lo, np.nan), np.where(ok, hi, np.nan)
     lo[ok], hi[ok], used = multisection(counts, lo[ok], hi[ok], index[ok], PASSES)
     return lo, hi, used + 2 * k
+
+
+def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]
+                ) -> Callable[[NDArray[np.float64], NDArray[np.float64]], int]:
+    """`ring_values`' `tighten` step: each cluster of values whose count bound stays over
+    `ring_path.MP_WANTED` (a double eigenvalue: counts uncertain within ~sqrt(n) 1e-15 of it;
+    a ring's eigenvalues are at most double) gets spring-space Rayleigh-Ritz on its singular
+    vectors of B~ (Golub-Kahan inverse iteration), with quadratic residual bounds
+    (`cluster_bounds`, extended precision, B~'s exact entries) whose gaps are the neighbours'
+    certified bounds; each value keeps the tighter bound. A cluster at the end of a partial set
+    (no value above it) is left as it is. Returns how many bounds it tightened."""
+    B = sp.csr_matrix(weighted)
+    terms = most_terms(B)
+
+    def tighten(values: NDArray[np.float64], bound: NDArray[np.float64]) -> int:
+        k = values.shape[0]
+        loose = np.flatnonzero((bound > MP_WANTED * values) & (values > 0) & np.isfinite(bound))
+        runs: list[list[int]] = []  # clusters holding a loose value, adjacent ones joined (one Ritz step each)
+        for j in loose.tolist():
+            if runs and j < runs[-1][1]:
+                continue
+            a, b = j, j + 1
+            while a > 1 and values[a] - bound[a] <= values[a - 1] + bound[a - 1] + MP_WANTED * values[a]:
+                a -= 1
+            while b < k and values[b] - bound[b] <= values[b - 1] + bound[b - 1] + MP_WANTED * values[b]:
+                b += 1
+            if b == k and k < B.shape[1]:  # the top of a partial set: no gap above it known
+                break
+            if runs and a <= runs[-1][1]:
+                runs[-1][1] = b
+            else:
+                runs.append([a, b])
+        count = 0
+        for a, b in runs:
+            complete = b == k
+            if not np.all(np.isfinite(bound[a - 1: b + 1])):
+                continue
+            basis = singular_vectors(B, values[a:b], mass)
+            ceiling = None if complete else float(values[b] - bound[b])
+            theta, _, error = cluster_bounds(B, values[a:b], basis, bound[a:b], terms, complete=complete,
+                                             precise=True, floor=float(values[a - 1] + bound[a - 1]),
+                                             ceiling=ceiling, deviation=deviation)
+            better = error < bound[a:b]
+            values[a:b][better], bound[a:b][better] = theta[better], error[better]
+            count += int(better.sum())
+        return count
+
+    return tighten
+
+
+def lowest_result(weighted: Any, mass: NDArray[np.float64], ring: SolveResult, *, vectors: bool) -> SolveResult:
+    """The lowest k of the k + 2 values of `ring` (the two more give the last mode's pair, if it
+    has one, a gap above for `pair_step`), with vectors if asked: each mode's singular vector
+    of B~ (Golub-Kahan inverse iteration)."""
+    k = ring.eigenvalues.shape[0] - 2
+    values, bound = ring.eigenvalues[:k], ring.error[:k]
+    note = ""
+    if vectors:
+        B = sp.csr_matrix(weighted)
+        result = spring_figures(B, values, singular_vectors(B, values, mass), True, "accurate-ring")
+        note = "; vectors by Golub-Kahan inverse iteration"
+    else:
+        result = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")
+    result.error = bound
+    result.refined = np.ones(k, dtype=bool)
+    positive = values > 0
+    worst = float(np.max(bound[positive] / values[positive])) if positive.any() else 0.0
+    text = ring.refinement or ""
+    pairs = text[text.index(";"):] if ";" in text else ""
+    result.refinement = (f"the lowest {k} modes from roots of the ring's spring form (interlacing with the chain cut "
+                         f"at its weakest spring, its lowest eigenvalues by bisection), each bound certified by Sturm "
+                         f"counts of the spring form in double-double{pairs}{note}, error/omega^2 up to {worst:.1g}")
+    return result

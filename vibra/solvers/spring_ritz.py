@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.dd import UNIT as DD_UNIT, add as dd_add, div as dd_div, lu as dd_lu, lu_solve as dd_lu_solve
 from vibra.solvers.dd import mul as dd_mul, split_mp, tree_sum
-from vibra.solvers.common import EPS, small_pencil
+from vibra.solvers.common import EPS, SolveResult, sample_columns, small_pencil
 from vibra.solvers.rounding import WORST_ENTRY, entry_deviation
 
 __all__ = ["TARGET", "BLOCK", "FORMING", "REFINE_WORK", "Deviation", "forming_deviation", "zero_level",
@@ -357,3 +357,28 @@ def _row_sums(slots: NDArray[np.intp], ph: NDArray[np.float64], pl: NDArray[np.f
               xh: NDArray[np.float64], xl: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The padded matrix times x, in double-double."""
     return tree_sum(*dd_mul(ph, pl, xh[slots], xl[slots]), axis=-1)
+
+
+def spring_figures(weighted: Any, values: NDArray[np.float64], basis: NDArray[np.float64], vectors: bool,
+                    solver: str) -> SolveResult:
+    """A result from spring-space values and (mass-weighted) vectors: residuals of K~ = B~^T B~ on a
+    sample of columns, the orthogonality of the basis, and a Kato-Temple error per sampled mode."""
+    columns = sample_columns(basis.shape[1])
+    sample = basis[:, columns]
+    product = np.asarray(weighted.T @ (weighted @ sample))
+    residuals = np.linalg.norm(product - sample * values[columns], axis=0)
+    squares = weighted.multiply(weighted) if sp.issparse(weighted) else np.asarray(weighted) ** 2
+    norm = max(float(values.max(initial=0.0)), float(np.asarray(squares.sum(axis=0)).max()))  # max diag of K~
+    # Kato-Temple: |lambda - theta| <= r^2 / gap, gap to the nearest other Ritz value;
+    # plus the rounding of the Gram sums (a few eps relative).
+    gaps = np.full(values.shape, norm)
+    if values.shape[0] > 1:
+        spacing = np.diff(values)
+        gaps = np.minimum(np.r_[spacing, np.inf], np.r_[np.inf, spacing])
+        gaps = np.where(gaps > 0, gaps, norm)
+    error = 4 * EPS * np.abs(values)
+    error[columns] += residuals**2 / gaps[columns]
+    gram = basis.T @ sample
+    gram[columns, np.arange(len(columns))] -= 1.0
+    return SolveResult(values, basis if vectors else None, error, float(residuals.max(initial=0.0) / norm),
+                       float(np.abs(gram).max(initial=0.0)), solver)
