@@ -19,7 +19,6 @@ from vibra import System
 from vibra import molecules as mol
 from vibra.chains import linear_chain
 from vibra.spectra import electronegativity_charges, ir_spectrum
-from vibra.units import ASE
 
 BOHR = constants.physical_constants["Bohr radius"][0] * 1e10   # Angstrom
 

@@ -28,7 +28,6 @@ from vibra.pendulum import (
     harmonic_error,
     harmonic_motion,
     harmonic_period,
-    jacobi_sn_cn_dn,
     separatrix_motion,
 )
 

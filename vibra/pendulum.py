@@ -31,7 +31,6 @@ E = theta'^2 / 2 + Omega^2 (1 - cos theta). Times are in the time unit of `omega
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray

@@ -9,7 +9,6 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from vibra.charts._style import new_figure, plain_math
 

@@ -187,7 +187,6 @@ def absolute_figures(Kt: Any, eigenvalues: NDArray[np.float64], vectors: NDArray
     `norm` is an upper bound of ||K~||_2 (`norm_upper`) when the caller has one (K~ itself
     may be gone: LAPACK reduced it in place); else it is taken from Kt.
     """
-    n = Kt.shape[0]
     norm = max(_norm_estimate(Kt, eigenvalues), norm_upper(Kt) if norm is None else norm)
     # Eigenvalues of a backward-stable symmetric solver are exact for K~ + E, ||E|| ~ eps ||K~||.
     error = np.full(eigenvalues.shape, floor * EPS * norm)
