@@ -260,7 +260,7 @@ def test_the_lowest_modes_of_a_disordered_ring(spread: float, n: int, vectors: b
 def test_the_lowest_modes_of_rings_longer_than_the_values_limit() -> None:
     """60,000 sites (over RING_VALUES_LIMIT), `modes(n_modes=...)`: ``accurate-ring`` in O(n k),
     the cut chain's lowest eigenvalues by bisection on its Golub-Kahan form instead of dqds of
-    all of them. Before, shift-invert: at 50,000 sites with a spread of 1e6, 159 s, bounds up to
+    all of them. Before, shift-invert: at 50,000 sites with a spread of 1e6, 164 s, bounds up to
     2.8 relative and the rigid mode at 1.2e-12; on a uniform ring the last mode's bound 1.3e-9
     relative (no gap above it known). Disordered (spread 1e12, with vectors): each value covered
     by 64-digit mpmath counts, every bound within 1e-13 relative, residuals of K~ within 1e-14
@@ -289,3 +289,50 @@ def test_the_lowest_modes_of_rings_longer_than_the_values_limit() -> None:
     true_error = np.abs(omega - truth[1:])
     assert np.all(criterion(omega, error, np.maximum(true_error - 1e-16 * omega, 0.0)))
     assert np.all(error <= 1e-13 * omega) and uniform.omega[0] == 0.0
+
+
+@pytest.mark.slow
+def test_the_pairs_of_a_200000_site_uniform_ring_are_bounded_within_1e_13() -> None:
+    """The lowest 10 of a uniform ring of 200,000 sites: its pairs' Rayleigh-Ritz bounds, r^2 /
+    gap, grow as n^4 relative with float64 vectors (3.2e-12 here, 6 over 1000 times the true
+    error); with vectors refined to extended precision (`golub_kahan.refined_vectors`) every
+    bound is within 1e-13 relative and meets the criterion. Truth: the closed form, 30 digits."""
+    n = 200000
+    modes = linear_chain(n, ends="periodic", units="dimensionless").modes(n_modes=10, vectors=False)
+    assert modes.solver == "accurate-ring"
+    with mp.workdps(30):
+        truth = np.sort(np.array([float(2 * mp.sin(mp.pi * j / n)) for j in range(6)] * 2))[1:11]
+    omega, error = modes.omega[1:], modes.omega_error[1:]
+    true_error = np.abs(omega - truth[1:])
+    assert np.all(criterion(omega, error, np.maximum(true_error - 1e-16 * omega, 0.0)))
+    assert np.all(error <= 1e-13 * omega)
+
+
+def test_refined_vectors_of_a_double_eigenvalue_reach_extended_precision() -> None:
+    """`golub_kahan.refined_vectors`: a uniform ring's first pair (an exact double eigenvalue),
+    float64 singular vectors leave a residual ||K~ v - omega^2 v|| of a few eps ||K~|| (their own
+    rounding); after the extended-precision Newton steps it is below 100 long-double units of
+    ||K~|| (a bound r^2 / gap that is quadratic in it then reaches ~1e-20 relative at 20,000
+    sites). Residuals in extended precision against the closed form (K~ = K: unit masses)."""
+    from vibra.solvers import golub_kahan
+    from vibra.solvers.spring_ritz import forming_deviation
+
+    n = 20000
+    ring = linear_chain(n, ends="periodic", units="dimensionless")
+    B, w = ring.spring_factor()
+    weighted = sp.csr_matrix(sp.diags(np.sqrt(w)) @ B)
+    with mp.workdps(40):
+        value = float(4 * mp.sin(mp.pi / n) ** 2)
+    values = np.array([value, value])
+    rough = golub_kahan.singular_vectors(weighted, values, np.ones(n))
+    fine = golub_kahan.refined_vectors(weighted, forming_deviation(weighted, B, w, np.ones(n)), rough, values)
+    exact = weighted.astype(np.longdouble)
+
+    def residual(V: np.ndarray) -> float:
+        V = np.asarray(V, dtype=np.longdouble)
+        return float(np.max(np.linalg.norm(np.asarray(exact.T @ (exact @ V)) - V * np.longdouble(value), axis=0)))
+
+    unit = float(np.finfo(np.longdouble).eps)
+    assert residual(rough) > 1000 * unit * 4.0
+    assert residual(fine) < 100 * unit * 4.0
+    assert np.abs(np.asarray(fine.T @ fine, dtype=float) - np.eye(2)).max() < 1e-15

@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from vibra._lapack import bidiagonal_singular_values
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts
 from vibra.solvers.common import SolveResult
-from vibra.solvers.golub_kahan import singular_vectors
+from vibra.solvers.golub_kahan import refined_vectors, singular_vectors
 from vibra.solvers.spring_ritz import Deviation, cluster_bounds, most_terms, spring_figures
 from vibra.solvers.lowest import golub_kahan_lowest
 from vibra.solvers.cycle import (
@@ -439,7 +439,8 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]
     """`ring_values`' `tighten` step: each cluster of values whose count bound stays over
     `ring_path.MP_WANTED` (a double eigenvalue: counts uncertain within ~sqrt(n) 1e-15 of it;
     a ring's eigenvalues are at most double) gets spring-space Rayleigh-Ritz on its singular
-    vectors of B~ (Golub-Kahan inverse iteration), with quadratic residual bounds
+    vectors of B~ (Golub-Kahan inverse iteration, refined to extended precision:
+    `golub_kahan.refined_vectors`), with quadratic residual bounds
     (`cluster_bounds`, extended precision, B~'s exact entries) whose gaps are the neighbours'
     certified bounds; each value keeps the tighter bound. A cluster at the end of a partial set
     (no value above it) is left as it is. Returns how many bounds it tightened."""
@@ -469,7 +470,7 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]
             complete = b == k
             if not np.all(np.isfinite(bound[a - 1: b + 1])):
                 continue
-            basis = singular_vectors(B, values[a:b], mass)
+            basis = refined_vectors(B, deviation, singular_vectors(B, values[a:b], mass), values[a:b])
             ceiling = None if complete else float(values[b] - bound[b])
             theta, _, error = cluster_bounds(B, values[a:b], basis, bound[a:b], terms, complete=complete,
                                              precise=True, floor=float(values[a - 1] + bound[a - 1]),
