@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 from numpy.typing import NDArray
 
 from vibra.solvers.spring_ritz import Deviation
@@ -241,7 +242,8 @@ def refined_vectors(weighted: sp.csr_matrix, deviation: Deviation, basis: NDArra
     V orthonormal: R = K~ V - V (V^T K~ V) in extended precision with B~'s exact entries (the
     stored B~ less its rounding D), then the Newton correction X = (K~ - theta I)^-1 R (sparse
     LU, float64: K~ - theta I is nearly singular only along the cluster, whose part of X is
-    projected out; elsewhere its error is eps relative, and X itself ~eps long), V - X,
+    projected out; elsewhere its error is eps relative, and X itself ~eps long; LU in reverse
+    Cuthill-McKee order, a ring's band), V - X,
     orthonormalised in extended precision; twice. The bounds computed from the result stay
     rigorous whatever its quality."""
     B = sp.csr_matrix(weighted, dtype=float)
@@ -250,7 +252,8 @@ def refined_vectors(weighted: sp.csr_matrix, deviation: Deviation, basis: NDArra
         exact = (exact - deviation[0].astype(np.longdouble)).tocsr()
     exact_T = exact.T.tocsr()
     n = B.shape[1]
-    K = (B.T @ B).tocsc()
+    K = (B.T @ B).tocsr()
+    order = reverse_cuthill_mckee(K, symmetric_mode=True)  # a ring: a band of half-width 2
     result = np.asarray(basis, dtype=np.longdouble).copy()
     k = values.shape[0]
     j = 0
@@ -265,10 +268,11 @@ def refined_vectors(weighted: sp.csr_matrix, deviation: Deviation, basis: NDArra
                 KV = np.asarray(exact_T @ E)
                 theta = V.T @ KV
                 R = KV - V @ theta
-                shift = float(np.trace(theta.astype(float)) / (end - j))
-                try:
-                    X = spla.splu((K - shift * sp.identity(n, format="csc")).tocsc(),
-                                  permc_spec="MMD_AT_PLUS_A").solve(R.astype(float))
+                shift = float(np.trace(theta.astype(float))) / (end - j)
+                shifted = (K - shift * sp.identity(n, format="csr"))[order][:, order].tocsc()
+                try:  # (in band order, natural: LU fill O(n b); the minimum-degree orders stalled on rings)
+                    X = np.empty((n, end - j))
+                    X[order] = spla.splu(shifted, permc_spec="NATURAL").solve(R.astype(float)[order])
                 except RuntimeError:  # exactly singular in float64
                     break
                 if not np.all(np.isfinite(X)):
