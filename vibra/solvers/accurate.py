@@ -47,7 +47,7 @@ from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
 from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
 from vibra.solvers.path_counts import chain_counted
-from vibra.solvers.ring_path import lowest_result, pair_step, ring_result
+from vibra.solvers.ring_path import pair_step, ring_result, ring_vectors
 from vibra.solvers.golub_kahan import WANTED, loose_modes, refine_triplets
 from vibra.solvers.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
@@ -78,9 +78,9 @@ RING_DENSE_LIMIT = 6000
 RING_VALUES_LIMIT = 50000
 
 #: The lowest n_modes of a longer ring take ``accurate-ring`` too while n_modes n stays within
-#: this (O(n k): the cut chain's lowest eigenvalues by bisection, then k roots; ~2e-7 n k s, i.e.
-#: ~20 s at this limit, 10 modes of a 10^7-site ring), where shift-invert's shift, chosen from
-#: ||K~||, sees a disordered ring's lowest values as one cluster.
+#: this (O(n k): the cut chain's lowest k + 3 eigenvalues by bisection, ~2.2e-6 n s each, then
+#: the roots; 31 s for 10 modes of 10^6 sites on two cores, ~5 min at this limit), where
+#: shift-invert's shift, chosen from ||K~||, sees a disordered ring's lowest values as one cluster.
 RING_LOWEST_WORK = 1e8
 
 
@@ -142,14 +142,11 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 factor=factor, mass=mass)
         chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
         return chain_counted(chain, coupling, weights, mass, band)
-    if ordering is not None and ring_values_apply(n, band=band, n_modes=n_modes) and (few or not vectors):
-        pairs = pair_step(weighted, forming_deviation(weighted, coupling, weights, mass), mass)
-        # the lowest n_modes: two more values, the gap above the last or above its pair
-        ring = ring_result(coupling, weights, mass, int(n_modes) + 2 if few else n_modes,  # type: ignore[arg-type]
-                           tighten=pairs, needed=n_modes)
-        if ring is not None:
-            return lowest_result(weighted, mass, ring, vectors=vectors) if few else ring
     deviation = forming_deviation(weighted, coupling, weights, mass)
+    if ordering is not None and ring_values_apply(n, band=band, n_modes=n_modes) and (few or not vectors):
+        ring = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass), lowest=few)
+        if ring is not None:
+            return ring_vectors(weighted, mass, ring) if vectors else ring
     pencil = ring_pencil(coupling, weights, mass) if n <= RING_DENSE_LIMIT else None
     result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
                           ordering=ordering, width=width, deviation=deviation)

@@ -129,17 +129,11 @@ def singular_vectors(weighted: sp.csr_matrix, values: NDArray[np.float64], mass:
     rounding, eps ||K~||, would swamp omega^2 down to ~1e-16 ||K~||); a cluster of values within
     1e-9 relative (a uniform ring's pairs) from as many starts, orthonormalised."""
     n = weighted.shape[1]
-    k = values.shape[0]
-    basis = np.zeros((n, k))
+    basis = np.zeros((n, values.shape[0]))
     rng = np.random.default_rng(2026)
-    j = 0
-    while j < k:
-        end = j + 1
-        while end < k and values[end] - values[end - 1] <= 1e-9 * values[end]:
-            end += 1
-        if values[j] <= 0.0:
-            basis[:, j] = np.sqrt(mass) / np.linalg.norm(np.sqrt(mass))
-            j += 1
+    for j, end in _clusters(values):
+        if values[j] <= 0.0:  # (a zero cluster holds zeros only: each the rigid translation)
+            basis[:, j:end] = (np.sqrt(mass) / np.linalg.norm(np.sqrt(mass)))[:, None]
             continue
         sigma = float(np.sqrt(values[j:end].mean())) * (1 + 1e-13)  # (beside it: H - sigma stays regular)
         block = []
@@ -147,8 +141,20 @@ def singular_vectors(weighted: sp.csr_matrix, values: NDArray[np.float64], mass:
             pair, _ = _inverse_iteration(weighted, sigma, rng.standard_normal(weighted.shape[0] + n))
             block.append(pair[1] if pair is not None else rng.standard_normal(n))
         basis[:, j:end] = np.linalg.qr(np.column_stack(block))[0]
-        j = end
     return basis
+
+
+def _clusters(values: NDArray[np.float64]) -> list[tuple[int, int]]:
+    """(start, stop) of each run of ascending values within 1e-9 relative of the one before."""
+    k = values.shape[0]
+    runs, j = [], 0
+    while j < k:
+        end = j + 1
+        while end < k and values[end] - values[end - 1] <= 1e-9 * values[end]:
+            end += 1
+        runs.append((j, end))
+        j = end
+    return runs
 
 
 def loose_modes(values: NDArray[np.float64], error: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -254,34 +260,29 @@ def refined_vectors(weighted: sp.csr_matrix, deviation: Deviation, basis: NDArra
     n = B.shape[1]
     K = (B.T @ B).tocsr()
     order = reverse_cuthill_mckee(K, symmetric_mode=True)  # a ring: a band of half-width 2
+    K = K[order][:, order].tocsc()
+    identity = sp.identity(n, format="csc")
     result = np.asarray(basis, dtype=np.longdouble).copy()
-    k = values.shape[0]
-    j = 0
-    while j < k:
-        end = j + 1
-        while end < k and values[end] - values[end - 1] <= 1e-9 * values[end]:
-            end += 1
-        if values[j] > 0:
-            V = _orthonormal(result[:, j:end])
-            for _ in range(REFINE_STEPS):
-                E = np.asarray(exact @ V)
-                KV = np.asarray(exact_T @ E)
-                theta = V.T @ KV
-                R = KV - V @ theta
-                shift = float(np.trace(theta.astype(float))) / (end - j)
-                shifted = (K - shift * sp.identity(n, format="csr"))[order][:, order].tocsc()
-                try:  # (in band order, natural: LU fill O(n b); the minimum-degree orders stalled on rings)
-                    X = np.empty((n, end - j))
-                    X[order] = spla.splu(shifted, permc_spec="NATURAL").solve(R.astype(float)[order])
-                except RuntimeError:  # exactly singular in float64
-                    break
-                if not np.all(np.isfinite(X)):
-                    break
-                X = X.astype(np.longdouble)
-                X -= V @ (V.T @ X)  # the correction lies outside the cluster's span
-                V = _orthonormal(V - X)
-            result[:, j:end] = V
-        j = end
+    for j, end in _clusters(values):
+        if values[j] <= 0:
+            continue
+        V = _orthonormal(result[:, j:end])
+        for _ in range(REFINE_STEPS):
+            KV = np.asarray(exact_T @ np.asarray(exact @ V))
+            R = KV - V @ (V.T @ KV)
+            shift = float(np.trace((V.T @ KV).astype(float))) / (end - j)
+            try:  # (in band order, natural: LU fill O(n b); the minimum-degree orders stalled on rings)
+                X = np.empty((n, end - j))
+                X[order] = spla.splu((K - shift * identity).tocsc(), permc_spec="NATURAL").solve(
+                    R.astype(float)[order])
+            except RuntimeError:  # exactly singular in float64
+                break
+            if not np.all(np.isfinite(X)):
+                break
+            X = X.astype(np.longdouble)
+            X -= V @ (V.T @ X)  # the correction lies outside the cluster's span
+            V = _orthonormal(V - X)
+        result[:, j:end] = V
     return result
 
 

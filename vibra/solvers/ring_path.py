@@ -15,7 +15,7 @@ rigorous for the masses and springs as given, whatever the float64 roots' accura
 
 The lowest k only (`ring_values(pencil, count=k)`): the cut chain's lowest k + 1 eigenvalues by
 bisection on its Golub-Kahan form (`lowest.golub_kahan_lowest`, O(n k)) instead of dqds of all
-of them, so that a ring of any length costs O(n k) (54 s for 10 of 10^6 sites on two cores).
+of them, so that a ring of any length costs O(n k) (31 s for 10 of 10^6 sites on two cores).
 
 Cost: per mode ~5-10 float64 evaluations and two double-double counts of 2n nodes; with
 numba's threads, ~6 s for 8,000 sites on two cores, where the dense Jacobi route of the
@@ -44,7 +44,7 @@ from vibra.solvers.cycle import (
 )
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
-__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "lowest_result"]
+__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors"]
 
 #: Half-widths of the brackets tried around each root, relative, tightest first (`cycle.LADDER`
 #: with steps between: a root at a pole, a double eigenvalue of a uniform ring or a mode
@@ -76,7 +76,8 @@ PASSES = 16
 class RingValues:
     """What `ring_values` found: values (omega^2 ascending), bound (absolute, per value),
     certified (per value: proven by counts), evaluations (float64 pivots per root, summed),
-    counts (double-double counts spent), tightened (bounds the caller's `tighten` step narrowed)."""
+    counts (double-double counts spent), tightened (bounds of the first `needed` the caller's
+    `tighten` step narrowed)."""
 
     values: NDArray[np.float64]
     bound: NDArray[np.float64]
@@ -96,7 +97,7 @@ def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.f
     return np.roll(pencil.m, -turn), w, c_in, c_out
 
 
-Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], int]
+Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
 
 
 def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighten | None = None,
@@ -104,7 +105,7 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     """All eigenvalues of a free ring's pencil (the lowest `count` of them when given: O(count n),
     the cut chain's lowest by bisection), each with a count-certified bound (see above); None
     where the compiled loops are unavailable or the ring has a spring to a wall. `tighten`
-    (values, bound) -> how many tightened: the caller's step on the bounds still over MP_WANTED
+    (values, bound): the caller's step on the bounds still over MP_WANTED
     (values and bounds per eigenvalue index, changed in place) before mpmath counts the loosest
     of the first `needed` (default: all; the rest only bound their neighbours' gaps)."""
     if pencil.walls or not COMPILED:
@@ -196,7 +197,11 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
         middle = 0.5 * (lo + hi)
         values[todo[proven]] = middle[proven]
         bound[todo[proven]] = widened(lo[proven], hi[proven], middle[proven])
-    tightened = tighten(values, bound) if tighten is not None else 0
+    tightened = 0
+    if tighten is not None:
+        before = bound.copy()
+        tighten(values, bound)
+        tightened = int(np.count_nonzero(bound[:needed] < before[:needed]))
     spent += _mp_counts(pencil, values[:needed], bound[:needed])
     certified = np.isfinite(bound)
     order = np.argsort(values, kind="stable")
@@ -206,26 +211,31 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
 
 
 def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None,
-                *, tighten: Tighten | None = None, needed: int | None = None) -> SolveResult | None:
+                *, tighten: Tighten | None = None, lowest: bool = False) -> SolveResult | None:
     """``accurate-ring``: a free ring's frequencies by `ring_values` (the lowest n_modes of them
-    when given) as a result without vectors, or None (not one free ring: the caller goes on)."""
+    when given) as a result without vectors, or None (not one free ring: the caller goes on).
+    `lowest` (n_modes well below n): two more values are found, so that the last mode's pair, if
+    it has one, has a gap above it for `tighten` (`pair_step`), and then dropped."""
     pencil = ring_pencil(coupling, weights, mass)
     if pencil is None:
         return None
-    found = ring_values(pencil, n_modes, tighten=tighten, needed=needed)
+    count = int(n_modes) + 2 if lowest and n_modes is not None else n_modes
+    found = ring_values(pencil, count, tighten=tighten, needed=n_modes)
     if found is None:
         return None
-    k = found.values.shape[0]
-    values, bound, certified = found.values, found.bound, found.certified
+    k = found.values.shape[0] if count == n_modes or n_modes is None else int(n_modes)
+    values, bound, certified = found.values[:k], found.bound[:k], found.certified[:k]
     if not certified.all():  # (not seen: the multisection proves every root) keep the widest honest bound
         bound = np.where(certified, bound, np.maximum(np.abs(values), pencil.R))
     result = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")
     finite = values > 0
     worst = float(np.max(bound[finite] / values[finite])) if finite.any() else 0.0
     result.refined = np.ones(k, dtype=bool)
-    result.refinement = (f"all {k} modes from roots of the ring's spring form (interlacing with the chain cut at "
-                         f"its weakest spring), {int(certified.sum())} of {k} bounds certified by Sturm counts of "
-                         f"the spring form in double-double, error/omega^2 up to {worst:.1g}")
+    which = (f"the lowest {k} modes" if count != n_modes else f"all {k} modes") + " from roots of the ring's spring form"
+    cut = "its weakest spring" + (", its lowest eigenvalues by bisection" if count != n_modes else "")
+    result.refinement = (f"{which} (interlacing with the chain cut at {cut}), {int(certified.sum())} of {k} bounds "
+                         f"certified by Sturm counts of the spring form in double-double, error/omega^2 up to "
+                         f"{worst:.1g}")
     if found.tightened:
         result.refinement += (f"; {found.tightened} bounds (double eigenvalues) tightened by spring-space Rayleigh-Ritz "
                               "on their Golub-Kahan singular vectors")
@@ -434,8 +444,7 @@ def _multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float6
     return lo, hi, used + 2 * k
 
 
-def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]
-                ) -> Callable[[NDArray[np.float64], NDArray[np.float64]], int]:
+def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) -> Tighten:
     """`ring_values`' `tighten` step: each cluster of values whose count bound stays over
     `ring_path.MP_WANTED` (a double eigenvalue: counts uncertain within ~sqrt(n) 1e-15 of it;
     a ring's eigenvalues are at most double) gets spring-space Rayleigh-Ritz on its singular
@@ -443,11 +452,11 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]
     `golub_kahan.refined_vectors`), with quadratic residual bounds
     (`cluster_bounds`, extended precision, B~'s exact entries) whose gaps are the neighbours'
     certified bounds; each value keeps the tighter bound. A cluster at the end of a partial set
-    (no value above it) is left as it is. Returns how many bounds it tightened."""
+    (no value above it) is left as it is."""
     B = sp.csr_matrix(weighted)
     terms = most_terms(B)
 
-    def tighten(values: NDArray[np.float64], bound: NDArray[np.float64]) -> int:
+    def tighten(values: NDArray[np.float64], bound: NDArray[np.float64]) -> None:
         k = values.shape[0]
         loose = np.flatnonzero((bound > MP_WANTED * values) & (values > 0) & np.isfinite(bound))
         runs: list[list[int]] = []  # clusters holding a loose value, adjacent ones joined (one Ritz step each)
@@ -465,7 +474,6 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]
                 runs[-1][1] = b
             else:
                 runs.append([a, b])
-        count = 0
         for a, b in runs:
             complete = b == k
             if not np.all(np.isfinite(bound[a - 1: b + 1])):
@@ -477,32 +485,15 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]
                                              ceiling=ceiling, deviation=deviation)
             better = error < bound[a:b]
             values[a:b][better], bound[a:b][better] = theta[better], error[better]
-            count += int(better.sum())
-        return count
 
     return tighten
 
 
-def lowest_result(weighted: Any, mass: NDArray[np.float64], ring: SolveResult, *, vectors: bool) -> SolveResult:
-    """The lowest k of the k + 2 values of `ring` (the two more give the last mode's pair, if it
-    has one, a gap above for `pair_step`), with vectors if asked: each mode's singular vector
-    of B~ (Golub-Kahan inverse iteration)."""
-    k = ring.eigenvalues.shape[0] - 2
-    values, bound = ring.eigenvalues[:k], ring.error[:k]
-    note = ""
-    if vectors:
-        B = sp.csr_matrix(weighted)
-        result = spring_figures(B, values, singular_vectors(B, values, mass), True, "accurate-ring")
-        note = "; vectors by Golub-Kahan inverse iteration"
-    else:
-        result = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")
-    result.error = bound
-    result.refined = np.ones(k, dtype=bool)
-    positive = values > 0
-    worst = float(np.max(bound[positive] / values[positive])) if positive.any() else 0.0
-    text = ring.refinement or ""
-    pairs = text[text.index(";"):] if ";" in text else ""
-    result.refinement = (f"the lowest {k} modes from roots of the ring's spring form (interlacing with the chain cut "
-                         f"at its weakest spring, its lowest eigenvalues by bisection), each bound certified by Sturm "
-                         f"counts of the spring form in double-double{pairs}{note}, error/omega^2 up to {worst:.1g}")
+def ring_vectors(weighted: Any, mass: NDArray[np.float64], ring: SolveResult) -> SolveResult:
+    """`ring` (the lowest modes, certified) with each mode's singular vector of B~ (Golub-Kahan
+    inverse iteration), their residuals and orthogonality; the bounds stay the counts'."""
+    B = sp.csr_matrix(weighted)
+    result = spring_figures(B, ring.eigenvalues, singular_vectors(B, ring.eigenvalues, mass), True, "accurate-ring")
+    result.error, result.refined = ring.error, ring.refined
+    result.refinement = f"{ring.refinement}; vectors by Golub-Kahan inverse iteration"
     return result

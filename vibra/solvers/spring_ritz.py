@@ -360,7 +360,7 @@ def _row_sums(slots: NDArray[np.intp], ph: NDArray[np.float64], pl: NDArray[np.f
 
 
 def spring_figures(weighted: Any, values: NDArray[np.float64], basis: NDArray[np.float64], vectors: bool,
-                    solver: str) -> SolveResult:
+                   solver: str) -> SolveResult:
     """A result from spring-space values and (mass-weighted) vectors: residuals of K~ = B~^T B~ on a
     sample of columns, the orthogonality of the basis, and a Kato-Temple error per sampled mode."""
     columns = sample_columns(basis.shape[1])
