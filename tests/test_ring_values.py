@@ -146,6 +146,37 @@ def test_compiled_counts_agree_with_the_numpy_spring_form_and_a_dense_solve(n: i
             assert np.array_equal(compiled[sure], dense[sure])
 
 
+def test_compiled_counts_do_not_depend_on_how_points_are_grouped() -> None:
+    """The kernels count `ring_kernel.LANES` points together (a block's last point repeated to
+    fill it): each point's count, certainty and last pivot are the same counted alone, in
+    blocks of any fill, in any order (the lanes share no arithmetic)."""
+    mass, springs = disordered_ring(257, 6.0, 4)
+    ring = linear_chain(257, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
+    pencil = cycle.ring_pencil(*ring.spring_factor(), mass)
+    m, compliance, off, squares, closing = _kernel_arrays(pencil)
+    x = np.r_[10.0 ** np.random.default_rng(1).uniform(-8, 4, 3 * ring_kernel.LANES + 5), 0.0, -1.0, np.inf]
+    together = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
+    order = np.random.default_rng(2).permutation(x.shape[0])
+    shuffled = ring_kernel.spring_counts(x[order], m, compliance, off, squares, closing, 4 * UNIT)
+    for j in range(x.shape[0]):
+        alone = ring_kernel.spring_counts(x[j: j + 1], m, compliance, off, squares, closing, 4 * UNIT)
+        for part, every, mixed in zip(alone, together, shuffled):
+            assert np.array_equal(part[0], every[j], equal_nan=True)
+            assert np.array_equal(mixed[np.flatnonzero(order == j)[0]], every[j], equal_nan=True)
+    site = np.zeros(2 * 257 - 1, dtype=bool)
+    site[0::2] = True
+    weights = np.ones(2 * 257 - 1)
+    weights[1::2] = springs[:256]
+    masses = np.zeros(2 * 257 - 1)
+    masses[0::2] = mass
+    path = (site, masses, div(np.ones_like(weights), np.zeros_like(weights), weights, np.zeros_like(weights)),
+            mul(np.ones_like(weights), np.zeros_like(weights), np.ones_like(weights), np.zeros_like(weights)))
+    together = ring_kernel.path_counts(x, *path)
+    for j in range(x.shape[0]):
+        alone = ring_kernel.path_counts(x[j: j + 1], *path)
+        assert alone[0][0] == together[0][j] and alone[1][0] == together[1][j]
+
+
 def test_roots_and_bounds_of_ring_values_are_sorted_and_finite() -> None:
     """`ring_path.ring_values` on a 400-site ring with a spread of 1e6: n values ascending,
     the zero mode exactly 0, every bound finite and certified."""
@@ -161,17 +192,15 @@ def test_roots_and_bounds_of_ring_values_are_sorted_and_finite() -> None:
     assert np.allclose(found.values[top], dense[top], rtol=1e-12)
 
 
-def test_the_plan_takes_accurate_ring_for_values_only_and_the_band_above_its_limit() -> None:
-    """Planning: a 3,000-site ring, "high": ``accurate-ring`` for all frequencies without vectors
-    and for the lowest 10 with or without (the plan names the path that runs); all modes with
-    vectors the checked dense solve; above RING_VALUES_LIMIT the band for all frequencies, and
-    ``accurate-ring`` still for the lowest 10."""
-    from vibra.solvers.accurate import RING_VALUES_LIMIT
-
+def test_the_plan_takes_accurate_ring_for_values_only_at_any_length() -> None:
+    """Planning, "high": ``accurate-ring`` for all frequencies without vectors and for the lowest
+    10 with or without, at 3,000 and 120,000 sites (the plan names the path that runs; the
+    budget, not a length, limits it); all modes with vectors the checked dense solve (3,000) or
+    the band (120,000, its values certified by ``accurate-ring`` after)."""
     for n, k, vectors, path in ((3000, None, False, "accurate-ring"), (3000, None, True, "accurate-checked"),
-                                (RING_VALUES_LIMIT + 1, None, False, "banded"), (3000, 10, False, "accurate-ring"),
-                                (3000, 10, True, "accurate-ring"), (RING_VALUES_LIMIT + 1, 10, False, "accurate-ring"),
-                                (RING_VALUES_LIMIT + 1, 10, True, "accurate-ring")):
+                                (120000, None, False, "accurate-ring"), (120000, None, True, "banded"),
+                                (3000, 10, False, "accurate-ring"), (3000, 10, True, "accurate-ring"),
+                                (120000, 10, False, "accurate-ring"), (120000, 10, True, "accurate-ring")):
         ring = linear_chain(n, ends="periodic")
         request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=k, vectors=vectors, band=None,
                                solver="auto", spring_factor=ring.spring_factor())
@@ -258,7 +287,7 @@ def test_the_lowest_modes_of_a_disordered_ring(spread: float, n: int, vectors: b
 
 @pytest.mark.slow
 def test_the_lowest_modes_of_rings_longer_than_the_values_limit() -> None:
-    """60,000 sites (over RING_VALUES_LIMIT), `modes(n_modes=...)`: ``accurate-ring`` in O(n k),
+    """60,000 sites, `modes(n_modes=...)`: ``accurate-ring`` in O(n k),
     the cut chain's lowest eigenvalues by bisection on its Golub-Kahan form instead of dqds of
     all of them. Before, shift-invert: at 50,000 sites with a spread of 1e6, 164 s, bounds up to
     2.8 relative and the rigid mode at 1.2e-12; on a uniform ring the last mode's bound 1.3e-9

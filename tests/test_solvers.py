@@ -353,24 +353,38 @@ def test_frequencies_of_a_million_site_system_chain_refused_in_modes() -> None:
 
 def test_a_60000_site_ring_uses_its_band_not_a_dense_eigh() -> None:
     """A ring is tridiagonal plus two corners: reordered 0, n-1, 1, n-2, ... it is a band of
-    half-width 2 (in "high" too for all frequencies, above `accurate.RING_VALUES_LIMIT`)."""
+    half-width 2: "fast" takes the band solver on it, "high" ``accurate-ring`` (O(n) memory too);
+    neither a dense K~."""
     from vibra.chains import linear_chain
 
     ring = linear_chain(60000, ends="periodic")
-    for accuracy in ("high", "fast"):
+    for accuracy, path in (("high", "accurate-ring"), ("fast", "banded")):
         factor = ring.spring_factor() if accuracy == "high" else None
         request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=None, vectors=False, band=None,
                                solver="auto", spring_factor=factor)
-        assert request.path == "banded" and request.width == 2
+        assert request.path == path and request.width == 2
         assert request.cost.memory < 20 * 2**20  # O(n b) words, not the 27 GiB of a dense K~
+
+
+def test_all_frequencies_of_a_long_ring_in_high_are_refused_with_fast_among_the_ways_out() -> None:
+    """"high" on all frequencies of a 300,000-site ring: ``accurate-ring``, O(n^2), ~45 min
+    estimated: refused up front, naming accuracy="fast" (the band) and the lowest 10 by
+    ``accurate-ring`` (seconds) among the cheaper requests; max_seconds lets it through."""
+    from vibra.chains import linear_chain
+
+    ring = linear_chain(300000, ends="periodic")
+    message = refused_quickly(lambda: ring.modes(vectors=False), r"K has 300000 dofs: the accurate-ring path")
+    assert 'accuracy="fast" (banded, absolute accuracy' in message
+    assert "n_modes=10 (the lowest modes, accurate-ring:" in message
+    request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=None, vectors=False, band=None,
+                           solver="auto", spring_factor=ring.spring_factor())
+    solvers.check_plan(request, n_modes=None, vectors=False, band=None, max_memory=None, max_seconds=float("inf"))
 
 
 def test_ring_frequencies_match_the_closed_form_and_a_dense_solve() -> None:
     """A ring above DENSE_LIMIT sites, frequencies only, takes ``accurate-ring`` in "high"
     (relative accuracy, every bound certified by Sturm counts of its spring form; with vectors,
-    up to RING_DENSE_LIMIT, the checked dense solve); "fast" takes its band (absolute accuracy);
-    a ring longer than RING_VALUES_LIMIT takes its band in "high" too (the 60,000-site ring
-    above)."""
+    up to RING_DENSE_LIMIT, the checked dense solve); "fast" takes its band (absolute accuracy)."""
     from vibra.chains import linear_chain, monatomic_frequencies
 
     n = 3000

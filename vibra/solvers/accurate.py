@@ -19,10 +19,10 @@ accuracy where the structure allows (`accurate_path` chooses):
   dense solve without the Jacobi fallback. Rings (n_terms = n) keep the fallback up to 4,000
   dofs and the checked dense solve up to `RING_DENSE_LIMIT`; a longer ring takes its band
   (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
-  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (up to
-  `RING_VALUES_LIMIT`, a free ring's frequencies then come from `ring_path`, certified);
+  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (a free
+  ring's frequencies then come from `ring_path`, certified);
 - ``accurate-ring``: the frequencies of a free ring over DENSE_LIMIT sites, all of them without
-  vectors up to `RING_VALUES_LIMIT` sites, or the lowest n_modes at any length (`RING_LOWEST_WORK`):
+  vectors or the lowest n_modes, at any length (`ring_values_apply`; the budget guards the time):
   roots of its spring form's last pivot between the eigenvalues of the chain it is cut into,
   each certified by Sturm counts (`vibra.solvers.ring_path`); the lowest modes' vectors by
   Golub-Kahan inverse iteration, and a double eigenvalue's bound by spring-space Rayleigh-Ritz
@@ -71,29 +71,16 @@ JACOBI_WORK = 4000**3
 RING_DENSE_LIMIT = 6000
 
 
-#: Rings above DENSE_LIMIT (detected by their band) up to this many sites take ``accurate-ring``
-#: for all their frequencies without vectors (O(n^2), ~1.2e-7 n^2 s on two cores: 8 s at 8,000
-#: sites, 108 s at 30,000, ~300 s here) (`vibra.solvers.ring_path`); a longer ring takes its band
-#: (absolute accuracy) for all of them, and ``accurate-ring`` for the lowest n_modes.
-RING_VALUES_LIMIT = 50000
-
-#: The lowest n_modes of a longer ring take ``accurate-ring`` too while n_modes n stays within
-#: this (O(n k): the cut chain's lowest k + 3 eigenvalues by bisection, ~2.2e-6 n s each, then
-#: the roots; 31 s for 10 modes of 10^6 sites on two cores, ~5 min at this limit), where
-#: shift-invert's shift, chosen from ||K~||, sees a disordered ring's lowest values as one cluster.
-RING_LOWEST_WORK = 1e8
-
-
-def ring_values_apply(n: int, *, band: tuple[float, float] | None, n_modes: int | None = None) -> bool:
+def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
     """Whether a free ring of n > DENSE_LIMIT sites has its frequencies from `ring_path` (no band,
     the compiled loops available; a ring with a spring to a wall falls back at solve time):
-    ``accurate-ring`` for all of them without vectors or for the lowest n_modes (their vectors by
-    Golub-Kahan inverse iteration); with all vectors, the band solver's, paired with them. Above
-    `RING_VALUES_LIMIT`, only the lowest n_modes (n_modes n within `RING_LOWEST_WORK`)."""
-    if band is not None or n <= DENSE_LIMIT or not COMPILED:
-        return False
-    return n <= RING_VALUES_LIMIT or (n_modes is not None and n_modes < n - 1
-                                      and float(n_modes) * n <= RING_LOWEST_WORK)
+    ``accurate-ring`` for all of them without vectors (O(n^2), ~2.4e-8 n^2 s on two cores: 68 s
+    at 50,000 sites, 240 s at 100,000) or for the lowest n_modes (O(n k): the cut chain's lowest
+    k + 3 eigenvalues by bisection, ~2.2e-6 n s each; their vectors by Golub-Kahan inverse
+    iteration); with all vectors, the band solver's, paired with them. At any length: the
+    budget's time limit (`budget.TIME_LIMIT_S`, ``max_seconds=``) refuses what would take too
+    long, with ``accuracy="fast"`` (the band, absolute accuracy) among the cheaper requests."""
+    return band is None and n > DENSE_LIMIT and COMPILED
 
 
 def jacobi_allowed(n: int, n_terms: int) -> bool:
@@ -113,7 +100,7 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
     if mass.ndim == 1 and not few and tridiagonal:
         return "accurate-bidiagonal"
-    if banded and ring_values_apply(n, band=band, n_modes=n_modes) and (few or not vectors):
+    if banded and ring_values_apply(n, band=band) and (few or not vectors):
         return "accurate-ring"
     if few:
         return "accurate-ritz"
@@ -143,7 +130,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
         chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
         return chain_counted(chain, coupling, weights, mass, band)
     deviation = forming_deviation(weighted, coupling, weights, mass)
-    if ordering is not None and ring_values_apply(n, band=band, n_modes=n_modes) and (few or not vectors):
+    if ordering is not None and ring_values_apply(n, band=band) and (few or not vectors):
         ring = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass), lowest=few)
         if ring is not None:
             return ring_vectors(weighted, mass, ring) if vectors else ring

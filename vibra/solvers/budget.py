@@ -27,9 +27,9 @@ the input, then time:
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
 - accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
-  lowest k of a long ring, bisection, 3e-6 n k, when cheaper) + 1.2e-7 n k
-  (measured 1.0-1.3e-7 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
-  nodes per value) + at most 5e5 sites of mpmath counts (2e-5 s each); with vectors (the lowest k), a
+  lowest k of a long ring, bisection, 3e-6 n k, when cheaper) + 2e-8 n k
+  (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
+  nodes per value, 8 points at a time in SIMD lanes) + at most 5e5 sites of mpmath counts (2e-5 s each); with vectors (the lowest k), a
   Golub-Kahan LU per mode, ~2e-6 n k.
 - accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
 - accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
@@ -68,7 +68,7 @@ LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: Sturm bisection + inverse iteration on a chain (measured 2.4e-6)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
-RING_S = 1.2e-7               # per n k: a ring's values, each certified by counts (`ring_path`; 1.0-1.3e-7 measured)
+RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring_path`; 1.4-2.4e-8 measured)
 RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring_path.MP_WORK`)
 MP_COUNT_S = 2e-5             # per site: one mpmath count (~0.15 s at 8,000 sites)
 RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)

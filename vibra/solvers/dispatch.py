@@ -58,6 +58,8 @@ class Plan:
     cost: Estimate
     nnz: int
     n_dof: int
+    fast: Estimate | None = None  # the cost of accuracy="fast" (the standard path), where "high" was asked
+    lowest: Estimate | None = None  # the cost of the same accurate request for the lowest 10 modes
 
 
 def plan(
@@ -85,18 +87,14 @@ def plan(
             ordering, width = ring
     tridiagonal = width <= 1 and ordering is None
     partial = n_modes is not None and n_modes < n
+    standard = _standard(n, width, tridiagonal=tridiagonal, partial=partial, band=band, vectors=vectors,
+                         sparse=sp.issparse(K))
+    fast = None
     if solver == "auto":
-        if spring_factor is not None:
-            solver = "accurate"
-        elif n <= DENSE_LIMIT:
-            solver = "dense"
-        elif width <= BAND_LIMIT and not (vectors and (partial or band is not None)):
-            # (LAPACK's banded and tridiagonal drivers allocate n x n vectors even for a subset)
-            solver = "tridiagonal" if tridiagonal else "banded"
-        elif (partial or band is not None) and sp.issparse(K):
-            solver = "sparse"  # (a dense K takes the dense subset: its sparse LU would fill in)
-        else:
-            solver = "dense"
+        solver = "accurate" if spring_factor is not None else standard
+        if spring_factor is not None:  # what accuracy="fast" would run instead
+            k_fast = n_modes if n_modes is not None else n
+            fast = estimate(standard, n, k=k_fast, vectors=vectors, width=width, nnz=_stored(K))
     if solver == "tridiagonal" and not tridiagonal:
         raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
     if solver == "banded" and mass.ndim != 1:
@@ -105,21 +103,41 @@ def plan(
         raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
-    path = solver
-    n_terms = 0
-    if solver == "accurate":
-        assert spring_factor is not None
-        n_terms = spring_factor[0].shape[0]
-        path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1, n_terms=n_terms,
-                                banded=ordering is not None, vectors=vectors)
-    if (requested in ("auto", "accurate") and partial and band is None and tridiagonal and mass.ndim == 1
-            and ((solver == "accurate" and n > BISECTION_SIZE) or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
-        path = "accurate-bisection"
+    n_terms = 0 if spring_factor is None else spring_factor[0].shape[0]
+
+    def chosen(n_modes: int | None) -> str:
+        path = solver
+        if solver == "accurate":
+            path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1, n_terms=n_terms,
+                                    banded=ordering is not None, vectors=vectors)
+        some = n_modes is not None and n_modes < n
+        if (requested in ("auto", "accurate") and some and band is None and tridiagonal and mass.ndim == 1
+                and ((solver == "accurate" and n > BISECTION_SIZE) or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
+            path = "accurate-bisection"
+        return path
+
+    path = chosen(n_modes)
     k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
     if path == "dense" and band is not None:
         k = n
     cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
-    return Plan(solver, path, width, ordering, cost, _stored(K), n)
+    lowest = None
+    if solver == "accurate" and band is None and (n_modes is None or n_modes > 50) and n > 10:
+        lowest = estimate(chosen(10), n, k=10, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
+    return Plan(solver, path, width, ordering, cost, _stored(K), n, fast, lowest)
+
+
+def _standard(n: int, width: int, *, tridiagonal: bool, partial: bool, band: tuple[float, float] | None,
+              vectors: bool, sparse: bool) -> str:
+    """The solver "auto" picks without a spring factor (absolute accuracy: ``accuracy="fast"``)."""
+    if n <= DENSE_LIMIT:
+        return "dense"
+    if width <= BAND_LIMIT and not (vectors and (partial or band is not None)):
+        # (LAPACK's banded and tridiagonal drivers allocate n x n vectors even for a subset)
+        return "tridiagonal" if tridiagonal else "banded"
+    if (partial or band is not None) and sparse:
+        return "sparse"  # (a dense K takes the dense subset: its sparse LU would fill in)
+    return "dense"
 
 
 def _diagonal_spread(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64]) -> float:
@@ -140,10 +158,14 @@ def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
                  band: tuple[float, float] | None) -> list[str]:
     """The cheaper requests that answer most questions, each with its own estimate."""
     options = []
+    if request.fast is not None and request.fast.seconds < request.cost.seconds:
+        options.append(f'accuracy="fast" ({request.fast.path}, absolute accuracy: ~{_short(request.fast)})')
     if vectors:
         values = estimate(request.path, n, k=n_modes or n, vectors=False, width=request.width)
         options.append(f"vectors=False (frequencies only: ~{_short(values)})")
-    if n_modes is None or n_modes > 50:
+    if request.lowest is not None:
+        options.append(f"n_modes=10 (the lowest modes, {request.lowest.path}: ~{_short(request.lowest)})")
+    elif n_modes is None or n_modes > 50:
         how = "sparse shift-invert" if request.nnz < 0.1 * n * n else "a dense subset"
         few = estimate("sparse" if how.startswith("sparse") else "dense", n, k=10, vectors=vectors,
                        width=request.width, nnz=request.nnz)
