@@ -24,8 +24,7 @@ numba's threads: the machine's cores, 2 here):
 
 Writes results/ring_values.json.
 
-``--lowest``: `modes(n_modes=10, vectors=False)` of rings longer than RING_VALUES_LIMIT, where
-``accurate-ring`` now finds the cut chain's lowest eigenvalues by bisection (O(n k)) instead of
+``--lowest``: `modes(n_modes=10, vectors=False)` of long rings, where ``accurate-ring`` finds the cut chain's lowest eigenvalues by bisection (O(n k)) instead of
 dqds of all, against the path it replaces (shift-invert Lanczos, scipy eigsh with the shift
 chosen from ||K~||, then spring-space Rayleigh-Ritz), itself the strongest peer here (the
 lowest eigenvalues of a sparse pencil). That path takes minutes on disordered rings: it is
@@ -33,6 +32,11 @@ timed once, before the rounds (not at all on disordered rings over 50,000 sites)
 the interleaved rounds only when that took under 30 s. Truth: the closed form (uniform),
 64-digit mpmath counts on the modes (disordered, up to 50,000 sites; above, bounds only).
 Writes results/ring_lowest.json.
+
+``--kernels``: the compiled loops themselves, `LANES` points at a time (SIMD lanes) against
+one point at a time (`tests/scalar_kernels.py`, the previous kernels, bit-identical results),
+at 20,000 sites: the ring's spring counts and pivot roots, a chain's path counts. Numba's
+threads 2 for both. Writes results/ring_kernels.json.
 """
 
 from __future__ import annotations
@@ -171,6 +175,57 @@ def run_lowest(cases: list[tuple[int, float]], rounds: int, k: int = 10) -> list
     return rows
 
 
+def run_kernels(rounds: int, n: int = 20000, points: int = 512) -> list[dict]:
+    import scalar_kernels
+
+    from vibra._lapack import bidiagonal_singular_values
+    from vibra.solvers import cycle, ring_kernel, ring_path
+    from vibra.solvers.dd import UNIT, div, mul
+
+    rows = []
+    for spread in (0.0, 6.0):
+        mass, springs = (np.ones(n), np.ones(n)) if spread == 0.0 else disordered_ring(n, spread, 7)
+        ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
+        m, w, c_in, c_out = ring_path.spring_arrays(cycle.ring_pencil(*ring.spring_factor(), mass))
+        compliance = div(np.ones(n), np.zeros(n), w, np.zeros(n))
+        off = np.empty(2 * n - 1)
+        off[0::2], off[1::2] = c_in, c_out[: n - 1]
+        squares = mul(off, np.zeros_like(off), off, np.zeros_like(off))
+        d = np.r_[np.abs(np.sqrt(w[:-1]) * c_in[:-1] / np.sqrt(m[:-1])), 0.0]
+        e = np.abs(np.sqrt(w[:-1]) * c_out[:-1] / np.sqrt(m[1:]))
+        poles = np.sort(bidiagonal_singular_values(d, e)) ** 2
+        x = poles[np.linspace(1, n - 1, points).astype(int)] * (1 + 1e-13)  # beside eigenvalues, as certified
+        low, high = poles[1:points + 1], poles[2:points + 2]
+        site = np.zeros(2 * n - 1, dtype=bool)
+        site[0::2] = True
+        nodes = np.zeros(2 * n - 1)
+        nodes[0::2] = m
+        compliance_path = div(np.ones(2 * n - 1), np.zeros(2 * n - 1), np.r_[np.ones(1), np.repeat(w[:-1], 2)][:2 * n - 1],
+                              np.zeros(2 * n - 1))
+        counts = (m, compliance, off, squares, float(c_out[-1]), 4 * UNIT)
+        roots = (low, high, low, high, m, compliance[0], off, float(c_out[-1]))
+        path = (site, nodes, compliance_path, squares)
+        for name, lanes, one in (
+                ("spring counts", lambda: ring_kernel.spring_counts(x, *counts), lambda: scalar_kernels.spring_counts(x, *counts)),
+                ("pivot roots", lambda: ring_kernel.pivot_roots(*roots), lambda: scalar_kernels.pivot_roots(*roots)),
+                ("path counts", lambda: ring_kernel.path_counts(x, *path), lambda: scalar_kernels.path_counts(x, *path))):
+            print(f"{name}, {n} sites, spread 10^{spread:g}", flush=True)
+            timings = interleaved({"lanes": lanes, "one point at a time": one}, rounds)
+            same = all(np.array_equal(a, b, equal_nan=True) for a, b in zip(timings["lanes"].result,
+                                                                              timings["one point at a time"].result))
+            if name == "path counts":  # (count below, certain) against (negative pivots, certain)
+                a, b = timings["lanes"].result, timings["one point at a time"].result
+                same = np.array_equal(a[0], n - b[0]) and np.array_equal(a[1], b[1])
+            work = (2 * n) * (points if name != "pivot roots" else float(timings["lanes"].result[1].sum()))
+            row = {"kernel": name, "n": n, "spread": spread, "same": bool(same),
+                   "times_s": {k: t.summary() for k, t in timings.items()},
+                   "ns_per_node_and_point": {k: t.min / work * 1e9 for k, t in timings.items()},
+                   "speedup": ratio(timings["one point at a time"], timings["lanes"])}
+            print(f"  bit-identical {same}, lanes {format_ratio(row['speedup'])} faster", flush=True)
+            rows.append(row)
+    return rows
+
+
 def _band(K: object, mass: np.ndarray, order: np.ndarray, width: int) -> np.ndarray:
     """K~ reordered, in LAPACK's lower band storage (width + 1 rows)."""
     import scipy.sparse as sp
@@ -188,8 +243,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one small ring, one round (smoke run)")
     parser.add_argument("--lowest", action="store_true", help="the lowest 10 modes of rings over 20,000 sites")
+    parser.add_argument("--kernels", action="store_true", help="the compiled loops: SIMD lanes against one point")
     args = parser.parse_args()
     rounds = 1 if args.quick else ROUNDS
+    if args.kernels:
+        path = write_json("ring_kernels", {"rows": run_kernels(rounds), "peer": "the one-point kernels"}, rounds)
+        print(f"wrote {path}")
+        return
     if args.lowest:
         cases = [(30000, 0.0)] if args.quick else [(50000, 0.0), (50000, 6.0), (200000, 0.0), (200000, 12.0),
                                                    (1000000, 6.0)]

@@ -177,6 +177,50 @@ def test_compiled_counts_do_not_depend_on_how_points_are_grouped() -> None:
         assert alone[0][0] == together[0][j] and alone[1][0] == together[1][j]
 
 
+def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
+    """The kernels take `ring_kernel.LANES` points together, each point's operations in the
+    same order as one point at a time (`scalar_kernels`, the previous kernels: a regression
+    guard, the counts' truth being the mpmath and dense tests here): on 200 random forms with
+    entries over 1e-150..1e150 (zero, huge and tiny couplings) at points over +-1e300, 0, +-inf
+    and nan, every count, certainty and last pivot is the same; so are the pivot roots (value,
+    evaluations, side) on the brackets of disordered and uniform rings."""
+    import scalar_kernels
+
+    rng = np.random.default_rng(11)
+    with np.errstate(all="ignore"):
+        for _ in range(200):
+            n = int(rng.integers(1, 40))
+            e = float(rng.choice([0.0, 8.0, 300.0]))
+            m, w = 10.0 ** rng.uniform(-e / 2, e / 2, n), 10.0 ** rng.uniform(-e / 2, e / 2, n)
+            compliance = div(np.ones(n), np.zeros(n), w, np.zeros(n))
+            off = rng.choice([-1.0, 1.0, 0.0, 1e150, 1e-150], 2 * n - 1)
+            squares = mul(off, np.zeros_like(off), off, np.zeros_like(off))
+            closing = float(rng.choice([1.0, -1.0, 1e-150]))
+            x = np.r_[10.0 ** rng.uniform(-300, 300, 13), -(10.0 ** rng.uniform(-300, 300, 4)), 0.0, np.inf, -np.inf,
+                      np.nan]
+            lanes = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
+            one = scalar_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
+            for a, b in zip(lanes, one):
+                assert np.array_equal(a, b, equal_nan=True)
+            site = rng.random(n) < 0.5
+            path = (site, m, compliance, squares[0][:n], squares[1][:n])
+            count, certain = ring_kernel.path_counts(x, site, m, compliance, (squares[0][:n], squares[1][:n]))
+            negative, sure = scalar_kernels.path_counts(x, *path[:3], (path[3], path[4]))
+            assert np.array_equal(certain, sure)
+            assert np.array_equal(count, np.count_nonzero(site) - negative)
+    for spread in (0.0, 6.0):
+        mass, springs = disordered_ring(3001, spread, 2) if spread else (np.ones(3001), np.ones(3001))
+        ring = linear_chain(3001, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
+        m, compliance, off, _, closing = _kernel_arrays(cycle.ring_pencil(*ring.spring_factor(), mass))
+        m, w, c_in, c_out = ring_path.spring_arrays(cycle.ring_pencil(*ring.spring_factor(), mass))
+        d = np.r_[np.abs(np.sqrt(w[:-1]) * c_in[:-1] / np.sqrt(m[:-1])), 0.0]
+        poles = np.sort(la.svdvals(np.diag(d) + np.diag(np.abs(np.sqrt(w[:-1]) * c_out[:-1] / np.sqrt(m[1:])), 1)))**2
+        low, high = poles[1:-1], poles[2:]
+        arguments = (low, high, low, high, m, compliance[0], off, closing)
+        for a, b in zip(ring_kernel.pivot_roots(*arguments), scalar_kernels.pivot_roots(*arguments)):
+            assert np.array_equal(a, b)
+
+
 def test_roots_and_bounds_of_ring_values_are_sorted_and_finite() -> None:
     """`ring_path.ring_values` on a 400-site ring with a spread of 1e6: n values ascending,
     the zero mode exactly 0, every bound finite and certified."""
