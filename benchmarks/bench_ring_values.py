@@ -252,7 +252,7 @@ def main() -> None:
         return
     if args.lowest:
         cases = [(30000, 0.0)] if args.quick else [(50000, 0.0), (50000, 6.0), (200000, 0.0), (200000, 12.0),
-                                                   (1000000, 6.0)]
+                                                   (1000000, 6.0), (1000000, 0.0)]
         path = write_json("ring_lowest", {"rows": run_lowest(cases, rounds), "peer": "the previous path"}, rounds)
         print(f"wrote {path}")
         return

@@ -27,7 +27,7 @@ the input, then time:
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
 - accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
-  lowest k of a long ring, bisection, 3e-6 n k, when cheaper) + 2e-8 n k
+  lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
   (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
   nodes per value, 8 points at a time in SIMD lanes) + at most 5e5 sites of mpmath counts (2e-5 s each); with vectors (the lowest k), a
   Golub-Kahan LU per mode, ~2e-6 n k.
@@ -49,6 +49,8 @@ import time
 from dataclasses import dataclass
 from typing import Callable, TextIO
 
+from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
+
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
 MEMORY_LIMIT: float | None = None
 
@@ -66,7 +68,8 @@ TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, writt
 BANDED_S = 5e-9               # per (b + 1) n^2: band reduction to tridiagonal form
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
-BISECTION_S = 3e-6            # per n k: Sturm bisection + inverse iteration on a chain (measured 2.4e-6)
+BISECTION_S = 3e-6            # per n k: Sturm bisection (dstebz) + inverse iteration (dstein) on a chain, with vectors (measured 2.4e-6)
+BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection in SIMD lanes + certificates (measured 3.4e-7)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
 RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring_path`; 1.4-2.4e-8 measured)
 RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring_path.MP_WORK`)
@@ -151,10 +154,11 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein),
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
-        seconds = BISECTION_S * n * k
+        seconds = (BISECTION_S if vectors or not COMPILED else BISECTION_VALUES_S) * n * k
     elif path == "accurate-ring":  # the cut chain's values (dqds, or bisection for the lowest k + 1),
         memory = 8.0 * 40 * n + vector_bytes  # then each value's roots and counts
-        poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, BISECTION_S * n * (k + 1.0))
+        each = BISECTION_VALUES_S if COMPILED else BISECTION_S  # (the poles: values only)
+        poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
         seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, 24.0 * n)
         if vectors:  # each mode's sparse LU of the 2n Golub-Kahan matrix (`golub_kahan.singular_vectors`)
             seconds += TRIPLET_UNIT_S * TRIPLET_ROW * 2.0 * n * k

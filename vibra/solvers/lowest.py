@@ -4,8 +4,9 @@ A chain's frequencies are the singular values of its bidiagonal spring factor B~
 (`vibra.solvers.bidiagonal.path_bidiagonals`). The singular values of an upper bidiagonal
 (d, e) are the positive eigenvalues of the Golub-Kahan tridiagonal TGK (zero diagonal,
 off-diagonal d1, e1, d2, e2, ..., dn), whose Sturm counts are relatively accurate
-(Demmel and Kahan 1990). Bisection (LAPACK dstebz) therefore finds the lowest k to a few
-ulps of themselves however far below ||K~|| they lie, in O(n k) per bit: a disordered chain
+(Demmel and Kahan 1990). Bisection (compiled, LANES values at a time, `gk_bisection`, for values
+only; LAPACK dstebz with vectors or without numba) therefore finds the lowest k to a few ulps of
+themselves however far below ||K~|| they lie, in O(n k) per bit: a disordered chain
 whose masses and springs spread over 1e12, where a shift chosen from ||K~|| sees the lowest
 eigenvalues as one cluster, costs no more than a uniform one. Vectors come from inverse
 iteration on TGK (LAPACK dstein); their accuracy is the residual's.
@@ -25,14 +26,16 @@ from vibra.solvers.bidiagonal import (
     segment_scalings, solving_bound, worst_forming,
 )
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
+from vibra.solvers.gk_bisection import AVAILABLE as BISECTION_COMPILED, bidiagonal_values_by_bisection
 from vibra.solvers.rounding import UNIT, Scalings
 
 __all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certified_lowest", "DQDS_FACTOR",
            "spring_factor_of_chain", "lowest_chain_modes"]
 
-#: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~2e-9 s^2
-#: seconds) rather than bisection for k of them (~3e-6 s k seconds), whichever is cheaper.
-DQDS_FACTOR = 1500
+#: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~1e-8 s^2
+#: seconds) rather than bisection for k of them (compiled, `gk_bisection`: ~1.1e-7 s k seconds on
+#: two cores; dstebz without numba, ~1.4e-6 s k), whichever is cheaper.
+DQDS_FACTOR = 10
 
 
 def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool
@@ -49,9 +52,11 @@ def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int
     zero = np.zeros(2 * s)
     first = s + skip
     lower = first - 1 if vectors else first  # the -sigma partner of the lowest: a zero pair needs both
-    if not vectors and s <= DQDS_FACTOR * k:
+    if not vectors and s <= (DQDS_FACTOR if BISECTION_COMPILED else 150 * DQDS_FACTOR) * k:
         # dqds on all s values (O(s^2)) beats bisection for k of them (O(s k) per bit) here
         return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
+    if not vectors and BISECTION_COMPILED:  # the same counts, LANES values at a time
+        return bidiagonal_values_by_bisection(d, e[: s - 1], skip, k), None, None
     values, block, split = tridiagonal_eigenvalues_by_index(zero, off, lower, first + k - 1)
     order = np.argsort(values, kind="stable")  # dstebz groups the values by split-off block
     sigma = np.abs(values[order][first - lower:])
