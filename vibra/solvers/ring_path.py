@@ -15,7 +15,7 @@ rigorous for the masses and springs as given, whatever the float64 roots' accura
 
 The lowest k only (`ring_values(pencil, count=k)`): the cut chain's lowest k + 1 eigenvalues by
 bisection on its Golub-Kahan form (`lowest.golub_kahan_lowest`, O(n k)) instead of dqds of all
-of them, so that a ring of any length costs O(n k) (31 s for 10 of 10^6 sites on two cores).
+of them, so that a ring of any length costs O(n k) (5.6 s for 10 of 10^6 sites on two cores).
 
 Cost: per mode ~1.5 float64 evaluations of l and ~2.5 double-double counts of 2n nodes, both
 compiled 8 points at a time (SIMD lanes, `ring_kernel.LANES`), and the cut chain's dqds: in all
