@@ -85,3 +85,35 @@ def test_bad_indices_are_refused() -> None:
     d, e = _bidiagonal(10, 0.0, 1)
     with pytest.raises(ValueError, match=r"indices must lie in 0\.\.9, got 8\.\.10"):
         gk_bisection.bidiagonal_values_by_bisection(d, e, 8, 3)
+
+
+@pytest.mark.parametrize(("padded", "spread", "skip"), [(True, 0.0, 0), (True, 6.0, 0), (False, 6.0, 0), (True, 0.0, 4)])
+def test_vectors_from_compiled_values_match_the_lapack_route(padded: bool, spread: float, skip: int) -> None:
+    """With vectors, `lowest.golub_kahan_lowest` takes its values from the compiled bisection and
+    gives dstein the block structure itself (one block, or a free chain's padding: d[-1] = 0
+    splits off a 1 x 1 block with one of the two zero eigenvalues). Against the dstebz route on
+    a 20,000-site chain's bidiagonal spring factor (its lowest values well apart): the same values within 4 ulps, the same vectors up to sign
+    within 1e-12 (distinct values here), residuals ||B v - sigma u|| within 1e-13 ||B||."""
+    from vibra.solvers import lowest
+
+    rng = np.random.default_rng(5)  # a chain's spring factor: masses and springs over 10^spread
+    size = 20000
+    m, w = 10.0 ** rng.uniform(0, spread, size), 10.0 ** rng.uniform(0, spread, size)
+    d, e = np.sqrt(w / m), np.sqrt(w[:-1] / m[1:])  # (fixed at the far end: w[-1] to a wall)
+    if padded:
+        d[-1] = 0.0  # a free chain: its last row, padding
+    ours = lowest.golub_kahan_lowest(d, e, skip, 12, vectors=True)
+    saved = lowest.BISECTION_COMPILED
+    lowest.BISECTION_COMPILED = False
+    try:
+        lapack = lowest.golub_kahan_lowest(d, e, skip, 12, vectors=True)
+    finally:
+        lowest.BISECTION_COMPILED = saved
+    sigma, u, v = ours
+    assert np.all(np.abs(sigma - lapack[0]) <= 4 * EPS * lapack[0])
+    for mine, theirs in ((u, lapack[1]), (v, lapack[2])):
+        assert mine is not None and theirs is not None
+        assert np.all(np.minimum(np.abs(mine - theirs).max(axis=0), np.abs(mine + theirs).max(axis=0)) < 1e-12)
+    norm = float(max(np.abs(d).max(), np.abs(e).max()))
+    for j in range(12):
+        assert np.linalg.norm(d * v[:, j] + np.r_[e * v[1:, j], 0.0] - sigma[j] * u[:, j]) <= 1e-13 * norm

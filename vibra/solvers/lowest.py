@@ -57,7 +57,9 @@ def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int
         return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
     if not vectors and BISECTION_COMPILED:  # the same counts, LANES values at a time
         return bidiagonal_values_by_bisection(d, e[: s - 1], skip, k), None, None
-    values, block, split = tridiagonal_eigenvalues_by_index(zero, off, lower, first + k - 1)
+    known = _compiled_with_blocks(d, e, off, lower, first, k) if BISECTION_COMPILED else None
+    values, block, split = known if known is not None else tridiagonal_eigenvalues_by_index(zero, off, lower,
+                                                                                            first + k - 1)
     order = np.argsort(values, kind="stable")  # dstebz groups the values by split-off block
     sigma = np.abs(values[order][first - lower:])
     if not vectors:
@@ -74,6 +76,31 @@ def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int
     u /= np.maximum(np.linalg.norm(u, axis=0), np.finfo(float).tiny)
     v /= np.maximum(np.linalg.norm(v, axis=0), np.finfo(float).tiny)
     return sigma, u, v
+
+
+def _compiled_with_blocks(d: NDArray[np.float64], e: NDArray[np.float64], off: NDArray[np.float64], lower: int,
+                          first: int, k: int) -> tuple[NDArray[np.float64], NDArray[np.intc], NDArray[np.intc]] | None:
+    """(values, block, split) as dstebz returns them for TGK's eigenvalues lower..first+k-1, the
+    values from the compiled bisection (`gk_bisection`), for dstein: where TGK's blocks are
+    known without it, none (no off-diagonal with a square below the safe minimum, dstebz's
+    split with a zero diagonal) or only a free chain's padding (d[-1] exactly 0: a last 1 x 1
+    block, whose eigenvalue 0 is one of TGK's two zeros). Else None (dstebz decides)."""
+    size = d.shape[0]
+    n = 2 * size
+    splits = np.flatnonzero(off * off < np.finfo(float).tiny)
+    padded = splits.shape[0] == 1 and splits[0] == n - 2 and d[size - 1] == 0.0
+    if splits.shape[0] and not padded:
+        return None
+    sigma = bidiagonal_values_by_bisection(d, e[: size - 1], first - size, k)
+    values = np.r_[-sigma[0], sigma] if lower < first else sigma  # (-sigma_skip: the lower partner)
+    block = np.ones(values.shape[0], dtype=np.intc)
+    if not padded:
+        return values, block, np.array([n], dtype=np.intc)
+    zeros = np.flatnonzero(values == 0.0)
+    if zeros.shape[0] >= 2:  # one zero is the padding block's: grouped by block, it comes last
+        values = np.r_[np.delete(values, zeros[-1]), 0.0]
+        block[-1] = 2
+    return values, block, np.array([n - 1, n], dtype=np.intc)
 
 
 def _dominant(parts: NDArray[np.float64]) -> NDArray[np.float64]:
