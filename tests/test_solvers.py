@@ -374,7 +374,7 @@ def test_all_frequencies_of_a_long_ring_in_high_are_refused_with_fast_among_the_
 
     ring = linear_chain(300000, ends="periodic")
     message = refused_quickly(lambda: ring.modes(vectors=False), r"K has 300000 dofs: the accurate-ring path")
-    assert 'accuracy="fast" (banded, absolute accuracy' in message
+    assert 'accuracy="fast" (normal_modes: no spring_factor; banded, absolute accuracy' in message
     assert "n_modes=10 (the lowest modes, accurate-ring:" in message
     request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=None, vectors=False, band=None,
                            solver="auto", spring_factor=ring.spring_factor())

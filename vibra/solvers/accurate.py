@@ -76,7 +76,7 @@ def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
     the compiled loops available; a ring with a spring to a wall falls back at solve time):
     ``accurate-ring`` for all of them without vectors (O(n^2), ~2.4e-8 n^2 s on two cores: 68 s
     at 50,000 sites, 240 s at 100,000) or for the lowest n_modes (O(n k): the cut chain's lowest
-    k + 3 eigenvalues by bisection, ~2.2e-6 n s each; their vectors by Golub-Kahan inverse
+    k + 3 eigenvalues by compiled bisection, ~1.1e-7 n s each; their vectors by Golub-Kahan inverse
     iteration); with all vectors, the band solver's, paired with them. At any length: the
     budget's time limit (`budget.TIME_LIMIT_S`, ``max_seconds=``) refuses what would take too
     long, with ``accuracy="fast"`` (the band, absolute accuracy) among the cheaper requests."""

@@ -93,8 +93,9 @@ def plan(
     if solver == "auto":
         solver = "accurate" if spring_factor is not None else standard
         if spring_factor is not None:  # what accuracy="fast" would run instead
-            k_fast = n_modes if n_modes is not None else n
-            fast = estimate(standard, n, k=k_fast, vectors=vectors, width=width, nnz=_stored(K))
+            k_fast = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
+            fast = estimate(standard, n, k=n if standard == "dense" and band is not None else k_fast,
+                            vectors=vectors, width=width, nnz=_stored(K))
     if solver == "tridiagonal" and not tridiagonal:
         raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
     if solver == "banded" and mass.ndim != 1:
@@ -103,7 +104,7 @@ def plan(
         raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
-    n_terms = 0 if spring_factor is None else spring_factor[0].shape[0]
+    n_terms = spring_factor[0].shape[0] if solver == "accurate" and spring_factor is not None else 0
 
     def chosen(n_modes: int | None) -> str:
         path = solver
@@ -159,7 +160,8 @@ def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
     """The cheaper requests that answer most questions, each with its own estimate."""
     options = []
     if request.fast is not None and request.fast.seconds < request.cost.seconds:
-        options.append(f'accuracy="fast" ({request.fast.path}, absolute accuracy: ~{_short(request.fast)})')
+        options.append(f'accuracy="fast" (normal_modes: no spring_factor; {request.fast.path}, absolute accuracy: '
+                       f'~{_short(request.fast)})')
     if vectors:
         values = estimate(request.path, n, k=n_modes or n, vectors=False, width=request.width)
         options.append(f"vectors=False (frequencies only: ~{_short(values)})")
