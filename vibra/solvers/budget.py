@@ -68,8 +68,9 @@ TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, writt
 BANDED_S = 5e-9               # per (b + 1) n^2: band reduction to tridiagonal form
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
-BISECTION_S = 3e-6            # per n k: Sturm bisection (dstebz) + inverse iteration (dstein) on a chain, with vectors (measured 2.4e-6)
-BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection in SIMD lanes + certificates (measured 3.4e-7)
+BISECTION_S = 3e-6            # per n k: Sturm bisection (dstebz) + inverse iteration (dstein) on a chain, without numba (measured 2.4e-6)
+BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates (measured 6.3e-7)
+BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates (measured 3.4e-7)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
 RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring_path`; 1.4-2.4e-8 measured)
 RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring_path.MP_WORK`)
@@ -154,7 +155,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein),
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
-        seconds = (BISECTION_S if vectors or not COMPILED else BISECTION_VALUES_S) * n * k
+        seconds = (BISECTION_S if not COMPILED else BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
     elif path == "accurate-ring":  # the cut chain's values (dqds, or bisection for the lowest k + 1),
         memory = 8.0 * 40 * n + vector_bytes  # then each value's roots and counts
         each = BISECTION_VALUES_S if COMPILED else BISECTION_S  # (the poles: values only)

@@ -38,7 +38,8 @@ SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal
 BISECTION_SPREAD = 1e4
 
 #: See `BISECTION_SPREAD`: above this size a chain's lowest modes come from bisection whatever
-#: its spread (10^6 sites, lowest 20: 6.7 s, compiled bisection, against the Ritz path's 15 s; bound 2e-16 not 2.5e-9).
+#: its spread (10^6 sites, lowest 20: 6.7 s values only, 12.6 s with vectors, compiled bisection, against the
+#: Ritz path's 15 s; bound 2e-16 not 2.5e-9).
 BISECTION_SIZE = 20_000
 
 
