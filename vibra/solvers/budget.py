@@ -23,7 +23,7 @@ the input, then time:
 - tridiagonal, accurate-bidiagonal: O(n), 8 n^2 with all vectors (LAPACK allocates them);
   1e-8 n^2 for all values (dqds / MRRR), + 1e-7 n k with vectors. accurate-bidiagonal adds
   the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
-- banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 5e-9 (b + 1) n^2 + 1e-8 n^2.
+- banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 2e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
 - accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
@@ -65,7 +65,7 @@ DENSE_VALUES_S = 5e-11        # per n^3: Householder tridiagonalisation + MRRR v
 DENSE_VECTORS_S = 1.5e-10     # per n^3: the same with back-transformed vectors
 TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or bidiagonal
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
-BANDED_S = 5e-9               # per (b + 1) n^2: band reduction to tridiagonal form
+BANDED_S = 2e-9               # per (b + 1) n^2: band reduction to tridiagonal form (sbevd, measured 1.1-2.4e-8 n^2 in all at b = 2..11)
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: Sturm bisection (dstebz) + inverse iteration (dstein) on a chain, without numba (measured 2.4e-6)
