@@ -15,7 +15,8 @@ next value), and the bisection homes in on the exponent first: from a lower end 
 point is hi 2^-32, then the geometric mean while hi > 2 lo, then the midpoint, to 2 ulps
 (hi - lo <= 2 eps hi) or to twice the underflow threshold, dstebz's ABSTOL here (an interval
 from 0 that never left it: the value is 0, a free chain's padding).
-Values only: vectors keep dstebz and dstein (their block structure).
+With vectors, dstein takes these values where the Golub-Kahan matrix's block structure is
+known without dstebz (`lowest._compiled_with_blocks`).
 """
 
 from __future__ import annotations
@@ -23,14 +24,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.ring_kernel import AVAILABLE, LANES, _jit, prange
+from vibra.solvers.ring_kernel import AVAILABLE, LANES, _jit, numba, prange
 
 __all__ = ["AVAILABLE", "bidiagonal_values_by_bisection"]
 
 _EPS = float(np.finfo(float).eps)
 _SAFE_MIN = float(np.finfo(float).tiny)
 
-#: Values one thread bisects together (`LANES` at a time).
+#: Most values one thread bisects together (`LANES` at a time, a finished lane taking the next);
+#: fewer where that leaves a thread idle.
 CHUNK = 4 * LANES
 
 
@@ -105,11 +107,11 @@ def _bisect_chunk(first: int, stop: int, base: int, size: int, squares: NDArray[
 
 
 @_jit(parallel=True)
-def _bisect(skip: int, k: int, size: int, squares: NDArray[np.float64], top: float, pivmin: float
+def _bisect(skip: int, k: int, size: int, squares: NDArray[np.float64], top: float, pivmin: float, chunk: int
             ) -> NDArray[np.float64]:
     out = np.zeros(k)
-    for c in prange((k + CHUNK - 1) // CHUNK):
-        _bisect_chunk(skip + c * CHUNK, skip + min(k, (c + 1) * CHUNK), skip, size, squares, top, pivmin, out)
+    for c in prange((k + chunk - 1) // chunk):
+        _bisect_chunk(skip + c * chunk, skip + min(k, (c + 1) * chunk), skip, size, squares, top, pivmin, out)
     return out
 
 
@@ -131,5 +133,7 @@ def bidiagonal_values_by_bisection(d: NDArray[np.float64], e: NDArray[np.float64
     top = float(edges.max(initial=0.0)) * (1 + 4 * _EPS) + pivmin
     if k <= 0:
         return np.zeros(0)
-    values: NDArray[np.float64] = _bisect(int(skip), int(k), size, squares, top, pivmin)
+    threads = numba.get_num_threads() if numba is not None else 1
+    chunk = int(min(CHUNK, max(LANES, LANES * -(-k // (LANES * threads)))))  # (every thread busy)
+    values: NDArray[np.float64] = _bisect(int(skip), int(k), size, squares, top, pivmin, chunk)
     return values
