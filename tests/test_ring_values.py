@@ -448,3 +448,18 @@ def test_the_error_free_product_is_within_one_unit_of_each_entry() -> None:
                     plain = max(plain, float(abs(exact(naive[r, j]) - truth[r]) / abs(truth[r])))
     assert worst <= unit
     assert plain > 10 * unit  # (the cancellation it avoids)
+
+
+def test_the_error_free_product_in_row_blocks_is_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`_error_free_product` forms B V in blocks of rows (`EFT_ELEMENTS` entries at a time, to
+    bound its temporaries): rows are independent, so blocks of any size give the same bits."""
+    from vibra.solvers import spring_ritz
+
+    rng = np.random.default_rng(1)
+    B = sp.random(5000, 3000, density=0.002, random_state=2, format="csr")
+    B.data = rng.standard_normal(B.nnz)
+    B = B.astype(np.longdouble)
+    V = rng.standard_normal((3000, 7)).astype(np.longdouble)
+    whole = spring_ritz._error_free_product(B, V)
+    monkeypatch.setattr(spring_ritz, "EFT_ELEMENTS", 7 * 333)  # 16 blocks, the last one short
+    assert np.array_equal(spring_ritz._error_free_product(B, V), whole)

@@ -243,6 +243,10 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
     return theta, vectors, error
 
 
+#: Entries of B V that `_error_free_product` forms at once.
+EFT_ELEMENTS = 2**20
+
+
 def _pairwise_squares(X: NDArray[Any]) -> NDArray[Any]:
     """The squared norm of each column of X, by numpy's pairwise summation (a contiguous row per
     column: numpy sums pairwise only along a contiguous run)."""
@@ -255,7 +259,13 @@ def _error_free_product(B: sp.csr_matrix, V: NDArray[Any]) -> NDArray[Any]:
     """B V in B's precision (long double), each entry within one unit of itself: every product
     b v split exactly into p + e (Dekker's two-product, split at half the significand), the
     p summed by two-sum per row, the errors e and the sums' own errors gathered beside and added
-    last. What is left: (t + 2) unit^2 (|B| |V|)_i from gathering them, and the final rounding."""
+    last. What is left: (t + 2) unit^2 (|B| |V|)_i from gathering them, and the final rounding.
+    Rows in blocks of ~`EFT_ELEMENTS` entries of the result: its dozen temporaries stay ~16 MiB
+    each (a network's 350,000 springs by 26 modes would take ~2 GiB at once)."""
+    rows_per_block = max(1, EFT_ELEMENTS // max(1, V.shape[1]))
+    if B.shape[0] > rows_per_block:
+        return np.concatenate([_error_free_product(B[start: start + rows_per_block], V)
+                               for start in range(0, B.shape[0], rows_per_block)])
     dtype = B.dtype
     digits = np.finfo(dtype).nmant + 1
     splitter = dtype.type(2.0 ** ((digits + 1) // 2) + 1.0)
