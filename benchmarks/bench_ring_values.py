@@ -200,8 +200,9 @@ def run_kernels(rounds: int, n: int = 20000, points: int = 512) -> list[dict]:
         site[0::2] = True
         nodes = np.zeros(2 * n - 1)
         nodes[0::2] = m
-        compliance_path = div(np.ones(2 * n - 1), np.zeros(2 * n - 1), np.r_[np.ones(1), np.repeat(w[:-1], 2)][:2 * n - 1],
-                              np.zeros(2 * n - 1))
+        stiff = np.ones(2 * n - 1)  # (site nodes: unused)
+        stiff[1::2] = w[:-1]
+        compliance_path = div(np.ones(2 * n - 1), np.zeros(2 * n - 1), stiff, np.zeros(2 * n - 1))
         counts = (m, compliance, off, squares, float(c_out[-1]), 4 * UNIT)
         roots = (low, high, low, high, m, compliance[0], off, float(c_out[-1]))
         path = (site, nodes, compliance_path, squares)

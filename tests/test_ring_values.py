@@ -203,16 +203,17 @@ def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
             for a, b in zip(lanes, one):
                 assert np.array_equal(a, b, equal_nan=True)
             site = rng.random(n) < 0.5
-            path = (site, m, compliance, squares[0][:n], squares[1][:n])
-            count, certain = ring_kernel.path_counts(x, site, m, compliance, (squares[0][:n], squares[1][:n]))
-            negative, sure = scalar_kernels.path_counts(x, *path[:3], (path[3], path[4]))
+            path = (site, m, compliance, (squares[0][:n], squares[1][:n]))
+            count, certain = ring_kernel.path_counts(x, *path)
+            negative, sure = scalar_kernels.path_counts(x, *path)
             assert np.array_equal(certain, sure)
             assert np.array_equal(count, np.count_nonzero(site) - negative)
     for spread in (0.0, 6.0):
         mass, springs = disordered_ring(3001, spread, 2) if spread else (np.ones(3001), np.ones(3001))
         ring = linear_chain(3001, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-        m, compliance, off, _, closing = _kernel_arrays(cycle.ring_pencil(*ring.spring_factor(), mass))
-        m, w, c_in, c_out = ring_path.spring_arrays(cycle.ring_pencil(*ring.spring_factor(), mass))
+        pencil = cycle.ring_pencil(*ring.spring_factor(), mass)
+        m, compliance, off, _, closing = _kernel_arrays(pencil)
+        _, w, c_in, c_out = ring_path.spring_arrays(pencil)
         d = np.r_[np.abs(np.sqrt(w[:-1]) * c_in[:-1] / np.sqrt(m[:-1])), 0.0]
         poles = np.sort(la.svdvals(np.diag(d) + np.diag(np.abs(np.sqrt(w[:-1]) * c_out[:-1] / np.sqrt(m[1:])), 1)))**2
         low, high = poles[1:-1], poles[2:]

@@ -29,8 +29,8 @@ the input, then time:
 - accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
   lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
   (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
-  nodes per value, 8 points at a time in SIMD lanes) + at most 5e5 sites of mpmath counts (2e-5 s each); with vectors (the lowest k), a
-  Golub-Kahan LU per mode, ~2e-6 n k.
+  nodes per value, 8 points at a time in SIMD lanes) + at most 5e5 sites of mpmath counts
+  (2e-5 s each); with vectors (the lowest k), a Golub-Kahan LU per mode, ~2e-6 n k.
 - accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
 - accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
   larger of that and accurate-jacobi's (a refinement may run).
@@ -65,10 +65,10 @@ DENSE_VALUES_S = 5e-11        # per n^3: Householder tridiagonalisation + MRRR v
 DENSE_VECTORS_S = 1.5e-10     # per n^3: the same with back-transformed vectors
 TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or bidiagonal
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
-BANDED_S = 2e-9               # per (b + 1) n^2: band reduction to tridiagonal form (sbevd, measured 1.1-2.4e-8 n^2 in all at b = 2..11)
+BANDED_S = 2e-9               # per (b + 1) n^2: band reduction (sbevd: 1.1-2.4e-8 n^2 in all at b = 2..11)
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
-BISECTION_S = 3e-6            # per n k: Sturm bisection (dstebz) + inverse iteration (dstein) on a chain, without numba (measured 2.4e-6)
+BISECTION_S = 3e-6            # per n k: a chain's bisection (dstebz) + dstein, without numba (measured 2.4e-6)
 BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates (measured 6.3e-7)
 BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates (measured 3.4e-7)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)

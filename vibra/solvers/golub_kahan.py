@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.spring_ritz import Deviation
 
-__all__ = ["refine_triplets", "singular_vectors", "refined_vectors", "loose_modes", "WANTED", "TRIPLET_WORK",
+__all__ = ["refine_triplets", "singular_vectors", "refined_vectors", "Refiner", "loose_modes", "WANTED", "TRIPLET_WORK",
            "TRIPLET_SECONDS"]
 
 #: Bounds above this, relative to omega^2, are refined.
@@ -242,48 +242,61 @@ def _kato_temple(exact: Any, exact_T: Any, A: sp.csr_matrix, A_T: sp.csr_matrix,
 def refined_vectors(weighted: sp.csr_matrix, deviation: Deviation, basis: NDArray[np.float64],
                     values: NDArray[np.float64]) -> NDArray[Any]:
     """`basis` (mass-weighted vectors of clustered modes, float64) refined to extended precision
-    (np.longdouble): float64 vectors leave a residual ~eps ||K~|| (their own rounding), so a
-    quadratic residual bound r^2 / gap on a double eigenvalue omega^2 ~ ||K~|| / n^2 grows as n^4
-    relative. Per cluster (values within 1e-9 relative, as `singular_vectors` groups them), with
-    V orthonormal: R = K~ V - V (V^T K~ V) in extended precision with B~'s exact entries (the
+    (np.longdouble): `Refiner(weighted, deviation).refine(basis, values)`; see `Refiner`."""
+    return Refiner(weighted, deviation).refine(basis, values)
+
+
+class Refiner:
+    """Newton refinement of clustered singular vectors of B~ to extended precision, its operators
+    formed once per B~ (several clusters, several calls: a ring's pairs).
+
+    Float64 vectors leave a residual ~eps ||K~|| (their own rounding), so a quadratic residual
+    bound r^2 / gap on a double eigenvalue omega^2 ~ ||K~|| / n^2 grows as n^4 relative. Per
+    cluster (values within 1e-9 relative, as `singular_vectors` groups them), with V
+    orthonormal: R = K~ V - V (V^T K~ V) in extended precision with B~'s exact entries (the
     stored B~ less its rounding D), then the Newton correction X = (K~ - theta I)^-1 R (sparse
     LU, float64: K~ - theta I is nearly singular only along the cluster, whose part of X is
     projected out; elsewhere its error is eps relative, and X itself ~eps long; LU in reverse
-    Cuthill-McKee order, a ring's band), V - X,
-    orthonormalised in extended precision; twice. The bounds computed from the result stay
-    rigorous whatever its quality."""
-    B = sp.csr_matrix(weighted, dtype=float)
-    exact = B.astype(np.longdouble)
-    if deviation is not None:
-        exact = (exact - deviation[0].astype(np.longdouble)).tocsr()
-    exact_T = exact.T.tocsr()
-    n = B.shape[1]
-    K = (B.T @ B).tocsr()
-    order = reverse_cuthill_mckee(K, symmetric_mode=True)  # a ring: a band of half-width 2
-    K = K[order][:, order].tocsc()
-    identity = sp.identity(n, format="csc")
-    result = np.asarray(basis, dtype=np.longdouble).copy()
-    for j, end in _clusters(values):
-        if values[j] <= 0:
-            continue
-        V = _orthonormal(result[:, j:end])
-        for _ in range(REFINE_STEPS):
-            KV = np.asarray(exact_T @ np.asarray(exact @ V))
-            R = KV - V @ (V.T @ KV)
-            shift = float(np.trace((V.T @ KV).astype(float))) / (end - j)
-            try:  # (in band order, natural: LU fill O(n b); the minimum-degree orders stalled on rings)
-                X = np.empty((n, end - j))
-                X[order] = spla.splu((K - shift * identity).tocsc(), permc_spec="NATURAL").solve(
-                    R.astype(float)[order])
-            except RuntimeError:  # exactly singular in float64
-                break
-            if not np.all(np.isfinite(X)):
-                break
-            X = X.astype(np.longdouble)
-            X -= V @ (V.T @ X)  # the correction lies outside the cluster's span
-            V = _orthonormal(V - X)
-        result[:, j:end] = V
-    return result
+    Cuthill-McKee order, a ring's band), V - X, orthonormalised in extended precision;
+    `REFINE_STEPS` times. The bounds computed from the result stay rigorous whatever its
+    quality."""
+
+    def __init__(self, weighted: sp.csr_matrix, deviation: Deviation) -> None:
+        B = sp.csr_matrix(weighted, dtype=float)
+        exact = B.astype(np.longdouble)
+        if deviation is not None:
+            exact = (exact - deviation[0].astype(np.longdouble)).tocsr()
+        self.exact, self.exact_T = exact, exact.T.tocsr()
+        K = (B.T @ B).tocsr()
+        self.order = reverse_cuthill_mckee(K, symmetric_mode=True)  # a ring: a band of half-width 2
+        self.K = K[self.order][:, self.order].tocsc()
+        self.identity = sp.identity(B.shape[1], format="csc")
+
+    def refine(self, basis: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[Any]:
+        """`basis` (columns for `values`, ascending), each cluster refined (see the class)."""
+        n = self.K.shape[0]
+        result = np.asarray(basis, dtype=np.longdouble).copy()
+        for j, end in _clusters(values):
+            if values[j] <= 0:
+                continue
+            V = _orthonormal(result[:, j:end])
+            for _ in range(REFINE_STEPS):
+                KV = np.asarray(self.exact_T @ np.asarray(self.exact @ V))
+                R = KV - V @ (V.T @ KV)
+                shift = float(np.trace((V.T @ KV).astype(float))) / (end - j)
+                try:  # (in band order, natural: LU fill O(n b); the minimum-degree orders stalled on rings)
+                    X = np.empty((n, end - j))
+                    X[self.order] = spla.splu((self.K - shift * self.identity).tocsc(), permc_spec="NATURAL").solve(
+                        R.astype(float)[self.order])
+                except RuntimeError:  # exactly singular in float64
+                    break
+                if not np.all(np.isfinite(X)):
+                    break
+                X = X.astype(np.longdouble)
+                X -= V @ (V.T @ X)  # the correction lies outside the cluster's span
+                V = _orthonormal(V - X)
+            result[:, j:end] = V
+        return result
 
 
 def _orthonormal(V: NDArray[Any]) -> NDArray[Any]:

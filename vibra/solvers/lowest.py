@@ -37,6 +37,9 @@ __all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certifi
 #: two cores; dstebz without numba, ~1.4e-6 s k), whichever is cheaper.
 DQDS_FACTOR = 10
 
+#: The same without numba (LAPACK dstebz, one point at a time).
+DQDS_FACTOR_LAPACK = 1500
+
 
 def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]:
@@ -52,7 +55,7 @@ def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int
     zero = np.zeros(2 * s)
     first = s + skip
     lower = first - 1 if vectors else first  # the -sigma partner of the lowest: a zero pair needs both
-    if not vectors and s <= (DQDS_FACTOR if BISECTION_COMPILED else 150 * DQDS_FACTOR) * k:
+    if not vectors and s <= (DQDS_FACTOR if BISECTION_COMPILED else DQDS_FACTOR_LAPACK) * k:
         # dqds on all s values (O(s^2)) beats bisection for k of them (O(s k) per bit) here
         return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
     if not vectors and BISECTION_COMPILED:  # the same counts, LANES values at a time

@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from vibra._lapack import bidiagonal_singular_values
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts
 from vibra.solvers.common import SolveResult
-from vibra.solvers.golub_kahan import refined_vectors, singular_vectors
+from vibra.solvers.golub_kahan import Refiner, singular_vectors
 from vibra.solvers.spring_ritz import Deviation, cluster_bounds, most_terms, spring_figures
 from vibra.solvers.lowest import golub_kahan_lowest
 from vibra.solvers.cycle import (
@@ -458,6 +458,7 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) ->
     (no value above it) is left as it is."""
     B = sp.csr_matrix(weighted)
     terms = most_terms(B)
+    refiners: list[Refiner] = []  # formed on the first cluster that needs one, then reused
 
     def tighten(values: NDArray[np.float64], bound: NDArray[np.float64]) -> None:
         k = values.shape[0]
@@ -481,7 +482,9 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) ->
             complete = b == k
             if not np.all(np.isfinite(bound[a - 1: b + 1])):
                 continue
-            basis = refined_vectors(B, deviation, singular_vectors(B, values[a:b], mass), values[a:b])
+            if not refiners:
+                refiners.append(Refiner(B, deviation))
+            basis = refiners[0].refine(singular_vectors(B, values[a:b], mass), values[a:b])
             ceiling = None if complete else float(values[b] - bound[b])
             theta, _, error = cluster_bounds(B, values[a:b], basis, bound[a:b], terms, complete=complete,
                                              precise=True, floor=float(values[a - 1] + bound[a - 1]),
