@@ -24,14 +24,17 @@ from vibra.chains import linear_chain
 from vibra import solvers
 
 
-def ring_count(mass: np.ndarray, springs: np.ndarray, x: mp.mpf, dps: int = 40) -> int:
-    """How many eigenvalues of (K, M) lie below x, for the ring (mass, springs)."""
+def ring_count(mass: np.ndarray, springs: np.ndarray, x: mp.mpf, dps: int = 40,
+               ground: np.ndarray | None = None) -> int:
+    """How many eigenvalues of (K, M) lie below x, for the ring (mass, springs), with a spring
+    ground[i] from site i to a wall where given."""
     with mp.workdps(dps):
         n = len(mass)
         k = [mp.mpf(float(s)) for s in springs]
         m = [mp.mpf(float(v)) for v in mass]
+        g = [mp.mpf(0)] * n if ground is None else [mp.mpf(float(v)) for v in ground]
         x = mp.mpf(x)
-        a = [k[i - 1] + k[i] - x * m[i] for i in range(n)]
+        a = [k[i - 1] + k[i] + g[i] - x * m[i] for i in range(n)]
         pivot, fill, last = a[0], -k[n - 1], a[n - 1]
         negative = 0
         for i in range(n - 2):

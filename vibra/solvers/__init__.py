@@ -31,8 +31,9 @@
                      (rings to 4,000 sites), else without (accurate-rayleigh);
                    - a ring up to 6,000 sites: each bound then certified by Sturm counts of
                      its pencil in double-double (`cycle.py`);
-                   - all frequencies, no vectors, of a free ring over 1,500 sites, or its
-                     lowest n_modes, at any length the budget allows: roots of its spring
+                   - all frequencies, no vectors, of a ring over 1,500 sites (free or with
+                     springs to a wall), or its lowest n_modes, at any length the budget
+                     allows: roots of its spring
                      form's last pivot between the eigenvalues of the chain it is cut into, each
                      certified by compiled double-double Sturm counts, O(n^2) for all,
                      O(n k) for the lowest k (accurate-ring; `ring_path.py`, `ring_kernel.py`).

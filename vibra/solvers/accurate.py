@@ -19,9 +19,10 @@ accuracy where the structure allows (`accurate_path` chooses):
   dense solve without the Jacobi fallback. Rings (n_terms = n) keep the fallback up to 4,000
   dofs and the checked dense solve up to `RING_DENSE_LIMIT`; a longer ring takes its band
   (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
-  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (a free
+  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (the
   ring's frequencies then come from `ring_path`, certified);
-- ``accurate-ring``: the frequencies of a free ring over DENSE_LIMIT sites, all of them without
+- ``accurate-ring``: the frequencies of a ring (free, or with springs to a wall) over
+  DENSE_LIMIT sites, all of them without
   vectors or the lowest n_modes, at any length (`ring_values_apply`; the budget guards the time):
   roots of its spring form's last pivot between the eigenvalues of the chain it is cut into,
   each certified by Sturm counts (`vibra.solvers.ring_path`); the lowest modes' vectors by
@@ -72,8 +73,8 @@ RING_DENSE_LIMIT = 6000
 
 
 def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
-    """Whether a free ring of n > DENSE_LIMIT sites has its frequencies from `ring_path` (no band,
-    the compiled loops available; a ring with a spring to a wall falls back at solve time):
+    """Whether a ring of n > DENSE_LIMIT sites (free, or with springs to a wall) has its
+    frequencies from `ring_path` (no band, the compiled loops available):
     ``accurate-ring`` for all of them without vectors (O(n^2), ~2.4e-8 n^2 s on two cores: 68 s
     at 50,000 sites, 240 s at 100,000) or for the lowest n_modes (O(n k): the cut chain's lowest
     k + 3 eigenvalues by compiled bisection, ~1.1e-7 n s each; their vectors by Golub-Kahan inverse

@@ -26,7 +26,7 @@ the input, then time:
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 2e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run.
-- accurate-ring (a free ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
+- accurate-ring (a ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
   lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
   (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
   nodes per value, 8 points at a time in SIMD lanes) + at most 5e5 sites of mpmath counts

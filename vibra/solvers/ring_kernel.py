@@ -1,9 +1,9 @@
 """Compiled loops of the ring's values-only path (numba): roots of the spring form's last pivot,
 and its inertia counts in double-double.
 
-A free ring (no spring to a wall) with its dofs taken around the cycle, cut at its closing
-spring r (`cycle.count_below_springs` picks it), has the spring form
-A(x) = [[W^-1, B], [B^T, x M]] with 2n nodes on a path (site 0, spring 0, site 1, ...,
+A ring with its dofs taken around the cycle, cut at its closing spring r
+(`cycle.count_below_springs` picks it), has the spring form A(x) = [[W^-1, B], [B^T, x M]]
+(springs to a wall eliminated into each site's diagonal, x m - wall) with 2n nodes on a path (site 0, spring 0, site 1, ...,
 site n-1, spring n-1 = r) closed by one coupling (spring r to site 0). Eliminating the path
 in order, the last pivot l(x) = 1/w_r - y^T A_sub(x)^-1 y is the Schur complement of the
 cut chain's spring form A_sub: zero at the ring's eigenvalues, with poles at the chain's, and
@@ -42,7 +42,7 @@ try:
 except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
     numba = None  # type: ignore[assignment]
 
-__all__ = ["AVAILABLE", "pivot_roots", "spring_counts", "path_counts"]
+__all__ = ["AVAILABLE", "pivot_roots", "spring_counts", "path_counts", "walled_factor"]
 
 #: Whether the compiled loops can run here.
 AVAILABLE = numba is not None
@@ -136,12 +136,15 @@ _X, _XH, _XL, _PH, _PL, _GH, _GL, _GE, _LH, _LL, _LE, _RH, _RL, _QH, _QL, _INV, 
 @_jit()
 def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], compliance_h: NDArray[np.float64],
                  compliance_l: NDArray[np.float64], off: NDArray[np.float64], square_h: NDArray[np.float64],
-                 square_l: NDArray[np.float64], closing: float, u: float, count: NDArray[np.int64],
-                 certain: NDArray[np.bool_], last: NDArray[np.float64]) -> None:
+                 square_l: NDArray[np.float64], wall_h: NDArray[np.float64], wall_l: NDArray[np.float64],
+                 walls: bool, closing: float, u: float, count: NDArray[np.int64], certain: NDArray[np.bool_],
+                 last: NDArray[np.float64]) -> None:
     """`cycle.count_below_springs`' loop for points x[start: start + LANES] (the last repeated to
     fill the block), written into count, certain and last (the last pivot). Per point the
     operations and their order are those of one point at a time; the branches on the node are
-    taken once per node, those on the point's values become selects."""
+    taken once per node, those on the point's values become selects. `walls`: each site's
+    diagonal is x m - wall (double-double, `cycle.count_below_springs`' subtraction); a free
+    ring skips it (the same bits: subtracting a zero changes no double-double)."""
     k = x.shape[0]
     n = m.shape[0]
     size = 2 * n
@@ -153,6 +156,8 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
         s[_XH, p], s[_XL, p] = _split(xp)
         s[_PH, p] = xp * m[0]
         s[_PL, p] = ((s[_XH, p] * m0h - s[_PH, p]) + s[_XH, p] * m0l + s[_XL, p] * m0h) + s[_XL, p] * m0l
+        if walls:
+            s[_PH, p], s[_PL, p] = _add(s[_PH, p], s[_PL, p], -wall_h[0], -wall_l[0])
         s[_GH, p] = closing
         s[_LH, p], s[_LL, p] = compliance_h[n - 1], compliance_l[n - 1]
         s[_LE, p] = u * abs(s[_LH, p])
@@ -183,6 +188,8 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
         mass = m[(j + 1) // 2]
         mh, ml = _split(mass)
         ch, cl = compliance_h[j // 2], compliance_l[j // 2]
+        walled = walls and site
+        wh, wl = -wall_h[(j + 1) // 2], -wall_l[(j + 1) // 2]
         for p in range(LANES):
             fh, fl = _mul(-c, 0.0, s[_QH, p], s[_QL, p])
             g_error = abs(c) * s[_INV, p] * s[_GE, p] * (1 + 1e-12) + 4 * u * abs(fh)
@@ -195,6 +202,8 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
             xp, xh, xl = s[_X, p], s[_XH, p], s[_XL, p]
             dh = xp * mass
             dl = ((xh * mh - dh) + xh * ml + xl * mh) + xl * ml
+            if walled:
+                dh, dl = _add(dh, dl, wh, wl)
             s[_PH, p], s[_PL, p] = _add(dh if site else ch, dl if site else cl, -th, -tl)
     for p in range(min(LANES, k - start)):
         lh, last_error = s[_LH, p], s[_LE, p]
@@ -207,27 +216,32 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
 @_jit(parallel=True)
 def _counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance_h: NDArray[np.float64],
             compliance_l: NDArray[np.float64], off: NDArray[np.float64], square_h: NDArray[np.float64],
-            square_l: NDArray[np.float64], closing: float, u: float
-            ) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64]]:
+            square_l: NDArray[np.float64], wall_h: NDArray[np.float64], wall_l: NDArray[np.float64], walls: bool,
+            closing: float, u: float) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64]]:
     k = x.shape[0]
     count = np.zeros(k, dtype=np.int64)
     certain = np.zeros(k, dtype=np.bool_)
     last = np.zeros(k)
     for b in prange((k + LANES - 1) // LANES):
-        _count_block(x, b * LANES, m, compliance_h, compliance_l, off, square_h, square_l, closing, u, count, certain,
-                     last)
+        _count_block(x, b * LANES, m, compliance_h, compliance_l, off, square_h, square_l, wall_h, wall_l, walls, closing,
+                     u, count, certain, last)
     return count, certain, last
 
 
 def spring_counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
                   off: NDArray[np.float64], squares: tuple[NDArray[np.float64], NDArray[np.float64]],
-                  closing: float, u: float) -> tuple[NDArray[np.intp], NDArray[np.bool_], NDArray[np.float64]]:
+                  closing: float, u: float, wall: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+                  ) -> tuple[NDArray[np.intp], NDArray[np.bool_], NDArray[np.float64]]:
     """(count, certain, last pivot's high part) at each x: the inertia counts of the spring form
     (path order: m per site, compliance 1/w per spring as double-double, off the 2n - 1 path
     couplings and squares their squares as double-double, closing the coupling of spring n - 1
-    to site 0), exactly as `cycle.count_below_springs` computes them (per-node unit u)."""
+    to site 0, `wall` the springs to a wall per site as double-double, None for a free ring),
+    exactly as `cycle.count_below_springs` computes them (per-node unit u)."""
+    walls = wall is not None
+    wall_h, wall_l = (np.zeros(m.shape[0]), np.zeros(m.shape[0])) if wall is None else \
+        (np.ascontiguousarray(wall[0], dtype=float), np.ascontiguousarray(wall[1], dtype=float))
     count, certain, last = _counts(np.ascontiguousarray(x, dtype=float), m, compliance[0], compliance[1], off,
-                                   squares[0], squares[1], float(closing), float(u))
+                                   squares[0], squares[1], wall_h, wall_l, walls, float(closing), float(u))
     return count.astype(np.intp), certain, last
 
 
@@ -245,18 +259,20 @@ CHUNK = 16 * LANES
 
 @_jit()
 def _pivot_block(x: NDArray[np.float64], m: NDArray[np.float64], compliance: NDArray[np.float64],
-                 off: NDArray[np.float64], closing: float, f: NDArray[np.float64], fp: NDArray[np.float64]) -> None:
+                 off: NDArray[np.float64], wall: NDArray[np.float64], closing: float, f: NDArray[np.float64],
+                 fp: NDArray[np.float64]) -> None:
     """(l(x), l'(x)) into f and fp at the LANES points x: the last pivot of the spring form and its
-    derivative, float64 (the lanes as `_count_block`'s)."""
+    derivative, float64 (the lanes as `_count_block`'s; a site's diagonal x m - wall, the same
+    bits as x m where wall is 0)."""
     n = m.shape[0]
     size = 2 * n
     s = np.zeros((7, LANES))  # rows: x, p, p', g, g', l, l'
     for q in range(LANES):
         s[0, q] = x[q]
-        s[1, q], s[2, q] = x[q] * m[0], m[0]
+        s[1, q], s[2, q] = x[q] * m[0] - wall[0], m[0]
         s[3, q] = closing
         s[5, q] = compliance[n - 1]
-    c, closes, c_last, site, mass, spring = 0.0, False, 0.0, False, 0.0, 0.0
+    c, closes, c_last, site, mass, spring, tie = 0.0, False, 0.0, False, 0.0, 0.0, 0.0
     for j in range(size - 1):
         if j < size - 2:
             c = off[j]
@@ -264,6 +280,7 @@ def _pivot_block(x: NDArray[np.float64], m: NDArray[np.float64], compliance: NDA
             c_last = off[size - 2]
             site = j % 2 == 1
             mass = m[(j + 1) // 2]
+            tie = wall[(j + 1) // 2]
             spring = compliance[j // 2]
         for q in range(LANES):
             p, dp, g, dg = s[1, q], s[2, q], s[3, q], s[4, q]
@@ -279,7 +296,7 @@ def _pivot_block(x: NDArray[np.float64], m: NDArray[np.float64], compliance: NDA
                 e = e + c_last if closes else e
                 t = c * c * r  # c^2 / p
                 dt = -t * dp * r
-                d = s[0, q] * mass if site else spring
+                d = s[0, q] * mass - tie if site else spring
                 dd = mass if site else 0.0
                 s[1, q], s[2, q] = d - t, dd - dt
                 s[3, q], s[4, q] = e, de
@@ -296,7 +313,7 @@ def _middle(a: float, b: float) -> float:
 @_jit()
 def _roots_chunk(first: int, stop: int, low: NDArray[np.float64], high: NDArray[np.float64],
                  pole_low: NDArray[np.float64], pole_high: NDArray[np.float64], m: NDArray[np.float64],
-                 compliance: NDArray[np.float64], off: NDArray[np.float64], closing: float,
+                 compliance: NDArray[np.float64], off: NDArray[np.float64], wall: NDArray[np.float64], closing: float,
                  out: NDArray[np.float64], evaluations: NDArray[np.int64], side: NDArray[np.int64]) -> None:
     """The roots first..stop-1 of l, each in (low, high), LANES at a time: the rational step on
     the pole on the root's side (Newton's step where that pole is infinite), bisection where it
@@ -317,7 +334,7 @@ def _roots_chunk(first: int, stop: int, low: NDArray[np.float64], high: NDArray[
                            evaluations, side)
         busy += root[q] >= 0
     while busy:
-        _pivot_block(x, m, compliance, off, closing, f, fp)
+        _pivot_block(x, m, compliance, off, wall, closing, f, fp)
         for q in range(LANES):
             t = root[q]
             if t < 0:
@@ -409,26 +426,28 @@ def _advance(q: int, f: float, fp: float, pole_low: float, pole_high: float, x: 
 @_jit(parallel=True)
 def _roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: NDArray[np.float64],
            pole_high: NDArray[np.float64], m: NDArray[np.float64], compliance: NDArray[np.float64],
-           off: NDArray[np.float64], closing: float
+           off: NDArray[np.float64], wall: NDArray[np.float64], closing: float
            ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
     k = low.shape[0]
     out = np.zeros(k)
     evaluations = np.zeros(k, dtype=np.int64)
     side = np.zeros(k, dtype=np.int64)
     for c in prange((k + CHUNK - 1) // CHUNK):
-        _roots_chunk(c * CHUNK, min(k, (c + 1) * CHUNK), low, high, pole_low, pole_high, m, compliance, off, closing,
-                     out, evaluations, side)
+        _roots_chunk(c * CHUNK, min(k, (c + 1) * CHUNK), low, high, pole_low, pole_high, m, compliance, off, wall,
+                     closing, out, evaluations, side)
     return out, evaluations, side
 
 
 def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: NDArray[np.float64],
                 pole_high: NDArray[np.float64], m: NDArray[np.float64], compliance: NDArray[np.float64],
-                off: NDArray[np.float64], closing: float
+                off: NDArray[np.float64], closing: float, wall: NDArray[np.float64] | None = None
                 ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
     """(root, evaluations of l, side) of the last pivot in each bracket (low, high), float64: side
-    -1 or +1 where the root was taken at the lower or upper pole (within NEAR), 0 inside."""
+    -1 or +1 where the root was taken at the lower or upper pole (within NEAR), 0 inside.
+    `wall`: the springs to a wall per site (float64), None for a free ring."""
+    tie = np.zeros(m.shape[0]) if wall is None else np.ascontiguousarray(wall, dtype=float)
     roots, evaluations, side = _roots(*(np.ascontiguousarray(a, dtype=float) for a in (low, high, pole_low, pole_high)),
-                                m, np.ascontiguousarray(compliance, dtype=float), off, float(closing))
+                                m, np.ascontiguousarray(compliance, dtype=float), off, tie, float(closing))
     return roots, evaluations.astype(np.intp), side.astype(np.intp)
 
 
@@ -496,3 +515,28 @@ def path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.f
     negative, certain = _path_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m,
                                      compliance[0], compliance[1], squares[0], squares[1])
     return int(np.count_nonzero(site)) - negative.astype(np.intp), certain
+
+
+# --- the cut chain's factor with walls ---
+
+@_jit()
+def _walled(a: NDArray[np.float64], b: NDArray[np.float64], tie: NDArray[np.float64]
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    n = a.shape[0]
+    d, e = np.empty(n), np.empty(n - 1)
+    s = tie[0]
+    for i in range(n):
+        square = a[i] * a[i] + s
+        d[i] = np.sqrt(square)
+        if i < n - 1:
+            e[i] = b[i] * (a[i] / d[i])
+            s = tie[i + 1] + b[i] * b[i] * (s / square)
+    return d, e
+
+
+def walled_factor(a: NDArray[np.float64], b: NDArray[np.float64], tie: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(d, e) of the lower bidiagonal Cholesky factor of B~ B~^T + diag(tie), B~ lower bidiagonal
+    with diagonal a and subdiagonal b, all nonnegative (`ring_path.cut_chain`'s recurrence, every
+    step a sum, product or quotient of nonnegative numbers: relatively accurate)."""
+    return _walled(*(np.ascontiguousarray(v, dtype=float) for v in (a, b, tie)))

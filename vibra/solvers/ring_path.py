@@ -1,8 +1,10 @@
-"""Every frequency of a free ring to high relative accuracy, values only, in O(n^2): ``accurate-ring``.
+"""Every frequency of a ring to high relative accuracy, values only, in O(n^2): ``accurate-ring``.
 
 A ring is a chain closed by one spring. Cut there (at the spring whose entry of B~ is smallest,
-as `cycle.count_below_springs` closes its cycle), the chain's eigenvalues p_0 = 0 < p_1 < ...
-come from dqds on its bidiagonal spring factor (relatively accurate); the ring's eigenvalue i
+as `cycle.count_below_springs` closes its cycle), the chain's eigenvalues p_0 < p_1 < ...
+come from dqds on a bidiagonal factor of its K~ (relatively accurate): its spring factor for a
+free ring (p_0 = 0), and for a ring with springs to a wall the Cholesky factor that
+`cut_chain` forms from the springs without cancellation. The ring's eigenvalue i
 lies in [p_i, p_i+1] (interlacing: the ring is the chain plus a positive rank-one term), where
 it is the root of the spring form's last pivot (`ring_kernel.pivot_roots`, float64, a few
 O(n) evaluations each). Each root is then certified by two double-double inertia counts of
@@ -23,8 +25,8 @@ compiled 8 points at a time (SIMD lanes, `ring_kernel.LANES`), and the cut chain
 dense Jacobi route of the smaller rings would take minutes and the band solver gives absolute
 accuracy only. There is no length limit: the budget (`budget.TIME_LIMIT_S`) refuses what
 would take too long.
-Without numba (or for a ring with springs to a wall, whose cut is not a bidiagonal chain)
-`ring_values` returns None and the ring keeps its previous path.
+Without numba `ring_values` returns None and the ring keeps its previous path (checked dense
+up to `accurate.RING_DENSE_LIMIT` sites, the band solver above).
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values
-from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts
+from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts, walled_factor
 from vibra.solvers.common import SolveResult
 from vibra.solvers.golub_kahan import Refiner, singular_vectors
 from vibra.solvers.spring_ritz import Deviation, cluster_bounds, most_terms, spring_figures
@@ -100,57 +102,91 @@ def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.f
     return np.roll(pencil.m, -turn), w, c_in, c_out
 
 
+def spring_walls(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The springs to a wall at each site (sum of w c^2, double-double) in `spring_arrays`' order."""
+    turn = (int(np.argmin(_closing(pencil))) + 1) % pencil.n
+    return np.roll(pencil.wall[0], -turn), np.roll(pencil.wall[1], -turn)
+
+
+def cut_chain(m: NDArray[np.float64], w: NDArray[np.float64], c_in: NDArray[np.float64], c_out: NDArray[np.float64],
+              wall: NDArray[np.float64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(d, e): a lower bidiagonal L (diagonal d, subdiagonal e) with L L^T = K~ of the chain that
+    the ring is cut into (springs 0..n-2 of `spring_arrays`, site i's springs to a wall summing
+    to wall[i]), every entry relatively accurate: its squared singular values are the chain's
+    eigenvalues to a few ulps (dqds, or bisection).
+
+    Free (`wall` None): L is B~ itself (n x (n - 1), a zero column added). With walls, K~ =
+    B~ B~^T + D^2 (D_i^2 = wall_i / m_i) is not a product of one bidiagonal; its Cholesky factor
+    is, and with a_i, b_i spring i's entries of B~ on sites i and i + 1 (signs dropped: a
+    diagonal +-1 similarity) its entries come from sums of positive terms only:
+    s_0 = D_0^2, d_i^2 = a_i^2 + s_i, e_i = a_i b_i / d_i, s_i+1 = D_i+1^2 + b_i^2 s_i / d_i^2
+    (s_i = d_i^2 - a_i^2: what the sites up to i keep of their walls), so no cancellation: the
+    factor is as accurate as its inputs, where forming K~ and factoring it would lose the
+    lowest eigenvalues to ||K~|| eps."""
+    root_w, root_m = np.sqrt(w[:-1]), np.sqrt(m)
+    a = np.abs(root_w * c_in[:-1] / root_m[:-1])
+    b = np.abs(root_w * c_out[:-1] / root_m[1:])
+    if wall is None:
+        return np.r_[a, 0.0], b
+    return walled_factor(np.r_[a, 0.0], b, wall / m)
+
+
 Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
 
 
 def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighten | None = None,
                 needed: int | None = None) -> RingValues | None:
-    """All eigenvalues of a free ring's pencil (the lowest `count` of them when given: O(count n),
+    """All eigenvalues of a ring's pencil (the lowest `count` of them when given: O(count n),
     the cut chain's lowest by bisection), each with a count-certified bound (see above); None
-    where the compiled loops are unavailable or the ring has a spring to a wall. `tighten`
+    where the compiled loops are unavailable. `tighten`
     (values, bound): the caller's step on the bounds still over MP_WANTED
     (values and bounds per eigenvalue index, changed in place) before mpmath counts the loosest
     of the first `needed` (default: all; the rest only bound their neighbours' gaps)."""
-    if pencil.walls or not COMPILED:
+    if not COMPILED:
         return None
     n = pencil.n
     wanted = n if count is None else max(1, min(int(count), n))
     m, w, c_in, c_out = spring_arrays(pencil)
+    wall = spring_walls(pencil) if pencil.walls else None
     compliance = _div(np.ones(n), np.zeros(n), w, np.zeros(n))
     off = np.empty(2 * n - 1)
     off[0::2], off[1::2] = c_in, c_out[: n - 1]
     squares = _mul(off, np.zeros_like(off), off, np.zeros_like(off))
     closing = float(c_out[n - 1])
     u = 4 * _UNIT_DD
+    free = wall is None
+    tie = None if wall is None else wall[0]  # float64 walls: the cut chain's factor, the pivot roots
+    first = 1 if free else 0  # a free ring's eigenvalue 0 is its rigid rotation, exactly
 
-    # the cut chain's eigenvalues: its (n - 1) x n bidiagonal B~, squared with a zero row
-    root_w, root_m = np.sqrt(w[: n - 1]), np.sqrt(m)
-    d = np.r_[np.abs(root_w * c_in[: n - 1] / root_m[: n - 1]), 0.0]
-    e = np.abs(root_w * c_out[: n - 1] / root_m[1:])
+    # the cut chain's eigenvalues: the squared singular values of its bidiagonal spring factor
+    d, e = cut_chain(m, w, c_in, c_out, tie)
     if wanted < n:  # the lowest wanted + 1 only: bisection on the Golub-Kahan form, O(n k)
         poles = golub_kahan_lowest(d, e, 0, wanted + 1, vectors=False)[0] ** 2
     else:
         poles = bidiagonal_singular_values(d, e) ** 2
-    poles[0] = 0.0
+    if free:
+        poles[0] = 0.0
     top = pencil.R * (1 + 1e-12)
-    low = poles[1:wanted]
-    high = np.r_[poles[2:], max(top, poles[-1])][: wanted - 1]
-    roots, evaluations, side = pivot_roots(low, high, low, np.r_[poles[2:], np.inf][: wanted - 1], m,
-                                           compliance[0], off, closing)
+    # eigenvalue i lies between the chain's i and i + 1 (the ring is the chain plus one spring)
+    low = poles[first:wanted]
+    high = np.r_[poles[first + 1:], max(top, poles[-1])][: wanted - first]
+    roots, evaluations, side = pivot_roots(low, high, low, np.r_[poles[first + 1:], np.inf][: wanted - first], m,
+                                           compliance[0], off, closing, tie)
 
     def counts(x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        count, certain, _ = spring_counts(x, m, compliance, off, squares, closing, u)
+        count, certain, _ = spring_counts(x, m, compliance, off, squares, closing, u, wall)
         return count, certain
 
     def pivots(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return spring_counts(x, m, compliance, off, squares, closing, u)[2]
+        return spring_counts(x, m, compliance, off, squares, closing, u, wall)[2]
 
     inside = np.flatnonzero((side == 0) & (roots > 0))
     roots[inside], spent = _secant(pivots, roots[inside])
-    values = np.r_[0.0, roots]
+    values = np.r_[0.0, roots] if free else roots
     index = np.arange(wanted)
     bound = np.full(wanted, np.inf)
-    bound[0] = 0.0  # the free ring's rigid rotation: exactly zero (B 1 = 0), as the chains report it
+    if free:
+        bound[0] = 0.0  # the free ring's rigid rotation: exactly zero (B 1 = 0), as the chains report it
 
     widening = spring_widening(pencil)
 
@@ -177,13 +213,13 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     # the pole itself but for the pole's own error (dqds of the cut chain's float64 B~: ~sqrt(n)
     # eps from forming it), so its brackets start at SNAPPED_LEVELS; those they do not prove
     # are refined in double-double (`_polish`) and go through every level
-    spent += ladder(np.flatnonzero(np.r_[False, side == 0]), LEVELS)
-    snapped = np.flatnonzero(np.r_[False, side != 0])
+    spent += ladder(np.flatnonzero(side == 0) + first, LEVELS)
+    snapped = np.flatnonzero(side != 0) + first
     spent += ladder(snapped, SNAPPED_LEVELS)
     left = snapped[~np.isfinite(bound[snapped])]
     if left.shape[0]:
-        pole = np.where(side[left - 1] < 0, low[left - 1], high[left - 1])
-        values[left], used = _polish(pivots, pole, side[left - 1])
+        pole = np.where(side[left - first] < 0, low[left - first], high[left - first])
+        values[left], used = _polish(pivots, pole, side[left - first])
         # a root 1e-8..1e-6 from its pole: the model's neglected smooth part matters there,
         # and l is smooth enough for `_secant`'s step of 1e-10
         far = left[np.abs(values[left] - pole) > 1e-8 * pole]
@@ -192,7 +228,7 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
 
     todo = np.flatnonzero(~np.isfinite(bound))
     if todo.shape[0]:
-        lo = np.r_[0.0, poles[1:]][todo] * (1 - 1e-9)
+        lo = poles[todo] * (1 - 1e-9)  # (a free ring's poles[0] is 0)
         hi = np.r_[poles[1:], top][todo] * (1 + 1e-9)
         lo, hi, used = _multisection(counts, lo, hi, index[todo])
         spent += used
@@ -215,8 +251,8 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
 
 def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None,
                 *, tighten: Tighten | None = None, lowest: bool = False) -> SolveResult | None:
-    """``accurate-ring``: a free ring's frequencies by `ring_values` (the lowest n_modes of them
-    when given) as a result without vectors, or None (not one free ring: the caller goes on).
+    """``accurate-ring``: a ring's frequencies by `ring_values` (the lowest n_modes of them
+    when given) as a result without vectors, or None (not one ring: the caller goes on).
     `lowest` (n_modes well below n): two more values are found, so that the last mode's pair, if
     it has one, has a gap above it for `tighten` (`pair_step`), and then dropped."""
     pencil = ring_pencil(coupling, weights, mass)
@@ -462,13 +498,14 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) ->
 
     def tighten(values: NDArray[np.float64], bound: NDArray[np.float64]) -> None:
         k = values.shape[0]
+        base = 1 if k and values[0] == 0.0 and bound[0] == 0.0 else 0  # a free ring's rigid rotation: exact
         loose = np.flatnonzero((bound > MP_WANTED * values) & (values > 0) & np.isfinite(bound))
         runs: list[list[int]] = []  # clusters holding a loose value, adjacent ones joined (one Ritz step each)
         for j in loose.tolist():
             if runs and j < runs[-1][1]:
                 continue
             a, b = j, j + 1
-            while a > 1 and values[a] - bound[a] <= values[a - 1] + bound[a - 1] + MP_WANTED * values[a]:
+            while a > base and values[a] - bound[a] <= values[a - 1] + bound[a - 1] + MP_WANTED * values[a]:
                 a -= 1
             while b < k and values[b] - bound[b] <= values[b - 1] + bound[b - 1] + MP_WANTED * values[b]:
                 b += 1
@@ -480,14 +517,14 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) ->
                 runs.append([a, b])
         for a, b in runs:
             complete = b == k
-            if not np.all(np.isfinite(bound[a - 1: b + 1])):
+            if not np.all(np.isfinite(bound[max(a - 1, 0): b + 1])):
                 continue
             if not refiners:
                 refiners.append(Refiner(B, deviation))
             basis = refiners[0].refine(singular_vectors(B, values[a:b], mass), values[a:b])
             ceiling = None if complete else float(values[b] - bound[b])
             theta, _, error = cluster_bounds(B, values[a:b], basis, bound[a:b], terms, complete=complete,
-                                             precise=True, floor=float(values[a - 1] + bound[a - 1]),
+                                             precise=True, floor=float(values[a - 1] + bound[a - 1]) if a else -np.inf,
                                              ceiling=ceiling, deviation=deviation)
             better = error < bound[a:b]
             values[a:b][better], bound[a:b][better] = theta[better], error[better]
