@@ -31,7 +31,7 @@
                      (rings to 4,000 sites), else without (accurate-rayleigh);
                    - a ring up to 6,000 sites: each bound then certified by Sturm counts of
                      its pencil in double-double (`cycle.py`);
-                   - all frequencies, no vectors, of a ring over 1,500 sites (free or with
+                   - all frequencies, no vectors, of a ring of 100 sites or more (free or with
                      springs to a wall), or its lowest n_modes, at any length the budget
                      allows: roots of its spring
                      form's last pivot between the eigenvalues of the chain it is cut into, each

@@ -21,8 +21,8 @@ accuracy where the structure allows (`accurate_path` chooses):
   (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
   quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (the
   ring's frequencies then come from `ring_path`, certified);
-- ``accurate-ring``: the frequencies of a ring (free, or with springs to a wall) over
-  DENSE_LIMIT sites, all of them without
+- ``accurate-ring``: the frequencies of a ring (free, or with springs to a wall) of
+  `RING_VALUES_FROM` sites or more, all of them without
   vectors or the lowest n_modes, at any length (`ring_values_apply`; the budget guards the time):
   roots of its spring form's last pivot between the eigenvalues of the chain it is cut into,
   each certified by Sturm counts (`vibra.solvers.ring_path`); the lowest modes' vectors by
@@ -71,9 +71,15 @@ JACOBI_WORK = 4000**3
 #: checked dense solve, which bounds every mode relatively; above it, its band (absolute accuracy).
 RING_DENSE_LIMIT = 6000
 
+#: A ring of at least this many sites has its frequencies (values only, or the lowest n_modes)
+#: from `ring_path`: at 100 sites ~1 ms where the checked dense solve takes ~0.1 s (0.03 s
+#: against 5.2 s at 1,000, uniform), every bound within 1e-13 relative either way; a smaller
+#: ring keeps the dense solve (instant there, its bounds often tighter).
+RING_VALUES_FROM = 100
+
 
 def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
-    """Whether a ring of n > DENSE_LIMIT sites (free, or with springs to a wall) has its
+    """Whether a ring of n >= RING_VALUES_FROM sites (free, or with springs to a wall) has its
     frequencies from `ring_path` (no band, the compiled loops available):
     ``accurate-ring`` for all of them without vectors (O(n^2), ~2.4e-8 n^2 s on two cores: 68 s
     at 50,000 sites, 240 s at 100,000) or for the lowest n_modes (O(n k): the cut chain's lowest
@@ -81,7 +87,7 @@ def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
     iteration); with all vectors, the band solver's, paired with them. At any length: the
     budget's time limit (`budget.TIME_LIMIT_S`, ``max_seconds=``) refuses what would take too
     long, with ``accuracy="fast"`` (the band, absolute accuracy) among the cheaper requests."""
-    return band is None and n > DENSE_LIMIT and COMPILED
+    return band is None and n >= RING_VALUES_FROM and COMPILED
 
 
 def jacobi_allowed(n: int, n_terms: int) -> bool:
@@ -140,7 +146,7 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                           ordering=ordering, width=width, deviation=deviation)
     if pencil is not None and result.error.shape[0]:
         return _ring_certified(result, pencil, band)
-    if ordering is not None and vectors and not few and ring_values_apply(n, band=band):
+    if ordering is not None and vectors and not few and n > RING_DENSE_LIMIT and ring_values_apply(n, band=band):
         certified = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass))
         if certified is not None and certified.eigenvalues.shape == result.eigenvalues.shape:
             # the band solver's vectors, each paired by rank with its certified frequency

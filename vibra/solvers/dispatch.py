@@ -8,7 +8,7 @@ from numpy.typing import NDArray
 
 from dataclasses import dataclass
 
-from vibra.solvers.accurate import accurate_path, accurate_subpath, relative_account
+from vibra.solvers.accurate import accurate_path, accurate_subpath, relative_account, ring_values_apply
 from vibra.solvers.budget import (
     Estimate, Progress, ProgressCallback, describe_bytes, describe_seconds, estimate, guard,
 )
@@ -82,8 +82,12 @@ def plan(
     requested = solver
     width = bandwidth(K) if mass.ndim == 1 else n - 1
     ordering = None
-    if mass.ndim == 1 and width > BAND_LIMIT and n > DENSE_LIMIT and solver in ("auto", "banded", "accurate"):
-        ring = ring_ordering(K)  # a ring: tridiagonal plus corners, banded once reordered
+    # a ring: tridiagonal plus corners, banded once reordered (below DENSE_LIMIT only for its
+    # frequencies in "high": `accurate.ring_values_apply`)
+    values = spring_factor is not None and solver in ("auto", "accurate") and not vectors and ring_values_apply(
+        n, band=band)
+    if mass.ndim == 1 and width > BAND_LIMIT and (n > DENSE_LIMIT and solver in ("auto", "banded", "accurate") or values):
+        ring = ring_ordering(K)
         if ring is not None:
             ordering, width = ring
     tridiagonal = width <= 1 and ordering is None
