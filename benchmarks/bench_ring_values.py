@@ -33,6 +33,9 @@ the interleaved rounds only when that took under 30 s. Truth: the closed form (u
 64-digit mpmath counts on the modes (disordered, up to 50,000 sites; above, bounds only).
 Writes results/ring_lowest.json.
 
+``--small``: rings of 200 and 1,000 sites, which took the checked dense solve until
+``accurate-ring`` started at 100 sites (`accurate.RING_VALUES_FROM`). Writes results/ring_small.json.
+
 ``--kernels``: the compiled loops themselves, `LANES` points at a time (SIMD lanes) against
 one point at a time (`tests/scalar_kernels.py`, the previous kernels, bit-identical results),
 at 20,000 sites: the ring's spring counts and pivot roots, a chain's path counts. Numba's
@@ -245,8 +248,14 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="one small ring, one round (smoke run)")
     parser.add_argument("--lowest", action="store_true", help="the lowest 10 modes of rings over 20,000 sites")
     parser.add_argument("--kernels", action="store_true", help="the compiled loops: SIMD lanes against one point")
+    parser.add_argument("--small", action="store_true", help="rings of 200 and 1,000 sites (the ring path from 100)")
     args = parser.parse_args()
     rounds = 1 if args.quick else ROUNDS
+    if args.small:
+        rows = run([(200, 0.0), (200, 6.0), (1000, 0.0), (1000, 6.0)], rounds)
+        path = write_json("ring_small", {"rows": rows, "peer": PEER}, rounds)
+        print(f"wrote {path}")
+        return
     if args.kernels:
         path = write_json("ring_kernels", {"rows": run_kernels(rounds), "peer": "the one-point kernels"}, rounds)
         print(f"wrote {path}")
