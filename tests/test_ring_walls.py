@@ -248,3 +248,25 @@ def test_the_lowest_modes_of_a_long_ring_on_few_walls_spread_over_1e12() -> None
     assert np.all(lowest.omega_error <= 1e-13 * lowest.omega)
     for j in range(3):
         assert covered(mass, springs, ground, float(lowest.omega[j]), float(lowest.omega_error[j]), j, 64), j
+
+
+def test_a_ring_of_pendulums_built_from_springs_takes_the_ring_path() -> None:
+    """What a user writes: `System.from_springs` with the ring's bonds and every site anchored
+    (300 sites, k = 1, g = 0.04, m = 2): all frequencies and the lowest 6 by ``accurate-ring``
+    (the lowest 6 with vectors: the checked dense solve, under DENSE_LIMIT), against the closed form omega_j^2 = (g + 4 k sin^2(pi j / n)) / m,
+    every bound covering it and within 1e-13 relative."""
+    from vibra import System
+
+    n = 300
+    bonds = np.c_[np.arange(n), (np.arange(n) + 1) % n]
+    ring = System.from_springs(np.arange(n) * 1.0, np.full(n, 2.0), bonds, np.ones(n), anchors=np.arange(n),
+                               anchor_stiffness=np.full(n, 0.04), units="dimensionless")
+    with mp.workdps(30):
+        truth = np.sort(np.array([float(mp.sqrt((mp.mpf("0.04") + 4 * mp.sin(mp.pi * j / n) ** 2) / 2))
+                                  for j in range(n)]))
+    for modes, path in ((ring.modes(vectors=False), "accurate-ring"), (ring.modes(n_modes=6, vectors=False), "accurate-ring"),
+                        (ring.modes(n_modes=6), "accurate-checked")):  # (with vectors under 1,500 sites: dense)
+        k = modes.n_modes
+        assert modes.solver == path
+        assert np.all(np.maximum(np.abs(modes.omega - truth[:k]) - 1e-16 * truth[:k], 0.0) <= modes.omega_error)
+        assert np.all(modes.omega_error <= 1e-13 * modes.omega)
