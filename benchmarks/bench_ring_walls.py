@@ -1,6 +1,6 @@
 """Rings with springs to a wall, "high": ``accurate-ring`` against the paths it replaces.
 
-    python benchmarks/bench_ring_walls.py [--quick]
+    python benchmarks/bench_ring_walls.py [--quick] [--chains]
 
 Issue 15, item 6: a ring with any spring to a wall (a ring of pendulums, a Klein-Gordon
 lattice) left the ring path: over 6,000 sites "high" took its band (absolute accuracy: bounds
@@ -23,6 +23,10 @@ numba's threads: the machine's cores, 2 here):
   modes (the lowest 3, the loosest 3, 4 random) for disordered rings up to 32,000 sites.
 
 Writes results/ring_walls.json.
+
+``--chains``: chains of pendulums (a spring to a wall at every site, free ends; uniform with
+g = 0.01, truth the closed form omega_j^2 = g + 4 sin^2(pi j / 2n), or disordered), values
+only: ``accurate-walled`` against the path it replaces and "fast". Writes results/chain_walls.json.
 """
 
 from __future__ import annotations
@@ -152,11 +156,64 @@ def previous_once(n: int, spread: float, walls: int | None, k: int) -> None:
         print(f"{type(exc).__name__} after {time.perf_counter() - start:.1f} s")
 
 
+def run_chains(cases: list[tuple[int, float]], rounds: int) -> list[dict]:
+    """Chains of pendulums (a wall spring at every site, free ends): ``accurate-walled`` against
+    the path it replaces (`accurate.walled_result` off: the checked dense solve, or the Rayleigh
+    path over 1,500 sites) and "fast" (the tridiagonal solver, LAPACK stemr: the strongest peer)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from test_walled_chain import chain_on_walls
+
+    rows = []
+    for n, spread in cases:
+        B, w, mass, _, _ = chain_on_walls(n, spread, 7)
+        if spread == 0.0:
+            w[n - 1:] = 0.01
+        K = (B.T @ sp.diags(w) @ B).tocsr()
+
+        def before() -> object:
+            switch = accurate.walled_result
+            accurate.walled_result = lambda *args, **kwargs: None  # type: ignore[assignment]
+            try:
+                return normal_modes(K, mass, spring_factor=(B, w), vectors=False, max_seconds=3600)
+            finally:
+                accurate.walled_result = switch  # type: ignore[assignment]
+
+        methods = {"vibra fast": lambda: normal_modes(K, mass, vectors=False),
+                   "vibra high": lambda: normal_modes(K, mass, spring_factor=(B, w), vectors=False, max_seconds=3600)}
+        if n <= 5000:
+            methods["vibra high (previous path)"] = before
+        print(f"chain of {n} pendulums, spread 10^{spread:g}", flush=True)
+        timings = interleaved(methods, rounds)
+        row: dict = {"n": n, "spread": spread, "times_s": {k: t.summary() for k, t in timings.items()},
+                     "high_vs_fast": ratio(timings["vibra high"], timings["vibra fast"])}
+        for key, label in (("now", "vibra high"), ("before", "vibra high (previous path)"), ("fast", "vibra fast")):
+            if label in timings:
+                modes = timings[label].result
+                relative = np.abs(modes.omega_error / modes.omega)  # type: ignore[attr-defined]
+                row[key] = {"solver": modes.solver, "bound_max": float(relative.max()),  # type: ignore[attr-defined]
+                            "over_1e-13": int(np.sum(relative > 1e-13))}
+                if spread == 0.0:
+                    with mpmath.workdps(30):
+                        truth = np.array([float(mpmath.sqrt(mpmath.mpf("0.01") + 4 * mpmath.sin(mpmath.pi * j / (2 * n)) ** 2))
+                                          for j in range(n)])
+                    row[key]["true_error_max"] = float(np.max(np.abs(modes.omega - truth) / truth))  # type: ignore[attr-defined]
+                print(f"  {key}: {row[key]}", flush=True)
+        rows.append(row)
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one small ring, one round (smoke run)")
     parser.add_argument("--previous-once", nargs=4, help=argparse.SUPPRESS)
+    parser.add_argument("--chains", action="store_true", help="chains of pendulums (accurate-walled)")
     args = parser.parse_args()
+    if args.chains:
+        rounds = 1 if args.quick else ROUNDS
+        cases = [(2000, 6.0)] if args.quick else [(2000, 0.0), (5000, 0.0), (5000, 6.0), (50000, 24.0)]
+        path = write_json("chain_walls", {"rows": run_chains(cases, rounds), "peer": "vibra fast (LAPACK stemr)"}, rounds)
+        print(f"wrote {path}")
+        return
     if args.previous_once:
         n, spread, walls, k = args.previous_once
         previous_once(int(n), float(spread), None if walls == "None" else int(walls), int(k))

@@ -36,7 +36,10 @@
                      allows: roots of its spring
                      form's last pivot between the eigenvalues of the chain it is cut into, each
                      certified by compiled double-double Sturm counts, O(n^2) for all,
-                     O(n k) for the lowest k (accurate-ring; `ring_path.py`, `ring_kernel.py`).
+                     O(n k) for the lowest k (accurate-ring; `ring_path.py`, `ring_kernel.py`);
+                   - the same, of a chain of 100 sites or more with springs to a wall inside
+                     it: dqds (or bisection) on its bidiagonal Cholesky factor, each value
+                     certified by the same counts (accurate-walled; `walled_chain.py`).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and
@@ -61,8 +64,9 @@ Where each path lives:
 ``lowest.py``          accurate-bisection: the lowest modes of a chain by Golub-Kahan bisection
 ``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
 ``cycle.py``           a ring's pencil and its Sturm counts in double-double (certified bounds)
-``ring_path.py``       accurate-ring: a free ring's frequencies, roots certified by counts
+``ring_path.py``       accurate-ring: a ring's frequencies, roots certified by counts
 ``ring_kernel.py``     its compiled loops (numba): the spring form's pivots, roots and counts
+``walled_chain.py``    accurate-walled: a chain with springs to a wall inside it, values certified by counts
 ``dd.py``              double-double arithmetic on arrays: sums, LU and its solves
 ``accurate.py``        accurate dispatch; -checked, -ritz, -rayleigh, -jacobi, -ring
 ``spring_ritz.py``     spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s own rounding

@@ -28,6 +28,9 @@ accuracy where the structure allows (`accurate_path` chooses):
   each certified by Sturm counts (`vibra.solvers.ring_path`); the lowest modes' vectors by
   Golub-Kahan inverse iteration, and a double eigenvalue's bound by spring-space Rayleigh-Ritz
   on them (`ring_path.pair_step`);
+- ``accurate-walled``: the same requests on a chain with springs to a wall inside it (no path
+  for the chain solvers): dqds or bisection on its bidiagonal Cholesky factor, each value
+  certified by the spring form's counts (`vibra.solvers.walled_chain`);
 - a chain's values in clusters (no gap for their triplets) are certified by Sturm counts of its
   spring form (`vibra.solvers.path_counts`).
 
@@ -58,6 +61,7 @@ from vibra.solvers.common import (
     DENSE_LIMIT, EPS, SolveResult, mass_power, selected, small_pencil, squared_range,
 )
 from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
+from vibra.solvers.walled_chain import walled_result
 from vibra.solvers.standard import DENSE_FLOOR, banded_path
 
 
@@ -97,7 +101,7 @@ def jacobi_allowed(n: int, n_terms: int) -> bool:
 
 def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
                      band: tuple[float, float] | None, tridiagonal: bool, banded: bool, n_terms: int,
-                     vectors: bool = True) -> str:
+                     vectors: bool = True, walled: bool = False) -> str:
     """The path `accurate_path` will take (for the cost estimate), without touching B.
 
     Springs that form a path join dofs c and c + 1 only, so K is tridiagonal: a tridiagonal
@@ -105,7 +109,9 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
     exception, take the Rayleigh path, at most the dense cost).
     """
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
-    if mass.ndim == 1 and not few and tridiagonal:
+    if walled and ring_values_apply(n, band=band) and (few or not vectors):
+        return "accurate-walled"  # a chain with springs to a wall inside it (`walled_chain`)
+    if mass.ndim == 1 and not few and tridiagonal and not walled:
         return "accurate-bidiagonal"
     if banded and ring_values_apply(n, band=band) and (few or not vectors):
         return "accurate-ring"
@@ -136,6 +142,10 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 factor=factor, mass=mass)
         chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
         return chain_counted(chain, coupling, weights, mass, band)
+    if mass.ndim == 1 and ordering is None and ring_values_apply(n, band=band) and (few or not vectors):
+        walled = walled_result(coupling, weights, mass, weighted, n_modes, vectors)  # a chain on walls
+        if walled is not None:
+            return walled
     deviation = forming_deviation(weighted, coupling, weights, mass)
     if ordering is not None and ring_values_apply(n, band=band) and (few or not vectors):
         ring = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass), lowest=few)

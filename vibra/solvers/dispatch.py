@@ -17,6 +17,7 @@ from vibra.solvers.common import (
 )
 from vibra.solvers.lowest import lowest_chain_modes
 from vibra.solvers.sparse import sparse_path
+from vibra.solvers.walled_chain import has_inner_walls
 from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
 
 #: The solver names that `normal_modes(solver=...)`, `System.modes(solver=...)` and scene
@@ -26,7 +27,8 @@ SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
 #: The paths a result can report in `Modes.solver` (``"accurate"`` runs one of the four
 #: ``accurate-*`` paths).
 SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal", "accurate-bisection",
-                "accurate-ritz", "accurate-rayleigh", "accurate-checked", "accurate-jacobi", "accurate-ring")
+                "accurate-ritz", "accurate-rayleigh", "accurate-checked", "accurate-jacobi", "accurate-ring",
+                "accurate-walled")
 
 #: A partial solve of a chain whose K~ diagonal spans more than this ratio (disorder in the
 #: masses or springs), or asked accurately with more than `BISECTION_SIZE` dofs, goes to bisection on the
@@ -110,14 +112,17 @@ def plan(
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
     n_terms = spring_factor[0].shape[0] if solver == "accurate" and spring_factor is not None else 0
+    walled = solver == "accurate" and spring_factor is not None and width <= 1 and mass.ndim == 1 and has_inner_walls(
+        spring_factor[0])  # a chain with springs to a wall inside it: `walled_chain`
 
     def chosen(n_modes: int | None) -> str:
         path = solver
         if solver == "accurate":
             path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1, n_terms=n_terms,
-                                    banded=ordering is not None, vectors=vectors)
+                                    banded=ordering is not None, vectors=vectors, walled=walled)
         some = n_modes is not None and n_modes < n
         if (requested in ("auto", "accurate") and some and band is None and tridiagonal and mass.ndim == 1
+                and path != "accurate-walled"
                 and ((solver == "accurate" and n > BISECTION_SIZE) or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
             path = "accurate-bisection"
         return path

@@ -194,20 +194,7 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
         return spring_width(lo, hi, middle, widening)
 
     def ladder(modes: NDArray[np.intp], levels: tuple[float, ...]) -> int:
-        """Certify `modes` at the tightest of `levels` that proves them (bound set); counts spent."""
-        used = 0
-        for level in levels:
-            todo = modes[~np.isfinite(bound[modes])]
-            if todo.shape[0] == 0:
-                break
-            v = values[todo]
-            lo, hi = v * (1 - level), v * (1 + level)
-            count, certain = counts(np.r_[lo, hi])
-            used += count.shape[0]
-            k = todo.shape[0]
-            good = certain[:k] & certain[k:] & (count[:k] <= index[todo]) & (index[todo] < count[k:])
-            bound[todo[good]] = widened(lo[good], hi[good], v[good])
-        return used
+        return certify_at_levels(counts, values, bound, modes, levels, widening)
 
     # a root taken at a pole: mostly a mode localised far from the cut (or a double eigenvalue),
     # the pole itself but for the pole's own error (dqds of the cut chain's float64 B~: ~sqrt(n)
@@ -337,6 +324,26 @@ def _mp_counts(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[n
 
 Pivots = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 Counts = Callable[[NDArray[np.float64]], tuple[NDArray[np.intp], NDArray[np.bool_]]]
+
+
+def certify_at_levels(counts: Counts, values: NDArray[np.float64], bound: NDArray[np.float64],
+                      modes: NDArray[np.intp], levels: tuple[float, ...], widening: NDArray[np.float64]) -> int:
+    """Certify value j (eigenvalue j) of `modes` at the tightest of `levels` that proves it: the
+    counts at v (1 -+ t) are <= j and > j; its bound (in place, where still infinite) is that
+    bracket widened by the counts' perturbation (`cycle.spring_width`). Returns the counts spent."""
+    used = 0
+    for level in levels:
+        todo = modes[~np.isfinite(bound[modes])]
+        if todo.shape[0] == 0:
+            break
+        v = values[todo]
+        lo, hi = v * (1 - level), v * (1 + level)
+        count, certain = counts(np.r_[lo, hi])
+        used += count.shape[0]
+        k = todo.shape[0]
+        good = certain[:k] & certain[k:] & (count[:k] <= todo) & (todo < count[k:])
+        bound[todo[good]] = spring_width(lo[good], hi[good], v[good], widening)
+    return used
 
 
 def _secant(pivots: Pivots, roots: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
