@@ -90,8 +90,8 @@ def figures(modes: object, n: int, spread: float, system: tuple, sample: bool) -
         picked = np.unique(np.r_[np.arange(min(3, k)), np.argsort(-relative)[:3],
                                  np.random.default_rng(1).choice(k, min(4, k), replace=False)])
         digits = 40 + int(2 * spread)
-        entry["sampled_covered"] = (f"{sum(covered(mass, springs, ground, float(omega[j]), float(error[j]), j, digits) for j in picked)}"
-                                    f" of {picked.shape[0]}")
+        held = sum(covered(mass, springs, ground, float(omega[j]), float(error[j]), j, digits) for j in picked)
+        entry["sampled_covered"] = f"{held} of {picked.shape[0]}"
     return entry
 
 

@@ -253,7 +253,8 @@ def test_the_lowest_modes_of_a_long_ring_on_few_walls_spread_over_1e12() -> None
 def test_a_ring_of_pendulums_built_from_springs_takes_the_ring_path() -> None:
     """What a user writes: `System.from_springs` with the ring's bonds and every site anchored
     (300 sites, k = 1, g = 0.04, m = 2): all frequencies and the lowest 6 by ``accurate-ring``
-    (the lowest 6 with vectors: the checked dense solve, under DENSE_LIMIT), against the closed form omega_j^2 = (g + 4 k sin^2(pi j / n)) / m,
+    (the lowest 6 with vectors: the checked dense solve, under DENSE_LIMIT), against the closed
+    form omega_j^2 = (g + 4 k sin^2(pi j / n)) / m,
     every bound covering it and within 1e-13 relative."""
     from vibra import System
 

@@ -156,8 +156,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
         seconds = (BISECTION_S if not COMPILED else BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
-    elif path in ("accurate-ring", "accurate-walled"):  # the cut chain's values (dqds, or bisection for the lowest k + 1),
-        memory = 8.0 * 40 * n + vector_bytes  # then each value's roots and counts
+    elif path in ("accurate-ring", "accurate-walled"):
+        # the cut chain's values (dqds, or bisection for the lowest k + 1), then each value's
+        # roots and counts (a chain on walls: its values' counts, no roots)
+        memory = 8.0 * 40 * n + vector_bytes
         each = BISECTION_VALUES_S if COMPILED else BISECTION_S  # (the poles: values only)
         poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
         seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, 24.0 * n)

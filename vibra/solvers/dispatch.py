@@ -24,7 +24,7 @@ from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
 #: files accept; ``"auto"`` chooses one of the others.
 SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
 
-#: The paths a result can report in `Modes.solver` (``"accurate"`` runs one of the four
+#: The paths a result can report in `Modes.solver` (``"accurate"`` runs one of the
 #: ``accurate-*`` paths).
 SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal", "accurate-bisection",
                 "accurate-ritz", "accurate-rayleigh", "accurate-checked", "accurate-jacobi", "accurate-ring",

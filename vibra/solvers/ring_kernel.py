@@ -3,8 +3,9 @@ and its inertia counts in double-double.
 
 A ring with its dofs taken around the cycle, cut at its closing spring r
 (`cycle.count_below_springs` picks it), has the spring form A(x) = [[W^-1, B], [B^T, x M]]
-(springs to a wall eliminated into each site's diagonal, x m - wall) with 2n nodes on a path (site 0, spring 0, site 1, ...,
-site n-1, spring n-1 = r) closed by one coupling (spring r to site 0). Eliminating the path
+(springs to a wall eliminated into each site's diagonal, x m - wall) with 2n nodes on a path
+(site 0, spring 0, site 1, ..., site n-1, spring n-1 = r) closed by one coupling (spring r to
+site 0; a chain on walls, `walled_chain`, is the same path with that coupling zero). Eliminating the path
 in order, the last pivot l(x) = 1/w_r - y^T A_sub(x)^-1 y is the Schur complement of the
 cut chain's spring form A_sub: zero at the ring's eigenvalues, with poles at the chain's, and
 increasing in x between them (A_sub' = diag(M, 0) >= 0). By interlacing (the ring is the chain
