@@ -30,7 +30,8 @@ accuracy where the structure allows (`accurate_path` chooses):
   on them (`ring_path.pair_step`);
 - ``accurate-walled``: the same requests on a chain with springs to a wall inside it (no path
   for the chain solvers): dqds or bisection on its bidiagonal Cholesky factor, each value
-  certified by the spring form's counts (`vibra.solvers.walled_chain`);
+  certified by the spring form's counts (`vibra.solvers.walled_chain`); all modes with vectors
+  over DENSE_LIMIT: those values with LAPACK stemr's vectors, paired by rank;
 - a chain's values in clusters (no gap for their triplets) are certified by Sturm counts of its
   spring form (`vibra.solvers.path_counts`).
 
@@ -62,7 +63,7 @@ from vibra.solvers.common import (
 )
 from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.walled_chain import walled_result
-from vibra.solvers.standard import DENSE_FLOOR, banded_path
+from vibra.solvers.standard import DENSE_FLOOR, banded_path, tridiagonal_path
 
 
 
@@ -109,7 +110,7 @@ def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
     exception, take the Rayleigh path, at most the dense cost).
     """
     few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
-    if walled and ring_values_apply(n, band=band) and (few or not vectors):
+    if walled and ring_values_apply(n, band=band) and (few or not vectors or n > DENSE_LIMIT):
         return "accurate-walled"  # a chain with springs to a wall inside it (`walled_chain`)
     if mass.ndim == 1 and not few and tridiagonal and not walled:
         return "accurate-bidiagonal"
@@ -142,10 +143,18 @@ def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matri
                                 factor=factor, mass=mass)
         chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
         return chain_counted(chain, coupling, weights, mass, band)
-    if mass.ndim == 1 and ordering is None and ring_values_apply(n, band=band) and (few or not vectors):
-        walled = walled_result(coupling, weights, mass, weighted, n_modes, vectors)  # a chain on walls
-        if walled is not None:
+    walled_apply = mass.ndim == 1 and ordering is None and ring_values_apply(n, band=band)
+    if walled_apply and (few or not vectors or n > DENSE_LIMIT):  # a chain on walls (else None)
+        walled = walled_result(coupling, weights, mass, weighted, n_modes, vectors=vectors and few)
+        if walled is not None and (few or not vectors):
             return walled
+        if walled is not None:  # all modes with vectors: LAPACK stemr's, each paired by rank with its certified value
+            basis = tridiagonal_path(Kt, n_modes=None, vectors=True, band=None).vectors
+            assert basis is not None
+            paired = spring_figures(sp.csr_matrix(weighted), walled.eigenvalues, basis, True, "accurate-walled")
+            paired.error, paired.refined = walled.error, walled.refined
+            paired.refinement = f"{walled.refinement}; vectors from the tridiagonal solver (LAPACK stemr), paired by rank"
+            return paired
     deviation = forming_deviation(weighted, coupling, weights, mass)
     if ordering is not None and ring_values_apply(n, band=band) and (few or not vectors):
         ring = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass), lowest=few)

@@ -163,7 +163,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         each = BISECTION_VALUES_S if COMPILED else BISECTION_S  # (the poles: values only)
         poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
         seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, 24.0 * n)
-        if vectors:  # each mode's sparse LU of the 2n Golub-Kahan matrix (`golub_kahan.singular_vectors`)
+        if vectors and path == "accurate-walled" and k >= n - 1:  # all of them: stemr's (tridiagonal)
+            memory += 8.0 * 12 * n
+            seconds += TRIDIAGONAL_VECTORS_S * n * k
+        elif vectors:  # each mode's sparse LU of the 2n Golub-Kahan matrix (`golub_kahan.singular_vectors`)
             seconds += TRIPLET_UNIT_S * TRIPLET_ROW * 2.0 * n * k
     elif path in ("accurate-rayleigh",):
         # K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K

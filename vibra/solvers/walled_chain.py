@@ -18,8 +18,10 @@ before, "high" took the checked dense solve (O(n^3): 15.7 s at 5,000 sites, refu
 - the lowest modes' vectors by Golub-Kahan inverse iteration on B~ (`golub_kahan.singular_vectors`).
 
 None (the caller goes on) where the springs do not form such a chain, or the compiled loops
-are unavailable. All modes with vectors keep the checked dense solve (to DENSE_LIMIT) or the
-Rayleigh path.
+are unavailable. All modes with vectors: the checked dense solve up to DENSE_LIMIT; above,
+these certified values with LAPACK stemr's vectors of K~, paired by rank (a chain's
+eigenvalues are simple; `accurate.accurate_path`), where the Rayleigh path's dense solve took
+O(n^3).
 """
 
 from __future__ import annotations
