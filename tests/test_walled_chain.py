@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from vibra import System, normal_modes
 from vibra.solvers import ring_kernel, walled_chain
 
-from test_ring_bounds import mp_weighted_gram
+from test_ring_walls import certified_by_eigsy
 
 pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="accurate-walled needs numba")
 
@@ -114,15 +114,7 @@ def test_small_chains_on_walls_are_certified_against_80_digit_eigenvalues() -> N
         if chain is None:  # walls at the two ends only: a path, not this module's
             continue
         taken += 1
-        with mp.workdps(80):
-            exact = sorted(mp.eigsy(mp_weighted_gram(B, springs, mass), eigvals_only=True))
-        for count in (None, 1, 2):
-            found = walled_chain.walled_values(chain, count)
-            assert found is not None and found.certified.all()
-            assert np.all(found.bound <= 2e-13 * found.values)
-            with mp.workdps(80):
-                for j in range(found.values.shape[0]):
-                    assert abs(mp.mpf(found.values[j]) - exact[j]) <= found.bound[j], (n, spread, count, j)
+        certified_by_eigsy(B, springs, mass, lambda count: walled_chain.walled_values(chain, count))
     assert taken >= 40
 
 

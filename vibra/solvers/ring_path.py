@@ -49,7 +49,8 @@ from vibra.solvers.cycle import (
 )
 from vibra.solvers.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
-__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors"]
+__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors",
+           "cut_chain", "spring_walls", "certify_at_levels", "proven_multisection"]
 
 #: Half-widths of the brackets tried around each root, relative, tightest first (`cycle.LADDER`
 #: with steps between: a root at a pole, a double eigenvalue of a uniform ring or a mode
@@ -217,7 +218,7 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     if todo.shape[0]:
         lo = poles[todo] * (1 - 1e-9)  # (a free ring's poles[0] is 0)
         hi = np.r_[poles[1:], top][todo] * (1 + 1e-9)
-        lo, hi, used = _multisection(counts, lo, hi, index[todo])
+        lo, hi, used = proven_multisection(counts, lo, hi, index[todo])
         spent += used
         proven = lo < hi
         middle = 0.5 * (lo + hi)
@@ -478,8 +479,8 @@ def _model_root(y: NDArray[np.float64], values: NDArray[np.float64], first: NDAr
     return guess
 
 
-def _multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp]
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+def proven_multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp]
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
     """`cycle.multisection` for up to PASSES passes, the ends first proven by two counts
     (lo = hi = nan where they fail)."""
     k = lo.shape[0]

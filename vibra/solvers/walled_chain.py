@@ -40,7 +40,7 @@ from vibra.solvers.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as 
 from vibra.solvers.golub_kahan import singular_vectors
 from vibra.solvers.lowest import golub_kahan_lowest
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED, spring_counts
-from vibra.solvers.ring_path import LEVELS, _multisection, certify_at_levels, cut_chain, sorted_bounds
+from vibra.solvers.ring_path import LEVELS, certify_at_levels, cut_chain, proven_multisection, sorted_bounds
 from vibra.solvers.spring_ritz import spring_figures
 
 __all__ = ["WalledChain", "walled_chain", "walled_values", "walled_result", "has_inner_walls"]
@@ -163,7 +163,8 @@ def walled_values(chain: WalledChain, count: int | None = None) -> WalledValues 
         todo = np.flatnonzero(~np.isfinite(bound))
         if todo.shape[0] == 0:
             break
-        lo, hi, used = _multisection(counts, values[todo] * (1 - reach), values[todo] * (1 + reach), index[todo])
+        lo, hi, used = proven_multisection(counts, values[todo] * (1 - reach), values[todo] * (1 + reach),
+                                           index[todo])
         spent += used
         proven = lo < hi
         middle = 0.5 * (lo + hi)
