@@ -92,7 +92,10 @@ def test_jacobi_path_on_an_ill_conditioned_3d_network(rng: np.random.Generator, 
     relative = np.abs(modes.omega[flexible] - reference[flexible]) / reference[flexible]
     assert relative.max() < 1e-10
     fast = normal_modes(K, masses, vectors=False)
-    assert np.max(np.abs(fast.omega[flexible] - reference[flexible]) / reference[flexible]) > 1e-6
+    # what the absolute-accuracy solver can promise: its own bound, ~eps ||K~|| / omega, passes
+    # 1e-6 of the lowest frequencies (its true error there depends on the LAPACK build and the
+    # thread count: 5.6e-7 to above 1e-6 seen, so it is not asserted)
+    assert np.max(fast.omega_error[flexible] / reference[flexible]) > 1e-6
     if vectors:
         assert modes.residual < 1e-12 and modes.orthogonality < 1e-12
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Callable, Literal, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -295,10 +295,14 @@ class GeneralizedSystem(FreeDofs):
         self,
         n_modes: int | None = None,
         *,
-        accuracy: Literal["high", "fast"] = "high",
+        accuracy: Literal["high", "fast", "certified"] = "high",
         vectors: bool = True,
         band: tuple[float, float] | None = None,
         solver: str = "auto",
+        device: str = "cpu",
+        max_memory: float | None = None,
+        max_seconds: float | None = None,
+        progress: bool | Callable[[float, str], None] | None = None,
     ) -> Modes | QuadraticModes:
         """Normal modes of the free coordinates (seed 003 eqs. 137-151); see `vibra.System.modes`.
 
@@ -306,16 +310,16 @@ class GeneralizedSystem(FreeDofs):
         (`is_quadratic`; all modes, so n_modes and band must be None there). A dense,
         non-diagonal M with ``solver="auto"`` is solved by `vibra.pencil.pencil_modes`
         (solver ``"pencil-jacobi"`` or ``"pencil-cholesky"``), which keeps the accuracy that
-        an ill-conditioned M would cost the mass-weighted form. `accuracy` is checked for
-        the same protocol as `vibra.System.modes`; with no spring factor both values take
-        the same path.
+        an ill-conditioned M would cost the mass-weighted form. `accuracy`, `device`,
+        `max_memory`, `max_seconds` and `progress` mean what they mean for `vibra.normal_modes`;
+        with no spring factor the three accuracy levels take the same path.
 
         Raises
         ------
         ValueError
             An unknown accuracy; n_modes or band with G or C.
         """
-        _validate.choice(accuracy, "accuracy", ("high", "fast"))
+        _validate.choice(accuracy, "accuracy", ("fast", "high", "certified"))
         if self.is_quadratic:
             if n_modes is not None or band is not None:
                 raise ValueError("n_modes and band are not available for a system with G or C: "
@@ -326,4 +330,5 @@ class GeneralizedSystem(FreeDofs):
             return pencil_modes(self.hessian().toarray(), mass, n_modes=n_modes, vectors=vectors, band=band,
                                 units=self.units)
         return normal_modes(self.hessian(), mass, n_modes=n_modes, vectors=vectors, band=band,
-                            solver=solver, units=self.units)
+                            solver=solver, units=self.units, accuracy=accuracy, device=device,
+                            max_memory=max_memory, max_seconds=max_seconds, progress=progress)

@@ -293,6 +293,7 @@ def normal_modes(
     max_seconds: float | None = None,
     progress: bool | Callable[[float, str], None] | None = None,
     device: str = "cpu",
+    accuracy: str = "high",
 ) -> Modes:
     """Normal modes of M u'' + K u = 0 (seed 003 eqs. 137-151).
 
@@ -330,6 +331,15 @@ def normal_modes(
         True writes progress lines to stderr, False keeps quiet, a callable receives
         ``(fraction done, message)``; None (default) writes lines only for solves estimated
         to take over `vibra.solvers.budget.PROGRESS_AFTER_S` (5 s).
+    accuracy : {"high", "fast", "certified"}
+        What the result promises (`vibra.solvers.ACCURACY_LEVELS`). "fast": LAPACK/ARPACK-class
+        solves, absolute accuracy ~eps ||K~|| (the spring factor is not used). "high" (the
+        default): with a spring factor, every requested frequency to ~1e-10 relative where the
+        structure allows, with an a-posteriori bound; the steps that would only tighten a bound
+        already within 1e-10 are left out, and `Modes.refinement` names a bound left looser.
+        "certified": with a spring factor, every bound a certificate (within 1000x the true
+        error or 1e-13 relative), at the cost it takes, estimated up front. Without a spring
+        factor all three run the standard paths.
     device : {"cpu", "gpu"}
         "gpu" ("cuda" is the same) solves all modes densely on an NVIDIA GPU through CuPy
         (``pip install "vibra[gpu]"``), then keeps `n_modes` or `band`; only with solver
@@ -384,11 +394,15 @@ def normal_modes(
         raise TypeError(f"solver must be a str, got {solver!r} ({type(solver).__name__})")
     _validate.choice(solver, "solver", SOLVERS)
     symmetrize = _validate.boolean(symmetrize, "symmetrize")
+    _validate.choice(accuracy, "accuracy", solvers.ACCURACY_LEVELS)
     factor = None
     if spring_factor is not None:
         factor = solvers.check_spring_factor(spring_factor, n_dof)
-    elif solver == "accurate":
-        raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B")
+    if solver == "accurate" and (factor is None or accuracy == "fast"):
+        raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B"
+                         + (' and accuracy "high" or "certified"' if factor is not None else ""))
+    if accuracy == "fast":
+        factor = None  # the standard paths: absolute accuracy
     unit = unit_system(units)
     max_memory = _validate.optional_limit(max_memory, "max_memory")
     max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
@@ -405,7 +419,7 @@ def normal_modes(
         return _modes_from(result, K_matrix, mass, unit)
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                           spring_factor=factor)
+                           spring_factor=factor, accuracy=accuracy)
     solvers.check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                        max_seconds=max_seconds)
 

@@ -33,6 +33,7 @@ from vibra import _validate, assembly
 from vibra._frozen import freeze_arrays
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
+from vibra.solvers.common import ACCURACY_LEVELS
 from vibra.units import UnitSystem, unit_system
 
 __all__ = ["System", "GeneralizedSystem"]
@@ -466,7 +467,7 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         self,
         n_modes: int | None = None,
         *,
-        accuracy: Literal["high", "fast"] = "high",
+        accuracy: Literal["high", "fast", "certified"] = "high",
         vectors: bool = True,
         band: tuple[float, float] | None = None,
         solver: str = "auto",
@@ -481,10 +482,11 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         ----------
         n_modes : int, optional
             Number of lowest modes wanted (all by default).
-        accuracy : {"high", "fast"}
-            "high": every requested frequency to high relative accuracy, using the spring
-            factor when K is factorised; "fast": the quickest path meeting the residual
-            tolerance.
+        accuracy : {"high", "fast", "certified"}
+            "high" (default): every requested frequency to ~1e-10 relative, using the spring
+            factor, with an a-posteriori bound; "fast": the quickest path (absolute accuracy,
+            ~eps ||K~||); "certified": every bound a certificate (within 1000x the true error or
+            1e-13 relative), at its cost. See `vibra.normal_modes`.
         vectors : bool
             False computes frequencies only.
         band : (float, float), optional
@@ -503,13 +505,14 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
         >>> chain.modes(n_modes=2, vectors=False).omega.round(12).tolist()
         [0.0, 1.0]
         """
-        _validate.choice(accuracy, "accuracy", ("high", "fast"))
+        _validate.choice(accuracy, "accuracy", ACCURACY_LEVELS)
         on_gpu = isinstance(device, str) and device in ("gpu", "cuda")
-        factor = self.spring_factor() if accuracy == "high" and not on_gpu else None
+        factor = self.spring_factor() if accuracy != "fast" and not on_gpu else None
         return normal_modes(
             self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
             solver=solver, spring_factor=factor, units=self.units, device=device,
             max_memory=max_memory, max_seconds=max_seconds, progress=progress,
+            accuracy=accuracy,
         )
 
 

@@ -67,13 +67,13 @@ def _solver(scene: Scene, system: Any) -> None:
     compute = scene.compute
     if compute.solver == "auto" or getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
         return
-    factor = system.spring_factor() if compute.accuracy == "high" else None
+    factor = system.spring_factor() if compute.accuracy != "fast" else None
     if compute.solver == "accurate" and factor is None:
         raise SceneError(scene.source, "compute.solver", f"'accurate' needs a spring system (K = B^T W B); the "
                          f"{scene.system.builder!r} builder gives none; use 'auto' or 'dense'")
     try:
         solvers.plan(system.hessian(), system.mass_matrix(), n_modes=compute.n_modes, vectors=False,
-                     band=compute.band, solver=compute.solver, spring_factor=factor)
+                     band=compute.band, solver=compute.solver, spring_factor=factor, accuracy=compute.accuracy)
     except ValueError as error:
         raise SceneError(scene.source, "compute.solver", f"{error}; use 'auto'") from error
     wanted = compute.n_modes is None and compute.band is None

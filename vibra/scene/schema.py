@@ -100,7 +100,7 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
         "n_modes": field_spec(integer(1)),
         "band": field_spec(_band),
         "shapes": field_spec(boolean, False),
-        "accuracy": field_spec(one_of("high", "fast"), "high"),
+        "accuracy": field_spec(one_of("high", "fast", "certified"), "high"),
         "solver": field_spec(one_of(*SOLVERS), "auto"),
         "response": field_spec(table),
         "continuum": field_spec(table),
@@ -150,7 +150,7 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
         reader.fail("compute.solver", "'sparse' computes a few modes; give compute.n_modes or compute.band, "
                     "or choose another solver")
     if values["solver"] == "accurate" and values["accuracy"] == "fast":
-        reader.fail("compute.solver", "'accurate' needs accuracy = \"high\" (the fast path drops the spring "
+        reader.fail("compute.solver", "'accurate' needs accuracy = \"high\" or \"certified\" (the fast path drops the spring "
                     "factor the accurate solver works on)")
     return ComputeSpec(n_modes=values["n_modes"], band=values["band"], shapes=values["shapes"],
                        accuracy=values["accuracy"], solver=values["solver"], response=response,

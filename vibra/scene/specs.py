@@ -108,7 +108,7 @@ class ComputeSpec:
     shapes : bool
         Compute mode shapes even when nothing drawn needs them.
     accuracy : str
-        ``"high"`` or ``"fast"`` (`vibra.System.modes`).
+        ``"high"``, ``"fast"`` or ``"certified"`` (`vibra.System.modes`).
     solver : str
         ``"auto"`` or a solver path of `vibra.normal_modes`.
     response : ResponseSpec or None

@@ -90,7 +90,7 @@ Examples
 from __future__ import annotations
 
 from vibra.solvers.common import (
-    BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
+    ACCURACY_LEVELS, BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
     check_factor_matches, check_spring_factor, largest_entry,
     mass_weighted, physical_shapes,
 )
@@ -102,7 +102,7 @@ from vibra.solvers.budget import (
 from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, Plan, alternatives, check_plan, plan, solve
 
 __all__ = [
-    "SOLVER_NAMES", "SOLVER_PATHS", "SolveResult", "solve", "check_spring_factor", "physical_shapes",
+    "ACCURACY_LEVELS", "SOLVER_NAMES", "SOLVER_PATHS", "SolveResult", "solve", "check_spring_factor", "physical_shapes",
     "mass_weighted", "Segment", "EPS", "DENSE_LIMIT", "BAND_LIMIT", "DENSE_ALL_LIMIT", "BDSQR_LIMIT",
     "SAMPLE", "Plan", "plan", "check_plan", "alternatives", "Estimate", "Progress", "ResourceLimitError",
     "available_memory", "estimate", "guard", "budget", "check_factor_matches", "FACTOR_RTOL",

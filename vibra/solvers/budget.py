@@ -123,8 +123,9 @@ def available_memory() -> float | None:
 
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
-             nnz: int = 0) -> Estimate:
-    """Memory and time of `path` computing `k` of `n` modes (with vectors or not)."""
+             nnz: int = 0, accuracy: str = "high") -> Estimate:
+    """Memory and time of `path` computing `k` of `n` modes (with vectors or not) at `accuracy`
+    (which bound-tightening steps are counted: `refinement_seconds`)."""
     n2 = float(n) * n
     vector_bytes = 8.0 * n * k if vectors else 0.0
     what = f"{'all ' if k == n else ''}{k} mode{'s' if k != 1 else ''} of {n} dofs" + (
@@ -180,23 +181,34 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         rows = max(n_terms, n)
         memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)
         seconds = JACOBI_S * rows * n * n
-    if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "banded"):
-        seconds += refinement_seconds(n, n_terms)
+    if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "banded", "accurate-ritz"):
+        seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy)
     if path == "banded" and n_terms == n and vectors:  # a ring's vectors: its frequencies by `ring_path` too
         seconds += RING_S * n2
     return Estimate(path, memory, seconds, what)
 
 
-def refinement_seconds(n: int, n_terms: int) -> float:
-    """What the accurate paths may add after their solve (a spring factor given): the singular-
-    triplet step (`golub_kahan`: per loose mode a sparse LU of the (n_terms + n) Golub-Kahan
-    matrix, ~TRIPLET_ROW work units per row at TRIPLET_UNIT_S, capped by TRIPLET_SECONDS), and
-    for a ring (n_terms = n) up to `accurate.RING_DENSE_LIMIT` the Sturm counts that certify its
-    bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's)."""
-    from vibra.solvers.accurate import RING_DENSE_LIMIT
-    from vibra.solvers.golub_kahan import TRIPLET_SECONDS
+def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: str = "high") -> float:
+    """What the accurate paths may add after their solve (a spring factor given), from sizes:
 
-    triplets = min(TRIPLET_SECONDS, TRIPLET_UNIT_S * TRIPLET_ROW * float(n) * (n_terms + n))
+    - the singular-triplet step (`golub_kahan.refine_triplets`: per loose mode one sparse LU of
+      the (n_terms + n) Golub-Kahan matrix). "high" runs it only on systems of at most
+      `golub_kahan.HIGH_ROWS` rows, within `golub_kahan.HIGH_WORK` units of fill; "certified"
+      on any, within `golub_kahan.TRIPLET_WORK` units (TRIPLET_UNIT_S each, the fill per mode
+      taken as `triplet_fill`), for at most the k modes asked;
+    - for a ring (n_terms = n) up to `accurate.RING_DENSE_LIMIT` the Sturm counts that certify
+      its bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's)."""
+    from vibra.solvers.accurate import RING_DENSE_LIMIT
+    from vibra.solvers.golub_kahan import HIGH_ROWS, HIGH_WORK, TRIPLET_WORK, triplet_fill
+
+    rows = float(n_terms + n)
+    modes = float(n if k is None else k)
+    if accuracy == "certified":
+        triplets = TRIPLET_UNIT_S * min(TRIPLET_WORK + triplet_fill(n, n_terms), modes * triplet_fill(n, n_terms))
+    elif rows <= HIGH_ROWS:
+        triplets = TRIPLET_UNIT_S * min(HIGH_WORK + triplet_fill(n, n_terms), modes * triplet_fill(n, n_terms))
+    else:
+        triplets = 0.0
     counts = RING_COUNTS_S * float(n) * n if n_terms == n and n <= RING_DENSE_LIMIT else 0.0
     return triplets + counts
 

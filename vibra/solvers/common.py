@@ -25,6 +25,15 @@ EPS = float(np.finfo(float).eps)
 #: Largest n for which "auto" uses dense LAPACK when a sparse path could serve.
 DENSE_LIMIT = 1500
 
+#: The accuracy levels every solve takes (`normal_modes`, `System.modes`, scene files):
+#: "fast" - LAPACK/ARPACK-class, absolute accuracy (~eps ||K~||), with its bound;
+#: "high" (the default) - every requested frequency to ~1e-10 relative where the springs are
+#: known (the relative-accuracy paths), with an a-posteriori bound; the steps that only tighten
+#: a bound already within 1e-10 are left to "certified", and a bound left loose says so;
+#: "certified" - every bound a certificate within 1000x the true error or 1e-13 relative, at
+#: the cost it takes (estimated up front, refused over the time budget).
+ACCURACY_LEVELS = ("fast", "high", "certified")
+
 #: Widest half-bandwidth for which "auto" uses the banded solver.
 BAND_LIMIT = 16
 

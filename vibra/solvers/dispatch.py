@@ -63,6 +63,7 @@ class Plan:
     n_dof: int
     fast: Estimate | None = None  # the cost of accuracy="fast" (the standard path), where "high" was asked
     lowest: Estimate | None = None  # the cost of the same accurate request for the lowest 10 modes
+    accuracy: str = "high"  # the level asked (`ACCURACY_LEVELS`); it decides which certification steps run
 
 
 def plan(
@@ -74,11 +75,15 @@ def plan(
     band: tuple[float, float] | None,
     solver: str,
     spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
+    accuracy: str = "high",
 ) -> Plan:
     """Choose the path for this request ("auto" picks one) and estimate its cost; nothing allocated.
 
     Raises ValueError when the named solver cannot serve the request. Costs O(nnz) for a
-    sparse K and one pass over a dense one (its bandwidth); K~ is not formed.
+    sparse K and one pass over a dense one (its bandwidth); K~ is not formed. `accuracy` is
+    "high" or "certified" where a spring factor is given (the caller drops the factor for
+    "fast"): "certified" takes a long chain's lowest modes to bisection (certificates of
+    ~1e-16 at 2.5x the Ritz path's time) and runs the bound-tightening steps in full.
     """
     n = K.shape[0]
     requested = solver
@@ -123,7 +128,8 @@ def plan(
         some = n_modes is not None and n_modes < n
         if (requested in ("auto", "accurate") and some and band is None and tridiagonal and mass.ndim == 1
                 and path != "accurate-walled"
-                and ((solver == "accurate" and n > BISECTION_SIZE) or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
+                and ((solver == "accurate" and n > BISECTION_SIZE and accuracy == "certified")
+                     or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
             path = "accurate-bisection"
         return path
 
@@ -131,11 +137,12 @@ def plan(
     k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
     if path == "dense" and band is not None:
         k = n
-    cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
+    cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K), accuracy=accuracy)
     lowest = None
     if solver == "accurate" and band is None and (n_modes is None or n_modes > 50) and n > 10:
-        lowest = estimate(chosen(10), n, k=10, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K))
-    return Plan(solver, path, width, ordering, cost, _stored(K), n, fast, lowest)
+        lowest = estimate(chosen(10), n, k=10, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K),
+                          accuracy=accuracy)
+    return Plan(solver, path, width, ordering, cost, _stored(K), n, fast, lowest, accuracy)
 
 
 def _standard(n: int, width: int, *, tridiagonal: bool, partial: bool, band: tuple[float, float] | None,
@@ -212,6 +219,7 @@ def solve(
     max_seconds: float | None = None,
     progress: bool | ProgressCallback | None = None,
     request: Plan | None = None,
+    accuracy: str = "high",
 ) -> SolveResult:
     """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`.
 
@@ -231,7 +239,7 @@ def solve(
     """
     if request is None:
         request = plan(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                       spring_factor=spring_factor)
+                       spring_factor=spring_factor, accuracy=accuracy)
         check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                    max_seconds=max_seconds)
     report = Progress(progress, request.cost)
@@ -260,7 +268,7 @@ def solve(
     elif solver == "accurate":
         assert spring_factor is not None
         result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
-                               ordering=ordering, width=width, on_stage=report.step)
+                               ordering=ordering, width=width, on_stage=report.step, accuracy=request.accuracy)
     elif solver == "tridiagonal":
         result = tridiagonal_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
     elif solver == "banded":

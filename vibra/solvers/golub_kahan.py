@@ -23,17 +23,19 @@ B~^T u - sigma v round to eps ||B~||, not eps ||B~||^2:
    for a well-separated mode, ~1e-16 where omega / ||B~|| ~ 1e-8.
 
 Cost: one sparse LU of the (n_terms + n) square H per mode refined (~2-20 ms on 3-D networks
-of 180 to 900 dofs, ~9 ms on a ring of 8,000 sites); only the modes whose bound exceeds
-`WANTED` relative and whose neighbours' bounds leave a gap are refined, within `TRIPLET_WORK`
-and `TRIPLET_SECONDS` (which modes get refined can then depend on the machine's speed; every
-bound is rigorous either way). Written here: no package bounds
+of 180 to 900 dofs, ~9 ms on a ring of 8,000 sites; far more on a protein's network, whose
+factors fill in); only the modes whose bound exceeds `wanted` relative and whose neighbours'
+bounds leave a gap are refined, within a budget of `work` units counted from the factors'
+sizes (never from the clock: the same input refines the same modes on every machine).
+``accuracy="high"`` runs the step on systems of at most `HIGH_ROWS` rows for the bounds over
+1e-10 relative, within `HIGH_WORK`; ``"certified"`` on any, for every bound over `WANTED`,
+within `TRIPLET_WORK`. Written here: no package bounds
 singular triplets of a sparse matrix (the chains' compiled kernel, `triplets`, is for
 bidiagonals).
 """
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import numpy as np
@@ -45,7 +47,7 @@ from numpy.typing import NDArray
 from vibra.solvers.spring_ritz import Deviation
 
 __all__ = ["refine_triplets", "singular_vectors", "refined_vectors", "Refiner", "loose_modes", "WANTED", "TRIPLET_WORK",
-           "TRIPLET_SECONDS"]
+           "HIGH_ROWS", "HIGH_WORK", "triplet_fill"]
 
 #: Bounds above this, relative to omega^2, are refined.
 WANTED = 2e-13
@@ -57,10 +59,20 @@ WANTED = 2e-13
 #: of an 8,000-site ring. Modes beyond it keep their bounds (and `modes.refinement` says how many).
 TRIPLET_WORK = 5e8
 
-#: And at most this many seconds in all: the factors of a large or densely coupled H (a
-#: 30,000-dof network's partial solve, a network with ~100 springs per site) cost far more per
-#: entry than the measurements above; the step stops there, the bounds left as they are.
-TRIPLET_SECONDS = 10.0
+#: ``accuracy="high"`` runs the step only where H has at most this many rows (n_terms + n: a
+#: network of ~1,000 dofs with ~8 springs per site), for the bounds still over 1e-10 relative:
+#: there one LU takes milliseconds, while on a protein's network (47,000 rows for 3o21's 1,489
+#: residues) one LU took 115 s (COLAMD's fill), more than ProDy's whole solve.
+HIGH_ROWS = 10_000
+
+#: ...and within this much work (units as `TRIPLET_WORK`; ~2 s).
+HIGH_WORK = 5e7
+
+
+def triplet_fill(n: int, n_terms: int) -> float:
+    """Work units one mode of the step is estimated to cost, from sizes: TRIPLET_ROW per row of
+    H (8 of SuperLU's fixed cost, ~20 of fill, as measured on networks to 900 dofs and rings)."""
+    return 28.0 * float(n + n_terms)
 
 _UNIT = float(np.finfo(np.longdouble).eps)
 
@@ -69,9 +81,10 @@ REFINE_STEPS = 2
 
 
 def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArray[np.float64],
-                    error: NDArray[np.float64], *, complete: bool
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-    """Tighter (values, error) for the modes whose bound exceeds WANTED |value| (see above).
+                    error: NDArray[np.float64], *, complete: bool, wanted: float = WANTED,
+                    work: float | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+    """Tighter (values, error) for the modes whose bound exceeds `wanted` |value| (see above),
+    within `work` units of fill (`TRIPLET_WORK` by default).
 
     `weighted`: the stored B~ (n_terms, n), sparse; `deviation`: its (D, S), or None (no exact
     entries known: nothing is refined). `values` ascending omega^2 with absolute bounds
@@ -83,7 +96,7 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
     if deviation is None or not sp.issparse(weighted):
         return values, error, 0
     k = values.shape[0]
-    loose = np.flatnonzero(loose_modes(values, error))
+    loose = np.flatnonzero(loose_modes(values, error, wanted))
     if not complete:
         loose = loose[loose < k - 1]
     if loose.size == 0:
@@ -98,15 +111,16 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
     A_T = A.T.tocsr()
     S_T = S.T.tocsr()
     start = np.random.default_rng(2025).standard_normal(rows + n)
-    refined, work, began = 0, 0.0, time.perf_counter()
+    budget = TRIPLET_WORK if work is None else work
+    refined, spent = 0, 0.0
     for j in loose.tolist():
-        if work >= TRIPLET_WORK or time.perf_counter() - began >= TRIPLET_SECONDS:
+        if spent >= budget:
             break
         if not _isolated(values, error, j):  # no gap to bound it by: no factorisation spent
             continue
         sigma = float(np.sqrt(values[j]))
         pair, fill = _inverse_iteration(B, sigma, start)
-        work += fill
+        spent += fill
         if pair is None:
             continue
         u, v = pair
@@ -157,9 +171,10 @@ def _clusters(values: NDArray[np.float64]) -> list[tuple[int, int]]:
     return runs
 
 
-def loose_modes(values: NDArray[np.float64], error: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """The modes this step would refine: bound over WANTED |value|, yet clear of zero."""
-    return (error > WANTED * np.abs(values)) & (values > error)
+def loose_modes(values: NDArray[np.float64], error: NDArray[np.float64], wanted: float = WANTED
+                ) -> NDArray[np.bool_]:
+    """The modes this step would refine: bound over `wanted` |value|, yet clear of zero."""
+    return (error > wanted * np.abs(values)) & (values > error)
 
 
 def _isolated(values: NDArray[np.float64], error: NDArray[np.float64], j: int) -> bool:

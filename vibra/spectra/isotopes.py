@@ -93,7 +93,7 @@ def isotope_shifts(
         `ISOTOPE_MASSES` (``"13C"``, ``"18O"``, ``"D"``, ...).
     zero_rtol : float
         Relative threshold of the rigid-body modes left out.
-    accuracy : {"high", "fast"}
+    accuracy : {"high", "fast", "certified"}
         Passed to `System.modes`.
 
     Returns
@@ -129,7 +129,7 @@ def isotope_shifts(
     if not substitutions:
         raise ValueError("substitutions is empty; give at least one site -> new mass")
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
-    _validate.choice(accuracy, "accuracy", ("high", "fast"))
+    _validate.choice(accuracy, "accuracy", ("fast", "high", "certified"))
     masses = np.array(system.masses, dtype=float)
     sites, labels, old, new = [], [], [], []
     for site, value in substitutions.items():
