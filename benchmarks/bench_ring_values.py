@@ -13,7 +13,7 @@ Per ring, by the protocol of STYLE.md (one process, warm-up, interleaved rounds,
 numba's threads: the machine's cores, 2 here):
 
 - time of `modes(vectors=False)` in "high" (``accurate-ring``), of the path it replaces (the
-  same call with `accurate.ring_values_apply` switched off: the band solver and the triplet
+  same call with `common.RING_VALUES_FROM` out of reach: the band solver and the triplet
   step above 6,000 sites, the checked dense solve below), of "fast" (the band solver), and of
   the strongest peer for the eigenvalues of a banded symmetric matrix: scipy
   `eigvals_banded` (LAPACK sbevd) of the reordered K~ (half-width 2), formed outside the timing;
@@ -34,7 +34,7 @@ the interleaved rounds only when that took under 30 s. Truth: the closed form (u
 Writes results/ring_lowest.json.
 
 ``--small``: rings of 200 and 1,000 sites, which took the checked dense solve until
-``accurate-ring`` started at 100 sites (`accurate.RING_VALUES_FROM`). Writes results/ring_small.json.
+``accurate-ring`` started at 100 sites (`common.RING_VALUES_FROM`). Writes results/ring_small.json.
 
 ``--kernels``: the compiled loops themselves, `LANES` points at a time (SIMD lanes) against
 one point at a time (`tests/scalar_kernels.py`, the previous kernels, bit-identical results),
@@ -55,7 +55,7 @@ import numpy as np
 import scipy.linalg as la
 
 from vibra.chains import linear_chain
-from vibra.solvers import accurate
+from vibra.solvers import common
 from vibra.solvers.common import ring_ordering
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -65,13 +65,13 @@ PEER = "scipy eigvals_banded (LAPACK sbevd, reordered K~)"
 
 
 def previous(ring: object, n_modes: int | None = None) -> object:
-    """The path this replaces: `accurate.ring_values_apply` off for one call."""
-    switch = accurate.ring_values_apply
-    accurate.ring_values_apply = lambda *args, **kwargs: False  # type: ignore[assignment]
+    """The path this replaces: `common.RING_VALUES_FROM` out of reach for one call."""
+    switch = common.RING_VALUES_FROM
+    common.RING_VALUES_FROM = 10**12  # the ring's own path off
     try:
         return ring.modes(n_modes=n_modes, vectors=False, max_seconds=3600)  # type: ignore[attr-defined]
     finally:
-        accurate.ring_values_apply = switch  # type: ignore[assignment]
+        common.RING_VALUES_FROM = switch
 
 
 def figures(modes: object, truth: np.ndarray | None, mass: np.ndarray, springs: np.ndarray, spread: float,

@@ -13,7 +13,7 @@ Per ring, by the protocol of STYLE.md (one process, warm-up, interleaved rounds,
 numba's threads: the machine's cores, 2 here):
 
 - all frequencies, values only: `normal_modes(..., vectors=False)` in "high" (``accurate-ring``),
-  the path it replaces (`accurate.ring_values_apply` off: the band solver, and the triplet
+  the path it replaces (`common.RING_VALUES_FROM` out of reach: the band solver, and the triplet
   step), and "fast" (the band solver, itself scipy's banded eigensolver: the strongest peer);
 - the lowest 10, values only: "high" against the path it replaces (shift-invert Lanczos, then
   spring-space Rayleigh-Ritz), run once in a subprocess with a time limit (`LIMIT_S`);
@@ -44,7 +44,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibra import normal_modes
-from vibra.solvers import accurate
+from vibra.solvers import common
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_ring_walls import covered, walled_ring  # noqa: E402  (the tests' oracles)
@@ -63,13 +63,13 @@ def ring(n: int, spread: float, walls: int | None) -> tuple:
 
 
 def previous(K: object, mass: np.ndarray, B: object, w: np.ndarray, **request: object) -> object:
-    """The path this replaces: `accurate.ring_values_apply` off for one call."""
-    switch = accurate.ring_values_apply
-    accurate.ring_values_apply = lambda *args, **kwargs: False  # type: ignore[assignment]
+    """The path this replaces: `common.RING_VALUES_FROM` out of reach for one call."""
+    switch = common.RING_VALUES_FROM
+    common.RING_VALUES_FROM = 10**12  # the ring's own path off
     try:
         return normal_modes(K, mass, spring_factor=(B, w), max_seconds=3600, **request)
     finally:
-        accurate.ring_values_apply = switch  # type: ignore[assignment]
+        common.RING_VALUES_FROM = switch
 
 
 def figures(modes: object, n: int, spread: float, system: tuple, sample: bool) -> dict:
@@ -158,7 +158,7 @@ def previous_once(n: int, spread: float, walls: int | None, k: int) -> None:
 
 def run_chains(cases: list[tuple[int, float]], rounds: int) -> list[dict]:
     """Chains of pendulums (a wall spring at every site, free ends): ``accurate-walled`` against
-    the path it replaces (`accurate.walled_result` off: the checked dense solve, or the Rayleigh
+    the path it replaces (`common.RING_VALUES_FROM` out of reach: the checked dense solve, or the Rayleigh
     path over 1,500 sites) and "fast" (the tridiagonal solver, LAPACK stemr: the strongest peer)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
     from test_walled_chain import chain_on_walls
@@ -171,12 +171,12 @@ def run_chains(cases: list[tuple[int, float]], rounds: int) -> list[dict]:
         K = (B.T @ sp.diags(w) @ B).tocsr()
 
         def before() -> object:
-            switch = accurate.walled_result
-            accurate.walled_result = lambda *args, **kwargs: None  # type: ignore[assignment]
+            switch = common.RING_VALUES_FROM
+            common.RING_VALUES_FROM = 10**12  # the walled chain's own path off
             try:
                 return normal_modes(K, mass, spring_factor=(B, w), vectors=False, max_seconds=3600)
             finally:
-                accurate.walled_result = switch  # type: ignore[assignment]
+                common.RING_VALUES_FROM = switch
 
         methods = {"vibra fast": lambda: normal_modes(K, mass, vectors=False),
                    "vibra high": lambda: normal_modes(K, mass, spring_factor=(B, w), vectors=False, max_seconds=3600)}

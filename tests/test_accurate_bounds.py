@@ -297,14 +297,14 @@ def test_network_bounds_cover_the_rounding_of_forming_b(seed: int, spring_decade
 
 
 def test_forming_deviation_is_the_entries_own_rounding() -> None:
-    """`accurate.forming_deviation`: stored - D equals sqrt(w) c / sqrt(m) formed in mpmath
+    """`spring_ritz.forming_deviation`: stored - D equals sqrt(w) c / sqrt(m) formed in mpmath
     (40 digits) within S, entry by entry, and |D| stays within 3 eps of each entry."""
-    from vibra.solvers import accurate
+    from vibra.solvers import spring_ritz
 
     B, springs, masses = network(np.random.default_rng(2), 12, 3.0, 2.0)
     coupling = sp.csr_matrix(B)
     weighted = sp.csr_matrix(sp.diags(np.sqrt(springs)) @ coupling @ sp.diags(1.0 / np.sqrt(masses)))
-    D, S = accurate.forming_deviation(weighted, coupling, springs, masses)
+    D, S = spring_ritz.forming_deviation(weighted, coupling, springs, masses)
     stored = weighted.tocoo()
     with mpmath.workdps(40):
         for row, column, value in zip(stored.row, stored.col, stored.data):
@@ -313,4 +313,4 @@ def test_forming_deviation_is_the_entries_own_rounding() -> None:
             corrected = mpmath.mpf(float(value)) - mpmath.mpf(float(D[row, column]))
             assert abs(corrected - exact) <= mpmath.mpf(float(S[row, column])) + abs(exact) * mpmath.mpf(1e-30)
             assert abs(float(D[row, column])) <= 3 * np.finfo(float).eps * abs(float(value))
-    assert accurate.forming_deviation(weighted, coupling, springs, np.diag(masses)) is None
+    assert spring_ritz.forming_deviation(weighted, coupling, springs, np.diag(masses)) is None

@@ -138,7 +138,7 @@ def test_rayleigh_path_reached_on_purpose_values_and_vectors(vectors: bool, monk
     without Jacobi. Truth: the lattice's closed form (see the module doc);
     stiffnesses 1e-4, 1, 1e4: the soft and unit chains' modes lie below the a-priori bound's
     reach and are refined, the stiff chains' upper modes keep the fast values."""
-    monkeypatch.setattr(solvers.accurate, "JACOBI_WORK", 0)
+    monkeypatch.setattr(solvers.common, "JACOBI_WORK", 0)
     side, stiffness = 8, (1.0, 1e-4, 1e4)
     system = anisotropic_lattice(side, stiffness)
     assert system.n_dof > solvers.DENSE_LIMIT
@@ -181,15 +181,16 @@ def test_spring_factor_rounding_enters_the_a_priori_bound() -> None:
 
 def test_triplet_work_cap_leaves_the_rest_as_they_were_and_says_so(rng: np.random.Generator,
                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
-    """`golub_kahan.TRIPLET_WORK` spent after the first mode: one bound tightened, the count of
-    those still above 2e-13 omega^2 in the text, and every bound still covers 50-digit mpmath."""
-    from vibra.solvers import golub_kahan
+    """"high"'s triplet budget (`golub_kahan.HIGH_WORK`, counted in fill, never in seconds)
+    spent after the first mode: one bound tightened, the count of those still above 1e-10
+    omega^2 in the text, and every bound still covers 50-digit mpmath."""
+    from vibra.solvers import accurate
 
     B, springs, masses = network(rng, 30, 6.0, 3.0)
-    monkeypatch.setattr(golub_kahan, "TRIPLET_WORK", 1.0)
-    modes = solve(B, springs, masses, vectors=False, accuracy="certified")
+    monkeypatch.setattr(accurate, "HIGH_WORK", 1.0)
+    modes = solve(B, springs, masses, vectors=False, accuracy="high")
     match = re.search(r"; 1 bounds tightened by singular triplets \(Golub-Kahan inverse iteration\), "
-                      r"(\d+) still above 2e-13 omega\^2", modes.refinement)
+                      r"(\d+) still above 1e-10 omega\^2", modes.refinement)
     assert match and int(match.group(1)) >= 1
     exact = mp_spring_omegas(B, springs, masses, exact=True)
     with mpmath.workdps(50):  # the error in mpmath: a float64 truth rounds by ~1e-16 itself

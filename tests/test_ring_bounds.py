@@ -142,12 +142,11 @@ def test_a_band_above_the_dense_limit_bounds_every_mode_from_its_own_residual() 
 def test_a_ring_with_a_spread_of_1e12_is_certified_mode_by_mode(vectors: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     """200 sites, masses and springs log-uniform over 1e12 (||K~|| / omega_1^2 ~ 1e30: double-
     double counts cannot resolve the lowest modes, mpmath does), on the checked dense path
-    (frequencies only: `accurate.ring_values_apply` off, as for a ring under 100 sites). Every
+    (frequencies only: `common.RING_VALUES_FROM` out of reach, as for a ring under 100 sites). Every
     sampled bound covers the truth and is within 1e-13 relative; the whole ring within 1e-10,
     the median within 1e-15. Frequencies only, the default path from 100 sites
     (``accurate-ring``, roots certified by the spring form's counts) meets the same sample with
     every bound within 1e-13 (its median ~3.7e-15: the counts' first bracket)."""
-    from vibra.solvers import accurate
 
     n = 200
     mass, springs = disordered_ring(n, 12.0, 5)
@@ -159,7 +158,7 @@ def test_a_ring_with_a_spread_of_1e12_is_certified_mode_by_mode(vectors: bool, m
         assert relative.max() <= 1e-13
         for j in sampled(n, np.r_[0.0, relative], np.random.default_rng(2)):
             assert covered(mass, springs, default.omega[j], default.omega_error[j], j), j
-        monkeypatch.setattr(accurate, "ring_values_apply", lambda *args, **kwargs: False)
+        monkeypatch.setattr(solvers.common, "RING_VALUES_FROM", 10**12)  # the ring's own path off
     modes = ring.modes(vectors=vectors)
     assert "200 of 200 bounds certified by Sturm counts" in modes.refinement
     relative = modes.omega_error[1:] / modes.omega[1:]

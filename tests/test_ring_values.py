@@ -1,4 +1,4 @@
-"""``accurate-ring``: every frequency of a ring of `accurate.RING_VALUES_FROM` sites or more, values only.
+"""``accurate-ring``: every frequency of a ring of `common.RING_VALUES_FROM` sites or more, values only.
 
 Truth from outside the code under test: the closed form of the uniform ring,
 omega_j = 2 sqrt(k / m) |sin(pi j / n)| in 30-digit mpmath, and for disordered rings Sylvester
@@ -241,9 +241,10 @@ def test_the_plan_takes_accurate_ring_for_values_only_at_any_length() -> None:
     """Planning, "high": ``accurate-ring`` for all frequencies without vectors and for the lowest
     10 with or without, at 3,000 and 120,000 sites (the plan names the path that runs; the
     budget, not a length, limits it); all modes with vectors the checked dense solve (3,000) or
-    the band (120,000, its values certified by ``accurate-ring`` after)."""
+    the band's vectors with ``accurate-ring``'s certified values (120,000: ``accurate-ring-band``, the name
+    the result reports too, where the plan once said "banded")."""
     for n, k, vectors, path in ((3000, None, False, "accurate-ring"), (3000, None, True, "accurate-checked"),
-                                (120000, None, False, "accurate-ring"), (120000, None, True, "banded"),
+                                (120000, None, False, "accurate-ring"), (120000, None, True, "accurate-ring-band"),
                                 (3000, 10, False, "accurate-ring"), (3000, 10, True, "accurate-ring"),
                                 (120000, 10, False, "accurate-ring"), (120000, 10, True, "accurate-ring")):
         ring = linear_chain(n, ends="periodic")
@@ -257,9 +258,8 @@ def test_the_plan_takes_accurate_ring_for_values_only_at_any_length() -> None:
 def test_a_ring_with_a_spring_to_a_wall_agrees_with_the_checked_dense_path(monkeypatch: pytest.MonkeyPatch) -> None:
     """A ring with one spring to a wall (1,510 sites) takes `accurate-ring` too (its cut chain's
     factor keeps the wall: `test_ring_walls.py`); the checked dense solve it took before
-    (`accurate.ring_values_apply` switched off) is an independent path: every pair of
+    (`common.RING_VALUES_FROM` out of reach) is an independent path: every pair of
     certified intervals overlaps, and both are within 1e-10 relative."""
-    from vibra.solvers import accurate
 
     n = 1510
     mass, springs = disordered_ring(n, 1.0, 4)
@@ -272,7 +272,7 @@ def test_a_ring_with_a_spring_to_a_wall_agrees_with_the_checked_dense_path(monke
     modes = normal_modes(K, mass, spring_factor=(walled, weights), vectors=False)
     assert modes.solver == "accurate-ring"
     assert np.all(modes.omega_error <= 1e-13 * modes.omega)
-    monkeypatch.setattr(accurate, "ring_values_apply", lambda *args, **kwargs: False)
+    monkeypatch.setattr(solvers.common, "RING_VALUES_FROM", 10**12)  # the ring's own path off
     dense = normal_modes(K, mass, spring_factor=(walled, weights), vectors=False)
     assert dense.solver in ("accurate-checked", "accurate-jacobi")
     assert np.all(dense.omega_error <= 1e-10 * dense.omega)
@@ -285,9 +285,8 @@ def test_a_long_ring_with_vectors_gets_certified_frequencies(monkeypatch: pytest
     lowered to 1,000 so that a 1,600-site uniform ring takes that route in a second (measured
     at 6,100 sites: every bound within 9.5e-14, the largest true error 8.6e-15). Truth: the
     closed form; the vectors: residuals of K~ against their certified frequencies."""
-    from vibra.solvers import accurate
 
-    monkeypatch.setattr(accurate, "RING_DENSE_LIMIT", 1000)
+    monkeypatch.setattr(solvers.common, "RING_DENSE_LIMIT", 1000)
     n = 1600
     ring = linear_chain(n, ends="periodic", units="dimensionless")
     modes = ring.modes(vectors=True)
@@ -478,14 +477,13 @@ def test_the_error_free_product_in_row_blocks_is_the_same(monkeypatch: pytest.Mo
                                                   (1200, 3.0, True)])
 def test_rings_from_100_sites_take_the_ring_path_and_agree_with_the_dense_solve(
         n: int, spread: float, wall: bool, monkeypatch: pytest.MonkeyPatch) -> None:
-    """From `accurate.RING_VALUES_FROM` (100) sites up to DENSE_LIMIT, frequencies only: ``accurate-ring``
+    """From `common.RING_VALUES_FROM` (100) sites up to DENSE_LIMIT, frequencies only: ``accurate-ring``
     (a ring of 1,000 sites in 0.03 s where the checked dense solve took 5 s); the dense solve
     it replaces is an independent path: every pair of certified intervals overlaps, both
     within 1e-13 relative (1e-10 for the dense one's promise). One site fewer keeps the dense
     solve, and so does a request with vectors."""
-    from vibra.solvers import accurate
 
-    assert accurate.RING_VALUES_FROM == 100
+    assert solvers.common.RING_VALUES_FROM == 100
     mass, springs = disordered_ring(n, spread, n) if spread else (np.ones(n), np.ones(n))
     ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
     B, w = ring.spring_factor()
@@ -500,7 +498,7 @@ def test_rings_from_100_sites_take_the_ring_path_and_agree_with_the_dense_solve(
     assert lowest.solver == "accurate-ring"
     assert np.all(np.abs(lowest.omega - modes.omega[:5]) <= lowest.omega_error + modes.omega_error[:5])
     assert normal_modes(K, mass, spring_factor=(B, w), n_modes=5).solver in ("accurate-checked", "accurate-jacobi")
-    monkeypatch.setattr(accurate, "ring_values_apply", lambda *args, **kwargs: False)
+    monkeypatch.setattr(solvers.common, "RING_VALUES_FROM", 10**12)  # the ring's own path off
     dense = normal_modes(K, mass, spring_factor=(B, w), vectors=False)
     assert dense.solver in ("accurate-checked", "accurate-jacobi")
     assert np.all(dense.omega_error[nonzero] <= 1e-10 * dense.omega[nonzero])

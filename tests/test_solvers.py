@@ -401,7 +401,7 @@ def test_ring_frequencies_match_the_closed_form_and_a_dense_solve() -> None:
     assert np.all(modes.omega_error[flexible] + 4 * np.finfo(float).eps * exact[flexible] >= error[flexible])
     assert np.all(modes.omega_error[flexible] <= 1e-13 * exact[flexible])
     assert "bounds certified by Sturm counts" in modes.refinement
-    longer = linear_chain(solvers.accurate.RING_DENSE_LIMIT + 2, ends="periodic").modes(vectors=False)
+    longer = linear_chain(solvers.common.RING_DENSE_LIMIT + 2, ends="periodic").modes(vectors=False)
     assert longer.solver == "accurate-ring"
     rng = np.random.default_rng(3)
     masses, springs = rng.uniform(1.0, 3.0, 2000), rng.uniform(1.0, 2.0, 2000)

@@ -42,8 +42,9 @@
                      certified by the same counts (accurate-walled; `walled_chain.py`).
 =================  ==========================================================================
 
-Before anything is allocated, `plan` chooses the path and `budget.estimate` its memory and
-time; `budget.guard` refuses (`ResourceLimitError`, a ValueError) a request over the limits
+Before anything is allocated, `plan` describes the request (`registry.Problem`: sizes, the
+accuracy level, the springs' shape from `topology.classify`), the registry (`registry.PATHS`)
+chooses the path, and `budget.estimate` gives its memory and time; `budget.guard` refuses (`ResourceLimitError`, a ValueError) a request over the limits
 with the figures and the cheaper requests (`vectors=False`, `n_modes`, `band`), and
 `budget.Progress` reports solves estimated to take over `budget.PROGRESS_AFTER_S` on stderr.
 
@@ -71,7 +72,10 @@ Where each path lives:
 ``accurate.py``        accurate dispatch; -checked, -ritz, -rayleigh, -jacobi, -ring
 ``spring_ritz.py``     spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s own rounding
 ``golub_kahan.py``     B~'s singular triplets by Golub-Kahan inverse iteration (Kato-Temple)
-``dispatch.py``        `plan` (choose the path, estimate its cost), `solve`, `SOLVER_NAMES`
+``topology.py``        the springs' shape (chain, walled chain, ring, walled ring, network), classified once
+``registry.py``        every path: when it applies, what it costs, how it runs (`PATHS`, `choose`)
+``runners.py``         one run function per registered path
+``dispatch.py``        `plan` (describe the request, let the registry choose, estimate), `solve`
 ``budget.py``          memory / time estimates, the guard and its limits, progress reports
 ``gpu.py``             ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
 =====================  ======================================================================

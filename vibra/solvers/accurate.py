@@ -1,39 +1,24 @@
-"""Accurate paths for a system that knows its springs, K = B^T W B.
+"""The pieces of the accurate paths for a system that knows its springs, K = B^T W B.
 
 The frequencies are the singular values of B~ = W^1/2 B M^-1/2, computed to high relative
-accuracy where the structure allows (`accurate_path` chooses):
+accuracy where the structure allows. Which path runs is the registry's choice
+(`vibra.solvers.registry`); the runners (`vibra.solvers.runners`) assemble these pieces:
 
-- ``accurate-bidiagonal``: the springs form a path (a chain); see `vibra.solvers.bidiagonal`;
-- ``accurate-ritz``: a few modes of a large system: shift-invert vectors, then Rayleigh-Ritz
-  in spring space (H = (B~V)^T (B~V), O(N k));
-- ``accurate-checked`` / ``accurate-jacobi``: any other system (n <= DENSE_LIMIT): the fast
-  dense solve first (with vectors, also for values only), which the a-priori bound
+- `checked_dense` (``accurate-checked`` / ``accurate-jacobi`` / ``accurate-rayleigh``): the
+  fast dense solve first (with vectors, also for values only), which the a-priori bound
   n eps ||K~|| certifies to `TARGET` relative for every omega^2 above ~n eps ||K~|| / TARGET;
   every mode then gets a bound from its own residual; the modes below that (and their
   clusters) get spring-space Rayleigh-Ritz per cluster and a gap-based (Kato-Temple) bound
-  each (`checked_dense`); only
-  when some requested mode's bound still misses `TARGET` does one-sided Jacobi SVD (LAPACK
-  gejsv) of B~ run (``accurate-jacobi``; ``accurate-checked`` when the checked result passed);
-- ``accurate-rayleigh``: all modes of a large non-path system where gejsv on B~ would cost many
-  times the dense solve (n_terms n^2 over `JACOBI_WORK`, n > DENSE_LIMIT): the same checked
-  dense solve without the Jacobi fallback. Rings (n_terms = n) keep the fallback up to 4,000
-  dofs and the checked dense solve up to `RING_DENSE_LIMIT`; a longer ring takes its band
-  (``banded``: absolute accuracy, said so) and, with vectors, the spring-space Rayleigh
-  quotients ||B~ v||^2 of the banded vectors, each bounded from its own residual (the
-  ring's frequencies then come from `ring_path`, certified);
-- ``accurate-ring``: the frequencies of a ring (free, or with springs to a wall) of
-  `RING_VALUES_FROM` sites or more, all of them without
-  vectors or the lowest n_modes, at any length (`ring_values_apply`; the budget guards the time):
-  roots of its spring form's last pivot between the eigenvalues of the chain it is cut into,
-  each certified by Sturm counts (`vibra.solvers.ring_path`); the lowest modes' vectors by
-  Golub-Kahan inverse iteration, and a double eigenvalue's bound by spring-space Rayleigh-Ritz
-  on them (`ring_path.pair_step`);
-- ``accurate-walled``: the same requests on a chain with springs to a wall inside it (no path
-  for the chain solvers): dqds or bisection on its bidiagonal Cholesky factor, each value
-  certified by the spring form's counts (`vibra.solvers.walled_chain`); all modes with vectors
-  over DENSE_LIMIT: those values with LAPACK stemr's vectors, paired by rank;
-- a chain's values in clusters (no gap for their triplets) are certified by Sturm counts of its
-  spring form (`vibra.solvers.path_counts`).
+  each; only when some requested mode's bound still misses `TARGET` does one-sided Jacobi SVD
+  (LAPACK gejsv) of B~ run (``accurate-jacobi``, where the registry allows it:
+  `common.JACOBI_WORK`; ``accurate-rayleigh`` runs without it);
+- `checked_ritz` and `spring_ritz_band` (``accurate-ritz``): Rayleigh-Ritz in spring space
+  (H = (B~V)^T (B~V), O(N k)) on shift-invert vectors, or on the sparse path's in a band;
+- `spring_rayleigh`: spring-space Rayleigh quotients of another solver's vectors (a long
+  ring's band vectors, ``accurate-ring-band``);
+- `ring_certified`: a ring's bounds replaced by Sturm-count certificates (`cycle`);
+- `tightened`: bounds tightened as far as the accuracy level asks (singular triplets,
+  `golub_kahan`; double-double inverse iteration, `spring_ritz.refine_modes`).
 
 Every path fills `SolveResult.refined` (which modes' values come from the accurate machinery)
 and `refinement` (how many, and why).
@@ -41,150 +26,33 @@ and `refinement` (how many, and why).
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
-from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
-from vibra.solvers.cycle import RingPencil, certify, count_below, ring_pencil
-from vibra.solvers.path_counts import chain_counted
-from vibra.solvers.ring_path import pair_step, ring_result, ring_vectors
+from vibra.solvers.cycle import RingPencil, certify, count_below
 from vibra.solvers.golub_kahan import HIGH_ROWS, HIGH_WORK, WANTED, loose_modes, refine_triplets
 from vibra.solvers.spring_ritz import (
-    FORMING, TARGET, Deviation, cluster_bounds, forming_deviation, most_terms, refine_modes, residual_bounds,
+    FORMING, TARGET, Deviation, cluster_bounds, most_terms, refine_modes, residual_bounds,
     spring_figures, zero_level,
 )
 from vibra.solvers.common import (
-    DENSE_LIMIT, EPS, SolveResult, mass_power, selected, small_pencil, squared_range,
+    EPS, JACOBI_WORK, SolveResult, mass_power, selected, small_pencil, squared_range,
 )
-from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
-from vibra.solvers.walled_chain import walled_result
-from vibra.solvers.standard import DENSE_FLOOR, banded_path, tridiagonal_path
+from vibra.solvers.standard import DENSE_FLOOR
 
 
 
-#: One-sided Jacobi (gejsv) on the n_terms x n B~ is the fallback of `checked_dense` while
-#: n_terms n^2 stays within this (a ring of 4,000 sites: ~40 s); above DENSE_LIMIT only systems
-#: with few springs per dof (rings, ladders) qualify, a 3-D network never does.
-JACOBI_WORK = 4000**3
-
-#: A ring (tridiagonal plus corners, K~ banded once reordered) up to this many dofs takes the
-#: checked dense solve, which bounds every mode relatively; above it, its band (absolute accuracy).
-RING_DENSE_LIMIT = 6000
-
-#: A ring of at least this many sites has its frequencies (values only, or the lowest n_modes)
-#: from `ring_path`: at 100 sites ~1 ms where the checked dense solve takes ~0.1 s (0.03 s
-#: against 5.2 s at 1,000, uniform), every bound within 1e-13 relative either way; a smaller
-#: ring keeps the dense solve (instant there, its bounds often tighter).
-RING_VALUES_FROM = 100
-
-
-def ring_values_apply(n: int, *, band: tuple[float, float] | None) -> bool:
-    """Whether a ring of n >= RING_VALUES_FROM sites (free, or with springs to a wall) has its
-    frequencies from `ring_path` (no band, the compiled loops available):
-    ``accurate-ring`` for all of them without vectors (O(n^2), ~2.4e-8 n^2 s on two cores: 68 s
-    at 50,000 sites, 240 s at 100,000) or for the lowest n_modes (O(n k): the cut chain's lowest
-    k + 3 eigenvalues by compiled bisection, ~1.1e-7 n s each; their vectors by Golub-Kahan inverse
-    iteration); with all vectors, the band solver's, paired with them. At any length: the
-    budget's time limit (`budget.TIME_LIMIT_S`, ``max_seconds=``) refuses what would take too
-    long, with ``accuracy="fast"`` (the band, absolute accuracy) among the cheaper requests."""
-    return band is None and n >= RING_VALUES_FROM and COMPILED
-
-
-def jacobi_allowed(n: int, n_terms: int) -> bool:
-    """Whether `checked_dense` may fall back to one-sided Jacobi on the n_terms x n B~."""
-    return n <= DENSE_LIMIT or float(n_terms) * n * n <= JACOBI_WORK
-
-
-def accurate_subpath(n: int, mass: NDArray[np.float64], *, n_modes: int | None,
-                     band: tuple[float, float] | None, tridiagonal: bool, banded: bool, n_terms: int,
-                     vectors: bool = True, walled: bool = False) -> str:
-    """The path `accurate_path` will take (for the cost estimate), without touching B.
-
-    Springs that form a path join dofs c and c + 1 only, so K is tridiagonal: a tridiagonal
-    K with diagonal masses is estimated as a path (parallel springs between one pair, the
-    exception, take the Rayleigh path, at most the dense cost).
-    """
-    few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
-    if walled and ring_values_apply(n, band=band) and (few or not vectors or n > DENSE_LIMIT):
-        return "accurate-walled"  # a chain with springs to a wall inside it (`walled_chain`)
-    if mass.ndim == 1 and not few and tridiagonal and not walled:
-        return "accurate-bidiagonal"
-    if banded and ring_values_apply(n, band=band) and (few or not vectors):
-        return "accurate-ring"
-    if few:
-        return "accurate-ritz"
-    if banded and n > RING_DENSE_LIMIT:
-        return "banded"
-    return "accurate-checked" if jacobi_allowed(n, n_terms) else "accurate-rayleigh"
-
-
-def accurate_path(Kt: Any, mass: NDArray[np.float64], factor: tuple[sp.csr_matrix, NDArray[np.float64]], *,
-                  n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
-                  ordering: NDArray[np.intp] | None = None, width: int = 0,
-                  on_stage: Callable[[float, str], None] | None = None, accuracy: str = "high") -> SolveResult:
-    """Frequencies as singular values of B~ = W^1/2 B M^-1/2: picks the accurate-* path that fits.
-
-    A large ring (`ordering` given: K~ banded once reordered) is not a path: its frequencies
-    come from the banded solver (absolute accuracy, reported as ``"banded"``), and with
-    vectors from the spring-space Rayleigh quotients of the banded vectors.
-    """
-    coupling, weights = factor
-    n = Kt.shape[0]
-    weighted = _weighted_factor(coupling, weights, mass)  # B~ (n_terms, n)
-    few = (n_modes is not None and n_modes < n - 1 or band is not None) and n > DENSE_LIMIT
-    path = path_bidiagonals(weighted) if mass.ndim == 1 and not few else None
-    if path is not None:
-        chain = bidiagonal_path(Kt, weighted, path, n_modes=n_modes, vectors=vectors, band=band, on_stage=on_stage,
-                                factor=factor, mass=mass)
-        chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
-        return chain_counted(chain, coupling, weights, mass, band)
-    walled_apply = mass.ndim == 1 and ordering is None and ring_values_apply(n, band=band)
-    if walled_apply and (few or not vectors or n > DENSE_LIMIT):  # a chain on walls (else None)
-        walled = walled_result(coupling, weights, mass, weighted, n_modes, vectors=vectors and few)
-        if walled is not None and (few or not vectors):
-            return walled
-        if walled is not None:  # all modes with vectors: LAPACK stemr's, each paired by rank with its certified value
-            basis = tridiagonal_path(Kt, n_modes=None, vectors=True, band=None).vectors
-            assert basis is not None
-            paired = spring_figures(sp.csr_matrix(weighted), walled.eigenvalues, basis, True, "accurate-walled")
-            paired.error, paired.refined = walled.error, walled.refined
-            paired.refinement = f"{walled.refinement}; vectors from the tridiagonal solver (LAPACK stemr), paired by rank"
-            return paired
-    deviation = forming_deviation(weighted, coupling, weights, mass)
-    if ordering is not None and ring_values_apply(n, band=band) and (few or not vectors):
-        ring = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass), lowest=few)
-        if ring is not None:
-            return ring_vectors(weighted, mass, ring) if vectors else ring
-    pencil = ring_pencil(coupling, weights, mass) if n <= RING_DENSE_LIMIT else None
-    result = _other_paths(Kt, factor, weighted, n_modes=n_modes, vectors=vectors, band=band, few=few,
-                          ordering=ordering, width=width, deviation=deviation)
-    if pencil is not None and result.error.shape[0]:
-        return _ring_certified(result, pencil, band)
-    if ordering is not None and vectors and not few and n > RING_DENSE_LIMIT and ring_values_apply(n, band=band):
-        certified = ring_result(coupling, weights, mass, n_modes, tighten=pair_step(weighted, deviation, mass))
-        if certified is not None and certified.eigenvalues.shape == result.eigenvalues.shape:
-            # the band solver's vectors, each paired by rank with its certified frequency
-            result.eigenvalues, result.error = certified.eigenvalues, certified.error
-            result.refined = certified.refined
-            result.refinement = f"{certified.refinement}; vectors from the band solver"
-            return result
-    if band is None and mass.ndim == 1 and result.error.shape[0] and np.all(np.diff(result.eigenvalues) >= 0):
-        result = _tightened(result, weighted, deviation, factor, mass, accuracy=accuracy)
-    return result
-
-
-def _tightened(result: SolveResult, weighted: Any, deviation: Deviation,
+def tightened(result: SolveResult, weighted: Any, deviation: Deviation,
                factor: tuple[sp.csr_matrix, NDArray[np.float64]], mass: NDArray[np.float64], *,
                accuracy: str) -> SolveResult:
     """`result` with its loose bounds tightened as far as `accuracy` asks, no further.
 
     "certified": every bound over `golub_kahan.WANTED` (2e-13) relative, by singular triplets
-    (`refine_triplets`, within `TRIPLET_WORK`) and, on small systems, double-double inverse
+    (`refine_triplets`, every loose mode: its cost was estimated and guarded up front) and, on small systems, double-double inverse
     iteration (`refine_modes`). "high": only the bounds over `TARGET` (1e-10) relative, and the
     triplet step only where its factorisations are cheap (H of at most `HIGH_ROWS` rows); a
     bound still over TARGET is named with what "certified" would do. No step looks at the clock.
@@ -198,7 +66,7 @@ def _tightened(result: SolveResult, weighted: Any, deviation: Deviation,
     if certified or rows <= HIGH_ROWS:
         values, error, count = refine_triplets(weighted, deviation, result.eigenvalues, result.error,
                                                complete=complete, wanted=wanted,
-                                               work=None if certified else HIGH_WORK)
+                                               work=float("inf") if certified else HIGH_WORK)
         if count:
             result.eigenvalues, result.error = values, error
             loose = int(np.count_nonzero(loose_modes(values, error, wanted)))
@@ -219,34 +87,7 @@ def _tightened(result: SolveResult, weighted: Any, deviation: Deviation,
     return result
 
 
-def _other_paths(Kt: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], weighted: Any, *,
-                 n_modes: int | None, vectors: bool, band: tuple[float, float] | None, few: bool,
-                 ordering: NDArray[np.intp] | None, width: int, deviation: Deviation) -> SolveResult:
-    """`accurate_path` for a system whose springs do not form a path."""
-    n = Kt.shape[0]
-    if ordering is not None and not few and n > RING_DENSE_LIMIT:
-        ring = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
-        if ring.vectors is None:
-            return ring
-        return relative_account(_spring_rayleigh(weighted, ring, vectors=vectors, deviation=deviation),
-                                "as spring-space Rayleigh quotients ||B~ v||^2 of the banded solver's vectors")
-    if few and band is None:
-        k = int(n_modes)  # type: ignore[arg-type]
-        matrix = sp.csr_matrix(Kt)
-        rounding = semidefinite_rounding(factor, float(abs(matrix).sum(axis=1).max()))
-        sigma, shifted = lowest_shift(matrix, rounding=rounding)
-        _, basis = shift_invert(matrix, min(k + 1, n - 2), sigma, shifted)  # one more: the gap
-        return relative_account(_checked_ritz(weighted, basis, k, vectors=vectors, deviation=deviation),
-                                f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
-    if few:
-        standard = sparse_path(Kt, n_modes=None, vectors=True, band=band)
-        return relative_account(_spring_ritz(weighted, standard, band, vectors=vectors, deviation=deviation),  # type: ignore[arg-type]
-                                "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
-    return checked_dense(weighted, n_modes=n_modes, vectors=vectors, band=band,
-                         jacobi=jacobi_allowed(n, weighted.shape[0]), deviation=deviation)
-
-
-def _ring_certified(result: SolveResult, pencil: RingPencil, band: tuple[float, float] | None) -> SolveResult:
+def ring_certified(result: SolveResult, pencil: RingPencil, band: tuple[float, float] | None) -> SolveResult:
     """A ring's result with each bound replaced by its Sturm-count certificate (`vibra.solvers.cycle`)
     where that is tighter: the counts are of K - x M built from the springs and masses as
     given. A mode the counts cannot certify keeps its residual bound (also for the exact B~)."""
@@ -290,14 +131,14 @@ def relative_account(result: SolveResult, how: str) -> SolveResult:
     return result
 
 
-def _weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> Any:
+def weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> Any:
     left = sp.diags(np.sqrt(weights))
     if mass.ndim == 1:
         return sp.csr_matrix(left @ coupling @ sp.diags(1.0 / np.sqrt(mass)))
     return np.asarray((left @ coupling).toarray() @ mass_power(mass, -0.5))
 
 
-def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float], *, vectors: bool,
+def spring_ritz_band(weighted: Any, standard: SolveResult, band: tuple[float, float], *, vectors: bool,
                  deviation: Deviation = None) -> SolveResult:
     """Rayleigh-Ritz in spring space on every vector the sparse path found in `band`, per
     cluster (`cluster_bounds`): H = (B~V)^T (B~V) keeps small eigenvalues' relative accuracy;
@@ -305,7 +146,8 @@ def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float]
     band's edges (the sparse path returns every mode inside it)."""
     B = sp.csr_matrix(weighted)
     low, high = squared_range(band)
-    if standard.eigenvalues.shape[0] == 0:
+    if standard.eigenvalues.shape[0] == 0:  # no mode in the band: nothing to refine
+        standard.solver = "accurate-ritz"
         return standard
     theta, basis, error = cluster_bounds(B, standard.eigenvalues, standard.vectors,  # type: ignore[arg-type]
                                           np.maximum(standard.error, 0.0), most_terms(B), complete=False,
@@ -316,7 +158,7 @@ def _spring_ritz(weighted: Any, standard: SolveResult, band: tuple[float, float]
     return result
 
 
-def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool,
+def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool,
                   deviation: Deviation = None) -> SolveResult:
     """Spring-space Rayleigh-Ritz on k + 1 shift-invert vectors; the lowest k kept, each with the
     quadratic residual bound of `cluster_bounds` (the (k+1)-th value, less its residual, bounds
@@ -342,7 +184,8 @@ def _checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors:
     return result
 
 
-def _spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviation: Deviation = None) -> SolveResult:
+def spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviation: Deviation = None,
+                    name: str = "accurate-rayleigh") -> SolveResult:
     """All modes of a long ring: spring-space Rayleigh-Ritz per cluster of the banded solver's
     vectors (Rayleigh quotients ||B~ v||^2 for single modes), each bounded from its residual
     (`cluster_bounds`, gaps from the banded values' absolute bounds)."""
@@ -350,7 +193,7 @@ def _spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviati
     theta, basis, error = cluster_bounds(B, ring.eigenvalues, ring.vectors,  # type: ignore[arg-type]
                                           np.maximum(ring.error, 0.0), most_terms(B), complete=True, deviation=deviation)
     order = np.argsort(theta, kind="stable")
-    result = spring_figures(B, theta[order], basis[:, order], vectors, "accurate-rayleigh")
+    result = spring_figures(B, theta[order], basis[:, order], vectors, name)
     result.error = error[order]
     return result
 
@@ -414,7 +257,7 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
        come from step 2 (all of them after Jacobi), `refinement` says how many and why.
 
     `jacobi` False (all modes of a system over DENSE_LIMIT dofs, where gejsv on the
-    n_terms x n B~ would cost many times the dense solve: `jacobi_allowed`): no step 4, the
+    n_terms x n B~ would cost many times the dense solve: `registry`'s accurate-rayleigh): no step 4, the
     bounds stand as they are, and the path is ``accurate-rayleigh`` (its single-mode clusters
     are Rayleigh quotients ||B~ v||^2).
     """

@@ -49,6 +49,8 @@ import time
 from dataclasses import dataclass
 from typing import Callable, TextIO
 
+from vibra.solvers.common import RING_DENSE_LIMIT
+from vibra.solvers.golub_kahan import HIGH_ROWS, triplet_seconds
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
 
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
@@ -78,6 +80,7 @@ MP_COUNT_S = 2e-5             # per site: one mpmath count (~0.15 s at 8,000 sit
 RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)
 TRIPLET_UNIT_S = 3.6e-8       # per work unit of `golub_kahan` (TRIPLET_WORK = 5e8 units ~ 18 s)
 TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and mode (8 + ~20 of fill)
+HIGH_LOOSE = 4                # modes "high" is estimated to refine by triplets (bounds over 1e-10)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
 
 
@@ -130,7 +133,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
     vector_bytes = 8.0 * n * k if vectors else 0.0
     what = f"{'all ' if k == n else ''}{k} mode{'s' if k != 1 else ''} of {n} dofs" + (
         ", with vectors" if vectors else ", frequencies only")
-    if path == "dense":
+    if path in ("dense", "gpu"):  # (the GPU path checks the device's own memory before allocating)
         memory = 8.0 * n2 * (2 if vectors else 1) + vector_bytes + 8.0 * 26 * n
         seconds = (DENSE_VECTORS_S * k / n + DENSE_VALUES_S) * n2 * n if vectors else DENSE_VALUES_S * n2 * n
     elif path in ("tridiagonal", "accurate-bidiagonal"):
@@ -142,7 +145,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         else:
             values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
         seconds = values_s + (TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
-    elif path == "banded":
+    elif path in ("banded", "accurate-ring-band"):
         memory = 8.0 * (width + 1) * n * 3 + (8.0 * n2 + vector_bytes if vectors else 0.0)
         seconds = BANDED_S * (width + 1) * n2 + TRIDIAGONAL_S * n2 + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
     elif path in ("sparse", "accurate-ritz"):
@@ -181,9 +184,9 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         rows = max(n_terms, n)
         memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)
         seconds = JACOBI_S * rows * n * n
-    if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "banded", "accurate-ritz"):
+    if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "accurate-ritz"):
         seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy)
-    if path == "banded" and n_terms == n and vectors:  # a ring's vectors: its frequencies by `ring_path` too
+    if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring_path` too
         seconds += RING_S * n2
     return Estimate(path, memory, seconds, what)
 
@@ -192,21 +195,18 @@ def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: 
     """What the accurate paths may add after their solve (a spring factor given), from sizes:
 
     - the singular-triplet step (`golub_kahan.refine_triplets`: per loose mode one sparse LU of
-      the (n_terms + n) Golub-Kahan matrix). "high" runs it only on systems of at most
-      `golub_kahan.HIGH_ROWS` rows, within `golub_kahan.HIGH_WORK` units of fill; "certified"
-      on any, within `golub_kahan.TRIPLET_WORK` units (TRIPLET_UNIT_S each, the fill per mode
-      taken as `triplet_fill`), for at most the k modes asked;
-    - for a ring (n_terms = n) up to `accurate.RING_DENSE_LIMIT` the Sturm counts that certify
+      the (n_terms + n) Golub-Kahan matrix, `golub_kahan.triplet_seconds` each): "certified"
+      on any system, counted for every one of the k modes asked (any may be loose); "high" only
+      where H has at most `golub_kahan.HIGH_ROWS` rows, for the bounds over 1e-10 (rare: counted
+      as `HIGH_LOOSE` modes);
+    - for a ring (n_terms = n) up to `common.RING_DENSE_LIMIT` the Sturm counts that certify
       its bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's)."""
-    from vibra.solvers.accurate import RING_DENSE_LIMIT
-    from vibra.solvers.golub_kahan import HIGH_ROWS, HIGH_WORK, TRIPLET_WORK, triplet_fill
-
     rows = float(n_terms + n)
     modes = float(n if k is None else k)
     if accuracy == "certified":
-        triplets = TRIPLET_UNIT_S * min(TRIPLET_WORK + triplet_fill(n, n_terms), modes * triplet_fill(n, n_terms))
+        triplets = modes * triplet_seconds(n, n_terms)
     elif rows <= HIGH_ROWS:
-        triplets = TRIPLET_UNIT_S * min(HIGH_WORK + triplet_fill(n, n_terms), modes * triplet_fill(n, n_terms))
+        triplets = min(modes, HIGH_LOOSE) * triplet_seconds(n, n_terms)
     else:
         triplets = 0.0
     counts = RING_COUNTS_S * float(n) * n if n_terms == n and n <= RING_DENSE_LIMIT else 0.0

@@ -34,6 +34,36 @@ DENSE_LIMIT = 1500
 #: the cost it takes (estimated up front, refused over the time budget).
 ACCURACY_LEVELS = ("fast", "high", "certified")
 
+#: A ring (or a chain with springs to a wall inside it) of at least this many sites takes its
+#: own values path (`ring_path`, `walled_chain`): at 100 sites ~1 ms where the checked dense
+#: solve takes ~0.1 s; a smaller one keeps the dense solve (instant there, its bounds often tighter).
+RING_VALUES_FROM = 100
+
+#: A ring with all its vectors up to this many dofs takes the checked dense solve, its bounds
+#: then certified by Sturm counts (`cycle`); above, the band solver's vectors with the ring
+#: path's certified values (``accurate-ring-band``).
+RING_DENSE_LIMIT = 6000
+
+#: One-sided Jacobi (gejsv) on the n_terms x n B~ is the fallback of the checked dense solve
+#: while n_terms n^2 stays within this (a ring of 4,000 sites: ~40 s); above DENSE_LIMIT only
+#: systems with few springs per dof (rings, ladders) qualify, a 3-D network never does.
+JACOBI_WORK = 4000**3
+
+#: A partial solve of a chain whose K~ diagonal spans more than this ratio (disorder in the
+#: masses or springs) goes to bisection on its bidiagonal spring factor (`lowest`): its cost
+#: does not depend on the spectrum's spread, while shift-invert Lanczos, shifted from the
+#: spectrum's scale, sees the lowest eigenvalues as one cluster there and may not converge.
+BISECTION_SPREAD = 1e4
+
+#: ``accuracy="certified"`` takes a chain's lowest modes to bisection above this many sites
+#: whatever its spread: its bounds are certificates (~2e-16 at 10^6 sites), where the Ritz
+#: path's Kato-Temple bound in K~ cannot beat (eps ||K~|| / omega_1^2)^2 (2.5e-9 at 10^6 for
+#: a true error of 2e-16). "high" keeps the Ritz path, whose values are as good.
+BISECTION_SIZE = 20_000
+
+#: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
+BAND_MODES_ESTIMATE = 64
+
 #: Widest half-bandwidth for which "auto" uses the banded solver.
 BAND_LIMIT = 16
 

@@ -1,58 +1,41 @@
-"""`solve`: choose a solver path from the structure of K~ and what is asked, and run it."""
+"""`plan` and `solve`: describe a request (`registry.Problem`), let the registry choose its path,
+estimate and guard its cost, and run it."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from dataclasses import dataclass
-
-from vibra.solvers.accurate import accurate_path, accurate_subpath, relative_account, ring_values_apply
 from vibra.solvers.budget import (
     Estimate, Progress, ProgressCallback, describe_bytes, describe_seconds, estimate, guard,
 )
+import vibra.solvers.common as common
 from vibra.solvers.common import (
     BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
-from vibra.solvers.lowest import lowest_chain_modes
-from vibra.solvers.sparse import sparse_path
-from vibra.solvers.walled_chain import has_inner_walls
-from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
+from vibra.solvers.lowest import spring_factor_of_chain
+from vibra.solvers.registry import (
+    BY_NAME, FAMILIES, PATHS, Problem, SolverPath, choose, path_names,
+)
+from vibra.solvers.runners import Inputs
+from vibra.solvers.topology import classify
 
 #: The solver names that `normal_modes(solver=...)`, `System.modes(solver=...)` and scene
-#: files accept; ``"auto"`` chooses one of the others.
+#: files accept; ``"auto"`` chooses one of the paths (`registry.PATHS`).
 SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
 
-#: The paths a result can report in `Modes.solver` (``"accurate"`` runs one of the
-#: ``accurate-*`` paths).
-SOLVER_PATHS = ("dense", "tridiagonal", "banded", "sparse", "accurate-bidiagonal", "accurate-bisection",
-                "accurate-ritz", "accurate-rayleigh", "accurate-checked", "accurate-jacobi", "accurate-ring",
-                "accurate-walled")
-
-#: A partial solve of a chain whose K~ diagonal spans more than this ratio (disorder in the
-#: masses or springs), or asked accurately with more than `BISECTION_SIZE` dofs, goes to bisection on the
-#: bidiagonal spring factor (`lowest.py`). Its cost does not depend on the spectrum's spread,
-#: while shift-invert Lanczos, shifted from the spectrum's scale, sees the lowest eigenvalues
-#: as one cluster there and may not converge; and its bound is certified in spring space,
-#: while the Ritz path's Kato-Temple bound in K~ cannot beat (eps ||K~|| / omega_1^2)^2, which
-#: passes 1e-13 relative near 30,000 sites (2.5e-9 at 10^6, where the true error is 2e-16).
-BISECTION_SPREAD = 1e4
-
-#: See `BISECTION_SPREAD`: above this size a chain's lowest modes come from bisection whatever
-#: its spread (10^6 sites, lowest 20: 6.7 s values only, 12.6 s with vectors, compiled bisection, against the
-#: Ritz path's 15 s; bound 2e-16 not 2.5e-9).
-BISECTION_SIZE = 20_000
-
-
-#: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
-BAND_MODES_ESTIMATE = 64
+#: Every path a result can report in `Modes.solver` (the registry's, and their fallbacks).
+SOLVER_PATHS = path_names()
 
 
 @dataclass(frozen=True)
 class Plan:
-    """What `solve` will run: the solver, the detailed path, K~'s half-bandwidth (after the
-    ring ordering when there is one), that ordering, and the cost estimate of the path."""
+    """What `solve` will run: the solver family, the path, the `registry.Problem` it was chosen
+    for, and the path's cost estimate; `fast` the cost of ``accuracy="fast"`` where more was
+    asked, `lowest` that of the same request for the lowest 10 modes."""
 
     solver: str
     path: str
@@ -61,9 +44,41 @@ class Plan:
     cost: Estimate
     nnz: int
     n_dof: int
-    fast: Estimate | None = None  # the cost of accuracy="fast" (the standard path), where "high" was asked
-    lowest: Estimate | None = None  # the cost of the same accurate request for the lowest 10 modes
-    accuracy: str = "high"  # the level asked (`ACCURACY_LEVELS`); it decides which certification steps run
+    fast: Estimate | None = None
+    lowest: Estimate | None = None
+    accuracy: str = "high"
+    problem: Problem | None = None
+
+
+def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *, n_modes: int | None,
+             vectors: bool, band: tuple[float, float] | None, solver: str,
+             spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, accuracy: str = "high",
+             device: str = "cpu") -> Problem:
+    """The `registry.Problem` of a request: sizes, K~'s band (a ring reordered where the band
+    solver could use it), the springs' shape (`topology.classify`), and for a chain K~'s
+    diagonal spread; O(nnz), nothing of K~ formed."""
+    n = K.shape[0]
+    diagonal = mass.ndim == 1
+    width = bandwidth(K) if diagonal else n - 1
+    ordering = None
+    if diagonal and width > BAND_LIMIT and n > DENSE_LIMIT and solver in ("auto", "banded", "accurate"):
+        ring = ring_ordering(K)
+        if ring is not None:
+            ordering, width = ring
+    use_factor = spring_factor is not None and solver in ("auto", "accurate")
+    topology = classify(spring_factor[0], diagonal_mass=diagonal) if use_factor else "none"  # type: ignore[index]
+    n_terms = int(spring_factor[0].shape[0]) if use_factor else 0  # type: ignore[index]
+    spread = 1.0
+    partial = n_modes is not None and n_modes < n
+    if diagonal and width <= 1 and ordering is None and partial and band is None:
+        spread = _diagonal_spread(K, mass)
+        if topology == "none" and solver == "auto" and spread > common.BISECTION_SPREAD:
+            derived = spring_factor_of_chain(K)  # a chain given as K: its springs from K's entries
+            if derived is not None and classify(derived[0]) == "chain":
+                topology = "chain-derived"
+    return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
+                   width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
+                   topology=topology, spread=spread, device=device)
 
 
 def plan(
@@ -76,39 +91,42 @@ def plan(
     solver: str,
     spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
     accuracy: str = "high",
+    device: str = "cpu",
 ) -> Plan:
-    """Choose the path for this request ("auto" picks one) and estimate its cost; nothing allocated.
+    """Choose the path for this request (`registry.choose`; "auto" picks one) and estimate its
+    cost; nothing allocated.
 
     Raises ValueError when the named solver cannot serve the request. Costs O(nnz) for a
     sparse K and one pass over a dense one (its bandwidth); K~ is not formed. `accuracy` is
     "high" or "certified" where a spring factor is given (the caller drops the factor for
-    "fast"): "certified" takes a long chain's lowest modes to bisection (certificates of
-    ~1e-16 at 2.5x the Ritz path's time) and runs the bound-tightening steps in full.
+    "fast"): "certified" takes a long chain's lowest modes to bisection and runs the
+    bound-tightening steps in full.
     """
-    n = K.shape[0]
-    requested = solver
-    width = bandwidth(K) if mass.ndim == 1 else n - 1
-    ordering = None
-    # a ring: tridiagonal plus corners, banded once reordered (below DENSE_LIMIT only for its
-    # frequencies in "high": `accurate.ring_values_apply`)
-    values = spring_factor is not None and solver in ("auto", "accurate") and not vectors and ring_values_apply(
-        n, band=band)
-    if mass.ndim == 1 and width > BAND_LIMIT and (n > DENSE_LIMIT and solver in ("auto", "banded", "accurate") or values):
-        ring = ring_ordering(K)
-        if ring is not None:
-            ordering, width = ring
-    tridiagonal = width <= 1 and ordering is None
-    partial = n_modes is not None and n_modes < n
-    standard = _standard(n, width, tridiagonal=tridiagonal, partial=partial, band=band, vectors=vectors,
-                         sparse=sp.issparse(K))
-    fast = None
-    if solver == "auto":
-        solver = "accurate" if spring_factor is not None else standard
-        if spring_factor is not None:  # what accuracy="fast" would run instead
-            k_fast = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
-            fast = estimate(standard, n, k=n if standard == "dense" and band is not None else k_fast,
-                            vectors=vectors, width=width, nnz=_stored(K))
-    if solver == "tridiagonal" and not tridiagonal:
+    _check_named(solver, K, mass, n_modes=n_modes, band=band, spring_factor=spring_factor)
+    problem = describe(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
+                       spring_factor=spring_factor, accuracy=accuracy, device=device)
+    path = choose(problem, solver)
+    cost = path.estimate(problem)
+    fast = lowest = None
+    if path.family == "accurate" and problem.topology != "chain-derived":
+        standard = choose(_replace(problem, topology="none", n_terms=0), "auto")
+        fast = standard.estimate(_replace(problem, topology="none", n_terms=0))
+        if band is None and (n_modes is None or n_modes > 50) and problem.n > 10:
+            ten = _replace(problem, n_modes=10)
+            lowest = choose(ten, solver).estimate(ten)
+    return Plan(path.family if solver == "auto" else solver, path.name, problem.width, problem.ordering, cost,
+                problem.nnz, problem.n, fast, lowest, accuracy, problem)
+
+
+def _replace(problem: Problem, **changes: object) -> Problem:
+    return replace(problem, **changes)  # type: ignore[arg-type]
+
+
+def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *,
+                 n_modes: int | None, band: tuple[float, float] | None,
+                 spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None) -> None:
+    """A named solver family that cannot serve the request: ValueError naming what it needs."""
+    if solver == "tridiagonal" and not (mass.ndim == 1 and bandwidth(K) <= 1):
         raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
     if solver == "banded" and mass.ndim != 1:
         raise ValueError("solver='banded' needs diagonal masses")
@@ -116,46 +134,6 @@ def plan(
         raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
-    n_terms = spring_factor[0].shape[0] if solver == "accurate" and spring_factor is not None else 0
-    walled = solver == "accurate" and spring_factor is not None and width <= 1 and mass.ndim == 1 and has_inner_walls(
-        spring_factor[0])  # a chain with springs to a wall inside it: `walled_chain`
-
-    def chosen(n_modes: int | None) -> str:
-        path = solver
-        if solver == "accurate":
-            path = accurate_subpath(n, mass, n_modes=n_modes, band=band, tridiagonal=width <= 1, n_terms=n_terms,
-                                    banded=ordering is not None, vectors=vectors, walled=walled)
-        some = n_modes is not None and n_modes < n
-        if (requested in ("auto", "accurate") and some and band is None and tridiagonal and mass.ndim == 1
-                and path != "accurate-walled"
-                and ((solver == "accurate" and n > BISECTION_SIZE and accuracy == "certified")
-                     or _diagonal_spread(K, mass) > BISECTION_SPREAD)):
-            path = "accurate-bisection"
-        return path
-
-    path = chosen(n_modes)
-    k = n_modes if n_modes is not None else (min(n, BAND_MODES_ESTIMATE) if band is not None else n)
-    if path == "dense" and band is not None:
-        k = n
-    cost = estimate(path, n, k=k, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K), accuracy=accuracy)
-    lowest = None
-    if solver == "accurate" and band is None and (n_modes is None or n_modes > 50) and n > 10:
-        lowest = estimate(chosen(10), n, k=10, vectors=vectors, width=width, n_terms=n_terms, nnz=_stored(K),
-                          accuracy=accuracy)
-    return Plan(solver, path, width, ordering, cost, _stored(K), n, fast, lowest, accuracy)
-
-
-def _standard(n: int, width: int, *, tridiagonal: bool, partial: bool, band: tuple[float, float] | None,
-              vectors: bool, sparse: bool) -> str:
-    """The solver "auto" picks without a spring factor (absolute accuracy: ``accuracy="fast"``)."""
-    if n <= DENSE_LIMIT:
-        return "dense"
-    if width <= BAND_LIMIT and not (vectors and (partial or band is not None)):
-        # (LAPACK's banded and tridiagonal drivers allocate n x n vectors even for a subset)
-        return "tridiagonal" if tridiagonal else "banded"
-    if (partial or band is not None) and sparse:
-        return "sparse"  # (a dense K takes the dense subset: its sparse LU would fill in)
-    return "dense"
 
 
 def _diagonal_spread(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64]) -> float:
@@ -221,7 +199,7 @@ def solve(
     request: Plan | None = None,
     accuracy: str = "high",
 ) -> SolveResult:
-    """Run the solver path `solver` ("auto" chooses) on K~ and return a `SolveResult`.
+    """Run the path the registry chose for this request (`plan`) on K~ and return a `SolveResult`.
 
     The request is planned and guarded first (`plan`, `vibra.solvers.budget.guard`): one
     whose estimated memory or time exceeds `max_memory` / `max_seconds` (defaults: the
@@ -242,41 +220,34 @@ def solve(
                        spring_factor=spring_factor, accuracy=accuracy)
         check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                    max_seconds=max_seconds)
+    problem = request.problem
+    assert problem is not None
+    path = BY_NAME[request.path]
     report = Progress(progress, request.cost)
+    if path.name == "gpu":
+        result = path.run(problem, Inputs(None, K, mass, None, band, 1.0, report.step))
+        report.done()
+        return result
     Kt = mass_weighted(K, mass)
     report.step(0.05, "mass-weighted K~ formed")
-    solver, width, ordering = request.solver, request.width, request.ordering
     # Far from 1, K~'s scale trips LAPACK's bisection and ARPACK (omega^2 ~ 1e-300 or 1e+300):
     # scale by an even power of 2 (exact in floating point) and scale the results back.
     exponent = _scale_exponent(Kt)
+    factor = spring_factor if path.family == "accurate" else None
+    if path.name == "sparse":
+        factor = spring_factor  # (the sparse path uses it for its shift's rounding, where given)
+    scale = 1.0
     if exponent:
-        factor = 2.0**-exponent
+        scale = 2.0**-exponent
         if isinstance(Kt, np.ndarray):
-            Kt *= factor
+            Kt *= scale
         else:
-            Kt = sp.csr_matrix(Kt * factor)
+            Kt = sp.csr_matrix(Kt * scale)
         if band is not None:
             band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
-        if spring_factor is not None:
-            spring_factor = (spring_factor[0], spring_factor[1] * factor)
-    result = None
-    if request.path == "accurate-bisection":  # None when the springs do not form a path after all
-        result = lowest_chain_modes(Kt, K, mass, spring_factor, n_modes=int(n_modes or 0), vectors=vectors,
-                                    scale=2.0**-exponent if exponent else 1.0)
-    if result is not None:
-        result = relative_account(result, "by bisection on the chain's bidiagonal spring factor")
-    elif solver == "accurate":
-        assert spring_factor is not None
-        result = accurate_path(Kt, mass, spring_factor, n_modes=n_modes, vectors=vectors, band=band,
-                               ordering=ordering, width=width, on_stage=report.step, accuracy=request.accuracy)
-    elif solver == "tridiagonal":
-        result = tridiagonal_path(Kt, n_modes=n_modes, vectors=vectors, band=band)
-    elif solver == "banded":
-        result = banded_path(Kt, width, n_modes=n_modes, vectors=vectors, band=band, ordering=ordering)
-    elif solver == "sparse":
-        result = sparse_path(Kt, n_modes=n_modes, vectors=vectors, band=band, spring_factor=spring_factor)
-    else:
-        result = dense_path(Kt, n_modes=n_modes, vectors=vectors, band=band, overwrite=Kt is not K)
+        if factor is not None:
+            factor = (factor[0], factor[1] * scale)
+    result = path.run(problem, Inputs(Kt, K, mass, factor, band, scale, report.step))
     if exponent:
         result.eigenvalues = result.eigenvalues * 2.0**exponent
         result.error = result.error * 2.0**exponent
@@ -298,3 +269,7 @@ def _scale_exponent(Kt: NDArray[np.float64] | sp.csr_matrix) -> int:
     if abs(exponent) <= SCALE_EXPONENT:
         return 0
     return exponent - exponent % 2
+
+
+__all__ = ["SOLVER_NAMES", "SOLVER_PATHS", "Plan", "describe", "plan", "alternatives", "check_plan", "solve",
+           "PATHS", "FAMILIES", "SolverPath"]

@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 from vibra.solvers.spring_ritz import Deviation
 
 __all__ = ["refine_triplets", "singular_vectors", "refined_vectors", "Refiner", "loose_modes", "WANTED", "TRIPLET_WORK",
-           "HIGH_ROWS", "HIGH_WORK", "triplet_fill"]
+           "HIGH_ROWS", "HIGH_WORK", "triplet_seconds"]
 
 #: Bounds above this, relative to omega^2, are refined.
 WANTED = 2e-13
@@ -69,10 +69,18 @@ HIGH_ROWS = 10_000
 HIGH_WORK = 5e7
 
 
-def triplet_fill(n: int, n_terms: int) -> float:
-    """Work units one mode of the step is estimated to cost, from sizes: TRIPLET_ROW per row of
-    H (8 of SuperLU's fixed cost, ~20 of fill, as measured on networks to 900 dofs and rings)."""
-    return 28.0 * float(n + n_terms)
+def triplet_seconds(n: int, n_terms: int) -> float:
+    """Seconds one mode of the step is estimated to take, from sizes: SuperLU's fixed cost per
+    row of H (28 units of 3.6e-8 s), and its factorisation, taken as 1.1e-10 F^1.5 s for a fill
+    of F ~ 0.3 rows n entries (the fill per row of H grows with the dofs n). Fitted to one LU
+    per mode measured with one BLAS thread (fill, time): ubiquitin's network (228 dofs, 1,428
+    springs) 2.8e5, 0.016 s; 900-dof networks 2.1e6, 0.27 s; 1,500 dofs with 19,443 springs
+    1.9e7, 3.3 s; 3o21 (4,467 dofs, 42,482 springs) 1e8, 24-115 s; 6,000-dof networks 8.6e7 to
+    3.6e8, 65-217 s; a 900-dof network's 4.5e5, 17 ms: within ~3x of these. An estimate, not a
+    bound: the corpus checks it."""
+    rows = float(n + n_terms)
+    return 3.6e-8 * 28.0 * rows + 1.1e-10 * (0.3 * rows * n) ** 1.5
+
 
 _UNIT = float(np.finfo(np.longdouble).eps)
 
@@ -189,7 +197,9 @@ def _inverse_iteration(B: sp.csr_matrix, sigma: float, start: NDArray[np.float64
                        ) -> tuple[tuple[NDArray[np.float64], NDArray[np.float64]] | None, float]:
     """((u, v), unit vectors, or None where the LU fails; the factors' entries) from two solves
     with H - sigma I: LU with partial pivoting, columns ordered by COLAMD (on 3-D networks
-    ~15 times faster than the minimum-degree orderings, whose factors fill 5 times more)."""
+    ~15 times faster than the minimum-degree orderings, whose factors fill 5 times more; a
+    symmetric minimum-degree order with a pivot threshold of 0.1 filled 3o21's H as much for a
+    low sigma, and 3-D networks of 6,000 dofs more: measured, kept out)."""
     rows, n = B.shape
     H = sp.bmat([[-sigma * sp.identity(rows), B], [B.T, -sigma * sp.identity(n)]], format="csc")
     try:

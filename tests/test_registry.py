@@ -1,0 +1,147 @@
+"""The registry of solver paths (issue 29, item 2): the plan names the path that runs, every
+registered path is reachable, the springs' shape is classified in one place, and the README's
+table is the registry's.
+
+Truth here is structural: the path a plan names against the path the result reports, for a
+grid of requests over every kind of system; `topology.classify` against hand-made patterns.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from vibra import System, normal_modes, solvers
+from vibra.solvers import registry
+from vibra.solvers.topology import classify
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_readme_table_is_the_registry() -> None:
+    assert registry.readme_table() in README.read_text()
+
+
+def chain_pattern(n: int, *, ring: bool = False, walls: tuple[int, ...] = ()) -> sp.csr_matrix:
+    rows = [[i, i + 1] for i in range(n - 1)] + ([[0, n - 1]] if ring else [])
+    data, r, c = [], [], []
+    for k, (i, j) in enumerate(rows):
+        r += [k, k]
+        c += [i, j]
+        data += [-1.0, 1.0]
+    for k, site in enumerate(walls, start=len(rows)):
+        r.append(k)
+        c.append(site)
+        data.append(1.0)
+    return sp.csr_matrix((data, (r, c)), shape=(len(rows) + len(walls), n))
+
+
+@pytest.mark.parametrize(("pattern", "kind"), [
+    (chain_pattern(6), "chain"),
+    (chain_pattern(6, walls=(0,)), "chain"),
+    (chain_pattern(6, walls=(0, 5)), "chain"),
+    (chain_pattern(6, walls=(2,)), "walled-chain"),
+    (chain_pattern(6, walls=(0, 0)), "walled-chain"),
+    (chain_pattern(6, ring=True), "ring"),
+    (chain_pattern(6, ring=True, walls=(3,)), "walled-ring"),
+    (sp.vstack([chain_pattern(6), chain_pattern(6)]).tocsr(), "network"),       # parallel springs
+    (sp.csr_matrix(np.array([[-1.0, 1.0, 0, 0], [0, 0, -1.0, 1.0]])), "chain"),  # two runs
+    (sp.csr_matrix(np.array([[-1.0, 0, 1.0, 0], [0, -1.0, 0, 1.0], [-1.0, 1.0, 0, 0]])), "network"),  # a ladder
+    (sp.csr_matrix(np.array([[-1.0, 1.0, 0, 0, 0, 0], [0, -1.0, 1.0, 0, 0, 0], [1.0, 0, -1.0, 0, 0, 0],
+                             [0, 0, 0, -1.0, 1.0, 0], [0, 0, 0, 0, -1.0, 1.0], [0, 0, 0, 1.0, 0, -1.0]])),
+     "network"),                                                                 # two triangles: two cycles
+    (sp.csr_matrix(np.array([[-1.0, 1.0, 0.5]])), "network"),                  # a three-dof term
+])
+def test_classify_names_the_shape_of_the_springs(pattern: sp.csr_matrix, kind: str) -> None:
+    assert classify(pattern) == kind
+    assert classify(pattern.toarray()) == kind
+    if kind != "network":
+        assert classify(pattern, diagonal_mass=False) == "network"
+
+
+def test_classify_ignores_stored_zeros_and_leaves_b_as_it_was() -> None:
+    B = chain_pattern(5, ring=True)
+    B.data[-1] = 0.0  # the closing spring's entry at the last site stored as zero: a wall at site 0
+    before = B.copy()
+    assert classify(B) == "chain"  # (a wall at an end of the run)
+    assert (B != before).nnz == 0 and B.nnz == before.nnz
+
+
+def systems() -> dict[str, tuple[System, dict[str, object]]]:
+    """Small and large systems of every shape, each with what the grid may ask of it."""
+    rng = np.random.default_rng(5)
+    line = lambda n, **kw: System.from_springs(np.arange(n, dtype=float), kw.get("masses", 1.0),  # noqa: E731
+                                               np.c_[np.arange(n - 1), np.arange(1, n)], kw.get("springs", 1.0),
+                                               anchors=kw.get("anchors"), anchor_stiffness=kw.get("wall"))
+    ring_bonds = lambda n: np.r_[np.c_[np.arange(n - 1), np.arange(1, n)], [[n - 1, 0]]]  # noqa: E731
+    net = System.from_springs(rng.normal(size=(30, 3)), 1.0,
+                              np.array([(i, j) for i in range(30) for j in range(i + 1, min(30, i + 5))]), 1.0)
+    big_net = System.from_springs(rng.uniform(0, 12, size=(600, 3)), 1.0,
+                                  np.array([(i, j) for i in range(600) for j in range(i + 1, min(600, i + 4))]), 1.0)
+    return {
+        "chain-50": (line(50), {}),
+        "chain-2000": (line(2000), {}),
+        "spread-chain-2000": (line(2000, masses=10.0 ** rng.uniform(-3, 3, 2000),
+                                   springs=10.0 ** rng.uniform(-3, 3, 1999)), {}),
+        "walled-chain-150": (line(150, anchors=np.arange(150), wall=0.5), {}),
+        "walled-chain-1600": (line(1600, anchors=np.arange(1600), wall=0.5), {}),
+        "ring-60": (System.from_springs(np.arange(60, dtype=float), 1.0, ring_bonds(60), 1.0), {}),
+        "ring-1700": (System.from_springs(np.arange(1700, dtype=float), 1.0, ring_bonds(1700), 1.0), {}),
+        "walled-ring-300": (System.from_springs(np.arange(300, dtype=float), 1.0, ring_bonds(300), 1.0,
+                                                anchors=[0, 100], anchor_stiffness=0.3), {}),
+        "network-90": (net, {}),
+        "network-1800": (big_net, {}),
+    }
+
+
+REQUESTS = [dict(n_modes=None, vectors=False), dict(n_modes=None, vectors=True), dict(n_modes=6, vectors=False),
+            dict(n_modes=6, vectors=True), dict(band=(0.05, 0.3), vectors=True)]
+
+
+@pytest.mark.slow
+def test_the_plan_names_the_path_that_runs_and_every_path_is_reached(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Over every system above, every request shape and the three levels: `plan(...).path` is
+    `modes.solver` (or one of that path's declared fallbacks), and every registered CPU path is
+    reached; RING_DENSE_LIMIT and JACOBI_WORK are lowered so that a 1,700-site ring's vectors take
+    the band route and an 1,800-dof network's all modes the Rayleigh one, in seconds."""
+    monkeypatch.setattr(solvers.common, "RING_DENSE_LIMIT", 1600)
+    monkeypatch.setattr(solvers.common, "JACOBI_WORK", 0)
+    reached: set[str] = set()
+    for (name, (system, _)), request, level in itertools.product(systems().items(), REQUESTS,
+                                                                 solvers.ACCURACY_LEVELS):
+        if name.startswith("network-1800") and request.get("n_modes") is None and "band" not in request \
+                and level != "high":
+            continue  # (a 5,400-dof dense solve per level: "high" covers the path)
+        factor = system.spring_factor() if level != "fast" else None
+        plan = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=request.get("n_modes"),
+                            vectors=bool(request["vectors"]), band=request.get("band"), solver="auto",
+                            spring_factor=factor, accuracy=level)
+        modes = system.modes(request.get("n_modes"), accuracy=level, vectors=bool(request["vectors"]),
+                             band=request.get("band"), max_seconds=float("inf"))
+        allowed = (plan.path, *registry.BY_NAME[plan.path].fallbacks)
+        assert modes.solver in allowed, (name, request, level, plan.path, modes.solver)
+        reached.add(plan.path)
+    gpu = solvers.plan(np.eye(3), np.ones(3), n_modes=None, vectors=True, band=None, solver="auto",
+                       spring_factor=None, device="gpu")
+    reached.add(gpu.path)
+    missing = [path.name for path in registry.PATHS if path.name not in reached]
+    assert not missing, f"registered but never planned: {missing}"
+
+
+def test_named_families_serve_what_they_can_and_refuse_what_they_cannot() -> None:
+    chain = System.from_springs(np.arange(20, dtype=float), 1.0, np.c_[np.arange(19), np.arange(1, 20)], 1.0)
+    K, M = chain.hessian(), chain.mass_matrix()
+    for solver, path in (("dense", "dense"), ("tridiagonal", "tridiagonal"), ("banded", "banded")):
+        assert solvers.plan(K, M, n_modes=None, vectors=True, band=None, solver=solver,
+                            spring_factor=None).path == path
+        assert normal_modes(K, M, solver=solver).solver == path
+    assert solvers.plan(K, M, n_modes=3, vectors=True, band=None, solver="sparse", spring_factor=None).path == "sparse"
+    with pytest.raises(ValueError, match="sparse"):
+        solvers.plan(K, M, n_modes=None, vectors=True, band=None, solver="sparse", spring_factor=None)
+    with pytest.raises(ValueError, match="tridiagonal"):
+        solvers.plan(np.ones((3, 3)) + np.eye(3), np.ones(3), n_modes=None, vectors=True, band=None,
+                     solver="tridiagonal", spring_factor=None)

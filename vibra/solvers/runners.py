@@ -1,0 +1,194 @@
+"""How each registered solver path runs (`registry.PATHS`): one function per path, named after
+it, each given the `registry.Problem` the plan chose it for and the inputs of `dispatch.solve`.
+
+A runner trusts the plan: the structure it needs (a chain, a ring, a walled chain) was
+classified once (`topology.classify`), so none of them decides again which path it is. The
+accurate runners share the last step, `accurate.tightened` (the bounds tightened as far as the
+accuracy level asks, no further).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+import vibra.solvers.gpu as gpu_module
+from vibra.solvers.accurate import (
+    checked_dense, checked_ritz, relative_account, ring_certified, spring_rayleigh, spring_ritz_band,
+    tightened, weighted_factor,
+)
+from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
+import vibra.solvers.common as common
+from vibra.solvers.common import SolveResult
+from vibra.solvers.cycle import ring_pencil
+from vibra.solvers.lowest import lowest_chain_modes
+from vibra.solvers.path_counts import chain_counted
+from vibra.solvers.ring_path import pair_step, ring_result, ring_vectors
+from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
+from vibra.solvers.spring_ritz import forming_deviation, spring_figures
+from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
+from vibra.solvers.walled_chain import walled_result
+
+__all__ = ["Inputs"]
+
+
+@dataclass
+class Inputs:
+    """What a runner works on: K~ as solved (scaled by `scale`, an even power of 2), K and the
+    masses as given, the spring factor (B, w) with w scaled alike (None on standard paths), the
+    band scaled alike, and the progress callback."""
+
+    Kt: Any
+    K: Any
+    mass: NDArray[np.float64]
+    factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None
+    band: tuple[float, float] | None
+    scale: float
+    on_stage: Callable[[float, str], None] | None
+
+
+# ------------------------------------------------------------------ standard paths
+def dense(p: Any, x: Inputs) -> SolveResult:
+    return dense_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, overwrite=x.Kt is not x.K)
+
+
+def tridiagonal(p: Any, x: Inputs) -> SolveResult:
+    return tridiagonal_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band)
+
+
+def banded(p: Any, x: Inputs) -> SolveResult:
+    return banded_path(x.Kt, p.width, n_modes=p.n_modes, vectors=p.vectors, band=x.band, ordering=p.ordering)
+
+
+def sparse(p: Any, x: Inputs) -> SolveResult:
+    return sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, spring_factor=x.factor)
+
+
+def gpu(p: Any, x: Inputs) -> SolveResult:
+    return gpu_module.solve_gpu(x.K, x.mass, n_modes=p.n_modes, vectors=p.vectors, band=p.band)
+
+
+# ------------------------------------------------------------------ accurate paths
+def accurate_bisection(p: Any, x: Inputs) -> SolveResult:
+    result = lowest_chain_modes(x.Kt, x.K, x.mass, x.factor, n_modes=int(p.n_modes), vectors=p.vectors,
+                                scale=x.scale)
+    if result is None:  # the plan classified a chain: its bidiagonal factor exists
+        raise RuntimeError("accurate-bisection: the springs do not form a chain after all (a planning error)")
+    return relative_account(result, "by bisection on the chain's bidiagonal spring factor")
+
+
+def accurate_bidiagonal(p: Any, x: Inputs) -> SolveResult:
+    coupling, weights = _factor(x)
+    weighted = weighted_factor(coupling, weights, x.mass)
+    segments = path_bidiagonals(weighted)
+    if segments is None:
+        raise RuntimeError("accurate-bidiagonal: the springs do not form a path after all (a planning error)")
+    chain = bidiagonal_path(x.Kt, weighted, segments, n_modes=p.n_modes, vectors=p.vectors, band=x.band,
+                            on_stage=x.on_stage, factor=x.factor, mass=x.mass)
+    chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
+    return chain_counted(chain, coupling, weights, x.mass, x.band)
+
+
+def accurate_walled(p: Any, x: Inputs) -> SolveResult:
+    coupling, weights = _factor(x)
+    weighted = weighted_factor(coupling, weights, x.mass)
+    walled = walled_result(coupling, weights, x.mass, weighted, p.n_modes, vectors=p.vectors and p.few)
+    if walled is None:
+        raise RuntimeError("accurate-walled: not a chain with springs to a wall after all (a planning error)")
+    if p.few or not p.vectors:
+        return walled
+    # all modes with vectors: LAPACK stemr's, each paired by rank with its certified value
+    basis = tridiagonal_path(x.Kt, n_modes=None, vectors=True, band=None).vectors
+    assert basis is not None
+    paired = spring_figures(sp.csr_matrix(weighted), walled.eigenvalues, basis, True, "accurate-walled")
+    paired.error, paired.refined = walled.error, walled.refined
+    paired.refinement = f"{walled.refinement}; vectors from the tridiagonal solver (LAPACK stemr), paired by rank"
+    return paired
+
+
+def accurate_ring(p: Any, x: Inputs) -> SolveResult:
+    coupling, weights, weighted, deviation = _springs(x)
+    ring = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass),
+                       lowest=p.few)
+    if ring is None:
+        raise RuntimeError("accurate-ring: the springs do not close one ring after all (a planning error)")
+    return ring_vectors(weighted, x.mass, ring) if p.vectors else ring
+
+
+def accurate_ring_band(p: Any, x: Inputs) -> SolveResult:
+    """A long ring with all its vectors: the band solver's vectors, each paired by rank with the
+    ring path's certified frequency."""
+    coupling, weights, weighted, deviation = _springs(x)
+    banded_result = banded_path(x.Kt, p.width, n_modes=p.n_modes, vectors=True, band=x.band, ordering=p.ordering)
+    result = spring_rayleigh(weighted, banded_result, vectors=True, deviation=deviation, name="accurate-ring-band")
+    certified = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass))
+    if certified is None or certified.eigenvalues.shape != result.eigenvalues.shape:
+        raise RuntimeError("accurate-ring-band: the springs do not close one ring after all (a planning error)")
+    result.eigenvalues, result.error = certified.eigenvalues, certified.error
+    result.refined = certified.refined
+    result.refinement = f"{certified.refinement}; vectors from the band solver, paired by rank"
+    return result
+
+
+def accurate_ritz(p: Any, x: Inputs) -> SolveResult:
+    coupling, weights, weighted, deviation = _springs(x)
+    if x.band is None:
+        k = int(p.n_modes)
+        matrix = sp.csr_matrix(x.Kt)
+        rounding = semidefinite_rounding(x.factor, float(abs(matrix).sum(axis=1).max()))
+        sigma, shifted = lowest_shift(matrix, rounding=rounding)
+        _, basis = shift_invert(matrix, min(k + 1, p.n - 2), sigma, shifted)  # one more: the gap
+        result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation),
+                                  f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
+    else:
+        standard = sparse_path(x.Kt, n_modes=None, vectors=True, band=x.band)
+        result = relative_account(spring_ritz_band(weighted, standard, x.band, vectors=p.vectors, deviation=deviation),
+                                  "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
+    return _finished(p, x, result, weighted, deviation)
+
+
+def accurate_checked(p: Any, x: Inputs) -> SolveResult:
+    return _checked(p, x, jacobi=True)
+
+
+def accurate_rayleigh(p: Any, x: Inputs) -> SolveResult:
+    return _checked(p, x, jacobi=False)
+
+
+def _checked(p: Any, x: Inputs, *, jacobi: bool) -> SolveResult:
+    coupling, weights, weighted, deviation = _springs(x)
+    result = checked_dense(weighted, n_modes=p.n_modes, vectors=p.vectors, band=x.band, jacobi=jacobi,
+                           deviation=deviation)
+    return _finished(p, x, result, weighted, deviation)
+
+
+def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: Any) -> SolveResult:
+    """A ring's bounds certified by its Sturm counts (up to RING_DENSE_LIMIT sites); any other
+    system's tightened as far as the accuracy level asks (`accurate.tightened`)."""
+    if p.ringlike and p.n <= common.RING_DENSE_LIMIT and result.error.shape[0]:
+        coupling, weights = _factor(x)
+        pencil = ring_pencil(coupling, weights, x.mass)
+        if pencil is not None:
+            return ring_certified(result, pencil, x.band)
+    if (x.band is None and x.mass.ndim == 1 and result.error.shape[0]
+            and np.all(np.diff(result.eigenvalues) >= 0)):
+        assert x.factor is not None
+        result = tightened(result, weighted, deviation, x.factor, x.mass, accuracy=p.accuracy)
+    return result
+
+
+def _springs(x: Inputs) -> tuple[sp.csr_matrix, NDArray[np.float64], Any, Any]:
+    """(B, w, B~ = W^1/2 B M^-1/2, B~'s own rounding entry by entry: `forming_deviation`)."""
+    coupling, weights = _factor(x)
+    weighted = weighted_factor(coupling, weights, x.mass)
+    return coupling, weights, weighted, forming_deviation(weighted, coupling, weights, x.mass)
+
+
+def _factor(x: Inputs) -> tuple[sp.csr_matrix, NDArray[np.float64]]:
+    if x.factor is None:
+        raise RuntimeError("an accurate path without a spring factor (a planning error)")
+    return x.factor
