@@ -364,7 +364,7 @@ def _relative(values: np.ndarray, truth: np.ndarray, rigid: int) -> float:
     return float(np.max(np.abs(values[keep] - truth[keep]) / np.maximum(np.abs(truth[keep]), 1e-300 * scale)))
 
 
-def run_case(case: Case, rounds: int, warmup: bool, check: bool = False) -> dict[str, Any]:
+def run_case(case: Case, rounds: int, warmup: bool, check: bool = False, skip: tuple[str, ...] = ()) -> dict[str, Any]:
     system = case.build()
     n_dof = int(system.n_dof)
     print(f"{case.name}: {n_dof} dofs, {case.n_modes or 'all'} modes{', vectors' if case.vectors else ''}",
@@ -382,6 +382,8 @@ def run_case(case: Case, rounds: int, warmup: bool, check: bool = False) -> dict
         message = _refusal(system, case, level)
         if not message and check and (_plan_seconds(system, case, level) or 0.0) > CHECK_SKIP_S:
             message = f"estimated over {CHECK_SKIP_S:g} s: not run by --check"
+        if not message and level in skip:
+            message = "skipped (--skip): measured apart"
         if message:
             refused[level] = message
     levels = [level for level in case.levels if level not in refused]
@@ -455,6 +457,7 @@ def main() -> None:
     parser.add_argument("--check", action="store_true", help="the small half, one round: fail on broken contracts")
     parser.add_argument("--only", help="comma-separated case names")
     parser.add_argument("--rounds", type=int, default=None)
+    parser.add_argument("--skip", default="", help="comma-separated CASE:LEVEL pairs not to run (measured apart)")
     args = parser.parse_args()
     cases = corpus()
     if args.only:
@@ -466,15 +469,20 @@ def main() -> None:
     elif args.check:
         cases = [c for c in cases if c.small]
     # the large half: two rounds without a warm-up (best of two: the first pays any compilation)
-    results = [run_case(case, args.rounds if args.rounds is not None else (1 if args.check else 3 if case.small else 2),
-                        warmup=case.small, check=args.check) for case in cases]
+    skips = [pair.split(":", 1) for pair in args.skip.split(",") if pair]
+    name = "corpus" if not args.only else "corpus_" + "_".join(sorted(c.name for c in cases))
+    results: list[dict[str, Any]] = []
+    for case in cases:
+        rounds = args.rounds if args.rounds is not None else (1 if args.check else 3 if case.small else 2)
+        results.append(run_case(case, rounds, warmup=case.small, check=args.check,
+                                skip=tuple(level for who, level in skips if who == case.name)))
+        found = [v for r in results for v in violations(r)]
+        if not args.check:  # after every input: an interrupted run keeps what it measured
+            write_json(name, {"benchmark": "the solver core's regression corpus", "cases": results,
+                              "contracts": {"high_over_fast": HIGH_OVER_FAST, "estimate_within": ESTIMATE_WITHIN,
+                                            "time_floor_s": TIME_FLOOR, "fast_meets": FAST_MEETS},
+                              "violations": found}, 3)
     found = [v for r in results for v in violations(r)]
-    if not args.check:
-        name = "corpus" if not args.only else "corpus_" + "_".join(sorted(c.name for c in cases))
-        write_json(name, {"benchmark": "the solver core's regression corpus", "cases": results,
-                          "contracts": {"high_over_fast": HIGH_OVER_FAST, "estimate_within": ESTIMATE_WITHIN,
-                                        "time_floor_s": TIME_FLOOR, "fast_meets": FAST_MEETS},
-                          "violations": found}, 3)
     for line in found:
         print("CONTRACT:", line)
     if args.check and found:

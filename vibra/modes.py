@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate, solvers
 from vibra.solvers import gpu
 from vibra._frozen import freeze_arrays, owned_arrays
+from vibra._results import ModesResult
 from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -29,8 +30,8 @@ __all__ = ["Modes", "normal_modes", "SOLVERS"]
 SOLVERS = solvers.SOLVER_NAMES
 
 
-@dataclass(frozen=True, eq=False)
-class Modes:
+@dataclass(frozen=True, eq=False, repr=False)
+class Modes(ModesResult):
     """Normal modes of one system, in that system's units.
 
     Attributes
@@ -66,7 +67,15 @@ class Modes:
         One line saying which modes were refined and why, e.g. ``"6 of 1500 modes below that
         bound's reach refined by spring-space Rayleigh-Ritz (6 zero within rounding); 1494
         kept from the dense solve, ..."``; None where `refined` is None.
+
+    Shared with `vibra.quadratic.QuadraticModes` (`vibra._results.ModesResult`): `path` (the
+    same as `solver`), ``len(modes)``, ``modes[6:]`` / ``modes[k]`` / ``modes[mask]`` (a
+    smaller `Modes`), a short repr, `to_dict` / `from_dict`, and `save` / `load` (``.npz``).
     """
+
+    PER_MODE: ClassVar[dict[str, tuple[int, int]]] = {
+        "omega": (0, 1), "vectors": (1, 1), "shapes": (1, 1), "omega_error": (0, 1), "refined": (0, 1)}
+    PATH_FIELD: ClassVar[str] = "solver"
 
     omega: NDArray[np.float64]
     vectors: NDArray[np.float64] | None

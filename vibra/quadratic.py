@@ -38,6 +38,7 @@ is reported with a negative omega_n, as `Modes` reports an imaginary frequency.
 from __future__ import annotations
 
 import warnings
+from typing import ClassVar
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays, owned_arrays
+from vibra._results import ModesResult
 from vibra.pencil import check_mass_matrix, equilibrated_cholesky
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -61,8 +63,8 @@ _FACTOR = 8.0
 SKEW_RTOL = 1e-10
 
 
-@dataclass(frozen=True, eq=False)
-class QuadraticModes:
+@dataclass(frozen=True, eq=False, repr=False)
+class QuadraticModes(ModesResult):
     """Modes of M q'' + (G + C) q' + K q = 0, one per pair of eigenvalues, by natural frequency.
 
     Attributes
@@ -100,12 +102,17 @@ class QuadraticModes:
     method: str
     units: UnitSystem = DIMENSIONLESS
 
+    PER_MODE: ClassVar[dict[str, tuple[int, int]]] = {
+        "natural_frequency": (0, 1), "eigenvalues": (0, 1), "shapes": (1, 1), "damping_ratio": (0, 1),
+        "omega_error": (0, 1), "state_vectors": (1, 2)}
+    PATH_FIELD: ClassVar[str] = "method"
+
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
     @property
     def n_modes(self) -> int:
-        """Number of modes (the number of degrees of freedom)."""
+        """Number of modes (the number of degrees of freedom; of a slice, its modes)."""
         return int(self.natural_frequency.shape[0])
 
     @property

@@ -77,10 +77,11 @@ CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate
 RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring_path`; 1.4-2.4e-8 measured)
 RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring_path.MP_WORK`)
 MP_COUNT_S = 2e-5             # per site: one mpmath count (~0.15 s at 8,000 sites)
+RING_MP_EXPECTED = 2.0        # mpmath counts expected per ring solve (at most 24; most solves need none)
 RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)
 TRIPLET_UNIT_S = 3.6e-8       # per work unit of `golub_kahan` (TRIPLET_WORK = 5e8 units ~ 18 s)
 TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and mode (8 + ~20 of fill)
-HIGH_LOOSE = 4                # modes "high" is estimated to refine by triplets (bounds over 1e-10)
+HIGH_LOOSE = 1                # modes "high" is estimated to refine by triplets (bounds over 1e-10: rare)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
 
 
@@ -126,7 +127,7 @@ def available_memory() -> float | None:
 
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
-             nnz: int = 0, accuracy: str = "high") -> Estimate:
+             nnz: int = 0, accuracy: str = "high", one_dimensional: bool = False) -> Estimate:
     """Memory and time of `path` computing `k` of `n` modes (with vectors or not) at `accuracy`
     (which bound-tightening steps are counted: `refinement_seconds`)."""
     n2 = float(n) * n
@@ -166,7 +167,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         memory = 8.0 * 40 * n + vector_bytes
         each = BISECTION_VALUES_S if COMPILED else BISECTION_S  # (the poles: values only)
         poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
-        seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, 24.0 * n)
+        seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, RING_MP_EXPECTED * n)
         if vectors and path == "accurate-walled" and k >= n - 1:  # all of them: stemr's (tridiagonal)
             memory += 8.0 * 12 * n
             seconds += TRIDIAGONAL_VECTORS_S * n * k
@@ -185,13 +186,14 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)
         seconds = JACOBI_S * rows * n * n
     if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "accurate-ritz"):
-        seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy)
+        seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy, one_dimensional=one_dimensional)
     if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring_path` too
         seconds += RING_S * n2
     return Estimate(path, memory, seconds, what)
 
 
-def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: str = "high") -> float:
+def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: str = "high",
+                       one_dimensional: bool = False) -> float:
     """What the accurate paths may add after their solve (a spring factor given), from sizes:
 
     - the singular-triplet step (`golub_kahan.refine_triplets`: per loose mode one sparse LU of
@@ -203,10 +205,11 @@ def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: 
       its bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's)."""
     rows = float(n_terms + n)
     modes = float(n if k is None else k)
-    if accuracy == "certified":
-        triplets = modes * triplet_seconds(n, n_terms)
+    if accuracy == "certified":  # (a chain's or a ring's Ritz bounds are ~1e-16 already: one counted)
+        loose = min(modes, HIGH_LOOSE) if one_dimensional else modes
+        triplets = loose * triplet_seconds(n, n_terms, one_dimensional=one_dimensional)
     elif rows <= HIGH_ROWS:
-        triplets = min(modes, HIGH_LOOSE) * triplet_seconds(n, n_terms)
+        triplets = min(modes, HIGH_LOOSE) * triplet_seconds(n, n_terms, one_dimensional=one_dimensional)
     else:
         triplets = 0.0
     counts = RING_COUNTS_S * float(n) * n if n_terms == n and n <= RING_DENSE_LIMIT else 0.0

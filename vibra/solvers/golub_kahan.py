@@ -69,17 +69,18 @@ HIGH_ROWS = 10_000
 HIGH_WORK = 5e7
 
 
-def triplet_seconds(n: int, n_terms: int) -> float:
+def triplet_seconds(n: int, n_terms: int, *, one_dimensional: bool = False) -> float:
     """Seconds one mode of the step is estimated to take, from sizes: SuperLU's fixed cost per
-    row of H (28 units of 3.6e-8 s), and its factorisation, taken as 1.1e-10 F^1.5 s for a fill
-    of F ~ 0.3 rows n entries (the fill per row of H grows with the dofs n). Fitted to one LU
-    per mode measured with one BLAS thread (fill, time): ubiquitin's network (228 dofs, 1,428
-    springs) 2.8e5, 0.016 s; 900-dof networks 2.1e6, 0.27 s; 1,500 dofs with 19,443 springs
-    1.9e7, 3.3 s; 3o21 (4,467 dofs, 42,482 springs) 1e8, 24-115 s; 6,000-dof networks 8.6e7 to
-    3.6e8, 65-217 s; a 900-dof network's 4.5e5, 17 ms: within ~3x of these. An estimate, not a
-    bound: the corpus checks it."""
+    row of H (28 units of 3.6e-8 s), and its factorisation, taken as 7e-11 F^1.5 s for a fill
+    of F entries: ~10 per row of H for a chain or a ring (`one_dimensional`: a band), ~8 n^(2/3)
+    per row for a network (the fill of a 3-D graph's factor). Fitted to one LU per mode measured
+    with one BLAS thread (fill, time): ubiquitin's network (228 dofs, 1,428 springs) 2.8e5,
+    0.016 s; 900-dof networks 2.1e6, 0.27 s; 1,500 dofs with 19,443 springs 1.9e7, 3.3 s; 3o21
+    (4,467 dofs, 42,482 springs) 1e8, 24-115 s; 6,000-dof networks 8.6e7 to 3.6e8, 65-217 s:
+    within ~3x of these. An estimate, not a bound: the corpus checks it."""
     rows = float(n + n_terms)
-    return 3.6e-8 * 28.0 * rows + 1.1e-10 * (0.3 * rows * n) ** 1.5
+    fill = rows * (10.0 if one_dimensional else 8.0 * float(n) ** (2.0 / 3.0))
+    return 3.6e-8 * 28.0 * rows + 7e-11 * fill ** 1.5
 
 
 _UNIT = float(np.finfo(np.longdouble).eps)

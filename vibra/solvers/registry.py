@@ -107,7 +107,8 @@ class SolverPath:
         k = problem.n if self.name == "dense" and problem.band is not None else problem.k
         return estimate(self.name, problem.n, k=k, vectors=problem.vectors, width=problem.width,
                         n_terms=problem.n_terms if self.family == "accurate" else 0, nnz=problem.nnz,
-                        accuracy=problem.accuracy)
+                        accuracy=problem.accuracy,
+                        one_dimensional=problem.topology in ("chain", "walled-chain", "ring", "walled-ring"))
 
 
 # ------------------------------------------------------------------ when each path applies
