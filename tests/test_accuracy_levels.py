@@ -71,7 +71,7 @@ def test_generalized_modes_take_the_same_keywords() -> None:
 
 def test_high_keeps_a_long_chain_on_the_ritz_path_and_certified_takes_bisection() -> None:
     """The lowest modes of a chain over BISECTION_SIZE sites: "high" keeps spring-space
-    Rayleigh-Ritz (values already right to ~1e-14, 0.7x eigsh at 10^6 sites), "certified"
+    Rayleigh-Ritz up to HIGH_BISECTION_SIZE (values already right to ~1e-14, and cheaper), "certified"
     takes bisection (bounds ~1e-16); both within 1e-10 of the closed form, each bound covering it."""
     n, k = 30_000, 8
     system = free_chain(n)

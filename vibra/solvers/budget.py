@@ -25,7 +25,7 @@ the input, then time:
   the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 2e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
-  otherwise); 2e-8 n ncv per Lanczos run.
+  otherwise); 2e-8 n ncv per Lanczos run, + 1.5e-8 n^2 for a 3-D network's factor.
 - accurate-ring (a ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
   lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
   (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
@@ -69,6 +69,8 @@ TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or 
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction (sbevd: 1.1-2.4e-8 n^2 in all at b = 2..11)
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
+SPARSE_FACTOR_S = 1.5e-8      # per n^2: a 3-D network's factor and its solves (lowest 26, one thread:
+                              # 3o21 0.41 s, 7pbl 0.61 s, 30,000 dofs 19.9 s, 4v8r's 50,148 dofs 12.7 s)
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: a chain's bisection (dstebz) + dstein, without numba (measured 2.4e-6)
 BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates (measured 6.3e-7)
@@ -156,6 +158,8 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the basis + the factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) else
         memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if width <= 1 else 12.0 * 20 * max(nnz, n))
         seconds = LANCZOS_S * n * columns * 10 + 1e-9 * n * k * k
+        if width > 16:  # a 3-D network: its factor's cost grows as n^2 (nested dissection)
+            seconds += SPARSE_FACTOR_S * n2
     elif path == "accurate-bisection":
         # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein),
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)

@@ -61,6 +61,12 @@ BISECTION_SPREAD = 1e4
 #: a true error of 2e-16). "high" keeps the Ritz path, whose values are as good.
 BISECTION_SIZE = 20_000
 
+#: ...and "high" above this many sites, where bisection (certified) also costs less than the
+#: Ritz path's extended-precision bounds: lowest 20 with vectors of a uniform chain, one BLAS
+#: thread, Ritz / bisection 0.29 / 0.32 s at 30,000 sites, 1.6 / 2.0 s at 10^5, 7.4 / 5.0 s at
+#: 3 10^5, 26.5 / 17.2 s at 10^6 (scipy eigsh 7.2 s there).
+HIGH_BISECTION_SIZE = 200_000
+
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
 BAND_MODES_ESTIMATE = 64
 

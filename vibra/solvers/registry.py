@@ -136,7 +136,8 @@ def _sparse(p: Problem) -> bool:
 
 def _bisection(p: Problem) -> bool:
     chain = p.topology == "chain" or (p.topology == "chain-derived")
-    big = p.accuracy == "certified" and p.n > common.BISECTION_SIZE and p.topology == "chain"
+    big = p.topology == "chain" and (p.n > common.HIGH_BISECTION_SIZE
+                                     or p.accuracy == "certified" and p.n > common.BISECTION_SIZE)
     return (chain and p.diagonal_mass and p.tridiagonal and p.partial and p.band is None
             and (big or p.spread > common.BISECTION_SPREAD))
 
@@ -195,7 +196,7 @@ PATHS: tuple[SolverPath, ...] = (
     SolverPath("accurate-bisection", "accurate", _bisection, _run("accurate-bisection"),
                "relative, each bound a certificate",
                'the lowest modes of a chain whose K~ diagonal spreads over 1e4, or of any chain over '
-               '20,000 sites with accuracy="certified": bisection on the bidiagonal spring factor',
+               '200,000 sites (20,000 with accuracy="certified"): bisection on the bidiagonal spring factor',
                cost="~5e-7 n k s values, ~1e-6 n k with vectors (compiled, SIMD lanes)"),
     SolverPath("accurate-walled", "accurate", _walled, _run("accurate-walled"), "relative, each bound a certificate",
                "a chain of 100 sites or more with springs to a wall inside it: dqds or bisection on its "
