@@ -20,8 +20,8 @@ each, in 40-digit mpmath (`tests/test_accurate_bounds.py`, `lattice_omegas`; nev
 
 Ill-conditioned networks (random sites, 8 nearest neighbours, springs over 1e+-6, masses over
 1e+-3; `tests/test_accurate_bounds.network`, seed 1), where one-sided Jacobi runs: the bounds
-with and without the singular-triplet step (`golub_kahan.refine_triplets`; without:
-TRIPLET_WORK = 0), their cost, and the truth (mpmath.eigsy of B~^T B~ at 34 digits from the
+with and without the singular-triplet step (`golub_kahan.refine_triplets`; with:
+``accuracy="certified"``; without: "high" with `accurate.HIGH_WORK` = 0), their cost, and the truth (mpmath.eigsy of B~^T B~ at 34 digits from the
 inputs) up to 300 dofs. Writes results/network_bounds.json.
 """
 
@@ -39,7 +39,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 
 from vibra import normal_modes
-from vibra.solvers import golub_kahan
+from vibra.solvers import accurate
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_accurate_bounds import cubic_lattice, lattice_omegas, network, solve  # noqa: E402  (the tests' oracles)
@@ -90,19 +90,19 @@ def ill_conditioned(sites: list[int], rounds: int, truth_up_to: int) -> list[dic
     rows = []
     for n_sites in sites:
         B, springs, masses = network(np.random.default_rng(1), n_sites, 6.0, 3.0)
-        work = golub_kahan.TRIPLET_WORK
+        work = accurate.HIGH_WORK
 
         def without() -> object:
-            golub_kahan.TRIPLET_WORK = 0.0
+            accurate.HIGH_WORK = 0.0
             try:
                 return solve(B, springs, masses, vectors=False)
             finally:
-                golub_kahan.TRIPLET_WORK = work
+                accurate.HIGH_WORK = work
 
         cases = {
             "vibra fast, values": lambda: normal_modes(B.T @ (springs[:, None] * B), masses, vectors=False),
             "vibra high, values, no triplets": without,
-            "vibra high, values": lambda: solve(B, springs, masses, vectors=False),
+            "vibra high, values": lambda: solve(B, springs, masses, vectors=False, accuracy="certified"),
         }
         print(f"ill-conditioned network, {n_sites} sites ({3 * n_sites} dofs)", flush=True)
         timings = interleaved(cases, rounds)

@@ -81,7 +81,7 @@ RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most 
 MP_COUNT_S = 2e-5             # per site: one mpmath count (~0.15 s at 8,000 sites)
 RING_MP_EXPECTED = 2.0        # mpmath counts expected per ring solve (at most 24; most solves need none)
 RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)
-TRIPLET_UNIT_S = 3.6e-8       # per work unit of `golub_kahan` (TRIPLET_WORK = 5e8 units ~ 18 s)
+TRIPLET_UNIT_S = 3.6e-8       # per LU entry of a Golub-Kahan solve (`golub_kahan.triplet_seconds` uses it too)
 TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and mode (8 + ~20 of fill)
 HIGH_LOOSE = 1                # modes "high" is estimated to refine by triplets (bounds over 1e-10: rare)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)

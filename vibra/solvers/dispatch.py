@@ -18,7 +18,7 @@ from vibra.solvers.common import (
 )
 from vibra.solvers.lowest import spring_factor_of_chain
 from vibra.solvers.registry import (
-    BY_NAME, FAMILIES, PATHS, Problem, SolverPath, choose, path_names,
+    BY_NAME, Problem, choose, path_names,
 )
 from vibra.solvers.runners import Inputs
 from vibra.solvers.topology import classify
@@ -109,17 +109,13 @@ def plan(
     cost = path.estimate(problem)
     fast = lowest = None
     if path.family == "accurate" and problem.topology != "chain-derived":
-        standard = choose(_replace(problem, topology="none", n_terms=0), "auto")
-        fast = standard.estimate(_replace(problem, topology="none", n_terms=0))
+        springless = replace(problem, topology="none", n_terms=0)  # what accuracy="fast" runs
+        fast = choose(springless, "auto").estimate(springless)
         if band is None and (n_modes is None or n_modes > 50) and problem.n > 10:
-            ten = _replace(problem, n_modes=10)
+            ten = replace(problem, n_modes=10)
             lowest = choose(ten, solver).estimate(ten)
     return Plan(path.family if solver == "auto" else solver, path.name, problem.width, problem.ordering, cost,
                 problem.nnz, problem.n, fast, lowest, accuracy, problem)
-
-
-def _replace(problem: Problem, **changes: object) -> Problem:
-    return replace(problem, **changes)  # type: ignore[arg-type]
 
 
 def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *,
@@ -271,5 +267,4 @@ def _scale_exponent(Kt: NDArray[np.float64] | sp.csr_matrix) -> int:
     return exponent - exponent % 2
 
 
-__all__ = ["SOLVER_NAMES", "SOLVER_PATHS", "Plan", "describe", "plan", "alternatives", "check_plan", "solve",
-           "PATHS", "FAMILIES", "SolverPath"]
+__all__ = ["SOLVER_NAMES", "SOLVER_PATHS", "Plan", "describe", "plan", "alternatives", "check_plan", "solve"]

@@ -28,8 +28,8 @@ factors fill in); only the modes whose bound exceeds `wanted` relative and whose
 bounds leave a gap are refined, within a budget of `work` units counted from the factors'
 sizes (never from the clock: the same input refines the same modes on every machine).
 ``accuracy="high"`` runs the step on systems of at most `HIGH_ROWS` rows for the bounds over
-1e-10 relative, within `HIGH_WORK`; ``"certified"`` on any, for every bound over `WANTED`,
-within `TRIPLET_WORK`. Written here: no package bounds
+1e-10 relative, within `HIGH_WORK`; ``"certified"`` on any, for every bound over `WANTED`, with
+no cap (its cost, `triplet_seconds` per mode, was estimated and guarded before the solve). Written here: no package bounds
 singular triplets of a sparse matrix (the chains' compiled kernel, `triplets`, is for
 bidiagonals).
 """
@@ -46,18 +46,11 @@ from numpy.typing import NDArray
 
 from vibra.solvers.spring_ritz import Deviation
 
-__all__ = ["refine_triplets", "singular_vectors", "refined_vectors", "Refiner", "loose_modes", "WANTED", "TRIPLET_WORK",
+__all__ = ["refine_triplets", "singular_vectors", "refined_vectors", "Refiner", "loose_modes", "WANTED",
            "HIGH_ROWS", "HIGH_WORK", "triplet_seconds"]
 
 #: Bounds above this, relative to omega^2, are refined.
 WANTED = 2e-13
-
-#: Most work (summed over the modes refined) one solve may spend, in units of one entry of the
-#: LU factors: each mode costs its factors' entries plus 8 per row of H (SuperLU's fixed cost;
-#: measured: 17 ms for 4.5e5 entries and 2,465 rows on a 3-D network, 9 ms for a ring of 8,000
-#: sites, 16,000 rows). 5e8 is ~18 s on one core, e.g. ~880 modes of a 900-dof network or ~550
-#: of an 8,000-site ring. Modes beyond it keep their bounds (and `modes.refinement` says how many).
-TRIPLET_WORK = 5e8
 
 #: ``accuracy="high"`` runs the step only where H has at most this many rows (n_terms + n: a
 #: network of ~1,000 dofs with ~8 springs per site), for the bounds still over 1e-10 relative:
@@ -65,7 +58,9 @@ TRIPLET_WORK = 5e8
 #: residues) one LU took 115 s (COLAMD's fill), more than ProDy's whole solve.
 HIGH_ROWS = 10_000
 
-#: ...and within this much work (units as `TRIPLET_WORK`; ~2 s).
+#: ...and within this much work, in entries of the LU factors plus 8 per row of H per mode
+#: (SuperLU's fixed cost; 17 ms for 4.5e5 entries and 2,465 rows on a 3-D network): ~2 s.
+#: Modes beyond it keep their bounds, and `modes.refinement` says how many.
 HIGH_WORK = 5e7
 
 
@@ -90,10 +85,10 @@ REFINE_STEPS = 2
 
 
 def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArray[np.float64],
-                    error: NDArray[np.float64], *, complete: bool, wanted: float = WANTED,
-                    work: float | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+                    error: NDArray[np.float64], *, complete: bool, work: float, wanted: float = WANTED
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
     """Tighter (values, error) for the modes whose bound exceeds `wanted` |value| (see above),
-    within `work` units of fill (`TRIPLET_WORK` by default).
+    within `work` units of fill (see `HIGH_WORK`; ``float("inf")``: no cap).
 
     `weighted`: the stored B~ (n_terms, n), sparse; `deviation`: its (D, S), or None (no exact
     entries known: nothing is refined). `values` ascending omega^2 with absolute bounds
@@ -120,10 +115,9 @@ def refine_triplets(weighted: sp.csr_matrix, deviation: Deviation, values: NDArr
     A_T = A.T.tocsr()
     S_T = S.T.tocsr()
     start = np.random.default_rng(2025).standard_normal(rows + n)
-    budget = TRIPLET_WORK if work is None else work
     refined, spent = 0, 0.0
     for j in loose.tolist():
-        if spent >= budget:
+        if spent >= work:
             break
         if not _isolated(values, error, j):  # no gap to bound it by: no factorisation spent
             continue

@@ -29,7 +29,7 @@ import vibra.solvers.runners as runners
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
 from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
 
-__all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "FAMILIES", "choose", "path_names", "readme_table"]
+__all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "path_names", "readme_table"]
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,9 @@ class Problem:
     """One request, described before any work: sizes, what is asked, and structure.
 
     `width` is K~'s half-bandwidth (after `ordering`, a ring's banded order, where there is one);
-    `topology` the shape of the springs (`topology.classify`; "none" without a spring factor);
+    `topology` the shape of the springs (`topology.classify`; "none" without a spring factor, and
+    "chain-derived" for a chain given as K alone whose springs `lowest.spring_factor_of_chain`
+    recovers: only bisection uses them);
     `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (chains only, else 1).
     """
 
@@ -135,7 +137,7 @@ def _sparse(p: Problem) -> bool:
 
 
 def _bisection(p: Problem) -> bool:
-    chain = p.topology == "chain" or (p.topology == "chain-derived")
+    chain = p.topology in ("chain", "chain-derived")
     big = p.topology == "chain" and (p.n > common.HIGH_BISECTION_SIZE
                                      or p.accuracy == "certified" and p.n > common.BISECTION_SIZE)
     return (chain and p.diagonal_mass and p.tridiagonal and p.partial and p.band is None
@@ -247,13 +249,6 @@ PATHS: tuple[SolverPath, ...] = (
 )
 
 BY_NAME: dict[str, SolverPath] = {path.name: path for path in PATHS}
-
-#: The `solver=` names and the paths each may run ("auto" chooses among all).
-FAMILIES: dict[str, tuple[str, ...]] = {
-    family: tuple(path.name for path in PATHS if path.family == family)
-    for family in dict.fromkeys(path.family for path in PATHS)
-}
-
 
 def path_names() -> tuple[str, ...]:
     """Every name a result can report: the paths and their fallbacks."""

@@ -128,22 +128,6 @@ def _pattern_kind(indptr: Any, indices: Any, n: int) -> int:  # pragma: no cover
     return 0
 
 
-def _is_path(first: np.ndarray, second: np.ndarray, wall_sites: np.ndarray, n: int) -> bool:
-    """Springs (c, c + 1) only, one per pair, and walls only at the ends of each run, one each
-    (the pattern `bidiagonal.path_bidiagonals` turns into bidiagonals)."""
-    if np.any(second != first + 1) or np.bincount(first, minlength=n).max(initial=0) > 1:
-        return False
-    joined = np.zeros(n, dtype=bool)  # joined[c]: a spring (c, c + 1)
-    joined[first] = True
-    starts = np.flatnonzero(np.r_[True, ~joined[:-1]])  # first site of each run
-    ends = np.r_[starts[1:] - 1, n - 1]
-    walls = np.bincount(wall_sites, minlength=n)
-    allowed = np.zeros(n, dtype=np.intp)
-    np.add.at(allowed, starts, 1)
-    np.add.at(allowed, ends, 1)  # a run of one site may take two walls (one per "end")
-    return bool(np.all(walls <= allowed))
-
-
 def _one_cycle(first: np.ndarray, second: np.ndarray, n: int) -> bool:
     """Whether n springs between distinct sites close one cycle through all n sites (every
     site in exactly two springs, and the walk from site 0 returns after n steps)."""
