@@ -25,7 +25,7 @@ the input, then time:
   the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 2e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
-  otherwise); 2e-8 n ncv per Lanczos run, + 1.5e-8 n^2 for a 3-D network's factor.
+  otherwise); 2e-8 n ncv per Lanczos run, + 1.2e-8 n^2 for a 3-D network's factor.
 - accurate-ring (a ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
   lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
   (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
@@ -69,7 +69,7 @@ TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or 
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction (sbevd: 1.1-2.4e-8 n^2 in all at b = 2..11)
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
-SPARSE_FACTOR_S = 1.5e-8      # per n^2: a 3-D network's factor and its solves (lowest 26, one thread:
+SPARSE_FACTOR_S = 1.2e-8      # per n^2: a 3-D network's factor and its solves (lowest 26, one thread:
                               # 3o21 0.41 s, 7pbl 0.61 s, 30,000 dofs 19.9 s, 4v8r's 50,148 dofs 12.7 s)
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_S = 3e-6            # per n k: a chain's bisection (dstebz) + dstein, without numba (measured 2.4e-6)
@@ -150,7 +150,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         seconds = values_s + (TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
     elif path in ("banded", "accurate-ring-band"):
         memory = 8.0 * (width + 1) * n * 3 + (8.0 * n2 + vector_bytes if vectors else 0.0)
-        seconds = BANDED_S * (width + 1) * n2 + TRIDIAGONAL_S * n2 + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
+        # the band's reduction to tridiagonal, then its values as on the tridiagonal path (a
+        # subset by bisection: a ring of 10^5 sites, lowest 10, was estimated 160 s for 25 s)
+        values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
+        seconds = BANDED_S * (width + 1) * n2 + values_s + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
     elif path in ("sparse", "accurate-ritz"):
         # ARPACK's restarted basis for a tridiagonal K~; the block Krylov basis (up to
         # max(10 k, 200) columns, `krylov.block_eigs`) for any other

@@ -68,13 +68,14 @@ def triplet_seconds(n: int, n_terms: int, *, one_dimensional: bool = False) -> f
     """Seconds one mode of the step is estimated to take, from sizes: SuperLU's fixed cost per
     row of H (28 units of 3.6e-8 s), and its factorisation, taken as 7e-11 F^1.5 s for a fill
     of F entries: ~10 per row of H for a chain or a ring (`one_dimensional`: a band), ~8 n^(2/3)
-    per row for a network (the fill of a 3-D graph's factor). Fitted to one LU per mode measured
+    per row for a network (the fill of a 3-D graph's factor), and no more than 0.75 n per row
+    on a small one (its dof block fills in: 170 per row measured on ubiquitin's 228 dofs). Fitted to one LU per mode measured
     with one BLAS thread (fill, time): ubiquitin's network (228 dofs, 1,428 springs) 2.8e5,
     0.016 s; 900-dof networks 2.1e6, 0.27 s; 1,500 dofs with 19,443 springs 1.9e7, 3.3 s; 3o21
     (4,467 dofs, 42,482 springs) 1e8, 24-115 s; 6,000-dof networks 8.6e7 to 3.6e8, 65-217 s:
     within ~3x of these. An estimate, not a bound: the corpus checks it."""
     rows = float(n + n_terms)
-    fill = rows * (10.0 if one_dimensional else 8.0 * float(n) ** (2.0 / 3.0))
+    fill = rows * (10.0 if one_dimensional else min(8.0 * float(n) ** (2.0 / 3.0), 0.75 * n))
     return 3.6e-8 * 28.0 * rows + 7e-11 * fill ** 1.5
 
 
