@@ -71,7 +71,7 @@ def test_generalized_modes_take_the_same_keywords() -> None:
 
 def test_high_keeps_a_long_chain_on_the_ritz_path_and_certified_takes_bisection() -> None:
     """The lowest modes of a chain over BISECTION_SIZE sites: "high" keeps spring-space
-    Rayleigh-Ritz up to HIGH_BISECTION_SIZE (values already right to ~1e-14, and cheaper), "certified"
+    Rayleigh-Ritz at any length (values already right to ~1e-14, bracketed by Sturm counts), "certified"
     takes bisection (bounds ~1e-16); both within 1e-10 of the closed form, each bound covering it."""
     n, k = 30_000, 8
     system = free_chain(n)
@@ -164,3 +164,58 @@ def test_compiled_error_free_product_is_within_one_unit_of_the_exact_sum() -> No
                 value = compiled[i, j]
                 got = mpmath.mpf(float(value)) + mpmath.mpf(float(value - np.longdouble(float(value))))
                 assert abs(got - exact) <= unit * abs(exact)
+
+
+def test_high_brackets_a_long_chain_by_sturm_counts() -> None:
+    """A free chain of 100,000 sites, lowest 12 with vectors, "high": spring-space Rayleigh-Ritz
+    values each bracketed by two Sturm counts of the chain's spring form (no residual bounds):
+    every bound covers the closed form's error and stays within 1e-12 relative (the brackets
+    start at 3e-14; the values' rounding is ~1e-14); the rigid mode counted within
+    `accurate.zero_level` of zero (((t + 12) n eps)^2 ||K~||: omega ~6e-10, far below omega_1)."""
+    n, k = 100_000, 12
+    modes = free_chain(n).modes(k, accuracy="high")
+    exact = chain_exact(n, k)
+    assert modes.solver == "accurate-ritz"
+    assert np.all(np.abs(modes.omega[1:] - exact[1:]) <= modes.omega_error[1:])
+    assert np.all(modes.omega_error[1:] <= 1e-12 * modes.omega[1:])
+    assert modes.omega_error[0] <= 1e-4 * modes.omega[1]
+    assert modes.residual <= 1e-13
+
+
+def test_the_chain_form_built_at_once_equals_the_one_built_node_by_node() -> None:
+    """`path_counts._free_form` (array operations, free chains) against the general walk
+    (`_walked_form`), disordered masses and springs, several chains side by side."""
+    from vibra.solvers import path_counts
+
+    rng = np.random.default_rng(4)
+    n = 300
+    bonds = np.array([(i, i + 1) for i in range(n - 1) if i % 97 != 50])  # three chains
+    system = System.from_springs(np.arange(n, dtype=float), 10.0 ** rng.uniform(-3, 3, n), bonds,
+                                 10.0 ** rng.uniform(-3, 3, len(bonds)))
+    coupling, weights = system.spring_factor()
+    B, per_row = path_counts.stored_factor(coupling)
+    mass = np.asarray(system.mass_matrix())
+    at_once = path_counts._free_form(B, np.asarray(weights, dtype=float), mass)
+    walked = path_counts._walked_form(B, per_row, np.asarray(weights, dtype=float), mass)
+    assert at_once is not None and walked is not None
+    for name in ("site", "m", "compliance", "squares", "widening"):
+        np.testing.assert_array_equal(np.asarray(getattr(at_once, name)), np.asarray(getattr(walked, name)), err_msg=name)
+
+
+def test_high_leaves_a_long_rings_pairs_at_their_count_bounds() -> None:
+    """A uniform ring of 60,000 sites, lowest 10, values only: "high" keeps the counts' own
+    bounds (within 1e-10 relative, each covering the closed form's error) and skips the pair
+    step that "certified" runs to reach 1e-13."""
+    n = 60_000
+    ring = System.from_springs(np.arange(n, dtype=float), 1.0,
+                               np.r_[np.c_[np.arange(n - 1), np.arange(1, n)], [[n - 1, 0]]], 1.0)
+    with mpmath.workdps(30):
+        truth = np.sort(np.array([float(2 * mpmath.sin(mpmath.pi * min(j, n - j) / n)) for j in range(6)] * 2))[1:11]
+    high = ring.modes(n_modes=10, vectors=False, accuracy="high")
+    certified = ring.modes(n_modes=10, vectors=False, accuracy="certified")
+    for modes in (high, certified):
+        assert modes.solver == "accurate-ring"
+        assert np.all(np.abs(modes.omega[1:] - truth[1:]) <= modes.omega_error[1:])
+    assert np.all(high.omega_error[1:] <= 1e-10 * high.omega[1:])
+    assert "tightened" not in high.refinement and "tightened" in certified.refinement
+    assert np.all(certified.omega_error[1:] <= 1e-13 * certified.omega[1:])

@@ -39,7 +39,7 @@ def test_a_uniform_ring_of_8000_sites_meets_the_criterion_mode_by_mode() -> None
     the band solver's values were off by up to 4.5e-9 relative, with 7,994 bounds over 1000
     times their true error."""
     n = 8000
-    modes = linear_chain(n, ends="periodic", units="dimensionless").modes(vectors=False)
+    modes = linear_chain(n, ends="periodic", units="dimensionless").modes(vectors=False, accuracy="certified")
     assert modes.solver == "accurate-ring"
     assert f"{n} of {n} bounds certified by Sturm counts" in modes.refinement
     with mp.workdps(30):
@@ -351,7 +351,7 @@ def test_the_lowest_modes_of_rings_longer_than_the_values_limit() -> None:
     n = 60000
     mass, springs = disordered_ring(n, 12.0, 5)
     ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-    modes = ring.modes(n_modes=6, vectors=True)
+    modes = ring.modes(n_modes=6, vectors=True, accuracy="certified")
     assert modes.solver == "accurate-ring" and modes.n_modes == 6
     omega, error = modes.omega, modes.omega_error
     assert omega[0] == 0.0 and np.all(error[1:] <= 1e-13 * omega[1:])
@@ -361,7 +361,8 @@ def test_the_lowest_modes_of_rings_longer_than_the_values_limit() -> None:
         assert ring_count(mass, springs, low, 64) <= j < ring_count(mass, springs, high, 64), j
     assert_vectors(ring, modes, mass)
 
-    uniform = linear_chain(n, ends="periodic", units="dimensionless").modes(n_modes=10, vectors=False)
+    uniform = linear_chain(n, ends="periodic", units="dimensionless").modes(n_modes=10, vectors=False,
+                                                                           accuracy="certified")
     assert uniform.solver == "accurate-ring"
     assert "tightened by spring-space Rayleigh-Ritz" in uniform.refinement
     with mp.workdps(30):
@@ -382,7 +383,8 @@ def test_the_pairs_of_a_200000_site_uniform_ring_are_bounded_within_1e_13() -> N
     1 / omega) every bound is within 1e-15: float64's own rounding of omega (~2 eps) is what
     is left (measured 4.5e-16; 2.8e-14 before). Truth: the closed form, 30 digits."""
     n = 200000
-    modes = linear_chain(n, ends="periodic", units="dimensionless").modes(n_modes=10, vectors=False)
+    modes = linear_chain(n, ends="periodic", units="dimensionless").modes(n_modes=10, vectors=False,
+                                                                         accuracy="certified")
     assert modes.solver == "accurate-ring"
     with mp.workdps(30):
         truth = np.sort(np.array([float(2 * mp.sin(mp.pi * j / n)) for j in range(6)] * 2))[1:11]

@@ -5,9 +5,9 @@ give M q'' + K q = 0 with a dense, symmetric positive-definite mass matrix M and
 stiffness matrix K. Such a system has coordinates (angles, lengths, ...) but no sites:
 no positions, no site masses, no spring factorisation, so it is a class of its own rather
 than a mode of `vibra.System`. It offers the same protocol (`hessian`, `mass_matrix`,
-`modes`, `freeze`, `expand`, `n_dof`, `free_dofs`, `labels`, `units`, `name`), and
-``isinstance(s, vibra.System)`` holds for it (a registered virtual subclass), so a function
-that takes any system tells the two apart with `is_generalized`.
+`modes`, `freeze`, `expand`, `n_dof`, `free_dofs`, `labels`, `units`, `name`): both satisfy
+the protocol `vibra.system.Vibrating`, so a function that takes any system checks
+``isinstance(s, Vibrating)`` and tells the two apart with `is_generalized`.
 
 Build one with ``vibra.System.generalized(M, K)`` (or `GeneralizedSystem.from_matrices`);
 `vibra.lagrangian.linearize` and `vibra.rigid` return them.

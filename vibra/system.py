@@ -2,9 +2,9 @@
 
 A system is a set of sites (equilibrium coordinates in 1, 2 or 3 dimensions, one mass each)
 with a quadratic potential. A set of generalised coordinates with a dense mass matrix is a
-class of its own, `vibra.generalized.GeneralizedSystem`, built by `System.generalized`; it
-shares the protocol below and counts as a `System` for ``isinstance`` (a registered virtual
-subclass, told apart by `System.is_generalized`). The potential is stored factorised whenever possible (seed 003 eq. 133):
+class of its own, `vibra.generalized.GeneralizedSystem`, built by `System.generalized`. Both
+satisfy `Vibrating`, the protocol of anything with K, M and modes (``isinstance(x, Vibrating)``
+accepts either; `is_generalized` tells them apart; ``isinstance(x, System)`` means sites). The potential is stored factorised whenever possible (seed 003 eq. 133):
 
     V = 1/2 u^T K u,    K = B^T diag(w) B + K_extra,
 
@@ -20,10 +20,9 @@ then refer to the free degrees of freedom only, in the order of `free_dofs`.
 
 from __future__ import annotations
 
-import abc
 import dataclasses
 from dataclasses import dataclass
-from typing import Callable, Literal, Sequence
+from typing import Any, Callable, Literal, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp
@@ -36,13 +35,34 @@ from vibra.modes import Modes, normal_modes
 from vibra.solvers.common import ACCURACY_LEVELS
 from vibra.units import UnitSystem, unit_system
 
-__all__ = ["System", "GeneralizedSystem"]
+__all__ = ["System", "GeneralizedSystem", "Vibrating"]
+
+
+@runtime_checkable
+class Vibrating(Protocol):
+    """Anything vibra can solve and analyse: a `System` (sites) or a `GeneralizedSystem`
+    (coordinates). A function that takes either checks ``isinstance(x, Vibrating)`` and tells
+    them apart with `is_generalized`; one that needs sites checks ``isinstance(x, System)``."""
+
+    units: UnitSystem
+
+    @property
+    def is_generalized(self) -> bool: ...
+
+    @property
+    def n_dof(self) -> int: ...
+
+    def hessian(self) -> Any: ...
+
+    def mass_matrix(self) -> Any: ...
+
+    def modes(self, n_modes: int | None = None, *args: Any, **kwargs: Any) -> Modes: ...
 
 _AXES = "xyz"
 
 
 @dataclass(frozen=True, eq=False)
-class System(FreeDofs, metaclass=abc.ABCMeta):
+class System(FreeDofs):
     """A vibrating system: sites, masses, and a factorised quadratic potential.
 
     Build one with `System.from_springs`, `System.from_terms` or `System.from_hessian` (or a
@@ -514,10 +534,6 @@ class System(FreeDofs, metaclass=abc.ABCMeta):
             max_memory=max_memory, max_seconds=max_seconds, progress=progress,
             accuracy=accuracy,
         )
-
-
-# Every vibrating system counts as a System for isinstance(); is_generalized tells them apart.
-System.register(GeneralizedSystem)
 
 
 # ---------------------------------------------------------------------- helpers

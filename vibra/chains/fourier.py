@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 from vibra import _validate
 from vibra.chains.closed_forms import diatomic_eigenvalues
 from vibra.modes import Modes
-from vibra.system import System
+from vibra.system import System, Vibrating
 
 __all__ = ["periodic_modes"]
 
@@ -18,7 +18,7 @@ EPS = float(np.finfo(float).eps)
 
 def _ring_parameters(system: System) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Masses (n,) and bond stiffnesses (n,), bond i joining i and i + 1 mod n, of a ring."""
-    if not isinstance(system, System):
+    if not isinstance(system, Vibrating):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
     if system.is_generalized:
         raise ValueError("system is in generalised coordinates; periodic_modes needs a ring of springs")

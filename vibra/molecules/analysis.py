@@ -18,7 +18,7 @@ from vibra.modes import Modes, normal_modes
 from vibra.molecules.checks import nonnegative_scalar
 from vibra.molecules.rigid_body import is_linear, rigid_body_vectors, warn_soft_modes
 from vibra.molecules.symmetry import PointGroup, mode_species, point_group
-from vibra.system import System
+from vibra.system import System, Vibrating
 
 __all__ = ["VibrationalAnalysis", "vibrational_analysis"]
 
@@ -191,7 +191,7 @@ def vibrational_analysis(
     >>> round(analysis.zero_point_energy_ev(), 3)
     0.558
     """
-    if not isinstance(system, System):
+    if not isinstance(system, Vibrating):
         raise TypeError(f"system must be a vibra System, got {type(system).__name__}")
     if system.is_generalized:
         raise TypeError("system is in generalised coordinates; a vibrational analysis needs sites")

@@ -26,7 +26,7 @@ from vibra.modes import Modes
 from vibra.molecules.analysis import VibrationalAnalysis
 from vibra.molecules.elements import symbols_from_masses
 from vibra.molecules.isotopes import ISOTOPE_MASSES
-from vibra.system import System
+from vibra.system import System, Vibrating
 
 if TYPE_CHECKING:
     from ase import Atoms
@@ -47,7 +47,7 @@ _ISOTOPE_MATCH_AMU = 1e-6
 
 
 def _molecular(system: Any, name: str = "system") -> System:
-    if not isinstance(system, System):
+    if not isinstance(system, Vibrating):
         raise TypeError(f"{name} must be a vibra System, got {type(system).__name__}")
     if system.is_generalized:
         raise TypeError(f"{name} is in generalised coordinates; export needs a molecule (3-D sites)")

@@ -54,7 +54,7 @@ from scipy.optimize import linear_sum_assignment
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.molecules.character_tables import LINEAR_ORDER, CharacterTable, character_table, symmetry_number
-from vibra.system import System
+from vibra.system import Vibrating
 
 __all__ = ["PointGroup", "point_group", "mode_species", "SYMMETRY_TOLERANCE", "symmetry_number"]
 
@@ -150,7 +150,7 @@ class PointGroup:
 # ------------------------------------------------------------------------------------ input
 def _structure(molecule: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
     """Positions (n, 3), masses (n,) and an integer kind per atom."""
-    if isinstance(molecule, System):
+    if isinstance(molecule, Vibrating):
         if molecule.is_generalized or molecule.dim != 3:
             raise ValueError(f"point_group needs a 3-D system of sites; this one has dim={molecule.dim}"
                              f"{' (generalised coordinates)' if molecule.is_generalized else ''}")

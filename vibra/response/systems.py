@@ -23,7 +23,7 @@ from vibra.generalized import GeneralizedSystem
 from vibra.response.frf import FrequencyResponse, frequency_response
 from vibra.response.matrices import velocity_matrix
 from vibra.response.transient import Transient, transient_response
-from vibra.system import System
+from vibra.system import System, Vibrating
 from vibra.units import UnitSystem
 
 
@@ -72,7 +72,7 @@ def system_matrices(system: System | GeneralizedSystem) -> SystemMatrices:
     >>> parts.G.tolist(), parts.C is None
     ([[0.0, -1.0], [1.0, 0.0]], True)
     """
-    if not isinstance(system, System):
+    if not isinstance(system, Vibrating):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
     C = G = None
     if isinstance(system, GeneralizedSystem):

@@ -58,14 +58,10 @@ BISECTION_SPREAD = 1e4
 #: ``accuracy="certified"`` takes a chain's lowest modes to bisection above this many sites
 #: whatever its spread: its bounds are certificates (~2e-16 at 10^6 sites), where the Ritz
 #: path's Kato-Temple bound in K~ cannot beat (eps ||K~|| / omega_1^2)^2 (2.5e-9 at 10^6 for
-#: a true error of 2e-16). "high" keeps the Ritz path, whose values are as good.
+#: a true error of 2e-16). "high" keeps the Ritz path at every length, its values bracketed by
+#: Sturm counts of the chain's spring form (`accurate.checked_ritz`: ~3e-14, at 0.2 s per 40
+#: counts at 10^6 sites).
 BISECTION_SIZE = 20_000
-
-#: ...and "high" above this many sites, where bisection (certified) also costs less than the
-#: Ritz path's extended-precision bounds: lowest 20 with vectors of a uniform chain, one BLAS
-#: thread, Ritz / bisection 0.29 / 0.32 s at 30,000 sites, 1.6 / 2.0 s at 10^5, 7.4 / 5.0 s at
-#: 3 10^5, 26.5 / 17.2 s at 10^6 (scipy eigsh 7.2 s there).
-HIGH_BISECTION_SIZE = 200_000
 
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
 BAND_MODES_ESTIMATE = 64

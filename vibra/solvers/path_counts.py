@@ -43,7 +43,10 @@ class PathForm:
         k = site.shape[0]
         w = np.where(site, 1.0, weights)
         self.site, self.m = site, m
-        self.compliance = _div(np.ones(k), np.zeros(k), w, np.zeros(k))
+        spring = ~site  # (a site's entry is 1 / 1, exact)
+        high, low = np.ones(k), np.zeros(k)
+        high[spring], low[spring] = _div(np.ones(int(spring.sum())), 0.0, w[spring], 0.0)
+        self.compliance = (high, low)
         self.squares = _mul(couplings, np.zeros_like(couplings), couplings, np.zeros_like(couplings))
         self.widening = np.array([2.0 * (k + 1) * 4 * _UNIT_DD, 0.0])
 
@@ -62,6 +65,15 @@ def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.floa
     if per_row.min(initial=1) < 1 or per_row.max(initial=0) > 2:
         return None
     weights = np.asarray(weights, dtype=float)
+    if per_row.min(initial=2) == 2:  # no spring to a wall: the whole form at once
+        return _free_form(B, weights, np.asarray(mass, dtype=float))
+    return _walked_form(B, per_row, weights, mass)
+
+
+def _walked_form(B: Any, per_row: NDArray[np.intp], weights: NDArray[np.float64], mass: NDArray[np.float64]
+                 ) -> PathForm | None:
+    """`path_form` node by node: the general case, springs to a wall at chains' ends included."""
+    n = B.shape[1]
     pair: dict[int, int] = {}
     anchors: dict[int, list[int]] = {}
     for row in range(B.shape[0]):
@@ -112,15 +124,44 @@ def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.floa
     return PathForm(np.array(site), np.array(m), np.array(w), np.array(off))
 
 
-def certify_path_values(form: PathForm, values: NDArray[np.float64], error: NDArray[np.float64]
-                        ) -> tuple[NDArray[np.float64], int]:
+def _free_form(B: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> PathForm | None:
+    """`path_form` where every spring joins two sites c and c + 1 (free chains), in array
+    operations: site c's node, then its spring's to c + 1 where it has one."""
+    n = B.shape[1]
+    first = B.indices[B.indptr[:-1]]
+    second = B.indices[B.indptr[:-1] + 1]
+    if np.any(second != first + 1) or np.bincount(first, minlength=n).max(initial=0) > 1:
+        return None
+    has = np.zeros(n, dtype=bool)
+    has[first] = True
+    row = np.zeros(n, dtype=np.intp)
+    row[first] = np.arange(first.shape[0])
+    before = np.cumsum(has) - has  # springs placed before site c
+    at = np.arange(n) + before  # site c's node
+    size = n + first.shape[0]
+    site = np.zeros(size, dtype=bool)
+    site[at] = True
+    m = np.zeros(size)
+    m[at] = mass
+    w = np.zeros(size)
+    spring = at[first] + 1
+    w[spring] = weights
+    off = np.zeros(size)
+    off[at[first]] = B.data[B.indptr[:-1]]  # site c to its spring
+    off[spring] = B.data[B.indptr[:-1] + 1]  # the spring to site c + 1
+    return PathForm(site, m, w, off[:-1])
+
+
+def certify_path_values(form: PathForm, values: NDArray[np.float64], error: NDArray[np.float64],
+                        levels: tuple[float, ...] = LEVELS) -> tuple[NDArray[np.float64], int]:
     """Tighter `error` for the values (ascending omega^2, the lowest of the system, index =
-    position) whose bound exceeds WANTED relative: the tightest `LEVELS` bracket two counts prove
-    holds the value's index, widened by the counts' perturbation. Returns (error, how many)."""
+    position) whose bound exceeds WANTED relative: the tightest of `levels` whose bracket two
+    counts prove holds the value's index, widened by the counts' perturbation. Returns (error,
+    how many)."""
     error = np.asarray(error, dtype=float).copy()
     loose = np.flatnonzero((error > WANTED * values) & (values > error))
     certified = 0
-    for level in LEVELS:
+    for level in levels:
         if loose.shape[0] == 0:
             break
         v = values[loose]

@@ -136,7 +136,7 @@ Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
 
 
 def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighten | None = None,
-                needed: int | None = None) -> RingValues | None:
+                needed: int | None = None, wanted: float = MP_WANTED) -> RingValues | None:
     """All eigenvalues of a ring's pencil (the lowest `count` of them when given: O(count n),
     the cut chain's lowest by bisection), each with a count-certified bound (see above); None
     where the compiled loops are unavailable. `tighten`
@@ -229,7 +229,7 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
         before = bound.copy()
         tighten(values, bound)
         tightened = int(np.count_nonzero(bound[:needed] < before[:needed]))
-    spent += _mp_counts(pencil, values[:needed], bound[:needed])
+    spent += _mp_counts(pencil, values[:needed], bound[:needed], wanted)
     certified = np.isfinite(bound)
     order = np.argsort(values, kind="stable")
     values = values[order]
@@ -238,16 +238,18 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
 
 
 def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None,
-                *, tighten: Tighten | None = None, lowest: bool = False) -> SolveResult | None:
+                *, tighten: Tighten | None = None, lowest: bool = False, wanted: float = MP_WANTED
+                ) -> SolveResult | None:
     """``accurate-ring``: a ring's frequencies by `ring_values` (the lowest n_modes of them
     when given) as a result without vectors, or None (not one ring: the caller goes on).
     `lowest` (n_modes well below n): two more values are found, so that the last mode's pair, if
-    it has one, has a gap above it for `tighten` (`pair_step`), and then dropped."""
+    it has one, has a gap above it for `tighten` (`pair_step`), and then dropped. `wanted`: the
+    relative bound the mpmath counts tighten to (accuracy="high": 1e-10, rarely any count)."""
     pencil = ring_pencil(coupling, weights, mass)
     if pencil is None:
         return None
     count = int(n_modes) + 2 if lowest and n_modes is not None else n_modes
-    found = ring_values(pencil, count, tighten=tighten, needed=n_modes)
+    found = ring_values(pencil, count, tighten=tighten, needed=n_modes, wanted=wanted)
     if found is None:
         return None
     k = found.values.shape[0] if count == n_modes or n_modes is None else int(n_modes)
@@ -295,12 +297,13 @@ def sorted_bounds(values: NDArray[np.float64], bound: NDArray[np.float64], order
     return bound
 
 
-def _mp_counts(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[np.float64]) -> int:
-    """Tighten, in place, the bounds still above MP_WANTED relative (the lowest modes of a long
+def _mp_counts(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[np.float64],
+               wanted: float = MP_WANTED) -> int:
+    """Tighten, in place, the bounds still above `wanted` relative (the lowest modes of a long
     uniform ring: double eigenvalues, where double-double's counts stay uncertain within a few
     1e-13) by `cycle.count_below_mp` counts of K - x M with 40 digits more than R / value needs,
     loosest first, at most MP_COUNTS counts (and MP_WORK sites). Returns the counts spent."""
-    loose = np.flatnonzero((bound > MP_WANTED * values) & (values > 0))
+    loose = np.flatnonzero((bound > wanted * values) & (values > 0))
     loose = loose[np.argsort(-(bound[loose] / values[loose]), kind="stable")]
     used = 0
     most = min(MP_COUNTS, int(MP_WORK // pencil.n))
@@ -491,9 +494,11 @@ def proven_multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.
     return lo, hi, used + 2 * k
 
 
-def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) -> Tighten:
+def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64], wanted: float = MP_WANTED) -> Tighten:
     """`ring_values`' `tighten` step: each cluster of values whose count bound stays over
-    `ring_path.MP_WANTED` (a double eigenvalue: counts uncertain within ~sqrt(n) 1e-15 of it;
+    `wanted` relative (`MP_WANTED`, "certified"; accuracy="high" passes 1e-10, which the
+    counts' own bounds, ~sqrt(n) 1e-15, meet: the step then costs nothing)
+    (a double eigenvalue: counts uncertain within ~sqrt(n) 1e-15 of it;
     a ring's eigenvalues are at most double) gets spring-space Rayleigh-Ritz on its singular
     vectors of B~ (Golub-Kahan inverse iteration, refined to extended precision:
     `golub_kahan.refined_vectors`), with quadratic residual bounds
@@ -507,7 +512,7 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) ->
     def tighten(values: NDArray[np.float64], bound: NDArray[np.float64]) -> None:
         k = values.shape[0]
         base = 1 if k and values[0] == 0.0 and bound[0] == 0.0 else 0  # a free ring's rigid rotation: exact
-        loose = np.flatnonzero((bound > MP_WANTED * values) & (values > 0) & np.isfinite(bound))
+        loose = np.flatnonzero((bound > wanted * values) & (values > 0) & np.isfinite(bound))
         runs: list[list[int]] = []  # clusters holding a loose value, adjacent ones joined (one Ritz step each)
         for j in loose.tolist():
             if runs and j < runs[-1][1]:

@@ -21,13 +21,14 @@ from vibra.solvers.accurate import (
     checked_dense, checked_ritz, relative_account, ring_certified, spring_rayleigh, spring_ritz_band,
     tightened, weighted_factor,
 )
+from vibra.solvers.spring_ritz import TARGET
 from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
 import vibra.solvers.common as common
 from vibra.solvers.common import SolveResult
 from vibra.solvers.cycle import ring_pencil
 from vibra.solvers.lowest import lowest_chain_modes
-from vibra.solvers.path_counts import chain_counted
-from vibra.solvers.ring_path import pair_step, ring_result, ring_vectors
+from vibra.solvers.path_counts import chain_counted, path_form
+from vibra.solvers.ring_path import MP_WANTED, pair_step, ring_result, ring_vectors
 from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.spring_ritz import forming_deviation, spring_figures
 from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
@@ -112,8 +113,8 @@ def accurate_walled(p: Any, x: Inputs) -> SolveResult:
 
 def accurate_ring(p: Any, x: Inputs) -> SolveResult:
     coupling, weights, weighted, deviation = _springs(x)
-    ring = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass),
-                       lowest=p.few)
+    ring = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _wanted(p)),
+                       lowest=p.few, wanted=_wanted(p))
     if ring is None:
         raise RuntimeError("accurate-ring: the springs do not close one ring after all (a planning error)")
     return ring_vectors(weighted, x.mass, ring) if p.vectors else ring
@@ -125,7 +126,8 @@ def accurate_ring_band(p: Any, x: Inputs) -> SolveResult:
     coupling, weights, weighted, deviation = _springs(x)
     banded_result = banded_path(x.Kt, p.width, n_modes=p.n_modes, vectors=True, band=x.band, ordering=p.ordering)
     result = spring_rayleigh(weighted, banded_result, vectors=True, deviation=deviation, name="accurate-ring-band")
-    certified = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass))
+    certified = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _wanted(p)),
+                            wanted=_wanted(p))
     if certified is None or certified.eigenvalues.shape != result.eigenvalues.shape:
         raise RuntimeError("accurate-ring-band: the springs do not close one ring after all (a planning error)")
     result.eigenvalues, result.error = certified.eigenvalues, certified.error
@@ -142,7 +144,8 @@ def accurate_ritz(p: Any, x: Inputs) -> SolveResult:
         rounding = semidefinite_rounding(x.factor, float(abs(matrix).sum(axis=1).max()))
         sigma, shifted = lowest_shift(matrix, rounding=rounding)
         _, basis = shift_invert(matrix, min(k + 1, p.n - 2), sigma, shifted)  # one more: the gap
-        result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation),
+        form = path_form(coupling, weights, x.mass) if p.topology == "chain" else None
+        result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation, form=form),
                                   f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
     else:
         standard = sparse_path(x.Kt, n_modes=None, vectors=True, band=x.band)
@@ -179,6 +182,12 @@ def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: 
         assert x.factor is not None
         result = tightened(result, weighted, deviation, x.factor, x.mass, accuracy=p.accuracy)
     return result
+
+
+def _wanted(p: Any) -> float:
+    """The relative bound a ring's pair step tightens to: "certified" as far as it goes, "high"
+    to `accurate.TARGET` (1e-10), which the counts alone already meet."""
+    return MP_WANTED if p.accuracy == "certified" else TARGET
 
 
 def _springs(x: Inputs) -> tuple[sp.csr_matrix, NDArray[np.float64], Any, Any]:

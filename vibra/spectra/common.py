@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
-from vibra.system import System
+from vibra.system import System, Vibrating
 
 __all__ = ["ZERO_RTOL", "system_and_modes", "cartesian_shapes", "vibrational_mask", "active_lines",
            "bond_pairs", "nonnegative_float"]
@@ -27,7 +27,7 @@ ZERO_RTOL = 1e-4
 
 def system_and_modes(system: Any, modes: Any) -> tuple[System, Modes, NDArray[np.bool_] | None]:
     """The system, its modes, and the rigid-body flags of a `VibrationalAnalysis` (or None)."""
-    if not isinstance(system, System):
+    if not isinstance(system, Vibrating):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
     if system.is_generalized:
         raise TypeError("system must be a system of sites; this one is in generalised coordinates")

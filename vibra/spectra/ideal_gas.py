@@ -35,7 +35,7 @@ from vibra.molecules import VibrationalAnalysis, vibrational_analysis
 from vibra.molecules.checks import check_atoms
 from vibra.molecules.rigid_body import is_linear, principal_moments
 from vibra.spectra.thermochemistry import BOLTZMANN_EV_PER_K, thermochemistry
-from vibra.system import System
+from vibra.system import System, Vibrating
 
 if TYPE_CHECKING:
     from ase import Atoms
@@ -173,7 +173,7 @@ class IdealGasThermochemistry:
 
 def _geometry(geometry: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Positions (Angstrom) and masses (amu) of a System or an ase.Atoms."""
-    if isinstance(geometry, System):
+    if isinstance(geometry, Vibrating):
         if geometry.is_generalized or geometry.units.name != "ASE" or geometry.dim != 3:
             raise ValueError("geometry must be a molecule: 3-D sites in units 'ASE' (amu, Angstrom), got "
                              f"{geometry.dim}-D sites in units {geometry.units.name!r}")
@@ -249,7 +249,7 @@ def ideal_gas_thermochemistry(
     >>> gas.shape, round(float(gas.entropy_j_per_mol_k()[0]), 1)    # tables: 213.8
     ('linear', 213.8)
     """
-    if isinstance(analysis, System):
+    if isinstance(analysis, Vibrating):
         geometry = analysis if geometry is None else geometry
         analysis = vibrational_analysis(analysis)
     if geometry is None:

@@ -12,7 +12,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.molecules import ISOTOPE_MASSES
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
-from vibra.system import System
+from vibra.system import System, Vibrating
 
 __all__ = ["ISOTOPE_MASSES", "IsotopeShifts", "isotope_shifts"]
 
@@ -118,7 +118,7 @@ def isotope_shifts(
     >>> [round(float(s), 1) for s in shifts.shifts]          # 13C moves only the asymmetric stretch
     [0.0, -68.9]
     """
-    if not isinstance(system, System):
+    if not isinstance(system, Vibrating):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
     if system.is_generalized:
         raise TypeError("system must be a system of sites; this one is in generalised coordinates")
