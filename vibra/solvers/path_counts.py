@@ -61,7 +61,6 @@ def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.floa
     if np.ndim(mass) != 1 or not COMPILED:
         return None
     B, per_row = stored_factor(coupling)
-    n = B.shape[1]
     if per_row.min(initial=1) < 1 or per_row.max(initial=0) > 2:
         return None
     weights = np.asarray(weights, dtype=float)
