@@ -141,7 +141,7 @@ def fd_molecule(name: str) -> System:
 
 
 def double_pendulum() -> Any:
-    from vibra import lagrangian
+    from vibra.mechanics import lagrangian
 
     return lagrangian.double_pendulum(m=1.0, m_prime=1e-6, a=1.0, b=1.0, g=9.81)
 

@@ -1,4 +1,4 @@
-"""The compiled kernels of `vibra.solvers.ring_kernel` one point at a time, as they were before
+"""The compiled kernels of `vibra.solvers.accurate.ring.kernel` one point at a time, as they were before
 the kernels took `ring_kernel.LANES` points together (commit eabb4f5): a reference whose
 arithmetic, in the same order, the lane kernels must reproduce bit for bit (a regression
 guard of the restructuring, not an independent truth: the counts' truth is mpmath and the
@@ -9,14 +9,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.ring_kernel import NEAR, _EPS, _TINY, _add, _jit, _mul, _reciprocal, _split, prange
+from vibra.solvers.accurate.ring.kernel import NEAR, _EPS, _TINY, _add, _jit, _mul, _reciprocal, _split, prange
 
 
 @_jit()
 def _count(x: float, m: NDArray[np.float64], compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64],
            off: NDArray[np.float64], square_h: NDArray[np.float64], square_l: NDArray[np.float64],
            closing: float, u: float) -> tuple[int, bool, float]:
-    """(count below x, certain, last pivot) for one x: `cycle.count_below_springs`' loop."""
+    """(count below x, certain, last pivot) for one x: `ring.counts.count_below_springs`' loop."""
     n = m.shape[0]
     size = 2 * n
     x_high, x_low = _split(x)

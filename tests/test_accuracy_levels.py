@@ -15,8 +15,9 @@ import pytest
 import scipy.sparse as sp
 
 from vibra import System, normal_modes, solvers
-from vibra.lagrangian import double_pendulum
-from vibra.solvers import budget, golub_kahan, spring_ritz
+from vibra.mechanics.lagrangian import double_pendulum
+from vibra.solvers import budget
+from vibra.solvers.accurate import golub_kahan, spring_ritz
 from test_accurate_bounds import network
 from test_solvers import mp_spring_omegas
 

@@ -21,11 +21,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vibra.modes import normal_modes
-from vibra.solvers import bidiagonal
-from vibra.solvers.bidiagonal import CERTIFY_ALL, bidiagonal_path, path_bidiagonals, segment_scalings
+from vibra.solvers.accurate.chain import bidiagonal
+from vibra.solvers.accurate.chain.bidiagonal import CERTIFY_ALL, bidiagonal_path, path_bidiagonals, segment_scalings
 from vibra.solvers.common import omega_and_error
-from vibra.solvers.lowest import chain_segments, lowest_chain_modes, lowest_chain_path
-from vibra.solvers.rounding import entry_deviation, scaling_logs, two_product, two_sum, walk_bound
+from vibra.solvers.accurate.chain.lowest import chain_segments, lowest_chain_modes, lowest_chain_path
+from vibra.solvers.accurate.rounding import entry_deviation, scaling_logs, two_product, two_sum, walk_bound
 
 EPS = float(np.finfo(float).eps)
 

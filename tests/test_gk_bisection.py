@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from vibra._lapack import tridiagonal_eigenvalues_by_index
-from vibra.solvers import gk_bisection
+from vibra.solvers.accurate.chain import gk_bisection
 
 pytestmark = pytest.mark.skipif(not gk_bisection.AVAILABLE, reason="numba not installed")
 
@@ -94,7 +94,7 @@ def test_vectors_from_compiled_values_match_the_lapack_route(padded: bool, sprea
     splits off a 1 x 1 block with one of the two zero eigenvalues). Against the dstebz route on
     a 20,000-site chain's bidiagonal spring factor (its lowest values well apart): the same values within 4 ulps, the same vectors up to sign
     within 1e-12 (distinct values here), residuals ||B v - sigma u|| within 1e-13 ||B||."""
-    from vibra.solvers import lowest
+    from vibra.solvers.accurate.chain import lowest
 
     rng = np.random.default_rng(5)  # a chain's spring factor: masses and springs over 10^spread
     size = 20000

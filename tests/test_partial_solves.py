@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vibra.modes import normal_modes
-from vibra.solvers import lowest
-from vibra.solvers.lowest import chain_segments, lowest_chain_path, spring_factor_of_chain
+from vibra.solvers.accurate.chain import lowest
+from vibra.solvers.accurate.chain.lowest import chain_segments, lowest_chain_path, spring_factor_of_chain
 
 
 def _chain(n: int, spread: float, seed: int, anchored: bool = False):

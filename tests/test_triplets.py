@@ -1,4 +1,4 @@
-"""The compiled certificates of every chain frequency (`vibra.solvers.triplets`, issue 15 item 6).
+"""The compiled certificates of every chain frequency (`vibra.solvers.accurate.chain.triplets`, issue 15 item 6).
 
 Truth from outside the code under test: 40-digit mpmath Sturm counts of the mass-weighted
 tridiagonal built from the springs and masses themselves (`sturm_count` of
@@ -15,10 +15,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from test_chain_bounds_large import all_modes, assert_guides_by_counts, disordered
-from vibra.solvers import bidiagonal
-from vibra.solvers.rounding import Scalings
+from vibra.solvers.accurate.chain import bidiagonal
+from vibra.solvers.accurate.rounding import Scalings
 
-triplets = pytest.importorskip("vibra.solvers.triplets")
+triplets = pytest.importorskip("vibra.solvers.accurate.chain.triplets")
 
 
 @settings(max_examples=30, deadline=None)

@@ -27,19 +27,19 @@
                      one-sided Jacobi SVD (LAPACK gejsv) of B~ only when a requested mode's
                      bound misses 1e-10 relative (accurate-jacobi);
                    - all modes of a large non-path system: the same, with the Jacobi
-                     fallback while gejsv's n_terms n^2 stays within `accurate.JACOBI_WORK`
+                     fallback while gejsv's n_terms n^2 stays within `common.JACOBI_WORK`
                      (rings to 4,000 sites), else without (accurate-rayleigh);
                    - a ring up to 6,000 sites: each bound then certified by Sturm counts of
-                     its pencil in double-double (`cycle.py`);
+                     its pencil in double-double (`accurate/ring/counts.py`);
                    - all frequencies, no vectors, of a ring of 100 sites or more (free or with
                      springs to a wall), or its lowest n_modes, at any length the budget
                      allows: roots of its spring
                      form's last pivot between the eigenvalues of the chain it is cut into, each
                      certified by compiled double-double Sturm counts, O(n^2) for all,
-                     O(n k) for the lowest k (accurate-ring; `ring_path.py`, `ring_kernel.py`);
+                     O(n k) for the lowest k (accurate-ring; `accurate/ring/values.py`, `kernel.py`);
                    - the same, of a chain of 100 sites or more with springs to a wall inside
                      it: dqds (or bisection) on its bidiagonal Cholesky factor, each value
-                     certified by the same counts (accurate-walled; `walled_chain.py`).
+                     certified by the same counts (accurate-walled; `accurate/chain/walled.py`).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` describes the request (`registry.Problem`: sizes, the
@@ -51,34 +51,52 @@ with the figures and the cheaper requests (`vectors=False`, `n_modes`, `band`), 
 Every path returns a `SolveResult` with an error estimate per eigenvalue, the largest
 relative residual and the orthogonality error, which `vibra.modes.Modes` carries.
 
-Where each path lives:
+Where each path lives (one folder per family of paths; the registry and its helpers at the top):
 
-=====================  ======================================================================
-``common.py``          `SolveResult`, mass weighting, the accuracy figures, size limits
-``standard.py``        dense, tridiagonal, banded (absolute accuracy)
-``sparse.py``          shift-invert for a few modes or a band (the factor, the shift, the probe)
-``ordering.py``        nested-dissection ordering (METIS through pymetis) for SuperLU
-``pardiso.py``         the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
-``krylov.py``          block Krylov iteration (block Arnoldi, full reorthogonalisation)
-``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal; certificates
-``triplets.py``        the chains' compiled certificates (numba), one triplet per value
-``lowest.py``          accurate-bisection: the lowest modes of a chain by Golub-Kahan bisection
-``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
-``cycle.py``           a ring's pencil and its Sturm counts in double-double (certified bounds)
-``ring_path.py``       accurate-ring: a ring's frequencies, roots certified by counts
-``ring_kernel.py``     its compiled loops (numba): the spring form's pivots, roots and counts
-``walled_chain.py``    accurate-walled: a chain with springs to a wall inside it, values certified by counts
-``dd.py``              double-double arithmetic on arrays: sums, LU and its solves
-``accurate.py``        accurate dispatch; -checked, -ritz, -rayleigh, -jacobi, -ring
-``spring_ritz.py``     spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s own rounding
-``golub_kahan.py``     B~'s singular triplets by Golub-Kahan inverse iteration (Kato-Temple)
-``topology.py``        the springs' shape (chain, walled chain, ring, walled ring, network), classified once
-``registry.py``        every path: when it applies, what it costs, how it runs (`PATHS`, `choose`)
-``runners.py``         one run function per registered path
-``dispatch.py``        `plan` (describe the request, let the registry choose, estimate), `solve`
-``budget.py``          memory / time estimates, the guard and its limits, progress reports
-``gpu.py``             ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
-=====================  ======================================================================
+==================================  ==========================================================
+``common.py``                       `SolveResult`, mass weighting, the accuracy figures, size limits
+``topology.py``                     the springs' shape (chain, walled chain, ring, walled ring,
+                                    network), classified once
+``registry.py``                     every path: when it applies, what it costs, how it runs
+                                    (`PATHS`, `choose`)
+``runners.py``                      one run function per registered path
+``dispatch.py``                     `plan` (describe the request, let the registry choose,
+                                    estimate), `solve`
+``budget.py``                       memory / time estimates, the guard and its limits, progress
+``standard/lapack.py``              dense, tridiagonal, banded (absolute accuracy)
+``standard/sparse.py``              shift-invert for a few modes or a band (the factor, the
+                                    shift, the probe)
+``standard/ordering.py``            nested-dissection ordering (METIS through pymetis) for SuperLU
+``standard/pardiso.py``             the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
+``standard/krylov.py``              block Krylov iteration (block Arnoldi, full reorthogonalisation)
+``standard/gpu.py``                 ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
+``accurate/springs.py``             the accurate paths of any spring system: -checked, -ritz,
+                                    -rayleigh, -jacobi; a ring's bounds certified by counts
+``accurate/spring_ritz.py``         spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s
+                                    own rounding
+``accurate/golub_kahan.py``         B~'s singular triplets by Golub-Kahan inverse iteration
+                                    (Kato-Temple)
+``accurate/dd.py``                  double-double arithmetic on arrays: sums, LU and its solves
+``accurate/rounding.py``            error-free arithmetic behind the chain bounds (entry roundings,
+                                    scalings)
+``accurate/chain/bidiagonal.py``    accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal;
+                                    certificates
+``accurate/chain/triplets.py``      the chains' compiled certificates (numba), one triplet per value
+``accurate/chain/lowest.py``        accurate-bisection: the lowest modes of a chain by Golub-Kahan
+                                    bisection
+``accurate/chain/gk_bisection.py``  that bisection, compiled, LANES values at a time
+``accurate/chain/walled.py``        accurate-walled: a chain with springs to a wall inside it,
+                                    values certified by counts
+``accurate/chain/sturm_counts.py``  Sturm counts of a chain's spring form: certificates for values
+                                    in clusters
+``accurate/ring/counts.py``         a ring's pencil and its Sturm counts in double-double
+                                    (certified bounds)
+``accurate/ring/values.py``         accurate-ring: a ring's frequencies, roots certified by counts
+``accurate/ring/kernel.py``         its compiled loops (numba): the spring form's pivots, roots
+                                    and counts
+``structured/pencil.py``            K x = omega^2 M x with a full, possibly ill-conditioned M
+``structured/quadratic.py``         gyroscopic and damped modes (`QuadraticModes`)
+==================================  ==========================================================
 
 Examples
 --------
@@ -99,7 +117,7 @@ from vibra.solvers.common import (
     mass_weighted, physical_shapes,
 )
 from vibra.solvers import budget
-from vibra.solvers.bidiagonal import Segment
+from vibra.solvers.accurate.chain.bidiagonal import Segment
 from vibra.solvers.budget import (
     Estimate, Progress, ResourceLimitError, available_memory, estimate, guard,
 )

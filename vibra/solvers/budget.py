@@ -11,7 +11,7 @@ overrides them per call):
 - `MEMORY_LIMIT`: bytes a solve may allocate; None (the default) means the memory available
   now (``MemAvailable`` of /proc/meminfo, or the cgroup limit when lower).
 - `TIME_LIMIT_S`: estimated seconds above which a solve is refused (600 s by default, as a
-  scene's `vibra.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
+  scene's `vibra.pipeline.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
 - `PROGRESS_AFTER_S`: solves estimated to take longer than this (5 s) report their progress
   on stderr: a line when they start (the estimate), one per stage, one when done.
 
@@ -50,8 +50,8 @@ from dataclasses import dataclass
 from typing import Callable, TextIO
 
 from vibra.solvers.common import RING_DENSE_LIMIT
-from vibra.solvers.golub_kahan import HIGH_ROWS, triplet_seconds
-from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
+from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, triplet_seconds
+from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED
 
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
 MEMORY_LIMIT: float | None = None
@@ -76,8 +76,8 @@ BISECTION_S = 3e-6            # per n k: a chain's bisection (dstebz) + dstein, 
 BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates (measured 6.3e-7)
 BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates (measured 3.4e-7)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
-RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring_path`; 1.4-2.4e-8 measured)
-RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring_path.MP_WORK`)
+RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring.values`; 1.4-2.4e-8 measured)
+RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring.values.MP_WORK`)
 MP_COUNT_S = 2e-5             # per site: one mpmath count (~0.15 s at 8,000 sites)
 RING_MP_EXPECTED = 2.0        # mpmath counts expected per ring solve (at most 24; most solves need none)
 RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)
@@ -194,7 +194,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         seconds = JACOBI_S * rows * n * n
     if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "accurate-ritz"):
         seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy, one_dimensional=one_dimensional)
-    if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring_path` too
+    if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring.values` too
         seconds += RING_S * n2
     return Estimate(path, memory, seconds, what)
 

@@ -16,7 +16,7 @@ import vibra.solvers.common as common
 from vibra.solvers.common import (
     BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
-from vibra.solvers.lowest import spring_factor_of_chain
+from vibra.solvers.accurate.chain.lowest import spring_factor_of_chain
 from vibra.solvers.registry import (
     BY_NAME, Problem, choose, path_names,
 )

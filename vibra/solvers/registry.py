@@ -27,7 +27,7 @@ from vibra.solvers.budget import Estimate, estimate
 import vibra.solvers.common as common
 import vibra.solvers.runners as runners
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
-from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
+from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED
 
 __all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "path_names", "readme_table"]
 

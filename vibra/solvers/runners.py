@@ -3,7 +3,7 @@ it, each given the `registry.Problem` the plan chose it for and the inputs of `d
 
 A runner trusts the plan: the structure it needs (a chain, a ring, a walled chain) was
 classified once (`topology.classify`), so none of them decides again which path it is. The
-accurate runners share the last step, `accurate.tightened` (the bounds tightened as far as the
+accurate runners share the last step, `accurate.springs.tightened` (the bounds tightened as far as the
 accuracy level asks, no further).
 """
 
@@ -16,22 +16,22 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-import vibra.solvers.gpu as gpu_module
-from vibra.solvers.accurate import (
+import vibra.solvers.standard.gpu as gpu_module
+from vibra.solvers.accurate.springs import (
     checked_dense, checked_ritz, relative_account, ring_certified, spring_rayleigh, spring_ritz_band,
     tightened, weighted_factor,
 )
-from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
+from vibra.solvers.accurate.chain.bidiagonal import bidiagonal_path, path_bidiagonals
 import vibra.solvers.common as common
 from vibra.solvers.common import SolveResult
-from vibra.solvers.cycle import ring_pencil
-from vibra.solvers.lowest import lowest_chain_modes
-from vibra.solvers.path_counts import chain_counted
-from vibra.solvers.ring_path import pair_step, ring_result, ring_vectors
-from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
-from vibra.solvers.spring_ritz import forming_deviation, spring_figures
-from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
-from vibra.solvers.walled_chain import walled_result
+from vibra.solvers.accurate.ring.counts import ring_pencil
+from vibra.solvers.accurate.chain.lowest import lowest_chain_modes
+from vibra.solvers.accurate.chain.sturm_counts import chain_counted
+from vibra.solvers.accurate.ring.values import pair_step, ring_result, ring_vectors
+from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
+from vibra.solvers.accurate.spring_ritz import forming_deviation, spring_figures
+from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
+from vibra.solvers.accurate.chain.walled import walled_result
 
 __all__ = ["Inputs"]
 
@@ -168,7 +168,7 @@ def _checked(p: Any, x: Inputs, *, jacobi: bool) -> SolveResult:
 
 def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: Any) -> SolveResult:
     """A ring's bounds certified by its Sturm counts (up to RING_DENSE_LIMIT sites); any other
-    system's tightened as far as the accuracy level asks (`accurate.tightened`)."""
+    system's tightened as far as the accuracy level asks (`accurate.springs.tightened`)."""
     if p.ringlike and p.n <= common.RING_DENSE_LIMIT and result.error.shape[0]:
         coupling, weights = _factor(x)
         pencil = ring_pencil(coupling, weights, x.mass)
