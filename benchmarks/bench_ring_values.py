@@ -212,7 +212,7 @@ def run_kernels(rounds: int, n: int = 20000, points: int = 512) -> list[dict]:
         for name, lanes, one in (
                 ("spring counts", lambda: ring_kernel.spring_counts(x, *counts), lambda: scalar_kernels.spring_counts(x, *counts)),
                 ("pivot roots", lambda: ring_kernel.pivot_roots(*roots), lambda: scalar_kernels.pivot_roots(*roots)),
-                ("path counts", lambda: ring_kernel.path_counts(x, *path), lambda: scalar_kernels.path_counts(x, *path))):
+                ("path counts", lambda: ring_kernel.chain_counts(x, *path), lambda: scalar_kernels.chain_counts(x, *path))):
             print(f"{name}, {n} sites, spread 10^{spread:g}", flush=True)
             timings = interleaved({"lanes": lanes, "one point at a time": one}, rounds)
             same = all(np.array_equal(a, b, equal_nan=True) for a, b in zip(timings["lanes"].result,

@@ -354,8 +354,8 @@ def _refusal(system: Any, case: Case, level: str) -> str:
                            vectors=case.vectors, band=None, solver="auto", spring_factor=factor,
                            accuracy=level if factor is not None else "high")
     try:
-        solvers.check_plan(request, n_modes=case.n_modes, vectors=case.vectors, band=None, max_memory=None,
-                           max_seconds=None)
+        solvers.check_solve_plan(request, n_modes=case.n_modes, vectors=case.vectors, band=None, max_memory=None,
+                                 max_seconds=None)
     except solvers.ResourceLimitError as error:
         return str(error)
     return ""

@@ -221,9 +221,9 @@ def _path_count(x: float, site: NDArray[np.bool_], m: NDArray[np.float64], compl
 
 
 @_jit(parallel=True)
-def _path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
-                 compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
-                 square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+def _chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                  compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
+                  square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
     k = x.shape[0]
     negative = np.zeros(k, dtype=np.int64)
     certain = np.zeros(k, dtype=np.bool_)
@@ -248,9 +248,9 @@ def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: N
                   np.ascontiguousarray(compliance, dtype=float), off, float(closing))
 
 
-def path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
-                compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
-                squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """`ring_kernel._path_counts` (negative pivots, certain), one point at a time."""
-    return _path_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m, compliance[0],
-                        compliance[1], squares[0], squares[1])
+def chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                 compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
+                 squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """`ring_kernel._chain_counts` (negative pivots, certain), one point at a time."""
+    return _chain_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m, compliance[0],
+                         compliance[1], squares[0], squares[1])

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 
 from vibra.modes import normal_modes
 from vibra.solvers.accurate.chain import bidiagonal
-from vibra.solvers.accurate.chain.bidiagonal import CERTIFY_ALL, bidiagonal_path, path_bidiagonals, segment_scalings
+from vibra.solvers.accurate.chain.bidiagonal import CERTIFY_ALL, bidiagonal_path, chain_bidiagonals, segment_scalings
 from vibra.solvers.common import omega_and_error
 from vibra.solvers.accurate.chain.lowest import chain_segments, lowest_chain_modes, lowest_chain_path
 from vibra.solvers.accurate.rounding import entry_deviation, scaling_logs, two_product, two_sum, walk_bound
@@ -65,7 +65,7 @@ def all_modes(mass, springs, walls, vectors):
     """Every mode by the accurate-bidiagonal path, with the spring factor and masses it was formed from."""
     B, w, K = chain(mass, springs, walls)
     weighted = weighted_factor(B, w, mass)
-    segments = path_bidiagonals(weighted)
+    segments = chain_bidiagonals(weighted)
     return bidiagonal_path(mass_weighted(K, mass), weighted, segments, n_modes=None, vectors=vectors, band=None,
                            factor=(B, w), mass=mass)
 

@@ -69,7 +69,7 @@ def test_path_counts_agree_with_a_dense_solve(ends: str) -> None:
         B, w = chain.spring_factor()
         two = sp.block_diag([B, B]).tocsr()  # two copies: their spring form joined by a zero coupling
         for coupling, weights, masses in ((B, w, mass), (two, np.r_[w, w], np.r_[mass, mass])):
-            form = sturm_counts.path_form(coupling, weights, masses)
+            form = sturm_counts.chain_form(coupling, weights, masses)
             assert form is not None
             K = (coupling.T @ sp.diags(weights) @ coupling).toarray()
             values = la.eigh(K, np.diag(masses), eigvals_only=True)
@@ -85,11 +85,11 @@ def test_path_counts_agree_with_a_dense_solve(ends: str) -> None:
 def test_path_form_refuses_what_is_not_a_path() -> None:
     """A ring, a branched network and a full mass matrix give no path form."""
     ring = linear_chain(6, ends="periodic")
-    assert sturm_counts.path_form(*ring.spring_factor(), np.ones(6)) is None
+    assert sturm_counts.chain_form(*ring.spring_factor(), np.ones(6)) is None
     star = sp.csr_matrix(np.array([[1.0, -1.0, 0, 0], [1.0, 0, -1.0, 0], [1.0, 0, 0, -1.0]]))
-    assert sturm_counts.path_form(star, np.ones(3), np.ones(4)) is None
+    assert sturm_counts.chain_form(star, np.ones(3), np.ones(4)) is None
     chain = linear_chain(4)
-    assert sturm_counts.path_form(*chain.spring_factor(), np.eye(4)) is None
+    assert sturm_counts.chain_form(*chain.spring_factor(), np.eye(4)) is None
 
 
 def test_a_chain_given_as_its_spring_factor_gets_the_same_certificates() -> None:

@@ -171,9 +171,9 @@ def test_compiled_counts_do_not_depend_on_how_points_are_grouped() -> None:
     masses[0::2] = mass
     path = (site, masses, div(np.ones_like(weights), np.zeros_like(weights), weights, np.zeros_like(weights)),
             mul(np.ones_like(weights), np.zeros_like(weights), np.ones_like(weights), np.zeros_like(weights)))
-    together = ring_kernel.path_counts(x, *path)
+    together = ring_kernel.chain_counts(x, *path)
     for j in range(x.shape[0]):
-        alone = ring_kernel.path_counts(x[j: j + 1], *path)
+        alone = ring_kernel.chain_counts(x[j: j + 1], *path)
         assert alone[0][0] == together[0][j] and alone[1][0] == together[1][j]
 
 
@@ -204,8 +204,8 @@ def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
                 assert np.array_equal(a, b, equal_nan=True)
             site = rng.random(n) < 0.5
             path = (site, m, compliance, (squares[0][:n], squares[1][:n]))
-            count, certain = ring_kernel.path_counts(x, *path)
-            negative, sure = scalar_kernels.path_counts(x, *path)
+            count, certain = ring_kernel.chain_counts(x, *path)
+            negative, sure = scalar_kernels.chain_counts(x, *path)
             assert np.array_equal(certain, sure)
             assert np.array_equal(count, np.count_nonzero(site) - negative)
     for spread in (0.0, 6.0):

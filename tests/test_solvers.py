@@ -381,7 +381,7 @@ def test_all_frequencies_of_a_long_ring_in_high_are_refused_with_fast_among_the_
     assert "n_modes=10 (the lowest modes, accurate-ring:" in message
     request = solvers.plan(ring.hessian(), ring.mass_matrix(), n_modes=None, vectors=False, band=None,
                            solver="auto", spring_factor=ring.spring_factor())
-    solvers.check_plan(request, n_modes=None, vectors=False, band=None, max_memory=None, max_seconds=float("inf"))
+    solvers.check_solve_plan(request, n_modes=None, vectors=False, band=None, max_memory=None, max_seconds=float("inf"))
 
 
 def test_ring_frequencies_match_the_closed_form_and_a_dense_solve() -> None:

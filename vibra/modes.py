@@ -429,8 +429,8 @@ def normal_modes(
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                            spring_factor=factor, accuracy=accuracy)
-    solvers.check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
-                       max_seconds=max_seconds)
+    solvers.check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
+                             max_seconds=max_seconds)
 
     if not sp.issparse(K_matrix):
         _validate.finite(K_matrix, "K")

@@ -18,7 +18,7 @@
                    factors, a block Krylov iteration.
 ``accurate``       The system knows its springs, K = B^T W B: frequencies are the singular
                    values of B~ = W^1/2 B M^-1/2, computed to high *relative* accuracy.
-                   - a chain (the springs form a path): dqds on the Golub-Kahan bidiagonal;
+                   - a chain (each spring joins neighbouring sites): dqds on its Golub-Kahan bidiagonal;
                    - few modes of a large system: sparse shift-invert vectors, then a
                      Rayleigh-Ritz step in spring space (H = (B~V)^T (B~V), O(N k));
                    - any other small system: the fast dense solve, certified by its a-priori
@@ -26,7 +26,7 @@
                      spring space and a Kato-Temple bound per mode (accurate-checked); the
                      one-sided Jacobi SVD (LAPACK gejsv) of B~ only when a requested mode's
                      bound misses 1e-10 relative (accurate-jacobi);
-                   - all modes of a large non-path system: the same, with the Jacobi
+                   - all modes of a large non-chain system: the same, with the Jacobi
                      fallback while gejsv's n_terms n^2 stays within `common.JACOBI_WORK`
                      (rings to 4,000 sites), else without (accurate-rayleigh);
                    - a ring up to 6,000 sites: each bound then certified by Sturm counts of
@@ -111,22 +111,30 @@ Examples
 
 from __future__ import annotations
 
-from vibra.solvers.common import (
-    ACCURACY_LEVELS, BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
-    check_factor_matches, check_spring_factor, largest_entry,
-    mass_weighted, physical_shapes,
-)
+from vibra.solvers.budget import Estimate, Progress, ResourceLimitError, estimate, guard
+from vibra.solvers.common import ACCURACY_LEVELS, SolveResult, mass_weighted, physical_shapes
+from vibra.solvers.dispatch import SOLVER_NAMES, SolvePlan, alternatives, check_solve_plan, plan, solve
+
+# Importable from vibra.solvers as before, though not part of its API (`__all__`), so that no
+# ``from vibra.solvers import X`` breaks: constants and helpers of its modules, the former names.
 from vibra.solvers import budget
 from vibra.solvers.accurate.chain.bidiagonal import Segment
-from vibra.solvers.budget import (
-    Estimate, Progress, ResourceLimitError, available_memory, estimate, guard,
+from vibra.solvers.budget import available_memory
+from vibra.solvers.common import (
+    BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, check_factor_matches,
+    check_spring_factor, largest_entry,
 )
-from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, Plan, alternatives, check_plan, plan, solve
+from vibra.solvers.dispatch import SOLVER_PATHS
 
 __all__ = [
-    "ACCURACY_LEVELS", "SOLVER_NAMES", "SOLVER_PATHS", "SolveResult", "solve", "check_spring_factor", "physical_shapes",
-    "mass_weighted", "Segment", "EPS", "DENSE_LIMIT", "BAND_LIMIT", "DENSE_ALL_LIMIT", "BDSQR_LIMIT",
-    "SAMPLE", "Plan", "plan", "check_plan", "alternatives", "Estimate", "Progress", "ResourceLimitError",
-    "available_memory", "estimate", "guard", "budget", "check_factor_matches", "FACTOR_RTOL",
-    "largest_entry",
+    "solve", "plan", "SolvePlan", "check_solve_plan", "alternatives", "SolveResult", "ResourceLimitError",
+    "Estimate", "estimate", "guard", "Progress", "ACCURACY_LEVELS", "SOLVER_NAMES", "physical_shapes",
+    "mass_weighted",
 ]
+
+Plan = SolvePlan  #: the former name of `SolvePlan`
+check_plan = check_solve_plan  #: the former name of `check_solve_plan`
+
+# (the names kept importable above, used once here so that no linter takes them for unused imports)
+_IMPORTABLE = (budget, Segment, available_memory, BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS,
+               FACTOR_RTOL, SAMPLE, check_factor_matches, check_spring_factor, largest_entry, SOLVER_PATHS)

@@ -206,7 +206,7 @@ PATHS: tuple[SolverPath, ...] = (
                cost="~3e-8 n^2 s all values; O(n k) the lowest k"),
     SolverPath("accurate-bidiagonal", "accurate", _bidiagonal, _run("accurate-bidiagonal"),
                "relative, each bound a certificate where the a-priori one exceeds 1e-13",
-               "a chain (the springs form a path): dqds on its bidiagonal spring factor",
+               "a chain (each spring joins neighbouring sites): dqds on its bidiagonal spring factor",
                cost="~2e-8 n^2 s (dqds, and a certificate per value)"),
     SolverPath("accurate-ring", "accurate", _ring, _run("accurate-ring"), "relative, each bound a certificate",
                "a ring of 100 sites or more (free or on walls), all values or the lowest n_modes: roots "

@@ -21,7 +21,7 @@ from vibra.solvers.accurate.springs import (
     checked_dense, checked_ritz, relative_account, ring_certified, spring_rayleigh, spring_ritz_band,
     tightened, weighted_factor,
 )
-from vibra.solvers.accurate.chain.bidiagonal import bidiagonal_path, path_bidiagonals
+from vibra.solvers.accurate.chain.bidiagonal import bidiagonal_path, chain_bidiagonals
 import vibra.solvers.common as common
 from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.ring.counts import ring_pencil
@@ -84,9 +84,9 @@ def accurate_bisection(p: Any, x: Inputs) -> SolveResult:
 def accurate_bidiagonal(p: Any, x: Inputs) -> SolveResult:
     coupling, weights = _factor(x)
     weighted = weighted_factor(coupling, weights, x.mass)
-    segments = path_bidiagonals(weighted)
+    segments = chain_bidiagonals(weighted)
     if segments is None:
-        raise RuntimeError("accurate-bidiagonal: the springs do not form a path after all (a planning error)")
+        raise RuntimeError("accurate-bidiagonal: the springs do not form a chain after all (a planning error)")
     chain = bidiagonal_path(x.Kt, weighted, segments, n_modes=p.n_modes, vectors=p.vectors, band=x.band,
                             on_stage=x.on_stage, factor=x.factor, mass=x.mass)
     chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")

@@ -5,8 +5,8 @@ to a wall, an anchor). What the accurate paths can exploit depends only on which
 springs join, never on their values, so the plan decides it here, in O(nnz) with no
 allocation beyond B's pattern, and every path trusts it:
 
-- ``"chain"``: the springs form paths of consecutive dofs (c, c + 1), one spring per pair,
-  with at most one anchor at each end of a path: K~ tridiagonal, a bidiagonal spring factor
+- ``"chain"``: the springs form chains of consecutive dofs (c, c + 1), one spring per pair,
+  with at most one anchor at each end of a chain: K~ tridiagonal, a bidiagonal spring factor
   (`bidiagonal`, `lowest`);
 - ``"walled-chain"``: one chain through all dofs, (i, i + 1) for i = 0..n-2, with springs to a
   wall inside it (a chain of pendulums): a bidiagonal Cholesky factor (`chain.walled`);
@@ -101,12 +101,12 @@ def _pattern_kind(indptr: Any, indices: Any, n: int) -> int:  # pragma: no cover
         else:
             return 0
     if consecutive:
-        path = True
+        unbranched = True
         for c in range(n):
             if joined[c] > 1:
-                path = False
+                unbranched = False
                 break
-        if path:
+        if unbranched:
             chain = True
             for c in range(n):
                 start = c == 0 or joined[c - 1] == 0

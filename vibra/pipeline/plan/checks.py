@@ -21,7 +21,7 @@ from vibra.pipeline.plan.build import build_system
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.values import element_symbol
 from vibra import solvers
-from vibra.solvers import DENSE_ALL_LIMIT
+from vibra.solvers.common import DENSE_ALL_LIMIT
 
 __all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
            "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]

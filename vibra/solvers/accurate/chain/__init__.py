@@ -1,4 +1,4 @@
-"""The accurate paths of a chain of springs (a path graph, anchored or not at its sites).
+"""The accurate paths of a chain of springs (each spring joins neighbouring sites; any anchored to a wall).
 
 - `bidiagonal`: accurate-bidiagonal, dqds / dbdsqr on a chain's bidiagonal, and its certificates
 - `triplets`: the compiled certificates (numba), one singular triplet per value

@@ -1,6 +1,6 @@
 """The accurate path of a chain: singular values of the Golub-Kahan bidiagonal by dqds.
 
-When the springs form a path (a chain, possibly anchored at its ends), B~ = W^1/2 B M^-1/2
+When the springs form a chain (possibly anchored at its ends), B~ = W^1/2 B M^-1/2
 is, up to ordering, an upper bidiagonal matrix; its singular values (the frequencies) come
 from LAPACK dlasq1 (dqds) to high relative accuracy, its vectors from dbdsqr (segments up to
 `BDSQR_LIMIT` dofs) or from the standard MRRR tridiagonal solver (longer ones).
@@ -48,10 +48,10 @@ def chunk(size: int) -> int:
     return max(1, min(256, CHUNK // max(size, 1)))
 
 
-def path_bidiagonals(weighted: sp.csr_matrix) -> list[Segment] | None:
-    """Split B~ into chains whose springs form a path; None if the spring graph is not one.
+def chain_bidiagonals(weighted: sp.csr_matrix) -> list[Segment] | None:
+    """Split B~ into chains of springs; None if the spring graph is not made of chains.
 
-    A path is a run of consecutive dofs c0..c1 joined by one term per neighbouring pair, with
+    A chain is a run of consecutive dofs c0..c1 joined by one term per neighbouring pair, with
     at most one single-dof term (an anchor) at each end. Its Golub-Kahan bidiagonal is
     returned as (c0, c1, d, e, n_keep, dofs_are_rows): the singular values of the square
     upper bidiagonal (d, e), of which the largest n_keep = c1 - c0 + 1 are the segment's
@@ -150,7 +150,7 @@ def segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], coupling:
 
     Parameters
     ----------
-    weighted : B~ = diag(sqrt w) B diag(1 / sqrt m) as stored; segments : its `path_bidiagonals`.
+    weighted : B~ = diag(sqrt w) B diag(1 / sqrt m) as stored; segments : its `chain_bidiagonals`.
     coupling, weights, mass : the B, w and diagonal masses it was formed from (exact).
     weight_slack : (n_terms,) ndarray, optional
         A relative uncertainty of each w (a spring read back from K's row sums), 0 if None.
@@ -170,7 +170,7 @@ def segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], coupling:
     if weight_slack is not None:
         own = 0.5 * np.asarray(weight_slack, dtype=float)[rows]
     index = sp.csr_matrix((np.arange(1, b.nnz + 1, dtype=float), b.indices, b.indptr), shape=b.shape)
-    located = path_bidiagonals(index)
+    located = chain_bidiagonals(index)
     assert located is not None and len(located) == len(segments)
     padded_delta, padded_slack, padded_own = np.r_[0.0, delta], np.r_[0.0, slack], np.r_[0.0, own]  # 0: padding
     result = []
@@ -364,9 +364,9 @@ def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDAr
     return value, relative
 
 
-def _path_values(segments: list[Segment], scalings: list[Scalings]
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(omega ascending, relative error bound) of all path segments by dqds, certified in CERTIFY_FROM..CERTIFY_ALL."""
+def _chain_values(segments: list[Segment], scalings: list[Scalings]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(omega ascending, relative error bound) of all chain segments by dqds, certified in CERTIFY_FROM..CERTIFY_ALL."""
     omegas = []
     bounds = []
     for (_, _, d, e, keep, _), forming in zip(segments, scalings):
@@ -392,7 +392,7 @@ def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes:
                    band: tuple[float, float] | None, on_stage: Callable[[float, str], None] | None = None,
                    factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None = None,
                    mass: NDArray[np.float64] | None = None) -> SolveResult:
-    """accurate-bidiagonal: dqds values of each path segment, dbdsqr or MRRR vectors.
+    """accurate-bidiagonal: dqds values of each chain segment, dbdsqr or MRRR vectors.
 
     `on_stage(fraction, message)` hears when the frequencies are done and the vectors start.
     `factor` (B, w) and `mass` (diagonal), the spring factor and masses B~ was formed from:
@@ -409,7 +409,7 @@ def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes:
     scalings = _segment_scalings(weighted, segments, factor, mass)
     if vectors and all(d.shape[0] <= BDSQR_LIMIT for _, _, d, _, _, _ in segments):
         return _certified_path(Kt, segments, scalings, n_modes=n_modes, band=band, on_stage=on_stage)
-    omega, relative = _path_values(segments, scalings)
+    omega, relative = _chain_values(segments, scalings)
     if on_stage is not None and vectors:
         on_stage(0.5, "frequencies done (dqds); computing the vectors")
     n = omega.shape[0]

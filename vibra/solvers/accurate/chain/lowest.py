@@ -1,7 +1,7 @@
 """The lowest modes of a chain, by bisection on its Golub-Kahan form: no shift to choose.
 
 A chain's frequencies are the singular values of its bidiagonal spring factor B~
-(`vibra.solvers.accurate.chain.bidiagonal.path_bidiagonals`). The singular values of an upper bidiagonal
+(`vibra.solvers.accurate.chain.bidiagonal.chain_bidiagonals`). The singular values of an upper bidiagonal
 (d, e) are the positive eigenvalues of the Golub-Kahan tridiagonal TGK (zero diagonal,
 off-diagonal d1, e1, d2, e2, ..., dn), whose Sturm counts are relatively accurate
 (Demmel and Kahan 1990). Bisection (compiled, LANES values at a time, `gk_bisection`, for values
@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
 from vibra.solvers.accurate.chain.bidiagonal import (
-    Segment, certify_modes, chunk, compose, inverse_iteration, neighbour_bounds, path_bidiagonals,
+    Segment, certify_modes, chunk, compose, inverse_iteration, neighbour_bounds, chain_bidiagonals,
     segment_scalings, solving_bound, worst_forming,
 )
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
@@ -114,8 +114,8 @@ def _dominant(parts: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def chain_segments(weighted: Any) -> list[Segment] | None:
-    """The path segments of a spring factor B~ (`path_bidiagonals`), None if not a chain."""
-    return path_bidiagonals(sp.csr_matrix(weighted))
+    """The chain segments of a spring factor B~ (`chain_bidiagonals`), None if not a chain."""
+    return chain_bidiagonals(sp.csr_matrix(weighted))
 
 
 def certified_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool,

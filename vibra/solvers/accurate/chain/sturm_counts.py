@@ -8,7 +8,7 @@ pair split by ~the weak spring.
 
 Here the chain's spring form [[W^-1, B], [B^T, x M]], built from the springs, couplings and
 masses as given, is a path of sites and springs (several paths for several chains, joined by
-zero couplings): its pivots, in double-double (`ring.kernel.path_counts`, compiled), have no
+zero couplings): its pivots, in double-double (`ring.kernel.chain_counts`, compiled), have no
 fill and are exact for couplings, masses and springs perturbed by a few units of
 double-double, so a count is exact for an omega within phi = 2 (N + 1) u relatively (N nodes,
 u = 4 dd.UNIT; as `ring.counts.spring_widening` for a ring, without its closing term). A value whose
@@ -23,18 +23,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED, path_counts
+from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED, chain_counts
 from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.ring.counts import spring_width, stored_factor
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 from vibra.solvers.accurate.golub_kahan import WANTED
 from vibra.solvers.accurate.ring.values import LEVELS
 
-__all__ = ["PathForm", "path_form", "certify_path_values", "chain_counted"]
+__all__ = ["ChainForm", "chain_form", "certify_chain_values", "chain_counted"]
 
 
-class PathForm:
-    """The spring form of chains as one path of nodes: `site` (per node), `m` (its mass; 0 for
+class ChainForm:
+    """The spring form of chains as one chain of nodes: `site` (per node), `m` (its mass; 0 for
     a spring), `compliance` (1 / w for a spring, double-double), `squares` (c^2 of the coupling
     of nodes k and k + 1, double-double; 0 between chains), `widening` (phi, 0)."""
 
@@ -48,12 +48,12 @@ class PathForm:
         self.widening = np.array([2.0 * (k + 1) * 4 * _UNIT_DD, 0.0])
 
     def counts(self, x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        return path_counts(x, self.site, self.m, self.compliance, self.squares)
+        return chain_counts(x, self.site, self.m, self.compliance, self.squares)
 
 
-def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> PathForm | None:
+def chain_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> ChainForm | None:
     """The spring form of a system whose springs join dofs c and c + 1 only, with at most one
-    spring to a wall at each end of each chain (`bidiagonal.path_bidiagonals`' structure), from
+    spring to a wall at each end of each chain (`bidiagonal.chain_bidiagonals`' structure), from
     the inputs themselves; None for any other system or where numba is unavailable."""
     if np.ndim(mass) != 1 or not COMPILED:
         return None
@@ -109,11 +109,11 @@ def path_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.floa
             previous_pair = None
             for row in walls:  # a chain's end: its wall spring after the site
                 node(False, weights[row], entry(row, c))
-    return PathForm(np.array(site), np.array(m), np.array(w), np.array(off))
+    return ChainForm(np.array(site), np.array(m), np.array(w), np.array(off))
 
 
-def certify_path_values(form: PathForm, values: NDArray[np.float64], error: NDArray[np.float64]
-                        ) -> tuple[NDArray[np.float64], int]:
+def certify_chain_values(form: ChainForm, values: NDArray[np.float64], error: NDArray[np.float64]
+                         ) -> tuple[NDArray[np.float64], int]:
     """Tighter `error` for the values (ascending omega^2, the lowest of the system, index =
     position) whose bound exceeds WANTED relative: the tightest `LEVELS` bracket two counts prove
     holds the value's index, widened by the counts' perturbation. Returns (error, how many)."""
@@ -139,15 +139,15 @@ def certify_path_values(form: PathForm, values: NDArray[np.float64], error: NDAr
 def chain_counted(result: SolveResult, coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64],
                   band: tuple[float, float] | None) -> SolveResult:
     """A chain's result (``accurate-bidiagonal``, the lowest modes) with the bounds its triplets
-    left above WANTED (values in a cluster) certified by `certify_path_values`; as it is with a
-    band, or where no bound needs it, or for no path form."""
+    left above WANTED (values in a cluster) certified by `certify_chain_values`; as it is with a
+    band, or where no bound needs it, or for no chain form."""
     values, error = result.eigenvalues, result.error
     if band is not None or not np.any((error > WANTED * values) & (values > error)):
         return result
-    form = path_form(coupling, weights, mass)
+    form = chain_form(coupling, weights, mass)
     if form is None:
         return result
-    result.error, count = certify_path_values(form, values, error)
+    result.error, count = certify_chain_values(form, values, error)
     if count:
         finite = result.eigenvalues > result.error
         worst = float(np.max(result.error[finite] / result.eigenvalues[finite])) if finite.any() else 0.0

@@ -2,7 +2,7 @@
 
 A chain of pendulums, a string on an elastic foundation, a chain pinned at a few sites: springs
 join neighbours i, i + 1 along a path, the others tie single sites to a wall. B~ is then no
-bidiagonal (`bidiagonal.path_bidiagonals` declines it, so the chain paths do not apply) and
+bidiagonal (`bidiagonal.chain_bidiagonals` declines it, so the chain paths do not apply) and
 before, "high" took the checked dense solve (O(n^3): 15.7 s at 5,000 sites, refused past
 ~20,000). Here:
 
@@ -65,7 +65,7 @@ class WalledChain:
 
 def walled_chain(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> WalledChain | None:
     """The chain, if B's rows are one spring per neighbouring pair (i, i + 1), i = 0..n-2, and
-    at least one spring to a wall (one entry); None otherwise (a path without walls between its
+    at least one spring to a wall (one entry); None otherwise (a chain without walls between its
     ends is a chain for `bidiagonal`; a cycle a ring; parallel springs, a branch: neither)."""
     if np.ndim(mass) != 1:
         return None
@@ -89,7 +89,7 @@ def walled_chain(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.f
     if np.any(c == 0) or np.any(c_in == 0) or np.any(c_out == 0):
         return None
     if not inner_walls(site, n):
-        return None  # walls at its two ends only: a path (`bidiagonal`)
+        return None  # walls at its two ends only: a plain chain (`bidiagonal`)
     # each wall spring's w c^2 in double-double, summed per site (a few per site at most)
     square = _mul(c, np.zeros_like(c), c, np.zeros_like(c))
     term = _mul(w[singles], np.zeros_like(c), *square)
@@ -105,8 +105,8 @@ def walled_chain(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.f
 
 
 def inner_walls(site: NDArray[np.intp], n: int) -> bool:
-    """Whether springs to a wall at these sites make a chain of n sites more than a path (one
-    at each end at most, as `bidiagonal.path_bidiagonals` takes it)."""
+    """Whether springs to a wall at these sites make a chain of n sites more than a plain chain (one
+    at each end at most, as `bidiagonal.chain_bidiagonals` takes it)."""
     per_site = np.bincount(site, minlength=n)
     return bool(per_site[1:-1].any() or per_site[0] > 1 or per_site[-1] > 1)
 

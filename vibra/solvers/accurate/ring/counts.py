@@ -237,8 +237,8 @@ def count_below_springs(pencil: RingPencil, x: NDArray[np.float64]
     A(x) = [[W^-1, B], [B^T, x M]] (walls eliminated into x M - sum w c^2), whose Schur
     complement is x M - K: the eigenvalues above x are A(x)'s negative pivots. Its 2n nodes
     (site, spring, site, ...) form a cycle; no entry is a difference of K's entries, so the
-    pivots along the path are exact for A with each coupling c relatively perturbed by a few
-    units of double-double. Along a path such perturbations are a diagonal scaling of A: a
+    pivots along the chain are exact for A with each coupling c relatively perturbed by a few
+    units of double-double. Along a chain such perturbations are a diagonal scaling of A: a
     multiplicative change of w and m (omega within `phi` relatively), except for the cycle's
     closing coupling, whose relative change (`theta`) moves omega by at most theta |b~| (Weyl,
     b~ = sqrt(w) c / sqrt(m) that entry of B~). The cycle is closed at the spring with the
@@ -254,7 +254,7 @@ def count_below_springs(pencil: RingPencil, x: NDArray[np.float64]
     w = pencil.edges[0]
     c_in, c_out = pencil.ends
     m = pencil.m
-    turn = (int(np.argmin(_closing(pencil))) + 1) % n  # the path starts at site r + 1, ends at spring r
+    turn = (int(np.argmin(_closing(pencil))) + 1) % n  # the cut chain starts at site r + 1, ends at spring r
     w, c_in, c_out = np.roll(w, -turn), np.roll(c_in, -turn), np.roll(c_out, -turn)
     m = np.roll(m, -turn)
     wall_h, wall_l = np.roll(pencil.wall[0], -turn), np.roll(pencil.wall[1], -turn)

@@ -3,9 +3,9 @@ and its inertia counts in double-double.
 
 A ring with its dofs taken around the cycle, cut at its closing spring r
 (`ring.counts.count_below_springs` picks it), has the spring form A(x) = [[W^-1, B], [B^T, x M]]
-(springs to a wall eliminated into each site's diagonal, x m - wall) with 2n nodes on a path
+(springs to a wall eliminated into each site's diagonal, x m - wall) with 2n nodes on a chain
 (site 0, spring 0, site 1, ..., site n-1, spring n-1 = r) closed by one coupling (spring r to
-site 0; a chain on walls, `chain.walled`, is the same path with that coupling zero). Eliminating the path
+site 0; a chain on walls, `chain.walled`, is the same chain with that coupling zero). Eliminating the chain
 in order, the last pivot l(x) = 1/w_r - y^T A_sub(x)^-1 y is the Schur complement of the
 cut chain's spring form A_sub: zero at the ring's eigenvalues, with poles at the chain's, and
 increasing in x between them (A_sub' = diag(M, 0) >= 0). By interlacing (the ring is the chain
@@ -22,7 +22,7 @@ plus one spring) eigenvalue i of the ring lies between the chain's i and i + 1.
   2.1 ns per point and node on two cores (16 ns one point at a time: the loop is a chain of
   dependent operations; 8 independent points fill the pipeline and the vector units), where
   the numpy version pays its call overhead on each operation over the vector of points.
-- `path_counts`: the same for a chain's spring form (no closing coupling, no fill), 1.4 ns
+- `chain_counts`: the same for a chain's spring form (no closing coupling, no fill), 1.4 ns
   per point and node on two cores (10.7 ns one at a time). `pivot_roots` 4.5x one root at a
   time (`benchmarks/bench_ring_values.py --kernels`; `tests/scalar_kernels.py` keeps the
   one-point loops, which the lanes repeat bit for bit).
@@ -43,7 +43,7 @@ try:
 except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
     numba = None  # type: ignore[assignment]
 
-__all__ = ["AVAILABLE", "pivot_roots", "spring_counts", "path_counts", "walled_factor"]
+__all__ = ["AVAILABLE", "pivot_roots", "spring_counts", "chain_counts", "walled_factor"]
 
 #: Whether the compiled loops can run here.
 AVAILABLE = numba is not None
@@ -234,7 +234,7 @@ def spring_counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance: tu
                   closing: float, u: float, wall: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
                   ) -> tuple[NDArray[np.intp], NDArray[np.bool_], NDArray[np.float64]]:
     """(count, certain, last pivot's high part) at each x: the inertia counts of the spring form
-    (path order: m per site, compliance 1/w per spring as double-double, off the 2n - 1 path
+    (chain order: m per site, compliance 1/w per spring as double-double, off the 2n - 1 chain
     couplings and squares their squares as double-double, closing the coupling of spring n - 1
     to site 0, `wall` the springs to a wall per site as double-double, None for a free ring),
     exactly as `ring.counts.count_below_springs` computes them (per-node unit u)."""
@@ -452,13 +452,13 @@ def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: N
     return roots, evaluations.astype(np.intp), side.astype(np.intp)
 
 
-# --- a path's counts (chains: no closing coupling, no fill) ---
+# --- a chain's counts (no closing coupling, no fill) ---
 
 @_jit()
-def _path_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m: NDArray[np.float64],
-                compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
-                square_l: NDArray[np.float64], negative: NDArray[np.int64], certain: NDArray[np.bool_]) -> None:
-    """(negative pivots, certain) of the spring form of a path at each of the points
+def _chain_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m: NDArray[np.float64],
+                 compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
+                 square_l: NDArray[np.float64], negative: NDArray[np.int64], certain: NDArray[np.bool_]) -> None:
+    """(negative pivots, certain) of the spring form of a chain at each of the points
     x[start: start + LANES] (together, as `_count_block`), into negative and certain: node j is a
     site (mass m[j]) or a spring (compliance 1 / w, double-double), coupled to node j + 1 by c_j
     (its square given, 0 between separate paths). No fill: every pivot is exact for couplings,
@@ -495,26 +495,26 @@ def _path_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m: 
 
 
 @_jit(parallel=True)
-def _path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
-                 compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
-                 square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+def _chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                  compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
+                  square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
     k = x.shape[0]
     negative = np.zeros(k, dtype=np.int64)
     certain = np.zeros(k, dtype=np.bool_)
     for b in prange((k + LANES - 1) // LANES):
-        _path_block(x, b * LANES, site, m, compliance_h, compliance_l, square_h, square_l, negative, certain)
+        _chain_block(x, b * LANES, site, m, compliance_h, compliance_l, square_h, square_l, negative, certain)
     return negative, certain
 
 
-def path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
-                compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
-                squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-    """(count below x, certain) of the eigenvalues of paths of sites and springs (`_path_block`:
+def chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                 compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
+                 squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """(count below x, certain) of the eigenvalues of chains of sites and springs (`_chain_block`:
     node k a site with mass m[k] or a spring with compliance 1 / w, squares[k] the square of the
     coupling of nodes k and k + 1, 0 where two paths meet): sites less negative pivots, the
     spring form's Schur complement being x M - K."""
-    negative, certain = _path_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m,
-                                     compliance[0], compliance[1], squares[0], squares[1])
+    negative, certain = _chain_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m,
+                                      compliance[0], compliance[1], squares[0], squares[1])
     return int(np.count_nonzero(site)) - negative.astype(np.intp), certain
 
 

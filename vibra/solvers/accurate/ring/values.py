@@ -95,7 +95,7 @@ class RingValues:
 
 def spring_arrays(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
                                                NDArray[np.float64]]:
-    """(m, w, c_in, c_out) in path order: `ring.counts.count_below_springs`' rotation, the cycle cut
+    """(m, w, c_in, c_out) in chain order: `ring.counts.count_below_springs`' rotation, the cycle cut
     after its smallest closing entry (c_in, c_out: each spring's entries of B on its two sites)."""
     turn = (int(np.argmin(_closing(pencil))) + 1) % pencil.n
     w = np.roll(pencil.edges[0], -turn)
