@@ -143,7 +143,6 @@ def test_the_triplet_budget_is_work_not_time() -> None:
     np.testing.assert_array_equal(runs[0].omega_error, runs[1].omega_error)
 
 
-@pytest.mark.skipif(not spring_ritz.COMPILED, reason="numba is a dependency; without it the numpy loop serves")
 def test_compiled_error_free_product_is_within_one_unit_of_the_exact_sum() -> None:
     """`spring_ritz._compiled_product` (triple-double sums) against the numpy loop it replaces
     and against 80-digit mpmath sums: entries spread over 1e+-8 with cancellation, each

@@ -181,8 +181,8 @@ def test_every_mode_of_a_long_uniform_chain_is_certified(ends: str) -> None:
     assert_guides(result.eigenvalues, result.error, closed_form(n, ends, n))
 
 
-def test_without_numba_long_chains_keep_the_size_law(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Where numba cannot be imported, values past CERTIFY_ALL keep the measured size law (the
+def test_on_the_numpy_route_long_chains_keep_the_size_law(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On the numpy route (`bidiagonal._compiled` None), values past CERTIFY_ALL keep the measured size law (the
     numpy certificates cost ~15x dqds): still never below the true error."""
     monkeypatch.setattr(bidiagonal, "_compiled", lambda: None)
     n = 4_000

@@ -21,12 +21,9 @@ import scipy.sparse as sp
 from vibra import normal_modes
 from vibra.chains import linear_chain
 from vibra.solvers.accurate.chain import sturm_counts
-from vibra.solvers.accurate.ring import kernel as ring_kernel
 
 from test_chain_bounds_large import sturm_count
 from test_ring_bounds import sampled
-
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="the counts are compiled (numba)")
 
 
 def dimer(half: int, weak: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

@@ -24,8 +24,6 @@ from vibra.solvers.accurate.dd import UNIT, div, mul
 
 from test_ring_bounds import disordered_ring, ring_count, sampled
 
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="accurate-ring needs numba")
-
 
 def criterion(omega: np.ndarray, error: np.ndarray, true_error: np.ndarray) -> np.ndarray:
     """Per nonzero mode: the bound covers the true error and is within 1000 times it or 1e-13."""
@@ -376,7 +374,7 @@ def test_the_lowest_modes_of_rings_longer_than_the_values_limit() -> None:
 def test_the_pairs_of_a_200000_site_uniform_ring_are_bounded_within_1e_13() -> None:
     """The lowest 10 of a uniform ring of 200,000 sites: its pairs' Rayleigh-Ritz bounds, r^2 /
     gap, grow as n^4 relative with float64 vectors (3.2e-12 here, 6 over 1000 times the true
-    error); with vectors refined to extended precision (`golub_kahan.refined_vectors`) every
+    error); with vectors refined to extended precision (`golub_kahan.Refiner`) every
     bound is within 1e-13 relative and meets the criterion. With B~ v formed error-free
     (`spring_ritz._error_free_product`: the Rayleigh quotient's rounding no longer grows as
     1 / omega) every bound is within 1e-15: float64's own rounding of omega (~2 eps) is what
@@ -394,7 +392,7 @@ def test_the_pairs_of_a_200000_site_uniform_ring_are_bounded_within_1e_13() -> N
 
 
 def test_refined_vectors_of_a_double_eigenvalue_reach_extended_precision() -> None:
-    """`golub_kahan.refined_vectors`: a uniform ring's first pair (an exact double eigenvalue),
+    """`golub_kahan.Refiner`: a uniform ring's first pair (an exact double eigenvalue),
     float64 singular vectors leave a residual ||K~ v - omega^2 v|| of a few eps ||K~|| (their own
     rounding); after the extended-precision Newton steps it is below 100 long-double units of
     ||K~|| (a bound r^2 / gap that is quadratic in it then reaches ~1e-20 relative at 20,000
@@ -410,7 +408,7 @@ def test_refined_vectors_of_a_double_eigenvalue_reach_extended_precision() -> No
         value = float(4 * mp.sin(mp.pi / n) ** 2)
     values = np.array([value, value])
     rough = golub_kahan.singular_vectors(weighted, values, np.ones(n))
-    fine = golub_kahan.refined_vectors(weighted, forming_deviation(weighted, B, w, np.ones(n)), rough, values)
+    fine = golub_kahan.Refiner(weighted, forming_deviation(weighted, B, w, np.ones(n))).refine(rough, values)
     exact = weighted.astype(np.longdouble)
 
     def residual(V: np.ndarray) -> float:

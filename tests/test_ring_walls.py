@@ -31,7 +31,6 @@ from vibra.solvers.accurate.dd import UNIT
 from test_ring_bounds import mp_weighted_gram, ring_count
 from test_ring_values import _kernel_arrays
 
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="accurate-ring needs numba")
 
 EPS = float(np.finfo(float).eps)
 

@@ -264,12 +264,10 @@ def test_solve_refuses_accurate_without_a_spring_factor() -> None:
 )
 def test_bidiagonal_routines_refuse_what_lapack_would_misread(diagonal, superdiagonal, match) -> None:  # type: ignore[no-untyped-def]
     # dlasq1 returns finite singular values for a NaN diagonal: the wrappers must refuse it.
-    from vibra._lapack import bidiagonal_singular_values, bidiagonal_svd
+    from vibra._lapack import bidiagonal_singular_values
 
     with pytest.raises(ValueError, match=match):
         bidiagonal_singular_values(diagonal, superdiagonal)
-    with pytest.raises(ValueError, match=match):
-        bidiagonal_svd(diagonal, superdiagonal, left=True)
 
 
 def test_bidiagonal_singular_values_to_high_relative_accuracy() -> None:

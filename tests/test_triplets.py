@@ -43,7 +43,7 @@ def test_values_of_extreme_chains_are_covered(n: int, exponent: int, seed: int, 
 @pytest.mark.parametrize("spread", [1.0, 1e4, 1e12])
 def test_compiled_and_numpy_routes_both_cover(spread: float, monkeypatch: pytest.MonkeyPatch) -> None:
     """2,000 sites (every a-priori bound over 1e-13, so the compiled route certifies all): the
-    compiled and the numpy certificates (without numba, inside CERTIFY_FROM..CERTIFY_ALL) both
+    compiled and the numpy certificates (the numpy route, inside CERTIFY_FROM..CERTIFY_ALL) both
     cover the truth on a sample, and the compiled bounds are within 100x of numpy's."""
     n = 2000
     mass, springs = (np.ones(n), np.ones(n - 1)) if spread == 1.0 else disordered(n, spread, 7)

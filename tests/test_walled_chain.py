@@ -19,11 +19,8 @@ import scipy.sparse as sp
 
 from vibra import System, normal_modes
 from vibra.solvers.accurate.chain import walled
-from vibra.solvers.accurate.ring import kernel as ring_kernel
 
 from test_ring_walls import certified_by_eigsy
-
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="accurate-walled needs numba")
 
 
 def chain_on_walls(n: int, spread: float, seed: int, walls: int | None = None

@@ -51,7 +51,6 @@ from typing import Callable, TextIO
 
 from vibra.solvers.common import RING_DENSE_LIMIT
 from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, triplet_seconds
-from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED
 
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
 MEMORY_LIMIT: float | None = None
@@ -72,7 +71,6 @@ LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 SPARSE_FACTOR_S = 1.2e-8      # per n^2: a 3-D network's factor and its solves (lowest 26, one thread:
                               # 3o21 0.41 s, 7pbl 0.61 s, 30,000 dofs 19.9 s, 4v8r's 50,148 dofs 12.7 s)
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
-BISECTION_S = 3e-6            # per n k: a chain's bisection (dstebz) + dstein, without numba (measured 2.4e-6)
 BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates (measured 6.3e-7)
 BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates (measured 3.4e-7)
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
@@ -167,12 +165,12 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein),
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
-        seconds = (BISECTION_S if not COMPILED else BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
+        seconds = (BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
     elif path in ("accurate-ring", "accurate-walled"):
         # the cut chain's values (dqds, or bisection for the lowest k + 1), then each value's
         # roots and counts (a chain on walls: its values' counts, no roots)
         memory = 8.0 * 40 * n + vector_bytes
-        each = BISECTION_VALUES_S if COMPILED else BISECTION_S  # (the poles: values only)
+        each = BISECTION_VALUES_S  # (the poles: values only)
         poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
         seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, RING_MP_EXPECTED * n)
         if vectors and path == "accurate-walled" and k >= n - 1:  # all of them: stemr's (tridiagonal)

@@ -27,7 +27,6 @@ from vibra.solvers.budget import Estimate, estimate
 import vibra.solvers.common as common
 import vibra.solvers.runners as runners
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
-from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED
 
 __all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "path_names", "readme_table"]
 
@@ -145,7 +144,7 @@ def _bisection(p: Problem) -> bool:
 
 
 def _values_path(p: Problem) -> bool:
-    return p.band is None and p.n >= common.RING_VALUES_FROM and COMPILED
+    return p.band is None and p.n >= common.RING_VALUES_FROM
 
 
 def _walled(p: Problem) -> bool:

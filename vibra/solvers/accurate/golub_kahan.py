@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.accurate.spring_ritz import Deviation
 
-__all__ = ["refine_triplets", "singular_vectors", "refined_vectors", "Refiner", "loose_modes", "WANTED",
+__all__ = ["refine_triplets", "singular_vectors", "Refiner", "loose_modes", "WANTED",
            "HIGH_ROWS", "HIGH_WORK", "triplet_seconds"]
 
 #: Bounds above this, relative to omega^2, are refined.
@@ -81,7 +81,7 @@ def triplet_seconds(n: int, n_terms: int, *, one_dimensional: bool = False) -> f
 
 _UNIT = float(np.finfo(np.longdouble).eps)
 
-#: Newton steps of `refined_vectors` per cluster.
+#: Newton steps of `Refiner.refine` per cluster.
 REFINE_STEPS = 2
 
 
@@ -258,13 +258,6 @@ def _kato_temple(exact: Any, exact_T: Any, A: sp.csr_matrix, A_T: sp.csr_matrix,
     low = lo_theta - r * r / above
     high = hi_theta + r * r / below
     return rho, float(low) * (1 - 1e-15), float(high) * (1 + 1e-15)
-
-
-def refined_vectors(weighted: sp.csr_matrix, deviation: Deviation, basis: NDArray[np.float64],
-                    values: NDArray[np.float64]) -> NDArray[Any]:
-    """`basis` (mass-weighted vectors of clustered modes, float64) refined to extended precision
-    (np.longdouble): `Refiner(weighted, deviation).refine(basis, values)`; see `Refiner`."""
-    return Refiner(weighted, deviation).refine(basis, values)
 
 
 class Refiner:

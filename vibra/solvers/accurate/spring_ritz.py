@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from vibra.solvers.accurate.dd import UNIT as DD_UNIT, add as dd_add, div as dd_div, lu as dd_lu, lu_solve as dd_lu_solve
 from vibra.solvers.accurate.dd import mul as dd_mul, split_mp, tree_sum
 from vibra.solvers.common import EPS, SolveResult, sample_columns, small_pencil
-from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED, _jit
+from vibra.solvers.accurate.ring.kernel import _jit
 from vibra.solvers.accurate.rounding import WORST_ENTRY, entry_deviation
 
 __all__ = ["TARGET", "BLOCK", "FORMING", "REFINE_WORK", "Deviation", "forming_deviation", "zero_level",
@@ -264,7 +264,7 @@ def _error_free_product(B: sp.csr_matrix, V: NDArray[Any]) -> NDArray[Any]:
     two-product and all of them summed by two-sum into a triple-double (hi, lo, lower) per
     entry, left over below 2^-150 (|B| |V|)_i, then rounded once to long double; ~100 times the
     numpy loop below, which serves any other input (`_numpy_product`)."""
-    if COMPILED and _float64_exact(B.data) and _float64_exact(V):
+    if _float64_exact(B.data) and _float64_exact(V):
         return _compiled_product(B, V)
     return _numpy_product(B, V)
 

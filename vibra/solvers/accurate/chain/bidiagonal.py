@@ -306,9 +306,9 @@ def _segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], factor: 
 def certify_all(size: int, a_priori: float) -> bool:
     """Whether every value of a segment of `size` sites is certified (values only).
 
-    With the compiled kernel (`vibra.solvers.accurate.chain.triplets`, about dqds' own cost): wherever the
-    a-priori bound exceeds `CERTIFY_ABOVE` (below it, it is tight enough). Without it (numpy,
-    ~15x dqds): only from `CERTIFY_FROM` to `CERTIFY_ALL` sites.
+    With the compiled kernel (`triplets`, about dqds' own cost): wherever the a-priori bound
+    exceeds `CERTIFY_ABOVE` (below it, it is tight enough). On the numpy route (`_compiled`
+    None, ~15x dqds): only from `CERTIFY_FROM` to `CERTIFY_ALL` sites.
     """
     if _compiled() is not None:
         return a_priori > CERTIFY_ABOVE
@@ -316,12 +316,9 @@ def certify_all(size: int, a_priori: float) -> bool:
 
 
 def _compiled() -> Any:
-    """`vibra.solvers.accurate.chain.triplets` where numba imports (compiled on first use, cached on disk), else None."""
-    try:
-        module = importlib.import_module("vibra.solvers.accurate.chain.triplets")
-    except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
-        return None
-    return module if module.AVAILABLE else None
+    """The compiled certificates, `triplets` (compiled on first use, cached on disk); None takes
+    the numpy route (what tests compare them with)."""
+    return importlib.import_module("vibra.solvers.accurate.chain.triplets")
 
 
 def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64],

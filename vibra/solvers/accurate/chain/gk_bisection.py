@@ -21,12 +21,13 @@ known without dstebz (`lowest._compiled_with_blocks`).
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import AVAILABLE, LANES, _jit, numba, prange
+from vibra.solvers.accurate.ring.kernel import LANES, _jit, prange
 
-__all__ = ["AVAILABLE", "bidiagonal_values_by_bisection"]
+__all__ = ["bidiagonal_values_by_bisection"]
 
 _EPS = float(np.finfo(float).eps)
 _SAFE_MIN = float(np.finfo(float).tiny)
@@ -133,7 +134,7 @@ def bidiagonal_values_by_bisection(d: NDArray[np.float64], e: NDArray[np.float64
     top = float(edges.max(initial=0.0)) * (1 + 4 * _EPS) + pivmin
     if k <= 0:
         return np.zeros(0)
-    threads = numba.get_num_threads() if numba is not None else 1
+    threads = numba.get_num_threads()
     chunk = int(min(CHUNK, max(LANES, LANES * -(-k // (LANES * threads)))))  # (every thread busy)
     values: NDArray[np.float64] = _bisect(int(skip), int(k), size, squares, top, pivmin, chunk)
     return values

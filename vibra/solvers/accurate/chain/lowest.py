@@ -5,7 +5,7 @@ A chain's frequencies are the singular values of its bidiagonal spring factor B~
 (d, e) are the positive eigenvalues of the Golub-Kahan tridiagonal TGK (zero diagonal,
 off-diagonal d1, e1, d2, e2, ..., dn), whose Sturm counts are relatively accurate
 (Demmel and Kahan 1990). Bisection (compiled, LANES values at a time, `gk_bisection`, for values
-only; LAPACK dstebz with vectors or without numba) therefore finds the lowest k to a few ulps of
+only; with vectors, the same where TGK's blocks are known, else LAPACK dstebz) therefore finds the lowest k to a few ulps of
 themselves however far below ||K~|| they lie, in O(n k) per bit: a disordered chain
 whose masses and springs spread over 1e12, where a shift chosen from ||K~|| sees the lowest
 eigenvalues as one cluster, costs no more than a uniform one. Vectors come from inverse
@@ -26,7 +26,7 @@ from vibra.solvers.accurate.chain.bidiagonal import (
     segment_scalings, solving_bound, worst_forming,
 )
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
-from vibra.solvers.accurate.chain.gk_bisection import AVAILABLE as BISECTION_COMPILED, bidiagonal_values_by_bisection
+from vibra.solvers.accurate.chain.gk_bisection import bidiagonal_values_by_bisection
 from vibra.solvers.accurate.rounding import UNIT, Scalings
 
 __all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certified_lowest", "DQDS_FACTOR",
@@ -34,11 +34,8 @@ __all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certifi
 
 #: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~1e-8 s^2
 #: seconds) rather than bisection for k of them (compiled, `gk_bisection`: ~1.1e-7 s k seconds on
-#: two cores; dstebz without numba, ~1.4e-6 s k), whichever is cheaper.
+#: two cores), whichever is cheaper.
 DQDS_FACTOR = 10
-
-#: The same without numba (LAPACK dstebz, one point at a time).
-DQDS_FACTOR_LAPACK = 1500
 
 
 def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool
@@ -55,12 +52,12 @@ def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int
     zero = np.zeros(2 * s)
     first = s + skip
     lower = first - 1 if vectors else first  # the -sigma partner of the lowest: a zero pair needs both
-    if not vectors and s <= (DQDS_FACTOR if BISECTION_COMPILED else DQDS_FACTOR_LAPACK) * k:
+    if not vectors and s <= DQDS_FACTOR * k:
         # dqds on all s values (O(s^2)) beats bisection for k of them (O(s k) per bit) here
         return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
-    if not vectors and BISECTION_COMPILED:  # the same counts, LANES values at a time
+    if not vectors:  # the same counts, LANES values at a time
         return bidiagonal_values_by_bisection(d, e[: s - 1], skip, k), None, None
-    known = _compiled_with_blocks(d, e, off, lower, first, k) if BISECTION_COMPILED else None
+    known = _compiled_with_blocks(d, e, off, lower, first, k)
     values, block, split = known if known is not None else tridiagonal_eigenvalues_by_index(zero, off, lower,
                                                                                             first + k - 1)
     order = np.argsort(values, kind="stable")  # dstebz groups the values by split-off block

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED, chain_counts
+from vibra.solvers.accurate.ring.kernel import chain_counts
 from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.ring.counts import spring_width, stored_factor
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
@@ -54,8 +54,8 @@ class ChainForm:
 def chain_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> ChainForm | None:
     """The spring form of a system whose springs join dofs c and c + 1 only, with at most one
     spring to a wall at each end of each chain (`bidiagonal.chain_bidiagonals`' structure), from
-    the inputs themselves; None for any other system or where numba is unavailable."""
-    if np.ndim(mass) != 1 or not COMPILED:
+    the inputs themselves; None for any other system."""
+    if np.ndim(mass) != 1:
         return None
     B, per_row = stored_factor(coupling)
     n = B.shape[1]

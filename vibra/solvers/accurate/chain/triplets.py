@@ -23,37 +23,26 @@ Either way the figures are rigorous for the vectors used; only their tightness d
 vectors' quality. numba compiles without fast-math (IEEE operations, no reassociation), so
 the error-free transformations stay exact. `tests/test_triplets.py` checks the certificates against mpmath Sturm counts.
 
-numba is a dependency of vibra (wheels for every supported Python); where it cannot be
-imported, `AVAILABLE` is False and `bidiagonal` keeps the numpy route (certifying only from
-`CERTIFY_FROM` to `CERTIFY_ALL` sites). The first call compiles (~5 s), cached on disk after.
+The first call compiles (~5 s), cached on disk after.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers.accurate.rounding import _SPLIT, UNIT as _UNIT
 
-try:
-    import numba
-except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
-    numba = None  # type: ignore[assignment]
-
-__all__ = ["AVAILABLE", "triplet_figures"]
-
-#: Whether the compiled kernel can run here.
-AVAILABLE = numba is not None
+__all__ = ["triplet_figures"]
 
 _TINY = float(np.finfo(float).tiny)
 _EPS = 2 * _UNIT
 
 
 def _jit(function: Any) -> Any:
-    if numba is None:  # pragma: no cover
-        return function
     return numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")(function)
 
 

@@ -39,7 +39,7 @@ from vibra.solvers.accurate.ring.counts import spring_width
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul
 from vibra.solvers.accurate.golub_kahan import singular_vectors
 from vibra.solvers.accurate.chain.lowest import golub_kahan_lowest
-from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED, spring_counts
+from vibra.solvers.accurate.ring.kernel import spring_counts
 from vibra.solvers.accurate.ring.values import LEVELS, certify_at_levels, cut_chain, proven_multisection, sorted_bounds
 from vibra.solvers.accurate.spring_ritz import spring_figures
 
@@ -128,11 +128,8 @@ class WalledValues:
     counts: int
 
 
-def walled_values(chain: WalledChain, count: int | None = None) -> WalledValues | None:
-    """All eigenvalues (the lowest `count`), each certified by counts (see above); None without
-    the compiled loops."""
-    if not COMPILED:
-        return None
+def walled_values(chain: WalledChain, count: int | None = None) -> WalledValues:
+    """All eigenvalues (the lowest `count`), each certified by counts (see above)."""
     n = chain.n
     wanted = n if count is None else max(1, min(int(count), n))
     # the ring's arrays with a spring of no length in the closing place: w = 1, no couplings
@@ -185,8 +182,6 @@ def walled_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.
     if chain is None:
         return None
     found = walled_values(chain, n_modes)
-    if found is None:
-        return None
     k = found.values.shape[0]
     if vectors:
         B = sp.csr_matrix(weighted)

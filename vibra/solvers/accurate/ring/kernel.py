@@ -35,18 +35,11 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
-try:
-    import numba
-except ImportError:  # pragma: no cover - numba ships wheels for every Python vibra supports
-    numba = None  # type: ignore[assignment]
-
-__all__ = ["AVAILABLE", "pivot_roots", "spring_counts", "chain_counts", "walled_factor"]
-
-#: Whether the compiled loops can run here.
-AVAILABLE = numba is not None
+__all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor"]
 
 _SPLIT = 134217729.0  # 2^27 + 1 (Dekker)
 _EPS = float(np.finfo(float).eps)
@@ -55,17 +48,11 @@ _TINY = float(np.finfo(float).tiny)
 
 def _jit(parallel: bool = False) -> Any:
     def wrap(function: Any) -> Any:
-        if numba is None:  # pragma: no cover
-            return function
         return numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy", parallel=parallel)(function)
     return wrap
 
 
-def _range(n: int) -> Any:  # pragma: no cover - replaced by numba.prange when compiled
-    return range(n)
-
-
-prange = numba.prange if numba is not None else _range
+prange = numba.prange
 
 
 # --- double-double, scalar: the operations of `vibra.solvers.accurate.dd` and `vibra.solvers.accurate.rounding` ---

@@ -25,8 +25,6 @@ compiled 8 points at a time (SIMD lanes, `ring.kernel.LANES`), and the cut chain
 dense Jacobi route of the smaller rings would take minutes and the band solver gives absolute
 accuracy only. There is no length limit: the budget (`budget.TIME_LIMIT_S`) refuses what
 would take too long.
-Without numba `ring_values` returns None and the ring keeps its previous path (checked dense
-up to `common.RING_DENSE_LIMIT` sites, the band solver above).
 """
 
 from __future__ import annotations
@@ -39,7 +37,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._lapack import bidiagonal_singular_values
-from vibra.solvers.accurate.ring.kernel import AVAILABLE as COMPILED, NEAR, pivot_roots, spring_counts, walled_factor
+from vibra.solvers.accurate.ring.kernel import NEAR, pivot_roots, spring_counts, walled_factor
 from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.golub_kahan import Refiner, singular_vectors
 from vibra.solvers.accurate.spring_ritz import Deviation, cluster_bounds, most_terms, spring_figures
@@ -136,15 +134,12 @@ Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
 
 
 def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighten | None = None,
-                needed: int | None = None) -> RingValues | None:
+                needed: int | None = None) -> RingValues:
     """All eigenvalues of a ring's pencil (the lowest `count` of them when given: O(count n),
-    the cut chain's lowest by bisection), each with a count-certified bound (see above); None
-    where the compiled loops are unavailable. `tighten`
+    the cut chain's lowest by bisection), each with a count-certified bound (see above). `tighten`
     (values, bound): the caller's step on the bounds still over MP_WANTED
     (values and bounds per eigenvalue index, changed in place) before mpmath counts the loosest
     of the first `needed` (default: all; the rest only bound their neighbours' gaps)."""
-    if not COMPILED:
-        return None
     n = pencil.n
     wanted = n if count is None else max(1, min(int(count), n))
     m, w, c_in, c_out = spring_arrays(pencil)
@@ -248,8 +243,6 @@ def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
         return None
     count = int(n_modes) + 2 if lowest and n_modes is not None else n_modes
     found = ring_values(pencil, count, tighten=tighten, needed=n_modes)
-    if found is None:
-        return None
     k = found.values.shape[0] if count == n_modes or n_modes is None else int(n_modes)
     values, bound, certified = found.values[:k], found.bound[:k], found.certified[:k]
     if not certified.all():  # (not seen: the multisection proves every root) keep the widest honest bound
@@ -496,7 +489,7 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64]) ->
     `ring.values.MP_WANTED` (a double eigenvalue: counts uncertain within ~sqrt(n) 1e-15 of it;
     a ring's eigenvalues are at most double) gets spring-space Rayleigh-Ritz on its singular
     vectors of B~ (Golub-Kahan inverse iteration, refined to extended precision:
-    `golub_kahan.refined_vectors`), with quadratic residual bounds
+    `golub_kahan.Refiner`), with quadratic residual bounds
     (`cluster_bounds`, extended precision, B~'s exact entries) whose gaps are the neighbours'
     certified bounds; each value keeps the tighter bound. A cluster at the end of a partial set
     (no value above it) is left as it is."""
