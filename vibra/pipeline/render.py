@@ -225,8 +225,9 @@ class SceneRenderer:
         else:
             for renderer in plotter.renderers:  # keep the lights: plotter.clear() removes them
                 renderer.clear_actors()
-        # Every add_mesh / camera change of a shown plotter re-renders (~0.15 s in software GL):
+        # Every add_mesh / camera change of a shown plotter re-renders (slow in software GL):
         # draw everything first, render once in `_snapshot`.
+        # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
         plotter.suppress_rendering = True
         return plotter
 

@@ -35,8 +35,9 @@ DENSE_LIMIT = 1500
 ACCURACY_LEVELS = ("fast", "high", "certified")
 
 #: A ring (or a chain with springs to a wall inside it) of at least this many sites takes its
-#: own values path (`ring.values`, `chain.walled`): at 100 sites ~1 ms where the checked dense
-#: solve takes ~0.1 s; a smaller one keeps the dense solve (instant there, its bounds often tighter).
+#: own values path (`ring.values`, `chain.walled`), far cheaper there than the checked dense
+#: solve; a smaller one keeps the dense solve (instant there, its bounds often tighter).
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 RING_VALUES_FROM = 100
 
 #: A ring with all its vectors up to this many dofs takes the checked dense solve, its bounds
@@ -45,8 +46,9 @@ RING_VALUES_FROM = 100
 RING_DENSE_LIMIT = 6000
 
 #: One-sided Jacobi (gejsv) on the n_terms x n B~ is the fallback of the checked dense solve
-#: while n_terms n^2 stays within this (a ring of 4,000 sites: ~40 s); above DENSE_LIMIT only
+#: while n_terms n^2 stays within this (a ring of 4,000 sites); above DENSE_LIMIT only
 #: systems with few springs per dof (rings, ladders) qualify, a 3-D network never does.
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 JACOBI_WORK = 4000**3
 
 #: A partial solve of a chain whose K~ diagonal spans more than this ratio (disorder in the
@@ -62,9 +64,8 @@ BISECTION_SPREAD = 1e4
 BISECTION_SIZE = 20_000
 
 #: ...and "high" above this many sites, where bisection (certified) also costs less than the
-#: Ritz path's extended-precision bounds: lowest 20 with vectors of a uniform chain, one BLAS
-#: thread, Ritz / bisection 0.29 / 0.32 s at 30,000 sites, 1.6 / 2.0 s at 10^5, 7.4 / 5.0 s at
-#: 3 10^5, 26.5 / 17.2 s at 10^6 (scipy eigsh 7.2 s there).
+#: Ritz path's extended-precision bounds (the lowest 20 with vectors of a uniform chain).
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 HIGH_BISECTION_SIZE = 200_000
 
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).

@@ -25,7 +25,7 @@ __all__ = ["BYTES_PER_DOF", "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "
 #: Bytes a built system keeps per degree of freedom (positions, masses, sparse K and M, spring factor).
 BYTES_PER_DOF = 512
 #: Seconds per N^2 of an all-frequency solve of N dofs (tridiagonal and bidiagonal paths are
-#: O(N^2): all 10^5 frequencies of a chain took 139 s on a shared 2-core machine).
+#: O(N^2)). (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 SECONDS_PER_DOF_SQUARED = 1e-8
 #: Longest estimated all-frequency solve a scene may ask for without ``compute.time_limit_s``, in s.
 DEFAULT_TIME_LIMIT_S = 600.0

@@ -54,13 +54,14 @@ WANTED = 2e-13
 
 #: ``accuracy="high"`` runs the step only where H has at most this many rows (n_terms + n: a
 #: network of ~1,000 dofs with ~8 springs per site), for the bounds still over 1e-10 relative:
-#: there one LU takes milliseconds, while on a protein's network (47,000 rows for 3o21's 1,489
-#: residues) one LU took 115 s (COLAMD's fill), more than ProDy's whole solve.
+#: there one LU is cheap, while on a protein's network (47,000 rows for 3o21's 1,489
+#: residues) one LU cost more than ProDy's whole solve (COLAMD's fill).
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 HIGH_ROWS = 10_000
 
 #: ...and within this much work, in entries of the LU factors plus 8 per row of H per mode
-#: (SuperLU's fixed cost; 17 ms for 4.5e5 entries and 2,465 rows on a 3-D network): ~2 s.
-#: Modes beyond it keep their bounds, and `modes.refinement` says how many.
+#: (SuperLU's fixed cost). Modes beyond it keep their bounds, and `modes.refinement` says how many.
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 HIGH_WORK = 5e7
 
 

@@ -170,17 +170,19 @@ def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: 
     basis = basis @ rotation
     residuals = np.linalg.norm(np.asarray(B.T @ (elongations @ rotation)) - basis * values, axis=0)
     terms = most_terms(B)
-    # float64 products first; extended precision (4 products of B~ in np.longdouble, ~3 s at
+    # float64 products first; extended precision (4 products of B~ in np.longdouble, costly at
     # 50,000 dofs) only if a mode's bound then misses TARGET (stiff springs: the float64
     # rounding margin of B~^T B~ v dominates the residual)
+    # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
     theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, deviation=deviation)
     norm = float(np.asarray(B.multiply(B).sum(axis=0)).max(initial=0.0))  # max diagonal of K~
     zero = theta + error <= zero_level(terms, B.shape[1], norm)
     missed = (error > TARGET * theta) & ~zero
     # the float64 vectors' own residual, ~eps ||K~||, squared over a gap ~theta: a relative
     # floor (eps ||K~|| / theta)^2 no product precision lowers (a 10^6-site chain's lowest
-    # modes: ~8e-9, where the extended-precision pass cost 12 s for nothing); where every
+    # modes: ~8e-9, where the extended-precision pass gained nothing); where every
     # missed mode sits above TARGET by that floor, the pass is left out (a value, not the clock)
+    # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
     floor = (EPS * norm / np.maximum(theta, np.finfo(float).tiny)) ** 2
     if np.any(missed & (floor <= TARGET)):
         theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True, deviation=deviation)
@@ -304,8 +306,8 @@ def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tu
         # the refined clusters again with extended-precision products (their float64 rounding
         # margin, eps |B~|^T |B~| |v|, can dominate a residual: a ring's rigid mode, stiff
         # springs), before any Jacobi SVD; not where the fast values merge into large clusters
-        # (their rotation in np.longdouble costs n c^2 without BLAS: 39 s for c = 861, n = 1,600),
-        # which only Jacobi resolves
+        # (their rotation in np.longdouble costs n c^2 without BLAS), which only Jacobi resolves
+        # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
         theta, ritz, bound = cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
                                              complete=count == n, precise=True, deviation=deviation)
         values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]

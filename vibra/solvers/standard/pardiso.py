@@ -50,8 +50,9 @@ def pardiso_available() -> bool:
                 if found:
                     os.environ["PYPARDISO_MKL_RT"] = found[0]
             solver = pypardiso.PyPardisoSolver(mtype=2)  # loads mkl_rt, or raises ImportError
-            # pypardiso searches sys.prefix for mkl_rt on every construction (~1 s in a large
+            # pypardiso searches sys.prefix for mkl_rt on every construction (slow in a large
             # environment) unless PYPARDISO_MKL_RT names it: name the one it found
+            # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
             os.environ.setdefault("PYPARDISO_MKL_RT", str(solver.libmkl._name))
             _AVAILABLE = True
         except (ImportError, OSError):

@@ -29,9 +29,10 @@ Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
 
 #: Values only: a segment of CERTIFY_FROM < size <= CERTIFY_ALL sites has every value
 #: certified by inverse-iteration triplets (`inverse_iteration`, O(size) each: O(size^2) in
-#: all, ~1 s at 3000); a shorter one keeps the a-priori bound (the measured size law
+#: all); a shorter one keeps the a-priori bound (the measured size law
 #: `solving_bound` plus `worst_forming`: under 3e-12 relative there, at dqds' speed), and so
 #: does a longer one (certifying it would cost far more than the solve).
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 CERTIFY_FROM = 1200
 CERTIFY_ALL = 3000
 

@@ -32,9 +32,9 @@ from vibra.solvers.accurate.rounding import UNIT, Scalings
 __all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certified_lowest", "DQDS_FACTOR",
            "spring_factor_of_chain", "lowest_chain_modes"]
 
-#: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (~1e-8 s^2
-#: seconds) rather than bisection for k of them (compiled, `gk_bisection`: ~1.1e-7 s k seconds on
-#: two cores), whichever is cheaper.
+#: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (O(s^2))
+#: rather than bisection for k of them (compiled, `gk_bisection`: O(s k)), whichever is cheaper.
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 DQDS_FACTOR = 10
 
 

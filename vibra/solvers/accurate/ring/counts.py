@@ -380,7 +380,8 @@ MP_WORK = 100_000
 
 #: Multisection of the spring form's brackets: points per bracket and pass, and passes (14
 #: narrow a bracket as wide as the value itself, 16^14 ~ 7e16, to 8 eps; a value the LADDER
-#: brackets needs one or two; each pass costs ~0.1 s plus ~0.5 s per 900 points at 1,600 sites).
+#: brackets needs one or two).
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 SECTIONS = 16
 SECTION_PASSES = 14
 

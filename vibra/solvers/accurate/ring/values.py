@@ -62,12 +62,14 @@ SNAPPED_LEVELS = LEVELS[1:3]
 POLISH = 12
 
 #: Bounds above this (omega^2 relative, 1e-13 in omega) get mpmath counts, at most MP_COUNTS
-#: per solve (~0.15 s each at 8,000 sites), at MP_LEVELS around the value.
+#: per solve, at MP_LEVELS around the value.
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 MP_WANTED = 1.95e-13
 MP_COUNTS = 24
 
-#: And at most this many sites counted in mpmath per solve (~10 s): fewer counts on a longer
+#: And at most this many sites counted in mpmath per solve: fewer counts on a longer
 #: ring (5 at 10^5 sites, none at 10^6, whose bounds stay double-double's).
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 MP_WORK = 5e5
 MP_LEVELS = (64 * 2.0**-53, 3e-14, 1e-13)
 
