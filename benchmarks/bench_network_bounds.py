@@ -21,7 +21,7 @@ each, in 40-digit mpmath (`tests/test_accurate_bounds.py`, `lattice_omegas`; nev
 Ill-conditioned networks (random sites, 8 nearest neighbours, springs over 1e+-6, masses over
 1e+-3; `tests/test_accurate_bounds.network`, seed 1), where one-sided Jacobi runs: the bounds
 with and without the singular-triplet step (`golub_kahan.refine_triplets`; with:
-``accuracy="certified"``; without: "high" with `vibra.solvers.accurate.springs.HIGH_WORK` = 0), their cost, and the truth (mpmath.eigsy of B~^T B~ at 34 digits from the
+``accuracy="certified"``; without: "high" with `accurate.springs.HIGH_WORK` = 0), their cost, and the truth (mpmath.eigsy of B~^T B~ at 34 digits from the
 inputs) up to 300 dofs. Writes results/network_bounds.json.
 """
 

@@ -259,7 +259,7 @@ def _check_gyroscopic(reader: Reader, compute: Any, draw: Any) -> None:
 
 
 def _check_memory(reader: Reader, scene: Any) -> None:
-    """Refuse a scene whose memory or time estimate (`vibra.pipeline.scene.limits`) exceeds its limit, before any work."""
+    """Refuse a scene whose memory or time estimate (`limits`) exceeds its limit, before any work."""
     compute = scene.compute
     estimate = memory_estimate(scene.system.builder, scene.system.parameters, compute, scene.draw)
     if estimate is None:

@@ -18,7 +18,9 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.dd import UNIT as DD_UNIT, add as dd_add, div as dd_div, lu as dd_lu, lu_solve as dd_lu_solve
+from vibra.solvers.accurate.dd import (
+    UNIT as DD_UNIT, add as dd_add, div as dd_div, lu as dd_lu, lu_solve as dd_lu_solve,
+)
 from vibra.solvers.accurate.dd import mul as dd_mul, split_mp, tree_sum
 from vibra.solvers.common import EPS, SolveResult, sample_columns, small_pencil
 from vibra.solvers.accurate.ring.kernel import _jit
@@ -113,7 +115,7 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
                     terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None,
                     floor: float = -np.inf, ceiling: float | None = None, deviation: Deviation = None
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see `accurate.springs.checked_dense`).
+    """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see `springs.checked_dense`).
 
     Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
     The rounding of B~^T (B~ V) is bounded by 2 t unit || |B~|^T |B~| |v| || per column.

@@ -1,12 +1,12 @@
 """The lowest modes of a chain, by bisection on its Golub-Kahan form: no shift to choose.
 
 A chain's frequencies are the singular values of its bidiagonal spring factor B~
-(`vibra.solvers.accurate.chain.bidiagonal.chain_bidiagonals`). The singular values of an upper bidiagonal
+(`bidiagonal.chain_bidiagonals`). The singular values of an upper bidiagonal
 (d, e) are the positive eigenvalues of the Golub-Kahan tridiagonal TGK (zero diagonal,
 off-diagonal d1, e1, d2, e2, ..., dn), whose Sturm counts are relatively accurate
-(Demmel and Kahan 1990). Bisection (compiled, LANES values at a time, `gk_bisection`, for values
-only; with vectors, the same where TGK's blocks are known, else LAPACK dstebz) therefore finds the lowest k to a few ulps of
-themselves however far below ||K~|| they lie, in O(n k) per bit: a disordered chain
+(Demmel and Kahan 1990). Bisection (compiled, LANES values at a time, `gk_bisection`; with
+vectors, where TGK's blocks are not known without it, LAPACK dstebz) therefore finds the lowest
+k to a few ulps of themselves however far below ||K~|| they lie, in O(n k) per bit: a disordered chain
 whose masses and springs spread over 1e12, where a shift chosen from ||K~|| sees the lowest
 eigenvalues as one cluster, costs no more than a uniform one. Vectors come from inverse
 iteration on TGK (LAPACK dstein); their accuracy is the residual's.
