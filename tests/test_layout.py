@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -94,6 +95,16 @@ def test_an_old_name_imported_first_in_a_fresh_interpreter(old: str) -> None:
             "print(a is b, a.__name__, a.__spec__.name, len(twins))\n")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert result.stdout.split() == ["True", new, new, "1"]
+
+
+def test_a_pickle_naming_an_old_module_loads() -> None:
+    """Pickles written before the move name the old modules (protocol 0: the names as text)."""
+    from vibra.pipeline.plan import Plan
+    from vibra.solvers.structured.quadratic import QuadraticModes
+
+    for cls, old in ((QuadraticModes, b"vibra.quadratic"), (Plan, b"vibra.plan.model")):
+        data = pickle.dumps(cls, protocol=0).replace(cls.__module__.encode(), old)
+        assert old in data and pickle.loads(data) is cls
 
 
 def test_an_unknown_name_is_still_not_found() -> None:
