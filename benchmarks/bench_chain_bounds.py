@@ -3,7 +3,7 @@
     python benchmarks/bench_chain_bounds.py [--quick]
 
 Issue 15, item 6: every bound of the accurate path (`accurate-bidiagonal`) is a certificate
-(`vibra.solvers.triplets`: a triplet per value, Kato-Temple), where before 3,000 sites it was
+(`vibra.solvers.accurate.chain.triplets`: a triplet per value, Kato-Temple), where before 3,000 sites it was
 the a-priori size law, 10 n eps (2.3e-11 relative at 10^4 for errors of ~1e-16). Measured per
 length, by the protocol of STYLE.md (one process, warm-up, interleaved rounds, BLAS threads 1):
 

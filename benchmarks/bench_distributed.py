@@ -68,7 +68,7 @@ def main() -> None:
     logging.getLogger("distributed").setLevel(logging.ERROR)
 
     from vibra.molecules import finite_difference_hessian
-    from vibra.sweep import sweep, vary
+    from vibra.pipeline.sweep import sweep, vary
 
     atoms = zigzag(N_ATOMS)
     calc = sleepy_field(atoms, DELAY)

@@ -4,7 +4,7 @@ Methods, interleaved per size in one process, best of 3 after a warm-up solve:
 
 - ``cpu_scipy_evd``: scipy.linalg.eigh(K~, driver="evd"), LAPACK dsyevd (divide and conquer),
   all vectors, on every core the BLAS was given (the threads are recorded): the peer;
-- ``gpu_vibra``: `vibra.solvers.gpu.dense_eigh_gpu`, cuSOLVER Xsyevd in place, including the upload
+- ``gpu_vibra``: `vibra.solvers.standard.gpu.dense_eigh_gpu`, cuSOLVER Xsyevd in place, including the upload
   of K~, the residual / orthogonality figures and the download of the vectors;
 - ``gpu_vibra_values``: the same, frequencies only;
 - ``gpu_cupy_eigh``: cupy.linalg.eigh on a K~ already on the GPU (no transfers, no figures):
@@ -12,7 +12,7 @@ Methods, interleaved per size in one process, best of 3 after a warm-up solve:
 
 Agreement: max |lambda_gpu - lambda_cpu| against the reported error (n eps ||K~|| or the
 residual); where the CPU column is skipped, the trace of K~ and the six rigid-body modes.
-Memory: `vibra.solvers.gpu.estimate_gpu_memory` beside the measured peak (CuPy's pool in use, and
+Memory: `vibra.solvers.standard.gpu.estimate_gpu_memory` beside the measured peak (CuPy's pool in use, and
 the drop of the device's free memory sampled every millisecond). The 50,000-dof case of the
 issue is checked by estimate only (is it refused, and with which figures).
 
@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from _common import best_time, write_json  # noqa: E402
 
-from vibra.solvers import gpu  # noqa: E402
+from vibra.solvers.standard import gpu  # noqa: E402
 
 EPS = float(np.finfo(float).eps)
 

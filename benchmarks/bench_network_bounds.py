@@ -21,7 +21,7 @@ each, in 40-digit mpmath (`tests/test_accurate_bounds.py`, `lattice_omegas`; nev
 Ill-conditioned networks (random sites, 8 nearest neighbours, springs over 1e+-6, masses over
 1e+-3; `tests/test_accurate_bounds.network`, seed 1), where one-sided Jacobi runs: the bounds
 with and without the singular-triplet step (`golub_kahan.refine_triplets`; with:
-``accuracy="certified"``; without: "high" with `accurate.HIGH_WORK` = 0), their cost, and the truth (mpmath.eigsy of B~^T B~ at 34 digits from the
+``accuracy="certified"``; without: "high" with `accurate.springs.HIGH_WORK` = 0), their cost, and the truth (mpmath.eigsy of B~^T B~ at 34 digits from the
 inputs) up to 300 dofs. Writes results/network_bounds.json.
 """
 
@@ -39,7 +39,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 
 from vibra import normal_modes
-from vibra.solvers import accurate
+from vibra.solvers.accurate import springs as accurate_springs
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_accurate_bounds import cubic_lattice, lattice_omegas, network, solve  # noqa: E402  (the tests' oracles)
@@ -90,14 +90,14 @@ def ill_conditioned(sites: list[int], rounds: int, truth_up_to: int) -> list[dic
     rows = []
     for n_sites in sites:
         B, springs, masses = network(np.random.default_rng(1), n_sites, 6.0, 3.0)
-        work = accurate.HIGH_WORK
+        work = accurate_springs.HIGH_WORK
 
         def without() -> object:
-            accurate.HIGH_WORK = 0.0
+            accurate_springs.HIGH_WORK = 0.0
             try:
                 return solve(B, springs, masses, vectors=False)
             finally:
-                accurate.HIGH_WORK = work
+                accurate_springs.HIGH_WORK = work
 
         cases = {
             "vibra fast, values": lambda: normal_modes(B.T @ (springs[:, None] * B), masses, vectors=False),

@@ -5,7 +5,7 @@
 Issue 15, item 6: a ring over 6,000 sites took its band in "high" (absolute accuracy: the
 lowest frequencies of a uniform 8,000-site ring off by 4.5e-9 relative, ~8,000 bounds over 1e-13
 and over 1000 times their true error), and rings of 1,500 to 6,000 sites the dense checked
-solve (O(n^3), 8 s at 1,600 sites with a spread of 1e12). ``accurate-ring`` (`ring_path`):
+solve (O(n^3), 8 s at 1,600 sites with a spread of 1e12). ``accurate-ring`` (`ring.values`):
 roots of the spring form's last pivot between the cut chain's eigenvalues, each certified by
 two double-double Sturm counts; O(n^2).
 
@@ -182,14 +182,14 @@ def run_kernels(rounds: int, n: int = 20000, points: int = 512) -> list[dict]:
     import scalar_kernels
 
     from vibra._lapack import bidiagonal_singular_values
-    from vibra.solvers import cycle, ring_kernel, ring_path
-    from vibra.solvers.dd import UNIT, div, mul
+    from vibra.solvers.accurate.ring import counts as ring_counts, kernel as ring_kernel, values as ring_values
+    from vibra.solvers.accurate.dd import UNIT, div, mul
 
     rows = []
     for spread in (0.0, 6.0):
         mass, springs = (np.ones(n), np.ones(n)) if spread == 0.0 else disordered_ring(n, spread, 7)
         ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-        m, w, c_in, c_out = ring_path.spring_arrays(cycle.ring_pencil(*ring.spring_factor(), mass))
+        m, w, c_in, c_out = ring_values.spring_arrays(ring_counts.ring_pencil(*ring.spring_factor(), mass))
         compliance = div(np.ones(n), np.zeros(n), w, np.zeros(n))
         off = np.empty(2 * n - 1)
         off[0::2], off[1::2] = c_in, c_out[: n - 1]
@@ -212,7 +212,7 @@ def run_kernels(rounds: int, n: int = 20000, points: int = 512) -> list[dict]:
         for name, lanes, one in (
                 ("spring counts", lambda: ring_kernel.spring_counts(x, *counts), lambda: scalar_kernels.spring_counts(x, *counts)),
                 ("pivot roots", lambda: ring_kernel.pivot_roots(*roots), lambda: scalar_kernels.pivot_roots(*roots)),
-                ("path counts", lambda: ring_kernel.path_counts(x, *path), lambda: scalar_kernels.path_counts(x, *path))):
+                ("path counts", lambda: ring_kernel.chain_counts(x, *path), lambda: scalar_kernels.chain_counts(x, *path))):
             print(f"{name}, {n} sites, spread 10^{spread:g}", flush=True)
             timings = interleaved({"lanes": lanes, "one point at a time": one}, rounds)
             same = all(np.array_equal(a, b, equal_nan=True) for a, b in zip(timings["lanes"].result,

@@ -141,7 +141,7 @@ def fd_molecule(name: str) -> System:
 
 
 def double_pendulum() -> Any:
-    from vibra import lagrangian
+    from vibra.mechanics import lagrangian
 
     return lagrangian.double_pendulum(m=1.0, m_prime=1e-6, a=1.0, b=1.0, g=9.81)
 
@@ -354,8 +354,8 @@ def _refusal(system: Any, case: Case, level: str) -> str:
                            vectors=case.vectors, band=None, solver="auto", spring_factor=factor,
                            accuracy=level if factor is not None else "high")
     try:
-        solvers.check_plan(request, n_modes=case.n_modes, vectors=case.vectors, band=None, max_memory=None,
-                           max_seconds=None)
+        solvers.check_solve_plan(request, n_modes=case.n_modes, vectors=case.vectors, band=None, max_memory=None,
+                                 max_seconds=None)
     except solvers.ResourceLimitError as error:
         return str(error)
     return ""

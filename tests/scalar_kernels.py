@@ -1,4 +1,4 @@
-"""The compiled kernels of `vibra.solvers.ring_kernel` one point at a time, as they were before
+"""The compiled kernels of `vibra.solvers.accurate.ring.kernel` one point at a time, as they were before
 the kernels took `ring_kernel.LANES` points together (commit eabb4f5): a reference whose
 arithmetic, in the same order, the lane kernels must reproduce bit for bit (a regression
 guard of the restructuring, not an independent truth: the counts' truth is mpmath and the
@@ -9,14 +9,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.ring_kernel import NEAR, _EPS, _TINY, _add, _jit, _mul, _reciprocal, _split, prange
+from vibra.solvers.accurate.ring.kernel import NEAR, _EPS, _TINY, _add, _jit, _mul, _reciprocal, _split, prange
 
 
 @_jit()
 def _count(x: float, m: NDArray[np.float64], compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64],
            off: NDArray[np.float64], square_h: NDArray[np.float64], square_l: NDArray[np.float64],
            closing: float, u: float) -> tuple[int, bool, float]:
-    """(count below x, certain, last pivot) for one x: `cycle.count_below_springs`' loop."""
+    """(count below x, certain, last pivot) for one x: `ring.counts.count_below_springs`' loop."""
     n = m.shape[0]
     size = 2 * n
     x_high, x_low = _split(x)
@@ -221,9 +221,9 @@ def _path_count(x: float, site: NDArray[np.bool_], m: NDArray[np.float64], compl
 
 
 @_jit(parallel=True)
-def _path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
-                 compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
-                 square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+def _chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                  compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
+                  square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
     k = x.shape[0]
     negative = np.zeros(k, dtype=np.int64)
     certain = np.zeros(k, dtype=np.bool_)
@@ -248,9 +248,9 @@ def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: N
                   np.ascontiguousarray(compliance, dtype=float), off, float(closing))
 
 
-def path_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
-                compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
-                squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """`ring_kernel._path_counts` (negative pivots, certain), one point at a time."""
-    return _path_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m, compliance[0],
-                        compliance[1], squares[0], squares[1])
+def chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
+                 compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
+                 squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """`ring_kernel._chain_counts` (negative pivots, certain), one point at a time."""
+    return _chain_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m, compliance[0],
+                         compliance[1], squares[0], squares[1])

@@ -15,8 +15,9 @@ import pytest
 import scipy.sparse as sp
 
 from vibra import System, normal_modes, solvers
-from vibra.lagrangian import double_pendulum
-from vibra.solvers import budget, golub_kahan, spring_ritz
+from vibra.mechanics.lagrangian import double_pendulum
+from vibra.solvers import budget
+from vibra.solvers.accurate import golub_kahan, spring_ritz
 from test_accurate_bounds import network
 from test_solvers import mp_spring_omegas
 
@@ -142,7 +143,6 @@ def test_the_triplet_budget_is_work_not_time() -> None:
     np.testing.assert_array_equal(runs[0].omega_error, runs[1].omega_error)
 
 
-@pytest.mark.skipif(not spring_ritz.COMPILED, reason="numba is a dependency; without it the numpy loop serves")
 def test_compiled_error_free_product_is_within_one_unit_of_the_exact_sum() -> None:
     """`spring_ritz._compiled_product` (triple-double sums) against the numpy loop it replaces
     and against 80-digit mpmath sums: entries spread over 1e+-8 with cancellation, each
@@ -183,9 +183,9 @@ def test_high_brackets_a_long_chain_by_sturm_counts() -> None:
 
 
 def test_the_chain_form_built_at_once_equals_the_one_built_node_by_node() -> None:
-    """`path_counts._free_form` (array operations, free chains) against the general walk
+    """`sturm_counts._free_form` (array operations, free chains) against the general walk
     (`_walked_form`), disordered masses and springs, several chains side by side."""
-    from vibra.solvers import path_counts
+    from vibra.solvers.accurate.chain import sturm_counts
 
     rng = np.random.default_rng(4)
     n = 300
@@ -193,10 +193,10 @@ def test_the_chain_form_built_at_once_equals_the_one_built_node_by_node() -> Non
     system = System.from_springs(np.arange(n, dtype=float), 10.0 ** rng.uniform(-3, 3, n), bonds,
                                  10.0 ** rng.uniform(-3, 3, len(bonds)))
     coupling, weights = system.spring_factor()
-    B, per_row = path_counts.stored_factor(coupling)
+    B, per_row = sturm_counts.stored_factor(coupling)
     mass = np.asarray(system.mass_matrix())
-    at_once = path_counts._free_form(B, np.asarray(weights, dtype=float), mass)
-    walked = path_counts._walked_form(B, per_row, np.asarray(weights, dtype=float), mass)
+    at_once = sturm_counts._free_form(B, np.asarray(weights, dtype=float), mass)
+    walked = sturm_counts._walked_form(B, per_row, np.asarray(weights, dtype=float), mass)
     assert at_once is not None and walked is not None
     for name in ("site", "m", "compliance", "squares", "widening"):
         np.testing.assert_array_equal(np.asarray(getattr(at_once, name)), np.asarray(getattr(walked, name)), err_msg=name)

@@ -299,7 +299,7 @@ def test_network_bounds_cover_the_rounding_of_forming_b(seed: int, spring_decade
 def test_forming_deviation_is_the_entries_own_rounding() -> None:
     """`spring_ritz.forming_deviation`: stored - D equals sqrt(w) c / sqrt(m) formed in mpmath
     (40 digits) within S, entry by entry, and |D| stays within 3 eps of each entry."""
-    from vibra.solvers import spring_ritz
+    from vibra.solvers.accurate import spring_ritz
 
     B, springs, masses = network(np.random.default_rng(2), 12, 3.0, 2.0)
     coupling = sp.csr_matrix(B)

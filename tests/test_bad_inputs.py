@@ -17,7 +17,8 @@ import pytest
 import scipy.sparse as sp
 
 import vibra
-from vibra import SI, System, UnitSystem, chains, continuum, lagrangian, molecules, normal_modes, pendulum
+from vibra import SI, System, UnitSystem, chains, continuum, molecules, normal_modes
+from vibra.mechanics import lagrangian, pendulum
 from vibra import response, spectra, solvers
 from vibra.response import Oscillator
 

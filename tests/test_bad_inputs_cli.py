@@ -268,7 +268,7 @@ def test_scene_keys_of_the_refusals_are_distinct_cases() -> None:
 
 
 def test_limits_can_be_raised() -> None:
-    from vibra.scene import Scene
+    from vibra.pipeline.scene import Scene
 
     table = {"kind": "chain", "system": {"builder": "linear_chain", "n": 300_000}}
     with pytest.raises(ValueError, match=r"compute\.n_modes: is not given, so all 300000 modes"):
@@ -395,7 +395,7 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 def test_jobs_defaults_to_the_available_cores() -> None:
     args = cli.build_parser().parse_args(["report", "x"])
     assert args.jobs is None  # filled in by _report from the affinity mask
-    from vibra.report import available_cores
+    from vibra.pipeline.report import available_cores
 
     assert available_cores() == len(os.sched_getaffinity(0))
 
@@ -503,12 +503,12 @@ def test_a_folder_where_an_output_file_goes_fails_that_scene(tmp_path: Path,
 
 def test_unexpected_error_is_one_line_and_debug_shows_the_traceback(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
-    import vibra.plan
+    import vibra.pipeline.plan
 
     def broken(scene: object) -> None:
         raise KeyError("a bug")
 
-    monkeypatch.setattr(vibra.plan, "validate", broken)
+    monkeypatch.setattr(vibra.pipeline.plan, "validate", broken)
     path = tmp_path / "s.toml"
     path.write_text(CHAIN)
     code, _, err = run_cli(capsys, "validate", str(path))
@@ -578,7 +578,7 @@ def test_a_second_report_waits_for_the_first(tmp_path: Path) -> None:
 
 
 def test_a_busy_folder_is_refused_naming_the_holder(tmp_path: Path) -> None:
-    from vibra.report import FolderLock
+    from vibra.pipeline.report import FolderLock
 
     out = tmp_path / "out"
     out.mkdir()
@@ -617,7 +617,7 @@ def test_kill_and_rerun_cleans_what_the_killed_run_left(tmp_path: Path) -> None:
 
 
 def test_a_live_process_keeps_its_work_folder(tmp_path: Path) -> None:
-    from vibra.report import clean_stale
+    from vibra.pipeline.report import clean_stale
 
     out = tmp_path / "out"
     mine = out / ".work" / str(os.getpid())
@@ -685,7 +685,7 @@ def test_summary_holds_numbers_with_units(tmp_path: Path, capsys: pytest.Capture
 def test_changed_code_is_not_served_from_the_skip_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                         capsys: pytest.CaptureFixture[str]) -> None:
     # issue: the skip key was the scene's bytes and the version string only
-    from vibra.report import batch
+    from vibra.pipeline.report import batch
 
     scene_file = write_scenes(tmp_path / "scenes", 1)[0]
     out = tmp_path / "out"

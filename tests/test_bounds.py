@@ -132,7 +132,7 @@ def test_lowest_chain_bound_is_tight_on_a_long_uniform_chain() -> None:
     mode by mode (each is certified by its own residual: Kato-Temple)."""
     import scipy.sparse as sp
 
-    from vibra.solvers.lowest import chain_segments, lowest_chain_path
+    from vibra.solvers.accurate.chain.lowest import chain_segments, lowest_chain_path
 
     n = 100_000
     B = sp.csr_matrix(sp.diags([-np.ones(n - 1), np.ones(n - 1)], [0, 1], shape=(n - 1, n)))

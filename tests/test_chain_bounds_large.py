@@ -21,11 +21,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vibra.modes import normal_modes
-from vibra.solvers import bidiagonal
-from vibra.solvers.bidiagonal import CERTIFY_ALL, bidiagonal_path, path_bidiagonals, segment_scalings
+from vibra.solvers.accurate.chain import bidiagonal
+from vibra.solvers.accurate.chain.bidiagonal import CERTIFY_ALL, bidiagonal_path, chain_bidiagonals, segment_scalings
 from vibra.solvers.common import omega_and_error
-from vibra.solvers.lowest import chain_segments, lowest_chain_modes, lowest_chain_path
-from vibra.solvers.rounding import entry_deviation, scaling_logs, two_product, two_sum, walk_bound
+from vibra.solvers.accurate.chain.lowest import chain_segments, lowest_chain_modes, lowest_chain_path
+from vibra.solvers.accurate.rounding import entry_deviation, scaling_logs, two_product, two_sum, walk_bound
 
 EPS = float(np.finfo(float).eps)
 
@@ -65,7 +65,7 @@ def all_modes(mass, springs, walls, vectors):
     """Every mode by the accurate-bidiagonal path, with the spring factor and masses it was formed from."""
     B, w, K = chain(mass, springs, walls)
     weighted = weighted_factor(B, w, mass)
-    segments = path_bidiagonals(weighted)
+    segments = chain_bidiagonals(weighted)
     return bidiagonal_path(mass_weighted(K, mass), weighted, segments, n_modes=None, vectors=vectors, band=None,
                            factor=(B, w), mass=mass)
 
@@ -181,8 +181,8 @@ def test_every_mode_of_a_long_uniform_chain_is_certified(ends: str) -> None:
     assert_guides(result.eigenvalues, result.error, closed_form(n, ends, n))
 
 
-def test_without_numba_long_chains_keep_the_size_law(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Where numba cannot be imported, values past CERTIFY_ALL keep the measured size law (the
+def test_on_the_numpy_route_long_chains_keep_the_size_law(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On the numpy route (`bidiagonal._compiled` None), values past CERTIFY_ALL keep the measured size law (the
     numpy certificates cost ~15x dqds): still never below the true error."""
     monkeypatch.setattr(bidiagonal, "_compiled", lambda: None)
     n = 4_000

@@ -1,4 +1,4 @@
-"""Chain values in clusters: certified by Sturm counts of the chain's spring form (`path_counts`).
+"""Chain values in clusters: certified by Sturm counts of the chain's spring form (`chain.sturm_counts`).
 
 A chain's values are certified one by one from their singular triplets (Kato-Temple), which
 need a gap; two identical disordered chains joined by a weak spring have every mode in a pair
@@ -20,12 +20,10 @@ import scipy.sparse as sp
 
 from vibra import normal_modes
 from vibra.chains import linear_chain
-from vibra.solvers import path_counts, ring_kernel
+from vibra.solvers.accurate.chain import sturm_counts
 
 from test_chain_bounds_large import sturm_count
 from test_ring_bounds import sampled
-
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="the counts are compiled (numba)")
 
 
 def dimer(half: int, weak: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -68,7 +66,7 @@ def test_path_counts_agree_with_a_dense_solve(ends: str) -> None:
         B, w = chain.spring_factor()
         two = sp.block_diag([B, B]).tocsr()  # two copies: their spring form joined by a zero coupling
         for coupling, weights, masses in ((B, w, mass), (two, np.r_[w, w], np.r_[mass, mass])):
-            form = path_counts.path_form(coupling, weights, masses)
+            form = sturm_counts.chain_form(coupling, weights, masses)
             assert form is not None
             K = (coupling.T @ sp.diags(weights) @ coupling).toarray()
             values = la.eigh(K, np.diag(masses), eigvals_only=True)
@@ -84,11 +82,11 @@ def test_path_counts_agree_with_a_dense_solve(ends: str) -> None:
 def test_path_form_refuses_what_is_not_a_path() -> None:
     """A ring, a branched network and a full mass matrix give no path form."""
     ring = linear_chain(6, ends="periodic")
-    assert path_counts.path_form(*ring.spring_factor(), np.ones(6)) is None
+    assert sturm_counts.chain_form(*ring.spring_factor(), np.ones(6)) is None
     star = sp.csr_matrix(np.array([[1.0, -1.0, 0, 0], [1.0, 0, -1.0, 0], [1.0, 0, 0, -1.0]]))
-    assert path_counts.path_form(star, np.ones(3), np.ones(4)) is None
+    assert sturm_counts.chain_form(star, np.ones(3), np.ones(4)) is None
     chain = linear_chain(4)
-    assert path_counts.path_form(*chain.spring_factor(), np.eye(4)) is None
+    assert sturm_counts.chain_form(*chain.spring_factor(), np.eye(4)) is None
 
 
 def test_a_chain_given_as_its_spring_factor_gets_the_same_certificates() -> None:

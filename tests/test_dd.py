@@ -1,11 +1,11 @@
-"""Double-double arithmetic (`vibra.solvers.dd`) against mpmath at 50 digits."""
+"""Double-double arithmetic (`vibra.solvers.accurate.dd`) against mpmath at 50 digits."""
 
 from __future__ import annotations
 
 import mpmath
 import numpy as np
 
-from vibra.solvers import dd
+from vibra.solvers.accurate import dd
 
 
 def exact(hi: np.ndarray, lo: np.ndarray) -> list[mpmath.mpf]:

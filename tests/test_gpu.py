@@ -1,4 +1,4 @@
-"""Tests of `vibra/solvers/gpu.py`, the optional GPU path (CuPy, cuSOLVER syevd).
+"""Tests of `vibra/solvers/standard/gpu.py`, the optional GPU path (CuPy, cuSOLVER syevd).
 
 The plumbing (device names, the missing-extra errors, the memory estimate and the refusal
 before any allocation) runs everywhere, with CuPy hidden or faked. The numbers run only where
@@ -18,7 +18,7 @@ import scipy.linalg as la
 from scipy.spatial import cKDTree
 
 import vibra
-from vibra.solvers import gpu
+from vibra.solvers.standard import gpu
 
 EPS = float(np.finfo(float).eps)
 GPU_READY, GPU_REASON = gpu.gpu_available()
@@ -97,7 +97,7 @@ def test_cupy_without_a_device(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_import_vibra_does_not_import_cupy() -> None:
     import subprocess
 
-    code = "import sys, vibra, vibra.solvers.gpu; print('cupy' in sys.modules)"
+    code = "import sys, vibra, vibra.solvers.standard.gpu; print('cupy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

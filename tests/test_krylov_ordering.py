@@ -15,8 +15,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from vibra import networks
-from vibra.solvers import krylov, ordering, pardiso
-from vibra.solvers.sparse import ShiftedInverse, lowest_shift, semidefinite_rounding, shift_invert, sparse_path
+from vibra.solvers.standard import krylov, ordering, pardiso
+from vibra.solvers.standard.sparse import ShiftedInverse, lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 
 
 def _lattice(n_sites: int, seed: int = 3, cutoff: float = 1.75) -> Any:
@@ -235,7 +235,7 @@ def test_cheap_factor_keeps_arpack_and_its_small_basis(monkeypatch: pytest.Monke
     """A chain's factor (pttrf, 2 entries a row) runs ARPACK: the block basis (~200 columns of
     10^6 entries each) would cost more than its solves save; a 3-D factor runs the block Krylov."""
     from vibra.chains import linear_chain
-    from vibra.solvers import sparse
+    from vibra.solvers.standard import sparse
 
     calls: list[str] = []
     monkeypatch.setattr(sparse, "block_eigs", lambda *a, **k: calls.append("block") or krylov.block_eigs(*a, **k))

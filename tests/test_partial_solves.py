@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vibra.modes import normal_modes
-from vibra.solvers import lowest
-from vibra.solvers.lowest import chain_segments, lowest_chain_path, spring_factor_of_chain
+from vibra.solvers.accurate.chain import lowest
+from vibra.solvers.accurate.chain.lowest import chain_segments, lowest_chain_path, spring_factor_of_chain
 
 
 def _chain(n: int, spread: float, seed: int, anchored: bool = False):
@@ -177,7 +177,7 @@ def test_shift_invert_keeps_converged_pairs_and_redoes_those_a_zero_mode_held() 
     import scipy.linalg as la
 
     from vibra import System
-    from vibra.solvers import sparse
+    from vibra.solvers.standard import sparse
 
     rng = np.random.default_rng(1)
     m = 40

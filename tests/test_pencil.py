@@ -1,4 +1,4 @@
-"""Ill-conditioned mass matrices (issue 15, item 2): vibra.pencil and its use by linearize.
+"""Ill-conditioned mass matrices (issue 15, item 2): vibra.solvers.structured.pencil and its use by linearize.
 
 Truth: seed 000's eq. (15), the double pendulum's closed form, evaluated in 50-digit mpmath
 for the float parameters; scipy.linalg.eigh (an independent solver) on well-conditioned
@@ -16,8 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import vibra
-from vibra.lagrangian import double_pendulum, linearize
-from vibra.pencil import check_mass_matrix, pencil_modes, scaled_condition
+from vibra.mechanics.lagrangian import double_pendulum, linearize
+from vibra.solvers.structured.pencil import check_mass_matrix, pencil_modes, scaled_condition
 
 EPS = float(np.finfo(float).eps)
 

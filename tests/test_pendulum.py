@@ -1,4 +1,4 @@
-"""Tests of vibra.pendulum (seed 003 examples 3, 6, 8; figure 2) and vibra.charts.pendulum.
+"""Tests of vibra.mechanics.pendulum (seed 003 examples 3, 6, 8; figure 2) and vibra.charts.pendulum.
 
 Truth: the period series T = T0 (1 + theta0^2/16 + 11 theta0^4/3072 + ...), the period
 integral by scipy.integrate.quad, independent solve_ivp integrations written here, the
@@ -18,8 +18,8 @@ from scipy.integrate import quad, simpson, solve_ivp
 
 from vibra.charts._style import save_figure
 from vibra.charts.pendulum import plot_double_pendulum_modes, plot_period_vs_amplitude, plot_trajectory_comparison
-from vibra.lagrangian import double_pendulum
-from vibra.pendulum import (
+from vibra.mechanics.lagrangian import double_pendulum
+from vibra.mechanics.pendulum import (
     HarmonicError,
     PendulumMotion,
     damped_motion,
@@ -300,7 +300,7 @@ def test_chart_bad_input():
 
 
 def test_docstring_examples_run():
-    import vibra.pendulum
+    import vibra.mechanics.pendulum
 
-    failures, attempted = doctest.testmod(vibra.pendulum, optionflags=doctest.ELLIPSIS)
+    failures, attempted = doctest.testmod(vibra.mechanics.pendulum, optionflags=doctest.ELLIPSIS)
     assert attempted > 0 and failures == 0

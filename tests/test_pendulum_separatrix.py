@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from vibra.pendulum import exact_motion, exact_period, harmonic_error, jacobi_sn_cn_dn, separatrix_motion
+from vibra.mechanics.pendulum import exact_motion, exact_period, harmonic_error, jacobi_sn_cn_dn, separatrix_motion
 
 EPS = float(np.finfo(float).eps)
 DIGITS = 50

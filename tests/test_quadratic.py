@@ -1,4 +1,4 @@
-"""Gyroscopic and damped modes (issue 15, items 3 and 4): vibra.quadratic and GeneralizedSystem.
+"""Gyroscopic and damped modes (issue 15, items 3 and 4): vibra.solvers.structured.quadratic and GeneralizedSystem.
 
 Truth: closed forms (the charged particle in a magnetic field, the Foucault pendulum, the
 gyroscopic-stabilisation quartic, the damped oscillator's roots), scipy.linalg.eig of the
@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 import vibra
-from vibra.gyroscopic import charged_particle, foucault_pendulum, spinning_wheel
-from vibra.lagrangian import linearize
-from vibra.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
+from vibra.mechanics.gyroscopic import charged_particle, foucault_pendulum, spinning_wheel
+from vibra.mechanics.lagrangian import linearize
+from vibra.solvers.structured.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
 
 EPS = float(np.finfo(float).eps)
 J = np.array([[0.0, -1.0], [1.0, 0.0]])

@@ -184,10 +184,10 @@ def test_triplet_work_cap_leaves_the_rest_as_they_were_and_says_so(rng: np.rando
     """"high"'s triplet budget (`golub_kahan.HIGH_WORK`, counted in fill, never in seconds)
     spent after the first mode: one bound tightened, the count of those still above 1e-10
     omega^2 in the text, and every bound still covers 50-digit mpmath."""
-    from vibra.solvers import accurate
+    from vibra.solvers.accurate import springs as accurate_springs
 
     B, springs, masses = network(rng, 30, 6.0, 3.0)
-    monkeypatch.setattr(accurate, "HIGH_WORK", 1.0)
+    monkeypatch.setattr(accurate_springs, "HIGH_WORK", 1.0)
     modes = solve(B, springs, masses, vectors=False, accuracy="high")
     match = re.search(r"; 1 bounds tightened by singular triplets \(Golub-Kahan inverse iteration\), "
                       r"(\d+) still above 1e-10 omega\^2", modes.refinement)

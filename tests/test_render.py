@@ -1,4 +1,4 @@
-"""Tests of vibra/render.py: off-screen pyvista images of chains and molecules.
+"""Tests of vibra/pipeline/render.py: off-screen pyvista images of chains and molecules.
 
 Rendering must work here (it is the package's main job): these tests fail, never skip,
 when it breaks. Images are small (320 x 200) to keep the tests fast.
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from vibra.plan import build_system
-from vibra.plan.analysis import molecule_symmetry, symmetry_hints
-from vibra.render import MAX_CHAIN_SITES, MoleculeStructure, SceneRenderer, chain_sites, write_gif, write_png
-from vibra.scene import Scene
+from vibra.pipeline.plan import build_system
+from vibra.pipeline.plan.analysis import molecule_symmetry, symmetry_hints
+from vibra.pipeline.render import MAX_CHAIN_SITES, MoleculeStructure, SceneRenderer, chain_sites, write_gif, write_png
+from vibra.pipeline.scene import Scene
 
 SIZE = (320, 200)
 # A rendered image is "not blank" when its pixel standard deviation exceeds this: a uniform
@@ -78,7 +78,7 @@ def test_degenerate_bend_side_by_side(renderer: SceneRenderer, tmp_path: Path) -
     assert names == ["co2_mode5.png", "co2_mode7.png", "co2_mode8.png"]  # the bend pair is one image
     assert "degenerate, x2, side by side" in outputs[0][1]
     # mutual exclusion (centrosymmetric CO2, D_inf_h): symmetric stretch Sigma_g+ Raman only, bend Pi_u
-    # and asymmetric stretch Sigma_u+ IR only; the renderer draws the texts it is given (vibra.plan.analysis)
+    # and asymmetric stretch Sigma_u+ IR only; the renderer draws the texts it is given (vibra.pipeline.plan.analysis)
     assert "Sigma_g+ (Dinfh): IR inactive, Raman active" in outputs[1][1]
     assert "Pi_u (Dinfh): IR active, Raman inactive" in outputs[0][1]
     assert "Sigma_u+ (Dinfh): IR active, Raman inactive" in outputs[2][1]
@@ -129,7 +129,7 @@ def test_molecule_arrows_stay_clear_of_the_bonds(builder: str, dims: int) -> Non
     from ase.data import atomic_numbers
 
     from vibra.molecules import bonds_from_distances, symbols_from_masses
-    from vibra.render import _arrow_start, _displacements3, _positions3
+    from vibra.pipeline.render import _arrow_start, _displacements3, _positions3
 
     system_table = {"builder": builder, **({"dims": dims} if builder == "co2" else {})}
     sc = scene({"kind": "molecule", "name": "m", "system": system_table})
@@ -210,7 +210,7 @@ def test_atomic_writers_leave_no_temp_files(tmp_path: Path) -> None:
 
 
 def test_import_vibra_does_not_import_pyvista() -> None:
-    code = ("import sys, vibra, vibra.scene, vibra.plan, vibra.report, vibra.cli; "
+    code = ("import sys, vibra, vibra.pipeline.scene, vibra.pipeline.plan, vibra.pipeline.report, vibra.cli; "
             "print('pyvista' in sys.modules, 'vtk' in sys.modules, 'phonopy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False", "False"]

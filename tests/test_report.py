@@ -1,4 +1,4 @@
-"""Tests of vibra/plan/ and vibra/report.py: plans that compute only what a scene asks, and
+"""Tests of vibra/pipeline/plan/ and vibra/pipeline/report/: plans that compute only what a scene asks, and
 the batch report (isolation, atomic outputs, skipping, summary.json, index.html)."""
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from ase.data import atomic_masses, atomic_numbers
 from PIL import Image
 
 from vibra import molecules
-from vibra.plan import PlanResult, StepRecord, build_system, execute, make_plan
-from vibra.report import BatchResult, SceneOutcome, atomic_write_text, report, run_scene, spectrum_figure
-from vibra.scene import Scene, load_scene
+from vibra.pipeline.plan import PlanResult, StepRecord, build_system, execute, make_plan
+from vibra.pipeline.report import BatchResult, SceneOutcome, atomic_write_text, report, run_scene, spectrum_figure
+from vibra.pipeline.scene import Scene, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SMALL = [320, 200]
@@ -103,8 +103,8 @@ def test_crosscheck_backends_imported_only_when_asked() -> None:
     code = """
 import sys, tempfile
 from pathlib import Path
-from vibra.plan import execute, make_plan
-from vibra.scene import load_scene
+from vibra.pipeline.plan import execute, make_plan
+from vibra.pipeline.scene import load_scene
 d = Path(tempfile.mkdtemp())
 plan = make_plan(load_scene(sys.argv[1]))
 execute(plan, d, d)
@@ -292,10 +292,11 @@ def test_spectrum_labels_are_distinct_apart_and_inside(file_name: str) -> None:
 
 def test_response_chart_names_scene_and_receptance_unit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The generic FRF chart labels |x| in "length"; a report of an SI scene says m/N.
-    import vibra.plan.steps
+    import vibra.pipeline.plan.steps
 
     seen = []
-    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    monkeypatch.setattr(vibra.pipeline.plan.steps, "_save_chart",
+                        lambda context, figure, what, caption: seen.append(figure))
     scene = load_scene(ROOT / "chains" / "forced-damped.toml")
     plan = make_plan(dataclasses.replace(scene, draw=dataclasses.replace(scene.draw, spectrum=False)))
     execute(plan, tmp_path, tmp_path)
@@ -306,10 +307,11 @@ def test_response_chart_names_scene_and_receptance_unit(tmp_path: Path, monkeypa
 
 def test_oscillator_chart_in_si_units(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The generic oscillator chart says "rad / time unit" and "length"; an SI scene says rad/s and m.
-    import vibra.plan.steps
+    import vibra.pipeline.plan.steps
 
     seen = []
-    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: seen.append(figure))
+    monkeypatch.setattr(vibra.pipeline.plan.steps, "_save_chart",
+                        lambda context, figure, what, caption: seen.append(figure))
     scene = Scene.from_dict({"kind": "oscillator", "system": {"builder": "oscillator", "w0": 1.0, "gamma": 0.5},
                              "draw": {"response": True}},
                             source="osc.toml")
@@ -338,10 +340,10 @@ spectrum = true
 def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # The modes image is rendered (into the scene's work folder) before the spectrum step
     # fails: the output folder must get neither that image nor a manifest.
-    import vibra.plan.steps
+    import vibra.pipeline.plan.steps
 
     rendered = []
-    render_step = vibra.plan.steps.STEPS["render-modes"]
+    render_step = vibra.pipeline.plan.steps.STEPS["render-modes"]
 
     def render_and_remember(plan: object, context: object, renderer: object) -> tuple[None, None]:
         result = render_step(plan, context, renderer)
@@ -352,8 +354,8 @@ def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monk
         assert all(path.is_file() for path in rendered) and rendered  # drawn, not yet published
         raise RuntimeError("disk full")
 
-    monkeypatch.setitem(vibra.plan.steps.STEPS, "render-modes", render_and_remember)
-    monkeypatch.setitem(vibra.plan.steps.STEPS, "chart-spectrum", fail)
+    monkeypatch.setitem(vibra.pipeline.plan.steps.STEPS, "render-modes", render_and_remember)
+    monkeypatch.setitem(vibra.pipeline.plan.steps.STEPS, "chart-spectrum", fail)
     path = write(tmp_path, "late.toml", CHAIN)
     out = tmp_path / "out"
     outcome = run_scene(path, out)
@@ -381,7 +383,7 @@ def test_every_writer_gives_files_the_umask_mode(tmp_path: Path, umask_027: obje
 
     from vibra import _io
     from vibra.charts import new_figure, save_figure
-    from vibra.render import write_gif, write_png
+    from vibra.pipeline.render import write_gif, write_png
 
     reference = tmp_path / "reference"
     reference.write_text("x")
@@ -456,7 +458,7 @@ from vibra.charts import save_figure
 from vibra.charts.chains import plot_dispersion
 from vibra.continuum import dispersion_curves
 from vibra.charts.modes import spectrum_figure
-from vibra.scene import Scene
+from vibra.pipeline.scene import Scene
 system = chains.linear_chain(6)
 modes = system.modes()
 scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 6}}, source="s.toml")
@@ -476,23 +478,24 @@ print(before, matplotlib.get_backend(), "matplotlib.pyplot" in sys.modules, png[
 def test_dispersion_step_computes_what_the_chart_draws(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # Truth: the monatomic chain's closed form omega = 2 sqrt(kappa/m) |sin(q a / 2)|; each mode
     # of the finite chain sits on it at its assigned wavenumber (exact for a uniform chain).
-    import vibra.plan.steps
+    import vibra.pipeline.plan.steps
 
     drawn = []
-    monkeypatch.setattr(vibra.plan.steps, "_save_chart", lambda context, figure, what, caption: drawn.append(what))
+    monkeypatch.setattr(vibra.pipeline.plan.steps, "_save_chart",
+                        lambda context, figure, what, caption: drawn.append(what))
     scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 12, "mass": 2.0,
                                                          "stiffness": 8.0, "spacing": 0.5, "ends": "fixed"},
                              "draw": {"dispersion": True}}, source="d.toml")
     plan = make_plan(scene)
     assert plan.step_names == ("build", "modes", "dispersion", "chart-dispersion")
     seen = {}
-    original = vibra.plan.steps.STEPS["chart-dispersion"]
+    original = vibra.pipeline.plan.steps.STEPS["chart-dispersion"]
 
     def remember(plan: object, context: object, renderer: object) -> object:
         seen["curves"] = context.dispersion  # type: ignore[attr-defined]
         return original(plan, context, renderer)  # type: ignore[arg-type]
 
-    monkeypatch.setitem(vibra.plan.steps.STEPS, "chart-dispersion", remember)
+    monkeypatch.setitem(vibra.pipeline.plan.steps.STEPS, "chart-dispersion", remember)
     execute(plan, tmp_path, tmp_path)
     curves = seen["curves"]
     assert drawn == ["dispersion"]
@@ -590,8 +593,10 @@ def _vibra_imports() -> dict[str, set[str]]:
 
 
 def test_no_import_cycles_and_no_upward_imports() -> None:
-    # The layers: scene -> plan -> (system, solvers, analyses) -> charts / render; report above
-    # plan, cli on top. Nothing imports a higher layer, not even inside a function.
+    # The layers, as the folders show them: the core (units, system, modes, the solvers); the
+    # builders of systems; the analyses of results; the charts and renders that draw them; the
+    # pipeline's scene -> plan -> report (and sweep); the command line on top. Nothing imports a
+    # higher layer, not even inside a function.
     graph = _vibra_imports()
 
     def reachable(start: str) -> set[str]:
@@ -606,12 +611,16 @@ def test_no_import_cycles_and_no_upward_imports() -> None:
     in_cycle = sorted(name for name in graph if name in reachable(name))
     assert in_cycle == [], f"import cycles through {in_cycle}"
 
+    stages = (("vibra.chains", "vibra.molecules", "vibra.networks", "vibra.mechanics"),
+              ("vibra.continuum", "vibra.response", "vibra.spectra", "vibra.crosscheck"),
+              ("vibra.charts", "vibra.pipeline.render"), ("vibra.pipeline.scene",), ("vibra.pipeline.plan",),
+              ("vibra.pipeline.report", "vibra.pipeline.sweep"), ("vibra.cli",))
+
     def layer(name: str) -> int:
-        for prefix, rank in (("vibra.cli", 5), ("vibra.report", 4), ("vibra.sweep", 4), ("vibra.plan", 3),
-                             ("vibra.render", 2), ("vibra.charts", 2)):
-            if name == prefix or name.startswith(prefix + "."):
+        for rank, prefixes in enumerate(stages, start=1):
+            if any(name == prefix or name.startswith(prefix + ".") for prefix in prefixes):
                 return rank
-        return 1 if name.startswith("vibra.scene") else 0
+        return 0  # the core: vibra._*, units, assembly, system, generalized, modes, solvers, cluster
 
     upward = sorted((name, target) for name, targets in graph.items() for target in targets
                     if name not in ("vibra", "vibra.__main__") and layer(target) > layer(name)
@@ -620,7 +629,7 @@ def test_no_import_cycles_and_no_upward_imports() -> None:
 
 
 def test_no_import_cycle_through_a_package_init() -> None:
-    """`from vibra.solvers import pardiso` at module level runs vibra/solvers/__init__ first: a
+    """`from vibra.solvers.standard import pardiso` at module level runs vibra/solvers/__init__ first: a
     module the package's __init__ imports must not import the package back (a cycle the
     submodule-level graph above does not see). Module-level imports only; the root package
     `vibra` is lazy (SUBMODULES load on access), so it is no edge."""

@@ -25,7 +25,8 @@ from scipy.integrate import simpson, solve_ivp
 from scipy.optimize import minimize_scalar
 
 import vibra
-from vibra import chains, gyroscopic
+from vibra import chains
+from vibra.mechanics import gyroscopic
 from vibra import response as R
 from vibra.response import state_space
 

@@ -17,7 +17,7 @@ import pytest
 import vibra
 from vibra import System, normal_modes
 from vibra.modes import Modes
-from vibra.quadratic import QuadraticModes
+from vibra.solvers.structured.quadratic import QuadraticModes
 
 
 def chain_modes(**kwargs: object) -> Modes:

@@ -1,4 +1,4 @@
-"""Tests of vibra.rigid: inertia tensors, Huygens' theorem, compound pendulums, spring assemblies.
+"""Tests of vibra.mechanics.rigid: inertia tensors, Huygens' theorem, compound pendulums, spring assemblies.
 
 Truth: the defining integrals I = int (|r|^2 1 - r r^T) dm evaluated here by Gauss-Legendre /
 uniform-angle quadrature (exact for these polynomial-in-coordinates integrands), textbook
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from vibra.rigid import (
+from vibra.mechanics.rigid import (
     LinearSpring,
     RigidBody,
     TorsionSpring,
@@ -380,7 +380,7 @@ def test_rod_without_inertia_about_the_swing_axis():
 
 
 def test_docstring_examples_run():
-    import vibra.rigid
+    import vibra.mechanics.rigid
 
-    failures, attempted = doctest.testmod(vibra.rigid, optionflags=doctest.ELLIPSIS)
+    failures, attempted = doctest.testmod(vibra.mechanics.rigid, optionflags=doctest.ELLIPSIS)
     assert attempted > 0 and failures == 0

@@ -169,27 +169,27 @@ def test_a_ring_with_a_spread_of_1e12_is_certified_mode_by_mode(vectors: bool, m
 
 
 def test_ring_pencil_recognises_rings_only() -> None:
-    """`cycle.ring_pencil`: a ring (with or without springs to a wall) gives a pencil whose counts
+    """`ring_counts.ring_pencil`: a ring (with or without springs to a wall) gives a pencil whose counts
     match the mpmath oracle; a chain, two separate rings or a full mass matrix give None."""
-    from vibra.solvers import cycle
+    from vibra.solvers.accurate.ring import counts as ring_counts
     import scipy.sparse as sp
 
     mass, springs = disordered_ring(9, 2.0, 3)
     ring = linear_chain(9, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
     B, w = ring.spring_factor()
-    pencil = cycle.ring_pencil(B, w, mass)
+    pencil = ring_counts.ring_pencil(B, w, mass)
     assert pencil is not None and not pencil.walls
     points = np.geomspace(1e-3, 1e3, 25)
-    counts, certain = cycle.count_below(pencil, points)
+    counts, certain = ring_counts.count_below(pencil, points)
     assert certain.all()
     assert counts.tolist() == [ring_count(mass, springs, mp.mpf(x)) for x in points]
     walled = sp.vstack([sp.csr_matrix(B), sp.csr_matrix(([1.0], ([0], [4])), shape=(1, 9))])
-    assert cycle.ring_pencil(walled, np.r_[w, 2.0], mass).walls
+    assert ring_counts.ring_pencil(walled, np.r_[w, 2.0], mass).walls
     chain = linear_chain(9, mass=mass, stiffness=springs[:8], units="dimensionless")
-    assert cycle.ring_pencil(*chain.spring_factor(), mass) is None
+    assert ring_counts.ring_pencil(*chain.spring_factor(), mass) is None
     two = sp.block_diag([sp.csr_matrix(B)[:, :9], sp.csr_matrix(B)[:, :9]]).tocsr()
-    assert cycle.ring_pencil(two, np.r_[w, w], np.r_[mass, mass]) is None
-    assert cycle.ring_pencil(B, w, np.diag(mass)) is None
+    assert ring_counts.ring_pencil(two, np.r_[w, w], np.r_[mass, mass]) is None
+    assert ring_counts.ring_pencil(B, w, np.diag(mass)) is None
 
 
 def test_small_rings_with_and_without_a_wall_are_covered_at_every_spread() -> None:
@@ -223,7 +223,7 @@ def test_small_rings_with_and_without_a_wall_are_covered_at_every_spread() -> No
 
 
 def test_spring_form_counts_are_exact_where_certain_at_every_scale() -> None:
-    """`cycle.count_below_springs` on 40 small rings (3-11 sites; masses, springs and B's entries
+    """`ring_counts.count_below_springs` on 40 small rings (3-11 sites; masses, springs and B's entries
     over up to 1e12, direction cosines not +-1, a wall in about 2 of 5): at points 1e-20
     relatively beside each eigenvalue and across 1e-40..1e20, every certain count equals
     the truth (mpmath.eigsy of K~ at 80 digits, from the inputs), 9 in 10 are certain, and
@@ -232,7 +232,7 @@ def test_spring_form_counts_are_exact_where_certain_at_every_scale() -> None:
     relative beside the lowest mode of the 200-site ring with a spread of 1e12)."""
     import scipy.sparse as sp
 
-    from vibra.solvers import cycle
+    from vibra.solvers.accurate.ring import counts as ring_counts
 
     rng = np.random.default_rng(11)
     checked = certain_total = 0
@@ -247,14 +247,14 @@ def test_spring_form_counts_are_exact_where_certain_at_every_scale() -> None:
             wall = np.zeros((1, n))
             wall[0, rng.integers(n)] = rng.uniform(0.2, 1.0)
             B, springs = np.vstack([B, wall]), np.r_[springs, 10.0 ** rng.uniform(-spread / 2, spread / 2)]
-        pencil = cycle.ring_pencil(sp.csr_matrix(B), springs, mass)
+        pencil = ring_counts.ring_pencil(sp.csr_matrix(B), springs, mass)
         assert pencil is not None
         with mp.workdps(80):
             exact = sorted(mp.eigsy(mp_weighted_gram(B, springs, mass), eigvals_only=True))
             beside = [float(v * (1 + s * mp.mpf("1e-20"))) for v in exact if v > 0 for s in (-1, 1)]
             points = np.r_[beside, np.geomspace(1e-40, 1e20, 13)]
             truth = [sum(1 for v in exact if v < mp.mpf(float(x))) for x in points]
-        counts, certain, (phi, shift) = cycle.count_below_springs(pencil, points)
+        counts, certain, (phi, shift) = ring_counts.count_below_springs(pencil, points)
         assert np.all(counts[certain] == np.array(truth)[certain]), (n, spread)
         assert phi + shift / np.sqrt(float(min(v for v in exact if v > 0))) <= 1e-15
         checked += points.shape[0]

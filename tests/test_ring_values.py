@@ -19,12 +19,10 @@ import scipy.sparse as sp
 
 from vibra import normal_modes, solvers
 from vibra.chains import linear_chain
-from vibra.solvers import cycle, ring_kernel, ring_path
-from vibra.solvers.dd import UNIT, div, mul
+from vibra.solvers.accurate.ring import counts as ring_counts, kernel as ring_kernel, values as ring_values
+from vibra.solvers.accurate.dd import UNIT, div, mul
 
 from test_ring_bounds import disordered_ring, ring_count, sampled
-
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="accurate-ring needs numba")
 
 
 def criterion(omega: np.ndarray, error: np.ndarray, true_error: np.ndarray) -> np.ndarray:
@@ -35,7 +33,7 @@ def criterion(omega: np.ndarray, error: np.ndarray, true_error: np.ndarray) -> n
 @pytest.mark.slow
 def test_a_uniform_ring_of_8000_sites_meets_the_criterion_mode_by_mode() -> None:
     """8,000 sites: its frequencies come in exactly degenerate pairs, each pair an eigenvalue of
-    the chain it is cut into (a root at a pole: `ring_path._polish`'s linear case). Before,
+    the chain it is cut into (a root at a pole: `ring_values._polish`'s linear case). Before,
     the band solver's values were off by up to 4.5e-9 relative, with 7,994 bounds over 1000
     times their true error."""
     n = 8000
@@ -78,7 +76,7 @@ def test_disordered_rings_are_certified_against_mpmath_counts(spread: float, see
 
 def test_a_nearly_uniform_ring_splits_its_pairs_within_the_bounds() -> None:
     """2,000 unit masses, springs 1 + 1e-9 x (standard normal): each degenerate pair of the uniform
-    ring split by ~1e-9, one frequency each side of the cut chain's (`ring_path._polish`: the
+    ring split by ~1e-9, one frequency each side of the cut chain's (`ring_values._polish`: the
     bracket on the root's side, regula falsi). Every nonzero bound within 1e-13 relative; a
     sample covered by 60-digit mpmath counts."""
     n = 2000
@@ -99,21 +97,21 @@ def test_a_nearly_uniform_ring_splits_its_pairs_within_the_bounds() -> None:
 
 
 def test_bounds_of_values_sorted_after_bounding_still_hold() -> None:
-    """`ring_path.sorted_bounds`: two values bounded for eigenvalues 1 and 2 that sorting swaps.
+    """`ring_values.sorted_bounds`: two values bounded for eigenvalues 1 and 2 that sorting swaps.
     Eigenvalue 1 within 1e-10 of 2 + 1e-9 and eigenvalue 2 within 1e-8 of 2 put eigenvalue 2 in
     [2 + 0.9e-9, 2 + 1e-8]: within 9e-9 of 2 + 1e-9, its new position (and eigenvalue 1 within
     1e-8 of 2); identity orders are left alone."""
     values = np.array([1.0, 2.0 + 1e-9, 2.0, 3.0])
     bound = np.array([1e-3, 1e-10, 1e-8, 1e-3])
     order = np.argsort(values, kind="stable")
-    sorted_bound = ring_path.sorted_bounds(values[order], bound[order], order)
+    sorted_bound = ring_values.sorted_bounds(values[order], bound[order], order)
     assert sorted_bound[1] >= 1e-9 and sorted_bound[2] >= 9e-9 - 1e-20
     assert sorted_bound[2] <= 1e-8 and sorted_bound[0] == 1e-3 and sorted_bound[3] == 1e-3
-    assert ring_path.sorted_bounds(np.sort(values), bound, np.arange(4)) is bound
+    assert ring_values.sorted_bounds(np.sort(values), bound, np.arange(4)) is bound
 
 
-def _kernel_arrays(pencil: cycle.RingPencil) -> tuple:
-    m, w, c_in, c_out = ring_path.spring_arrays(pencil)
+def _kernel_arrays(pencil: ring_counts.RingPencil) -> tuple:
+    m, w, c_in, c_out = ring_values.spring_arrays(pencil)
     n = pencil.n
     compliance = div(np.ones(n), np.zeros(n), w, np.zeros(n))
     off = np.empty(2 * n - 1)
@@ -124,20 +122,20 @@ def _kernel_arrays(pencil: cycle.RingPencil) -> tuple:
 @pytest.mark.parametrize("n", [3, 5, 40, 300])
 def test_compiled_counts_agree_with_the_numpy_spring_form_and_a_dense_solve(n: int) -> None:
     """`ring_kernel.spring_counts` (compiled, its reciprocal by one Newton step) against
-    `cycle.count_below_springs` (numpy) and the eigenvalues of a dense eigh: at points across
+    `ring_counts.count_below_springs` (numpy) and the eigenvalues of a dense eigh: at points across
     1e-20..1e20 and beside every eigenvalue, the counts agree wherever certain, and every
     certain count matches the dense solve where that resolves the point (small rings)."""
     rng = np.random.default_rng(n)
     for spread in (0.0, 3.0, 12.0):
         mass, springs = disordered_ring(n, spread, n + int(spread))
         ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-        pencil = cycle.ring_pencil(*ring.spring_factor(), mass)
+        pencil = ring_counts.ring_pencil(*ring.spring_factor(), mass)
         m, compliance, off, squares, closing = _kernel_arrays(pencil)
         values = la.eigh(ring.hessian().toarray(), np.diag(mass), eigvals_only=True)
         beside = np.abs(values[1:]) * (1 + np.array([[-1e-6], [1e-6]]))
         x = np.r_[10.0 ** rng.uniform(-20, 20, 200), beside.ravel()]
         compiled, sure, _ = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
-        reference, reference_sure, _ = cycle.count_below_springs(pencil, x)
+        reference, reference_sure, _ = ring_counts.count_below_springs(pencil, x)
         both = sure & reference_sure
         assert np.array_equal(compiled[both], reference[both])
         assert sure.mean() >= reference_sure.mean() - 0.02
@@ -152,7 +150,7 @@ def test_compiled_counts_do_not_depend_on_how_points_are_grouped() -> None:
     blocks of any fill, in any order (the lanes share no arithmetic)."""
     mass, springs = disordered_ring(257, 6.0, 4)
     ring = linear_chain(257, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-    pencil = cycle.ring_pencil(*ring.spring_factor(), mass)
+    pencil = ring_counts.ring_pencil(*ring.spring_factor(), mass)
     m, compliance, off, squares, closing = _kernel_arrays(pencil)
     x = np.r_[10.0 ** np.random.default_rng(1).uniform(-8, 4, 3 * ring_kernel.LANES + 5), 0.0, -1.0, np.inf]
     together = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
@@ -171,9 +169,9 @@ def test_compiled_counts_do_not_depend_on_how_points_are_grouped() -> None:
     masses[0::2] = mass
     path = (site, masses, div(np.ones_like(weights), np.zeros_like(weights), weights, np.zeros_like(weights)),
             mul(np.ones_like(weights), np.zeros_like(weights), np.ones_like(weights), np.zeros_like(weights)))
-    together = ring_kernel.path_counts(x, *path)
+    together = ring_kernel.chain_counts(x, *path)
     for j in range(x.shape[0]):
-        alone = ring_kernel.path_counts(x[j: j + 1], *path)
+        alone = ring_kernel.chain_counts(x[j: j + 1], *path)
         assert alone[0][0] == together[0][j] and alone[1][0] == together[1][j]
 
 
@@ -204,16 +202,16 @@ def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
                 assert np.array_equal(a, b, equal_nan=True)
             site = rng.random(n) < 0.5
             path = (site, m, compliance, (squares[0][:n], squares[1][:n]))
-            count, certain = ring_kernel.path_counts(x, *path)
-            negative, sure = scalar_kernels.path_counts(x, *path)
+            count, certain = ring_kernel.chain_counts(x, *path)
+            negative, sure = scalar_kernels.chain_counts(x, *path)
             assert np.array_equal(certain, sure)
             assert np.array_equal(count, np.count_nonzero(site) - negative)
     for spread in (0.0, 6.0):
         mass, springs = disordered_ring(3001, spread, 2) if spread else (np.ones(3001), np.ones(3001))
         ring = linear_chain(3001, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-        pencil = cycle.ring_pencil(*ring.spring_factor(), mass)
+        pencil = ring_counts.ring_pencil(*ring.spring_factor(), mass)
         m, compliance, off, _, closing = _kernel_arrays(pencil)
-        _, w, c_in, c_out = ring_path.spring_arrays(pencil)
+        _, w, c_in, c_out = ring_values.spring_arrays(pencil)
         d = np.r_[np.abs(np.sqrt(w[:-1]) * c_in[:-1] / np.sqrt(m[:-1])), 0.0]
         poles = np.sort(la.svdvals(np.diag(d) + np.diag(np.abs(np.sqrt(w[:-1]) * c_out[:-1] / np.sqrt(m[1:])), 1)))**2
         low, high = poles[1:-1], poles[2:]
@@ -223,11 +221,11 @@ def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
 
 
 def test_roots_and_bounds_of_ring_values_are_sorted_and_finite() -> None:
-    """`ring_path.ring_values` on a 400-site ring with a spread of 1e6: n values ascending,
+    """`ring_values.ring_values` on a 400-site ring with a spread of 1e6: n values ascending,
     the zero mode exactly 0, every bound finite and certified."""
     mass, springs = disordered_ring(400, 6.0, 9)
     ring = linear_chain(400, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-    found = ring_path.ring_values(cycle.ring_pencil(*ring.spring_factor(), mass))
+    found = ring_values.ring_values(ring_counts.ring_pencil(*ring.spring_factor(), mass))
     assert found is not None
     assert found.values.shape == (400,) and np.all(np.diff(found.values) >= 0)
     assert found.values[0] == 0.0 and found.certified.all() and np.all(np.isfinite(found.bound))
@@ -268,7 +266,7 @@ def test_a_ring_with_a_spring_to_a_wall_agrees_with_the_checked_dense_path(monke
     walled = sp.vstack([sp.csr_matrix(B), sp.csr_matrix(([1.0], ([0], [7])), shape=(1, n))]).tocsr()
     weights = np.r_[w, 0.5]
     K = (walled.T @ sp.diags(weights) @ walled).tocsr()
-    assert cycle.ring_pencil(walled, weights, mass).walls
+    assert ring_counts.ring_pencil(walled, weights, mass).walls
     modes = normal_modes(K, mass, spring_factor=(walled, weights), vectors=False)
     assert modes.solver == "accurate-ring"
     assert np.all(modes.omega_error <= 1e-13 * modes.omega)
@@ -281,7 +279,7 @@ def test_a_ring_with_a_spring_to_a_wall_agrees_with_the_checked_dense_path(monke
 
 def test_a_long_ring_with_vectors_gets_certified_frequencies(monkeypatch: pytest.MonkeyPatch) -> None:
     """Above RING_DENSE_LIMIT with vectors a ring takes its band solver's vectors; their
-    frequencies now come from `ring_path` (certified, paired by rank). RING_DENSE_LIMIT is
+    frequencies now come from `ring.values` (certified, paired by rank). RING_DENSE_LIMIT is
     lowered to 1,000 so that a 1,600-site uniform ring takes that route in a second (measured
     at 6,100 sites: every bound within 9.5e-14, the largest true error 8.6e-15). Truth: the
     closed form; the vectors: residuals of K~ against their certified frequencies."""
@@ -377,7 +375,7 @@ def test_the_lowest_modes_of_rings_longer_than_the_values_limit() -> None:
 def test_the_pairs_of_a_200000_site_uniform_ring_are_bounded_within_1e_13() -> None:
     """The lowest 10 of a uniform ring of 200,000 sites: its pairs' Rayleigh-Ritz bounds, r^2 /
     gap, grow as n^4 relative with float64 vectors (3.2e-12 here, 6 over 1000 times the true
-    error); with vectors refined to extended precision (`golub_kahan.refined_vectors`) every
+    error); with vectors refined to extended precision (`golub_kahan.Refiner`) every
     bound is within 1e-13 relative and meets the criterion. With B~ v formed error-free
     (`spring_ritz._error_free_product`: the Rayleigh quotient's rounding no longer grows as
     1 / omega) every bound is within 1e-15: float64's own rounding of omega (~2 eps) is what
@@ -396,13 +394,13 @@ def test_the_pairs_of_a_200000_site_uniform_ring_are_bounded_within_1e_13() -> N
 
 
 def test_refined_vectors_of_a_double_eigenvalue_reach_extended_precision() -> None:
-    """`golub_kahan.refined_vectors`: a uniform ring's first pair (an exact double eigenvalue),
+    """`golub_kahan.Refiner`: a uniform ring's first pair (an exact double eigenvalue),
     float64 singular vectors leave a residual ||K~ v - omega^2 v|| of a few eps ||K~|| (their own
     rounding); after the extended-precision Newton steps it is below 100 long-double units of
     ||K~|| (a bound r^2 / gap that is quadratic in it then reaches ~1e-20 relative at 20,000
     sites). Residuals in extended precision against the closed form (K~ = K: unit masses)."""
-    from vibra.solvers import golub_kahan
-    from vibra.solvers.spring_ritz import forming_deviation
+    from vibra.solvers.accurate import golub_kahan
+    from vibra.solvers.accurate.spring_ritz import forming_deviation
 
     n = 20000
     ring = linear_chain(n, ends="periodic", units="dimensionless")
@@ -412,7 +410,7 @@ def test_refined_vectors_of_a_double_eigenvalue_reach_extended_precision() -> No
         value = float(4 * mp.sin(mp.pi / n) ** 2)
     values = np.array([value, value])
     rough = golub_kahan.singular_vectors(weighted, values, np.ones(n))
-    fine = golub_kahan.refined_vectors(weighted, forming_deviation(weighted, B, w, np.ones(n)), rough, values)
+    fine = golub_kahan.Refiner(weighted, forming_deviation(weighted, B, w, np.ones(n))).refine(rough, values)
     exact = weighted.astype(np.longdouble)
 
     def residual(V: np.ndarray) -> float:
@@ -432,7 +430,7 @@ def test_the_error_free_product_is_within_one_unit_of_each_entry() -> None:
     cancellation. The Rayleigh quotient of a low mode is formed from it."""
     from fractions import Fraction
 
-    from vibra.solvers.spring_ritz import _error_free_product
+    from vibra.solvers.accurate.spring_ritz import _error_free_product
 
     rng = np.random.default_rng(0)
     ld = np.longdouble
@@ -463,7 +461,7 @@ def test_the_error_free_product_is_within_one_unit_of_each_entry() -> None:
 def test_the_error_free_product_in_row_blocks_is_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
     """`_error_free_product` forms B V in blocks of rows (`EFT_ELEMENTS` entries at a time, to
     bound its temporaries): rows are independent, so blocks of any size give the same bits."""
-    from vibra.solvers import spring_ritz
+    from vibra.solvers.accurate import spring_ritz
 
     rng = np.random.default_rng(1)
     B = sp.random(5000, 3000, density=0.002, random_state=2, format="csr")

@@ -3,7 +3,7 @@
 Before, a ring with any spring to a wall left the ring path above 6,000 sites for the band
 solver (absolute accuracy: its lowest modes off relatively by ||K~|| eps / omega^2) and its
 lowest modes for shift-invert. Now its cut chain (walls kept) has a relatively accurate
-bidiagonal Cholesky factor (`ring_path.cut_chain`), and the spring form's counts and pivots
+bidiagonal Cholesky factor (`ring_values.cut_chain`), and the spring form's counts and pivots
 carry each site's wall (`ring_kernel`), so every frequency is certified as a free ring's is.
 
 Truth from outside the code under test: the closed form of the uniform ring on a wall,
@@ -25,13 +25,12 @@ import scipy.sparse as sp
 
 from vibra import normal_modes
 from vibra._lapack import bidiagonal_singular_values
-from vibra.solvers import cycle, ring_kernel, ring_path
-from vibra.solvers.dd import UNIT
+from vibra.solvers.accurate.ring import counts as ring_counts, kernel as ring_kernel, values as ring_values
+from vibra.solvers.accurate.dd import UNIT
 
 from test_ring_bounds import mp_weighted_gram, ring_count
 from test_ring_values import _kernel_arrays
 
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="accurate-ring needs numba")
 
 EPS = float(np.finfo(float).eps)
 
@@ -71,7 +70,7 @@ def test_the_walled_count_matches_a_dense_solve(n: int) -> None:
 
 
 def test_the_cut_chains_factor_is_relatively_accurate() -> None:
-    """`ring_path.cut_chain` with walls: the squared singular values of its bidiagonal factor
+    """`ring_values.cut_chain` with walls: the squared singular values of its bidiagonal factor
     against 80-digit eigenvalues of the cut chain's K~ (30 chains of 2-59 sites, masses,
     springs and walls over up to 1e12, B's entries not +-1, walls at some sites). Bound:
     8 n eps relatively, from dqds's own few ulps per entry and the recurrence's rounding
@@ -86,7 +85,7 @@ def test_the_cut_chains_factor_is_relatively_accurate() -> None:
         wall = np.zeros(n)
         k = int(rng.integers(1, n + 1))
         wall[rng.choice(n, k, replace=False)] = 10.0 ** rng.uniform(-spread / 2, spread / 2, k)
-        d, e = ring_path.cut_chain(m, w, c_in, c_out, wall)
+        d, e = ring_values.cut_chain(m, w, c_in, c_out, wall)
         got = np.sort(bidiagonal_singular_values(d, e) ** 2)
         with mp.workdps(80):
             K = mp.matrix(n, n)
@@ -108,22 +107,22 @@ def test_the_cut_chains_factor_is_relatively_accurate() -> None:
 
 @pytest.mark.parametrize("n", [3, 5, 40, 300])
 def test_compiled_counts_with_walls_agree_with_the_numpy_spring_form_and_a_dense_solve(n: int) -> None:
-    """`ring_kernel.spring_counts` with walls against `cycle.count_below_springs` (numpy, walls
+    """`ring_kernel.spring_counts` with walls against `ring_counts.count_below_springs` (numpy, walls
     eliminated into each site's diagonal the same way) and a dense eigh: at points across
     1e-20..1e20 and beside every eigenvalue the counts agree wherever both are certain, and
     match the dense solve where it resolves the point."""
     rng = np.random.default_rng(n)
     for spread, walls in ((0.0, None), (3.0, 1), (12.0, max(1, n // 4))):
         B, w, mass, _, _ = walled_ring(n, spread, n + int(spread), walls)
-        pencil = cycle.ring_pencil(B, w, mass)
+        pencil = ring_counts.ring_pencil(B, w, mass)
         assert pencil is not None and pencil.walls
         m, compliance, off, squares, closing = _kernel_arrays(pencil)
-        wall = ring_path.spring_walls(pencil)
+        wall = ring_values.spring_walls(pencil)
         values = la.eigh((B.T @ sp.diags(w) @ B).toarray(), np.diag(mass), eigvals_only=True)
         beside = np.abs(values) * (1 + np.array([[-1e-6], [1e-6]]))
         x = np.r_[10.0 ** rng.uniform(-20, 20, 200), beside.ravel()]
         compiled, sure, _ = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT, wall)
-        reference, reference_sure, _ = cycle.count_below_springs(pencil, x)
+        reference, reference_sure, _ = ring_counts.count_below_springs(pencil, x)
         both = sure & reference_sure
         assert np.array_equal(compiled[both], reference[both])
         assert sure.mean() >= reference_sure.mean() - 0.02
@@ -137,15 +136,15 @@ def test_zero_walls_change_no_bit_of_a_free_rings_kernels() -> None:
     and roots bit for bit (subtracting a zero changes no double-double, nor x m in float64)."""
     rng = np.random.default_rng(4)
     B, w, mass, _, _ = walled_ring(501, 6.0, 3, walls=1)
-    free = cycle.ring_pencil(B[:501], w[:501], mass)
+    free = ring_counts.ring_pencil(B[:501], w[:501], mass)
     m, compliance, off, squares, closing = _kernel_arrays(free)
     x = np.r_[10.0 ** rng.uniform(-12, 6, 61), 0.0, -1.0, np.inf, np.nan]
     zero = (np.zeros(501), np.zeros(501))
     for a, b in zip(ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT),
                     ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT, zero)):
         assert np.array_equal(a, b, equal_nan=True)
-    _, w_path, c_in, c_out = ring_path.spring_arrays(free)
-    d, e = ring_path.cut_chain(m, w_path, c_in, c_out, None)
+    _, w_path, c_in, c_out = ring_values.spring_arrays(free)
+    d, e = ring_values.cut_chain(m, w_path, c_in, c_out, None)
     poles = np.sort(bidiagonal_singular_values(d, e)) ** 2
     low, high = poles[1:-1], poles[2:]
     for a, b in zip(ring_kernel.pivot_roots(low, high, low, high, m, compliance[0], off, closing),
@@ -156,7 +155,7 @@ def test_zero_walls_change_no_bit_of_a_free_rings_kernels() -> None:
 def test_small_walled_rings_are_certified_against_80_digit_eigenvalues() -> None:
     """60 small rings (3-13 sites; masses, springs and walls over up to 1e12; B's entries not
     always +-1; 1..n walls, sometimes two at one site), all values and the lowest 1 and 2 by
-    `ring_path.ring_values`: every value certified, covered by its bound against mpmath.eigsy
+    `ring_values.ring_values`: every value certified, covered by its bound against mpmath.eigsy
     of K~ at 80 digits, and the bound within 1e-13 relative in omega (2e-13 in omega^2)."""
     rng = np.random.default_rng(5)
     for _ in range(60):
@@ -169,9 +168,9 @@ def test_small_walled_rings_are_certified_against_80_digit_eigenvalues() -> None
         W = np.zeros((k, n))
         W[np.arange(k), rng.choice(n, k, replace=rng.random() < 0.3)] = rng.uniform(0.2, 1.0, k)
         B, springs = np.vstack([B, W]), np.r_[springs, 10.0 ** rng.uniform(-spread / 2, spread / 2, k)]
-        pencil = cycle.ring_pencil(sp.csr_matrix(B), springs, mass)
+        pencil = ring_counts.ring_pencil(sp.csr_matrix(B), springs, mass)
         assert pencil is not None and pencil.walls
-        certified_by_eigsy(B, springs, mass, lambda count: ring_path.ring_values(pencil, count))
+        certified_by_eigsy(B, springs, mass, lambda count: ring_values.ring_values(pencil, count))
 
 
 def certified_by_eigsy(B: np.ndarray, springs: np.ndarray, mass: np.ndarray, solve: Any) -> None:

@@ -1,4 +1,4 @@
-"""Tests of vibra/scene/: the scene schema, its validation messages, and the bundled scenes."""
+"""Tests of vibra/pipeline/scene/: the scene schema, its validation messages, and the bundled scenes."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from vibra.modes import SOLVERS
-from vibra.scene import BUILDERS, KINDS, Scene, SceneError, find_scene_files, load_scene
+from vibra.pipeline.scene import BUILDERS, KINDS, Scene, SceneError, find_scene_files, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 BUNDLED = (sorted((ROOT / "chains").glob("*.toml")) + sorted((ROOT / "molecules").glob("*.toml"))
@@ -132,7 +132,7 @@ def test_every_builder_serves_a_known_kind() -> None:
 
 
 def _signature_parameters(builder: str) -> dict[str, inspect.Parameter]:
-    from vibra.scene import builder_function
+    from vibra.pipeline.scene import builder_function
 
     return dict(inspect.signature(builder_function(builder)).parameters)
 
@@ -142,7 +142,7 @@ def test_every_builder_parameter_is_known_to_the_schema(builder: str) -> None:
     # Truth: the builder's own signature. Every parameter is a scene key with the builder's
     # default (required exactly when the builder has none, or the scene must say it), or is
     # listed, with a reason, as not set by scenes. A new builder argument fails here.
-    from vibra.scene.builders import NOT_IN_SCENES, SCENE_ONLY, SCENE_REQUIRED
+    from vibra.pipeline.scene.builders import NOT_IN_SCENES, SCENE_ONLY, SCENE_REQUIRED
 
     _, fields = BUILDERS[builder]
     for name, parameter in _signature_parameters(builder).items():
@@ -160,7 +160,7 @@ def test_every_builder_parameter_is_known_to_the_schema(builder: str) -> None:
 
 def test_a_builder_argument_the_schema_does_not_know_stops_the_derivation(monkeypatch: pytest.MonkeyPatch) -> None:
     import vibra.chains
-    from vibra.scene.builders import builder_fields
+    from vibra.pipeline.scene.builders import builder_fields
 
     original = vibra.chains.beaded_string
 
@@ -201,7 +201,7 @@ def test_dispersion_of_a_chain_with_a_mass_list_is_refused() -> None:
 def test_builder_refusal_is_a_scene_error_at_its_key() -> None:
     # beaded_string with n = 1 passes the schema's type checks; building it (as `vibra validate`
     # does) reports the builder's own check at system.n.
-    from vibra.plan import build_system
+    from vibra.pipeline.plan import build_system
 
     scene = Scene.from_dict({"kind": "chain", "system": {"builder": "beaded_string", "n": 1}}, source="b.toml")
     with pytest.raises(SceneError, match=r"^b\.toml: system\.n: n is 1; a chain needs n >= 2$"):
@@ -339,7 +339,7 @@ def test_unsafe_file_stem_names_the_file_and_the_fix() -> None:
 def test_schema_dof_count_matches_the_built_system(system: dict[str, object]) -> None:
     # Truth: the System that vibra.system builds. n_modes = its dof count must pass the schema
     # check and one more must fail it, naming that count.
-    from vibra.plan import build_system
+    from vibra.pipeline.plan import build_system
 
     kind = "molecule" if system["builder"] in ("co2", "h2o") else "chain"
     n_dof = build_system(Scene.from_dict({"kind": kind, "system": system}, source="s.toml")).n_dof

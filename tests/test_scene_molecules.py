@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibra.plan import build_system, validate
-from vibra.scene import Scene, SceneError, load_scene
+from vibra.pipeline.plan import build_system, validate
+from vibra.pipeline.scene import Scene, SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 

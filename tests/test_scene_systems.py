@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from vibra.plan import execute, make_plan, validate
-from vibra.scene import Scene, SceneError, load_scene
+from vibra.pipeline.plan import execute, make_plan, validate
+from vibra.pipeline.scene import Scene, SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 UBIQUITIN = ROOT / "networks" / "ubiquitin"
@@ -60,7 +60,7 @@ def test_charged_particle_orbits_turn_as_the_lorentz_force_says() -> None:
     # F = q v x B with B along +z and q > 0: free cyclotron motion turns clockwise seen from +z.
     # The faster mode (omega0' + omega_c/2) turns with it, the slower one against it.
     from vibra.charts.orbits import rotation_sense
-    from vibra.plan import build_system
+    from vibra.pipeline.plan import build_system
 
     for sign, faster in ((1.0, "clockwise"), (-1.0, "counter-clockwise")):
         scene = Scene.from_dict(gyroscopic(field=sign * 1.0), source="cp.toml")
@@ -94,8 +94,8 @@ def test_charged_particle_response_peaks_at_the_split_frequencies(tmp_path: Path
                                      "force_site": 0, "method": "direct"}},
             "draw": {"modes": True, "response": True}}
     from vibra import response
-    from vibra.plan import build_system
-    from vibra.plan.checks import response_request
+    from vibra.pipeline.plan import build_system
+    from vibra.pipeline.plan.checks import response_request
 
     scene = Scene.from_dict(spec, source="cp.toml")
     K, M, C, G, omegas, force, method, n_modes = response_request(scene, build_system(scene))
@@ -164,7 +164,7 @@ def test_network_render_is_sized_and_not_blank(tmp_path: Path) -> None:
 
 
 def test_network_arrows_are_decimated_for_large_structures() -> None:
-    from vibra.render import MAX_NETWORK_ARROWS, network_arrow_step
+    from vibra.pipeline.render import MAX_NETWORK_ARROWS, network_arrow_step
 
     for n in (10, 76, 100, 101, 1500, 16716):
         step = network_arrow_step(n)

@@ -1,4 +1,4 @@
-"""Sweeps (vibra.sweep): grids over scene keys, seeded ensembles, tables, on 1 and 2 Dask workers.
+"""Sweeps (vibra.pipeline.sweep): grids over scene keys, seeded ensembles, tables, on 1 and 2 Dask workers.
 
 Truth: the Montroll-Potts closed form for the localised mode of a light mass defect
 (vibra.chains.montroll_potts_frequency, checked against the literature formula in
@@ -20,8 +20,8 @@ import pytest
 
 from vibra.chains import linear_chain, montroll_potts_frequency
 from vibra.cluster import ClusterError
-from vibra.scene import SceneError, load_scene
-from vibra.sweep import SweepTable, ensemble, grid, member_rng, parse_vary, sweep, vary
+from vibra.pipeline.scene import SceneError, load_scene
+from vibra.pipeline.sweep import SweepTable, ensemble, grid, member_rng, parse_vary, sweep, vary
 
 DEFECT = Path(__file__).resolve().parent.parent / "chains" / "mass-defect.toml"
 SEED = 20261123

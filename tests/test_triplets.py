@@ -1,4 +1,4 @@
-"""The compiled certificates of every chain frequency (`vibra.solvers.triplets`, issue 15 item 6).
+"""The compiled certificates of every chain frequency (`vibra.solvers.accurate.chain.triplets`, issue 15 item 6).
 
 Truth from outside the code under test: 40-digit mpmath Sturm counts of the mass-weighted
 tridiagonal built from the springs and masses themselves (`sturm_count` of
@@ -15,10 +15,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from test_chain_bounds_large import all_modes, assert_guides_by_counts, disordered
-from vibra.solvers import bidiagonal
-from vibra.solvers.rounding import Scalings
+from vibra.solvers.accurate.chain import bidiagonal
+from vibra.solvers.accurate.rounding import Scalings
 
-triplets = pytest.importorskip("vibra.solvers.triplets")
+triplets = pytest.importorskip("vibra.solvers.accurate.chain.triplets")
 
 
 @settings(max_examples=30, deadline=None)
@@ -43,7 +43,7 @@ def test_values_of_extreme_chains_are_covered(n: int, exponent: int, seed: int, 
 @pytest.mark.parametrize("spread", [1.0, 1e4, 1e12])
 def test_compiled_and_numpy_routes_both_cover(spread: float, monkeypatch: pytest.MonkeyPatch) -> None:
     """2,000 sites (every a-priori bound over 1e-13, so the compiled route certifies all): the
-    compiled and the numpy certificates (without numba, inside CERTIFY_FROM..CERTIFY_ALL) both
+    compiled and the numpy certificates (the numpy route, inside CERTIFY_FROM..CERTIFY_ALL) both
     cover the truth on a sample, and the compiled bounds are within 100x of numpy's."""
     n = 2000
     mass, springs = (np.ones(n), np.ones(n - 1)) if spread == 1.0 else disordered(n, spread, 7)

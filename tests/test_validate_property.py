@@ -2,7 +2,7 @@
 
 Hypothesis generates scenes within the schema (every builder; numbers log-uniform in
 1e-12..1e12; a few sites each, so each runs fast). For every scene that validation accepts
-(`Scene.from_dict` + `vibra.plan.validate`, what ``vibra validate`` runs), the plan runs (all
+(`Scene.from_dict` + `vibra.pipeline.plan.validate`, what ``vibra validate`` runs), the plan runs (all
 steps but the pyvista renders) and must either succeed or raise a `SceneError` naming a key:
 never another exception. The truth is the property itself, not vibra's earlier output.
 Before this issue, 1,177 of 2,222 accepted scenes failed with plain exceptions."""
@@ -17,8 +17,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vibra.modes import SOLVERS
-from vibra.plan import execute, make_plan, validate
-from vibra.scene import Scene, SceneError
+from vibra.pipeline.plan import execute, make_plan, validate
+from vibra.pipeline.scene import Scene, SceneError
 
 SIZE = st.floats(-12, 12).map(lambda e: float(10.0 ** e))  # numbers in 1e-12 .. 1e12, log-uniform
 

@@ -18,11 +18,9 @@ import scipy.linalg as la
 import scipy.sparse as sp
 
 from vibra import System, normal_modes
-from vibra.solvers import ring_kernel, walled_chain
+from vibra.solvers.accurate.chain import walled
 
 from test_ring_walls import certified_by_eigsy
-
-pytestmark = pytest.mark.skipif(not ring_kernel.AVAILABLE, reason="accurate-walled needs numba")
 
 
 def chain_on_walls(n: int, spread: float, seed: int, walls: int | None = None
@@ -71,26 +69,26 @@ def test_chain_count_matches_a_dense_solve(n: int) -> None:
 
 
 def test_only_chains_with_walls_inside_are_taken() -> None:
-    """`walled_chain.walled_chain`: a chain with a wall inside (or two at one end) yes; a free or
+    """`walled.walled_chain`: a chain with a wall inside (or two at one end) yes; a free or
     fixed chain (a path: `bidiagonal`), a ring, parallel springs or a branch no."""
     n = 6
     B, w, mass, _, _ = chain_on_walls(n, 0.0, 1, walls=1)
-    assert walled_chain.walled_chain(B, w, mass) is not None
-    assert walled_chain.has_inner_walls(B)
+    assert walled.walled_chain(B, w, mass) is not None
+    assert walled.has_inner_walls(B)
     pairs = B[: n - 1]
     end = sp.csr_matrix(([1.0], ([0], [0])), shape=(1, n))
     other_end = sp.csr_matrix(([1.0], ([0], [n - 1])), shape=(1, n))
     fixed = sp.vstack([pairs, end, other_end]).tocsr()
-    assert walled_chain.walled_chain(fixed, np.ones(n + 1), mass) is None and not walled_chain.has_inner_walls(fixed)
+    assert walled.walled_chain(fixed, np.ones(n + 1), mass) is None and not walled.has_inner_walls(fixed)
     doubled = sp.vstack([pairs, end, end]).tocsr()
-    assert walled_chain.walled_chain(doubled, np.ones(n + 1), mass) is not None
+    assert walled.walled_chain(doubled, np.ones(n + 1), mass) is not None
     ring = sp.vstack([pairs, sp.csr_matrix(([-1.0, 1.0], ([0, 0], [n - 1, 0])), shape=(1, n)), B[n - 1:]]).tocsr()
-    assert walled_chain.walled_chain(ring, np.ones(ring.shape[0]), mass) is None
+    assert walled.walled_chain(ring, np.ones(ring.shape[0]), mass) is None
     parallel = sp.vstack([pairs, pairs[2], B[n - 1:]]).tocsr()
-    assert walled_chain.walled_chain(parallel, np.ones(parallel.shape[0]), mass) is None
+    assert walled.walled_chain(parallel, np.ones(parallel.shape[0]), mass) is None
     branch = sp.vstack([pairs[:-1], sp.csr_matrix(([-1.0, 1.0], ([0, 0], [2, n - 1])), shape=(1, n)), B[n - 1:]]).tocsr()
-    assert walled_chain.walled_chain(branch, np.ones(branch.shape[0]), mass) is None
-    assert walled_chain.walled_chain(B, w, np.diag(mass)) is None
+    assert walled.walled_chain(branch, np.ones(branch.shape[0]), mass) is None
+    assert walled.walled_chain(B, w, np.diag(mass)) is None
 
 
 def test_small_chains_on_walls_are_certified_against_80_digit_eigenvalues() -> None:
@@ -110,11 +108,11 @@ def test_small_chains_on_walls_are_certified_against_80_digit_eigenvalues() -> N
         W = np.zeros((k, n))
         W[np.arange(k), rng.integers(0, n, k)] = rng.uniform(0.2, 1.0, k)
         B, springs = np.vstack([B, W]), np.r_[springs, 10.0 ** rng.uniform(-spread / 2, spread / 2, k)]
-        chain = walled_chain.walled_chain(sp.csr_matrix(B), springs, mass)
+        chain = walled.walled_chain(sp.csr_matrix(B), springs, mass)
         if chain is None:  # walls at the two ends only: a path, not this module's
             continue
         taken += 1
-        certified_by_eigsy(B, springs, mass, lambda count: walled_chain.walled_values(chain, count))
+        certified_by_eigsy(B, springs, mass, lambda count: walled.walled_values(chain, count))
     assert taken >= 40
 
 

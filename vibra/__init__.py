@@ -7,12 +7,13 @@ Two kinds of public names, listed in one place each below:
   (vibra.generalized), the unit systems (vibra.units). ``from vibra import *`` binds these
   and nothing else, so it costs no more than ``import vibra``.
 - ``SUBMODULES``: every public submodule (`vibra.chains`, `vibra.molecules`,
-  `vibra.response`, `vibra.continuum`, `vibra.lagrangian`, ...). Those not already imported
-  load on first attribute access (``vibra.chains.linear_chain``), so that ``import vibra``
-  stays light: no pyvista, ase, phonopy or matplotlib. Import them by name
+  `vibra.response`, `vibra.continuum`, `vibra.mechanics`, `vibra.pipeline`, ...). Those not
+  already imported load on first attribute access (``vibra.chains.linear_chain``), so that
+  ``import vibra`` stays light: no pyvista, ase, phonopy or matplotlib. Import them by name
   (``from vibra import chains``).
 
-``dir(vibra)`` lists both, plus ``__version__``.
+``dir(vibra)`` lists both, plus ``__version__``. Modules that moved keep their old names
+(``vibra.pencil``, ``vibra.scene.schema``, ...) as the same module objects: see `vibra._moved`.
 """
 
 from __future__ import annotations
@@ -20,10 +21,13 @@ from __future__ import annotations
 from importlib import import_module as _import_module
 from typing import Any as _Any
 
+from vibra._moved import MOVED as _MOVED, install as _install_moved
 from vibra.generalized import GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.system import System
 from vibra.units import ASE, DIMENSIONLESS, SI, UnitSystem
+
+_install_moved()  # old module names (vibra.pencil, vibra.scene, ...) resolve to the moved modules
 
 __version__ = "0.1.0"
 
@@ -33,15 +37,13 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized",
-    "gyroscopic", "lagrangian", "linearization", "modes", "molecules", "networks", "pencil", "pendulum", "plan",
-    "quadratic", "render", "report", "response", "rigid", "scene", "solvers", "spectra", "structures", "sweep",
-    "system", "units",
+    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized", "mechanics",
+    "modes", "molecules", "networks", "pipeline", "response", "solvers", "spectra", "system", "units",
 )
 
 
 def __getattr__(name: str) -> _Any:
-    if name in SUBMODULES:
+    if name in SUBMODULES or f"vibra.{name}" in _MOVED:  # an old name: the moved module itself
         return _import_module(f"vibra.{name}")
     raise AttributeError(f"module 'vibra' has no attribute {name!r}")
 

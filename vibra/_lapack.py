@@ -97,66 +97,6 @@ def bidiagonal_singular_values(diagonal: ArrayLike, superdiagonal: ArrayLike) ->
     return np.sort(d)
 
 
-def bidiagonal_svd(diagonal: ArrayLike, superdiagonal: ArrayLike, *, left: bool
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Singular values and one side's singular vectors of an upper bidiagonal matrix.
-
-    LAPACK dbdsqr (implicit zero-shift QR): the values to high relative accuracy, the
-    vectors to an angle error ~ eps / relative gap. O(n^3): meant for n up to a few hundred.
-
-    Parameters
-    ----------
-    diagonal : (n,) array_like
-    superdiagonal : (n - 1,) array_like
-    left : bool
-        True for the left singular vectors (columns of U), False for the right ones
-        (columns of V, i.e. rows of V^T).
-
-    Returns
-    -------
-    sigma : (n,) ndarray
-        Ascending singular values.
-    vectors : (n, n) ndarray
-        Column k belongs to sigma[k].
-
-    Raises
-    ------
-    ValueError
-        d or e not finite, or e not of length n - 1.
-    RuntimeError
-        dbdsqr failed to converge (LAPACK info > 0).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> sigma, vectors = bidiagonal_svd([1.0, 1.0], [1.0], left=True)
-    >>> np.round(sigma, 8), np.round(np.abs(vectors[:, 1]), 8)
-    (array([0.61803399, 1.61803399]), array([0.85065081, 0.52573111]))
-    """
-    d, e = _bidiagonal(diagonal, superdiagonal)
-    n = d.shape[0]
-    identity = np.asfortranarray(np.eye(n))
-    unused = np.zeros((1, 1), order="F")
-    vt, u = (unused, identity) if left else (identity, unused)
-    work = np.empty(4 * n, dtype=np.float64)
-    info = ctypes.c_int(0)
-    dbdsqr = _routine("dbdsqr", ctypes.c_char_p, _INT_P, _INT_P, _INT_P, _INT_P, _DOUBLE_P, _DOUBLE_P,
-                      _DOUBLE_P, _INT_P, _DOUBLE_P, _INT_P, _DOUBLE_P, _INT_P, _DOUBLE_P, _INT_P)
-
-    def ref(value: int) -> Any:
-        return ctypes.byref(ctypes.c_int(value))
-
-    dbdsqr(b"U", ref(n), ref(0 if left else n), ref(n if left else 0), ref(0),
-           d.ctypes.data_as(_DOUBLE_P), e.ctypes.data_as(_DOUBLE_P),
-           vt.ctypes.data_as(_DOUBLE_P), ref(vt.shape[0]), u.ctypes.data_as(_DOUBLE_P), ref(u.shape[0]),
-           unused.ctypes.data_as(_DOUBLE_P), ref(1), work.ctypes.data_as(_DOUBLE_P), ctypes.byref(info))
-    if info.value != 0:
-        raise RuntimeError(f"LAPACK dbdsqr failed with info={info.value}")
-    vectors = u if left else vt.T
-    order = np.argsort(d)
-    return d[order], np.ascontiguousarray(vectors[:, order])
-
-
 def _ref(value: int) -> Any:
     return ctypes.byref(ctypes.c_int(value))
 
@@ -244,7 +184,7 @@ def bidiagonal_triplets(diagonal: ArrayLike, superdiagonal: ArrayLike
     """Singular values and both sides' singular vectors of an upper bidiagonal (LAPACK dbdsqr).
 
     Returns (sigma, left, right), sigma ascending, B right[:, k] = sigma[k] left[:, k]. O(n^3):
-    meant for n up to a few hundred (as `bidiagonal_svd`).
+    meant for n up to a few hundred.
 
     Examples
     --------

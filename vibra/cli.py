@@ -132,8 +132,8 @@ def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def _validate(paths: Sequence[str]) -> int:
-    from vibra.plan import validate
-    from vibra.scene import SceneError, find_scene_files, load_scene
+    from vibra.pipeline.plan import validate
+    from vibra.pipeline.scene import SceneError, find_scene_files, load_scene
 
     files = find_scene_files(list(paths))
     if not files:
@@ -157,7 +157,7 @@ def _validate(paths: Sequence[str]) -> int:
 def _write_molden(scene: Any, system: Any, target: str) -> None:
     """`vibra modes --molden FILE`: the molecule's vibrations as a Molden file; refusals as a SceneError."""
     from vibra.molecules import vibrational_analysis, write_molden
-    from vibra.scene import SceneError
+    from vibra.pipeline.scene import SceneError
 
     if scene.kind != "molecule" or getattr(system, "dim", None) != 3:
         raise SceneError(scene.source, "kind", "--molden writes molecules only (a 3-D molecule scene); this is a "
@@ -174,9 +174,9 @@ def _write_molden(scene: Any, system: Any, target: str) -> None:
 def _modes(path: str, molden: str | None = None) -> int:
     import time
 
-    from vibra.plan import REFUSALS, build_system, check_plan, frequency_lines, step_error
-    from vibra.plan.analysis import molecule_symmetry
-    from vibra.scene import SceneError, load_scene
+    from vibra.pipeline.plan import REFUSALS, build_system, check_plan, frequency_lines, step_error
+    from vibra.pipeline.plan.analysis import molecule_symmetry
+    from vibra.pipeline.scene import SceneError, load_scene
 
     try:
         scene = load_scene(path)
@@ -208,7 +208,7 @@ def _modes(path: str, molden: str | None = None) -> int:
 
 def _report(args: argparse.Namespace) -> int:
     from vibra.cluster import ClusterError
-    from vibra.report import FolderBusy, available_cores, missing_paths, report
+    from vibra.pipeline.report import FolderBusy, available_cores, missing_paths, report
 
     missing = missing_paths(args.paths)
     if missing:  # a typo: a usage error that touches nothing
@@ -241,8 +241,8 @@ def _sweep(args: argparse.Namespace) -> int:
     from vibra.charts import save_figure
     from vibra.charts.sweep import sweep_figure
     from vibra.cluster import ClusterError, check_client
-    from vibra.scene import SceneError
-    from vibra.sweep import grid, parse_vary, sweep
+    from vibra.pipeline.scene import SceneError
+    from vibra.pipeline.sweep import grid, parse_vary, sweep
 
     try:
         points = grid(*(parse_vary(text) for text in args.vary))

@@ -1,7 +1,7 @@
 """Work that fans out, on Dask: which cluster to use, and running a list of tasks on it.
 
 vibra has no scheduler of its own (DESIGN.md, "Scale"): finite-difference displacements
-(`vibra.molecules.finite_difference_hessian`) and sweeps (`vibra.sweep`) hand their tasks to
+(`vibra.molecules.finite_difference_hessian`) and sweeps (`vibra.pipeline.sweep`) hand their tasks to
 ``dask.distributed``, an optional extra (``pip install "vibra[distributed]"``).
 
 Where the work runs is one argument, ``client``:

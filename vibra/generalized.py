@@ -10,13 +10,13 @@ the protocol `vibra.system.Vibrating`, so a function that takes any system check
 ``isinstance(s, Vibrating)`` and tells the two apart with `is_generalized`.
 
 Build one with ``vibra.System.generalized(M, K)`` (or `GeneralizedSystem.from_matrices`);
-`vibra.lagrangian.linearize` and `vibra.rigid` return them.
+`vibra.mechanics.lagrangian.linearize` and `vibra.mechanics.rigid` return them.
 
 With a skew-symmetric gyroscopic matrix G and/or a symmetric damping matrix C
 (``System.generalized(M, K, G=..., C=...)``) the equations are M q'' + (G + C) q' + K q = 0
-and `modes` returns a `vibra.quadratic.QuadraticModes` (natural frequency, damping ratio,
+and `modes` returns a `vibra.solvers.structured.quadratic.QuadraticModes` (natural frequency, damping ratio,
 complex shapes) instead of `Modes`. Without them a dense M goes through
-`vibra.pencil.pencil_modes`, which keeps the accuracy of ill-conditioned mass matrices.
+`vibra.solvers.structured.pencil.pencil_modes`, which keeps the accuracy of ill-conditioned mass matrices.
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
-from vibra.pencil import check_mass_matrix, pencil_modes
-from vibra.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
+from vibra.solvers.structured.pencil import check_mass_matrix, pencil_modes
+from vibra.solvers.structured.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
 from vibra.units import UnitSystem, unit_system
 
 __all__ = ["GeneralizedSystem", "FreeDofs"]
@@ -142,7 +142,7 @@ class GeneralizedSystem(FreeDofs):
         M : (n, n) or (n,) array_like
             Symmetric positive-definite mass matrix, or its diagonal (kg m^2 for angles in SI).
             An ill-conditioned M is accepted; it is refused only when singular or indefinite
-            to working precision (`vibra.pencil.check_mass_matrix`).
+            to working precision (`vibra.solvers.structured.pencil.check_mass_matrix`).
         K : (n, n) array_like
             Symmetric stiffness matrix (J per rad^2 for angles in SI).
         G : (n, n) array_like, optional
@@ -276,7 +276,7 @@ class GeneralizedSystem(FreeDofs):
         return self.G is not None or self.C is not None
 
     def quadratic_modes(self) -> QuadraticModes:
-        """Modes of M q'' + (G + C) q' + K q = 0 over the free coordinates (`vibra.quadratic`).
+        """Modes of M q'' + (G + C) q' + K q = 0 over the free coordinates (`vibra.solvers.structured.quadratic`).
 
         Works without G and C too (then every damping ratio is 0 for a stable system).
         Warns (RuntimeWarning) when the system is unstable.
@@ -306,9 +306,9 @@ class GeneralizedSystem(FreeDofs):
     ) -> Modes | QuadraticModes:
         """Normal modes of the free coordinates (seed 003 eqs. 137-151); see `vibra.System.modes`.
 
-        Returns `Modes`, or a `vibra.quadratic.QuadraticModes` when the system has G or C
+        Returns `Modes`, or a `vibra.solvers.structured.quadratic.QuadraticModes` when the system has G or C
         (`is_quadratic`; all modes, so n_modes and band must be None there). A dense,
-        non-diagonal M with ``solver="auto"`` is solved by `vibra.pencil.pencil_modes`
+        non-diagonal M with ``solver="auto"`` is solved by `vibra.solvers.structured.pencil.pencil_modes`
         (solver ``"pencil-jacobi"`` or ``"pencil-cholesky"``), which keeps the accuracy that
         an ill-conditioned M would cost the mass-weighted form. `accuracy`, `device`,
         `max_memory`, `max_seconds` and `progress` mean what they mean for `vibra.normal_modes`;

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate, solvers
-from vibra.solvers import gpu
+from vibra.solvers.standard import gpu
 from vibra._frozen import freeze_arrays, owned_arrays
 from vibra._results import ModesResult
 from vibra.solvers.common import omega_and_error
@@ -68,7 +68,7 @@ class Modes(ModesResult):
         bound's reach refined by spring-space Rayleigh-Ritz (6 zero within rounding); 1494
         kept from the dense solve, ..."``; None where `refined` is None.
 
-    Shared with `vibra.quadratic.QuadraticModes` (`vibra._results.ModesResult`): `path` (the
+    Shared with `vibra.solvers.structured.quadratic.QuadraticModes` (`vibra._results.ModesResult`): `path` (the
     same as `solver`), ``len(modes)``, ``modes[6:]`` / ``modes[k]`` / ``modes[mask]`` (a
     smaller `Modes`), a short repr, `to_dict` / `from_dict`, and `save` / `load` (``.npz``).
     """
@@ -354,7 +354,7 @@ def normal_modes(
         (``pip install "vibra[gpu]"``), then keeps `n_modes` or `band`; only with solver
         "auto" or "dense". Its memory (K~ and cuSOLVER's workspace, about 5 n^2 doubles) is
         checked against the GPU's free memory before anything is allocated. Without CuPy or a
-        GPU it raises `vibra.solvers.gpu.GPUUnavailableError`; it never falls back to the CPU.
+        GPU it raises `vibra.solvers.standard.gpu.GPUUnavailableError`; it never falls back to the CPU.
 
     Returns
     -------
@@ -365,7 +365,7 @@ def normal_modes(
     TypeError
         K, M or spring_factor not real numbers (complex, text); vectors or symmetrize not a
         bool; solver not a str.
-    vibra.solvers.gpu.GPUUnavailableError
+    vibra.solvers.standard.gpu.GPUUnavailableError
         device="gpu" without CuPy or without a usable GPU (the message names the extra).
     ValueError
         An unknown device, or device="gpu" with a solver other than "auto" or "dense", or a
@@ -429,8 +429,8 @@ def normal_modes(
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                            spring_factor=factor, accuracy=accuracy)
-    solvers.check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
-                       max_seconds=max_seconds)
+    solvers.check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
+                             max_seconds=max_seconds)
 
     if not sp.issparse(K_matrix):
         _validate.finite(K_matrix, "K")

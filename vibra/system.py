@@ -354,7 +354,7 @@ class System(FreeDofs):
         there for the parameters, in the same order, and the checks): M (n, n) symmetric
         positive definite (or its diagonal; ill-conditioned is fine), K (n, n) symmetric,
         optional G (skew-symmetric, gyroscopic) and C (symmetric, damping), optional
-        coordinate names. With G or C, ``modes()`` returns a `vibra.quadratic.QuadraticModes`.
+        coordinate names. With G or C, ``modes()`` returns a `vibra.solvers.structured.quadratic.QuadraticModes`.
         It has no sites: ``freeze(sites=...)`` raises, ``freeze(dofs=...)`` holds coordinates
         at rest.
 

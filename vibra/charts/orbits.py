@@ -1,6 +1,6 @@
 """Orbits of gyroscopic modes: each complex mode shape traced in the plane of two coordinates.
 
-A mode of M q'' + G q' + K q = 0 (`vibra.quadratic.QuadraticModes`) moves as
+A mode of M q'' + G q' + K q = 0 (`vibra.solvers.structured.quadratic.QuadraticModes`) moves as
 q(t) = Re{x exp(i omega t)}: with two coordinates (x, y) it traces an ellipse, a circle when
 |x_1| = |x_2| with a quarter-period lag (the charged particle in a magnetic field: one mode
 turns one way, the other the other way). `plot_mode_orbits` draws one panel per mode, the
@@ -54,7 +54,7 @@ def plot_mode_orbits(modes: Any, *, coordinates: Sequence[str] = ("x", "y"), len
 
     Parameters
     ----------
-    modes : vibra.quadratic.QuadraticModes
+    modes : vibra.solvers.structured.quadratic.QuadraticModes
         Complex shapes (n_dof >= 2; the first two coordinates are drawn) and frequencies.
     coordinates : pair of str
         Names of the two coordinates (axis labels).

@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 from vibra import _validate
 from vibra.charts._style import new_figure
 from vibra.modes import Modes
-from vibra.pendulum import HarmonicError, PendulumMotion
+from vibra.mechanics.pendulum import HarmonicError, PendulumMotion
 
 __all__ = ["plot_period_vs_amplitude", "plot_double_pendulum_modes", "plot_trajectory_comparison"]
 
@@ -30,7 +30,7 @@ def plot_period_vs_amplitude(errors: HarmonicError) -> Figure:
     Parameters
     ----------
     errors : HarmonicError
-        From `vibra.pendulum.harmonic_error`, amplitudes ascending.
+        From `vibra.mechanics.pendulum.harmonic_error`, amplitudes ascending.
     """
     if not isinstance(errors, HarmonicError):
         raise TypeError(f"errors must be a HarmonicError, got {type(errors).__name__}")
@@ -62,7 +62,7 @@ def plot_double_pendulum_modes(modes: Modes, a: float, b: float, *, amplitude: f
     Parameters
     ----------
     modes : Modes
-        Modes of `vibra.lagrangian.double_pendulum` (coordinates theta, phi; 2 modes with
+        Modes of `vibra.mechanics.lagrangian.double_pendulum` (coordinates theta, phi; 2 modes with
         shapes), omega in rad/s.
     a, b : float
         Lengths of the upper and lower string, in m.

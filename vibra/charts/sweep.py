@@ -1,6 +1,6 @@
 """Chart of a sweep: every frequency of every point against the first swept key.
 
-Takes a `vibra.sweep.SweepTable` (duck-typed: charts draw what the higher stages computed and
+Takes a `vibra.pipeline.sweep.SweepTable` (duck-typed: charts draw what the higher stages computed and
 import none of them) and returns the figure and a caption; save it with
 `vibra.charts.save_figure`.
 """

@@ -28,7 +28,7 @@ integration of the first-order form (`Transient.method` says which).
 
 `system_frequency_response` and `system_transient_response` take a `vibra.System` as it is:
 a generalised system (`System.generalized(M, K, C=..., G=...)`, `lagrangian.linearize`,
-`vibra.gyroscopic`) brings its C and G (`system_matrices`).
+`vibra.mechanics.gyroscopic`) brings its C and G (`system_matrices`).
 
 Free structures (rigid-body modes, omega_k = 0): their receptance -1/w^2 is unbounded as
 w -> 0, so w = 0 is refused with an error naming the frequency; for w > 0 the rigid-body

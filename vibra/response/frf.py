@@ -133,7 +133,7 @@ def frequency_response(
         Force amplitudes f (force Re{f exp(i w t)}), in force units; complex amplitudes
         carry a phase per dof (f_j = |f_j| exp(i phi_j)), which the response keeps.
     G : (n_dof, n_dof) array_like or scipy.sparse matrix, optional
-        Skew-symmetric gyroscopic matrix (G^T = -G within `vibra.quadratic.SKEW_RTOL` * max|G|),
+        Skew-symmetric gyroscopic matrix (G^T = -G within `vibra.solvers.structured.quadratic.SKEW_RTOL` * max|G|),
         in mass per time unit; it does no work. Methods ``"direct"`` and ``"state_space"``;
         a zero G counts as none.
     method : {"direct", "modal", "state_space"}

@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra import _validate
-from vibra.quadratic import SKEW_RTOL, check_gyroscopic
+from vibra.solvers.structured.quadratic import SKEW_RTOL, check_gyroscopic
 from vibra.solvers.budget import Estimate
 from vibra.solvers.common import bandwidth
 
@@ -51,8 +51,8 @@ def check_structure(K: Any, M: Any, C: Any, force: Any, *, complex_force: bool =
 def check_skew(G: Any, n_dof: int, name: str = "G") -> Any:
     """G as a skew-symmetric (n_dof, n_dof) matrix (dense or CSR), or None when G is None or zero.
 
-    Skew within `vibra.quadratic.SKEW_RTOL` * max|G|, as `System.generalized` checks it (a
-    dense G goes through `vibra.quadratic.check_gyroscopic`, the same message). A zero G is
+    Skew within `vibra.solvers.structured.quadratic.SKEW_RTOL` * max|G|, as `System.generalized` checks it (a
+    dense G goes through `vibra.solvers.structured.quadratic.check_gyroscopic`, the same message). A zero G is
     returned as None, so that the undamped or proportionally damped fast paths still apply.
 
     Raises

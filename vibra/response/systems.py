@@ -1,7 +1,7 @@
 """The response of a `vibra.System` as it is: K, M and, for generalised coordinates, C and G.
 
 `frequency_response` and `transient_response` take matrices. A system built by
-`System.generalized(M, K, C=..., G=...)`, `lagrangian.linearize` or `vibra.gyroscopic` carries
+`System.generalized(M, K, C=..., G=...)`, `lagrangian.linearize` or `vibra.mechanics.gyroscopic` carries
 its damping C and gyroscopic G; `system_matrices` reads all four over the free degrees of
 freedom, and `system_frequency_response` / `system_transient_response` pass them on
 unchanged (G included), with the system's units. Extra damping (Rayleigh damping of a chain,

@@ -18,7 +18,7 @@
                    factors, a block Krylov iteration.
 ``accurate``       The system knows its springs, K = B^T W B: frequencies are the singular
                    values of B~ = W^1/2 B M^-1/2, computed to high *relative* accuracy.
-                   - a chain (the springs form a path): dqds on the Golub-Kahan bidiagonal;
+                   - a chain (each spring joins neighbouring sites): dqds on its Golub-Kahan bidiagonal;
                    - few modes of a large system: sparse shift-invert vectors, then a
                      Rayleigh-Ritz step in spring space (H = (B~V)^T (B~V), O(N k));
                    - any other small system: the fast dense solve, certified by its a-priori
@@ -26,20 +26,20 @@
                      spring space and a Kato-Temple bound per mode (accurate-checked); the
                      one-sided Jacobi SVD (LAPACK gejsv) of B~ only when a requested mode's
                      bound misses 1e-10 relative (accurate-jacobi);
-                   - all modes of a large non-path system: the same, with the Jacobi
-                     fallback while gejsv's n_terms n^2 stays within `accurate.JACOBI_WORK`
+                   - all modes of a large non-chain system: the same, with the Jacobi
+                     fallback while gejsv's n_terms n^2 stays within `common.JACOBI_WORK`
                      (rings to 4,000 sites), else without (accurate-rayleigh);
                    - a ring up to 6,000 sites: each bound then certified by Sturm counts of
-                     its pencil in double-double (`cycle.py`);
+                     its pencil in double-double (`accurate/ring/counts.py`);
                    - all frequencies, no vectors, of a ring of 100 sites or more (free or with
                      springs to a wall), or its lowest n_modes, at any length the budget
                      allows: roots of its spring
                      form's last pivot between the eigenvalues of the chain it is cut into, each
                      certified by compiled double-double Sturm counts, O(n^2) for all,
-                     O(n k) for the lowest k (accurate-ring; `ring_path.py`, `ring_kernel.py`);
+                     O(n k) for the lowest k (accurate-ring; `accurate/ring/values.py`, `kernel.py`);
                    - the same, of a chain of 100 sites or more with springs to a wall inside
                      it: dqds (or bisection) on its bidiagonal Cholesky factor, each value
-                     certified by the same counts (accurate-walled; `walled_chain.py`).
+                     certified by the same counts (accurate-walled; `accurate/chain/walled.py`).
 =================  ==========================================================================
 
 Before anything is allocated, `plan` describes the request (`registry.Problem`: sizes, the
@@ -51,34 +51,52 @@ with the figures and the cheaper requests (`vectors=False`, `n_modes`, `band`), 
 Every path returns a `SolveResult` with an error estimate per eigenvalue, the largest
 relative residual and the orthogonality error, which `vibra.modes.Modes` carries.
 
-Where each path lives:
+Where each path lives (one folder per family of paths; the registry and its helpers at the top):
 
-=====================  ======================================================================
-``common.py``          `SolveResult`, mass weighting, the accuracy figures, size limits
-``standard.py``        dense, tridiagonal, banded (absolute accuracy)
-``sparse.py``          shift-invert for a few modes or a band (the factor, the shift, the probe)
-``ordering.py``        nested-dissection ordering (METIS through pymetis) for SuperLU
-``pardiso.py``         the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
-``krylov.py``          block Krylov iteration (block Arnoldi, full reorthogonalisation)
-``bidiagonal.py``      accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal; certificates
-``triplets.py``        the chains' compiled certificates (numba), one triplet per value
-``lowest.py``          accurate-bisection: the lowest modes of a chain by Golub-Kahan bisection
-``rounding.py``        error-free arithmetic behind the chain bounds (entry roundings, scalings)
-``cycle.py``           a ring's pencil and its Sturm counts in double-double (certified bounds)
-``ring_path.py``       accurate-ring: a ring's frequencies, roots certified by counts
-``ring_kernel.py``     its compiled loops (numba): the spring form's pivots, roots and counts
-``walled_chain.py``    accurate-walled: a chain with springs to a wall inside it, values certified by counts
-``dd.py``              double-double arithmetic on arrays: sums, LU and its solves
-``accurate.py``        accurate dispatch; -checked, -ritz, -rayleigh, -jacobi, -ring
-``spring_ritz.py``     spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s own rounding
-``golub_kahan.py``     B~'s singular triplets by Golub-Kahan inverse iteration (Kato-Temple)
-``topology.py``        the springs' shape (chain, walled chain, ring, walled ring, network), classified once
-``registry.py``        every path: when it applies, what it costs, how it runs (`PATHS`, `choose`)
-``runners.py``         one run function per registered path
-``dispatch.py``        `plan` (describe the request, let the registry choose, estimate), `solve`
-``budget.py``          memory / time estimates, the guard and its limits, progress reports
-``gpu.py``             ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
-=====================  ======================================================================
+==================================  ==========================================================
+``common.py``                       `SolveResult`, mass weighting, the accuracy figures, size limits
+``topology.py``                     the springs' shape (chain, walled chain, ring, walled ring,
+                                    network), classified once
+``registry.py``                     every path: when it applies, what it costs, how it runs
+                                    (`PATHS`, `choose`)
+``runners.py``                      one run function per registered path
+``dispatch.py``                     `plan` (describe the request, let the registry choose,
+                                    estimate), `solve`
+``budget.py``                       memory / time estimates, the guard and its limits, progress
+``standard/lapack.py``              dense, tridiagonal, banded (absolute accuracy)
+``standard/sparse.py``              shift-invert for a few modes or a band (the factor, the
+                                    shift, the probe)
+``standard/ordering.py``            nested-dissection ordering (METIS through pymetis) for SuperLU
+``standard/pardiso.py``             the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
+``standard/krylov.py``              block Krylov iteration (block Arnoldi, full reorthogonalisation)
+``standard/gpu.py``                 ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
+``accurate/springs.py``             the accurate paths of any spring system: -checked, -ritz,
+                                    -rayleigh, -jacobi; a ring's bounds certified by counts
+``accurate/spring_ritz.py``         spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s
+                                    own rounding
+``accurate/golub_kahan.py``         B~'s singular triplets by Golub-Kahan inverse iteration
+                                    (Kato-Temple)
+``accurate/dd.py``                  double-double arithmetic on arrays: sums, LU and its solves
+``accurate/rounding.py``            error-free arithmetic behind the chain bounds (entry roundings,
+                                    scalings)
+``accurate/chain/bidiagonal.py``    accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal;
+                                    certificates
+``accurate/chain/triplets.py``      the chains' compiled certificates (numba), one triplet per value
+``accurate/chain/lowest.py``        accurate-bisection: the lowest modes of a chain by Golub-Kahan
+                                    bisection
+``accurate/chain/gk_bisection.py``  that bisection, compiled, LANES values at a time
+``accurate/chain/walled.py``        accurate-walled: a chain with springs to a wall inside it,
+                                    values certified by counts
+``accurate/chain/sturm_counts.py``  Sturm counts of a chain's spring form: certificates for values
+                                    in clusters
+``accurate/ring/counts.py``         a ring's pencil and its Sturm counts in double-double
+                                    (certified bounds)
+``accurate/ring/values.py``         accurate-ring: a ring's frequencies, roots certified by counts
+``accurate/ring/kernel.py``         its compiled loops (numba): the spring form's pivots, roots
+                                    and counts
+``structured/pencil.py``            K x = omega^2 M x with a full, possibly ill-conditioned M
+``structured/quadratic.py``         gyroscopic and damped modes (`QuadraticModes`)
+==================================  ==========================================================
 
 Examples
 --------
@@ -93,22 +111,30 @@ Examples
 
 from __future__ import annotations
 
-from vibra.solvers.common import (
-    ACCURACY_LEVELS, BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
-    check_factor_matches, check_spring_factor, largest_entry,
-    mass_weighted, physical_shapes,
-)
+from vibra.solvers.budget import Estimate, Progress, ResourceLimitError, estimate, guard
+from vibra.solvers.common import ACCURACY_LEVELS, SolveResult, mass_weighted, physical_shapes
+from vibra.solvers.dispatch import SOLVER_NAMES, SolvePlan, alternatives, check_solve_plan, plan, solve
+
+# Importable from vibra.solvers as before, though not part of its API (`__all__`), so that no
+# ``from vibra.solvers import X`` breaks: constants and helpers of its modules, the former names.
 from vibra.solvers import budget
-from vibra.solvers.bidiagonal import Segment
-from vibra.solvers.budget import (
-    Estimate, Progress, ResourceLimitError, available_memory, estimate, guard,
+from vibra.solvers.accurate.chain.bidiagonal import Segment
+from vibra.solvers.budget import available_memory
+from vibra.solvers.common import (
+    BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, check_factor_matches,
+    check_spring_factor, largest_entry,
 )
-from vibra.solvers.dispatch import SOLVER_NAMES, SOLVER_PATHS, Plan, alternatives, check_plan, plan, solve
+from vibra.solvers.dispatch import SOLVER_PATHS
 
 __all__ = [
-    "ACCURACY_LEVELS", "SOLVER_NAMES", "SOLVER_PATHS", "SolveResult", "solve", "check_spring_factor", "physical_shapes",
-    "mass_weighted", "Segment", "EPS", "DENSE_LIMIT", "BAND_LIMIT", "DENSE_ALL_LIMIT", "BDSQR_LIMIT",
-    "SAMPLE", "Plan", "plan", "check_plan", "alternatives", "Estimate", "Progress", "ResourceLimitError",
-    "available_memory", "estimate", "guard", "budget", "check_factor_matches", "FACTOR_RTOL",
-    "largest_entry",
+    "solve", "plan", "SolvePlan", "check_solve_plan", "alternatives", "SolveResult", "ResourceLimitError",
+    "Estimate", "estimate", "guard", "Progress", "ACCURACY_LEVELS", "SOLVER_NAMES", "physical_shapes",
+    "mass_weighted",
 ]
+
+Plan = SolvePlan  #: the former name of `SolvePlan`
+check_plan = check_solve_plan  #: the former name of `check_solve_plan`
+
+# (the names kept importable above, used once here so that no linter takes them for unused imports)
+_IMPORTABLE = (budget, Segment, available_memory, BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS,
+               FACTOR_RTOL, SAMPLE, check_factor_matches, check_spring_factor, largest_entry, SOLVER_PATHS)

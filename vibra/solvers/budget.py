@@ -11,7 +11,7 @@ overrides them per call):
 - `MEMORY_LIMIT`: bytes a solve may allocate; None (the default) means the memory available
   now (``MemAvailable`` of /proc/meminfo, or the cgroup limit when lower).
 - `TIME_LIMIT_S`: estimated seconds above which a solve is refused (600 s by default, as a
-  scene's `vibra.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
+  scene's `vibra.pipeline.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
 - `PROGRESS_AFTER_S`: solves estimated to take longer than this (5 s) report their progress
   on stderr: a line when they start (the estimate), one per stage, one when done.
 
@@ -50,8 +50,7 @@ from dataclasses import dataclass
 from typing import Callable, TextIO
 
 from vibra.solvers.common import RING_DENSE_LIMIT
-from vibra.solvers.golub_kahan import HIGH_ROWS, triplet_seconds
-from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
+from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, triplet_seconds
 
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
 MEMORY_LIMIT: float | None = None
@@ -63,24 +62,23 @@ TIME_LIMIT_S = 600.0
 PROGRESS_AFTER_S = 5.0
 
 # Seconds per unit of work (see the table in the module docstring).
+# (the measurements behind them: benchmarks/RESULTS.md, "Figures formerly in code comments")
 DENSE_VALUES_S = 5e-11        # per n^3: Householder tridiagonalisation + MRRR values
 DENSE_VECTORS_S = 1.5e-10     # per n^3: the same with back-transformed vectors
 TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or bidiagonal
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
-BANDED_S = 2e-9               # per (b + 1) n^2: band reduction (sbevd: 1.1-2.4e-8 n^2 in all at b = 2..11)
+BANDED_S = 2e-9               # per (b + 1) n^2: band reduction
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
-SPARSE_FACTOR_S = 1.2e-8      # per n^2: a 3-D network's factor and its solves (lowest 26, one thread:
-                              # 3o21 0.41 s, 7pbl 0.61 s, 30,000 dofs 19.9 s, 4v8r's 50,148 dofs 12.7 s)
+SPARSE_FACTOR_S = 1.2e-8      # per n^2: a 3-D network's factor and its solves
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
-BISECTION_S = 3e-6            # per n k: a chain's bisection (dstebz) + dstein, without numba (measured 2.4e-6)
-BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates (measured 6.3e-7)
-BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates (measured 3.4e-7)
-CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate (measured 7.5-10 ns)
-RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring_path`; 1.4-2.4e-8 measured)
-RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring_path.MP_WORK`)
-MP_COUNT_S = 2e-5             # per site: one mpmath count (~0.15 s at 8,000 sites)
+BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates
+BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates
+CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate
+RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring.values`)
+RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring.values.MP_WORK`)
+MP_COUNT_S = 2e-5             # per site: one mpmath count
 RING_MP_EXPECTED = 2.0        # mpmath counts expected per ring solve (at most 24; most solves need none)
-RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths (~3 s at 1,600)
+RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths
 TRIPLET_UNIT_S = 3.6e-8       # per LU entry of a Golub-Kahan solve (`golub_kahan.triplet_seconds` uses it too)
 TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and mode (8 + ~20 of fill)
 HIGH_LOOSE = 1                # modes "high" is estimated to refine by triplets (bounds over 1e-10: rare)
@@ -151,7 +149,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
     elif path in ("banded", "accurate-ring-band"):
         memory = 8.0 * (width + 1) * n * 3 + (8.0 * n2 + vector_bytes if vectors else 0.0)
         # the band's reduction to tridiagonal, then its values as on the tridiagonal path (a
-        # subset by bisection: a ring of 10^5 sites, lowest 10, was estimated 160 s for 25 s)
+        # subset by bisection; figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
         values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
         seconds = BANDED_S * (width + 1) * n2 + values_s + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
     elif path in ("sparse", "accurate-ritz"):
@@ -167,12 +165,12 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein),
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
-        seconds = (BISECTION_S if not COMPILED else BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
+        seconds = (BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
     elif path in ("accurate-ring", "accurate-walled"):
         # the cut chain's values (dqds, or bisection for the lowest k + 1), then each value's
         # roots and counts (a chain on walls: its values' counts, no roots)
         memory = 8.0 * 40 * n + vector_bytes
-        each = BISECTION_VALUES_S if COMPILED else BISECTION_S  # (the poles: values only)
+        each = BISECTION_VALUES_S  # (the poles: values only)
         poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
         seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, RING_MP_EXPECTED * n)
         if vectors and path == "accurate-walled" and k >= n - 1:  # all of them: stemr's (tridiagonal)
@@ -194,7 +192,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         seconds = JACOBI_S * rows * n * n
     if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "accurate-ritz"):
         seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy, one_dimensional=one_dimensional)
-    if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring_path` too
+    if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring.values` too
         seconds += RING_S * n2
     return Estimate(path, memory, seconds, what)
 

@@ -1,6 +1,6 @@
 """Shared pieces of the solver paths: the result record, mass weighting, accuracy figures.
 
-Every path (`vibra.solvers.standard`, `.sparse`, `.bidiagonal`, `.accurate`) returns a
+Every path (`vibra.solvers.standard.lapack`, `.sparse`, `.bidiagonal`, `.accurate`) returns a
 `SolveResult`; `absolute_figures` gives the residual, orthogonality and error estimate of a
 backward-stable (absolute-accuracy) path.
 """
@@ -35,18 +35,20 @@ DENSE_LIMIT = 1500
 ACCURACY_LEVELS = ("fast", "high", "certified")
 
 #: A ring (or a chain with springs to a wall inside it) of at least this many sites takes its
-#: own values path (`ring_path`, `walled_chain`): at 100 sites ~1 ms where the checked dense
-#: solve takes ~0.1 s; a smaller one keeps the dense solve (instant there, its bounds often tighter).
+#: own values path (`ring.values`, `chain.walled`), far cheaper there than the checked dense
+#: solve; a smaller one keeps the dense solve (instant there, its bounds often tighter).
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 RING_VALUES_FROM = 100
 
 #: A ring with all its vectors up to this many dofs takes the checked dense solve, its bounds
-#: then certified by Sturm counts (`cycle`); above, the band solver's vectors with the ring
+#: then certified by Sturm counts (`ring.counts`); above, the band solver's vectors with the ring
 #: path's certified values (``accurate-ring-band``).
 RING_DENSE_LIMIT = 6000
 
 #: One-sided Jacobi (gejsv) on the n_terms x n B~ is the fallback of the checked dense solve
-#: while n_terms n^2 stays within this (a ring of 4,000 sites: ~40 s); above DENSE_LIMIT only
+#: while n_terms n^2 stays within this (a ring of 4,000 sites); above DENSE_LIMIT only
 #: systems with few springs per dof (rings, ladders) qualify, a 3-D network never does.
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 JACOBI_WORK = 4000**3
 
 #: A partial solve of a chain whose K~ diagonal spans more than this ratio (disorder in the

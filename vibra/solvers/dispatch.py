@@ -16,7 +16,7 @@ import vibra.solvers.common as common
 from vibra.solvers.common import (
     BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
-from vibra.solvers.lowest import spring_factor_of_chain
+from vibra.solvers.accurate.chain.lowest import spring_factor_of_chain
 from vibra.solvers.registry import (
     BY_NAME, Problem, choose, path_names,
 )
@@ -32,7 +32,7 @@ SOLVER_PATHS = path_names()
 
 
 @dataclass(frozen=True)
-class Plan:
+class SolvePlan:
     """What `solve` will run: the solver family, the path, the `registry.Problem` it was chosen
     for, and the path's cost estimate; `fast` the cost of ``accuracy="fast"`` where more was
     asked, `lowest` that of the same request for the lowest 10 modes."""
@@ -92,7 +92,7 @@ def plan(
     spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
     accuracy: str = "high",
     device: str = "cpu",
-) -> Plan:
+) -> SolvePlan:
     """Choose the path for this request (`registry.choose`; "auto" picks one) and estimate its
     cost; nothing allocated.
 
@@ -114,8 +114,8 @@ def plan(
         if band is None and (n_modes is None or n_modes > 50) and problem.n > 10:
             ten = replace(problem, n_modes=10)
             lowest = choose(ten, solver).estimate(ten)
-    return Plan(path.family if solver == "auto" else solver, path.name, problem.width, problem.ordering, cost,
-                problem.nnz, problem.n, fast, lowest, accuracy, problem)
+    return SolvePlan(path.family if solver == "auto" else solver, path.name, problem.width, problem.ordering, cost,
+                     problem.nnz, problem.n, fast, lowest, accuracy, problem)
 
 
 def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *,
@@ -146,7 +146,7 @@ def _stored(K: NDArray[np.float64] | sp.csr_matrix) -> int:
     return int(K.nnz)
 
 
-def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
+def alternatives(request: SolvePlan, *, n: int, n_modes: int | None, vectors: bool,
                  band: tuple[float, float] | None) -> list[str]:
     """The cheaper requests that answer most questions, each with its own estimate."""
     options = []
@@ -168,8 +168,8 @@ def alternatives(request: Plan, *, n: int, n_modes: int | None, vectors: bool,
     return options
 
 
-def check_plan(request: Plan, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
-               max_memory: float | None, max_seconds: float | None) -> None:
+def check_solve_plan(request: SolvePlan, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+                     max_memory: float | None, max_seconds: float | None) -> None:
     """`budget.guard` on a plan's cost, with the cheaper requests as the way out."""
     n = request.n_dof
     guard(request.cost, n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
@@ -192,7 +192,7 @@ def solve(
     max_memory: float | None = None,
     max_seconds: float | None = None,
     progress: bool | ProgressCallback | None = None,
-    request: Plan | None = None,
+    request: SolvePlan | None = None,
     accuracy: str = "high",
 ) -> SolveResult:
     """Run the path the registry chose for this request (`plan`) on K~ and return a `SolveResult`.
@@ -214,8 +214,8 @@ def solve(
     if request is None:
         request = plan(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                        spring_factor=spring_factor, accuracy=accuracy)
-        check_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
-                   max_seconds=max_seconds)
+        check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
+                         max_seconds=max_seconds)
     problem = request.problem
     assert problem is not None
     path = BY_NAME[request.path]
@@ -267,4 +267,4 @@ def _scale_exponent(Kt: NDArray[np.float64] | sp.csr_matrix) -> int:
     return exponent - exponent % 2
 
 
-__all__ = ["SOLVER_NAMES", "SOLVER_PATHS", "Plan", "describe", "plan", "alternatives", "check_plan", "solve"]
+__all__ = ["SOLVER_NAMES", "SOLVER_PATHS", "SolvePlan", "describe", "plan", "alternatives", "check_solve_plan", "solve"]

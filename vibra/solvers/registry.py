@@ -27,7 +27,6 @@ from vibra.solvers.budget import Estimate, estimate
 import vibra.solvers.common as common
 import vibra.solvers.runners as runners
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
-from vibra.solvers.ring_kernel import AVAILABLE as COMPILED
 
 __all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "path_names", "readme_table"]
 
@@ -152,7 +151,7 @@ def _bisection(p: Problem) -> bool:
 
 
 def _values_path(p: Problem) -> bool:
-    return p.band is None and p.n >= common.RING_VALUES_FROM and COMPILED
+    return p.band is None and p.n >= common.RING_VALUES_FROM
 
 
 def _walled(p: Problem) -> bool:
@@ -213,7 +212,7 @@ PATHS: tuple[SolverPath, ...] = (
                cost="~3e-8 n^2 s all values; O(n k) the lowest k"),
     SolverPath("accurate-bidiagonal", "accurate", _bidiagonal, _run("accurate-bidiagonal"),
                "relative, each bound a certificate where the a-priori one exceeds 1e-13",
-               "a chain (the springs form a path): dqds on its bidiagonal spring factor",
+               "a chain (each spring joins neighbouring sites): dqds on its bidiagonal spring factor",
                cost="~2e-8 n^2 s (dqds, and a certificate per value)"),
     SolverPath("accurate-ring", "accurate", _ring, _run("accurate-ring"), "relative, each bound a certificate",
                "a ring of 100 sites or more (free or on walls), all values or the lowest n_modes: roots "

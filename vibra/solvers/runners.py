@@ -3,7 +3,7 @@ it, each given the `registry.Problem` the plan chose it for and the inputs of `d
 
 A runner trusts the plan: the structure it needs (a chain, a ring, a walled chain) was
 classified once (`topology.classify`), so none of them decides again which path it is. The
-accurate runners share the last step, `accurate.tightened` (the bounds tightened as far as the
+accurate runners share the last step, `accurate.springs.tightened` (the bounds tightened as far as the
 accuracy level asks, no further).
 """
 
@@ -16,23 +16,22 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-import vibra.solvers.gpu as gpu_module
-from vibra.solvers.accurate import (
+import vibra.solvers.standard.gpu as gpu_module
+from vibra.solvers.accurate.springs import (
     checked_dense, checked_ritz, relative_account, ring_certified, spring_rayleigh, spring_ritz_band,
     tightened, weighted_factor,
 )
-from vibra.solvers.spring_ritz import TARGET
-from vibra.solvers.bidiagonal import bidiagonal_path, path_bidiagonals
+from vibra.solvers.accurate.chain.bidiagonal import bidiagonal_path, chain_bidiagonals
 import vibra.solvers.common as common
 from vibra.solvers.common import SolveResult
-from vibra.solvers.cycle import ring_pencil
-from vibra.solvers.lowest import lowest_chain_modes
-from vibra.solvers.path_counts import chain_counted, path_form
-from vibra.solvers.ring_path import MP_WANTED, pair_step, ring_result, ring_vectors
-from vibra.solvers.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
-from vibra.solvers.spring_ritz import forming_deviation, spring_figures
-from vibra.solvers.standard import banded_path, dense_path, tridiagonal_path
-from vibra.solvers.walled_chain import walled_result
+from vibra.solvers.accurate.ring.counts import ring_pencil
+from vibra.solvers.accurate.chain.lowest import lowest_chain_modes
+from vibra.solvers.accurate.chain.sturm_counts import chain_counted, chain_form
+from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result, ring_vectors
+from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
+from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
+from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
+from vibra.solvers.accurate.chain.walled import walled_result
 
 __all__ = ["Inputs"]
 
@@ -85,9 +84,9 @@ def accurate_bisection(p: Any, x: Inputs) -> SolveResult:
 def accurate_bidiagonal(p: Any, x: Inputs) -> SolveResult:
     coupling, weights = _factor(x)
     weighted = weighted_factor(coupling, weights, x.mass)
-    segments = path_bidiagonals(weighted)
+    segments = chain_bidiagonals(weighted)
     if segments is None:
-        raise RuntimeError("accurate-bidiagonal: the springs do not form a path after all (a planning error)")
+        raise RuntimeError("accurate-bidiagonal: the springs do not form a chain after all (a planning error)")
     chain = bidiagonal_path(x.Kt, weighted, segments, n_modes=p.n_modes, vectors=p.vectors, band=x.band,
                             on_stage=x.on_stage, factor=x.factor, mass=x.mass)
     chain = relative_account(chain, "from the relative-accuracy SVD of the chain's bidiagonal spring factor")
@@ -114,7 +113,7 @@ def accurate_walled(p: Any, x: Inputs) -> SolveResult:
 def accurate_ring(p: Any, x: Inputs) -> SolveResult:
     coupling, weights, weighted, deviation = _springs(x)
     ring = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _wanted(p)),
-                       lowest=p.few, wanted=_wanted(p))
+                       lowest=p.few, aim=_wanted(p))
     if ring is None:
         raise RuntimeError("accurate-ring: the springs do not close one ring after all (a planning error)")
     return ring_vectors(weighted, x.mass, ring) if p.vectors else ring
@@ -127,7 +126,7 @@ def accurate_ring_band(p: Any, x: Inputs) -> SolveResult:
     banded_result = banded_path(x.Kt, p.width, n_modes=p.n_modes, vectors=True, band=x.band, ordering=p.ordering)
     result = spring_rayleigh(weighted, banded_result, vectors=True, deviation=deviation, name="accurate-ring-band")
     certified = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _wanted(p)),
-                            wanted=_wanted(p))
+                            aim=_wanted(p))
     if certified is None or certified.eigenvalues.shape != result.eigenvalues.shape:
         raise RuntimeError("accurate-ring-band: the springs do not close one ring after all (a planning error)")
     result.eigenvalues, result.error = certified.eigenvalues, certified.error
@@ -144,7 +143,7 @@ def accurate_ritz(p: Any, x: Inputs) -> SolveResult:
         rounding = semidefinite_rounding(x.factor, float(abs(matrix).sum(axis=1).max()))
         sigma, shifted = lowest_shift(matrix, rounding=rounding)
         _, basis = shift_invert(matrix, min(k + 1, p.n - 2), sigma, shifted)  # one more: the gap
-        form = path_form(coupling, weights, x.mass) if p.topology == "chain" else None
+        form = chain_form(coupling, weights, x.mass) if p.topology == "chain" else None
         result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation, form=form),
                                   f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
     else:
@@ -171,7 +170,7 @@ def _checked(p: Any, x: Inputs, *, jacobi: bool) -> SolveResult:
 
 def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: Any) -> SolveResult:
     """A ring's bounds certified by its Sturm counts (up to RING_DENSE_LIMIT sites); any other
-    system's tightened as far as the accuracy level asks (`accurate.tightened`)."""
+    system's tightened as far as the accuracy level asks (`accurate.springs.tightened`)."""
     if p.ringlike and p.n <= common.RING_DENSE_LIMIT and result.error.shape[0]:
         coupling, weights = _factor(x)
         pencil = ring_pencil(coupling, weights, x.mass)

@@ -5,13 +5,13 @@ to a wall, an anchor). What the accurate paths can exploit depends only on which
 springs join, never on their values, so the plan decides it here, in O(nnz) with no
 allocation beyond B's pattern, and every path trusts it:
 
-- ``"chain"``: the springs form paths of consecutive dofs (c, c + 1), one spring per pair,
-  with at most one anchor at each end of a path: K~ tridiagonal, a bidiagonal spring factor
+- ``"chain"``: the springs form chains of consecutive dofs (c, c + 1), one spring per pair,
+  with at most one anchor at each end of a chain: K~ tridiagonal, a bidiagonal spring factor
   (`bidiagonal`, `lowest`);
 - ``"walled-chain"``: one chain through all dofs, (i, i + 1) for i = 0..n-2, with springs to a
-  wall inside it (a chain of pendulums): a bidiagonal Cholesky factor (`walled_chain`);
+  wall inside it (a chain of pendulums): a bidiagonal Cholesky factor (`chain.walled`);
 - ``"ring"`` / ``"walled-ring"``: the springs close one cycle through all n >= 3 dofs, without
-  or with springs to a wall (`ring_path`, `cycle`);
+  or with springs to a wall (`ring.values`, `ring.counts`);
 - ``"network"``: anything else (3-D networks, molecules, ladders, parallel springs);
 - ``"none"``: no spring factor (the standard paths only).
 
@@ -26,7 +26,7 @@ from typing import Any, Literal
 import numpy as np
 import scipy.sparse as sp
 
-from vibra.solvers.ring_kernel import _jit
+from vibra.solvers.accurate.ring.kernel import _jit
 
 __all__ = ["Topology", "classify", "KINDS"]
 
@@ -101,12 +101,12 @@ def _pattern_kind(indptr: Any, indices: Any, n: int) -> int:  # pragma: no cover
         else:
             return 0
     if consecutive:
-        path = True
+        unbranched = True
         for c in range(n):
             if joined[c] > 1:
-                path = False
+                unbranched = False
                 break
-        if path:
+        if unbranched:
             chain = True
             for c in range(n):
                 start = c == 0 or joined[c - 1] == 0

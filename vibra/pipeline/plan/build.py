@@ -1,0 +1,141 @@
+"""Building the system a scene describes: scene parameters -> one builder call of vibra.
+
+Builders are looked up in `vibra.pipeline.scene.BUILD_FUNCTIONS`, a fixed table of (module, function)
+inside vibra; nothing from a scene file is imported or executed.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vibra.molecules import molecule_names
+from vibra.pipeline.scene import Scene, SceneError, builder_function
+from vibra.pipeline.scene.files import read_scene_data, scene_data_path
+
+__all__ = ["build_system", "network_structure"]
+
+
+def build_system(scene: Scene) -> Any:
+    """The `System` (or, for an oscillator scene, the `Oscillator`) a scene describes.
+
+    The builder validates its arguments as it would in any library call; what it refuses is
+    reported as a `SceneError` at the offending key (``file: system.n: n is 1; ...``), so
+    ``vibra validate`` (which builds every scene) refuses what ``vibra report`` could not run.
+
+    Raises
+    ------
+    SceneError
+        The builder (or freezing) refused a parameter.
+    """
+    try:
+        return _build(scene)
+    except (ValueError, TypeError) as error:
+        if isinstance(error, SceneError):
+            raise
+        message = str(error).replace("; pass symmetrize=True to use (K + K^T) / 2", "; a scene's K must be symmetric")
+        first = message.split(" ", 1)[0].split("[", 1)[0]
+        key = f"system.{first}" if first in scene.system.parameters else "system"
+        raise SceneError(scene.source, key, message) from error
+
+
+def network_structure(scene: Scene) -> Any:
+    """The C-alpha sites and B-factors (`vibra.networks.Structure`) of a network scene's ``system.pdb``.
+
+    The file must lie inside the scene's folder (`vibra.pipeline.scene.files.scene_data_path`).
+
+    Raises
+    ------
+    SceneError
+        A path outside the scene's folder, a missing or unreadable file, no C-alpha atoms.
+    """
+    from vibra.networks import from_pdb
+
+    path = scene_data_path(scene.source, "system.pdb", scene.system.parameters["pdb"])
+    try:
+        return from_pdb(path, selection="CA")
+    except (ValueError, OSError) as error:
+        raise SceneError(scene.source, "system.pdb", str(error)) from None
+
+
+def _molecule(scene: Scene, make: Any, p: dict[str, Any]) -> Any:
+    """A 'molecule' scene's system: an ASE name, or an .xyz file beside the scene read with its size cap."""
+    options = {key: p[key] for key in ("stretch", "bend", "torsion") if p[key] is not None}
+    masses = None if p["masses"] is None else np.asarray(p["masses"], dtype=float)
+    if p["xyz"] is not None:
+        import io
+
+        from ase.io import read
+
+        text = read_scene_data(scene.source, "system.xyz", p["xyz"])
+        try:
+            atoms = read(io.StringIO(text), format="xyz")
+        except Exception as error:  # ASE's parsers raise many kinds on a malformed file
+            raise SceneError(scene.source, "system.xyz", f"{p['xyz']!r} is not a readable XYZ file "
+                             f"({type(error).__name__}: {error})") from None
+        source: Any = atoms
+    else:
+        source = p["name"]
+        if source not in molecule_names():
+            try:
+                make(source)
+            except ValueError as error:
+                raise SceneError(scene.source, "system.name", str(error)) from None
+    return make(source, isotopes=p["isotopes"], masses=masses, name=scene.name, **options)
+
+
+def _build(scene: Scene) -> Any:
+    p = dict(scene.system.parameters)
+    builder = scene.system.builder
+    frozen_sites = p.pop("frozen_sites", None)
+    frozen_dofs = p.pop("frozen_dofs", None)
+    make = builder_function(builder)
+    lists = {k: (np.asarray(v) if isinstance(v, tuple) else v) for k, v in p.items()}
+    if builder == "linear_chain":
+        mass = lists.pop("mass")
+        site, defect = lists.pop("defect_site"), lists.pop("defect_mass")
+        if site is not None:
+            mass = np.full(p["n"], mass, dtype=float) if np.ndim(mass) == 0 else np.array(mass, dtype=float)
+            mass[site] = defect
+        system = make(lists.pop("n"), mass=mass, units=scene.units, name=scene.name, **lists)
+    elif builder in ("diatomic_chain", "beaded_string"):
+        if builder == "diatomic_chain":
+            lists["masses"] = tuple(p["masses"])
+            if isinstance(p["stiffness"], tuple):
+                lists["stiffness"] = tuple(p["stiffness"])
+        system = make(units=scene.units, name=scene.name, **lists)
+    elif builder == "springs":
+        lists.pop("symbols")
+        springs = np.asarray(p["springs"], dtype=np.intp).reshape(-1, 2)
+        anchors = lists.pop("anchors")
+        system = make(lists.pop("positions"), lists.pop("masses"), springs=springs,
+                      stiffness=lists.pop("stiffness"),
+                      anchors=None if anchors is None else np.asarray(anchors, dtype=np.intp),
+                      anchor_stiffness=lists.pop("anchor_stiffness"), units=scene.units,
+                      name=scene.name)
+    elif builder == "co2":
+        system = make(dims=p["dims"], isotopes=p["isotopes"])
+    elif builder == "h2o":
+        system = make(isotopes=p["isotopes"])
+    elif builder == "molecule":
+        system = _molecule(scene, make, p)
+    elif builder in ("double_pendulum", "charged_particle"):
+        system = make(**p)
+    elif builder == "matrices":
+        system = make(np.asarray(p["M"]), np.asarray(p["K"]), coordinates=p["coordinates"],
+                      units=scene.units, name=scene.name)
+    elif builder == "anm":
+        structure = network_structure(scene)
+        system = make(structure.positions, cutoff=p["cutoff"], gamma=p["gamma"], name=scene.name)
+    elif builder == "oscillator":
+        gammas = p["gamma"] if isinstance(p["gamma"], tuple) else (p["gamma"],)
+        return tuple(make(p["w0"], g, p["m"]) for g in gammas)
+    else:  # pragma: no cover - BUILDERS and BUILD_FUNCTIONS are kept in step
+        raise KeyError(builder)
+    if frozen_sites or frozen_dofs:
+        system = system.freeze(sites=None if not frozen_sites else np.asarray(frozen_sites, dtype=np.intp),
+                               dofs=None if not frozen_dofs else np.asarray(frozen_dofs, dtype=np.intp))
+    return system
+
+

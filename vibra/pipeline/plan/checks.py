@@ -1,0 +1,200 @@
+"""What `vibra validate` checks on a built system, and how a failing step becomes a `SceneError`.
+
+`check_plan(scene, system)` runs, on the system the builder returned, the cheap checks of
+what the later steps would refuse: a solver that cannot serve the system's structure, a
+response grid that starts at omega = 0 on a free system, elements the drawings do not know,
+and, for a small system (up to `SPECTRUM_CHECK_LIMIT` dofs), a dry run of the solve
+(frequencies only: an empty band, a failing solver) and of the response grid (a pole of an
+undamped system) exactly as the plan will run them. `step_error(scene, step,
+error)` turns what a library function refused while a step ran into a `SceneError` at the
+scene key that controls that step, so the command line prints one line, never a traceback.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vibra.pipeline.plan.analysis import chain_dispersion
+from vibra.pipeline.plan.build import build_system
+from vibra.pipeline.scene import Scene, SceneError
+from vibra.pipeline.scene.values import element_symbol
+from vibra import solvers
+from vibra.solvers.common import DENSE_ALL_LIMIT
+
+__all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
+           "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
+
+#: A response grid is checked against the system's frequencies up to this many dofs (a fast
+#: frequencies-only solve); larger systems are checked when the response step runs.
+SPECTRUM_CHECK_LIMIT = 2000
+#: The response of a small system is computed as a dry run when n_dof x n_points is at most this.
+DRY_RESPONSE_LIMIT = 200_000
+
+#: step name -> the scene key that controls it (named in the error of a failing step).
+STEP_KEYS = {
+    "build": "system", "modes": "compute", "crosscheck": "compute.crosscheck", "response": "compute.response",
+    "continuum": "compute.continuum", "dispersion": "draw.dispersion", "structure": "system",
+    "render-modes": "draw.modes", "render-gif": "draw.gif", "chart-spectrum": "draw.spectrum",
+    "chart-dispersion": "draw.dispersion", "chart-response": "draw.response",
+    "chart-convergence": "draw.convergence",
+}
+
+#: What a library function raises when it refuses a request or a solve fails (`LinAlgError` is
+#: a ValueError, ARPACK's errors are RuntimeErrors); anything else is a bug, not a scene error.
+REFUSALS = (ValueError, TypeError, ArithmeticError, RuntimeError, MemoryError)
+
+
+def step_error(scene: Scene, step: str, error: BaseException) -> SceneError:
+    """The `SceneError` for `error` raised by `step`, at the scene key that controls the step."""
+    if isinstance(error, SceneError):
+        return error
+    key = STEP_KEYS.get(step, "")
+    if step == "modes" and scene.compute.solver != "auto":
+        key = "compute.solver"
+    text = " ".join(str(error).split()) or type(error).__name__
+    if not isinstance(error, (ValueError, TypeError)) or type(error).__name__ == "LinAlgError":
+        text = f"{type(error).__name__}: {text}"
+    if len(text) > 300:
+        text = text[:297] + "..."
+    return SceneError(scene.source, key, f"the {step} step failed: {text}")
+
+
+def _solver(scene: Scene, system: Any) -> None:
+    """The scene's solver, asked of the dispatcher itself (`vibra.solvers.plan`: no solve, no
+    allocation), so that validate refuses exactly what the solve would refuse."""
+    compute = scene.compute
+    if compute.solver == "auto" or getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
+        return
+    factor = system.spring_factor() if compute.accuracy != "fast" else None
+    if compute.solver == "accurate" and factor is None:
+        raise SceneError(scene.source, "compute.solver", f"'accurate' needs a spring system (K = B^T W B); the "
+                         f"{scene.system.builder!r} builder gives none; use 'auto' or 'dense'")
+    try:
+        solvers.plan(system.hessian(), system.mass_matrix(), n_modes=compute.n_modes, vectors=False,
+                     band=compute.band, solver=compute.solver, spring_factor=factor, accuracy=compute.accuracy)
+    except ValueError as error:
+        raise SceneError(scene.source, "compute.solver", f"{error}; use 'auto'") from error
+    wanted = compute.n_modes is None and compute.band is None
+    if compute.solver == "dense" and wanted and system.n_dof > DENSE_ALL_LIMIT:
+        raise SceneError(scene.source, "compute.solver", f"'dense' on {system.n_dof} dofs would need "
+                         f"{8 * system.n_dof**2 / 2**30:.1f} GiB; give compute.n_modes or use 'auto'")
+
+
+def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
+    """The arguments of `vibra.response.frequency_response` for the scene's ``[compute.response]``.
+
+    Returns ``(K, M, C, G, omegas, force, method, n_modes)``: a unit force at ``force_site``,
+    Rayleigh damping C = alpha M + beta K (plus a generalised system's own C), the system's
+    gyroscopic G (None if it has none), omegas spaced linearly.
+    """
+    from vibra import response
+
+    r = scene.compute.response
+    assert r is not None  # called only with a response table
+    omegas = np.linspace(r.omega_min, r.omega_max, r.n_points)
+    force = np.zeros(system.n_dof)
+    force[r.force_site] = 1.0
+    parts = response.system_matrices(system)
+    K, M = parts.K, parts.M
+    C = response.rayleigh_damping(K, M, r.alpha, r.beta)
+    if parts.C is not None:
+        C = C + parts.C
+    return K, M, C, parts.G, omegas, force, r.method, r.n_modes
+
+
+def empty_band(scene: Scene, modes: Any) -> SceneError | None:
+    """The error for a ``compute.band`` that holds no mode (None when it holds some or there is no band)."""
+    band = scene.compute.band
+    if band is None or modes.n_modes:
+        return None
+    return SceneError(scene.source, "compute.band", f"no mode has omega in [{band[0]:g}, {band[1]:g}] "
+                      f"{modes.units.omega}; nothing to list or draw")
+
+
+def _dry_run(scene: Scene, system: Any, response: bool) -> None:
+    """Run the cheap steps of a small system as the plan will (frequencies only, the response grid)."""
+    compute = scene.compute
+    r = compute.response
+    if response and r is not None and r.omega_min == 0.0:
+        omega = np.asarray(system.modes(vectors=False, accuracy="fast").omega, dtype=float) \
+            if system.n_dof <= SPECTRUM_CHECK_LIMIT else np.ones(1)
+        zero = np.abs(omega) <= 1e-6 * float(np.max(np.abs(omega), initial=0.0))
+        if zero.any():
+            raise SceneError(scene.source, "compute.response.omega_min", "is 0, where this free system (it has "
+                             f"{int(zero.sum())} rigid-body modes) has an unbounded static response; start the "
+                             "grid above 0 or hold the system (frozen_sites, anchors, fixed ends)")
+    if scene.draw.dispersion:
+        try:
+            chain_dispersion(scene.system.parameters, n_q=2)
+        except REFUSALS as error:
+            raise step_error(scene, "dispersion", error) from error
+    if system.n_dof > SPECTRUM_CHECK_LIMIT:
+        return
+    try:
+        modes = system.modes(compute.n_modes, accuracy=compute.accuracy, vectors=False, band=compute.band,
+                             solver=compute.solver)
+    except REFUSALS as error:
+        raise step_error(scene, "modes", error) from error
+    empty = empty_band(scene, modes)
+    if empty is not None:
+        raise empty
+    if response and r is not None and system.n_dof * r.n_points <= DRY_RESPONSE_LIMIT:
+        from vibra import response as analyses
+
+        K, M, C, G, omegas, force, method, n_modes = response_request(scene, system)
+        try:
+            analyses.frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes,
+                                        units=system.units, G=G)
+        except REFUSALS as failure:
+            raise step_error(scene, "response", failure) from failure
+
+
+def _symbols(scene: Scene, system: Any) -> None:
+    """Elements the structure step needs (point charges of 3-D molecules that draw their modes)."""
+    symbols = scene.system.parameters.get("symbols")
+    if symbols is None or scene.kind != "molecule" or not (scene.draw.modes or scene.draw.gif) or system.dim != 3:
+        return
+    from vibra.spectra import PAULING_ELECTRONEGATIVITY
+
+    for i, symbol in enumerate(symbols):
+        if element_symbol(symbol) not in PAULING_ELECTRONEGATIVITY:
+            raise SceneError(scene.source, f"system.symbols[{i}]", f"is {symbol!r}, which the IR-activity hints "
+                             f"of drawn modes do not know; known: {', '.join(PAULING_ELECTRONEGATIVITY)}")
+
+
+def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
+    """Check, on the built `system`, what the plan's later steps would refuse (cheap checks only).
+
+    Raises
+    ------
+    SceneError
+        A solver that cannot serve this system (``compute.solver``), or a response grid on
+        a pole: omega = 0 for a free system, an undamped resonance (``compute.response``;
+        checked only when `response` is true).
+    """
+    if scene.kind == "oscillator":
+        return
+    try:
+        _solver(scene, system)
+        _symbols(scene, system)
+        _dry_run(scene, system, response)
+    except REFUSALS as error:
+        raise step_error(scene, "modes", error) from error
+
+
+def validate(scene: Scene) -> Any:
+    """What ``vibra validate`` runs on a scene: build its system and `check_plan`; return the system.
+
+    Raises
+    ------
+    SceneError
+        Whatever the builder or the checks refuse, at the key that controls it.
+    """
+    try:
+        system = build_system(scene)
+        check_plan(scene, system)
+    except REFUSALS as error:
+        raise step_error(scene, "build", error) from error
+    return system

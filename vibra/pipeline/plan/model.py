@@ -1,0 +1,155 @@
+"""The plan's values: `Step`, `Plan`, `StepRecord`, `PlanResult`, and `make_plan` (scene -> steps)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from vibra.pipeline.scene import Scene
+
+__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan"]
+
+@dataclass(frozen=True)
+class Step:
+    """One planned step.
+
+    Attributes
+    ----------
+    name : str
+        Short identifier (``"build"``, ``"modes"``, ``"render-modes"``, ...).
+    what : str
+        What the step computes or draws, in words, for the report.
+    """
+
+    name: str
+    what: str
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The steps a scene needs, in order.
+
+    Attributes
+    ----------
+    scene : Scene
+    steps : tuple of Step
+    n_modes : int or None
+        Modes asked of the solver (None: all, or the band).
+    vectors : bool
+        Whether mode shapes are computed.
+    """
+
+    scene: Scene
+    steps: tuple[Step, ...]
+    n_modes: int | None
+    vectors: bool
+
+    @property
+    def step_names(self) -> tuple[str, ...]:
+        """Names of the steps, in order."""
+        return tuple(step.name for step in self.steps)
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """What one executed step did.
+
+    Attributes
+    ----------
+    name, what : str
+        As in `Step`.
+    seconds : float
+        Wall time of the step, in s.
+    solver : str or None
+        The solver path that ran (`Modes.solver`), for solving steps.
+    accuracy : str or None
+        Accuracy figure in words (residual, largest omega error, cross-check difference).
+    outputs : tuple of str
+        Files written by the step (names relative to the output folder).
+    """
+
+    name: str
+    what: str
+    seconds: float
+    solver: str | None = None
+    accuracy: str | None = None
+    outputs: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """Everything an executed plan produced.
+
+    Attributes
+    ----------
+    records : tuple of StepRecord
+    outputs : tuple of str
+        Every file written, in order (relative to the output folder).
+    captions : tuple of str
+        One caption per output.
+    frequencies : tuple of str
+        Lines of the frequency table (for the terminal and the report).
+    modes : Modes or None
+        The computed modes (None for an oscillator scene).
+    """
+
+    records: tuple[StepRecord, ...]
+    outputs: tuple[str, ...]
+    captions: tuple[str, ...]
+    frequencies: tuple[str, ...]
+    modes: Any = None
+
+
+def make_plan(scene: Scene) -> Plan:
+    """The steps that compute exactly what `scene` asks (no work is done here)."""
+    compute, draw = scene.compute, scene.draw
+    steps = [Step("build", f"build the system with builder {scene.system.builder!r}")]
+    vectors = bool(compute.shapes or draw.needs_shapes or scene.kind == "network")  # fluctuations need shapes
+    n_modes = compute.n_modes
+    if scene.kind != "oscillator":
+        if n_modes is not None:
+            how = f"lowest {n_modes} modes (partial solver)"
+        elif compute.band is not None:
+            how = f"modes with omega in [{compute.band[0]:g}, {compute.band[1]:g}]"
+        else:
+            how = "all modes"
+        shapes = "frequencies and shapes" if vectors else "frequencies only (no shapes)"
+        steps.append(Step("modes", f"{how}: {shapes}, accuracy={compute.accuracy!r}"))
+    if scene.kind == "network":
+        steps.append(Step("fluctuations", "thermal fluctuations from the computed non-rigid modes, predicted "
+                          "B-factors (8 pi^2/3 <u^2>) and their correlation with the file's B-factors"))
+    if compute.crosscheck:
+        steps.append(Step("crosscheck", "same force field through ASE Vibrations and phonopy"))
+    if compute.response is not None:
+        r = compute.response
+        steps.append(Step("response", f"{r.method} response at {r.n_points} frequencies in "
+                          f"[{r.omega_min:g}, {r.omega_max:g}], C = {r.alpha:g} M + {r.beta:g} K"))
+    if compute.continuum is not None:
+        c = compute.continuum
+        steps.append(Step("continuum", f"modes {list(c.modes)} against the wave equation for "
+                          f"N = {list(c.sizes)} ({c.ends} ends)"))
+    if draw.dispersion:
+        steps.append(Step("dispersion", "dispersion branches omega(q) and the wavenumber of each mode"))
+    if scene.kind == "molecule":
+        steps.append(Step("symmetry", "point group and symmetry species of the modes, IR/Raman activity "
+                          "by symmetry, observed fundamentals of bundled molecules"))
+    if scene.kind == "molecule" and (draw.modes or draw.gif):
+        steps.append(Step("structure", "elements and bonds of the molecule; symmetry species and "
+                          "point-charge IR activity of the drawn modes"))
+    if draw.modes:
+        steps.append(Step("render-modes", f"render {draw.n_draw} mode shapes off-screen (pyvista)"))
+    if draw.gif:
+        steps.append(Step("render-gif", "animated GIF of the lowest drawn mode (pyvista)"))
+    if draw.spectrum:
+        steps.append(Step("chart-spectrum", "stick spectrum of the frequencies"))
+    if draw.dispersion:
+        steps.append(Step("chart-dispersion", "dispersion relation with the chain's modes"))
+    if draw.response:
+        steps.append(Step("chart-response", "response amplitude and phase against frequency"))
+    if draw.bfactors:
+        steps.append(Step("chart-bfactors", "predicted against crystallographic B-factors per residue"))
+    if draw.convergence:
+        steps.append(Step("chart-convergence", "error of the chain's modes against N (log-log)"))
+    return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)
+
+

@@ -1,0 +1,462 @@
+"""Executing a `Plan`: each step computes (build, modes, analyses) or draws what was computed.
+
+`execute` runs the steps in order and records, per step, what was computed, by which solver,
+its accuracy figure and its wall time. Analysis steps (``crosscheck``, ``response``,
+``continuum``, ``dispersion``, ``structure``) compute everything the drawings need; the
+``render-*`` and ``chart-*`` steps hand those results to `vibra.pipeline.render` and `vibra.charts`,
+which only draw. Every file is written through `vibra._io` (atomically).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from vibra._io import atomic_write_text
+from vibra.generalized import GeneralizedSystem
+from vibra.pipeline.plan.analysis import chain_dispersion, molecule_symmetry, network_fluctuations, symmetry_hints
+from vibra.pipeline.plan.build import build_system, network_structure
+from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
+from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
+from vibra.pipeline.scene import Scene
+from vibra.pipeline.scene.values import element_symbol
+
+__all__ = ["execute", "frequency_lines", "STEPS"]
+
+
+@dataclass
+class _Context:
+    """Mutable state of one execution (private; results leave as frozen records)."""
+
+    scene: Scene
+    out_dir: Path
+    work_dir: Path
+    system: Any = None
+    modes: Any = None
+    response: Any = None
+    continuum: Any = None
+    crosscheck: Any = None
+    dispersion: Any = None
+    structure: Any = None
+    symmetry: Any = None
+    network: Any = None
+    hints: dict[int, str] = field(default_factory=dict)
+    outputs: list[str] = field(default_factory=list)
+    captions: list[str] = field(default_factory=list)
+
+
+def _is_quadratic(modes: Any) -> bool:
+    """True for the modes of a gyroscopic or damped system (`vibra.solvers.structured.quadratic.QuadraticModes`)."""
+    return hasattr(modes, "damping_ratio")
+
+
+def _accuracy_text(modes: Any) -> str:
+    parts = []
+    if _is_quadratic(modes):
+        scale = max(float(np.abs(modes.natural_frequency).max(initial=0.0)), np.finfo(float).tiny)
+        stable = "stable" if modes.stable else f"UNSTABLE ({int(np.sum(modes.unstable))} growing mode(s))"
+        return (f"max omega error {float(np.max(modes.omega_error, initial=0.0)) / scale:.2e} (relative to max "
+                f"omega), {stable}")
+    if np.isfinite(modes.residual):
+        parts.append(f"residual {modes.residual:.2e}")
+    if modes.n_modes:
+        scale = max(float(np.abs(modes.omega).max()), np.finfo(float).tiny)
+        parts.append(f"max omega error {float(np.max(modes.omega_error)) / scale:.2e} (relative to max omega)")
+    return ", ".join(parts) or "n/a"
+
+
+def frequency_lines(scene: Scene, modes: Any, symmetry: Any = None) -> tuple[str, ...]:
+    """A text table of the modes: index, omega (scene units) and a spectroscopic unit.
+
+    With `symmetry` (a `vibra.pipeline.plan.analysis.MoleculeSymmetry`) two more columns: each mode's
+    symmetry species and the observed fundamental (name and cm^-1), with the source below.
+    """
+    units = modes.units
+    if _is_quadratic(modes):
+        return _quadratic_lines(modes)
+    omega = np.asarray(modes.omega)
+    columns: list[tuple[str, str, Callable[[int], str]]] = [
+        ("mode", ">5", str), (f"omega [{units.omega}]", ">26", lambda k: f"{omega[k]:.10g}")]
+    if units.time_s is not None:
+        name, values = (("cm^-1", modes.wavenumbers_cm1()) if scene.kind == "molecule"
+                        else ("Hz", modes.frequencies_hz()))
+        columns.append((name, ">14", lambda k: f"{values[k]:.6g}"))
+    if symmetry is not None:
+        columns.append((f"species ({symmetry.group})", "<16", lambda k: symmetry.species[k] or "(rigid)"))
+        if symmetry.source is not None:
+            observed = symmetry.experimental
+            columns.append(("observed (cm^-1)", "<16", lambda k: "" if observed[k] is None else
+                            f"{observed[k].name} {observed[k].wavenumber_cm1:.0f}"))
+    lines = _text_table(modes.n_modes, columns)
+    if symmetry is not None and symmetry.source is not None:
+        lines.append(f"observed: gas-phase fundamentals, {symmetry.source}")
+    return tuple(lines)
+
+
+def _text_table(n_rows: int, columns: list[tuple[str, str, Callable[[int], str]]]) -> list[str]:
+    """Lines of a text table: per column (header, format spec such as ``">26"``, cell text of row k)."""
+    lines = ["  ".join(f"{header:{spec}}" for header, spec, _ in columns).rstrip()]
+    lines += ["  ".join(f"{cell(k):{spec}}" for _, spec, cell in columns).rstrip() for k in range(n_rows)]
+    return lines
+
+
+def _quadratic_lines(modes: Any) -> tuple[str, ...]:
+    """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
+    units = modes.units
+    columns: list[tuple[str, str, Callable[[int], str]]] = [
+        ("mode", ">5", str),
+        (f"omega_n [{units.omega}]", ">26", lambda k: f"{modes.natural_frequency[k]:.10g}")]
+    if units.time_s is not None:
+        hz = modes.frequencies_hz()
+        columns.append(("Hz", ">14", lambda k: f"{hz[k]:.6g}"))
+    columns += [("damping ratio", ">14", lambda k: f"{modes.damping_ratio[k]:.3g}"),
+                ("motion", "<10", lambda k: "grows" if modes.unstable[k] else "stable")]
+    lines = _text_table(modes.n_modes, columns)
+    lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.method} method): complex mode shapes, "
+                 "omega_n = sqrt(lambda_1 lambda_2) per eigenvalue pair")
+    return tuple(lines)
+
+
+def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
+            on_step: Callable[[str], None] | None = None) -> PlanResult:
+    """Run every step of `plan`, writing images under `out_dir` (atomically).
+
+    Parameters
+    ----------
+    plan : Plan
+    out_dir : Path
+        Folder of the finished images.
+    work_dir : Path
+        This scene's private scratch folder (cross-check caches, GIF frames).
+    on_step : callable, optional
+        Called with each step's name before it runs (progress display).
+
+    Returns
+    -------
+    PlanResult
+    """
+    context = _Context(scene=plan.scene, out_dir=out_dir, work_dir=work_dir)
+    records = []
+    renderer = None
+    try:
+        for step in plan.steps:
+            if on_step is not None:
+                on_step(step.name)
+            before = len(context.outputs)
+            start = time.perf_counter()
+            if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule", "network"):
+                from vibra.pipeline.render import SceneRenderer
+                renderer = SceneRenderer(plan.scene.draw.window_size)
+            try:
+                solver, accuracy = STEPS[step.name](plan, context, renderer)
+            except REFUSALS as error:  # a library refusal or a failed solve: one line at the step's key
+                raise step_error(plan.scene, step.name, error) from error
+            seconds = time.perf_counter() - start
+            records.append(StepRecord(name=step.name, what=step.what, seconds=seconds, solver=solver,
+                                      accuracy=accuracy, outputs=tuple(context.outputs[before:])))
+    finally:
+        if renderer is not None:
+            renderer.close()
+    lines: tuple[str, ...] = ()
+    if context.modes is not None:
+        lines = frequency_lines(plan.scene, context.modes, context.symmetry)
+    return PlanResult(records=tuple(records), outputs=tuple(context.outputs),
+                      captions=tuple(context.captions), frequencies=lines, modes=context.modes)
+
+
+def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    context.system = build_system(plan.scene)
+    system = context.system
+    check_plan(plan.scene, system)  # what validate checks: solver fits, response grid off the poles
+    if plan.scene.kind == "oscillator":
+        return None, None
+    return None, f"{system.n_dof} degrees of freedom"
+
+
+def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    compute = plan.scene.compute
+    limits = {}  # limits the scene raised reach the solver's own guard (validate checked them)
+    if not isinstance(context.system, GeneralizedSystem):  # (it has no resource options)
+        if compute.memory_limit_gib is not None:
+            limits["max_memory"] = compute.memory_limit_gib * 2.0**30
+        if compute.time_limit_s is not None:
+            limits["max_seconds"] = compute.time_limit_s
+    context.modes = context.system.modes(plan.n_modes, accuracy=compute.accuracy, vectors=plan.vectors,
+                                         band=compute.band, solver=compute.solver, **limits)
+    error = empty_band(plan.scene, context.modes)  # only a band can come back empty
+    if error is not None:
+        raise error
+    solver = context.modes.method if _is_quadratic(context.modes) else context.modes.solver
+    return solver, _accuracy_text(context.modes)
+
+
+def _crosscheck_inputs(scene: Scene) -> tuple[Any, Any]:
+    """The ase.Atoms and valence model of a molecule scene, with the builder's constants."""
+    from vibra import molecules
+
+    if scene.system.builder == "co2":
+        atoms = molecules.co2_atoms()
+        model = molecules.valence_model(atoms, bonds=np.array([[0, 1], [1, 2]]),
+                                        stretch=molecules.CO2_STRETCH, bend=molecules.CO2_BEND)
+    else:  # "h2o" (the scene schema allows the cross-check for these two only)
+        atoms = molecules.h2o_atoms()
+        model = molecules.valence_model(atoms, bonds=np.array([[0, 1], [0, 2]]),
+                                        stretch=molecules.H2O_STRETCH, bend=molecules.H2O_BEND)
+    return atoms, model
+
+
+def _step_crosscheck(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra import crosscheck  # ASE and phonopy are imported here only
+
+    atoms, model = _crosscheck_inputs(plan.scene)
+    result = crosscheck.crosscheck(atoms, model=model, name=plan.scene.title)
+    context.crosscheck = result
+    _write_text(context, f"{plan.scene.name}_crosscheck.txt", result.table() + "\n",
+                "Cross-check of the wavenumbers against ASE Vibrations and phonopy (cm^-1)")
+    vibrations = ~np.asarray(result.rigid)
+    ase_gap = float(np.max(np.abs(result.ase_difference_cm1[vibrations]), initial=0.0))
+    phonopy_gap = float(np.max(np.abs(result.phonopy_difference_cm1[vibrations]), initial=0.0))
+    verdict = "within" if result.within_error() else "NOT within"
+    return "ASE Vibrations + phonopy", (f"largest difference of the vibrations: ASE {ase_gap:.2g} cm^-1, "
+                                        f"phonopy {phonopy_gap:.2g} cm^-1 ({verdict} the finite-difference error)")
+
+
+def _step_response(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra import response
+
+    r = plan.scene.compute.response
+    assert r is not None  # make_plan adds this step only with a response table
+    if plan.scene.kind == "oscillator":
+        context.response = np.linspace(r.omega_min, r.omega_max, r.n_points)
+        return "closed form (seed 003 eq. 120)", None
+    system = context.system
+    K, M, C, G, omegas, force, method, n_modes = response_request(plan.scene, system)
+    result = response.frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes,
+                                         units=system.units, G=G)
+    context.response = result
+    error = float(np.max(result.truncation_error)) if len(result.truncation_error) else 0.0
+    return result.solver, f"estimated truncation error {error:.2g} (relative, M-norm)"
+
+
+def _step_continuum(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra import continuum
+
+    c = plan.scene.compute.continuum
+    assert c is not None
+    ends: Any = c.ends  # "free", "fixed" or "periodic", checked by the scene schema
+    study = continuum.convergence_study(list(c.modes), list(c.sizes), ends=ends)
+    context.continuum = study
+    order = getattr(study, "order", getattr(study, "fitted_order", None))
+    if order is not None:
+        values = np.atleast_1d(np.asarray(order, dtype=float))
+        return None, "fitted convergence order " + ", ".join(f"{v:.3f}" for v in values)
+    return None, None
+
+
+def _save_chart(context: _Context, figure: Any, what: str, caption: str) -> None:
+    from vibra.charts import save_figure
+
+    name = f"{context.scene.name}_{what}.png"
+    save_figure(figure, context.out_dir / name)
+    context.outputs.append(name)
+    context.captions.append(caption)
+
+
+def _write_text(context: _Context, name: str, text: str, caption: str) -> None:
+    atomic_write_text(context.out_dir / name, text)
+    context.outputs.append(name)
+    context.captions.append(caption)
+
+
+def _drawn_modes(plan: Plan, context: _Context) -> list[int]:
+    """Indices of the modes to draw: the lowest non-zero ones, `n_draw` of them."""
+    modes = context.modes
+    zero = modes.zero_modes(1e-6) if modes.n_modes > 1 else np.zeros(modes.n_modes, dtype=bool)
+    moving = [k for k in range(modes.n_modes) if not zero[k]] or list(range(modes.n_modes))
+    return moving[: plan.scene.draw.n_draw]
+
+
+def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    if _is_quadratic(context.modes):  # gyroscopic: complex shapes trace orbits in the (x, y) plane
+        from vibra.charts.orbits import plot_mode_orbits
+
+        system, modes = context.system, context.modes
+        names = [system.labels[i] for i in system.free_dofs][:2]
+        figure = plot_mode_orbits(modes, coordinates=names, title=f"{plan.scene.title}: mode orbits")
+        frequencies = " and ".join(f"{w:.4g}" for w in modes.natural_frequency)
+        _save_chart(context, figure, "orbits",
+                    f"{plan.scene.title}: orbit of each mode over one period, q(t) = Re{{x exp(i omega t)}} "
+                    f"(omega = {frequencies} {modes.units.omega}); the two modes turn in opposite senses")
+        return None, None
+    indices = _drawn_modes(plan, context)
+    if renderer is None:  # generalised coordinates: no geometry to render in 3-D
+        if plan.scene.system.builder == "double_pendulum":
+            from vibra.charts.pendulum import plot_double_pendulum_modes
+
+            p = plan.scene.system.parameters
+            figure = plot_double_pendulum_modes(context.modes, p["a"], p["b"])
+            caption = (f"{plan.scene.title}: the two normal modes drawn as pendulum positions "
+                       "(seed 000, eqs. 15-16)")
+        else:
+            from vibra.charts.modes import shapes_figure
+
+            figure, caption = shapes_figure(plan.scene, context.system, context.modes, indices)
+        _save_chart(context, figure, "modes", caption)
+        return None, None
+    for name, caption in renderer.render_modes(plan.scene, context.system, context.modes, indices,
+                                               context.out_dir, structure=context.structure,
+                                               hints=context.hints):
+        context.outputs.append(name)
+        context.captions.append(caption)
+    return None, None
+
+
+def _molecule_structure(scene: Scene, system: Any) -> Any:
+    """Elements and bonds of a molecule scene: the scene's symbols and springs, else guessed.
+
+    Without symbols, each site is the element of nearest standard mass; without springs,
+    bonds join atoms closer than 1.25 x the sum of their covalent radii.
+    """
+    from vibra.molecules import bonds_from_distances, symbols_from_masses
+    from vibra.pipeline.render import MoleculeStructure
+
+    params = scene.system.parameters
+    symbols = params.get("symbols") or system.symbols
+    if symbols is not None:
+        symbols = [element_symbol(s) for s in symbols]  # D and T are drawn as hydrogen
+    else:
+        symbols = symbols_from_masses(system.masses)
+    bonds = params.get("springs")
+    if bonds is None:
+        bonds = bonds_from_distances(system.positions, symbols)
+    return MoleculeStructure(tuple(symbols), tuple((int(i), int(j)) for i, j in bonds))
+
+
+def _step_structure(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    """Elements, bonds, and each drawn mode's symmetry / IR-activity text (molecules)."""
+    context.structure = _molecule_structure(plan.scene, context.system)
+    structure = context.structure
+    context.hints = symmetry_hints(context.system, context.modes, _drawn_modes(plan, context),
+                                   structure.symbols, structure.bonds, context.symmetry)
+    return None, f"{len(structure.bonds)} bonds"
+
+
+def _step_symmetry(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    """Point group, species and observed fundamentals of a 3-D molecule's modes (`molecule_symmetry`)."""
+    context.symmetry = molecule_symmetry(context.system, context.modes)
+    if context.symmetry is None:
+        return None, "no point group (not a free 3-D molecule)"
+    source = "" if context.symmetry.source is None else "; observed fundamentals shown"
+    return "vibra.molecules.point_group", f"point group {context.symmetry.group}{source}"
+
+
+def _step_fluctuations(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    """B-factors of a network scene predicted from its computed modes (`network_fluctuations`)."""
+    context.network = network_fluctuations(network_structure(plan.scene), context.system, context.modes)
+    return "kT sum |u_k|^2 / omega_k^2 (rigid modes left out)", \
+        f"B-factor correlation r = {context.network.correlation:.3f} over {len(context.network.labels)} residues"
+
+
+def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.networks import plot_b_factors
+
+    network = context.network
+    figure = plot_b_factors(network.labels, network.experimental, network.predicted, network.correlation,
+                            title=plan.scene.title)
+    _save_chart(context, figure, "bfactors",
+                f"{plan.scene.title}: B-factors per residue, crystallographic against predicted from the "
+                f"{network.n_modes} lowest modes (rigid ones left out; own axis, as the network fixes them "
+                f"only up to kT/gamma); Pearson correlation r = {network.correlation:.3f}")
+    return None, None
+
+
+def _step_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    context.dispersion = chain_dispersion(plan.scene.system.parameters, context.modes)
+    return None, None
+
+
+def _step_render_gif(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    index = _drawn_modes(plan, context)[0]
+    name, caption = renderer.render_gif(plan.scene, context.system, context.modes, index,
+                                        context.out_dir, context.work_dir, structure=context.structure)
+    context.outputs.append(name)
+    context.captions.append(caption)
+    return None, None
+
+
+def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.modes import spectrum_figure
+
+    figure, caption = spectrum_figure(plan.scene, context.modes)
+    _save_chart(context, figure, "spectrum", caption)
+    return None, None
+
+
+def _step_chart_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts import chains as chain_charts
+
+    figure = chain_charts.plot_dispersion(context.dispersion, title=f"{plan.scene.title}: dispersion")
+    _save_chart(context, figure, "dispersion",
+                f"{plan.scene.title}: dispersion relation omega(q) over the Brillouin zone, with the "
+                f"{context.modes.n_modes} modes of the finite chain on top")
+    return None, None
+
+
+def _step_chart_response(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts import response as response_charts
+
+    if plan.scene.kind == "oscillator":
+        oscillators = context.system
+        figure = response_charts.plot_oscillator_response(list(oscillators), context.response,
+                                                          units=plan.scene.units)
+        gammas = ", ".join(f"{o.gamma:g}" for o in oscillators)
+        caption = (f"{plan.scene.title}: amplitude and phase against omega (seed 003 eqs. 120-123) "
+                   f"for gamma = {gammas}, omega0 = {oscillators[0].w0:g}")
+    else:
+        r = plan.scene.compute.response
+        assert r is not None
+        natural = None if context.modes is None else np.asarray(context.modes.omega)
+        figure = response_charts.plot_frf(context.response, r.force_site, natural_frequencies=natural,
+                                          title=f"{plan.scene.title}: response of dof {r.force_site}")
+        caption = (f"{plan.scene.title}: receptance at the driven dof {r.force_site} for a unit force "
+                   f"({context.response.solver} solver, C = {r.alpha:g} M + {r.beta:g} K)"
+                   + (", resonances marked" if natural is not None else ""))
+    _save_chart(context, figure, "response", caption)
+    return None, None
+
+
+def _step_chart_convergence(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts import chains as chain_charts
+
+    figure = chain_charts.plot_convergence(context.continuum)
+    c = plan.scene.compute.continuum
+    assert c is not None  # make_plan adds this step only with a continuum table
+    _save_chart(context, figure, "convergence",
+                f"Relative error of modes {list(c.modes)} of a {c.ends}-end chain against the wave equation, "
+                "versus N at fixed length (seed 003 eqs. 162-165)")
+    return None, None
+
+
+#: step name -> the function that runs it.
+STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]] = {
+    "build": _step_build,
+    "modes": _step_modes,
+    "crosscheck": _step_crosscheck,
+    "response": _step_response,
+    "continuum": _step_continuum,
+    "dispersion": _step_dispersion,
+    "symmetry": _step_symmetry,
+    "fluctuations": _step_fluctuations,
+    "chart-bfactors": _step_chart_bfactors,
+    "structure": _step_structure,
+    "render-modes": _step_render_modes,
+    "render-gif": _step_render_gif,
+    "chart-spectrum": _step_chart_spectrum,
+    "chart-dispersion": _step_chart_dispersion,
+    "chart-response": _step_chart_response,
+    "chart-convergence": _step_chart_convergence,
+}

@@ -1,0 +1,494 @@
+"""Off-screen pyvista renders of mode shapes: the only module of vibra that imports pyvista.
+
+The renderer draws what the plan computed and nothing more:
+
+- A molecule: atoms as spheres (sized and coloured by element, from `ase.data`), bonds as
+  tubes, one arrow per atom along its displacement in the mode; degenerate modes side by
+  side in one image. The elements and bonds come in a `MoleculeStructure`, and the per-mode
+  symmetry / IR-activity text in `hints`, both computed by `vibra.pipeline.plan`.
+- A chain: a row of masses (sphere volume proportional to mass) per mode, one row per mode,
+  with displacement arrows (along the chain for axial motion, across it for a string).
+  Long chains show an evenly decimated set of sites, and the caption says so.
+
+Every image is written atomically by `vibra._io.atomic_write` (a temporary file in the
+destination folder, then renamed), so an interrupted run never leaves a half-written PNG.
+One `SceneRenderer` reuses its plotters for all images of a scene.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vibra._io import atomic_write
+
+__all__ = ["SceneRenderer", "MoleculeStructure", "write_png", "write_gif", "molecule_symbols", "molecule_bonds",
+           "chain_sites", "MAX_CHAIN_SITES", "MAX_NETWORK_ARROWS", "network_arrow_step"]
+
+#: Largest number of sites drawn in a chain row; longer chains are decimated evenly.
+MAX_CHAIN_SITES = 41
+_GIF_FRAMES = 16
+
+
+@dataclass(frozen=True)
+class MoleculeStructure:
+    """What the renderer draws of a molecule besides its positions: elements and bonds.
+
+    Attributes
+    ----------
+    symbols : tuple of str
+        Chemical symbol of each site (sets the sphere's size and colour).
+    bonds : tuple of (int, int)
+        Site pairs joined by a bond tube.
+    """
+
+    symbols: tuple[str, ...]
+    bonds: tuple[tuple[int, int], ...]
+
+
+def _report_theme() -> Any:
+    """A fresh document theme for reports (never edits `pv.global_theme`)."""
+    import pyvista as pv
+
+    theme = pv.themes.DocumentTheme()
+    theme.background = "white"
+    theme.font.color = "black"
+    theme.font.size = 14
+    theme.font.label_size = 14
+    theme.font.title_size = 14
+    theme.show_edges = False
+    return theme
+
+
+def write_png(image: NDArray[np.uint8], path: str | os.PathLike[str]) -> Path:
+    """Write an (height, width, 3 or 4) uint8 image to `path` as PNG, atomically (`vibra._io`)."""
+    from PIL import Image
+
+    picture = Image.fromarray(np.ascontiguousarray(image))
+    return atomic_write(path, lambda temporary: picture.save(temporary, format="PNG"))
+
+
+def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str], *,
+              frame_ms: int = 80) -> Path:
+    """Write frames as a looping animated GIF at `path`, atomically (frame_ms per frame)."""
+    from PIL import Image
+
+    images = [Image.fromarray(np.ascontiguousarray(f)).convert("RGB").quantize(
+        colors=128, method=Image.Quantize.FASTOCTREE) for f in frames]
+    return atomic_write(path, lambda temporary: images[0].save(
+        temporary, format="GIF", save_all=True, append_images=images[1:], duration=frame_ms, loop=0))
+
+
+# ---------------------------------------------------------------------- geometry helpers
+def chain_sites(masses: ArrayLike) -> NDArray[np.intp]:
+    """(n_shown,) indices of the chain sites drawn, for a chain of these (n_sites,) masses.
+
+    All sites up to `MAX_CHAIN_SITES`; else every s-th site, with the smallest stride s that
+    keeps at most `MAX_CHAIN_SITES`, so the drawn row stays evenly spaced. When the masses
+    repeat with a short period (a diatomic chain: 2), s is made prime to that period so that
+    every kind of mass still appears in the row.
+    """
+    values = np.asarray(masses, dtype=float)
+    n_sites = len(values)
+    stride = -(-n_sites // MAX_CHAIN_SITES)  # ceil
+    period = next((p for p in range(1, 5) if np.array_equal(values[p:], values[:-p])), 1)
+    while stride > 1 and math.gcd(stride, period) != 1:
+        stride += 1
+    return np.arange(0, n_sites, stride, dtype=np.intp)
+
+
+def _positions3(system: Any) -> NDArray[np.float64]:
+    positions = np.asarray(system.positions, dtype=float)
+    out = np.zeros((positions.shape[0], 3))
+    out[:, : positions.shape[1]] = positions
+    return out
+
+
+def _displacements3(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n_sites, 3) displacement of every site (zeros at frozen dofs and unused axes)."""
+    full = np.asarray(system.expand(shape)).reshape(system.n_sites, system.dim)
+    out = np.zeros((system.n_sites, 3))
+    out[:, : system.dim] = full
+    return out
+
+
+def molecule_symbols(system: Any, symbols: Sequence[str] | None = None) -> list[str]:
+    """Chemical symbols of the sites: `symbols` if given, else `vibra.molecules.symbols_from_masses`."""
+    from vibra.molecules import symbols_from_masses
+
+    return list(symbols) if symbols is not None else list(symbols_from_masses(system.masses))
+
+
+def molecule_bonds(system: Any, symbols: Sequence[str] | None = None,
+                   springs: Sequence[Sequence[int]] | None = None) -> list[tuple[int, int]]:
+    """Bonds of a molecule: the given springs, else `vibra.molecules.bonds_from_distances`."""
+    from vibra.molecules import bonds_from_distances
+
+    if springs is not None:
+        return [(int(i), int(j)) for i, j in springs]
+    return list(bonds_from_distances(system.positions, molecule_symbols(system, symbols)))
+
+
+def _default_structure(scene: Any, system: Any) -> MoleculeStructure:
+    """Elements and bonds for a caller that passed none (`vibra.pipeline.plan` always passes them)."""
+    params = scene.system.parameters
+    symbols = molecule_symbols(system, params.get("symbols"))
+    return MoleculeStructure(tuple(symbols), tuple(molecule_bonds(system, symbols, params.get("springs"))))
+
+
+#: An arrow whose direction is within ~25 degrees of a bond (cosine above this) would run
+#: inside that bond's tube and the neighbouring atom, hidden from view.
+_ALONG_BOND = 0.9
+
+
+def _arrow_start(positions: NDArray[np.float64], bonds: Sequence[tuple[int, int]], i: int,
+                 vector: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
+    """Where atom i's displacement arrow starts (Angstrom) so that it stays visible.
+
+    - pointing away from every bond: from the atom's surface outwards;
+    - pointing into a bond but free behind: ending on the atom's surface (pushing it);
+    - bonds on both sides (the centre of a linear molecule): lifted off the bond axis by
+      1.6 radii, perpendicular to the motion, and centred over the atom.
+    """
+    norm = float(np.linalg.norm(vector))
+    direction = vector / norm
+    neighbours = [j for a, b in bonds for j, k in ((b, a), (a, b)) if k == i]
+    units = [(positions[j] - positions[i]) / max(float(np.linalg.norm(positions[j] - positions[i])), 1e-300)
+             for j in neighbours]
+
+    def blocked(d: NDArray[np.float64]) -> bool:
+        return any(float(u @ d) > _ALONG_BOND for u in units)
+
+    if not blocked(direction):
+        return positions[i] + radius * direction
+    if not blocked(-direction):
+        return positions[i] - (radius + norm) * direction
+    axes = np.eye(3)[::-1]  # z first: the screen's vertical in the views used below
+    lift = axes[int(np.argmin(np.abs(axes @ direction)))]
+    lift = lift - (lift @ direction) * direction
+    lift /= np.linalg.norm(lift)
+    return positions[i] + 1.6 * radius * lift - 0.5 * vector
+
+
+def _frequency_text(scene: Any, modes: Any, k: int) -> str:
+    units = modes.units
+    if scene.kind == "molecule" and units.time_s is not None:
+        return f"{float(modes.wavenumbers_cm1()[k]):.1f} cm^-1"
+    if units.time_s is not None:
+        return f"omega = {float(modes.omega[k]):.4g} rad/s"
+    return f"omega = {float(modes.omega[k]):.4g} (dimensionless)"
+
+
+#: Most arrows drawn on a network's C-alpha trace (larger structures show every k-th residue).
+MAX_NETWORK_ARROWS = 100
+
+
+def network_arrow_step(n_sites: int) -> int:
+    """k: draw an arrow on every k-th residue, so that at most `MAX_NETWORK_ARROWS` are drawn.
+
+    >>> network_arrow_step(76), network_arrow_step(1500)
+    (1, 15)
+    """
+    return max(1, -(-int(n_sites) // MAX_NETWORK_ARROWS))
+
+
+# ---------------------------------------------------------------------- renderer
+class SceneRenderer:
+    """Renders the images of one scene, reusing one off-screen plotter per layout.
+
+    Parameters
+    ----------
+    window_size : (int, int)
+        Image size in pixels (width, height).
+    """
+
+    def __init__(self, window_size: Sequence[int]) -> None:
+        import pyvista as pv
+
+        pv.vtk_verbosity("off")  # silences the one "bad X server connection" warning
+        self._pv = pv
+        self.window_size = (int(window_size[0]), int(window_size[1]))
+        self._plotters: dict[tuple[int, int], Any] = {}
+
+    def _plotter(self, shape: tuple[int, int]) -> Any:
+        plotter = self._plotters.get(shape)
+        if plotter is None:
+            plotter = self._pv.Plotter(off_screen=True, window_size=list(self.window_size),
+                                       shape=shape, theme=_report_theme(), border=False)
+            self._plotters[shape] = plotter
+        else:
+            for renderer in plotter.renderers:  # keep the lights: plotter.clear() removes them
+                renderer.clear_actors()
+        # Every add_mesh / camera change of a shown plotter re-renders (slow in software GL):
+        # draw everything first, render once in `_snapshot`.
+        # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
+        plotter.suppress_rendering = True
+        return plotter
+
+    def close(self) -> None:
+        """Release every plotter (and its render window)."""
+        for plotter in self._plotters.values():
+            plotter.close()
+        self._plotters.clear()
+
+    def _snapshot(self, plotter: Any) -> NDArray[np.uint8]:
+        plotter.suppress_rendering = False
+        try:
+            for renderer in plotter.renderers:
+                renderer.ResetCameraClippingRange()
+            plotter.render()  # screenshot() renders only a plotter's first image
+            image = plotter.screenshot(None, return_img=True)
+        finally:
+            plotter.suppress_rendering = True
+        return np.asarray(image, dtype=np.uint8)
+
+    # ------------------------------------------------------------------ public
+    def render_modes(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                     out_dir: Path, *, structure: MoleculeStructure | None = None,
+                     hints: Mapping[int, str] | None = None) -> list[tuple[str, str]]:
+        """Render the modes `indices`; returns (file name, caption) per image written.
+
+        `structure` gives a molecule's elements and bonds (`vibra.pipeline.plan` passes the ones it
+        computed; when None they are taken from `molecule_symbols` and `molecule_bonds`).
+        `hints` maps a mode index to its symmetry / IR-activity text, drawn under the
+        frequency and added to the caption.
+        """
+        if modes.shapes is None:
+            raise ValueError("render_modes needs mode shapes; the modes were computed with vectors=False")
+        if scene.kind == "network":
+            return [self._network_image(scene, system, modes, indices, out_dir)]
+        if scene.kind == "molecule":
+            return self._molecule_images(scene, system, modes, indices, out_dir,
+                                         structure or _default_structure(scene, system), hints or {})
+        return [self._chain_image(scene, system, modes, indices, out_dir)]
+
+    def render_gif(self, scene: Any, system: Any, modes: Any, index: int, out_dir: Path,
+                   work_dir: Path, *, structure: MoleculeStructure | None = None) -> tuple[str, str]:
+        """Animated GIF of mode `index` over one period; returns (file name, caption)."""
+        molecule = None
+        if scene.kind == "molecule":
+            molecule = structure or _default_structure(scene, system)
+        frames = []
+        for phase in np.linspace(0.0, 2.0 * np.pi, _GIF_FRAMES, endpoint=False):
+            plotter = self._plotter((1, 1))
+            if molecule is not None:
+                self._draw_molecule(plotter, scene, system, modes, index, molecule, phase=phase, arrows=False)
+            else:
+                self._draw_chain(plotter, scene, system, modes, index, phase=phase)
+            frames.append(self._snapshot(plotter))
+        name = f"{scene.name}_mode{index}.gif"
+        write_gif(frames, out_dir / name)
+        return name, (f"{scene.title}: animation of mode {index} ({_frequency_text(scene, modes, index)}), "
+                      "displacements exaggerated")
+
+    # ------------------------------------------------------------------ molecules
+    def _molecule_images(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                         out_dir: Path, structure: MoleculeStructure,
+                         hints: Mapping[int, str]) -> list[tuple[str, str]]:
+        groups: list[list[int]] = []
+        # degenerate sets among the drawn modes; a mode's omega_error can be loose (a rigid mode's bound
+        # may span the lowest vibrations), so members must also agree to 1e-6 of the largest omega
+        omega = np.asarray(modes.omega)
+        scale = 1e-6 * float(np.abs(omega).max(initial=0.0))
+        drawn = {int(k) for k in indices}
+        degenerate = {int(i): [int(j) for j in g if int(j) in drawn and abs(omega[j] - omega[i]) <= scale]
+                      for g in modes.degenerate_groups(1e-6) for i in g if int(i) in drawn}
+        for k in indices:
+            group = degenerate.get(int(k), [int(k)])
+            if any(int(k) in g for g in groups):
+                continue
+            groups.append(group)
+        images = []
+        for group in groups:
+            plotter = self._plotter((1, len(group)))
+            texts = []
+            for column, k in enumerate(group):
+                plotter.subplot(0, column)
+                texts.append(self._draw_molecule(plotter, scene, system, modes, k, structure, hint=hints.get(k)))
+            name = f"{scene.name}_mode{group[0]}.png"
+            write_png(self._snapshot(plotter), out_dir / name)
+            label = " and ".join(str(k) for k in group)
+            together = f" (degenerate, x{len(group)}, side by side)" if len(group) > 1 else ""
+            images.append((name, f"{scene.title}: mode {label}{together}: {texts[0]}"))
+        return images
+
+    def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
+                       structure: MoleculeStructure, *, phase: float | None = None, arrows: bool = True,
+                       hint: str | None = None) -> str:
+        pv = self._pv
+        from ase.data import atomic_numbers, covalent_radii
+        from ase.data.colors import jmol_colors
+
+        positions = _positions3(system)
+        numbers = [atomic_numbers[symbol] for symbol in structure.symbols]
+        displacement = _displacements3(system, np.asarray(modes.shapes)[:, k])
+        bond_list = list(structure.bonds)
+        lengths = [np.linalg.norm(positions[i] - positions[j]) for i, j in bond_list]
+        reference = min(lengths) if lengths else 1.0
+        size = max(float(np.linalg.norm(displacement, axis=1).max()), 1e-300)
+        displacement = displacement * (0.8 * reference / size)  # longest arrow: 0.8 bond lengths
+        shown = positions if phase is None else positions + 0.35 * np.cos(phase) * displacement
+        radii = 0.35 * covalent_radii[numbers] + 0.1
+        for i, z in enumerate(numbers):
+            plotter.add_mesh(pv.Sphere(radius=float(radii[i]), center=shown[i], theta_resolution=24,
+                                       phi_resolution=24), color=tuple(jmol_colors[z]), smooth_shading=True,
+                             specular=0.3)
+        for i, j in bond_list:
+            line = pv.Line(shown[i], shown[j])
+            plotter.add_mesh(line.tube(radius=0.1 * reference), color="lightgray", smooth_shading=True,
+                             opacity=0.5)  # see-through: arrows along a bond stay visible
+        if arrows:
+            for i in range(len(positions)):
+                vector = displacement[i]
+                norm = float(np.linalg.norm(vector))
+                if norm < 1e-3 * reference:
+                    continue
+                start = _arrow_start(positions, bond_list, i, vector, float(radii[i]))
+                arrow = pv.Arrow(start=start, direction=vector, scale=norm,
+                                 tip_length=0.3, tip_radius=0.12, shaft_radius=0.04)
+                plotter.add_mesh(arrow, color="crimson", smooth_shading=True)
+        frequency = _frequency_text(scene, modes, k)
+        text = frequency if not hint else f"{frequency}, {hint}"
+        lines = [f"mode {k}: {frequency}"] + ([] if not hint else hint.split("; "))
+        plotter.add_text("\n".join(lines), position="upper_left", font_size=13, color="black")
+        extent = np.ptp(positions, axis=0)
+        plotter.camera_position = "xz" if extent[2] > 1e-9 or extent[1] <= 1e-9 else "xy"
+        plotter.camera.elevation = 30
+        plotter.camera.azimuth = 35
+        plotter.reset_camera()
+        rows, columns = plotter.shape
+        aspect = (self.window_size[0] / columns) / (self.window_size[1] / rows)
+        plotter.camera.zoom(1.45 if aspect >= 1.2 else 1.0)
+        return text
+
+    # ------------------------------------------------------------------ networks
+    def _network_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                       out_dir: Path) -> tuple[str, str]:
+        """The C-alpha trace as a tube, one panel per mode, arrows on every k-th site (k from the size)."""
+        pv = self._pv
+        positions = _positions3(system)
+        n = len(positions)
+        every = network_arrow_step(n)
+        columns = min(len(indices), 3)
+        rows = -(-len(indices) // columns)
+        plotter = self._plotter((rows, columns))
+        centre = positions.mean(axis=0)
+        extent = float(np.ptp(positions, axis=0).max())
+        line = pv.lines_from_points(positions)
+        shown = np.arange(0, n, every)
+        for panel, k in enumerate(indices):
+            plotter.subplot(panel // columns, panel % columns)
+            motion = np.linalg.norm(_displacements3(system, np.asarray(modes.shapes)[:, k]), axis=1)
+            trace = line.copy()
+            trace["motion"] = motion / max(float(motion.max()), 1e-300)  # the tube coloured by each site's share
+            plotter.add_mesh(trace.tube(radius=0.012 * extent, n_sides=12), scalars="motion", cmap="viridis",
+                             clim=(0.0, 1.0), show_scalar_bar=False, smooth_shading=True)
+            vectors = _displacements3(system, np.asarray(modes.shapes)[:, k])[shown]
+            size = max(float(np.linalg.norm(vectors, axis=1).max()), 1e-300)
+            arrows = [pv.Arrow(start=positions[i], direction=v, scale=0.18 * extent * float(np.linalg.norm(v)) / size,
+                               tip_length=0.3, tip_radius=0.1, shaft_radius=0.035)
+                      for i, v in zip(shown, vectors) if np.linalg.norm(v) > 0.05 * size]
+            if arrows:
+                plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
+            plotter.add_text(f"mode {k}: omega = {float(modes.omega[k]):.4g}", position="upper_left",
+                             font_size=11, color="black")
+            plotter.camera.focal_point = tuple(centre)
+            plotter.camera.position = tuple(centre + np.array([0.0, -2.6 * extent, 0.9 * extent]))
+            plotter.camera.up = (0.0, 0.0, 1.0)
+            plotter.reset_camera()
+            plotter.camera.zoom(1.3 if rows == 1 else 1.05)  # the tallest structure part stays in view
+        name = f"{scene.name}_modes.png"
+        write_png(self._snapshot(plotter), out_dir / name)
+        listed = ", ".join(f"{k} (omega = {float(modes.omega[k]):.4g}, dimensionless)" for k in indices)
+        note = f"one arrow every {every} residues" if every > 1 else "one arrow per residue"
+        return name, (f"{scene.title}: slowest non-rigid modes {listed} as arrows on the C-alpha trace "
+                      f"({n} residues, tube through the C-alpha atoms coloured by each residue's motion, dark to "
+                      f"yellow; {note}, length proportional to the motion, the smallest 5% left out)")
+
+    # ------------------------------------------------------------------ chains
+    def _chain_sites(self, system: Any) -> NDArray[np.intp]:
+        return chain_sites(system.masses)
+
+    def _chain_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+                     out_dir: Path) -> tuple[str, str]:
+        plotter = self._plotter((len(indices), 1))
+        for row, k in enumerate(indices):
+            plotter.subplot(row, 0)
+            self._draw_chain(plotter, scene, system, modes, k)
+        name = f"{scene.name}_modes.png"
+        write_png(self._snapshot(plotter), out_dir / name)
+        sites = self._chain_sites(system)
+        transverse = scene.system.builder == "beaded_string"
+        note = (f"; one site in {sites[1] - sites[0]} shown ({len(sites)} of {system.n_sites}, "
+                "evenly spaced)" if len(sites) < system.n_sites else "")
+        direction = "across the string (transverse)" if transverse else "along the chain (axial motion)"
+        listed = ", ".join(f"{k} ({_frequency_text(scene, modes, k)})" for k in indices)
+        return name, (f"{scene.title}: modes {listed}; one row per mode, arrows {direction}, "
+                      f"sphere volume proportional to mass{note}")
+
+    def _draw_chain(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
+                    *, phase: float | None = None) -> None:
+        """One row of masses for mode k in the current subplot (displaced when `phase` is given)."""
+        pv = self._pv
+        sites = self._chain_sites(system)
+        x = np.asarray(system.positions, dtype=float)[sites, 0]
+        width = 10.0
+        span = float(x.max() - x.min())
+        x = (x - x.min()) / span * width if span > 0 else np.zeros(len(x))
+        step = width / max(len(x) - 1, 1)
+        masses = np.asarray(system.masses, dtype=float)[sites]
+        radii = 0.3 * step * np.cbrt(masses / masses.max())
+        transverse = scene.system.builder == "beaded_string"
+        shape = _displacements3(system, np.asarray(modes.shapes)[:, k])[sites, 1 if transverse else 0]
+        size = max(float(np.abs(shape).max()), 1e-300)
+        length = (1.2 if transverse else 0.95) * step * shape / size
+        offsets = np.zeros((len(x), 3))
+        if phase is not None:
+            offsets[:, 1 if transverse else 0] = 0.8 * np.cos(phase) * length
+        centres = np.column_stack([x, np.zeros(len(x)), np.zeros(len(x))]) + offsets
+        line = pv.Line((x[0] - 0.5 * step, 0.0, 0.0), (x[-1] + 0.5 * step, 0.0, 0.0))
+        plotter.add_mesh(line.tube(radius=0.05 * step), color="gray")
+        cloud = pv.PolyData(centres)
+        cloud["radius"] = radii
+        spheres = cloud.glyph(geom=pv.Sphere(radius=1.0, theta_resolution=16, phi_resolution=16),
+                              scale="radius", orient=False)
+        plotter.add_mesh(spheres, color="steelblue", smooth_shading=True)
+        # invisible frame so every row spans the same height, arrows or not
+        reach = 1.3 * step if transverse else 0.9 * step
+        frame = pv.PolyData(np.array([[x[0] - 0.6 * step, -reach, 0.0], [x[-1] + 0.6 * step, reach, 0.0]]))
+        plotter.add_mesh(frame, opacity=0.0, render_points_as_spheres=False, point_size=1)
+        moving = np.abs(length) > 2e-2 * step
+        if phase is None and moving.any():
+            count = int(moving.sum())
+            if transverse:
+                starts = centres[moving]
+                directions = np.column_stack([np.zeros(count), length[moving], np.zeros(count)])
+            else:
+                starts = centres[moving] + np.array([0.0, radii.max() + 0.3 * step, 0.0])
+                starts[:, 0] -= 0.5 * length[moving]
+                directions = np.column_stack([length[moving], np.zeros((count, 2))])
+            arrows = [pv.Arrow(start=a, direction=d, scale=float(np.linalg.norm(d)), tip_length=0.3,
+                               tip_radius=0.11, shaft_radius=0.045) for a, d in zip(starts, directions)]
+            plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
+        plotter.add_text(f"mode {k}: {_frequency_text(scene, modes, k)}", position="upper_left",
+                         font_size=11, color="black")
+        # Parallel projection framed on the row: fit its width to the subplot's aspect ratio.
+        rows, columns = plotter.shape
+        aspect = (self.window_size[0] / columns) / (self.window_size[1] / rows)
+        half_width = 0.5 * (x[-1] - x[0]) + 0.8 * step
+        centre = (0.5 * (x[0] + x[-1]), 0.0, 0.0)
+        camera = plotter.camera
+        scale = max(1.45 * reach, half_width / aspect)
+        lifted = (centre[0], 0.22 * scale, 0.0)  # the row sits below the caption line
+        camera.parallel_projection = True
+        camera.focal_point = lifted
+        camera.position = (centre[0], lifted[1], 10.0 * width)
+        camera.up = (0.0, 1.0, 0.0)
+        camera.parallel_scale = scale
+        plotter.renderer.ResetCameraClippingRange()

@@ -1,0 +1,269 @@
+"""The output folder of `vibra report`: checked, locked, cleaned, and its files verified before reuse.
+
+- `check_out_dir`: the folder must be a folder (created when missing) that vibra can write;
+  a regular file, a dangling symlink, a symlink loop, a device (``/dev/null``) or a
+  read-only folder is refused with one line, before anything is written.
+- `FolderLock`: one `vibra report` at a time per folder. The lock is ``DIR/.vibra/lock``, an
+  ``fcntl.flock`` on an open file (released by the kernel when its holder dies, so a killed
+  run never leaves the folder locked) holding the holder's pid, start time and command. A
+  second run waits up to its ``wait`` seconds (``--wait``, default 60) for the lock, then
+  refuses with `FolderBusy`, naming the holder.
+- `clean_stale`: removes the work folders (``DIR/.work/<pid>/``) and temporary files
+  (``.<name>.<pid>~tmp~...``, `vibra._io`) of processes that no longer run.
+- `output_is_sound`: a stored PNG or GIF must decode, a JSON must parse, no file may be empty;
+  a scene whose stored outputs fail this is run again instead of skipped.
+- `code_hash`: SHA-256 of vibra's own ``.py`` files, part of the skip key (changed code
+  never serves stale images).
+"""
+
+from __future__ import annotations
+
+import errno
+import fcntl
+import functools
+import hashlib
+import json
+import os
+import shutil
+import stat
+import sys
+import time
+from pathlib import Path
+from types import TracebackType
+
+from vibra._io import atomic_write_text, temporary_owner
+
+__all__ = ["MANIFESTS", "WORK", "LOCK_NAME", "FolderBusy", "FolderLock", "check_out_dir", "pid_alive",
+           "clean_stale", "output_is_sound", "code_hash", "work_folder"]
+
+MANIFESTS = ".vibra"
+WORK = ".work"
+LOCK_NAME = "lock"
+#: Files `report` itself writes in the output folder (checked to be files, not folders).
+FOLDER_FILES = ("summary.json", "index.html")
+
+
+class FolderBusy(RuntimeError):
+    """Another `vibra report` holds the output folder's lock (the message names it)."""
+
+
+def _describe(path: Path) -> str | None:
+    """Why `path` cannot be the output folder (None when it is a folder or does not exist yet)."""
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        if os.path.islink(path):
+            return f"is a symlink to a missing target ({os.readlink(path)})"
+        return None
+    except OSError as error:
+        if error.errno == errno.ELOOP:
+            return "is a symlink loop"
+        if error.errno == errno.ENOTDIR:  # below a file: its parent says why
+            return None
+        return f"cannot be inspected ({error.strerror})"
+    if stat.S_ISDIR(info.st_mode):
+        return None
+    if stat.S_ISREG(info.st_mode):
+        return "is a regular file"
+    if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode):
+        return "is a device"
+    return "is not a folder (a FIFO or socket)"
+
+
+def check_out_dir(path: str | os.PathLike[str]) -> Path:
+    """Create the output folder when missing and check it is a writable folder; return it.
+
+    Raises
+    ------
+    NotADirectoryError
+        `path` (or a parent) is a file, device, dangling symlink or symlink loop.
+    PermissionError
+        The folder (or the parent it would be made in) is not writable.
+    """
+    target = Path(path)
+    for folder in [target, *target.parents]:
+        problem = _describe(folder)
+        if problem is not None:
+            where = "--out" if folder == target else f"--out {target}: its parent"
+            raise NotADirectoryError(f"{where} {folder} {problem}; expected a folder (created when missing)")
+        if folder.exists():
+            break
+    try:
+        target.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise PermissionError(f"--out {target}: cannot create the folder ({error.strerror}); expected a "
+                              "writable place") from None
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise PermissionError(f"--out {target}: the folder is not writable; choose another --out or change "
+                              "its permissions")
+    for name in (MANIFESTS, WORK, *FOLDER_FILES):
+        entry = target / name
+        wanted_dir = name in (MANIFESTS, WORK)
+        if os.path.lexists(entry) and (entry.is_dir() != wanted_dir or entry.is_symlink()):
+            raise NotADirectoryError(f"--out {target}: {entry} is {'not a folder' if wanted_dir else 'a folder'}"
+                                     f"; vibra writes its {'bookkeeping' if wanted_dir else 'report'} there; "
+                                     "remove or rename it")
+    return target
+
+
+def pid_alive(pid: int) -> bool:
+    """True when process `pid` exists (signal 0 is sent only to check)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it exists, under another user
+        return True
+    except OverflowError:
+        return False
+    return True
+
+
+def work_folder(out_dir: Path) -> Path:
+    """This process's work folder, ``DIR/.work/<pid>/`` (scenes stage their files below it)."""
+    return out_dir / WORK / str(os.getpid())
+
+
+def clean_stale(out_dir: Path) -> list[Path]:
+    """Remove work folders and temporary files of processes that no longer run; return what went.
+
+    Work folders are ``DIR/.work/<pid>/``; temporary files are `vibra._io`'s
+    ``.<name>.<pid>~tmp~...`` in ``DIR`` and ``DIR/.vibra``. Those of a live process stay.
+    """
+    removed: list[Path] = []
+    work = out_dir / WORK
+    if work.is_dir():
+        for entry in work.iterdir():
+            owner = entry.name.split("-")[-1]  # "<pid>" (and the "<scene>-<pid>" of older versions)
+            if not owner.isdigit() or not pid_alive(int(owner)):
+                if entry.is_dir() and not entry.is_symlink():
+                    shutil.rmtree(entry, ignore_errors=True)
+                else:
+                    entry.unlink(missing_ok=True)
+                removed.append(entry)
+    for folder in (out_dir, out_dir / MANIFESTS):
+        if not folder.is_dir():
+            continue
+        for entry in folder.iterdir():
+            writer = temporary_owner(entry.name)
+            if writer is not None and not pid_alive(writer) and entry.is_file():
+                entry.unlink(missing_ok=True)
+                removed.append(entry)
+    return removed
+
+
+def output_is_sound(path: Path) -> bool:
+    """True when `path` is a non-empty regular file that decodes (PNG/GIF) or parses (JSON)."""
+    try:
+        info = path.stat()
+    except OSError:
+        return False
+    if not stat.S_ISREG(info.st_mode) or info.st_size == 0:
+        return False
+    suffix = path.suffix.lower()
+    try:
+        if suffix in (".png", ".gif"):
+            from PIL import Image  # Pillow comes with matplotlib
+
+            with Image.open(path) as image:
+                image.load()  # a truncated file raises here
+                frames = int(getattr(image, "n_frames", 1))
+                if frames > 1:  # an animation: its last frame must decode too
+                    image.seek(frames - 1)
+                    image.load()
+        elif suffix == ".json":
+            json.loads(path.read_text(encoding="utf-8"))
+        elif suffix in (".txt", ".html"):
+            path.read_text(encoding="utf-8")
+    except Exception:  # any decoder failure means: not trusted, redo the scene
+        return False
+    return True
+
+
+@functools.cache
+def code_hash() -> str:
+    """SHA-256 of the bytes of every ``.py`` file of the vibra package (computed once per process)."""
+    package = Path(__file__).resolve().parents[2]  # vibra/ (this file: vibra/pipeline/report/folder.py)
+    digest = hashlib.sha256()
+    for file in sorted(package.rglob("*.py")):
+        digest.update(file.relative_to(package).as_posix().encode())
+        digest.update(b"\0")
+        digest.update(file.read_bytes())
+        digest.update(b"\0")
+    return digest.hexdigest()
+
+
+class FolderLock:
+    """The lock of one output folder, held for a whole `report` run (a context manager).
+
+    Parameters
+    ----------
+    out_dir : Path
+        The output folder (checked by `check_out_dir`).
+    wait : float
+        Seconds to wait for another run to finish before refusing (0: refuse at once), in s.
+    poll : float
+        Seconds between attempts, in s.
+    """
+
+    def __init__(self, out_dir: Path, *, wait: float = 60.0, poll: float = 0.2) -> None:
+        self.path = out_dir / MANIFESTS / LOCK_NAME
+        self.wait = wait
+        self.poll = poll
+        self.handle: int | None = None
+
+    def holder(self) -> str:
+        """Who holds the lock, in words, from the lock file."""
+        try:
+            data = json.loads(self.path.read_text(encoding="utf-8"))
+            started = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(float(data["started"])))
+            return f"pid {int(data['pid'])}, started {started}, command {data.get('command', '?')!r}"
+        except (OSError, ValueError, KeyError, TypeError):
+            return "another vibra report (its details are not written yet)"
+
+    def acquire(self) -> None:
+        """Take the lock, waiting up to `wait` seconds; raise `FolderBusy` naming the holder."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        descriptor = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        deadline = time.monotonic() + self.wait
+        while True:
+            try:
+                fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() >= deadline:
+                    holder = self.holder()
+                    os.close(descriptor)
+                    waited = f"after waiting {self.wait:g} s" if self.wait > 0 else "(--wait 0)"
+                    raise FolderBusy(f"--out {self.path.parent.parent}: in use by {holder} {waited}; wait for it "
+                                     "to finish, use another --out, or give --wait SECONDS") from None
+                time.sleep(self.poll)
+        self.handle = descriptor
+        info = {"pid": os.getpid(), "started": time.time(), "command": " ".join(sys.argv)}
+        os.ftruncate(descriptor, 0)
+        os.pwrite(descriptor, json.dumps(info).encode(), 0)
+
+    def release(self) -> None:
+        """Release the lock (the file stays; its content is cleared)."""
+        if self.handle is not None:
+            try:
+                os.ftruncate(self.handle, 0)
+                fcntl.flock(self.handle, fcntl.LOCK_UN)
+            finally:
+                os.close(self.handle)
+                self.handle = None
+
+    def __enter__(self) -> FolderLock:
+        self.acquire()
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 trace: TracebackType | None) -> None:
+        self.release()
+
+
+def write_manifest(out_dir: Path, name: str, text: str) -> Path:
+    """Write a scene's manifest ``DIR/.vibra/<name>.json`` (atomically)."""
+    return atomic_write_text(out_dir / MANIFESTS / f"{name}.json", text)

@@ -1,0 +1,205 @@
+"""The builders a scene may name, with their parameter tables derived from the builders themselves.
+
+A scene's ``[system]`` table names a builder of `BUILD_FUNCTIONS` (a fixed table of
+(module, function) inside vibra) and sets its parameters. The keys a scene may set, which of
+them are required and their defaults are read from the builder's signature
+(`inspect.signature`), so they cannot drift from the code that runs: a builder parameter
+without a default is required in the scene, a default is the builder's own. This module only
+adds what a signature cannot say: the value check of each parameter (`PARAMETER_CHECKS`),
+the parameters a scene does not set (`NOT_IN_SCENES`, each with the reason), and keys the plan
+applies after the builder (`SCENE_ONLY`). A builder parameter in none of these tables stops
+the derivation with an error naming it, so a new builder argument cannot slip past the schema.
+
+>>> sorted(BUILDERS["beaded_string"][1])
+['ends', 'frozen_dofs', 'frozen_sites', 'mass', 'n', 'spacing', 'tension']
+>>> BUILDERS["beaded_string"][1]["ends"].default
+'fixed'
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import inspect
+from types import MappingProxyType
+from typing import Any, Callable, Iterator, Mapping
+
+from vibra.pipeline.scene.values import (
+    Check, FieldSpec, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
+    scalar_or_list, string,
+)
+
+__all__ = ["isotope_labels", "BUILD_FUNCTIONS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
+           "SCENE_REQUIRED", "builder_function", "builder_fields"]
+
+#: scene builder -> (vibra module, function). The only way a scene names code.
+BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
+    "linear_chain": ("vibra.chains", "linear_chain"),
+    "diatomic_chain": ("vibra.chains", "diatomic_chain"),
+    "beaded_string": ("vibra.chains", "beaded_string"),
+    "springs": ("vibra.system", "System.from_springs"),
+    "co2": ("vibra.molecules", "co2"),
+    "h2o": ("vibra.molecules", "h2o"),
+    "molecule": ("vibra.molecules", "molecule"),
+    "double_pendulum": ("vibra.mechanics.lagrangian", "double_pendulum"),
+    "charged_particle": ("vibra.mechanics.gyroscopic", "charged_particle"),
+    "matrices": ("vibra.system", "System.generalized"),
+    "anm": ("vibra.networks", "anm"),
+    "oscillator": ("vibra.response", "Oscillator"),
+}
+
+#: builder -> the scene kinds it serves.
+BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
+    "linear_chain": ("chain",), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
+    "springs": ("chain", "molecule"), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
+    "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
+    "anm": ("network",),
+})
+
+MASS = scalar_or_list(positive)
+ENDS = one_of("free", "fixed", "periodic")
+_SITES = list_of(integer(0), min_length=0)
+FROZEN = {"frozen_sites": field_spec(_SITES), "frozen_dofs": field_spec(_SITES)}
+
+
+def isotope_labels(value: Any, fail: Callable[[str], Any]) -> tuple[str | None, ...]:
+    """One isotope label per atom (``"D"``, ``"T"``, ``"13C"``, ``"18O"``), ``""`` keeping an atom's mass.
+
+    TOML has no null, so ``isotopes = ["", "D", "D"]`` is heavy water; the labels themselves
+    are checked by the builder (`vibra.molecules.isotope_masses`), which knows the atoms.
+    """
+    labels = list_of(string)(value, fail)
+    return tuple(label or None for label in labels)
+
+
+ISOTOPES = isotope_labels
+
+#: builder -> {parameter: value check}, for every builder parameter a scene may set.
+PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
+    "linear_chain": {"n": integer(2), "mass": MASS, "stiffness": scalar_or_list(positive), "spacing": positive,
+                     "ends": ENDS},
+    "diatomic_chain": {"n_cells": integer(1), "masses": list_of(positive, length=2),
+                       "stiffness": scalar_or_list(positive), "spacing": positive, "ends": ENDS},
+    "beaded_string": {"n": integer(1), "mass": positive, "tension": positive, "spacing": positive,
+                      "ends": ENDS},
+    "springs": {"positions": coordinates, "masses": MASS, "springs": index_pairs,
+                "stiffness": scalar_or_list(positive), "anchors": _SITES,
+                "anchor_stiffness": scalar_or_list(positive), "frozen_sites": _SITES, "frozen_dofs": _SITES},
+    "co2": {"dims": one_of(1, 3), "isotopes": ISOTOPES},
+    "h2o": {"isotopes": ISOTOPES},
+    # system.name is ASE's molecule name: the plan passes it as name_or_atoms (and as the System's name)
+    "molecule": {"name": string, "isotopes": ISOTOPES, "masses": list_of(positive)},
+    "double_pendulum": {"m": positive, "m_prime": positive, "a": positive, "b": positive, "g": positive},
+    "charged_particle": {"mass": positive, "omega0": positive, "charge": number, "field": number},
+    "matrices": {"M": matrix, "K": matrix, "coordinates": list_of(string)},
+    "oscillator": {"w0": positive, "gamma": scalar_or_list(nonnegative), "m": positive},
+    "anm": {"cutoff": positive, "gamma": positive},
+})
+
+_UNITS = "the scene's top-level units"
+_NAME = "the scene's name"
+#: builder -> {parameter: why a scene does not set it}.
+NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
+    "linear_chain": {"units": _UNITS, "name": _NAME},
+    "diatomic_chain": {"units": _UNITS, "name": _NAME},
+    "beaded_string": {"units": _UNITS, "name": _NAME},
+    "springs": {"units": _UNITS, "name": _NAME,
+                "anchor_directions": "anchors in scenes hold every axis of a site",
+                "blocks": "scenes give pair springs only (no general Hessian blocks)"},
+    "co2": {"bond_length": "the builder's constant (the cross-check reuses it)",
+            "stretch": "the builder's constant (the cross-check reuses it)",
+            "bend": "the builder's constant (the cross-check reuses it)"},
+    "h2o": {"stretch": "the builder's constant (the cross-check reuses it)",
+            "bend": "the builder's constant (the cross-check reuses it)"},
+    "molecule": {"name_or_atoms": "given by the scene's system.name (an ASE molecule name) or system.xyz (a file)",
+                 "valence_model_options": "the scene keys stretch, bend and torsion"},
+    "double_pendulum": {"units": "seed 000's problem is in SI"},
+    "charged_particle": {},
+    "matrices": {"units": _UNITS, "name": _NAME,
+                 "G": "gyroscopic and damped scenes are not wired yet (issue 15)",
+                 "C": "gyroscopic and damped scenes are not wired yet (issue 15)"},
+    "oscillator": {},
+    "anm": {"positions": "the C-alpha atoms of the structure file system.pdb",
+            "masses": "unit masses, as ProDy's ANM", "name": _NAME},
+})
+
+#: builder -> keys a scene may set that are not builder parameters (the plan applies them).
+SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
+    "linear_chain": {"defect_site": field_spec(integer(0)), "defect_mass": field_spec(positive), **FROZEN},
+    "diatomic_chain": dict(FROZEN),
+    "beaded_string": dict(FROZEN),
+    "springs": {"symbols": field_spec(list_of(string))},
+    "co2": dict(FROZEN),
+    "h2o": dict(FROZEN),
+    "molecule": {"xyz": field_spec(string), "stretch": field_spec(positive),
+                 "bend": field_spec(positive), "torsion": field_spec(positive)},
+    "double_pendulum": {},
+    "charged_particle": {},
+    "matrices": {},
+    "oscillator": {},
+    "anm": {"pdb": field_spec(string, required=True)},
+})
+
+#: builder -> parameters a scene must give although the builder has a default for them.
+SCENE_REQUIRED: Mapping[str, tuple[str, ...]] = MappingProxyType({
+    "springs": ("springs", "stiffness"),  # without springs a scene has no stiffness to solve
+})
+
+
+def builder_function(builder: str) -> Callable[..., Any]:
+    """The vibra function (or class) that `builder` names in `BUILD_FUNCTIONS`."""
+    module_name, attribute = BUILD_FUNCTIONS[builder]
+    target: Any = importlib.import_module(module_name)
+    for part in attribute.split("."):
+        target = getattr(target, part)
+    return target
+
+
+def _default(value: Any) -> Any:
+    return tuple(value) if isinstance(value, list) else value
+
+
+@functools.cache
+def builder_fields(builder: str) -> Mapping[str, FieldSpec]:
+    """The keys of ``[system]`` for `builder`: its signature's parameters, checked, plus `SCENE_ONLY`.
+
+    Raises
+    ------
+    RuntimeError
+        A builder parameter is in neither `PARAMETER_CHECKS` nor `NOT_IN_SCENES`, or a
+        checked name is not a parameter of the builder (the tables drifted from the code).
+    """
+    checks, skipped = PARAMETER_CHECKS[builder], NOT_IN_SCENES[builder]
+    parameters = inspect.signature(builder_function(builder)).parameters
+    fields: dict[str, FieldSpec] = {}
+    for name, parameter in parameters.items():
+        if name in skipped or parameter.kind in (parameter.VAR_POSITIONAL, parameter.VAR_KEYWORD):
+            continue
+        if name not in checks:
+            raise RuntimeError(f"builder {builder!r} has a parameter {name!r} that the scene schema does not know; "
+                               "add it to PARAMETER_CHECKS or NOT_IN_SCENES in vibra/pipeline/scene/builders.py")
+        no_default = parameter.default is inspect.Parameter.empty
+        fields[name] = field_spec(checks[name], None if no_default else _default(parameter.default),
+                                  required=no_default or name in SCENE_REQUIRED.get(builder, ()))
+    unknown = sorted(set(checks) - set(fields))
+    if unknown:
+        raise RuntimeError(f"scene schema checks {unknown} for builder {builder!r}, which takes no such parameter")
+    return MappingProxyType({**fields, **SCENE_ONLY[builder]})
+
+
+class _BuilderTable(Mapping[str, "tuple[tuple[str, ...], Mapping[str, FieldSpec]]"]):
+    """builder -> (scene kinds, parameter table); a builder's table is derived on first use."""
+
+    def __getitem__(self, builder: str) -> tuple[tuple[str, ...], Mapping[str, FieldSpec]]:
+        return BUILDER_KINDS[builder], builder_fields(builder)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(BUILD_FUNCTIONS)
+
+    def __len__(self) -> int:
+        return len(BUILD_FUNCTIONS)
+
+
+#: builder name -> (scene kinds it serves, parameter table). The plan maps each name to one
+#: function in vibra (`BUILD_FUNCTIONS`); nothing read from a file is ever imported or run.
+BUILDERS: Mapping[str, tuple[tuple[str, ...], Mapping[str, FieldSpec]]] = _BuilderTable()

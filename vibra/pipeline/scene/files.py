@@ -1,0 +1,78 @@
+"""Data files a scene names (an ``.xyz`` molecule, a ``.pdb`` structure): inside the scene's folder only.
+
+A scene may name a file beside it (``xyz = "ethanol.xyz"``, ``pdb = "1ubi.pdb"``). The path is
+taken relative to the scene file's folder and resolved (``..`` and symlinks followed); a path
+that then leaves that folder is refused, so a scene can read nothing outside its own folder.
+The file must be a regular file of at most `MAX_DATA_BYTES`; `read_scene_data` reads it once,
+with that cap, so what was checked is what is parsed.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+from vibra.pipeline.scene.specs import SceneError
+
+__all__ = ["MAX_DATA_BYTES", "scene_data_path", "read_scene_data"]
+
+#: Largest data file a scene may name, in bytes (16 MiB: a 100,000-atom PDB file is about 8 MiB).
+MAX_DATA_BYTES = 16 << 20
+
+
+def scene_data_path(source: str, key: str, name: str) -> Path:
+    """The resolved path of the data file `name` that the scene `source` names at `key`.
+
+    Raises
+    ------
+    SceneError
+        An absolute path, a path (or symlink) that leads outside the scene's folder, a missing
+        file, or something that is not a regular file.
+    """
+    if not name or Path(name).is_absolute():
+        raise SceneError(source, key, f"is {name!r}; give a file name relative to the scene's folder "
+                         "(the file must lie inside that folder)")
+    folder = Path(source).parent.resolve()
+    path = (folder / name).resolve()
+    if path != folder and folder not in path.parents:
+        raise SceneError(source, key, f"{name!r} leads outside the scene's folder ({folder}); a scene reads "
+                         "only files inside its own folder (symlinks are followed before this check)")
+    try:
+        info = os.stat(path)
+    except OSError:
+        raise SceneError(source, key, f"{name!r}: file not found beside the scene (in {folder})") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise SceneError(source, key, f"{name!r} is not a regular file")
+    if info.st_size > MAX_DATA_BYTES:
+        raise SceneError(source, key, f"{name!r} is {info.st_size} bytes; a scene's data file may hold at most "
+                         f"{MAX_DATA_BYTES} bytes")
+    return path
+
+
+def read_scene_data(source: str, key: str, name: str) -> str:
+    """The text of the data file `name` (checked by `scene_data_path`), read with the size cap.
+
+    Raises
+    ------
+    SceneError
+        As `scene_data_path`, or unreadable / not UTF-8 text.
+    """
+    path = scene_data_path(source, key, name)
+    try:
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        try:
+            if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+                raise SceneError(source, key, f"{name!r} is not a regular file")
+            with os.fdopen(os.dup(descriptor), "rb") as handle:
+                data = handle.read(MAX_DATA_BYTES + 1)
+        finally:
+            os.close(descriptor)
+    except OSError as error:
+        raise SceneError(source, key, f"{name!r}: cannot read ({error.strerror})") from None
+    if len(data) > MAX_DATA_BYTES:
+        raise SceneError(source, key, f"{name!r} holds more than {MAX_DATA_BYTES} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise SceneError(source, key, f"{name!r} is not UTF-8 text") from None

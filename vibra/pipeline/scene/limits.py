@@ -1,0 +1,151 @@
+"""How much memory (and time) a scene would take, estimated from its parameters before anything is built.
+
+`vibra validate` and `vibra report` refuse a scene whose estimate exceeds its memory limit
+(``compute.memory_limit_gib``; by default half of this machine's physical memory) before any
+array is allocated, saying what it would take and the cheaper request that answers the
+question (``n_modes``, no shapes, fewer response points). The figures are upper bounds of the
+arrays the plan keeps (float64, 8 bytes a number), not of the solvers' small workspaces.
+Likewise a request for all modes of a large system, O(N^2) work, is refused when its
+estimate exceeds ``compute.time_limit_s`` (default `DEFAULT_TIME_LIMIT_S`).
+
+>>> from types import MappingProxyType
+>>> sites_and_dim("linear_chain", MappingProxyType({"n": 10}))
+(10, 1)
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+__all__ = ["BYTES_PER_DOF", "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "sites_and_dim", "n_dof_bound",
+           "default_memory_limit", "MemoryEstimate", "memory_estimate", "all_modes_seconds", "gib"]
+
+#: Bytes a built system keeps per degree of freedom (positions, masses, sparse K and M, spring factor).
+BYTES_PER_DOF = 512
+#: Seconds per N^2 of an all-frequency solve of N dofs (tridiagonal and bidiagonal paths are
+#: O(N^2)). (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
+SECONDS_PER_DOF_SQUARED = 1e-8
+#: Longest estimated all-frequency solve a scene may ask for without ``compute.time_limit_s``, in s.
+DEFAULT_TIME_LIMIT_S = 600.0
+
+
+def sites_and_dim(builder: str, p: Mapping[str, Any]) -> tuple[int, int] | None:
+    """(number of sites, coordinates per site) of a site-based builder's parameters (None otherwise)."""
+    if builder == "linear_chain":
+        return p["n"], 1
+    if builder == "diatomic_chain":
+        return 2 * p["n_cells"], 1
+    if builder == "beaded_string":
+        return p["n"], 2  # (x, y) per bead, x held at rest: transverse motion only
+    if builder == "springs":
+        first = p["positions"][0]
+        return len(p["positions"]), len(first) if isinstance(first, tuple) else 1
+    if builder == "co2":
+        return 3, p["dims"]
+    if builder == "h2o":
+        return 3, 3
+    return None
+
+
+def default_memory_limit() -> int:
+    """Half of the physical memory, in bytes (8 GiB where the system does not say)."""
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")) // 2
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
+
+
+@dataclass(frozen=True)
+class MemoryEstimate:
+    """The memory a scene's plan would take.
+
+    Attributes
+    ----------
+    total : int
+        Estimated peak, in bytes.
+    largest : str
+        The largest part, in words (``"mode shapes 10000 x 10000"``).
+    key : str
+        The scene key that controls that part (``"system.n"``, ``"compute.response.n_points"``).
+    advice : str
+        The cheaper request that answers the same question.
+    """
+
+    total: int
+    largest: str
+    key: str
+    advice: str
+
+
+def n_dof_bound(builder: str, parameters: Mapping[str, Any]) -> int | None:
+    """Degrees of freedom a builder's parameters describe, before freezing (None: not size-driven)."""
+    if builder == "matrices":
+        return len(parameters["M"])
+    geometry = sites_and_dim(builder, parameters)
+    return None if geometry is None else geometry[0] * geometry[1]
+
+
+def all_modes_seconds(builder: str, parameters: Mapping[str, Any], compute: Any) -> float:
+    """Estimated seconds of the scene's solve when it asks for all modes (0 for a partial request).
+
+    All N frequencies cost O(N^2) work (`SECONDS_PER_DOF_SQUARED`); ``n_modes`` or ``band``
+    use a partial solver instead.
+    """
+    n_dof = n_dof_bound(builder, parameters)
+    if n_dof is None or compute.n_modes is not None or compute.band is not None:
+        return 0.0
+    return SECONDS_PER_DOF_SQUARED * float(n_dof) ** 2
+
+
+def memory_estimate(builder: str, parameters: Mapping[str, Any], compute: Any, draw: Any) -> MemoryEstimate | None:
+    """Estimate the memory of a scene's plan from its parameters (None: not size-driven).
+
+    Parameters
+    ----------
+    builder : str
+        The scene's builder.
+    parameters : Mapping
+        Its checked ``[system]`` parameters.
+    compute, draw : ComputeSpec, DrawSpec
+        What the scene computes and draws.
+    """
+    bound = n_dof_bound(builder, parameters)
+    if bound is None:
+        return None
+    n_dof = bound
+    size_key = {"linear_chain": "system.n", "beaded_string": "system.n", "diatomic_chain": "system.n_cells",
+                "springs": "system.positions", "matrices": "system.M"}.get(builder, "system")
+    vectors = bool(compute.shapes or draw.modes or draw.gif)
+    kept = n_dof if compute.n_modes is None else min(compute.n_modes, n_dof)
+    parts: list[tuple[int, str, str, str]] = [
+        (BYTES_PER_DOF * n_dof, f"the system of {n_dof} degrees of freedom", size_key,
+         f"a smaller {size_key}")]
+    if vectors:
+        # shapes and mass-weighted vectors, plus the solver's copy; a dense solve of all modes
+        # holds the n x n matrix as well
+        parts.append((3 * 8 * n_dof * kept, f"{kept} mode shapes of {n_dof} values each", "compute.n_modes",
+                      "fewer modes (compute.n_modes) or no shapes (draw.modes = false, draw.gif = false, "
+                      "compute.shapes = false)"))
+    else:
+        parts.append((16 * 8 * n_dof, f"the frequencies of {n_dof} degrees of freedom", size_key,
+                      f"a smaller {size_key}"))
+    response = compute.response
+    if response is not None:
+        parts.append((16 * response.n_points * n_dof, f"a complex response at {response.n_points} frequencies "
+                      f"for {n_dof} degrees of freedom", "compute.response.n_points",
+                      "fewer compute.response.n_points"))
+    continuum = compute.continuum
+    if continuum is not None:
+        parts.append((BYTES_PER_DOF * sum(continuum.sizes), f"chains of {sum(continuum.sizes)} sites in all",
+                      "compute.continuum.sizes", "smaller compute.continuum.sizes"))
+    total = sum(part[0] for part in parts)
+    _, largest, key, advice = max(parts, key=lambda part: part[0])
+    return MemoryEstimate(total=total, largest=largest, key=key, advice=advice)
+
+
+def gib(n_bytes: float) -> str:
+    """`n_bytes` in words (``"7.5 GiB"``, ``"3.1e+08 GiB"``)."""
+    value = n_bytes / 2**30
+    return f"{value:.3g} GiB" if value < 1e6 else f"{value:.2g} GiB"

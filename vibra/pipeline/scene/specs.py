@@ -1,0 +1,177 @@
+"""The frozen values a scene is made of, and `SceneError`."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+__all__ = ["SceneError", "KINDS", "UNITS", "DEFAULT_UNITS", "SAFE_NAME", "SystemSpec", "ResponseSpec",
+           "ContinuumSpec", "ComputeSpec", "DrawSpec"]
+
+KINDS = ("chain", "molecule", "oscillator", "generalized", "network")
+UNITS = ("SI", "ASE", "dimensionless")
+DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI", "network": "dimensionless"}
+#: A scene name: letters, digits and ``_ . -`` (output files are ``<name>_<what>.png``).
+SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+
+
+class SceneError(ValueError):
+    """A scene file that cannot be used; the message reads ``file: key.path: problem``."""
+
+    def __init__(self, source: str, key: str, message: str) -> None:
+        self.source = source
+        self.key = key
+        self.problem = message
+        where = f"{key}: " if key else ""
+        super().__init__(f"{source}: {where}{message}")
+
+
+@dataclass(frozen=True)
+class SystemSpec:
+    """What system a scene builds.
+
+    Attributes
+    ----------
+    builder : str
+        A key of `BUILDERS`.
+    parameters : Mapping[str, Any]
+        Read-only builder parameters with defaults filled in (lists as tuples), in the
+        scene's units.
+    """
+
+    builder: str
+    parameters: Mapping[str, Any]
+
+
+@dataclass(frozen=True)
+class ResponseSpec:
+    """A forced-damped response over a frequency range (``[compute.response]``).
+
+    Attributes
+    ----------
+    omega_min, omega_max : float
+        Angular-frequency range, in rad per time unit of the scene's units.
+    n_points : int
+        Number of frequencies, spaced linearly.
+    alpha : float
+        Mass-proportional damping C = alpha M + beta K, in 1 / time unit (seed 003 §2.6: eta).
+    beta : float
+        Stiffness-proportional damping, in time units.
+    force_site : int
+        Degree of freedom driven by a unit harmonic force.
+    method : str
+        ``"direct"`` or ``"modal"``.
+    n_modes : int or None
+        Modes kept by the modal method (all when None).
+    """
+
+    omega_min: float
+    omega_max: float
+    n_points: int = 400
+    alpha: float = 0.0
+    beta: float = 0.0
+    force_site: int = 0
+    method: str = "direct"
+    n_modes: int | None = None
+
+
+@dataclass(frozen=True)
+class ContinuumSpec:
+    """The continuum-limit comparison (``[compute.continuum]``).
+
+    Attributes
+    ----------
+    modes : tuple of int
+        Mode numbers k (1-based, lowest non-zero modes) compared with the wave equation.
+    sizes : tuple of int
+        Chain lengths N, at fixed total length.
+    ends : str
+        ``"free"``, ``"fixed"`` or ``"periodic"``.
+    """
+
+    modes: tuple[int, ...] = (1, 2, 3)
+    sizes: tuple[int, ...] = (8, 16, 32, 64, 128, 256)
+    ends: str = "free"
+
+
+@dataclass(frozen=True)
+class ComputeSpec:
+    """What a scene computes (``[compute]``).
+
+    Attributes
+    ----------
+    n_modes : int or None
+        Number of lowest modes (a partial solver); all when None and `band` is None.
+    band : (float, float) or None
+        Only modes with omega in [low, high], in rad per time unit of the scene's units.
+    shapes : bool
+        Compute mode shapes even when nothing drawn needs them.
+    accuracy : str
+        ``"high"``, ``"fast"`` or ``"certified"`` (`vibra.System.modes`).
+    solver : str
+        ``"auto"`` or a solver path of `vibra.normal_modes`.
+    response : ResponseSpec or None
+    continuum : ContinuumSpec or None
+    crosscheck : bool
+        Compare against ASE and phonopy (molecules only).
+    memory_limit_gib : float or None
+        Largest memory estimate (`vibra.pipeline.scene.limits`) the scene may reach, in GiB; None:
+        half of the machine's physical memory.
+    time_limit_s : float or None
+        Longest estimated all-modes solve (O(N^2) work) the scene may ask for, in s; None:
+        `vibra.pipeline.scene.limits.DEFAULT_TIME_LIMIT_S` (600 s).
+    """
+
+    n_modes: int | None = None
+    band: tuple[float, float] | None = None
+    shapes: bool = False
+    accuracy: str = "high"
+    solver: str = "auto"
+    response: ResponseSpec | None = None
+    continuum: ContinuumSpec | None = None
+    crosscheck: bool = False
+    memory_limit_gib: float | None = None
+    time_limit_s: float | None = None
+
+
+@dataclass(frozen=True)
+class DrawSpec:
+    """What a scene draws (``[draw]``).
+
+    Attributes
+    ----------
+    modes : bool
+        Render mode shapes off-screen with pyvista (atoms and bonds, or a row of masses).
+    n_draw : int
+        How many modes to draw (the lowest non-zero ones).
+    spectrum : bool
+        Stick spectrum chart of the frequencies.
+    dispersion : bool
+        Dispersion chart with the chain's modes on top (chains).
+    response : bool
+        Response chart (needs ``[compute.response]``, or an oscillator scene).
+    convergence : bool
+        Continuum-convergence chart (needs ``[compute.continuum]``).
+    gif : bool
+        Animated GIF of the lowest drawn mode.
+    bfactors : bool
+        Predicted against crystallographic B-factors (network scenes).
+    window_size : (int, int)
+        Size of rendered images in pixels (width, height).
+    """
+
+    modes: bool = False
+    n_draw: int = 6
+    spectrum: bool = False
+    dispersion: bool = False
+    response: bool = False
+    convergence: bool = False
+    gif: bool = False
+    bfactors: bool = False
+    window_size: tuple[int, int] = (1024, 640)
+
+    @property
+    def needs_shapes(self) -> bool:
+        """True when a drawing needs mode shapes."""
+        return self.modes or self.gif

@@ -1,0 +1,140 @@
+"""Singular values of a bidiagonal by bisection on its Golub-Kahan form, compiled, LANES at a time.
+
+The singular values of an upper bidiagonal (d, e) (size s) are the non-negative eigenvalues of
+the Golub-Kahan tridiagonal TGK: zero diagonal, off-diagonal b = d1, e1, d2, e2, ..., ds. Its
+Sturm count at x, the number of eigenvalues below x, is the number of negative q_i in
+q_0 = -x, q_i = -x - b_(i-1)^2 / q_(i-1) (a q within `pivmin` of zero taken as -pivmin, as
+LAPACK dstebz does); with a zero diagonal each q_i is exact for b and x perturbed by a few ulps
+relatively (Demmel and Kahan 1990), so bisection finds every singular value to a few ulps of
+itself, however far below ||B|| it lies. For x > 0 the count is s + #(sigma < x).
+
+LAPACK dstebz runs these counts one point at a time (~20 ns per node and count here, ~2.2e-6 n s
+per value of a chain of n sites: 28 s of the lowest 13 of 10^6 sites). Here `ring.kernel.LANES`
+values are bisected together, one point each, in SIMD lanes (a lane that has converged takes the
+next value), and the bisection homes in on the exponent first: from a lower end of 0 the next
+point is hi 2^-32, then the geometric mean while hi > 2 lo, then the midpoint, to 2 ulps
+(hi - lo <= 2 eps hi) or to twice the underflow threshold, dstebz's ABSTOL here (an interval
+from 0 that never left it: the value is 0, a free chain's padding).
+With vectors, dstein takes these values where the Golub-Kahan matrix's block structure is
+known without dstebz (`lowest._compiled_with_blocks`).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from vibra.solvers.accurate.ring.kernel import LANES, _jit, prange
+
+__all__ = ["bidiagonal_values_by_bisection"]
+
+_EPS = float(np.finfo(float).eps)
+_SAFE_MIN = float(np.finfo(float).tiny)
+
+#: Most values one thread bisects together (`LANES` at a time, a finished lane taking the next);
+#: fewer where that leaves a thread idle.
+CHUNK = 4 * LANES
+
+
+@_jit()
+def _counts(x: NDArray[np.float64], squares: NDArray[np.float64], pivmin: float, below: NDArray[np.int64]) -> None:
+    """Sturm counts of TGK - x I (zero diagonal, `squares` its off-diagonal squared) at the LANES
+    points x, into below."""
+    s = np.zeros((2, LANES))  # rows: q, count (as a float: exact to 2^53)
+    for p in range(LANES):
+        q = -x[p]
+        q = -pivmin if abs(q) < pivmin else q
+        s[0, p] = q
+        s[1, p] = 1.0 if q < 0 else 0.0
+    for i in range(squares.shape[0]):
+        b2 = squares[i]
+        for p in range(LANES):
+            q = -x[p] - b2 / s[0, p]
+            q = -pivmin if abs(q) < pivmin else q
+            s[0, p] = q
+            s[1, p] += 1.0 if q < 0 else 0.0
+    for p in range(LANES):
+        below[p] = int(s[1, p])
+
+
+@_jit()
+def _next_point(low: float, high: float) -> float:
+    if low == 0.0:
+        return high * 2.0**-32 if high > 2.0**32 * _SAFE_MIN else 0.5 * high
+    if high > 2.0 * low:
+        return np.sqrt(low) * np.sqrt(high)
+    return 0.5 * (low + high)
+
+
+@_jit()
+def _bisect_chunk(first: int, stop: int, base: int, size: int, squares: NDArray[np.float64], top: float,
+                  pivmin: float, out: NDArray[np.float64]) -> None:
+    """Singular values first..stop-1 (0-based ascending) of the bidiagonal of `size`, into
+    out[j - base]."""
+    x = np.zeros(LANES)
+    low, high = np.zeros(LANES), np.zeros(LANES)
+    target = np.full(LANES, -1, dtype=np.int64)
+    below = np.zeros(LANES, dtype=np.int64)
+    following = first
+    busy = 0
+    for p in range(LANES):
+        if following < stop:
+            target[p], low[p], high[p] = following, 0.0, top
+            x[p] = _next_point(0.0, top)
+            following += 1
+            busy += 1
+    while busy:
+        _counts(x, squares, pivmin, below)
+        for p in range(LANES):
+            j = target[p]
+            if j < 0:
+                continue
+            if below[p] - size > j:  # more than j singular values below x: sigma_j < x
+                high[p] = x[p]
+            else:
+                low[p] = x[p]
+            if high[p] - low[p] <= 2 * _EPS * high[p] or high[p] <= 2 * _SAFE_MIN:
+                # (an upper end at the underflow threshold with no point below: the value is 0)
+                out[j - base] = 0.5 * (low[p] + high[p]) if low[p] > 0 else 0.0
+                if following < stop:
+                    target[p], low[p], high[p] = following, 0.0, top
+                    following += 1
+                else:
+                    target[p] = -1
+                    busy -= 1
+                    continue
+            x[p] = _next_point(low[p], high[p])
+
+
+@_jit(parallel=True)
+def _bisect(skip: int, k: int, size: int, squares: NDArray[np.float64], top: float, pivmin: float, chunk: int
+            ) -> NDArray[np.float64]:
+    out = np.zeros(k)
+    for c in prange((k + chunk - 1) // chunk):
+        _bisect_chunk(skip + c * chunk, skip + min(k, (c + 1) * chunk), skip, size, squares, top, pivmin, out)
+    return out
+
+
+def bidiagonal_values_by_bisection(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int
+                                   ) -> NDArray[np.float64]:
+    """Singular values skip..skip+k-1 (0-based, ascending) of the upper bidiagonal (d, e), each
+    to about two ulps of itself (see the module docstring). O(s k) per bit."""
+    d = np.ascontiguousarray(d, dtype=float)
+    e = np.ascontiguousarray(e, dtype=float)
+    size = d.shape[0]
+    if skip < 0 or k < 0 or skip + k > size:
+        raise ValueError(f"singular value indices must lie in 0..{size - 1}, got {skip}..{skip + k - 1}")
+    b = np.empty(2 * size - 1)
+    b[0::2], b[1::2] = np.abs(d), np.abs(e[: size - 1])
+    squares = b * b
+    largest = float(squares.max(initial=0.0))
+    pivmin = _SAFE_MIN * max(1.0, largest)
+    edges = np.abs(np.r_[0.0, b]) + np.abs(np.r_[b, 0.0])  # Gershgorin: |b_(i-1)| + |b_i|
+    top = float(edges.max(initial=0.0)) * (1 + 4 * _EPS) + pivmin
+    if k <= 0:
+        return np.zeros(0)
+    threads = numba.get_num_threads()
+    chunk = int(min(CHUNK, max(LANES, LANES * -(-k // (LANES * threads)))))  # (every thread busy)
+    values: NDArray[np.float64] = _bisect(int(skip), int(k), size, squares, top, pivmin, chunk)
+    return values

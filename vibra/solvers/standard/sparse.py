@@ -1,0 +1,363 @@
+"""The sparse path: a few of the lowest modes (or a band) by shift-invert Lanczos (ARPACK).
+
+The shift is chosen below the spectrum from its scale (`lowest_shift`), so a singular K (a
+free system) is never hit; a tridiagonal K~ is factorised with LAPACK pttrf (O(N)), any
+other with SuperLU (symmetric mode; nested-dissection order for large K~, else minimum degree). Zero modes are
+deflated and the rest computed by a block Krylov iteration (`shift_invert`, `vibra.solvers.standard.krylov`),
+and the Ritz vectors get one Rayleigh-Ritz step in K~. A band inside the spectrum: ARPACK.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+from numpy.typing import NDArray
+
+from vibra.solvers.common import (
+    DENSE_ALL_LIMIT, EPS, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
+    tridiagonal_bands,
+)
+from vibra.solvers.standard.krylov import block_eigs
+from vibra.solvers.standard.ordering import DISSECTION_MIN, nested_dissection
+from vibra.solvers.standard.pardiso import PardisoCholesky, use_pardiso
+from vibra.solvers.standard.lapack import dense_path
+
+
+class ShiftedInverse:
+    """(K~ - sigma I)^-1 as a factorisation, and whether sigma lies below the whole spectrum.
+
+    Tridiagonal K~: LAPACK pttrf (LDL^T, O(N)), which succeeds exactly when K~ - sigma I is
+    positive definite. Otherwise SuperLU in symmetric mode without pivoting, whose pivots
+    give the inertia (Sylvester): no negative pivot means sigma is below every eigenvalue.
+    Large K~ are first put in nested-dissection order (`vibra.solvers.standard.ordering`), a symmetric
+    permutation that SuperLU then keeps; or, where `pypardiso` is installed (``vibra[pardiso]``,
+    `vibra.solvers.standard.pardiso`), factorised by PARDISO's Cholesky, whose success is the inertia.
+    """
+
+    def __init__(self, Kt: sp.csr_matrix, sigma: float, *, need_inertia: bool = True) -> None:
+        self.n = Kt.shape[0]
+        self.below_spectrum = False
+        self._pt: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        self._order: NDArray[np.intp] | None = None
+        self._cholesky: PardisoCholesky | None = None
+        self.backend = "lapack pttrf"
+        if bandwidth(Kt) <= 1:
+            d, e = tridiagonal_bands(Kt)
+            pttrf = la.get_lapack_funcs("pttrf", dtype=np.float64)
+            d_factor, e_factor, info = pttrf(d - sigma, e)
+            if info == 0:
+                self._pt = (d_factor, e_factor)
+                self._pttrs = la.get_lapack_funcs("pttrs", dtype=np.float64)
+                self.below_spectrum = True
+                return
+        shifted = (Kt - sigma * sp.identity(self.n, format="csr")).tocsr()
+        if use_pardiso(self.n, DISSECTION_MIN):
+            try:
+                self._cholesky = PardisoCholesky(shifted)
+                self.below_spectrum = True
+                self.backend = "pardiso"
+                return
+            except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
+                pass
+        self.backend = "superlu"
+        self._order = nested_dissection(shifted)
+        ordering = "MMD_AT_PLUS_A"
+        if self._order is not None:
+            shifted = shifted[self._order][:, self._order]
+            ordering = "NATURAL"
+        shifted = shifted.tocsc()
+        if need_inertia:
+            try:
+                lu = sla.splu(shifted, permc_spec=ordering, diag_pivot_thresh=0.0,
+                              options={"SymmetricMode": True})
+                pivots = lu.U.diagonal()
+                if (pivots > 0).all():
+                    self._lu = lu
+                    self.below_spectrum = True
+                    return
+            except RuntimeError:  # a zero pivot: sigma is (numerically) an eigenvalue
+                pass
+        self._lu = sla.splu(shifted, permc_spec=ordering)
+
+    @property
+    def fill(self) -> float:
+        """Factor entries one solve reads per row (L and U, or L twice): its cost in units of n."""
+        if self._pt is not None:
+            return 2.0
+        if self._cholesky is not None:
+            return 2.0 * self._cholesky.factor_entries / self.n
+        return float(self._lu.nnz) / self.n
+
+    def solve(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(K~ - sigma I)^-1 x for a vector or a block of columns (one triangular sweep for all)."""
+        if self._pt is not None:
+            solution, info = self._pttrs(*self._pt, x)
+            return np.asarray(solution)
+        if self._cholesky is not None:
+            return self._cholesky.solve(x)
+        if self._order is None:
+            return np.asarray(self._lu.solve(x))
+        result = np.empty_like(x)
+        result[self._order] = self._lu.solve(np.ascontiguousarray(x[self._order]))
+        return result
+
+    def operator(self) -> sla.LinearOperator:
+        def apply(x: NDArray[np.float64]) -> NDArray[np.float64]:
+            return self.solve(np.asarray(x, dtype=float).reshape(self.n))
+
+        return sla.LinearOperator((self.n, self.n), matvec=apply, dtype=float)
+
+
+def lowest_shift(Kt: sp.csr_matrix, *, rounding: float | None = None) -> tuple[float, ShiftedInverse]:
+    """A negative shift below the whole spectrum, small next to its scale, and its factorisation.
+
+    The shift must be negative (a free system's K is singular), small compared with the
+    wanted eigenvalues (else Lanczos converges slowly: a naive -1e-3 ||K~|| takes minutes at
+    10^5 sites) and large enough to register in floating point: -1e4 eps ||K~|| is ~1e4 ulps
+    of the diagonal and below the lowest nonzero eigenvalue of a free chain of up to ~10^6
+    sites (pi^2 ||K~|| / 4 n^2). If the factorisation shows eigenvalues below it (an
+    indefinite K~), the shift moves below Gershgorin's bound of the spectrum.
+
+    `rounding`: where K~ is positive semidefinite by construction (springs of nonnegative
+    stiffness), a bound of the rounding in forming it (`semidefinite_rounding`); when the shift
+    lies below -rounding it lies below the spectrum (Weyl), and the pivot signs need not be
+    read (SuperLU hands them over only by copying its whole factor: 1.7 s and 1 GB at 50,000 dofs).
+    """
+    norm = float(abs(Kt).sum(axis=1).max())  # infinity norm, >= ||K~||_2
+    sigma = -1e4 * EPS * norm
+    if rounding is not None and rounding < -sigma:
+        factor = ShiftedInverse(Kt, sigma, need_inertia=False)
+        factor.below_spectrum = True
+        return sigma, factor
+    factor = ShiftedInverse(Kt, sigma)
+    if factor.below_spectrum:
+        return sigma, factor
+    radius = abs(Kt).sum(axis=1).A1 - np.abs(Kt.diagonal())
+    lower = float((Kt.diagonal() - radius).min())
+    sigma = min(lower, 0.0) - 1e-3 * norm
+    return sigma, ShiftedInverse(Kt, sigma, need_inertia=False)
+
+
+def semidefinite_rounding(spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, norm: float
+                          ) -> float | None:
+    """A bound of ||K~ - B~^T B~||_2 for K~ assembled from springs (B, w), None if some w < 0.
+
+    Each entry of K is a sum of at most t spring terms (t: the most springs on one dof) and
+    the mass weighting rounds twice more, so |E_ij| <= (t + 2) eps sum |terms|, and the row
+    sums of |terms| are at most 2 ||K~||_inf (each spring adds k to the diagonal and -k off it).
+    """
+    if spring_factor is None or np.any(np.asarray(spring_factor[1]) < 0):
+        return None
+    coupling = sp.csc_matrix(spring_factor[0])
+    most = float(np.diff(coupling.indptr).max(initial=0))
+    return 2.0 * (most + 2.0) * EPS * norm
+
+
+#: Modes asked of the first shift-invert run, which finds a free system's zero modes (doubled
+#: while every one it returns is zero).
+PROBE = 8
+
+#: Relative Ritz residual in F = (K~ - sigma I)^-1 at which the block iteration stops: residuals
+#: in K~ come out ~1e-14 ||K~|| (measured on 3-D networks of 30,000 dofs).
+TOLERANCE = 1e-13
+
+
+#: Factor entries per row from which the block iteration pays: a solve then costs more than
+#: orthogonalising against the whole basis (~4 m n flops per column, m up to ~200 columns);
+#: below it (chains, 2-D meshes) ARPACK's restarted Lanczos keeps the basis small.
+BLOCK_FILL = 400
+
+
+def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse | None = None
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The k lowest eigenpairs of K~, sigma below the spectrum, by shift-invert Krylov, ascending.
+
+    Zero modes (a free system) dominate (K~ - sigma I)^-1 by ||K~|| / |sigma| ~ 1e12 and would
+    hold every other Ritz pair at ~1e-4 relative: a first run (`PROBE` modes, doubled while all
+    it finds are zero) finds them, and the rest are computed with them deflated, whose
+    dominant value is then 1 / (lambda_1 - sigma). Solves stay accurate once projected (their
+    error lies in the near-null space). An expensive factor (3-D networks: `fill` >=
+    `BLOCK_FILL`) runs `vibra.solvers.standard.krylov.block_eigs` in blocks of `BLOCK_LOWEST` columns
+    (one triangular sweep serves them all); a cheap one, ARPACK (`_shift_invert_arpack`).
+    """
+    if factor is None:
+        factor = ShiftedInverse(Kt, sigma, need_inertia=False)
+    if factor.fill < BLOCK_FILL:
+        return _shift_invert_arpack(Kt, k, sigma, factor)
+    n = Kt.shape[0]
+    scale = float(abs(Kt).sum(axis=1).max())
+    threshold = 1.0 / (1e-8 * scale - sigma)  # 1 / (lambda - sigma) of a zero mode (lambda <= 1e-8 ||K~||) is above
+
+    def found(mu: NDArray[np.float64], residual: NDArray[np.float64]) -> bool:
+        # every zero mode converged, and the largest other one to 1e-3: the spectrum below
+        # them is really seen (a first crude Ritz value may look non-zero)
+        zero = mu >= threshold
+        other = np.flatnonzero(~zero)
+        return bool(other.size and residual[other[0]] <= 1e-3 * mu[other[0]]
+                    and np.all(residual[zero] <= TOLERANCE * mu[zero]))
+
+    probe = min(k, PROBE)
+    while True:
+        mu, basis, _, done = block_eigs(factor.solve, n, probe, block=BLOCK_LOWEST, enough=found)
+        values = sigma + 1.0 / mu
+        zero = mu >= threshold
+        if not zero.all() or probe == k:
+            break
+        probe = min(2 * probe, k)
+    order = np.argsort(values)
+    if zero.all():
+        return values[order], basis[:, order]
+    # one more sweep of F on the zero modes: their error shrinks by mu_other / mu_zero ~ 1e-9
+    Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, zero])[0]))[0] if zero.any() else basis[:, :0]
+    mu, rest, _, done = block_eigs(factor.solve, n, k - Z.shape[1], tol=TOLERANCE, block=BLOCK_LOWEST,
+                                   deflate=Z if Z.shape[1] else None, start=basis[:, ~zero])
+    if not done:
+        raise RuntimeError(f"shift-invert block Krylov did not converge for the {k} lowest modes of a "
+                           f"{n}-dof system; ask for fewer modes or use solver='dense'")
+    values = np.r_[values[zero], sigma + 1.0 / mu]
+    basis = np.column_stack([Z, rest])
+    order = np.argsort(values)
+    return values[order], basis[:, order]
+
+
+#: Block width of the lowest-mode iteration: 2 to 4 columns per triangular sweep cost the same
+#: time to converge as 1 on 30,000-dof networks (fewer Krylov steps against cheaper solves).
+BLOCK_LOWEST = 4
+
+
+def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`shift_invert` by ARPACK (one vector at a time, restarted): every pair a run returns
+    converged to `KEPT_RESIDUAL` is kept and deflated from the next run, which asks the rest.
+
+    The first run asks `PROBE` modes. Zero modes dominating (K~ - sigma I)^-1 leave the pairs
+    beside them at residuals ~1e-11 ||K~|| (a 2-D mesh): those are asked again with the
+    zero modes deflated. Where nothing dominates (a long chain, whose lowest values lie within
+    a few |sigma|), every pair is kept and the second run asks only the modes still missing:
+    the k modes cost one run's work, not the probe's on top.
+    """
+    inverse = factor.operator()
+    scale = float(abs(Kt).sum(axis=1).max())
+    kept = np.zeros((Kt.shape[0], 0))
+    kept_values = np.zeros(0)
+    start = None
+    for attempt in range(MAX_RUNS):
+        ask = k - kept.shape[1]
+        if kept.shape[1]:
+            Z = kept
+
+            def deflated(x: NDArray[np.float64], Z: NDArray[np.float64] = Z) -> NDArray[np.float64]:
+                x = np.asarray(x).reshape(-1)
+                y = inverse.matvec(x - Z @ (Z.T @ x))
+                return y - Z @ (Z.T @ y)
+
+            operator = sla.LinearOperator(Kt.shape, matvec=deflated, dtype=float)
+        else:
+            operator = inverse
+        values, basis = _arpack(Kt, ask, sigma, operator, deflate=kept if kept.shape[1] else None, start=start)
+        product = Kt @ basis
+        if kept.shape[1]:  # a Rayleigh-Ritz step off the kept pairs
+            basis = basis - kept @ (kept.T @ basis)
+            product = Kt @ basis
+            values, rotation = small_pencil(basis.T @ product, basis.T @ basis)
+            basis, product = basis @ rotation, product @ rotation
+        else:  # ARPACK's first run: orthonormal Ritz vectors already, their Rayleigh quotients
+            values = np.einsum("ij,ij->j", basis, product)
+        residual = np.linalg.norm(product - basis * values, axis=0)
+        good = residual <= KEPT_RESIDUAL * scale
+        last = attempt == MAX_RUNS - 1 or kept.shape[1] + ask == k and good.all()
+        if last:
+            good[:] = True
+        start = basis[:, ~good].sum(axis=1) if not good.all() else None
+        kept_values = np.r_[kept_values, values[good]]
+        kept = np.column_stack([kept, basis[:, good]])
+        if kept.shape[1] >= k:
+            break
+    order = np.argsort(kept_values)[:k]
+    return kept_values[order], kept[:, order]
+
+
+#: Residual ||K~ v - lambda v|| / ||K~||_inf under which a shift-invert pair is kept and
+#: deflated: deflated runs reach ~2e-16, pairs held by a dominant zero mode ~1e-11.
+KEPT_RESIDUAL = 1e-14
+
+#: Shift-invert runs at most (each keeps at least its dominant, converged pair).
+MAX_RUNS = 4
+
+
+def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator,
+            deflate: NDArray[np.float64] | None = None, start: NDArray[np.float64] | None = None
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The k eigenpairs of K~ nearest sigma (ARPACK shift-invert), ascending; the start vector
+    (seeded where not given: reproducible runs) is kept off `deflate`."""
+    if start is None:
+        start = np.random.default_rng(0).standard_normal(Kt.shape[0])
+    if deflate is not None:
+        start = start - deflate @ (deflate.T @ start)
+    values, basis = sla.eigsh(Kt, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=0.0,
+                              ncv=min(Kt.shape[0], max(2 * k + 1, 20)), v0=start)
+    order = np.argsort(values)
+    return values[order], basis[:, order]
+
+
+def sparse_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+                spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None = None) -> SolveResult:
+    """The lowest `n_modes` (or those in `band`) of a sparse K~ by shift-invert block Krylov.
+
+    `spring_factor` (B, w), when K~ was assembled from springs: a nonnegative w makes K~
+    semidefinite, and the factorisation's inertia need not be read (`lowest_shift`).
+    """
+    Kt = sp.csr_matrix(Kt)
+    n = Kt.shape[0]
+    if band is not None:
+        return _sparse_band(Kt, band, vectors)
+    k = int(n_modes)  # type: ignore[arg-type]
+    if k >= n - 1:
+        return dense_path(Kt, n_modes=n_modes, vectors=vectors, band=None)
+    sigma, factor = lowest_shift(Kt, rounding=semidefinite_rounding(spring_factor, float(abs(Kt).sum(axis=1).max())))
+    values, basis = shift_invert(Kt, k, sigma, factor)
+    if factor.fill >= BLOCK_FILL:  # ARPACK's pairs come out of a Rayleigh-Ritz step already
+        values, basis = _ritz(Kt, basis)
+    result = absolute_figures(Kt, values, basis, "sparse", floor=4.0)
+    if not vectors:
+        result.vectors = None
+    return result
+
+
+def _sparse_band(Kt: sp.csr_matrix, band: tuple[float, float], vectors: bool) -> SolveResult:
+    low, high = squared_range(band)
+    n = Kt.shape[0]
+    if bandwidth(Kt) <= 1:
+        d, e = tridiagonal_bands(Kt)
+        inside = la.eigvalsh_tridiagonal(d, e, select="v", select_range=(low, high))
+        count = inside.shape[0]
+    else:
+        count = None
+    if count == 0:
+        return SolveResult(np.zeros(0), np.zeros((n, 0)) if vectors else None, np.zeros(0), 0.0, 0.0, "sparse")
+    if count is None or count > n // 4:
+        if n > DENSE_ALL_LIMIT:
+            raise ValueError("band selection on a large non-tridiagonal K is not supported; give n_modes")
+        return dense_path(Kt, n_modes=None, vectors=vectors, band=band)
+    centre = 0.5 * (low + high)
+    shift = centre - 1e-9 * (high - low + abs(centre))
+    inverse = ShiftedInverse(Kt, shift, need_inertia=False).operator()
+    values, basis = _arpack(Kt, min(count + 2, n - 2), shift, inverse)  # eigenvalues nearest the shift
+    keep = (values >= low) & (values <= high)
+    values, basis = _ritz(Kt, basis[:, keep])
+    result = absolute_figures(Kt, values, basis, "sparse", floor=4.0)
+    if not vectors:
+        result.vectors = None
+    return result
+
+
+def _ritz(Kt: sp.csr_matrix, basis: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rayleigh-Ritz on span(basis): diagonalise V^T K~ V against the Gram matrix V^T V."""
+    small = basis.T @ (Kt @ basis)
+    values, rotation = small_pencil(small, basis.T @ basis)
+    return values, basis @ rotation
+

@@ -1,0 +1,5 @@
+"""Eigenproblems with more structure than K~ d = omega^2 d.
+
+- `pencil`: K x = omega^2 M x with a full, possibly ill-conditioned mass matrix
+- `quadratic`: gyroscopic and damped modes, M q'' + (G + C) q' + K q = 0 (`QuadraticModes`)
+"""
