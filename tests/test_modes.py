@@ -472,7 +472,7 @@ def test_banded_path_on_a_3d_chain_and_sparse_diagonal_mass(rng: np.random.Gener
     np.testing.assert_allclose(subset.omega_squared, reference[:10] ** 2, atol=scale)
     assert subset.residual < 1e-12 and subset.orthogonality < 1e-12
     with pytest.raises(ValueError, match=r"solver='banded' needs diagonal masses"):
-        normal_modes(np.eye(2), np.eye(2), solver="banded")
+        normal_modes(np.eye(2), [[2.0, 0.5], [0.5, 1.0]], solver="banded")
 
 
 @pytest.mark.parametrize("solver", ["auto", "dense", "tridiagonal", "sparse"])

@@ -171,3 +171,30 @@ def test_pencil_input_messages():
         pencil_modes(np.eye(2), np.eye(2), n_modes=3)
     assert check_mass_matrix(np.eye(2)).flags.writeable
     assert scaled_condition(np.array([[1.0, 0.0], [0.0, -1.0]])) == float("inf")
+
+
+def test_normal_modes_routes_a_full_mass_matrix_to_the_pencil() -> None:
+    """`normal_modes(K, M)` with a full M goes through the registry to the pencil paths (issue
+    29): seed 000's double pendulum with m = 1e-3, m' = 1e3, b = 1e-3 (cond M ~1e12), both
+    frequencies against the 2 x 2 characteristic polynomial det(K - lambda M) = 0 in 50-digit
+    mpmath, each within its bound, the same values as `pencil_modes` called directly; "fast"
+    takes the Cholesky reduction."""
+    import mpmath
+
+    from vibra import normal_modes
+    from vibra.mechanics.lagrangian import double_pendulum
+
+    system = double_pendulum(m=1e-3, m_prime=1e3, a=1.0, b=1e-3)
+    K, M = np.asarray(system.hessian().toarray()), np.asarray(system.mass_matrix())
+    modes = normal_modes(K, M)
+    assert modes.solver == "pencil-jacobi"
+    with mpmath.workdps(50):
+        k, m = mpmath.matrix(K.tolist()), mpmath.matrix(M.tolist())
+        a = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+        b = -(k[0, 0] * m[1, 1] + k[1, 1] * m[0, 0] - k[0, 1] * m[1, 0] - k[1, 0] * m[0, 1])
+        c = k[0, 0] * k[1, 1] - k[0, 1] * k[1, 0]
+        root = mpmath.sqrt(b * b - 4 * a * c)
+        truth = sorted(float(mpmath.sqrt(x)) for x in ((-b - root) / (2 * a), (-b + root) / (2 * a)))
+    assert np.all(np.abs(modes.omega - truth) <= modes.omega_error)
+    np.testing.assert_array_equal(modes.omega, pencil_modes(K, M).omega)
+    assert normal_modes(K, M, accuracy="fast").solver == "pencil-cholesky"

@@ -80,6 +80,7 @@ def systems() -> dict[str, tuple[System, dict[str, object]]]:
     ring_bonds = lambda n: np.r_[np.c_[np.arange(n - 1), np.arange(1, n)], [[n - 1, 0]]]  # noqa: E731
     net = System.from_springs(rng.normal(size=(30, 3)), 1.0,
                               np.array([(i, j) for i in range(30) for j in range(i + 1, min(30, i + 5))]), 1.0)
+    coupled = rng.normal(size=(12, 12))
     big_net = System.from_springs(rng.uniform(0, 12, size=(600, 3)), 1.0,
                                   np.array([(i, j) for i in range(600) for j in range(i + 1, min(600, i + 4))]), 1.0)
     return {
@@ -95,6 +96,8 @@ def systems() -> dict[str, tuple[System, dict[str, object]]]:
                                                 anchors=[0, 100], anchor_stiffness=0.3), {}),
         "network-90": (net, {}),
         "network-1800": (big_net, {}),
+        # a full mass matrix: the pencil paths (Jacobi; Cholesky with "fast")
+        "generalized-12": (System.generalized(coupled @ coupled.T + 12 * np.eye(12), coupled.T @ coupled), {}),
     }
 
 

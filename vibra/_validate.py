@@ -337,6 +337,8 @@ def mass_argument(value: Any, n_dof: int, name: str = "M") -> NDArray[np.float64
         # A diagonal sparse M stays a vector (never densify n x n); a general one is dense.
         value = diagonal if off_diagonal == 0 and matrix.shape[0] == matrix.shape[1] else matrix.toarray()
     masses = real_array(value, name, ndim=(1, 2))
+    if masses.ndim == 2 and masses.shape == (n_dof, n_dof) and not np.count_nonzero(masses - np.diag(np.diag(masses))):
+        masses = np.diag(masses).copy()  # a diagonal M as a matrix: its masses (the diagonal-mass paths)
     if masses.ndim == 1:
         if masses.shape[0] != n_dof:
             raise ValueError(f"{name} must have {n_dof} masses to match K, got shape {masses.shape}")

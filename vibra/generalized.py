@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
-from vibra.solvers.structured.pencil import check_mass_matrix, pencil_modes
+from vibra.solvers.structured.pencil import check_mass_matrix
 from vibra.solvers.structured.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
 from vibra.units import UnitSystem, unit_system
 
@@ -307,12 +307,12 @@ class GeneralizedSystem(FreeDofs):
         """Normal modes of the free coordinates (seed 003 eqs. 137-151); see `vibra.System.modes`.
 
         Returns `Modes`, or a `vibra.solvers.structured.quadratic.QuadraticModes` when the system has G or C
-        (`is_quadratic`; all modes, so n_modes and band must be None there). A dense,
-        non-diagonal M with ``solver="auto"`` is solved by `vibra.solvers.structured.pencil.pencil_modes`
-        (solver ``"pencil-jacobi"`` or ``"pencil-cholesky"``), which keeps the accuracy that
-        an ill-conditioned M would cost the mass-weighted form. `accuracy`, `device`,
-        `max_memory`, `max_seconds` and `progress` mean what they mean for `vibra.normal_modes`;
-        with no spring factor the three accuracy levels take the same path.
+        (`is_quadratic`; all modes, so n_modes and band must be None there). Otherwise
+        `vibra.normal_modes` solves it, whose registry takes a full M with ``solver="auto"`` to
+        the pencil paths (``"pencil-jacobi"``; ``"pencil-cholesky"`` with accuracy="fast" or
+        an indefinite K), which keep the accuracy that an ill-conditioned M would cost the
+        mass-weighted form. `accuracy`, `device`, `max_memory`, `max_seconds` and `progress`
+        mean what they mean for `vibra.normal_modes`.
 
         Raises
         ------
@@ -326,9 +326,6 @@ class GeneralizedSystem(FreeDofs):
                                  "its modes are computed all at once (dense quadratic eigenproblem)")
             return self.quadratic_modes()
         mass = self.mass_matrix()
-        if solver == "auto" and np.count_nonzero(mass - np.diag(np.diag(mass))):
-            return pencil_modes(self.hessian().toarray(), mass, n_modes=n_modes, vectors=vectors, band=band,
-                                units=self.units)
         return normal_modes(self.hessian(), mass, n_modes=n_modes, vectors=vectors, band=band,
                             solver=solver, units=self.units, accuracy=accuracy, device=device,
                             max_memory=max_memory, max_seconds=max_seconds, progress=progress)

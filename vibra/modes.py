@@ -320,9 +320,10 @@ def normal_modes(
         False computes frequencies only (cheaper).
     band : (float, float), optional
         Only modes with omega in [band[0], band[1]] (signed, rad per time unit).
-    solver : {"auto", "dense", "tridiagonal", "banded", "sparse", "accurate"}
-        The solver path; "auto" chooses from the structure of K and what is asked.
-        "accurate" needs `spring_factor`.
+    solver : {"auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil"}
+        The solver path; "auto" chooses from the structure of K and what is asked (a full
+        mass matrix M: the pencil paths, `vibra.solvers.structured.pencil`, which keep the
+        accuracy of an ill-conditioned M). "accurate" needs `spring_factor`.
     symmetrize : bool
         Replace a non-symmetric K by (K + K^T) / 2 instead of raising.
     spring_factor : (B, w), optional
@@ -455,8 +456,8 @@ def _modes_from(result: solvers.SolveResult, K_matrix: Any, mass: NDArray[np.flo
         )
     # the images of [omega^2 - error, omega^2 + error]: covers a sign flip near zero
     omega, omega_error = omega_and_error(result.eigenvalues, result.error)
-    shapes = None
-    if result.vectors is not None:
+    shapes = result.shapes
+    if result.vectors is not None and shapes is None:
         shapes = solvers.physical_shapes(result.vectors, mass)
     if result.vectors is not None and any(np.shares_memory(result.vectors, x) for x in (K_matrix, mass)):
         result.vectors = result.vectors.copy()  # never alias an input

@@ -37,7 +37,7 @@ from scipy.spatial import cKDTree
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
-from vibra.system import System
+from vibra.system import System, Vibrating
 
 __all__ = [
     "Fluctuations", "contact_pairs", "anm", "gnm", "fluctuations", "square_fluctuations", "predicted_b_factors",
@@ -385,7 +385,7 @@ def _thermal_energy(kT: float | None, temperature: float | None) -> float:
 
 def _stiffness_scale(system: System) -> float:
     """max diag(K~) = max K_ii / m_i, in omega^2 units."""
-    if not isinstance(system, System):
+    if not isinstance(system, Vibrating):
         raise TypeError(f"system must be a vibra System, got {type(system).__name__}")
     if system.is_generalized:
         raise ValueError("fluctuations need a system of sites, not one in generalised coordinates")

@@ -178,6 +178,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
             seconds += TRIDIAGONAL_VECTORS_S * n * k
         elif vectors:  # each mode's sparse LU of the 2n Golub-Kahan matrix (`golub_kahan.singular_vectors`)
             seconds += TRIPLET_UNIT_S * TRIPLET_ROW * 2.0 * n * k
+    elif path in ("pencil-jacobi", "pencil-cholesky"):
+        # M's and K's equilibrated Cholesky factors, then gejsv on n x n (or eigh of L^-1 K L^-T)
+        memory = 8.0 * n2 * 6
+        seconds = (JACOBI_S + DENSE_VECTORS_S) * n2 * n if path == "pencil-jacobi" else DENSE_VECTORS_S * 2 * n2 * n
     elif path in ("accurate-rayleigh",):
         # K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K
         memory = 8.0 * n2 * 4

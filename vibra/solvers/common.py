@@ -91,7 +91,9 @@ class SolveResult:
     refined : (k,) bool or None: True where the value comes from the accurate machinery (spring-
     space Rayleigh-Ritz, a relative-accuracy SVD) rather than from a fast solve kept as it is;
     None on the paths with no such notion (the standard ones). refinement : a one-line account
-    of what was refined and why, or None likewise (`vibra.modes.Modes.refined`).
+    of what was refined and why, or None likewise (`vibra.modes.Modes.refined`). shapes : the
+    physical (M-orthonormal) shapes where the path formed them from its own factor (the
+    pencil paths: M^-1/2 of an ill-conditioned M would lose their digits), else None.
     """
 
     eigenvalues: NDArray[np.float64]
@@ -102,6 +104,7 @@ class SolveResult:
     solver: str
     refined: NDArray[np.bool_] | None = None
     refinement: str | None = None
+    shapes: NDArray[np.float64] | None = None  # physical shapes where the path formed them itself
 
 
 def check_spring_factor(factor: Any, n_dof: int) -> tuple[sp.csr_matrix, NDArray[np.float64]]:

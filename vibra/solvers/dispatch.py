@@ -25,7 +25,7 @@ from vibra.solvers.topology import classify
 
 #: The solver names that `normal_modes(solver=...)`, `System.modes(solver=...)` and scene
 #: files accept; ``"auto"`` chooses one of the paths (`registry.PATHS`).
-SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate")
+SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil")
 
 #: Every path a result can report in `Modes.solver` (the registry's, and their fallbacks).
 SOLVER_PATHS = path_names()
@@ -220,7 +220,7 @@ def solve(
     assert problem is not None
     path = BY_NAME[request.path]
     report = Progress(progress, request.cost)
-    if path.name == "gpu":
+    if path.name == "gpu" or path.family == "pencil":  # (K and M as given: no K~ formed)
         result = path.run(problem, Inputs(None, K, mass, None, band, 1.0, report.step))
         report.done()
         return result

@@ -143,6 +143,10 @@ def _sparse(p: Problem) -> bool:
     return p.n > DENSE_LIMIT and p.sparse and few
 
 
+def _pencil(p: Problem) -> bool:
+    return not p.diagonal_mass and p.device == "cpu"
+
+
 def _bisection(p: Problem) -> bool:
     chain = p.topology in ("chain", "chain-derived")
     big = p.topology == "chain" and p.accuracy == "certified" and p.n > common.BISECTION_SIZE
@@ -203,8 +207,8 @@ PATHS: tuple[SolverPath, ...] = (
                cost="n^3 on the GPU; ~5 n^2 doubles of its memory, checked first"),
     SolverPath("accurate-bisection", "accurate", _bisection, _run("accurate-bisection"),
                "relative, each bound a certificate",
-               'the lowest modes of a chain whose K~ diagonal spreads over 1e4, or of any chain over '
-               '200,000 sites (20,000 with accuracy="certified"): bisection on the bidiagonal spring factor',
+               'the lowest modes of a chain whose K~ diagonal spreads over 1e4, or with accuracy="certified" '
+               'of any chain over 20,000 sites: bisection on the bidiagonal spring factor',
                cost="~5e-7 n k s values, ~1e-6 n k with vectors (compiled, SIMD lanes)"),
     SolverPath("accurate-walled", "accurate", _walled, _run("accurate-walled"), "relative, each bound a certificate",
                "a chain of 100 sites or more with springs to a wall inside it: dqds or bisection on its "
@@ -224,7 +228,7 @@ PATHS: tuple[SolverPath, ...] = (
                cost="the band solve with vectors, then the ring path's values"),
     SolverPath("accurate-ritz", "accurate", _ritz, _run("accurate-ritz"), "relative, bound per mode",
                "a few modes (or a band) of a large spring system: shift-invert vectors, spring-space "
-               "Rayleigh-Ritz, a Kato-Temple bound per mode",
+               "Rayleigh-Ritz, a Kato-Temple bound per mode (a chain's values bracketed by two Sturm counts each)",
                cost="the sparse path's, + O(nnz k) spring-space products; certified: one Golub-Kahan LU per loose mode"),
     SolverPath("accurate-checked", "accurate", _checked, _run("accurate-checked"), "relative, bound per mode",
                "all modes of any other spring system up to 1,500 dofs (or rings to 6,000 sites): the dense "
@@ -236,6 +240,17 @@ PATHS: tuple[SolverPath, ...] = (
                "all modes of a large spring system where one-sided Jacobi would cost too much: the checked "
                "dense solve without it",
                cost="dense eigh with vectors (~1.5e-10 n^3 s, 32 n^2 bytes)"),
+    SolverPath("pencil-jacobi", "pencil", lambda p: _pencil(p) and p.accuracy != "fast", _run("pencil-jacobi"),
+               "relative ~ n ε (cond M_s + cond K_s) per mode",
+               "a full mass matrix (generalised coordinates): the equilibrated pencil, K's and M's Cholesky "
+               "factors, one-sided Jacobi (LAPACK gejsv) where K is positive definite",
+               fallbacks=("pencil-cholesky",), serves=_pencil,
+               cost="~1e-9 n^3 s (two Cholesky factors, a pivoted QR, gejsv); 8 n^2 bytes a few times"),
+    SolverPath("pencil-cholesky", "pencil", _pencil, _run("pencil-cholesky"),
+               "absolute ~ n ε ‖L⁻¹K_sL⁻ᵀ‖",
+               'a full mass matrix with accuracy="fast" (or K not positive definite): the equilibrated '
+               "pencil reduced by M's Cholesky factor, LAPACK eigh",
+               cost="~3e-10 n^3 s; 8 n^2 bytes a few times"),
     SolverPath("tridiagonal", "tridiagonal", _tridiagonal, _run("tridiagonal"), "absolute ~ n ε‖K̃‖",
                "a tridiagonal K~ over 1,500 dofs, all modes or values only: LAPACK stemr / stebz",
                serves=lambda p: p.diagonal_mass and p.width <= 1,
@@ -271,7 +286,7 @@ def choose(problem: Problem, solver: str) -> SolverPath:
         return BY_NAME["gpu"]
     if solver == "auto":
         families = ("accurate",) if problem.topology not in ("none", "chain-derived") else ()
-        families += ("tridiagonal", "banded", "sparse", "dense")
+        families += ("pencil", "tridiagonal", "banded", "sparse", "dense")
         candidates = [path for path in PATHS if path.family in families and path.auto]
         if problem.topology == "chain-derived":  # a chain given as K: bisection where it is spread
             candidates.insert(0, BY_NAME["accurate-bisection"])

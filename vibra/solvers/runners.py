@@ -31,6 +31,7 @@ from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result
 from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
+from vibra.solvers.structured.pencil import pencil_result
 from vibra.solvers.accurate.chain.walled import walled_result
 
 __all__ = ["Inputs"]
@@ -66,6 +67,14 @@ def banded(p: Any, x: Inputs) -> SolveResult:
 
 def sparse(p: Any, x: Inputs) -> SolveResult:
     return sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, spring_factor=x.factor)
+
+
+def pencil_jacobi(p: Any, x: Inputs) -> SolveResult:
+    return pencil_result(x.K, x.mass, n_modes=p.n_modes, vectors=p.vectors, band=x.band)
+
+
+def pencil_cholesky(p: Any, x: Inputs) -> SolveResult:
+    return pencil_result(x.K, x.mass, n_modes=p.n_modes, vectors=p.vectors, band=x.band, jacobi=False)
 
 
 def gpu(p: Any, x: Inputs) -> SolveResult:

@@ -31,7 +31,7 @@ pendulum above within about 30 times of the true error.
 from __future__ import annotations
 
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.linalg as la
@@ -39,11 +39,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import owned_arrays
-from vibra.modes import Modes
-from vibra.solvers.common import selected
+from vibra.solvers.common import SolveResult, omega_and_error, selected
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
-__all__ = ["check_mass_matrix", "scaled_condition", "equilibrated_cholesky", "pencil_modes"]
+if TYPE_CHECKING:
+    from vibra.modes import Modes
+
+__all__ = ["check_mass_matrix", "scaled_condition", "equilibrated_cholesky", "pencil_modes", "pencil_result"]
 
 EPS = float(np.finfo(float).eps)
 # Safety factor of the per-mode error figure (over first-order perturbation theory).
@@ -157,7 +159,7 @@ def pencil_modes(
     vectors: bool = True,
     band: tuple[float, float] | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
-) -> Modes:
+) -> "Modes":
     """Normal modes of M u'' + K u = 0 for a dense, possibly ill-conditioned M (see the module).
 
     Parameters
@@ -205,11 +207,31 @@ def pencil_modes(
         n_modes = _validate.count(n_modes, "n_modes", low=1, high=n)
         if band is not None:
             raise ValueError("give either n_modes or band, not both")
+    result = pencil_result(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band)
+    if (result.eigenvalues < -result.error).any():
+        warnings.warn(f"K is not positive semi-definite: {int((result.eigenvalues < -result.error).sum())} "
+                      "imaginary mode(s), reported as negative omega", RuntimeWarning, stacklevel=2)
+    from vibra.modes import Modes  # (here: vibra.modes routes full mass matrices to this module)
+
+    omega, omega_error = omega_and_error(result.eigenvalues, result.error)
+    with owned_arrays():
+        return Modes(omega=omega, vectors=result.vectors, shapes=result.shapes, mass=mass,
+                     omega_error=omega_error, residual=result.residual, orthogonality=result.orthogonality,
+                     solver=result.solver, units=unit_system(units))
+
+
+def pencil_result(K_matrix: Any, mass: NDArray[np.float64], *, n_modes: int | None, vectors: bool,
+                  band: tuple[float, float] | None, jacobi: bool = True) -> SolveResult:
+    """The pencil solved (see the module) as a solver path's raw result, K and M checked by
+    the caller: ``pencil-jacobi`` where K is positive definite (and `jacobi`), else
+    ``pencil-cholesky``; `shapes` M-orthonormal from the pencil's own factor (not from M^-1/2)."""
+    K_matrix = np.asarray(K_matrix.toarray() if hasattr(K_matrix, "toarray") else K_matrix, dtype=float)
     mass_factor = equilibrated_cholesky(mass)
-    assert mass_factor is not None  # check_mass_matrix accepted it
+    if mass_factor is None:
+        raise ValueError("M is not positive definite to working precision")
     scale, lower, mass_condition = mass_factor
     K_scaled = K_matrix * scale[:, None] * scale[None, :]
-    stiffness_factor = equilibrated_cholesky(K_scaled)
+    stiffness_factor = equilibrated_cholesky(K_scaled) if jacobi else None
     if stiffness_factor is not None:
         values, basis, error = _jacobi(K_scaled, lower, stiffness_factor, mass_condition)
         solver = "pencil-jacobi"
@@ -218,14 +240,10 @@ def pencil_modes(
         solver = "pencil-cholesky"
     order = np.argsort(values)
     values, basis, error = values[order], basis[:, order], error[order]
-    if (values < -error).any():
-        warnings.warn(f"K is not positive semi-definite: {int((values < -error).sum())} imaginary mode(s), "
-                      "reported as negative omega", RuntimeWarning, stacklevel=2)
     omega = np.sign(values) * np.sqrt(np.abs(values))
     select = selected(omega, n_modes=n_modes, band=band)
-    omega, values, basis, error = omega[select], values[select], basis[:, select], error[select]
+    values, basis, error = values[select], basis[:, select], error[select]
     shapes = scale[:, None] * basis                       # x = D y: M-orthonormal
-    omega_error = np.minimum(error / np.maximum(2.0 * np.abs(omega), 1e-300), np.sqrt(error))
     residual = orthogonality = float("nan")
     mass_weighted: NDArray[np.float64] | None = None
     if vectors:
@@ -237,10 +255,8 @@ def pencil_modes(
         eigenvalues, eigenbasis = np.linalg.eigh(mass)
         root = (eigenbasis * np.sqrt(np.abs(eigenvalues))) @ eigenbasis.T
         mass_weighted = root @ shapes
-    with owned_arrays():
-        return Modes(omega=omega, vectors=mass_weighted, shapes=shapes if vectors else None, mass=mass,
-                     omega_error=omega_error, residual=residual, orthogonality=orthogonality, solver=solver,
-                     units=unit_system(units))
+    return SolveResult(values, mass_weighted, error, residual, orthogonality, solver,
+                       shapes=shapes if vectors else None)
 
 
 def _jacobi(K_scaled: NDArray[np.float64], lower: NDArray[np.float64],
