@@ -44,7 +44,7 @@
 
 Before anything is allocated, `plan` describes the request (`registry.Problem`: sizes, the
 accuracy level, the springs' shape from `topology.classify`), the registry (`registry.PATHS`)
-chooses the path, and `budget.estimate` gives its memory and time; `budget.guard` refuses (`ResourceLimitError`, a ValueError) a request over the limits
+chooses the path, and `budget.estimate` gives its memory and time (a `SolvePlan`); `budget.guard` refuses (`ResourceLimitError`, a ValueError) a request over the limits
 with the figures and the cheaper requests (`vectors=False`, `n_modes`, `band`), and
 `budget.Progress` reports solves estimated to take over `budget.PROGRESS_AFTER_S` on stderr.
 
