@@ -130,7 +130,8 @@ def _banded(p: Problem) -> bool:
             and _standard_wide(p)):
         return False
     # a few values of a long band: its reduction to tridiagonal costs (b + 1) n^2 whatever k,
-    # shift-invert O(n k) (a ring of 10^5 sites, lowest 10: 25 s banded, 0.3 s sparse)
+    # shift-invert O(n k), so the cheaper estimate takes it
+    # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
     if _sparse(p):
         sizes = dict(k=p.k, vectors=p.vectors, width=p.width, nnz=p.nnz)
         return estimate("banded", p.n, **sizes).seconds <= estimate("sparse", p.n, **sizes).seconds
