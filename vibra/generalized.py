@@ -15,8 +15,9 @@ Build one with ``vibra.System.generalized(M, K)`` (or `GeneralizedSystem.from_ma
 With a skew-symmetric gyroscopic matrix G and/or a symmetric damping matrix C
 (``System.generalized(M, K, G=..., C=...)``) the equations are M q'' + (G + C) q' + K q = 0
 and `modes` returns a `vibra.solvers.structured.quadratic.QuadraticModes` (natural frequency, damping ratio,
-complex shapes) instead of `Modes`. Without them a dense M goes through
-`vibra.solvers.structured.pencil.pencil_modes`, which keeps the accuracy of ill-conditioned mass matrices.
+complex shapes) instead of `Modes`. Without them `vibra.normal_modes` solves it, whose registry
+takes a full M to the pencil paths (`vibra.solvers.structured.pencil`), which keep the accuracy
+of ill-conditioned mass matrices.
 """
 
 from __future__ import annotations

@@ -361,7 +361,7 @@ class System(FreeDofs):
         Examples
         --------
         >>> system = System.generalized(np.diag([2.0, 1.0]), np.diag([8.0, 1.0]), coordinates=["a", "b"])
-        >>> system.is_generalized, system.labels, system.modes().omega.tolist()
+        >>> system.is_generalized, system.labels, np.round(system.modes().omega, 12).tolist()
         (True, ('a', 'b'), [1.0, 2.0])
         """
         return GeneralizedSystem.from_matrices(M, K, G=G, C=C, coordinates=coordinates, units=units, name=name)

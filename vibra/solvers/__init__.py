@@ -95,6 +95,7 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``accurate/ring/kernel.py``         its compiled loops (numba): the spring form's pivots, roots
                                     and counts
 ``structured/pencil.py``            K x = omega^2 M x with a full, possibly ill-conditioned M
+``structured/equilibrated.py``      its solver (pencil-jacobi, pencil-cholesky), as the registry runs it
 ``structured/quadratic.py``         gyroscopic and damped modes (`QuadraticModes`)
 ==================================  ==========================================================
 

@@ -245,7 +245,7 @@ PATHS: tuple[SolverPath, ...] = (
                "relative ~ n ε (cond M_s + cond K_s) per mode",
                "a full mass matrix (generalised coordinates): the equilibrated pencil, K's and M's Cholesky "
                "factors, one-sided Jacobi (LAPACK gejsv) where K is positive definite",
-               fallbacks=("pencil-cholesky",), serves=_pencil,
+               fallbacks=("pencil-cholesky",), serves=lambda p: p.device == "cpu",
                cost="~1e-9 n^3 s (two Cholesky factors, a pivoted QR, gejsv); 8 n^2 bytes a few times"),
     SolverPath("pencil-cholesky", "pencil", _pencil, _run("pencil-cholesky"),
                "absolute ~ n ε ‖L⁻¹K_sL⁻ᵀ‖",

@@ -31,7 +31,7 @@ from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result
 from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
-from vibra.solvers.structured.pencil import pencil_result
+from vibra.solvers.structured.equilibrated import pencil_result
 from vibra.solvers.accurate.chain.walled import walled_result
 
 __all__ = ["Inputs"]
@@ -70,11 +70,16 @@ def sparse(p: Any, x: Inputs) -> SolveResult:
 
 
 def pencil_jacobi(p: Any, x: Inputs) -> SolveResult:
-    return pencil_result(x.K, x.mass, n_modes=p.n_modes, vectors=p.vectors, band=x.band)
+    return pencil_result(x.K, _full(x.mass), n_modes=p.n_modes, vectors=p.vectors, band=x.band)
 
 
 def pencil_cholesky(p: Any, x: Inputs) -> SolveResult:
-    return pencil_result(x.K, x.mass, n_modes=p.n_modes, vectors=p.vectors, band=x.band, jacobi=False)
+    return pencil_result(x.K, _full(x.mass), n_modes=p.n_modes, vectors=p.vectors, band=x.band, jacobi=False)
+
+
+def _full(mass: NDArray[np.float64]) -> NDArray[np.float64]:
+    """M as the matrix the pencil paths factor (solver="pencil" serves diagonal masses too)."""
+    return mass if mass.ndim == 2 else np.diag(mass)
 
 
 def gpu(p: Any, x: Inputs) -> SolveResult:

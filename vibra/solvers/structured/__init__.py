@@ -1,5 +1,6 @@
 """Eigenproblems with more structure than K~ d = omega^2 d.
 
-- `pencil`: K x = omega^2 M x with a full, possibly ill-conditioned mass matrix
+- `pencil`: K x = omega^2 M x with a full, possibly ill-conditioned mass matrix (`pencil_modes`)
+- `equilibrated`: its solver, the pencil paths' runner (no `Modes`: the registry imports it)
 - `quadratic`: gyroscopic and damped modes, M q'' + (G + C) q' + K q = 0 (`QuadraticModes`)
 """
