@@ -49,7 +49,7 @@ import time
 from dataclasses import dataclass
 from typing import Callable, TextIO
 
-from vibra.solvers.common import RING_DENSE_LIMIT
+from vibra.solvers.common import BAND_LIMIT, RING_DENSE_LIMIT
 from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, triplet_seconds
 
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
@@ -153,9 +153,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
         seconds = BANDED_S * (width + 1) * n2 + values_s + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
     elif path in ("sparse", "accurate-ritz"):
-        # ARPACK's restarted basis for a tridiagonal K~; the block Krylov basis (up to
-        # max(10 k, 200) columns, `krylov.block_eigs`) for any other
-        columns = max(2 * k + 1, 20) if width <= 1 else min(n, max(10 * k, 200))
+        # ARPACK's restarted basis for a narrow band (a chain, a ring reordered: a cheap
+        # factor); the block Krylov basis (up to max(10 k, 200) columns, `krylov.block_eigs`)
+        # for any other
+        columns = max(2 * k + 1, 20) if width <= BAND_LIMIT else min(n, max(10 * k, 200))
         # the basis + the factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) else
         memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if width <= 1 else 12.0 * 20 * max(nnz, n))
         seconds = LANCZOS_S * n * columns * 10 + 1e-9 * n * k * k
@@ -172,7 +173,9 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         memory = 8.0 * 40 * n + vector_bytes
         each = BISECTION_VALUES_S  # (the poles: values only)
         poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
-        seconds = poles + RING_S * float(n) * k + MP_COUNT_S * min(RING_MP_SITES, RING_MP_EXPECTED * n)
+        seconds = poles + RING_S * float(n) * k
+        if accuracy == "certified":  # (mpmath counts: "high" stops at 1e-10, which the dd counts meet)
+            seconds += MP_COUNT_S * min(RING_MP_SITES, RING_MP_EXPECTED * n)
         if vectors and path == "accurate-walled" and k >= n - 1:  # all of them: stemr's (tridiagonal)
             memory += 8.0 * 12 * n
             seconds += TRIDIAGONAL_VECTORS_S * n * k
