@@ -219,3 +219,15 @@ def test_high_leaves_a_long_rings_pairs_at_their_count_bounds() -> None:
     assert np.all(high.omega_error[1:] <= 1e-10 * high.omega[1:])
     assert "tightened" not in high.refinement and "tightened" in certified.refinement
     assert np.all(certified.omega_error[1:] <= 1e-13 * certified.omega[1:])
+
+
+def test_certified_keeps_a_chains_extended_precision_ritz_bounds() -> None:
+    """Below BISECTION_SIZE "certified" takes the Ritz path too, but not the counts' brackets
+    (from 3e-14): its values from extended-precision products, each bound within 1e-15 relative
+    and covering the closed form's error (10,000 sites, lowest 12)."""
+    n, k = 10_000, 12
+    modes = free_chain(n).modes(k, accuracy="certified")
+    exact = chain_exact(n, k)
+    assert modes.solver == "accurate-ritz"
+    assert np.all(np.abs(modes.omega[1:] - exact[1:]) <= modes.omega_error[1:])
+    assert np.all(modes.omega_error[1:] <= 1e-15 * modes.omega[1:])
