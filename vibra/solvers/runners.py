@@ -126,8 +126,8 @@ def accurate_walled(p: Any, x: Inputs) -> SolveResult:
 
 def accurate_ring(p: Any, x: Inputs) -> SolveResult:
     coupling, weights, weighted, deviation = _springs(x)
-    ring = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _wanted(p)),
-                       lowest=p.few, aim=_wanted(p))
+    ring = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _aim(p)),
+                       lowest=p.few, aim=_aim(p))
     if ring is None:
         raise RuntimeError("accurate-ring: the springs do not close one ring after all (a planning error)")
     return ring_vectors(weighted, x.mass, ring) if p.vectors else ring
@@ -139,8 +139,8 @@ def accurate_ring_band(p: Any, x: Inputs) -> SolveResult:
     coupling, weights, weighted, deviation = _springs(x)
     banded_result = banded_path(x.Kt, p.width, n_modes=p.n_modes, vectors=True, band=x.band, ordering=p.ordering)
     result = spring_rayleigh(weighted, banded_result, vectors=True, deviation=deviation, name="accurate-ring-band")
-    certified = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _wanted(p)),
-                            aim=_wanted(p))
+    certified = ring_result(coupling, weights, x.mass, p.n_modes, tighten=pair_step(weighted, deviation, x.mass, _aim(p)),
+                            aim=_aim(p))
     if certified is None or certified.eigenvalues.shape != result.eigenvalues.shape:
         raise RuntimeError("accurate-ring-band: the springs do not close one ring after all (a planning error)")
     result.eigenvalues, result.error = certified.eigenvalues, certified.error
@@ -199,7 +199,7 @@ def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: 
     return result
 
 
-def _wanted(p: Any) -> float:
+def _aim(p: Any) -> float:
     """The relative bound a ring's pair step tightens to: "certified" as far as it goes, "high"
     to `accurate.TARGET` (1e-10), which the counts alone already meet."""
     return MP_WANTED if p.accuracy == "certified" else TARGET

@@ -234,11 +234,11 @@ def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
     """`shift_invert` by ARPACK (one vector at a time, restarted): every pair a run returns
     converged to `KEPT_RESIDUAL` is kept and deflated from the next run, which asks the rest.
 
-    The first run asks `PROBE` modes. Zero modes dominating (K~ - sigma I)^-1 leave the pairs
-    beside them at residuals ~1e-11 ||K~|| (a 2-D mesh): those are asked again with the
-    zero modes deflated. Where nothing dominates (a long chain, whose lowest values lie within
-    a few |sigma|), every pair is kept and the second run asks only the modes still missing:
-    the k modes cost one run's work, not the probe's on top.
+    The first run asks all k modes. Where nothing dominates (a long chain, whose lowest values
+    lie within a few |sigma|) every pair converges and that one run is all; zero modes
+    dominating (K~ - sigma I)^-1 leave the pairs beside them at residuals ~1e-11 ||K~|| (a
+    2-D mesh), and those are asked again with the converged ones (the zero modes) deflated.
+    The last run's pairs are kept as they are.
     """
     inverse = factor.operator()
     scale = float(abs(Kt).sum(axis=1).max())
@@ -269,8 +269,7 @@ def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
             values = np.einsum("ij,ij->j", basis, product)
         residual = np.linalg.norm(product - basis * values, axis=0)
         good = residual <= KEPT_RESIDUAL * scale
-        last = attempt == MAX_RUNS - 1 or kept.shape[1] + ask == k and good.all()
-        if last:
+        if attempt == MAX_RUNS - 1:
             good[:] = True
         start = basis[:, ~good].sum(axis=1) if not good.all() else None
         kept_values = np.r_[kept_values, values[good]]

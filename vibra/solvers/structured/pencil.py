@@ -30,19 +30,14 @@ pendulum above within about 30 times of the true error.
 
 from __future__ import annotations
 
-import warnings
-
-import numpy as np
 from numpy.typing import ArrayLike
 
 from vibra import _validate
-from vibra._frozen import owned_arrays
-from vibra.modes import Modes
-from vibra.solvers.common import omega_and_error
+from vibra.modes import Modes, normal_modes
 from vibra.solvers.structured.equilibrated import (
     check_mass_matrix, equilibrated_cholesky, pencil_result, scaled_condition,
 )
-from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
+from vibra.units import DIMENSIONLESS, UnitSystem
 
 __all__ = ["check_mass_matrix", "scaled_condition", "equilibrated_cholesky", "pencil_modes", "pencil_result"]
 
@@ -96,19 +91,7 @@ def pencil_modes(
     K_matrix = _validate.real_array(K, "K", ndim=2)
     if K_matrix.shape[0] != K_matrix.shape[1]:
         raise ValueError(f"K must be square, got shape {K_matrix.shape}")
-    K_matrix = np.array(_validate.symmetric(K_matrix, "K"), dtype=float)
-    n = K_matrix.shape[0]
-    mass = check_mass_matrix(M, n, "M")
-    if n_modes is not None:
-        n_modes = _validate.count(n_modes, "n_modes", low=1, high=n)
-        if band is not None:
-            raise ValueError("give either n_modes or band, not both")
-    result = pencil_result(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band)
-    if (result.eigenvalues < -result.error).any():
-        warnings.warn(f"K is not positive semi-definite: {int((result.eigenvalues < -result.error).sum())} "
-                      "imaginary mode(s), reported as negative omega", RuntimeWarning, stacklevel=2)
-    omega, omega_error = omega_and_error(result.eigenvalues, result.error)
-    with owned_arrays():
-        return Modes(omega=omega, vectors=result.vectors, shapes=result.shapes, mass=mass,
-                     omega_error=omega_error, residual=result.residual, orthogonality=result.orthogonality,
-                     solver=result.solver, units=unit_system(units))
+    # M's own checks (the messages name its equilibrated condition), then the registry's
+    # pencil paths, as `normal_modes(K, M, solver="pencil")` runs them
+    mass = check_mass_matrix(M, K_matrix.shape[0], "M")
+    return normal_modes(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver="pencil", units=units)

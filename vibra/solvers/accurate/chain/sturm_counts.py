@@ -133,8 +133,6 @@ def _free_form(B: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) 
         return None
     has = np.zeros(n, dtype=bool)
     has[first] = True
-    row = np.zeros(n, dtype=np.intp)
-    row[first] = np.arange(first.shape[0])
     before = np.cumsum(has) - has  # springs placed before site c
     at = np.arange(n) + before  # site c's node
     size = n + first.shape[0]

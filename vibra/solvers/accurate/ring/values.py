@@ -489,9 +489,9 @@ def proven_multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.
     return lo, hi, used + 2 * k
 
 
-def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64], wanted: float = MP_WANTED) -> Tighten:
+def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64], aim: float = MP_WANTED) -> Tighten:
     """`ring_values`' `tighten` step: each cluster of values whose count bound stays over
-    `wanted` relative (`MP_WANTED`, "certified"; accuracy="high" passes 1e-10, which the
+    `aim` relative (`MP_WANTED`, "certified"; accuracy="high" passes 1e-10, which the
     counts' own bounds, ~sqrt(n) 1e-15, meet: the step then costs nothing)
     (a double eigenvalue: counts uncertain within ~sqrt(n) 1e-15 of it;
     a ring's eigenvalues are at most double) gets spring-space Rayleigh-Ritz on its singular
@@ -507,7 +507,7 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64], wa
     def tighten(values: NDArray[np.float64], bound: NDArray[np.float64]) -> None:
         k = values.shape[0]
         base = 1 if k and values[0] == 0.0 and bound[0] == 0.0 else 0  # a free ring's rigid rotation: exact
-        loose = np.flatnonzero((bound > wanted * values) & (values > 0) & np.isfinite(bound))
+        loose = np.flatnonzero((bound > aim * values) & (values > 0) & np.isfinite(bound))
         runs: list[list[int]] = []  # clusters holding a loose value, adjacent ones joined (one Ritz step each)
         for j in loose.tolist():
             if runs and j < runs[-1][1]:
