@@ -70,14 +70,15 @@ def test_generalized_modes_take_the_same_keywords() -> None:
         np.testing.assert_allclose(modes.omega**2, [2 - np.sqrt(2), 2 + np.sqrt(2)], rtol=1e-14)
 
 
-def test_high_keeps_a_long_chain_on_the_ritz_path_and_certified_takes_bisection() -> None:
-    """The lowest modes of a chain over BISECTION_SIZE sites: "high" keeps spring-space
-    Rayleigh-Ritz at any length (values already right to ~1e-14, bracketed by Sturm counts), "certified"
-    takes bisection (bounds ~1e-16); both within 1e-10 of the closed form, each bound covering it."""
+def test_both_levels_keep_a_long_chain_on_the_ritz_path_bracketed_by_counts() -> None:
+    """The lowest modes of a 30,000-site chain: spring-space Rayleigh-Ritz at any length, each
+    value bracketed by Sturm counts of the chain's spring form ("high" from 3e-14; "certified"
+    from 8 eps, its values the vectors' Rayleigh quotients in double-double, each bound within
+    1e-15 relative); both within 1e-10 of the closed form, each bound covering it."""
     n, k = 30_000, 8
     system = free_chain(n)
     exact = chain_exact(n, k)
-    for level, path in (("high", "accurate-ritz"), ("certified", "accurate-bisection")):
+    for level, path in (("high", "accurate-ritz"), ("certified", "accurate-ritz")):
         modes = system.modes(k, accuracy=level)  # type: ignore[arg-type]
         assert modes.solver == path
         np.testing.assert_allclose(modes.omega[1:], exact[1:], rtol=1e-10)
@@ -85,6 +86,8 @@ def test_high_keeps_a_long_chain_on_the_ritz_path_and_certified_takes_bisection(
         plan = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=k, vectors=True, band=None,
                             solver="auto", spring_factor=system.spring_factor(), accuracy=level)
         assert plan.path == path and plan.accuracy == level
+        if level == "certified":
+            assert np.all(modes.omega_error[1:] <= 1e-15 * modes.omega[1:])
 
 
 def test_high_runs_no_triplet_step_on_a_large_network_and_its_estimate_counts_none() -> None:
@@ -221,10 +224,10 @@ def test_high_leaves_a_long_rings_pairs_at_their_count_bounds() -> None:
     assert np.all(certified.omega_error[1:] <= 1e-13 * certified.omega[1:])
 
 
-def test_certified_keeps_a_chains_extended_precision_ritz_bounds() -> None:
-    """Below BISECTION_SIZE "certified" takes the Ritz path too, but not the counts' brackets
-    (from 3e-14): its values from extended-precision products, each bound within 1e-15 relative
-    and covering the closed form's error (10,000 sites, lowest 12)."""
+def test_certified_brackets_a_chains_double_double_ritz_values() -> None:
+    """"certified" on a chain's Ritz path: its values the vectors' Rayleigh quotients in
+    double-double, bracketed by Sturm counts from 8 eps, each bound within 1e-15 relative and
+    covering the closed form's error (10,000 sites, lowest 12)."""
     n, k = 10_000, 12
     modes = free_chain(n).modes(k, accuracy="certified")
     exact = chain_exact(n, k)

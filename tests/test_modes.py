@@ -208,9 +208,10 @@ def test_lowest_modes_of_a_long_chain_partial_paths() -> None:
     system = free_chain(n)
     exact = free_closed_form(n)[:k]
     certified = system.modes(n_modes=k, accuracy="certified")
-    # above BISECTION_SIZE sites "certified" takes a chain's lowest modes to bisection on its
-    # spring factor (the Ritz path's Kato-Temple bound in K~ would be ~(eps n^2)^2 too loose)
-    assert certified.solver == "accurate-bisection" and certified.n_modes == k
+    # "certified" keeps the Ritz path, each value (the vector's Rayleigh quotient in double-double)
+    # bracketed by Sturm counts of the chain's spring form (a Kato-Temple bound in K~ would be
+    # ~(eps n^2)^2 too loose)
+    assert certified.solver == "accurate-ritz" and certified.n_modes == k
     assert np.all(certified.omega_error[1:] / certified.omega[1:] < 1e-13)
     np.testing.assert_allclose(certified.omega[1:], exact[1:], rtol=1e-10)
     assert abs(certified.omega[0]) < 1e-6 * exact[1]

@@ -81,6 +81,9 @@ RING_MP_EXPECTED = 2.0        # mpmath counts expected per ring solve (at most 2
 RING_COUNTS_S = 2e-6          # per n^2: the counts certifying a ring's bounds on the dense paths
 TRIPLET_UNIT_S = 3.6e-8       # per LU entry of a Golub-Kahan solve (`golub_kahan.triplet_seconds` uses it too)
 TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and mode (8 + ~20 of fill)
+#: per site and mode: a chain's double-double Rayleigh quotient and its ladder of Sturm counts
+#: ("certified" on the Ritz path: 0.4 s + ~0.2 s at 10^6 sites, 20 modes)
+DD_RAYLEIGH_S = 3e-8
 HIGH_LOOSE = 1                # modes "high" is estimated to refine by triplets (bounds over 1e-10: rare)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
 
@@ -127,7 +130,7 @@ def available_memory() -> float | None:
 
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
-             nnz: int = 0, accuracy: str = "high", one_dimensional: bool = False) -> Estimate:
+             nnz: int = 0, accuracy: str = "high", one_dimensional: bool = False, chain: bool = False) -> Estimate:
     """Memory and time of `path` computing `k` of `n` modes (with vectors or not) at `accuracy`
     (which bound-tightening steps are counted: `refinement_seconds`)."""
     n2 = float(n) * n
@@ -198,14 +201,15 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)
         seconds = JACOBI_S * rows * n * n
     if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "accurate-ritz"):
-        seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy, one_dimensional=one_dimensional)
+        seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy, one_dimensional=one_dimensional,
+                                      chain=chain and path == "accurate-ritz")
     if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring.values` too
         seconds += RING_S * n2
     return Estimate(path, memory, seconds, what)
 
 
 def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: str = "high",
-                       one_dimensional: bool = False) -> float:
+                       one_dimensional: bool = False, chain: bool = False) -> float:
     """What the accurate paths may add after their solve (a spring factor given), from sizes:
 
     - the singular-triplet step (`golub_kahan.refine_triplets`: per loose mode one sparse LU of
@@ -214,10 +218,15 @@ def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: 
       where H has at most `golub_kahan.HIGH_ROWS` rows, for the bounds over 1e-10 (rare: counted
       as `HIGH_LOOSE` modes);
     - for a ring (n_terms = n) up to `common.RING_DENSE_LIMIT` the Sturm counts that certify
-      its bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's)."""
+      its bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's);
+    - `chain` (the Ritz path on a chain) "certified": the vectors' Rayleigh quotients in
+      double-double and the ladder of Sturm counts that brackets them (DD_RAYLEIGH_S n k), no
+      triplet step."""
     rows = float(n_terms + n)
     modes = float(n if k is None else k)
-    if accuracy == "certified":  # (a chain's or a ring's Ritz bounds are ~1e-16 already: one counted)
+    if chain and accuracy == "certified":
+        triplets = DD_RAYLEIGH_S * float(n) * modes
+    elif accuracy == "certified":  # (a chain's or a ring's Ritz bounds are ~1e-16 already: one counted)
         loose = min(modes, HIGH_LOOSE) if one_dimensional else modes
         triplets = loose * triplet_seconds(n, n_terms, one_dimensional=one_dimensional)
     elif rows <= HIGH_ROWS:

@@ -57,13 +57,6 @@ JACOBI_WORK = 4000**3
 #: spectrum's scale, sees the lowest eigenvalues as one cluster there and may not converge.
 BISECTION_SPREAD = 1e4
 
-#: ``accuracy="certified"`` takes a chain's lowest modes to bisection above this many sites
-#: whatever its spread: its bounds are certificates (~2e-16 at 10^6 sites), where the Ritz
-#: path's Kato-Temple bound in K~ cannot beat (eps ||K~|| / omega_1^2)^2 (2.5e-9 at 10^6 for
-#: a true error of 2e-16). "high" keeps the Ritz path at every length, its values bracketed by
-#: Sturm counts of the chain's spring form (`accurate.springs.checked_ritz`: ~3e-14).
-#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
-BISECTION_SIZE = 20_000
 
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
 BAND_MODES_ESTIMATE = 64

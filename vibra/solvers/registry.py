@@ -109,7 +109,8 @@ class SolverPath:
         return estimate(self.name, problem.n, k=k, vectors=problem.vectors, width=problem.width,
                         n_terms=problem.n_terms if self.family == "accurate" else 0, nnz=problem.nnz,
                         accuracy=problem.accuracy,
-                        one_dimensional=problem.topology in ("chain", "walled-chain", "ring", "walled-ring"))
+                        one_dimensional=problem.topology in ("chain", "walled-chain", "ring", "walled-ring"),
+                        chain=problem.topology == "chain")
 
 
 # ------------------------------------------------------------------ when each path applies
@@ -150,9 +151,8 @@ def _pencil(p: Problem) -> bool:
 
 def _bisection(p: Problem) -> bool:
     chain = p.topology in ("chain", "chain-derived")
-    big = p.topology == "chain" and p.accuracy == "certified" and p.n > common.BISECTION_SIZE
     return (chain and p.diagonal_mass and p.tridiagonal and p.partial and p.band is None
-            and (big or p.spread > common.BISECTION_SPREAD))
+            and p.spread > common.BISECTION_SPREAD)
 
 
 def _values_path(p: Problem) -> bool:
@@ -208,8 +208,8 @@ PATHS: tuple[SolverPath, ...] = (
                cost="n^3 on the GPU; ~5 n^2 doubles of its memory, checked first"),
     SolverPath("accurate-bisection", "accurate", _bisection, _run("accurate-bisection"),
                "relative, each bound a certificate",
-               'the lowest modes of a chain whose K~ diagonal spreads over 1e4, or with accuracy="certified" '
-               'of any chain over 20,000 sites: bisection on the bidiagonal spring factor',
+               'the lowest modes of a chain whose K~ diagonal spreads over 1e4: bisection on the bidiagonal '
+               'spring factor',
                cost="~5e-7 n k s values, ~1e-6 n k with vectors (compiled, SIMD lanes)"),
     SolverPath("accurate-walled", "accurate", _walled, _run("accurate-walled"), "relative, each bound a certificate",
                "a chain of 100 sites or more with springs to a wall inside it: dqds or bisection on its "

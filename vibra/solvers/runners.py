@@ -17,6 +17,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 import vibra.solvers.standard.gpu as gpu_module
+from vibra.solvers.accurate.golub_kahan import WANTED, loose_modes
 from vibra.solvers.accurate.springs import (
     checked_dense, checked_ritz, relative_account, ring_certified, spring_rayleigh, spring_ritz_band,
     tightened, weighted_factor,
@@ -150,20 +151,22 @@ def accurate_ring_band(p: Any, x: Inputs) -> SolveResult:
 
 
 def accurate_ritz(p: Any, x: Inputs) -> SolveResult:
-    coupling, weights, weighted, deviation = _springs(x)
+    coupling, weights, weighted, deviation = _springs(x, lazy=True)
     if x.band is None:
         k = int(p.n_modes)
         matrix = sp.csr_matrix(x.Kt)
         rounding = semidefinite_rounding(x.factor, float(abs(matrix).sum(axis=1).max()))
         sigma, shifted = lowest_shift(matrix, rounding=rounding)
         _, basis = shift_invert(matrix, min(k + 1, p.n - 2), sigma, shifted)  # one more: the gap
-        # "high" brackets a chain's Ritz values by counts (bounds ~3e-14); "certified" keeps the
-        # extended-precision residual bounds, whose values are right to ~1e-16
-        form = chain_form(coupling, weights, x.mass) if p.topology == "chain" and p.accuracy == "high" else None
-        result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation, form=form),
+        # a chain's Ritz values bracketed by Sturm counts of its spring form: "high" from 3e-14,
+        # "certified" from 8 eps, its values the vectors' Rayleigh quotients in double-double
+        form = chain_form(coupling, weights, x.mass) if p.topology == "chain" and p.accuracy != "fast" else None
+        result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation, form=form,
+                                               precise=p.accuracy == "certified"),
                                   f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
     else:
         standard = sparse_path(x.Kt, n_modes=None, vectors=True, band=x.band)
+        deviation = deviation()
         result = relative_account(spring_ritz_band(weighted, standard, x.band, vectors=p.vectors, deviation=deviation),
                                   "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
     return _finished(p, x, result, weighted, deviation)
@@ -195,6 +198,11 @@ def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: 
     if (x.band is None and x.mass.ndim == 1 and result.error.shape[0]
             and np.all(np.diff(result.eigenvalues) >= 0)):
         assert x.factor is not None
+        wanted = WANTED if p.accuracy == "certified" else TARGET
+        if callable(deviation):  # (computed only where a bound is still to tighten)
+            if not np.any(loose_modes(result.eigenvalues, result.error, wanted)):
+                return result
+            deviation = deviation()
         result = tightened(result, weighted, deviation, x.factor, x.mass, accuracy=p.accuracy)
     return result
 
@@ -205,10 +213,13 @@ def _aim(p: Any) -> float:
     return MP_WANTED if p.accuracy == "certified" else TARGET
 
 
-def _springs(x: Inputs) -> tuple[sp.csr_matrix, NDArray[np.float64], Any, Any]:
-    """(B, w, B~ = W^1/2 B M^-1/2, B~'s own rounding entry by entry: `forming_deviation`)."""
+def _springs(x: Inputs, lazy: bool = False) -> tuple[sp.csr_matrix, NDArray[np.float64], Any, Any]:
+    """(B, w, B~ = W^1/2 B M^-1/2, B~'s own rounding entry by entry: `forming_deviation`; with
+    `lazy`, a function that computes it, for the steps that may not need it)."""
     coupling, weights = _factor(x)
     weighted = weighted_factor(coupling, weights, x.mass)
+    if lazy:
+        return coupling, weights, weighted, lambda: forming_deviation(weighted, coupling, weights, x.mass)
     return coupling, weights, weighted, forming_deviation(weighted, coupling, weights, x.mass)
 
 

@@ -26,7 +26,7 @@ and `refinement` (how many, and why).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 import scipy.linalg as la
@@ -34,6 +34,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers.accurate.chain.sturm_counts import ChainForm, certify_chain_values
+from vibra.solvers.accurate.products import rayleigh_quotients, times, transposed_times
 from vibra.solvers.accurate.ring.counts import RingPencil, certify, count_below
 from vibra.solvers.accurate.ring.values import LEVELS
 from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, HIGH_WORK, WANTED, loose_modes, refine_triplets
@@ -161,56 +162,45 @@ def spring_ritz_band(weighted: Any, standard: SolveResult, band: tuple[float, fl
 
 
 def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool,
-                  deviation: Deviation = None, form: ChainForm | None = None) -> SolveResult:
+                  deviation: Deviation | Callable[[], Deviation] = None, form: ChainForm | None = None,
+                  precise: bool = False) -> SolveResult:
     """Spring-space Rayleigh-Ritz on k + 1 shift-invert vectors; the lowest k kept, each with the
     quadratic residual bound of `cluster_bounds` (the (k+1)-th value, less its residual, bounds
     the gap of the k-th from above).
 
     `form` (a chain's spring form, `sturm_counts.chain_form`): each value is first certified by
-    two Sturm counts of it (`sturm_counts.certify_chain_values`, O(n) each, no gap needed); where
-    every nonzero value then meets TARGET, the residual bounds (a dozen passes over n x k
-    arrays, the costliest step at 10^6 sites) are left out.
+    two Sturm counts of it (`sturm_counts.certify_chain_values`, O(n) each, no gap and no
+    residual needed: the counts prove the value's index too); where every nonzero value then
+    meets TARGET, the residuals are measured on a sample of columns only (`sample_columns`, for
+    the result's figure) and the full residual bounds (a dozen passes over n x k arrays, the
+    costliest step at 10^6 sites) are left out. With `precise` ("certified"), the values are
+    the kept vectors' Rayleigh quotients in double-double (`products.rayleigh_quotients`) and
+    the brackets go down to 8 eps (`LEVELS`): each bound must meet WANTED, else the
+    extended-precision residual bounds take over.
+    `deviation` may be given as a function that computes it: it is called only where the
+    residual bounds need it (no counts, or a count that did not certify).
     (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
     """
     B = sp.csr_matrix(weighted)
-    elongations = np.asarray(B @ basis)
+    elongations = times(B, basis)
     gram = basis.T @ basis
     values, rotation = small_pencil(elongations.T @ elongations, gram)
     values = np.maximum(values, 0.0)
-    basis = basis @ rotation
-    residuals = np.linalg.norm(np.asarray(B.T @ (elongations @ rotation)) - basis * values, axis=0)
     terms = most_terms(B)
+    norm = float(np.asarray(B.multiply(B).sum(axis=0)).max(initial=0.0))  # max diagonal of K~
     if form is not None:
-        # Weyl's bound |lambda - theta| <= ||r|| (r with its rounding, sums of `terms` products
-        # of entries of |B~|^T |B~|, at most its largest row sum), tightened by the counts
-        absolute = abs(B)  # (its row sums by two products, not the n x n |B~|^T |B~|)
-        reach = float(np.max(absolute.T @ (absolute @ np.ones(B.shape[1])), initial=0.0))
-        weyl = residuals + 2 * (terms + 2) * EPS * reach
-        # (float64 Rayleigh quotients: ~1e-14 relative rounding at 10^6 sites, so brackets
-        # from 3e-14 up; "certified" takes the chain's own paths, down to 8 eps)
-        error, _ = certify_chain_values(form, values, weyl, levels=COUNT_LEVELS)
-        norm = float(np.asarray(B.multiply(B).sum(axis=0)).max(initial=0.0))
-        level = zero_level(terms, B.shape[1], norm)
-        small = np.flatnonzero(values <= error)  # zero modes: counted within +-level / 2 of 0
-        if small.shape[0]:
-            count, certain = form.counts(np.array([-level / 2, level / 2]))
-            if certain.all() and count[0] == 0 and count[1] > small.max():
-                error[small] = np.minimum(error[small], level / 2 + values[small])
-        zero = values + error <= level
-        if np.all(zero | (error <= TARGET * values)):
-            # the figures from what is at hand: residuals above, the rotated Gram matrix
-            # (no further pass over n x k arrays)
-            gram = rotation.T @ gram @ rotation - np.eye(values.shape[0])
-            return SolveResult(values[:k], basis[:, :k] if vectors else None,
-                               np.maximum(error[:k], 4 * EPS * values[:k]),
-                               float(residuals[:k].max(initial=0.0) / max(norm, float(values[:k].max(initial=0.0)))),
-                               float(np.abs(gram[:k, :k]).max(initial=0.0)), "accurate-ritz")
+        counted = _counted(B, form, values, basis, elongations, rotation, gram, k, vectors, terms, norm, precise)
+        if counted is not None:
+            return counted
+    if callable(deviation):
+        deviation = deviation()
+    basis = basis @ rotation
+    residuals = np.linalg.norm(transposed_times(B, elongations @ rotation) - basis * values, axis=0)
     # float64 products first; extended precision (4 products of B~ in np.longdouble, costly at
     # 50,000 dofs) only if a mode's bound then misses TARGET (stiff springs: the float64
     # rounding margin of B~^T B~ v dominates the residual)
     # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
     theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, deviation=deviation)
-    norm = float(np.asarray(B.multiply(B).sum(axis=0)).max(initial=0.0))  # max diagonal of K~
     zero = theta + error <= zero_level(terms, B.shape[1], norm)
     missed = (error > TARGET * theta) & ~zero
     # the float64 vectors' own residual, ~eps ||K~||, squared over a gap ~theta: a relative
@@ -225,6 +215,42 @@ def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: 
     result = spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
     result.error = np.maximum(error[:k], 4 * EPS * theta[:k])
     return result
+
+
+def _counted(B: sp.csr_matrix, form: ChainForm, values: NDArray[np.float64], basis: NDArray[np.float64],
+             elongations: NDArray[np.float64], rotation: NDArray[np.float64], gram: NDArray[np.float64],
+             k: int, vectors: bool, terms: int, norm: float, precise: bool = False) -> SolveResult | None:
+    """`checked_ritz` on a chain: every Ritz value bracketed by two Sturm counts of the chain's
+    spring form at the tightest of COUNT_LEVELS that holds its index (float64 Rayleigh
+    quotients: ~1e-14 relative rounding at 10^6 sites, so brackets from 3e-14 up; "certified"
+    takes the chain's own paths, down to 8 eps), zero modes counted within +-level / 2 of 0.
+    None where some nonzero value's bracket misses TARGET: the residual bounds take over."""
+    level = zero_level(terms, B.shape[1], norm)
+    kept = basis @ rotation[:, :k] if vectors or precise else None
+    wanted = TARGET
+    if precise:
+        assert kept is not None
+        values = np.r_[np.maximum(rayleigh_quotients(B, kept), 0.0), values[k:]]
+        wanted = WANTED
+    error, _ = certify_chain_values(form, values, None, levels=LEVELS if precise else COUNT_LEVELS, floor=level)
+    small = np.flatnonzero(values <= error)
+    if small.shape[0]:
+        count, certain = form.counts(np.array([-level / 2, level / 2]))
+        if certain.all() and count[0] == 0 and count[1] > small.max():
+            error[small] = np.minimum(error[small], level / 2 + values[small])
+    zero = values + error <= level
+    if not np.all((zero | (error <= wanted * values))[:k]):
+        return None
+    # the result's figures: residuals of three columns (the lowest, middle and highest mode:
+    # each fresh n x k array costs ~0.1 s at 10^6 sites), the rotated Gram matrix
+    columns = np.unique(np.array([0, k // 2, k - 1]))
+    sample = basis @ rotation[:, columns]
+    product = transposed_times(B, elongations @ rotation[:, columns])
+    residuals = np.linalg.norm(product - sample * values[columns], axis=0)
+    deviation = rotation.T @ gram @ rotation - np.eye(values.shape[0])
+    return SolveResult(values[:k], kept if vectors else None, np.maximum(error[:k], 4 * EPS * values[:k]),
+                       float(residuals.max(initial=0.0) / max(norm, float(values[:k].max(initial=0.0)))),
+                       float(np.abs(deviation[:k, :k]).max(initial=0.0)), "accurate-ritz")
 
 
 def spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviation: Deviation = None,

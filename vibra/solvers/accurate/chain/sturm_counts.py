@@ -149,14 +149,19 @@ def _free_form(B: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) 
     return ChainForm(site, m, w, off[:-1])
 
 
-def certify_chain_values(form: ChainForm, values: NDArray[np.float64], error: NDArray[np.float64],
-                         levels: tuple[float, ...] = LEVELS) -> tuple[NDArray[np.float64], int]:
+def certify_chain_values(form: ChainForm, values: NDArray[np.float64], error: NDArray[np.float64] | None,
+                         levels: tuple[float, ...] = LEVELS, floor: float = 0.0) -> tuple[NDArray[np.float64], int]:
     """Tighter `error` for the values (ascending omega^2, the lowest of the system, index =
     position) whose bound exceeds WANTED relative: the tightest of `levels` whose bracket two
     counts prove holds the value's index, widened by the counts' perturbation. Returns (error,
-    how many)."""
-    error = np.asarray(error, dtype=float).copy()
-    loose = np.flatnonzero((error > WANTED * values) & (values > error))
+    how many). `error` None: no bound yet (every value above `floor` is tried; one no bracket
+    certifies is left at inf)."""
+    if error is None:
+        error = np.full(values.shape, np.inf)
+        loose = np.flatnonzero(values > floor)
+    else:
+        error = np.asarray(error, dtype=float).copy()
+        loose = np.flatnonzero((error > WANTED * values) & (values > error))
     certified = 0
     for level in levels:
         if loose.shape[0] == 0:
