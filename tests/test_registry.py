@@ -131,6 +131,7 @@ def test_the_plan_names_the_path_that_runs_and_every_path_is_reached(monkeypatch
     gpu = solvers.plan(np.eye(3), np.ones(3), n_modes=None, vectors=True, band=None, solver="auto",
                        spring_factor=None, device="gpu")
     reached.add(gpu.path)
+    reached.update(quadratic_paths())
     missing = [path.name for path in registry.PATHS if path.name not in reached]
     assert not missing, f"registered but never planned: {missing}"
 
@@ -148,3 +149,39 @@ def test_named_families_serve_what_they_can_and_refuse_what_they_cannot() -> Non
     with pytest.raises(ValueError, match="tridiagonal"):
         solvers.plan(np.ones((3, 3)) + np.eye(3), np.ones(3), n_modes=None, vectors=True, band=None,
                      solver="tridiagonal", spring_factor=None)
+
+
+def quadratic_paths() -> set[str]:
+    """G or C: the quadratic family, chosen from what is given, the path the result reports."""
+    G = np.array([[0.0, -3.0], [3.0, 0.0]])
+    reached = set()
+    for K, extra, path in ((np.eye(2), dict(G=G), "skew-symmetric"), (-np.eye(2), dict(G=G), "hamiltonian"),
+                           (np.eye(2), dict(C=0.1 * np.eye(2)), "companion"),
+                           (np.diag([1.0, 0.0]), dict(C=np.eye(2)), "companion")):
+        modes = System.generalized(np.eye(2), K, **extra).modes()
+        assert modes.path == path == registry.choose(
+            registry.quadratic_problem(2, damped="C" in extra, definite=bool(np.linalg.eigvalsh(K).min() > 0)), "auto").name
+        reached.add(modes.path)
+    return reached
+
+
+def test_the_quadratic_methods_are_registry_paths_named_estimated_and_guarded() -> None:
+    """A named method serves where it applies and is refused, naming those that do, where it
+    does not; the estimate is checked before any work (max_seconds), as for normal_modes."""
+    from vibra.solvers.budget import ResourceLimitError
+
+    G = np.array([[0.0, -3.0], [3.0, 0.0]])
+    gyroscopic = System.generalized(np.eye(2), np.eye(2), G=G)
+    assert gyroscopic.modes(solver="hamiltonian").path == "hamiltonian"  # it applies to any G-only system
+    with pytest.raises(ValueError, match=r"solver='skew-symmetric'.*\['hamiltonian'\]"):
+        System.generalized(np.eye(2), -np.eye(2), G=G).modes(solver="skew-symmetric")
+    with pytest.raises(ValueError, match="solver='dense'"):
+        gyroscopic.modes(solver="dense")
+    with pytest.raises(ValueError, match="device='gpu'"):
+        gyroscopic.modes(device="gpu")
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(300, 300))
+    damped = System.generalized(np.eye(300), A @ A.T + np.eye(300), C=np.eye(300))
+    with pytest.raises(ResourceLimitError, match="companion path"):
+        damped.modes(max_seconds=1e-3)
+    assert len(quadratic_paths()) == 3

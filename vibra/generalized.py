@@ -308,7 +308,9 @@ class GeneralizedSystem(FreeDofs):
         """Normal modes of the free coordinates (seed 003 eqs. 137-151); see `vibra.System.modes`.
 
         Returns `Modes`, or a `vibra.solvers.structured.quadratic.QuadraticModes` when the system has G or C
-        (`is_quadratic`; all modes, so n_modes and band must be None there). Otherwise
+        (`is_quadratic`; all modes, so n_modes and band must be None there; `solver` is "auto"
+        or one of the quadratic methods, `max_memory` / `max_seconds` are checked against their
+        estimate; `accuracy` has one meaning there, the methods' own bounds). Otherwise
         `vibra.normal_modes` solves it, whose registry takes a full M with ``solver="auto"`` to
         the pencil paths (``"pencil-jacobi"``; ``"pencil-cholesky"`` with accuracy="fast" or
         an indefinite K), which keep the accuracy that an ill-conditioned M would cost the
@@ -325,7 +327,12 @@ class GeneralizedSystem(FreeDofs):
             if n_modes is not None or band is not None:
                 raise ValueError("n_modes and band are not available for a system with G or C: "
                                  "its modes are computed all at once (dense quadratic eigenproblem)")
-            return self.quadratic_modes()
+            if device != "cpu":
+                raise ValueError(f"device={device!r} is not available for a system with G or C: "
+                                 "expected 'cpu' (the quadratic methods run on LAPACK)")
+            return quadratic_modes(self.mass_matrix(), self.hessian().toarray(), G=self.gyroscopic_matrix(),
+                                   C=self.damping_matrix(), units=self.units, solver=solver,
+                                   max_memory=max_memory, max_seconds=max_seconds)
         mass = self.mass_matrix()
         return normal_modes(self.hessian(), mass, n_modes=n_modes, vectors=vectors, band=band,
                             solver=solver, units=self.units, accuracy=accuracy, device=device,

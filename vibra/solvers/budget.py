@@ -196,6 +196,11 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         fast = estimate("dense", n, k=min(k + 1, n), vectors=True)
         refined = estimate("accurate-jacobi", n, k=k, vectors=vectors, n_terms=n_terms)
         memory, seconds = max(fast.memory, refined.memory), fast.seconds
+    elif path in ("skew-symmetric", "hamiltonian", "companion"):
+        # the first-order form of 2n: two Hermitian solves (skew), one or two geev (measured
+        # 1.0-1.6e-9 and 2.1-3.2e-9 (2n)^3 s at n = 100..400); complex vectors of 2n, twice
+        memory = 200.0 * n2
+        seconds = {"skew-symmetric": 2.0, "hamiltonian": 2.2, "companion": 4.4}[path] * 1e-8 * n2 * n
     else:  # accurate-jacobi
         rows = max(n_terms, n)
         memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)

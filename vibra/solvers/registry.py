@@ -28,7 +28,7 @@ import vibra.solvers.common as common
 import vibra.solvers.runners as runners
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
 
-__all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "path_names", "readme_table"]
+__all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "path_names", "quadratic_problem", "readme_table"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,15 @@ class Problem:
     topology: str
     spread: float = 1.0
     device: str = "cpu"
+    # M q'' + (G + C) q' + K q = 0: "undamped" (no G, no C: the symmetric paths), "gyroscopic"
+    # (G only) or "damped" (C given); `definite`: K~ positive definite (its Cholesky factor exists)
+    equation: str = "undamped"
+    definite: bool = True
+
+    @property
+    def quadratic(self) -> bool:
+        """G or C given: a quadratic eigenproblem (`structured.quadratic`)."""
+        return self.equation != "undamped"
 
     @property
     def partial(self) -> bool:
@@ -195,6 +204,25 @@ def _gpu(p: Problem) -> bool:
     return p.device == "gpu"
 
 
+def _companion(p: Problem) -> bool:
+    return p.equation == "damped"
+
+
+def _skew(p: Problem) -> bool:
+    return p.equation == "gyroscopic" and p.definite
+
+
+def _hamiltonian(p: Problem) -> bool:
+    return p.equation == "gyroscopic"
+
+
+def quadratic_problem(n: int, *, damped: bool, definite: bool) -> Problem:
+    """The `Problem` of a quadratic eigenproblem of n dofs (all 2n eigenvalues, dense)."""
+    return Problem(n=n, n_modes=None, band=None, vectors=True, accuracy="high", diagonal_mass=False, width=n,
+                   ordering=None, sparse=False, nnz=n * n, n_terms=0, topology="none",
+                   equation="damped" if damped else "gyroscopic", definite=definite)
+
+
 def _run(name: str) -> Runner:
     """The runner of path `name`: the function of `runners` named after it."""
     run: Runner = getattr(runners, name.replace("-", "_"))
@@ -268,6 +296,19 @@ PATHS: tuple[SolverPath, ...] = (
     SolverPath("dense", "dense", _dense, _run("dense"), "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
                cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),
+    SolverPath("skew-symmetric", "quadratic", _skew, _run("skew-symmetric"),
+               "exactly real frequencies; absolute ~ ε‖A‖, small ones relative (from A⁻¹)",
+               "gyroscopic (G, no C), K positive definite: Hermitian eigh of i A, A = [[0, F^T], [-F, -G~]] "
+               "real skew-symmetric (a stable system never gets a spurious growth rate)",
+               cost="~2e-8 n^3 s (two Hermitian solves of 2n); ~200 n^2 bytes"),
+    SolverPath("hamiltonian", "quadratic", _hamiltonian, _run("hamiltonian"),
+               "absolute ~ ε‖A‖ cond(λ); on the imaginary axis where the mirror test proves it",
+               "gyroscopic (G, no C), K indefinite or singular: geev of the Hamiltonian first-order form",
+               cost="~2e-8 n^3 s (geev of 2n); ~200 n^2 bytes"),
+    SolverPath("companion", "quadratic", _companion, _run("companion"),
+               "absolute ~ ε‖A‖ cond(λ); small ones relative (from A⁻¹) where K is definite",
+               "damped (C given): geev of the first companion form [[0, I], [-K~, -(G~ + C~)]]",
+               cost="~4e-8 n^3 s (geev of 2n, twice where K is definite); ~200 n^2 bytes"),
 )
 
 BY_NAME: dict[str, SolverPath] = {path.name: path for path in PATHS}
@@ -283,6 +324,13 @@ def choose(problem: Problem, solver: str) -> SolverPath:
     """The path for `problem`: ``solver="auto"`` takes the first that applies among the accurate
     paths (where the springs are known and the level is not "fast") and the standard ones;
     a named family its own (raises ValueError when none of them applies)."""
+    if problem.quadratic:  # (G or C: the quadratic methods, by what is given; no other family serves)
+        for path in PATHS:
+            if path.family == "quadratic" and (solver in ("auto", path.name)) and path.applies(problem):
+                return path
+        served = [path.name for path in PATHS if path.family == "quadratic" and path.applies(problem)]
+        raise ValueError(f"solver={solver!r} cannot serve this quadratic eigenproblem: "
+                         f"expected 'auto' or one of {served}")
     if problem.device == "gpu":
         return BY_NAME["gpu"]
     if solver == "auto":

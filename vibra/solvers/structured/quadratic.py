@@ -38,7 +38,7 @@ is reported with a negative omega_n, as `Modes` reports an imaginary frequency.
 from __future__ import annotations
 
 import warnings
-from typing import ClassVar
+from typing import ClassVar, Optional, Tuple
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,7 +48,8 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays, owned_arrays
 from vibra._results import ModesResult
-from vibra.solvers.structured.pencil import check_mass_matrix, equilibrated_cholesky
+from vibra.solvers import budget as _budget
+from vibra.solvers.structured.equilibrated import check_mass_matrix, equilibrated_cholesky
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = ["QuadraticModes", "quadratic_modes", "check_gyroscopic", "METHODS"]
@@ -218,8 +219,16 @@ def quadratic_modes(
     C: ArrayLike | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
     warn: bool = True,
+    solver: str = "auto",
+    max_memory: float | None = None,
+    max_seconds: float | None = None,
 ) -> QuadraticModes:
     """Modes of M q'' + (G + C) q' + K q = 0 (see the module for the methods).
+
+    The method is a path of the solver registry (`vibra.solvers.registry`, family
+    ``"quadratic"``), chosen from what is given (C: ``companion``; G with K positive definite:
+    ``skew-symmetric``; else ``hamiltonian``), its cost estimated from n before any work and
+    checked against `max_memory` / `max_seconds` as `vibra.normal_modes` does.
 
     Parameters
     ----------
@@ -235,6 +244,11 @@ def quadratic_modes(
         Unit system carried by the result.
     warn : bool
         Warn (RuntimeWarning) when a mode grows, naming it and its growth rate.
+    solver : str
+        "auto", or a method by name (one of `METHODS`; it must apply: ``skew-symmetric`` needs
+        K positive definite and no C, ``hamiltonian`` no C).
+    max_memory, max_seconds : float, optional
+        Limits checked against the estimate before any work (`vibra.solvers.budget.guard`).
 
     Returns
     -------
@@ -244,7 +258,10 @@ def quadratic_modes(
     ------
     ValueError
         K not square, finite and symmetric; M refused by `vibra.solvers.structured.pencil.check_mass_matrix`;
-        G not skew-symmetric; C not symmetric; a matrix not matching K.
+        G not skew-symmetric; C not symmetric; a matrix not matching K; a `solver` that is not
+        a method, or does not apply.
+    vibra.solvers.budget.ResourceLimitError
+        The estimate exceeds `max_memory` or `max_seconds`.
 
     Examples
     --------
@@ -282,31 +299,16 @@ def quadratic_modes(
     K_t, C_t = 0.5 * (K_t + K_t.T), 0.5 * (C_t + C_t.T)
     G_t = 0.5 * (G_t - G_t.T)
     stiffness = equilibrated_cholesky(K_t)
-    inverse = None
-    if damping.any():
-        method = "companion"
-        D_t = G_t + C_t
-        A = np.block([[np.zeros((n, n)), np.eye(n)], [-K_t, -D_t]])
-        values, right, condition = _general(A)
-        positions = right[:n]
-        if stiffness is not None:   # A^-1 = [[-K^-1 D, -K^-1], [I, 0]], K^-1 from its Cholesky factor
-            k_scale, k_lower, _ = stiffness
+    from vibra.solvers import registry  # (the registry's runners import this module)
 
-            def solve_K(X: NDArray[np.float64]) -> NDArray[np.float64]:
-                return np.asarray(k_scale[:, None] * la.cho_solve((k_lower, True), k_scale[:, None] * X))
-            inverse_A = np.block([[-solve_K(D_t), -solve_K(np.eye(n))], [np.eye(n), np.zeros((n, n))]])
-            inverse_values, inverse_right, inverse_condition = _general(inverse_A)
-            inverse = (1.0 / inverse_values, inverse_right[:n], inverse_condition)
-    elif stiffness is not None:
-        method = "skew-symmetric"
-        values, positions, condition, inverse = _skew(K_t, G_t, stiffness)
-    else:
-        method = "hamiltonian"
-        A = np.block([[-0.5 * G_t, np.eye(n)], [0.25 * G_t @ G_t - K_t, -0.5 * G_t]])
-        values, right, condition = _general(A)
-        norm = float(np.abs(A).sum(axis=0).max())
-        values = _onto_axis(values, _FACTOR * EPS * norm * condition)
-        positions = right[:n]
+    problem = registry.quadratic_problem(n, damped=bool(damping.any()), definite=stiffness is not None)
+    path = registry.choose(problem, solver)
+    _budget.guard(path.estimate(problem), n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
+                  alternatives=["none with G or C (all 2n eigenvalues at once); without them, the symmetric "
+                                "paths' partial solves (n_modes=, band=)"])
+    reduced = Reduced(K_t, G_t, C_t, stiffness)
+    values, positions, condition, inverse = path.run(problem, reduced)
+    method = path.name
     structure = mass_condition + (stiffness[2] if stiffness is not None else 0.0)
     norm_A = float(max(np.abs(values).max(initial=0.0), 1e-300))
     value_error = _FACTOR * EPS * (norm_A * condition + 2 * n * structure * np.abs(values))
@@ -319,6 +321,58 @@ def quadratic_modes(
             quadratics = quadratics.real.astype(complex)
     pairs = _pairs(values, positions)
     return _result(values, positions, value_error, pairs, P, method, unit_system(units), warn, quadratics)
+
+
+@dataclass(frozen=True)
+class Reduced:
+    """The quadratic eigenproblem with M made the identity (q = P y): K~, G~, C~ and K~'s
+    equilibrated Cholesky factor (None where K~ is not positive definite)."""
+
+    K_t: NDArray[np.float64]
+    G_t: NDArray[np.float64]
+    C_t: NDArray[np.float64]
+    stiffness: tuple[NDArray[np.float64], NDArray[np.float64], float] | None
+
+
+Solved = Tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64],
+               Optional[Tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]]]
+
+
+def companion_solve(r: Reduced) -> Solved:
+    """``companion``: geev of A = [[0, I], [-K~, -(G~ + C~)]]; with K~ positive definite also of
+    A^-1 = [[-K~^-1 D~, -K~^-1], [I, 0]] (K~^-1 from its Cholesky factor), whose eigenvalues
+    1/lambda give the small ones to high relative accuracy."""
+    n = r.K_t.shape[0]
+    D_t = r.G_t + r.C_t
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-r.K_t, -D_t]])
+    values, right, condition = _general(A)
+    inverse = None
+    if r.stiffness is not None:
+        k_scale, k_lower, _ = r.stiffness
+
+        def solve_K(X: NDArray[np.float64]) -> NDArray[np.float64]:
+            return np.asarray(k_scale[:, None] * la.cho_solve((k_lower, True), k_scale[:, None] * X))
+        inverse_A = np.block([[-solve_K(D_t), -solve_K(np.eye(n))], [np.eye(n), np.zeros((n, n))]])
+        inverse_values, inverse_right, inverse_condition = _general(inverse_A)
+        inverse = (1.0 / inverse_values, inverse_right[:n], inverse_condition)
+    return values, right[:n], condition, inverse
+
+
+def skew_solve(r: Reduced) -> Solved:
+    """``skew-symmetric``: `_skew` (K~ positive definite, no C)."""
+    assert r.stiffness is not None
+    return _skew(r.K_t, r.G_t, r.stiffness)
+
+
+def hamiltonian_solve(r: Reduced) -> Solved:
+    """``hamiltonian``: geev of A = [[-G~/2, I], [G~^2/4 - K~, -G~/2]], eigenvalues within their
+    error of the imaginary axis put on it (`_onto_axis`)."""
+    n = r.K_t.shape[0]
+    A = np.block([[-0.5 * r.G_t, np.eye(n)], [0.25 * r.G_t @ r.G_t - r.K_t, -0.5 * r.G_t]])
+    values, right, condition = _general(A)
+    norm = float(np.abs(A).sum(axis=0).max())
+    values = _onto_axis(values, _FACTOR * EPS * norm * condition)
+    return values, right[:n], condition, None
 
 
 def _skew(K_t: NDArray[np.float64], G_t: NDArray[np.float64],
