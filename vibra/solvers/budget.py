@@ -130,7 +130,8 @@ def available_memory() -> float | None:
 
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
-             nnz: int = 0, accuracy: str = "high", one_dimensional: bool = False, chain: bool = False) -> Estimate:
+             nnz: int = 0, accuracy: str = "high", one_dimensional: bool = False, chain: bool = False,
+             ring_counted: bool = False) -> Estimate:
     """Memory and time of `path` computing `k` of `n` modes (with vectors or not) at `accuracy`
     (which bound-tightening steps are counted: `refinement_seconds`)."""
     n2 = float(n) * n
@@ -170,6 +171,10 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
         seconds = (BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
+    elif path == "accurate-ring" and ring_counted:
+        # shift-invert's values, bracketed by ~2 k double-double counts per level (two levels seen)
+        cost = estimate("sparse", n, k=k, vectors=vectors, width=width, nnz=nnz)
+        memory, seconds = cost.memory, cost.seconds + RING_S * float(n) * k
     elif path in ("accurate-ring", "accurate-walled"):
         # the cut chain's values (dqds, or bisection for the lowest k + 1), then each value's
         # roots and counts (a chain on walls: its values' counts, no roots)

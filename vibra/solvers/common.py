@@ -58,6 +58,13 @@ JACOBI_WORK = 4000**3
 BISECTION_SPREAD = 1e4
 
 
+def ring_counted(accuracy: str, few: bool, spread: float) -> bool:
+    """Whether a ring's few lowest modes take shift-invert's values bracketed by Sturm counts
+    (`accurate.ring.values.ring_counted`: "high", a spread shift-invert converges on) rather than
+    the ring's own values path."""
+    return accuracy == "high" and few and spread <= BISECTION_SPREAD
+
+
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).
 BAND_MODES_ESTIMATE = 64
 

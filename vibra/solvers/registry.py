@@ -39,7 +39,8 @@ class Problem:
     `topology` the shape of the springs (`topology.classify`; "none" without a spring factor, and
     "chain-derived" for a chain given as K alone whose springs `lowest.spring_factor_of_chain`
     recovers: only bisection uses them);
-    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (chains only, else 1).
+    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (chains and rings, a
+    few modes asked; else 1).
     """
 
     n: int
@@ -119,7 +120,8 @@ class SolverPath:
                         n_terms=problem.n_terms if self.family == "accurate" else 0, nnz=problem.nnz,
                         accuracy=problem.accuracy,
                         one_dimensional=problem.topology in ("chain", "walled-chain", "ring", "walled-ring"),
-                        chain=problem.topology == "chain")
+                        chain=problem.topology == "chain",
+                        ring_counted=common.ring_counted(problem.accuracy, problem.few, problem.spread))
 
 
 # ------------------------------------------------------------------ when each path applies

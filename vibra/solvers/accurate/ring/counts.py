@@ -39,6 +39,7 @@ import mpmath
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from scipy.sparse.csgraph import depth_first_order
 
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul, split_mp
 from vibra.solvers.accurate.rounding import _product, _split
@@ -123,21 +124,19 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     columns = B.indices[B.indptr[pairs][:, None] + np.arange(2)]  # (n, 2) sites of each spring
     if np.any(np.bincount(columns.ravel(), minlength=n) != 2) or np.any(columns[:, 0] == columns[:, 1]):
         return None
-    neighbours: list[list[tuple[int, int]]] = [[] for _ in range(n)]
-    for row, (p, q) in enumerate(columns.tolist()):
-        neighbours[p].append((q, row))
-        neighbours[q].append((p, row))
-    order, edges, previous, site = [0], [], -1, 0
-    for _ in range(n):  # walk the cycle
-        (first, row1), (second, row2) = neighbours[site]
-        nxt, row = (first, row1) if row1 != previous else (second, row2)
-        edges.append(row)
-        previous, site = row, nxt
-        if site == 0:
-            break
-        order.append(site)
-    if len(order) != n or site != 0:
+    # walk the cycle (every site has two springs): a depth-first order from site 0 follows it,
+    # and reaches every site only if the springs close one cycle, not several
+    label = np.arange(1, n + 1, dtype=float)  # (spring j of `columns` stored as j + 1: 0 is "none")
+    graph = sp.csr_matrix((np.r_[label, label], (np.r_[columns[:, 0], columns[:, 1]],
+                                                 np.r_[columns[:, 1], columns[:, 0]])), shape=(n, n))
+    walk = depth_first_order(graph, 0, directed=False, return_predecessors=False)
+    if walk.shape[0] != n:
         return None  # more than one cycle
+    found = np.asarray(graph[walk, np.roll(walk, -1)]).ravel()
+    if np.any(found < 1) or np.any(found != np.round(found)):
+        return None
+    order = walk.tolist()
+    edges = (found.astype(np.intp) - 1).tolist()
     position = np.empty(n, dtype=np.intp)
     position[np.array(order)] = np.arange(n)
     rows_of = np.repeat(np.arange(B.shape[0]), per_row)
