@@ -11,6 +11,8 @@ Modules, by role:
 - `springs`: spring force constants between periodic images; `builders`: the textbook lattices
 - `dynamical`: D(q) for many q at once, its stacked Hermitian solves, dD/dk and group velocities
 - `bands`: band structures along SeeK-path's or a given path, branches connected
+- `mesh`: Gamma-centred meshes reduced by symmetry (spglib); `dos`: tetrahedron and Gaussian DOS
+- `thermal`: free energy, entropy, heat capacity; `elastic`: sound velocities (the continuum limit)
 - `phonopy_io`: to and from `phonopy.Phonopy`
 """
 
@@ -19,15 +21,19 @@ from __future__ import annotations
 from vibra.crystals.bands import BandStructure, band_structure
 from vibra.crystals.builders import bcc, diamond, fcc, honeycomb, rock_salt, simple_cubic, square
 from vibra.crystals.crystal import Crystal
+from vibra.crystals.dos import DensityOfStates, dos
 from vibra.crystals.dynamical import PHASES, Phonons, dynamical_matrices, group_velocities
+from vibra.crystals.elastic import SoundVelocities, acoustic_slopes, sound_velocities
 from vibra.crystals.force_constants import ForceConstants, SpringModel
 from vibra.crystals.phonopy_io import to_phonopy
 from vibra.crystals.springs import springs
+from vibra.crystals.thermal import ThermalProperties, thermal_properties
 
 __all__ = [
-    "BandStructure", "Crystal", "ForceConstants", "PHASES", "Phonons", "SpringModel", "band_structure", "bcc",
-    "diamond", "dynamical_matrices", "fcc", "from_ase", "from_phonopy", "group_velocities", "honeycomb",
-    "rock_salt", "simple_cubic", "springs", "square", "to_phonopy",
+    "BandStructure", "Crystal", "DensityOfStates", "ForceConstants", "PHASES", "Phonons", "SoundVelocities",
+    "SpringModel", "ThermalProperties", "acoustic_slopes", "band_structure", "bcc", "diamond", "dos",
+    "dynamical_matrices", "fcc", "from_ase", "from_phonopy", "group_velocities", "honeycomb", "rock_salt",
+    "simple_cubic", "sound_velocities", "springs", "square", "thermal_properties", "to_phonopy",
 ]
 
 #: `Crystal.from_phonopy`, under the name the issue gives it.

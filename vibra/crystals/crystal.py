@@ -28,7 +28,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays
-from vibra.crystals import bands, dynamical, phonopy_io
+from vibra.crystals import bands, dynamical, elastic, phonopy_io, thermal
+from vibra.crystals.dos import DensityOfStates, dos as density_of_states
 from vibra.crystals.force_constants import ForceConstants, SpringModel, check_force_constants
 from vibra.units import UnitSystem, unit_system
 
@@ -252,6 +253,20 @@ class Crystal:
     def band_structure(self, path: Any = None, *, npoints: int = 200, points: Any = None) -> bands.BandStructure:
         """`BandStructure` along `path` (SeeK-path's when None): `vibra.crystals.bands.band_structure`."""
         return bands.band_structure(self, path, npoints=npoints, points=points)
+
+    def dos(self, mesh: Any, *, method: str = "tetrahedron", sigma: float | None = None, omega: ArrayLike | None = None,
+            projected: bool = False, symmetry: bool = True) -> DensityOfStates:
+        """Phonon DOS on a Gamma-centred mesh (tetrahedron or Gaussian): `vibra.crystals.dos.dos`."""
+        return density_of_states(self, mesh, method=method, sigma=sigma, omega=omega, projected=projected, symmetry=symmetry)
+
+    def thermal_properties(self, temperatures: ArrayLike, *, mesh: Any, symmetry: bool = True
+                           ) -> thermal.ThermalProperties:
+        """Free energy, entropy, heat capacity, zero-point energy: `vibra.crystals.thermal`."""
+        return thermal.thermal_properties(self, temperatures, mesh=mesh, symmetry=symmetry)
+
+    def sound_velocities(self, direction: ArrayLike, *, step: float | None = None) -> elastic.SoundVelocities:
+        """Sound velocities along a Cartesian direction: `vibra.crystals.elastic.sound_velocities`."""
+        return elastic.sound_velocities(self, direction, step=step)
 
     def to_phonopy(self, supercell: Any = None) -> Any:
         """A `phonopy.Phonopy` with these force constants: `vibra.crystals.phonopy_io.to_phonopy`."""
