@@ -139,11 +139,6 @@ class System(FreeDofs):
         In d dimensions a spring between sites i and j, with unit bond vector e, adds the
         Hessian block k e e^T (row of B: -e on site i, +e on site j).
 
-        With `cell` the sites are a periodic supercell and each spring joins site i to the
-        nearest periodic image of site j (minimum image): its bond vector is that image's.
-        Without it, in 2 or 3 dimensions, a spring that looks wrapped around a periodic box is
-        refused (`WRAPPED_SPRING_RATIO`): its axis would come from the raw positions across the box.
-
         Parameters
         ----------
         positions : (n_sites, dim) or (n_sites,) array_like
@@ -173,17 +168,16 @@ class System(FreeDofs):
         name : str
             Name used in reports.
         cell : (dim, dim) array_like, optional
-            Lattice vectors (rows) of a periodic supercell, in the length unit: bonds by
-            minimum image. For a crystal's own unit cell and its D(q), see `vibra.crystals`.
+            Lattice vectors (rows) of a periodic supercell, in the length unit: each spring
+            joins i to the nearest image of j (minimum image). Crystals: `vibra.crystals`.
 
         Raises
         ------
         ValueError
             Wrong shapes, non-positive or non-finite masses or stiffnesses, site indices out
-            of range, a spring joining a site to itself or two coincident sites; with `cell`,
-            a singular cell or one too small for a spring (two equally near images; the
-            message gives the size needed); without it, a spring that looks wrapped around a
-            periodic box (the message names ``cell=`` and `vibra.crystals`).
+            of range, a spring joining a site to itself or two coincident sites; a `cell` too
+            small for a spring; without `cell`, in 2-D/3-D, a spring that looks wrapped around a
+            periodic box (`vibra.assembly.refuse_wrapped`).
 
         Examples
         --------
@@ -206,10 +200,7 @@ class System(FreeDofs):
                 s = int(np.argmax(same))
                 raise ValueError(f"springs[{s}] joins site {pairs[s, 0]} to itself")
             bond = positions_array[pairs[:, 1]] - positions_array[pairs[:, 0]]
-            if cell is not None:
-                bond = _minimum_images(bond, _cell(cell, dim), pairs)
-            elif dim >= 2:
-                _refuse_wrapped(bond, positions_array, pairs)
+            bond = assembly.periodic_bonds(bond, positions_array, pairs, cell)  # minimum image, or wrap refused
             length = np.linalg.norm(bond, axis=1)
             scale = max(float(np.abs(positions_array).max()), 1.0) if positions_array.size else 1.0
             short = length <= 1e-12 * scale
@@ -555,75 +546,6 @@ class System(FreeDofs):
 
 
 # ---------------------------------------------------------------------- helpers
-#: Without `cell`, a spring (in 2 or 3 dimensions) is refused as wrapped around a periodic box
-#: when it is longer than half the extent of the positions along its own direction AND longer
-#: than this many times the median spring. The first condition alone (the issue's rule) would
-#: refuse every legitimate spring between the two outermost sites along its direction (a
-#: diatomic, an elastic network's tetrahedron); the wrapped springs of a supercell joined by
-#: minimum image are ~L long where the others are ~a, so they meet both.
-WRAPPED_SPRING_RATIO = 2.0
-
-
-def _cell(cell: ArrayLike, dim: int) -> NDArray[np.float64]:
-    lattice = _validate.real_array(cell, "cell", ndim=2)
-    if lattice.shape != (dim, dim):
-        raise ValueError(f"cell must be {dim} x {dim} (lattice vectors as rows) for {dim}-D positions, got shape "
-                         f"{lattice.shape}")
-    det = float(np.linalg.det(lattice))
-    if abs(det) <= 1e-10 * float(np.prod(np.linalg.norm(lattice, axis=1))):
-        raise ValueError(f"cell is singular (det = {det:.3g}); a periodic supercell needs {dim} independent "
-                         "lattice vectors")
-    return lattice
-
-
-def _minimum_images(bond: NDArray[np.float64], cell: NDArray[np.float64], pairs: NDArray[np.intp]
-                    ) -> NDArray[np.float64]:
-    """(n, dim) the shortest of each bond's periodic images; refused when two are equally short."""
-    dim = cell.shape[0]
-    frac = bond @ np.linalg.inv(cell)
-    frac -= np.round(frac)
-    grid = np.stack(np.meshgrid(*[np.arange(-1, 2)] * dim, indexing="ij"), axis=-1).reshape(-1, dim)
-    images = (frac[:, None, :] + grid[None, :, :]) @ cell  # (n, 3^dim, dim)
-    length = np.linalg.norm(images, axis=2)
-    order = np.argsort(length, axis=1)
-    first = np.take_along_axis(length, order[:, :1], axis=1)[:, 0]
-    second = np.take_along_axis(length, order[:, 1:2], axis=1)[:, 0]
-    tie = second <= first * (1.0 + 1e-8)
-    if tie.any():
-        s = int(np.argmax(tie))
-        widths = 1.0 / np.linalg.norm(np.linalg.inv(cell), axis=0)  # distances between opposite faces
-        factor = int(np.ceil(2.0 * first[s] / widths.min() * (1.0 + 1e-8)))
-        raise ValueError(
-            f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} across the cell, but two of its periodic "
-            f"images are equally near ({first[s]:.6g}): the cell is too small for a spring this long; every width "
-            f"of the cell must exceed twice it, {2 * first[s]:.6g} (the narrowest is {widths.min():.6g}: a "
-            f"supercell about {max(factor, 2)} times larger)")
-    return np.take_along_axis(images, order[:, :1, None], axis=1)[:, 0, :]
-
-
-def _refuse_wrapped(bond: NDArray[np.float64], positions: NDArray[np.float64], pairs: NDArray[np.intp]) -> None:
-    length = np.linalg.norm(bond, axis=1)
-    if length.size < 2:
-        return
-    median = float(np.median(length))
-    candidates = np.nonzero(length > WRAPPED_SPRING_RATIO * median)[0]  # usually none: O(n_springs) only
-    chunk = max(1, (1 << 22) // max(1, positions.shape[0]))
-    for start in range(0, candidates.size, chunk):
-        part = candidates[start:start + chunk]
-        along = positions @ (bond[part] / length[part, None]).T  # sites projected on each spring's axis
-        extent = along.max(axis=0) - along.min(axis=0)
-        wrapped = length[part] > 0.5 * extent * (1.0 + 1e-9)
-        if wrapped.any():
-            k = int(np.argmax(wrapped))
-            s = int(part[k])
-            raise ValueError(
-                f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} over {length[s]:.6g}, more than half the "
-                f"extent of the sites along it ({extent[k]:.6g}) and {length[s] / median:.3g} times the median "
-                "spring: it looks wrapped around a periodic box, and its axis would come from the raw positions; "
-                "pass cell= (the supercell's lattice vectors) for minimum-image bonds, or use vibra.crystals for "
-                "a crystal")
-
-
 def _positions(positions: ArrayLike) -> NDArray[np.float64]:
     array = _validate.real_array(positions, "positions", ndim=(1, 2))
     if array.ndim == 1:

@@ -11,6 +11,7 @@ have the structure's symmetry (true for `springs` and for symmetrised phonopy fo
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -93,8 +94,10 @@ def mesh_points(crystal: Crystal, mesh: Any, *, symmetry: bool = True) -> Mesh:
 
         kinds: dict[tuple[str, float], int] = {}
         numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
-        mapping, grid = spglib.get_ir_reciprocal_mesh(size, (crystal.cell, crystal.fractional, numbers),
-                                                     is_shift=[0, 0, 0], is_time_reversal=True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # spglib's notice about its error handling
+            mapping, grid = spglib.get_ir_reciprocal_mesh(size, (crystal.cell, crystal.fractional, numbers),
+                                                         is_shift=[0, 0, 0], is_time_reversal=True)
         mapping = np.asarray(mapping, dtype=np.intp)
         grid = np.asarray(grid, dtype=np.int64)
     else:
