@@ -143,3 +143,18 @@ def test_thermal_and_dos_inputs() -> None:
         crystals.fcc(1.0, 1.0, 1.0, units="dimensionless").thermal_properties([300.0], mesh=4)
     with pytest.raises(ValueError, match=r"leaves the periodic plane \(vacuum axis 2\)"):
         crystals.square(1.0, 1.0, 1.0, transverse=0.1).sound_velocities([0, 0, 1])
+
+
+def test_result_types_are_frozen() -> None:
+    import dataclasses
+
+    crystal = spring_crystals()[0]
+    results = [crystal.band_structure(npoints=20), crystal.dos(4), crystal.thermal_properties([300.0], mesh=4),
+               crystal.sound_velocities([1, 0, 0])]
+    for result in results:
+        field = dataclasses.fields(result)[0].name
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(result, field, None)
+        arrays = [getattr(result, f.name) for f in dataclasses.fields(result)
+                  if isinstance(getattr(result, f.name), np.ndarray)]
+        assert arrays and all(not a.flags.writeable for a in arrays)

@@ -7,8 +7,11 @@ that linear interpolation in closed form. Frequencies are computed at the irredu
 of the mesh (spglib) and spread to the whole grid through its mapping. The integration is
 written here (about 40 lines) rather than borrowed: phonopy's tetrahedron weights are reached
 only through its own mesh and grid objects, and spglib has no tetrahedron method; our total DOS
-is the same function as phonopy's (same tetrahedra, same linear interpolation), checked in the
-tests to 1e-6.
+is the same function as phonopy's full-mesh DOS (same tetrahedra, same linear interpolation),
+checked in the tests to 1e-6. phonopy's default on a reduced mesh sums the 24 tetrahedra around
+each irreducible point times its weight, which equals the full sum only when the tetrahedra
+respect the point group (true for the fcc-based primitive cells; 10% off for the 8-atom
+diamond cube at 12^3, benchmarks/bench_crystals.py).
 
 The DOS is per unit cell and integrates to 3 n_atoms over omega. `projected` (per atom) weights
 each tetrahedron by the mean over its corners of sum_a |e_{i a}|^2; it needs every grid point
@@ -212,16 +215,22 @@ def dos(crystal: Crystal, mesh: Any, *, method: str = "tetrahedron", sigma: floa
     full = _full_grid(points, result.omega)  # (n_points, n_bands)
     frequencies = _omega_points(result.omega, omega, 0.02)
     corners = tetrahedra(crystal, points.size)  # (6 n_points, 4)
-    by_band = full[corners].transpose(0, 2, 1).reshape(-1, 4)  # (n_tetra * n_bands, 4)
     scale = 1.0 / (6.0 * n_points)
-    share = None
-    if projected:
-        projection = _projections(result.vectors, crystal.n_atoms)  # full mesh: (n_points, n_bands, n_atoms)
-        mean = projection[corners].mean(axis=1).reshape(-1, crystal.n_atoms)  # (n_tetra * n_bands, n_atoms)
-        share = _tetrahedron_dos(by_band, frequencies, mean) * scale
+    projection = _projections(result.vectors, crystal.n_atoms) if projected else None  # full mesh
+    share = np.zeros((crystal.n_atoms, frequencies.size)) if projected else None
+    total = np.zeros(frequencies.size)
+    n_bands = full.shape[1]
+    step = max(1, CHUNK_ENTRIES // (4 * n_bands * (crystal.n_atoms + 1)))  # bounded memory per chunk
+    for start in range(0, corners.shape[0], step):
+        part = corners[start:start + step]
+        by_band = full[part].transpose(0, 2, 1).reshape(-1, 4)  # (n_tetra * n_bands, 4)
+        if projection is not None and share is not None:
+            mean = projection[part].mean(axis=1).reshape(-1, crystal.n_atoms)  # (n_tetra * n_bands, n_atoms)
+            share += _tetrahedron_dos(by_band, frequencies, mean) * scale
+        else:
+            total += _tetrahedron_dos(by_band, frequencies)[0] * scale
+    if share is not None:
         total = share.sum(axis=0)
-    else:
-        total = _tetrahedron_dos(by_band, frequencies)[0] * scale
     return DensityOfStates(omega=frequencies, dos=total, projected=share, method=method, mesh=points.size,
                            sigma=None, units=crystal.units)
 
