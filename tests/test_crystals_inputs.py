@@ -52,6 +52,9 @@ def test_spring_and_phonon_inputs() -> None:
         crystals.springs(bare, cutoff=1.0, shells=1)
     with pytest.raises(ValueError, match=r"transverse\[0\] is -1.0"):
         crystals.springs(bare, shells=1, transverse=-1.0)
+    molecule = Crystal.from_cell(CUBE * 10, [[0.0, 0, 0], [1.0, 0, 0]], 1.0, periodic=(False, False, False))
+    with pytest.raises(ValueError, match=r"shells is 2, but the atoms of 'crystal' \(no periodic axis\) have only 1 "):
+        crystals.springs(molecule, shells=2)
     crystal = crystals.springs(bare, cutoff=1.0)
     with pytest.raises(ValueError, match=r"qpoints must have shape \(n_q, 3\)"):
         crystal.frequencies([[0.0, 0.0]])

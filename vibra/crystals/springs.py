@@ -117,6 +117,10 @@ def springs(
                 first, second, translations, vectors, levels = (
                     first[keep], second[keep], translations[keep], vectors[keep], levels[keep])
                 break
+            if not any(crystal.periodic) and radius > float(np.linalg.norm(crystal.cell, axis=1).sum()):
+                found = int(levels.max()) if first.size else 0
+                raise ValueError(f"shells is {wanted}, but the atoms of {crystal.name!r} (no periodic axis) have only "
+                                 f"{found} neighbour shell{'s' if found != 1 else ''}")
             radius *= 1.5
     n_shells = int(levels.max())
     k_long = _per_shell(stiffness, n_shells, "stiffness", positive=True)
