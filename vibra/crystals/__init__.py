@@ -10,6 +10,7 @@ Modules, by role:
 - `crystal`: the `Crystal` type and its structure checks; `force_constants`: the terms Phi(i 0; j R)
 - `springs`: spring force constants between periodic images; `builders`: the textbook lattices
 - `dynamical`: D(q) for many q at once, its stacked Hermitian solves, dD/dk and group velocities
+- `factor`: the spring factor A(q) (D = A^H A): frequencies as singular values, accurate near Gamma
 - `bands`: band structures along SeeK-path's or a given path, branches connected
 - `mesh`: Gamma-centred meshes reduced by symmetry (spglib); `dos`: tetrahedron and Gaussian DOS
 - `thermal`: free energy, entropy, heat capacity; `elastic`: sound velocities (the continuum limit)

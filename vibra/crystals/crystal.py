@@ -230,18 +230,19 @@ class Crystal:
     # ------------------------------------------------------------------ lattice dynamics
     # The work lives in the modules of this package (dynamical, bands, dos, thermal, elastic,
     # phonopy_io); these methods are the documented entry points.
-    def phonons(self, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions"
-                ) -> dynamical.Phonons:
+    def phonons(self, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions",
+                accuracy: str = "high") -> dynamical.Phonons:
         """`Phonons` at `qpoints` (fractional reciprocal coordinates): `vibra.crystals.dynamical.phonons`."""
-        return dynamical.phonons(self, qpoints, vectors=vectors, phase=phase)
+        return dynamical.phonons(self, qpoints, vectors=vectors, phase=phase, accuracy=accuracy)
 
-    def frequencies(self, qpoints: ArrayLike) -> NDArray[np.float64]:
+    def frequencies(self, qpoints: ArrayLike, *, accuracy: str = "high") -> NDArray[np.float64]:
         """(n_q, n_branches) angular frequencies at `qpoints`, ascending, imaginary as -|omega|.
 
         `qpoints` (n_q, 3) are in fractional coordinates of the reciprocal lattice (phonopy's
         convention); omega in rad per time unit of `units`. ``phonons(q).omega_error`` bounds them.
+        A spring model is solved through its spring factor unless ``accuracy="fast"``.
         """
-        return self.phonons(qpoints).omega
+        return self.phonons(qpoints, accuracy=accuracy).omega
 
     def modes_at(self, q: ArrayLike, *, phase: str = "positions") -> dynamical.Phonons:
         """`Phonons` at one fractional wave vector `q` (n_q = 1), with eigenvectors."""

@@ -30,7 +30,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays
-from vibra.solvers.common import omega_and_error
+from vibra.crystals.factor import singular_frequencies
+from vibra.solvers.common import EPS, omega_and_error
 from vibra.solvers.standard.hermitian import hermitian_stack
 from vibra.units import UnitSystem
 
@@ -42,6 +43,13 @@ __all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_mat
 
 #: The phase conventions of D(q) (module docstring).
 PHASES: tuple[str, ...] = ("positions", "cell")
+
+#: The accuracy levels of `phonons` (the crystals' subset of vibra's levels).
+ACCURACY: tuple[str, ...] = ("high", "fast")
+
+#: accuracy="high" re-solves a spring model's q-point through its factor when a bound of the
+#: eigenvalues of D(q) exceeds this relative to omega (DESIGN.md: ~1e-10 where the structure allows).
+HIGH_RTOL = 1e-10
 
 #: Complex entries per chunk of the stacked D(q) and phases (~64 MiB).
 CHUNK_ENTRIES = 1 << 22
@@ -62,8 +70,9 @@ class Phonons:
         Angular frequencies, ascending per q, in rad per time unit of `units`; an unstable
         mode is -|omega| (as `vibra.Modes.omega`).
     omega_error : (n_q, n_branches) ndarray
-        |omega - omega_true| <= omega_error, from the LAPACK bound (3n + 32) eps ||D(q)||_inf
-        propagated through the signed square root (`vibra.solvers.common.omega_and_error`).
+        |omega - omega_true| <= omega_error: for eigenvalues of D(q), LAPACK's (3n + 32) eps ||D(q)||_inf
+        plus the rounding of forming D(q) (`_assembly_error`), through the signed square root
+        (`vibra.solvers.common.omega_and_error`); for refined q-points, the factor's bound.
     vectors : (n_q, 3 n_atoms, n_branches) ndarray of complex, or None
         Mass-weighted orthonormal eigenvectors of D(q) as columns (dof 3 i + a is atom i, axis a),
         in the phase convention `phase`; None when not asked.
@@ -73,6 +82,14 @@ class Phonons:
         ``"positions"`` (phonopy's) or ``"cell"``.
     units : UnitSystem
         The crystal's units.
+    path : str
+        How they were solved: ``"hermitian-eigh"`` (stacked eigenvalues of D(q)), with
+        ``" + spring-svd"`` when some q-points were re-solved through the spring factor
+        (`refined`).
+    refined : (n_q,) ndarray of bool or None
+        The q-points re-solved through the spring factor (`vibra.crystals.factor`: singular
+        values, relative accuracy kept near Gamma) because the eigenvalues of D(q) missed
+        HIGH_RTOL there; None when not checked (``accuracy="fast"`` or no springs).
     """
 
     qpoints: NDArray[np.float64]
@@ -82,6 +99,8 @@ class Phonons:
     masses: NDArray[np.float64]
     phase: str
     units: UnitSystem
+    path: str = "hermitian-eigh"
+    refined: NDArray[np.bool_] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -140,6 +159,21 @@ def _scatter(crystal: Crystal) -> NDArray[np.float64]:
     scatter = np.zeros((fc.n_terms, n3 * n3))
     scatter[np.arange(fc.n_terms)[:, None, None], rows * n3 + cols] = scaled
     return scatter
+
+
+def _assembly_error(crystal: Crystal, scatter: NDArray[np.float64]) -> float:
+    """Bound on ||D~ - D||_2 from forming D: each entry sums its terms' phases times blocks.
+
+    (terms per entry + 4) eps times ||sum_t |A_t| ||_inf, the absolute-value matrix of the terms
+    (>= ||D||: near Gamma D is small by cancellation while this is not). The LAPACK bound alone,
+    eps ||D~||, would miss it.
+    """
+    fc = crystal.require_force_constants()
+    n3 = crystal.n_branches
+    absolute = np.abs(scatter).sum(axis=0).reshape(n3, n3)
+    pairs = fc.first * crystal.n_atoms + fc.second
+    per_entry = int(np.bincount(pairs).max()) if pairs.size else 0
+    return float((per_entry + 4) * EPS * absolute.sum(axis=1).max())
 
 
 def _chunks(n_q: int, n_terms: int, n3: int) -> Iterator[slice]:
@@ -207,7 +241,8 @@ def _unit_direction(direction: ArrayLike) -> NDArray[np.float64]:
 
 
 # ---------------------------------------------------------------------- solves
-def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions") -> Phonons:
+def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions",
+            accuracy: str = "high") -> Phonons:
     """Frequencies (and eigenvectors) at every q of `qpoints`, solved as stacked Hermitian problems.
 
     Parameters
@@ -220,6 +255,12 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
         Also compute the eigenvectors.
     phase : {"positions", "cell"}
         Phase convention of D(q) and of the eigenvectors (module docstring).
+    accuracy : {"high", "fast"}
+        ``"fast"``: eigenvalues of D(q), absolute accuracy ~eps ||D|| (relative eps / (|q| a)^2
+        near Gamma). ``"high"`` (default): the same, then for a spring model every q-point
+        whose bound misses HIGH_RTOL relative (near Gamma, or a zero mode) is re-solved through
+        its spring factor (`vibra.crystals.factor`: eps-level relative accuracy, never an
+        imaginary mode); other force constants keep the eigenvalues and their bound.
 
     Returns
     -------
@@ -232,10 +273,12 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
+    accuracy = _validate.choice(accuracy, "accuracy", ACCURACY)
     crystal.require_force_constants()
     d = _term_vectors(crystal, phase)
     scatter = _scatter(crystal)
     n3 = crystal.n_branches
+    assembly = _assembly_error(crystal, scatter)
     values = np.empty((q.shape[0], n3))
     error = np.empty_like(values)
     basis = np.empty((q.shape[0], n3, n3), dtype=complex) if vectors else None
@@ -243,11 +286,24 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
         angle = 2.0 * np.pi * (q[part] @ d.T)
         matrices = _assemble(np.cos(angle), np.sin(angle), scatter, n3)
         values[part], chunk_basis, error[part] = hermitian_stack(matrices, vectors=vectors)
+        error[part] += assembly
         if basis is not None:
             basis[part] = chunk_basis
-    omega, omega_error = omega_and_error(values.ravel(), error.ravel())
-    return Phonons(qpoints=q, omega=omega.reshape(values.shape), omega_error=omega_error.reshape(values.shape),
-                   vectors=basis, masses=crystal.masses, phase=phase, units=crystal.units)
+    omega, omega_error = (x.reshape(values.shape) for x in omega_and_error(values.ravel(), error.ravel()))
+    refined = None
+    path = "hermitian-eigh"
+    if accuracy == "high" and crystal.springs is not None:
+        refined = (omega_error > HIGH_RTOL * np.abs(omega)).any(axis=1)
+        if refined.any():
+            path += " + spring-svd"
+            omega[refined], better, omega_error[refined] = singular_frequencies(
+                crystal, q[refined], crystal.springs, vectors=vectors)
+            if basis is not None and better is not None:
+                if phase == "positions":  # the factor is in the cell phase: v_pos = conj(P) v_cell
+                    better *= np.exp(-2j * np.pi * q[refined] @ crystal.fractional.T).repeat(3, axis=1)[:, :, None]
+                basis[refined] = better
+    return Phonons(qpoints=q, omega=omega, omega_error=omega_error, vectors=basis, masses=crystal.masses,
+                   phase=phase, units=crystal.units, path=path, refined=refined)
 
 
 def eigenvalue_slopes(derivative: NDArray[np.complex128], values: NDArray[np.float64],
