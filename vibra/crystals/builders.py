@@ -56,7 +56,14 @@ def bcc(a: float, mass: ArrayLike, stiffness: ArrayLike, *, shells: int = 1, tra
 
 def fcc(a: float, mass: ArrayLike, stiffness: ArrayLike, *, shells: int = 1, transverse: ArrayLike = 0.0,
         units: str | UnitSystem = "SI") -> Crystal:
-    """Face-centred cubic, cube edge `a`, primitive cell a/2 (0,1,1), ... (12 neighbours at a / sqrt(2))."""
+    """Face-centred cubic, cube edge `a`, primitive cell a/2 (0,1,1), ... (12 neighbours at a / sqrt(2)).
+
+    Examples
+    --------
+    >>> argon = fcc(1.0, 1.0, 2.0)          # omega at X: sqrt(4k/m) twice, sqrt(8k/m)
+    >>> argon.frequencies([[0.5, 0.0, 0.5]]).round(12).tolist()
+    [[2.828427124746, 2.828427124746, 4.0]]
+    """
     return _build("fcc", a, _FCC, [[0.0, 0.0, 0.0]], mass, stiffness, shells, transverse, units)
 
 

@@ -89,6 +89,14 @@ def springs(
     Crystal
         With `force_constants` and `springs` (the bonds, each once).
 
+    Examples
+    --------
+    >>> from vibra.crystals import Crystal
+    >>> cube = Crystal.from_cell(np.eye(3), [[0.0, 0.0, 0.0]], 1.0)
+    >>> sc = springs(cube, shells=2, stiffness=[1.0, 0.5])   # 6 neighbours at 1, 12 at sqrt(2)
+    >>> int(sc.springs.first.size), sorted(set(np.round(np.linalg.norm(sc.springs.vectors, axis=1), 6)))
+    (9, [np.float64(1.0), np.float64(1.414214)])
+
     Raises
     ------
     ValueError
