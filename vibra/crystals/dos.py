@@ -3,9 +3,9 @@
 Linear tetrahedron method (Lehmann and Taut; Bloechl et al.): every cell of the Gamma-centred
 grid is cut into 6 tetrahedra along its shortest main diagonal (in Cartesian terms, as phonopy
 does), omega is interpolated linearly inside each, and each tetrahedron contributes the DOS of
-that linear interpolation in closed form. Frequencies are computed at the irreducible points
-of the mesh (spglib) and spread to the whole grid through its mapping. The integration is
-written here (about 40 lines) rather than borrowed: phonopy's tetrahedron weights are reached
+that linear interpolation in closed form (a numba kernel). Frequencies are computed at the
+irreducible points of the mesh (spglib) and spread to the whole grid through its mapping. The
+integration is written here (about 40 lines) rather than borrowed: phonopy's tetrahedron weights are reached
 only through its own mesh and grid objects, and spglib has no tetrahedron method; our total DOS
 is the same function as phonopy's full-mesh DOS (same tetrahedra, same linear interpolation),
 checked in the tests to 1e-6. phonopy's default on a reduced mesh sums the 24 tetrahedra around
@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -43,8 +44,6 @@ __all__ = ["DensityOfStates", "dos", "METHODS", "tetrahedra"]
 METHODS: tuple[str, ...] = ("tetrahedron", "gaussian")
 #: Default number of frequency points.
 DEFAULT_POINTS = 201
-#: Entries per chunk of the (tetrahedra x frequency points) work arrays.
-CHUNK_ENTRIES = 1 << 22
 
 # the 6 tetrahedra of the unit cube along its (1, 1, 1) diagonal: 0 -> e_a -> e_a + e_b -> (1, 1, 1)
 _UNIT = np.eye(3, dtype=np.int64)
@@ -106,49 +105,57 @@ def tetrahedra(crystal: Crystal, size: NDArray[np.int64]) -> NDArray[np.intp]:
     return grid_index(grid[:, None, None, :] + corners[None, :, :, :], size).reshape(-1, 4)
 
 
-def _tetrahedron_dos(corners: NDArray[np.float64], omega: NDArray[np.float64],
-                     weights: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-    """sum over tetrahedra (rows of `corners`, (m, 4) omega at the corners) of their linear DOS at `omega`.
+@numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")
+def _tetrahedron_kernel(full: NDArray[np.float64], corners: NDArray[np.intp], points: NDArray[np.float64],
+                        projection: NDArray[np.float64], out: NDArray[np.float64]) -> None:  # pragma: no cover
+    """The linear-tetrahedron DOS of every tetrahedron and band at the sorted `points`, summed into out[c, k].
 
-    Each tetrahedron's DOS integrates to 1; `weights` (m, k) gives k weighted sums instead of one.
-    Only the frequency points strictly inside a tetrahedron's range (e1, e4) are evaluated: the
-    (tetrahedron, point) pairs are listed with searchsorted and summed with bincount, so the
-    work is the number of such pairs, not m times the number of points.
+    For corners e1 <= e2 <= e3 <= e4 the DOS of the linear interpolation (integral 1) is
+    3 (w - e1)^2 / ((e2 - e1)(e3 - e1)(e4 - e1)) on (e1, e2],
+    [3 (e2 - e1) + 6 x - 3 (e3 - e1 + e4 - e2) x^2 / ((e3 - e2)(e4 - e2))] / ((e3 - e1)(e4 - e1)),
+    x = w - e2, on (e2, e3], and 3 (e4 - w)^2 / ((e4 - e1)(e4 - e2)(e4 - e3)) on (e3, e4); only the
+    points inside (e1, e4) are visited (binary search). Compiled with numba (no fast-math),
+    cached on disk after the first call (~1 s).
+
+    full (n_points, n_bands) omega on the grid; corners (n_tetra, 4) grid indices; points sorted;
+    projection (n_points, n_bands, n_columns) the weights at the grid points (the tetrahedron
+    takes their mean over its corners), or shape (1, 1, 0) for the total DOS into out[0].
     """
-    order = np.argsort(omega, kind="stable")
-    points = omega[order]
-    columns = 1 if weights is None else weights.shape[1]
-    out = np.zeros((columns, omega.size))
-    e = np.sort(corners, axis=1)
-    chunk = max(1, CHUNK_ENTRIES // 8)
-    tiny = np.finfo(float).tiny
-    for start in range(0, e.shape[0], chunk):
-        part = e[start:start + chunk]
-        first = np.searchsorted(points, part[:, 0], side="right")  # first point > e1
-        stop = np.searchsorted(points, part[:, 3], side="left")    # first point >= e4
-        count = np.maximum(stop - first, 0)
-        if not count.any():
-            continue
-        tetra = np.repeat(np.arange(part.shape[0]), count)
-        index = np.arange(tetra.size) - np.repeat(np.cumsum(count) - count, count) + first[tetra]
-        w = points[index]
-        a1, a2, a3, a4 = (part[tetra, k] for k in range(4))
-        with np.errstate(all="ignore"):  # np.where evaluates every branch; the unused ones may overflow
-            low = 3 * (w - a1) ** 2 / np.maximum((a2 - a1) * (a3 - a1) * (a4 - a1), tiny)
-            x = w - a2
-            middle = (3 * (a2 - a1) + 6 * x - 3 * (a3 - a1 + a4 - a2) * x ** 2
-                      / np.maximum((a3 - a2) * (a4 - a2), tiny)) / np.maximum((a3 - a1) * (a4 - a1), tiny)
-            high = 3 * (a4 - w) ** 2 / np.maximum((a4 - a1) * (a4 - a2) * (a4 - a3), tiny)
-        g = np.where(w <= a2, low, np.where(w <= a3, middle, high))
-        if weights is None:
-            out[0] += np.bincount(index, weights=g, minlength=omega.size)
-        else:
-            share = weights[start:start + chunk][tetra]
-            for column in range(columns):
-                out[column] += np.bincount(index, weights=g * share[:, column], minlength=omega.size)
-    result = np.empty_like(out)
-    result[:, order] = out
-    return result
+    tiny = 2.2250738585072014e-308
+    n_bands = full.shape[1]
+    n_columns = projection.shape[2]
+    e = np.empty(4)
+    for t in range(corners.shape[0]):
+        for b in range(n_bands):
+            for c in range(4):
+                e[c] = full[corners[t, c], b]
+            for c in range(1, 4):  # insertion sort of 4 values
+                v = e[c]
+                d = c - 1
+                while d >= 0 and e[d] > v:
+                    e[d + 1] = e[d]
+                    d -= 1
+                e[d + 1] = v
+            a1, a2, a3, a4 = e[0], e[1], e[2], e[3]
+            first = np.searchsorted(points, a1, side="right")
+            stop = np.searchsorted(points, a4, side="left")
+            for k in range(first, stop):
+                w = points[k]
+                if w <= a2:
+                    g = 3.0 * (w - a1) ** 2 / max((a2 - a1) * (a3 - a1) * (a4 - a1), tiny)
+                elif w <= a3:
+                    x = w - a2
+                    g = (3.0 * (a2 - a1) + 6.0 * x - 3.0 * (a3 - a1 + a4 - a2) * x * x
+                         / max((a3 - a2) * (a4 - a2), tiny)) / max((a3 - a1) * (a4 - a1), tiny)
+                else:
+                    g = 3.0 * (a4 - w) ** 2 / max((a4 - a1) * (a4 - a2) * (a4 - a3), tiny)
+                if n_columns == 0:
+                    out[0, k] += g
+                else:
+                    for column in range(n_columns):
+                        mean = 0.25 * (projection[corners[t, 0], b, column] + projection[corners[t, 1], b, column]
+                                       + projection[corners[t, 2], b, column] + projection[corners[t, 3], b, column])
+                        out[column, k] += g * mean
 
 
 def _omega_points(values: NDArray[np.float64], omega: ArrayLike | None, margin: float) -> NDArray[np.float64]:
@@ -216,21 +223,16 @@ def dos(crystal: Crystal, mesh: Any, *, method: str = "tetrahedron", sigma: floa
     frequencies = _omega_points(result.omega, omega, 0.02)
     corners = tetrahedra(crystal, points.size)  # (6 n_points, 4)
     scale = 1.0 / (6.0 * n_points)
-    projection = _projections(result.vectors, crystal.n_atoms) if projected else None  # full mesh
-    share = np.zeros((crystal.n_atoms, frequencies.size)) if projected else None
-    total = np.zeros(frequencies.size)
-    n_bands = full.shape[1]
-    step = max(1, CHUNK_ENTRIES // (4 * n_bands * (crystal.n_atoms + 1)))  # bounded memory per chunk
-    for start in range(0, corners.shape[0], step):
-        part = corners[start:start + step]
-        by_band = full[part].transpose(0, 2, 1).reshape(-1, 4)  # (n_tetra * n_bands, 4)
-        if projection is not None and share is not None:
-            mean = projection[part].mean(axis=1).reshape(-1, crystal.n_atoms)  # (n_tetra * n_bands, n_atoms)
-            share += _tetrahedron_dos(by_band, frequencies, mean) * scale
-        else:
-            total += _tetrahedron_dos(by_band, frequencies)[0] * scale
-    if share is not None:
-        total = share.sum(axis=0)
+    order = np.argsort(frequencies, kind="stable")
+    projection = (_projections(result.vectors, crystal.n_atoms) if projected  # full mesh: (n_points, n_bands, n_atoms)
+                  else np.zeros((1, 1, 0)))
+    summed = np.zeros((max(1, projection.shape[2]), frequencies.size))
+    _tetrahedron_kernel(np.ascontiguousarray(full), corners, np.ascontiguousarray(frequencies[order]),
+                        np.ascontiguousarray(projection), summed)
+    unsorted = np.empty_like(summed)
+    unsorted[:, order] = summed * scale
+    share = unsorted if projected else None
+    total = unsorted.sum(axis=0)
     return DensityOfStates(omega=frequencies, dos=total, projected=share, method=method, mesh=points.size,
                            sigma=None, units=crystal.units)
 
