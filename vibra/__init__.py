@@ -37,7 +37,7 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "generalized", "mechanics",
+    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "crystals", "generalized", "mechanics",
     "modes", "molecules", "networks", "pipeline", "response", "solvers", "spectra", "system", "units",
 )
 

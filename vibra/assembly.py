@@ -3,7 +3,9 @@
 Each row of B is the gradient of one internal coordinate with respect to the displacements
 (n_sites * dim columns, site-major): a spring's row holds -e and +e on its two sites (e the
 unit vector along it), an anchor's row the anchor direction on its site. `vibra.system`
-stacks these into the `System`'s coupling; nothing here reads files or keeps state.
+stacks these into the `System`'s coupling; nothing here reads files or keeps state. Periodic
+supercells (``System.from_springs(..., cell=)``) take each bond by minimum image
+(`periodic_bonds`); without a cell, springs that look wrapped around a periodic box are refused.
 """
 
 from __future__ import annotations
@@ -69,3 +71,86 @@ def hessian_blocks(blocks: Sequence[tuple[ArrayLike, ArrayLike]], n_sites: int, 
     if not data:
         return sp.csr_matrix((size, size))
     return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
+
+
+#: Without `cell`, a spring (in 2 or 3 dimensions) is refused as wrapped around a periodic box
+#: when it is longer than half the extent of the positions along its own direction AND longer
+#: than this many times the median spring. The first condition alone (the issue's rule) would
+#: refuse every legitimate spring between the two outermost sites along its direction (a
+#: diatomic, an elastic network's tetrahedron); the wrapped springs of a supercell joined by
+#: minimum image are ~L long where the others are ~a, so they meet both.
+WRAPPED_SPRING_RATIO = 2.0
+
+
+def periodic_bonds(bond: NDArray[np.float64], positions: NDArray[np.float64], pairs: NDArray[np.intp],
+                   cell: ArrayLike | None) -> NDArray[np.float64]:
+    """(n_springs, dim) bond vectors: with `cell`, each one's minimum image (`minimum_images`); without it,
+    the raw ones, after `refuse_wrapped` (2-D and 3-D only: in 1-D e e^T = 1 whichever way a bond points,
+    so periodic chains and GNM contacts keep their long springs)."""
+    if cell is not None:
+        return minimum_images(bond, periodic_cell(cell, positions.shape[1]), pairs)
+    if positions.shape[1] >= 2:
+        refuse_wrapped(bond, positions, pairs)
+    return bond
+
+
+def periodic_cell(cell: ArrayLike, dim: int) -> NDArray[np.float64]:
+    """(dim, dim) lattice vectors (rows) of a periodic supercell, refused when singular or misshapen."""
+    lattice = _validate.real_array(cell, "cell", ndim=2)
+    if lattice.shape != (dim, dim):
+        raise ValueError(f"cell must be {dim} x {dim} (lattice vectors as rows) for {dim}-D positions, got shape "
+                         f"{lattice.shape}")
+    det = float(np.linalg.det(lattice))
+    if abs(det) <= 1e-10 * float(np.prod(np.linalg.norm(lattice, axis=1))):
+        raise ValueError(f"cell is singular (det = {det:.3g}); a periodic supercell needs {dim} independent "
+                         "lattice vectors")
+    return lattice
+
+
+def minimum_images(bond: NDArray[np.float64], cell: NDArray[np.float64], pairs: NDArray[np.intp]
+                    ) -> NDArray[np.float64]:
+    """(n, dim) the shortest of each bond's periodic images; refused when two are equally short."""
+    dim = cell.shape[0]
+    frac = bond @ np.linalg.inv(cell)
+    frac -= np.round(frac)
+    grid = np.stack(np.meshgrid(*[np.arange(-1, 2)] * dim, indexing="ij"), axis=-1).reshape(-1, dim)
+    images = (frac[:, None, :] + grid[None, :, :]) @ cell  # (n, 3^dim, dim)
+    length = np.linalg.norm(images, axis=2)
+    order = np.argsort(length, axis=1)
+    first = np.take_along_axis(length, order[:, :1], axis=1)[:, 0]
+    second = np.take_along_axis(length, order[:, 1:2], axis=1)[:, 0]
+    tie = second <= first * (1.0 + 1e-8)
+    if tie.any():
+        s = int(np.argmax(tie))
+        widths = 1.0 / np.linalg.norm(np.linalg.inv(cell), axis=0)  # distances between opposite faces
+        factor = int(np.ceil(2.0 * first[s] / widths.min() * (1.0 + 1e-8)))
+        raise ValueError(
+            f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} across the cell, but two of its periodic "
+            f"images are equally near ({first[s]:.6g}): the cell is too small for a spring this long; every width "
+            f"of the cell must exceed twice it, {2 * first[s]:.6g} (the narrowest is {widths.min():.6g}: a "
+            f"supercell about {max(factor, 2)} times larger)")
+    return np.take_along_axis(images, order[:, :1, None], axis=1)[:, 0, :]
+
+
+def refuse_wrapped(bond: NDArray[np.float64], positions: NDArray[np.float64], pairs: NDArray[np.intp]) -> None:
+    """Refuse a spring that looks wrapped around a periodic box (`WRAPPED_SPRING_RATIO`), naming cell=."""
+    length = np.linalg.norm(bond, axis=1)
+    if length.size < 2:
+        return
+    median = float(np.median(length))
+    candidates = np.nonzero(length > WRAPPED_SPRING_RATIO * median)[0]  # usually none: O(n_springs) only
+    chunk = max(1, (1 << 22) // max(1, positions.shape[0]))
+    for start in range(0, candidates.size, chunk):
+        part = candidates[start:start + chunk]
+        along = positions @ (bond[part] / length[part, None]).T  # sites projected on each spring's axis
+        extent = along.max(axis=0) - along.min(axis=0)
+        wrapped = length[part] > 0.5 * extent * (1.0 + 1e-9)
+        if wrapped.any():
+            k = int(np.argmax(wrapped))
+            s = int(part[k])
+            raise ValueError(
+                f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} over {length[s]:.6g}, more than half the "
+                f"extent of the sites along it ({extent[k]:.6g}) and {length[s] / median:.3g} times the median "
+                "spring: it looks wrapped around a periodic box, and its axis would come from the raw positions; "
+                "pass cell= (the supercell's lattice vectors) for minimum-image bonds, or use vibra.crystals for "
+                "a crystal")

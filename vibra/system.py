@@ -132,6 +132,7 @@ class System(FreeDofs):
         frozen_dofs: ArrayLike | None = None,
         units: str | UnitSystem = "SI",
         name: str = "system",
+        cell: ArrayLike | None = None,
     ) -> System:
         """Sites joined by harmonic springs whose rest lengths are the equilibrium distances.
 
@@ -166,12 +167,17 @@ class System(FreeDofs):
             ``"SI"`` (default), ``"ASE"`` or ``"dimensionless"``.
         name : str
             Name used in reports.
+        cell : (dim, dim) array_like, optional
+            Lattice vectors (rows) of a periodic supercell, in the length unit: each spring
+            joins i to the nearest image of j (minimum image). Crystals: `vibra.crystals`.
 
         Raises
         ------
         ValueError
             Wrong shapes, non-positive or non-finite masses or stiffnesses, site indices out
-            of range, a spring joining a site to itself or two coincident sites.
+            of range, a spring joining a site to itself or two coincident sites; a `cell` too
+            small for a spring; without `cell`, in 2-D/3-D, a spring that looks wrapped around a
+            periodic box (`vibra.assembly.refuse_wrapped`).
 
         Examples
         --------
@@ -194,6 +200,7 @@ class System(FreeDofs):
                 s = int(np.argmax(same))
                 raise ValueError(f"springs[{s}] joins site {pairs[s, 0]} to itself")
             bond = positions_array[pairs[:, 1]] - positions_array[pairs[:, 0]]
+            bond = assembly.periodic_bonds(bond, positions_array, pairs, cell)  # minimum image, or wrap refused
             length = np.linalg.norm(bond, axis=1)
             scale = max(float(np.abs(positions_array).max()), 1.0) if positions_array.size else 1.0
             short = length <= 1e-12 * scale
@@ -208,6 +215,8 @@ class System(FreeDofs):
             weight_parts.append(k)
         elif stiffness is not None:
             raise ValueError("stiffness was given without springs")
+        elif cell is not None:
+            raise ValueError("cell was given without springs")
         if anchors is not None:
             sites = _index_array(anchors, "anchors", n_sites, shape=(-1,))
             k = _per_item(anchor_stiffness, len(sites), "anchor_stiffness")

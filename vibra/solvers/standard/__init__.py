@@ -6,4 +6,5 @@
 - `pardiso`: the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
 - `krylov`: block Krylov iteration (block Arnoldi, full reorthogonalisation)
 - `gpu`: ``device="gpu"``, the dense all-modes solve with CuPy (cuSOLVER syevd)
+- `hermitian`: stacked complex Hermitian solves of the crystals' D(q) (called directly, not a registry path)
 """

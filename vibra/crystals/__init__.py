@@ -1,0 +1,43 @@
+"""`vibra.crystals`: lattice dynamics of periodic crystals (issue 30).
+
+A `Crystal` is a unit cell with atoms and force constants between periodic images. Build one
+with a lattice builder (`simple_cubic`, `bcc`, `fcc`, `diamond`, `rock_salt`, `square`,
+`honeycomb`), from a structure (`Crystal.from_cell`, `Crystal.from_ase`) plus `springs`, or from
+phonopy (`from_phonopy`). Then `frequencies(qpoints)`, `modes_at(q)`, `band_structure()`.
+
+Modules, by role:
+
+- `crystal`: the `Crystal` type and its structure checks; `force_constants`: the terms Phi(i 0; j R)
+- `springs`: spring force constants between periodic images; `builders`: the textbook lattices
+- `dynamical`: D(q) for many q at once, its stacked Hermitian solves, dD/dk and group velocities
+- `factor`: the spring factor A(q) (D = A^H A): frequencies as singular values, accurate near Gamma
+- `bands`: band structures along SeeK-path's or a given path, branches connected
+- `mesh`: Gamma-centred meshes reduced by symmetry (spglib); `dos`: tetrahedron and Gaussian DOS
+- `thermal`: free energy, entropy, heat capacity; `elastic`: sound velocities (the continuum limit)
+- `phonopy_io`: to and from `phonopy.Phonopy`
+"""
+
+from __future__ import annotations
+
+from vibra.crystals.bands import BandStructure, band_structure
+from vibra.crystals.builders import bcc, diamond, fcc, honeycomb, rock_salt, simple_cubic, square
+from vibra.crystals.crystal import Crystal
+from vibra.crystals.dos import DensityOfStates, dos
+from vibra.crystals.dynamical import PHASES, Phonons, dynamical_matrices, group_velocities
+from vibra.crystals.elastic import SoundVelocities, acoustic_slopes, sound_velocities
+from vibra.crystals.force_constants import ForceConstants, SpringModel
+from vibra.crystals.phonopy_io import to_phonopy
+from vibra.crystals.springs import springs
+from vibra.crystals.thermal import ThermalProperties, thermal_properties
+
+__all__ = [
+    "BandStructure", "Crystal", "DensityOfStates", "ForceConstants", "PHASES", "Phonons", "SoundVelocities",
+    "SpringModel", "ThermalProperties", "acoustic_slopes", "band_structure", "bcc", "diamond", "dos",
+    "dynamical_matrices", "fcc", "from_ase", "from_phonopy", "group_velocities", "honeycomb", "rock_salt",
+    "simple_cubic", "sound_velocities", "springs", "square", "thermal_properties", "to_phonopy",
+]
+
+#: `Crystal.from_phonopy`, under the name the issue gives it.
+from_phonopy = Crystal.from_phonopy
+#: `Crystal.from_ase` (structure only; force constants from a calculator are a later step).
+from_ase = Crystal.from_ase

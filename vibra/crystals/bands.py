@@ -1,0 +1,264 @@
+"""Band structures along high-symmetry paths: SeeK-path's, or a given one with labels.
+
+The automatic path is SeeK-path's (HPKOT recipe) for the crystal's own cell:
+``seekpath.get_path_orig_cell`` finds the standardised primitive cell, takes its path, and
+converts the special points back to fractional coordinates of *this* crystal's reciprocal
+lattice (through the rotation and transformation spglib reports), so every q here is in the
+user's basis. For a supercell (a cell that is not primitive) the path is the primitive cell's
+path written in the supercell's reciprocal basis (its bands are folded). For 2-D and 1-D
+crystals only the segments whose ends lie in the plane (or line) of the periodic axes are kept.
+
+Branches are connected across crossings by eigenvector overlap: at each step the branches
+of the previous q-point are matched to those of the next by the assignment that maximises
+sum |<e_prev|e_next>|^2 (scipy's linear_sum_assignment). At a degeneracy the eigenvectors
+are first rotated to diagonalise dD/dk along the segment (degenerate perturbation theory), so
+the branches leaving a crossing keep their identity. Group velocities along the path come
+from the same analytic dD/dk (`vibra.crystals.dynamical.derivative_matrices`).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from vibra import _validate
+from vibra._frozen import freeze_arrays
+from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, phonons
+from vibra.units import UnitSystem
+
+if TYPE_CHECKING:
+    from vibra.crystals.crystal import Crystal
+
+__all__ = ["BandStructure", "band_structure", "special_points", "ALIASES"]
+
+#: Other spellings of SeeK-path's labels.
+ALIASES: dict[str, str] = {"G": "GAMMA", "Γ": "GAMMA", "\\Gamma": "GAMMA"}
+
+#: Most q-points a band structure takes (a bound before any allocation).
+MAX_POINTS = 1_000_000
+
+
+@dataclass(frozen=True, eq=False)
+class BandStructure:
+    """Phonon bands along a path in reciprocal space.
+
+    Attributes
+    ----------
+    qpoints : (n_q, 3) ndarray
+        Wave vectors, fractional coordinates of the crystal's reciprocal lattice. Each segment
+        holds both its ends (a label point appears twice where two segments meet).
+    distances : (n_q,) ndarray
+        Cumulative Cartesian path length, in rad / length (no length is added across a break).
+    omega : (n_q, n_branches) ndarray
+        Angular frequencies, branches connected by eigenvector overlap (column b is one branch
+        along each continuous run), in rad per time unit; imaginary as -|omega|.
+    omega_error : (n_q, n_branches) ndarray
+        Error bounds of `omega`, same order.
+    velocities : (n_q, n_branches) ndarray
+        Group velocity d omega / dk along the segment's direction, in length per time unit (0 for
+        an acoustic branch at Gamma, where it depends on the direction of approach).
+    segments : (n_segments, 2) ndarray of int
+        First and last index (inclusive) of each segment in `qpoints`.
+    labels : tuple of (int, str)
+        Index into `qpoints` and label of each special point on the path.
+    breaks : tuple of int
+        Indices where a new continuous run starts (a discontinuity of the path), 0 excluded.
+    units : UnitSystem
+        The crystal's units.
+    """
+
+    qpoints: NDArray[np.float64]
+    distances: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    omega_error: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    segments: NDArray[np.int64]
+    labels: tuple[tuple[int, str], ...]
+    breaks: tuple[int, ...]
+    units: UnitSystem
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    def frequencies_thz(self) -> NDArray[np.float64]:
+        """(n_q, n_branches) signed ordinary frequencies, in THz."""
+        return self.units.omega_to_thz(self.omega)
+
+    def wavenumbers_cm1(self) -> NDArray[np.float64]:
+        """(n_q, n_branches) signed wavenumbers, in cm^-1."""
+        return self.units.omega_to_cm1(self.omega)
+
+
+# ---------------------------------------------------------------------- special points
+def _species_numbers(crystal: Crystal) -> list[int]:
+    kinds: dict[tuple[str, float], int] = {}
+    return [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
+
+
+def special_points(crystal: Crystal) -> tuple[dict[str, NDArray[np.float64]], list[list[str]]]:
+    """SeeK-path's special points (fractional, this crystal's reciprocal basis) and its path as runs of labels.
+
+    For a crystal with vacuum axes, only points in the periodic plane (or line) are kept, and
+    only the segments between two of them.
+    """
+    import seekpath  # at the edge: only for an automatic path
+
+    structure = (crystal.cell.tolist(), crystal.fractional.tolist(), _species_numbers(crystal))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # SupercellWarning, EdgeCaseWarning: documented above
+        found = seekpath.get_path_orig_cell(structure, with_time_reversal=True)
+    points = {label: np.asarray(coords, dtype=float) for label, coords in found["point_coords"].items()}
+    vacuum = [axis for axis in range(3) if not crystal.periodic[axis]]
+    if vacuum:
+        points = {label: q for label, q in points.items() if np.allclose(q[vacuum], 0.0, atol=1e-9)}
+    runs: list[list[str]] = []
+    for start, end in found["path"]:
+        if start not in points or end not in points:
+            continue
+        if runs and runs[-1][-1] == start:
+            runs[-1].append(end)
+        else:
+            runs.append([start, end])
+    if not runs:
+        raise ValueError(f"SeeK-path gives no path in the periodic directions of {crystal.name!r}; give path= "
+                         "and points= explicitly")
+    return points, runs
+
+
+def _check_path(path: Any, points: Mapping[str, Any] | None, crystal: Crystal
+                ) -> tuple[list[list[str]], dict[str, NDArray[np.float64]]]:
+    table: dict[str, NDArray[np.float64]] = {}
+    if points is not None:
+        if not isinstance(points, Mapping):
+            raise TypeError(f"points must be a mapping label -> fractional q, got {type(points).__name__}")
+        for label, q in points.items():
+            value = _validate.real_array(q, f"points[{label!r}]", ndim=1)
+            if value.shape != (3,):
+                raise ValueError(f"points[{label!r}] must hold 3 fractional coordinates, got shape {value.shape}")
+            table[str(label)] = value
+    if path is None:
+        auto, runs = special_points(crystal)
+        return runs, {**auto, **table}
+    if isinstance(path, str) or not isinstance(path, Sequence) or not path:
+        raise TypeError("path must be a list of runs, each a list of point labels, e.g. [['GAMMA', 'X', 'W']]")
+    runs = []
+    for r, run in enumerate(path):
+        if isinstance(run, str) or not isinstance(run, Sequence) or len(run) < 2:
+            raise ValueError(f"path[{r}] must be a list of at least 2 point labels, got {run!r}")
+        runs.append([str(label) for label in run])
+    missing = [(r, k, label) for r, run in enumerate(runs) for k, label in enumerate(run)
+               if label not in table and ALIASES.get(label, label) not in table]
+    if missing:
+        try:
+            auto, _ = special_points(crystal)
+        except ValueError:
+            auto = {}
+        table = {**auto, **table}
+        for r, k, label in missing:
+            if label not in table and ALIASES.get(label, label) not in table:
+                known = ", ".join(sorted(table)) or "none"
+                raise ValueError(f"path[{r}][{k}] is {label!r}, not a known point of {crystal.name!r}; "
+                                 f"known points: {known} (or give its coordinates in points=)")
+    return runs, {label: table[label] if label in table else table[ALIASES[label]]
+                  for run in runs for label in run}
+
+
+# ---------------------------------------------------------------------- bands
+def band_structure(crystal: Crystal, path: Sequence[Sequence[str]] | None = None, *, npoints: int = 200,
+                   points: Mapping[str, Any] | None = None) -> BandStructure:
+    """Phonon bands along `path` (SeeK-path's when None), branches connected, with group velocities.
+
+    Parameters
+    ----------
+    crystal : Crystal
+        With force constants.
+    path : list of runs of labels, optional
+        e.g. ``[["GAMMA", "X", "W", "K", "GAMMA", "L"]]``; a new run starts after a break.
+        Labels are SeeK-path's for this crystal (``"G"`` and ``"Γ"`` also mean ``"GAMMA"``) or
+        keys of `points`.
+    npoints : int
+        q-points in all, shared among segments by length (at least 2 per segment).
+    points : mapping label -> (3,) fractional q, optional
+        Extra or overriding special points.
+
+    Raises
+    ------
+    ValueError
+        A label that is neither SeeK-path's nor in `points`; a run of fewer than 2 labels;
+        npoints smaller than 2 per segment; a crystal without force constants.
+    """
+    crystal.require_force_constants()
+    runs, table = _check_path(path, points, crystal)
+    n_segments = sum(len(run) - 1 for run in runs)
+    total = _validate.count(npoints, "npoints", low=2 * n_segments, high=MAX_POINTS)
+    reciprocal = crystal.reciprocal
+    ends = [(run[k], run[k + 1], r) for r, run in enumerate(runs) for k in range(len(run) - 1)]
+    lengths = np.array([np.linalg.norm((table[b] - table[a]) @ reciprocal) for a, b, _ in ends])
+    share = np.maximum(2, np.floor(lengths / max(lengths.sum(), 1e-300) * total + 0.5).astype(int))
+    while share.sum() > total:  # rounding up to 2 per segment can overshoot
+        share[int(np.argmax(share))] -= 1
+    qs, dist, segments, labels, breaks, directions = [], [], [], [], [], []
+    offset, position = 0, 0.0
+    previous_run = -1
+    for (a, b, r), n, length in zip(ends, share, lengths):
+        t = np.linspace(0.0, 1.0, n)
+        qs.append(table[a] + t[:, None] * (table[b] - table[a]))
+        if r != previous_run and previous_run >= 0:
+            breaks.append(offset)
+        if r != previous_run or not labels or labels[-1][1] != a:
+            labels.append((offset, a))
+        dist.append(position + t * length)
+        position += length
+        labels.append((offset + n - 1, b))
+        segments.append((offset, offset + n - 1))
+        direction = (table[b] - table[a]) @ reciprocal
+        directions.append(direction / length if length > 0 else np.array([1.0, 0.0, 0.0]))
+        offset += n
+        previous_run = r
+    qpoints = np.vstack(qs)
+    result = phonons(crystal, qpoints, vectors=True)
+    omega = result.omega.copy()
+    error = result.omega_error.copy()
+    basis = np.array(result.vectors)
+    values = np.sign(omega) * omega ** 2
+    value_error = 2.0 * np.abs(omega) * error + error ** 2
+    velocity = np.zeros_like(omega)
+    for (first, last), direction in zip(segments, directions):
+        part = slice(first, last + 1)
+        derivative = derivative_matrices(crystal, qpoints[part], direction)
+        slopes, basis[part] = eigenvalue_slopes(derivative, values[part], basis[part], value_error[part])
+        zero = np.abs(omega[part]) <= error[part]
+        velocity[part] = np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * omega[part]))
+    order = _connect(basis, set(breaks))
+    rows = np.arange(len(qpoints))[:, None]
+    return BandStructure(qpoints=qpoints, distances=np.concatenate(dist), omega=omega[rows, order],
+                         omega_error=error[rows, order], velocities=velocity[rows, order],
+                         segments=np.array(segments, dtype=np.int64),
+                         labels=tuple((int(k), label) for k, label in labels), breaks=tuple(int(k) for k in breaks),
+                         units=crystal.units)
+
+
+def _connect(basis: NDArray[np.complex128], breaks: set[int]) -> NDArray[np.intp]:
+    """(n_q, n) column order: order[k, b] is the eigenpair of q-point k on branch b.
+
+    Ascending at the start of each run; afterwards each branch follows the eigenvector of
+    largest overlap with its own at the previous q-point (an assignment, so no two branches
+    take the same one).
+    """
+    n_q, _, n = basis.shape
+    order = np.empty((n_q, n), dtype=np.intp)
+    order[0] = np.arange(n)
+    for k in range(1, n_q):
+        if k in breaks:
+            order[k] = np.arange(n)
+            continue
+        previous = basis[k - 1][:, order[k - 1]]
+        overlap = np.abs(previous.conj().T @ basis[k]) ** 2
+        _, columns = linear_sum_assignment(-overlap)
+        order[k] = columns
+    return order

@@ -1,0 +1,354 @@
+"""The dynamical matrix D(q) of a crystal, built for many q at once, and its eigenpairs.
+
+Wave vectors q are in fractional coordinates of the reciprocal lattice (phonopy's convention):
+the Cartesian wave vector is q @ reciprocal = 2 pi q @ inv(cell).T. For the terms Phi(i 0; j R)
+of `ForceConstants`,
+
+    D_{i a, j b}(q) = sum_{terms (i, j, R)} Phi_ab(i 0; j R) exp(2 pi i q . d) / sqrt(m_i m_j),
+
+with d the fractional vector of the term. Two phase conventions:
+
+- ``phase="positions"`` (default; phonopy's): d = x_j + R - x_i, the vector between the atoms
+  themselves. Eigenvectors are smooth in q and match phonopy's.
+- ``phase="cell"``: d = R, the lattice translation alone. D is then periodic in q with the
+  reciprocal lattice; its eigenvectors differ from phonopy's by the phase exp(2 pi i q . x_j)
+  per atom. Eigenvalues are the same in both.
+
+Batched: the phases of all terms at all q form one (n_q, n_terms) matrix P, and D for every q
+is P @ A with A the (n_terms, (3n)^2) scatter of the mass-weighted blocks: two real GEMMs, in
+chunks of q bounded in memory, then stacked Hermitian solves (`vibra.solvers.standard.hermitian`).
+No Python loop runs per q.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Iterator, cast
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vibra import _validate
+from vibra._frozen import freeze_arrays
+from vibra.crystals.factor import singular_frequencies
+from vibra.solvers.common import EPS, omega_and_error
+from vibra.solvers.standard.hermitian import hermitian_stack
+from vibra.units import UnitSystem
+
+if TYPE_CHECKING:
+    from vibra.crystals.crystal import Crystal
+
+__all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_matrices", "group_velocities",
+           "check_qpoints", "eigenvalue_slopes"]
+
+#: The phase conventions of D(q) (module docstring).
+PHASES: tuple[str, ...] = ("positions", "cell")
+
+#: The accuracy levels of `phonons` (the crystals' subset of vibra's levels).
+ACCURACY: tuple[str, ...] = ("high", "fast")
+
+#: accuracy="high" re-solves a spring model's q-point through its factor when a bound of the
+#: eigenvalues of D(q) exceeds this relative to omega (DESIGN.md: ~1e-10 where the structure allows).
+HIGH_RTOL = 1e-10
+
+#: Complex entries per chunk of the stacked D(q) and phases (~64 MiB).
+CHUNK_ENTRIES = 1 << 22
+
+#: Two eigenvalues within this many of their error bounds are one degenerate level.
+DEGENERACY_BOUNDS = 1e4
+
+
+@dataclass(frozen=True, eq=False)
+class Phonons:
+    """Phonon frequencies (and eigenvectors) of a crystal at a set of wave vectors.
+
+    Attributes
+    ----------
+    qpoints : (n_q, 3) ndarray
+        Wave vectors in fractional coordinates of the reciprocal lattice.
+    omega : (n_q, n_branches) ndarray
+        Angular frequencies, ascending per q, in rad per time unit of `units`; an unstable
+        mode is -|omega| (as `vibra.Modes.omega`).
+    omega_error : (n_q, n_branches) ndarray
+        |omega - omega_true| <= omega_error: for eigenvalues of D(q), LAPACK's (3n + 32) eps ||D(q)||_inf
+        plus the rounding of forming D(q) (`_assembly_error`), through the signed square root
+        (`vibra.solvers.common.omega_and_error`); for refined q-points, the factor's bound.
+    vectors : (n_q, 3 n_atoms, n_branches) ndarray of complex, or None
+        Mass-weighted orthonormal eigenvectors of D(q) as columns (dof 3 i + a is atom i, axis a),
+        in the phase convention `phase`; None when not asked.
+    masses : (n_atoms,) ndarray
+        Atomic masses, in the mass unit (for `displacements`).
+    phase : str
+        ``"positions"`` (phonopy's) or ``"cell"``.
+    units : UnitSystem
+        The crystal's units.
+    path : str
+        How they were solved: ``"hermitian-eigh"`` (stacked eigenvalues of D(q)), with
+        ``" + spring-svd"`` when some q-points were re-solved through the spring factor
+        (`refined`).
+    refined : (n_q,) ndarray of bool or None
+        The q-points re-solved through the spring factor (`vibra.crystals.factor`: singular
+        values, relative accuracy kept near Gamma) because the eigenvalues of D(q) missed
+        HIGH_RTOL there; None when not checked (``accuracy="fast"`` or no springs).
+    """
+
+    qpoints: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    omega_error: NDArray[np.float64]
+    vectors: NDArray[np.complex128] | None
+    masses: NDArray[np.float64]
+    phase: str
+    units: UnitSystem
+    path: str = "hermitian-eigh"
+    refined: NDArray[np.bool_] | None = None
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    def displacements(self) -> NDArray[np.complex128]:
+        """(n_q, 3 n_atoms, n_branches) physical displacement patterns M^-1/2 e, in length / sqrt(mass)."""
+        if self.vectors is None:
+            raise ValueError("these phonons were computed without eigenvectors; ask with vectors=True "
+                             "(or use Crystal.modes_at)")
+        return self.vectors / np.sqrt(np.repeat(self.masses, 3))[None, :, None]
+
+    def frequencies_thz(self) -> NDArray[np.float64]:
+        """(n_q, n_branches) signed ordinary frequencies omega / 2 pi, in THz."""
+        return self.units.omega_to_thz(self.omega)
+
+    def wavenumbers_cm1(self) -> NDArray[np.float64]:
+        """(n_q, n_branches) signed wavenumbers omega / (2 pi c), in cm^-1."""
+        return self.units.omega_to_cm1(self.omega)
+
+
+# ---------------------------------------------------------------------- validation
+def check_qpoints(qpoints: ArrayLike, name: str = "qpoints") -> NDArray[np.float64]:
+    """(n_q, 3) finite fractional wave vectors (a single (3,) q is taken as one row)."""
+    q = _validate.real_array(qpoints, name, ndim=(1, 2))
+    if q.ndim == 1:
+        q = q[None, :]
+    if q.shape[1] != 3 or q.shape[0] == 0:
+        raise ValueError(f"{name} must have shape (n_q, 3) with n_q >= 1 (fractional reciprocal coordinates), "
+                         f"got {q.shape}")
+    return q
+
+
+def _check_phase(phase: str) -> str:
+    return _validate.choice(phase, "phase", PHASES)
+
+
+# ---------------------------------------------------------------------- assembly
+def _term_vectors(crystal: Crystal, phase: str) -> NDArray[np.float64]:
+    """(n_terms, 3) fractional vectors d of the phase exp(2 pi i q . d)."""
+    fc = crystal.require_force_constants()
+    d = fc.translations.astype(float)
+    if phase == "positions":
+        frac = crystal.fractional
+        d = d + frac[fc.second] - frac[fc.first]
+    return d
+
+
+def _scatter(crystal: Crystal) -> NDArray[np.float64]:
+    """(n_terms, (3n)^2) A: row t holds Phi_t / sqrt(m_i m_j) at the entries of block (i, j)."""
+    fc = crystal.require_force_constants()
+    n3 = 3 * crystal.n_atoms
+    scaled = fc.blocks / np.sqrt(crystal.masses[fc.first] * crystal.masses[fc.second])[:, None, None]
+    axis = np.arange(3)
+    rows = 3 * fc.first[:, None, None] + axis[None, :, None]
+    cols = 3 * fc.second[:, None, None] + axis[None, None, :]
+    scatter = np.zeros((fc.n_terms, n3 * n3))
+    scatter[np.arange(fc.n_terms)[:, None, None], rows * n3 + cols] = scaled
+    return scatter
+
+
+def _assembly_error(crystal: Crystal, scatter: NDArray[np.float64]) -> float:
+    """Bound on ||D~ - D||_2 from forming D: each entry sums its terms' phases times blocks.
+
+    (terms per entry + 4) eps times ||sum_t |A_t| ||_inf, the absolute-value matrix of the terms
+    (>= ||D||: near Gamma D is small by cancellation while this is not). The LAPACK bound alone,
+    eps ||D~||, would miss it.
+    """
+    fc = crystal.require_force_constants()
+    n3 = crystal.n_branches
+    absolute = np.abs(scatter).sum(axis=0).reshape(n3, n3)
+    pairs = fc.first * crystal.n_atoms + fc.second
+    per_entry = int(np.bincount(pairs).max()) if pairs.size else 0
+    return float((per_entry + 4) * EPS * absolute.sum(axis=1).max())
+
+
+def _chunks(n_q: int, n_terms: int, n3: int) -> Iterator[slice]:
+    size = max(1, CHUNK_ENTRIES // max(1, n_terms + 2 * n3 * n3))
+    for start in range(0, n_q, size):
+        yield slice(start, min(n_q, start + size))
+
+
+def _assemble(phases_real: NDArray[np.float64], phases_imag: NDArray[np.float64],
+              scatter: NDArray[np.float64], n3: int) -> NDArray[np.complex128]:
+    matrices = np.empty((phases_real.shape[0], n3 * n3), dtype=complex)
+    matrices.real = phases_real @ scatter
+    matrices.imag = phases_imag @ scatter
+    return matrices.reshape(-1, n3, n3)
+
+
+def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "positions"
+                       ) -> NDArray[np.complex128]:
+    """(n_q, 3 n_atoms, 3 n_atoms) dynamical matrices D(q), in 1 / time unit^2.
+
+    Parameters
+    ----------
+    crystal : Crystal
+        With force constants.
+    qpoints : (n_q, 3) array_like
+        Fractional reciprocal coordinates.
+    phase : {"positions", "cell"}
+        The phase convention (module docstring).
+    """
+    q = check_qpoints(qpoints)
+    phase = _check_phase(phase)
+    d = _term_vectors(crystal, phase)
+    scatter = _scatter(crystal)
+    n3 = crystal.n_branches
+    angle = 2.0 * np.pi * (q @ d.T)
+    return _assemble(np.cos(angle), np.sin(angle), scatter, n3)
+
+
+def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLike, *,
+                        phase: str = "positions") -> NDArray[np.complex128]:
+    """(n_q, 3n, 3n) dD/dk along the Cartesian unit `direction`, k the Cartesian wave vector.
+
+    Analytic: d/dk exp(i k . r) = i (r . n) exp(i k . r), r the Cartesian vector of the term.
+    In 1 / time unit^2 per (rad / length), i.e. length / time unit^2.
+    """
+    q = check_qpoints(qpoints)
+    phase = _check_phase(phase)
+    n = _unit_direction(direction)
+    d = _term_vectors(crystal, phase)
+    weight = (d @ crystal.cell) @ n  # r . n for each term, in length
+    scatter = _scatter(crystal)
+    angle = 2.0 * np.pi * (q @ d.T)
+    # i w e^{i angle} = -w sin + i w cos
+    return _assemble(-np.sin(angle) * weight, np.cos(angle) * weight, scatter, crystal.n_branches)
+
+
+def _unit_direction(direction: ArrayLike) -> NDArray[np.float64]:
+    n = _validate.real_array(direction, "direction", ndim=1)
+    if n.shape != (3,):
+        raise ValueError(f"direction must be a Cartesian 3-vector, got shape {n.shape}")
+    norm = float(np.linalg.norm(n))
+    if norm == 0.0:
+        raise ValueError("direction is the zero vector; give a Cartesian direction such as [1, 0, 0]")
+    return n / norm
+
+
+# ---------------------------------------------------------------------- solves
+def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions",
+            accuracy: str = "high") -> Phonons:
+    """Frequencies (and eigenvectors) at every q of `qpoints`, solved as stacked Hermitian problems.
+
+    Parameters
+    ----------
+    crystal : Crystal
+        With force constants.
+    qpoints : (n_q, 3) array_like
+        Wave vectors, fractional coordinates of the reciprocal lattice (phonopy's convention).
+    vectors : bool
+        Also compute the eigenvectors.
+    phase : {"positions", "cell"}
+        Phase convention of D(q) and of the eigenvectors (module docstring).
+    accuracy : {"high", "fast"}
+        ``"fast"``: eigenvalues of D(q), absolute accuracy ~eps ||D|| (relative eps / (|q| a)^2
+        near Gamma). ``"high"`` (default): the same, then for a spring model every q-point
+        whose bound misses HIGH_RTOL relative (near Gamma, or a zero mode) is re-solved through
+        its spring factor (`vibra.crystals.factor`: eps-level relative accuracy, never an
+        imaginary mode); other force constants keep the eigenvalues and their bound.
+
+    Returns
+    -------
+    Phonons
+
+    Raises
+    ------
+    ValueError
+        `qpoints` not (n_q, 3) or not finite; an unknown `phase`; a crystal without force constants.
+    """
+    q = check_qpoints(qpoints)
+    phase = _check_phase(phase)
+    accuracy = _validate.choice(accuracy, "accuracy", ACCURACY)
+    crystal.require_force_constants()
+    d = _term_vectors(crystal, phase)
+    scatter = _scatter(crystal)
+    n3 = crystal.n_branches
+    assembly = _assembly_error(crystal, scatter)
+    values = np.empty((q.shape[0], n3))
+    error = np.empty_like(values)
+    basis = np.empty((q.shape[0], n3, n3), dtype=complex) if vectors else None
+    for part in _chunks(q.shape[0], d.shape[0], n3):
+        angle = 2.0 * np.pi * (q[part] @ d.T)
+        matrices = _assemble(np.cos(angle), np.sin(angle), scatter, n3)
+        values[part], chunk_basis, error[part] = hermitian_stack(matrices, vectors=vectors)
+        error[part] += assembly
+        if basis is not None:
+            basis[part] = chunk_basis
+    omega, omega_error = (x.reshape(values.shape) for x in omega_and_error(values.ravel(), error.ravel()))
+    refined = None
+    path = "hermitian-eigh"
+    if accuracy == "high" and crystal.springs is not None:
+        refined = (omega_error > HIGH_RTOL * np.abs(omega)).any(axis=1)
+        if refined.any():
+            path += " + spring-svd"
+            omega[refined], better, omega_error[refined] = singular_frequencies(
+                crystal, q[refined], crystal.springs, vectors=vectors)
+            if basis is not None and better is not None:
+                if phase == "positions":  # the factor is in the cell phase: v_pos = conj(P) v_cell
+                    better *= np.exp(-2j * np.pi * q[refined] @ crystal.fractional.T).repeat(3, axis=1)[:, :, None]
+                basis[refined] = better
+    return Phonons(qpoints=q, omega=omega, omega_error=omega_error, vectors=basis, masses=crystal.masses,
+                   phase=phase, units=crystal.units, path=path, refined=refined)
+
+
+def eigenvalue_slopes(derivative: NDArray[np.complex128], values: NDArray[np.float64],
+                      basis: NDArray[np.complex128], error: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.complex128]]:
+    """(n_q, n) d lambda / dk from dD/dk, with degenerate levels resolved, and the basis that goes with it.
+
+    Within a degenerate level (eigenvalues within DEGENERACY_BOUNDS times their bounds) the
+    slopes are the eigenvalues of V_g^H dD V_g (first-order degenerate perturbation theory),
+    ascending, and the returned basis is rotated to diagonalise it: its columns are the
+    branches that leave the degeneracy with those slopes.
+    """
+    projected = np.einsum("qia,qij,qjb->qab", basis.conj(), derivative, basis, optimize=True)
+    slopes = np.einsum("qaa->qa", projected).real.copy()
+    rotated = basis.copy()
+    gap = np.diff(values, axis=1) <= DEGENERACY_BOUNDS * (error[:, 1:] + error[:, :-1])
+    n = values.shape[1]
+    for k in np.nonzero(gap.any(axis=1))[0]:
+        start = 0
+        while start < n:
+            stop = start + 1
+            while stop < n and gap[k, stop - 1]:
+                stop += 1
+            if stop - start > 1:
+                block = projected[k, start:stop, start:stop]
+                slopes[k, start:stop], turn = np.linalg.eigh(0.5 * (block + block.conj().T))
+                rotated[k, :, start:stop] = basis[k, :, start:stop] @ turn
+            start = stop
+    return slopes, rotated
+
+
+def group_velocities(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLike) -> NDArray[np.float64]:
+    """(n_q, n_branches) group velocities d omega / dk along a Cartesian `direction`, in length / time unit.
+
+    Analytic: d omega / dk = (d lambda / dk) / (2 omega) with d lambda / dk from dD/dk
+    (`eigenvalue_slopes`); where |omega| is within its error bound (the acoustic branches at
+    Gamma) the velocity is reported as 0 (the slope there depends on the direction of approach:
+    see `vibra.crystals.elastic.sound_velocities`).
+    """
+    q = check_qpoints(qpoints)
+    n = _unit_direction(direction)
+    result = phonons(crystal, q, vectors=True)
+    derivative = derivative_matrices(crystal, q, n)
+    values = np.sign(result.omega) * result.omega ** 2
+    error = 2.0 * np.abs(result.omega) * result.omega_error + result.omega_error ** 2
+    slopes, _ = eigenvalue_slopes(derivative, values, cast(NDArray[np.complex128], result.vectors), error)
+    zero = np.abs(result.omega) <= result.omega_error
+    return np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * result.omega))

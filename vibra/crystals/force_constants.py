@@ -1,0 +1,99 @@
+"""Force constants of a crystal as flat terms Phi(i 0; j R), and the springs of a spring model.
+
+A term is (atom i in cell 0, atom j in cell R, R, the 3x3 block Phi(i 0; j R) in energy / length^2);
+the force on atom i is F_i = -sum_{j,R} Phi(i 0; j R) u_j(R) (`vibra.crystals.crystal` states the
+conventions). Spring models and phonopy's supercell force constants both take this form.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vibra import _validate
+from vibra._frozen import freeze_arrays
+
+__all__ = ["ForceConstants", "SpringModel", "check_force_constants"]
+
+
+@dataclass(frozen=True, eq=False)
+class ForceConstants:
+    """Force constants as terms Phi(i 0; j R), in energy / length^2 of the crystal's units.
+
+    Attributes
+    ----------
+    first : (n_terms,) ndarray of int
+        Atom i (in cell 0) of each term.
+    second : (n_terms,) ndarray of int
+        Atom j (in cell R) of each term.
+    translations : (n_terms, 3) ndarray of int
+        The lattice translation R of atom j, in units of the lattice vectors.
+    blocks : (n_terms, 3, 3) ndarray
+        Phi(i 0; j R), Cartesian, in energy / length^2.
+    """
+
+    first: NDArray[np.intp]
+    second: NDArray[np.intp]
+    translations: NDArray[np.int64]
+    blocks: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    @property
+    def n_terms(self) -> int:
+        return int(self.first.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class SpringModel:
+    """The springs a spring model is made of, each bond once.
+
+    Attributes
+    ----------
+    first, second : (n_bonds,) ndarray of int
+        The atoms joined: `first` in cell 0, `second` in cell `translations`.
+    translations : (n_bonds, 3) ndarray of int
+        Lattice translation of the second atom.
+    vectors : (n_bonds, 3) ndarray
+        Bond vectors r_second(R) - r_first(0), Cartesian, in the length unit.
+    longitudinal, transverse : (n_bonds,) ndarray
+        Stiffness along the bond and across it, in energy / length^2.
+    shells : (n_bonds,) ndarray of int
+        Neighbour shell of each bond, from 1.
+    """
+
+    first: NDArray[np.intp]
+    second: NDArray[np.intp]
+    translations: NDArray[np.int64]
+    vectors: NDArray[np.float64]
+    longitudinal: NDArray[np.float64]
+    transverse: NDArray[np.float64]
+    shells: NDArray[np.int64]
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+
+def check_force_constants(fc: ForceConstants, n_atoms: int, periodic: tuple[bool, bool, bool]) -> None:
+    """Shapes, atom indices in range, and no coupling across a vacuum axis."""
+    if not isinstance(fc, ForceConstants):
+        raise TypeError(f"force_constants must be a ForceConstants, got {type(fc).__name__}")
+    n = fc.n_terms
+    if fc.second.shape != (n,) or fc.translations.shape != (n, 3) or fc.blocks.shape != (n, 3, 3):
+        raise ValueError("force constants must be (n_terms,) first and second, (n_terms, 3) translations and "
+                         f"(n_terms, 3, 3) blocks; got {fc.first.shape}, {fc.second.shape}, "
+                         f"{fc.translations.shape}, {fc.blocks.shape}")
+    for name, index in (("first", fc.first), ("second", fc.second)):
+        bad = (index < 0) | (index >= n_atoms)
+        if bad.any():
+            t = int(np.argmax(bad))
+            raise ValueError(f"force constants {name}[{t}] is {int(index[t])}; atoms run from 0 to {n_atoms - 1}")
+    _validate.finite(fc.blocks, "force constants blocks")
+    for axis in range(3):
+        if not periodic[axis] and (fc.translations[:, axis] != 0).any():
+            t = int(np.argmax(fc.translations[:, axis] != 0))
+            raise ValueError(f"force constants term {t} couples cells along the vacuum axis {axis} "
+                             f"(translation {fc.translations[t].tolist()}); widen the vacuum or shorten the cutoff")

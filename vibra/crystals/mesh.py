@@ -1,0 +1,110 @@
+"""Gamma-centred q-point meshes and their reduction by symmetry (spglib).
+
+A mesh (n1, n2, n3) holds the wave vectors q = (i1 / n1, i2 / n2, i3 / n3) (fractional
+reciprocal coordinates, Gamma included, as phonopy's default mesh). spglib's
+``get_ir_reciprocal_mesh`` maps every grid point to an irreducible one under the crystal's
+point group and time reversal; frequencies are computed at the irreducible points only and
+weighted by how many grid points each stands for. The reduction assumes the force constants
+have the structure's symmetry (true for `springs` and for symmetrised phonopy force constants);
+``symmetry=False`` computes every point.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vibra._frozen import freeze_arrays
+
+if TYPE_CHECKING:
+    from vibra.crystals.crystal import Crystal
+
+__all__ = ["Mesh", "mesh_points", "check_mesh", "grid_index", "MAX_MESH_POINTS"]
+
+#: Most grid points a mesh may hold (a bound before any allocation).
+MAX_MESH_POINTS = 8_000_000
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A Gamma-centred mesh and its irreducible points.
+
+    Attributes
+    ----------
+    size : (3,) ndarray of int
+        Points along each reciprocal lattice vector.
+    grid : (n_points, 3) ndarray of int
+        Integer address of every grid point (q = grid / size, folded into [-1/2, 1/2)).
+    mapping : (n_points,) ndarray of int
+        Index (into `grid`) of the irreducible point each grid point is equivalent to.
+    irreducible : (n_irreducible,) ndarray of int
+        Indices into `grid` of the irreducible points.
+    weights : (n_irreducible,) ndarray of int
+        How many grid points each irreducible point stands for (sum = n_points).
+    """
+
+    size: NDArray[np.int64]
+    grid: NDArray[np.int64]
+    mapping: NDArray[np.intp]
+    irreducible: NDArray[np.intp]
+    weights: NDArray[np.int64]
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    @property
+    def qpoints(self) -> NDArray[np.float64]:
+        """(n_irreducible, 3) fractional wave vectors of the irreducible points."""
+        return self.grid[self.irreducible] / self.size
+
+
+def grid_index(address: NDArray[np.int64], size: NDArray[np.int64]) -> NDArray[np.intp]:
+    """Index of the grid point at integer `address` (any integers: taken modulo the mesh), spglib's order."""
+    a = np.mod(address, size)
+    return (a[..., 0] + size[0] * (a[..., 1] + size[1] * a[..., 2])).astype(np.intp)
+
+
+def check_mesh(mesh: Any, crystal: Crystal) -> NDArray[np.int64]:
+    """(3,) mesh sizes: positive integers (1 along a vacuum axis), at most MAX_MESH_POINTS in all."""
+    raw = np.asarray(mesh)
+    if raw.ndim == 0:
+        raw = np.repeat(raw, 3)
+        raw[~np.array(crystal.periodic)] = 1
+    if raw.shape != (3,) or not np.issubdtype(raw.dtype, np.integer):
+        raise ValueError(f"mesh must be 3 integers (points along each reciprocal lattice vector), got {mesh!r}")
+    for axis in range(3):
+        if raw[axis] < 1:
+            raise ValueError(f"mesh[{axis}] is {int(raw[axis])}; each mesh size must be a positive integer")
+        if not crystal.periodic[axis] and raw[axis] != 1:
+            raise ValueError(f"mesh[{axis}] is {int(raw[axis])} along a vacuum axis; it must be 1")
+    if int(np.prod(raw)) > MAX_MESH_POINTS:
+        raise ValueError(f"mesh {raw.tolist()} holds {int(np.prod(raw))} points, over the limit {MAX_MESH_POINTS}")
+    return raw.astype(np.int64)
+
+
+def mesh_points(crystal: Crystal, mesh: Any, *, symmetry: bool = True) -> Mesh:
+    """The Gamma-centred `mesh` of `crystal`, reduced by symmetry with spglib unless ``symmetry=False``."""
+    size = check_mesh(mesh, crystal)
+    if symmetry:
+        import spglib  # at the edge: spglib only for a symmetry-reduced mesh
+
+        kinds: dict[tuple[str, float], int] = {}
+        numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # spglib's notice about its error handling
+            mapping, grid = spglib.get_ir_reciprocal_mesh(size, (crystal.cell, crystal.fractional, numbers),
+                                                         is_shift=[0, 0, 0], is_time_reversal=True)
+        mapping = np.asarray(mapping, dtype=np.intp)
+        grid = np.asarray(grid, dtype=np.int64)
+    else:
+        index = np.arange(int(np.prod(size)))
+        grid = np.stack([index % size[0], (index // size[0]) % size[1], index // (size[0] * size[1])], axis=1)
+        grid = np.where(grid > size // 2, grid - size, grid)
+        mapping = np.arange(len(grid), dtype=np.intp)
+    irreducible, weights = np.unique(mapping, return_counts=True)
+    return Mesh(size=size, grid=grid, mapping=mapping, irreducible=irreducible.astype(np.intp),
+                weights=weights.astype(np.int64))
