@@ -158,3 +158,20 @@ def test_result_types_are_frozen() -> None:
         arrays = [getattr(result, f.name) for f in dataclasses.fields(result)
                   if isinstance(getattr(result, f.name), np.ndarray)]
         assert arrays and all(not a.flags.writeable for a in arrays)
+
+
+def test_a_crystal_in_metres_finds_its_symmetry_and_path_as_in_angstrom() -> None:
+    """spglib's and SeeK-path's tolerances are lengths (1e-5): the same fcc crystal in SI (a =
+    5.26e-10 m) and in dimensionless units (a = 1) reduces its mesh to the same irreducible
+    points and takes the same path; its thermal properties come out (they failed with
+    'cannot unpack NoneType' before the cell was scaled for them)."""
+    from vibra.crystals.bands import special_points
+    from vibra.crystals.mesh import mesh_points
+
+    si = crystals.fcc(5.26e-10, 6.63e-26, 1.2, units="SI")
+    unit = crystals.fcc(1.0, 1.0, 1.0, units="dimensionless")
+    a, b = mesh_points(si, (8, 8, 8)), mesh_points(unit, (8, 8, 8))
+    assert a.irreducible.shape[0] == b.irreducible.shape[0] < 8**3 // 10
+    np.testing.assert_array_equal(a.weights, b.weights)
+    assert special_points(si)[1] == special_points(unit)[1]
+    assert np.all(np.isfinite(si.thermal_properties([10.0, 300.0], mesh=(6, 6, 6)).heat_capacity))

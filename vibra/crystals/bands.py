@@ -108,7 +108,9 @@ def special_points(crystal: Crystal) -> tuple[dict[str, NDArray[np.float64]], li
     """
     import seekpath  # at the edge: only for an automatic path
 
-    structure = (crystal.cell.tolist(), crystal.fractional.tolist(), _species_numbers(crystal))
+    from vibra.crystals.mesh import symmetry_cell  # (points are fractional: the cell's scale does not matter)
+
+    structure = (symmetry_cell(crystal).tolist(), crystal.fractional.tolist(), _species_numbers(crystal))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # SupercellWarning, EdgeCaseWarning: documented above
         found = seekpath.get_path_orig_cell(structure, with_time_reversal=True)

@@ -86,6 +86,14 @@ def check_mesh(mesh: Any, crystal: Crystal) -> NDArray[np.int64]:
     return raw.astype(np.int64)
 
 
+def symmetry_cell(crystal: Crystal) -> NDArray[np.float64]:
+    """The cell scaled to a unit cube root of its volume per periodic axis: spglib's and
+    SeeK-path's tolerances (symprec 1e-5) are lengths, so a cell in metres (5e-10) would
+    look like one point to them. Symmetry does not change with the scale."""
+    scale = float(np.prod(np.linalg.norm(crystal.cell, axis=1)[crystal.periodic])) ** (1.0 / max(int(np.sum(crystal.periodic)), 1))
+    return np.asarray(crystal.cell, dtype=float) / scale
+
+
 def mesh_points(crystal: Crystal, mesh: Any, *, symmetry: bool = True) -> Mesh:
     """The Gamma-centred `mesh` of `crystal`, reduced by symmetry with spglib unless ``symmetry=False``."""
     size = check_mesh(mesh, crystal)
@@ -96,8 +104,11 @@ def mesh_points(crystal: Crystal, mesh: Any, *, symmetry: bool = True) -> Mesh:
         numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)  # spglib's notice about its error handling
-            mapping, grid = spglib.get_ir_reciprocal_mesh(size, (crystal.cell, crystal.fractional, numbers),
-                                                         is_shift=[0, 0, 0], is_time_reversal=True)
+            found = spglib.get_ir_reciprocal_mesh(size, (symmetry_cell(crystal), crystal.fractional, numbers),
+                                                  is_shift=[0, 0, 0], is_time_reversal=True)
+        if found is None:
+            raise RuntimeError(f"spglib found no symmetry for {crystal.name!r} (pass symmetry=False for the full mesh)")
+        mapping, grid = found
         mapping = np.asarray(mapping, dtype=np.intp)
         grid = np.asarray(grid, dtype=np.int64)
     else:
