@@ -221,6 +221,7 @@ def solve(
     path = BY_NAME[request.path]
     report = Progress(progress, request.cost)
     if path.name == "gpu" or path.family == "pencil":  # (K and M as given: no K~ formed)
+        assert path.run is not None  # (a quadratic path only for G or C: structured.quadratic runs those)
         result = path.run(problem, Inputs(None, K, mass, None, band, 1.0, report.step))
         report.done()
         return result
@@ -243,6 +244,7 @@ def solve(
             band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
         if factor is not None:
             factor = (factor[0], factor[1] * scale)
+    assert path.run is not None
     result = path.run(problem, Inputs(Kt, K, mass, factor, band, scale, report.step))
     if exponent:
         result.eigenvalues = result.eigenvalues * 2.0**exponent

@@ -105,7 +105,7 @@ class SolverPath:
     name: str
     family: str
     applies: Callable[[Problem], bool]
-    run: Runner
+    run: Runner | None  # None: the quadratic family, run by `structured.quadratic` (its own result type)
     guarantee: str
     picked: str
     cost: str = ""
@@ -298,16 +298,16 @@ PATHS: tuple[SolverPath, ...] = (
     SolverPath("dense", "dense", _dense, _run("dense"), "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
                cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),
-    SolverPath("skew-symmetric", "quadratic", _skew, _run("skew-symmetric"),
+    SolverPath("skew-symmetric", "quadratic", _skew, None,
                "exactly real frequencies; absolute ~ ε‖A‖, small ones relative (from A⁻¹)",
                "gyroscopic (G, no C), K positive definite: Hermitian eigh of i A, A = [[0, F^T], [-F, -G~]] "
                "real skew-symmetric (a stable system never gets a spurious growth rate)",
                cost="~2e-8 n^3 s (two Hermitian solves of 2n); ~200 n^2 bytes"),
-    SolverPath("hamiltonian", "quadratic", _hamiltonian, _run("hamiltonian"),
+    SolverPath("hamiltonian", "quadratic", _hamiltonian, None,
                "absolute ~ ε‖A‖ cond(λ); on the imaginary axis where the mirror test proves it",
                "gyroscopic (G, no C), K indefinite or singular: geev of the Hamiltonian first-order form",
                cost="~2e-8 n^3 s (geev of 2n); ~200 n^2 bytes"),
-    SolverPath("companion", "quadratic", _companion, _run("companion"),
+    SolverPath("companion", "quadratic", _companion, None,
                "absolute ~ ε‖A‖ cond(λ); small ones relative (from A⁻¹) where K is definite",
                "damped (C given): geev of the first companion form [[0, I], [-K~, -(G~ + C~)]]",
                cost="~4e-8 n^3 s (geev of 2n, twice where K is definite); ~200 n^2 bytes"),

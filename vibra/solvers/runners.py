@@ -33,7 +33,6 @@ from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, s
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
 from vibra.solvers.structured.equilibrated import pencil_result
-from vibra.solvers.structured.quadratic import companion_solve, hamiltonian_solve, skew_solve
 from vibra.solvers.accurate.chain.walled import walled_result
 
 __all__ = ["Inputs"]
@@ -237,17 +236,3 @@ def _factor(x: Inputs) -> tuple[sp.csr_matrix, NDArray[np.float64]]:
         raise RuntimeError("an accurate path without a spring factor (a planning error)")
     return x.factor
 
-
-# ------------------------------------------------------------------ quadratic (G or C)
-# These take the reduced problem (`structured.quadratic.Reduced`) and return its eigenpairs;
-# `quadratic_modes` turns them into QuadraticModes.
-def skew_symmetric(p: Any, x: Any) -> Any:
-    return skew_solve(x)
-
-
-def hamiltonian(p: Any, x: Any) -> Any:
-    return hamiltonian_solve(x)
-
-
-def companion(p: Any, x: Any) -> Any:
-    return companion_solve(x)

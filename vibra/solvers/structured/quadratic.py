@@ -306,8 +306,7 @@ def quadratic_modes(
     _budget.guard(path.estimate(problem), n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
                   alternatives=["none with G or C (all 2n eigenvalues at once); without them, the symmetric "
                                 "paths' partial solves (n_modes=, band=)"])
-    reduced = Reduced(K_t, G_t, C_t, stiffness)
-    values, positions, condition, inverse = path.run(problem, reduced)
+    values, positions, condition, inverse = SOLVE[path.name](Reduced(K_t, G_t, C_t, stiffness))
     method = path.name
     structure = mass_condition + (stiffness[2] if stiffness is not None else 0.0)
     norm_A = float(max(np.abs(values).max(initial=0.0), 1e-300))
@@ -373,6 +372,10 @@ def hamiltonian_solve(r: Reduced) -> Solved:
     norm = float(np.abs(A).sum(axis=0).max())
     values = _onto_axis(values, _FACTOR * EPS * norm * condition)
     return values, right[:n], condition, None
+
+
+#: The solver of each quadratic path of the registry (which `registry.choose` picks).
+SOLVE = {"companion": companion_solve, "skew-symmetric": skew_solve, "hamiltonian": hamiltonian_solve}
 
 
 def _skew(K_t: NDArray[np.float64], G_t: NDArray[np.float64],
