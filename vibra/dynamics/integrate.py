@@ -202,17 +202,14 @@ def _run(system: System, K: sp.csr_matrix, masses: NDArray[np.float64], x: NDArr
     rec_v = np.empty((n_records, n_dof))
     rec_state = np.zeros((n_records, 2 * chain))
     drifts = scheme.weights if kind == kernels.NOSE_HOOVER else scheme.drifts
-    indptr, indices = K.indptr.astype(np.int64), K.indices.astype(np.int64)
-    data = np.asarray(K.data, dtype=np.float64)
     compiled = force_function is None or isinstance(force_function, BondForces)
     if compiled:
-        bonds = force_function if force_function is not None else None
-        first = bonds.first.astype(np.int64) if bonds else np.zeros(0, np.int64)
-        second = bonds.second.astype(np.int64) if bonds else np.zeros(0, np.int64)
-        alpha = np.asarray(bonds.alpha, dtype=float) if bonds else np.zeros(0)
-        beta = np.asarray(bonds.beta, dtype=float) if bonds else np.zeros(0)
-        kernels.run(x, v, masses, indptr, indices, data, first, second, alpha, beta, scheme.kicks, drifts, kind,
-                    kT, float(n_dof), Q, xi, eta, two_kinetic, dt, n_steps, record_every, rec_x, rec_v, rec_state)
+        first, second, k, alpha, beta, rest = _bond_arrays(system, K, force_function)
+        ghost = np.append(x, 0.0)                      # the wall: a ghost dof at rest
+        kernels.run(ghost, v, masses, rest.indptr.astype(np.int64), rest.indices.astype(np.int64),
+                    np.asarray(rest.data, dtype=np.float64), first, second, k, alpha, beta, scheme.kicks, drifts,
+                    kind, kT, float(n_dof), Q, xi, eta, two_kinetic, dt, n_steps, record_every, rec_x, rec_v,
+                    rec_state)
     else:
         _python_loop(K, masses, x, v, force_function, scheme.kicks, drifts, kind, kT, n_dof, Q, xi, eta,
                      two_kinetic, dt, n_steps, record_every, rec_x, rec_v, rec_state)
@@ -244,6 +241,70 @@ def _run(system: System, K: sp.csr_matrix, masses: NDArray[np.float64], x: NDArr
     return Trajectory(t=t, positions=rec_x, velocities=rec_v, kinetic=kinetic, potential=potential,
                       conserved=conserved, thermostat_state=state, thermostat_labels=labels, masses=masses,
                       dt=dt, integrator=scheme.name, compiled=compiled, units=system.units)
+
+
+def _spring_bonds(system: System, n_dof: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None:
+    """K as bonds (i, j, k): each row of the spring factor is c (x_j - x_i) or c x_j (a spring to a
+    wall, i = the ghost index n_dof), k = w c^2; None where a row is anything else (K stays CSR)."""
+    factor = system.spring_factor()
+    if factor is None:
+        return None
+    B, w = factor
+    B = sp.csr_matrix(B)
+    counts = np.diff(B.indptr)
+    if B.shape[0] == 0 or counts.max() > 2:
+        return None
+    first = np.full(B.shape[0], n_dof, dtype=np.int64)
+    second = np.full(B.shape[0], n_dof, dtype=np.int64)
+    coefficient = np.zeros(B.shape[0])
+    for row in range(B.shape[0]):
+        columns = B.indices[B.indptr[row]:B.indptr[row + 1]]
+        values = B.data[B.indptr[row]:B.indptr[row + 1]]
+        if columns.size == 2:
+            if values[0] != -values[1]:
+                return None
+            low, high = (0, 1) if values[1] > 0 else (1, 0)
+            first[row], second[row], coefficient[row] = columns[low], columns[high], values[high]
+        else:
+            if values[0] > 0:
+                second[row] = columns[0]
+            else:
+                first[row] = columns[0]
+            coefficient[row] = abs(values[0])
+    return first, second, w * coefficient**2
+
+
+def _bond_arrays(system: System, K: sp.csr_matrix, bonds: BondForces | None) -> tuple[Any, ...]:
+    """The kernel's bonds (first, second, k, alpha, beta; walls at the ghost index n) and K_rest."""
+    n_dof = K.shape[0]
+    harmonic = _spring_bonds(system, n_dof)
+    if harmonic is None:
+        first, second, k = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+        rest = K
+    else:
+        first, second, k = harmonic
+        rest = sp.csr_matrix((n_dof, n_dof))
+    alpha, beta = np.zeros(k.size), np.zeros(k.size)
+    if bonds is not None:
+        where = {(int(i), int(j)): b for b, (i, j) in enumerate(zip(first, second))}
+        extra_first, extra_second, extra_alpha, extra_beta = [], [], [], []
+        for i, j, a, b4 in zip(bonds.first, bonds.second, bonds.alpha, bonds.beta):
+            i, j = (n_dof if i < 0 else int(i)), (n_dof if j < 0 else int(j))
+            if (i, j) in where:
+                alpha[where[i, j]] += a
+                beta[where[i, j]] += b4
+            elif (j, i) in where:                      # the same spring read the other way: d -> -d
+                alpha[where[j, i]] -= a
+                beta[where[j, i]] += b4
+            else:
+                extra_first.append(i), extra_second.append(j), extra_alpha.append(a), extra_beta.append(b4)
+        if extra_first:
+            first = np.concatenate([first, np.array(extra_first, dtype=np.int64)])
+            second = np.concatenate([second, np.array(extra_second, dtype=np.int64)])
+            k = np.concatenate([k, np.zeros(len(extra_first))])
+            alpha = np.concatenate([alpha, extra_alpha])
+            beta = np.concatenate([beta, extra_beta])
+    return first, second, k, alpha, beta, rest
 
 
 def _python_loop(K: sp.csr_matrix, masses: NDArray[np.float64], x: NDArray[np.float64], v: NDArray[np.float64],

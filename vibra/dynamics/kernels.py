@@ -2,9 +2,10 @@
 
 Everything here works in place on float64 arrays over the free degrees of freedom:
 
-- `forces_into`: F = -K x (K in CSR) plus the anharmonic bond forces of `vibra.dynamics.fput`
-  (a bond b joins dofs i and j, -1 standing for a wall at rest; V_b(d) = alpha_b d^3 / 3 +
-  beta_b d^4 / 4 with d = x_j - x_i).
+- `forces_into`: the forces of bonds (a bond b joins dofs i and j, the ghost index n standing
+  for a wall at rest; V_b(d) = k_b d^2 / 2 + alpha_b d^3 / 3 + beta_b d^4 / 4 with
+  d = x_j - x_i), which carry a 1-D spring system's K and `vibra.dynamics.fput`'s anharmonic
+  springs, minus K_rest x for the rest of K (CSR). Positions and forces have a ghost entry n.
 - `isokinetic_kick`: the exact flow of v' = F / m - mu v, mu = F.v / (v.M v), at fixed
   positions over a time h (Zhang 1997; Minary, Martyna and Tuckerman 2003).
 - `nose_hoover_chain`: the symmetric Trotter half-step of a Nosé-Hoover chain (Martyna, Klein
@@ -27,25 +28,29 @@ NONE, ISOKINETIC, NOSE_HOOVER = 0, 1, 2
 
 
 @numba.njit(cache=True, nogil=True)
-def forces_into(x, indptr, indices, data, bond_i, bond_j, bond_alpha, bond_beta, out):  # pragma: no cover
-    """out = -K x + the anharmonic bond forces, for one configuration x."""
-    n = x.shape[0]
-    for r in range(n):
-        total = 0.0
-        for p in range(indptr[r], indptr[r + 1]):
-            total += data[p] * x[indices[p]]
-        out[r] = -total
+def forces_into(x, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta, out):  # pragma: no cover
+    """out[:n] = the bond forces - K_rest x for one configuration x.
+
+    x and out have n + 1 entries: index n is the wall, a ghost dof held at 0 (out[n] is
+    scratch). A bond b has V_b(d) = k_b d^2 / 2 + alpha_b d^3 / 3 + beta_b d^4 / 4 with
+    d = x[j_b] - x[i_b]; K_rest (CSR over the n dofs) is the part of K no bond carries.
+    """
+    n = x.shape[0] - 1
+    for r in range(n + 1):
+        out[r] = 0.0
     for b in range(bond_i.shape[0]):
         i = bond_i[b]
         j = bond_j[b]
-        xi = x[i] if i >= 0 else 0.0
-        xj = x[j] if j >= 0 else 0.0
-        d = xj - xi
-        slope = (bond_alpha[b] + bond_beta[b] * d) * d * d      # dV_b/dd
-        if i >= 0:
-            out[i] += slope
-        if j >= 0:
-            out[j] -= slope
+        d = x[j] - x[i]
+        slope = (bond_k[b] + (bond_alpha[b] + bond_beta[b] * d) * d) * d      # dV_b/dd
+        out[i] += slope
+        out[j] -= slope
+    if data.shape[0]:
+        for r in range(n):
+            total = 0.0
+            for p in range(indptr[r], indptr[r + 1]):
+                total += data[p] * x[indices[p]]
+            out[r] -= total
 
 
 @numba.njit(cache=True, nogil=True)
@@ -126,16 +131,7 @@ def nose_hoover_chain(v, masses, xi, eta, Q, kT, n_f, h):  # pragma: no cover
 
 
 @numba.njit(cache=True, nogil=True)
-def _kick(v, force, masses, h, kind, two_kinetic):  # pragma: no cover
-    if kind == ISOKINETIC:
-        isokinetic_kick(v, force, masses, h, two_kinetic)
-    else:
-        for i in range(v.shape[0]):
-            v[i] += h * force[i] / masses[i]
-
-
-@numba.njit(cache=True, nogil=True)
-def run(x, v, masses, indptr, indices, data, bond_i, bond_j, bond_alpha, bond_beta,
+def run(x, v, masses, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta,
         kicks, drifts, kind, kT, n_f, Q, xi, eta, two_kinetic, dt, n_steps, record_every,
         rec_x, rec_v, rec_state):  # pragma: no cover
     """Advance (x, v) and the thermostat (xi, eta) in place; fill the record arrays.
@@ -145,12 +141,14 @@ def run(x, v, masses, indptr, indices, data, bond_i, bond_j, bond_alpha, bond_be
     With the Nosé-Hoover chain, `drifts` holds the weights w of symmetric sub-steps
     NHC(w dt / 2) K(w dt / 2) D(w dt) K(w dt / 2) NHC(w dt / 2) (one weight: velocity Verlet).
     """
-    n = x.shape[0]
+    n = v.shape[0]                                    # x and force carry the wall's ghost entry n
     chain = xi.shape[0]
-    force = np.empty(n)
-    forces_into(x, indptr, indices, data, bond_i, bond_j, bond_alpha, bond_beta, force)
+    force = np.empty(n + 1)
+    inverse_mass = 1.0 / masses
+    pending = kicks[0]
+    forces_into(x, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta, force)
     row = 0
-    rec_x[row] = x
+    rec_x[row] = x[:n]
     rec_v[row] = v
     for j in range(chain):
         rec_state[row, j] = xi[j]
@@ -164,27 +162,38 @@ def run(x, v, masses, indptr, indices, data, bond_i, bond_j, bond_alpha, bond_be
                     v[i] += 0.5 * h * force[i] / masses[i]
                 for i in range(n):
                     x[i] += h * v[i]
-                forces_into(x, indptr, indices, data, bond_i, bond_j, bond_alpha, bond_beta, force)
+                forces_into(x, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta, force)
                 for i in range(n):
                     v[i] += 0.5 * h * force[i] / masses[i]
                 nose_hoover_chain(v, masses, xi, eta, Q, kT, n_f, 0.5 * h)
-        else:
+        elif kind == ISOKINETIC:
             for s in range(drifts.shape[0]):
+                isokinetic_kick(v, force, masses, kicks[s] * dt, two_kinetic)
                 h = drifts[s] * dt
-                if kind == ISOKINETIC:
-                    isokinetic_kick(v, force, masses, kicks[s] * dt, two_kinetic)
-                    for i in range(n):
-                        x[i] += h * v[i]
-                else:                                   # kick and drift in one pass
-                    hk = kicks[s] * dt
-                    for i in range(n):
-                        v[i] += hk * force[i] / masses[i]
-                        x[i] += h * v[i]
-                forces_into(x, indptr, indices, data, bond_i, bond_j, bond_alpha, bond_beta, force)
-            _kick(v, force, masses, kicks[drifts.shape[0]] * dt, kind, two_kinetic)
+                for i in range(n):
+                    x[i] += h * v[i]
+                forces_into(x, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta, force)
+            isokinetic_kick(v, force, masses, kicks[drifts.shape[0]] * dt, two_kinetic)
+        else:
+            # Plain kicks at fixed x add up: the last kick of a step and the first of the next run
+            # as one pass (first same as last), except where the step is recorded or the run ends.
+            for s in range(drifts.shape[0]):
+                hk = (pending if s == 0 else kicks[s]) * dt
+                h = drifts[s] * dt
+                for i in range(n):                      # kick and drift in one pass
+                    v[i] += hk * force[i] * inverse_mass[i]
+                    x[i] += h * v[i]
+                forces_into(x, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta, force)
+            if step % record_every == 0 or step == n_steps:
+                hk = kicks[drifts.shape[0]] * dt
+                for i in range(n):
+                    v[i] += hk * force[i] * inverse_mass[i]
+                pending = kicks[0]
+            else:
+                pending = kicks[drifts.shape[0]] + kicks[0]
         if step % record_every == 0:
             row += 1
-            rec_x[row] = x
+            rec_x[row] = x[:n]
             rec_v[row] = v
             for j in range(chain):
                 rec_state[row, j] = xi[j]
