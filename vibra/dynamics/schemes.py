@@ -62,7 +62,7 @@ def _triple_jump() -> tuple[float, float]:
 
 
 def _blanes_moan() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    # SRKN_6^b of Blanes & Moan, J. Comput. Appl. Math. 142 (2002) 313, table 3: kicks b_1..b_4,
+    # SRKN_6^b of Blanes & Moan, J. Comput. Appl. Math. 142 (2002) 313: kicks b_1..b_4,
     # drifts a_1..a_3, mirrored.
     b1, b2, b3 = 0.0829844064174052, 0.396309801498368, -0.0390563049223486
     a1, a2 = 0.245298957184271, 0.604872665711080
