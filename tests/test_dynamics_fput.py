@@ -93,11 +93,14 @@ def test_harmonic_limit_moves_no_energy_between_modes_over_a_million_steps() -> 
 # Tuck and Menzel (1972), "The superperiod of the nonlinear weighted string (FPU) problem",
 # Adv. Math. 9, 399: the first recurrence of the alpha chain started in mode 1 with amplitude a,
 # N intervals, follows T_R ~= 0.38 N^(3/2) (a alpha)^(-1/2) T_1 (equivalently 0.38 N^(5/2)
-# (a alpha)^(-1/2) time units with T_1 ~= 2N), an empirical fit over their runs. FPUT's case:
-# N = 32 intervals (31 moving masses), alpha = 1/4, a = 1: 137.6 T_1. Tolerance 12 %: the law is
-# a fit over N and a to a few per cent, and the recurrence instant (the peak of E_1) is defined
-# to within a fraction of T_1 in a slowly varying envelope; measured here 146.7 T_1 (+6.6 %),
-# unchanged with blanes-moan at dt / 2 (the integration is converged).
+# (a alpha)^(-1/2) time units with T_1 ~= 2N), an empirical fit over their runs. (The paper was
+# out of reach of this session's search; the constant is the one quoted with their name in
+# secondary sources, e.g. the public FPUT code lucnico/fput, FPUT_KAM.c.) FPUT's case: N = 32
+# intervals (31 moving masses), alpha = 1/4, a = 1: 137.6 T_1. Tolerance 12 %: the law is a fit
+# over N and a, and the recurrence instant (the peak of E_1) sits in a slowly varying envelope;
+# measured here 146.7 T_1 (+6.6 %), the same with blanes-moan at dt = 0.1 (the integration is
+# converged). Over N = 16, 32, 64 and a = 1, 2 the measured constant is 0.399 - 0.410: the
+# exponents of the law hold to 3 % (test below), only its constant differs by ~7 %.
 TUCK_MENZEL = 0.38
 
 
@@ -120,6 +123,27 @@ def test_alpha_fput_recurrence_against_tuck_and_menzel(integrator: str, dt: floa
     published = TUCK_MENZEL * n_intervals**1.5 / np.sqrt(amplitude * alpha)
     assert abs(measured / published - 1.0) < 0.12, (measured, published)
     assert e1[peak] > 0.97 and e1[:peak].min() < 0.1  # a near-complete return after a deep exchange
+
+
+def _recurrence_periods(n_intervals: int, amplitude: float, alpha: float = 0.25) -> float:
+    system, forces = dynamics.fput(n_intervals - 1, alpha=alpha)
+    modes = system.modes()
+    period = 2 * np.pi / modes.omega[0]
+    x0 = amplitude * np.sin(np.pi * np.arange(1, n_intervals) / n_intervals)
+    run = dynamics.integrate(system, x0, np.zeros(n_intervals - 1), 0.05, int(0.6 * n_intervals**1.5 / np.sqrt(
+        amplitude * alpha) * period / 0.05), forces=forces, record_every=20)
+    energy = run.mode_energies(modes)
+    e1 = energy[:, 0] / energy[0].sum()
+    gone = int(np.argmax(e1 < 0.5))
+    back = gone + int(np.argmax(e1[gone:] > 0.8))
+    leave = back + int(np.argmax(e1[back:] < 0.5))
+    return float(run.t[back + int(np.argmax(e1[back:leave]))] / period)
+
+
+def test_recurrence_time_scales_as_tuck_and_menzels_law() -> None:
+    # T_R / T_1 proportional to N^(3/2) (a alpha)^(-1/2): the constant is the same to 3 % over N and a.
+    constants = [_recurrence_periods(n, a) * np.sqrt(a * 0.25) / n**1.5 for n, a in ((16, 1.0), (32, 1.0), (32, 2.0))]
+    assert max(constants) / min(constants) < 1.03, constants
 
 
 @pytest.mark.parametrize(("kwargs", "error", "match"), [
