@@ -277,3 +277,33 @@ def test_mode_energies_refuses_modes_of_another_system() -> None:
         run.mode_energies(np.eye(3))  # type: ignore[arg-type]
     with pytest.raises(ValueError, match=r"label is 'mu'; this trajectory's thermostat variables are \[\]"):
         run.state("mu")
+
+
+def test_thermostats_and_bond_forces_are_frozen() -> None:
+    _, bonds = dynamics.fput(4, alpha=0.1)
+    for value, field in ((dynamics.Isokinetic(1.0), "temperature"), (dynamics.NoseHoover(1.0, 1.0), "tau"),
+                         (bonds, "n_dof")):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(value, field, 2)
+    with pytest.raises(ValueError, match="read-only"):
+        bonds.alpha[0] = 1.0
+
+
+def test_a_force_object_with_a_potential_conserves_its_energy_in_the_python_loop() -> None:
+    class Quartic:
+        """An on-site quartic potential beta u^4 / 4 on every dof (not a bond: runs in Python)."""
+
+        def __call__(self, u: np.ndarray) -> np.ndarray:
+            return -0.5 * u**3
+
+        def potential(self, u: np.ndarray) -> float:
+            return float(np.sum(0.5 * u**4 / 4))
+
+    chain = linear_chain(5, ends="fixed", units="dimensionless")
+    errors = []
+    for dt in (0.02, 0.01):
+        run = dynamics.integrate(chain, [0.5, -0.3, 0.8, 0.0, -0.6], np.zeros(5), dt, int(round(20 / dt)),
+                                 forces=Quartic())
+        assert not run.compiled and np.all(np.isfinite(run.potential))
+        errors.append(np.max(np.abs(run.energy / run.energy[0] - 1)))
+    assert errors[0] < 1e-3 and 3.5 < errors[0] / errors[1] < 4.5     # velocity Verlet: second order
