@@ -23,7 +23,7 @@ MODULES = sorted(info.name for info in pkgutil.walk_packages(vibra.__path__, pre
 #: Stages whose public functions a user meets first: each must show at least one example.
 MUST_HAVE_EXAMPLES = ("vibra.modes", "vibra.system", "vibra.chains", "vibra.continuum", "vibra.crystals", "vibra.response",
                       "vibra.molecules", "vibra.spectra", "vibra.mechanics.lagrangian", "vibra.mechanics.pendulum",
-                      "vibra.mechanics.rigid",
+                      "vibra.mechanics.rigid", "vibra.dynamics",
                       "vibra.units")
 
 

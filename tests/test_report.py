@@ -624,7 +624,7 @@ def test_no_import_cycles_and_no_upward_imports() -> None:
     assert in_cycle == [], f"import cycles through {in_cycle}"
 
     stages = (("vibra.chains", "vibra.molecules", "vibra.networks", "vibra.mechanics", "vibra.crystals"),
-              ("vibra.continuum", "vibra.response", "vibra.spectra", "vibra.crosscheck"),
+              ("vibra.continuum", "vibra.response", "vibra.spectra", "vibra.crosscheck", "vibra.dynamics"),
               ("vibra.charts", "vibra.pipeline.render"), ("vibra.pipeline.scene",), ("vibra.pipeline.plan",),
               ("vibra.pipeline.report", "vibra.pipeline.sweep"), ("vibra.cli",))
 

@@ -7,7 +7,7 @@ Two kinds of public names, listed in one place each below:
   (vibra.generalized), the unit systems (vibra.units). ``from vibra import *`` binds these
   and nothing else, so it costs no more than ``import vibra``.
 - ``SUBMODULES``: every public submodule (`vibra.chains`, `vibra.molecules`,
-  `vibra.response`, `vibra.continuum`, `vibra.mechanics`, `vibra.pipeline`, ...). Those not
+  `vibra.response`, `vibra.continuum`, `vibra.dynamics`, `vibra.mechanics`, `vibra.pipeline`, ...). Those not
   already imported load on first attribute access (``vibra.chains.linear_chain``), so that
   ``import vibra`` stays light: no pyvista, ase, phonopy or matplotlib. Import them by name
   (``from vibra import chains``).
@@ -37,7 +37,8 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "crystals", "generalized", "mechanics",
+    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "crystals", "dynamics",
+    "generalized", "mechanics",
     "modes", "molecules", "networks", "pipeline", "response", "solvers", "spectra", "system", "units",
 )
 

@@ -84,6 +84,24 @@ class UnitSystem:
             return "rad / time unit"
         return "rad/s" if self.time_s == 1.0 else f"rad/({self.time_s:.4g} s)"
 
+    @property
+    def boltzmann(self) -> float:
+        """k_B in this system's energy per kelvin (J/K in SI, eV/K in ASE); 1 when dimensionless,
+        where a temperature is given as the energy k_B T itself.
+
+        Examples
+        --------
+        >>> SI.boltzmann == constants.k, DIMENSIONLESS.boltzmann
+        (True, 1.0)
+        """
+        if self.time_s is None:
+            return 1.0
+        per_kelvin = {"J": constants.k, "eV": constants.k / constants.e}
+        if self.energy not in per_kelvin:
+            raise ValueError(f"no Boltzmann constant for the energy unit {self.energy!r}; "
+                             "expected 'J', 'eV' or a dimensionless system")
+        return per_kelvin[self.energy]
+
     def _require_physical(self, what: str) -> float:
         if self.time_s is None:
             raise ValueError(

@@ -1,0 +1,129 @@
+"""`Trajectory`: the frozen result of `vibra.dynamics.integrate`, with energy per normal mode (eq. 149)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vibra._frozen import freeze_arrays
+from vibra.modes import Modes
+from vibra.units import UnitSystem
+
+__all__ = ["Trajectory"]
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class Trajectory:
+    """A recorded trajectory, in the units of its system.
+
+    Attributes
+    ----------
+    t : (n_records,) ndarray
+        Times of the records, in the system's time unit (t[0] = 0: the initial state).
+    positions : (n_records, n_dof) ndarray
+        Displacements of the free dofs from equilibrium, in the length unit.
+    velocities : (n_records, n_dof) ndarray
+        Their velocities, in length per time unit.
+    kinetic : (n_records,) ndarray
+        Kinetic energy sum m v^2 / 2, in the energy unit.
+    potential : (n_records,) ndarray
+        Potential energy u^T K u / 2 plus the anharmonic part, in the energy unit (NaN where the
+        anharmonic forces were a plain function with no ``potential``).
+    conserved : (n_records,) ndarray
+        What the dynamics conserves, in the energy unit: K + V without a thermostat; the
+        extended energy of a Nosé-Hoover chain (see `NoseHoover`); the kinetic energy under the
+        isokinetic constraint.
+    thermostat_state : (n_records, n_state) ndarray
+        The thermostat's variables, named by `thermostat_labels`: ``mu`` (1 / time unit) for
+        `Isokinetic`; ``xi1..xiM`` (1 / time unit) and ``eta1..etaM`` (dimensionless) for
+        `NoseHoover`; no columns without a thermostat.
+    thermostat_labels : tuple of str
+        The names of the columns of `thermostat_state`.
+    masses : (n_dof,) ndarray
+        The masses of the free dofs, in the mass unit.
+    dt : float
+        The time step, in the time unit.
+    integrator : str
+        The scheme that ran (see `vibra.dynamics.INTEGRATORS`).
+    compiled : bool
+        True when the steps ran in the compiled loop (harmonic and `fput` forces), False when a
+        Python loop called user forces.
+    units : UnitSystem
+        The system's units.
+    """
+
+    t: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    kinetic: NDArray[np.float64]
+    potential: NDArray[np.float64]
+    conserved: NDArray[np.float64]
+    thermostat_state: NDArray[np.float64]
+    thermostat_labels: tuple[str, ...]
+    masses: NDArray[np.float64]
+    dt: float
+    integrator: str
+    compiled: bool
+    units: UnitSystem
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        return (f"Trajectory({len(self.t)} records of {self.positions.shape[1]} dofs to t = {float(self.t[-1]):.6g}, "
+                f"dt = {self.dt:g}, {self.integrator}, units {self.units.name})")
+
+    @property
+    def energy(self) -> NDArray[np.float64]:
+        """(n_records,) total energy kinetic + potential, in the energy unit."""
+        return self.kinetic + self.potential
+
+    def state(self, label: str) -> NDArray[np.float64]:
+        """(n_records,) one thermostat variable by its label (``"mu"``, ``"xi1"``, ``"eta2"``, ...).
+
+        Raises
+        ------
+        ValueError
+            A label the thermostat does not have (the message lists those it has).
+        """
+        if label not in self.thermostat_labels:
+            raise ValueError(f"label is {label!r}; this trajectory's thermostat variables are "
+                             f"{list(self.thermostat_labels)}")
+        return self.thermostat_state[:, self.thermostat_labels.index(label)]
+
+    def mode_energies(self, modes: Modes) -> NDArray[np.float64]:
+        """(n_records, n_modes) energy in each harmonic normal mode, in the energy unit.
+
+        Normal coordinates q = D^T M^1/2 u (seed 003 eq. 149) and their velocities
+        q' = D^T M^1/2 v give E_k = q'_k^2 / 2 + omega_k^2 q_k^2 / 2. For a harmonic system these
+        sum to the total energy and each is constant; anharmonic forces move energy between
+        them (FPUT).
+
+        Parameters
+        ----------
+        modes : Modes
+            Normal modes of the same system (same free dofs and masses), with vectors.
+
+        Raises
+        ------
+        TypeError
+            `modes` is not a `Modes`.
+        ValueError
+            Modes without vectors, of another number of dofs, or of other masses.
+        """
+        if not isinstance(modes, Modes):
+            raise TypeError(f"modes must be a vibra.Modes, got {type(modes).__name__}")
+        if modes.vectors is None:
+            raise ValueError("modes has no vectors (computed with vectors=False); mode energies need them")
+        n_dof = self.positions.shape[1]
+        if modes.vectors.shape[0] != n_dof:
+            raise ValueError(f"modes has {modes.vectors.shape[0]} dofs; this trajectory has {n_dof}")
+        mass = np.asarray(modes.mass)
+        if mass.ndim != 1 or not np.allclose(mass, self.masses, rtol=1e-12, atol=0.0):
+            raise ValueError("modes.mass differs from the trajectory's masses: the modes belong to another system")
+        root = np.sqrt(self.masses)
+        q = (self.positions * root) @ modes.vectors
+        qdot = (self.velocities * root) @ modes.vectors
+        return 0.5 * qdot**2 + 0.5 * (modes.omega**2) * q**2
