@@ -37,7 +37,7 @@ __all__ = [
 
 #: Every public submodule of vibra, loaded (if not yet) on first attribute access.
 SUBMODULES: tuple[str, ...] = (
-    "assembly", "chains", "charts", "cli", "cluster", "continuum", "crosscheck", "crystals", "dynamics",
+    "assembly", "chains", "charts", "cli", "cluster", "compare", "continuum", "crosscheck", "crystals", "dynamics",
     "generalized", "mechanics",
     "modes", "molecules", "networks", "pipeline", "response", "solvers", "spectra", "system", "units",
 )

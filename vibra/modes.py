@@ -120,6 +120,21 @@ class Modes(ModesResult):
             lines.append(f"refined: {int(self.refined.sum())} of {self.n_modes}: {self.refinement}")
         return "\n".join(lines)
 
+    def overlap(self, other: Any, *, weighted: bool = True) -> NDArray[np.float64]:
+        """|cos| between each of these modes (rows) and each of `other`'s (columns), mass-weighted
+        by default: `vibra.compare.overlap` (also `match_modes`, `subspace_overlap`, `mac` there).
+
+        Examples
+        --------
+        >>> import numpy as np, vibra
+        >>> modes = vibra.chains.linear_chain(3, units="dimensionless").modes()
+        >>> np.allclose(modes.overlap(modes), np.eye(3))
+        True
+        """
+        from vibra.compare import overlap
+
+        return overlap(self, other, weighted=weighted)
+
     # ------------------------------------------------------------------ sizes
     @property
     def n_modes(self) -> int:

@@ -15,7 +15,7 @@ import scipy.sparse.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra.dynamics import kernels
+import vibra.dynamics.kernels as kernels
 from vibra.dynamics.fput import BondForces
 from vibra.dynamics.schemes import INTEGRATORS, SCHEMES, STABLE_OMEGA_DT, Scheme
 from vibra.dynamics.thermostats import Isokinetic, NoseHoover
