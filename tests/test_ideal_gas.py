@@ -183,7 +183,19 @@ def test_bad_input_is_named() -> None:
     system = mol.co2()
     analysis = mol.vibrational_analysis(system)
     with pytest.raises(ValueError, match="geometry is required"):
-        ideal_gas_thermochemistry(analysis, 300.0, symmetry_number=2)
+        ideal_gas_thermochemistry(analysis.modes, 300.0, symmetry_number=2)
+    # the analysis alone carries its molecule (issue 31: it failed with "geometry is required")
+    alone = ideal_gas_thermochemistry(analysis, 300.0, symmetry_number=2)
+    np.testing.assert_allclose(alone.entropy, ideal_gas_thermochemistry(system, 300.0, symmetry_number=2).entropy,
+                               rtol=1e-14)
+    for keyword, value, message in (("low_frequency", "qrrho", "low_frequency is 'qrrho'"),
+                                    ("scale_factor", 0.0, "scale_factor is 0.0"),
+                                    ("cutoff", float("nan"), "cutoff is nan")):
+        with pytest.raises(ValueError, match=message):
+            ideal_gas_thermochemistry(analysis, 300.0, **{keyword: value})
+    for temperature in (0.0, float("nan")):
+        with pytest.raises(ValueError, match="temperature"):
+            ideal_gas_thermochemistry(analysis, temperature, low_frequency="grimme")
     with pytest.raises(ValueError, match="gives 3 vibrations; a linear molecule of 3 atoms has 4"):
         ideal_gas_thermochemistry([1333, 667, 2349], 300.0, symmetry_number=2, geometry=_co2())
     with pytest.raises(ValueError, match="9 degrees of freedom but geometry has 1 atom"):

@@ -117,6 +117,13 @@ class IdealGasThermochemistry:
         Total electron spin S (multiplicity 2S + 1).
     n_imaginary : int
         Imaginary modes left out of the vibrational part.
+    low_frequency : {None, "grimme", "truhlar"}
+        The treatment of the soft modes (`thermochemistry`); None: harmonic.
+    scale_factor : float
+        The factor every frequency was multiplied by.
+    enthalpy_error, entropy_error, gibbs_error : (n_T,) ndarray
+        Bounds propagated from each frequency's bound (`Thermochemistry`'s errors: only the
+        vibrational part depends on the frequencies), eV and eV/K per molecule.
     """
 
     temperatures: NDArray[np.float64]
@@ -136,6 +143,11 @@ class IdealGasThermochemistry:
     symmetry_number: int
     spin: float
     n_imaginary: int
+    low_frequency: str | None = None
+    scale_factor: float = 1.0
+    enthalpy_error: NDArray[np.float64] | None = None
+    entropy_error: NDArray[np.float64] | None = None
+    gibbs_error: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -206,6 +218,9 @@ def ideal_gas_thermochemistry(
     spin: float = 0.0,
     symmetry_number: int | None = None,
     geometry: System | Atoms | None = None,
+    low_frequency: str | None = None,
+    cutoff: float = 100.0,
+    scale_factor: float = 1.0,
 ) -> IdealGasThermochemistry:
     """H, S, G and C_p of a molecule as an ideal gas (translation, rotation, vibration, spin).
 
@@ -225,8 +240,12 @@ def ideal_gas_thermochemistry(
         Rotational symmetry number sigma (CO2 2, H2O 2, NH3 3, CH4 12, C6H6 12); by default
         from the point group of the geometry (`vibra.molecules.point_group`).
     geometry : System or ase.Atoms, optional
-        Positions (Angstrom) and masses (amu) for the mass and moments of inertia; required
-        unless `analysis` is a System (then that System).
+        Positions (Angstrom) and masses (amu) for the mass and moments of inertia; by default
+        the System `analysis` is or was computed from (a `VibrationalAnalysis` carries it);
+        required for bare modes or wavenumbers.
+    low_frequency, cutoff, scale_factor
+        The soft modes' treatment (quasi-RRHO ``"grimme"``, ``"truhlar"``) and the frequency
+        scale factor, as `thermochemistry` takes them.
 
     Returns
     -------
@@ -252,9 +271,12 @@ def ideal_gas_thermochemistry(
     if isinstance(analysis, Vibrating):
         geometry = analysis if geometry is None else geometry
         analysis = vibrational_analysis(analysis)
+    if geometry is None and isinstance(analysis, VibrationalAnalysis):
+        geometry = analysis.system
     if geometry is None:
         raise ValueError("geometry is required (the System or ase.Atoms the vibrations belong to) unless "
-                         "analysis is a System: the moments of inertia need positions and masses")
+                         "analysis is a System or its VibrationalAnalysis: the moments of inertia need "
+                         "positions and masses")
     positions, masses = _geometry(geometry)
     n_atoms = len(masses)
     n_dof = analysis.modes.n_dof if isinstance(analysis, VibrationalAnalysis) else (
@@ -262,7 +284,8 @@ def ideal_gas_thermochemistry(
     if n_dof is not None and n_dof != 3 * n_atoms:
         raise ValueError(f"analysis has {n_dof} degrees of freedom but geometry has {n_atoms} atom(s) "
                          f"({3 * n_atoms} degrees of freedom); pass the geometry of the same molecule")
-    vibrations = thermochemistry(analysis, temperatures)
+    vibrations = thermochemistry(analysis, temperatures, low_frequency=low_frequency, cutoff=cutoff,
+                                 scale_factor=scale_factor)
     temps = vibrations.temperatures
     p = _validate.positive_scalar(pressure, "pressure", "pressure (Pa)")
     spin = _spin(spin)
@@ -311,5 +334,7 @@ def ideal_gas_thermochemistry(
         translational=translational, rotational=rotational, vibrational=vibrational, electronic=electronic,
         zero_point_energy=vibrations.zero_point_energy, mass=float(np.sum(masses)),
         moments_of_inertia=moments, shape=shape, symmetry_number=sigma, spin=spin,
-        n_imaginary=vibrations.n_imaginary,
+        n_imaginary=vibrations.n_imaginary, low_frequency=low_frequency, scale_factor=vibrations.scale_factor,
+        enthalpy_error=vibrations.internal_energy_error, entropy_error=vibrations.entropy_error,
+        gibbs_error=vibrations.helmholtz_energy_error,
     )

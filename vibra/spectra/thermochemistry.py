@@ -16,7 +16,7 @@ from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
 
-__all__ = ["BOLTZMANN_EV_PER_K", "Thermochemistry", "thermochemistry"]
+__all__ = ["BOLTZMANN_EV_PER_K", "GRIMME_BAV", "LOW_FREQUENCY", "Thermochemistry", "thermochemistry"]
 
 #: Boltzmann's constant in eV/K (CODATA 2018 via scipy; ase.units.kB is CODATA 2014 and
 #: differs by 3.4e-7 relative).
@@ -24,6 +24,13 @@ BOLTZMANN_EV_PER_K = constants.k / constants.e
 
 #: E = h c nu~ : eV per cm^-1.
 _EV_PER_CM1 = constants.h * constants.c / constants.centi / constants.e
+
+#: The treatments of low frequencies (`thermochemistry`'s `low_frequency`).
+LOW_FREQUENCY = (None, "grimme", "truhlar")
+
+#: Grimme's average moment of inertia B_av of the free rotor his interpolation tends to, kg m^2
+#: (S. Grimme, Chem. Eur. J. 18, 9955 (2012); GoodVibes' default).
+GRIMME_BAV = 1.0e-44
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,6 +68,15 @@ class Thermochemistry:
         F = U - T S = ZPE + kT sum_k ln(1 - e^-x_k) = -kT ln q_BOT, in eV.
     n_imaginary : int
         Imaginary modes left out.
+    low_frequency : {None, "grimme", "truhlar"}
+        How the low modes were treated (see `thermochemistry`); None: every mode harmonic.
+    scale_factor : float
+        The factor every frequency was multiplied by first (1: none).
+    internal_energy_error, entropy_error, helmholtz_energy_error : (n_T,) ndarray
+        Bounds on U, S and F propagated from each frequency's own bound (`Modes.omega_error`,
+        which holds the solver's bound and, for finite-difference Hessians, what the analysis put
+        there): sum_k |dQ/d nu_k| error_k, a worst case (errors of the same sign). Zero for
+        wavenumbers given as numbers.
     """
 
     temperatures: NDArray[np.float64]
@@ -74,6 +90,11 @@ class Thermochemistry:
     entropy: NDArray[np.float64]
     helmholtz_energy: NDArray[np.float64]
     n_imaginary: int
+    low_frequency: str | None = None
+    scale_factor: float = 1.0
+    internal_energy_error: NDArray[np.float64] | None = None
+    entropy_error: NDArray[np.float64] | None = None
+    helmholtz_energy_error: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -113,6 +134,10 @@ def thermochemistry(
     temperatures: ArrayLike,
     *,
     zero_rtol: float = ZERO_RTOL,
+    low_frequency: str | None = None,
+    cutoff: float = 100.0,
+    scale_factor: float = 1.0,
+    bav: float = GRIMME_BAV,
 ) -> Thermochemistry:
     """Vibrational ZPE, partition function, U, C_v, S and F of independent harmonic modes.
 
@@ -130,7 +155,25 @@ def thermochemistry(
         Temperatures, in K (> 0).
     zero_rtol : float
         Modes with |omega| <= zero_rtol * max|omega| (rigid-body motion) are left out.
-        Imaginary modes are left out with a RuntimeWarning.
+        Imaginary modes are left out with a RuntimeWarning (a transition state's one imaginary
+        mode, the reaction coordinate, is not a vibration: `n_imaginary` says it was left out).
+    low_frequency : {None, "grimme", "truhlar"}
+        The soft modes that the harmonic model overcounts (its entropy diverges as nu -> 0):
+        ``"grimme"``, the quasi-RRHO model: per mode, S = w S_harmonic + (1 - w) S_free-rotor
+        with w = 1 / (1 + (cutoff / nu)^4) (S. Grimme, Chem. Eur. J. 18, 9955 (2012); the free
+        rotor of moment mu' = mu B_av / (mu + B_av), mu = h / (8 pi^2 nu)), and the internal
+        energy interpolated the same way towards kT / 2 (Y.-P. Li, J. Gomes, S. M. Sharada, A. T.
+        Bell, M. Head-Gordon, J. Phys. Chem. C 119, 1840 (2015)), C_v with it: GoodVibes'
+        ``QS="grimme", QH=True``; ``"truhlar"``, frequencies below the cutoff raised to it for
+        the entropy (R. F. Ribeiro, A. V. Marenich, C. J. Cramer, D. G. Truhlar, J. Phys. Chem.
+        B 115, 14556 (2011)), U and C_v harmonic: GoodVibes' ``QS="truhlar"``.
+    cutoff : float
+        nu_0 of the treatment, in cm^-1 (> 0; 100 by default, as both papers).
+    scale_factor : float
+        Every frequency is multiplied by it first (> 0): the empirical scale factor of the
+        level of theory the Hessian came from (e.g. NIST CCCBDB's listed factors), 1 for none.
+    bav : float
+        Grimme's B_av, kg m^2 (> 0).
 
     Returns
     -------
@@ -142,7 +185,8 @@ def thermochemistry(
         `modes` neither a Modes nor an array of numbers.
     ValueError
         Dimensionless modes; wavenumbers or temperatures not 1-D, not finite, or
-        temperatures not positive.
+        temperatures not positive; an unknown `low_frequency`; a cutoff, scale factor or B_av
+        not positive and finite.
 
     Examples
     --------
@@ -151,6 +195,10 @@ def thermochemistry(
     0.061992
     """
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
+    _validate.choice(low_frequency, "low_frequency", LOW_FREQUENCY)
+    cutoff = _validate.positive_scalar(cutoff, "cutoff", "cutoff (cm^-1)")
+    scale_factor = _validate.positive_scalar(scale_factor, "scale_factor", "frequency scale factor")
+    bav = _validate.positive_scalar(bav, "bav", "average moment of inertia (kg m^2)")
     rigid = None
     if isinstance(modes, VibrationalAnalysis):
         rigid = np.asarray(modes.rigid)
@@ -159,38 +207,83 @@ def thermochemistry(
         if modes.units.time_s is None:
             raise ValueError("modes are dimensionless; thermochemistry needs units 'SI' or 'ASE'")
         keep = vibrational_mask(modes, zero_rtol, "thermochemistry", rigid)
-        wavenumbers = modes.wavenumbers_cm1()[keep]
+        order = np.argsort(modes.wavenumbers_cm1()[keep], kind="stable")
+        wavenumbers = modes.wavenumbers_cm1()[keep][order]
+        bounds = np.abs(modes.units.omega_to_cm1(modes.omega_error[keep]))[order]
         skipped = modes.zero_modes(zero_rtol) | (rigid if rigid is not None else False)
         n_imaginary = int(np.sum(modes.unstable & ~skipped))
     else:
         signed = _validate.real_array(modes, "modes", ndim=1)
         keep, n_imaginary = _vibrational_values(signed, zero_rtol, "thermochemistry")
         wavenumbers = np.sort(signed[keep])
+        bounds = np.zeros_like(wavenumbers)
     temps = _validate.real_array(temperatures, "temperatures", ndim=(0, 1))
     temps = np.atleast_1d(temps)
     _validate.positive(temps, "temperatures", "temperature")
+    wavenumbers = wavenumbers * scale_factor
+    bounds = bounds * scale_factor
 
     energies = wavenumbers * _EV_PER_CM1                        # (n_vib,) eV
     kt = BOLTZMANN_EV_PER_K * temps                             # (n_T,) eV
-    x = energies[None, :] / kt[:, None]                         # (n_T, n_vib)
-    decay = np.exp(-x)
-    one_minus = -np.expm1(-x)                                   # 1 - e^-x, accurate for small x
-    occupation = decay / one_minus                              # 1 / (e^x - 1)
-    # ln(1 - e^-x): log1p keeps the digits when e^-x is tiny, log(-expm1) when x is small
-    log_one_minus = np.where(x > np.log(2.0), np.log1p(-decay), np.log(one_minus))
     zpe = 0.5 * float(np.sum(energies))
-    log_q = -np.sum(log_one_minus, axis=1)
-    internal = zpe + occupation @ energies
-    heat_capacity = BOLTZMANN_EV_PER_K * np.sum(x**2 * decay / one_minus**2, axis=1)
-    entropy = BOLTZMANN_EV_PER_K * np.sum(x * occupation - log_one_minus, axis=1)
-    helmholtz = zpe + kt * np.sum(log_one_minus, axis=1)
+    x = energies[None, :] / kt[:, None]
+    log_q = -np.sum(_log_one_minus(x), axis=1)                  # the harmonic partition function
+    u, s, c = _per_mode(wavenumbers, temps, low_frequency, cutoff, bav)
+    internal, entropy, heat_capacity = u.sum(axis=1), s.sum(axis=1), c.sum(axis=1)
+    # each frequency's bound: every per-mode term evaluated at nu -+ its bound, the larger
+    # change counted (the terms are monotonic in nu: the exact worst case of independent
+    # errors, curvature included, where a first-order dQ/dnu would fall short)
+    f = u - temps[:, None] * s
+    changes = []
+    for moved in (wavenumbers + bounds, np.maximum(wavenumbers - bounds, 1e-300)):
+        mu, ms, _ = _per_mode(moved, temps, low_frequency, cutoff, bav)
+        changes.append((np.abs(mu - u), np.abs(ms - s), np.abs(mu - temps[:, None] * ms - f)))
+    u_error, s_error, f_error = (np.maximum(up, down).sum(axis=1) for up, down in zip(*changes))
     return Thermochemistry(
         temperatures=temps, wavenumbers=wavenumbers, vibrational_energies=energies,
         zero_point_energy=zpe, log_partition_function=log_q,
         log_partition_function_bottom=log_q - zpe / kt, internal_energy=internal,
-        heat_capacity=heat_capacity, entropy=entropy, helmholtz_energy=helmholtz,
-        n_imaginary=n_imaginary,
+        heat_capacity=heat_capacity, entropy=entropy, helmholtz_energy=internal - temps * entropy,
+        n_imaginary=n_imaginary, low_frequency=low_frequency, scale_factor=scale_factor,
+        internal_energy_error=u_error, entropy_error=s_error, helmholtz_energy_error=f_error,
     )
+
+
+def _log_one_minus(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """ln(1 - e^-x): log1p keeps the digits when e^-x is tiny, log(-expm1) when x is small."""
+    return np.where(x > np.log(2.0), np.log1p(-np.exp(-x)), np.log(-np.expm1(-x)))
+
+
+def _harmonic(energies: NDArray[np.float64], kt: NDArray[np.float64]
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Per temperature (rows) and mode (columns): U = hbar omega (1/2 + 1 / (e^x - 1)), S and C_v."""
+    x = energies[None, :] / kt[:, None]
+    decay = np.exp(-x)
+    one_minus = -np.expm1(-x)                                   # 1 - e^-x, accurate for small x
+    occupation = decay / one_minus                              # 1 / (e^x - 1)
+    u = energies[None, :] * (0.5 + occupation)
+    s = BOLTZMANN_EV_PER_K * (x * occupation - _log_one_minus(x))
+    c = BOLTZMANN_EV_PER_K * x**2 * decay / one_minus**2
+    return u, s, c
+
+
+def _per_mode(wavenumbers: NDArray[np.float64], temps: NDArray[np.float64], low_frequency: str | None,
+              cutoff: float, bav: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """U, S, C_v per temperature and mode (eV, eV/K), with the low modes treated as asked."""
+    kt = BOLTZMANN_EV_PER_K * temps
+    u, s, c = _harmonic(wavenumbers * _EV_PER_CM1, kt)
+    if low_frequency == "truhlar":
+        s = _harmonic(np.maximum(wavenumbers, cutoff) * _EV_PER_CM1, kt)[1]
+    elif low_frequency == "grimme":
+        w = 1.0 / (1.0 + (cutoff / wavenumbers) ** 4)
+        mu = constants.h / (8 * np.pi**2 * wavenumbers / constants.centi * constants.c)   # kg m^2
+        reduced = mu * bav / (mu + bav)
+        rotor = BOLTZMANN_EV_PER_K * (0.5 + 0.5 * np.log(8 * np.pi**3 * reduced[None, :] * constants.k
+                                                           * temps[:, None] / constants.h**2))
+        s = w * s + (1 - w) * rotor
+        u = w * u + (1 - w) * 0.5 * kt[:, None]
+        c = w * c + (1 - w) * 0.5 * BOLTZMANN_EV_PER_K
+    return u, s, c
 
 
 def _vibrational_values(signed: NDArray[np.float64], zero_rtol: float, where: str
