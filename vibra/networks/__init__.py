@@ -16,13 +16,14 @@ from vibra.networks.models import (
 )
 from vibra.networks.pdb import MAX_FILE_BYTES, Structure, from_pdb
 from vibra.networks.analysis import (
-    BFactorFit, PerturbationResponse, collectivity, cross_correlations, fit_bfactors, hinges,
-    perturbation_response, write_nmd,
+    BFactorFit, DeformationOverlap, PerturbationResponse, collectivity, cross_correlations, deformation_overlap,
+    fit_bfactors, hinges, perturbation_response, superpose, write_nmd,
 )
 
 __all__ = [
     "Structure", "Fluctuations", "contact_pairs", "anm", "gnm", "from_pdb", "fluctuations",
     "square_fluctuations", "predicted_b_factors", "b_factor_correlation", "BOLTZMANN_KCAL_PER_MOL",
     "RIGID_RTOL", "MAX_FILE_BYTES", "BFactorFit", "PerturbationResponse", "collectivity", "cross_correlations",
-    "fit_bfactors", "hinges", "perturbation_response", "write_nmd",
+    "fit_bfactors", "hinges", "perturbation_response", "write_nmd", "DeformationOverlap", "deformation_overlap",
+    "superpose",
 ]

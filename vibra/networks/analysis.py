@@ -18,7 +18,10 @@ given), so that a user moving from ProDy finds the same numbers; and nothing for
 - `perturbation_response(modes)`: perturbation response scanning (Atilgan and Atilgan 2009;
   ProDy's ``calcPerturbResponse`` in its default "turbo" limit) from the same low-rank
   covariance: the normalised response matrix, each residue's effectiveness and sensitivity;
-- `write_nmd(path, modes, structure)`: VMD's NMWiz format (ProDy's ``writeNMD``).
+- `write_nmd(path, modes, structure)`: VMD's NMWiz format (ProDy's ``writeNMD``);
+- `deformation_overlap(modes, reference, target)`: how much of a conformational change (the
+  target superposed onto the reference, Kabsch) each mode and the lowest ones together carry
+  (ProDy's ``calcOverlap`` with ``calcDeformVector``).
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ from vibra._io import atomic_write_text
 from vibra.modes import Modes
 
 __all__ = ["cross_correlations", "fit_bfactors", "BFactorFit", "collectivity", "hinges", "perturbation_response",
-           "PerturbationResponse", "write_nmd"]
+           "PerturbationResponse", "write_nmd", "superpose", "deformation_overlap", "DeformationOverlap"]
 
 #: A mode with lambda <= ZERO_RTOL * max |lambda| (or |omega| within its omega_error) is a
 #: rigid-body (zero) mode and is left out.
@@ -255,3 +258,63 @@ def write_nmd(path: str | os.PathLike[str], modes: Modes, structure: Any, *, tit
     for index in range(V.shape[1]):
         lines.append(f"mode {index + 1} {np.sqrt(w[index]):.2f} " + " ".join(f"{x:.3f}" for x in V[:, index]))
     return atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def superpose(target: ArrayLike, reference: ArrayLike) -> NDArray[np.float64]:
+    """`target` (n, 3) moved onto `reference` (n, 3) by the rotation and translation of least
+    RMSD (Kabsch's algorithm, W. Kabsch, Acta Cryst. A 32, 922 (1976): the SVD of the
+    centred cross-covariance, a reflection excluded)."""
+    a = _validate.real_array(target, "target", ndim=2)
+    b = _validate.real_array(reference, "reference", ndim=2)
+    if a.shape != b.shape or a.shape[1] != 3:
+        raise ValueError(f"target has shape {a.shape} and reference {b.shape}; expected the same (n, 3)")
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    u, _, vt = np.linalg.svd((a - ca).T @ (b - cb))
+    d = np.sign(np.linalg.det(u @ vt))
+    rotation = u @ np.diag([1.0, 1.0, d]) @ vt
+    return np.asarray((a - ca) @ rotation + cb)
+
+
+@dataclass(frozen=True, eq=False)
+class DeformationOverlap:
+    """How the modes carry a conformational change.
+
+    Attributes
+    ----------
+    overlap : (k,) ndarray
+        |cos| between each nonzero mode and the deformation (target superposed - reference).
+    cumulative : (k,) ndarray
+        sqrt of the running sum of overlap^2: how much of the change the lowest j modes span.
+    rmsd : float
+        RMSD between the superposed target and the reference, in their length unit.
+    """
+
+    overlap: NDArray[np.float64]
+    cumulative: NDArray[np.float64]
+    rmsd: float
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        best = int(np.argmax(self.overlap)) if self.overlap.size else -1
+        return (f"DeformationOverlap({self.overlap.shape[0]} modes, RMSD {self.rmsd:.3g}; best mode {best} "
+                f"({float(self.overlap.max(initial=0.0)):.3f}), all {float(self.cumulative[-1]):.3f})")
+
+
+def deformation_overlap(modes: Modes, reference: ArrayLike, target: ArrayLike) -> DeformationOverlap:
+    """Overlap of each nonzero mode of a network built on `reference` (n, 3) with the change to
+    `target` (n, 3, the same atoms in the same order), after superposing the target on the
+    reference (`superpose`)."""
+    U, _ = _sites(modes, 3)
+    b = _validate.real_array(reference, "reference", ndim=2)
+    if b.shape != (U.shape[0], 3):
+        raise ValueError(f"reference has shape {b.shape}; the modes have {U.shape[0]} sites")
+    moved = superpose(target, b)
+    change = (moved - b).ravel()
+    norm = float(np.linalg.norm(change))
+    if norm == 0.0:
+        raise ValueError("target and reference are the same conformation after superposition: no change to compare")
+    V = U.reshape(U.shape[0] * 3, -1)
+    overlap = np.abs(V.T @ change) / (np.linalg.norm(V, axis=0) * norm)
+    return DeformationOverlap(overlap, np.sqrt(np.cumsum(overlap**2)), norm / np.sqrt(U.shape[0]))
