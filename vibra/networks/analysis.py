@@ -313,7 +313,7 @@ def deformation_overlap(modes: Modes, reference: ArrayLike, target: ArrayLike) -
     moved = superpose(target, b)
     change = (moved - b).ravel()
     norm = float(np.linalg.norm(change))
-    if norm == 0.0:
+    if norm <= 1e-12 * float(np.linalg.norm(b - b.mean(axis=0))):  # (superposing leaves rounding)
         raise ValueError("target and reference are the same conformation after superposition: no change to compare")
     V = U.reshape(U.shape[0] * 3, -1)
     overlap = np.abs(V.T @ change) / (np.linalg.norm(V, axis=0) * norm)
