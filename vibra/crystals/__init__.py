@@ -29,15 +29,17 @@ from vibra.crystals.elastic import SoundVelocities, acoustic_slopes, sound_veloc
 from vibra.crystals.finite_difference import (FiniteDifferenceForceConstants, finite_difference_force_constants,
                                               from_ase)
 from vibra.crystals.force_constants import ForceConstants, SpringModel, SumRuleReport, impose_sum_rules
-from vibra.crystals.phonopy_io import to_phonopy
+from vibra.crystals.phonopy_io import read_phonopy, to_phonopy, write_force_constants, write_phonopy
 from vibra.crystals.springs import springs
 from vibra.crystals.thermal import ThermalProperties, thermal_properties
 
 __all__ = [
-    "BandStructure", "Crystal", "DensityOfStates", "FiniteDifferenceForceConstants", "ForceConstants", "PHASES", "Phonons", "SoundVelocities",
-    "SpringModel", "ThermalProperties", "acoustic_slopes", "band_structure", "bcc", "diamond", "dos",
-    "dynamical_matrices", "fcc", "finite_difference_force_constants", "from_ase", "from_phonopy", "group_velocities", "honeycomb", "rock_salt",
-    "impose_sum_rules", "SumRuleReport", "simple_cubic", "sound_velocities", "springs", "square", "thermal_properties", "to_phonopy",
+    "BandStructure", "Crystal", "DensityOfStates", "FiniteDifferenceForceConstants", "ForceConstants",
+    "PHASES", "Phonons", "SoundVelocities", "SpringModel", "SumRuleReport", "ThermalProperties",
+    "acoustic_slopes", "band_structure", "bcc", "diamond", "dos", "dynamical_matrices", "fcc",
+    "finite_difference_force_constants", "from_ase", "from_phonopy", "group_velocities", "honeycomb",
+    "impose_sum_rules", "read_phonopy", "rock_salt", "simple_cubic", "sound_velocities", "springs", "square",
+    "thermal_properties", "to_phonopy", "write_force_constants", "write_phonopy",
 ]
 
 #: `Crystal.from_phonopy`, under the name the issue gives it.

@@ -137,7 +137,9 @@ def impose_sum_rules(full: NDArray[np.float64]) -> tuple[NDArray[np.float64], Su
     projections onto two subspaces converges to the orthogonal projection onto their
     intersection (von Neumann), i.e. the nearest force constants, entry by entry in the least
     squares sense, that obey both rules; both steps commute with the supercell's translations,
-    so a translation-invariant input stays so. This is our own projection (phonopy's
+    so a translation-invariant input stays so (phonopy's force constants from displacements are;
+    an input that is not, e.g. independent noise on every supercell entry, gets both rules per
+    supercell row, but its D(q) is then not that of one crystal). This is our own projection (phonopy's
     ``symmetrize_force_constants`` does a similar pass in C); it is the one place vibra imposes
     the rules, for finite differences and for phonopy's force constants alike.
 
