@@ -269,6 +269,10 @@ class Crystal:
         """Sound velocities along a Cartesian direction: `vibra.crystals.elastic.sound_velocities`."""
         return elastic.sound_velocities(self, direction, step=step)
 
+    def supercell_mode(self, q: ArrayLike, branch: int, supercell: Any) -> dynamical.SupercellMode:
+        """One mode written out on a supercell: `vibra.crystals.dynamical.supercell_mode`."""
+        return dynamical.supercell_mode(self, q, branch, supercell)
+
     def to_phonopy(self, supercell: Any = None) -> Any:
         """A `phonopy.Phonopy` with these force constants: `vibra.crystals.phonopy_io.to_phonopy`."""
         return phonopy_io.to_phonopy(self, supercell=supercell)
