@@ -305,6 +305,14 @@ def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] |
     ------
     ValueError
         A `calculator` without `supercell` (the message says so); the checks of both functions.
+
+    Examples
+    --------
+    >>> from ase.build import bulk
+    >>> from ase.calculators.emt import EMT
+    >>> copper = from_ase(bulk("Cu", "fcc", a=3.61), EMT(), supercell=(3, 3, 3))
+    >>> copper.n_branches, copper.units.name, bool(copper.frequencies([[0.0, 0.0, 0.0]]).max() < 1e-6)
+    (3, 'ASE', True)
     """
     if calculator is None and supercell is None:
         return Crystal.from_ase(atoms, wrap=wrap, left_handed=left_handed, name=name)
