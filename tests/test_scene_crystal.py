@@ -22,13 +22,13 @@ from vibra.pipeline.scene import Scene, SceneError, load_scene
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def argon(**changes: dict) -> dict:
+def argon(**changes: object) -> dict:
     data = {"kind": "crystal", "system": {"builder": "fcc", "a": 5.397, "mass": 39.948, "stiffness": 0.05141},
             "compute": {"npoints": 60, "mesh": [6, 6, 6], "temperatures": [0.0, 100.0], "n_temperatures": 11},
             "draw": {"thermal": True, "mode": True, "mode_q": "X", "mode_branch": 2, "supercell": [2, 2, 2],
                      "frames": 4, "window_size": [320, 200]}}
     for section, values in changes.items():
-        data[section] = {**data.get(section, {}), **values}
+        data[section] = {**data.get(section, {}), **values} if isinstance(values, dict) else values
     return data
 
 
@@ -68,10 +68,18 @@ def test_validate_prints_size_and_cost() -> None:
     ({"compute": {"temperatures": [300.0, 10.0]}}, r"compute\.temperatures: must be \[low, high\]"),
     ({"compute": {"n_modes": 3}}, r"compute\.n_modes: unknown key"),
     ({"system": {"shells": 0}}, r"system\.shells: must be 1 <= value <= 12, got 0"),
+    ({"units": "dimensionless"}, r"units: is 'dimensionless'; a crystal scene draws frequencies in THz"),
 ])
 def test_bad_crystal_scene_names_the_key(changes: dict, message: str) -> None:
     with pytest.raises(SceneError, match=message):
         validate(Scene.from_dict(argon(**changes), source="x.toml"))
+
+
+def test_vibra_modes_refuses_a_crystal_in_one_line() -> None:
+    run = subprocess.run([sys.executable, "-m", "vibra", "modes", "crystals/argon-fcc.toml"], capture_output=True,
+                         text=True, cwd=ROOT)
+    assert run.returncode != 0 and "Traceback" not in run.stderr
+    assert "crystals/argon-fcc.toml: kind: a crystal has a band of frequencies" in run.stderr
 
 
 def test_two_dimensional_crystal_needs_one_cell_along_z() -> None:

@@ -184,6 +184,9 @@ def _modes(path: str, molden: str | None = None) -> int:
         scene = load_scene(path)
         if scene.kind == "oscillator":
             raise SceneError(path, "kind", "an oscillator scene has no normal modes to list")
+        if scene.kind == "crystal":
+            raise SceneError(path, "kind", "a crystal has a band of frequencies at every wave vector, not one list of "
+                             "modes; draw its bands with vibra report, or use vibra.crystals (frequencies(q))")
         start = time.perf_counter()
         compute = scene.compute
         try:

@@ -428,9 +428,9 @@ def check_crystal(reader: Reader, scene: Any) -> None:
         scene_data_path(reader.source, "system.file", params["file"])
         if params["force_constants_file"] is not None:
             scene_data_path(reader.source, "system.force_constants_file", params["force_constants_file"])
-    elif scene.units == "dimensionless" and (spec.bands or spec.thermal):
-        reader.fail("units", "is 'dimensionless'; bands in THz or cm^-1 and thermal properties need physical "
-                    "units ('ASE' or 'SI')")
+    elif scene.units == "dimensionless":
+        reader.fail("units", "is 'dimensionless'; a crystal scene draws frequencies in THz or cm^-1 and thermal "
+                    "properties in kJ/mol: use units = \"ASE\" (eV, Angstrom, amu) or \"SI\"")
     if builder in PLANAR_BUILDERS:
         if spec.supercell[2] != 1:
             reader.fail("draw.supercell", f"is {list(spec.supercell)}; a 2-D crystal has one cell along z (the "
