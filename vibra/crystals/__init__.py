@@ -15,7 +15,7 @@ Modules, by role:
 - `mesh`: Gamma-centred meshes reduced by symmetry (spglib); `dos`: tetrahedron and Gaussian DOS
 - `thermal`: free energy, entropy, heat capacity; `elastic`: sound velocities (the continuum limit)
 - `finite_difference`: force constants from any ASE calculator (`from_ase`), with their error
-- `phonopy_io`: to and from `phonopy.Phonopy`, `FORCE_CONSTANTS` and `phonopy.yaml`
+- `phonopy_io`: to and from `phonopy.Phonopy`; `phonopy_files`: `FORCE_CONSTANTS` and `phonopy.yaml`
 """
 
 from __future__ import annotations
@@ -30,7 +30,8 @@ from vibra.crystals.elastic import SoundVelocities, acoustic_slopes, sound_veloc
 from vibra.crystals.finite_difference import (FiniteDifferenceForceConstants, finite_difference_force_constants,
                                               from_ase)
 from vibra.crystals.force_constants import ForceConstants, SpringModel, SumRuleReport, impose_sum_rules
-from vibra.crystals.phonopy_io import read_phonopy, to_phonopy, write_force_constants, write_phonopy
+from vibra.crystals.phonopy_files import read_phonopy, write_force_constants, write_phonopy
+from vibra.crystals.phonopy_io import to_phonopy
 from vibra.crystals.springs import springs
 from vibra.crystals.thermal import ThermalProperties, thermal_properties
 

@@ -28,7 +28,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays
-from vibra.crystals import bands, dynamical, elastic, phonopy_io, thermal
+import vibra.crystals.bands as bands
+import vibra.crystals.dynamical as dynamical
+import vibra.crystals.elastic as elastic
+import vibra.crystals.phonopy_io as phonopy_io
+import vibra.crystals.thermal as thermal
 from vibra.crystals.dos import DensityOfStates, dos as density_of_states
 from vibra.crystals.force_constants import ForceConstants, SpringModel, check_force_constants
 from vibra.units import UnitSystem, unit_system

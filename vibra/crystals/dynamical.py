@@ -36,7 +36,7 @@ from vibra.solvers.standard.hermitian import hermitian_stack
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["PHASES", "Phonons", "SupercellMode", "phonons", "supercell_mode", "dynamical_matrices", "derivative_matrices", "group_velocities",
            "check_qpoints", "eigenvalue_slopes"]

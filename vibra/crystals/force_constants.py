@@ -8,6 +8,7 @@ conventions). Spring models and phonopy's supercell force constants both take th
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,7 +16,43 @@ from numpy.typing import NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 
-__all__ = ["ForceConstants", "SpringModel", "SumRuleReport", "check_force_constants", "impose_sum_rules"]
+__all__ = ["CrystalLike", "ForceConstants", "SpringModel", "SumRuleReport", "check_force_constants", "impose_sum_rules"]
+
+
+class CrystalLike(Protocol):
+    """What the modules below `vibra.crystals.crystal` read of a crystal (for type checkers only).
+
+    `Crystal` satisfies it. The lower modules (dynamical, bands, dos, mesh, thermal, elastic,
+    factor, springs, phonopy_io) annotate with this protocol instead of importing the `Crystal`
+    class, whose methods import them: so no module of the package imports one that imports it
+    back, not even for type checking.
+    """
+
+    cell: Any
+    positions: Any
+    masses: Any
+    symbols: tuple[str, ...]
+    units: Any
+    periodic: tuple[bool, bool, bool]
+    force_constants: ForceConstants | None
+    springs: SpringModel | None
+    name: str
+
+    @property
+    def n_atoms(self) -> int: ...
+
+    @property
+    def n_branches(self) -> int: ...
+
+    @property
+    def fractional(self) -> Any: ...
+
+    @property
+    def reciprocal(self) -> Any: ...
+
+    def require_force_constants(self) -> ForceConstants: ...
+
+    def with_force_constants(self, force_constants: ForceConstants, springs: SpringModel | None = None) -> Any: ...
 
 
 @dataclass(frozen=True, eq=False)
