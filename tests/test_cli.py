@@ -171,9 +171,11 @@ EXPECTED = {
     "d2o": ["mode6", "mode7", "mode8", "spectrum"],
     "charged-particle": ["orbits", "response"],
     "ubiquitin-anm": ["modes", "spectrum", "bfactors"],
+    "argon-fcc": ["bands", "thermal"],        # and argon-fcc_mode.gif (the supercell render)
+    "silicon-diamond": ["bands", "thermal"],  # and silicon-diamond_mode.gif
 }
 #: The folders the README's first command renders.
-BUNDLED_FOLDERS = ("chains", "molecules", "networks/ubiquitin")
+BUNDLED_FOLDERS = ("chains", "molecules", "networks/ubiquitin", "crystals")
 
 
 @pytest.mark.slow
@@ -201,6 +203,7 @@ def test_report_bundled_scenes_end_to_end(tmp_path: Path) -> None:
             assert picture.std() > 5.0, name  # not blank (see test_render.py)
     assert (out / "co2_crosscheck.txt").is_file() and (out / "co2_mode5.gif").is_file()
     assert (out / "monatomic-fixed_mode0.gif").is_file()
+    assert (out / "argon-fcc_mode.gif").is_file() and (out / "silicon-diamond_mode.gif").is_file()
     index = (out / "index.html").read_text()
     assert all(f"src='{name}_{what}.png'" in index for name, whats in EXPECTED.items() for what in whats)
     again = vibra("report", *BUNDLED_FOLDERS, "--out", str(out), "--window-size", "320x200")

@@ -167,3 +167,28 @@ def test_from_ase_reads_cell_positions_masses() -> None:
     np.testing.assert_allclose(spring.frequencies(q),
                                crystals.diamond(5.43, atoms.get_masses()[0], 10.0, units="ASE").frequencies(q),
                                rtol=1e-12)
+
+
+def test_supercell_mode_obeys_the_equations_of_motion() -> None:
+    # Truth: Newton's equations on the supercell, from the force-constant terms directly:
+    # sum_{j, R} Phi(i 0; j R) u_j(n + R) = omega^2 m_i u_i(n) at every atom of the periodic supercell.
+    crystal = crystals.rock_salt(5.64, [22.99, 35.45], 2.0, shells=2, transverse=0.3, units="ASE")
+    size = np.array([4, 4, 4])
+    q = np.array([0.25, 0.5, 0.0])                    # commensurate with 4 x 4 x 4
+    mode = crystal.supercell_mode(q, 4, size)
+    fc = crystal.force_constants
+    n = crystal.n_atoms
+    u = mode.amplitudes.reshape(*size, n, 3)
+    for cell in [(0, 0, 0), (1, 2, 3), (3, 0, 1)]:
+        for i in range(n):
+            force = np.zeros(3, dtype=complex)
+            for t in np.flatnonzero(fc.first == i):
+                target = (np.array(cell) + fc.translations[t]) % size
+                force += fc.blocks[t] @ u[tuple(target)][fc.second[t]]
+            np.testing.assert_allclose(force, mode.omega ** 2 * crystal.masses[i] * u[cell][i], atol=1e-12)
+    assert np.abs(mode.amplitudes).max() == pytest.approx(1.0)
+    assert mode.positions.shape == (64 * n, 3) and len(mode.symbols) == 64 * n
+    with pytest.raises(ValueError, match="branch"):
+        crystal.supercell_mode(q, 6, size)
+    with pytest.raises(ValueError, match="supercell"):
+        crystal.supercell_mode(q, 0, [4, 0, 4])

@@ -14,7 +14,7 @@ from vibra.pipeline.scene import BUILDERS, KINDS, Scene, SceneError, find_scene_
 
 ROOT = Path(__file__).resolve().parent.parent
 BUNDLED = (sorted((ROOT / "chains").glob("*.toml")) + sorted((ROOT / "molecules").glob("*.toml"))
-           + sorted((ROOT / "networks" / "ubiquitin").glob("*.toml")))
+           + sorted((ROOT / "networks" / "ubiquitin").glob("*.toml")) + sorted((ROOT / "crystals").glob("*.toml")))
 BROKEN = ROOT / "tests" / "broken_scenes"
 
 #: broken scene file -> the specific message it must produce (key path included).
@@ -41,7 +41,7 @@ def test_bundled_scenes_are_the_issue_list() -> None:
     expected = {"co2-axial.toml", "co2.toml", "h2o.toml", "monatomic-free.toml", "monatomic-fixed.toml",
                 "diatomic.toml", "mass-defect.toml", "continuum-limit.toml", "forced-damped.toml",
                 "long-chain.toml", "double-pendulum.toml", "ch4.toml", "d2o.toml", "charged-particle.toml",
-                "ubiquitin-anm.toml"}
+                "ubiquitin-anm.toml", "argon-fcc.toml", "silicon-diamond.toml"}
     assert expected <= names
 
 
@@ -210,7 +210,7 @@ def test_builder_refusal_is_a_scene_error_at_its_key() -> None:
 
 @pytest.mark.parametrize("data, message", [
     ({"system": {"builder": "linear_chain", "n": 4}}, r"kind: is required"),
-    ({"kind": "crystal", "system": {}}, r"kind: is 'crystal'; expected one of 'chain'"),
+    ({"kind": "solid", "system": {}}, r"kind: is 'solid'; expected one of 'chain'"),
     ({"kind": "chain"}, r"system: is required"),
     ({"kind": "chain", "system": 3}, r"system: expected a table"),
     ({"kind": "chain", "system": {"n": 4}}, r"system\.builder: is required \(for kind 'chain'"),

@@ -133,6 +133,7 @@ def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
 
 def _validate(paths: Sequence[str]) -> int:
     from vibra.pipeline.plan import validate
+    from vibra.pipeline.plan.crystal import crystal_cost
     from vibra.pipeline.scene import SceneError, find_scene_files, load_scene
 
     files = find_scene_files(list(paths))
@@ -144,12 +145,13 @@ def _validate(paths: Sequence[str]) -> int:
     for file in files:
         try:
             scene = load_scene(file)
-            validate(scene)  # the builders' own checks, and what the later steps would refuse
+            system = validate(scene)  # the builders' own checks, and what the later steps would refuse
         except SceneError as error:
             failed += 1
             print(f"FAIL {error}")
         else:
-            print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r})")
+            extra = f"; {crystal_cost(scene, system)}" if scene.kind == "crystal" else ""
+            print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r}{extra})")
     print(f"{len(files)} scene(s), {failed} invalid")
     return EXIT_FAILED if failed else EXIT_OK
 
@@ -182,6 +184,9 @@ def _modes(path: str, molden: str | None = None) -> int:
         scene = load_scene(path)
         if scene.kind == "oscillator":
             raise SceneError(path, "kind", "an oscillator scene has no normal modes to list")
+        if scene.kind == "crystal":
+            raise SceneError(path, "kind", "a crystal has a band of frequencies at every wave vector, not one list of "
+                             "modes; draw its bands with vibra report, or use vibra.crystals (frequencies(q))")
         start = time.perf_counter()
         compute = scene.compute
         try:

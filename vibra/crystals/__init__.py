@@ -14,7 +14,8 @@ Modules, by role:
 - `bands`: band structures along SeeK-path's or a given path, branches connected
 - `mesh`: Gamma-centred meshes reduced by symmetry (spglib); `dos`: tetrahedron and Gaussian DOS
 - `thermal`: free energy, entropy, heat capacity; `elastic`: sound velocities (the continuum limit)
-- `phonopy_io`: to and from `phonopy.Phonopy`
+- `finite_difference`: force constants from any ASE calculator (`from_ase`), with their error
+- `phonopy_io`: to and from `phonopy.Phonopy`; `phonopy_files`: `FORCE_CONSTANTS` and `phonopy.yaml`
 """
 
 from __future__ import annotations
@@ -23,21 +24,25 @@ from vibra.crystals.bands import BandStructure, band_structure
 from vibra.crystals.builders import bcc, diamond, fcc, honeycomb, rock_salt, simple_cubic, square
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.dos import DensityOfStates, dos
-from vibra.crystals.dynamical import PHASES, Phonons, dynamical_matrices, group_velocities
+from vibra.crystals.dynamical import (PHASES, Phonons, SupercellMode, dynamical_matrices, group_velocities,
+                                      supercell_mode)
 from vibra.crystals.elastic import SoundVelocities, acoustic_slopes, sound_velocities
-from vibra.crystals.force_constants import ForceConstants, SpringModel
+from vibra.crystals.finite_difference import (FiniteDifferenceForceConstants, finite_difference_force_constants,
+                                              from_ase)
+from vibra.crystals.force_constants import ForceConstants, SpringModel, SumRuleReport, impose_sum_rules
+from vibra.crystals.phonopy_files import read_phonopy, write_force_constants, write_phonopy
 from vibra.crystals.phonopy_io import to_phonopy
 from vibra.crystals.springs import springs
 from vibra.crystals.thermal import ThermalProperties, thermal_properties
 
 __all__ = [
-    "BandStructure", "Crystal", "DensityOfStates", "ForceConstants", "PHASES", "Phonons", "SoundVelocities",
-    "SpringModel", "ThermalProperties", "acoustic_slopes", "band_structure", "bcc", "diamond", "dos",
-    "dynamical_matrices", "fcc", "from_ase", "from_phonopy", "group_velocities", "honeycomb", "rock_salt",
-    "simple_cubic", "sound_velocities", "springs", "square", "thermal_properties", "to_phonopy",
+    "BandStructure", "Crystal", "DensityOfStates", "FiniteDifferenceForceConstants", "ForceConstants",
+    "PHASES", "Phonons", "SoundVelocities", "SpringModel", "SupercellMode", "supercell_mode", "SumRuleReport", "ThermalProperties",
+    "acoustic_slopes", "band_structure", "bcc", "diamond", "dos", "dynamical_matrices", "fcc",
+    "finite_difference_force_constants", "from_ase", "from_phonopy", "group_velocities", "honeycomb",
+    "impose_sum_rules", "read_phonopy", "rock_salt", "simple_cubic", "sound_velocities", "springs", "square",
+    "thermal_properties", "to_phonopy", "write_force_constants", "write_phonopy",
 ]
 
 #: `Crystal.from_phonopy`, under the name the issue gives it.
 from_phonopy = Crystal.from_phonopy
-#: `Crystal.from_ase` (structure only; force constants from a calculator are a later step).
-from_ase = Crystal.from_ase

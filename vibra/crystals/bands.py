@@ -32,7 +32,7 @@ from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, pho
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["BandStructure", "band_structure", "special_points", "ALIASES"]
 

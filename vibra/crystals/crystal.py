@@ -273,18 +273,23 @@ class Crystal:
         """Sound velocities along a Cartesian direction: `vibra.crystals.elastic.sound_velocities`."""
         return elastic.sound_velocities(self, direction, step=step)
 
+    def supercell_mode(self, q: ArrayLike, branch: int, supercell: Any) -> dynamical.SupercellMode:
+        """One mode written out on a supercell: `vibra.crystals.dynamical.supercell_mode`."""
+        return dynamical.supercell_mode(self, q, branch, supercell)
+
     def to_phonopy(self, supercell: Any = None) -> Any:
         """A `phonopy.Phonopy` with these force constants: `vibra.crystals.phonopy_io.to_phonopy`."""
         return phonopy_io.to_phonopy(self, supercell=supercell)
 
     @classmethod
-    def from_phonopy(cls, phonon: Any, *, name: str = "phonopy") -> Crystal:
+    def from_phonopy(cls, phonon: Any, *, name: str = "phonopy", symmetrize: bool = False) -> Crystal:
         """The primitive cell and force constants of a `phonopy.Phonopy`, in ASE units (eV, Angstrom, amu).
 
         D(q) is phonopy's exactly: each supercell block is split over its equidistant shortest
-        images as phonopy does (`vibra.crystals.phonopy_io`).
+        images as phonopy does (`vibra.crystals.phonopy_io`). With ``symmetrize=True`` the acoustic
+        sum rule and the index symmetry are imposed first (`vibra.crystals.impose_sum_rules`).
         """
-        parts = phonopy_io.phonopy_terms(phonon)
+        parts = phonopy_io.phonopy_terms(phonon, symmetrize=symmetrize)
         crystal = cls.from_cell(parts["cell"], parts["fractional"], parts["masses"], fractional=True,
                                 symbols=parts["symbols"], units="ASE", name=name)
         return crystal.with_force_constants(parts["force_constants"])

@@ -36,7 +36,7 @@ from vibra.crystals.mesh import Mesh, grid_index, mesh_points
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["DensityOfStates", "dos", "METHODS", "tetrahedra"]
 

@@ -36,9 +36,9 @@ from vibra.solvers.standard.hermitian import hermitian_stack
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-__all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_matrices", "group_velocities",
+__all__ = ["PHASES", "Phonons", "SupercellMode", "phonons", "supercell_mode", "dynamical_matrices", "derivative_matrices", "group_velocities",
            "check_qpoints", "eigenvalue_slopes"]
 
 #: The phase conventions of D(q) (module docstring).
@@ -352,3 +352,81 @@ def group_velocities(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLike)
     slopes, _ = eigenvalue_slopes(derivative, values, cast(NDArray[np.complex128], result.vectors), error)
     zero = np.abs(result.omega) <= result.omega_error
     return np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * result.omega))
+
+
+# ---------------------------------------------------------------------- one mode on a supercell
+@dataclass(frozen=True, eq=False)
+class SupercellMode:
+    """One phonon written out on a supercell: what a render animates.
+
+    The displacement of atom j in cell n is u_j(n) = Re[a_j exp(i (2 pi q . n - omega t))] with
+    a_j = e_j / sqrt(m_j) (the cell-phase eigenvector), scaled so that max_j |a_j| = 1.
+
+    Attributes
+    ----------
+    positions : (n_cells n_atoms, 3) ndarray
+        Rest positions of the supercell's atoms, Cartesian, in the length unit; cell by cell.
+    amplitudes : (n_cells n_atoms, 3) ndarray of complex
+        Complex displacement of each atom (dimensionless, largest modulus 1).
+    symbols : tuple of str
+        The label of each atom.
+    cell : (3, 3) ndarray
+        The supercell's lattice vectors as rows, in the length unit.
+    q : (3,) ndarray
+        The wave vector, fractional coordinates of the reciprocal lattice.
+    branch : int
+        Branch index, 0 = lowest.
+    omega : float
+        Angular frequency, rad per time unit (imaginary as -|omega|).
+    units : UnitSystem
+    """
+
+    positions: NDArray[np.float64]
+    amplitudes: NDArray[np.complex128]
+    symbols: tuple[str, ...]
+    cell: NDArray[np.float64]
+    q: NDArray[np.float64]
+    branch: int
+    omega: float
+    units: UnitSystem
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    def displacements(self, phase: float) -> NDArray[np.float64]:
+        """(n, 3) real displacements Re[a exp(-i phase)] at the phase omega t = `phase` (radians)."""
+        return np.real(self.amplitudes * np.exp(-1j * phase))
+
+
+def supercell_mode(crystal: Crystal, q: ArrayLike, branch: int, supercell: ArrayLike) -> SupercellMode:
+    """Branch `branch` at `q` written out on a `supercell` (3 ints) of the crystal (see `SupercellMode`).
+
+    Raises
+    ------
+    ValueError
+        q not 3 finite numbers; branch outside 0 .. n_branches - 1; a supercell that is not 3
+        positive integers (at most 12 each), or not 1 along a vacuum axis.
+    """
+    point = check_qpoints(np.asarray(q, dtype=float).reshape(1, -1) if np.ndim(q) == 1 else q, "q")
+    if point.shape[0] != 1:
+        raise ValueError(f"q must be one wave vector (3 fractional coordinates), got shape {np.shape(q)}")
+    index = _validate.count(branch, "branch", low=0, high=crystal.n_branches - 1)
+    size = np.asarray(supercell)
+    if size.shape != (3,) or not np.issubdtype(size.dtype, np.integer) or (size < 1).any() or (size > 12).any():
+        raise ValueError(f"supercell must be 3 integers from 1 to 12 (cells along each lattice vector), got {supercell!r}")
+    for axis in range(3):
+        if not crystal.periodic[axis] and size[axis] != 1:
+            raise ValueError(f"supercell[{axis}] is {int(size[axis])} along a vacuum axis; it must be 1")
+    result = phonons(crystal, point, vectors=True, phase="cell")
+    assert result.vectors is not None
+    vector = result.vectors[0][:, index].reshape(crystal.n_atoms, 3) / np.sqrt(crystal.masses)[:, None]
+    cells = np.stack(np.meshgrid(*[np.arange(int(s)) for s in size], indexing="ij"), axis=-1).reshape(-1, 3)
+    phase = np.exp(2j * np.pi * cells @ point[0])
+    amplitudes = (phase[:, None, None] * vector[None, :, :]).reshape(-1, 3)
+    largest = float(np.abs(amplitudes).max())
+    if largest > 0:
+        amplitudes = amplitudes / largest
+    positions = (cells @ crystal.cell)[:, None, :] + crystal.positions[None, :, :]
+    return SupercellMode(positions=positions.reshape(-1, 3), amplitudes=amplitudes,
+                         symbols=tuple(crystal.symbols) * len(cells), cell=size[:, None] * crystal.cell,
+                         q=point[0], branch=index, omega=float(result.omega[0, index]), units=crystal.units)

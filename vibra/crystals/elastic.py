@@ -28,7 +28,7 @@ from vibra.crystals.dynamical import phonons
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["SoundVelocities", "sound_velocities", "acoustic_slopes", "DEFAULT_STEP"]
 

@@ -40,7 +40,7 @@ from vibra.solvers.common import EPS
 from vibra.solvers.standard.lapack import DENSE_FLOOR
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
     from vibra.crystals.force_constants import SpringModel
 
 __all__ = ["factor_rows", "factor_matrices", "singular_frequencies", "REFINE_KR"]

@@ -8,6 +8,7 @@ conventions). Spring models and phonopy's supercell force constants both take th
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,7 +16,43 @@ from numpy.typing import NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 
-__all__ = ["ForceConstants", "SpringModel", "check_force_constants"]
+__all__ = ["CrystalLike", "ForceConstants", "SpringModel", "SumRuleReport", "check_force_constants", "impose_sum_rules"]
+
+
+class CrystalLike(Protocol):
+    """What the modules below `vibra.crystals.crystal` read of a crystal (for type checkers only).
+
+    `Crystal` satisfies it. The lower modules (dynamical, bands, dos, mesh, thermal, elastic,
+    factor, springs, phonopy_io) annotate with this protocol instead of importing the `Crystal`
+    class, whose methods import them: so no module of the package imports one that imports it
+    back, not even for type checking.
+    """
+
+    cell: Any
+    positions: Any
+    masses: Any
+    symbols: tuple[str, ...]
+    units: Any
+    periodic: tuple[bool, bool, bool]
+    force_constants: ForceConstants | None
+    springs: SpringModel | None
+    name: str
+
+    @property
+    def n_atoms(self) -> int: ...
+
+    @property
+    def n_branches(self) -> int: ...
+
+    @property
+    def fractional(self) -> Any: ...
+
+    @property
+    def reciprocal(self) -> Any: ...
+
+    def require_force_constants(self) -> ForceConstants: ...
+
+    def with_force_constants(self, force_constants: ForceConstants, springs: SpringModel | None = None) -> Any: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,3 +134,73 @@ def check_force_constants(fc: ForceConstants, n_atoms: int, periodic: tuple[bool
             t = int(np.argmax(fc.translations[:, axis] != 0))
             raise ValueError(f"force constants term {t} couples cells along the vacuum axis {axis} "
                              f"(translation {fc.translations[t].tolist()}); widen the vacuum or shorten the cutoff")
+
+
+#: `impose_sum_rules` stops when the largest violation is below this fraction of the largest block entry.
+SUM_RULE_RTOL = 1e-14
+#: ... or after this many rounds (each a symmetrisation and a row projection).
+SUM_RULE_ROUNDS = 200
+
+
+@dataclass(frozen=True)
+class SumRuleReport:
+    """How far supercell force constants were from the sum rules before `impose_sum_rules`.
+
+    Attributes
+    ----------
+    acoustic : float
+        Largest |sum_s Phi(p, s)_ab| before, energy / length^2 (0 for a rigid translation).
+    index : float
+        Largest |Phi(p, s)_ab - Phi(s, p)_ba| / 2 before, energy / length^2.
+    change : float
+        Largest change of one entry made by the projection, energy / length^2.
+    rounds : int
+        Rounds of the alternating projection.
+    """
+
+    acoustic: float
+    index: float
+    change: float
+    rounds: int
+
+
+def impose_sum_rules(full: NDArray[np.float64]) -> tuple[NDArray[np.float64], SumRuleReport]:
+    """Supercell force constants with the acoustic sum rule and the index symmetry imposed.
+
+    `full` (n_s, n_s, 3, 3) are phonopy's full supercell force constants Phi(s, t). Two
+    orthogonal projections (in the Frobenius sense) are alternated until both rules hold to
+    `SUM_RULE_RTOL`: the index symmetry, Phi <- (Phi(s, t) + Phi(t, s)^T) / 2, and the acoustic
+    sum rule, each row s minus its mean over t (sum_t Phi(s, t) = 0). Alternating orthogonal
+    projections onto two subspaces converges to the orthogonal projection onto their
+    intersection (von Neumann), i.e. the nearest force constants, entry by entry in the least
+    squares sense, that obey both rules; both steps commute with the supercell's translations,
+    so a translation-invariant input stays so (phonopy's force constants from displacements are;
+    an input that is not, e.g. independent noise on every supercell entry, gets both rules per
+    supercell row, but its D(q) is then not that of one crystal). This is our own projection (phonopy's
+    ``symmetrize_force_constants`` does a similar pass in C); it is the one place vibra imposes
+    the rules, for finite differences and for phonopy's force constants alike.
+
+    Returns
+    -------
+    projected : (n_s, n_s, 3, 3) ndarray
+        The force constants obeying both rules, in the units of `full`.
+    report : SumRuleReport
+        The violations before, and the largest change made.
+    """
+    fc = np.array(full, dtype=float)
+    if fc.ndim != 4 or fc.shape[0] != fc.shape[1] or fc.shape[2:] != (3, 3):
+        raise ValueError(f"force constants must have shape (n_s, n_s, 3, 3) (full supercell), got {fc.shape}")
+    _validate.finite(fc, "force constants")
+    acoustic = float(np.abs(fc.sum(axis=1)).max())
+    index = float(np.abs(fc - fc.transpose(1, 0, 3, 2)).max()) / 2.0
+    scale = float(np.abs(fc).max())
+    rounds = 0
+    while rounds < SUM_RULE_ROUNDS:
+        fc = (fc + fc.transpose(1, 0, 3, 2)) / 2.0
+        violation = np.abs(fc.sum(axis=1)).max()
+        if violation <= SUM_RULE_RTOL * scale:
+            break
+        fc -= fc.mean(axis=1, keepdims=True)
+        rounds += 1
+    change = float(np.abs(fc - full).max())
+    return fc, SumRuleReport(acoustic=acoustic, index=index, change=change, rounds=rounds)

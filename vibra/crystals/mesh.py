@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from vibra._frozen import freeze_arrays
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["Mesh", "mesh_points", "check_mesh", "grid_index", "MAX_MESH_POINTS"]
 

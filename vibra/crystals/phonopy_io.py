@@ -26,10 +26,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from vibra.crystals.force_constants import ForceConstants
+from vibra.crystals.force_constants import ForceConstants, impose_sum_rules
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["to_phonopy", "phonopy_terms", "required_supercell", "MAX_SUPERCELL"]
 
@@ -162,10 +162,13 @@ def to_phonopy(crystal: Crystal, *, supercell: Sequence[int] | None = None) -> A
     return phonon
 
 
-def phonopy_terms(phonon: Any) -> dict[str, Any]:
+def phonopy_terms(phonon: Any, *, symmetrize: bool = False) -> dict[str, Any]:
     """The primitive cell and force-constant terms of a `phonopy.Phonopy`, in ASE units.
 
-    Returns a dict with ``cell``, ``fractional`` (wrapped into [0, 1)), ``masses``, ``symbols``
+    With ``symmetrize=True`` the acoustic sum rule and the index symmetry are imposed first
+    (`vibra.crystals.force_constants.impose_sum_rules`, on the full supercell force constants;
+    phonopy's compact form is expanded by ``compact_fc_to_full_fc``); the phonopy object is
+    not changed. Returns a dict with ``cell``, ``fractional`` (wrapped into [0, 1)), ``masses``, ``symbols``
     and ``force_constants`` (`ForceConstants`), for `Crystal.from_phonopy`.
 
     Raises
@@ -196,6 +199,11 @@ def phonopy_terms(phonon: Any) -> dict[str, Any]:
     svecs, multi = primitive.get_smallest_vectors()
     n_p = len(p2s)
     n_s = fc.shape[1]
+    if symmetrize:
+        if fc.shape[0] != fc.shape[1]:
+            from phonopy.harmonic.force_constants import compact_fc_to_full_fc
+            fc = np.asarray(compact_fc_to_full_fc(primitive, fc), dtype=float)
+        fc, _ = impose_sum_rules(fc)
     rows = fc if fc.shape[0] == n_p else fc[p2s]
     frac = np.asarray(primitive.scaled_positions, dtype=float)
     shift = np.floor(frac + 1e-12)

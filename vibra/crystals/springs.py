@@ -23,7 +23,7 @@ from vibra import _validate
 from vibra.crystals.force_constants import ForceConstants, SpringModel
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["springs", "neighbour_pairs", "SHELL_RTOL"]
 

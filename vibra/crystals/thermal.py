@@ -34,7 +34,7 @@ from vibra.crystals.mesh import mesh_points
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
-    from vibra.crystals.crystal import Crystal
+    from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["ThermalProperties", "thermal_properties"]
 

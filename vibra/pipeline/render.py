@@ -287,6 +287,58 @@ class SceneRenderer:
         return name, (f"{scene.title}: animation of mode {index} ({_frequency_text(scene, modes, index)}), "
                       "displacements exaggerated")
 
+    # ------------------------------------------------------------------ crystals
+    def render_supercell_mode(self, scene: Any, mode: Any, out_dir: Path, *, frames: int,
+                              frequency: str) -> tuple[str, str]:
+        """Animated GIF of a crystal's mode on a supercell (a `vibra.crystals.SupercellMode`), one period.
+
+        Atoms are spheres (coloured by element where the label is one), the supercell is drawn
+        as its edges; the displacements are scaled so that the largest is 0.25 of the shortest
+        distance between two atoms. Returns (file name, caption).
+        """
+        pv = self._pv
+        from ase.data import atomic_numbers
+        from ase.data.colors import jmol_colors
+
+        rest = np.asarray(mode.positions)
+        sample = rest[: min(len(rest), 400)]
+        gaps = np.linalg.norm(sample[:, None, :] - sample[None, :, :], axis=-1)
+        gaps[gaps <= 1e-9] = np.inf
+        nearest = float(gaps.min()) if np.isfinite(gaps).any() else 1.0
+        radius = 0.22 * nearest
+        kinds = sorted(set(mode.symbols))
+        named = ("steelblue", "darkorange", "seagreen", "crimson", "mediumpurple", "goldenrod")
+        palette = {k: (tuple(jmol_colors[atomic_numbers[k]]) if atomic_numbers.get(k, 0) > 0 else named[i % len(named)])
+                   for i, k in enumerate(kinds)}
+        corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)], dtype=float) @ mode.cell
+        edges = [(i, j) for i in range(8) for j in range(i + 1, 8) if bin(i ^ j).count("1") == 1]
+        sphere = pv.Sphere(radius=radius, theta_resolution=16, phi_resolution=16)
+        images = []
+        camera = None
+        for phase in np.linspace(0.0, 2.0 * np.pi, frames, endpoint=False):
+            plotter = self._plotter((1, 1))
+            shown = rest + 0.25 * nearest * mode.displacements(phase)
+            for kind in kinds:
+                chosen = np.array([s == kind for s in mode.symbols])
+                glyphs = pv.PolyData(shown[chosen]).glyph(geom=sphere, scale=False, orient=False)
+                plotter.add_mesh(glyphs, color=palette[kind], smooth_shading=True, specular=0.3)
+            for i, j in edges:
+                plotter.add_mesh(pv.Line(corners[i], corners[j]), color="gray", line_width=2)
+            plotter.add_text(f"{scene.title}\n{frequency}", position="upper_left", font_size=12, color="black")
+            if camera is None:
+                plotter.camera_position = "iso"
+                plotter.camera.elevation = -10
+                plotter.reset_camera()
+                plotter.camera.zoom(1.6)
+                camera = plotter.camera_position
+            else:
+                plotter.camera_position = camera
+            images.append(self._snapshot(plotter))
+        name = f"{scene.name}_mode.gif"
+        write_gif(images, out_dir / name)
+        return name, (f"{scene.title}: {frequency} on a supercell of {len(rest)} atoms, one period in "
+                      f"{frames} frames (displacements exaggerated: largest 0.25 of the nearest distance)")
+
     # ------------------------------------------------------------------ molecules
     def _molecule_images(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
                          out_dir: Path, structure: MoleculeStructure,

@@ -12,13 +12,14 @@ import numpy as np
 
 from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
+from vibra.pipeline.scene.builders import CRYSTAL_BUILDERS
 from vibra.pipeline.scene.files import read_scene_data, scene_data_path
 
 __all__ = ["build_system", "network_structure"]
 
 
 def build_system(scene: Scene) -> Any:
-    """The `System` (or, for an oscillator scene, the `Oscillator`) a scene describes.
+    """The `System` (for an oscillator scene the `Oscillator`s, for a crystal scene the `Crystal`) a scene describes.
 
     The builder validates its arguments as it would in any library call; what it refuses is
     reported as a `SceneError` at the offending key (``file: system.n: n is 1; ...``), so
@@ -128,6 +129,15 @@ def _build(scene: Scene) -> Any:
     elif builder == "anm":
         structure = network_structure(scene)
         system = make(structure.positions, cutoff=p["cutoff"], gamma=p["gamma"], name=scene.name)
+    elif builder == "phonopy":
+        path = scene_data_path(scene.source, "system.file", p["file"])
+        extra = p["force_constants_file"]
+        fc_path = None if extra is None else scene_data_path(scene.source, "system.force_constants_file", extra)
+        return make(path, force_constants=fc_path, symmetrize=p["symmetrize"], name=scene.name)
+    elif builder in CRYSTAL_BUILDERS:
+        import dataclasses
+
+        return dataclasses.replace(make(units=scene.units, **lists), name=scene.name)
     elif builder == "oscillator":
         gammas = p["gamma"] if isinstance(p["gamma"], tuple) else (p["gamma"],)
         return tuple(make(p["w0"], g, p["m"]) for g in gammas)

@@ -18,6 +18,7 @@ import numpy as np
 
 from vibra.pipeline.plan.analysis import chain_dispersion
 from vibra.pipeline.plan.build import build_system
+from vibra.pipeline.plan.crystal import CRYSTAL_STEP_KEYS, check_crystal_plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.values import element_symbol
 from vibra import solvers
@@ -39,6 +40,7 @@ STEP_KEYS = {
     "render-modes": "draw.modes", "render-gif": "draw.gif", "chart-spectrum": "draw.spectrum",
     "chart-dispersion": "draw.dispersion", "chart-response": "draw.response",
     "chart-convergence": "draw.convergence",
+    **CRYSTAL_STEP_KEYS,
 }
 
 #: What a library function raises when it refuses a request or a solve fails (`LinAlgError` is
@@ -175,6 +177,12 @@ def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
         checked only when `response` is true).
     """
     if scene.kind == "oscillator":
+        return
+    if scene.kind == "crystal":
+        try:
+            check_crystal_plan(scene, system)
+        except REFUSALS as error:
+            raise step_error(scene, "build", error) from error
         return
     try:
         _solver(scene, system)

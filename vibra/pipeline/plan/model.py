@@ -7,7 +7,7 @@ from typing import Any
 
 from vibra.pipeline.scene import Scene
 
-__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan"]
+__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "crystal_steps"]
 
 @dataclass(frozen=True)
 class Step:
@@ -104,6 +104,8 @@ def make_plan(scene: Scene) -> Plan:
     """The steps that compute exactly what `scene` asks (no work is done here)."""
     compute, draw = scene.compute, scene.draw
     steps = [Step("build", f"build the system with builder {scene.system.builder!r}")]
+    if scene.kind == "crystal":  # no Modes of one system: bands, DOS, thermal properties, a mode on a supercell
+        return Plan(scene=scene, steps=tuple(steps + crystal_steps(scene)), n_modes=None, vectors=False)
     vectors = bool(compute.shapes or draw.needs_shapes or scene.kind == "network")  # fluctuations need shapes
     n_modes = compute.n_modes
     if scene.kind != "oscillator":
@@ -153,3 +155,23 @@ def make_plan(scene: Scene) -> Plan:
     return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)
 
 
+def crystal_steps(scene: Scene) -> list[Step]:
+    """The steps after ``build`` that a crystal scene asks for."""
+    spec = scene.crystal
+    assert spec is not None
+    mesh = "x".join(str(n) for n in spec.mesh)
+    steps = []
+    if spec.bands:
+        where = "SeeK-path's path" if spec.path is None else "the path " + " | ".join("-".join(r) for r in spec.path)
+        steps.append(Step("crystal-bands", f"bands on {spec.npoints} q-points along {where}; "
+                          f"{spec.dos_method} DOS on a {mesh} mesh"))
+        steps.append(Step("chart-bands", f"band structure with the DOS beside it, in {spec.frequency_unit}"))
+    if spec.thermal:
+        steps.append(Step("crystal-thermal", f"free energy, entropy and heat capacity at {spec.n_temperatures} "
+                          f"temperatures in [{spec.temperatures[0]:g}, {spec.temperatures[1]:g}] K on a {mesh} mesh"))
+        steps.append(Step("chart-thermal", "thermal properties against temperature"))
+    if spec.mode:
+        cells = "x".join(str(n) for n in spec.supercell)
+        steps.append(Step("crystal-mode", f"branch {spec.mode_branch} at q = {spec.mode_q} on a {cells} supercell"))
+        steps.append(Step("render-crystal-mode", f"animated GIF of that mode, {spec.frames} frames (pyvista)"))
+    return steps

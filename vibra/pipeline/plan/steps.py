@@ -20,6 +20,7 @@ from vibra._io import atomic_write_text
 from vibra.generalized import GeneralizedSystem
 from vibra.pipeline.plan.analysis import chain_dispersion, molecule_symmetry, network_fluctuations, symmetry_hints
 from vibra.pipeline.plan.build import build_system, network_structure
+from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
 from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
 from vibra.pipeline.scene import Scene
@@ -44,9 +45,16 @@ class _Context:
     structure: Any = None
     symmetry: Any = None
     network: Any = None
+    bands: Any = None              # crystal scenes: (BandStructure, DensityOfStates)
+    thermal: Any = None            # crystal scenes: ThermalProperties
+    supercell_mode: Any = None     # crystal scenes: SupercellMode
     hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)
     captions: list[str] = field(default_factory=list)
+
+    def save_chart(self, figure: Any, what: str, caption: str) -> None:
+        """Write a chart as ``<scene>_<what>.png`` and record it with its caption."""
+        _save_chart(self, figure, what, caption)
 
 
 def _is_quadratic(modes: Any) -> bool:
@@ -148,7 +156,8 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
                 on_step(step.name)
             before = len(context.outputs)
             start = time.perf_counter()
-            if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule", "network"):
+            if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule", "network",
+                                                                                             "crystal"):
                 from vibra.pipeline.render import SceneRenderer
                 renderer = SceneRenderer(plan.scene.draw.window_size)
             try:
@@ -174,6 +183,8 @@ def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
     check_plan(plan.scene, system)  # what validate checks: solver fits, response grid off the poles
     if plan.scene.kind == "oscillator":
         return None, None
+    if plan.scene.kind == "crystal":
+        return None, crystal_cost(plan.scene, system)
     return None, f"{system.n_dof} degrees of freedom"
 
 
@@ -459,4 +470,5 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "chart-dispersion": _step_chart_dispersion,
     "chart-response": _step_chart_response,
     "chart-convergence": _step_chart_convergence,
+    **CRYSTAL_STEPS,
 }

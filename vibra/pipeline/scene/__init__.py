@@ -33,10 +33,12 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, BUILDERS, builder_function
-from vibra.pipeline.scene.schema import Reader, check_combinations, parse_compute, parse_draw, parse_system
+from vibra.pipeline.scene.schema import (
+    Reader, check_combinations, check_crystal, parse_compute, parse_crystal, parse_draw, parse_system,
+)
 from vibra.pipeline.scene.specs import (
-    DEFAULT_UNITS, KINDS, SAFE_NAME, UNITS, ComputeSpec, ContinuumSpec, DrawSpec, ResponseSpec, SceneError,
-    SystemSpec,
+    DEFAULT_UNITS, KINDS, SAFE_NAME, UNITS, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec,
+    SceneError, SystemSpec,
 )
 from vibra.pipeline.scene.values import field_spec, one_of, string, table
 
@@ -47,7 +49,7 @@ else:  # pragma: no cover - Python 3.10
 
 __all__ = [
     "SceneError", "Scene", "SystemSpec", "ComputeSpec", "ResponseSpec", "ContinuumSpec",
-    "DrawSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
+    "DrawSpec", "CrystalSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
     "tomllib", "MAX_SCENE_BYTES", "MAX_SCENE_DEPTH", "read_scene_bytes", "parse_scene_text",
 ]
 
@@ -75,6 +77,9 @@ class Scene:
     system : SystemSpec
     compute : ComputeSpec
     draw : DrawSpec
+    crystal : CrystalSpec or None
+        What a crystal scene computes and draws (its own ``[compute]`` and ``[draw]`` keys);
+        None for the other kinds.
     """
 
     source: str
@@ -86,6 +91,7 @@ class Scene:
     system: SystemSpec
     compute: ComputeSpec
     draw: DrawSpec
+    crystal: CrystalSpec | None = None
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str | Path = "<scene>") -> Scene:
@@ -128,6 +134,13 @@ class Scene:
                         + ("" if given else "; rename the file or add a name = \"...\" line"))
         units = top["units"] or DEFAULT_UNITS[kind]
         system = parse_system(reader, data["system"], kind)
+        if kind == "crystal":  # its own [compute] and [draw] keys (bands, DOS, thermal, a mode)
+            draw, crystal = parse_crystal(reader, data.get("compute", {}), data.get("draw", {}))
+            scene = cls(source=src, kind=kind, name=name, title=top["title"] or name,
+                        description=top["description"], units=units, system=system,
+                        compute=ComputeSpec(), draw=draw, crystal=crystal)
+            check_crystal(reader, scene)
+            return scene
         compute = parse_compute(reader, data.get("compute", {}), kind)
         draw = parse_draw(reader, data.get("draw", {}))
         scene = cls(source=src, kind=kind, name=name, title=top["title"] or name,

@@ -25,11 +25,11 @@ from types import MappingProxyType
 from typing import Any, Callable, Iterator, Mapping
 
 from vibra.pipeline.scene.values import (
-    Check, FieldSpec, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
+    Check, FieldSpec, boolean, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
     scalar_or_list, string,
 )
 
-__all__ = ["isotope_labels", "BUILD_FUNCTIONS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
+__all__ = ["isotope_labels", "BUILD_FUNCTIONS", "CRYSTAL_BUILDERS", "PLANAR_BUILDERS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
            "SCENE_REQUIRED", "builder_function", "builder_fields"]
 
 #: scene builder -> (vibra module, function). The only way a scene names code.
@@ -46,7 +46,19 @@ BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
     "matrices": ("vibra.system", "System.generalized"),
     "anm": ("vibra.networks", "anm"),
     "oscillator": ("vibra.response", "Oscillator"),
+    "simple_cubic": ("vibra.crystals", "simple_cubic"),
+    "bcc": ("vibra.crystals", "bcc"),
+    "fcc": ("vibra.crystals", "fcc"),
+    "diamond": ("vibra.crystals", "diamond"),
+    "rock_salt": ("vibra.crystals", "rock_salt"),
+    "square": ("vibra.crystals", "square"),
+    "honeycomb": ("vibra.crystals", "honeycomb"),
+    "phonopy": ("vibra.crystals", "read_phonopy"),
 }
+
+#: The crystal builders (scene kind "crystal"); the 2-D ones have a vacuum axis along z.
+CRYSTAL_BUILDERS = ("simple_cubic", "bcc", "fcc", "diamond", "rock_salt", "square", "honeycomb", "phonopy")
+PLANAR_BUILDERS = ("square", "honeycomb")
 
 #: builder -> the scene kinds it serves.
 BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
@@ -54,6 +66,7 @@ BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "springs": ("chain", "molecule"), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
     "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
     "anm": ("network",),
+    **{builder: ("crystal",) for builder in CRYSTAL_BUILDERS},
 })
 
 MASS = scalar_or_list(positive)
@@ -94,6 +107,15 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
     "matrices": {"M": matrix, "K": matrix, "coordinates": list_of(string)},
     "oscillator": {"w0": positive, "gamma": scalar_or_list(nonnegative), "m": positive},
     "anm": {"cutoff": positive, "gamma": positive},
+    **{builder: {"a": positive, "mass": positive, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
+                 "transverse": scalar_or_list(nonnegative)} for builder in ("simple_cubic", "bcc", "fcc")},
+    **{builder: {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
+                 "transverse": scalar_or_list(nonnegative)} for builder in ("diamond", "rock_salt")},
+    "square": {"a": positive, "mass": positive, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
+               "transverse": scalar_or_list(nonnegative), "vacuum": positive},
+    "honeycomb": {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
+                  "transverse": scalar_or_list(nonnegative), "vacuum": positive},
+    "phonopy": {"symmetrize": boolean},
 })
 
 _UNITS = "the scene's top-level units"
@@ -106,7 +128,7 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
     "springs": {"units": _UNITS, "name": _NAME,
                 "anchor_directions": "anchors in scenes hold every axis of a site",
                 "blocks": "scenes give pair springs only (no general Hessian blocks)",
-                "cell": "a periodic supercell's springs: the crystal scene kind describes periodic systems"},
+                "cell": "a periodic solid is a crystal scene (kind = \"crystal\"), not a spring system"},
     "co2": {"bond_length": "the builder's constant (the cross-check reuses it)",
             "stretch": "the builder's constant (the cross-check reuses it)",
             "bend": "the builder's constant (the cross-check reuses it)"},
@@ -122,6 +144,9 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
     "oscillator": {},
     "anm": {"positions": "the C-alpha atoms of the structure file system.pdb",
             "masses": "unit masses, as ProDy's ANM", "name": _NAME},
+    **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
+    "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
+                "force_constants": "the file system.force_constants_file beside the scene", "name": _NAME},
 })
 
 #: builder -> keys a scene may set that are not builder parameters (the plan applies them).
@@ -139,6 +164,8 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "matrices": {},
     "oscillator": {},
     "anm": {"pdb": field_spec(string, required=True)},
+    **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
+    "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string)},
 })
 
 #: builder -> parameters a scene must give although the builder has a default for them.

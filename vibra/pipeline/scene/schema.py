@@ -17,14 +17,18 @@ from vibra.modes import SOLVERS
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
 )
-from vibra.pipeline.scene.builders import BUILDER_KINDS, BUILDERS, builder_fields
+from vibra.pipeline.scene.builders import BUILDER_KINDS, BUILDERS, PLANAR_BUILDERS, builder_fields
 from vibra.pipeline.scene.files import scene_data_path
-from vibra.pipeline.scene.specs import ComputeSpec, ContinuumSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec
+from vibra.pipeline.scene.specs import (
+    FREQUENCY_UNITS, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec,
+)
 from vibra.pipeline.scene.values import (
-    FieldSpec, boolean, brief, element_symbol, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive, table,
+    FieldSpec, boolean, brief, element_symbol, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive,
+    string, table,
 )
 
-__all__ = ["Reader", "parse_system", "parse_compute", "parse_draw", "check_combinations"]
+__all__ = ["Reader", "parse_system", "parse_compute", "parse_draw", "check_combinations", "parse_crystal",
+           "check_crystal"]
 
 
 class Reader:
@@ -358,3 +362,78 @@ def _check_molecule(reader: Reader, params: Mapping[str, Any]) -> None:
         scene_data_path(reader.source, "system.xyz", params["xyz"])
     if params["isotopes"] is not None and params["masses"] is not None:
         reader.fail("system.masses", "give isotopes (labels) or masses (amu), not both")
+
+
+# ---------------------------------------------------------------------- crystal scenes
+def _path_runs(value: Any, fail: Callable[[str], Any]) -> tuple[tuple[str, ...], ...]:
+    """``["GAMMA", "X", "L"]`` (one run) or ``[["GAMMA", "X"], ["L", "GAMMA"]]`` (runs with breaks)."""
+    if not isinstance(value, list) or not value:
+        fail(f"expected a list of point labels or a list of runs of them, got {kind_name(value)} ({brief(value)})")
+    runs = [value] if all(isinstance(v, str) for v in value) else value
+    out = []
+    for r, run in enumerate(runs):
+        labels = list_of(string, min_length=2)(run, lambda m, r=r: fail(f"[{r}] {m}" if len(runs) > 1 else m))
+        out.append(labels)
+    return tuple(out)
+
+
+def _wave_vector(value: Any, fail: Callable[[str], Any]) -> Any:
+    """A special-point label (``"X"``) or 3 fractional coordinates."""
+    if isinstance(value, str):
+        return value
+    return list_of(number, length=3)(value, fail)
+
+
+def parse_crystal(reader: Reader, compute: Any, draw: Any) -> tuple[DrawSpec, CrystalSpec]:
+    """The ``[compute]`` and ``[draw]`` tables of a crystal scene."""
+    c = reader.table(compute, "compute", {
+        "path": field_spec(_path_runs),
+        "npoints": field_spec(integer(2, 100_000), 300),
+        "mesh": field_spec(list_of(integer(1, 200), length=3), (16, 16, 16)),
+        "dos": field_spec(one_of("tetrahedron", "gaussian"), "tetrahedron"),
+        "temperatures": field_spec(list_of(nonnegative, length=2), (0.0, 1000.0)),
+        "n_temperatures": field_spec(integer(2, 10_000), 101),
+    })
+    d = reader.table(draw, "draw", {
+        "bands": field_spec(boolean, True),
+        "frequency_unit": field_spec(one_of(*FREQUENCY_UNITS), "THz"),
+        "thermal": field_spec(boolean, False),
+        "mode": field_spec(boolean, False),
+        "mode_q": field_spec(_wave_vector, "X"),
+        "mode_branch": field_spec(integer(0), 0),
+        "supercell": field_spec(list_of(integer(1, 12), length=3), (4, 4, 4)),
+        "frames": field_spec(integer(2, 120), 24),
+        "window_size": field_spec(list_of(integer(64, 4096), length=2), (1024, 640)),
+    })
+    low, high = c["temperatures"]
+    if not low < high:
+        reader.fail("compute.temperatures", f"must be [low, high] in K with low < high, got [{low:g}, {high:g}]")
+    spec = CrystalSpec(path=c["path"], npoints=c["npoints"], mesh=c["mesh"], dos_method=c["dos"],
+                       temperatures=(low, high), n_temperatures=c["n_temperatures"], bands=d["bands"],
+                       frequency_unit=d["frequency_unit"], thermal=d["thermal"], mode=d["mode"],
+                       mode_q=d["mode_q"], mode_branch=d["mode_branch"], supercell=d["supercell"],
+                       frames=d["frames"])
+    return DrawSpec(window_size=d["window_size"]), spec
+
+
+def check_crystal(reader: Reader, scene: Any) -> None:
+    """What a crystal scene's keys must agree on before anything is built."""
+    spec, builder, params = scene.crystal, scene.system.builder, scene.system.parameters
+    if not (spec.bands or spec.thermal or spec.mode):
+        reader.fail("draw", "a crystal scene draws nothing: set draw.bands, draw.thermal or draw.mode to true")
+    if builder == "phonopy":
+        if scene.units != "ASE":
+            reader.fail("units", f"is {scene.units!r}; a phonopy file is in phonopy's units (eV, Angstrom, amu): "
+                        "use units = \"ASE\"")
+        scene_data_path(reader.source, "system.file", params["file"])
+        if params["force_constants_file"] is not None:
+            scene_data_path(reader.source, "system.force_constants_file", params["force_constants_file"])
+    elif scene.units == "dimensionless":
+        reader.fail("units", "is 'dimensionless'; a crystal scene draws frequencies in THz or cm^-1 and thermal "
+                    "properties in kJ/mol: use units = \"ASE\" (eV, Angstrom, amu) or \"SI\"")
+    if builder in PLANAR_BUILDERS:
+        if spec.supercell[2] != 1:
+            reader.fail("draw.supercell", f"is {list(spec.supercell)}; a 2-D crystal has one cell along z (the "
+                        "vacuum axis): use [n1, n2, 1]")
+        if spec.mesh[2] != 1:
+            reader.fail("compute.mesh", f"is {list(spec.mesh)}; a 2-D crystal needs 1 point along z: use [n1, n2, 1]")

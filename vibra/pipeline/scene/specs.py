@@ -7,11 +7,15 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 __all__ = ["SceneError", "KINDS", "UNITS", "DEFAULT_UNITS", "SAFE_NAME", "SystemSpec", "ResponseSpec",
-           "ContinuumSpec", "ComputeSpec", "DrawSpec"]
+           "ContinuumSpec", "ComputeSpec", "DrawSpec", "CrystalSpec", "FREQUENCY_UNITS"]
 
-KINDS = ("chain", "molecule", "oscillator", "generalized", "network")
+#: How a crystal scene labels its frequency axis (``draw.frequency_unit``).
+FREQUENCY_UNITS = ("THz", "cm^-1")
+
+KINDS = ("chain", "molecule", "oscillator", "generalized", "network", "crystal")
 UNITS = ("SI", "ASE", "dimensionless")
-DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI", "network": "dimensionless"}
+DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI", "network": "dimensionless",
+                 "crystal": "ASE"}
 #: A scene name: letters, digits and ``_ . -`` (output files are ``<name>_<what>.png``).
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
@@ -175,3 +179,55 @@ class DrawSpec:
     def needs_shapes(self) -> bool:
         """True when a drawing needs mode shapes."""
         return self.modes or self.gif
+
+
+@dataclass(frozen=True)
+class CrystalSpec:
+    """What a crystal scene computes and draws (its ``[compute]`` and ``[draw]`` tables).
+
+    Attributes
+    ----------
+    path : tuple of tuple of str, or None
+        Runs of special-point labels (a new run after a break); None: SeeK-path's path.
+    npoints : int
+        q-points along the whole path.
+    mesh : (int, int, int)
+        Gamma-centred mesh of the DOS and the thermal properties.
+    dos_method : str
+        ``"tetrahedron"`` or ``"gaussian"``.
+    temperatures : (float, float)
+        Range of the thermal properties, in K.
+    n_temperatures : int
+        Temperatures in that range, evenly spaced.
+    bands : bool
+        Draw the band structure with the DOS beside it.
+    frequency_unit : str
+        ``"THz"`` or ``"cm^-1"``.
+    thermal : bool
+        Draw free energy, entropy and heat capacity against T.
+    mode : bool
+        Render one mode on a supercell (a GIF).
+    mode_q : str or (float, float, float)
+        The mode's wave vector: a label of the path's special points, or fractional coordinates.
+    mode_branch : int
+        The mode's branch, 0 = lowest.
+    supercell : (int, int, int)
+        Cells drawn along each lattice vector.
+    frames : int
+        Frames of the GIF (one period).
+    """
+
+    path: tuple[tuple[str, ...], ...] | None = None
+    npoints: int = 300
+    mesh: tuple[int, int, int] = (16, 16, 16)
+    dos_method: str = "tetrahedron"
+    temperatures: tuple[float, float] = (0.0, 1000.0)
+    n_temperatures: int = 101
+    bands: bool = True
+    frequency_unit: str = "THz"
+    thermal: bool = False
+    mode: bool = False
+    mode_q: Any = "X"
+    mode_branch: int = 0
+    supercell: tuple[int, int, int] = (4, 4, 4)
+    frames: int = 24

@@ -1,0 +1,455 @@
+"""Force constants of a crystal from any ASE calculator, by finite differences on a supercell.
+
+The displacements are reduced by the space group: phonopy's generator
+(``Phonopy.generate_displacements``, spglib underneath) picks one displacement per
+symmetry-inequivalent atom and direction, and phonopy's solver (``produce_force_constants``)
+rebuilds the full supercell force constants from their forces by the site symmetries. Both
+are phonopy's, not ours: it is the reference implementation of exactly this reduction (a
+named dependency of vibra), and a second one here would be a second place for the same
+decision. What vibra adds is everything around them:
+
+- each displaced supercell is one force call, run by the machinery of the molecules' finite
+  differences (`vibra.molecules.displacements`, `vibra.cluster`): serially, or one Dask task
+  each with ``client=``; with ``cache=``, each geometry's forces are written as they arrive,
+  keyed by the displaced geometry itself, so a killed run started again computes only what
+  is missing;
+- the forces at the reference supercell are subtracted (they vanish by symmetry for a
+  perfect crystal; what is left is the calculator's own residual);
+- the acoustic sum rule and the index symmetry are imposed (`impose_sum_rules`, our own
+  projection), and how far the raw force constants were from them is reported;
+- the error is estimated as for molecules (`vibra.molecules.finite_difference`): with
+  ``estimate_error`` every displacement is evaluated again at 2h and the truncation error of
+  each supercell entry is the Richardson estimate |Phi(h) - Phi(2h)| / 3; the round-off part is
+  force_noise / h, with the force noise probed as for molecules (`vibra.molecules.noise`: a
+  listed closed-form calculator such as EMT is not called again, any other is probed at the
+  reference supercell); the change made by the sum-rule projection is added. Per frequency,
+  `FiniteDifferenceForceConstants.omega_errors` turns that into a first-order bound.
+
+Units: ASE's (eV, Angstrom, amu); the crystal is in ``ASE`` units.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vibra import _validate
+from vibra._frozen import freeze_arrays
+from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
+from vibra.crystals.crystal import Crystal
+from vibra.crystals.force_constants import SumRuleReport, impose_sum_rules
+from vibra.molecules.displacements import (CalculatorSource, ForceCache, displaced_forces, force_problem,
+                                           is_calculator, is_factory)
+from vibra.molecules.noise import ForceNoise, force_noise_task, is_deterministic_calculator, rounding_noise
+
+if TYPE_CHECKING:
+    from ase import Atoms
+
+__all__ = ["FiniteDifferenceForceConstants", "finite_difference_force_constants", "from_ase"]
+
+
+@dataclass(frozen=True, eq=False)
+class FiniteDifferenceForceConstants:
+    """A crystal whose force constants are finite differences of a calculator's forces, with their error.
+
+    Attributes
+    ----------
+    crystal : Crystal
+        The unit cell of the atoms given, with the force constants (sum rules imposed), ASE units.
+    supercell : (3,) ndarray of int
+        Cells along each lattice vector of the supercell the forces were computed on.
+    step : float
+        Displacement h, Angstrom.
+    error_blocks : (n_atoms, n_atoms, 3, 3) ndarray
+        Bound on |Delta Phi(i, j R)| summed over all R, per atom pair and Cartesian entry,
+        eV / Angstrom^2: truncation + round-off + the sum-rule change. |Delta D(q)| is below it
+        divided by sqrt(m_i m_j), at every q.
+    truncation : float
+        Largest Richardson truncation estimate of one supercell entry, eV / Angstrom^2 (0
+        without ``estimate_error``).
+    roundoff : float
+        force_noise / h, eV / Angstrom^2.
+    force_noise : float
+        Noise of one force component behind `roundoff`, eV / Angstrom.
+    noise_source : str
+        As for molecules: ``"analytic"``, ``"probed"``, ``"measured"``, ``"given"`` or ``"rounding"``.
+    sum_rules : SumRuleReport
+        How far the raw force constants were from the acoustic sum rule and the index symmetry.
+    n_displacements : int
+        Symmetry-inequivalent displacements (phonopy's generator), per step.
+    n_force_calls : int
+        Force calls made in this run (reference included; the noise probe not).
+    n_cached : int
+        Geometries read from the cache instead.
+    """
+
+    crystal: Crystal
+    supercell: NDArray[np.int64]
+    step: float
+    error_blocks: NDArray[np.float64]
+    truncation: float
+    roundoff: float
+    force_noise: float
+    noise_source: str
+    sum_rules: SumRuleReport
+    n_displacements: int
+    n_force_calls: int
+    n_cached: int = 0
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
+
+    def omega_errors(self, qpoints: ArrayLike) -> NDArray[np.float64]:
+        """(n_q, n_branches) bound on how far each frequency moves under the force-constant error.
+
+        First order: |Delta omega_k^2| <= |e_k|^H W |e_k| with W_(ia),(jb) = error_blocks[i, j, a, b]
+        / sqrt(m_i m_j) (every phase has modulus 1, so W bounds |Delta D(q)| entry by entry);
+        Delta omega = min(Delta omega^2 / (2 |omega|), sqrt(Delta omega^2)), plus the eigensolver's
+        own `omega_error`; rad per ASE time unit. First order only, as for molecules: where branches
+        lie closer together than the error couples them it may underestimate.
+        """
+        result = self.crystal.phonons(qpoints, vectors=True)
+        assert result.vectors is not None
+        n = self.crystal.n_atoms
+        scale = 1.0 / np.sqrt(np.repeat(self.crystal.masses, 3))
+        weight = self.error_blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n) * scale[:, None] * scale[None, :]
+        d = np.abs(result.vectors)
+        lam = np.einsum("qib,ij,qjb->qb", d, weight, d)
+        omega = np.abs(result.omega)
+        bound = np.minimum(lam / np.maximum(2.0 * omega, 1e-300), np.sqrt(lam))
+        return np.asarray(bound + result.omega_error)
+
+
+@dataclass(frozen=True)
+class _Geometry:
+    """One displaced supercell: the reference (atom -1) or atom `atom` moved by `vector`."""
+
+    atom: int
+    vector: tuple[float, float, float]
+
+    @property
+    def label(self) -> str:
+        if self.atom < 0:
+            return "the reference supercell"
+        shown = ", ".join(f"{v:+.4g}" for v in self.vector)
+        return f"supercell atom {self.atom} displaced by ({shown}) Angstrom"
+
+
+class _GeometryCache(ForceCache):
+    """`ForceCache` keyed by the displaced geometry itself (atom and Cartesian vector)."""
+
+    def path(self, displacement: Any) -> Any:
+        key = hashlib.sha256(self.base)
+        key.update(b"crystal supercell\0")
+        if displacement.atom >= 0:
+            key.update(np.int64(displacement.atom).tobytes())
+            key.update(np.asarray(displacement.vector, dtype=np.float64).tobytes())
+        return self.folder / f"{key.hexdigest()}.npy"
+
+
+def _check_supercell(supercell: Any, periodic: tuple[bool, bool, bool]) -> NDArray[np.int64]:
+    raw = np.asarray(supercell)
+    if raw.shape != (3,) or not np.issubdtype(raw.dtype, np.integer) or (raw < 1).any():
+        raise ValueError(f"supercell must be 3 positive integers (cells along each lattice vector), got {supercell!r}")
+    for axis in range(3):
+        if not periodic[axis] and raw[axis] != 1:
+            raise ValueError(f"supercell[{axis}] is {int(raw[axis])} along a vacuum axis (pbc False); it must be 1")
+    return raw.astype(np.int64)
+
+
+def finite_difference_force_constants(
+    atoms: Atoms,
+    calculator: Any = None,
+    *,
+    supercell: Sequence[int],
+    delta: float = 0.01,
+    estimate_error: bool = True,
+    force_noise: float | str | None = "auto",
+    symprec: float = 1e-5,
+    client: Any = None,
+    cache: str | os.PathLike[str] | None = None,
+    calculator_key: str | None = None,
+    progress: ProgressOption = None,
+    n_workers: int | None = None,
+    timeout: float = 10.0,
+    name: str | None = None,
+) -> FiniteDifferenceForceConstants:
+    """Force constants of the crystal `atoms` from a calculator's forces on a supercell, with their error.
+
+    Parameters
+    ----------
+    atoms : ase.Atoms
+        The unit cell (with ``cell`` and ``pbc``), at equilibrium; Angstrom, amu. Not modified.
+    calculator : ase Calculator or factory, optional
+        ``atoms.calc`` by default; as for `vibra.molecules.finite_difference_hessian` (an instance
+        is copied fresh for each call on a worker; a factory is called for each call).
+    supercell : 3 ints
+        Cells along each lattice vector (1 along a vacuum axis). The force constants reach as
+        far as this supercell: choose it larger than the calculator's interaction range.
+    delta : float
+        Displacement h, Angstrom (ASE's and phonopy's 0.01 by default).
+    estimate_error : bool
+        Evaluate every displacement again at 2h for the Richardson truncation estimate (twice
+        the force calls).
+    force_noise : "auto", float or None
+        As for molecules: probed (``"auto"``), given (eV / Angstrom) or rounding only (None).
+    symprec : float
+        spglib's tolerance for the space group, Angstrom.
+    client, cache, calculator_key, progress, n_workers, timeout
+        As for `vibra.molecules.finite_difference_hessian`: where the force calls run (None,
+        ``"local"``, a scheduler address or a ``distributed.Client``), a folder of per-geometry
+        force files (resumable), the calculator's settings for the cache key, progress lines.
+    name : str, optional
+        The crystal's name (default: the chemical formula).
+
+    Returns
+    -------
+    FiniteDifferenceForceConstants
+
+    Raises
+    ------
+    TypeError
+        `atoms` is not an ase.Atoms; no calculator; a calculator that cannot be pickled with a
+        `client` (pass a factory) or a `cache` (pass `calculator_key`).
+    ValueError
+        The checks of `Crystal.from_ase`; a supercell that is not 3 positive integers (or not 1
+        along a vacuum axis); delta or symprec not positive; a bad `force_noise` or `client`.
+    RuntimeError
+        The calculator failed, or returned forces that are not finite or of the wrong shape
+        (each such geometry named; finished force calls stay in `cache`).
+    """
+    unit = Crystal.from_ase(atoms, name=name)
+    calc = calculator if calculator is not None else atoms.calc
+    if calc is None:
+        raise TypeError("calculator is None and atoms has no calculator attached; pass calculator=")
+    if not is_calculator(calc) and not is_factory(calc):
+        raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got {type(calc).__name__}")
+    size = _check_supercell(supercell, unit.periodic)
+    h = _validate.positive_scalar(delta, "delta", "displacement (Angstrom)")
+    precision = _validate.positive_scalar(symprec, "symprec", "symmetry tolerance (Angstrom)")
+    if isinstance(force_noise, str):
+        if force_noise != "auto":
+            raise ValueError(f"force_noise is {force_noise!r}; expected a number (eV/Angstrom), 'auto' or None")
+    elif force_noise is not None:
+        force_noise = _validate.nonnegative_scalar(force_noise, "force_noise")
+    check_client(client)
+    if calculator_key is not None and not isinstance(calculator_key, str):
+        raise TypeError(f"calculator_key must be a str, got {type(calculator_key).__name__}")
+    source = CalculatorSource(calc, key=calculator_key)
+    if client is not None:
+        source.require_picklable()
+
+    from phonopy import Phonopy  # at the edge: phonopy only when asked
+    from phonopy.structure.atoms import PhonopyAtoms
+
+    cell = PhonopyAtoms(cell=unit.cell, scaled_positions=unit.fractional, masses=unit.masses,
+                        symbols=list(unit.symbols))
+    phonon = Phonopy(cell, supercell_matrix=np.diag(size), primitive_matrix=None, symprec=precision, log_level=0)
+    phonon.generate_displacements(distance=h, is_plusminus="auto")
+    first = phonon.dataset["first_atoms"]
+    moves = [(int(d["number"]), np.asarray(d["displacement"], dtype=float)) for d in first]
+    template = _supercell_atoms(phonon.supercell, unit.periodic)
+    multiples = [1, 2] if estimate_error else [1]
+    geometries = [_Geometry(-1, (0.0, 0.0, 0.0))]
+    geometries += [_Geometry(atom, tuple(float(v) for v in m * vector))  # type: ignore[misc]
+                   for m in multiples for atom, vector in moves]
+    store = None if cache is None else _GeometryCache(cache, template, h, source.digest())
+    with contextlib.ExitStack() as stack:
+        cluster = _Cluster(client, stack, n_workers, timeout)
+        forces, computed, cached = _gather(geometries, template, source, store, cluster, progress)
+        floor = rounding_noise(max(float(np.abs(f).max()) for f in forces))
+        if force_noise is None:
+            noise = ForceNoise(0.0, "rounding", 0)
+        elif isinstance(force_noise, str):
+            noise = _probe(template, source, calc, forces[0], floor, cluster)
+        else:
+            noise = ForceNoise(float(force_noise), "given", 0)
+    sigma = noise.value if noise.source == "given" else (max(noise.value, floor) if noise.noisy else floor)
+    reference = forces[0]
+    n_moves = len(moves)
+    raw = []
+    for k, m in enumerate(multiples):
+        block = forces[1 + k * n_moves: 1 + (k + 1) * n_moves]
+        raw.append(_fit(phonon, moves, [f - reference for f in block], m))
+    projected, report = impose_sum_rules(raw[0])
+    truncation = np.abs(raw[0] - raw[1]) / 3.0 if estimate_error else np.zeros_like(raw[0])
+    roundoff = float(sigma / h)
+    entry_error = truncation + np.abs(projected - raw[0]) + roundoff
+    phonon.force_constants = projected
+    crystal = Crystal.from_phonopy(phonon, name=unit.name)
+    return FiniteDifferenceForceConstants(
+        crystal=crystal, supercell=size, step=h, error_blocks=_fold(phonon, entry_error),
+        truncation=float(truncation.max()), roundoff=roundoff, force_noise=float(sigma), noise_source=noise.source,
+        sum_rules=report, n_displacements=n_moves, n_force_calls=computed, n_cached=cached)
+
+
+def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] | None = None, delta: float = 0.01,
+             client: Any = None, cache: str | os.PathLike[str] | None = None, calculator_key: str | None = None,
+             progress: ProgressOption = None, wrap: bool = False, left_handed: bool = False,
+             name: str | None = None) -> Crystal:
+    """A `Crystal` from an `ase.Atoms`: the structure alone, or with force constants from a calculator.
+
+    Without `calculator` and `supercell`: `Crystal.from_ase` (cell, positions, masses, symbols;
+    `wrap`, `left_handed` as there). With them: the force constants of
+    `finite_difference_force_constants` (displacements reduced by the space group, one force call
+    per displaced supercell, sum rules imposed), without the 2h step and the noise probe; use
+    that function for the error estimate.
+
+    Raises
+    ------
+    ValueError
+        A `calculator` without `supercell` (the message says so); the checks of both functions.
+
+    Examples
+    --------
+    >>> from ase.build import bulk
+    >>> from ase.calculators.emt import EMT
+    >>> copper = from_ase(bulk("Cu", "fcc", a=3.61), EMT(), supercell=(3, 3, 3))
+    >>> copper.n_branches, copper.units.name, bool(copper.frequencies([[0.0, 0.0, 0.0]]).max() < 1e-6)
+    (3, 'ASE', True)
+    """
+    if calculator is None and supercell is None:
+        return Crystal.from_ase(atoms, wrap=wrap, left_handed=left_handed, name=name)
+    if supercell is None:
+        raise ValueError("supercell is None; force constants from a calculator need supercell=(n1, n2, n3), "
+                         "larger than the calculator's interaction range")
+    return finite_difference_force_constants(
+        atoms, calculator, supercell=supercell, delta=delta, estimate_error=False, force_noise=None,
+        client=client, cache=cache, calculator_key=calculator_key, progress=progress, name=name).crystal
+
+
+def _supercell_atoms(supercell: Any, periodic: tuple[bool, bool, bool]) -> Atoms:
+    from ase import Atoms
+
+    return Atoms(symbols=list(supercell.symbols), positions=np.asarray(supercell.positions, dtype=float),
+                 cell=np.asarray(supercell.cell, dtype=float), masses=np.asarray(supercell.masses, dtype=float),
+                 pbc=list(periodic))
+
+
+def _fit(phonon: Any, moves: list[tuple[int, NDArray[np.float64]]], forces: list[NDArray[np.float64]],
+         multiple: int) -> NDArray[np.float64]:
+    """phonopy's full supercell force constants from the forces of one step multiple."""
+    dataset = {"natom": len(phonon.supercell),
+               "first_atoms": [{"number": atom, "displacement": multiple * vector, "forces": f}
+                               for (atom, vector), f in zip(moves, forces)]}
+    phonon.dataset = dataset
+    phonon.produce_force_constants(calculate_full_force_constants=True)
+    return np.array(phonon.force_constants, dtype=float)
+
+
+def _fold(phonon: Any, entry_error: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n_atoms, n_atoms, 3, 3): supercell entry errors summed over the images of each primitive pair."""
+    primitive = phonon.primitive
+    p2s = np.asarray(primitive.p2s_map)
+    s2pp = np.array([primitive.p2p_map[s] for s in primitive.s2p_map])
+    n = len(p2s)
+    folded = np.zeros((n, n, 3, 3))
+    for i, p in enumerate(p2s):
+        np.add.at(folded[i], s2pp, entry_error[p])
+    return folded
+
+
+class _Cluster:
+    """Where the force calls go: None (this process), or a client connected once, when first needed."""
+
+    def __init__(self, client: Any, stack: contextlib.ExitStack, n_workers: int | None, timeout: float) -> None:
+        self.client, self.stack, self.n_workers, self.timeout = client, stack, n_workers, timeout
+        self.opened: Any = None
+
+    def get(self) -> Any:
+        if self.opened is None:
+            self.opened = self.stack.enter_context(connect(self.client, n_workers=self.n_workers,
+                                                           timeout=self.timeout))
+        return self.opened
+
+
+def _gather(geometries: list[_Geometry], template: Atoms, source: CalculatorSource, store: _GeometryCache | None,
+            cluster: _Cluster, progress: ProgressOption) -> tuple[list[NDArray[np.float64]], int, int]:
+    """Forces at every geometry: from the cache, in this process, or one Dask task each."""
+    n = len(template)
+    base = template.get_positions()
+    found: dict[int, NDArray[np.float64]] = {}
+    if store is not None:
+        for k, g in enumerate(geometries):
+            values = store.load(g)
+            if values is not None:
+                found[k] = values
+    n_cached = len(found)
+    missing = [k for k in range(len(geometries)) if k not in found]
+
+    def positions(g: _Geometry) -> NDArray[np.float64]:
+        moved = base.copy()
+        if g.atom >= 0:
+            moved[g.atom] += np.asarray(g.vector)
+        return moved
+
+    def kept() -> str:
+        if store is None:
+            return " (pass cache= to keep the finished force calls of a run)"
+        return f" ({len(found)} finished force call(s) kept in the cache {str(store.folder)!r}; a rerun computes the rest)"
+
+    def accept(k: int, values: NDArray[np.float64]) -> str | None:
+        problem = force_problem(values, n, geometries[k].label)
+        if problem is None:
+            found[k] = values
+            if store is not None:
+                store.store(geometries[k], values)
+        return problem
+
+    if missing and cluster.client is None:
+        callback = progress_callback(progress, len(missing))
+        for done, k in enumerate(missing, start=1):
+            try:
+                values = displaced_forces(template, source, positions(geometries[k]))
+            except Exception as error:
+                raise RuntimeError(f"calculator failed at {geometries[k].label}: {type(error).__name__}: {error}"
+                                   + kept()) from error
+            problem = accept(k, values)
+            if problem is not None:
+                raise RuntimeError(problem + kept())
+            if callback is not None:
+                callback(done, len(missing), geometries[k].label)
+    elif missing:
+        problems: list[str] = []
+
+        def on_result(i: int, values: NDArray[np.float64]) -> None:
+            problem = accept(missing[i], values)
+            if problem is not None:
+                problems.append(problem)
+
+        _, failures = run_tasks(cluster.get(), displaced_forces,
+                                [(template, source, positions(geometries[k])) for k in missing],
+                                labels=[geometries[k].label for k in missing], on_result=on_result,
+                                progress=progress, name="vibra-crystal-fd")
+        problems.extend(f"calculator failed at {f.describe()}" for f in failures)
+        if problems:
+            raise RuntimeError(f"{len(problems)} of {len(geometries)} force calls failed: " + "; ".join(problems)
+                               + kept())
+    return [found[k] for k in range(len(geometries))], len(missing), n_cached
+
+
+def _probe(template: Atoms, source: CalculatorSource, calc: Any, reference: NDArray[np.float64], floor: float,
+           cluster: _Cluster) -> ForceNoise:
+    """force_noise="auto": the molecules' probe (`vibra.molecules.noise`), on the reference supercell."""
+    if is_deterministic_calculator(calc):
+        return ForceNoise(0.0, "analytic", 0)
+    advice = " (force_noise='auto' probes the calculator; pass force_noise=<number> or None to skip it)"
+    if cluster.client is None:
+        try:
+            return force_noise_task(template, source, reference, floor)
+        except Exception as error:
+            raise RuntimeError(f"calculator failed while measuring its force noise: {type(error).__name__}: "
+                               f"{error}{advice}") from error
+    results, failures = run_tasks(cluster.get(), force_noise_task,
+                                  [(template, source, reference, floor)], labels=["the force-noise probe"],
+                                  name="vibra-noise")
+    if failures:
+        raise RuntimeError(f"calculator failed while measuring its force noise: {failures[0].describe()}{advice}")
+    found: ForceNoise = results[0]
+    return found

@@ -1,0 +1,206 @@
+"""The steps of a crystal scene: bands with the DOS, thermal properties, one mode on a supercell.
+
+A crystal scene (``kind = "crystal"``) builds a `vibra.crystals.Crystal` (a lattice builder, or a
+phonopy file beside the scene) and then computes only what its ``[draw]`` table asks:
+
+- ``bands``: the band structure along the scene's path (SeeK-path's when none) and, beside it,
+  the DOS on the scene's mesh (``crystal-bands``, drawn by ``chart-bands``);
+- ``thermal``: free energy, entropy and heat capacity on the same mesh (``crystal-thermal``,
+  drawn by ``chart-thermal``);
+- ``mode``: one branch at one q written out on a supercell (``crystal-mode``) and animated
+  (``render-crystal-mode``, a GIF).
+
+The steps themselves are listed by `vibra.pipeline.plan.model.crystal_steps`.
+`check_crystal_plan` is what ``vibra validate`` checks on the built crystal (path labels, the
+mode's q label and branch, the supercell along vacuum axes), and `crystal_cost` the size and
+cost line it prints.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from vibra.pipeline.plan.model import Plan
+from vibra.pipeline.scene import Scene, SceneError
+
+__all__ = ["check_crystal_plan", "crystal_cost", "CRYSTAL_STEPS", "CRYSTAL_STEP_KEYS"]
+
+#: step name -> the scene key that controls it.
+CRYSTAL_STEP_KEYS = {"crystal-bands": "compute", "chart-bands": "draw.bands", "crystal-thermal": "compute",
+                     "chart-thermal": "draw.thermal", "crystal-mode": "draw.mode",
+                     "render-crystal-mode": "draw.mode"}
+
+
+def _known_points(scene: Scene, crystal: Any) -> dict[str, Any]:
+    from vibra.crystals.bands import special_points
+
+    try:
+        table, _ = special_points(crystal)
+    except ValueError as error:
+        raise SceneError(scene.source, "compute.path", f"no special points for this crystal ({error})") from None
+    return table
+
+
+def _label(scene: Scene, table: dict[str, Any], label: str, key: str) -> str:
+    from vibra.crystals.bands import ALIASES
+
+    name = label if label in table else ALIASES.get(label, label)
+    if name not in table:
+        known = ", ".join(sorted(table)) or "none"
+        raise SceneError(scene.source, key, f"is {label!r}, not a special point of this crystal; known "
+                         f"points: {known} ('G' and 'Γ' also mean 'GAMMA')")
+    return name
+
+
+def mode_wave_vector(scene: Scene, crystal: Any) -> Any:
+    """(3,) fractional q of ``draw.mode_q`` (a special-point label or 3 numbers)."""
+    spec = scene.crystal
+    assert spec is not None
+    if isinstance(spec.mode_q, str):
+        table = _known_points(scene, crystal)
+        return np.asarray(table[_label(scene, table, spec.mode_q, "draw.mode_q")], dtype=float)
+    return np.asarray(spec.mode_q, dtype=float)
+
+
+def check_crystal_plan(scene: Scene, crystal: Any) -> None:
+    """What the crystal steps would refuse, checked on the built crystal (no bands computed).
+
+    Raises
+    ------
+    SceneError
+        A path label that is not a special point of the crystal (``compute.path[r][k]``), the
+        same for ``draw.mode_q``, a branch beyond the crystal's, a supercell or mesh that is not
+        1 along a vacuum axis.
+    """
+    spec = scene.crystal
+    assert spec is not None
+    crystal.require_force_constants()
+    if spec.bands and spec.path is not None:
+        table = _known_points(scene, crystal)
+        for r, run in enumerate(spec.path):
+            for k, label in enumerate(run):
+                _label(scene, table, label, f"compute.path[{r}][{k}]" if len(spec.path) > 1 else f"compute.path[{k}]")
+    if spec.mode:
+        mode_wave_vector(scene, crystal)
+        if spec.mode_branch >= crystal.n_branches:
+            raise SceneError(scene.source, "draw.mode_branch", f"is {spec.mode_branch}; this crystal has "
+                             f"{crystal.n_branches} branches (0 to {crystal.n_branches - 1})")
+    for axis in range(3):
+        if not crystal.periodic[axis]:
+            if spec.mode and spec.supercell[axis] != 1:
+                raise SceneError(scene.source, "draw.supercell", f"is {list(spec.supercell)}; axis {axis} is a "
+                                 "vacuum axis of this crystal and takes 1 cell")
+            if (spec.bands or spec.thermal) and spec.mesh[axis] != 1:
+                raise SceneError(scene.source, "compute.mesh", f"is {list(spec.mesh)}; axis {axis} is a vacuum "
+                                 "axis of this crystal and takes 1 point")
+
+
+def crystal_cost(scene: Scene, crystal: Any) -> str:
+    """The size of a crystal scene and the work it asks for, in one line (``vibra validate``)."""
+    spec = scene.crystal
+    assert spec is not None
+    fc = crystal.require_force_constants()
+    n3 = crystal.n_branches
+    parts = [f"{crystal.n_atoms} atoms per cell, {n3} branches, {fc.n_terms} force-constant terms"]
+    work = 0
+    if spec.bands:
+        parts.append(f"bands {spec.npoints} q")
+        work += spec.npoints
+    if spec.bands or spec.thermal:
+        n_mesh = int(np.prod(spec.mesh))
+        parts.append(f"mesh {'x'.join(str(n) for n in spec.mesh)} = {n_mesh} q (fewer by symmetry)")
+        work += n_mesh
+    if spec.mode:
+        cells = int(np.prod(spec.supercell))
+        parts.append(f"mode on {cells * crystal.n_atoms} atoms x {spec.frames} frames")
+    # each q: D(q) from the terms (n_terms (3n)^2) and one Hermitian solve (~10 (3n)^3 flops)
+    flops = work * (fc.n_terms * n3 * n3 + 10 * n3 ** 3)
+    parts.append(f"about {flops / 1e9:.2g} Gflop of D(q) solves")
+    return "; ".join(parts)
+
+
+# ---------------------------------------------------------------------- steps
+def _frequency_text(scene: Scene, units: Any, omega: float) -> str:
+    spec = scene.crystal
+    assert spec is not None
+    if spec.frequency_unit == "THz":
+        return f"{float(units.omega_to_thz(omega)):.4g} THz"
+    return f"{float(units.omega_to_cm1(omega)):.4g} cm^-1"
+
+
+def _step_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    spec = plan.scene.crystal
+    crystal = context.system
+    path = None if spec.path is None else [list(run) for run in spec.path]
+    bands = crystal.band_structure(path, npoints=spec.npoints)
+    dos = crystal.dos(list(spec.mesh), method=spec.dos_method)
+    context.bands = (bands, dos)
+    scale = max(float(np.abs(bands.omega).max()), np.finfo(float).tiny)
+    return "stacked Hermitian eigh + " + spec.dos_method, \
+        f"max omega error {float(bands.omega_error.max()) / scale:.2e} (relative to max omega)"
+
+
+def _step_chart_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.crystals import plot_bands_dos
+
+    spec = plan.scene.crystal
+    bands, dos = context.bands
+    figure = plot_bands_dos(bands, dos, unit=spec.frequency_unit, title=plan.scene.title)
+    unit = "THz" if spec.frequency_unit == "THz" else "cm^-1"
+    context.save_chart(figure, "bands",
+                       f"{plan.scene.title}: phonon bands along the path (vertical lines at the special points, "
+                       f"a heavier one where the path breaks) and the {dos.method} DOS on a "
+                       f"{'x'.join(str(int(n)) for n in dos.mesh)} mesh, in {unit}")
+    return None, None
+
+
+def _step_thermal(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    spec = plan.scene.crystal
+    temperatures = np.linspace(spec.temperatures[0], spec.temperatures[1], spec.n_temperatures)
+    context.thermal = context.system.thermal_properties(temperatures, mesh=list(spec.mesh))
+    excluded = context.thermal.excluded
+    return "harmonic sums over the mesh", f"{excluded} mode(s) left out as not certainly positive"
+
+
+def _step_chart_thermal(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.crystals import plot_thermal
+
+    figure = plot_thermal(context.thermal, title=plan.scene.title)
+    context.save_chart(figure, "thermal",
+                       f"{plan.scene.title}: harmonic free energy, entropy and heat capacity per mole of cells "
+                       "against temperature (C_v tends to 3 n_atoms R, the Dulong-Petit limit)")
+    return None, None
+
+
+def _step_mode(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    spec = plan.scene.crystal
+    crystal = context.system
+    q = mode_wave_vector(plan.scene, crystal)
+    context.supercell_mode = crystal.supercell_mode(q, spec.mode_branch, list(spec.supercell))
+    mode = context.supercell_mode
+    return None, f"omega = {_frequency_text(plan.scene, crystal.units, mode.omega)} at q = {np.round(q, 4).tolist()}"
+
+
+def _step_render_mode(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    spec = plan.scene.crystal
+    mode = context.supercell_mode
+    label = spec.mode_q if isinstance(spec.mode_q, str) else str(list(spec.mode_q))
+    frequency = f"branch {mode.branch} at q = {label}: {_frequency_text(plan.scene, mode.units, mode.omega)}"
+    name, caption = renderer.render_supercell_mode(plan.scene, mode, context.out_dir, frames=spec.frames,
+                                                   frequency=frequency)
+    context.outputs.append(name)
+    context.captions.append(caption)
+    return None, None
+
+
+#: step name -> the function that runs it (joined to `vibra.pipeline.plan.steps.STEPS`).
+CRYSTAL_STEPS: dict[str, Callable[[Plan, Any, Any], tuple[str | None, str | None]]] = {
+    "crystal-bands": _step_bands,
+    "chart-bands": _step_chart_bands,
+    "crystal-thermal": _step_thermal,
+    "chart-thermal": _step_chart_thermal,
+    "crystal-mode": _step_mode,
+    "render-crystal-mode": _step_render_mode,
+}
