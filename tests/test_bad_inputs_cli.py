@@ -496,8 +496,8 @@ def test_a_folder_where_an_output_file_goes_fails_that_scene(tmp_path: Path,
     (out / "small_spectrum.png").mkdir(parents=True)
     code, stdout, err = run_cli(capsys, "report", str(scene_file), "--out", str(out), "--quiet", "--jobs", "1")
     assert code == 1
-    assert f"FAILED {scene_file}: name: {out / 'small_spectrum.png'} is a folder where this scene's output file " \
-           "goes" in err
+    assert f"FAILED {scene_file}: name: this scene's output file {out / 'small_spectrum.png'}: is a folder; vibra " \
+           "writes regular files only" in err
     assert "Traceback" not in err + stdout and (out / "small_spectrum.png").is_dir()
 
 

@@ -4,7 +4,10 @@ A sweep is a scene file (or a parsed scene table, or a Python builder) and a set
 
 - a **grid** (`grid`, `vary`): the Cartesian product of value ranges, one per dotted key of
   the scene (``system.defect_mass``, ``system.stiffness``, ``compute.n_modes``), linear or
-  logarithmic; for a builder the keys are its keyword arguments;
+  logarithmic; for a builder the keys are its keyword arguments. Ranges and grids are lazy
+  sequences (`ValueRange`, `GridPoints`): a value is computed when it is read, so a grid of
+  10^9 points takes a few bytes until it runs. `sweep` refuses more than ``max_points``
+  points (`DEFAULT_MAX_POINTS`, 100,000), with the count and the time one point took;
 - an **ensemble** (`ensemble`): n random members. Member i draws from its own generator
   `member_rng` (seed, i) = ``default_rng(SeedSequence(seed, spawn_key=(i,)))``, the i-th
   child of ``SeedSequence(seed).spawn(n)``, so the same seed gives the same members whatever
@@ -53,7 +56,110 @@ from vibra.pipeline.plan import build_system
 from vibra.pipeline.scene import Scene, SceneError, tomllib
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
-           "SweepTable", "sweep"]
+           "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS", "describe_duration"]
+
+#: Points a sweep runs without ``max_points=`` (``--max-points``): 10^5 points of a
+#: millisecond each take minutes; more is refused with the count and an estimate.
+DEFAULT_MAX_POINTS = 100_000
+
+
+class ValueRange(Sequence[float]):
+    """`n` values from `start` to `stop`, linear or logarithmic, each computed when read.
+
+    Value i is the one ``numpy.linspace`` (``numpy.geomspace``) gives: ``start + i * step``
+    (``10 ** (log10(start) + i * step)``), with the ends exactly `start` and `stop`.
+    """
+
+    def __init__(self, start: float, stop: float, n: int, spacing: Literal["linear", "log"]) -> None:
+        self.start, self.stop, self.n, self.spacing = float(start), float(stop), int(n), spacing
+        if spacing == "log":
+            self._low, self._high = float(np.log10(self.start)), float(np.log10(self.stop))
+        else:
+            self._low, self._high = self.start, self.stop
+        self._step = (self._high - self._low) / (self.n - 1) if self.n > 1 else 0.0
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return tuple(self[i] for i in range(*index.indices(self.n)))
+        i = int(index)
+        if i < 0:
+            i += self.n
+        if not 0 <= i < self.n:
+            raise IndexError(f"index {index} out of range for {self.n} values")
+        if i == 0:
+            return self.start
+        if i == self.n - 1:
+            return self.stop
+        value = np.float64(i) * np.float64(self._step) + np.float64(self._low)
+        return float(np.power(10.0, value)) if self.spacing == "log" else float(value)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, ValueRange):
+            return (self.start, self.stop, self.n, self.spacing) == (other.start, other.stop, other.n, other.spacing)
+        if isinstance(other, (tuple, list)):
+            return len(other) == self.n and all(a == b for a, b in zip(self, other))
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash((self.start, self.stop, self.n, self.spacing))
+
+    def __repr__(self) -> str:
+        return f"ValueRange({self.start!r}, {self.stop!r}, {self.n}, {self.spacing!r})"
+
+
+class GridPoints(Sequence[tuple[Any, ...]]):
+    """The Cartesian product of value sequences, the first varying slowest; point i computed when read."""
+
+    def __init__(self, axes: Sequence[Sequence[Any]]) -> None:
+        self.axes = tuple(axes)
+        self._size = math.prod(len(a) for a in self.axes)
+
+    def __len__(self) -> int:
+        return self._size
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return tuple(self[i] for i in range(*index.indices(self._size)))
+        i = int(index)
+        if i < 0:
+            i += self._size
+        if not 0 <= i < self._size:
+            raise IndexError(f"point {index} out of range for {self._size} points")
+        values = []
+        for axis in reversed(self.axes):
+            i, digit = divmod(i, len(axis))
+            values.append(axis[digit])
+        return tuple(reversed(values))
+
+    def __iter__(self) -> Any:
+        return itertools.product(*self.axes)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, GridPoints):
+            return self.axes == other.axes
+        if isinstance(other, (tuple, list)):
+            return len(other) == self._size and all(a == b for a, b in zip(self, other))
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self.axes)
+
+    def __repr__(self) -> str:
+        return f"GridPoints({len(self)} points of {len(self.axes)} axes)"
+
+
+def describe_duration(seconds: float) -> str:
+    """A duration in words: ``"40 s"``, ``"12 min"``, ``"3.5 h"``, ``"9 days"``."""
+    if seconds < 120:
+        return f"{seconds:.2g} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 3 * 86400:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds / 86400:.0f} days"
 
 
 # ---------------------------------------------------------------------- points
@@ -65,12 +171,12 @@ class Axis:
     ----------
     key : str
         Dotted key of the scene (``system.defect_mass``) or a builder's keyword.
-    values : tuple of int or float
-        The values, in the key's own unit.
+    values : sequence of int or float
+        The values, in the key's own unit (a tuple, or a lazy `ValueRange` from `vary`).
     """
 
     key: str
-    values: tuple[Any, ...]
+    values: Sequence[Any]
 
 
 def vary(key: str, start: float, stop: float, n: int, *, spacing: Literal["linear", "log"] = "linear") -> Axis:
@@ -96,12 +202,9 @@ def vary(key: str, start: float, stop: float, n: int, *, spacing: Literal["linea
     if spacing == "log":
         if low <= 0 or high <= 0:
             raise ValueError(f"{key}: log spacing needs positive start and stop, got {start!r} and {stop!r}")
-        values = np.geomspace(low, high, int(n))
-    elif spacing == "linear":
-        values = np.linspace(low, high, int(n))
-    else:
+    elif spacing != "linear":
         raise ValueError(f"spacing is {spacing!r}; expected 'linear' or 'log'")
-    return Axis(key, tuple(float(v) for v in values))
+    return Axis(key, ValueRange(low, high, int(n), spacing))  # lazy: nothing allocated for n values
 
 
 def parse_vary(text: str) -> Axis:
@@ -138,12 +241,13 @@ class Grid:
     Attributes
     ----------
     keys : tuple of str
-    points : tuple of tuple
-        One value per key for each point.
+    points : sequence of tuple
+        One value per key for each point (a lazy `GridPoints`: ``len`` is the count, point i
+        is computed when read).
     """
 
     keys: tuple[str, ...]
-    points: tuple[tuple[float, ...], ...]
+    points: Sequence[tuple[Any, ...]]
 
 
 def grid(*axes: Axis | Mapping[str, Sequence[float]]) -> Grid:
@@ -171,7 +275,7 @@ def grid(*axes: Axis | Mapping[str, Sequence[float]]) -> Grid:
             raise ValueError(f"{a.key}: no values; an empty range has nothing to sweep")
         if keys.count(a.key) > 1:
             raise ValueError(f"{a.key}: the key is swept twice; give each key once")
-    return Grid(tuple(keys), tuple(itertools.product(*(a.values for a in flat))))
+    return Grid(tuple(keys), GridPoints([a.values for a in flat]))
 
 
 def _scalar(key: str, value: Any) -> Any:
@@ -387,6 +491,8 @@ def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str,
             _, payload = _scene_at(data, source, drawn)
             parameters = parameters + tuple((str(k), v) for k, v in drawn.items()
                                             if isinstance(v, (int, float)) and not isinstance(v, bool))
+        else:  # the point's values: its table is made here (the grid keeps none)
+            _, payload = _scene_at(data, source, dict(payload))
         system, modes, _ = _solve_scene(payload, source)
     else:
         kwargs = dict(payload) if payload is not None else {"rng": member_rng(options["seed"], index)}
@@ -421,7 +527,7 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
           progress: ProgressOption = None, n_workers: int | None = None, timeout: float = 10.0,
           n_modes: int | None = None, band: tuple[float, float] | None = None,
           accuracy: Literal["high", "fast"] = "high", solver: str = "auto", name: str | None = None,
-          chunk_size: int = 1) -> SweepTable:
+          chunk_size: int = 1, max_points: int = DEFAULT_MAX_POINTS) -> SweepTable:
     """Solve `target` at every point of `points`; one row per point, in point order.
 
     Parameters
@@ -450,6 +556,10 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         Points per Dask task. 1 (one task per point) balances the load best when points are
         expensive; points that take about a millisecond run several times faster in chunks
         (the per-task cost of Dask is a few milliseconds: benchmarks/RESULTS_distributed.md).
+    max_points : int
+        The most points (grid points or ensemble members) this call runs (`DEFAULT_MAX_POINTS`).
+        A larger sweep is refused before any work but one point, solved to say how long the
+        whole sweep would take (the refusal depends on the count only, never on the clock).
 
     Returns
     -------
@@ -461,7 +571,8 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         A point's scene is invalid: an unknown key (the closest valid key suggested), a
         wrong value; checked for every point before any is solved.
     ValueError, TypeError
-        Malformed points, target, client or options; an ensemble of a scene without ``draw``.
+        Malformed points, target, client or options; an ensemble of a scene without ``draw``;
+        more points than `max_points` (the message gives the count and the time estimate).
     RuntimeError
         One or more points failed while solving (each named with its values).
     vibra.cluster.ClusterError
@@ -482,9 +593,14 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         points = grid(points)
     if not isinstance(points, (Grid, Ensemble)):
         raise TypeError(f"points must be a Grid, Axis, mapping or Ensemble, got {type(points).__name__}")
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 1:
+        raise ValueError(f"max_points is {max_points!r}; expected an integer >= 1")
     options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver}
     if isinstance(points, Ensemble):
         options.update(seed=points.seed, draw=points.draw)
+    count = len(points.points) if isinstance(points, Grid) else points.n
+    if count > max_points:
+        _refuse_size(target, points, options, name, derive, count, int(max_points))
     tasks, labels, units, table_name = _prepare(target, points, options, name)
     kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
     arguments = [(kind, payload_target, index, parameters, payload, options, derive)
@@ -520,6 +636,28 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     return SweepTable(name=table_name, keys=tuple(keys), units=units or "", rows=tuple(rows))
 
 
+def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None, derive: Any,
+                 count: int, max_points: int) -> None:
+    """Raise the refusal of a sweep of `count` > `max_points` points, timed from its first point."""
+    import time
+
+    first: Grid | Ensemble = (Grid(points.keys, (points.points[0],)) if isinstance(points, Grid)
+                              else Ensemble(points.seed, 1, points.draw))
+    tasks, _, _, _ = _prepare(target, first, options, name)
+    kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
+    payload_target, index, parameters, payload = tasks[0]
+    seconds = math.inf
+    for _ in range(2):  # the second run, when the first was short, leaves imports and caches out
+        start = time.perf_counter()
+        _point_task(kind, payload_target, index, parameters, payload, options, derive)
+        seconds = min(seconds, time.perf_counter() - start)
+        if seconds > 1.0:
+            break
+    raise ValueError(f"{count:,} points is more than max_points={max_points:,} (--max-points); one point took "
+                     f"{seconds:.2g} s here, so the sweep would take about {describe_duration(count * seconds)} in "
+                     "one process; sweep fewer points, or raise max_points (--max-points) to run it")
+
+
 def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None
              ) -> tuple[list[tuple[Any, int, tuple[tuple[str, Any], ...], Any]], list[str], str | None, str]:
     """Per point: (target payload, index, parameters, point payload); labels; units; table name."""
@@ -543,8 +681,8 @@ def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name
     if isinstance(points, Grid):
         for index, values in enumerate(points.points):
             parameters = tuple(zip(points.keys, values))
-            _, table = _scene_at(data, source, dict(parameters))  # every point validated before any work
-            tasks.append(((data, source), index, parameters, table))
+            _scene_at(data, source, dict(parameters))  # every point validated before any work (not kept)
+            tasks.append(((data, source), index, parameters, parameters))
             labels.append(f"point {index}: " + ", ".join(f"{k}={v:g}" for k, v in parameters))
     else:
         if points.draw is None:

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, BUILDERS, builder_function
+from vibra.pipeline.scene.files import scene_inputs
 from vibra.pipeline.scene.schema import Reader, check_combinations, parse_compute, parse_draw, parse_system
 from vibra.pipeline.scene.specs import (
     DEFAULT_UNITS, KINDS, SAFE_NAME, UNITS, ComputeSpec, ContinuumSpec, DrawSpec, ResponseSpec, SceneError,
@@ -49,6 +50,7 @@ __all__ = [
     "SceneError", "Scene", "SystemSpec", "ComputeSpec", "ResponseSpec", "ContinuumSpec",
     "DrawSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
     "tomllib", "MAX_SCENE_BYTES", "MAX_SCENE_DEPTH", "read_scene_bytes", "parse_scene_text",
+    "scene_inputs",
 ]
 
 
