@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -693,3 +694,162 @@ def test_changed_code_is_not_served_from_the_skip_cache(tmp_path: Path, monkeypa
     assert " skipped " in run_cli(capsys, "report", str(scene_file), "--out", str(out), "--quiet")[1]
     monkeypatch.setattr(batch, "code_hash", lambda: "another build of vibra")
     assert " ok " in run_cli(capsys, "report", str(scene_file), "--out", str(out), "--quiet")[1]
+
+
+# ---------------------------------------------------------------------- issue 34: what the commands write
+WATER = 'kind = "molecule"\nunits = "ASE"\n[system]\nbuilder = "h2o"\n'
+XYZ_WATER = ('kind = "molecule"\nunits = "ASE"\n[system]\nbuilder = "molecule"\nxyz = "water.xyz"\n')
+WATER_XYZ = "3\nwater\nO 0.0 0.0 0.119\nH 0.0 0.763 -0.477\nH 0.0 -0.763 -0.477\n"
+
+
+def _tree(root: Path) -> dict[str, tuple[int, int, int, int]]:
+    """Every entry below `root` (nothing followed or opened): kind+mode, size, mtime, inode (folders:
+    kind+mode and inode)."""
+    out = {}
+    for folder, names, files in os.walk(root):
+        for name in names + files:
+            info = os.lstat(Path(folder) / name)
+            folder_entry = stat.S_ISDIR(info.st_mode)
+            out[str((Path(folder) / name).relative_to(root))] = (
+                info.st_mode, 0 if folder_entry else info.st_size, 0 if folder_entry else info.st_mtime_ns, info.st_ino)
+    return out
+
+
+def _molden_target(kind: str, tmp_path: Path, scene_file: Path) -> tuple[Path, str]:
+    """(the --molden FILE of one hostile kind, a fragment of the refusal)."""
+    if kind == "scene-itself":
+        return scene_file, "is an input of this run"
+    if kind == "xyz-input":
+        return tmp_path / "water.xyz", "is an input of this run"
+    if kind == "symlink-to-scene":
+        (tmp_path / "link.molden").symlink_to(scene_file)
+        return tmp_path / "link.molden", "is an input of this run"
+    if kind == "hardlink-to-scene":
+        os.link(scene_file, tmp_path / "hard.molden")
+        return tmp_path / "hard.molden", "is an input of this run"
+    if kind == "folder":
+        (tmp_path / "folder.molden").mkdir()
+        return tmp_path / "folder.molden", "is a folder"
+    if kind == "fifo":
+        os.mkfifo(tmp_path / "fifo.molden")
+        return tmp_path / "fifo.molden", "is a FIFO"
+    if kind == "device":  # a node like /dev/null, made inside tmp_path (never the real one)
+        try:
+            os.mknod(tmp_path / "null", stat.S_IFCHR | 0o666, os.makedev(1, 3))
+        except OSError:
+            pytest.skip("cannot make a device node here (not root)")
+        return tmp_path / "null", "is a device"
+    if kind == "existing-without-force":
+        (tmp_path / "old.molden").write_text("an earlier file")
+        return tmp_path / "old.molden", "exists; --force replaces it"
+    if kind == "below-a-file":
+        (tmp_path / "plain").write_text("x")
+        return tmp_path / "plain" / "h2o.molden", f"its folder {tmp_path / 'plain'} is a regular file, not a folder"
+    raise AssertionError(kind)
+
+
+MOLDEN_KINDS = ["scene-itself", "xyz-input", "symlink-to-scene", "hardlink-to-scene", "folder", "fifo", "device",
+                "existing-without-force", "below-a-file"]
+
+
+@pytest.mark.parametrize("kind", MOLDEN_KINDS)
+def test_molden_never_writes_over_an_input_or_a_special_file(kind: str, tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: `--molden molecules/h2o.toml` overwrote the scene; `--molden NODE` replaced a device node
+    scene_file = tmp_path / "water.toml"
+    scene_file.write_text(XYZ_WATER)
+    (tmp_path / "water.xyz").write_text(WATER_XYZ)
+    target, fragment = _molden_target(kind, tmp_path, scene_file)
+    before = _tree(tmp_path)
+    code, out, err = run_cli(capsys, "modes", str(scene_file), "--molden", str(target))
+    assert code == 1 and err.count("\n") == 1 and "Traceback" not in err + out, err
+    assert err.startswith(f"vibra modes: {scene_file}: --molden {target}: {fragment}"), err
+    assert _tree(tmp_path) == before and scene_file.read_text() == XYZ_WATER
+
+
+def test_molden_replaces_an_existing_file_with_force_only(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scene_file = tmp_path / "h2o.toml"
+    scene_file.write_text(WATER)
+    target = tmp_path / "h2o.molden"
+    code, out, _ = run_cli(capsys, "modes", str(scene_file), "--molden", str(target))
+    assert code == 0 and target.read_text().startswith("[Molden Format]")
+    target.write_text("mine")
+    code, _, err = run_cli(capsys, "modes", str(scene_file), "--molden", str(target))
+    assert code == 1 and "exists; --force replaces it" in err and target.read_text() == "mine"
+    code, _, _ = run_cli(capsys, "modes", str(scene_file), "--molden", str(target), "--force")
+    assert code == 0 and target.read_text().startswith("[Molden Format]")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h2o.molden", "h2o.toml"]
+
+
+def test_molden_refuses_the_real_dev_null_without_touching_it(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    # the refusal comes from lstat alone: /dev/null is never opened, renamed over or removed
+    scene_file = tmp_path / "h2o.toml"
+    scene_file.write_text(WATER)
+    before = os.lstat("/dev/null")
+    code, _, err = run_cli(capsys, "modes", str(scene_file), "--molden", "/dev/null", "--force")
+    after = os.lstat("/dev/null")
+    assert code == 1 and "--molden /dev/null: is a device" in err
+    assert (before.st_ino, before.st_mode, before.st_rdev) == (after.st_ino, after.st_mode, after.st_rdev)
+
+
+def test_sweep_out_that_is_a_file_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: "[Errno 17] File exists"
+    out = tmp_path / "file"
+    out.write_text("x")
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:2", "--out", str(out), "-q")
+    assert code == 1 and err.strip() == f"vibra sweep: --out {out}: is a regular file; expected a folder (created " \
+                                        "when missing)"
+    assert out.read_text() == "x"
+
+
+def test_sweep_chart_path_that_is_a_folder_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: the CSV and JSON were written, the PNG not, and the error named the temporary file
+    out = tmp_path / "out"
+    (out / "mass-defect_sweep.png").mkdir(parents=True)
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:2", "--out", str(out), "-q")
+    assert code == 1 and err.count("\n") == 1 and "~tmp~" not in err
+    assert f"--out {out / 'mass-defect_sweep.png'}: is a folder" in err
+    assert sorted(p.name for p in out.iterdir()) == ["mass-defect_sweep.png"]
+
+
+def test_sweep_outputs_never_replace_the_scene(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a scene named like the sweep's own output, in the output folder
+    scene_file = tmp_path / "c_sweep.json"
+    scene_file.write_text('kind = "chain"\nname = "c"\n[system]\nbuilder = "linear_chain"\nn = 4\n')
+    text = scene_file.read_text()
+    code, _, err = run_cli(capsys, "sweep", str(scene_file), "--vary", "system.n=3:4:2", "--out", str(tmp_path), "-q")
+    assert code == 1 and "is an input of this run" in err and scene_file.read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c_sweep.json"]
+
+
+def test_a_billion_point_sweep_is_refused_with_the_count_and_an_estimate(tmp_path: Path,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: MemoryError building 10^9 points; the refusal needs one point solved, not the grid in memory
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:1000000000", "--out", str(tmp_path / "o"), "-q")
+    assert code == 1 and err.count("\n") == 1, err
+    assert "1,000,000,000 points is more than max_points=100,000 (--max-points); one point took" in err
+    assert "so the sweep would take about" in err and not (tmp_path / "o").exists()
+
+
+def test_max_points_bounds_and_raises_the_limit(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary", "system.defect_mass=0.2:0.8:3",
+            "--out", str(tmp_path), "-q"]
+    code, _, err = run_cli(capsys, *args, "--max-points", "2")
+    assert code == 1 and "3 points is more than max_points=2" in err and list(tmp_path.iterdir()) == []
+    code, out, _ = run_cli(capsys, *args, "--max-points", "3")
+    assert code == 0 and "3 point(s)" in out
+    with pytest.raises(SystemExit) as stop:
+        cli.main([*args, "--max-points", "0"])
+    assert stop.value.code == 2 and "--max-points must be >= 1" in capsys.readouterr().err
+
+
+def test_help_says_what_each_writer_may_replace(capsys: pytest.CaptureFixture[str]) -> None:
+    for command, fragment in (("modes", "--force"), ("sweep", "rewrites <scene>_sweep.csv"),
+                              ("report", "each run rewrites its own files")):
+        with pytest.raises(SystemExit):
+            cli.main([command, "--help"])
+        assert fragment in " ".join(capsys.readouterr().out.split())

@@ -189,7 +189,7 @@ def check_target(path: str | os.PathLike[str], *, option: str = "",
                                 option=option, code=error.errno or errno.EINVAL) from None
         if not stat.S_ISDIR(mode):
             what = "a regular file" if stat.S_ISREG(mode) else describe_kind(mode)
-            raise TargetRefused(path, f"{folder} is {what}, not a folder; expected a path inside "
+            raise TargetRefused(path, f"its folder {folder} is {what}, not a folder; expected a path inside "
                                 "a folder", option=option, code=errno.ENOTDIR)
         break
     return target

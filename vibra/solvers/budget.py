@@ -157,11 +157,10 @@ def _read_number(path: str) -> float | None:
     return None if value >= 2.0**62 else value  # cgroup v1 writes ~2^63 for "no limit"
 
 
-def _cgroup_room() -> float | None:
+def _cgroup_room(root: str = "/sys/fs/cgroup") -> float | None:
     """The cgroup memory limit less its usage, in bytes: v2 memory.max, else v1 memory.limit_in_bytes."""
-    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
-                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+    for limit_file, usage_file in ((f"{root}/memory.max", f"{root}/memory.current"),
+                                   (f"{root}/memory/memory.limit_in_bytes", f"{root}/memory/memory.usage_in_bytes")):
         limit = _read_number(limit_file)
         if limit is not None:
             used = _read_number(usage_file) or 0.0
