@@ -853,3 +853,72 @@ def test_help_says_what_each_writer_may_replace(capsys: pytest.CaptureFixture[st
         with pytest.raises(SystemExit):
             cli.main([command, "--help"])
         assert fragment in " ".join(capsys.readouterr().out.split())
+
+
+# ---------------------------------------------------------------------- issue 34: inputs that are whole
+def _network(tmp_path: Path, pdb_text: str) -> Path:
+    scene_file = tmp_path / "ubiquitin.toml"
+    scene_file.write_text((ROOT / "networks" / "ubiquitin" / "ubiquitin-anm.toml").read_text())
+    (tmp_path / "1ubi.pdb").write_text(pdb_text)
+    return scene_file
+
+
+@pytest.mark.parametrize("fraction", [1 / 3, 2 / 3])
+def test_a_network_scene_with_a_cut_pdb_is_refused_at_its_key(fraction: float, tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: cut at two thirds, exit 0 with 47 of 76 atoms; at one third, an n_modes error with no hint
+    text = (ROOT / "networks" / "ubiquitin" / "1ubi.pdb").read_text()
+    atoms = [i for i, line in enumerate(text.splitlines(keepends=True)) if line.startswith("ATOM")]
+    lines = text.splitlines(keepends=True)
+    index = atoms[int(fraction * len(atoms))]
+    scene_file = _network(tmp_path, "".join(lines[:index]) + lines[index][:33])
+    for command in ("validate", "modes"):
+        code, out, err = run_cli(capsys, command, str(scene_file))
+        text_out = one_line_failure(out) if command == "validate" else err.strip()
+        assert code == 1 and f"system.pdb: {tmp_path / '1ubi.pdb'}: line {index + 1}: the last ATOM record stops " \
+                              "at column 33" in text_out, out + err
+
+
+def test_a_network_scene_with_a_pdb_cut_between_lines_warns_in_one_line(tmp_path: Path,
+                                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    text = (ROOT / "networks" / "ubiquitin" / "1ubi.pdb").read_text()
+    lines = text.splitlines(keepends=True)
+    atoms = [i for i, line in enumerate(lines) if line.startswith("ATOM")]
+    scene_file = _network(tmp_path, "".join(lines[:atoms[-200]]))
+    code, out, err = run_cli(capsys, "validate", str(scene_file))
+    warning = [line for line in err.splitlines() if "warning" in line]
+    assert len(warning) == 1 and warning[0].startswith("vibra validate: warning: ") and "Traceback" not in err
+    assert f"line {atoms[-200]}: the file ends without an END record" in warning[0]
+
+
+#: (case, .xyz text, fragment): issue 34's "atom count line against the atoms read", and the NaN
+#: coordinate once reported at name_or_atoms.positions[1,0] rather than the scene's key.
+XYZ_CASES = [
+    ("count-above-atoms", "4\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 5: the file ends after 3 atom line(s), "
+     "but line 1 announces 4; the file looks truncated"),
+    ("count-below-atoms", "2\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 5: more lines follow the 2 atoms"),
+    ("cut-mid-line", WATER_XYZ[:-12], "line 5: is 'H 0.0 -0'; an atom line reads 'symbol x y z'"),
+    ("nan-coordinate", WATER_XYZ.replace("0.763 -0.477", "nan -0.477"), "line 4: coordinate y of atom 1 is 'nan'"),
+    ("word-count", "three\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 1: is 'three'; an XYZ file starts with its "
+     "number of atoms"),
+    ("second-frame", WATER_XYZ + WATER_XYZ, "line 6: more lines follow the 3 atoms"),
+    ("empty", "", "line 1: is ''"),
+]
+
+
+@pytest.mark.parametrize("case, xyz, fragment", XYZ_CASES, ids=[case[0] for case in XYZ_CASES])
+def test_a_molecule_xyz_is_checked_whole_at_system_xyz(case: str, xyz: str, fragment: str, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    scene_file = tmp_path / "water.toml"
+    scene_file.write_text(XYZ_WATER)
+    (tmp_path / "water.xyz").write_text(xyz)
+    code, out, err = run_cli(capsys, "validate", str(scene_file))
+    assert code == 1 and f"system.xyz: 'water.xyz': {fragment}" in one_line_failure(out), out + err
+
+
+def test_a_whole_xyz_with_trailing_blank_lines_is_read(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scene_file = tmp_path / "water.toml"
+    scene_file.write_text(XYZ_WATER)
+    (tmp_path / "water.xyz").write_text(WATER_XYZ + "\n\n")
+    code, out, _ = run_cli(capsys, "validate", str(scene_file))
+    assert code == 0 and out.startswith("ok")

@@ -117,7 +117,8 @@ def test_molecule_builder_refusals_are_scene_errors(tmp_path: Path, body: str, m
 
 def test_bad_xyz_file_is_one_line(tmp_path: Path) -> None:
     (tmp_path / "bad.xyz").write_text("not a number\n")
-    with pytest.raises(SceneError, match=r"system\.xyz: 'bad\.xyz' is not a readable XYZ file"):
+    with pytest.raises(SceneError, match=r"system\.xyz: 'bad\.xyz': line 1: is 'not a number'; an XYZ file starts "
+                                         "with its number of atoms"):
         validate(load_scene(molecule_scene(tmp_path, 'builder = "molecule"\nxyz = "bad.xyz"\n')))
 
 
