@@ -145,7 +145,7 @@ def test_modes_molden_writes_a_molden_file(tmp_path: Path) -> None:
 @pytest.mark.parametrize("scene, target, message", [
     ("chains/diatomic.toml", "x.molden", "--molden writes molecules only"),
     ("molecules/co2-axial.toml", "x.molden", "--molden writes molecules only"),
-    ("molecules/h2o.toml", "blocker/x.molden", "--molden: cannot write"),
+    ("molecules/h2o.toml", "blocker/x.molden", "blocker is a regular file, not a folder"),
 ])
 def test_modes_molden_errors_are_one_line(tmp_path: Path, scene: str, target: str, message: str) -> None:
     (tmp_path / "blocker").write_text("a file where a folder should be")
