@@ -922,3 +922,18 @@ def test_a_whole_xyz_with_trailing_blank_lines_is_read(tmp_path: Path, capsys: p
     (tmp_path / "water.xyz").write_text(WATER_XYZ + "\n\n")
     code, out, _ = run_cli(capsys, "validate", str(scene_file))
     assert code == 0 and out.startswith("ok")
+
+
+# ---------------------------------------------------------------------- issue 34: honest sizes
+@pytest.mark.parametrize("scene_file, dofs", [
+    ("networks/ubiquitin/ubiquitin-anm.toml", 3 * 76),  # 76 C-alpha atoms in 1UBI, 3 coordinates each
+    ("chains/long-chain.toml", 1_000_000),
+    ("chains/double-pendulum.toml", 2),
+], ids=["network", "long-chain", "generalized"])
+def test_validate_prints_size_and_cost_of_every_accepted_scene(scene_file: str, dofs: int,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: a 129,000-atom network was accepted by validate without a size figure
+    code, out, _ = run_cli(capsys, "validate", str(ROOT / scene_file))
+    line = out.splitlines()[0]
+    assert code == 0 and line.startswith("ok   ") and f": {dofs} dofs; modes: " in line
+    assert "path" in line and "estimated ~" in line and line.rstrip()[-1] == "B"  # time and memory, in bytes

@@ -161,7 +161,7 @@ def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def _validate(paths: Sequence[str]) -> int:
-    from vibra.pipeline.plan import validate
+    from vibra.pipeline.plan import cost_summary, validate
     from vibra.pipeline.scene import SceneError, find_scene_files, load_scene
 
     files = find_scene_files(list(paths))
@@ -173,12 +173,12 @@ def _validate(paths: Sequence[str]) -> int:
     for file in files:
         try:
             scene = load_scene(file)
-            validate(scene)  # the builders' own checks, and what the later steps would refuse
+            system = validate(scene)  # the builders' own checks, and what the later steps would refuse
         except SceneError as error:
             failed += 1
             print(f"FAIL {error}")
         else:
-            print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r})")
+            print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r}): {cost_summary(scene, system)}")
     print(f"{len(files)} scene(s), {failed} invalid")
     return EXIT_FAILED if failed else EXIT_OK
 
