@@ -937,3 +937,37 @@ def test_validate_prints_size_and_cost_of_every_accepted_scene(scene_file: str, 
     line = out.splitlines()[0]
     assert code == 0 and line.startswith("ok   ") and f": {dofs} dofs; modes: " in line
     assert "path" in line and "estimated ~" in line and line.rstrip()[-1] == "B"  # time and memory, in bytes
+
+
+# ---------------------------------------------------------------------- issue 34: messages at the scene's key
+def test_coincident_positions_are_refused_at_system_positions(tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: duplicate positions in a springs scene were reported at system.springs
+    path = tmp_path / "dup.toml"
+    path.write_text(SPRINGS + "positions = [0.0, 0.0, 1.0]\nmasses = 1.0\nsprings = [[0, 1], [1, 2]]\n"
+                    "stiffness = 1.0\n")
+    code, out, _ = run_cli(capsys, "validate", str(path))
+    assert code == 1 and f"{path}: system.positions: springs[0] joins sites 0 and 1 at the same position" in \
+        one_line_failure(out)
+
+
+def test_builder_arguments_map_to_scene_keys_by_construction() -> None:
+    # the mapping reads the error's argument, never its text: the molecule's atoms come from system.xyz
+    # (or system.name), a network's positions from system.pdb
+    import dataclasses
+
+    from vibra._validate import ArgumentError, finite
+    from vibra.pipeline.plan.build import scene_key
+    from vibra.pipeline.scene import Scene
+
+    with pytest.raises(ArgumentError) as caught:
+        finite(np.array([[0.0, np.nan]]), "name_or_atoms.positions")
+    assert caught.value.argument == "name_or_atoms"
+    molecule = Scene.from_dict({"kind": "molecule", "units": "ASE", "system": {"builder": "molecule", "name": "CH4"}},
+                               source="m.toml")
+    assert scene_key(molecule, "name_or_atoms") == "system.name"
+    from_file = dataclasses.replace(molecule.system, parameters={**molecule.system.parameters, "name": None,
+                                                                 "xyz": "a.xyz"})
+    assert scene_key(dataclasses.replace(molecule, system=from_file), "name_or_atoms") == "system.xyz"
+    chain_scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 3}}, source="c.toml")
+    assert scene_key(chain_scene, "mass") == "system.mass" and scene_key(chain_scene, "units") == "system"

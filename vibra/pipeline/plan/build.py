@@ -10,11 +10,30 @@ from typing import Any
 
 import numpy as np
 
+from vibra._validate import ArgumentError
 from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
 from vibra.pipeline.scene.files import read_scene_data, scene_data_path
 
-__all__ = ["build_system", "network_structure", "check_xyz_text"]
+__all__ = ["build_system", "network_structure", "check_xyz_text", "scene_key", "ARGUMENT_KEYS"]
+
+#: builder -> {builder argument: the scene key that gives it} where the two differ (a function
+#: of the scene's parameters when the key depends on them); any other argument a scene sets is
+#: ``system.<argument>``.
+ARGUMENT_KEYS: dict[str, dict[str, Any]] = {
+    "molecule": {"name_or_atoms": lambda p: "system.xyz" if p.get("xyz") is not None else "system.name"},
+    "anm": {"positions": "system.pdb", "masses": "system.pdb"},
+}
+
+
+def scene_key(scene: Scene, argument: str) -> str:
+    """The scene key that gave the builder's `argument` (``system`` when none does)."""
+    key = ARGUMENT_KEYS.get(scene.system.builder, {}).get(argument)
+    if callable(key):
+        return str(key(scene.system.parameters))
+    if key is not None:
+        return str(key)
+    return f"system.{argument}" if argument in scene.system.parameters else "system"
 
 
 def check_xyz_text(text: str, source: str, name: str) -> int:
@@ -81,6 +100,8 @@ def build_system(scene: Scene) -> Any:
     """
     try:
         return _build(scene)
+    except ArgumentError as error:  # the builder named its argument: the scene key follows by construction
+        raise SceneError(scene.source, scene_key(scene, error.argument), str(error)) from error
     except (ValueError, TypeError) as error:
         if isinstance(error, SceneError):
             raise
