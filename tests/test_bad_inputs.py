@@ -594,3 +594,44 @@ def test_the_cgroup_limit_is_read(layout: dict[str, str], expected: float | None
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text(text)
     assert budget._cgroup_room(str(tmp_path)) == expected
+
+
+_DROPPED = """
+import os, sys
+from vibra._io import TargetRefused, atomic_write_text  # imported first: nobody may not read the interpreter's files
+os.setgid(65534); os.setuid(65534)  # nobody: permissions that bind
+try:
+    atomic_write_text(sys.argv[1], "x")
+except TargetRefused as error:
+    print("refused:", error)
+else:
+    print("written")
+"""
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="dropping permissions needs root (as a user, the table above binds)")
+def test_a_read_only_folder_refuses_with_permissions_dropped() -> None:
+    # as root a chmod binds nothing; a child that drops to nobody sees the rule as a user does
+    import subprocess
+    import sys
+
+    folder = Path(tempfile.mkdtemp(prefix="vibra-drop-"))
+    try:
+        folder.chmod(0o755)
+        read_only = folder / "ro"
+        read_only.mkdir()
+        read_only.chmod(0o555)
+        before = _snapshot(folder)
+        run = subprocess.run([sys.executable, "-c", _DROPPED, str(read_only / "out.txt")], capture_output=True,
+                             text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])})
+        if "Operation not permitted" in run.stderr:
+            pytest.skip("this container does not allow setuid")
+        assert run.returncode == 0, run.stderr
+        assert run.stdout.startswith(f"refused: {read_only / 'out.txt'}: cannot write in its folder {read_only} "
+                                     "(Permission denied)"), run.stdout
+        assert _snapshot(folder) == before  # no temporary file left behind
+    finally:
+        (folder / "ro").chmod(0o755)
+        import shutil
+
+        shutil.rmtree(folder)

@@ -971,3 +971,13 @@ def test_builder_arguments_map_to_scene_keys_by_construction() -> None:
     assert scene_key(dataclasses.replace(molecule, system=from_file), "name_or_atoms") == "system.xyz"
     chain_scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 3}}, source="c.toml")
     assert scene_key(chain_scene, "mass") == "system.mass" and scene_key(chain_scene, "units") == "system"
+
+
+def test_report_never_writes_its_index_over_a_scene(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a scene file named like report's own index, in the output folder: refused before any work
+    scene_file = tmp_path / "index.html"
+    scene_file.write_text(CHAIN)
+    before = _tree(tmp_path)
+    code, _, err = run_cli(capsys, "report", str(scene_file), "--out", str(tmp_path), "--quiet")
+    assert code == 1 and err.count("\n") == 1 and "is an input of this run" in err
+    assert _tree(tmp_path) == before and scene_file.read_text() == CHAIN

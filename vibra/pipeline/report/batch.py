@@ -31,7 +31,7 @@ from typing import Any, Callable, Sequence
 from vibra._io import TargetRefused, check_target, protected_inputs
 from vibra.cluster import check_client, connect, run_tasks
 from vibra.pipeline.report.folder import (
-    MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
+    FOLDER_FILES, MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
 )
 from vibra.pipeline.report.outcome import BatchResult, ProgressBar, SceneOutcome
 from vibra.pipeline.report.pages import merged_outcomes, write_index, write_summary
@@ -287,13 +287,16 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
     cluster = contextlib.nullcontext() if scheduler is None else connect(scheduler, n_workers=jobs, timeout=timeout)
     with cluster as client:  # an unreachable scheduler fails here, before the folder is touched
         target = check_out_dir(out_dir)
+        for name in FOLDER_FILES:  # before any work: report's own files never replace a scene file
+            check_target(target / name, option="--out", inputs=files)
         with FolderLock(target, wait=wait):
             clean_stale(target)
             result = _run_all(files, target, jobs=jobs, force=force, window_size=window_size, progress=progress,
                               client=client)
             merged = merged_outcomes(target, result.outcomes)
-            write_summary(result, merged)
-            write_index(result, merged)
+            with protected_inputs(files):  # summary.json and index.html never replace a scene file
+                write_summary(result, merged)
+                write_index(result, merged)
             clean_stale(target)
             try:
                 (target / ".work").rmdir()  # every scene is done; removed only when empty
