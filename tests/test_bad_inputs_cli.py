@@ -166,8 +166,9 @@ SCENES = [
     ("coordinates-count", MATRICES + 'M = [[1.0]]\nK = [[1.0]]\ncoordinates = ["x", "y"]\n',
      "system.coordinates", "needs 1 names"),
     # ---- springs: issue case
+    # (issue 34: two sites in one place are the positions' fault, not the springs')
     ("issue:springs-same-position", SPRINGS + "positions = [0.0, 0.0]\nmasses = 1.0\nsprings = [[0, 1]]\n"
-     "stiffness = 1.0\n", "system.springs", "same position"),
+     "stiffness = 1.0\n", "system.positions", "same position"),
     ("springs-index-out-of-range", SPRINGS + "positions = [0.0, 1.0]\nmasses = 1.0\nsprings = [[0, 5]]\n"
      "stiffness = 1.0\n", "system.springs[0]", "site indices run from 0 to 1"),
     ("springs-self", SPRINGS + "positions = [0.0, 1.0]\nmasses = 1.0\nsprings = [[1, 1]]\nstiffness = 1.0\n",
