@@ -438,7 +438,7 @@ def _device(path: Path) -> bool:
 
 
 #: Target kinds: (what to make at the target, whether the write is allowed).
-TARGET_KINDS = ["missing", "regular", "folder", "fifo", "device", "symlink-to-input", "symlink-to-other",
+TARGET_KINDS = ["missing", "regular", "folder", "fifo", "device", "socket", "symlink-to-input", "symlink-to-other",
                 "hardlink-to-input", "input-itself", "below-a-file", "read-only-folder"]
 
 
@@ -458,6 +458,11 @@ def _make_target(kind: str, root: Path, name: str) -> tuple[Path, list[Path], bo
     elif kind == "device":
         if not _device(target):
             pytest.skip("cannot make a device node here (not root)")
+    elif kind == "socket":
+        import socket
+
+        with socket.socket(socket.AF_UNIX) as server:
+            server.bind(str(target))  # the socket file stays after close
     elif kind == "symlink-to-input":
         target.symlink_to(scene)
     elif kind == "symlink-to-other":
