@@ -214,18 +214,20 @@ def cost_summary(scene: Scene, system: Any) -> str:
     """
     if scene.kind == "oscillator":
         return f"{len(system)} oscillator(s), closed forms"
-    n_dof = int(system.n_dof)
+    n_dof = getattr(system, "n_dof", None)
+    if not isinstance(n_dof, (int, np.integer)):  # a kind without one K (a crystal's D(q) per wave vector)
+        return f"{scene.kind} system"
     if getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
         return f"{n_dof} dofs; a quadratic eigenproblem"
     compute = scene.compute
-    plan = make_plan(scene)
-    factor = system.spring_factor() if compute.accuracy != "fast" else None
     try:
+        plan = make_plan(scene)
+        factor = system.spring_factor() if compute.accuracy != "fast" else None
         request = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=plan.n_modes, vectors=plan.vectors,
                                band=compute.band, solver=compute.solver, spring_factor=factor,
                                accuracy=compute.accuracy)
-    except (ValueError, TypeError):  # (what the solve would refuse is refused by check_plan first)
-        return f"{n_dof} dofs"
+    except (ValueError, TypeError, AttributeError, NotImplementedError):
+        return f"{n_dof} dofs"  # (what the solve would refuse, check_plan refused first)
     cost = request.cost
     return (f"{n_dof} dofs; modes: {request.path} path, {cost.what}, estimated ~{describe_seconds(cost.seconds)} "
             f"and {describe_bytes(cost.memory)}")
