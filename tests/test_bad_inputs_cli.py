@@ -982,3 +982,46 @@ def test_report_never_writes_its_index_over_a_scene(tmp_path: Path, capsys: pyte
     code, _, err = run_cli(capsys, "report", str(scene_file), "--out", str(tmp_path), "--quiet")
     assert code == 1 and err.count("\n") == 1 and "is an input of this run" in err
     assert _tree(tmp_path) == before and scene_file.read_text() == CHAIN
+
+
+def test_sigterm_removes_the_work_folders_at_once(tmp_path: Path) -> None:
+    # issue 34: after a kill, .work/<pid> waited for the next run; SIGTERM (what `kill PID` sends) now
+    # cleans as Ctrl-C does: finished images complete, no work folder, exit 128 + 15
+    scenes = write_scenes(tmp_path / "scenes", 6)
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "vibra", "report", *map(str, scenes), "--out", str(out),
+                                "--quiet", "--jobs", "1", "--force"], cwd=ROOT, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not list(out.glob("*.png")) and process.poll() is None:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    if process.returncode == 0:
+        pytest.skip("the report finished before the signal arrived")
+    assert process.returncode == 128 + signal.SIGTERM, err
+    assert "vibra: terminated (SIGTERM)" in err and "Traceback" not in err
+    assert not (out / ".work").exists()
+    for png in out.glob("*.png"):
+        complete_png(png)
+    assert [p.name for p in out.iterdir() if "~tmp~" in p.name] == []
+
+
+def test_a_signal_handler_is_given_back_after_main(capsys: pytest.CaptureFixture[str]) -> None:
+    before = signal.getsignal(signal.SIGTERM)
+    run_cli(capsys, "validate", str(ROOT / "chains" / "monatomic-free.toml"))
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_long_sweep_says_its_size_and_time_first_even_quiet(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 34: 100,000 points ran ~12 minutes silently under -q; the threshold is lowered here to keep it short
+    monkeypatch.setattr(cli, "ANNOUNCE_POINTS", 2)
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:3", "--out", str(tmp_path), "-q")
+    assert code == 0 and err.count("\n") == 1 and err.startswith("vibra sweep: 3 points; one point took ")
+    assert "in one process" in err
+    monkeypatch.setattr(cli, "ANNOUNCE_POINTS", 3)
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:3", "--out", str(tmp_path / "again"), "-q")
+    assert code == 0 and err == ""

@@ -291,17 +291,19 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
             check_target(target / name, option="--out", inputs=files)
         with FolderLock(target, wait=wait):
             clean_stale(target)
-            result = _run_all(files, target, jobs=jobs, force=force, window_size=window_size, progress=progress,
-                              client=client)
-            merged = merged_outcomes(target, result.outcomes)
-            with protected_inputs(files):  # summary.json and index.html never replace a scene file
-                write_summary(result, merged)
-                write_index(result, merged)
-            clean_stale(target)
             try:
-                (target / ".work").rmdir()  # every scene is done; removed only when empty
-            except OSError:
-                pass
+                result = _run_all(files, target, jobs=jobs, force=force, window_size=window_size,
+                                  progress=progress, client=client)
+                merged = merged_outcomes(target, result.outcomes)
+                with protected_inputs(files):  # summary.json and index.html never replace a scene file
+                    write_summary(result, merged)
+                    write_index(result, merged)
+            finally:  # also when interrupted (Ctrl-C, SIGTERM): what finished processes left goes
+                clean_stale(target)
+                try:
+                    (target / ".work").rmdir()  # every scene is done; removed only when empty
+                except OSError:
+                    pass
     return result
 
 

@@ -59,7 +59,8 @@ from vibra.pipeline.sweep.points import (
 )
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
-           "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS", "describe_duration"]
+           "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS", "describe_duration",
+           "point_seconds"]
 
 # ---------------------------------------------------------------------- results
 @dataclass(frozen=True, eq=False)
@@ -378,6 +379,15 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
 def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None, derive: Any,
                  count: int, max_points: int) -> None:
     """Raise the refusal of a sweep of `count` > `max_points` points, timed from its first point."""
+    seconds = _first_point_seconds(target, points, options, name, derive)
+    raise ValueError(f"{count:,} points is more than max_points={max_points:,} (--max-points); one point took "
+                     f"{seconds:.2g} s here, so the sweep would take about {describe_duration(count * seconds)} in "
+                     "one process; sweep fewer points, or raise max_points (--max-points) to run it")
+
+
+def _first_point_seconds(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None,
+                         derive: Any) -> float:
+    """Seconds the first point takes here (its second run when the first took under a second)."""
     import time
 
     first: Grid | Ensemble = (Grid(points.keys, (points.points[0],)) if isinstance(points, Grid)
@@ -392,9 +402,21 @@ def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], 
         seconds = min(seconds, time.perf_counter() - start)
         if seconds > 1.0:
             break
-    raise ValueError(f"{count:,} points is more than max_points={max_points:,} (--max-points); one point took "
-                     f"{seconds:.2g} s here, so the sweep would take about {describe_duration(count * seconds)} in "
-                     "one process; sweep fewer points, or raise max_points (--max-points) to run it")
+    return seconds
+
+
+def point_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
+                  derive: Callable[[Any, Any], Mapping[str, float]] | None = None, n_modes: int | None = None,
+                  band: tuple[float, float] | None = None, accuracy: Literal["high", "fast"] = "high",
+                  solver: str = "auto") -> float:
+    """Seconds the first point of a sweep takes in this process (a measurement: for messages only,
+    never for a decision). Arguments as in `sweep`."""
+    if isinstance(points, Axis) or (isinstance(points, Mapping) and not isinstance(points, Grid)):
+        points = grid(points)
+    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver}
+    if isinstance(points, Ensemble):
+        options.update(seed=points.seed, draw=points.draw)
+    return _first_point_seconds(target, points, options, None, derive)
 
 
 def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None
