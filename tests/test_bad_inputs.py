@@ -314,6 +314,20 @@ CASES: list[Case] = [
      lambda: System.from_hessian([[0.0], [1.0]], [1.0, 1.0], K2, symmetrize="no"), TypeError,
      r"symmetrize must be True or False, got 'no'"),
     ("linear_chain name int", lambda: chains.linear_chain(3, name=3), TypeError, r"name must be a str, got 3"),
+    # ---- issue 34: bounded sweeps
+    ("sweep more points than max_points",
+     lambda: __import__("vibra.pipeline.sweep", fromlist=["sweep"]).sweep(chains.linear_chain, {"n": [3, 4, 5]},
+                                                                          max_points=2),
+     ValueError, r"3 points is more than max_points=2 \(--max-points\); one point took .* s here"),
+    ("sweep max_points 0",
+     lambda: __import__("vibra.pipeline.sweep", fromlist=["sweep"]).sweep(chains.linear_chain, {"n": [3]},
+                                                                          max_points=0),
+     ValueError, r"max_points is 0; expected an integer >= 1"),
+    ("ensemble more members than max_points",
+     lambda: __import__("vibra.pipeline.sweep", fromlist=["sweep"]).sweep(
+         lambda rng: chains.linear_chain(3), __import__("vibra.pipeline.sweep", fromlist=["ensemble"]).ensemble(
+             1, 10**9), max_points=10),
+     ValueError, r"1,000,000,000 points is more than max_points=10"),
     ("periodic_modes vectors 'no'",
      lambda: chains.periodic_modes(chains.linear_chain(4, ends="periodic"), vectors="no"), TypeError,
      r"vectors must be True or False, got 'no'"),
@@ -332,3 +346,297 @@ def test_bad_input_is_refused_naming_the_argument(call: Callable[[], Any], error
                                                   match: str) -> None:
     with pytest.raises(error, match=match):
         call()
+
+
+# ---------------------------------------------------------------------- issue 34: files vibra writes
+# The one rule (vibra._io.check_target): a target is a regular file or a new name, never a folder,
+# device, FIFO, socket or symbolic link, never one of the run's inputs (by path or inode). Truth: the
+# rule itself and the file system after the call (names, kinds, sizes, mtimes and inodes of every
+# entry of the test's folder), never the code's own report of what it did.
+import functools  # noqa: E402
+import os  # noqa: E402
+import stat  # noqa: E402
+import tempfile  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
+
+from vibra._io import TargetRefused, atomic_write_text, check_target, protected_inputs  # noqa: E402
+
+
+@functools.cache
+def _water() -> tuple[System, Any]:
+    system = molecules.h2o()
+    return system, molecules.vibrational_analysis(system)
+
+
+@functools.cache
+def _table() -> Any:
+    from vibra.pipeline.sweep import sweep
+
+    return sweep(chains.linear_chain, {"n": [3, 4]})
+
+
+def _figure() -> Any:
+    from vibra.charts import new_figure
+
+    figure, axes = new_figure(figsize=(2, 2))
+    axes.plot([0, 1], [0, 1])
+    return figure
+
+
+def _png(path: Path) -> Path:
+    from vibra.pipeline.render import write_png
+
+    return write_png(np.zeros((8, 8, 3), dtype=np.uint8), path)
+
+
+def _gif(path: Path) -> Path:
+    from vibra.pipeline.render import write_gif
+
+    return write_gif([np.zeros((8, 8, 3), dtype=np.uint8)] * 2, path)
+
+
+#: (writer, file name it writes): every library writer of vibra (issue 34's list and the rest).
+WRITERS: dict[str, tuple[Callable[[Path], Any], str]] = {
+    "atomic_write_text": (lambda p: atomic_write_text(p, "text"), "out.txt"),
+    "write_molden": (lambda p: molecules.write_molden(p, *_water()), "out.molden"),
+    "write_mode_trajectory": (lambda p: molecules.write_mode_trajectory(p, *_water(), 0, n_frames=2), "out.xyz"),
+    "write_force_constants": (lambda p: molecules.write_force_constants(p, _water()[0]), "FORCE_CONSTANTS"),
+    "SweepTable.to_csv": (lambda p: _table().to_csv(p), "out.csv"),
+    "SweepTable.to_json": (lambda p: _table().to_json(p), "out.json"),
+    "save_figure": (lambda p: __import__("vibra.charts", fromlist=["save_figure"]).save_figure(_figure(), p),
+                    "out.png"),
+    "write_png": (_png, "render.png"),
+    "write_gif": (_gif, "render.gif"),
+    "Modes.save": (lambda p: modes3().save(p), "out.npz"),
+}
+
+
+def _snapshot(root: Path) -> dict[str, tuple[int, int, int, int]]:
+    """Every entry below `root` (symlinks not followed, nothing opened): kind+mode, size, mtime, inode
+    (a folder: kind+mode and inode)."""
+    out = {}
+    for folder, names, files in os.walk(root):
+        for name in names + files:
+            path = Path(folder) / name
+            info = os.lstat(path)
+            if stat.S_ISDIR(info.st_mode):  # a folder's own size and mtime follow its entries, compared one by one
+                out[str(path.relative_to(root))] = (info.st_mode, 0, 0, info.st_ino)
+            else:
+                out[str(path.relative_to(root))] = (info.st_mode, info.st_size, info.st_mtime_ns, info.st_ino)
+    return out
+
+
+def _device(path: Path) -> bool:
+    """A character device node like /dev/null at `path` (inside the test's folder); False if not allowed."""
+    try:
+        os.mknod(path, stat.S_IFCHR | 0o666, os.makedev(1, 3))
+    except (PermissionError, OSError):
+        return False
+    return True
+
+
+#: Target kinds: (what to make at the target, whether the write is allowed).
+TARGET_KINDS = ["missing", "regular", "folder", "fifo", "device", "socket", "symlink-to-input", "symlink-to-other",
+                "hardlink-to-input", "input-itself", "below-a-file", "read-only-folder"]
+
+
+def _make_target(kind: str, root: Path, name: str) -> tuple[Path, list[Path], bool]:
+    """(target, the run's inputs, whether writing is allowed) for one kind, made inside `root`."""
+    scene = root / "scene.toml"
+    scene.write_text('kind = "chain"\n')
+    target = root / name
+    allowed = kind in ("missing", "regular")
+    if kind == "regular":
+        target.write_text("old")
+    elif kind == "folder":
+        target.mkdir()
+        (target / "keep").write_text("kept")
+    elif kind == "fifo":
+        os.mkfifo(target)
+    elif kind == "device":
+        if not _device(target):
+            pytest.skip("cannot make a device node here (not root)")
+    elif kind == "socket":
+        import socket
+
+        with socket.socket(socket.AF_UNIX) as server:
+            server.bind(str(target))  # the socket file stays after close
+    elif kind == "symlink-to-input":
+        target.symlink_to(scene)
+    elif kind == "symlink-to-other":
+        (root / "other").write_text("other")
+        target.symlink_to(root / "other")
+    elif kind == "hardlink-to-input":
+        os.link(scene, target)
+    elif kind == "input-itself":  # a data file of the run (named like the writer's output)
+        target.write_text("input data")
+        return target, [scene, target], False
+    elif kind == "below-a-file":
+        (root / "plain").write_text("x")
+        target = root / "plain" / name
+    elif kind == "read-only-folder":
+        folder = root / "ro"
+        folder.mkdir()
+        folder.chmod(0o555)
+        target = folder / name
+        allowed = os.geteuid() == 0  # root writes there anyway; anyone else is refused
+    return target, [scene], allowed
+
+
+def _check_writer(writer: str, kind: str, root: Path) -> None:
+    write, name = WRITERS[writer]
+    target, inputs, allowed = _make_target(kind, root, name)
+    scene = inputs[0]
+    before = _snapshot(root)
+    try:
+        with protected_inputs(inputs):
+            if allowed:
+                write(target)
+            else:
+                with pytest.raises(TargetRefused) as refused:
+                    write(target)
+                assert "\n" not in str(refused.value) and str(target) in str(refused.value)
+        after = _snapshot(root)
+    finally:
+        if kind == "read-only-folder":
+            (root / "ro").chmod(0o755)
+    changed = {key for key in before.keys() | after.keys() if before.get(key) != after.get(key)}
+    intended = {str(target.relative_to(root))} if allowed else set()
+    assert changed <= intended, (writer, kind, changed)
+    if allowed:
+        assert stat.S_ISREG(os.lstat(target).st_mode) and os.lstat(target).st_size > 0
+    assert scene.read_text() == 'kind = "chain"\n'
+
+
+@pytest.mark.parametrize("kind", TARGET_KINDS)
+@pytest.mark.parametrize("writer", sorted(WRITERS))
+def test_every_writer_follows_the_one_rule(writer: str, kind: str, tmp_path: Path) -> None:
+    # issue 34: --molden over the scene file, over a device node; nothing but the intended file changes
+    _check_writer(writer, kind, tmp_path)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(writer=st.sampled_from(sorted(WRITERS)), kind=st.sampled_from(TARGET_KINDS))
+def test_property_nothing_but_the_intended_file_changes(writer: str, kind: str) -> None:
+    if kind == "device" and os.geteuid() != 0:
+        return
+    with tempfile.TemporaryDirectory() as folder:
+        _check_writer(writer, kind, Path(folder))
+
+
+def test_a_refused_target_is_one_line_naming_the_option(tmp_path: Path) -> None:
+    with pytest.raises(TargetRefused, match=r"^--molden .*: is a folder; vibra writes regular files only"):
+        check_target(tmp_path, option="--molden")
+    (tmp_path / "old").write_text("x")
+    with pytest.raises(TargetRefused, match=r"old: exists; --force replaces it"):
+        check_target(tmp_path / "old", replace=False, force_hint="--force")
+    assert check_target(tmp_path / "old") == tmp_path / "old"
+    assert isinstance(TargetRefused("p", "r"), OSError)  # "cannot write" stays an OSError for callers
+
+
+def test_a_target_that_turns_into_a_fifo_while_writing_is_not_replaced(tmp_path: Path) -> None:
+    # the rule runs again just before the rename: a FIFO made meanwhile stays a FIFO
+    from vibra._io import atomic_write
+
+    target = tmp_path / "late"
+
+    def write(temporary: Path) -> None:
+        temporary.write_text("data")
+        os.mkfifo(target)
+
+    with pytest.raises(TargetRefused, match="FIFO"):
+        atomic_write(target, write)
+    assert stat.S_ISFIFO(os.lstat(target).st_mode) and sorted(p.name for p in tmp_path.iterdir()) == ["late"]
+
+
+# ---------------------------------------------------------------------- issue 34: memory limits that are real
+def test_the_guard_takes_the_smallest_memory_limit(monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 34: under `ulimit -v` (or a container's cgroup) numpy failed in eigh; the guard read physical memory
+    from vibra.solvers import budget
+
+    gib = 2.0**30
+    monkeypatch.setattr(budget, "MEMORY_READERS", {"available physical memory": lambda: 64 * gib,
+                                                   "address-space limit (ulimit -v)": lambda: 1 * gib,
+                                                   "cgroup memory limit": lambda: None})
+    assert budget.available_memory() == 1 * gib
+    cost = budget.estimate("dense", 20_000, k=20_000, vectors=True)
+    with pytest.raises(budget.ResourceLimitError, match=r"left under the address-space limit \(ulimit -v\)"):
+        budget.guard(cost, n_dof=20_000, max_memory=None, max_seconds=float("inf"), alternatives=[])
+    monkeypatch.setitem(budget.MEMORY_READERS, "cgroup memory limit", lambda: 0.5 * gib)
+    assert budget.tightest_memory() == ("cgroup memory limit", 0.5 * gib)
+    from vibra.pipeline.scene.limits import default_memory_limit
+
+    assert default_memory_limit() == int(0.5 * gib)  # the scene's default limit is capped too
+    monkeypatch.setattr(budget, "MEMORY_READERS", {})
+    assert budget.available_memory() is None
+
+
+def test_the_address_space_limit_is_read(monkeypatch: pytest.MonkeyPatch) -> None:
+    import resource
+
+    from vibra.solvers import budget
+
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (1 << 40, resource.RLIM_INFINITY))
+    room = budget._address_space_room()
+    assert room is not None and 0 < room < 1 << 40  # the limit less this process's size
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
+    assert budget._address_space_room() is None
+
+
+@pytest.mark.parametrize("layout, expected", [
+    ({"memory.max": "1073741824\n", "memory.current": "73741824\n"}, 1e9),
+    ({"memory.max": "max\n", "memory.current": "5\n"}, None),
+    ({"memory/memory.limit_in_bytes": "2000\n", "memory/memory.usage_in_bytes": "500\n"}, 1500.0),
+    ({"memory/memory.limit_in_bytes": "9223372036854771712\n"}, None),  # cgroup v1's "no limit"
+    ({}, None),
+], ids=["v2", "v2-max", "v1", "v1-unlimited", "none"])
+def test_the_cgroup_limit_is_read(layout: dict[str, str], expected: float | None, tmp_path: Any) -> None:
+    from vibra.solvers import budget
+
+    for name, text in layout.items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(text)
+    assert budget._cgroup_room(str(tmp_path)) == expected
+
+
+_DROPPED = """
+import os, sys
+from vibra._io import TargetRefused, atomic_write_text  # imported first: nobody may not read the interpreter's files
+os.setgid(65534); os.setuid(65534)  # nobody: permissions that bind
+try:
+    atomic_write_text(sys.argv[1], "x")
+except TargetRefused as error:
+    print("refused:", error)
+else:
+    print("written")
+"""
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="dropping permissions needs root (as a user, the table above binds)")
+def test_a_read_only_folder_refuses_with_permissions_dropped() -> None:
+    # as root a chmod binds nothing; a child that drops to nobody sees the rule as a user does
+    import subprocess
+    import sys
+
+    folder = Path(tempfile.mkdtemp(prefix="vibra-drop-"))
+    try:
+        folder.chmod(0o755)
+        read_only = folder / "ro"
+        read_only.mkdir()
+        read_only.chmod(0o555)
+        before = _snapshot(folder)
+        run = subprocess.run([sys.executable, "-c", _DROPPED, str(read_only / "out.txt")], capture_output=True,
+                             text=True, timeout=120, env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])})
+        if "Operation not permitted" in run.stderr:
+            pytest.skip("this container does not allow setuid")
+        assert run.returncode == 0, run.stderr
+        assert run.stdout.startswith(f"refused: {read_only / 'out.txt'}: cannot write in its folder {read_only} "
+                                     "(Permission denied)"), run.stdout
+        assert _snapshot(folder) == before  # no temporary file left behind
+    finally:
+        (folder / "ro").chmod(0o755)
+        import shutil
+
+        shutil.rmtree(folder)

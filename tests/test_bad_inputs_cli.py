@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -165,8 +166,9 @@ SCENES = [
     ("coordinates-count", MATRICES + 'M = [[1.0]]\nK = [[1.0]]\ncoordinates = ["x", "y"]\n',
      "system.coordinates", "needs 1 names"),
     # ---- springs: issue case
+    # (issue 34: two sites in one place are the positions' fault, not the springs')
     ("issue:springs-same-position", SPRINGS + "positions = [0.0, 0.0]\nmasses = 1.0\nsprings = [[0, 1]]\n"
-     "stiffness = 1.0\n", "system.springs", "same position"),
+     "stiffness = 1.0\n", "system.positions", "same position"),
     ("springs-index-out-of-range", SPRINGS + "positions = [0.0, 1.0]\nmasses = 1.0\nsprings = [[0, 5]]\n"
      "stiffness = 1.0\n", "system.springs[0]", "site indices run from 0 to 1"),
     ("springs-self", SPRINGS + "positions = [0.0, 1.0]\nmasses = 1.0\nsprings = [[1, 1]]\nstiffness = 1.0\n",
@@ -496,8 +498,8 @@ def test_a_folder_where_an_output_file_goes_fails_that_scene(tmp_path: Path,
     (out / "small_spectrum.png").mkdir(parents=True)
     code, stdout, err = run_cli(capsys, "report", str(scene_file), "--out", str(out), "--quiet", "--jobs", "1")
     assert code == 1
-    assert f"FAILED {scene_file}: name: {out / 'small_spectrum.png'} is a folder where this scene's output file " \
-           "goes" in err
+    assert f"FAILED {scene_file}: name: this scene's output file {out / 'small_spectrum.png'}: is a folder; vibra " \
+           "writes regular files only" in err
     assert "Traceback" not in err + stdout and (out / "small_spectrum.png").is_dir()
 
 
@@ -693,3 +695,333 @@ def test_changed_code_is_not_served_from_the_skip_cache(tmp_path: Path, monkeypa
     assert " skipped " in run_cli(capsys, "report", str(scene_file), "--out", str(out), "--quiet")[1]
     monkeypatch.setattr(batch, "code_hash", lambda: "another build of vibra")
     assert " ok " in run_cli(capsys, "report", str(scene_file), "--out", str(out), "--quiet")[1]
+
+
+# ---------------------------------------------------------------------- issue 34: what the commands write
+WATER = 'kind = "molecule"\nunits = "ASE"\n[system]\nbuilder = "h2o"\n'
+XYZ_WATER = ('kind = "molecule"\nunits = "ASE"\n[system]\nbuilder = "molecule"\nxyz = "water.xyz"\n')
+WATER_XYZ = "3\nwater\nO 0.0 0.0 0.119\nH 0.0 0.763 -0.477\nH 0.0 -0.763 -0.477\n"
+
+
+def _tree(root: Path) -> dict[str, tuple[int, int, int, int]]:
+    """Every entry below `root` (nothing followed or opened): kind+mode, size, mtime, inode (folders:
+    kind+mode and inode)."""
+    out = {}
+    for folder, names, files in os.walk(root):
+        for name in names + files:
+            info = os.lstat(Path(folder) / name)
+            folder_entry = stat.S_ISDIR(info.st_mode)
+            out[str((Path(folder) / name).relative_to(root))] = (
+                info.st_mode, 0 if folder_entry else info.st_size, 0 if folder_entry else info.st_mtime_ns, info.st_ino)
+    return out
+
+
+def _molden_target(kind: str, tmp_path: Path, scene_file: Path) -> tuple[Path, str]:
+    """(the --molden FILE of one hostile kind, a fragment of the refusal)."""
+    if kind == "scene-itself":
+        return scene_file, "is an input of this run"
+    if kind == "xyz-input":
+        return tmp_path / "water.xyz", "is an input of this run"
+    if kind == "symlink-to-scene":
+        (tmp_path / "link.molden").symlink_to(scene_file)
+        return tmp_path / "link.molden", "is an input of this run"
+    if kind == "hardlink-to-scene":
+        os.link(scene_file, tmp_path / "hard.molden")
+        return tmp_path / "hard.molden", "is an input of this run"
+    if kind == "folder":
+        (tmp_path / "folder.molden").mkdir()
+        return tmp_path / "folder.molden", "is a folder"
+    if kind == "fifo":
+        os.mkfifo(tmp_path / "fifo.molden")
+        return tmp_path / "fifo.molden", "is a FIFO"
+    if kind == "device":  # a node like /dev/null, made inside tmp_path (never the real one)
+        try:
+            os.mknod(tmp_path / "null", stat.S_IFCHR | 0o666, os.makedev(1, 3))
+        except OSError:
+            pytest.skip("cannot make a device node here (not root)")
+        return tmp_path / "null", "is a device"
+    if kind == "existing-without-force":
+        (tmp_path / "old.molden").write_text("an earlier file")
+        return tmp_path / "old.molden", "exists; --force replaces it"
+    if kind == "below-a-file":
+        (tmp_path / "plain").write_text("x")
+        return tmp_path / "plain" / "h2o.molden", f"its folder {tmp_path / 'plain'} is a regular file, not a folder"
+    raise AssertionError(kind)
+
+
+MOLDEN_KINDS = ["scene-itself", "xyz-input", "symlink-to-scene", "hardlink-to-scene", "folder", "fifo", "device",
+                "existing-without-force", "below-a-file"]
+
+
+@pytest.mark.parametrize("kind", MOLDEN_KINDS)
+def test_molden_never_writes_over_an_input_or_a_special_file(kind: str, tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: `--molden molecules/h2o.toml` overwrote the scene; `--molden NODE` replaced a device node
+    scene_file = tmp_path / "water.toml"
+    scene_file.write_text(XYZ_WATER)
+    (tmp_path / "water.xyz").write_text(WATER_XYZ)
+    target, fragment = _molden_target(kind, tmp_path, scene_file)
+    before = _tree(tmp_path)
+    code, out, err = run_cli(capsys, "modes", str(scene_file), "--molden", str(target))
+    assert code == 1 and err.count("\n") == 1 and "Traceback" not in err + out, err
+    assert err.startswith(f"vibra modes: {scene_file}: --molden {target}: {fragment}"), err
+    assert _tree(tmp_path) == before and scene_file.read_text() == XYZ_WATER
+
+
+def test_molden_replaces_an_existing_file_with_force_only(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scene_file = tmp_path / "h2o.toml"
+    scene_file.write_text(WATER)
+    target = tmp_path / "h2o.molden"
+    code, out, _ = run_cli(capsys, "modes", str(scene_file), "--molden", str(target))
+    assert code == 0 and target.read_text().startswith("[Molden Format]")
+    target.write_text("mine")
+    code, _, err = run_cli(capsys, "modes", str(scene_file), "--molden", str(target))
+    assert code == 1 and "exists; --force replaces it" in err and target.read_text() == "mine"
+    code, _, _ = run_cli(capsys, "modes", str(scene_file), "--molden", str(target), "--force")
+    assert code == 0 and target.read_text().startswith("[Molden Format]")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h2o.molden", "h2o.toml"]
+
+
+def test_molden_refuses_the_real_dev_null_without_touching_it(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    # the refusal comes from lstat alone: /dev/null is never opened, renamed over or removed
+    scene_file = tmp_path / "h2o.toml"
+    scene_file.write_text(WATER)
+    before = os.lstat("/dev/null")
+    code, _, err = run_cli(capsys, "modes", str(scene_file), "--molden", "/dev/null", "--force")
+    after = os.lstat("/dev/null")
+    assert code == 1 and "--molden /dev/null: is a device" in err
+    assert (before.st_ino, before.st_mode, before.st_rdev) == (after.st_ino, after.st_mode, after.st_rdev)
+
+
+def test_sweep_out_that_is_a_file_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: "[Errno 17] File exists"
+    out = tmp_path / "file"
+    out.write_text("x")
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:2", "--out", str(out), "-q")
+    assert code == 1 and err.strip() == f"vibra sweep: --out {out}: is a regular file; expected a folder (created " \
+                                        "when missing)"
+    assert out.read_text() == "x"
+
+
+def test_sweep_chart_path_that_is_a_folder_writes_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: the CSV and JSON were written, the PNG not, and the error named the temporary file
+    out = tmp_path / "out"
+    (out / "mass-defect_sweep.png").mkdir(parents=True)
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:2", "--out", str(out), "-q")
+    assert code == 1 and err.count("\n") == 1 and "~tmp~" not in err
+    assert f"--out {out / 'mass-defect_sweep.png'}: is a folder" in err
+    assert sorted(p.name for p in out.iterdir()) == ["mass-defect_sweep.png"]
+
+
+def test_sweep_outputs_never_replace_the_scene(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a scene named like the sweep's own output, in the output folder
+    scene_file = tmp_path / "c_sweep.json"
+    scene_file.write_text('kind = "chain"\nname = "c"\n[system]\nbuilder = "linear_chain"\nn = 4\n')
+    text = scene_file.read_text()
+    code, _, err = run_cli(capsys, "sweep", str(scene_file), "--vary", "system.n=3:4:2", "--out", str(tmp_path), "-q")
+    assert code == 1 and "is an input of this run" in err and scene_file.read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c_sweep.json"]
+
+
+def test_a_billion_point_sweep_is_refused_with_the_count_and_an_estimate(tmp_path: Path,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: MemoryError building 10^9 points; the refusal needs one point solved, not the grid in memory
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:1000000000", "--out", str(tmp_path / "o"), "-q")
+    assert code == 1 and err.count("\n") == 1, err
+    assert "1,000,000,000 points is more than max_points=100,000 (--max-points); one point took" in err
+    assert "so the sweep would take about" in err and not (tmp_path / "o").exists()
+
+
+def test_max_points_bounds_and_raises_the_limit(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary", "system.defect_mass=0.2:0.8:3",
+            "--out", str(tmp_path), "-q"]
+    code, _, err = run_cli(capsys, *args, "--max-points", "2")
+    assert code == 1 and "3 points is more than max_points=2" in err and list(tmp_path.iterdir()) == []
+    code, out, _ = run_cli(capsys, *args, "--max-points", "3")
+    assert code == 0 and "3 point(s)" in out
+    with pytest.raises(SystemExit) as stop:
+        cli.main([*args, "--max-points", "0"])
+    assert stop.value.code == 2 and "--max-points must be >= 1" in capsys.readouterr().err
+
+
+def test_help_says_what_each_writer_may_replace(capsys: pytest.CaptureFixture[str]) -> None:
+    for command, fragment in (("modes", "--force"), ("sweep", "rewrites <scene>_sweep.csv"),
+                              ("report", "each run rewrites its own files")):
+        with pytest.raises(SystemExit):
+            cli.main([command, "--help"])
+        assert fragment in " ".join(capsys.readouterr().out.split())
+
+
+# ---------------------------------------------------------------------- issue 34: inputs that are whole
+def _network(tmp_path: Path, pdb_text: str) -> Path:
+    scene_file = tmp_path / "ubiquitin.toml"
+    scene_file.write_text((ROOT / "networks" / "ubiquitin" / "ubiquitin-anm.toml").read_text())
+    (tmp_path / "1ubi.pdb").write_text(pdb_text)
+    return scene_file
+
+
+@pytest.mark.parametrize("fraction", [1 / 3, 2 / 3])
+def test_a_network_scene_with_a_cut_pdb_is_refused_at_its_key(fraction: float, tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: cut at two thirds, exit 0 with 47 of 76 atoms; at one third, an n_modes error with no hint
+    text = (ROOT / "networks" / "ubiquitin" / "1ubi.pdb").read_text()
+    atoms = [i for i, line in enumerate(text.splitlines(keepends=True)) if line.startswith("ATOM")]
+    lines = text.splitlines(keepends=True)
+    index = atoms[int(fraction * len(atoms))]
+    scene_file = _network(tmp_path, "".join(lines[:index]) + lines[index][:33])
+    for command in ("validate", "modes"):
+        code, out, err = run_cli(capsys, command, str(scene_file))
+        text_out = one_line_failure(out) if command == "validate" else err.strip()
+        assert code == 1 and f"system.pdb: {tmp_path / '1ubi.pdb'}: line {index + 1}: the last ATOM record stops " \
+                              "at column 33" in text_out, out + err
+
+
+def test_a_network_scene_with_a_pdb_cut_between_lines_warns_in_one_line(tmp_path: Path,
+                                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    text = (ROOT / "networks" / "ubiquitin" / "1ubi.pdb").read_text()
+    lines = text.splitlines(keepends=True)
+    atoms = [i for i, line in enumerate(lines) if line.startswith("ATOM")]
+    scene_file = _network(tmp_path, "".join(lines[:atoms[-200]]))
+    code, out, err = run_cli(capsys, "validate", str(scene_file))
+    warning = [line for line in err.splitlines() if "warning" in line]
+    assert len(warning) == 1 and warning[0].startswith("vibra validate: warning: ") and "Traceback" not in err
+    assert f"line {atoms[-200]}: the file ends without an END record" in warning[0]
+
+
+#: (case, .xyz text, fragment): issue 34's "atom count line against the atoms read", and the NaN
+#: coordinate once reported at name_or_atoms.positions[1,0] rather than the scene's key.
+XYZ_CASES = [
+    ("count-above-atoms", "4\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 5: the file ends after 3 atom line(s), "
+     "but line 1 announces 4; the file looks truncated"),
+    ("count-below-atoms", "2\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 5: more lines follow the 2 atoms"),
+    ("cut-mid-line", WATER_XYZ[:-12], "line 5: is 'H 0.0 -0'; an atom line reads 'symbol x y z'"),
+    ("nan-coordinate", WATER_XYZ.replace("0.763 -0.477", "nan -0.477"), "line 4: coordinate y of atom 1 is 'nan'"),
+    ("word-count", "three\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 1: is 'three'; an XYZ file starts with its "
+     "number of atoms"),
+    ("second-frame", WATER_XYZ + WATER_XYZ, "line 6: more lines follow the 3 atoms"),
+    ("empty", "", "line 1: is ''"),
+]
+
+
+@pytest.mark.parametrize("case, xyz, fragment", XYZ_CASES, ids=[case[0] for case in XYZ_CASES])
+def test_a_molecule_xyz_is_checked_whole_at_system_xyz(case: str, xyz: str, fragment: str, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    scene_file = tmp_path / "water.toml"
+    scene_file.write_text(XYZ_WATER)
+    (tmp_path / "water.xyz").write_text(xyz)
+    code, out, err = run_cli(capsys, "validate", str(scene_file))
+    assert code == 1 and f"system.xyz: 'water.xyz': {fragment}" in one_line_failure(out), out + err
+
+
+def test_a_whole_xyz_with_trailing_blank_lines_is_read(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scene_file = tmp_path / "water.toml"
+    scene_file.write_text(XYZ_WATER)
+    (tmp_path / "water.xyz").write_text(WATER_XYZ + "\n\n")
+    code, out, _ = run_cli(capsys, "validate", str(scene_file))
+    assert code == 0 and out.startswith("ok")
+
+
+# ---------------------------------------------------------------------- issue 34: honest sizes
+@pytest.mark.parametrize("scene_file, dofs", [
+    ("networks/ubiquitin/ubiquitin-anm.toml", 3 * 76),  # 76 C-alpha atoms in 1UBI, 3 coordinates each
+    ("chains/long-chain.toml", 1_000_000),
+    ("chains/double-pendulum.toml", 2),
+], ids=["network", "long-chain", "generalized"])
+def test_validate_prints_size_and_cost_of_every_accepted_scene(scene_file: str, dofs: int,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: a 129,000-atom network was accepted by validate without a size figure
+    code, out, _ = run_cli(capsys, "validate", str(ROOT / scene_file))
+    line = out.splitlines()[0]
+    assert code == 0 and line.startswith("ok   ") and f": {dofs} dofs; modes: " in line
+    assert "path" in line and "estimated ~" in line and line.rstrip()[-1] == "B"  # time and memory, in bytes
+
+
+# ---------------------------------------------------------------------- issue 34: messages at the scene's key
+def test_coincident_positions_are_refused_at_system_positions(tmp_path: Path,
+                                                              capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: duplicate positions in a springs scene were reported at system.springs
+    path = tmp_path / "dup.toml"
+    path.write_text(SPRINGS + "positions = [0.0, 0.0, 1.0]\nmasses = 1.0\nsprings = [[0, 1], [1, 2]]\n"
+                    "stiffness = 1.0\n")
+    code, out, _ = run_cli(capsys, "validate", str(path))
+    assert code == 1 and f"{path}: system.positions: springs[0] joins sites 0 and 1 at the same position" in \
+        one_line_failure(out)
+
+
+def test_builder_arguments_map_to_scene_keys_by_construction() -> None:
+    # the mapping reads the error's argument, never its text: the molecule's atoms come from system.xyz
+    # (or system.name), a network's positions from system.pdb
+    import dataclasses
+
+    from vibra._validate import ArgumentError, finite
+    from vibra.pipeline.plan.build import scene_key
+    from vibra.pipeline.scene import Scene
+
+    with pytest.raises(ArgumentError) as caught:
+        finite(np.array([[0.0, np.nan]]), "name_or_atoms.positions")
+    assert caught.value.argument == "name_or_atoms"
+    molecule = Scene.from_dict({"kind": "molecule", "units": "ASE", "system": {"builder": "molecule", "name": "CH4"}},
+                               source="m.toml")
+    assert scene_key(molecule, "name_or_atoms") == "system.name"
+    from_file = dataclasses.replace(molecule.system, parameters={**molecule.system.parameters, "name": None,
+                                                                 "xyz": "a.xyz"})
+    assert scene_key(dataclasses.replace(molecule, system=from_file), "name_or_atoms") == "system.xyz"
+    chain_scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 3}}, source="c.toml")
+    assert scene_key(chain_scene, "mass") == "system.mass" and scene_key(chain_scene, "units") == "system"
+
+
+def test_report_never_writes_its_index_over_a_scene(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a scene file named like report's own index, in the output folder: refused before any work
+    scene_file = tmp_path / "index.html"
+    scene_file.write_text(CHAIN)
+    before = _tree(tmp_path)
+    code, _, err = run_cli(capsys, "report", str(scene_file), "--out", str(tmp_path), "--quiet")
+    assert code == 1 and err.count("\n") == 1 and "is an input of this run" in err
+    assert _tree(tmp_path) == before and scene_file.read_text() == CHAIN
+
+
+def test_sigterm_removes_the_work_folders_at_once(tmp_path: Path) -> None:
+    # issue 34: after a kill, .work/<pid> waited for the next run; SIGTERM (what `kill PID` sends) now
+    # cleans as Ctrl-C does: finished images complete, no work folder, exit 128 + 15
+    scenes = write_scenes(tmp_path / "scenes", 6)
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "vibra", "report", *map(str, scenes), "--out", str(out),
+                                "--quiet", "--jobs", "1", "--force"], cwd=ROOT, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not list(out.glob("*.png")) and process.poll() is None:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    if process.returncode == 0:
+        pytest.skip("the report finished before the signal arrived")
+    assert process.returncode == 128 + signal.SIGTERM, err
+    assert "vibra: terminated (SIGTERM)" in err and "Traceback" not in err
+    assert not (out / ".work").exists()
+    for png in out.glob("*.png"):
+        complete_png(png)
+    assert [p.name for p in out.iterdir() if "~tmp~" in p.name] == []
+
+
+def test_a_signal_handler_is_given_back_after_main(capsys: pytest.CaptureFixture[str]) -> None:
+    before = signal.getsignal(signal.SIGTERM)
+    run_cli(capsys, "validate", str(ROOT / "chains" / "monatomic-free.toml"))
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_long_sweep_says_its_size_and_time_first_even_quiet(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    # issue 34: 100,000 points ran ~12 minutes silently under -q; the threshold is lowered here to keep it short
+    monkeypatch.setattr(cli, "ANNOUNCE_POINTS", 2)
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:3", "--out", str(tmp_path), "-q")
+    assert code == 0 and err.count("\n") == 1 and err.startswith("vibra sweep: 3 points; one point took ")
+    assert "in one process" in err
+    monkeypatch.setattr(cli, "ANNOUNCE_POINTS", 3)
+    code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
+                           "system.defect_mass=0.2:0.8:3", "--out", str(tmp_path / "again"), "-q")
+    assert code == 0 and err == ""

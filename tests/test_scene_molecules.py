@@ -117,7 +117,8 @@ def test_molecule_builder_refusals_are_scene_errors(tmp_path: Path, body: str, m
 
 def test_bad_xyz_file_is_one_line(tmp_path: Path) -> None:
     (tmp_path / "bad.xyz").write_text("not a number\n")
-    with pytest.raises(SceneError, match=r"system\.xyz: 'bad\.xyz' is not a readable XYZ file"):
+    with pytest.raises(SceneError, match=r"system\.xyz: 'bad\.xyz': line 1: is 'not a number'; an XYZ file starts "
+                                         "with its number of atoms"):
         validate(load_scene(molecule_scene(tmp_path, 'builder = "molecule"\nxyz = "bad.xyz"\n')))
 
 
@@ -144,7 +145,7 @@ def test_modes_molden_writes_a_molden_file(tmp_path: Path) -> None:
 @pytest.mark.parametrize("scene, target, message", [
     ("chains/diatomic.toml", "x.molden", "--molden writes molecules only"),
     ("molecules/co2-axial.toml", "x.molden", "--molden writes molecules only"),
-    ("molecules/h2o.toml", "blocker/x.molden", "--molden: cannot write"),
+    ("molecules/h2o.toml", "blocker/x.molden", "blocker is a regular file, not a folder"),
 ])
 def test_modes_molden_errors_are_one_line(tmp_path: Path, scene: str, target: str, message: str) -> None:
     (tmp_path / "blocker").write_text("a file where a folder should be")

@@ -193,3 +193,42 @@ def test_sweep_chart_is_a_non_blank_png(tmp_path) -> None:
     image = imread(path)
     assert image.shape[:2] == (600, 960) and image[..., :3].std() > 0.05
     assert "5 points of system.defect_mass" in caption
+
+
+# ---------------------------------------------------------------------- issue 34: lazy, bounded grids
+def test_a_lazy_range_gives_numpys_values() -> None:
+    # truth: numpy.linspace and numpy.geomspace, value by value
+    from vibra.pipeline.sweep import vary
+
+    for spacing, reference in (("linear", np.linspace(0.2, 0.8, 1001)), ("log", np.geomspace(1e-3, 10.0, 1001))):
+        low, high = (0.2, 0.8) if spacing == "linear" else (1e-3, 10.0)
+        values = vary("k", low, high, 1001, spacing=spacing).values
+        assert len(values) == 1001 and list(values) == pytest.approx(reference, rel=1e-15, abs=0)
+        assert values[0] == low and values[-1] == high and values[3:5] == tuple(values)[3:5]
+
+
+def test_a_billion_point_grid_is_not_built_in_memory() -> None:
+    import tracemalloc
+
+    from vibra.pipeline.sweep import grid, vary
+
+    tracemalloc.start()
+    try:
+        points = grid(vary("a", 0.0, 1.0, 10**5), vary("b", 1.0, 2.0, 10**4)).points
+        assert len(points) == 10**9
+        assert points[0] == (0.0, 1.0) and points[-1] == (1.0, 2.0)
+        assert points[10**4] == (pytest.approx(1 / (10**5 - 1), rel=1e-15), 1.0)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20  # bytes, for 10^9 points
+
+
+def test_grid_order_is_the_first_axis_slowest() -> None:
+    import itertools
+
+    from vibra.pipeline.sweep import grid
+
+    points = grid({"a": [1.0, 2.0]}, {"b": [3.0, 4.0, 5.0]}).points
+    assert list(points) == list(itertools.product([1.0, 2.0], [3.0, 4.0, 5.0]))
+    assert [points[i] for i in range(len(points))] == list(points)

@@ -1,5 +1,16 @@
 """The one atomic file writer of vibra: every file vibra writes goes through `atomic_write`.
 
+**One rule for every target** (`check_target`, run by `atomic_write` before it writes and again
+just before the rename): the target is a regular file or does not exist yet. A folder, a
+device (``/dev/null``), a FIFO, a socket or a symbolic link is refused with `TargetRefused`
+(an `OSError`) whose message is one line naming the path (and the option, for the command
+line); so is any of the run's inputs (the scene file, its ``.xyz`` or ``.pdb`` file),
+compared by resolved path and by inode (`os.path.samefile`: a hard link or a symlink to an
+input is caught too). Inputs are given with ``inputs=`` or, for every writer called inside it,
+with the context manager `protected_inputs` (the command line and the report use it). An
+existing regular file is replaced unless ``replace=False`` (the command line's ``--molden``
+without ``--force``). Nothing is opened, created or removed at a refused target.
+
 A file is written to a temporary name in its destination folder (hidden, with the writer's pid:
 ``.<name>.<pid>~tmp~<random>``, see `temporary_owner`) (so the final rename never
 crosses file systems), given the mode an ordinary ``open()`` would give it (0666 less the
@@ -19,14 +30,19 @@ b'\\x00\\x01'
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import errno
 import os
+import stat
 import tempfile
 import threading
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterable, Iterator
 
 __all__ = ["atomic_write", "atomic_write_text", "atomic_write_bytes", "file_mode", "TEMPORARY_MARK",
-           "temporary_owner"]
+           "temporary_owner", "TargetRefused", "check_target", "check_out_folder", "protected_inputs",
+           "describe_kind"]
 
 #: Between the writer's pid and mkstemp's random letters in a temporary name:
 #: ``.<target name>.<pid>~tmp~<random><suffix>``, so a temporary file left by a killed process
@@ -34,6 +50,192 @@ __all__ = ["atomic_write", "atomic_write_text", "atomic_write_bytes", "file_mode
 TEMPORARY_MARK = "~tmp~"
 
 _UMASK_LOCK = threading.Lock()
+
+#: The inputs of the run in progress (`protected_inputs`): every `atomic_write` refuses them.
+_INPUTS: contextvars.ContextVar[tuple[Path, ...]] = contextvars.ContextVar("vibra_inputs", default=())
+
+
+class TargetRefused(OSError):
+    """A file vibra will not write: not a regular file, one of the run's inputs, or an existing
+    file not to be replaced. ``str(error)`` is one line: ``[OPTION ]PATH: why; what is expected``.
+
+    Attributes
+    ----------
+    path : str
+        The refused target, as given.
+    reason : str
+        Why, and what is expected (without the path).
+    option : str
+        The command-line option that named the path (``"--molden"``), or ``""``.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], reason: str, *, option: str = "",
+                 code: int = errno.EINVAL) -> None:
+        super().__init__(code, reason, str(path))
+        self.path, self.reason, self.option = str(path), reason, option
+
+    def __str__(self) -> str:
+        return f"{self.option + ' ' if self.option else ''}{self.path}: {self.reason}"
+
+    def __reduce__(self):  # type: ignore[no-untyped-def]  # picklable for Dask workers
+        return (_refused, (self.path, self.reason, self.option, self.errno))
+
+
+def _refused(path: str, reason: str, option: str, code: int) -> TargetRefused:
+    return TargetRefused(path, reason, option=option, code=code)
+
+
+def describe_kind(mode: int) -> str:
+    """What a non-regular file is, in words (``"a folder"``, ``"a device"``, ...), from `os.stat`'s mode."""
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    if stat.S_ISLNK(mode):
+        return "a symbolic link"
+    return "not a regular file"
+
+
+@contextlib.contextmanager
+def protected_inputs(paths: Iterable[str | os.PathLike[str]]) -> Iterator[tuple[Path, ...]]:
+    """Within this block, every `atomic_write` refuses the files `paths` (the run's inputs).
+
+    Nested blocks add to the outer ones; missing paths are ignored (nothing to protect).
+    """
+    added = tuple(Path(p) for p in paths if p is not None and os.path.lexists(p))
+    token = _INPUTS.set(_INPUTS.get() + added)
+    try:
+        yield _INPUTS.get()
+    finally:
+        _INPUTS.reset(token)
+
+
+def _same_file(target: Path, source: Path) -> bool:
+    """`target` is `source`: the same resolved path, or the same inode (hard link, symlink)."""
+    try:
+        if target.resolve() == source.resolve():
+            return True
+    except (OSError, RuntimeError):
+        pass
+    try:
+        return os.path.samefile(target, source)
+    except (OSError, ValueError):
+        return False
+
+
+def check_target(path: str | os.PathLike[str], *, option: str = "",
+                 inputs: Iterable[str | os.PathLike[str]] = (), replace: bool = True,
+                 force_hint: str = "replace=True") -> Path:
+    """The one rule for a file vibra writes; return `path` as a Path when it may be written.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    option : str
+        The option that named it (``"--molden"``), put before the path in messages.
+    inputs : iterable of path-like
+        Files of this run that must not be written (besides those of `protected_inputs`).
+    replace : bool
+        Whether an existing regular file may be replaced.
+    force_hint : str
+        What the caller says to replace an existing file (``"--force"`` on the command line).
+
+    Raises
+    ------
+    TargetRefused
+        `path` is one of the inputs; a folder, device, FIFO, socket or symbolic link; an
+        existing file with ``replace=False``; or below something that is not a folder.
+    """
+    target = Path(path)
+    for source in (*_INPUTS.get(), *(Path(p) for p in inputs)):
+        if _same_file(target, source):
+            raise TargetRefused(path, f"is an input of this run ({source}); vibra never writes over its inputs; "
+                                "expected another file name", option=option, code=errno.EEXIST)
+    try:
+        info = os.lstat(target)
+    except FileNotFoundError:
+        info = None
+    except NotADirectoryError:
+        info = None  # a parent is a file: said below
+    except OSError as error:
+        raise TargetRefused(path, f"cannot be inspected ({error.strerror}); expected a regular file or a new name",
+                            option=option, code=error.errno or errno.EINVAL) from None
+    if info is not None:
+        if stat.S_ISLNK(info.st_mode):
+            raise TargetRefused(path, f"is a symbolic link (to {os.readlink(target)}); vibra replaces regular files "
+                                "only; give the real path or a new name", option=option)
+        if not stat.S_ISREG(info.st_mode):
+            code = errno.EISDIR if stat.S_ISDIR(info.st_mode) else errno.EINVAL
+            raise TargetRefused(path, f"is {describe_kind(info.st_mode)}; vibra writes regular files only; expected "
+                                "a file name (a regular file or a new name)", option=option, code=code)
+        if not replace:
+            raise TargetRefused(path, f"exists; {force_hint} replaces it (or give a new name)", option=option,
+                                code=errno.EEXIST)
+        return target
+    for folder in target.parents:  # the nearest existing folder above must be a folder
+        try:
+            mode = os.stat(folder).st_mode
+        except FileNotFoundError:
+            continue
+        except OSError as error:
+            if error.errno == errno.ENOTDIR:
+                continue
+            raise TargetRefused(path, f"its folder {folder} cannot be inspected ({error.strerror})",
+                                option=option, code=error.errno or errno.EINVAL) from None
+        if not stat.S_ISDIR(mode):
+            what = "a regular file" if stat.S_ISREG(mode) else describe_kind(mode)
+            raise TargetRefused(path, f"its folder {folder} is {what}, not a folder; expected a path inside "
+                                "a folder", option=option, code=errno.ENOTDIR)
+        break
+    return target
+
+
+def check_out_folder(path: str | os.PathLike[str], *, option: str = "--out") -> Path:
+    """Create the output folder `path` when missing and check it is a writable folder; return it.
+
+    Raises
+    ------
+    TargetRefused
+        `path` (or the nearest existing parent) is a file, device, FIFO, socket, dangling
+        symlink or symlink loop, cannot be created, or is not writable.
+    """
+    target = Path(path)
+    for folder in [target, *target.parents]:
+        where = "" if folder == target else f"its parent {folder} "
+        try:
+            info = os.stat(folder)
+        except FileNotFoundError:
+            if os.path.islink(folder):
+                raise TargetRefused(target, f"{where}is a symlink to a missing target ({os.readlink(folder)}); "
+                                    "expected a folder (created when missing)", option=option,
+                                    code=errno.ENOTDIR) from None
+            continue
+        except OSError as error:
+            if error.errno == errno.ENOTDIR:
+                continue
+            what = "is a symlink loop" if error.errno == errno.ELOOP else f"cannot be inspected ({error.strerror})"
+            raise TargetRefused(target, f"{where}{what}; expected a folder (created when missing)", option=option,
+                                code=errno.ENOTDIR) from None
+        if not stat.S_ISDIR(info.st_mode):
+            what = "a regular file" if stat.S_ISREG(info.st_mode) else describe_kind(info.st_mode)
+            raise TargetRefused(target, f"{where}is {what}; expected a folder (created when missing)", option=option,
+                                code=errno.ENOTDIR)
+        break
+    try:
+        target.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise TargetRefused(target, f"cannot create the folder ({error.strerror}); expected a writable place",
+                            option=option, code=error.errno or errno.EACCES) from None
+    if not os.access(target, os.W_OK | os.X_OK):
+        raise TargetRefused(target, f"the folder is not writable; choose another {option or 'folder'} or change its "
+                            "permissions",
+                            option=option, code=errno.EACCES)
+    return target
 
 
 def file_mode() -> int:
@@ -61,8 +263,12 @@ def temporary_owner(name: str) -> int | None:
 
 
 def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], *,
-                 suffix: str = ".tmp") -> Path:
+                 suffix: str = ".tmp", option: str = "", inputs: Iterable[str | os.PathLike[str]] = (),
+                 replace: bool = True, force_hint: str = "replace=True") -> Path:
     """Create `path` atomically: `write(temporary_path)` fills a temporary file, then it is renamed.
+
+    `path` is checked by `check_target` first (a regular file or a new name, never an input)
+    and again just before the rename, so nothing else is ever replaced.
 
     Parameters
     ----------
@@ -73,21 +279,34 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], 
         writes the content there (``figure.savefig(p)``, ``image.save(p)``, ...).
     suffix : str
         Ending of the temporary name (some writers pick a format from it).
+    option, inputs, replace, force_hint
+        As in `check_target`.
 
     Returns
     -------
     Path
         `path`, now holding the complete file with mode 0666 less the umask.
+
+    Raises
+    ------
+    TargetRefused
+        What `check_target` refuses, or a folder that cannot be created or written in.
     """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}{TEMPORARY_MARK}", suffix=suffix,
-                                    dir=target.parent)
+    rules = {"option": option, "inputs": tuple(inputs), "replace": replace, "force_hint": force_hint}
+    target = check_target(path, **rules)  # type: ignore[arg-type]
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        handle, name = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}{TEMPORARY_MARK}", suffix=suffix,
+                                        dir=target.parent)
+    except OSError as error:  # name the target, never the temporary file
+        raise TargetRefused(path, f"cannot write in its folder {target.parent} ({error.strerror or error}); "
+                            "expected a writable folder", option=option, code=error.errno or errno.EACCES) from None
     os.close(handle)
     temporary = Path(name)
     try:
         write(temporary)
         os.chmod(temporary, file_mode())  # mkstemp creates 0600 files
+        check_target(path, **rules)  # type: ignore[arg-type]  # again: nothing else appeared there meanwhile
         os.replace(temporary, target)
     except BaseException:
         temporary.unlink(missing_ok=True)
@@ -95,11 +314,11 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], 
     return target
 
 
-def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write `data` to `path` atomically (see `atomic_write`)."""
-    return atomic_write(path, lambda temporary: temporary.write_bytes(data))
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes, **rules: object) -> Path:
+    """Write `data` to `path` atomically (see `atomic_write`; `rules` as in `check_target`)."""
+    return atomic_write(path, lambda temporary: temporary.write_bytes(data), **rules)  # type: ignore[arg-type]
 
 
-def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
-    """Write `text` (UTF-8) to `path` atomically (see `atomic_write`)."""
-    return atomic_write_bytes(path, text.encode("utf-8"))
+def atomic_write_text(path: str | os.PathLike[str], text: str, **rules: object) -> Path:
+    """Write `text` (UTF-8) to `path` atomically (see `atomic_write`; `rules` as in `check_target`)."""
+    return atomic_write_bytes(path, text.encode("utf-8"), **rules)

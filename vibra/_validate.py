@@ -13,6 +13,29 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
+
+
+class ArgumentError(ValueError):
+    """A bad value that names the public argument at fault by construction (`argument`: the root
+    of the name, ``"positions"`` for ``positions[3,1]``), so a caller that gave the argument
+    another name (a scene key) maps it without reading the message.
+
+    Attributes
+    ----------
+    argument : str
+        The argument's public name.
+    """
+
+    def __init__(self, argument: str, message: str) -> None:
+        super().__init__(message)
+        self.argument = argument
+
+
+def argument_of(name: str) -> str:
+    """The argument an input's name belongs to: ``"name_or_atoms"`` for ``"name_or_atoms.positions[1]"``."""
+    return name.split("[", 1)[0].split(".", 1)[0]
+
+
 # Relative tolerance of the symmetry check: |K_ij - K_ji| <= SYMMETRY_RTOL * max|K|.
 # Assembly in floating point leaves gaps of a few ulps; a user's typo leaves far more.
 SYMMETRY_RTOL = 1e-10
@@ -146,7 +169,8 @@ def finite(array: NDArray[Any], name: str) -> None:
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {_scalar(array[index])}; every entry must be finite")
+        raise ArgumentError(argument_of(name),
+                            f"{name}[{where}] is {_scalar(array[index])}; every entry must be finite")
 
 
 def positive(array: NDArray[np.float64], name: str, what: str = "value") -> None:
@@ -156,7 +180,8 @@ def positive(array: NDArray[np.float64], name: str, what: str = "value") -> None
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {_scalar(array[index])}; every {what} must be positive and finite")
+        raise ArgumentError(argument_of(name),
+                            f"{name}[{where}] is {_scalar(array[index])}; every {what} must be positive and finite")
 
 
 def nonnegative(array: NDArray[np.float64], name: str, what: str = "value") -> None:
@@ -166,7 +191,8 @@ def nonnegative(array: NDArray[np.float64], name: str, what: str = "value") -> N
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ValueError(f"{name}[{where}] is {_scalar(array[index])}; every {what} must be >= 0")
+        raise ArgumentError(argument_of(name), f"{name}[{where}] is {_scalar(array[index])}; every {what} must be "
+                            ">= 0")
 
 
 def square_matrix(value: Any, name: str) -> NDArray[np.float64] | sp.csr_matrix:

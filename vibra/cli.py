@@ -7,22 +7,38 @@ Every failure is one line on stderr (``file: key.path: what is wrong; what is ex
 and a non-zero exit, never a traceback; an unexpected exception is reported in one line too,
 with a hint to rerun with ``--debug``, which shows the traceback.
 
+What each command may replace (one rule for every file, `vibra._io.check_target`: a target is
+a regular file or a new name, never a folder, device, FIFO, socket or symbolic link, and never
+one of the run's inputs, the scene file or the .xyz / .pdb file it names):
+
+- ``vibra report --out DIR``: its own files in DIR (``<scene>_*.png``/``.gif``/``.txt``,
+  ``summary.json``, ``index.html``, ``.vibra/``), rewritten on every run;
+- ``vibra sweep --out DIR``: ``<scene>_sweep.csv``, ``.json`` and ``.png`` in DIR, rewritten on
+  every run (all three are checked before any is written);
+- ``vibra modes --molden FILE``: a new FILE only; an existing one is replaced with ``--force``.
+
 Exit codes: 0 success; 1 one or more scenes failed (invalid or failing), or the output folder
 is busy or unusable; 2 usage error (a bad option, a scene path that does not exist: nothing
-is written); 3 an unexpected internal error; 130 interrupted (Ctrl-C).
+is written); 3 an unexpected internal error; 130 interrupted (Ctrl-C); 143 (129) terminated by
+SIGTERM (SIGHUP), which, like Ctrl-C, removes the run's work folders before exiting.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from pathlib import Path
-from typing import Any, NoReturn, Sequence
+from typing import Any, Iterator, NoReturn, Sequence
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERNAL"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+#: A sweep of more points than this first prints its size and an estimate of its time (one line on
+#: stderr, --quiet or not): 10^5 points once ran ~12 minutes without a word.
+ANNOUNCE_POINTS = 1000
 
 
 class _Parser(argparse.ArgumentParser):
@@ -72,6 +88,16 @@ def _timeout(text: str) -> float:
     return value
 
 
+def _points(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--max-points must be an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"--max-points must be >= 1, got {value}")
+    return value
+
+
 def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -90,7 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     rep = sub.add_parser("report", help="render scene files (or folders of *.toml) to PNG, summary.json, index.html")
     rep.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders (each must exist)")
-    rep.add_argument("--out", default="plots", metavar="DIR", help="output folder (default: plots/)")
+    rep.add_argument("--out", default="plots", metavar="DIR",
+                     help="output folder (default: plots/); each run rewrites its own files there "
+                          "(<scene>_*.png, summary.json, index.html), never an input nor anything but a regular file")
     rep.add_argument("--jobs", "-j", type=_jobs, default=None, metavar="N",
                      help="parallel worker processes (default: the cores this process may use)")
     rep.add_argument("--force", action="store_true", help="redo scenes whose inputs did not change")
@@ -102,19 +130,26 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     _add_scheduler(rep, "scenes")
     val = sub.add_parser("validate", help="check scene files and build their systems: every check the report runs "
-                         "before solving")
+                         "before solving; prints each scene's size and estimated cost")
     val.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders")
     mod = sub.add_parser("modes", help="print a table of a scene's frequencies")
     mod.add_argument("scene", metavar="SCENE", help="one scene file")
     mod.add_argument("--molden", metavar="FILE", help="also write the vibrations of a molecule scene as a Molden "
-                     "normal-mode file (Avogadro, Jmol, Molden)")
+                     "normal-mode file (Avogadro, Jmol, Molden); FILE must be new (or --force), a regular file, "
+                     "and not one of the scene's inputs")
+    mod.add_argument("--force", action="store_true", help="let --molden replace an existing regular file")
     swp = sub.add_parser("sweep", help="solve one scene over ranges of parameter values: a table (CSV, JSON) "
                          "and a chart")
     swp.add_argument("scene", metavar="SCENE", help="one scene file")
     swp.add_argument("--vary", action="append", required=True, metavar="KEY=START:STOP:N",
                      help="a dotted key of the scene and its range, e.g. system.defect_mass=0.2:0.8:7 "
                           "(KEY=log:START:STOP:N for logarithmic spacing); repeat for a grid")
-    swp.add_argument("--out", default="plots", metavar="DIR", help="output folder (default: plots/)")
+    swp.add_argument("--out", default="plots", metavar="DIR",
+                     help="output folder (default: plots/); each run rewrites <scene>_sweep.csv, .json and .png "
+                          "there (regular files only, never an input)")
+    swp.add_argument("--max-points", type=_points, default=None, metavar="N",
+                     help="refuse grids of more than N points (default 100000); the refusal gives the count "
+                          "and an estimate of the time from one solved point")
     swp.add_argument("--jobs", "-j", type=_jobs, default=None, metavar="N",
                      help="worker processes of --scheduler local (default: the cores this process may use)")
     swp.add_argument("--chunk-size", type=_jobs, default=1, metavar="N", help="points per Dask task (default 1)")
@@ -132,7 +167,7 @@ def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
 
 
 def _validate(paths: Sequence[str]) -> int:
-    from vibra.pipeline.plan import validate
+    from vibra.pipeline.plan import cost_summary, validate
     from vibra.pipeline.plan.crystal import crystal_cost
     from vibra.pipeline.scene import SceneError, find_scene_files, load_scene
 
@@ -150,22 +185,42 @@ def _validate(paths: Sequence[str]) -> int:
             failed += 1
             print(f"FAIL {error}")
         else:
-            extra = f"; {crystal_cost(scene, system)}" if scene.kind == "crystal" else ""
-            print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r}{extra})")
+            cost = crystal_cost(scene, system) if scene.kind == "crystal" else cost_summary(scene, system)
+            print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r}): {cost}")
     print(f"{len(files)} scene(s), {failed} invalid")
     return EXIT_FAILED if failed else EXIT_OK
 
 
+def _check_molden(scene: Any, target: str, force: bool) -> None:
+    """`vibra modes --molden FILE`, before any work: a molecule scene, and FILE a new (or, with
+    --force, an existing regular) file that is not one of the scene's inputs."""
+    from vibra._io import TargetRefused, check_target
+    from vibra.pipeline.scene import SceneError, scene_inputs
+
+    if scene.kind != "molecule":
+        raise SceneError(scene.source, "kind", "--molden writes molecules only (a 3-D molecule scene); this is a "
+                         f"{scene.kind!r} scene")
+    try:
+        check_target(target, option="--molden", inputs=scene_inputs(scene), replace=force, force_hint="--force")
+    except TargetRefused as error:
+        raise SceneError(scene.source, "", str(error)) from None
+
+
 def _write_molden(scene: Any, system: Any, target: str) -> None:
     """`vibra modes --molden FILE`: the molecule's vibrations as a Molden file; refusals as a SceneError."""
+    from vibra._io import TargetRefused, protected_inputs
     from vibra.molecules import vibrational_analysis, write_molden
-    from vibra.pipeline.scene import SceneError
+    from vibra.pipeline.scene import SceneError, scene_inputs
 
     if scene.kind != "molecule" or getattr(system, "dim", None) != 3:
         raise SceneError(scene.source, "kind", "--molden writes molecules only (a 3-D molecule scene); this is a "
                          f"{scene.kind!r} scene" + ("" if scene.kind != "molecule" else " in 1-D"))
     try:
-        write_molden(target, system, vibrational_analysis(system))
+        with protected_inputs(scene_inputs(scene)):
+            write_molden(target, system, vibrational_analysis(system))
+    except TargetRefused as error:
+        error.option = "--molden"
+        raise SceneError(scene.source, "", str(error)) from None
     except OSError as error:
         raise SceneError(scene.source, "", f"--molden: cannot write {target!r} "
                          f"({error.strerror or type(error).__name__})") from None
@@ -173,7 +228,7 @@ def _write_molden(scene: Any, system: Any, target: str) -> None:
         raise SceneError(scene.source, "", f"--molden: {error}") from None
 
 
-def _modes(path: str, molden: str | None = None) -> int:
+def _modes(path: str, molden: str | None = None, force: bool = False) -> int:
     import time
 
     from vibra.pipeline.plan import REFUSALS, build_system, check_plan, frequency_lines, step_error
@@ -187,6 +242,8 @@ def _modes(path: str, molden: str | None = None) -> int:
         if scene.kind == "crystal":
             raise SceneError(path, "kind", "a crystal has a band of frequencies at every wave vector, not one list of "
                              "modes; draw its bands with vibra report, or use vibra.crystals (frequencies(q))")
+        if molden is not None:
+            _check_molden(scene, molden, force)  # before any work: nothing is solved for a refused FILE
         start = time.perf_counter()
         compute = scene.compute
         try:
@@ -212,6 +269,7 @@ def _modes(path: str, molden: str | None = None) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
+    from vibra._io import TargetRefused
     from vibra.cluster import ClusterError
     from vibra.pipeline.report import FolderBusy, available_cores, missing_paths, report
 
@@ -224,7 +282,7 @@ def _report(args: argparse.Namespace) -> int:
         result = report(args.paths, Path(args.out), jobs=args.jobs or available_cores(), force=args.force,
                         window_size=args.window_size, progress=not args.quiet, wait=args.wait,
                         scheduler=args.scheduler, timeout=args.timeout)
-    except (ValueError, FolderBusy, ClusterError, ImportError) as error:
+    except (ValueError, FolderBusy, ClusterError, ImportError, TargetRefused) as error:
         print(f"vibra report: {error}", file=sys.stderr)
         return EXIT_FAILED
     except OSError as error:  # the output folder refused (check_out_dir), or failed while writing
@@ -243,11 +301,12 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
+    from vibra._io import TargetRefused, check_out_folder, check_target, protected_inputs
     from vibra.charts import save_figure
     from vibra.charts.sweep import sweep_figure
     from vibra.cluster import ClusterError, check_client
-    from vibra.pipeline.scene import SceneError
-    from vibra.pipeline.sweep import grid, parse_vary, sweep
+    from vibra.pipeline.scene import SceneError, load_scene, scene_inputs
+    from vibra.pipeline.sweep import DEFAULT_MAX_POINTS, describe_duration, grid, parse_vary, point_seconds, sweep
 
     try:
         points = grid(*(parse_vary(text) for text in args.vary))
@@ -261,12 +320,29 @@ def _sweep(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_USAGE
     try:
-        table = sweep(args.scene, points, client=args.scheduler, n_workers=args.jobs, timeout=args.timeout,
-                      chunk_size=args.chunk_size, progress=not args.quiet)
+        inputs = scene_inputs(load_scene(args.scene))
         out = Path(args.out)
-        written = [table.to_csv(out / f"{table.name}_sweep.csv"), table.to_json(out / f"{table.name}_sweep.json"),
-                   save_figure(sweep_figure(table)[0], out / f"{table.name}_sweep.png")]
+        if os.path.lexists(out):  # an existing --out must be a writable folder; it is created after the solve
+            check_out_folder(out, option="--out")
+        count, limit = len(points.points), args.max_points or DEFAULT_MAX_POINTS
+        if ANNOUNCE_POINTS < count <= limit:  # a long sweep says so, once, even with --quiet
+            seconds = point_seconds(args.scene, points)
+            print(f"vibra sweep: {count:,} points; one point took {seconds:.2g} s here, so about "
+                  f"{describe_duration(count * seconds)} in one process", file=sys.stderr)
+        table = sweep(args.scene, points, client=args.scheduler, n_workers=args.jobs, timeout=args.timeout,
+                      chunk_size=args.chunk_size, progress=not args.quiet,
+                      max_points=args.max_points or DEFAULT_MAX_POINTS)
+        check_out_folder(out, option="--out")
+        targets = [out / f"{table.name}_sweep.{ending}" for ending in ("csv", "json", "png")]
+        for target in targets:  # all three checked before any is written
+            check_target(target, option="--out", inputs=inputs)
+        with protected_inputs(inputs):
+            written = [table.to_csv(targets[0]), table.to_json(targets[1]),
+                       save_figure(sweep_figure(table)[0], targets[2])]
     except SceneError as error:
+        print(f"vibra sweep: {error}", file=sys.stderr)
+        return EXIT_FAILED
+    except TargetRefused as error:
         print(f"vibra sweep: {error}", file=sys.stderr)
         return EXIT_FAILED
     except (ClusterError, ImportError, RuntimeError, ValueError, OSError) as error:
@@ -285,14 +361,65 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return EXIT_USAGE
+    import warnings
+
+    def one_line(message: Warning | str, category: type[Warning], filename: str, lineno: int, file: Any = None,
+                 line: str | None = None) -> None:  # a warning (a structure file that may be cut): one line
+        print(f"vibra {args.command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    with warnings.catch_warnings(), _terminate_as_interrupt():
+        warnings.showwarning = one_line
+        return _dispatch(args)
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised where the program is, so that every ``finally`` runs: a report's
+    work folders are removed and its finished images stay, as on Ctrl-C."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """Within this block (in the main thread), SIGTERM and SIGHUP raise `_Terminated`; the
+    previous handlers come back after it."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def terminate(signum: int, frame: Any) -> None:
+        raise _Terminated(signum)
+
+    wanted = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
+    previous = {signum: signal.signal(signum, terminate) for signum in wanted}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
+    """Run the chosen command; every failure becomes one line and an exit code."""
     try:
         if args.command == "validate":
             return _validate(args.paths)
         if args.command == "modes":
-            return _modes(args.scene, args.molden)
+            return _modes(args.scene, args.molden, args.force)
         if args.command == "sweep":
             return _sweep(args)
         return _report(args)
+    except _Terminated as stop:
+        import signal
+
+        print(f"\nvibra: terminated ({signal.Signals(stop.signum).name}); finished images are complete, "
+              "unfinished scenes left no output", file=sys.stderr)
+        return 128 + stop.signum
     except KeyboardInterrupt:
         print("\nvibra: interrupted; finished images are complete, unfinished scenes left no output",
               file=sys.stderr)

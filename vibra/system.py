@@ -206,10 +206,9 @@ class System(FreeDofs):
             short = length <= 1e-12 * scale
             if short.any():
                 s = int(np.argmax(short))
-                raise ValueError(
-                    f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} at the same "
-                    "position; a spring needs distinct equilibrium positions to define its axis"
-                )
+                raise _validate.ArgumentError(  # the positions are at fault: two sites in one place
+                    "positions", f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} at the same "
+                    "position; a spring needs distinct equilibrium positions to define its axis")
             unit = bond / length[:, None]
             rows.append(assembly.pair_rows(pairs, unit, n_sites, dim))
             weight_parts.append(k)

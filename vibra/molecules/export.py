@@ -7,7 +7,10 @@ isotope table (`ISOTOPE_MASSES`: 2.0141 amu is H, 17.9992 amu is O) or, failing 
 element of nearest standard atomic mass (`symbols_from_masses`).
 
 Every file is written with `vibra._io.atomic_write` (a temporary file in the same folder, then
-`os.replace`), so a reader never sees half a file.
+`os.replace`), so a reader never sees half a file, and under its one rule (`vibra._io.check_target`):
+the path must be a regular file (replaced) or a new name; a folder, device, FIFO, socket or
+symbolic link, or an input of the run (`vibra._io.protected_inputs`), is refused with
+`vibra._io.TargetRefused` (an `OSError`) before anything is written.
 """
 
 from __future__ import annotations
@@ -236,7 +239,8 @@ def write_molden(path: str | os.PathLike[str], system: System,
         Not a 3-D molecule in ASE units; frozen atoms; modes of another system; intensities
         not one per written vibration or negative.
     OSError
-        `path` cannot be written (e.g. a file stands where its folder should be).
+        `path` cannot be written (e.g. a file stands where its folder should be);
+        `vibra._io.TargetRefused` where it is not a regular file or a new name, or an input.
 
     Examples
     --------

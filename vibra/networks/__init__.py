@@ -14,14 +14,15 @@ from vibra.networks.models import (
     BOLTZMANN_KCAL_PER_MOL, RIGID_RTOL, Fluctuations, anm, b_factor_correlation, contact_pairs,
     fluctuations, gnm, predicted_b_factors, square_fluctuations,
 )
-from vibra.networks.pdb import MAX_FILE_BYTES, Structure, from_pdb
+from vibra.networks.pdb import MAX_FILE_BYTES, Structure, StructureWarning, check_pdb_text, from_pdb
 from vibra.networks.analysis import (
     BFactorFit, DeformationOverlap, PerturbationResponse, collectivity, cross_correlations, deformation_overlap,
     fit_bfactors, hinges, perturbation_response, superpose, write_nmd,
 )
 
 __all__ = [
-    "Structure", "Fluctuations", "contact_pairs", "anm", "gnm", "from_pdb", "fluctuations",
+    "Structure", "StructureWarning", "check_pdb_text", "Fluctuations", "contact_pairs", "anm", "gnm", "from_pdb",
+    "fluctuations",
     "square_fluctuations", "predicted_b_factors", "b_factor_correlation", "BOLTZMANN_KCAL_PER_MOL",
     "RIGID_RTOL", "MAX_FILE_BYTES", "BFactorFit", "PerturbationResponse", "collectivity", "cross_correlations",
     "fit_bfactors", "hinges", "perturbation_response", "write_nmd", "DeformationOverlap", "deformation_overlap",

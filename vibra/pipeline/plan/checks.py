@@ -19,9 +19,11 @@ import numpy as np
 from vibra.pipeline.plan.analysis import chain_dispersion
 from vibra.pipeline.plan.build import build_system
 from vibra.pipeline.plan.crystal import CRYSTAL_STEP_KEYS, check_crystal_plan
+from vibra.pipeline.plan.model import make_plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.values import element_symbol
 from vibra import solvers
+from vibra.solvers.budget import describe_bytes, describe_seconds
 from vibra.solvers.common import DENSE_ALL_LIMIT
 
 __all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
@@ -206,3 +208,34 @@ def validate(scene: Scene) -> Any:
     except REFUSALS as error:
         raise step_error(scene, "build", error) from error
     return system
+
+
+def cost_summary(scene: Scene, system: Any) -> str:
+    """What ``vibra validate`` prints of an accepted scene: its size, and the solver path the
+    report's modes solve would take with its estimated time and memory (`vibra.solvers.plan`:
+    from sizes, nothing solved or allocated).
+
+    >>> from vibra.pipeline.scene import Scene
+    >>> scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 4}}, source="c.toml")
+    >>> cost_summary(scene, build_system(scene)).split(";")[0]
+    '4 dofs'
+    """
+    if scene.kind == "oscillator":
+        return f"{len(system)} oscillator(s), closed forms"
+    n_dof = getattr(system, "n_dof", None)
+    if not isinstance(n_dof, (int, np.integer)):  # a kind without one K (a crystal's D(q) per wave vector)
+        return f"{scene.kind} system"
+    if getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
+        return f"{n_dof} dofs; a quadratic eigenproblem"
+    compute = scene.compute
+    try:
+        plan = make_plan(scene)
+        factor = system.spring_factor() if compute.accuracy != "fast" else None
+        request = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=plan.n_modes, vectors=plan.vectors,
+                               band=compute.band, solver=compute.solver, spring_factor=factor,
+                               accuracy=compute.accuracy)
+    except (ValueError, TypeError, AttributeError, NotImplementedError):
+        return f"{n_dof} dofs"  # (what the solve would refuse, check_plan refused first)
+    cost = request.cost
+    return (f"{n_dof} dofs; modes: {request.path} path, {cost.what}, estimated ~{describe_seconds(cost.seconds)} "
+            f"and {describe_bytes(cost.memory)}")

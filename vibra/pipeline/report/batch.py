@@ -28,9 +28,10 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from vibra._io import TargetRefused, check_target, protected_inputs
 from vibra.cluster import check_client, connect, run_tasks
 from vibra.pipeline.report.folder import (
-    MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
+    FOLDER_FILES, MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
 )
 from vibra.pipeline.report.outcome import BatchResult, ProgressBar, SceneOutcome
 from vibra.pipeline.report.pages import merged_outcomes, write_index, write_summary
@@ -104,16 +105,21 @@ def _numbers(scene: Any, modes: Any) -> dict[str, Any]:
 
 
 def _publish(source: str, staging: Path, target: Path, outputs: Sequence[str]) -> None:
-    """Move the staged outputs into `target`; a folder in an output's place is refused first."""
+    """Move the staged outputs into `target`; every destination is checked by the one rule of
+    `vibra._io.check_target` (a regular file or a new name, never an input of the run) before any moves."""
     from vibra.pipeline.scene import SceneError
 
+    def checked(output: str) -> Path:
+        try:
+            return check_target(target / output)
+        except TargetRefused as error:
+            raise SceneError(source, "name", f"this scene's output file {error}; remove or rename what is "
+                             "there") from None
+
     for output in outputs:
-        destination = target / output
-        if os.path.lexists(destination) and (destination.is_dir() or not destination.is_file()):
-            raise SceneError(source, "name", f"{destination} is {'a folder' if destination.is_dir() else 'not a file'}"
-                             " where this scene's output file goes; remove or rename it")
+        checked(output)
     for output in outputs:  # each rename is atomic (modes set by vibra._io)
-        os.replace(staging / output, target / output)
+        os.replace(staging / output, checked(output))
 
 
 # ---------------------------------------------------------------------- one scene
@@ -142,7 +148,7 @@ def run_scene(path: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, 
         (an unexpected exception also keeps its traceback in ``detail``).
     """
     from vibra.pipeline.plan import execute, make_plan
-    from vibra.pipeline.scene import Scene, SceneError, parse_scene_text, read_scene_bytes
+    from vibra.pipeline.scene import Scene, SceneError, parse_scene_text, read_scene_bytes, scene_inputs
 
     start = time.perf_counter()
     source = Path(path)
@@ -168,8 +174,9 @@ def run_scene(path: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, 
         shutil.rmtree(work, ignore_errors=True)
         staging.mkdir(parents=True, exist_ok=True)
         scratch.mkdir(parents=True, exist_ok=True)
-        result = execute(make_plan(scene), staging, scratch, on_step=on_step)
-        _publish(str(source), staging, target, result.outputs)
+        with protected_inputs(scene_inputs(scene)):  # no output over the scene or its data files
+            result = execute(make_plan(scene), staging, scratch, on_step=on_step)
+            _publish(str(source), staging, target, result.outputs)
         outcome = SceneOutcome(source=str(source), name=name, title=title, status="ok",
                                outputs=result.outputs, captions=result.captions, steps=result.records,
                                frequencies=result.frequencies, seconds=time.perf_counter() - start,
@@ -280,18 +287,23 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
     cluster = contextlib.nullcontext() if scheduler is None else connect(scheduler, n_workers=jobs, timeout=timeout)
     with cluster as client:  # an unreachable scheduler fails here, before the folder is touched
         target = check_out_dir(out_dir)
+        for name in FOLDER_FILES:  # before any work: report's own files never replace a scene file
+            check_target(target / name, option="--out", inputs=files)
         with FolderLock(target, wait=wait):
             clean_stale(target)
-            result = _run_all(files, target, jobs=jobs, force=force, window_size=window_size, progress=progress,
-                              client=client)
-            merged = merged_outcomes(target, result.outcomes)
-            write_summary(result, merged)
-            write_index(result, merged)
-            clean_stale(target)
             try:
-                (target / ".work").rmdir()  # every scene is done; removed only when empty
-            except OSError:
-                pass
+                result = _run_all(files, target, jobs=jobs, force=force, window_size=window_size,
+                                  progress=progress, client=client)
+                merged = merged_outcomes(target, result.outcomes)
+                with protected_inputs(files):  # summary.json and index.html never replace a scene file
+                    write_summary(result, merged)
+                    write_index(result, merged)
+            finally:  # also when interrupted (Ctrl-C, SIGTERM): what finished processes left goes
+                clean_stale(target)
+                try:
+                    (target / ".work").rmdir()  # every scene is done; removed only when empty
+                except OSError:
+                    pass
     return result
 
 

@@ -18,7 +18,6 @@
 
 from __future__ import annotations
 
-import errno
 import fcntl
 import functools
 import hashlib
@@ -31,7 +30,7 @@ import time
 from pathlib import Path
 from types import TracebackType
 
-from vibra._io import atomic_write_text, temporary_owner
+from vibra._io import atomic_write_text, check_out_folder, temporary_owner
 
 __all__ = ["MANIFESTS", "WORK", "LOCK_NAME", "FolderBusy", "FolderLock", "check_out_dir", "pid_alive",
            "clean_stale", "output_is_sound", "code_hash", "work_folder"]
@@ -47,55 +46,21 @@ class FolderBusy(RuntimeError):
     """Another `vibra report` holds the output folder's lock (the message names it)."""
 
 
-def _describe(path: Path) -> str | None:
-    """Why `path` cannot be the output folder (None when it is a folder or does not exist yet)."""
-    try:
-        info = os.stat(path)
-    except FileNotFoundError:
-        if os.path.islink(path):
-            return f"is a symlink to a missing target ({os.readlink(path)})"
-        return None
-    except OSError as error:
-        if error.errno == errno.ELOOP:
-            return "is a symlink loop"
-        if error.errno == errno.ENOTDIR:  # below a file: its parent says why
-            return None
-        return f"cannot be inspected ({error.strerror})"
-    if stat.S_ISDIR(info.st_mode):
-        return None
-    if stat.S_ISREG(info.st_mode):
-        return "is a regular file"
-    if stat.S_ISCHR(info.st_mode) or stat.S_ISBLK(info.st_mode):
-        return "is a device"
-    return "is not a folder (a FIFO or socket)"
-
-
 def check_out_dir(path: str | os.PathLike[str]) -> Path:
     """Create the output folder when missing and check it is a writable folder; return it.
 
+    The folder rule is `vibra._io.check_out_folder`; then the names report writes itself
+    (``summary.json``, ``index.html``, ``.vibra/``, ``.work/``) must be of the right kind.
+
     Raises
     ------
+    vibra._io.TargetRefused
+        `path` (or a parent) is a file, device, dangling symlink or symlink loop; the folder
+        (or the parent it would be made in) is not writable.
     NotADirectoryError
-        `path` (or a parent) is a file, device, dangling symlink or symlink loop.
-    PermissionError
-        The folder (or the parent it would be made in) is not writable.
+        One of report's own names is a folder where a file goes, or the reverse.
     """
-    target = Path(path)
-    for folder in [target, *target.parents]:
-        problem = _describe(folder)
-        if problem is not None:
-            where = "--out" if folder == target else f"--out {target}: its parent"
-            raise NotADirectoryError(f"{where} {folder} {problem}; expected a folder (created when missing)")
-        if folder.exists():
-            break
-    try:
-        target.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise PermissionError(f"--out {target}: cannot create the folder ({error.strerror}); expected a "
-                              "writable place") from None
-    if not os.access(target, os.W_OK | os.X_OK):
-        raise PermissionError(f"--out {target}: the folder is not writable; choose another --out or change "
-                              "its permissions")
+    target = check_out_folder(path, option="--out")
     for name in (MANIFESTS, WORK, *FOLDER_FILES):
         entry = target / name
         wanted_dir = name in (MANIFESTS, WORK)

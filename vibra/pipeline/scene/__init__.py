@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, BUILDERS, builder_function
+from vibra.pipeline.scene.files import scene_inputs
 from vibra.pipeline.scene.schema import (
     Reader, check_combinations, check_crystal, parse_compute, parse_crystal, parse_draw, parse_system,
 )
@@ -51,6 +52,7 @@ __all__ = [
     "SceneError", "Scene", "SystemSpec", "ComputeSpec", "ResponseSpec", "ContinuumSpec",
     "DrawSpec", "CrystalSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
     "tomllib", "MAX_SCENE_BYTES", "MAX_SCENE_DEPTH", "read_scene_bytes", "parse_scene_text",
+    "scene_inputs",
 ]
 
 

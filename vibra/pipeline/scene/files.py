@@ -12,10 +12,15 @@ from __future__ import annotations
 import os
 import stat
 from pathlib import Path
+from typing import Any
 
 from vibra.pipeline.scene.specs import SceneError
 
-__all__ = ["MAX_DATA_BYTES", "scene_data_path", "read_scene_data"]
+__all__ = ["MAX_DATA_BYTES", "DATA_FILE_KEYS", "scene_data_path", "read_scene_data", "scene_inputs"]
+
+#: Keys of ``[system]`` that name a data file beside the scene (the run's inputs with the scene
+#: file itself: no file vibra writes may replace them, see `vibra._io.check_target`).
+DATA_FILE_KEYS: tuple[str, ...] = ("xyz", "pdb", "file", "force_constants_file")  # (the last two: crystal scenes' phonopy files)
 
 #: Largest data file a scene may name, in bytes (16 MiB: a 100,000-atom PDB file is about 8 MiB).
 MAX_DATA_BYTES = 16 << 20
@@ -76,3 +81,19 @@ def read_scene_data(source: str, key: str, name: str) -> str:
         return data.decode("utf-8")
     except UnicodeDecodeError:
         raise SceneError(source, key, f"{name!r} is not UTF-8 text") from None
+
+
+def scene_inputs(scene: Any) -> tuple[Path, ...]:
+    """The files a scene's run reads: the scene file and every data file it names (`DATA_FILE_KEYS`).
+
+    Missing or refused files are left out (the build reports them at their key).
+    """
+    paths = [Path(scene.source)] if scene.source and os.path.lexists(scene.source) else []
+    for key in DATA_FILE_KEYS:
+        name = scene.system.parameters.get(key)
+        if isinstance(name, str):
+            try:
+                paths.append(scene_data_path(scene.source, f"system.{key}", name))
+            except SceneError:
+                pass
+    return tuple(paths)

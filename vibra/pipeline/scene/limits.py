@@ -50,11 +50,17 @@ def sites_and_dim(builder: str, p: Mapping[str, Any]) -> tuple[int, int] | None:
 
 
 def default_memory_limit() -> int:
-    """Half of the physical memory, in bytes (8 GiB where the system does not say)."""
+    """Half of the physical memory, in bytes (8 GiB where the system does not say), and never more
+    than the room under the address-space limit (``ulimit -v``) or the cgroup memory limit
+    (`vibra.solvers.budget.memory_sources`: a container's limit is the machine's size for us)."""
     try:
-        return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")) // 2
+        half = int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")) // 2
     except (ValueError, OSError, AttributeError):
-        return 8 << 30
+        half = 8 << 30
+    from vibra.solvers.budget import MEMORY_READERS
+
+    limits = [reader() for name, reader in MEMORY_READERS.items() if name != "available physical memory"]
+    return int(min([half, *(value for value in limits if value is not None)]))
 
 
 @dataclass(frozen=True)

@@ -270,7 +270,8 @@ def _check_memory(reader: Reader, scene: Any) -> None:
         return
     limit = default_memory_limit() if compute.memory_limit_gib is None else compute.memory_limit_gib * 2**30
     if estimate.total > limit:
-        source = "compute.memory_limit_gib" if compute.memory_limit_gib is not None else "half the physical memory"
+        source = "compute.memory_limit_gib" if compute.memory_limit_gib is not None else (
+            "half the physical memory, or less under ulimit -v or a cgroup limit")
         reader.fail(estimate.key, f"would need about {gib(estimate.total)} of memory (mostly {estimate.largest}), "
                     f"more than the limit of {gib(limit)} ({source}); ask for {estimate.advice}, or raise "
                     "compute.memory_limit_gib if the machine has the memory")

@@ -4,7 +4,10 @@ A sweep is a scene file (or a parsed scene table, or a Python builder) and a set
 
 - a **grid** (`grid`, `vary`): the Cartesian product of value ranges, one per dotted key of
   the scene (``system.defect_mass``, ``system.stiffness``, ``compute.n_modes``), linear or
-  logarithmic; for a builder the keys are its keyword arguments;
+  logarithmic; for a builder the keys are its keyword arguments. Ranges and grids are lazy
+  sequences (`ValueRange`, `GridPoints`): a value is computed when it is read, so a grid of
+  10^9 points takes a few bytes until it runs. `sweep` refuses more than ``max_points``
+  points (`DEFAULT_MAX_POINTS`, 100,000), with the count and the time one point took;
 - an **ensemble** (`ensemble`): n random members. Member i draws from its own generator
   `member_rng` (seed, i) = ``default_rng(SeedSequence(seed, spawn_key=(i,)))``, the i-th
   child of ``SeedSequence(seed).spawn(n)``, so the same seed gives the same members whatever
@@ -35,7 +38,6 @@ from __future__ import annotations
 import copy
 import csv
 import io
-import itertools
 import json
 import math
 import os
@@ -51,172 +53,14 @@ from vibra._io import atomic_write_text
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.pipeline.plan import build_system
 from vibra.pipeline.scene import Scene, SceneError, tomllib
+from vibra.pipeline.sweep.points import (
+    DEFAULT_MAX_POINTS, Axis, Ensemble, Grid, GridPoints, ValueRange, describe_duration, ensemble, grid, member_rng,
+    parse_vary, vary,
+)
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
-           "SweepTable", "sweep"]
-
-
-# ---------------------------------------------------------------------- points
-@dataclass(frozen=True)
-class Axis:
-    """One swept key and its values, in order.
-
-    Attributes
-    ----------
-    key : str
-        Dotted key of the scene (``system.defect_mass``) or a builder's keyword.
-    values : tuple of int or float
-        The values, in the key's own unit.
-    """
-
-    key: str
-    values: tuple[Any, ...]
-
-
-def vary(key: str, start: float, stop: float, n: int, *, spacing: Literal["linear", "log"] = "linear") -> Axis:
-    """`n` values from `start` to `stop` (both included), evenly or logarithmically spaced.
-
-    Raises
-    ------
-    ValueError
-        An empty key, `n` < 1 (an empty range), `start` == `stop` with `n` > 1, non-finite
-        bounds, or a non-positive bound with ``spacing="log"``.
-    """
-    if not isinstance(key, str) or not key.strip():
-        raise ValueError(f"key is {key!r}; expected a dotted key such as 'system.defect_mass'")
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
-        raise TypeError(f"n must be an int, got {type(n).__name__}")
-    if n < 1:
-        raise ValueError(f"{key}: n is {n}; an empty range has nothing to sweep (expected n >= 1)")
-    low, high = float(start), float(stop)
-    if not (math.isfinite(low) and math.isfinite(high)):
-        raise ValueError(f"{key}: start and stop must be finite, got {start!r} and {stop!r}")
-    if n > 1 and low == high:
-        raise ValueError(f"{key}: start and stop are both {low!r}; {n} points need start != stop")
-    if spacing == "log":
-        if low <= 0 or high <= 0:
-            raise ValueError(f"{key}: log spacing needs positive start and stop, got {start!r} and {stop!r}")
-        values = np.geomspace(low, high, int(n))
-    elif spacing == "linear":
-        values = np.linspace(low, high, int(n))
-    else:
-        raise ValueError(f"spacing is {spacing!r}; expected 'linear' or 'log'")
-    return Axis(key, tuple(float(v) for v in values))
-
-
-def parse_vary(text: str) -> Axis:
-    """An `Axis` from the command-line form ``KEY=START:STOP:N`` or ``KEY=log:START:STOP:N``.
-
-    Raises
-    ------
-    ValueError
-        Malformed text (the message shows the expected form), or what `vary` refuses.
-    """
-    key, sep, spec = str(text).partition("=")
-    form = "expected KEY=START:STOP:N or KEY=log:START:STOP:N, e.g. system.defect_mass=0.2:0.8:7"
-    if not sep or not key.strip():
-        raise ValueError(f"--vary {text!r}: {form}")
-    parts = spec.split(":")
-    spacing: Literal["linear", "log"] = "linear"
-    if parts and parts[0] in ("log", "lin", "linear"):
-        spacing = "log" if parts[0] == "log" else "linear"
-        parts = parts[1:]
-    if len(parts) != 3:
-        raise ValueError(f"--vary {text!r}: {form}")
-    try:
-        start, stop = float(parts[0]), float(parts[1])
-        n = int(parts[2])
-    except ValueError:
-        raise ValueError(f"--vary {text!r}: START and STOP must be numbers and N an integer; {form}") from None
-    return vary(key.strip(), start, stop, n, spacing=spacing)
-
-
-@dataclass(frozen=True)
-class Grid:
-    """The Cartesian product of axes: every combination, the first axis varying slowest.
-
-    Attributes
-    ----------
-    keys : tuple of str
-    points : tuple of tuple
-        One value per key for each point.
-    """
-
-    keys: tuple[str, ...]
-    points: tuple[tuple[float, ...], ...]
-
-
-def grid(*axes: Axis | Mapping[str, Sequence[float]]) -> Grid:
-    """A `Grid` from `Axis` objects (`vary`) and/or mappings ``{key: values}``.
-
-    Raises
-    ------
-    ValueError
-        No axis, an axis without values, or a key given twice.
-    """
-    flat: list[Axis] = []
-    for entry in axes:
-        if isinstance(entry, Axis):
-            flat.append(entry)
-        elif isinstance(entry, Mapping):
-            flat.extend(Axis(str(k), tuple(_scalar(k, v) for v in np.atleast_1d(np.asarray(values))))
-                        for k, values in entry.items())
-        else:
-            raise TypeError(f"grid takes Axis objects or mappings {{key: values}}, got {type(entry).__name__}")
-    if not flat:
-        raise ValueError("grid needs at least one axis (a key and its values)")
-    keys = [a.key for a in flat]
-    for a in flat:
-        if not a.values:
-            raise ValueError(f"{a.key}: no values; an empty range has nothing to sweep")
-        if keys.count(a.key) > 1:
-            raise ValueError(f"{a.key}: the key is swept twice; give each key once")
-    return Grid(tuple(keys), tuple(itertools.product(*(a.values for a in flat))))
-
-
-def _scalar(key: str, value: Any) -> Any:
-    """A grid value as a plain Python int or float (ints stay ints: builders take n as an int)."""
-    item = value.item() if hasattr(value, "item") else value
-    if isinstance(item, bool) or not isinstance(item, (int, float)) or not math.isfinite(item):
-        raise ValueError(f"{key}: grid values must be finite numbers, got {value!r}")
-    return item
-
-
-@dataclass(frozen=True)
-class Ensemble:
-    """`n` random members drawn from `seed` (see `member_rng`).
-
-    Attributes
-    ----------
-    seed : int
-    n : int
-    draw : callable or None
-        ``draw(generator) -> {key: value}`` for a scene; None for a builder (it gets ``rng=``).
-    """
-
-    seed: int
-    n: int
-    draw: Callable[[np.random.Generator], Mapping[str, Any]] | None = None
-
-
-def ensemble(seed: int, n: int, draw: Callable[[np.random.Generator], Mapping[str, Any]] | None = None) -> Ensemble:
-    """An `Ensemble` of `n` members from `seed` (a non-negative integer)."""
-    for name, value in (("seed", seed), ("n", n)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise TypeError(f"{name} must be an int, got {type(value).__name__}")
-    if seed < 0:
-        raise ValueError(f"seed is {seed}; expected a non-negative integer")
-    if n < 1:
-        raise ValueError(f"n is {n}; an ensemble needs at least 1 member")
-    if draw is not None and not callable(draw):
-        raise TypeError(f"draw must be callable (generator -> {{key: value}}), got {type(draw).__name__}")
-    return Ensemble(int(seed), int(n), draw)
-
-
-def member_rng(seed: int, index: int) -> np.random.Generator:
-    """The generator of ensemble member `index`: the `index`-th child of ``SeedSequence(seed)``."""
-    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(int(index),)))
-
+           "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS", "describe_duration",
+           "point_seconds"]
 
 # ---------------------------------------------------------------------- results
 @dataclass(frozen=True, eq=False)
@@ -387,6 +231,8 @@ def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str,
             _, payload = _scene_at(data, source, drawn)
             parameters = parameters + tuple((str(k), v) for k, v in drawn.items()
                                             if isinstance(v, (int, float)) and not isinstance(v, bool))
+        else:  # the point's values: its table is made here (the grid keeps none)
+            _, payload = _scene_at(data, source, dict(payload))
         system, modes, _ = _solve_scene(payload, source)
     else:
         kwargs = dict(payload) if payload is not None else {"rng": member_rng(options["seed"], index)}
@@ -421,7 +267,7 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
           progress: ProgressOption = None, n_workers: int | None = None, timeout: float = 10.0,
           n_modes: int | None = None, band: tuple[float, float] | None = None,
           accuracy: Literal["high", "fast"] = "high", solver: str = "auto", name: str | None = None,
-          chunk_size: int = 1) -> SweepTable:
+          chunk_size: int = 1, max_points: int = DEFAULT_MAX_POINTS) -> SweepTable:
     """Solve `target` at every point of `points`; one row per point, in point order.
 
     Parameters
@@ -450,6 +296,10 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         Points per Dask task. 1 (one task per point) balances the load best when points are
         expensive; points that take about a millisecond run several times faster in chunks
         (the per-task cost of Dask is a few milliseconds: benchmarks/RESULTS_distributed.md).
+    max_points : int
+        The most points (grid points or ensemble members) this call runs (`DEFAULT_MAX_POINTS`).
+        A larger sweep is refused before any work but one point, solved to say how long the
+        whole sweep would take (the refusal depends on the count only, never on the clock).
 
     Returns
     -------
@@ -461,7 +311,8 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         A point's scene is invalid: an unknown key (the closest valid key suggested), a
         wrong value; checked for every point before any is solved.
     ValueError, TypeError
-        Malformed points, target, client or options; an ensemble of a scene without ``draw``.
+        Malformed points, target, client or options; an ensemble of a scene without ``draw``;
+        more points than `max_points` (the message gives the count and the time estimate).
     RuntimeError
         One or more points failed while solving (each named with its values).
     vibra.cluster.ClusterError
@@ -482,9 +333,14 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         points = grid(points)
     if not isinstance(points, (Grid, Ensemble)):
         raise TypeError(f"points must be a Grid, Axis, mapping or Ensemble, got {type(points).__name__}")
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 1:
+        raise ValueError(f"max_points is {max_points!r}; expected an integer >= 1")
     options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver}
     if isinstance(points, Ensemble):
         options.update(seed=points.seed, draw=points.draw)
+    count = len(points.points) if isinstance(points, Grid) else points.n
+    if count > max_points:
+        _refuse_size(target, points, options, name, derive, count, int(max_points))
     tasks, labels, units, table_name = _prepare(target, points, options, name)
     kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
     arguments = [(kind, payload_target, index, parameters, payload, options, derive)
@@ -520,6 +376,49 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     return SweepTable(name=table_name, keys=tuple(keys), units=units or "", rows=tuple(rows))
 
 
+def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None, derive: Any,
+                 count: int, max_points: int) -> None:
+    """Raise the refusal of a sweep of `count` > `max_points` points, timed from its first point."""
+    seconds = _first_point_seconds(target, points, options, name, derive)
+    raise ValueError(f"{count:,} points is more than max_points={max_points:,} (--max-points); one point took "
+                     f"{seconds:.2g} s here, so the sweep would take about {describe_duration(count * seconds)} in "
+                     "one process; sweep fewer points, or raise max_points (--max-points) to run it")
+
+
+def _first_point_seconds(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None,
+                         derive: Any) -> float:
+    """Seconds the first point takes here (its second run when the first took under a second)."""
+    import time
+
+    first: Grid | Ensemble = (Grid(points.keys, (points.points[0],)) if isinstance(points, Grid)
+                              else Ensemble(points.seed, 1, points.draw))
+    tasks, _, _, _ = _prepare(target, first, options, name)
+    kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
+    payload_target, index, parameters, payload = tasks[0]
+    seconds = math.inf
+    for _ in range(2):  # the second run, when the first was short, leaves imports and caches out
+        start = time.perf_counter()
+        _point_task(kind, payload_target, index, parameters, payload, options, derive)
+        seconds = min(seconds, time.perf_counter() - start)
+        if seconds > 1.0:
+            break
+    return seconds
+
+
+def point_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
+                  derive: Callable[[Any, Any], Mapping[str, float]] | None = None, n_modes: int | None = None,
+                  band: tuple[float, float] | None = None, accuracy: Literal["high", "fast"] = "high",
+                  solver: str = "auto") -> float:
+    """Seconds the first point of a sweep takes in this process (a measurement: for messages only,
+    never for a decision). Arguments as in `sweep`."""
+    if isinstance(points, Axis) or (isinstance(points, Mapping) and not isinstance(points, Grid)):
+        points = grid(points)
+    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver}
+    if isinstance(points, Ensemble):
+        options.update(seed=points.seed, draw=points.draw)
+    return _first_point_seconds(target, points, options, None, derive)
+
+
 def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None
              ) -> tuple[list[tuple[Any, int, tuple[tuple[str, Any], ...], Any]], list[str], str | None, str]:
     """Per point: (target payload, index, parameters, point payload); labels; units; table name."""
@@ -543,8 +442,8 @@ def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name
     if isinstance(points, Grid):
         for index, values in enumerate(points.points):
             parameters = tuple(zip(points.keys, values))
-            _, table = _scene_at(data, source, dict(parameters))  # every point validated before any work
-            tasks.append(((data, source), index, parameters, table))
+            _scene_at(data, source, dict(parameters))  # every point validated before any work (not kept)
+            tasks.append(((data, source), index, parameters, parameters))
             labels.append(f"point {index}: " + ", ".join(f"{k}={v:g}" for k, v in parameters))
     else:
         if points.draw is None:
