@@ -86,7 +86,7 @@ SCENES = [
      "kkkk", "unknown key"),
     # ---- top-level values
     ("kind-missing", '[system]\nbuilder = "linear_chain"\nn = 4\n', "kind", "is required"),
-    ("kind-unknown", 'kind = "crystal"\n[system]\nbuilder = "linear_chain"\nn = 4\n', "kind", "expected one of"),
+    ("kind-unknown", 'kind = "liquid"\n[system]\nbuilder = "linear_chain"\nn = 4\n', "kind", "expected one of"),
     ("kind-number", 'kind = 3\n[system]\nbuilder = "linear_chain"\nn = 4\n', "kind", "expected one of"),
     ("units-unknown", chain(top='units = "cgs"\n'), "units", "expected one of"),
     ("name-unsafe", chain(top='name = "../x"\n'), "name", "not a safe file name"),
