@@ -507,3 +507,20 @@ def test_rings_from_100_sites_take_the_ring_path_and_agree_with_the_dense_solve(
     if n == 100:
         smaller = linear_chain(n - 1, ends="periodic", mass=mass[:-1], stiffness=springs[:-1], units="dimensionless")
         assert smaller.modes(vectors=False).solver in ("accurate-checked", "accurate-jacobi")
+
+
+def test_high_on_a_few_modes_of_a_long_ring_brackets_shift_inverts_values() -> None:
+    """The lowest 9 frequencies of a uniform free ring of 20,000 sites at "high": shift-invert's
+    values, each bracketed by two double-double counts (`ring_counted`): within 1e-10 of the
+    closed form omega_j = 2 sin(pi ceil(j/2) / n) (double pairs), each bound covering its error
+    and at most 1e-10 relative; the rotation exactly 0. "certified" takes the ring's own path."""
+    n = 20_000
+    ring = linear_chain(n, ends="periodic", units="dimensionless")
+    exact = 2 * np.sin(np.pi * np.ceil(np.arange(9) / 2) / n)
+    modes = ring.modes(n_modes=9, vectors=False)
+    assert modes.solver == "accurate-ring" and "shift-invert" in modes.refinement
+    assert modes.omega[0] == 0.0
+    error = np.abs(modes.omega[1:] - exact[1:])
+    assert np.all(error <= 1e-10 * exact[1:]) and np.all(error <= modes.omega_error[1:])
+    assert np.all(modes.omega_error[1:] <= 1e-10 * exact[1:])
+    assert "shift-invert" not in ring.modes(n_modes=9, vectors=False, accuracy="certified").refinement

@@ -135,6 +135,28 @@ def cut_chain(m: NDArray[np.float64], w: NDArray[np.float64], c_in: NDArray[np.f
 Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
 
 
+class _SpringForm:
+    """A ring's spring form as the compiled counts take it (`kernel.spring_counts`): masses m,
+    springs w, couplings in and out of each site, the double-double compliances and squared
+    couplings, the closing coupling, the walls, and u (the counts' unit of perturbation)."""
+
+    def __init__(self, pencil: RingPencil) -> None:
+        n = pencil.n
+        self.m, self.w, self.c_in, self.c_out = spring_arrays(pencil)
+        self.wall = spring_walls(pencil) if pencil.walls else None
+        self.compliance = _div(np.ones(n), np.zeros(n), self.w, np.zeros(n))
+        self.off = np.empty(2 * n - 1)
+        self.off[0::2], self.off[1::2] = self.c_in, self.c_out[: n - 1]
+        self.squares = _mul(self.off, np.zeros_like(self.off), self.off, np.zeros_like(self.off))
+        self.closing = float(self.c_out[n - 1])
+        self.u = 4 * _UNIT_DD
+
+    def counts(self, x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+        count, certain, _ = spring_counts(x, self.m, self.compliance, self.off, self.squares, self.closing,
+                                          self.u, self.wall)
+        return count, certain
+
+
 def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighten | None = None,
                 needed: int | None = None, aim: float = MP_WANTED) -> RingValues:
     """All eigenvalues of a ring's pencil (the lowest `count` of them when given: O(count n),
@@ -144,14 +166,9 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     of the first `needed` (default: all; the rest only bound their neighbours' gaps)."""
     n = pencil.n
     wanted = n if count is None else max(1, min(int(count), n))
-    m, w, c_in, c_out = spring_arrays(pencil)
-    wall = spring_walls(pencil) if pencil.walls else None
-    compliance = _div(np.ones(n), np.zeros(n), w, np.zeros(n))
-    off = np.empty(2 * n - 1)
-    off[0::2], off[1::2] = c_in, c_out[: n - 1]
-    squares = _mul(off, np.zeros_like(off), off, np.zeros_like(off))
-    closing = float(c_out[n - 1])
-    u = 4 * _UNIT_DD
+    form = _SpringForm(pencil)
+    m, w, c_in, c_out, wall = form.m, form.w, form.c_in, form.c_out, form.wall
+    compliance, off, squares, closing, u = form.compliance, form.off, form.squares, form.closing, form.u
     free = wall is None
     tie = None if wall is None else wall[0]  # float64 walls: the cut chain's factor, the pivot roots
     first = 1 if free else 0  # a free ring's eigenvalue 0 is its rigid rotation, exactly
@@ -247,20 +264,9 @@ def ring_counted(pencil: RingPencil, result: SolveResult, levels: tuple[float, .
     missed fails them); a free ring's rotation is exactly 0. None where some value is not
     certified (the ring's own values path takes over). O(n) per count, ~2 k counts per level:
     what "high" asks of a few modes, without the cut chain's bisection."""
-    n = pencil.n
     k = result.eigenvalues.shape[0]
-    m, w, c_in, c_out = spring_arrays(pencil)
-    wall = spring_walls(pencil) if pencil.walls else None
-    compliance = _div(np.ones(n), np.zeros(n), w, np.zeros(n))
-    off = np.empty(2 * n - 1)
-    off[0::2], off[1::2] = c_in, c_out[: n - 1]
-    squares = _mul(off, np.zeros_like(off), off, np.zeros_like(off))
-    closing = float(c_out[n - 1])
-    u = 4 * _UNIT_DD
-
-    def counts(x: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        count, certain, _ = spring_counts(x, m, compliance, off, squares, closing, u, wall)
-        return count, certain
+    form = _SpringForm(pencil)
+    counts, wall = form.counts, form.wall
 
     values = result.eigenvalues.copy()
     bound = np.full(k, np.inf)
