@@ -122,8 +122,8 @@ def test_molecule_masses_option() -> None:
 def test_unknown_molecule_name_names_it_with_close_matches() -> None:
     with pytest.raises(ValueError, match=r"'Ch4'.*close matches: CH4"):
         mol.molecule("Ch4")
-    with pytest.raises(ValueError, match=r"'methane' is not in ASE's molecule collection"):
-        mol.molecule("methane")
+    with pytest.raises(ValueError, match=r"'caffeine' is not in ASE's molecule collection"):
+        mol.molecule("caffeine")  # ('methane' is an everyday name now: COMMON_NAMES)
     with pytest.raises(TypeError, match="name_or_atoms must be"):
         mol.molecule(5)  # type: ignore[arg-type]
 
@@ -155,3 +155,20 @@ def test_planar_molecule_without_torsions_warns_of_soft_modes() -> None:
         warnings.simplefilter("always")
         mol.molecule("C2H4")
     assert any(issubclass(w.category, mol.SoftModeWarning) for w in caught)
+
+
+def test_everyday_names_are_understood_and_suggested() -> None:
+    """'water', 'ethanol' (any case) are ASE's H2O and CH3CH2OH, same geometry; a misspelt one
+    is refused with the everyday name and its formula among the close matches (issue 32: they
+    were refused with no suggestion)."""
+    import numpy as np
+    import pytest
+
+    from vibra import molecules
+
+    for common, formula in (("water", "H2O"), ("Ethanol", "CH3CH2OH"), ("carbon dioxide", "CO2")):
+        np.testing.assert_array_equal(molecules.molecule_atoms(common).get_positions(),
+                                      molecules.molecule_atoms(formula).get_positions())
+    assert molecules.molecule("water").name == "water"
+    with pytest.raises(ValueError, match=r"close matches: .*water \(H2O\)"):
+        molecules.molecule("watr")

@@ -29,7 +29,20 @@ from vibra.system import System
 if TYPE_CHECKING:
     from ase import Atoms
 
-__all__ = ["EQUILIBRIUM_FORCE", "molecule", "molecule_atoms", "molecule_names"]
+__all__ = ["EQUILIBRIUM_FORCE", "COMMON_NAMES", "molecule", "molecule_atoms", "molecule_names"]
+
+#: Everyday names of common molecules -> their name in ASE's collection (a teacher types
+#: "water", ASE knows "H2O"); matched without regard to case.
+COMMON_NAMES: dict[str, str] = {
+    "water": "H2O", "benzene": "C6H6", "ethanol": "CH3CH2OH", "methanol": "CH3OH", "methane": "CH4",
+    "ethane": "C2H6", "propane": "C3H8", "ethylene": "C2H4", "ethene": "C2H4", "acetylene": "C2H2",
+    "ethyne": "C2H2", "ammonia": "NH3", "carbon dioxide": "CO2", "carbon monoxide": "CO",
+    "formaldehyde": "H2CO", "acetaldehyde": "CH3CHO", "acetone": "CH3COCH3", "acetic acid": "CH3COOH",
+    "formic acid": "HCOOH", "hydrogen peroxide": "H2O2", "hydrogen cyanide": "HCN", "hydrogen chloride": "HCl",
+    "hydrogen": "H2", "nitrogen": "N2", "oxygen": "O2", "ozone": "O3", "sulfur dioxide": "SO2",
+    "nitrogen dioxide": "NO2", "acetonitrile": "CH3CN", "phosphine": "PH3", "silane": "SiH4",
+    "carbon tetrachloride": "CCl4", "tetrafluoromethane": "CF4",
+}
 
 #: Largest force (eV / Angstrom) left on an atom at the returned equilibrium; below it the
 #: input geometry is kept as is, above it the geometry is relaxed to this tolerance.
@@ -92,8 +105,11 @@ def molecule_atoms(
 
     if isinstance(name_or_atoms, str):
         names = molecule_names()
+        if name_or_atoms not in names and name_or_atoms.strip().lower() in COMMON_NAMES:
+            name_or_atoms = COMMON_NAMES[name_or_atoms.strip().lower()]
         if name_or_atoms not in names:
             folded = {name.lower(): name for name in names}
+            folded.update({common: f"{common} ({formula})" for common, formula in COMMON_NAMES.items()})
             close = difflib.get_close_matches(name_or_atoms.lower(), list(folded), n=5, cutoff=0.6)
             hint = f"; close matches: {', '.join(folded[c] for c in close)}" if close else ""
             raise ValueError(f"molecule name {name_or_atoms!r} is not in ASE's molecule collection "
@@ -135,7 +151,8 @@ def molecule(
     Parameters
     ----------
     name_or_atoms : str or ase.Atoms
-        A name from `molecule_names` (``"CH4"``, ``"C6H6"``, ``"NH3"``) or any molecule.
+        A name from `molecule_names` (``"CH4"``, ``"C6H6"``, ``"NH3"``), an everyday name of
+        `COMMON_NAMES` (``"water"``, ``"benzene"``, ``"ethanol"``), or any molecule.
     isotopes : sequence of (str or None) or mapping of int to str, optional
         Isotope labels per atom (``["C", "D", "D", "D", "D"]`` is not a label list: use
         ``[None, "D", "D", "D", "D"]`` or ``{1: "D"}``); the force field is unchanged.
