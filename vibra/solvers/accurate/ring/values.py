@@ -136,9 +136,8 @@ Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
 
 
 class _SpringForm:
-    """A ring's spring form as the compiled counts take it (`kernel.spring_counts`): masses m,
-    springs w, couplings in and out of each site, the double-double compliances and squared
-    couplings, the closing coupling, the walls, and u (the counts' unit of perturbation)."""
+    """A ring's spring form as the compiled counts take it (`kernel.spring_counts`): masses, springs,
+    couplings, double-double compliances and squared couplings, the closing coupling, walls, unit u."""
 
     def __init__(self, pencil: RingPencil) -> None:
         n = pencil.n
@@ -251,9 +250,8 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     return RingValues(values, bound, certified[order] & np.isfinite(bound), int(evaluations.sum()), spent, tightened)
 
 
-#: The brackets `ring_counted` tries around a standard solver's values ("high": its values are
-#: right to ~1e-12 relative on a ring of 10^5 sites, where shift-invert's factor is the ring's
-#: own; 1e-10 is the level's promise).
+#: The brackets `ring_counted` tries around a standard solver's values (~1e-12 relative on a
+#: ring of 10^5 sites; 1e-10 is "high"'s promise).
 HIGH_LEVELS = (1e-13, 1e-12, 1e-11, 1e-10)
 
 
