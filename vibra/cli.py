@@ -30,7 +30,7 @@ import contextlib
 import os
 import sys
 from pathlib import Path
-from typing import Any, Iterator, NoReturn, Sequence
+from typing import Any, Callable, Iterator, NoReturn, Sequence
 
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERNAL"]
 
@@ -58,14 +58,17 @@ def _window(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _jobs(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--jobs must be an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"--jobs must be >= 1, got {value}")
-    return value
+def _positive_int(option: str) -> Callable[[str], int]:
+    """An argparse type: an integer >= 1, refused in one line naming `option`."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} must be an integer, got {text!r}") from None
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{option} must be >= 1, got {value}")
+        return value
+    return parse
 
 
 def _seconds(text: str) -> float:
@@ -85,16 +88,6 @@ def _timeout(text: str) -> float:
         raise argparse.ArgumentTypeError(f"--timeout must be a number of seconds, got {text!r}") from None
     if not 0 < value <= 3600:
         raise argparse.ArgumentTypeError(f"--timeout must be between 0 and 3600 s, got {text}")
-    return value
-
-
-def _points(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--max-points must be an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"--max-points must be >= 1, got {value}")
     return value
 
 
@@ -119,7 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--out", default="plots", metavar="DIR",
                      help="output folder (default: plots/); each run rewrites its own files there "
                           "(<scene>_*.png, summary.json, index.html), never an input nor anything but a regular file")
-    rep.add_argument("--jobs", "-j", type=_jobs, default=None, metavar="N",
+    rep.add_argument("--jobs", "-j", type=_positive_int("--jobs"), default=None, metavar="N",
                      help="parallel worker processes (default: the cores this process may use)")
     rep.add_argument("--force", action="store_true", help="redo scenes whose inputs did not change")
     rep.add_argument("--window-size", type=_window, default=None, metavar="WxH",
@@ -147,12 +140,12 @@ def build_parser() -> argparse.ArgumentParser:
     swp.add_argument("--out", default="plots", metavar="DIR",
                      help="output folder (default: plots/); each run rewrites <scene>_sweep.csv, .json and .png "
                           "there (regular files only, never an input)")
-    swp.add_argument("--max-points", type=_points, default=None, metavar="N",
+    swp.add_argument("--max-points", type=_positive_int("--max-points"), default=None, metavar="N",
                      help="refuse grids of more than N points (default 100000); the refusal gives the count "
                           "and an estimate of the time from one solved point")
-    swp.add_argument("--jobs", "-j", type=_jobs, default=None, metavar="N",
+    swp.add_argument("--jobs", "-j", type=_positive_int("--jobs"), default=None, metavar="N",
                      help="worker processes of --scheduler local (default: the cores this process may use)")
-    swp.add_argument("--chunk-size", type=_jobs, default=1, metavar="N", help="points per Dask task (default 1)")
+    swp.add_argument("--chunk-size", type=_positive_int("--chunk-size"), default=1, metavar="N", help="points per Dask task (default 1)")
     swp.add_argument("--quiet", "-q", action="store_true", help="no progress lines")
     _add_scheduler(swp, "points")
     return parser
@@ -306,7 +299,8 @@ def _sweep(args: argparse.Namespace) -> int:
     from vibra.charts.sweep import sweep_figure
     from vibra.cluster import ClusterError, check_client
     from vibra.pipeline.scene import SceneError, load_scene, scene_inputs
-    from vibra.pipeline.sweep import DEFAULT_MAX_POINTS, describe_duration, grid, parse_vary, point_seconds, sweep
+    from vibra.solvers.budget import describe_seconds
+    from vibra.pipeline.sweep import DEFAULT_MAX_POINTS, grid, parse_vary, point_seconds, sweep
 
     try:
         points = grid(*(parse_vary(text) for text in args.vary))
@@ -328,7 +322,7 @@ def _sweep(args: argparse.Namespace) -> int:
         if ANNOUNCE_POINTS < count <= limit:  # a long sweep says so, once, even with --quiet
             seconds = point_seconds(args.scene, points)
             print(f"vibra sweep: {count:,} points; one point took {seconds:.2g} s here, so about "
-                  f"{describe_duration(count * seconds)} in one process", file=sys.stderr)
+                  f"{describe_seconds(count * seconds)} in one process", file=sys.stderr)
         table = sweep(args.scene, points, client=args.scheduler, n_workers=args.jobs, timeout=args.timeout,
                       chunk_size=args.chunk_size, progress=not args.quiet,
                       max_points=args.max_points or DEFAULT_MAX_POINTS)

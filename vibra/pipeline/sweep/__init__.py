@@ -53,13 +53,14 @@ from vibra._io import atomic_write_text
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.pipeline.plan import build_system
 from vibra.pipeline.scene import Scene, SceneError, tomllib
+from vibra.solvers.budget import describe_seconds
 from vibra.pipeline.sweep.points import (
-    DEFAULT_MAX_POINTS, Axis, Ensemble, Grid, GridPoints, ValueRange, describe_duration, ensemble, grid, member_rng,
+    DEFAULT_MAX_POINTS, Axis, Ensemble, Grid, GridPoints, ValueRange, ensemble, grid, member_rng,
     parse_vary, vary,
 )
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
-           "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS", "describe_duration",
+           "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS",
            "point_seconds"]
 
 # ---------------------------------------------------------------------- results
@@ -381,7 +382,7 @@ def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], 
     """Raise the refusal of a sweep of `count` > `max_points` points, timed from its first point."""
     seconds = _first_point_seconds(target, points, options, name, derive)
     raise ValueError(f"{count:,} points is more than max_points={max_points:,} (--max-points); one point took "
-                     f"{seconds:.2g} s here, so the sweep would take about {describe_duration(count * seconds)} in "
+                     f"{seconds:.2g} s here, so the sweep would take about {describe_seconds(count * seconds)} in "
                      "one process; sweep fewer points, or raise max_points (--max-points) to run it")
 
 

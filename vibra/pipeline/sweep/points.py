@@ -14,7 +14,7 @@ from typing import Any, Callable, Literal, Mapping, Sequence
 import numpy as np
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "ValueRange",
-           "GridPoints", "DEFAULT_MAX_POINTS", "describe_duration"]
+           "GridPoints", "DEFAULT_MAX_POINTS"]
 
 #: Points a sweep runs without ``max_points=`` (``--max-points``): 10^5 points of a
 #: millisecond each take minutes; more is refused with the count and an estimate.
@@ -107,17 +107,6 @@ class GridPoints(Sequence[tuple[Any, ...]]):
 
     def __repr__(self) -> str:
         return f"GridPoints({len(self)} points of {len(self.axes)} axes)"
-
-
-def describe_duration(seconds: float) -> str:
-    """A duration in words: ``"40 s"``, ``"12 min"``, ``"3.5 h"``, ``"9 days"``."""
-    if seconds < 120:
-        return f"{seconds:.2g} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.0f} min"
-    if seconds < 3 * 86400:
-        return f"{seconds / 3600:.1f} h"
-    return f"{seconds / 86400:.0f} days"
 
 
 # ---------------------------------------------------------------------- points
