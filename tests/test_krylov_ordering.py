@@ -15,7 +15,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from vibra import networks
-from vibra.solvers.standard import krylov, ordering, pardiso
+from vibra.solvers.standard import cholmod, krylov, ordering, pardiso
+from vibra.solvers.standard.ordering import nested_dissection
 from vibra.solvers.standard.sparse import ShiftedInverse, lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 
 
@@ -221,14 +222,59 @@ def test_backend_setting_is_checked(monkeypatch: pytest.MonkeyPatch) -> None:
     K = sp.csr_matrix(_lattice(1100).hessian())
     monkeypatch.setattr(pardiso, "BACKEND", "mumps")
     with pytest.raises(ValueError, match=r"BACKEND \(or VIBRA_SPARSE_BACKEND\) is 'mumps'; expected 'auto', "
-                                         r"'superlu' or 'pardiso'"):
+                                         r"'superlu', 'cholmod' or 'pardiso'"):
         ShiftedInverse(K, -1e-9)
     monkeypatch.setattr(pardiso, "BACKEND", "pardiso")
     monkeypatch.setattr(pardiso, "_AVAILABLE", False)
     with pytest.raises(ImportError, match=r"pip install \"vibra\[pardiso\]\""):
         ShiftedInverse(K, -1e-9)
     monkeypatch.setattr(pardiso, "BACKEND", "auto")
-    assert ShiftedInverse(K, -1e-9).backend == "superlu"  # auto without PARDISO: SuperLU
+    assert ShiftedInverse(K, -1e-9).backend == "cholmod"  # auto without PARDISO: CHOLMOD (cvxopt)
+    monkeypatch.setattr(cholmod, "_AVAILABLE", False)
+    assert ShiftedInverse(K, -1e-9).backend == "superlu"  # neither: SuperLU
+    monkeypatch.setattr(pardiso, "BACKEND", "cholmod")
+    with pytest.raises(ImportError, match=r"'cholmod' needs cvxopt"):
+        ShiftedInverse(K, -1e-9)
+
+
+# ---------------------------------------------------------------------- the CHOLMOD backend
+def test_cholmod_cholesky_solves_and_refuses_indefinite() -> None:
+    K = sp.csr_matrix(_lattice(1100).hessian())
+    A = (K + 1e-3 * sp.identity(K.shape[0])).tocsr()
+    factor = cholmod.CholmodCholesky(A, nested_dissection(A))
+    B = np.random.default_rng(5).standard_normal((K.shape[0], 3))
+    # backward stable to ~ cond eps (cond ~ ||K|| / 1e-3 here)
+    assert np.linalg.norm(A @ factor.solve(B) - B) <= 1e-9 * np.linalg.norm(B)
+    assert factor.solve(B[:, 0]).shape == (K.shape[0],)
+    with pytest.raises(ValueError, match="not positive definite"):
+        cholmod.CholmodCholesky((K - 0.05 * sp.identity(K.shape[0])).tocsr(), None)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_factor_entries_count_the_dense_cholesky_nonzeros(seed: int) -> None:
+    """The elimination-tree count of L's nonzeros equals those of a dense Cholesky (numpy) of
+    the same matrix in the same order (random values: no entry cancels by chance)."""
+    rng = np.random.default_rng(seed)
+    A = sp.random(120, 120, density=0.03, random_state=seed)
+    A = (A + A.T + 20 * sp.identity(120)).tocsr()
+    order = rng.permutation(120)
+    L = np.linalg.cholesky(A.toarray()[np.ix_(order, order)])
+    assert cholmod.factor_entries(A, order) == np.count_nonzero(L)
+
+
+def test_backends_agree_without_pardiso(monkeypatch: pytest.MonkeyPatch) -> None:
+    """CHOLMOD's Cholesky and SuperLU's LU give the same modes as a dense solve (numpy)."""
+    system = _lattice(1200)
+    reference = np.linalg.eigvalsh(system.hessian().toarray())[6:26]
+    found = {}
+    for backend in ("cholmod", "superlu"):
+        monkeypatch.setattr(pardiso, "BACKEND", backend)
+        K = sp.csr_matrix(system.hessian())
+        factor = ShiftedInverse(K, -1e-12 * float(abs(K).sum(axis=1).max()))
+        assert factor.backend == backend and factor.below_spectrum
+        found[backend] = system.modes(26, accuracy="fast").omega_squared
+        np.testing.assert_allclose(found[backend][6:], reference, rtol=1e-12)
+    np.testing.assert_allclose(found["cholmod"][6:], found["superlu"][6:], rtol=1e-13)
 
 
 def test_cheap_factor_keeps_arpack_and_its_small_basis(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -27,7 +27,8 @@ the input, then time:
   the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 2e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
-  otherwise); 2e-8 n ncv per Lanczos run, + 1.2e-8 n^2 for a 3-D network's factor.
+  otherwise); 2e-8 n ncv per Lanczos run, + 1.2e-8 n^2 for a 3-D network's factor (a sparse
+  Cholesky: PARDISO or CHOLMOD; 4 times that for SuperLU's LU where neither loads).
 - accurate-ring (a ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
   lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
   (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
@@ -53,6 +54,7 @@ from typing import Callable, TextIO
 
 from vibra.solvers.common import BAND_LIMIT, RING_DENSE_LIMIT
 from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, triplet_seconds
+from vibra.solvers.standard.cholmod import sparse_backend
 
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
 MEMORY_LIMIT: float | None = None
@@ -71,7 +73,8 @@ TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or 
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
-SPARSE_FACTOR_S = 1.2e-8      # per n^2: a 3-D network's factor and its solves
+SPARSE_FACTOR_S = 1.2e-8      # per n^2: a 3-D network's factor and its solves (a sparse Cholesky)
+SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates
 BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates
@@ -239,7 +242,7 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if width <= 1 else 12.0 * 20 * max(nnz, n))
         seconds = LANCZOS_S * n * columns * 10 + 1e-9 * n * k * k
         if width > 16:  # a 3-D network: its factor's cost grows as n^2 (nested dissection)
-            seconds += SPARSE_FACTOR_S * n2
+            seconds += SPARSE_FACTOR_S * n2 * (SUPERLU_SLOWER if sparse_backend(n) == "superlu" else 1.0)
     elif path == "accurate-bisection":
         # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein),
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)

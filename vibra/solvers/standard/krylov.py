@@ -99,28 +99,35 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
         given = np.asarray(start, dtype=float).reshape(n, -1)[:, :b]
         first[:, : given.shape[1]] = given
     X, _ = np.linalg.qr(_project(first, deflate))
-    basis = X
+    # the basis grows inside one array (its first m columns in use), not by hstack's copies
+    space = np.empty((n, limit + b))
+    space[:, : X.shape[1]] = X
+    m = X.shape[1]
     H = np.zeros((b, b))  # the block Hessenberg matrix of the Arnoldi relation, grown as it goes
     applied = 0
     while True:
         W = _project(apply(X), deflate)
         applied += X.shape[1]
+        basis = space[:, :m]
         C, Q, R = _orthonormal_against(W, basis, deflate)
-        m = basis.shape[1]
         H[:, m - X.shape[1]:] = C
-        mu, S = np.linalg.eigh(0.5 * (H + H.T))
-        wanted = np.argsort(mu)[::-1][: min(k, m)]
-        residual = np.linalg.norm(R @ S[m - X.shape[1]:, wanted], axis=0)
-        done = m >= k and bool(np.all(residual <= tol * np.abs(mu[wanted])))
-        if enough is not None:
-            done = enough(mu[wanted], residual)
         room = limit - m
-        if done or room <= 0:
-            return mu[wanted], basis @ S[:, wanted], applied, done
+        if m < k and room > 0 and enough is None:  # too few columns to hold k Ritz pairs yet
+            done = False
+        else:
+            mu, S = np.linalg.eigh(0.5 * (H + H.T))
+            wanted = np.argsort(mu)[::-1][: min(k, m)]
+            residual = np.linalg.norm(R @ S[m - X.shape[1]:, wanted], axis=0)
+            done = m >= k and bool(np.all(residual <= tol * np.abs(mu[wanted])))
+            if enough is not None:
+                done = enough(mu[wanted], residual)
+            if done or room <= 0:
+                return mu[wanted], basis @ S[:, wanted], applied, done
         width = X.shape[1]
         X = Q[:, : min(b, room)]
         grown = np.zeros((m + X.shape[1], m + X.shape[1]))
         grown[:m, :m] = H
         grown[m:, m - width : m] = R[: X.shape[1]]
         H = grown
-        basis = np.hstack([basis, X])
+        space[:, m : m + X.shape[1]] = X
+        m += X.shape[1]

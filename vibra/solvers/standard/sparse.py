@@ -23,6 +23,7 @@ from vibra.solvers.common import (
 )
 from vibra.solvers.standard.krylov import block_eigs
 from vibra.solvers.standard.ordering import DISSECTION_MIN, nested_dissection
+from vibra.solvers.standard.cholmod import CholmodCholesky, use_cholmod
 from vibra.solvers.standard.pardiso import PardisoCholesky, use_pardiso
 from vibra.solvers.standard.lapack import dense_path
 
@@ -33,9 +34,11 @@ class ShiftedInverse:
     Tridiagonal K~: LAPACK pttrf (LDL^T, O(N)), which succeeds exactly when K~ - sigma I is
     positive definite. Otherwise SuperLU in symmetric mode without pivoting, whose pivots
     give the inertia (Sylvester): no negative pivot means sigma is below every eigenvalue.
-    Large K~ are first put in nested-dissection order (`vibra.solvers.standard.ordering`), a symmetric
-    permutation that SuperLU then keeps; or, where `pypardiso` is installed (``vibra[pardiso]``,
-    `vibra.solvers.standard.pardiso`), factorised by PARDISO's Cholesky, whose success is the inertia.
+    Large K~ (`DISSECTION_MIN` dofs and up) are factorised by a sparse Cholesky, whose success
+    is the inertia: MKL PARDISO's where `pypardiso` is installed (``vibra[pardiso]``,
+    `vibra.solvers.standard.pardiso`), else CHOLMOD's (cvxopt, `vibra.solvers.standard.cholmod`)
+    in nested-dissection order (`vibra.solvers.standard.ordering`); SuperLU, in that order too,
+    where neither loads or the shift is not below the spectrum.
     """
 
     def __init__(self, Kt: sp.csr_matrix, sigma: float, *, need_inertia: bool = True) -> None:
@@ -43,7 +46,7 @@ class ShiftedInverse:
         self.below_spectrum = False
         self._pt: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._order: NDArray[np.intp] | None = None
-        self._cholesky: PardisoCholesky | None = None
+        self._cholesky: PardisoCholesky | CholmodCholesky | None = None
         self.backend = "lapack pttrf"
         if bandwidth(Kt) <= 1:
             d, e = tridiagonal_bands(Kt)
@@ -63,8 +66,17 @@ class ShiftedInverse:
                 return
             except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
                 pass
+        order = nested_dissection(shifted)
+        if use_cholmod(self.n, DISSECTION_MIN):
+            try:
+                self._cholesky = CholmodCholesky(shifted, order)
+                self.below_spectrum = True
+                self.backend = "cholmod"
+                return
+            except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
+                pass
         self.backend = "superlu"
-        self._order = nested_dissection(shifted)
+        self._order = order
         ordering = "MMD_AT_PLUS_A"
         if self._order is not None:
             shifted = shifted[self._order][:, self._order]
