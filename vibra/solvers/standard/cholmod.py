@@ -31,8 +31,9 @@ def cholmod_available() -> bool:
     global _AVAILABLE
     if _AVAILABLE is None:
         try:
-            from cvxopt import cholmod  # noqa: F401
+            import importlib
 
+            importlib.import_module("cvxopt.cholmod")
             _AVAILABLE = True
         except (ImportError, OSError):
             _AVAILABLE = False
