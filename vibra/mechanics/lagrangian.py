@@ -115,7 +115,7 @@ def double_pendulum_frequencies_squared(
 ) -> NDArray[np.float64]:
     """(2,) roots r1 < r2 of Vieille 1849, eq. (15), the squared angular frequencies, in (rad/s)^2.
 
-    (15): [(m + m') g - m a r](g - b r) - m' a g r = 0, i.e.
+    (15): ``[(m + m') g - m a r] (g - b r) - m' a g r = 0``, i.e.
     m a b r^2 - (m + m') g (a + b) r + (m + m') g^2 = 0, solved without cancellation.
 
     Examples
