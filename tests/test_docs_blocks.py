@@ -17,7 +17,7 @@ import pytest
 matplotlib.use("Agg")
 
 ROOT = Path(__file__).resolve().parent.parent
-PAGES = ("chains.md", "distributed.md", "generalized.md", "molecules.md", "scenes.md")
+PAGES = ("chains.md", "distributed.md", "generalized.md", "index.md", "molecules.md", "scenes.md")
 BLOCKS = [(page, index, block) for page in PAGES
           for index, block in enumerate(re.findall(r"```python\n(.*?)```", (ROOT / "docs" / page).read_text(), re.S))]
 

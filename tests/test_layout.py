@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import pickle
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -162,3 +163,16 @@ def test_no_module_passes_600_lines() -> None:
     long = {str(path.relative_to(ROOT)): n for path in (ROOT / "vibra").rglob("*.py")
             if (n := len(path.read_text(encoding="utf-8").splitlines())) > 600}
     assert long == {}
+
+
+def test_the_module_map_names_every_module() -> None:
+    """docs/architecture.md's module map (moved there from the README) names every top-level module
+    and subpackage of vibra, and names none that does not exist."""
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    table = text[text.index("| module | stage |"):]
+    table = table[:table.index("\n\n")]
+    named = set(re.findall(r"`vibra\.([a-z_]+)", table))
+    present = {path.stem for path in (ROOT / "vibra").iterdir()
+               if (path.suffix == ".py" or (path / "__init__.py").exists()) and not path.name.startswith("__")}
+    assert present - named == set(), "missing from the module map"
+    assert named - present == set(), "in the module map, not in vibra/"

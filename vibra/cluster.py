@@ -1,6 +1,6 @@
 """Work that fans out, on Dask: which cluster to use, and running a list of tasks on it.
 
-vibra has no scheduler of its own (DESIGN.md, "Scale"): finite-difference displacements
+vibra has no scheduler of its own (docs/architecture.md, "Scale"): finite-difference displacements
 (`vibra.molecules.finite_difference_hessian`) and sweeps (`vibra.pipeline.sweep`) hand their tasks to
 ``dask.distributed``, an optional extra (``pip install "vibra[distributed]"``).
 

@@ -8,7 +8,7 @@ which mode of one is which mode of the other. Everything here takes `vibra.Modes
 
 - `overlap(a, b)`: |cos| of the angle between mode i of a and mode j of b, as a matrix (rows a's
   modes, columns b's). ``weighted=True`` (the default) compares the mass-weighted vectors d_k
-  (orthonormal: eq. 143 of G. R. Kneller's course notes "Mécanique analytique", seed 003), the inner product of
+  (orthonormal: eq. 143 of Kneller, Mécanique analytique), the inner product of
   normal modes; ``weighted=False`` the physical shapes u_k = M^-1/2 d_k, each normalised (what
   ProDy's ``calcOverlap`` computes on ANM modes, whose masses are all 1). Mode sets of
   different systems are refused: different dof counts always, different masses when weighted.

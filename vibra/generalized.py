@@ -1,6 +1,6 @@
 """`GeneralizedSystem`: small oscillations in generalised coordinates, T = 1/2 q'^T M q'.
 
-Lagrange's equations linearised about an equilibrium (seed 000 eq. 5; seed 003 eqs. 134-137)
+Lagrange's equations linearised about an equilibrium (Vieille 1849, eq. 5; Kneller, Mécanique analytique, eqs. 134-137)
 give M q'' + K q = 0 with a dense, symmetric positive-definite mass matrix M and a symmetric
 stiffness matrix K. Such a system has coordinates (angles, lengths, ...) but no sites:
 no positions, no site masses, no spring factorisation, so it is a class of its own rather
@@ -305,7 +305,8 @@ class GeneralizedSystem(FreeDofs):
         max_seconds: float | None = None,
         progress: bool | Callable[[float, str], None] | None = None,
     ) -> Modes | QuadraticModes:
-        """Normal modes of the free coordinates (seed 003 eqs. 137-151); see `vibra.System.modes`.
+        """Normal modes of the free coordinates (Kneller, Mécanique analytique, eqs. 137-151);
+        see `vibra.System.modes`.
 
         Returns `Modes`, or a `vibra.solvers.structured.quadratic.QuadraticModes` when the system has G or C
         (`is_quadratic`; all modes, so n_modes and band must be None there; `solver` is "auto"

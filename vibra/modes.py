@@ -1,4 +1,4 @@
-"""`normal_modes(K, M)` and its immutable result, `Modes` (seed 003 eqs. 137-151).
+"""`normal_modes(K, M)` and its immutable result, `Modes` (Kneller, Mécanique analytique, eqs. 137-151).
 
 The eigenproblem K u = omega^2 M u is solved in mass-weighted form,
 K~ = M^-1/2 K M^-1/2 = D Omega^2 D^T (eqs. 138-141), by the solver path in `vibra.solvers`
@@ -319,7 +319,7 @@ def normal_modes(
     device: str = "cpu",
     accuracy: str = "high",
 ) -> Modes:
-    """Normal modes of M u'' + K u = 0 (seed 003 eqs. 137-151).
+    """Normal modes of M u'' + K u = 0 (Kneller, Mécanique analytique, eqs. 137-151).
 
     Parameters
     ----------

@@ -4,7 +4,8 @@ A system is a set of sites (equilibrium coordinates in 1, 2 or 3 dimensions, one
 with a quadratic potential. A set of generalised coordinates with a dense mass matrix is a
 class of its own, `vibra.generalized.GeneralizedSystem`, built by `System.generalized`. Both
 satisfy `Vibrating`, the protocol of anything with K, M and modes (``isinstance(x, Vibrating)``
-accepts either; `is_generalized` tells them apart; ``isinstance(x, System)`` means sites). The potential is stored factorised whenever possible (seed 003 eq. 133):
+accepts either; `is_generalized` tells them apart; ``isinstance(x, System)`` means sites). The potential is stored factorised whenever possible
+(Kneller, Mécanique analytique, eq. 133):
 
     V = 1/2 u^T K u,    K = B^T diag(w) B + K_extra,
 
@@ -12,7 +13,7 @@ where each row of the sparse matrix B is the gradient of one internal coordinate
 elongation, an anchor spring, a bond angle, ...) with respect to the displacements u, w > 0
 is its stiffness and K_extra holds Hessian blocks given directly by the user. When K_extra is
 absent the accurate solver path uses the factor: the normal frequencies are the singular values
-of W^1/2 B M^-1/2 (DESIGN.md, "Accuracy").
+of W^1/2 B M^-1/2 (docs/architecture.md, "Accuracy").
 
 Sites or single degrees of freedom can be frozen; `hessian()`, `mass_matrix()` and `modes()`
 then refer to the free degrees of freedom only, in the order of `free_dofs`.
@@ -504,7 +505,7 @@ class System(FreeDofs):
         max_seconds: float | None = None,
         progress: bool | Callable[[float, str], None] | None = None,
     ) -> Modes:
-        """Normal modes of the free dofs (seed 003 eqs. 137-151).
+        """Normal modes of the free dofs (Kneller, Mécanique analytique, eqs. 137-151).
 
         Parameters
         ----------

@@ -72,7 +72,7 @@ def linear_chain(
     units: str | UnitSystem = "SI",
     name: str | None = None,
 ) -> System:
-    """A chain of n masses joined by springs, moving along the chain (seed 003 eq. 159).
+    """A chain of n masses joined by springs, moving along the chain (Kneller, Mécanique analytique, eq. 159).
 
     One degree of freedom per site: the longitudinal displacement u_i. Sites sit at
     x_i = i * spacing. With ``ends="fixed"`` the end masses are tied to walls at

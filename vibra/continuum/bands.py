@@ -1,4 +1,4 @@
-"""Dispersion of infinite chains and the continuum rod or string (seed 003 eqs. 162-165).
+"""Dispersion of infinite chains and the continuum rod or string (Kneller, Mécanique analytique, eqs. 162-165).
 
 A uniform chain of masses m, springs kappa and spacing dx obeys (eq. 162)
 u_i'' = Omega^2 (u_{i+1} - 2 u_i + u_{i-1}), Omega = sqrt(kappa / m). As dx -> 0 with

@@ -1,4 +1,4 @@
-"""Convergence of a uniform chain's lowest modes towards the rod or string (seed 003 eq. 165)."""
+"""Convergence of a uniform chain's lowest modes towards the rod or string (Kneller, Mécanique analytique, eq. 165)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A Gaussian pulse on a long uniform chain against d'Alembert's solution (seed 003 eq. 165).
+"""A Gaussian pulse on a long uniform chain against d'Alembert's solution (Kneller, Mécanique analytique, eq. 165).
 
 The chain is propagated exactly in its own Fourier basis (FFT, DCT or DST), so the
 difference from the wave equation is the chain's dispersion.

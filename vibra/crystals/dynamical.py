@@ -48,7 +48,7 @@ PHASES: tuple[str, ...] = ("positions", "cell")
 ACCURACY: tuple[str, ...] = ("high", "fast")
 
 #: accuracy="high" re-solves a spring model's q-point through its factor when a bound of the
-#: eigenvalues of D(q) exceeds this relative to omega (DESIGN.md: ~1e-10 where the structure allows).
+#: eigenvalues of D(q) exceeds this relative to omega (docs/architecture.md, "Accuracy": ~1e-10 where the structure allows).
 HIGH_RTOL = 1e-10
 
 #: Complex entries per chunk of the stacked D(q) and phases (~64 MiB).

@@ -9,7 +9,7 @@ P_i picking atom i's three displacements. Then A^H A is D(q) in the ``cell`` pha
 (`vibra.crystals.dynamical`), and the frequencies are the singular values of A(q): omega itself,
 not omega^2. LAPACK's SVD (after a stacked QR when A has more rows than columns) errs by about
 eps ||A|| on omega, so an acoustic branch at |q| a keeps a relative accuracy of about eps / (|q| a)
-(1e-10 at |q| a = 1e-6) where the eigenvalues of D lose eps / (|q| a)^2 (DESIGN.md, "Accuracy").
+(1e-10 at |q| a = 1e-6) where the eigenvalues of D lose eps / (|q| a)^2 (docs/architecture.md, "Accuracy").
 For a bond from an atom to its own image the two terms are one, e^{2 pi i q.R} - 1, formed as
 2 i sin(pi q.R) e^{i pi q.R} without cancellation: for a one-atom cell every entry of A is then
 O(|q| a) and the acoustic frequencies keep full relative accuracy. Singular values are never

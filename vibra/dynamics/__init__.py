@@ -2,8 +2,8 @@
 
 - `integrate(system, x0, v0, dt, n_steps, *, forces, thermostat, integrator, record_every)`
   -> `Trajectory` (times, positions, velocities, energies, thermostat variables, and
-  `Trajectory.mode_energies(modes)`: energy per harmonic normal mode, seed 003 eq. 149).
-- Thermostats: `Isokinetic(temperature)`, Gauss's constraint of seed 003 §4.2 example 10;
+  `Trajectory.mode_energies(modes)`: energy per harmonic normal mode, Kneller, Mécanique analytique, eq. 149).
+- Thermostats: `Isokinetic(temperature)`, Gauss's constraint of Kneller, Mécanique analytique, §4.2 example 10;
   `NoseHoover(temperature, tau, chain=1)`, Nosé-Hoover and Nosé-Hoover chains.
 - `fput(n, alpha, beta, ends)`: the Fermi-Pasta-Ulam-Tsingou chain, its harmonic `System` and
   anharmonic `BondForces`.

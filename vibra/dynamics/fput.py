@@ -1,4 +1,4 @@
-"""The Fermi-Pasta-Ulam-Tsingou chain (1955): the harmonic chain of seed 003 §5.3 with
+"""The Fermi-Pasta-Ulam-Tsingou chain (1955): the harmonic chain of Kneller, Mécanique analytique, §5.3 with
 anharmonic springs, V = sum_b [k d_b^2 / 2 + alpha d_b^3 / 3 + beta d_b^4 / 4], d_b the
 elongation of bond b.
 

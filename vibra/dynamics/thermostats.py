@@ -16,8 +16,8 @@ __all__ = ["Isokinetic", "NoseHoover", "Thermostat"]
 
 @dataclass(frozen=True)
 class Isokinetic:
-    """Gauss's isokinetic thermostat (seed 003, §4.2, example 10): the kinetic energy is held at
-    K = n_dof k_B T / 2 by the friction mu = sum F.v / sum m v^2 (for the seed's 3-D oscillator,
+    """Gauss's isokinetic thermostat (Kneller, Mécanique analytique, §4.2, example 10): the kinetic energy is held at
+    K = n_dof k_B T / 2 by the friction mu = sum F.v / sum m v^2 (for Kneller's 3-D oscillator,
     mu = -K (r . r') / (3 k_B T)).
 
     `integrate` scales v0 to that kinetic energy (v0 sets the direction of the velocities) and

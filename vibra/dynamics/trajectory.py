@@ -96,7 +96,7 @@ class Trajectory:
     def mode_energies(self, modes: Modes) -> NDArray[np.float64]:
         """(n_records, n_modes) energy in each harmonic normal mode, in the energy unit.
 
-        Normal coordinates q = D^T M^1/2 u (seed 003 eq. 149) and their velocities
+        Normal coordinates q = D^T M^1/2 u (Kneller, Mécanique analytique, eq. 149) and their velocities
         q' = D^T M^1/2 v give E_k = q'_k^2 / 2 + omega_k^2 q_k^2 / 2. For a harmonic system these
         sum to the total energy and each is constant; anharmonic forces move energy between
         them (FPUT).

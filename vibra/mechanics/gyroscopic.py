@@ -5,7 +5,7 @@ keeps the velocity-linear terms as the skew matrix G; the result is a
 `vibra.generalized.GeneralizedSystem` whose `modes()` is a `vibra.solvers.structured.quadratic.QuadraticModes`.
 
 - `charged_particle`: a charge q of mass m in an isotropic 2-D harmonic well (omega0) and a
-  uniform field B along z (seed 003, example 4):
+  uniform field B along z (Kneller, Mécanique analytique, example 4):
   L = m (x'^2 + y'^2) / 2 - m omega0^2 (x^2 + y^2) / 2 + (q B / 2)(x y' - y x'),
   frequencies sqrt(omega0^2 + omega_c^2 / 4) -+ omega_c / 2 with omega_c = q B / m.
 - `foucault_pendulum`: a pendulum of length l at latitude phi on a planet turning at Omega,

@@ -1,6 +1,6 @@
 """Small oscillations in generalised coordinates: linearise a Lagrangian written in sympy.
 
-Lagrange's equations (seed 000, eq. 5) for a kinetic energy T(q, q') and a potential energy
+Lagrange's equations (Vieille 1849, eq. 5) for a kinetic energy T(q, q') and a potential energy
 V(q) are linearised about an equilibrium q0:
 
     M = d2T/dq'dq'  at (q0, q' = 0),      K = d2V/dqdq  at q0,
@@ -10,9 +10,9 @@ frozen at q0. `linearize` returns that as a `vibra.generalized.GeneralizedSystem
 `vibra.System.generalized`); its `modes()` then gives the normal modes through the core solver.
 
 Sign convention: V here is the potential energy (the Lagrangian is T - V). Vieille's "V"
-in seed 000 is the force function, i.e. minus the potential energy.
+(1849) is the force function, i.e. minus the potential energy.
 
-Steady motions (seed 000, problem III, the rotating wheel): when a moving constraint has
+Steady motions (Vieille 1849, problem III, the rotating wheel): when a moving constraint has
 been eliminated, T may keep terms of degree 0 and 1 in q'. T0 = T(q, 0) then acts as a
 centrifugal potential and K = d2(V - T0)/dqdq; the degree-1 part gives the skew gyroscopic
 matrix G = N - N^T, N_ij = d2T/dq'_i dq_j (zero for one coordinate), kept in the system:
@@ -20,7 +20,7 @@ M u'' + G u' + K u = 0. `linearize` also takes the Lagrangian L itself, a Raylei
 dissipation function (C), and sympy.physics.mechanics' LagrangesMethod and KanesMethod; it
 lives in `vibra.mechanics.linearization` and is re-exported here.
 
-The module also holds seed 000's problem II, the double pendulum (two masses on a string):
+The module also holds Vieille's problem II, the double pendulum (two masses on a string):
 its linearised system, the closed forms (15), (16) and (19), and the full non-linear
 equations (13) for `scipy.integrate.solve_ivp`.
 """
@@ -69,7 +69,7 @@ def double_pendulum(
     """Seed 000, problem II: a string hung at o carrying m at distance a and m' a further b below.
 
     theta is the angle of om with the downward vertical, phi that of mm'. Built by
-    `linearize` from T and V written in sympy (seed 000, before eq. 13):
+    `linearize` from T and V written in sympy (Vieille 1849, before eq. 13):
 
         T = 1/2 [(m + m') a^2 theta'^2 + m' b^2 phi'^2 + 2 m' a b cos(phi - theta) theta' phi'],
         V = -(m + m') g a cos(theta) - m' g b cos(phi)   (potential energy),
@@ -113,9 +113,9 @@ def double_pendulum(
 def double_pendulum_frequencies_squared(
     m: float = 1.0, m_prime: float = 1.0, a: float = 1.0, b: float = 1.0, g: float = 9.81,
 ) -> NDArray[np.float64]:
-    """(2,) roots r1 < r2 of seed 000 eq. (15), the squared angular frequencies, in (rad/s)^2.
+    """(2,) roots r1 < r2 of Vieille 1849, eq. (15), the squared angular frequencies, in (rad/s)^2.
 
-    (15): [(m + m') g - m a r](g - b r) - m' a g r = 0, i.e.
+    (15): ``[(m + m') g - m a r] (g - b r) - m' a g r = 0``, i.e.
     m a b r^2 - (m + m') g (a + b) r + (m + m') g^2 = 0, solved without cancellation.
 
     Examples
@@ -134,7 +134,7 @@ def double_pendulum_frequencies_squared(
 def double_pendulum_mode_ratios(
     m: float = 1.0, m_prime: float = 1.0, a: float = 1.0, b: float = 1.0, g: float = 9.81,
 ) -> NDArray[np.float64]:
-    """(2,) amplitude ratios mu_k = phi / theta of the two modes, seed 000 eq. (16).
+    """(2,) amplitude ratios mu_k = phi / theta of the two modes, Vieille 1849, eq. (16).
 
     mu = a r / (g - b r) with r the roots of (15), ascending r: mu_1 > 1 (in phase),
     mu_2 < 0 (opposite phase).
@@ -156,7 +156,7 @@ def double_pendulum_single_mode_offsets(
 
     Seed 000 eq. (19): (m + m') a alpha^2 + (m + m')(b - a) alpha beta - m' b beta^2 = 0.
     With beta = `phi0` its two roots alpha give the two modes: row 0 the slow, in-phase
-    mode (alpha / beta in (0, 1), the seed's case), row 1 the fast one (alpha / beta < 0).
+    mode (alpha / beta in (0, 1), Vieille's case), row 1 the fast one (alpha / beta < 0).
     Angles in rad; g does not enter.
 
     Examples
@@ -180,7 +180,7 @@ def double_pendulum_rhs(
     t: float, y: ArrayLike, m: float = 1.0, m_prime: float = 1.0, a: float = 1.0, b: float = 1.0,
     g: float = 9.81,
 ) -> NDArray[np.float64]:
-    """Time derivative of y = (theta, phi, theta', phi') from the full equations (13), seed 000.
+    """Time derivative of y = (theta, phi, theta', phi') from the full equations (13), Vieille 1849.
 
     (13), with its velocity terms collected:
         (m + m') a theta'' + m' b cos(phi - theta) phi'' - m' b sin(phi - theta) phi'^2 + (m + m') g sin(theta) = 0,

@@ -1,6 +1,6 @@
 """`linearize`: small oscillations of a sympy Lagrangian about an equilibrium.
 
-Lagrange's equations (seed 000, eq. 5) d/dt dL/dq' - dL/dq = -dR/dq' for a Lagrangian
+Lagrange's equations (Vieille 1849, eq. 5) d/dt dL/dq' - dL/dq = -dR/dq' for a Lagrangian
 L(q, q') (= T - V) and a Rayleigh dissipation function R(q, q') are linearised about an
 equilibrium q0 (q' = 0). With, at (q0, 0),
 
@@ -9,7 +9,7 @@ equilibrium q0 (q' = 0). With, at (q0, 0),
 they read M u'' + (G + C) u' + K u = 0 for u = q - q0, with the skew gyroscopic matrix
 G = N - N^T (the velocity-linear terms of L: a magnetic field, a rotating frame) and the
 symmetric damping matrix C. Written with T and V, K = d2(V - T(q, 0))/dqdq: the terms of
-T of degree 0 in q' act as a centrifugal potential (steady motions, seed 000 problem III).
+T of degree 0 in q' act as a centrifugal potential (steady motions, Vieille 1849, problem III).
 The result is a `vibra.generalized.GeneralizedSystem` (G and C only when non-zero).
 
 sympy.physics.mechanics: a `LagrangesMethod` (and a `KanesMethod` whose generalised speeds

@@ -1,4 +1,4 @@
-"""The simple pendulum, exact versus harmonic (seed 003, examples 3, 6 and 8, figure 2).
+"""The simple pendulum, exact versus harmonic (Kneller, Mécanique analytique, examples 3, 6 and 8, figure 2).
 
 The exact motion theta'' + Omega^2 sin(theta) = 0 (Omega = sqrt(g/l)) released at rest
 from the amplitude theta0 has the period
@@ -17,7 +17,7 @@ to a few ulps up to theta0 = pi. ``amplitude = np.pi`` is read as pi itself, the
 separatrix: an infinite period, and a pendulum released at rest on top stays there;
 `separatrix_motion` is the motion on the separatrix that takes infinite time to reach it,
 theta = 2 arcsin(tanh(Omega t)). The harmonic approximation theta0 cos(Omega t) has the period
-2 pi / Omega whatever the amplitude (seed 003 section 2.5); its period error grows as
+2 pi / Omega whatever the amplitude (Kneller, Mécanique analytique, section 2.5); its period error grows as
 theta0^2 / 16 and its trajectory error over a fixed number of periods as theta0^3.
 
 With linear friction (example 6, eqs. 63-66) theta'' + eta theta' + Omega^2 sin(theta) = 0,
@@ -67,7 +67,7 @@ class PendulumMotion:
     omega : float
         Small-amplitude angular frequency Omega = sqrt(g / l), in rad per time unit.
     eta : float
-        Linear friction rate (seed 003 example 6), in 1 / time unit; 0 without friction.
+        Linear friction rate (Kneller, Mécanique analytique, example 6), in 1 / time unit; 0 without friction.
     method : str
         ``"elliptic"`` (Jacobi closed form), ``"separatrix"`` (`separatrix_motion`),
         ``"harmonic"`` (theta0 cos(Omega t) and its damped counterpart) or ``"solve_ivp"``
@@ -393,7 +393,7 @@ def separatrix_motion(t: ArrayLike, omega: float = 1.0) -> PendulumMotion:
 def harmonic_motion(amplitude: float, t: ArrayLike, omega: float = 1.0, *, eta: float = 0.0) -> PendulumMotion:
     """Harmonic approximation from rest at theta0 (sin theta ~ theta), optionally damped.
 
-    Without friction theta = theta0 cos(Omega t) (seed 003, example 3). With eta < 2 Omega,
+    Without friction theta = theta0 cos(Omega t) (Kneller, Mécanique analytique, example 3). With eta < 2 Omega,
     theta = theta0 exp(-eta t / 2) [cos(w t) + eta / (2 w) sin(w t)], w = sqrt(Omega^2 - eta^2/4).
 
     Parameters
@@ -454,7 +454,7 @@ def damped_motion(
     """Pendulum with linear friction, theta'' + eta theta' + Omega^2 sin(theta) = 0 (example 6).
 
     Integrated with `scipy.integrate.solve_ivp` (DOP853). Its `energy` decays as
-    dE/dt = -2 eta T (seed 003 eq. 63); eta = 0 gives the exact frictionless motion.
+    dE/dt = -2 eta T (Kneller, Mécanique analytique, eq. 63); eta = 0 gives the exact frictionless motion.
 
     Parameters
     ----------

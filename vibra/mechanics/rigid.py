@@ -172,7 +172,7 @@ def block_inertia(mass: float, size: ArrayLike) -> NDArray[np.float64]:
     """(3, 3) inertia of a uniform rectangular block about its centre, in kg m^2.
 
     Sides (a, b, c) along x, y, z: diag(m (b^2 + c^2), m (a^2 + c^2), m (a^2 + b^2)) / 12
-    (seed 004's parallelepiped).
+    (Bentahar's parallelepiped).
 
     Parameters
     ----------
@@ -194,7 +194,7 @@ def block_inertia(mass: float, size: ArrayLike) -> NDArray[np.float64]:
 
 
 def parallel_axis(inertia_center: ArrayLike, mass: float, offset: ArrayLike) -> NDArray[np.float64]:
-    """Huygens' theorem: the (3, 3) inertia about a point A, in kg m^2 (seed 004).
+    """Huygens' theorem: the (3, 3) inertia about a point A, in kg m^2 (Bentahar, Mécanique générale).
 
     [I(A)] = [I(G)] + m [[b^2 + c^2, -ab, -ac], [-ab, a^2 + c^2, -bc], [-ac, -bc, a^2 + b^2]]
     with (a, b, c) = AG.
@@ -378,7 +378,7 @@ def compound_pendulum(
     """A rigid body swinging about a fixed axis through `pivot`, gravity along -z.
 
     Built with `vibra.mechanics.lagrangian.linearize` from the exact T and V in the swing angle
-    theta (seed 000 problem I, seed 004 section 7.6): the centre of mass moves on
+    theta (Vieille 1849, problem I; Bentahar, Mécanique générale, section 7.6): the centre of mass moves on
     G(theta) = P + R_n(theta) (G - P) (Rodrigues' rotation about the unit axis n), and
 
         T = 1/2 (n^T [I(P)] n) theta'^2,   V = m g z_G(theta),
@@ -441,7 +441,7 @@ def equivalent_length(body: RigidBody, pivot: ArrayLike, axis: ArrayLike = (1.0,
 
     omega comes from the normal mode of `compound_pendulum` (through the core solver); for
     a body whose centre of mass lies a below the axis, l = a + K^2 / a with m K^2 its
-    inertia about the parallel axis through G (seed 000: 2L/3 for a uniform rod hung from
+    inertia about the parallel axis through G (Vieille 1849: 2L/3 for a uniform rod hung from
     one end). Arguments as in `compound_pendulum`.
 
     Raises
@@ -453,7 +453,7 @@ def equivalent_length(body: RigidBody, pivot: ArrayLike, axis: ArrayLike = (1.0,
     Examples
     --------
     A uniform rod of length 1.2 m hung from one end swings like a simple pendulum of
-    length 2L/3 = 0.8 m (seed 000, problem I):
+    length 2L/3 = 0.8 m (Vieille 1849, problem I):
 
     >>> from vibra.mechanics.rigid import RigidBody, equivalent_length, rod_inertia
     >>> rod = RigidBody(0.5, rod_inertia(0.5, 1.2), center=(0.0, 0.0, -0.6))

@@ -1,6 +1,6 @@
 """Molecules: `System` builders from ASE `Atoms`, Hessians, and the vibrational analysis.
 
-Units are ASE's (amu, Angstrom, eV; DESIGN.md "Units"): positions in Angstrom, masses in amu,
+Units are ASE's (amu, Angstrom, eV; docs/architecture.md, "Units"): positions in Angstrom, masses in amu,
 force constants in eV / Angstrom^2 (stretches) or eV / rad^2 (bends, torsions); frequencies are
 reported in cm^-1.
 

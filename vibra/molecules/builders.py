@@ -1,4 +1,4 @@
-"""Ready-made molecules: CO2 (seed 003, Example 11) and H2O with fitted valence force fields."""
+"""Ready-made molecules: CO2 (Kneller, Mécanique analytique, Example 11) and H2O with fitted valence force fields."""
 
 from __future__ import annotations
 
@@ -18,10 +18,10 @@ if TYPE_CHECKING:
 __all__ = ["co2", "h2o", "co2_atoms", "h2o_atoms", "CO2_STRETCH", "CO2_BEND", "CO2_BOND_LENGTH",
            "H2O_STRETCH", "H2O_BEND", "H2O_BOND_LENGTH", "H2O_ANGLE_DEG"]
 
-#: CO2 bond length, Angstrom (seed 003, Example 11: L = 0.116 nm).
+#: CO2 bond length, Angstrom (Kneller, Mécanique analytique, Example 11: L = 0.116 nm).
 CO2_BOND_LENGTH = 1.16
 #: CO2 C=O stretch constant kappa, eV/Angstrom^2 (= 15.4 mdyn/Angstrom). Fitted here, in the
-#: seed's axial model (eq. 157, masses 15.999 and 12.011 amu), to the experimental
+#: Kneller's axial model (eq. 157, masses 15.999 and 12.011 amu), to the experimental
 #: fundamentals 1333 and 2349 cm^-1 by least squares on log(omega): one kappa cannot give both
 #: (the ratio sqrt(1 + 2 m_O / m_C) = 1.915 of eq. 157 against 1.762 observed), so the model
 #: gives 1279 and 2448 cm^-1, each 4 % off. Literature valence force fields give 16 mdyn/A.
@@ -51,7 +51,7 @@ def co2(
 ) -> System:
     """Carbon dioxide O=C=O with a valence force field (ASE units).
 
-    ``dims=1``: the seed's axial model (seed 003, Example 11, eqs. 152-158): three sites at
+    ``dims=1``: the axial model of Kneller, Mécanique analytique, Example 11 (eqs. 152-158): three sites at
     (0, L, 2L) on a line, two springs kappa = `stretch`; 3 degrees of freedom, frequencies
     0, sqrt(kappa/m_O), sqrt(kappa (1/m_O + 2/m_C)). ``dims=3`` (default): the full model along
     the x axis, the same two stretches plus a linear bend (two perpendicular coordinates,

@@ -1,6 +1,6 @@
 """Forced, damped response: the single oscillator and multi-dof frequency response.
 
-The single oscillator u'' + gamma u' + w0^2 u = F(t) / m (seed 003 section 5.1, eqs.
+The single oscillator u'' + gamma u' + w0^2 u = F(t) / m (Kneller, Mécanique analytique, section 5.1, eqs.
 114-131) is `Oscillator`, in forms that keep their digits at the extremes (see
 `vibra.response.oscillator`).
 
@@ -15,7 +15,7 @@ Three methods:
 - ``"direct"``: one factorisation per frequency, tridiagonal (LAPACK gttrf/gttrs) or banded
   (gbtrf/gbtrs) when K, M and C are, sparse LU otherwise, dense LU for small dense input.
 - ``"modal"``: superposition of the lowest `n_modes` normal modes (`vibra.normal_modes`),
-  for damping that the modes diagonalise (friction C = eta M, seed eq. 66; Rayleigh
+  for damping that the modes diagonalise (friction C = eta M, Kneller, Mécanique analytique, eq. 66; Rayleigh
   C = a M + b K; modal damping ratios) and no G. The error of the dropped modes is estimated,
   and a residual (static) correction for them is offered.
 - ``"state_space"``: complex modes of the first-order form, for any C and G (dense; all

@@ -1,4 +1,5 @@
-"""Damping models: friction C = eta M (seed eqs. 64-66), Rayleigh C = a M + b K, modal damping.
+"""Damping models: friction C = eta M (Kneller, Mécanique analytique, eqs. 64-66), Rayleigh C = a M + b K,
+modal damping.
 
 `modal_damping` turns any of them (or modal damping ratios) into the damping c_k of each
 modal equation q'' + c_k q' + omega_k^2 q = phi_k^T f, refusing a C that the normal modes
@@ -18,7 +19,7 @@ from vibra.response.matrices import as_operator
 
 
 def friction_damping(M: ArrayLike, eta: float) -> NDArray[np.float64] | sp.csr_matrix:
-    """The seed's friction damping C = eta M (eqs. 64-66), in mass per time unit.
+    """Kneller's friction damping C = eta M (eqs. 64-66), in mass per time unit.
 
     Parameters
     ----------

@@ -1,8 +1,8 @@
-"""The single forced, damped oscillator (seed 003 section 5.1, eqs. 114-131).
+"""The single forced, damped oscillator (Kneller, Mécanique analytique, section 5.1, eqs. 114-131).
 
     u'' + gamma u' + w0^2 u = F(t) / m,
 
-with friction -m gamma u' (seed eq. 61). For a harmonic force F(t) = Re{F0 exp(i w t)}
+with friction -m gamma u' (Kneller, Mécanique analytique, eq. 61). For a harmonic force F(t) = Re{F0 exp(i w t)}
 (eq. 118) the steady state is u_p(t) = Re{u0(w) exp(i w t)} with the complex amplitude
 u0(w) = (F0/m) / (w0^2 - w^2 + i gamma w) (eq. 120); the full motion adds the homogeneous
 part fixed by the initial conditions (eqs. 126-129), which dies out for t >> 1/gamma
@@ -87,7 +87,7 @@ def receptance_denominator(w0: Any, gamma: Any, omega: Any) -> NDArray[np.comple
 
 @dataclass(frozen=True, eq=False)
 class Oscillator:
-    """The forced, damped oscillator u'' + gamma u' + w0^2 u = F(t)/m (seed 003 eq. 115).
+    """The forced, damped oscillator u'' + gamma u' + w0^2 u = F(t)/m (Kneller, Mécanique analytique, eq. 115).
 
     Attributes
     ----------
@@ -167,11 +167,11 @@ class Oscillator:
         return np.array([complex(-self.w0**2 / (half + q), 0.0), complex(-(half + q), 0.0)])
 
     def damped_frequency(self) -> float | None:
-        """sqrt(w0^2 - gamma^2/4), in rad per time unit: the seed's eq. (122).
+        """sqrt(w0^2 - gamma^2/4), in rad per time unit: Kneller's eq. (122).
 
         This is the angular frequency of the free damped oscillation (the imaginary part of
         the roots, eq. 126). None when gamma >= 2 w0: then the free motion does not oscillate.
-        Note: the seed calls it the resonance frequency, but the amplitude (121) peaks at
+        Note: Kneller's notes call it the resonance frequency, but the amplitude (121) peaks at
         `resonance_frequency` = sqrt(w0^2 - gamma^2/2); the two agree as gamma -> 0.
         """
         half = 0.5 * self.gamma
@@ -184,7 +184,7 @@ class Oscillator:
         d|u0|^2/d(w^2) = 0 gives w_res = sqrt(w0^2 - gamma^2/2), computed as
         sqrt((w0 - gamma/sqrt2)(w0 + gamma/sqrt2)). Returns None when gamma >= sqrt(2) w0:
         the amplitude then falls monotonically from its static value and there is no
-        resonance. (The seed's eq. 122, sqrt(w0^2 - gamma^2/4) with the bound gamma < 2 w0,
+        resonance. (Kneller's eq. 122, sqrt(w0^2 - gamma^2/4) with the bound gamma < 2 w0,
         is the free damped frequency: see `damped_frequency`.)
         """
         r = self.gamma / math.sqrt(2.0)
@@ -305,7 +305,7 @@ class Oscillator:
         """Phase lag phi(w) of u behind F (eq. 123), in rad, on the branch [-pi, 0].
 
         phi = -atan2(gamma w, w0^2 - w^2): 0 at w = 0, -pi/2 at w0 for every gamma > 0, -> -pi
-        as w -> infinity (the seed's arctan(gamma w / (w^2 - w0^2)) with the quadrant fixed).
+        as w -> infinity (Kneller's arctan(gamma w / (w^2 - w0^2)) with the quadrant fixed).
         For gamma = 0: 0 below w0, -pi above, and the limit -pi/2 at w = w0 exactly.
 
         Parameters

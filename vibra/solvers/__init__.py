@@ -1,4 +1,4 @@
-"""Solver paths for the mass-weighted eigenproblem K~ d = omega^2 d (seed 003 eqs. 138-143).
+"""Solver paths for the mass-weighted eigenproblem K~ d = omega^2 d (Kneller, Mécanique analytique, eqs. 138-143).
 
 `solve` picks a path from the structure of K and from what is asked, unless told:
 

@@ -2,8 +2,9 @@
 thermochemistry and isotope shifts.
 
 Everything here starts from a `vibra.System` of sites in ASE units (amu, Angstrom, eV) and
-its `vibra.Modes`. The mode shapes u_k are M-orthonormal Cartesian displacements (seed 003
-eq. 151), so a displacement along mode k by the normal coordinate Q_k is u = u_k Q_k, with
+its `vibra.Modes`. The mode shapes u_k are M-orthonormal Cartesian displacements
+(Kneller, Mécanique analytique, eq. 151), so a displacement along mode k by the normal
+coordinate Q_k is u = u_k Q_k, with
 Q_k in Angstrom * sqrt(amu).
 
 Models (see docs/spectra.md):

@@ -1,6 +1,6 @@
 """A `Scene` -> a `Plan`: the list of steps that compute exactly what the scene asks.
 
-DESIGN.md, "Model only what a scene requires": the plan solves only the degrees of freedom
+docs/architecture.md, "Model only what a scene requires": the plan solves only the degrees of freedom
 the scene models (the axial CO2 scene solves 3), passes ``n_modes`` / ``band`` to the
 solver (a partial solver for "the lowest 10 modes of 10^6 sites"), computes shapes only
 when a drawing needs them (``vectors=False`` otherwise), and imports ASE/phonopy only in

@@ -136,7 +136,7 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
             "bend": "the builder's constant (the cross-check reuses it)"},
     "molecule": {"name_or_atoms": "given by the scene's system.name (an ASE molecule name) or system.xyz (a file)",
                  "valence_model_options": "the scene keys stretch, bend and torsion"},
-    "double_pendulum": {"units": "seed 000's problem is in SI"},
+    "double_pendulum": {"units": "Vieille's problem is in SI"},
     "charged_particle": {},
     "matrices": {"units": _UNITS, "name": _NAME,
                  "G": "gyroscopic and damped scenes are not wired yet (issue 15)",

@@ -59,7 +59,7 @@ class ResponseSpec:
     n_points : int
         Number of frequencies, spaced linearly.
     alpha : float
-        Mass-proportional damping C = alpha M + beta K, in 1 / time unit (seed 003 §2.6: eta).
+        Mass-proportional damping C = alpha M + beta K, in 1 / time unit (Kneller, Mécanique analytique, §2.6: eta).
     beta : float
         Stiffness-proportional damping, in time units.
     force_site : int

@@ -1,7 +1,7 @@
 """The symmetric pencil K x = omega^2 M x with a dense, possibly ill-conditioned mass matrix.
 
 Generalised coordinates give a full mass matrix M, and mechanisms with very unequal
-masses or lengths make it ill-conditioned: seed 000's double pendulum with m = 1e-3,
+masses or lengths make it ill-conditioned: Vieille's double pendulum (1849) with m = 1e-3,
 m' = 1e3, a = 1, b = 1e-3 has cond(M) ~ 1e12. Forming M^-1/2 K M^-1/2 from an
 eigendecomposition of M (the path of `vibra.normal_modes`) then loses up to 12 digits of the
 lowest frequencies. This module keeps them:

@@ -2,10 +2,10 @@
 
 Velocity terms linear in q' that do no work (a magnetic field, a rotating frame, a spinning
 wheel) give a skew-symmetric gyroscopic matrix G; a Rayleigh dissipation function
-R = 1/2 q'^T C q' gives a symmetric damping matrix C (seed 003 section 2.6). The modes
+R = 1/2 q'^T C q' gives a symmetric damping matrix C (Kneller, Mécanique analytique, section 2.6). The modes
 q = x exp(lambda t) solve the quadratic eigenproblem (lambda^2 M + lambda (G + C) + K) x = 0,
-whose 2n eigenvalues come in pairs: one pair per mode. DESIGN.md keeps them out of `Modes`
-(no complex omega there): they are a `QuadraticModes`.
+whose 2n eigenvalues come in pairs: one pair per mode. They stay out of `Modes` (no complex
+omega there; docs/architecture.md, "Beyond M ü + K u = 0"): they are a `QuadraticModes`.
 
 All three methods first make M the identity: with D = diag(M)^-1/2 and D M D = L L^T
 (`vibra.solvers.structured.pencil.equilibrated_cholesky`), q = P y, P = D L^-T, and G, C, K become P^T G P, ...
