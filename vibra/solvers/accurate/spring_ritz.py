@@ -155,13 +155,16 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
     # from column `cheap_from` on: || |B~|^T |B~| |v| || <= || |B~|^T |B~| ||_2 ||v||, that norm
     # <= its largest row sum (non-negative, symmetric): no products per block, and a margin
     # that only matters where omega^2 is far below ||K~|| (the columns before cheap_from)
-    reach = float(np.asarray((A_T @ A).sum(axis=1)).max(initial=0.0)) if cheap_from < k else 0.0
+    # (the row sums of |B~|^T |B~|, non-negative: |B~|^T (|B~| 1), two products, no sparse product)
+    reach = float(np.max(A_T @ (A @ np.ones(A.shape[1])), initial=0.0)) if cheap_from < k else 0.0
     eta = FORMING if S is None else float(np.max(S.data / np.maximum(np.abs(A.data.astype(float)), 1e-300),
                                                 initial=0.0))
     first = 0
     while first < len(starts):
         last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
         last = max(last, first + 1)
+        if starts[first] < cheap_from:  # a block of exact columns ends where the cheap ones begin
+            last = min(last, max(first + 1, int(np.searchsorted(stops, cheap_from, side="right"))))
         columns = slice(int(starts[first]), int(stops[last - 1]))
         V = basis[:, columns].astype(B.dtype)
         # precise: B~ v to within unit of each entry, not of |B~| |v| (error-free products and

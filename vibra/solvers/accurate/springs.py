@@ -192,17 +192,27 @@ def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: 
         counted = _counted(B, form, values, basis, elongations, rotation, gram, k, vectors, terms, norm, precise)
         if counted is not None:
             return counted
-    if callable(deviation):
-        deviation = deviation()
+    exact = deviation if callable(deviation) else (lambda: deviation)
     basis = basis @ rotation
     residuals = np.linalg.norm(transposed_times(B, elongations @ rotation) - basis * values, axis=0)
+    # "high" first tries B~'s rounding at its worst case (`FORMING` per entry: no entry
+    # deviations formed), and the modes whose worst-case margins already meet TARGET take the
+    # cheap ones (no products of |B~|: `cluster_bounds`'s cheap columns; a protein's network:
+    # every nonzero mode, the rigid ones then within `zero_level` from their products); if
+    # some bound then misses TARGET, every mode again with the exact margins and deviations
+    cheap_from = values.shape[0] if precise else cheap_columns(B, values, terms)
+    theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, cheap_from=cheap_from,
+                                        deviation=exact() if precise else None)
+    zero = theta + error <= zero_level(terms, B.shape[1], norm)
+    missed = (error > TARGET * theta) & ~zero
+    if not precise and np.any(missed[:k]):
+        deviation = exact()
+        theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, deviation=deviation)
+        missed = (error > TARGET * theta) & ~zero
     # float64 products first; extended precision (4 products of B~ in np.longdouble, costly at
     # 50,000 dofs) only if a mode's bound then misses TARGET (stiff springs: the float64
     # rounding margin of B~^T B~ v dominates the residual)
     # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
-    theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, deviation=deviation)
-    zero = theta + error <= zero_level(terms, B.shape[1], norm)
-    missed = (error > TARGET * theta) & ~zero
     # the float64 vectors' own residual, ~eps ||K~||, squared over a gap ~theta: a relative
     # floor (eps ||K~|| / theta)^2 no product precision lowers (a 10^6-site chain's lowest
     # modes: ~8e-9, where the extended-precision pass gained nothing); where every
@@ -210,11 +220,29 @@ def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: 
     # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
     floor = (EPS * norm / np.maximum(theta, np.finfo(float).tiny)) ** 2
     if np.any(missed & (floor <= TARGET)):
-        theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True, deviation=deviation)
+        theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True,
+                                            deviation=exact())
     basis = ritz
     result = spring_figures(B, theta[:k], basis[:, :k], vectors, "accurate-ritz")
     result.error = np.maximum(error[:k], 4 * EPS * theta[:k])
     return result
+
+
+def cheap_columns(B: sp.csr_matrix, values: NDArray[np.float64], terms: float, margin: float = 0.5) -> int:
+    """The first of the ascending `values` from which `cluster_bounds`'s worst-case margins
+    (its `cheap_from` columns: B~'s rounding as `FORMING` per entry, || |B~|^T |B~| || bounded
+    by its largest row sum) stay below `margin` x TARGET of each value, predicted from sizes:
+    2 eta R + 2 sqrt(omega^2 R) (t + 2) eps + (2 t + 1) eps omega^2, with R the largest row sum
+    of |B~|^T |B~| (>= its norm), as `cluster_bounds` takes it."""
+    A = abs(B)
+    reach = float(np.max(A.T @ (A @ np.ones(A.shape[1])), initial=0.0))
+    slip = (terms + 2) * EPS * np.sqrt(reach)
+    worst = (FORMING * (2 + FORMING) * reach + 2 * np.sqrt(np.maximum(values, 0.0)) * slip + slip**2
+             + (2 * terms + 1) * EPS * values)
+    fine = worst <= margin * TARGET * values
+    # from the first value on which every later one is fine (values ascend)
+    failing = np.flatnonzero(~fine)
+    return int(failing[-1] + 1) if failing.shape[0] else 0
 
 
 def _counted(B: sp.csr_matrix, form: ChainForm, values: NDArray[np.float64], basis: NDArray[np.float64],

@@ -164,8 +164,8 @@ def semidefinite_rounding(spring_factor: tuple[sp.csr_matrix, NDArray[np.float64
     """
     if spring_factor is None or np.any(np.asarray(spring_factor[1]) < 0):
         return None
-    coupling = sp.csc_matrix(spring_factor[0])
-    most = float(np.diff(coupling.indptr).max(initial=0))
+    coupling = sp.csr_matrix(spring_factor[0])  # the most stored entries in one of its columns
+    most = float(np.bincount(coupling.indices, minlength=coupling.shape[1]).max(initial=0))
     return 2.0 * (most + 2.0) * EPS * norm
 
 
