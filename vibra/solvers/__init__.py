@@ -13,8 +13,9 @@
 ``sparse``         A few of the lowest modes (or a band) of a large sparse K~: shift-invert
                    with a negative shift chosen from the spectrum's scale, so a singular K
                    (free system) is never hit; tridiagonal K~ is factorised with LAPACK
-                   pttrf (O(N)) and iterated by ARPACK, any other with SuperLU in nested-
-                   dissection order (or MKL PARDISO's Cholesky where installed) and, for 3-D
+                   pttrf (O(N)) and iterated by ARPACK, any other of 3,000 dofs and more by
+                   a sparse Cholesky in nested-dissection order (CHOLMOD through cvxopt; MKL
+                   PARDISO's where installed; SuperLU's LU where neither loads) and, for 3-D
                    factors, a block Krylov iteration.
 ``accurate``       The system knows its springs, K = B^T W B: frequencies are the singular
                    values of B~ = W^1/2 B M^-1/2, computed to high *relative* accuracy.
@@ -67,6 +68,7 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``standard/sparse.py``              shift-invert for a few modes or a band (the factor, the
                                     shift, the probe)
 ``standard/ordering.py``            nested-dissection ordering (METIS through pymetis) for SuperLU
+``standard/cholmod.py``             the default sparse Cholesky (SuiteSparse CHOLMOD, through cvxopt)
 ``standard/pardiso.py``             the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
 ``standard/krylov.py``              block Krylov iteration (block Arnoldi, full reorthogonalisation)
 ``standard/gpu.py``                 ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
