@@ -194,22 +194,6 @@ def test_pardiso_cholesky_solves_and_refuses_indefinite() -> None:
 
 
 @needs_pardiso
-def test_backends_agree_on_the_lowest_modes(monkeypatch: pytest.MonkeyPatch) -> None:
-    """PARDISO's Cholesky and SuperLU's LU give the same modes (Ritz values to rounding)."""
-    system = _lattice(1200)
-    reference = np.linalg.eigvalsh(system.hessian().toarray())[6:26]
-    found = {}
-    for backend in ("pardiso", "superlu"):
-        monkeypatch.setattr(pardiso, "BACKEND", backend)
-        K = sp.csr_matrix(system.hessian())
-        norm = float(abs(K).sum(axis=1).max())
-        assert ShiftedInverse(K, -1e-12 * norm).backend == backend
-        found[backend] = system.modes(26, accuracy="fast").omega_squared
-        np.testing.assert_allclose(found[backend][6:], reference, rtol=1e-12)
-    np.testing.assert_allclose(found["pardiso"][6:], found["superlu"][6:], rtol=1e-13)
-
-
-@needs_pardiso
 def test_pardiso_indefinite_shift_falls_back_to_superlu_inertia(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(pardiso, "BACKEND", "auto")
     K = sp.csr_matrix(_lattice(1100).hessian())
@@ -262,19 +246,21 @@ def test_factor_entries_count_the_dense_cholesky_nonzeros(seed: int) -> None:
     assert cholmod.factor_entries(A, order) == np.count_nonzero(L)
 
 
-def test_backends_agree_without_pardiso(monkeypatch: pytest.MonkeyPatch) -> None:
-    """CHOLMOD's Cholesky and SuperLU's LU give the same modes as a dense solve (numpy)."""
+@pytest.mark.parametrize("backend", ["cholmod", pytest.param("pardiso", marks=needs_pardiso)])
+def test_backends_agree_on_the_lowest_modes(monkeypatch: pytest.MonkeyPatch, backend: str) -> None:
+    """A sparse Cholesky (CHOLMOD, PARDISO) and SuperLU's LU give the modes of a dense solve
+    (numpy), and each other's to rounding."""
     system = _lattice(1200)
     reference = np.linalg.eigvalsh(system.hessian().toarray())[6:26]
     found = {}
-    for backend in ("cholmod", "superlu"):
-        monkeypatch.setattr(pardiso, "BACKEND", backend)
+    for name in (backend, "superlu"):
+        monkeypatch.setattr(pardiso, "BACKEND", name)
         K = sp.csr_matrix(system.hessian())
         factor = ShiftedInverse(K, -1e-12 * float(abs(K).sum(axis=1).max()))
-        assert factor.backend == backend and factor.below_spectrum
-        found[backend] = system.modes(26, accuracy="fast").omega_squared
-        np.testing.assert_allclose(found[backend][6:], reference, rtol=1e-12)
-    np.testing.assert_allclose(found["cholmod"][6:], found["superlu"][6:], rtol=1e-13)
+        assert factor.backend == name and factor.below_spectrum
+        found[name] = system.modes(26, accuracy="fast").omega_squared
+        np.testing.assert_allclose(found[name][6:], reference, rtol=1e-12)
+    np.testing.assert_allclose(found[backend][6:], found["superlu"][6:], rtol=1e-13)
 
 
 def test_cheap_factor_keeps_arpack_and_its_small_basis(monkeypatch: pytest.MonkeyPatch) -> None:
