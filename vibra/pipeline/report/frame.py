@@ -7,12 +7,14 @@ from disk. The sidebar lists the scenes by kind (`GROUPS`), each linking to its 
 from __future__ import annotations
 
 import html
+import re
 from typing import Sequence
 
 from vibra.charts import plain_math
 from vibra.pipeline.report.outcome import SceneOutcome
+from vibra.pipeline.scene.specs import SAFE_NAME
 
-__all__ = ["GROUPS", "SCENES", "IMAGE_SUFFIXES", "page", "grouped", "scene_href", "short_caption", "images"]
+__all__ = ["GROUPS", "SCENES", "IMAGE_SUFFIXES", "page", "grouped", "page_name", "scene_href", "short_caption", "images"]
 
 #: Scene kind -> heading of its group, in the order the report shows them.
 GROUPS = (("chain", "Chains"), ("molecule", "Molecules"), ("network", "Networks"),
@@ -59,9 +61,17 @@ ol.refs li{margin:6px 0}
 """
 
 
+def page_name(name: str) -> str:
+    """The file name of a scene's page: ``<name>.html`` for a valid scene name (`SAFE_NAME`), else the
+    name with every other character made ``_`` (a failed scene's file stem may hold anything)."""
+    if SAFE_NAME.match(name):
+        return f"{name}.html"
+    return "_" + re.sub(r"[^A-Za-z0-9_.-]", "_", name)[:60] + ".html"
+
+
 def scene_href(name: str, *, root: str = ".") -> str:
     """The link to a scene's page from a page whose report folder is `root`."""
-    return f"{root}/{SCENES}/{name}.html" if root != "." else f"{SCENES}/{name}.html"
+    return f"{root}/{SCENES}/{page_name(name)}" if root != "." else f"{SCENES}/{page_name(name)}"
 
 
 def grouped(scenes: Sequence[SceneOutcome]) -> list[tuple[str, list[SceneOutcome]]]:

@@ -10,7 +10,7 @@ from typing import Sequence
 
 from vibra._io import atomic_write_text
 from vibra.charts import plain_math
-from vibra.pipeline.report.frame import SCENES, grouped, images, page, scene_href
+from vibra.pipeline.report.frame import SCENES, grouped, images, page, page_name, scene_href
 from vibra.pipeline.report.outcome import SceneOutcome
 from vibra.pipeline.report.scenepage import scene_page
 from vibra.pipeline.report.viewer import VIEW_SUFFIX, copy_assets
@@ -71,11 +71,11 @@ def write_site(out_dir: Path, scenes: Sequence[SceneOutcome]) -> Path:
     copy_assets(out_dir)
     folder = out_dir / SCENES
     folder.mkdir(exist_ok=True)
-    names = {o.name for o in scenes}
+    names = {page_name(o.name) for o in scenes}
     for old in folder.glob("*.html"):
-        if old.stem not in names and old.is_file():
+        if old.name not in names and old.is_file():
             old.unlink(missing_ok=True)
     for o in scenes:
-        atomic_write_text(folder / f"{o.name}.html", scene_page(o, scenes, out_dir))
+        atomic_write_text(folder / page_name(o.name), scene_page(o, scenes, out_dir))
     atomic_write_text(out_dir / "references.html", references_page(scenes))
     return atomic_write_text(out_dir / "index.html", index_page(scenes))
