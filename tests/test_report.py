@@ -370,7 +370,7 @@ def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monk
     assert outcome.status == "failed" and "RuntimeError: disk full" in outcome.error
     assert [p.name for p in rendered] == ["late_modes.png", "late_view.json"]
     assert [p.name for p in out.iterdir() if not p.name.startswith(".")] == []
-    assert not list(out.rglob("*.png")) and not list(out.rglob("*.json")) and not (out / ".vibra" / "late.json").exists()
+    assert not list(out.rglob("*.png")) and not list(out.glob("*.json")) and not (out / ".vibra" / "late.json").exists()
 
 
 # ---------------------------------------------------------------------- one atomic writer
@@ -586,8 +586,8 @@ def page_links(page: Path) -> list[str]:
 
 
 def test_chain_view_holds_the_closed_form_shapes(tmp_path: Path) -> None:
-    # Fixed chain of 5 equal masses: mode j moves site s as sin(s j pi / 6) (Kneller, Mécanique analytique, section 5.3);
-    # the view keeps that shape along x, scaled so the largest motion is MAX_MOTION of a spring.
+    # Fixed chain of 5 equal masses: mode j moves site s as sin(s j pi / 6) (Kneller, Mécanique
+    # analytique, section 5.3); the view keeps that shape along x, its largest motion MAX_MOTION of a spring.
     from vibra.pipeline.plan.views import CHAIN_SPACING, MAX_MOTION, mode_view
 
     scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 5, "ends": "fixed"},
@@ -651,6 +651,21 @@ def test_report_pages_navigate_offline_and_name_sources(tmp_path: Path) -> None:
     (out / "water_mode6.png").unlink()
     report([scenes / "small.toml"], out, progress=False, window_size=SMALL)
     assert sorted(p.name for p in (out / "scenes").glob("*.html")) == ["bad.html", "co2-axial.html", "small.html"]
+
+
+def test_a_file_where_the_pages_go_is_refused_before_any_work(tmp_path: Path) -> None:
+    scene = write(tmp_path, "small.toml", CHAIN)
+    for name in ("scenes", "assets"):
+        out = tmp_path / f"out-{name}"
+        out.mkdir()
+        (out / name).write_text("mine")
+        with pytest.raises(NotADirectoryError, match=f"{name} is not a folder; vibra writes its report pages"):
+            report([scene], out, progress=False)
+        assert sorted(p.name for p in out.iterdir()) == [name]  # nothing written
+    out = tmp_path / "out-references"
+    (out / "references.html").mkdir(parents=True)
+    with pytest.raises(NotADirectoryError, match="references.html is a folder"):
+        report([scene], out, progress=False)
 
 
 # ---------------------------------------------------------------------- layers

@@ -100,6 +100,12 @@ def test_report_pages_in_chromium(tmp_path: Path) -> None:
                     assert frames[0].std() > 5.0, f"{path.name}: the 3-D view is blank"
                     changed = max(float(np.abs(f - frames[0]).mean()) for f in frames[1:])
                     assert changed > 0.0, f"{path.name}: the 3-D view does not animate"
+                    page.select_option("#view-mode", index=page.locator("#view-mode option").count() - 1)
+                    page.eval_on_selector("#view-amplitude", "e => { e.value = '2.5'; "
+                                          "e.dispatchEvent(new Event('input')); }")
+                    page.click("#view-play")  # pause, then play: the frames are rebuilt each time
+                    page.click("#view-play")
+                    assert _pixels(canvas.screenshot()).std() > 5.0, f"{path.name}: blank after the controls"
                     views += 1
                     page.evaluate("window.scrollTo(0, 0)")
                 if path.name == "index.html":

@@ -14,7 +14,8 @@ from vibra.charts import plain_math
 from vibra.pipeline.report.outcome import SceneOutcome
 from vibra.pipeline.scene.specs import SAFE_NAME
 
-__all__ = ["GROUPS", "SCENES", "IMAGE_SUFFIXES", "page", "grouped", "page_name", "scene_href", "short_caption", "images"]
+__all__ = ["GROUPS", "SCENES", "IMAGE_SUFFIXES", "page", "grouped", "page_name", "scene_href", "short_caption",
+           "images"]
 
 #: Scene kind -> heading of its group, in the order the report shows them.
 GROUPS = (("chain", "Chains"), ("molecule", "Molecules"), ("network", "Networks"),
@@ -54,7 +55,7 @@ table{border-collapse:collapse;margin:6px 0}td,th{border:1px solid #d8dee4;paddi
 pre{background:#f6f8fa;padding:8px 10px;overflow-x:auto;font-size:13px;border-radius:4px}
 details{margin:14px 0}summary{cursor:pointer;font-weight:600}
 .failed{color:#a40e26}.note{color:#57606a;font-size:14px;margin:4px 0}
-.viewer{margin:12px 0}.view3d{position:relative;width:100%;max-width:900px;height:460px;
+.viewer{margin:12px 0}.view3d{position:relative;overflow:hidden;width:100%;max-width:900px;height:460px;
  border:1px solid #d8dee4;border-radius:4px}.view3d.chain{height:240px}
 .controls{display:flex;gap:18px;align-items:center;margin:8px 0;font-size:14px}
 ol.refs li{margin:6px 0}

@@ -36,7 +36,7 @@ _SCRIPT = """
   var amplitude = document.getElementById("view-amplitude");
   var button = document.getElementById("view-play");
   var styles = {  // a chain's masses: one colour per distinct mass (lightest carbon grey, then red, blue ...)
-    molecule: {stick: {radius: 0.13}, sphere: {scale: 0.3}},
+    molecule: {stick: {radius: 0.12}, sphere: {scale: 0.24}},
     network: {sphere: {radius: 0.9}, stick: {radius: 0.3, color: "#8a9bb0"}},
     chain: {sphere: {radius: 0.7}, stick: {radius: 0.12, color: "#999999"}}
   };
