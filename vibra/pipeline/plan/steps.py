@@ -326,7 +326,8 @@ def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[st
                                                hints=context.hints):
         context.outputs.append(name)
         context.captions.append(caption)
-    view = mode_view(plan.scene, context.system, context.modes, indices, structure=context.structure)
+    view = mode_view(plan.scene, context.system, context.modes, indices, structure=context.structure,
+                     symmetry=context.symmetry)
     if view is not None:  # the report's interactive 3-D view of the same modes
         _write_text(context, f"{plan.scene.name}_view.json", json.dumps(view, separators=(",", ":")),
                     "the drawn modes in 3-D: drag to rotate, scroll to zoom, pick a mode and its amplitude")

@@ -36,10 +36,12 @@ def _round(values: np.ndarray, digits: int = 4) -> list[Any]:
     return np.round(values, digits).tolist()
 
 
-def _mode_label(scene: Any, modes: Any, k: int) -> str:
-    """'mode 7: 1595 cm⁻¹' (molecules), '... Hz' (SI), '... rad/<time unit>' otherwise."""
+def _mode_label(scene: Any, modes: Any, k: int, symmetry: Any = None) -> str:
+    """'mode 6: 1595.0 cm⁻¹, A1 (C2v)' (molecules), '... Hz' (SI), 'ω = ...' otherwise."""
     if scene.kind == "molecule" and modes.units.time_s is not None:
-        return f"mode {k}: {float(modes.wavenumbers_cm1()[k]):.1f} cm⁻¹"
+        species = symmetry.species[k] if symmetry is not None and symmetry.species[k] else ""
+        group = f", {species} ({symmetry.group})" if species else ""
+        return f"mode {k}: {float(modes.wavenumbers_cm1()[k]):.1f} cm⁻¹{group}"
     if modes.units.time_s is not None:
         return f"mode {k}: {float(modes.frequencies_hz()[k]):.4g} Hz"
     return f"mode {k}: ω = {float(modes.omega[k]):.4g}"
@@ -54,7 +56,7 @@ def _displacements(system: Any, shape: np.ndarray) -> np.ndarray:
 
 
 def mode_view(scene: Any, system: Any, modes: Any, indices: Sequence[int], *,
-              structure: Any = None) -> dict[str, Any] | None:
+              structure: Any = None, symmetry: Any = None) -> dict[str, Any] | None:
     """The interactive view of the drawn modes `indices` of a chain, molecule or network scene.
 
     Parameters
@@ -68,6 +70,8 @@ def mode_view(scene: Any, system: Any, modes: Any, indices: Sequence[int], *,
         The drawn modes.
     structure : MoleculeStructure, optional
         A molecule's elements and bonds (the plan's ``structure`` step).
+    symmetry : MoleculeSymmetry, optional
+        A molecule's point group and species (the plan's ``symmetry`` step), for the labels.
 
     Returns
     -------
@@ -117,6 +121,6 @@ def mode_view(scene: Any, system: Any, modes: Any, indices: Sequence[int], *,
         largest = float(np.linalg.norm(vectors, axis=1).max())
         if largest > 0:
             vectors = vectors * (MAX_MOTION * scale_length / largest)
-        views.append({"label": _mode_label(scene, modes, int(k)), "vectors": _round(vectors)})
+        views.append({"label": _mode_label(scene, modes, int(k), symmetry), "vectors": _round(vectors)})
     return {"kind": scene.kind, "style": style, "elements": elements, "positions": _round(drawn),
             "bonds": [list(b) for b in bonds], "modes": views, "note": note}
