@@ -103,8 +103,14 @@ def mode_view(scene: Any, system: Any, modes: Any, indices: Sequence[int], *,
     elif scene.kind == "molecule":
         sites = np.arange(system.n_sites)
         drawn = positions
-        elements = list(structure.symbols) if structure is not None else ["C"] * system.n_sites
-        bonds = [(int(i), int(j)) for i, j in structure.bonds] if structure is not None else []
+        if structure is not None:
+            elements = list(structure.symbols)
+            bonds = [(int(i), int(j)) for i, j in structure.bonds]
+        else:  # no structure step: the element of nearest standard mass, bonds from distances
+            from vibra.molecules import bonds_from_distances, symbols_from_masses
+
+            elements = list(symbols_from_masses(system.masses))
+            bonds = [(int(i), int(j)) for i, j in bonds_from_distances(np.asarray(system.positions), elements)]
         style = "molecule"
     else:  # a network: C-alpha atoms, joined along the chain where they are consecutive residues
         sites = np.arange(system.n_sites)
