@@ -148,7 +148,9 @@ def test_report_with_broken_scenes_exits_nonzero_and_writes_nothing_for_them(tmp
     n_broken = len(list(BROKEN.glob("*.toml")))
     assert f"{n_broken} scene(s), {n_broken} failed, 0 image(s)" in run.stdout
     assert "did you mean 'stiffness'?" in run.stdout  # the final table says why
-    assert sorted(p.name for p in out.iterdir()) == [".vibra", "index.html", "summary.json"]
+    assert sorted(p.name for p in out.iterdir()) == [".vibra", "assets", "index.html", "references.html", "scenes",
+                                                     "summary.json"]
+    assert sorted(p.name for p in (out / "scenes").iterdir()) == sorted(f"{p.stem}.html" for p in BROKEN.glob("*.toml"))
     assert [p.name for p in (out / ".vibra").iterdir()] == ["lock"]  # the folder's lock; no manifest
     assert not Path("/tmp/vibra-escaped_modes.png").exists()
     assert not (tmp_path / "escaped").exists()
@@ -204,8 +206,10 @@ def test_report_bundled_scenes_end_to_end(tmp_path: Path) -> None:
     assert (out / "co2_crosscheck.txt").is_file() and (out / "co2_mode5.gif").is_file()
     assert (out / "monatomic-fixed_mode0.gif").is_file()
     assert (out / "argon-fcc_mode.gif").is_file() and (out / "silicon-diamond_mode.gif").is_file()
+    pages = {name: (out / "scenes" / f"{name}.html").read_text() for name in EXPECTED}
+    assert all(f"src='../{name}_{what}.png'" in pages[name] for name, whats in EXPECTED.items() for what in whats)
     index = (out / "index.html").read_text()
-    assert all(f"src='{name}_{what}.png'" in index for name, whats in EXPECTED.items() for what in whats)
+    assert all(f"href='scenes/{name}.html'" in index for name in EXPECTED)
     again = vibra("report", *BUNDLED_FOLDERS, "--out", str(out), "--window-size", "320x200")
     assert again.returncode == 0 and again.stdout.count("skipped") == n
 

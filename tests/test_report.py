@@ -4,9 +4,11 @@ the batch report (isolation, atomic outputs, skipping, summary.json, index.html)
 from __future__ import annotations
 
 import dataclasses
+import html
 import json
 import subprocess
 import sys
+from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
@@ -153,7 +155,7 @@ def test_report_outputs_summary_and_index(tmp_path: Path) -> None:
     result = report([scenes], out, progress=False)
     [outcome] = result.outcomes
     assert outcome.status == "ok", outcome.error
-    assert outcome.outputs == ("small_modes.png", "small_spectrum.png")
+    assert outcome.outputs == ("small_modes.png", "small_view.json", "small_spectrum.png")
     picture = pixels(out / "small_modes.png")
     assert picture.shape == (200, 320, 3) and picture.std() > 5.0  # not blank (see test_render.py)
     assert pixels(out / "small_spectrum.png").std() > 5.0
@@ -166,11 +168,17 @@ def test_report_outputs_summary_and_index(tmp_path: Path) -> None:
     assert all(s["seconds"] >= 0 for s in entry["steps"])
     index = (out / "index.html").read_text()
     assert "Small &lt;chain&gt; &amp; co" in index and "<chain>" not in index
+    assert "href='scenes/small.html'" in index and "src='small_modes.png'" in index  # the thumbnail
+    page = (out / "scenes" / "small.html").read_text()
+    assert "Small &lt;chain&gt; &amp; co" in page and "<chain>" not in page
     for name in outcome.outputs:
-        assert f"src='{name}'" in index
+        if name.endswith(".png"):
+            assert f"src='../{name}'" in page
+    assert "id='view-data'" in page and "src='../assets/3Dmol-min.js'" in page
     assert not (out / ".work").exists()
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
-        "index.html", "small_modes.png", "small_spectrum.png", "summary.json"]
+        "assets", "index.html", "references.html", "scenes", "small_modes.png", "small_spectrum.png",
+        "small_view.json", "summary.json"]
 
 
 def test_failing_scene_does_not_stop_others_and_leaves_nothing(tmp_path: Path) -> None:
@@ -360,9 +368,9 @@ def test_failure_after_an_image_was_drawn_publishes_nothing(tmp_path: Path, monk
     out = tmp_path / "out"
     outcome = run_scene(path, out)
     assert outcome.status == "failed" and "RuntimeError: disk full" in outcome.error
-    assert [p.name for p in rendered] == ["late_modes.png"]
+    assert [p.name for p in rendered] == ["late_modes.png", "late_view.json"]
     assert [p.name for p in out.iterdir() if not p.name.startswith(".")] == []
-    assert not list(out.rglob("*.png")) and not (out / ".vibra" / "late.json").exists()
+    assert not list(out.rglob("*.png")) and not list(out.glob("*.json")) and not (out / ".vibra" / "late.json").exists()
 
 
 # ---------------------------------------------------------------------- one atomic writer
@@ -557,6 +565,108 @@ def test_frequency_table_has_species_and_observed_fundamentals(tmp_path: Path, b
     assert "NSRDS-NBS 39" in table and "Shimanouchi" in table
     for species, text in observed.items():
         assert any(species in line and text in line for line in result.frequencies), (species, text, table)
+
+
+# ---------------------------------------------------------------------- pages and 3-D views
+class _Links(HTMLParser):
+    """Every src and href of a page (and whether it loads anything from the network)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.links: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        self.links += [value for name, value in attrs if name in ("src", "href") and value]
+
+
+def page_links(page: Path) -> list[str]:
+    parser = _Links()
+    parser.feed(page.read_text(encoding="utf-8"))
+    return parser.links
+
+
+def test_chain_view_holds_the_closed_form_shapes(tmp_path: Path) -> None:
+    # Fixed chain of 5 equal masses: mode j moves site s as sin(s j pi / 6) (Kneller, Mécanique
+    # analytique, section 5.3); the view keeps that shape along x, its largest motion MAX_MOTION of a spring.
+    from vibra.pipeline.plan.views import CHAIN_SPACING, MAX_MOTION, mode_view
+
+    scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 5, "ends": "fixed"},
+                             "draw": {"modes": True, "n_draw": 2, "window_size": SMALL}}, source="s.toml")
+    system = build_system(scene)
+    modes = system.modes()
+    view = mode_view(scene, system, modes, [0, 1])
+    assert view is not None and view["style"] == "chain" and view["bonds"] == [[0, 1], [1, 2], [2, 3], [3, 4]]
+    x = np.array(view["positions"])[:, 0]
+    assert np.allclose(np.diff(x), CHAIN_SPACING)
+    sites = np.arange(1, 6)
+    for j, mode in enumerate(view["modes"], start=1):
+        vectors = np.array(mode["vectors"])
+        assert np.allclose(vectors[:, 1:], 0.0)
+        expected = np.sin(sites * j * np.pi / 6)
+        expected *= MAX_MOTION * CHAIN_SPACING / np.abs(expected).max()
+        assert np.allclose(np.abs(vectors[:, 0]), np.abs(expected), atol=1e-4)  # rounded to 4 decimals
+        assert np.allclose(vectors[:, 0] * np.sign(vectors[0, 0]), expected, atol=1e-4)
+        assert mode["label"].startswith(f"mode {j - 1}: ")
+
+
+def test_report_pages_navigate_offline_and_name_sources(tmp_path: Path) -> None:
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    write(scenes, "small.toml", CHAIN)
+    write(scenes, "bad.toml", FAILING)
+    (scenes / "water.toml").write_text((ROOT / "molecules" / "h2o.toml").read_text()
+                                       + "window_size = [320, 200]\n")
+    out = tmp_path / "out"
+    report([scenes, ROOT / "molecules" / "co2-axial.toml"], out, progress=False, window_size=SMALL)
+    pages = [out / "index.html", out / "references.html", *sorted((out / "scenes").glob("*.html"))]
+    assert [p.name for p in pages[2:]] == ["bad.html", "co2-axial.html", "small.html", "water.html"]
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        assert "seed 0" not in text.lower(), page
+        for link in page_links(page):
+            assert "://" not in link and not link.startswith("//"), (page, link)  # offline: no URL
+            target = (page.parent / link.split("#")[0]).resolve()
+            assert target.is_file() and out.resolve() in target.parents, (page, link)
+    index = (out / "index.html").read_text()
+    links = page_links(out / "index.html")
+    for name in ("small", "bad", "water", "co2-axial"):
+        assert f"scenes/{name}.html" in links  # one click from the index, the figures on that page
+    assert index.index(">Chains<") < index.index(">Molecules<") < index.index(">Generalised systems<")
+    co2 = (out / "scenes" / "co2-axial.html").read_text()
+    assert "Kneller, Mécanique analytique, example 11" in co2
+    water = (out / "scenes" / "water.html").read_text()
+    assert "<details><summary>How it was computed" in water and "<h2>Frequencies</h2>" in water
+    assert "<figcaption>H2O:" not in water  # the caption does not repeat the title
+    view = json.loads((out / "water_view.json").read_text())
+    assert view["elements"] == ["O", "H", "H"] and sorted(map(sorted, view["bonds"])) == [[0, 1], [0, 2]]
+    assert [m["label"] for m in view["modes"]][0].startswith("mode 6: 159") and len(view["modes"]) == 3
+    assert [m["label"].split("cm⁻¹, ")[1] for m in view["modes"]] == ["A1 (C2v)", "A1 (C2v)", "B2 (C2v)"]
+    assert "not positive definite" in (out / "scenes" / "bad.html").read_text()
+    references = (out / "references.html").read_text()
+    from vibra.sources import SOURCES
+
+    assert all(html.escape(s.full()) in references for s in SOURCES.values())
+    vendored = out / "assets" / "3Dmol-min.js"
+    assert vendored.stat().st_size > 100_000 and "BSD" in (out / "assets" / "3Dmol-LICENSE.txt").read_text()
+    # A later run of one scene keeps the others' pages; a scene gone from the folder loses its page.
+    (out / "water_mode6.png").unlink()
+    report([scenes / "small.toml"], out, progress=False, window_size=SMALL)
+    assert sorted(p.name for p in (out / "scenes").glob("*.html")) == ["bad.html", "co2-axial.html", "small.html"]
+
+
+def test_a_file_where_the_pages_go_is_refused_before_any_work(tmp_path: Path) -> None:
+    scene = write(tmp_path, "small.toml", CHAIN)
+    for name in ("scenes", "assets"):
+        out = tmp_path / f"out-{name}"
+        out.mkdir()
+        (out / name).write_text("mine")
+        with pytest.raises(NotADirectoryError, match=f"{name} is not a folder; vibra writes its report pages"):
+            report([scene], out, progress=False)
+        assert sorted(p.name for p in out.iterdir()) == [name]  # nothing written
+    out = tmp_path / "out-references"
+    (out / "references.html").mkdir(parents=True)
+    with pytest.raises(NotADirectoryError, match="references.html is a folder"):
+        report([scene], out, progress=False)
 
 
 # ---------------------------------------------------------------------- layers

@@ -147,7 +147,8 @@ def test_network_scene_b_factor_correlation_matches_prody(tmp_path: Path) -> Non
     anm.calcModes(n_modes=20)
     reference = np.corrcoef(prody.calcSqFlucts(anm), structure.getBetas())[0, 1]
     assert mine == pytest.approx(reference, abs=1e-3)  # the step prints r to 3 decimals
-    assert result.outputs == ("ubiquitin-anm_modes.png", "ubiquitin-anm_spectrum.png", "ubiquitin-anm_bfactors.png")
+    assert result.outputs == ("ubiquitin-anm_modes.png", "ubiquitin-anm_view.json", "ubiquitin-anm_spectrum.png",
+                              "ubiquitin-anm_bfactors.png")
     assert any(f"r = {reference:.3f}" in caption for caption in result.captions)
 
 

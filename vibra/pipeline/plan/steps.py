@@ -9,6 +9,7 @@ which only draw. Every file is written through `vibra._io` (atomically).
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,8 +24,10 @@ from vibra.pipeline.plan.build import build_system, network_structure
 from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
 from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
+from vibra.pipeline.plan.views import mode_view
 from vibra.pipeline.scene import Scene
 from vibra.pipeline.scene.values import element_symbol
+from vibra.sources import cite
 
 __all__ = ["execute", "frequency_lines", "STEPS"]
 
@@ -243,7 +246,7 @@ def _step_response(plan: Plan, context: _Context, renderer: Any) -> tuple[str | 
     assert r is not None  # make_plan adds this step only with a response table
     if plan.scene.kind == "oscillator":
         context.response = np.linspace(r.omega_min, r.omega_max, r.n_points)
-        return "closed form (seed 003 eq. 120)", None
+        return f"closed form ({cite('003')}, eq. 120)", None
     system = context.system
     K, M, C, G, omegas, force, method, n_modes = response_request(plan.scene, system)
     result = response.frequency_response(K, M, C, omegas, force, method=method, n_modes=n_modes,
@@ -311,7 +314,7 @@ def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[st
             p = plan.scene.system.parameters
             figure = plot_double_pendulum_modes(context.modes, p["a"], p["b"])
             caption = (f"{plan.scene.title}: the two normal modes drawn as pendulum positions "
-                       "(seed 000, eqs. 15-16)")
+                       f"({cite('000')}, eqs. 15-16)")
         else:
             from vibra.charts.modes import shapes_figure
 
@@ -323,6 +326,11 @@ def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[st
                                                hints=context.hints):
         context.outputs.append(name)
         context.captions.append(caption)
+    view = mode_view(plan.scene, context.system, context.modes, indices, structure=context.structure,
+                     symmetry=context.symmetry)
+    if view is not None:  # the report's interactive 3-D view of the same modes
+        _write_text(context, f"{plan.scene.name}_view.json", json.dumps(view, separators=(",", ":")),
+                    "the drawn modes in 3-D: drag to rotate, scroll to zoom, pick a mode and its amplitude")
     return None, None
 
 
@@ -425,7 +433,7 @@ def _step_chart_response(plan: Plan, context: _Context, renderer: Any) -> tuple[
         figure = response_charts.plot_oscillator_response(list(oscillators), context.response,
                                                           units=plan.scene.units)
         gammas = ", ".join(f"{o.gamma:g}" for o in oscillators)
-        caption = (f"{plan.scene.title}: amplitude and phase against omega (seed 003 eqs. 120-123) "
+        caption = (f"{plan.scene.title}: amplitude and phase against omega ({cite('003')}, eqs. 120-123) "
                    f"for gamma = {gammas}, omega0 = {oscillators[0].w0:g}")
     else:
         r = plan.scene.compute.response
@@ -448,7 +456,7 @@ def _step_chart_convergence(plan: Plan, context: _Context, renderer: Any) -> tup
     assert c is not None  # make_plan adds this step only with a continuum table
     _save_chart(context, figure, "convergence",
                 f"Relative error of modes {list(c.modes)} of a {c.ends}-end chain against the wave equation, "
-                "versus N at fixed length (seed 003 eqs. 162-165)")
+                f"versus N at fixed length ({cite('003')}, eqs. 162-165)")
     return None, None
 
 

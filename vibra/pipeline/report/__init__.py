@@ -3,7 +3,11 @@
 - `vibra.pipeline.report.batch`: `report` (a locked, merged batch) and `run_scene` (one isolated scene).
 - `vibra.pipeline.report.folder`: the output folder: checks, lock, stale-file cleanup, output
   verification, the code hash of the skip key.
-- `vibra.pipeline.report.pages`: ``summary.json`` and ``index.html``, merged with the folder's earlier scenes.
+- `vibra.pipeline.report.pages`: ``summary.json`` and the pages, merged with the folder's earlier scenes.
+- `vibra.pipeline.report.site`: ``index.html`` (thumbnails by kind), ``references.html``, the scene pages.
+- `vibra.pipeline.report.scenepage`: one scene's page (figures, 3-D view, frequencies, folded details).
+- `vibra.pipeline.report.frame`: what every page shares (style sheet, contents sidebar, captions).
+- `vibra.pipeline.report.viewer`: the interactive 3-D view (vendored 3Dmol.js in ``assets/``).
 - `vibra.pipeline.report.outcome`: `SceneOutcome`, `BatchResult`, `ProgressBar`.
 """
 

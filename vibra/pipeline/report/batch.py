@@ -83,9 +83,10 @@ def _stored_outcome(out_dir: Path, name: str, digest: str) -> SceneOutcome | Non
     return outcome
 
 
-def _failed(source: Path, name: str, title: str, start: float, error: str, detail: str = "") -> SceneOutcome:
+def _failed(source: Path, name: str, title: str, start: float, error: str, detail: str = "",
+            kind: str = "") -> SceneOutcome:
     return SceneOutcome(source=str(source), name=name, title=title, status="failed", error=error,
-                        seconds=time.perf_counter() - start, detail=detail)
+                        seconds=time.perf_counter() - start, detail=detail, kind=kind)
 
 
 def _numbers(scene: Any, modes: Any) -> dict[str, Any]:
@@ -180,22 +181,22 @@ def run_scene(path: str | os.PathLike[str], out_dir: str | os.PathLike[str], *, 
         outcome = SceneOutcome(source=str(source), name=name, title=title, status="ok",
                                outputs=result.outputs, captions=result.captions, steps=result.records,
                                frequencies=result.frequencies, seconds=time.perf_counter() - start,
-                               input_hash=digest, **_numbers(scene, result.modes))
+                               input_hash=digest, kind=scene.kind, **_numbers(scene, result.modes))
         write_manifest(target, name, json.dumps(outcome.as_json(), indent=1, allow_nan=False))
         return outcome
     except SceneError as error:  # a refused parameter or a failing step: one line, at its key
         _manifest_path(target, name).unlink(missing_ok=True)
-        return _failed(source, name, title, start, str(error))
+        return _failed(source, name, title, start, str(error), kind=scene.kind)
     except OSError as error:  # the output folder: full, removed, not writable
         _manifest_path(target, name).unlink(missing_ok=True)
         where = f" ({error.filename})" if error.filename else ""
         return _failed(source, name, title, start, f"{source}: cannot write the outputs{where}: "
-                       f"{error.strerror or error}; check the output folder")
+                       f"{error.strerror or error}; check the output folder", kind=scene.kind)
     except Exception as error:  # a bug: one line here, the traceback in `detail` (--debug)
         _manifest_path(target, name).unlink(missing_ok=True)
         text = " ".join(f"{type(error).__name__}: {error}".split())[:300]
         return _failed(source, name, title, start, f"{source}: internal error ({text}); rerun with --debug "
-                       "for the traceback and report it", traceback.format_exc())
+                       "for the traceback and report it", traceback.format_exc(), scene.kind)
     finally:
         shutil.rmtree(work, ignore_errors=True)
         try:

@@ -32,14 +32,16 @@ from types import TracebackType
 
 from vibra._io import atomic_write_text, check_out_folder, temporary_owner
 
-__all__ = ["MANIFESTS", "WORK", "LOCK_NAME", "FolderBusy", "FolderLock", "check_out_dir", "pid_alive",
+__all__ = ["MANIFESTS", "WORK", "LOCK_NAME", "PAGE_FOLDERS", "FolderBusy", "FolderLock", "check_out_dir", "pid_alive",
            "clean_stale", "output_is_sound", "code_hash", "work_folder"]
 
 MANIFESTS = ".vibra"
 WORK = ".work"
 LOCK_NAME = "lock"
 #: Files `report` itself writes in the output folder (checked to be files, not folders).
-FOLDER_FILES = ("summary.json", "index.html")
+FOLDER_FILES = ("summary.json", "index.html", "references.html")
+#: Folders of the report's pages: the scene pages and the vendored scripts (checked to be folders).
+PAGE_FOLDERS = ("scenes", "assets")
 
 
 class FolderBusy(RuntimeError):
@@ -50,7 +52,8 @@ def check_out_dir(path: str | os.PathLike[str]) -> Path:
     """Create the output folder when missing and check it is a writable folder; return it.
 
     The folder rule is `vibra._io.check_out_folder`; then the names report writes itself
-    (``summary.json``, ``index.html``, ``.vibra/``, ``.work/``) must be of the right kind.
+    (``summary.json``, ``index.html``, ``references.html``, ``scenes/``, ``assets/``, ``.vibra/``,
+    ``.work/``) must be of the right kind.
 
     Raises
     ------
@@ -61,12 +64,13 @@ def check_out_dir(path: str | os.PathLike[str]) -> Path:
         One of report's own names is a folder where a file goes, or the reverse.
     """
     target = check_out_folder(path, option="--out")
-    for name in (MANIFESTS, WORK, *FOLDER_FILES):
+    for name in (MANIFESTS, WORK, *PAGE_FOLDERS, *FOLDER_FILES):
         entry = target / name
-        wanted_dir = name in (MANIFESTS, WORK)
+        wanted_dir = name not in FOLDER_FILES
         if os.path.lexists(entry) and (entry.is_dir() != wanted_dir or entry.is_symlink()):
+            role = "report pages" if name in PAGE_FOLDERS else "bookkeeping" if wanted_dir else "report"
             raise NotADirectoryError(f"--out {target}: {entry} is {'not a folder' if wanted_dir else 'a folder'}"
-                                     f"; vibra writes its {'bookkeeping' if wanted_dir else 'report'} there; "
+                                     f"; vibra writes its {role} there; "
                                      "remove or rename it")
     return target
 

@@ -55,6 +55,8 @@ class SceneOutcome:
         Unit of `frequency`.
     detail : str
         The traceback of an unexpected failure ("" otherwise), shown with ``--debug``.
+    kind : str
+        The scene's kind (``"chain"``, ``"molecule"``, ...; "" when the file could not be read).
     """
 
     source: str
@@ -73,6 +75,7 @@ class SceneOutcome:
     frequency: tuple[float, ...] = ()
     frequency_unit: str = ""
     detail: str = ""
+    kind: str = ""
 
     def as_json(self) -> dict[str, Any]:
         """JSON-ready description (used in ``summary.json`` and the manifests); numbers stay numbers.
@@ -81,7 +84,8 @@ class SceneOutcome:
         spectroscopic ``values`` with their ``unit``; the text table is ``frequency_table``.
         """
         return {
-            "source": self.source, "name": self.name, "title": self.title, "status": self.status,
+            "source": self.source, "name": self.name, "title": self.title, "kind": self.kind,
+            "status": self.status,
             "error": self.error, "outputs": list(self.outputs), "captions": list(self.captions),
             "steps": [{"name": s.name, "what": s.what, "seconds": s.seconds, "solver": s.solver,
                        "accuracy": s.accuracy, "outputs": list(s.outputs)} for s in self.steps],
@@ -112,7 +116,8 @@ class SceneOutcome:
                    frequencies=tuple(data.get("frequency_table", ())), seconds=float(data.get("seconds", 0.0)),
                    input_hash=str(data.get("input_hash", "")), omega=floats(numbers.get("omega")),
                    omega_unit=str(numbers.get("omega_unit", "")), frequency=floats(numbers.get("values")),
-                   frequency_unit=str(numbers.get("unit", "")), detail=str(data.get("traceback", "")))
+                   frequency_unit=str(numbers.get("unit", "")), detail=str(data.get("traceback", "")),
+                   kind=str(data.get("kind", "")))
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""``summary.json`` and ``index.html`` of an output folder, merged with what the folder already shows.
+"""``summary.json`` and the pages (``index.html`` ...) of an output folder, merged with what the folder already shows.
 
 A run renders some scenes; the folder may hold others from earlier runs. `merged_outcomes`
 keeps those (when their outputs are still there and sound), replaces the scenes this run
@@ -7,15 +7,14 @@ re-ran, and appends new ones, so the index never loses images that are still in 
 
 from __future__ import annotations
 
-import html
 import json
 from pathlib import Path
 from typing import Sequence
 
 from vibra._io import atomic_write_text
-from vibra.charts import plain_math
 from vibra.pipeline.report.folder import output_is_sound
 from vibra.pipeline.report.outcome import BatchResult, SceneOutcome
+from vibra.pipeline.report.site import write_site
 
 __all__ = ["previous_outcomes", "merged_outcomes", "write_summary", "write_index"]
 
@@ -71,42 +70,10 @@ def write_summary(result: BatchResult, outcomes: Sequence[SceneOutcome] | None =
 
 
 def write_index(result: BatchResult, outcomes: Sequence[SceneOutcome] | None = None) -> Path:
-    """Write ``index.html``: every image with its caption, the step table and the errors."""
-    scenes = list(result.outcomes if outcomes is None else outcomes)
-    failed = sum(1 for o in scenes if o.status == "failed")
-    e = html.escape
-    parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
-             "<title>vibra report</title><style>",
-             "body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}"
-             "figure{margin:1em 0}img{max-width:100%;border:1px solid #ccc}"
-             "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px;font-size:90%}"
-             ".failed{color:#a00}pre{background:#f6f6f6;padding:.5em;overflow-x:auto}",
-             "</style></head><body>", "<h1>vibra report</h1>",
-             f"<p>{len(scenes)} scene(s), {failed} failed.</p>"]
-    for o in scenes:
-        parts.append(f"<section id='{e(o.name, quote=True)}'><h2>{e(o.title)}</h2>")
-        parts.append(f"<p>Scene file <code>{e(o.source)}</code>: <b class='{e(o.status)}'>{e(o.status)}</b>"
-                     f" in {o.seconds:.2f} s.</p>")
-        if o.error:
-            parts.append(f"<pre class='failed'>{e(o.error)}</pre>")
-        if o.steps:
-            parts.append("<table><tr><th>step</th><th>what</th><th>solver</th><th>accuracy</th>"
-                         "<th>time (s)</th></tr>")
-            for s in o.steps:
-                parts.append(f"<tr><td>{e(s.name)}</td><td>{e(plain_math(s.what))}</td><td>{e(s.solver or '')}</td>"
-                             f"<td>{e(plain_math(s.accuracy or ''))}</td><td>{s.seconds:.3f}</td></tr>")
-            parts.append("</table>")
-        for output, raw_caption in zip(o.outputs, o.captions):
-            caption = plain_math(raw_caption)  # Unicode, never raw mathtext such as $\omega$
-            link = e(output, quote=True)
-            if output.endswith((".png", ".gif")):
-                parts.append(f"<figure><img src='{link}' alt='{e(caption, quote=True)}'>"
-                             f"<figcaption>{e(caption)}</figcaption></figure>")
-            else:
-                parts.append(f"<p><a href='{link}'>{e(output)}</a>: {e(caption)}</p>")
-        if o.frequencies:
-            parts.append("<details><summary>frequencies</summary><pre>"
-                         + e(plain_math("\n".join(o.frequencies))) + "</pre></details>")
-        parts.append("</section>")
-    parts.append("</body></html>")
-    return atomic_write_text(result.out_dir / "index.html", "\n".join(parts) + "\n")
+    """Write the report's pages (`vibra.pipeline.report.site.write_site`); return ``index.html``.
+
+    ``index.html`` groups the scenes by kind in a thumbnail grid; each scene has its page in
+    ``scenes/`` (figures, 3-D view, frequencies, how it was computed); ``references.html``
+    names the sources; ``assets/`` holds the vendored 3Dmol.js.
+    """
+    return write_site(result.out_dir, list(result.outcomes if outcomes is None else outcomes))

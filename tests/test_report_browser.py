@@ -1,0 +1,119 @@
+"""The report in a real browser (issue 32, item 4): Chromium, driven by Playwright for Python.
+
+A small report (one chain, one molecule, one network) is built into a temporary folder and every
+page is opened from disk: no console error, every image, link and script resolves to a file of
+the folder (and every image decodes), the interactive 3-D view starts (a WebGL canvas) and
+animates (its pixels change between frames), and a 1280x1080 screenshot of each page is kept
+(in ``$VIBRA_SCREENSHOTS`` when set, as CI does, else in the test's temporary folder).
+
+Skipped, saying why, where Playwright or a Chromium executable is missing: ``pip install
+playwright`` and ``apt-get install chromium`` (Playwright's own browser download is not used;
+``$VIBRA_CHROMIUM`` names another executable).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import time
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from vibra.pipeline.report import report
+
+try:
+    from playwright.sync_api import sync_playwright
+except ImportError:  # the test extra does not require it: CI installs it where it can run Chromium
+    sync_playwright = None
+
+ROOT = Path(__file__).resolve().parent.parent
+CHROMIUM = os.environ.get("VIBRA_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
+SCENES = [ROOT / "chains" / "diatomic.toml", ROOT / "molecules" / "h2o.toml",
+          ROOT / "networks" / "ubiquitin" / "ubiquitin-anm.toml"]
+SCREEN = {"width": 1280, "height": 1080}
+
+pytestmark = [
+    pytest.mark.skipif(sync_playwright is None, reason="Playwright for Python is not installed "
+                       "(pip install playwright; its browser download is not needed)"),
+    pytest.mark.skipif(CHROMIUM is None, reason="no Chromium executable (apt-get install chromium, "
+                       "or set VIBRA_CHROMIUM)"),
+]
+
+_LINKS = """() => Array.from(document.querySelectorAll("img[src], script[src], a[href], link[href]"))
+    .map(e => e.src || e.href)"""
+_IMAGES = """() => Promise.all(Array.from(document.images).map(img => {
+    img.loading = "eager";
+    return img.decode().then(() => [img.src, img.naturalWidth], () => [img.src, 0]);
+}))"""
+
+
+def _pixels(png: bytes) -> np.ndarray:
+    with Image.open(io.BytesIO(png)) as image:
+        return np.asarray(image.convert("RGB"), dtype=np.int16)
+
+
+def _local_file(url: str, out: Path) -> Path:
+    parsed = urlparse(url)
+    assert parsed.scheme == "file", f"{url}: not a file of the report (the report works offline)"
+    path = Path(unquote(parsed.path)).resolve()
+    assert path.is_file() and out.resolve() in path.parents, f"{url}: no such file in the report"
+    return path
+
+
+def test_report_pages_in_chromium(tmp_path: Path) -> None:
+    out = tmp_path / "report"
+    result = report(SCENES, out, progress=False, window_size=(480, 320))
+    assert not result.failed, [o.error for o in result.failed]
+    shots = Path(os.environ.get("VIBRA_SCREENSHOTS") or tmp_path / "screenshots")
+    shots.mkdir(parents=True, exist_ok=True)
+    pages = [out / "index.html", out / "references.html", *sorted((out / "scenes").glob("*.html"))]
+    assert len(pages) == 2 + len(SCENES)
+    assert sync_playwright is not None and CHROMIUM is not None
+    with sync_playwright() as driver:
+        browser = driver.chromium.launch(executable_path=CHROMIUM)
+        try:
+            views = 0
+            for path in pages:
+                page = browser.new_page(viewport=SCREEN)
+                errors: list[str] = []
+                page.on("console", lambda message: errors.append(message.text) if message.type == "error" else None)
+                page.on("pageerror", lambda error: errors.append(str(error)))
+                page.on("requestfailed", lambda request: errors.append(f"failed to load {request.url}"))
+                page.goto(path.as_uri(), wait_until="load")
+                for url in page.evaluate(_LINKS):
+                    _local_file(url, out)
+                for url, width in page.evaluate(_IMAGES):
+                    assert width > 0, f"{path.name}: image {url} does not decode"
+                if page.locator("#view3d").count():
+                    canvas = page.locator("#view3d canvas").first
+                    canvas.wait_for(state="visible", timeout=30_000)
+                    canvas.scroll_into_view_if_needed()
+                    frames = []
+                    for _ in range(4):
+                        frames.append(_pixels(canvas.screenshot()))
+                        time.sleep(0.4)
+                    assert frames[0].std() > 5.0, f"{path.name}: the 3-D view is blank"
+                    changed = max(float(np.abs(f - frames[0]).mean()) for f in frames[1:])
+                    assert changed > 0.0, f"{path.name}: the 3-D view does not animate"
+                    page.select_option("#view-mode", index=page.locator("#view-mode option").count() - 1)
+                    page.eval_on_selector("#view-amplitude", "e => { e.value = '2.5'; "
+                                          "e.dispatchEvent(new Event('input')); }")
+                    page.click("#view-play")  # pause, then play: the frames are rebuilt each time
+                    page.click("#view-play")
+                    assert _pixels(canvas.screenshot()).std() > 5.0, f"{path.name}: blank after the controls"
+                    views += 1
+                    page.evaluate("window.scrollTo(0, 0)")
+                if path.name == "index.html":
+                    height = page.evaluate("document.documentElement.scrollHeight")
+                    assert height < 3 * SCREEN["height"], f"index.html is {height} px tall"
+                page.screenshot(path=str(shots / f"{path.parent.name}-{path.stem}.png"))
+                assert errors == [], f"{path.name}: {errors}"
+                page.close()
+            assert views == len(SCENES)  # the chain, the molecule and the network each have a view
+        finally:
+            browser.close()

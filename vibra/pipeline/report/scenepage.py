@@ -1,0 +1,83 @@
+"""One scene's page, ``DIR/scenes/<scene>.html``: its figures with short captions, the interactive
+3-D view of its modes, the frequency table, and how it was computed folded away."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import Sequence
+
+from vibra.charts import plain_math
+from vibra.pipeline.report.frame import IMAGE_SUFFIXES, page, short_caption
+from vibra.pipeline.report.outcome import SceneOutcome
+from vibra.pipeline.report.viewer import VIEW_SUFFIX, read_view, view_html
+
+__all__ = ["scene_page", "KIND_WORDS"]
+
+#: Scene kind -> what the page says the scene is.
+KIND_WORDS = {"chain": "a chain of masses and springs", "molecule": "a molecule",
+              "network": "an elastic network of a protein", "generalized": "a system in generalised coordinates",
+              "oscillator": "driven damped oscillators", "crystal": "a crystal"}
+
+
+def _steps_table(outcome: SceneOutcome) -> str:
+    e = html.escape
+    rows = ["<table><tr><th>step</th><th>what</th><th>solver</th><th>accuracy</th><th>time (s)</th></tr>"]
+    for s in outcome.steps:
+        rows.append(f"<tr><td>{e(s.name)}</td><td>{e(plain_math(s.what))}</td><td>{e(s.solver or '')}</td>"
+                    f"<td>{e(plain_math(s.accuracy or ''))}</td><td>{s.seconds:.3f}</td></tr>")
+    rows.append("</table>")
+    return "".join(rows)
+
+
+def scene_page(outcome: SceneOutcome, scenes: Sequence[SceneOutcome], out_dir: Path) -> str:
+    """The HTML of `outcome`'s page (in ``DIR/scenes/``, so files of the folder are ``../<file>``).
+
+    Parameters
+    ----------
+    outcome : SceneOutcome
+        The scene.
+    scenes : sequence of SceneOutcome
+        Every scene of the report (the sidebar).
+    out_dir : Path
+        The report folder (the scene's view data is read from there).
+    """
+    e = html.escape
+    o = outcome
+    what = KIND_WORDS.get(o.kind, "a scene")
+    status = {"ok": "computed", "skipped": "unchanged since the last run", "failed": "failed"}.get(o.status, o.status)
+    parts = [f"<p class='lead'><a href='../index.html'>All scenes</a> &rsaquo; {e(what)}</p>",
+             f"<h1>{e(plain_math(o.title))}</h1>",
+             f"<p class='lead'>Scene file <code>{e(Path(o.source).name)}</code>, "
+             f"<span class='{e(o.status)}'>{e(status)}</span> in {o.seconds:.2f} s.</p>"]
+    if o.error:
+        parts.append(f"<pre class='failed'>{e(o.error)}</pre>")
+    view = None
+    figures, others = [], []
+    for output, caption in zip(o.outputs, o.captions):
+        link = e(f"../{output}", quote=True)
+        text = short_caption(o.title, caption)
+        if output.lower().endswith(IMAGE_SUFFIXES):
+            figures.append(f"<figure><a href='{link}'><img src='{link}' alt='{e(text, quote=True)}' "
+                           f"loading='lazy'></a><figcaption>{e(text)}</figcaption></figure>")
+        elif output.endswith(VIEW_SUFFIX):
+            view = read_view(out_dir / output)
+            others.append(f"<li><a href='{link}'>{e(output)}</a>: the data of the 3-D view below</li>")
+        else:
+            others.append(f"<li><a href='{link}'>{e(output)}</a>: {e(text)}</li>")
+    if figures:
+        parts.append("<div class='figs'>" + "".join(figures) + "</div>")
+    if view is not None:
+        parts.append("<h2>The modes in 3-D</h2>" + view_html(view))
+    if o.frequencies:
+        parts.append("<h2>Frequencies</h2><pre>" + e(plain_math("\n".join(o.frequencies))) + "</pre>")
+    details = []
+    if o.steps:
+        details.append("<p class='note'>Each step of the computation: what it computed, the solver that "
+                       "served it, its accuracy figure and its time.</p>" + _steps_table(o))
+    if others:
+        details.append("<p>Other files:</p><ul>" + "".join(others) + "</ul>")
+    details.append(f"<p class='note'>Scene file: <code>{e(o.source)}</code></p>")
+    parts.append("<details><summary>How it was computed (solvers, accuracy, files)</summary>"
+                 + "".join(details) + "</details>")
+    return page(o.title, "\n".join(parts), scenes, root="..", here=o.name)
