@@ -211,6 +211,9 @@ def _build(scene: Scene) -> Any:
         import dataclasses
 
         return dataclasses.replace(make(units=scene.units, **lists), name=scene.name)
+    elif builder == "fput":  # the harmonic chain; its anharmonic forces: vibra.pipeline.plan.dynamics
+        system, _ = make(units=scene.units, **lists)
+        return system
     elif builder == "oscillator":
         gammas = p["gamma"] if isinstance(p["gamma"], tuple) else (p["gamma"],)
         return tuple(make(p["w0"], g, p["m"]) for g in gammas)
