@@ -137,8 +137,8 @@ def check_dynamics_plan(scene: Scene, system: Any) -> None:
         bound = stable_dt(omega_max, spec.integrator)
         raise SceneError(scene.source, "compute.dt", f"is {spec.dt:g}, unstable for the highest normal frequency "
                          f"omega_max = {omega_max:.6g} {system.units.omega}: {spec.integrator} is stable for dt < "
-                         f"{STABLE_OMEGA_DT[spec.integrator]:.4g} / omega_max = {bound:.6g}; use dt <= "
-                         f"{0.5 * bound:.3g} for accurate energies")
+                         f"{STABLE_OMEGA_DT[spec.integrator]:.4g} / omega_max = {bound:.6g} (a step of a twentieth "
+                         f"of the shortest period, {np.pi / (10 * omega_max):.3g}, keeps the energy accurate)")
     if spec.histogram or spec.mode is not None:
         lowest = np.asarray(system.modes(max(1, spec.mode or 1), vectors=False).omega)
         rigid = np.abs(lowest) <= 1e-8 * omega_max
