@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from PIL import Image
 
 import vibra.charts.dynamics as charts
@@ -226,3 +229,54 @@ def test_vibra_validate_refuses_an_unstable_step_in_one_line(tmp_path: Path) -> 
     assert ok.returncode == 0, ok.stderr
     line = next(text for text in ok.stdout.splitlines() if "fput-alpha" in text)
     assert "31 dofs; 1 run of 130000 verlet steps of dt = 0.1" in line and "estimated ~" in line
+
+
+# Issue 16's property for the new kind: a dynamics scene that validation accepts runs, or fails with
+# a SceneError at a key (a diverging anharmonic run), never with another exception.
+SIZE = st.floats(-12, 12).map(lambda e: float(10.0 ** e))  # numbers in 1e-12 .. 1e12, log-uniform
+
+
+@st.composite
+def dynamics_scenes(draw: Any) -> dict:
+    builder = draw(st.sampled_from(["fput", "linear_chain", "springs"]))
+    ends = draw(st.sampled_from(["free", "fixed", "periodic"]))
+    n = draw(st.integers(2, 5))
+    if builder == "fput":
+        system = {"n": n, "alpha": draw(st.one_of(st.just(0.0), SIZE)), "beta": draw(st.one_of(st.just(0.0), SIZE)),
+                  "ends": ends, "mass": draw(SIZE), "stiffness": draw(SIZE)}
+    elif builder == "linear_chain":
+        system = {"n": n, "ends": ends, "mass": draw(SIZE), "stiffness": draw(SIZE)}
+    else:
+        system = {"positions": [float(i) for i in range(n)], "masses": draw(SIZE), "springs": [[0, 1]],
+                  "stiffness": draw(SIZE), "anchors": [0], "anchor_stiffness": draw(SIZE)}
+    thermostat = draw(st.sampled_from(["none", "isokinetic", "nose-hoover"]))
+    compute: dict[str, Any] = {"dt": draw(SIZE), "n_steps": draw(st.integers(1, 300)), "thermostat": thermostat,
+               "integrator": draw(st.sampled_from(["verlet", "yoshida4"]))}
+    if thermostat != "none":
+        compute["temperature"] = draw(SIZE)
+    if thermostat == "nose-hoover":
+        compute["tau"] = draw(SIZE)
+        compute["chain"] = draw(st.one_of(st.integers(1, 4), st.lists(st.integers(1, 4), min_size=1, max_size=2)))
+    if thermostat != "isokinetic" and draw(st.booleans()):
+        compute.update(mode=draw(st.integers(1, n)), energy=draw(SIZE))
+    else:
+        compute["x0"] = [draw(st.floats(-1e3, 1e3)) for _ in range(n)]
+        compute["v0"] = [draw(st.floats(-1e3, 1e3)) for _ in range(n)]
+    dr = {"mode_energies": draw(st.booleans()), "energies": draw(st.booleans()), "histogram": draw(st.booleans()),
+          "n_modes_drawn": draw(st.integers(1, n))}
+    return {"kind": "dynamics", "system": {"builder": builder, **system}, "compute": compute, "draw": dr}
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck))
+@given(dynamics_scenes())
+def test_an_accepted_dynamics_scene_runs_or_names_a_key(data: dict) -> None:
+    try:
+        scene = Scene.from_dict(data, source="g.toml")
+        validate(scene)
+    except SceneError:
+        return
+    with tempfile.TemporaryDirectory() as folder:
+        try:
+            execute(make_plan(scene), Path(folder), Path(folder))
+        except SceneError as error:
+            assert error.key, error

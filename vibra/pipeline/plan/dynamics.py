@@ -187,8 +187,18 @@ def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str 
     labels, runs = [], []
     for chain in spec.chains:
         thermostat, label = _thermostat(scene, chain)
-        runs.append(dynamics.integrate(system, x0, v0, spec.dt, spec.n_steps, forces=forces, thermostat=thermostat,
-                                       integrator=spec.integrator, record_every=spec.record_every))
+        with np.errstate(over="ignore", invalid="ignore"):  # a run that diverges is refused just below
+            run = dynamics.integrate(system, x0, v0, spec.dt, spec.n_steps, forces=forces, thermostat=thermostat,
+                                     integrator=spec.integrator, record_every=spec.record_every)
+        finite = np.isfinite(run.positions).all(axis=1) & np.isfinite(run.velocities).all(axis=1) \
+            & np.isfinite(run.kinetic) & np.isfinite(run.conserved)
+        if not finite.all():
+            where = float(run.t[int(np.argmin(finite))])
+            raise SceneError(scene.source, "compute", f"the run ({label}) diverged: its state left the finite "
+                             f"numbers by t = {where:.4g}; an anharmonic potential with alpha or beta != 0 is "
+                             "unbounded (a large amplitude escapes it, or a large dt does): lower compute.energy "
+                             "(or x0, v0), system.alpha, or compute.dt")
+        runs.append(run)
         labels.append(label)
     kT = 0.0 if spec.temperature is None else system.units.boltzmann * spec.temperature
     context.dynamics = DynamicsRuns(labels=tuple(labels), runs=tuple(runs), modes=modes, kT=kT)
@@ -200,11 +210,10 @@ def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str 
     return how, f"largest relative change of the {what}: {drift:.2e}"
 
 
-def mode_energy_lines(runs: DynamicsRuns, n_modes: int) -> tuple[Any, Any]:
-    """(t, (n_records, n_modes) energies) of the first run's lowest `n_modes` modes (`Trajectory.mode_energies`)."""
+def mode_energy_lines(runs: DynamicsRuns) -> tuple[Any, Any]:
+    """(t, (n_records, n_modes) energies) of the first run in each computed mode (`Trajectory.mode_energies`)."""
     run = runs.runs[0]
-    energies = run.mode_energies(runs.modes)[:, :n_modes]
-    return run.t, energies
+    return run.t, run.mode_energies(runs.modes)
 
 
 def _step_chart_mode_energies(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
@@ -212,13 +221,14 @@ def _step_chart_mode_energies(plan: Plan, context: Any, renderer: Any) -> tuple[
 
     scene, runs = plan.scene, context.dynamics
     spec = scene.dynamics
-    t, energies = mode_energy_lines(runs, spec.n_modes_drawn)
+    t, every = mode_energy_lines(runs)
+    energies = every[:, :spec.n_modes_drawn]
     total = float(np.asarray(runs.runs[0].energy)[0])
     figure = plot_mode_energies(t, energies, total=total, units=context.system.units, title=scene.title)
     start = f"all of it in mode {spec.mode} at t = 0" if spec.mode is not None else "the scene's x0, v0"
     recurrence = ""
     if spec.mode is not None and total > 0:
-        share = energies[:, spec.mode - 1] / total
+        share = every[:, spec.mode - 1] / total
         gone = int(np.argmax(share < 0.5)) if np.any(share < 0.5) else None
         if gone is not None and np.any(share[gone:] > 0.8):
             back = gone + int(np.argmax(share[gone:] > 0.8))
