@@ -156,7 +156,8 @@ def dynamics_cost(scene: Scene, system: Any) -> str:
     assert spec is not None
     estimate = dynamics_estimate(system.n_dof, spec)
     runs = f"{spec.n_runs} runs" if spec.n_runs > 1 else "1 run"
-    return (f"{system.n_dof} dofs; {runs} of {spec.n_steps} {spec.integrator} steps of dt = {spec.dt:g} "
+    dofs = "1 dof" if system.n_dof == 1 else f"{system.n_dof} dofs"
+    return (f"{dofs}; {runs} of {spec.n_steps} {spec.integrator} steps of dt = {spec.dt:g} "
             f"({THERMOSTATS[spec.thermostat]}), {estimate.records} records each; estimated "
             f"~{describe_seconds(estimate.seconds)} and {describe_bytes(estimate.memory)}")
 
