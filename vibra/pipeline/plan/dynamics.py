@@ -273,7 +273,7 @@ def _step_chart_energies(plan: Plan, context: Any, renderer: Any) -> tuple[str |
     heading = scene.title if spec.n_runs == 1 else f"{scene.title}: {runs.labels[-1]}"
     figure = plot_energies(run, label, reference=reference, target_kinetic=target, title=heading)
     context.save_chart(figure, "energies",
-                       f"{scene.title} ({runs.labels[-1]}): kinetic, potential and conserved energy against time"
+                       f"{scene.title}, {runs.labels[-1]}: kinetic, potential and conserved energy against time"
                        + (f", and the thermostat variable {label}" if label else "") + note)
     return None, None
 

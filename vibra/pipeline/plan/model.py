@@ -187,7 +187,7 @@ def dynamics_steps(scene: Scene) -> list[Step]:
                   "nose-hoover": "Nosé-Hoover chain(s) of " + ", ".join(str(c) for c in spec.chains)}[spec.thermostat]
     start = f"energy {spec.energy:g} in mode {spec.mode}" if spec.mode is not None else "x0, v0 of the scene"
     steps = [Step("dynamics-run", f"{spec.n_steps} {spec.integrator} steps of dt = {spec.dt:g} with {thermostat}, "
-                  f"from {start}, every {spec.record_every}th step recorded")]
+                  f"from {start}, one state in {spec.record_every} recorded")]
     if spec.mode_energies:
         steps.append(Step("chart-mode-energies", f"energy of the lowest {spec.n_modes_drawn} normal modes against time"))
     if spec.energies:
