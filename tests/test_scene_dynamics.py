@@ -280,3 +280,17 @@ def test_an_accepted_dynamics_scene_runs_or_names_a_key(data: dict) -> None:
             execute(make_plan(scene), Path(folder), Path(folder))
         except SceneError as error:
             assert error.key, error
+
+
+def test_histogram_width_is_the_boltzmann_variance_of_one_chain_site(tmp_path: Path,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    # a fixed chain of n sites: (K^-1)_ii = i (n + 1 - i) / ((n + 1) k), i 1-based; sigma^2 = k_B T (K^-1)_ii
+    calls = capture(monkeypatch, "plot_position_histograms")
+    data = {"kind": "dynamics", "system": {"builder": "linear_chain", "n": 4, "stiffness": 2.0, "ends": "fixed"},
+            "compute": {"dt": 0.05, "n_steps": 2000, "thermostat": "nose-hoover", "temperature": 0.5,
+                        "chain": 4, "x0": [0.1, 0.0, 0.0, 0.0], "v0": [0.0, 0.0, 0.0, 0.0]},
+            "draw": {"histogram": True, "histogram_dof": 1}}
+    run_scene(Scene.from_dict(data, source=str(tmp_path / "sites.toml")), tmp_path)
+    (_, labels, sigma, _), _ = calls[0]
+    assert labels == ("Nosé-Hoover chain of 4",)
+    assert sigma**2 == pytest.approx(0.5 * 2 * 3 / (5 * 2.0), rel=1e-12)

@@ -283,11 +283,12 @@ def position_histograms(runs: DynamicsRuns, system: Any, dof: int) -> tuple[tupl
     deviation sqrt(k_B T (K^-1)_ii) in the length unit, and each run's Kolmogorov-Smirnov distance
     to that Gaussian (`scipy.stats.kstest`; successive records are correlated, so read D, not a p-value)."""
     from scipy import stats
+    from scipy.sparse.linalg import spsolve
 
-    K = system.hessian().toarray()
+    K = system.hessian().tocsc()
     unit = np.zeros(K.shape[0])
     unit[dof] = 1.0
-    sigma = float(np.sqrt(runs.kT * np.linalg.solve(K, unit)[dof]))
+    sigma = float(np.sqrt(runs.kT * np.atleast_1d(spsolve(K, unit))[dof]))
     samples = tuple(np.asarray(run.positions[1:, dof]) for run in runs.runs)
     distances = tuple(float(stats.kstest(s / sigma, "norm").statistic) for s in samples)
     return samples, sigma, distances
