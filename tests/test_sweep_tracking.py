@@ -116,3 +116,22 @@ def test_branches_in_the_files_and_the_chart(tmp_path: Path) -> None:
     with pytest.raises(AttributeError):
         table.rows[0].branch = None  # type: ignore[misc]
     assert not table.rows[0].branch.flags.writeable
+
+
+def pair_beside_a_degenerate_pair(k1: float) -> System:
+    """The coupled pair (c = 0.3) beside two identical free oscillators (spring 10): a degeneracy all along."""
+    c = 0.3
+    K = np.zeros((4, 4))
+    K[:2, :2] = [[k1 + c, -c], [-c, K2 + c]]
+    K[2, 2] = K[3, 3] = 10.0
+    return System.from_hessian([0.0, 1.0, 2.0, 3.0], MASS, K, units="dimensionless")
+
+
+def test_a_degeneracy_present_all_along_does_not_stop_the_tracking() -> None:
+    k1, c = np.linspace(1.0, 5.0, 41), 0.3
+    table = sweep(pair_beside_a_degenerate_pair, grid({"k1": list(k1)}))
+    root = np.sqrt((k1 - K2) ** 2 + 4 * c**2)
+    np.testing.assert_allclose(on_branch(table, 0), np.sqrt((k1 + K2 + 2 * c - root) / (2 * MASS)), rtol=1e-12)
+    np.testing.assert_allclose(on_branch(table, 1), np.sqrt((k1 + K2 + 2 * c + root) / (2 * MASS)), rtol=1e-12)
+    for branch in (2, 3):
+        np.testing.assert_allclose(on_branch(table, branch), np.sqrt(10.0 / MASS), rtol=1e-12)

@@ -14,10 +14,11 @@ unused number. Where the number of dofs changes between points of a line (a swep
 is no overlap to take and the branches start again as ranks. An ensemble has no order between
 members: its branches are the ranks.
 
-A point where two modes are degenerate (frequencies within `vibra.compare.DEGENERATE`, exactly at
-a crossing) has no preferred basis in their plane: its modes are labelled from the previous
-point as well as the subspace allows, and the next point is matched against the last point that
-was not degenerate, whose vectors are well defined (its neighbours carry the labels through).
+A point where two modes meet (frequencies within `vibra.compare.DEGENERATE`, exactly at a
+crossing) has no preferred basis in their plane: its modes are labelled from the previous point
+as well as the subspace allows, and the next point is matched against the last point before the
+meeting, whose vectors are well defined (its neighbours carry the labels through). Degeneracies
+present all along a line (a symmetric molecule's E or Pi pairs) and rigid modes do not count.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from numpy.typing import NDArray
 
 from vibra.compare import DEGENERATE, match_modes
 
-__all__ = ["BranchTracker", "is_degenerate"]
+__all__ = ["BranchTracker", "degenerate_pairs", "RIGID"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,14 +44,28 @@ class _Point:
     omega_error: NDArray[np.float64]
 
 
-def is_degenerate(omega: Any, omega_error: Any = None) -> bool:
-    """True where two neighbouring frequencies agree within `DEGENERATE` (relative) or their error bounds."""
-    omega = np.sort(np.asarray(omega, dtype=float))
-    if omega.size < 2:
-        return False
+#: Modes with |omega| at most this fraction of the largest are rigid: their (always degenerate)
+#: group does not make a point degenerate for tracking.
+RIGID = 1e-6
+
+
+def degenerate_pairs(omega: Any, omega_error: Any = None) -> int:
+    """How many neighbouring vibrating frequencies agree within `DEGENERATE` (relative) or their error
+    bounds (rigid modes, |omega| <= `RIGID` max|omega|, left out).
+
+    >>> degenerate_pairs([0.0, 1e-12, 1.0, 2.0]), degenerate_pairs([1.0, 1.0, 2.0])
+    (0, 1)
+    """
+    omega = np.asarray(omega, dtype=float)
     error = np.zeros(omega.size) if omega_error is None else np.asarray(omega_error, dtype=float)
+    order = np.argsort(omega)
+    omega, error = omega[order], error[order]
+    moving = np.abs(omega) > RIGID * float(np.max(np.abs(omega), initial=0.0))
+    omega, error = omega[moving], error[moving]
+    if omega.size < 2:
+        return 0
     scale = np.maximum(np.abs(omega[1:]), np.abs(omega[:-1]))
-    return bool(np.any(np.diff(omega) <= np.maximum(DEGENERATE * scale, error[1:] + error[:-1])))
+    return int(np.sum(np.diff(omega) <= np.maximum(DEGENERATE * scale, error[1:] + error[:-1])))
 
 
 class BranchTracker:
@@ -98,6 +113,10 @@ class BranchTracker:
             for k in np.flatnonzero(branches < 0):  # modes with no partner at the reference point
                 branches[k] = self._next[line]
                 self._next[line] += 1
-        if previous is None or not is_degenerate(omega, error):
+        # a point where modes meet that were apart at the reference (a crossing) has no preferred
+        # basis in their plane: the next point is matched against the reference instead; a
+        # degeneracy the reference shares (by symmetry, all along the line) is no reason to wait
+        if previous is None or degenerate_pairs(omega, error) <= degenerate_pairs(previous[0].omega,
+                                                                                   previous[0].omega_error):
             self._reference[line] = (point, branches)
         return branches
