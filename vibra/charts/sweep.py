@@ -1,4 +1,4 @@
-"""Chart of a sweep: every frequency of every point against the first swept key.
+"""Chart of a sweep: every frequency of every point against the first swept key, branches as curves.
 
 Takes a `vibra.pipeline.sweep.SweepTable` (duck-typed: charts draw what the higher stages computed and
 import none of them) and returns the figure and a caption; save it with
@@ -9,18 +9,22 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from vibra.charts._style import new_figure
 
 __all__ = ["sweep_figure"]
 
+#: Branches named in the legend at most (beyond, the colours alone tell them apart).
+_LEGEND_BRANCHES = 10
+_LINE_STYLES = ("-", "--", ":", "-.")
+
 
 def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Any, str]:
-    """Frequencies (one dot per mode) against the first swept key; the rest of the keys as series.
+    """Frequencies against the first swept key: one curve per branch (`SweepTable.branch_lines`, modes
+    connected by overlap, so crossing branches keep their colour), one line style per value of
+    the other swept keys.
 
-    For an ensemble (key ``member``) the x axis is the member index. Omega is drawn in the
-    table's units (rad/s for SI scenes).
+    For an ensemble (key ``member``) the x axis is the member index and each member's modes are
+    dots. Omega is drawn in the table's units (rad/s for SI scenes).
 
     Returns
     -------
@@ -30,23 +34,30 @@ def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Any, str]:
     if not table.rows:
         raise ValueError("table has no rows; nothing to draw")
     key = table.keys[0]
-    others = [k for k in table.keys[1:]]
     figure, axes = new_figure()
-    series: dict[tuple[Any, ...], list[Any]] = {}
-    for row in table.rows:
-        values = dict(row.parameters)
-        series.setdefault(tuple(values.get(k) for k in others), []).append(row)
-    for label, rows in series.items():
-        x = np.concatenate([np.full(row.omega.shape[0], float(dict(row.parameters)[key])) for row in rows])
-        y = np.concatenate([np.asarray(row.omega, dtype=float) for row in rows])
-        name = ", ".join(f"{k} = {v:g}" for k, v in zip(others, label)) or None
-        axes.plot(x, y, ".", markersize=4, label=name)
+    lines = table.branch_lines()
+    n_branches = max(omega.shape[1] for _, _, omega in lines)
+    ensemble = key == "member"
+    for number, (values, x, omega) in enumerate(lines):
+        style = _LINE_STYLES[number % len(_LINE_STYLES)]
+        series = ", ".join(f"{k} = {v:g}" for k, v in values)
+        for b in range(omega.shape[1]):
+            label = None
+            if number == 0 and n_branches <= _LEGEND_BRANCHES and not ensemble:
+                label = f"branch {b}"
+            axes.plot(x, omega[:, b], "." if ensemble else style, marker=".", markersize=5,
+                      color=f"C{b % 10}", linewidth=1.4, label=label)
+        if series and not ensemble:
+            axes.plot([], [], style, color="0.3", label=series)
     unit = "rad/s" if table.units == "SI" else f"rad per time unit ({table.units or 'dimensionless'})"
     axes.set_xlabel(key)
     axes.set_ylabel(f"angular frequency $\\omega$ ({unit})")
     axes.set_title(title or f"{table.name}: {len(table.rows)} points")
-    if others:
-        axes.legend(loc="best")
+    if axes.get_legend_handles_labels()[0]:
+        axes.legend(loc="best", fontsize=9)
+    how = ("one dot per mode of each member" if ensemble else
+           "one curve per branch: each mode joined to the mode of the previous point it overlaps most "
+           "(mass-weighted vectors), so branches that cross keep their colour")
     caption = (f"Frequencies of {table.name} at {len(table.rows)} points of {', '.join(table.keys)} "
-               f"(one dot per mode; omega in {unit}).")
+               f"({how}; omega in {unit}).")
     return figure, caption

@@ -20,8 +20,13 @@ __all__ = ["ISOTOPE_MASSES", "IsotopeShifts", "isotope_shifts"]
 class IsotopeShifts:
     """Wavenumbers of the vibrational modes before and after an isotopic substitution.
 
-    Modes are paired in ascending order of wavenumber (the k-th vibrational mode of one
-    system with the k-th of the other).
+    Modes are paired by shape, not by rank: each original vibration with the substituted
+    vibration whose physical shape overlaps it most, one to one (`vibra.compare.match_modes`
+    with ``weighted=False``, degenerate sets compared as subspaces). Where the substitution keeps
+    the point group, vibrations of different symmetry species have zero overlap, so pairs keep
+    their species; where two vibrations of one species cross in frequency (a heavy atom moving
+    one of them below the other), each keeps its partner and the shifted wavenumbers are not
+    ascending.
 
     Attributes
     ----------
@@ -34,7 +39,12 @@ class IsotopeShifts:
     wavenumbers : (n_vib,) ndarray
         Original wavenumbers, ascending, in cm^-1.
     shifted_wavenumbers : (n_vib,) ndarray
-        Wavenumbers after substitution, ascending, in cm^-1.
+        Wavenumbers after substitution, in cm^-1: entry k is the partner of original mode k.
+    overlap : (n_vib,) ndarray
+        |cos| between the physical shapes of each pair (the group overlap for degenerate sets;
+        dimensionless, 1 for an unchanged shape).
+    ambiguous : (n_vib,) ndarray of bool
+        Pairs `match_modes` could not tell apart (two candidates of similar overlap).
     """
 
     sites: NDArray[np.intp]
@@ -43,6 +53,8 @@ class IsotopeShifts:
     labels: tuple[str, ...]
     wavenumbers: NDArray[np.float64]
     shifted_wavenumbers: NDArray[np.float64]
+    overlap: NDArray[np.float64]
+    ambiguous: NDArray[np.bool_]
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -58,15 +70,16 @@ class IsotopeShifts:
         return self.shifted_wavenumbers / self.wavenumbers
 
     def table(self) -> str:
-        """Text table: mode, original and shifted wavenumbers, shift (cm^-1), ratio."""
+        """Text table: mode, original and shifted wavenumbers, shift (cm^-1), ratio, overlap of the pair."""
         what = ", ".join(f"site {s}: {lab} ({m0:.6g} -> {m1:.6g})" for s, lab, m0, m1 in zip(
             self.sites, self.labels, self.original_masses, self.new_masses))
         lines = [f"isotope shifts [{what}]",
-                 " mode   original/cm^-1   shifted/cm^-1   shift/cm^-1      ratio"]
+                 " mode   original/cm^-1   shifted/cm^-1   shift/cm^-1      ratio   overlap"]
         for k in range(len(self.wavenumbers)):
             lines.append(
                 f"{k:5d}  {self.wavenumbers[k]:15.2f}  {self.shifted_wavenumbers[k]:14.2f}  "
-                f"{self.shifts[k]:12.2f}  {self.ratios[k]:9.6f}"
+                f"{self.shifts[k]:12.2f}  {self.ratios[k]:9.6f}  {self.overlap[k]:8.4f}"
+                + ("  (ambiguous)" if self.ambiguous[k] else "")
             )
         return "\n".join(lines)
 
@@ -82,7 +95,7 @@ def isotope_shifts(
     """Vibrational wavenumbers before and after replacing the masses of some sites.
 
     The potential (K) is unchanged; only M changes (`System.with_masses`). Modes are paired
-    in ascending order of wavenumber.
+    by the overlap of their physical shapes (see `IsotopeShifts`), not by rank.
 
     Parameters
     ----------
@@ -168,9 +181,16 @@ def isotope_shifts(
         raise RuntimeError(
             f"the substituted system has {int(keep_after.sum())} vibrational modes, the original "
             f"{int(keep_before.sum())}; adjust zero_rtol")
+    from vibra.compare import match_modes
+
+    original, substituted = before[keep_before], after[keep_after]
+    match = match_modes(original, substituted, weighted=False)
+    partner = match.pairs[np.argsort(match.pairs[:, 0]), 1]
     return IsotopeShifts(
         sites=np.array(sites, dtype=np.intp), original_masses=np.array(old),
         new_masses=np.array(new), labels=tuple(labels),
-        wavenumbers=before.wavenumbers_cm1()[keep_before],
-        shifted_wavenumbers=after.wavenumbers_cm1()[keep_after],
+        wavenumbers=original.wavenumbers_cm1(),
+        shifted_wavenumbers=substituted.wavenumbers_cm1()[partner],
+        overlap=np.asarray(match.group_overlap, dtype=float)[np.argsort(match.pairs[:, 0])],
+        ambiguous=np.asarray(match.ambiguous)[np.argsort(match.pairs[:, 0])],
     )

@@ -182,12 +182,17 @@ def _build(scene: Scene) -> Any:
     elif builder == "springs":
         lists.pop("symbols")
         springs = np.asarray(p["springs"], dtype=np.intp).reshape(-1, 2)
-        anchors = lists.pop("anchors")
+        anchors, anchor_stiffness, directions = lists.pop("anchors"), lists.pop("anchor_stiffness"), None
+        if anchors is not None:  # a scene's anchor holds every axis of its site: one spring per axis
+            first = p["positions"][0]
+            dim = len(first) if isinstance(first, tuple) else 1
+            anchor_stiffness = np.repeat(np.broadcast_to(np.asarray(anchor_stiffness, dtype=float),
+                                                         (len(anchors),)), dim)
+            directions = np.tile(np.eye(dim), (len(anchors), 1))
+            anchors = np.repeat(np.asarray(anchors, dtype=np.intp), dim)
         system = make(lists.pop("positions"), lists.pop("masses"), springs=springs,
-                      stiffness=lists.pop("stiffness"),
-                      anchors=None if anchors is None else np.asarray(anchors, dtype=np.intp),
-                      anchor_stiffness=lists.pop("anchor_stiffness"), units=scene.units,
-                      name=scene.name)
+                      stiffness=lists.pop("stiffness"), anchors=anchors, anchor_stiffness=anchor_stiffness,
+                      anchor_directions=directions, units=scene.units, name=scene.name)
     elif builder == "co2":
         system = make(dims=p["dims"], isotopes=p["isotopes"])
     elif builder == "h2o":
@@ -211,6 +216,9 @@ def _build(scene: Scene) -> Any:
         import dataclasses
 
         return dataclasses.replace(make(units=scene.units, **lists), name=scene.name)
+    elif builder == "fput":  # the harmonic chain; its anharmonic forces: vibra.pipeline.plan.dynamics
+        system, _ = make(units=scene.units, **lists)
+        return system
     elif builder == "oscillator":
         gammas = p["gamma"] if isinstance(p["gamma"], tuple) else (p["gamma"],)
         return tuple(make(p["w0"], g, p["m"]) for g in gammas)

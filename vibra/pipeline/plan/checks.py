@@ -19,6 +19,7 @@ import numpy as np
 from vibra.pipeline.plan.analysis import chain_dispersion
 from vibra.pipeline.plan.build import build_system
 from vibra.pipeline.plan.crystal import CRYSTAL_STEP_KEYS, check_crystal_plan
+from vibra.pipeline.plan.dynamics import DYNAMICS_STEP_KEYS, check_dynamics_plan, dynamics_cost
 from vibra.pipeline.plan.model import make_plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.values import element_symbol
@@ -43,6 +44,7 @@ STEP_KEYS = {
     "chart-dispersion": "draw.dispersion", "chart-response": "draw.response",
     "chart-convergence": "draw.convergence",
     **CRYSTAL_STEP_KEYS,
+    **DYNAMICS_STEP_KEYS,
 }
 
 #: What a library function raises when it refuses a request or a solve fails (`LinAlgError` is
@@ -186,6 +188,12 @@ def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
         except REFUSALS as error:
             raise step_error(scene, "build", error) from error
         return
+    if scene.kind == "dynamics":
+        try:
+            check_dynamics_plan(scene, system)
+        except REFUSALS as error:
+            raise step_error(scene, "dynamics-run", error) from error
+        return
     try:
         _solver(scene, system)
         _symbols(scene, system)
@@ -222,6 +230,8 @@ def cost_summary(scene: Scene, system: Any) -> str:
     """
     if scene.kind == "oscillator":
         return f"{len(system)} oscillator(s), closed forms"
+    if scene.kind == "dynamics":
+        return dynamics_cost(scene, system)
     n_dof = getattr(system, "n_dof", None)
     if not isinstance(n_dof, (int, np.integer)):  # a kind without one K (a crystal's D(q) per wave vector)
         return f"{scene.kind} system"

@@ -7,7 +7,7 @@ from typing import Any
 
 from vibra.pipeline.scene import Scene
 
-__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "crystal_steps"]
+__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "crystal_steps", "dynamics_steps"]
 
 @dataclass(frozen=True)
 class Step:
@@ -106,6 +106,8 @@ def make_plan(scene: Scene) -> Plan:
     steps = [Step("build", f"build the system with builder {scene.system.builder!r}")]
     if scene.kind == "crystal":  # no Modes of one system: bands, DOS, thermal properties, a mode on a supercell
         return Plan(scene=scene, steps=tuple(steps + crystal_steps(scene)), n_modes=None, vectors=False)
+    if scene.kind == "dynamics":  # a time integration: its own steps and charts
+        return Plan(scene=scene, steps=tuple(steps + dynamics_steps(scene)), n_modes=None, vectors=False)
     vectors = bool(compute.shapes or draw.needs_shapes or scene.kind == "network")  # fluctuations need shapes
     n_modes = compute.n_modes
     if scene.kind != "oscillator":
@@ -174,4 +176,24 @@ def crystal_steps(scene: Scene) -> list[Step]:
         cells = "x".join(str(n) for n in spec.supercell)
         steps.append(Step("crystal-mode", f"branch {spec.mode_branch} at q = {spec.mode_q} on a {cells} supercell"))
         steps.append(Step("render-crystal-mode", f"animated GIF of that mode, {spec.frames} frames (pyvista)"))
+    return steps
+
+
+def dynamics_steps(scene: Scene) -> list[Step]:
+    """The steps after ``build`` that a dynamics scene asks for."""
+    spec = scene.dynamics
+    assert spec is not None
+    thermostat = {"none": "no thermostat", "isokinetic": "the isokinetic constraint",
+                  "nose-hoover": "Nosé-Hoover chain(s) of " + ", ".join(str(c) for c in spec.chains)}[spec.thermostat]
+    start = f"energy {spec.energy:g} in mode {spec.mode}" if spec.mode is not None else "x0, v0 of the scene"
+    steps = [Step("dynamics-run", f"{spec.n_steps} {spec.integrator} steps of dt = {spec.dt:g} with {thermostat}, "
+                  f"from {start}, one state in {spec.record_every} recorded")]
+    if spec.mode_energies:
+        steps.append(Step("chart-mode-energies", f"energy of the lowest {spec.n_modes_drawn} normal modes against time"))
+    if spec.energies:
+        steps.append(Step("chart-energies", "kinetic, potential and conserved energy and the thermostat variable "
+                          "against time"))
+    if spec.histogram:
+        steps.append(Step("chart-histogram", f"positions of dof {spec.histogram_dof} against the Boltzmann "
+                          "distribution"))
     return steps

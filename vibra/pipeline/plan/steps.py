@@ -22,6 +22,7 @@ from vibra.generalized import GeneralizedSystem
 from vibra.pipeline.plan.analysis import chain_dispersion, molecule_symmetry, network_fluctuations, symmetry_hints
 from vibra.pipeline.plan.build import build_system, network_structure
 from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
+from vibra.pipeline.plan.dynamics import DYNAMICS_STEPS, dynamics_cost
 from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
 from vibra.pipeline.plan.views import mode_view
@@ -51,6 +52,7 @@ class _Context:
     bands: Any = None              # crystal scenes: (BandStructure, DensityOfStates)
     thermal: Any = None            # crystal scenes: ThermalProperties
     supercell_mode: Any = None     # crystal scenes: SupercellMode
+    dynamics: Any = None           # dynamics scenes: DynamicsRuns
     hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)
     captions: list[str] = field(default_factory=list)
@@ -188,6 +190,8 @@ def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
         return None, None
     if plan.scene.kind == "crystal":
         return None, crystal_cost(plan.scene, system)
+    if plan.scene.kind == "dynamics":
+        return None, dynamics_cost(plan.scene, system)
     return None, f"{system.n_dof} degrees of freedom"
 
 
@@ -479,4 +483,5 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "chart-response": _step_chart_response,
     "chart-convergence": _step_chart_convergence,
     **CRYSTAL_STEPS,
+    **DYNAMICS_STEPS,
 }

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, BUILDERS, builder_function
+from vibra.pipeline.scene.dynamics import DynamicsSpec, check_dynamics, parse_dynamics
 from vibra.pipeline.scene.files import scene_inputs
 from vibra.pipeline.scene.schema import (
     Reader, check_combinations, check_crystal, parse_compute, parse_crystal, parse_draw, parse_system,
@@ -50,7 +51,7 @@ else:  # pragma: no cover - Python 3.10
 
 __all__ = [
     "SceneError", "Scene", "SystemSpec", "ComputeSpec", "ResponseSpec", "ContinuumSpec",
-    "DrawSpec", "CrystalSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
+    "DrawSpec", "CrystalSpec", "DynamicsSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
     "tomllib", "MAX_SCENE_BYTES", "MAX_SCENE_DEPTH", "read_scene_bytes", "parse_scene_text",
     "scene_inputs",
 ]
@@ -82,6 +83,9 @@ class Scene:
     crystal : CrystalSpec or None
         What a crystal scene computes and draws (its own ``[compute]`` and ``[draw]`` keys);
         None for the other kinds.
+    dynamics : DynamicsSpec or None
+        What a dynamics scene integrates and draws (its own ``[compute]`` and ``[draw]`` keys);
+        None for the other kinds.
     """
 
     source: str
@@ -94,6 +98,7 @@ class Scene:
     compute: ComputeSpec
     draw: DrawSpec
     crystal: CrystalSpec | None = None
+    dynamics: DynamicsSpec | None = None
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str | Path = "<scene>") -> Scene:
@@ -142,6 +147,13 @@ class Scene:
                         description=top["description"], units=units, system=system,
                         compute=ComputeSpec(), draw=draw, crystal=crystal)
             check_crystal(reader, scene)
+            return scene
+        if kind == "dynamics":  # its own [compute] and [draw] keys (time step, thermostat, the charts)
+            draw, dynamics = parse_dynamics(reader, data.get("compute", {}), data.get("draw", {}))
+            scene = cls(source=src, kind=kind, name=name, title=top["title"] or name,
+                        description=top["description"], units=units, system=system,
+                        compute=ComputeSpec(), draw=draw, dynamics=dynamics)
+            check_dynamics(reader, scene)
             return scene
         compute = parse_compute(reader, data.get("compute", {}), kind)
         draw = parse_draw(reader, data.get("draw", {}))

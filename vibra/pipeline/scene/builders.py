@@ -54,6 +54,7 @@ BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
     "square": ("vibra.crystals", "square"),
     "honeycomb": ("vibra.crystals", "honeycomb"),
     "phonopy": ("vibra.crystals", "read_phonopy"),
+    "fput": ("vibra.dynamics", "fput"),
 }
 
 #: The crystal builders (scene kind "crystal"); the 2-D ones have a vacuum axis along z.
@@ -62,8 +63,8 @@ PLANAR_BUILDERS = ("square", "honeycomb")
 
 #: builder -> the scene kinds it serves.
 BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
-    "linear_chain": ("chain",), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
-    "springs": ("chain", "molecule"), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
+    "linear_chain": ("chain", "dynamics"), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
+    "springs": ("chain", "molecule", "dynamics"), "fput": ("dynamics",), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
     "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
     "anm": ("network",),
     **{builder: ("crystal",) for builder in CRYSTAL_BUILDERS},
@@ -116,6 +117,7 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
     "honeycomb": {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
                   "transverse": scalar_or_list(nonnegative), "vacuum": positive},
     "phonopy": {"symmetrize": boolean},
+    "fput": {"n": integer(2), "alpha": number, "beta": number, "ends": ENDS, "mass": positive, "stiffness": positive},
 })
 
 _UNITS = "the scene's top-level units"
@@ -147,6 +149,7 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
     **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
                 "force_constants": "the file system.force_constants_file beside the scene", "name": _NAME},
+    "fput": {"units": _UNITS},
 })
 
 #: builder -> keys a scene may set that are not builder parameters (the plan applies them).
@@ -166,6 +169,7 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "anm": {"pdb": field_spec(string, required=True)},
     **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string)},
+    "fput": {},
 })
 
 #: builder -> parameters a scene must give although the builder has a default for them.

@@ -19,7 +19,9 @@ import os
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-__all__ = ["BYTES_PER_DOF", "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "sites_and_dim", "n_dof_bound",
+__all__ = ["MAX_DYNAMICS_STEPS", "SECONDS_PER_FORCE", "SECONDS_PER_DOF_FORCE", "SECONDS_PER_THERMOSTAT_FORCE",
+           "DYNAMICS_START_SECONDS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF",
+           "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "sites_and_dim", "n_dof_bound",
            "default_memory_limit", "MemoryEstimate", "memory_estimate", "all_modes_seconds", "gib"]
 
 #: Bytes a built system keeps per degree of freedom (positions, masses, sparse K and M, spring factor).
@@ -33,7 +35,7 @@ DEFAULT_TIME_LIMIT_S = 600.0
 
 def sites_and_dim(builder: str, p: Mapping[str, Any]) -> tuple[int, int] | None:
     """(number of sites, coordinates per site) of a site-based builder's parameters (None otherwise)."""
-    if builder == "linear_chain":
+    if builder in ("linear_chain", "fput"):
         return p["n"], 1
     if builder == "diatomic_chain":
         return 2 * p["n_cells"], 1
@@ -47,6 +49,58 @@ def sites_and_dim(builder: str, p: Mapping[str, Any]) -> tuple[int, int] | None:
     if builder == "h2o":
         return 3, 3
     return None
+
+
+#: Most steps one dynamics run may take (``compute.n_steps``), whatever the time limit.
+MAX_DYNAMICS_STEPS = 100_000_000
+#: Seconds of one force evaluation (a kick) of `vibra.dynamics.integrate`'s compiled loop: a fixed
+#: part, a part per degree of freedom and a part per Nosé-Hoover thermostat of the chain; plus, once
+#: per scene, loading the cached compiled kernels. Measured on the project's 2-core machine (one
+#: thread, shared): 1.2e-7 to 3e-7 s a step for one NH thermostat on one oscillator, 2.9e-7 to
+#: 8e-7 for a chain of 4, 1.9e-7 isokinetic in 3-D, 1.2e-6 for a 255-site FPUT chain (velocity
+#: Verlet); 0.6 to 0.8 s for the first call in a process.
+SECONDS_PER_FORCE = 2e-7
+SECONDS_PER_DOF_FORCE = 5e-9
+SECONDS_PER_THERMOSTAT_FORCE = 1.2e-7
+DYNAMICS_START_SECONDS = 0.5
+#: Force evaluations per step of each `vibra.dynamics` integrator.
+_FORCES_PER_STEP = {"verlet": 1, "yoshida4": 3, "blanes-moan": 6}
+
+
+@dataclass(frozen=True)
+class DynamicsEstimate:
+    """Memory and time of a dynamics scene's runs.
+
+    Attributes
+    ----------
+    memory : int
+        Recorded positions and velocities of every run, plus the mode energies, in bytes.
+    seconds : float
+        The integration (compiled loop), in s.
+    records : int
+        States recorded per run.
+    """
+
+    memory: int
+    seconds: float
+    records: int
+
+
+def dynamics_estimate(n_dof: int, spec: Any) -> DynamicsEstimate:
+    """What the runs of a dynamics scene (`vibra.pipeline.scene.dynamics.DynamicsSpec`) cost, from sizes.
+
+    >>> from types import SimpleNamespace
+    >>> spec = SimpleNamespace(n_steps=1000, record_every=10, integrator="verlet", n_runs=1, chains=(1,),
+    ...                        thermostat="none")
+    >>> dynamics_estimate(4, spec).records
+    101
+    """
+    records = spec.n_steps // spec.record_every + 1
+    memory = spec.n_runs * records * (3 * n_dof + 8) * 8
+    thermostats = sum(spec.chains) if spec.thermostat == "nose-hoover" else 0
+    per_force = spec.n_runs * (SECONDS_PER_FORCE + SECONDS_PER_DOF_FORCE * n_dof) + SECONDS_PER_THERMOSTAT_FORCE * thermostats
+    seconds = DYNAMICS_START_SECONDS + per_force * spec.n_steps * _FORCES_PER_STEP[spec.integrator]
+    return DynamicsEstimate(memory=memory, seconds=seconds, records=records)
 
 
 def default_memory_limit() -> int:

@@ -12,10 +12,10 @@ __all__ = ["SceneError", "KINDS", "UNITS", "DEFAULT_UNITS", "SAFE_NAME", "System
 #: How a crystal scene labels its frequency axis (``draw.frequency_unit``).
 FREQUENCY_UNITS = ("THz", "cm^-1")
 
-KINDS = ("chain", "molecule", "oscillator", "generalized", "network", "crystal")
+KINDS = ("chain", "molecule", "oscillator", "generalized", "network", "crystal", "dynamics")
 UNITS = ("SI", "ASE", "dimensionless")
 DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI", "network": "dimensionless",
-                 "crystal": "ASE"}
+                 "crystal": "ASE", "dynamics": "dimensionless"}
 #: A scene name: letters, digits and ``_ . -`` (output files are ``<name>_<what>.png``).
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 

@@ -26,17 +26,26 @@ derived quantities (a mapping of names to numbers) per point. Tasks run in this 
 (module-level functions, or anything cloudpickle ships).
 
 The result is a frozen `SweepTable`: one `SweepRow` per point in point order (parameters,
-frequencies, derived quantities, solver, accuracy figures), written with
+frequencies, the branch of each frequency, derived quantities, solver, accuracy figures), written with
 `SweepTable.to_csv` and `SweepTable.to_json` (atomically). Rows do not depend on where or
 in which order the points ran (there is no timing in them): a table from 1 worker equals
 the table from 100 when every worker does its linear algebra alike (Dask's workers use one
 BLAS thread each).
+
+Branches (``track=True``, the default; `vibra.pipeline.sweep.tracking`): along each line of a grid
+(the first swept key varying, the others fixed) each mode is paired with a mode of the previous
+point by the overlap of their mass-weighted vectors (`vibra.compare.match_modes`), so a branch
+keeps its number through a crossing instead of swapping with its neighbour. Branch b is the
+(b + 1)-th lowest mode at the line's first point. Tracking solves each point with vectors, which
+travel back from Dask workers with the rows (n_dof x n_modes numbers a point): sweep large
+systems with ``track=False`` (branches are then the ranks).
 """
 
 from __future__ import annotations
 
 import copy
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -54,6 +63,7 @@ from vibra.cluster import ProgressOption, check_client, connect, progress_callba
 from vibra.pipeline.plan import build_system
 from vibra.pipeline.scene import Scene, SceneError, tomllib
 from vibra.solvers.budget import describe_seconds
+from vibra.pipeline.sweep.tracking import BranchTracker
 from vibra.pipeline.sweep.points import (
     DEFAULT_MAX_POINTS, Axis, Ensemble, Grid, GridPoints, ValueRange, ensemble, grid, member_rng,
     parse_vary, vary,
@@ -86,6 +96,9 @@ class SweepRow:
         Largest error estimate of omega (`Modes.omega_error`), in the units of omega.
     units : str
         Name of the unit system of omega (``"SI"``: rad/s).
+    branch : (n_modes,) ndarray of int or None
+        The branch of each frequency (`vibra.pipeline.sweep.tracking`): omega[k] lies on branch
+        branch[k]; None in a row made before the sweep tracked it.
     """
 
     index: int
@@ -96,6 +109,7 @@ class SweepRow:
     residual: float
     omega_error: float
     units: str = ""
+    branch: NDArray[np.intp] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -105,7 +119,8 @@ class SweepRow:
         return {"index": self.index, "parameters": dict(self.parameters),
                 "omega": [float(w) for w in self.omega], "derived": dict(self.derived),
                 "solver": self.solver, "residual": _finite_or_none(self.residual),
-                "omega_error": _finite_or_none(self.omega_error), "units": self.units}
+                "omega_error": _finite_or_none(self.omega_error), "units": self.units,
+                "branch": None if self.branch is None else [int(b) for b in self.branch]}
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,25 +154,57 @@ class SweepTable:
             out.append(float(values[key]))
         return np.array(out)
 
+    def branch_lines(self) -> list[tuple[tuple[tuple[str, Any], ...], NDArray[np.float64], NDArray[np.float64]]]:
+        """The branches of each line of the grid, for drawing them as curves.
+
+        Returns
+        -------
+        list of (others, x, omega)
+            One entry per line: the values of the other swept keys (pairs), the (n_points,)
+            values of the first swept key (the member index for an ensemble), and the
+            (n_points, n_branches) omega of each branch at each point (NaN where a point has no
+            mode on that branch), in the table's units.
+        """
+        key = self.keys[0]
+        lines: dict[tuple[tuple[str, Any], ...], list[SweepRow]] = {}
+        for row in self.rows:
+            values = dict(row.parameters)
+            lines.setdefault(tuple((k, values.get(k)) for k in self.keys[1:]), []).append(row)
+        out = []
+        for others, rows in lines.items():
+            width = max((int(np.max(r.branch, initial=-1)) + 1 if r.branch is not None else r.omega.size
+                         for r in rows), default=0)
+            omega = np.full((len(rows), width), np.nan)
+            for i, row in enumerate(rows):
+                branch = np.arange(row.omega.size) if row.branch is None else row.branch
+                omega[i, branch] = row.omega
+            x = np.array([float(dict(r.parameters).get(key, r.index)) for r in rows])
+            out.append((others, x, omega))
+        return out
+
     def json_text(self) -> str:
         """The table as JSON: name, keys, units and every row."""
         return json.dumps({"name": self.name, "keys": list(self.keys), "units": self.units,
                            "rows": [row.as_json() for row in self.rows]}, indent=1) + "\n"
 
     def csv_text(self) -> str:
-        """The table as CSV: index, parameters, derived, solver, residual, omega_error, n_modes, omega_0, ..."""
+        """The table as CSV: index, parameters, derived, solver, residual, omega_error, n_modes, omega_0, ...,
+        then branch_0, ...: the branch of omega_0, ... (see `SweepRow.branch`)."""
         parameters = list(dict.fromkeys(k for row in self.rows for k, _ in row.parameters))
         derived = list(dict.fromkeys(k for row in self.rows for k, _ in row.derived))
         width = max((row.omega.shape[0] for row in self.rows), default=0)
         buffer = io.StringIO()
         writer = csv.writer(buffer, lineterminator="\n")
+        tracked = any(row.branch is not None for row in self.rows)
         writer.writerow(["index", *parameters, *derived, "solver", "residual", "omega_error", "n_modes",
-                         *(f"omega_{k}" for k in range(width))])
+                         *(f"omega_{k}" for k in range(width)), *(f"branch_{k}" for k in range(width if tracked else 0))])
         for row in self.rows:
             p, d = dict(row.parameters), dict(row.derived)
             writer.writerow([row.index, *(_cell(p.get(k, "")) for k in parameters),
                              *(_cell(d.get(k, "")) for k in derived), row.solver, repr(row.residual),
-                             repr(row.omega_error), row.omega.shape[0], *(repr(float(w)) for w in row.omega)])
+                             repr(row.omega_error), row.omega.shape[0], *(repr(float(w)) for w in row.omega),
+                             *([""] * (width - row.omega.shape[0]) if tracked else []),
+                             *((str(int(b)) for b in row.branch) if tracked and row.branch is not None else ())])
         return buffer.getvalue()
 
     def to_json(self, path: str | os.PathLike[str]) -> Path:
@@ -214,17 +261,18 @@ def _scene_at(data: Mapping[str, Any], source: str, values: Mapping[str, Any]) -
         return Scene.from_dict(table, source=source), table
 
 
-def _solve_scene(table: Mapping[str, Any], source: str) -> tuple[Any, Any, str]:
+def _solve_scene(table: Mapping[str, Any], source: str, vectors: bool = False) -> tuple[Any, Any, str]:
     scene = Scene.from_dict(table, source=source)
     system = build_system(scene)
     c = scene.compute
-    modes = system.modes(c.n_modes, accuracy=c.accuracy, vectors=False, band=c.band, solver=c.solver)
+    modes = system.modes(c.n_modes, accuracy=c.accuracy, vectors=vectors, band=c.band, solver=c.solver)
     return system, modes, scene.units
 
 
 def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str, Any], ...], payload: Any,
-                options: Mapping[str, Any], derive: Any) -> SweepRow:
-    """One point (the task a worker runs): build, solve (frequencies only), derive."""
+                options: Mapping[str, Any], derive: Any) -> tuple[SweepRow, Any]:
+    """One point (the task a worker runs): build, solve (with vectors when tracking), derive; the row
+    and the mass-weighted vectors (None without tracking, or for complex modes)."""
     if kind == "scene":
         data, source = target
         if payload is None:  # an ensemble member: draw its values here, from its own generator
@@ -234,22 +282,26 @@ def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str,
                                             if isinstance(v, (int, float)) and not isinstance(v, bool))
         else:  # the point's values: its table is made here (the grid keeps none)
             _, payload = _scene_at(data, source, dict(payload))
-        system, modes, _ = _solve_scene(payload, source)
+        system, modes, _ = _solve_scene(payload, source, options.get("track", False))
     else:
         kwargs = dict(payload) if payload is not None else {"rng": member_rng(options["seed"], index)}
         system = target(**kwargs)
-        modes = system.modes(options["n_modes"], accuracy=options["accuracy"], vectors=False,
+        modes = system.modes(options["n_modes"], accuracy=options["accuracy"], vectors=options.get("track", False),
                              band=options["band"], solver=options["solver"])
     extra: tuple[tuple[str, float], ...] = ()
     if derive is not None:
         extra = tuple((str(k), float(v)) for k, v in dict(derive(system, modes)).items())
     errors = np.asarray(modes.omega_error)
-    return SweepRow(index=index, parameters=parameters, omega=np.asarray(modes.omega, dtype=float), derived=extra,
-                    solver=str(modes.solver), residual=float(modes.residual),
-                    omega_error=float(errors.max()) if errors.size else 0.0, units=str(modes.units.name))
+    vectors = getattr(modes, "vectors", None) if options.get("track", False) else None
+    if vectors is not None and (np.iscomplexobj(vectors) or np.ndim(vectors) != 2):
+        vectors = None
+    row = SweepRow(index=index, parameters=parameters, omega=np.asarray(modes.omega, dtype=float), derived=extra,
+                   solver=str(modes.solver), residual=float(modes.residual),
+                   omega_error=float(errors.max()) if errors.size else 0.0, units=str(modes.units.name))
+    return row, (None if vectors is None else (np.asarray(vectors), errors))
 
 
-def _chunk_task(arguments: Sequence[tuple[Any, ...]], labels: Sequence[str]) -> list[SweepRow]:
+def _chunk_task(arguments: Sequence[tuple[Any, ...]], labels: Sequence[str]) -> list[tuple[SweepRow, Any]]:
     """Several points in one task (`sweep`'s ``chunk_size``); a failure names its point."""
     if len(arguments) == 1:
         return [_point_task(*arguments[0])]
@@ -268,7 +320,7 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
           progress: ProgressOption = None, n_workers: int | None = None, timeout: float = 10.0,
           n_modes: int | None = None, band: tuple[float, float] | None = None,
           accuracy: Literal["high", "fast"] = "high", solver: str = "auto", name: str | None = None,
-          chunk_size: int = 1, max_points: int = DEFAULT_MAX_POINTS) -> SweepTable:
+          chunk_size: int = 1, max_points: int = DEFAULT_MAX_POINTS, track: bool = True) -> SweepTable:
     """Solve `target` at every point of `points`; one row per point, in point order.
 
     Parameters
@@ -301,6 +353,9 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         The most points (grid points or ensemble members) this call runs (`DEFAULT_MAX_POINTS`).
         A larger sweep is refused before any work but one point, solved to say how long the
         whole sweep would take (the refusal depends on the count only, never on the clock).
+    track : bool
+        Connect each mode to a branch by overlap along the grid's lines (`SweepRow.branch`; see
+        the module); False: frequencies only, branches by rank.
 
     Returns
     -------
@@ -336,7 +391,8 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         raise TypeError(f"points must be a Grid, Axis, mapping or Ensemble, got {type(points).__name__}")
     if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 1:
         raise ValueError(f"max_points is {max_points!r}; expected an integer >= 1")
-    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver}
+    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver,
+                               "track": bool(track) and isinstance(points, Grid)}
     if isinstance(points, Ensemble):
         options.update(seed=points.seed, draw=points.draw)
     count = len(points.points) if isinstance(points, Grid) else points.n
@@ -346,7 +402,7 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
     arguments = [(kind, payload_target, index, parameters, payload, options, derive)
                  for payload_target, index, parameters, payload in tasks]
-    rows: list[SweepRow] = []
+    rows: list[tuple[SweepRow, Any]] = []
     if client is None:
         callback = progress_callback(progress, len(arguments))
         for done, args in enumerate(arguments, start=1):
@@ -372,9 +428,25 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
                                + ("; ..." if len(failures) > 5 else ""))
         rows = [row for chunk_rows in results for row in chunk_rows]
     if units is None:
-        units = rows[0].units if rows else ""
+        units = rows[0][0].units if rows else ""
     keys = points.keys if isinstance(points, Grid) else ("member",)
-    return SweepTable(name=table_name, keys=tuple(keys), units=units or "", rows=tuple(rows))
+    return SweepTable(name=table_name, keys=tuple(keys), units=units or "", rows=_tracked(rows, keys))
+
+
+def _tracked(results: Sequence[tuple[SweepRow, Any]], keys: Sequence[str]) -> tuple[SweepRow, ...]:
+    """The rows with their branches: by overlap along each line of the grid where vectors came back,
+    by rank elsewhere (an ensemble, complex modes, ``track=False``)."""
+    tracker = BranchTracker()
+    rows = []
+    for row, extra in results:
+        if extra is None:
+            branch = np.arange(row.omega.size, dtype=np.intp)
+        else:
+            vectors, errors = extra
+            values = dict(row.parameters)
+            branch = tracker.add(tuple(values.get(k) for k in keys[1:]), row.omega, vectors, errors)
+        rows.append(dataclasses.replace(row, branch=branch))
+    return tuple(rows)
 
 
 def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None, derive: Any,
