@@ -18,7 +18,8 @@ import numpy as np
 
 from vibra._io import atomic_write_text
 from vibra.generalized import GeneralizedSystem
-from vibra.pipeline.plan.analysis import chain_dispersion, molecule_symmetry, network_fluctuations, symmetry_hints
+from vibra.pipeline.plan.analysis import (LINE_WIDTH_CM1, chain_dispersion, molecule_spectra, molecule_symmetry,
+                                          network_fluctuations, symmetry_hints)
 from vibra.pipeline.plan.build import build_system, network_structure
 from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
 from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
@@ -376,12 +377,30 @@ def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[
     from vibra.charts.networks import plot_b_factors
 
     network = context.network
-    figure = plot_b_factors(network.labels, network.experimental, network.predicted, network.correlation,
+    fit = network.fit
+    if fit is None:  # the file's B column is flat: nothing to fit, the raw prediction is drawn
+        fitted, correlation, scale, how = network.predicted, network.correlation, None, "kT/gamma = 1"
+    else:
+        fitted, correlation, scale = fit.predicted, fit.correlation, fit.scale
+        how = f"scaled by least squares onto the crystallographic values (x {fit.scale:.3g})"
+    figure = plot_b_factors(network.labels, network.experimental, fitted, correlation, scale=scale,
                             title=plan.scene.title)
     _save_chart(context, figure, "bfactors",
-                f"{plan.scene.title}: B-factors per residue, crystallographic against predicted from the "
-                f"{network.n_modes} lowest modes (rigid ones left out; own axis, as the network fixes them "
-                f"only up to kT/gamma); Pearson correlation r = {network.correlation:.3f}")
+                f"{plan.scene.title}: B-factors per residue, crystallographic and predicted from the "
+                f"{network.n_modes} lowest modes (rigid ones left out), {how}, on one axis; "
+                f"Pearson correlation r = {correlation:.3f}")
+    return None, None
+
+
+def _step_chart_correlations(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.networks import plot_cross_correlations
+
+    network = context.network
+    figure = plot_cross_correlations(network.labels, network.cross_correlations, n_modes=network.n_modes,
+                                     title=plan.scene.title)
+    _save_chart(context, figure, "correlations",
+                f"{plan.scene.title}: residue cross-correlations C_ij from the {network.n_modes} lowest modes "
+                "(rigid ones left out): red moves together, blue in opposition")
     return None, None
 
 
@@ -402,6 +421,17 @@ def _step_render_gif(plan: Plan, context: _Context, renderer: Any) -> tuple[str 
 def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     from vibra.charts.modes import spectrum_figure
 
+    if plan.scene.kind == "molecule" and context.modes.shapes is not None:
+        from vibra.charts.spectra import plot_molecule_spectra
+
+        structure = context.structure or _molecule_structure(plan.scene, context.system)
+        spectra = molecule_spectra(context.system, context.modes, structure.symbols, structure.bonds,
+                                   context.symmetry)
+        figure = plot_molecule_spectra(spectra, title=plan.scene.title)
+        _save_chart(context, figure, "spectrum",
+                    f"{plan.scene.title}: IR and Raman spectra, Lorentzian lines (FWHM {LINE_WIDTH_CM1:g} cm^-1) "
+                    f"with the lines beneath, species on the peaks; {spectra.ir_model}; {spectra.raman_model}")
+        return None, None
     figure, caption = spectrum_figure(plan.scene, context.modes)
     _save_chart(context, figure, "spectrum", caption)
     return None, None
@@ -463,6 +493,7 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "symmetry": _step_symmetry,
     "fluctuations": _step_fluctuations,
     "chart-bfactors": _step_chart_bfactors,
+    "chart-correlations": _step_chart_correlations,
     "structure": _step_structure,
     "render-modes": _step_render_modes,
     "render-gif": _step_render_gif,
