@@ -24,6 +24,7 @@ from vibra.pipeline.plan.build import build_system, network_structure
 from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
 from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
+from vibra.pipeline.plan.tables import frequency_lines
 from vibra.pipeline.scene import Scene
 from vibra.pipeline.scene.values import element_symbol
 
@@ -76,58 +77,6 @@ def _accuracy_text(modes: Any) -> str:
         scale = max(float(np.abs(modes.omega).max()), np.finfo(float).tiny)
         parts.append(f"max omega error {float(np.max(modes.omega_error)) / scale:.2e} (relative to max omega)")
     return ", ".join(parts) or "n/a"
-
-
-def frequency_lines(scene: Scene, modes: Any, symmetry: Any = None) -> tuple[str, ...]:
-    """A text table of the modes: index, omega (scene units) and a spectroscopic unit.
-
-    With `symmetry` (a `vibra.pipeline.plan.analysis.MoleculeSymmetry`) two more columns: each mode's
-    symmetry species and the observed fundamental (name and cm^-1), with the source below.
-    """
-    units = modes.units
-    if _is_quadratic(modes):
-        return _quadratic_lines(modes)
-    omega = np.asarray(modes.omega)
-    columns: list[tuple[str, str, Callable[[int], str]]] = [
-        ("mode", ">5", str), (f"omega [{units.omega}]", ">26", lambda k: f"{omega[k]:.10g}")]
-    if units.time_s is not None:
-        name, values = (("cm^-1", modes.wavenumbers_cm1()) if scene.kind == "molecule"
-                        else ("Hz", modes.frequencies_hz()))
-        columns.append((name, ">14", lambda k: f"{values[k]:.6g}"))
-    if symmetry is not None:
-        columns.append((f"species ({symmetry.group})", "<16", lambda k: symmetry.species[k] or "(rigid)"))
-        if symmetry.source is not None:
-            observed = symmetry.experimental
-            columns.append(("observed (cm^-1)", "<16", lambda k: "" if observed[k] is None else
-                            f"{observed[k].name} {observed[k].wavenumber_cm1:.0f}"))
-    lines = _text_table(modes.n_modes, columns)
-    if symmetry is not None and symmetry.source is not None:
-        lines.append(f"observed: gas-phase fundamentals, {symmetry.source}")
-    return tuple(lines)
-
-
-def _text_table(n_rows: int, columns: list[tuple[str, str, Callable[[int], str]]]) -> list[str]:
-    """Lines of a text table: per column (header, format spec such as ``">26"``, cell text of row k)."""
-    lines = ["  ".join(f"{header:{spec}}" for header, spec, _ in columns).rstrip()]
-    lines += ["  ".join(f"{cell(k):{spec}}" for _, spec, cell in columns).rstrip() for k in range(n_rows)]
-    return lines
-
-
-def _quadratic_lines(modes: Any) -> tuple[str, ...]:
-    """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
-    units = modes.units
-    columns: list[tuple[str, str, Callable[[int], str]]] = [
-        ("mode", ">5", str),
-        (f"omega_n [{units.omega}]", ">26", lambda k: f"{modes.natural_frequency[k]:.10g}")]
-    if units.time_s is not None:
-        hz = modes.frequencies_hz()
-        columns.append(("Hz", ">14", lambda k: f"{hz[k]:.6g}"))
-    columns += [("damping ratio", ">14", lambda k: f"{modes.damping_ratio[k]:.3g}"),
-                ("motion", "<10", lambda k: "grows" if modes.unstable[k] else "stable")]
-    lines = _text_table(modes.n_modes, columns)
-    lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.method} method): complex mode shapes, "
-                 "omega_n = sqrt(lambda_1 lambda_2) per eigenvalue pair")
-    return tuple(lines)
 
 
 def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
