@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from vibra.pipeline.plan import execute, make_plan, validate
+from vibra.pipeline.plan import build_system, execute, make_plan, validate
 from vibra.pipeline.scene import Scene, SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -147,8 +147,31 @@ def test_network_scene_b_factor_correlation_matches_prody(tmp_path: Path) -> Non
     anm.calcModes(n_modes=20)
     reference = np.corrcoef(prody.calcSqFlucts(anm), structure.getBetas())[0, 1]
     assert mine == pytest.approx(reference, abs=1e-3)  # the step prints r to 3 decimals
-    assert result.outputs == ("ubiquitin-anm_modes.png", "ubiquitin-anm_spectrum.png", "ubiquitin-anm_bfactors.png")
+    assert result.outputs == ("ubiquitin-anm_modes.png", "ubiquitin-anm_spectrum.png", "ubiquitin-anm_bfactors.png",
+                              "ubiquitin-anm_correlations.png")
     assert any(f"r = {reference:.3f}" in caption for caption in result.captions)
+
+
+def test_network_charts_draw_prodys_fitted_b_factors_and_cross_correlations() -> None:
+    # Truth: ProDy on the same structure (calcSqFlucts, calcCrossCorr), the least-squares scale
+    # s = f.b / f.f written out here; the chart's numbers are those of the analysis step.
+    prody = pytest.importorskip("prody")
+    prody.confProDy(verbosity="none")
+    from vibra.pipeline.plan.analysis import network_fluctuations
+    from vibra.pipeline.plan.build import network_structure
+
+    scene = load_scene(UBIQUITIN / "ubiquitin-anm.toml")
+    system = build_system(scene)
+    network = network_fluctuations(network_structure(scene), system, system.modes(26))
+    structure = prody.parsePDB(str(UBIQUITIN / "1ubi.pdb")).select("calpha")
+    anm = prody.ANM("1ubi")
+    anm.buildHessian(structure, cutoff=15.0, gamma=1.0)
+    anm.calcModes(n_modes=20)
+    flucts, betas = prody.calcSqFlucts(anm), structure.getBetas()
+    scale = float(flucts @ betas / (flucts @ flucts))
+    np.testing.assert_allclose(network.fit.predicted, scale * flucts, rtol=1e-6)
+    assert network.fit.correlation == pytest.approx(np.corrcoef(flucts, betas)[0, 1], abs=1e-9)
+    np.testing.assert_allclose(network.cross_correlations, prody.calcCrossCorr(anm), atol=1e-6)
 
 
 def test_network_render_is_sized_and_not_blank(tmp_path: Path) -> None:

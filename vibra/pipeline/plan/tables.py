@@ -23,17 +23,10 @@ _Column = tuple[str, str, Callable[[int], str]]
 
 
 def omega_unit_text(scene: Any, units: Any, *, ascii: bool = False) -> str:
-    """The unit of omega in words: ``rad/s``, or ``sqrt(gamma/m)`` for a network, ``sqrt(k/m)`` otherwise.
+    """omega's unit in a table (`vibra.units.omega_unit_text`; an elastic network's is sqrt(gamma/m))."""
+    from vibra.units import omega_unit_text as text
 
-    >>> from types import SimpleNamespace
-    >>> from vibra.units import DIMENSIONLESS
-    >>> omega_unit_text(SimpleNamespace(kind="network"), DIMENSIONLESS)
-    '√(γ/m)'
-    """
-    if units.time_s is not None:
-        return "rad/s"
-    text = "sqrt(gamma/m)" if scene.kind == "network" else "sqrt(k/m)"
-    return text if ascii else text.replace("sqrt", "√").replace("gamma", "γ")
+    return text(units, stiffness="gamma" if scene.kind == "network" else "k", ascii=ascii)
 
 
 _GREEK = (("Sigma", "Σ"), ("Pi", "Π"), ("Delta", "Δ"), ("Phi", "Φ"), ("Gamma", "Γ"))
@@ -85,7 +78,7 @@ def frequency_lines(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool
     if hasattr(modes, "damping_ratio"):
         return _quadratic_lines(scene, modes, ascii=ascii)
     units = modes.units
-    omega = np.asarray(modes.omega)
+    omega = np.asarray(modes.omega) if units.time_s is None else modes.omega_rad_per_s()
     rigid = _rigid(modes, symmetry)
     moving = [k for k in range(modes.n_modes) if not rigid[k]]
     nu, cm1 = ("nu", "cm^-1") if ascii else ("ν", "cm⁻¹")
@@ -129,10 +122,11 @@ def frequency_lines(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool
 def _quadratic_lines(scene: Any, modes: Any, *, ascii: bool) -> tuple[str, ...]:
     """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
     units = modes.units
+    natural = np.asarray(modes.natural_frequency)
+    natural = natural if units.time_s is None else units.omega_to_rad_per_s(natural)
     columns: list[_Column] = [
         ("mode", ">5", lambda k: str(k + 1)),
-        (f"omega_n ({omega_unit_text(scene, units, ascii=ascii)})", ">22",
-         lambda k: f"{modes.natural_frequency[k]:.10g}")]
+        (f"omega_n ({omega_unit_text(scene, units, ascii=ascii)})", ">22", lambda k: f"{natural[k]:.10g}")]
     if units.time_s is not None:
         hz = modes.frequencies_hz()
         columns.append(("f (Hz)", ">14", lambda k: f"{hz[k]:.6g}"))
