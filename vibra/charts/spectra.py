@@ -184,8 +184,8 @@ _GREEK = {"Sigma": "\\Sigma", "Pi": "\\Pi", "Delta": "\\Delta", "Phi": "\\Phi", 
 def species_text(label: str) -> str:
     """A Mulliken label (``"A1"``, ``"T2g"``, ``"Sigma_g+"``, ``"E'"``) as matplotlib mathtext.
 
-    >>> species_text("Sigma_u+"), species_text("T2"), species_text("")
-    ('$\\Sigma_{u}^{+}$', '$T_{2}$', '')
+    >>> print(species_text("Sigma_u+"), species_text("T2"), repr(species_text("")))
+    $\\Sigma_{u}^{+}$ $T_{2}$ ''
     """
     if not label:
         return ""

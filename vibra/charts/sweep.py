@@ -13,7 +13,33 @@ import numpy as np
 
 from vibra.charts._style import new_figure
 
-__all__ = ["sweep_figure"]
+__all__ = ["sweep_figure", "key_label"]
+
+#: Unit of a swept scene key, by its last name and the scene's unit system.
+_KEY_UNITS = {
+    "SI": {"mass": "kg", "stiffness": "N/m", "spacing": "m", "length": "m", "damping": "kg/s"},
+    "ASE": {"mass": "amu", "stiffness": "eV/Å²", "spacing": "Å", "length": "Å"},
+}
+_KEY_KINDS = {"masses": "mass", "m": "mass", "springs": "stiffness", "kappa": "stiffness", "k": "stiffness",
+              "cutoff": "length", "alpha": "damping"}
+
+
+def key_label(key: str, units: str) -> str:
+    """The x label of a swept key with its unit: ``"system.stiffness (N/m)"``.
+
+    >>> key_label("system.masses[1]", "SI"), key_label("member", "SI"), key_label("system.n", "SI")
+    ('system.masses[1] (kg)', 'ensemble member (index)', 'system.n (count)')
+    """
+    if key == "member":
+        return "ensemble member (index)"
+    name = key.rsplit(".", 1)[-1].split("[", 1)[0]
+    if name in ("n", "n_cells", "n_modes"):
+        return f"{key} (count)"
+    if units not in _KEY_UNITS:
+        return f"{key} (dimensionless)"
+    kind = _KEY_KINDS.get(name, name)
+    unit = _KEY_UNITS[units].get(kind)
+    return f"{key} ({unit})" if unit else f"{key} (in the scene's {units} units)"
 
 
 def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Any, str]:
@@ -42,7 +68,7 @@ def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Any, str]:
         name = ", ".join(f"{k} = {v:g}" for k, v in zip(others, label)) or None
         axes.plot(x, y, ".", markersize=4, label=name)
     unit = "rad/s" if table.units == "SI" else f"rad per time unit ({table.units or 'dimensionless'})"
-    axes.set_xlabel(key)
+    axes.set_xlabel(key_label(key, table.units))
     axes.set_ylabel(f"angular frequency $\\omega$ ({unit})")
     axes.set_title(title or f"{table.name}: {len(table.rows)} points")
     if others:
