@@ -229,10 +229,30 @@ def _spectrum_panel(axes: Axes, sticks: Any, profile: Any, species: tuple[str, .
             silent_drawn = True
             twin.annotate(f"{name} {position:.0f}".strip(), (position, 0.0), textcoords="offset points",
                           xytext=(0, 9), ha="center", fontsize=9, color="0.45")
+    _beside_neighbours(twin, labels, sticks.wavenumbers)
     _lift_overlapping(axes.figure, labels)
     handles = axes.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
     axes.legend(handles, [h.get_label() for h in handles], loc="lower left", bbox_to_anchor=(0.0, 1.0),
                 ncols=3, frameon=False, fontsize=9)
+
+
+def _beside_neighbours(axes: Axes, labels: list[Any], positions: np.ndarray) -> None:
+    """Set a peak label to the side away from a line closer than half the label's width (H2O's two stretches)."""
+    if len(labels) < 2:
+        return
+    renderer = axes.figure.canvas.get_renderer()
+    pixels = axes.transData.transform(np.column_stack([positions, np.zeros(len(positions))]))[:, 0]
+    for label in labels:
+        x = axes.transData.transform((label.xy[0], 0.0))[0]
+        half = 0.5 * label.get_window_extent(renderer).width + 3.0
+        right = [p for p in pixels if 0.5 < p - x < half]
+        left = [p for p in pixels if 0.5 < x - p < half]
+        if right and not left:
+            label.set_horizontalalignment("right")
+            label.xyann = (-3, label.xyann[1])
+        elif left and not right:
+            label.set_horizontalalignment("left")
+            label.xyann = (3, label.xyann[1])
 
 
 def _lift_overlapping(figure: Any, labels: list[Any]) -> None:
@@ -284,6 +304,7 @@ def plot_molecule_spectra(spectra: Any, *, title: str = "") -> Figure:
         axes.set_title(model, fontsize=10, loc="right", color="0.3", pad=22)
         axes.set_xlim(float(profile.grid.min()), float(profile.grid.max()))
     bottom.set_xlabel("wavenumber (cm$^{-1}$)")
-    rigid = f" ({spectra.n_rigid} rigid-body modes left out)" if spectra.n_rigid else ""
+    rigid = (f" ({spectra.n_rigid} rigid-body mode{'s' if spectra.n_rigid > 1 else ''} left out)"
+             if spectra.n_rigid else "")
     figure.suptitle(f"{title}{': ' if title else ''}IR and Raman spectra{rigid}")
     return figure
