@@ -182,6 +182,11 @@ def test_network_render_is_sized_and_not_blank(tmp_path: Path) -> None:
     execute(make_plan(scene), tmp_path / "out", tmp_path)
     modes_png = picture(tmp_path / "out" / "anm_modes.png")
     assert modes_png.shape == (SMALL[1], SMALL[0], 3) and modes_png.std() > MIN_STD
+    # the colour bar of the tube's colours (viridis, dark purple to yellow) along the bottom right
+    height, width = SMALL[1], SMALL[0]
+    strip = modes_png[height - 42:height - 18, int(0.7 * width):int(0.95 * width)].astype(int)
+    assert (strip[..., 0] > 200).any() and (strip[..., 2] < 80).any()  # yellow at the top end
+    assert ((strip[..., 2] - strip[..., 1]) > 30).any()  # purple at the bottom end
     chart = picture(tmp_path / "out" / "anm_bfactors.png")
     assert chart.shape[1] >= 600 and chart.std() > MIN_STD
 
