@@ -277,3 +277,18 @@ def test_a_subsampled_chain_says_so_in_the_image(renderer: SceneRenderer, tmp_pa
     assert f"{len(chain_sites(system.masses))} of 1000" in caption
     pixels = image(tmp_path / name)
     assert (pixels[-18:, :300].min(axis=2) < 128).any()  # the note "1,000 sites drawn as 40 beads"
+
+
+def test_a_short_arrow_keeps_a_visible_head() -> None:
+    # the smallest drawn motion stays visible: the head's width does not shrink with the length
+    import pyvista as pv
+
+    from vibra.pipeline.render import _arrow
+
+    widths = []
+    for length in (0.05, 0.5, 2.0):
+        arrow = _arrow(pv, np.zeros(3), np.array([length, 0.0, 0.0]), 0.02)
+        x0, x1, y0, y1, _, _ = arrow.bounds
+        assert x1 - x0 == pytest.approx(length, rel=1e-6)  # the length stays proportional to the motion
+        widths.append(y1 - y0)
+    assert widths[0] == pytest.approx(widths[2], rel=0.05) and widths[0] > 0.09  # 2.6 x 0.02 each side

@@ -133,7 +133,7 @@ def _arrow(pv: Any, start: Any, vector: Any, thickness: float) -> Any:
     length = float(np.linalg.norm(vector))
     tip = min(0.75, 5.0 * thickness / length)
     return pv.Arrow(start=start, direction=vector, scale=length, tip_length=tip,
-                    tip_radius=min(2.6 * thickness / length, 0.5), shaft_radius=min(thickness / length, 0.2))
+                    tip_radius=min(2.6 * thickness / length, 4.0), shaft_radius=min(thickness / length, 0.2))
 
 
 # ---------------------------------------------------------------------- renderer
@@ -357,7 +357,7 @@ class SceneRenderer:
                     continue
                 start = arrow_start(positions, bond_list, i, vector, float(radii[i]))
                 plotter.add_mesh(_arrow(pv, start, vector, 0.035 * reference), color="crimson", smooth_shading=True)
-                reach.append((start + vector)[None, :])
+                reach.append(np.vstack([start, start + vector]))
         self._frame(plotter, positions.mean(axis=0), np.vstack(reach), view)
         lines = [f"mode {k}: {_frequency_text(scene, modes, k)}"] + ([] if not hint else hint.split("; "))
         return "\n".join(_symmetry_line(line) for line in lines)
