@@ -219,8 +219,9 @@ class SceneRenderer:
             plotter = self._plotter((1, 1))
             if molecule is not None:
                 view = view_direction(positions3(system), [displacements3(system, np.asarray(modes.shapes)[:, index])])
-                title = self._draw_molecule(plotter, scene, system, modes, index, molecule, view, phase=phase,
-                                            arrows=False)
+                title, points = self._draw_molecule(plotter, scene, system, modes, index, molecule, view, phase=phase,
+                                                    arrows=False)
+                self._frame(plotter, positions3(system).mean(axis=0), points, view)
             else:
                 title = self._draw_chain(plotter, scene, system, modes, index, phase=phase)
             frames.append(annotate_render(self._snapshot(plotter), titles=[title]))
@@ -307,10 +308,15 @@ class SceneRenderer:
             # one view for the molecule's degenerate partners: no atom hidden, their motions shown longest
             view = view_direction(positions, [displacements3(system, shapes[:, k]) for k in group])
             plotter = self._plotter((1, len(group)))
-            titles = []
+            titles, reach = [], []
             for column, k in enumerate(group):
                 plotter.subplot(0, column)
-                titles.append(self._draw_molecule(plotter, scene, system, modes, k, structure, view, hint=hints.get(k)))
+                title, points = self._draw_molecule(plotter, scene, system, modes, k, structure, view, hint=hints.get(k))
+                titles.append(title)
+                reach.append(points)
+            for column in range(len(group)):  # one scale for the partners: the same molecule, the same size
+                plotter.subplot(0, column)
+                self._frame(plotter, positions.mean(axis=0), np.vstack(reach), view)
             name = f"{scene.name}_mode{group[0]}.png"
             image = annotate_render(self._snapshot(plotter), grid=(1, len(group)), titles=titles,
                                     font_size=12.0 if len(group) < 3 else 10.5)
@@ -325,8 +331,8 @@ class SceneRenderer:
 
     def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
                        structure: MoleculeStructure, view: tuple[Any, Any], *, phase: float | None = None,
-                       arrows: bool = True, hint: str | None = None) -> str:
-        """Draw mode k in the current subplot, seen along `view` (direction, up); returns its title."""
+                       arrows: bool = True, hint: str | None = None) -> tuple[str, NDArray[np.float64]]:
+        """Draw mode k in the current subplot; returns its title and the points the camera must frame."""
         pv = self._pv
         from ase.data import atomic_numbers, covalent_radii
         from ase.data.colors import jmol_colors
@@ -358,9 +364,8 @@ class SceneRenderer:
                 start = arrow_start(positions, bond_list, i, vector, float(radii[i]))
                 plotter.add_mesh(_arrow(pv, start, vector, 0.035 * reference), color="crimson", smooth_shading=True)
                 reach.append(np.vstack([start, start + vector]))
-        self._frame(plotter, positions.mean(axis=0), np.vstack(reach), view)
         lines = [f"mode {k}: {_frequency_text(scene, modes, k)}"] + ([] if not hint else hint.split("; "))
-        return "\n".join(_symmetry_line(line) for line in lines)
+        return "\n".join(_symmetry_line(line) for line in lines), np.vstack(reach)
 
     def _frame(self, plotter: Any, centre: Any, points: Any, view: tuple[Any, Any]) -> None:
         """Point the camera of the current subplot along `view` and zoom until `points` fill the panel,
