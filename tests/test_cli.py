@@ -120,15 +120,73 @@ def test_closed_output_pipe_is_not_a_traceback() -> None:
 
 
 def test_modes_table_matches_seed_eq_157() -> None:
-    run = vibra("modes", "molecules/co2-axial.toml")
+    run = vibra("modes", "molecules/co2-axial.toml", env={**os.environ, "PYTHONIOENCODING": "utf-8"})
     assert run.returncode == 0, run.stderr
-    rows = [line.split() for line in run.stdout.splitlines()[2:]]
-    wavenumbers = np.array([float(row[2]) for row in rows])
+    lines = run.stdout.splitlines()
+    assert lines[1].split()[:3] == ["vibration", "wavenumber", "(cm⁻¹)"]
+    rows = [line.split() for line in lines[2:4]]
+    assert [row[0] for row in rows] == ["ν1", "ν2"]  # the vibrations only, numbered from 1
+    assert [row[2] for row in rows] == ["Σg+", "Σu+"]  # their species in D∞h
+    wavenumbers = np.array([float(row[1]) for row in rows])
     kappa = molecules.CO2_STRETCH
     m, M = atomic_masses[atomic_numbers["O"]], atomic_masses[atomic_numbers["C"]]
-    expected = ASE.omega_to_cm1([0.0, np.sqrt(kappa / m), np.sqrt(kappa * (1 / m + 2 / M))])
-    # The table prints 6 significant digits: 1e-5 relative covers the rounding.
-    assert np.allclose(wavenumbers, expected, rtol=1e-5, atol=1e-3)
+    expected = ASE.omega_to_cm1([np.sqrt(kappa / m), np.sqrt(kappa * (1 / m + 2 / M))])
+    # The table prints 2 decimals: 1e-5 relative covers the rounding.
+    assert np.allclose(wavenumbers, expected, rtol=1e-5, atol=1e-2)
+    # the translation: set apart, as 0
+    assert lines[4].startswith("rigid-body modes: 1 ") and "shown as 0 cm⁻¹" in lines[4]
+
+
+def test_modes_of_methane_number_nu1_to_nu9_with_species_and_the_rigid_modes_apart() -> None:
+    run = vibra("modes", "molecules/ch4.toml", env={**os.environ, "PYTHONIOENCODING": "utf-8"})
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert "species (Td)" in lines[1] and "omega [" not in run.stdout
+    rows = [line.split() for line in lines[2:11]]
+    assert [row[0] for row in rows] == [f"ν{k}" for k in range(1, 10)]  # 3N - 6 = 9 vibrations
+    species = [row[2] for row in rows]
+    assert sorted(set(species)) == ["A1", "E", "T2"] and species.count("T2") == 6 and species.count("E") == 2
+    assert lines[11].startswith("rigid-body modes: 6 (translations and rotations), shown as 0 cm⁻¹")
+
+
+def test_modes_in_ascii_when_the_terminal_cannot_show_greek() -> None:
+    run = vibra("modes", "molecules/ch4.toml", env={**os.environ, "PYTHONIOENCODING": "ascii"})
+    assert run.returncode == 0, run.stderr
+    assert "nu1 " in run.stdout and "cm^-1" in run.stdout
+    run.stdout.encode("ascii")  # nothing else slipped through
+
+
+def test_modes_of_a_network_and_a_chain_carry_their_units() -> None:
+    run = vibra("modes", "networks/ubiquitin/ubiquitin-anm.toml", env={**os.environ, "PYTHONIOENCODING": "utf-8"})
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert lines[1].split()[:2] == ["mode", "omega"] and "(√(γ/m))" in lines[1]
+    assert "time unit" not in run.stdout
+    assert [line.split()[0] for line in lines[2:22]] == [str(k) for k in range(1, 21)]  # 26 computed, 6 rigid
+    assert lines[22].startswith("rigid-body modes: 6")
+    chain = vibra("modes", "chains/monatomic-free.toml")
+    header = chain.stdout.splitlines()[1]
+    assert "omega (rad/s)" in header and "f (Hz)" in header
+    assert "rigid-body modes: 1 (rigid-body motion), shown as 0 rad/s" in chain.stdout
+
+
+def test_validate_and_report_find_scenes_in_subfolders(tmp_path: Path) -> None:
+    run = vibra("validate", "networks")
+    assert run.returncode == 0 and "networks/ubiquitin/ubiquitin-anm.toml" in run.stdout, run.stdout + run.stderr
+    nested = tmp_path / "a" / "b"
+    nested.mkdir(parents=True)
+    (tmp_path / ".hidden").mkdir()
+    scene = 'kind = "chain"\n[system]\nbuilder = "linear_chain"\nn = 4\n'
+    (nested / "deep.toml").write_text(scene)
+    (tmp_path / "top.toml").write_text(scene)
+    (tmp_path / ".hidden" / "skipped.toml").write_text("not a scene")
+    from vibra.pipeline.scene import find_scene_files
+
+    assert find_scene_files([tmp_path]) == [tmp_path / "top.toml", nested / "deep.toml"]
+    out = tmp_path / "out"
+    report = vibra("report", str(tmp_path / "a"), "--out", str(out), "--quiet")
+    assert report.returncode == 0 and (out / "summary.json").exists(), report.stdout + report.stderr
+    assert "deep" in (out / "summary.json").read_text()
 
 
 def test_modes_on_invalid_scene() -> None:
@@ -172,7 +230,7 @@ EXPECTED = {
     "ch4": ["mode6", "mode9", "mode11", "mode12", "spectrum"],  # T2 x3, E x2, A1, T2 x3: one image per set
     "d2o": ["mode6", "mode7", "mode8", "spectrum"],
     "charged-particle": ["orbits", "response"],
-    "ubiquitin-anm": ["modes", "spectrum", "bfactors"],
+    "ubiquitin-anm": ["modes", "spectrum", "bfactors", "correlations"],
     "argon-fcc": ["bands", "thermal"],        # and argon-fcc_mode.gif (the supercell render)
     "silicon-diamond": ["bands", "thermal"],  # and silicon-diamond_mode.gif
 }

@@ -388,7 +388,10 @@ def test_charts_render(tmp_path):
     system = chains.diatomic_chain(8, masses=(1.0, 3.0), ends="free")
     modes = dense_modes(system.hessian().toarray(), system.masses)
     fig = charts.plot_dispersion(continuum.dispersion_curves(masses=(1.0, 3.0), modes=modes, ends="free", units="SI"))
-    assert "rad/m" in fig.axes[0].get_xlabel() and "rad/s" in fig.axes[0].get_ylabel()
+    assert "π/a" in fig.axes[0].get_xlabel() and "rad/s" in fig.axes[0].get_ylabel()
+    edge = [t.get_text() for t in fig.axes[0].get_legend().get_texts() if "zone edge" in t.get_text()]
+    assert edge and "rad/m" in edge[0]  # the zone edge pi/a, marked with its value
+    assert fig.axes[0].lines[-1].get_xdata()[0] == 1.0  # ... at q = pi/a, the axis' unit
     _check_png(fig, tmp_path / "dispersion.png")
     study = continuum.convergence_study([1, 2], [10, 20, 40], method="closed form")
     _check_png(charts.plot_convergence(study), tmp_path / "convergence.png")

@@ -82,7 +82,7 @@ def test_degenerate_bend_side_by_side(renderer: SceneRenderer, tmp_path: Path) -
     assert "Sigma_g+ (Dinfh): IR inactive, Raman active" in outputs[1][1]
     assert "Pi_u (Dinfh): IR active, Raman inactive" in outputs[0][1]
     assert "Sigma_u+ (Dinfh): IR active, Raman inactive" in outputs[2][1]
-    assert "cm^-1" in outputs[0][1]
+    assert "cm⁻¹" in outputs[0][1]
     for name in names:
         assert image(tmp_path / name).std() > MIN_STD
 
@@ -129,7 +129,9 @@ def test_molecule_arrows_stay_clear_of_the_bonds(builder: str, dims: int) -> Non
     from ase.data import atomic_numbers
 
     from vibra.molecules import bonds_from_distances, symbols_from_masses
-    from vibra.pipeline.render import _arrow_start, _displacements3, _positions3
+    from vibra.pipeline.render_geometry import arrow_start as _arrow_start
+    from vibra.pipeline.render_geometry import displacements3 as _displacements3
+    from vibra.pipeline.render_geometry import positions3 as _positions3
 
     system_table = {"builder": builder, **({"dims": dims} if builder == "co2" else {})}
     sc = scene({"kind": "molecule", "name": "m", "system": system_table})
@@ -214,3 +216,79 @@ def test_import_vibra_does_not_import_pyvista() -> None:
             "print('pyvista' in sys.modules, 'vtk' in sys.modules, 'phonopy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False", "False"]
+
+
+# ---------------------------------------------------------------------- views, labels, notes (issue 32)
+def _smallest_projected_gap(positions: np.ndarray, direction: np.ndarray) -> float:
+    d = direction / np.linalg.norm(direction)
+    gaps = [positions[i] - positions[j] for i in range(len(positions)) for j in range(i)]
+    return min(float(np.linalg.norm(g - (g @ d) * d)) for g in gaps)
+
+
+@pytest.mark.parametrize("name", ["CH4", "H2O", "NH3", "C6H6"])
+def test_the_chosen_view_hides_no_atom(name: str) -> None:
+    # Truth: ASE's geometries; the projected gap is computed here directly, against the old fixed
+    # view (elevation 30, azimuth 35) and a dense independent scan of directions.
+    from ase.build import molecule as ase_molecule
+
+    from vibra.pipeline.render_geometry import view_direction
+
+    positions = ase_molecule(name).get_positions()
+    direction, up = view_direction(positions)
+    assert abs(float(direction @ up)) < 1e-12 and abs(float(np.linalg.norm(up)) - 1.0) < 1e-12
+    chosen = _smallest_projected_gap(positions, direction)
+    rng = np.random.default_rng(0)
+    scan = rng.normal(size=(3000, 3))
+    best = max(_smallest_projected_gap(positions, d) for d in scan)
+    assert chosen >= 0.9 * best  # within 10% of the best of 3000 random directions
+    assert chosen > 0.35  # Angstrom: no two atoms (radii 0.2-0.35) overlap on the screen
+
+
+def test_the_chosen_view_of_a_linear_molecule_shows_its_bend() -> None:
+    from vibra.pipeline.render_geometry import view_direction
+
+    positions = np.array([[0.0, 0.0, -1.16], [0.0, 0.0, 0.0], [0.0, 0.0, 1.16]])
+    bend = np.array([[1.0, 0.0, 0.0], [-2.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    direction, _ = view_direction(positions, [bend])
+    assert abs(direction[2]) < 0.1 and abs(direction[0]) < 0.1  # across the axis and across the bend
+
+
+def test_labels_are_set_in_unicode_with_matplotlib(tmp_path: Path) -> None:
+    from vibra.charts.renders import ColourBar, annotate_render
+
+    blank = np.full((200, 400, 3), 255, dtype=np.uint8)
+    labelled = annotate_render(blank, grid=(1, 2), titles=["ν1: 667.0 cm⁻¹", "Πu (D∞h)"], note="10⁶ sites drawn as 41 beads",
+                               colour_bar=ColourBar("share (dimensionless)"))
+    assert labelled.shape == blank.shape and labelled.dtype == np.uint8
+    inked = labelled.min(axis=2) < 128
+    assert inked[:30, :200].any() and inked[:30, 200:].any()  # each panel's title in its upper left
+    assert inked[-20:, :150].any()                            # the note along the bottom
+    assert (np.ptp(labelled[150:195, 280:390].astype(int), axis=2) > 60).any()  # the coloured bar
+    with pytest.raises(ValueError, match="titles has 3 entries"):
+        annotate_render(blank, grid=(1, 2), titles=["a", "b", "c"])
+    with pytest.raises(ValueError, match=r"image must be \(height, width, 3 or 4\) uint8"):
+        annotate_render(blank.astype(float))
+
+
+def test_a_subsampled_chain_says_so_in_the_image(renderer: SceneRenderer, tmp_path: Path) -> None:
+    sc = scene({"kind": "chain", "name": "long", "system": {"builder": "linear_chain", "n": 1000, "ends": "fixed"}})
+    system = build_system(sc)
+    [(name, caption)] = renderer.render_modes(sc, system, system.modes(3), [0], tmp_path)
+    assert f"{len(chain_sites(system.masses))} of 1000" in caption
+    pixels = image(tmp_path / name)
+    assert (pixels[-18:, :300].min(axis=2) < 128).any()  # the note "1,000 sites drawn as 40 beads"
+
+
+def test_a_short_arrow_keeps_a_visible_head() -> None:
+    # the smallest drawn motion stays visible: the head's width does not shrink with the length
+    import pyvista as pv
+
+    from vibra.pipeline.render import _arrow
+
+    widths = []
+    for length in (0.05, 0.5, 2.0):
+        arrow = _arrow(pv, np.zeros(3), np.array([length, 0.0, 0.0]), 0.02)
+        x0, x1, y0, y1, _, _ = arrow.bounds
+        assert x1 - x0 == pytest.approx(length, rel=1e-6)  # the length stays proportional to the motion
+        widths.append(y1 - y0)
+    assert widths[0] == pytest.approx(widths[2], rel=0.05) and widths[0] > 0.09  # 2.6 x 0.02 each side

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from vibra.pipeline.plan import execute, make_plan, validate
+from vibra.pipeline.plan import build_system, execute, make_plan, validate
 from vibra.pipeline.scene import Scene, SceneError, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -148,8 +148,30 @@ def test_network_scene_b_factor_correlation_matches_prody(tmp_path: Path) -> Non
     reference = np.corrcoef(prody.calcSqFlucts(anm), structure.getBetas())[0, 1]
     assert mine == pytest.approx(reference, abs=1e-3)  # the step prints r to 3 decimals
     assert result.outputs == ("ubiquitin-anm_modes.png", "ubiquitin-anm_view.json", "ubiquitin-anm_spectrum.png",
-                              "ubiquitin-anm_bfactors.png")
+                              "ubiquitin-anm_bfactors.png", "ubiquitin-anm_correlations.png")
     assert any(f"r = {reference:.3f}" in caption for caption in result.captions)
+
+
+def test_network_charts_draw_prodys_fitted_b_factors_and_cross_correlations() -> None:
+    # Truth: ProDy on the same structure (calcSqFlucts, calcCrossCorr), the least-squares scale
+    # s = f.b / f.f written out here; the chart's numbers are those of the analysis step.
+    prody = pytest.importorskip("prody")
+    prody.confProDy(verbosity="none")
+    from vibra.pipeline.plan.analysis import network_fluctuations
+    from vibra.pipeline.plan.build import network_structure
+
+    scene = load_scene(UBIQUITIN / "ubiquitin-anm.toml")
+    system = build_system(scene)
+    network = network_fluctuations(network_structure(scene), system, system.modes(26))
+    structure = prody.parsePDB(str(UBIQUITIN / "1ubi.pdb")).select("calpha")
+    anm = prody.ANM("1ubi")
+    anm.buildHessian(structure, cutoff=15.0, gamma=1.0)
+    anm.calcModes(n_modes=20)
+    flucts, betas = prody.calcSqFlucts(anm), structure.getBetas()
+    scale = float(flucts @ betas / (flucts @ flucts))
+    np.testing.assert_allclose(network.fit.predicted, scale * flucts, rtol=1e-6)
+    assert network.fit.correlation == pytest.approx(np.corrcoef(flucts, betas)[0, 1], abs=1e-9)
+    np.testing.assert_allclose(network.cross_correlations, prody.calcCrossCorr(anm), atol=1e-6)
 
 
 def test_network_render_is_sized_and_not_blank(tmp_path: Path) -> None:
@@ -160,6 +182,11 @@ def test_network_render_is_sized_and_not_blank(tmp_path: Path) -> None:
     execute(make_plan(scene), tmp_path / "out", tmp_path)
     modes_png = picture(tmp_path / "out" / "anm_modes.png")
     assert modes_png.shape == (SMALL[1], SMALL[0], 3) and modes_png.std() > MIN_STD
+    # the colour bar of the tube's colours (viridis, dark purple to yellow) along the bottom right
+    height, width = SMALL[1], SMALL[0]
+    strip = modes_png[height - 42:height - 18, int(0.7 * width):int(0.95 * width)].astype(int)
+    assert (strip[..., 0] > 200).any() and (strip[..., 2] < 80).any()  # yellow at the top end
+    assert ((strip[..., 2] - strip[..., 1]) > 30).any()  # purple at the bottom end
     chart = picture(tmp_path / "out" / "anm_bfactors.png")
     assert chart.shape[1] >= 600 and chart.std() > MIN_STD
 

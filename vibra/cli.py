@@ -242,7 +242,8 @@ def _modes(path: str, molden: str | None = None, force: bool = False) -> int:
         try:
             system = build_system(scene)
             check_plan(scene, system, response=False)  # the table needs the modes only
-            modes = system.modes(compute.n_modes, accuracy=compute.accuracy, vectors=False, band=compute.band,
+            modes = system.modes(compute.n_modes, accuracy=compute.accuracy, band=compute.band,
+                                 vectors=scene.kind == "molecule",  # the species of a 1-D molecule need shapes
                                  solver=compute.solver)
         except REFUSALS as error:
             raise step_error(scene, "modes", error) from error
@@ -255,10 +256,19 @@ def _modes(path: str, molden: str | None = None, force: bool = False) -> int:
     symmetry = molecule_symmetry(system, modes) if scene.kind == "molecule" else None
     solver = getattr(modes, "solver", None) or getattr(modes, "method", "")  # QuadraticModes name a method
     print(f"{scene.title}: {modes.n_modes} of {system.n_dof} modes, solver {solver}, {seconds:.3f} s")
-    print("\n".join(frequency_lines(scene, modes, symmetry)))
+    print("\n".join(frequency_lines(scene, modes, symmetry, ascii=not _unicode_output())))
     if molden is not None:
         print(f"Molden file written: {molden}")
     return EXIT_OK
+
+
+def _unicode_output() -> bool:
+    """Whether standard output can show ν, ⁻¹, √, γ and ∞ (else the table is written in ASCII)."""
+    try:
+        "ν⁻¹√γ∞".encode(sys.stdout.encoding or "ascii")
+    except (UnicodeEncodeError, LookupError):
+        return False
+    return True
 
 
 def _report(args: argparse.Namespace) -> int:

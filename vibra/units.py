@@ -22,7 +22,7 @@ from scipy import constants
 
 from vibra import _validate
 
-__all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "unit_system"]
+__all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "unit_system", "omega_unit_text"]
 
 
 @dataclass(frozen=True)
@@ -170,3 +170,20 @@ def unit_system(units: str | UnitSystem) -> UnitSystem:
         raise ValueError(
             f"units is {units!r}; expected one of 'SI', 'ASE', 'dimensionless'"
         ) from None
+
+
+def omega_unit_text(units: UnitSystem, *, stiffness: str = "k", ascii: bool = False) -> str:
+    """How a table or a label names omega's unit: ``"rad/s"`` for a physical system (show the values of
+    `UnitSystem.omega_to_rad_per_s`), ``"√(k/m)"`` for a dimensionless one (omega in units of the square
+    root of stiffness over mass; an elastic network passes ``stiffness="gamma"``: ``"√(γ/m)"``).
+
+    Examples
+    --------
+    >>> omega_unit_text(SI), omega_unit_text(DIMENSIONLESS, stiffness="gamma"), omega_unit_text(DIMENSIONLESS, ascii=True)
+    ('rad/s', '√(γ/m)', 'sqrt(k/m)')
+    """
+    if units.time_s is not None:
+        return "rad/s"
+    if ascii:
+        return f"sqrt({stiffness}/m)"
+    return f"√({stiffness.replace('gamma', 'γ')}/m)"

@@ -25,7 +25,7 @@ __all__ = ["plot_dispersion_curves", "plot_dispersion", "plot_convergence", "plo
 def _unit_names(units: UnitSystem) -> tuple[str, str, str]:
     """(length, time, omega) unit labels for axes."""
     if units.time_s is None:
-        return "length unit", "time unit", "rad / time unit"
+        return "length unit", "time unit", "√(k/m)"
     time = "s" if units.time_s == 1.0 else f"{units.time_s:.4g} s"
     return units.length, time, units.omega
 
@@ -68,6 +68,8 @@ def plot_dispersion_curves(
     curves = np.atleast_2d(np.asarray(branches, dtype=float))
     n_branches = curves.shape[0]
     fig, ax = new_figure()
+    edge = float(q_values[-1])  # the zone edge pi/a (a: the repeat length)
+    q_values = q_values / edge
     names = ["acoustic branch", "optical branch"] if n_branches == 2 else ["infinite chain"]
     for row, label in zip(curves, names):
         ax.plot(q_values, row, label=label)
@@ -75,14 +77,16 @@ def plot_dispersion_curves(
         ax.axhspan(curves[0].max(), curves[1].min(), color="0.85", label="band gap")
     if mode_q is not None and mode_omega is not None:
         sites = f"{n_sites} sites, " if n_sites is not None else ""
-        ax.plot(np.asarray(mode_q), np.asarray(mode_omega), "o", ms=5, mfc="none",
+        ax.plot(np.asarray(mode_q) / edge, np.asarray(mode_omega), "o", ms=5, mfc="none",
                 label=f"finite chain, {sites}{ends} ends")
-    ax.set_xlim(0.0, float(q_values[-1]))
+    ax.axvline(1.0, color="0.3", linestyle="--", linewidth=1.0, label=f"zone edge q = π/a\n= {edge:.4g} rad/{length}")
+    ax.set_xlim(0.0, 1.04)
+    ax.set_xticks([0.0, 0.25, 0.5, 0.75, 1.0], ["0", "π/4a", "π/2a", "3π/4a", "π/a"])
     ax.set_ylim(bottom=0.0)
-    ax.set_xlabel(f"wavenumber q (rad/{length})")
+    ax.set_xlabel(f"wavenumber q (in units of π/a; a = repeat length, {length})")
     ax.set_ylabel(f"angular frequency ω ({omega_unit})")
     ax.set_title(title or ("Diatomic chain dispersion" if n_branches == 2 else "Monatomic chain dispersion"))
-    ax.legend(loc="lower right")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9)  # outside the data
     return fig
 
 
@@ -188,7 +192,7 @@ def plot_pulse_spacetime(pulse: PulseResult, *, title: str | None = None) -> Fig
     left.set_xlabel("position x (length unit)")
     left.set_ylabel("time t (time unit)")
     left.set_title(f"Chain, N = {pulse.n_sites}, σ = {pulse.width:.3g}")
-    left.legend(loc="upper left", fontsize=9)
+    left.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), fontsize=9, frameon=False)
     right.plot(pulse.x, pulse.continuum[-1], "k-", lw=2.5, alpha=0.5, label="wave equation (d'Alembert)")
     right.plot(pulse.x, pulse.chain[-1], "-", lw=1.2, label="discrete chain (exact modes)")
     peak = float(pulse.x[np.argmax(np.abs(pulse.continuum[-1]))])
@@ -196,7 +200,7 @@ def plot_pulse_spacetime(pulse: PulseResult, *, title: str | None = None) -> Fig
     right.set_xlabel("position x (length unit)")
     right.set_ylabel("displacement u (units of the amplitude)")
     right.set_title(f"t = {pulse.t[-1]:.3g}: max error {pulse.error[-1]:.2e}")
-    right.legend(fontsize=9)
+    right.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncols=2, fontsize=9, frameon=False)
     if title:
         fig.suptitle(title)
     return fig

@@ -16,9 +16,12 @@ __all__ = ["spectrum_figure", "shapes_figure"]
 
 
 def _frequency_axis(scene: Any, modes: Any) -> tuple[Any, str]:
+    from vibra.units import omega_unit_text
+
     units = modes.units
     if units.time_s is None:
-        return np.asarray(modes.omega), "angular frequency omega (dimensionless)"
+        unit = omega_unit_text(units, stiffness="gamma" if scene.kind == "network" else "k")
+        return np.asarray(modes.omega), f"angular frequency $\\omega$ ({unit}, dimensionless)"
     if scene.kind == "molecule":
         return modes.wavenumbers_cm1(), "wavenumber (cm$^{-1}$)"
     return modes.omega_rad_per_s(), "angular frequency $\\omega$ (rad/s)"
@@ -104,7 +107,7 @@ def shapes_figure(scene: Any, system: Any, modes: Any, indices: Sequence[int]) -
         panel.set_xticks(range(len(shape)), names)
         panel.axhline(0.0, color="black", linewidth=0.8)
         freq = modes.frequencies_hz()[k] if modes.units.time_s is not None else modes.omega[k]
-        unit = "Hz" if modes.units.time_s is not None else "(dimensionless omega)"
+        unit = "Hz" if modes.units.time_s is not None else "√(k/m) (dimensionless ω)"
         panel.set_title(f"mode {k}: {freq:.4g} {unit}")
         panel.set_xlabel("generalised coordinate")
         panel.set_ylabel("relative amplitude (largest = 1)")

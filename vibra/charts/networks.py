@@ -1,4 +1,5 @@
-"""Charts of elastic network models: predicted against crystallographic B-factors per residue."""
+"""Charts of elastic network models: fitted against crystallographic B-factors per residue, and the
+residue cross-correlation map."""
 
 from __future__ import annotations
 
@@ -9,44 +10,113 @@ from matplotlib.figure import Figure
 
 from vibra.charts._style import new_figure
 
-__all__ = ["plot_b_factors"]
+__all__ = ["plot_b_factors", "plot_cross_correlations"]
 
 
-def plot_b_factors(labels: Sequence[str], experimental: Any, predicted: Any, correlation: float, *,
-                   title: str = "") -> Figure:
-    """Predicted against crystallographic B-factors: per residue (left) and one against the other (right).
+def _residue_ticks(axes: Any, labels: Sequence[str], *, axis: str = "x") -> None:
+    """About 8 residue-number ticks (the ``"A:MET1:CA"`` labels' middle part) on `axis`."""
+    n = len(labels)
+    step = max(1, n // 8)
+    ticks = np.arange(1, n + 1)[::step]
+    names = [labels[i - 1].split(":")[1] if labels[i - 1].count(":") >= 1 else str(i) for i in ticks]
+    if axis == "x":
+        axes.set_xticks(ticks, names, rotation=30, fontsize=9)
+    else:
+        axes.set_yticks(ticks, names, fontsize=9)
 
-    An elastic network fixes B-factors only up to the scale kT / gamma, so in the profile each
-    curve has its own axis; the scatter uses logarithmic axes (the values span decades, a
-    flexible tail far above the core). The Pearson correlation in the title does not depend
-    on the scale.
+
+def plot_b_factors(labels: Sequence[str], experimental: Any, fitted: Any, correlation: float, *,
+                   scale: float | None = None, title: str = "") -> Figure:
+    """Fitted against crystallographic B-factors: per residue on one axis (left), one against the other (right).
+
+    An elastic network fixes B-factors only up to the scale kT / gamma; `fitted` are the
+    network's fluctuations times the least-squares scale onto the crystallographic values
+    (`vibra.networks.fit_bfactors`), so both curves share one axis in Å². The Pearson
+    correlation, in the legend and the title, does not depend on the scale.
+
+    Parameters
+    ----------
+    labels : (n_sites,) sequence of str
+        ``"chain:RESNAMEnumber:CA"`` per site (`vibra.networks.Structure.labels`).
+    experimental, fitted : (n_sites,) array_like
+        B-factors, in Å².
+    correlation : float
+        Pearson correlation of the two.
+    scale : float, optional
+        The fitted scale (shown in the legend), in Å² per unit of the network's fluctuations.
+    title : str
+        Prefix of the figure title (the scene's title).
     """
     e = np.asarray(experimental, dtype=float)
-    p = np.asarray(predicted, dtype=float)
+    p = np.asarray(fitted, dtype=float)
+    if e.shape != p.shape or e.ndim != 1:
+        raise ValueError(f"experimental and fitted must be two equal 1-D arrays, got shapes {e.shape} and {p.shape}")
     residues = np.arange(1, len(e) + 1)
     figure, (axes, scatter) = new_figure(1, 2, figsize=(13.0, 5.0), gridspec_kw={"width_ratios": [1.7, 1.0]})
     axes.plot(residues, e, color="0.25", linewidth=1.6, label="crystallographic (file)")
+    how = "network, least-squares fit" + ("" if scale is None else f" (x {scale:.3g})")
+    axes.plot(residues, p, color="C3", linewidth=1.6, label=f"{how}, r = {correlation:.3f}")
     axes.set_xlabel("residue (C-alpha site, in file order)")
-    axes.set_ylabel("crystallographic B-factor (Å²)")
-    right = axes.twinx()
-    right.plot(residues, p, color="C3", linewidth=1.6, label="network (kT/gamma = 1)")
-    right.set_ylabel("predicted B-factor (Å², kT/gamma = 1)", color="C3")
-    right.tick_params(axis="y", colors="C3")
-    right.set_ylim(0.0, 1.08 * float(p.max(initial=0.0)) or 1.0)
-    axes.set_ylim(0.0, 1.08 * float(e.max(initial=0.0)) or 1.0)
-    step = max(1, len(labels) // 8)
-    ticks = residues[::step]
-    axes.set_xticks(ticks, [labels[i - 1].split(":")[1] if ":" in labels[i - 1] else str(i) for i in ticks],
-                    rotation=30, fontsize=9)
-    handles = axes.get_legend_handles_labels()[0] + right.get_legend_handles_labels()[0]
-    axes.legend(handles, [h.get_label() for h in handles], loc="upper left")
-    axes.set_title("per residue")
+    axes.set_ylabel("B-factor (Å²)")
+    # one axis for both, set by the crystallographic values: a fitted tail far above them is marked
+    # at the top with its value, instead of squashing every other residue to the baseline
+    ceiling = 1.25 * float(e.max(initial=0.0)) or 1.0
+    axes.set_ylim(0.0, ceiling)
+    above = np.flatnonzero(p > ceiling)
+    if above.size:
+        axes.plot(residues[above], np.full(above.size, ceiling), linestyle="none", marker="^", color="C3",
+                  clip_on=False, markersize=7, label="fitted, off scale")
+        k = int(above[np.argmax(p[above])])
+        axes.annotate(f"off scale: up to {p[k]:.0f} Å² ({labels[k].split(':')[1] if ':' in labels[k] else k + 1})",
+                      (residues[k], ceiling), textcoords="offset points", xytext=(-6, -14), ha="right",
+                      fontsize=9, color="C3")
+    _residue_ticks(axes, labels)
+    axes.legend(loc="lower left", bbox_to_anchor=(0.0, 1.01), ncols=2, frameon=False)
+    top = max(float(e.max(initial=0.0)), float(p.max(initial=0.0)), 1e-300)
+    bottom = max(min(float(e[e > 0].min(initial=top)), float(p[p > 0].min(initial=top))), 1e-3 * top)
     positive = (e > 0) & (p > 0)
     scatter.scatter(e[positive], p[positive], s=16, color="C3", alpha=0.8)
+    scatter.plot([bottom, top], [bottom, top], color="0.4", linestyle="--", linewidth=1.0, label="fitted = crystallographic")
     scatter.set_xscale("log")
     scatter.set_yscale("log")
     scatter.set_xlabel("crystallographic B-factor (Å²)")
-    scatter.set_ylabel("predicted B-factor (Å², kT/gamma = 1)")
+    scatter.set_ylabel("fitted B-factor (Å²)")
+    scatter.legend(loc="upper left")
     scatter.set_title(f"one point per residue, r = {correlation:.3f}")
     figure.suptitle(f"{title}{': ' if title else ''}B-factors, Pearson correlation r = {correlation:.3f}")
+    return figure
+
+
+def plot_cross_correlations(labels: Sequence[str], correlations: Any, *, n_modes: int | None = None,
+                            title: str = "") -> Figure:
+    """The residue cross-correlation map C_ij in [-1, 1], on a diverging colour map with its colour bar.
+
+    Parameters
+    ----------
+    labels : (n_sites,) sequence of str
+        ``"chain:RESNAMEnumber:CA"`` per site.
+    correlations : (n_sites, n_sites) array_like
+        Normalised cross-correlations (`vibra.networks.cross_correlations`), dimensionless.
+    n_modes : int, optional
+        Modes summed (for the title).
+    title : str
+        Prefix of the figure title.
+    """
+    C = np.asarray(correlations, dtype=float)
+    if C.ndim != 2 or C.shape[0] != C.shape[1] or C.shape[0] != len(labels):
+        raise ValueError(f"correlations must be ({len(labels)}, {len(labels)}) for {len(labels)} labels, "
+                         f"got shape {C.shape}")
+    figure, axes = new_figure(figsize=(7.6, 6.4))
+    n = C.shape[0]
+    image = axes.imshow(C, cmap="RdBu_r", vmin=-1.0, vmax=1.0, origin="lower", interpolation="nearest",
+                        extent=(0.5, n + 0.5, 0.5, n + 0.5))
+    axes.grid(False)
+    _residue_ticks(axes, labels, axis="x")
+    _residue_ticks(axes, labels, axis="y")
+    axes.set_xlabel("residue")
+    axes.set_ylabel("residue")
+    bar = figure.colorbar(image, ax=axes, shrink=0.9)
+    bar.set_label("cross-correlation C$_{ij}$ (dimensionless): + together, − opposite")
+    modes = "" if n_modes is None else f" from the {n_modes} lowest modes"
+    axes.set_title(f"{title}{chr(10) if title else ''}residue cross-correlations{modes}", fontsize=12)
     return figure

@@ -8,7 +8,7 @@ Raman shift increasing.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import constants
@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 
     from vibra.spectra import BroadenedSpectrum, StickSpectrum, Thermochemistry
 
-__all__ = ["plot_stick_spectrum", "plot_broadened_spectrum", "plot_thermo"]
+__all__ = ["plot_stick_spectrum", "plot_broadened_spectrum", "plot_thermo", "plot_molecule_spectra", "species_text"]
 
 
 def _decreasing(kind: str, decreasing: bool | None) -> bool:
@@ -176,3 +176,135 @@ def _wavenumber_axis(ax: Axes, positions: np.ndarray, decreasing: bool, kind: st
     if decreasing:
         ax.invert_xaxis()
     ax.set_xlabel(_wavenumber_label(kind, decreasing))
+
+
+_GREEK = {"Sigma": "\\Sigma", "Pi": "\\Pi", "Delta": "\\Delta", "Phi": "\\Phi", "Gamma": "\\Gamma"}
+
+
+def species_text(label: str) -> str:
+    """A Mulliken label (``"A1"``, ``"T2g"``, ``"Sigma_g+"``, ``"E'"``) as matplotlib mathtext.
+
+    >>> print(species_text("Sigma_u+"), species_text("T2"), repr(species_text("")))
+    $\\Sigma_{u}^{+}$ $T_{2}$ ''
+    """
+    if not label:
+        return ""
+    text = str(label)
+    sign = text[-1] if text[-1] in "+-" else ""
+    text = text[:-1] if sign else text
+    primes = text[len(text.rstrip("'")):]
+    text = text.rstrip("'")
+    base = next((g for g in _GREEK if text.startswith(g)), text[:1])
+    rest = text[len(base):].lstrip("_")
+    math = _GREEK.get(base, base) + (f"_{{{rest}}}" if rest else "") + (f"^{{{sign}}}" if sign else "")
+    return f"${math}${primes}"
+
+
+def _spectrum_panel(axes: Axes, sticks: Any, profile: Any, species: tuple[str, ...], what: str,
+                    color: str) -> None:
+    """One panel: the Lorentzian profile (left axis), the sticks beneath (right axis), species on the peaks."""
+    strongest = float(sticks.intensities.max(initial=0.0))
+    allowed = sticks.intensities > 1e-8 * strongest if strongest > 0 else np.zeros(len(sticks.intensities), bool)
+    axes.plot(profile.grid, profile.values, color=color, linewidth=1.6,
+              label=f"Lorentzian, FWHM {profile.width:g} cm$^{{-1}}$")
+    axes.fill_between(profile.grid, profile.values, color=color, alpha=0.12)
+    axes.set_ylabel(f"{what} density\n({_unit_label(sticks.unit)} per cm$^{{-1}}$)")
+    axes.set_ylim(0.0, 1.3 * float(profile.values.max(initial=0.0)) or 1.0)
+    twin = axes.twinx()
+    twin.grid(False)
+    twin.vlines(sticks.wavenumbers[allowed], 0.0, sticks.intensities[allowed], color="0.15", linewidth=2.0,
+                label=f"lines (right axis, {_unit_label(sticks.unit)})")
+    twin.set_ylim(0.0, 1.3 * strongest if strongest > 0 else 1.0)
+    twin.set_ylabel(f"line {what} ({_unit_label(sticks.unit)})")
+    silent_drawn = False
+    labels = []
+    for k, (position, height) in enumerate(zip(sticks.wavenumbers, sticks.intensities)):
+        name = species_text(species[k]) if k < len(species) else ""
+        if allowed[k]:
+            labels.append(twin.annotate(f"{name} {position:.0f}".strip(), (position, height),
+                                        textcoords="offset points", xytext=(0, 4), ha="center", fontsize=10))
+        else:
+            twin.plot([position], [0.0], marker="^", color="0.55", markersize=7, clip_on=False,
+                      label=None if silent_drawn else "forbidden (zero intensity)")
+            silent_drawn = True
+            twin.annotate(f"{name} {position:.0f}".strip(), (position, 0.0), textcoords="offset points",
+                          xytext=(0, 9), ha="center", fontsize=9, color="0.45")
+    _beside_neighbours(twin, labels, sticks.wavenumbers)
+    _lift_overlapping(axes.figure, labels)
+    handles = axes.get_legend_handles_labels()[0] + twin.get_legend_handles_labels()[0]
+    axes.legend(handles, [h.get_label() for h in handles], loc="lower left", bbox_to_anchor=(0.0, 1.0),
+                ncols=3, frameon=False, fontsize=9)
+
+
+def _beside_neighbours(axes: Axes, labels: list[Any], positions: np.ndarray) -> None:
+    """Set a peak label to the side away from a line closer than half the label's width (H2O's two stretches)."""
+    if len(labels) < 2:
+        return
+    renderer = axes.figure.canvas.get_renderer()
+    pixels = axes.transData.transform(np.column_stack([positions, np.zeros(len(positions))]))[:, 0]
+    for label in labels:
+        x = axes.transData.transform((label.xy[0], 0.0))[0]
+        half = 0.5 * label.get_window_extent(renderer).width + 3.0
+        right = [p for p in pixels if 0.5 < p - x < half]
+        left = [p for p in pixels if 0.5 < x - p < half]
+        if right and not left:
+            label.set_horizontalalignment("right")
+            label.xyann = (-3, label.xyann[1])
+        elif left and not right:
+            label.set_horizontalalignment("left")
+            label.xyann = (3, label.xyann[1])
+
+
+def _lift_overlapping(figure: Any, labels: list[Any]) -> None:
+    """Raise a peak label by one text line (13 points) while it overlaps a label placed before it."""
+    if len(labels) < 2:
+        return
+    renderer = figure.canvas.get_renderer()
+    placed: list[Any] = []
+    for label in sorted(labels, key=lambda a: a.xy[0]):
+        for _ in range(4):
+            box = label.get_window_extent(renderer)
+            if not any(box.overlaps(other) for other in placed):
+                break
+            label.xyann = (label.xyann[0], label.xyann[1] + 13)
+        placed.append(label.get_window_extent(renderer))
+
+
+def plot_molecule_spectra(spectra: Any, *, title: str = "") -> Figure:
+    """IR (top) and Raman (bottom) spectra of a molecule: broadened lines, sticks beneath, species on the peaks.
+
+    Parameters
+    ----------
+    spectra : MoleculeSpectra
+        From `vibra.pipeline.plan.analysis.molecule_spectra` (or any object with its
+        attributes ``ir``, ``ir_profile``, ``ir_species``, ``ir_model`` and the same for Raman,
+        and ``n_rigid``): `StickSpectrum` and `BroadenedSpectrum` values, None where the
+        model gives none; the reason is then written in the panel.
+    title : str
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Wavenumber increasing to the right on both panels (they share the axis, so that a
+        line allowed in one and forbidden in the other reads straight down); rigid-body
+        modes are not drawn.
+    """
+    figure, (top, bottom) = new_figure(2, 1, figsize=(9.0, 7.2), sharex=True)
+    for axes, sticks, profile, species, model, what, color in (
+            (top, spectra.ir, spectra.ir_profile, spectra.ir_species, spectra.ir_model, "IR intensity", "C0"),
+            (bottom, spectra.raman, spectra.raman_profile, spectra.raman_species, spectra.raman_model,
+             "Raman activity", "C2")):
+        if sticks is None or profile is None or not len(sticks.wavenumbers):
+            axes.text(0.5, 0.5, model, transform=axes.transAxes, ha="center", va="center", fontsize=11,
+                      wrap=True, color="0.3")
+            axes.set_yticks([])
+            continue
+        _spectrum_panel(axes, sticks, profile, species, what, color)
+        axes.set_title(model, fontsize=10, loc="right", color="0.3", pad=22)
+        axes.set_xlim(float(profile.grid.min()), float(profile.grid.max()))
+    bottom.set_xlabel("wavenumber (cm$^{-1}$)")
+    rigid = (f" ({spectra.n_rigid} rigid-body mode{'s' if spectra.n_rigid > 1 else ''} left out)"
+             if spectra.n_rigid else "")
+    figure.suptitle(f"{title}{': ' if title else ''}IR and Raman spectra{rigid}")
+    return figure

@@ -11,7 +11,33 @@ from typing import Any
 
 from vibra.charts._style import new_figure
 
-__all__ = ["sweep_figure"]
+__all__ = ["sweep_figure", "key_label"]
+
+#: Unit of a swept scene key, by its last name and the scene's unit system.
+_KEY_UNITS = {
+    "SI": {"mass": "kg", "stiffness": "N/m", "spacing": "m", "length": "m", "damping": "kg/s"},
+    "ASE": {"mass": "amu", "stiffness": "eV/Å²", "spacing": "Å", "length": "Å"},
+}
+_KEY_KINDS = {"masses": "mass", "m": "mass", "springs": "stiffness", "kappa": "stiffness", "k": "stiffness",
+              "cutoff": "length", "alpha": "damping"}
+
+
+def key_label(key: str, units: str) -> str:
+    """The x label of a swept key with its unit: ``"system.stiffness (N/m)"``.
+
+    >>> key_label("system.masses[1]", "SI"), key_label("member", "SI"), key_label("system.n", "SI")
+    ('system.masses[1] (kg)', 'ensemble member (index)', 'system.n (count)')
+    """
+    if key == "member":
+        return "ensemble member (index)"
+    name = key.rsplit(".", 1)[-1].split("[", 1)[0]
+    if name in ("n", "n_cells", "n_modes"):
+        return f"{key} (count)"
+    if units not in _KEY_UNITS:
+        return f"{key} (dimensionless)"
+    kind = _KEY_KINDS.get(name, name)
+    unit = _KEY_UNITS[units].get(kind)
+    return f"{key} ({unit})" if unit else f"{key} (in the scene's {units} units)"
 
 #: Branches named in the legend at most (beyond, the colours alone tell them apart).
 _LEGEND_BRANCHES = 10
@@ -50,7 +76,7 @@ def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Any, str]:
         if series and not ensemble:
             axes.plot([], [], style, color="0.3", label=series)
     unit = "rad/s" if table.units == "SI" else f"rad per time unit ({table.units or 'dimensionless'})"
-    axes.set_xlabel(key)
+    axes.set_xlabel(key_label(key, table.units))
     axes.set_ylabel(f"angular frequency $\\omega$ ({unit})")
     axes.set_title(title or f"{table.name}: {len(table.rows)} points")
     if axes.get_legend_handles_labels()[0]:

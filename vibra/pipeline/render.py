@@ -17,22 +17,22 @@ One `SceneRenderer` reuses its plotters for all images of a scene.
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from vibra._io import atomic_write
+from vibra.pipeline.render_geometry import (MAX_CHAIN_SITES, MAX_NETWORK_ARROWS, arrow_start, chain_sites,
+                                            displacements3, molecule_bonds, molecule_symbols, network_arrow_step,
+                                            positions3, view_direction)
 
 __all__ = ["SceneRenderer", "MoleculeStructure", "write_png", "write_gif", "molecule_symbols", "molecule_bonds",
-           "chain_sites", "MAX_CHAIN_SITES", "MAX_NETWORK_ARROWS", "network_arrow_step"]
+           "chain_sites", "MAX_CHAIN_SITES", "MAX_NETWORK_ARROWS", "network_arrow_step", "view_direction"]
 
-#: Largest number of sites drawn in a chain row; longer chains are decimated evenly.
-MAX_CHAIN_SITES = 41
 _GIF_FRAMES = 16
 
 
@@ -85,56 +85,7 @@ def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str],
         temporary, format="GIF", save_all=True, append_images=images[1:], duration=frame_ms, loop=0))
 
 
-# ---------------------------------------------------------------------- geometry helpers
-def chain_sites(masses: ArrayLike) -> NDArray[np.intp]:
-    """(n_shown,) indices of the chain sites drawn, for a chain of these (n_sites,) masses.
-
-    All sites up to `MAX_CHAIN_SITES`; else every s-th site, with the smallest stride s that
-    keeps at most `MAX_CHAIN_SITES`, so the drawn row stays evenly spaced. When the masses
-    repeat with a short period (a diatomic chain: 2), s is made prime to that period so that
-    every kind of mass still appears in the row.
-    """
-    values = np.asarray(masses, dtype=float)
-    n_sites = len(values)
-    stride = -(-n_sites // MAX_CHAIN_SITES)  # ceil
-    period = next((p for p in range(1, 5) if np.array_equal(values[p:], values[:-p])), 1)
-    while stride > 1 and math.gcd(stride, period) != 1:
-        stride += 1
-    return np.arange(0, n_sites, stride, dtype=np.intp)
-
-
-def _positions3(system: Any) -> NDArray[np.float64]:
-    positions = np.asarray(system.positions, dtype=float)
-    out = np.zeros((positions.shape[0], 3))
-    out[:, : positions.shape[1]] = positions
-    return out
-
-
-def _displacements3(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(n_sites, 3) displacement of every site (zeros at frozen dofs and unused axes)."""
-    full = np.asarray(system.expand(shape)).reshape(system.n_sites, system.dim)
-    out = np.zeros((system.n_sites, 3))
-    out[:, : system.dim] = full
-    return out
-
-
-def molecule_symbols(system: Any, symbols: Sequence[str] | None = None) -> list[str]:
-    """Chemical symbols of the sites: `symbols` if given, else `vibra.molecules.symbols_from_masses`."""
-    from vibra.molecules import symbols_from_masses
-
-    return list(symbols) if symbols is not None else list(symbols_from_masses(system.masses))
-
-
-def molecule_bonds(system: Any, symbols: Sequence[str] | None = None,
-                   springs: Sequence[Sequence[int]] | None = None) -> list[tuple[int, int]]:
-    """Bonds of a molecule: the given springs, else `vibra.molecules.bonds_from_distances`."""
-    from vibra.molecules import bonds_from_distances
-
-    if springs is not None:
-        return [(int(i), int(j)) for i, j in springs]
-    return list(bonds_from_distances(system.positions, molecule_symbols(system, symbols)))
-
-
+# ---------------------------------------------------------------------- labels and arrows
 def _default_structure(scene: Any, system: Any) -> MoleculeStructure:
     """Elements and bonds for a caller that passed none (`vibra.pipeline.plan` always passes them)."""
     params = scene.system.parameters
@@ -142,60 +93,47 @@ def _default_structure(scene: Any, system: Any) -> MoleculeStructure:
     return MoleculeStructure(tuple(symbols), tuple(molecule_bonds(system, symbols, params.get("springs"))))
 
 
-#: An arrow whose direction is within ~25 degrees of a bond (cosine above this) would run
-#: inside that bond's tube and the neighbouring atom, hidden from view.
-_ALONG_BOND = 0.9
-
-
-def _arrow_start(positions: NDArray[np.float64], bonds: Sequence[tuple[int, int]], i: int,
-                 vector: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
-    """Where atom i's displacement arrow starts (Angstrom) so that it stays visible.
-
-    - pointing away from every bond: from the atom's surface outwards;
-    - pointing into a bond but free behind: ending on the atom's surface (pushing it);
-    - bonds on both sides (the centre of a linear molecule): lifted off the bond axis by
-      1.6 radii, perpendicular to the motion, and centred over the atom.
-    """
-    norm = float(np.linalg.norm(vector))
-    direction = vector / norm
-    neighbours = [j for a, b in bonds for j, k in ((b, a), (a, b)) if k == i]
-    units = [(positions[j] - positions[i]) / max(float(np.linalg.norm(positions[j] - positions[i])), 1e-300)
-             for j in neighbours]
-
-    def blocked(d: NDArray[np.float64]) -> bool:
-        return any(float(u @ d) > _ALONG_BOND for u in units)
-
-    if not blocked(direction):
-        return positions[i] + radius * direction
-    if not blocked(-direction):
-        return positions[i] - (radius + norm) * direction
-    axes = np.eye(3)[::-1]  # z first: the screen's vertical in the views used below
-    lift = axes[int(np.argmin(np.abs(axes @ direction)))]
-    lift = lift - (lift @ direction) * direction
-    lift /= np.linalg.norm(lift)
-    return positions[i] + 1.6 * radius * lift - 0.5 * vector
-
-
 def _frequency_text(scene: Any, modes: Any, k: int) -> str:
+    """Mode k's frequency with its unit, in Unicode (cm⁻¹ for a molecule, ω in rad/s or √(k/m) otherwise)."""
+    from vibra.units import omega_unit_text
+
     units = modes.units
     if scene.kind == "molecule" and units.time_s is not None:
-        return f"{float(modes.wavenumbers_cm1()[k]):.1f} cm^-1"
-    if units.time_s is not None:
-        return f"omega = {float(modes.omega[k]):.4g} rad/s"
-    return f"omega = {float(modes.omega[k]):.4g} (dimensionless)"
+        return f"{float(modes.wavenumbers_cm1()[k]):.1f} cm⁻¹"
+    value = float(modes.omega[k]) if units.time_s is None else float(modes.omega_rad_per_s()[k])
+    return f"ω = {value:.4g} {omega_unit_text(units, stiffness='gamma' if scene.kind == 'network' else 'k')}"
 
 
-#: Most arrows drawn on a network's C-alpha trace (larger structures show every k-th residue).
-MAX_NETWORK_ARROWS = 100
+def _symmetry_line(line: str) -> str:
+    """A hint line with its species set as mathtext and ∞ in the group (``Sigma_u+ (Dinfh)`` -> Σu⁺ (D∞h))."""
+    from vibra.charts.spectra import species_text
+
+    line = line.replace("Dinfh", "D∞h").replace("Cinfv", "C∞v")
+    head, sep, tail = line.partition(" (")
+    if sep and " " not in head and tail[:1].isupper():
+        return species_text(head) + sep + tail
+    return line
 
 
-def network_arrow_step(n_sites: int) -> int:
-    """k: draw an arrow on every k-th residue, so that at most `MAX_NETWORK_ARROWS` are drawn.
+def _count_text(n: int) -> str:
+    """A count as people read it: 1000000 -> "10⁶", 25000 -> "25,000".
 
-    >>> network_arrow_step(76), network_arrow_step(1500)
-    (1, 15)
+    >>> _count_text(1_000_000), _count_text(25_000), _count_text(41)
+    ('10⁶', '25,000', '41')
     """
-    return max(1, -(-int(n_sites) // MAX_NETWORK_ARROWS))
+    exponent = len(str(n)) - 1
+    if n >= 10**5 and n == 10**exponent:
+        return "10" + str(exponent).translate(str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹"))
+    return f"{n:,}"
+
+
+def _arrow(pv: Any, start: Any, vector: Any, thickness: float) -> Any:
+    """An arrow from `start` along `vector` whose shaft (radius `thickness`) and head keep their size
+    whatever its length: a short arrow is still a visible head, a long one a longer shaft."""
+    length = float(np.linalg.norm(vector))
+    tip = min(0.75, 5.0 * thickness / length)
+    return pv.Arrow(start=start, direction=vector, scale=length, tip_length=tip,
+                    tip_radius=min(2.6 * thickness / length, 4.0), shaft_radius=min(thickness / length, 0.2))
 
 
 # ---------------------------------------------------------------------- renderer
@@ -271,6 +209,8 @@ class SceneRenderer:
     def render_gif(self, scene: Any, system: Any, modes: Any, index: int, out_dir: Path,
                    work_dir: Path, *, structure: MoleculeStructure | None = None) -> tuple[str, str]:
         """Animated GIF of mode `index` over one period; returns (file name, caption)."""
+        from vibra.charts.renders import annotate_render
+
         molecule = None
         if scene.kind == "molecule":
             molecule = structure or _default_structure(scene, system)
@@ -278,10 +218,13 @@ class SceneRenderer:
         for phase in np.linspace(0.0, 2.0 * np.pi, _GIF_FRAMES, endpoint=False):
             plotter = self._plotter((1, 1))
             if molecule is not None:
-                self._draw_molecule(plotter, scene, system, modes, index, molecule, phase=phase, arrows=False)
+                view = view_direction(positions3(system), [displacements3(system, np.asarray(modes.shapes)[:, index])])
+                title, points = self._draw_molecule(plotter, scene, system, modes, index, molecule, view, phase=phase,
+                                                    arrows=False)
+                self._frame(plotter, positions3(system).mean(axis=0), points, view)
             else:
-                self._draw_chain(plotter, scene, system, modes, index, phase=phase)
-            frames.append(self._snapshot(plotter))
+                title = self._draw_chain(plotter, scene, system, modes, index, phase=phase)
+            frames.append(annotate_render(self._snapshot(plotter), titles=[title]))
         name = f"{scene.name}_mode{index}.gif"
         write_gif(frames, out_dir / name)
         return name, (f"{scene.title}: animation of mode {index} ({_frequency_text(scene, modes, index)}), "
@@ -343,6 +286,8 @@ class SceneRenderer:
     def _molecule_images(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
                          out_dir: Path, structure: MoleculeStructure,
                          hints: Mapping[int, str]) -> list[tuple[str, str]]:
+        from vibra.charts.renders import annotate_render
+
         groups: list[list[int]] = []
         # degenerate sets among the drawn modes; a mode's omega_error can be loose (a rigid mode's bound
         # may span the lowest vibrations), so members must also agree to 1e-6 of the largest omega
@@ -356,30 +301,45 @@ class SceneRenderer:
             if any(int(k) in g for g in groups):
                 continue
             groups.append(group)
+        positions = positions3(system)
+        shapes = np.asarray(modes.shapes)
         images = []
         for group in groups:
+            # one view for the molecule's degenerate partners: no atom hidden, their motions shown longest
+            view = view_direction(positions, [displacements3(system, shapes[:, k]) for k in group])
             plotter = self._plotter((1, len(group)))
-            texts = []
+            titles, reach = [], []
             for column, k in enumerate(group):
                 plotter.subplot(0, column)
-                texts.append(self._draw_molecule(plotter, scene, system, modes, k, structure, hint=hints.get(k)))
+                title, points = self._draw_molecule(plotter, scene, system, modes, k, structure, view, hint=hints.get(k))
+                titles.append(title)
+                reach.append(points)
+            for column in range(len(group)):  # one scale for the partners: the same molecule, the same size
+                plotter.subplot(0, column)
+                self._frame(plotter, positions.mean(axis=0), np.vstack(reach), view)
             name = f"{scene.name}_mode{group[0]}.png"
-            write_png(self._snapshot(plotter), out_dir / name)
+            image = annotate_render(self._snapshot(plotter), grid=(1, len(group)), titles=titles,
+                                    font_size=12.0 if len(group) < 3 else 10.5)
+            write_png(image, out_dir / name)
             label = " and ".join(str(k) for k in group)
             together = f" (degenerate, x{len(group)}, side by side)" if len(group) > 1 else ""
-            images.append((name, f"{scene.title}: mode {label}{together}: {texts[0]}"))
+            hint = hints.get(group[0])
+            text = _frequency_text(scene, modes, group[0]) + (f", {hint}" if hint else "")
+            images.append((name, f"{scene.title}: mode {label}{together}: {text}; viewed from the direction that "
+                           "hides no atom"))
         return images
 
     def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
-                       structure: MoleculeStructure, *, phase: float | None = None, arrows: bool = True,
-                       hint: str | None = None) -> str:
+                       structure: MoleculeStructure, view: tuple[Any, Any], *, phase: float | None = None,
+                       arrows: bool = True, hint: str | None = None) -> tuple[str, NDArray[np.float64]]:
+        """Draw mode k in the current subplot; returns its title and the points the camera must frame."""
         pv = self._pv
         from ase.data import atomic_numbers, covalent_radii
         from ase.data.colors import jmol_colors
 
-        positions = _positions3(system)
+        positions = positions3(system)
         numbers = [atomic_numbers[symbol] for symbol in structure.symbols]
-        displacement = _displacements3(system, np.asarray(modes.shapes)[:, k])
+        displacement = displacements3(system, np.asarray(modes.shapes)[:, k])
         bond_list = list(structure.bonds)
         lengths = [np.linalg.norm(positions[i] - positions[j]) for i, j in bond_list]
         reference = min(lengths) if lengths else 1.0
@@ -395,36 +355,47 @@ class SceneRenderer:
             line = pv.Line(shown[i], shown[j])
             plotter.add_mesh(line.tube(radius=0.1 * reference), color="lightgray", smooth_shading=True,
                              opacity=0.5)  # see-through: arrows along a bond stay visible
+        reach = [positions + radii.max(), positions - radii.max()]
         if arrows:
             for i in range(len(positions)):
                 vector = displacement[i]
-                norm = float(np.linalg.norm(vector))
-                if norm < 1e-3 * reference:
+                if float(np.linalg.norm(vector)) < 0.02 * 0.8 * reference:  # under 2% of the largest motion
                     continue
-                start = _arrow_start(positions, bond_list, i, vector, float(radii[i]))
-                arrow = pv.Arrow(start=start, direction=vector, scale=norm,
-                                 tip_length=0.3, tip_radius=0.12, shaft_radius=0.04)
-                plotter.add_mesh(arrow, color="crimson", smooth_shading=True)
-        frequency = _frequency_text(scene, modes, k)
-        text = frequency if not hint else f"{frequency}, {hint}"
-        lines = [f"mode {k}: {frequency}"] + ([] if not hint else hint.split("; "))
-        plotter.add_text("\n".join(lines), position="upper_left", font_size=13, color="black")
-        extent = np.ptp(positions, axis=0)
-        plotter.camera_position = "xz" if extent[2] > 1e-9 or extent[1] <= 1e-9 else "xy"
-        plotter.camera.elevation = 30
-        plotter.camera.azimuth = 35
-        plotter.reset_camera()
+                start = arrow_start(positions, bond_list, i, vector, float(radii[i]))
+                plotter.add_mesh(_arrow(pv, start, vector, 0.035 * reference), color="crimson", smooth_shading=True)
+                reach.append(np.vstack([start, start + vector]))
+        lines = [f"mode {k}: {_frequency_text(scene, modes, k)}"] + ([] if not hint else hint.split("; "))
+        return "\n".join(_symmetry_line(line) for line in lines), np.vstack(reach)
+
+    def _frame(self, plotter: Any, centre: Any, points: Any, view: tuple[Any, Any]) -> None:
+        """Point the camera of the current subplot along `view` and zoom until `points` fill the panel,
+        below its title lines."""
+        direction, up = (np.asarray(v, dtype=float) for v in view)
+        right = np.cross(up, direction)
+        flat = np.asarray(points) - centre
+        across, upward = flat @ right, flat @ up
+        middle = centre + right * 0.5 * (across.max() + across.min()) + up * 0.5 * (upward.max() + upward.min())
+        half_width = 0.5 * float(np.ptp(across)) + 1e-9
+        half_height = 0.5 * float(np.ptp(upward)) + 1e-9
         rows, columns = plotter.shape
         aspect = (self.window_size[0] / columns) / (self.window_size[1] / rows)
-        plotter.camera.zoom(1.45 if aspect >= 1.2 else 1.0)
-        return text
+        camera = plotter.camera
+        camera.parallel_projection = True  # framed exactly: the extent on screen is the extent in space
+        scale = max(1.12 * half_width / aspect, 1.12 * half_height) / 0.86  # the top 14% holds the title
+        camera.focal_point = tuple(middle + up * 0.14 * scale)
+        camera.position = tuple(middle + up * 0.14 * scale + direction * 50.0 * (half_width + half_height))
+        camera.up = tuple(up)
+        camera.parallel_scale = scale
+        plotter.renderer.ResetCameraClippingRange()
 
     # ------------------------------------------------------------------ networks
     def _network_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
                        out_dir: Path) -> tuple[str, str]:
         """The C-alpha trace as a tube, one panel per mode, arrows on every k-th site (k from the size)."""
         pv = self._pv
-        positions = _positions3(system)
+        from vibra.charts.renders import ColourBar, annotate_render
+
+        positions = positions3(system)
         n = len(positions)
         every = network_arrow_step(n)
         columns = min(len(indices), 3)
@@ -434,34 +405,35 @@ class SceneRenderer:
         extent = float(np.ptp(positions, axis=0).max())
         line = pv.lines_from_points(positions)
         shown = np.arange(0, n, every)
+        titles: list[str] = []
         for panel, k in enumerate(indices):
             plotter.subplot(panel // columns, panel % columns)
-            motion = np.linalg.norm(_displacements3(system, np.asarray(modes.shapes)[:, k]), axis=1)
+            motion = np.linalg.norm(displacements3(system, np.asarray(modes.shapes)[:, k]), axis=1)
             trace = line.copy()
             trace["motion"] = motion / max(float(motion.max()), 1e-300)  # the tube coloured by each site's share
             plotter.add_mesh(trace.tube(radius=0.012 * extent, n_sides=12), scalars="motion", cmap="viridis",
                              clim=(0.0, 1.0), show_scalar_bar=False, smooth_shading=True)
-            vectors = _displacements3(system, np.asarray(modes.shapes)[:, k])[shown]
+            vectors = displacements3(system, np.asarray(modes.shapes)[:, k])[shown]
             size = max(float(np.linalg.norm(vectors, axis=1).max()), 1e-300)
-            arrows = [pv.Arrow(start=positions[i], direction=v, scale=0.18 * extent * float(np.linalg.norm(v)) / size,
-                               tip_length=0.3, tip_radius=0.1, shaft_radius=0.035)
+            arrows = [_arrow(pv, positions[i], 0.18 * extent * v / size, 0.0045 * extent)
                       for i, v in zip(shown, vectors) if np.linalg.norm(v) > 0.05 * size]
             if arrows:
                 plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
-            plotter.add_text(f"mode {k}: omega = {float(modes.omega[k]):.4g}", position="upper_left",
-                             font_size=11, color="black")
+            titles.append(f"mode {k}: {_frequency_text(scene, modes, k)}")
             plotter.camera.focal_point = tuple(centre)
             plotter.camera.position = tuple(centre + np.array([0.0, -2.6 * extent, 0.9 * extent]))
             plotter.camera.up = (0.0, 0.0, 1.0)
             plotter.reset_camera()
-            plotter.camera.zoom(1.3 if rows == 1 else 1.05)  # the tallest structure part stays in view
+            plotter.camera.zoom(1.3 if rows == 1 else 0.98)  # the tallest structure part stays in view
         name = f"{scene.name}_modes.png"
-        write_png(self._snapshot(plotter), out_dir / name)
-        listed = ", ".join(f"{k} (omega = {float(modes.omega[k]):.4g}, dimensionless)" for k in indices)
         note = f"one arrow every {every} residues" if every > 1 else "one arrow per residue"
+        bar = ColourBar("residue's share of the motion |u$_i$| / max |u| (dimensionless)", "viridis")
+        write_png(annotate_render(self._snapshot(plotter), grid=(rows, columns), titles=titles,
+                                  note=f"{note}, length proportional to the motion", colour_bar=bar), out_dir / name)
+        listed = ", ".join(f"{k} ({_frequency_text(scene, modes, k)})" for k in indices)
         return name, (f"{scene.title}: slowest non-rigid modes {listed} as arrows on the C-alpha trace "
-                      f"({n} residues, tube through the C-alpha atoms coloured by each residue's motion, dark to "
-                      f"yellow; {note}, length proportional to the motion, the smallest 5% left out)")
+                      f"({n} residues, tube through the C-alpha atoms coloured by each residue's share of the motion, "
+                      f"colour bar below; {note}, length proportional to the motion, the smallest 5% left out)")
 
     # ------------------------------------------------------------------ chains
     def _chain_sites(self, system: Any) -> NDArray[np.intp]:
@@ -469,13 +441,21 @@ class SceneRenderer:
 
     def _chain_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
                      out_dir: Path) -> tuple[str, str]:
+        from vibra.charts.renders import annotate_render
+
         plotter = self._plotter((len(indices), 1))
+        titles = []
         for row, k in enumerate(indices):
             plotter.subplot(row, 0)
-            self._draw_chain(plotter, scene, system, modes, k)
+            titles.append(self._draw_chain(plotter, scene, system, modes, k))
         name = f"{scene.name}_modes.png"
-        write_png(self._snapshot(plotter), out_dir / name)
         sites = self._chain_sites(system)
+        drawn = None
+        if len(sites) < system.n_sites:
+            drawn = (f"{_count_text(system.n_sites)} sites drawn as {len(sites)} beads "
+                     f"(one in {_count_text(int(sites[1] - sites[0]))}, evenly spaced)")
+        write_png(annotate_render(self._snapshot(plotter), grid=(len(indices), 1), titles=titles, note=drawn),
+                  out_dir / name)
         transverse = scene.system.builder == "beaded_string"
         note = (f"; one site in {sites[1] - sites[0]} shown ({len(sites)} of {system.n_sites}, "
                 "evenly spaced)" if len(sites) < system.n_sites else "")
@@ -485,8 +465,8 @@ class SceneRenderer:
                       f"sphere volume proportional to mass{note}")
 
     def _draw_chain(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
-                    *, phase: float | None = None) -> None:
-        """One row of masses for mode k in the current subplot (displaced when `phase` is given)."""
+                    *, phase: float | None = None) -> str:
+        """One row of masses for mode k in the current subplot (displaced when `phase` is given); its title."""
         pv = self._pv
         sites = self._chain_sites(system)
         x = np.asarray(system.positions, dtype=float)[sites, 0]
@@ -497,7 +477,7 @@ class SceneRenderer:
         masses = np.asarray(system.masses, dtype=float)[sites]
         radii = 0.3 * step * np.cbrt(masses / masses.max())
         transverse = scene.system.builder == "beaded_string"
-        shape = _displacements3(system, np.asarray(modes.shapes)[:, k])[sites, 1 if transverse else 0]
+        shape = displacements3(system, np.asarray(modes.shapes)[:, k])[sites, 1 if transverse else 0]
         size = max(float(np.abs(shape).max()), 1e-300)
         length = (1.2 if transverse else 0.95) * step * shape / size
         offsets = np.zeros((len(x), 3))
@@ -525,11 +505,8 @@ class SceneRenderer:
                 starts = centres[moving] + np.array([0.0, radii.max() + 0.3 * step, 0.0])
                 starts[:, 0] -= 0.5 * length[moving]
                 directions = np.column_stack([length[moving], np.zeros((count, 2))])
-            arrows = [pv.Arrow(start=a, direction=d, scale=float(np.linalg.norm(d)), tip_length=0.3,
-                               tip_radius=0.11, shaft_radius=0.045) for a, d in zip(starts, directions)]
+            arrows = [_arrow(pv, a, d, 0.04 * step) for a, d in zip(starts, directions)]
             plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
-        plotter.add_text(f"mode {k}: {_frequency_text(scene, modes, k)}", position="upper_left",
-                         font_size=11, color="black")
         # Parallel projection framed on the row: fit its width to the subplot's aspect ratio.
         rows, columns = plotter.shape
         aspect = (self.window_size[0] / columns) / (self.window_size[1] / rows)
@@ -544,3 +521,4 @@ class SceneRenderer:
         camera.up = (0.0, 1.0, 0.0)
         camera.parallel_scale = scale
         plotter.renderer.ResetCameraClippingRange()
+        return f"mode {k}: {_frequency_text(scene, modes, k)}"

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from vibra.continuum import DispersionCurves
 
-__all__ = ["MoleculeSymmetry", "molecule_symmetry", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion"]
+__all__ = ["MoleculeSymmetry", "molecule_symmetry", "MoleculeSpectra", "molecule_spectra", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion"]
 
 #: A mode whose point-charge IR intensity is below this fraction of the strongest is IR-inactive.
 IR_INACTIVE_FRACTION = 1e-8
@@ -211,6 +211,12 @@ class NetworkFluctuations:
         Pearson correlation of the two (`vibra.networks.b_factor_correlation`).
     n_modes : int
         Modes computed (the rigid ones among them are left out of the sum).
+    fit : BFactorFit
+        The same fluctuations scaled onto the crystallographic B-factors by least squares
+        (`vibra.networks.fit_bfactors`), in Å^2.
+    cross_correlations : (n_sites, n_sites) ndarray
+        Normalised residue cross-correlations of the same modes (`vibra.networks.cross_correlations`),
+        dimensionless in [-1, 1].
     """
 
     labels: tuple[str, ...]
@@ -218,14 +224,106 @@ class NetworkFluctuations:
     predicted: NDArray[np.float64]
     correlation: float
     n_modes: int
+    fit: Any = None
+    cross_correlations: Any = None
 
 
 def network_fluctuations(structure: Any, system: Any, modes: Any) -> NetworkFluctuations:
-    """B-factors predicted from `modes` of an elastic network, against those of its `structure`."""
-    from vibra.networks import b_factor_correlation, predicted_b_factors, square_fluctuations
+    """B-factors predicted from `modes` of an elastic network, against those of its `structure`,
+    fitted onto them by least squares, and the residue cross-correlations of the same modes."""
+    from vibra.networks import (b_factor_correlation, cross_correlations, fit_bfactors, predicted_b_factors,
+                                square_fluctuations)
 
     predicted = predicted_b_factors(square_fluctuations(system, modes))
     experimental = np.asarray(structure.b_factors, dtype=float)
+    dim = int(system.dim)
+    fit = fit_bfactors(modes, experimental, method="least_squares", dim=dim) if np.ptp(experimental) > 0 else None
     return NetworkFluctuations(labels=tuple(structure.labels), experimental=experimental, predicted=predicted,
                                correlation=float(b_factor_correlation(predicted, experimental)),
-                               n_modes=int(modes.n_modes))
+                               n_modes=int(modes.n_modes), fit=fit,
+                               cross_correlations=cross_correlations(modes, dim=dim))
+
+
+#: Full width at half maximum of the Lorentzian lines of a molecule's drawn spectra, in cm^-1.
+LINE_WIDTH_CM1 = 20.0
+
+
+@dataclass(frozen=True, eq=False)
+class MoleculeSpectra:
+    """IR and Raman lines of a molecule scene's vibrations, with their Lorentzian profiles (`molecule_spectra`).
+
+    Attributes
+    ----------
+    ir, raman : StickSpectrum or None
+        Lines (degenerate modes merged): IR in km/mol, Raman activities in Å^4/amu; None when
+        the model gives none (no dipole change at all, no bonds).
+    ir_profile, raman_profile : BroadenedSpectrum or None
+        The lines broadened by Lorentzians of FWHM `LINE_WIDTH_CM1`, in the lines' unit per cm^-1.
+    ir_species, raman_species : tuple of str
+        Per line, the symmetry species of its modes (``""`` when not known).
+    ir_model, raman_model : str
+        Where the intensities come from, in words (for the chart and its caption).
+    n_rigid : int
+        Rigid-body modes left out.
+    """
+
+    ir: Any
+    ir_profile: Any
+    ir_species: tuple[str, ...]
+    ir_model: str
+    raman: Any
+    raman_profile: Any
+    raman_species: tuple[str, ...]
+    raman_model: str
+    n_rigid: int
+
+
+def _line_species(positions: NDArray[np.float64], wavenumbers: NDArray[np.float64], indices: NDArray[np.intp],
+                  species: Sequence[str], merge_cm1: float) -> tuple[str, ...]:
+    out = []
+    for position in positions:
+        near = [species[int(k)] for k, w in zip(indices, wavenumbers) if abs(w - position) <= merge_cm1]
+        out.append("+".join(dict.fromkeys(s for s in near if s)))
+    return tuple(out)
+
+
+def molecule_spectra(system: Any, modes: Any, symbols: Sequence[str], bonds: Sequence[tuple[int, int]],
+                     symmetry: MoleculeSymmetry | None = None, *, merge_cm1: float = 0.5) -> MoleculeSpectra:
+    """IR and Raman spectra of a molecule scene's modes, from the models `vibra.spectra` has for it.
+
+    The scene's force field gives no dipole, so the IR intensities come from point charges
+    (`vibra.spectra.electronegativity_charges` over `bonds`: mu = sum q_i r_i); the Raman
+    activities from the bond-polarisability model with generic bond values
+    (`vibra.spectra.raman_spectrum`). Both rank lines and tell allowed from forbidden ones;
+    neither is quantitative. Rigid-body (zero) modes are left out. Lines closer than
+    `merge_cm1` (cm^-1) are one line.
+    """
+    from vibra import spectra
+
+    species = symmetry.species if symmetry is not None else ("",) * modes.n_modes
+    grid_top = float(np.max(np.abs(modes.wavenumbers_cm1()), initial=0.0))
+    grid = np.linspace(0.0, 1.1 * grid_top + 4 * LINE_WIDTH_CM1, 2400)
+    n_rigid = int(np.sum(modes.zero_modes(1e-6)))
+    ir = ir_profile = raman = raman_profile = None
+    ir_species: tuple[str, ...] = ()
+    raman_species: tuple[str, ...] = ()
+    ir_model = "no IR model: the molecule has no bonds between different elements (no point charges)"
+    raman_model = "no Raman model: the molecule has no bonds"
+    if bonds:
+        charges = spectra.electronegativity_charges(list(symbols), list(bonds))
+        if np.any(np.abs(charges) > 0):
+            result = spectra.ir_spectrum(system, modes, charges=charges)
+            ir = result.sticks(merge_cm1=merge_cm1)
+            ir_profile = ir.broadened(grid, LINE_WIDTH_CM1, "lorentzian")
+            ir_species = _line_species(ir.wavenumbers, result.wavenumbers, result.mode_indices, species, merge_cm1)
+            ir_model = ("IR intensities from point charges (Pauling electronegativities); "
+                        "the force field itself gives no dipole")
+        result_r = spectra.raman_spectrum(system, modes, bonds=list(bonds))
+        raman = result_r.sticks(merge_cm1=merge_cm1)
+        raman_profile = raman.broadened(grid, LINE_WIDTH_CM1, "lorentzian")
+        raman_species = _line_species(raman.wavenumbers, result_r.wavenumbers, result_r.mode_indices, species,
+                                      merge_cm1)
+        raman_model = "Raman activities from bond polarisabilities (generic bond values)"
+    return MoleculeSpectra(ir=ir, ir_profile=ir_profile, ir_species=ir_species, ir_model=ir_model, raman=raman,
+                           raman_profile=raman_profile, raman_species=raman_species, raman_model=raman_model,
+                           n_rigid=n_rigid)

@@ -108,7 +108,9 @@ def make_plan(scene: Scene) -> Plan:
         return Plan(scene=scene, steps=tuple(steps + crystal_steps(scene)), n_modes=None, vectors=False)
     if scene.kind == "dynamics":  # a time integration: its own steps and charts
         return Plan(scene=scene, steps=tuple(steps + dynamics_steps(scene)), n_modes=None, vectors=False)
-    vectors = bool(compute.shapes or draw.needs_shapes or scene.kind == "network")  # fluctuations need shapes
+    # network fluctuations and a molecule's IR/Raman intensities need shapes
+    vectors = bool(compute.shapes or draw.needs_shapes or scene.kind == "network"
+                   or (scene.kind == "molecule" and draw.spectrum))
     n_modes = compute.n_modes
     if scene.kind != "oscillator":
         if n_modes is not None:
@@ -145,13 +147,16 @@ def make_plan(scene: Scene) -> Plan:
     if draw.gif:
         steps.append(Step("render-gif", "animated GIF of the lowest drawn mode (pyvista)"))
     if draw.spectrum:
-        steps.append(Step("chart-spectrum", "stick spectrum of the frequencies"))
+        steps.append(Step("chart-spectrum", "IR and Raman spectra (model intensities, Lorentzian lines)"
+                          if scene.kind == "molecule" else "stick spectrum of the frequencies"))
     if draw.dispersion:
         steps.append(Step("chart-dispersion", "dispersion relation with the chain's modes"))
     if draw.response:
         steps.append(Step("chart-response", "response amplitude and phase against frequency"))
     if draw.bfactors:
-        steps.append(Step("chart-bfactors", "predicted against crystallographic B-factors per residue"))
+        steps.append(Step("chart-bfactors", "fitted against crystallographic B-factors per residue, on one axis"))
+    if scene.kind == "network":
+        steps.append(Step("chart-correlations", "residue cross-correlation map of the computed modes"))
     if draw.convergence:
         steps.append(Step("chart-convergence", "error of the chain's modes against N (log-log)"))
     return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)

@@ -19,12 +19,14 @@ import numpy as np
 
 from vibra._io import atomic_write_text
 from vibra.generalized import GeneralizedSystem
-from vibra.pipeline.plan.analysis import chain_dispersion, molecule_symmetry, network_fluctuations, symmetry_hints
+from vibra.pipeline.plan.analysis import (LINE_WIDTH_CM1, chain_dispersion, molecule_spectra, molecule_symmetry,
+                                          network_fluctuations, symmetry_hints)
 from vibra.pipeline.plan.build import build_system, network_structure
 from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
 from vibra.pipeline.plan.dynamics import DYNAMICS_STEPS, dynamics_cost
 from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
+from vibra.pipeline.plan.tables import frequency_lines
 from vibra.pipeline.plan.views import mode_view
 from vibra.pipeline.scene import Scene
 from vibra.pipeline.scene.values import element_symbol
@@ -80,58 +82,6 @@ def _accuracy_text(modes: Any) -> str:
         scale = max(float(np.abs(modes.omega).max()), np.finfo(float).tiny)
         parts.append(f"max omega error {float(np.max(modes.omega_error)) / scale:.2e} (relative to max omega)")
     return ", ".join(parts) or "n/a"
-
-
-def frequency_lines(scene: Scene, modes: Any, symmetry: Any = None) -> tuple[str, ...]:
-    """A text table of the modes: index, omega (scene units) and a spectroscopic unit.
-
-    With `symmetry` (a `vibra.pipeline.plan.analysis.MoleculeSymmetry`) two more columns: each mode's
-    symmetry species and the observed fundamental (name and cm^-1), with the source below.
-    """
-    units = modes.units
-    if _is_quadratic(modes):
-        return _quadratic_lines(modes)
-    omega = np.asarray(modes.omega)
-    columns: list[tuple[str, str, Callable[[int], str]]] = [
-        ("mode", ">5", str), (f"omega [{units.omega}]", ">26", lambda k: f"{omega[k]:.10g}")]
-    if units.time_s is not None:
-        name, values = (("cm^-1", modes.wavenumbers_cm1()) if scene.kind == "molecule"
-                        else ("Hz", modes.frequencies_hz()))
-        columns.append((name, ">14", lambda k: f"{values[k]:.6g}"))
-    if symmetry is not None:
-        columns.append((f"species ({symmetry.group})", "<16", lambda k: symmetry.species[k] or "(rigid)"))
-        if symmetry.source is not None:
-            observed = symmetry.experimental
-            columns.append(("observed (cm^-1)", "<16", lambda k: "" if observed[k] is None else
-                            f"{observed[k].name} {observed[k].wavenumber_cm1:.0f}"))
-    lines = _text_table(modes.n_modes, columns)
-    if symmetry is not None and symmetry.source is not None:
-        lines.append(f"observed: gas-phase fundamentals, {symmetry.source}")
-    return tuple(lines)
-
-
-def _text_table(n_rows: int, columns: list[tuple[str, str, Callable[[int], str]]]) -> list[str]:
-    """Lines of a text table: per column (header, format spec such as ``">26"``, cell text of row k)."""
-    lines = ["  ".join(f"{header:{spec}}" for header, spec, _ in columns).rstrip()]
-    lines += ["  ".join(f"{cell(k):{spec}}" for _, spec, cell in columns).rstrip() for k in range(n_rows)]
-    return lines
-
-
-def _quadratic_lines(modes: Any) -> tuple[str, ...]:
-    """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
-    units = modes.units
-    columns: list[tuple[str, str, Callable[[int], str]]] = [
-        ("mode", ">5", str),
-        (f"omega_n [{units.omega}]", ">26", lambda k: f"{modes.natural_frequency[k]:.10g}")]
-    if units.time_s is not None:
-        hz = modes.frequencies_hz()
-        columns.append(("Hz", ">14", lambda k: f"{hz[k]:.6g}"))
-    columns += [("damping ratio", ">14", lambda k: f"{modes.damping_ratio[k]:.3g}"),
-                ("motion", "<10", lambda k: "grows" if modes.unstable[k] else "stable")]
-    lines = _text_table(modes.n_modes, columns)
-    lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.method} method): complex mode shapes, "
-                 "omega_n = sqrt(lambda_1 lambda_2) per eigenvalue pair")
-    return tuple(lines)
 
 
 def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
@@ -388,12 +338,30 @@ def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[
     from vibra.charts.networks import plot_b_factors
 
     network = context.network
-    figure = plot_b_factors(network.labels, network.experimental, network.predicted, network.correlation,
+    fit = network.fit
+    if fit is None:  # the file's B column is flat: nothing to fit, the raw prediction is drawn
+        fitted, correlation, scale, how = network.predicted, network.correlation, None, "kT/gamma = 1"
+    else:
+        fitted, correlation, scale = fit.predicted, fit.correlation, fit.scale
+        how = f"scaled by least squares onto the crystallographic values (x {fit.scale:.3g})"
+    figure = plot_b_factors(network.labels, network.experimental, fitted, correlation, scale=scale,
                             title=plan.scene.title)
     _save_chart(context, figure, "bfactors",
-                f"{plan.scene.title}: B-factors per residue, crystallographic against predicted from the "
-                f"{network.n_modes} lowest modes (rigid ones left out; own axis, as the network fixes them "
-                f"only up to kT/gamma); Pearson correlation r = {network.correlation:.3f}")
+                f"{plan.scene.title}: B-factors per residue, crystallographic and predicted from the "
+                f"{network.n_modes} lowest modes (rigid ones left out), {how}, on one axis; "
+                f"Pearson correlation r = {correlation:.3f}")
+    return None, None
+
+
+def _step_chart_correlations(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.networks import plot_cross_correlations
+
+    network = context.network
+    figure = plot_cross_correlations(network.labels, network.cross_correlations, n_modes=network.n_modes,
+                                     title=plan.scene.title)
+    _save_chart(context, figure, "correlations",
+                f"{plan.scene.title}: residue cross-correlations C_ij from the {network.n_modes} lowest modes "
+                "(rigid ones left out): red moves together, blue in opposition")
     return None, None
 
 
@@ -414,6 +382,17 @@ def _step_render_gif(plan: Plan, context: _Context, renderer: Any) -> tuple[str 
 def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     from vibra.charts.modes import spectrum_figure
 
+    if plan.scene.kind == "molecule" and context.modes.shapes is not None:
+        from vibra.charts.spectra import plot_molecule_spectra
+
+        structure = context.structure or _molecule_structure(plan.scene, context.system)
+        spectra = molecule_spectra(context.system, context.modes, structure.symbols, structure.bonds,
+                                   context.symmetry)
+        figure = plot_molecule_spectra(spectra, title=plan.scene.title)
+        _save_chart(context, figure, "spectrum",
+                    f"{plan.scene.title}: IR and Raman spectra, Lorentzian lines (FWHM {LINE_WIDTH_CM1:g} cm^-1) "
+                    f"with the lines beneath, species on the peaks; {spectra.ir_model}; {spectra.raman_model}")
+        return None, None
     figure, caption = spectrum_figure(plan.scene, context.modes)
     _save_chart(context, figure, "spectrum", caption)
     return None, None
@@ -475,6 +454,7 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "symmetry": _step_symmetry,
     "fluctuations": _step_fluctuations,
     "chart-bfactors": _step_chart_bfactors,
+    "chart-correlations": _step_chart_correlations,
     "structure": _step_structure,
     "render-modes": _step_render_modes,
     "render-gif": _step_render_gif,

@@ -294,15 +294,26 @@ def load_scene(path: str | os.PathLike[str]) -> Scene:
 
 
 def find_scene_files(paths: Sequence[str | os.PathLike[str]]) -> list[Path]:
-    """Scene files named by `paths`: files as given, folders expanded to their ``*.toml``, sorted.
+    """Scene files named by `paths`: files as given, folders expanded to their ``*.toml`` and those of
+    their subfolders (``networks`` finds ``networks/ubiquitin/ubiquitin-anm.toml``), sorted, a folder's
+    own files before its subfolders'.
 
+    Hidden folders (``.vibra``, ``.git``) and folder links (which could loop) are not entered.
     A path that does not exist is kept (loading it reports "file not found").
     """
     files: list[Path] = []
     for entry in paths:
         path = Path(entry)
         if path.is_dir():
-            files.extend(sorted(path.glob("*.toml")))
+            files.extend(_folder_scenes(path))
         else:
             files.append(path)
     return files
+
+
+def _folder_scenes(folder: Path) -> list[Path]:
+    """The ``*.toml`` of `folder`, then those of its subfolders in name order (recursively)."""
+    found = sorted(p for p in folder.glob("*.toml") if not p.is_dir())
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir() and not p.is_symlink() and not p.name.startswith(".")):
+        found.extend(_folder_scenes(sub))
+    return found

@@ -1,0 +1,138 @@
+"""The text table of a scene's modes, as `vibra modes` prints it and the report shows it.
+
+A molecule's vibrations are numbered nu1 .. nu(3N-6) (ν in Unicode, ``nu`` in ASCII-safe output)
+with their wavenumber in cm^-1 and, where known, their symmetry species and the observed
+fundamental; its rigid-body modes (translations, rotations) are set apart on one line, as 0.
+Other systems list their frequencies with units: omega in rad/s and f in Hz for SI scenes,
+omega in units of sqrt(stiffness / mass) for dimensionless ones (an elastic network's
+sqrt(gamma / m)), rigid modes apart likewise.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+__all__ = ["frequency_lines", "omega_unit_text", "species_text", "RIGID_RTOL"]
+
+#: A mode with |omega| <= RIGID_RTOL * max |omega| is a rigid-body (zero) mode.
+RIGID_RTOL = 1e-6
+
+_Column = tuple[str, str, Callable[[int], str]]
+
+
+def omega_unit_text(scene: Any, units: Any, *, ascii: bool = False) -> str:
+    """omega's unit in a table (`vibra.units.omega_unit_text`; an elastic network's is sqrt(gamma/m))."""
+    from vibra.units import omega_unit_text as text
+
+    return text(units, stiffness="gamma" if scene.kind == "network" else "k", ascii=ascii)
+
+
+_GREEK = (("Sigma", "Σ"), ("Pi", "Π"), ("Delta", "Δ"), ("Phi", "Φ"), ("Gamma", "Γ"))
+
+
+def species_text(label: str, *, ascii: bool = False) -> str:
+    """A Mulliken label for a terminal: ``"Sigma_g+"`` -> ``"Σg+"`` (unchanged with `ascii`).
+
+    >>> species_text("Sigma_u+"), species_text("Pi_u", ascii=True), species_text("T2")
+    ('Σu+', 'Pi_u', 'T2')
+    """
+    if ascii:
+        return label
+    for name, letter in _GREEK:
+        if label.startswith(name):
+            return letter + label[len(name):].lstrip("_")
+    return label
+
+
+def _text_table(rows: list[int], columns: list[_Column]) -> list[str]:
+    """Lines of a text table: per column (header, format spec such as ``">26"``, cell text of row k)."""
+    lines = ["  ".join(f"{header:{spec}}" for header, spec, _ in columns).rstrip()]
+    lines += ["  ".join(f"{cell(k):{spec}}" for _, spec, cell in columns).rstrip() for k in rows]
+    return lines
+
+
+def _rigid(modes: Any, symmetry: Any) -> Any:
+    if modes.n_modes < 2:
+        return np.zeros(modes.n_modes, dtype=bool)
+    rigid = np.asarray(modes.zero_modes(RIGID_RTOL), dtype=bool)
+    if symmetry is not None:  # the vibrational analysis matched them to translations and rotations
+        rigid = rigid | np.array([not s for s in symmetry.species])
+    return rigid
+
+
+def frequency_lines(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool = False) -> tuple[str, ...]:
+    """A text table of the modes: the vibrations numbered from 1 with spectroscopic units, rigid modes apart.
+
+    Parameters
+    ----------
+    scene : Scene
+    modes : Modes or QuadraticModes
+    symmetry : MoleculeSymmetry, optional
+        Adds each vibration's species and the observed fundamental, with its source below.
+    ascii : bool
+        Write ``nu1``, ``cm^-1`` and ``sqrt`` instead of ``ν1``, ``cm⁻¹`` and ``√`` (a terminal
+        that cannot show them).
+    """
+    if hasattr(modes, "damping_ratio"):
+        return _quadratic_lines(scene, modes, ascii=ascii)
+    units = modes.units
+    omega = np.asarray(modes.omega) if units.time_s is None else modes.omega_rad_per_s()
+    rigid = _rigid(modes, symmetry)
+    moving = [k for k in range(modes.n_modes) if not rigid[k]]
+    nu, cm1 = ("nu", "cm^-1") if ascii else ("ν", "cm⁻¹")
+    molecule = scene.kind == "molecule" and units.time_s is not None
+    if molecule:
+        values = modes.wavenumbers_cm1()
+        columns: list[_Column] = [("vibration", ">9", lambda k: f"{nu}{moving.index(k) + 1}"),
+                                  (f"wavenumber ({cm1})", ">18", lambda k: f"{values[k]:.2f}")]
+    else:
+        columns = [("mode", ">5", lambda k: str(moving.index(k) + 1)),
+                   (f"omega ({omega_unit_text(scene, units, ascii=ascii)})", ">22", lambda k: f"{omega[k]:.10g}")]
+        if units.time_s is not None:
+            hz = modes.frequencies_hz()
+            columns.append(("f (Hz)", ">14", lambda k: f"{hz[k]:.6g}"))
+    if symmetry is not None:
+        group = symmetry.group if ascii else symmetry.group.replace("inf", "∞")
+        columns.append((f"species ({group})", "<16", lambda k: species_text(symmetry.species[k], ascii=ascii)))
+        if symmetry.source is not None:
+            observed = symmetry.experimental
+
+            def seen(k: int) -> str:
+                if observed[k] is None:
+                    return ""
+                name = observed[k].name if ascii else observed[k].name.replace("nu", "ν")
+                return f"{name} {observed[k].wavenumber_cm1:.0f}"
+            columns.append((f"observed ({cm1})", "<16", seen))
+    columns.append(("index", ">5", str))  # the position in Modes (the renders' "mode k")
+    lines = _text_table(moving, columns)
+    n_rigid = int(rigid.sum())
+    if n_rigid:
+        unit = cm1 if molecule else omega_unit_text(scene, units, ascii=ascii)
+        largest = float(np.max(np.abs(values[rigid] if molecule else omega[rigid])))
+        what = "translations and rotations" if scene.kind in ("molecule", "network") else "rigid-body motion"
+        lines.append(f"rigid-body modes: {n_rigid} ({what}), shown as 0 {unit} (computed |value| <= {largest:.1e}); "
+                     f"index {', '.join(str(k) for k in np.flatnonzero(rigid))}")
+    if symmetry is not None and symmetry.source is not None:
+        lines.append(f"observed: gas-phase fundamentals, {symmetry.source}")
+    return tuple(lines)
+
+
+def _quadratic_lines(scene: Any, modes: Any, *, ascii: bool) -> tuple[str, ...]:
+    """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
+    units = modes.units
+    natural = np.asarray(modes.natural_frequency)
+    natural = natural if units.time_s is None else units.omega_to_rad_per_s(natural)
+    columns: list[_Column] = [
+        ("mode", ">5", lambda k: str(k + 1)),
+        (f"omega_n ({omega_unit_text(scene, units, ascii=ascii)})", ">22", lambda k: f"{natural[k]:.10g}")]
+    if units.time_s is not None:
+        hz = modes.frequencies_hz()
+        columns.append(("f (Hz)", ">14", lambda k: f"{hz[k]:.6g}"))
+    columns += [("damping ratio", ">14", lambda k: f"{modes.damping_ratio[k]:.3g}"),
+                ("motion", "<10", lambda k: "grows" if modes.unstable[k] else "stable")]
+    lines = _text_table(list(range(modes.n_modes)), columns)
+    lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.method} method): complex mode shapes, "
+                 "omega_n = sqrt(lambda_1 lambda_2) per eigenvalue pair")
+    return tuple(lines)
