@@ -153,6 +153,33 @@ def test_results_are_frozen(silicon_like: Crystal) -> None:
         silicon_like.cell = silicon_like.cell  # type: ignore[misc]
 
 
+def test_reprs_are_one_short_line_with_the_figures_that_matter() -> None:
+    # issue 30: a band structure of 2,000 q-points printed ~10^5 characters of arrays
+    from phonopy.physical_units import get_physical_units
+
+    argon = crystals.fcc(5.26, 39.948, 0.0325, units="ASE")
+    bands = argon.band_structure(npoints=2000)
+    top = float(bands.omega.max()) * get_physical_units().DefaultToTHz  # phonopy's factor, not the code's
+    results = {
+        "Crystal('fcc', 1 atom (X)": argon,
+        "BandStructure(2000 q-points x 3 branches, path Γ-": bands,
+        "DensityOfStates(tetrahedron on a 8x8x8 mesh, 201 points": argon.dos(8),
+        "ThermalProperties(3 temperatures 10..300 K, mesh 6x6x6": argon.thermal_properties([10, 100, 300], mesh=6),
+        "SoundVelocities(direction (1, 0, 0), velocities": argon.sound_velocities([1, 0, 0]),
+        "Phonons(2000 q-points x 3 branches": argon.phonons(bands.qpoints, vectors=True),
+        "SupercellMode(branch 2 at q (0.5, 0.5, 0)": argon.supercell_mode([0.5, 0.5, 0.0], 2, (2, 2, 2)),
+        "SpringModel(6 springs, 1 shell": argon.springs,
+        "ForceConstants(13 terms, 1 atom": argon.force_constants,
+    }
+    for start, result in results.items():
+        text = repr(result)
+        assert "\n" not in text and len(text) < 200 and "array(" not in text, text
+        assert text.startswith(start), text
+    labels = [("Γ" if label == "GAMMA" else label) for _, label in bands.labels]
+    assert all(label in repr(bands) for label in labels)
+    assert f"0..{top:.4g} THz" in repr(bands)
+
+
 def test_from_ase_reads_cell_positions_masses() -> None:
     from ase.build import bulk
 

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, frequency_span, short_repr
 from vibra.crystals.factor import singular_frequencies
 from vibra.solvers.common import EPS, omega_and_error
 from vibra.solvers.standard.hermitian import hermitian_stack
@@ -51,8 +51,11 @@ ACCURACY: tuple[str, ...] = ("high", "fast")
 #: eigenvalues of D(q) exceeds this relative to omega (DESIGN.md: ~1e-10 where the structure allows).
 HIGH_RTOL = 1e-10
 
-#: Complex entries per chunk of the stacked D(q) and phases (~64 MiB).
-CHUNK_ENTRIES = 1 << 22
+#: Entries per chunk of the stacked D(q) and phases (~1 MiB of complex D(q); the peak is a few
+#: times that): small enough that frequencies on a path take no more memory than phonopy's
+#: run_qpoints, large enough that the GEMMs and stacked solves run at full speed
+#: (benchmarks/RESULTS.md, "Crystals against phonopy": memory).
+CHUNK_ENTRIES = 1 << 16
 
 #: Two eigenvalues within this many of their error bounds are one degenerate level.
 DEGENERACY_BOUNDS = 1e4
@@ -104,6 +107,13 @@ class Phonons:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        n_q, n_branches = self.omega.shape
+        refined = "" if self.refined is None else f"{int(np.count_nonzero(self.refined))} refined"
+        return short_repr(self, f"{n_q} q-points x {n_branches} branches", frequency_span(self.omega, self.units),
+                          "with vectors" if self.vectors is not None else "", f"phase {self.phase!r}",
+                          f"path {self.path!r}", refined, f"{self.units.name} units")
 
     def displacements(self) -> NDArray[np.complex128]:
         """(n_q, 3 n_atoms, n_branches) physical displacement patterns M^-1/2 e, in length / sqrt(mass)."""
@@ -392,6 +402,11 @@ class SupercellMode:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        q = ", ".join(f"{x:.4g}" for x in self.q)
+        return short_repr(self, f"branch {self.branch} at q ({q})", frequency_span([self.omega], self.units),
+                          f"{len(self.positions)} atoms", f"{self.units.name} units")
 
     def displacements(self, phase: float) -> NDArray[np.float64]:
         """(n, 3) real displacements Re[a exp(-i phase)] at the phase omega t = `phase` (radians)."""

@@ -146,7 +146,8 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
             "masses": "unit masses, as ProDy's ANM", "name": _NAME},
     **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
-                "force_constants": "the file system.force_constants_file beside the scene", "name": _NAME},
+                "force_constants": "the file system.force_constants_file beside the scene",
+                "force_sets": "the file system.force_sets_file beside the scene", "name": _NAME},
 })
 
 #: builder -> keys a scene may set that are not builder parameters (the plan applies them).
@@ -165,7 +166,8 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "oscillator": {},
     "anm": {"pdb": field_spec(string, required=True)},
     **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
-    "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string)},
+    "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string),
+                "force_sets_file": field_spec(string)},
 })
 
 #: builder -> parameters a scene must give although the builder has a default for them.
