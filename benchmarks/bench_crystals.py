@@ -219,9 +219,12 @@ def run_memory(mesh: int) -> dict:
 
 def run_chunks(mesh: int) -> dict:
     """Speed of the memory bounds: each call chunked (the defaults) against unbounded (one chunk), interleaved."""
-    from vibra.crystals import bands as bands_module
-    from vibra.crystals import dos as dos_module
-    from vibra.crystals import dynamical, factor
+    import importlib
+
+    bands_module = importlib.import_module("vibra.crystals.bands")  # (vibra.crystals.dos is also a function's name)
+    dos_module = importlib.import_module("vibra.crystals.dos")
+    dynamical = importlib.import_module("vibra.crystals.dynamical")
+    factor = importlib.import_module("vibra.crystals.factor")
 
     bounded = {"CHUNK_ENTRIES": dynamical.CHUNK_ENTRIES, "PATH_CHUNK": bands_module.PATH_CHUNK,
                "TETRAHEDRA_CHUNK": dos_module.TETRAHEDRA_CHUNK, "factor.CHUNK_ENTRIES": factor.CHUNK_ENTRIES}
