@@ -250,8 +250,8 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
     """omega, omega_error, velocities (solver order) and the branch order, in chunks of `PATH_CHUNK` entries.
 
-    Each chunk of a segment is solved with eigenvectors, rotated by dD/dk along the segment,
-    then connected to the previous q-point; only the previous q-point's eigenvectors outlive
+    Each chunk of the path is solved with eigenvectors, rotated by dD/dk along each segment it
+    meets, then connected to the previous q-point; only the previous q-point's eigenvectors outlive
     a chunk, so memory is bounded by the chunk, not by the path (the eigenvectors of the
     whole path are never held at once).
     """
@@ -262,19 +262,25 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
     velocity = np.empty_like(omega)
     order = np.empty((len(qpoints), n3), dtype=np.intp)
     previous: NDArray[np.complex128] | None = None  # eigenvectors of the last q-point, in branch order
-    for (first, last), direction in zip(segments, directions):
-        for start in range(first, last + 1, step):
-            part = slice(start, min(last + 1, start + step))
-            result = phonons(crystal, qpoints[part], vectors=True)
-            omega[part], error[part] = result.omega, result.omega_error
-            values = np.sign(result.omega) * result.omega ** 2
-            value_error = 2.0 * np.abs(result.omega) * result.omega_error + result.omega_error ** 2
+    for start in range(0, len(qpoints), step):
+        chunk = slice(start, min(len(qpoints), start + step))
+        result = phonons(crystal, qpoints[chunk], vectors=True)
+        omega[chunk], error[chunk] = result.omega, result.omega_error
+        basis = np.array(result.vectors)
+        del result
+        for (first, last), direction in zip(segments, directions):  # the segments this chunk meets
+            low, high = max(first, chunk.start), min(last + 1, chunk.stop)
+            if low >= high:
+                continue
+            part, local = slice(low, high), slice(low - start, high - start)
+            values = np.sign(omega[part]) * omega[part] ** 2
+            value_error = 2.0 * np.abs(omega[part]) * error[part] + error[part] ** 2
             derivative = derivative_matrices(crystal, qpoints[part], direction)
-            slopes, basis = eigenvalue_slopes(derivative, values, np.asarray(result.vectors), value_error)
-            del derivative, result
+            slopes, basis[local] = eigenvalue_slopes(derivative, values, basis[local], value_error)
+            del derivative
             zero = np.abs(omega[part]) <= error[part]
             velocity[part] = np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * omega[part]))
-            order[part], previous = _connect(basis, {k - start for k in breaks if k >= start}, previous)
+        order[chunk], previous = _connect(basis, {k - start for k in breaks if k >= start}, previous)
     return omega, error, velocity, order
 
 
