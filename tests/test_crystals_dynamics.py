@@ -180,6 +180,36 @@ def test_reprs_are_one_short_line_with_the_figures_that_matter() -> None:
     assert f"0..{top:.4g} THz" in repr(bands)
 
 
+def test_a_mode_on_conventional_cubes_obeys_the_equations_of_motion() -> None:
+    # issue 30: an fcc primitive supercell is a rhombohedron that is hard to read; a supercell
+    # matrix (here 2 x 2 x 2 conventional cubes) writes the mode on cubes. Truth: the fcc sites
+    # of a cube of edge 2a, listed by hand, and Newton's equations with the force constants
+    # applied through the positions (minimum image in the cube: the springs are nearest-neighbour).
+    a = 5.26
+    crystal = crystals.fcc(a, 39.948, 0.0325, units="ASE")
+    cube = crystals.conventional_cube(crystal)
+    assert cube is not None and np.allclose(cube @ crystal.cell, a * np.eye(3))
+    assert crystals.conventional_cube(crystals.bcc(3.0, 1.0, 1.0)) is not None
+    assert crystals.conventional_cube(crystals.honeycomb(2.46, 12.0, 1.0)) is None
+    mode = crystal.supercell_mode([0.5, 0.5, 0.0], 2, 2 * cube)  # X: commensurate with the cube
+    basis = np.array([[0, 0, 0], [0, 0.5, 0.5], [0.5, 0, 0.5], [0.5, 0.5, 0]])
+    sites = np.array([(np.array(c) + b) * a for c in np.ndindex(2, 2, 2) for b in basis])
+    found = np.mod(mode.positions + 1e-9, 2 * a) - 1e-9
+    order = np.lexsort(found.T)
+    np.testing.assert_allclose(found[order], sites[np.lexsort(sites.T)], atol=1e-9)
+    np.testing.assert_allclose(mode.cell, 2 * a * np.eye(3), atol=1e-12)
+    u = mode.amplitudes
+    for i in range(len(u)):
+        gap = mode.positions - mode.positions[i]
+        gap -= 2 * a * np.round(gap / (2 * a))
+        near = np.flatnonzero(np.isclose(np.linalg.norm(gap, axis=1), a / np.sqrt(2)))
+        assert near.size == 12
+        force = sum(0.0325 * np.outer(g, g) / (g @ g) @ (u[j] - u[i]) for g, j in zip(gap[near], near))
+        np.testing.assert_allclose(force, -mode.omega ** 2 * 39.948 * u[i], atol=1e-12)
+    with pytest.raises(ValueError, match="holds 0 cells"):
+        crystal.supercell_mode([0.5, 0.5, 0.0], 2, [[1, 0, 0], [0, 1, 0], [0, 0, 0]])
+
+
 def test_from_ase_reads_cell_positions_masses() -> None:
     from ase.build import bulk
 
