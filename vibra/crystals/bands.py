@@ -41,9 +41,11 @@ ALIASES: dict[str, str] = {"G": "GAMMA", "Γ": "GAMMA", "\\Gamma": "GAMMA"}
 
 #: Most q-points a band structure takes (a bound before any allocation).
 MAX_POINTS = 1_000_000
-#: Complex entries of eigenvectors per chunk of a path (~1 MiB; D(q), dD/dk and their solves
-#: take a few times that): the band structure's memory is bounded by it, not by the path.
-PATH_CHUNK = 1 << 16
+#: Complex entries of eigenvectors per chunk of a path (~256 KiB; D(q), dD/dk and their solves
+#: take a few times that), and at least `PATH_CHUNK_POINTS` q-points (each chunk is one
+#: `phonons` call): the band structure's memory is bounded by the chunk, not by the path.
+PATH_CHUNK = 1 << 14
+PATH_CHUNK_POINTS = 64
 
 
 @dataclass(frozen=True, eq=False)
@@ -256,7 +258,7 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
     whole path are never held at once).
     """
     n3 = crystal.n_branches
-    step = max(1, PATH_CHUNK // (n3 * n3))
+    step = max(PATH_CHUNK_POINTS, PATH_CHUNK // (n3 * n3))
     omega = np.empty((len(qpoints), n3))
     error = np.empty_like(omega)
     velocity = np.empty_like(omega)
