@@ -113,7 +113,7 @@ def _file_text(path: Path) -> str:
         raise ValueError(f"{path}: cannot be read ({error.strerror or error})") from None
 
 
-def _yaml_line(data: Any, text: str, key: str) -> int:
+def _yaml_line(text: str, key: str) -> int:
     """1-based line of the top-level `key:` in `text` (for messages)."""
     for number, line in enumerate(text.splitlines(), start=1):
         if line.startswith(f"{key}:"):
@@ -126,7 +126,7 @@ def _cell_atoms(path: Path, text: str, data: dict[str, Any], key: str) -> int | 
     cell = data.get(key)
     if cell is None:
         return None
-    line = _yaml_line(data, text, key)
+    line = _yaml_line(text, key)
     if not isinstance(cell, dict) or not isinstance(cell.get("lattice"), list) or len(cell["lattice"]) != 3 \
             or not isinstance(cell.get("points"), list):
         raise ValueError(f"{path}: line {line}: the {key} section lacks its lattice (3 vectors) or its points; {_CUT}")
@@ -150,7 +150,7 @@ def _determinant(path: Path, text: str, data: dict[str, Any], key: str) -> float
     except (TypeError, ValueError):
         array = np.zeros(0)
     if array.shape != (3, 3):
-        raise ValueError(f"{path}: line {_yaml_line(data, text, key)}: {key} is not a 3 x 3 matrix; {_CUT}")
+        raise ValueError(f"{path}: line {_yaml_line(text, key)}: {key} is not a 3 x 3 matrix; {_CUT}")
     return float(np.linalg.det(array))
 
 
@@ -188,7 +188,7 @@ def check_phonopy_yaml(path: str | os.PathLike[str]) -> PhonopyYamlSummary:
                          f"starts with its cells{'' if isinstance(data, dict) else ' (this is not a YAML mapping)'}")
     for key in ("nac", "born_effective_charge", "dielectric_constant"):  # phonopy >= 2.x writes 'nac'; older the others
         if key in data:
-            raise ValueError(f"{source}: line {_yaml_line(data, text, key)}: holds non-analytical correction parameters "
+            raise ValueError(f"{source}: line {_yaml_line(text, key)}: holds non-analytical correction parameters "
                              f"(the {key} section: Born charges and dielectric tensor); vibra.crystals does not apply "
                              "LO-TO corrections yet (remove that section to use the force constants alone)")
     n_unit = _cell_atoms(source, text, data, "unit_cell")
@@ -198,12 +198,12 @@ def check_phonopy_yaml(path: str | os.PathLike[str]) -> PhonopyYamlSummary:
     for key, expected in (("supercell", n_super), ("primitive_cell", n_primitive)):
         found = _cell_atoms(source, text, data, key)
         if found is not None and found != expected:
-            raise ValueError(f"{source}: line {_yaml_line(data, text, key)}: the {key} section holds {found} points; "
+            raise ValueError(f"{source}: line {_yaml_line(text, key)}: the {key} section holds {found} points; "
                              f"the unit cell's {n_unit} atoms and the matrices give {expected}; {_CUT}")
     has_fc = "force_constants" in data
     if has_fc:
         block = data["force_constants"]
-        line = _yaml_line(data, text, "force_constants")
+        line = _yaml_line(text, "force_constants")
         shape = block.get("shape") if isinstance(block, dict) else None
         elements = block.get("elements") if isinstance(block, dict) else None
         if not (isinstance(shape, list) and len(shape) == 2 and all(isinstance(n, int) and n > 0 for n in shape)):
@@ -227,7 +227,7 @@ def _check_displacements(source: Path, text: str, data: dict[str, Any], n_super:
     entries = data.get("displacements")
     if entries is None:
         return False
-    line = _yaml_line(data, text, "displacements")
+    line = _yaml_line(text, "displacements")
     if not isinstance(entries, list) or not entries:
         raise ValueError(f"{source}: line {line}: displacements is empty; {_CUT}")
     with_forces = 0
