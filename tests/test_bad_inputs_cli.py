@@ -1025,3 +1025,145 @@ def test_a_long_sweep_says_its_size_and_time_first_even_quiet(tmp_path: Path, ca
     code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
                            "system.defect_mass=0.2:0.8:3", "--out", str(tmp_path / "again"), "-q")
     assert code == 0 and err == ""
+
+
+# ---------------------------------------------------------------------- issue 34: whole phonopy files
+@pytest.fixture(scope="module")
+def phonopy_files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """The text of phonopy's files for a small silicon model (structure yaml, FORCE_CONSTANTS,
+    a displacement yaml and its FORCE_SETS with forces -Phi u)."""
+    from phonopy.file_IO import write_FORCE_SETS
+
+    from vibra import crystals
+
+    folder = tmp_path_factory.mktemp("phonopy-files")
+    crystal = crystals.diamond(5.43, 28.09, 10.0, units="ASE")
+    crystals.write_phonopy(crystal, folder / "structure.yaml", force_constants=False)
+    crystals.write_force_constants(crystal, folder / "FORCE_CONSTANTS")
+    phonon = crystal.to_phonopy()
+    fc = np.array(phonon.force_constants)
+    phonon.generate_displacements(distance=0.01)
+    dataset = phonon.dataset
+    for entry in dataset["first_atoms"]:
+        u = np.zeros((len(phonon.supercell), 3))
+        u[entry["number"]] = entry["displacement"]
+        entry["forces"] = -np.einsum("ijab,jb->ia", fc, u)
+    write_FORCE_SETS(dataset, filename=str(folder / "FORCE_SETS"))
+    phonon.save(str(folder / "phonopy_disp.yaml"), settings={"force_sets": False})
+    return {name: (folder / name).read_text() for name in ("structure.yaml", "FORCE_CONSTANTS", "FORCE_SETS",
+                                                           "phonopy_disp.yaml")}
+
+
+def _phonopy_scene(folder: Path, files: dict[str, str], extra_key: str, extra_file: str) -> Path:
+    yaml_name = "structure.yaml" if extra_key == "force_constants_file" else "phonopy_disp.yaml"
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    scene_file = folder / "si.toml"
+    scene_file.write_text(f'kind = "crystal"\nunits = "ASE"\n\n[system]\nbuilder = "phonopy"\nfile = "{yaml_name}"\n'
+                          f'{extra_key} = "{extra_file}"\n\n[compute]\nnpoints = 40\nmesh = [4, 4, 4]\n\n'
+                          '[draw]\nthermal = true\n')
+    return scene_file
+
+
+def _half(text: str, at_line: bool) -> str:
+    n = len(text) // 2
+    return text[:text.rfind("\n", 0, n) + 1] if at_line else text[:n]
+
+
+#: (case, the file cut, whether at a line end, the key and the fragment of the refusal)
+PHONOPY_CUTS = [
+    ("yaml-mid-line", "structure.yaml", False, "system.file", "'structure.yaml': line "),
+    ("force-constants-mid-line", "FORCE_CONSTANTS", False, "system.force_constants_file", "'FORCE_CONSTANTS': line "),
+    ("force-constants-at-a-line", "FORCE_CONSTANTS", True, "system.force_constants_file",
+     "announces 16 x 16 blocks; the file looks cut"),
+    ("force-sets-at-a-line", "FORCE_SETS", True, "system.force_sets_file",
+     "the file ends within displacement 1 of 1 (line 2 announces them; "),
+    ("disp-yaml-at-a-line", "phonopy_disp.yaml", True, "system.file", "'phonopy_disp.yaml': line "),
+]
+
+
+@pytest.mark.parametrize("case, name, at_line, key, fragment", PHONOPY_CUTS, ids=[c[0] for c in PHONOPY_CUTS])
+def test_a_crystal_scene_with_a_cut_phonopy_file_is_refused_at_its_key(
+        case: str, name: str, at_line: bool, key: str, fragment: str, phonopy_files: dict[str, str], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    extra_key, extra = (("force_sets_file", "FORCE_SETS") if name in ("FORCE_SETS", "phonopy_disp.yaml")
+                        else ("force_constants_file", "FORCE_CONSTANTS"))
+    scene_file = _phonopy_scene(tmp_path, {**phonopy_files, name: _half(phonopy_files[name], at_line)}, extra_key, extra)
+    code, out, err = run_cli(capsys, "validate", str(scene_file))
+    line = one_line_failure(out)
+    assert code == 1 and f"{scene_file}: {key}: " in line and fragment in line, out + err
+    assert "the file looks cut" in line
+    out_dir = tmp_path / "out"
+    code, out, err = run_cli(capsys, "report", str(scene_file), "--out", str(out_dir), "-q")
+    assert code != 0 and "Traceback" not in out + err and f"{key}: " in out + err
+    assert not list(out_dir.glob("*.png"))
+
+
+def test_a_crystal_scene_reads_its_phonopy_files_whole(phonopy_files: dict[str, str], tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    for extra_key, extra in (("force_constants_file", "FORCE_CONSTANTS"), ("force_sets_file", "FORCE_SETS")):
+        folder = tmp_path / extra
+        folder.mkdir()
+        code, out, err = run_cli(capsys, "validate", str(_phonopy_scene(folder, phonopy_files, extra_key, extra)))
+        assert code == 0 and out.startswith("ok "), out + err
+    folder = tmp_path / "none"
+    folder.mkdir()
+    scene_file = _phonopy_scene(folder, phonopy_files, "force_sets_file", "FORCE_SETS")
+    scene_file.write_text(scene_file.read_text().replace('force_sets_file = "FORCE_SETS"\n', ""))
+    code, out, err = run_cli(capsys, "validate", str(scene_file))  # FORCE_SETS beside it, but not named: not read
+    assert code == 1 and "system.file: 'phonopy_disp.yaml' holds no force constants and no forces; name its " \
+                         "FORCE_CONSTANTS file (system.force_constants_file)" in one_line_failure(out)
+
+
+# ---------------------------------------------------------------------- issue 34: what a SIGKILL leaves
+def _dead_pid() -> int:
+    """The pid of a process that has exited (and been reaped): what a SIGKILLed writer leaves behind."""
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+@pytest.mark.parametrize("command", ["sweep", "modes --molden"])
+def test_a_killed_writers_temporary_files_go_with_the_next_write(command: str, tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 34: what a kill left waited for the next `vibra report` into that folder; now any
+    # command that writes the same file removes it, and a live writer's stays
+    dead, live = _dead_pid(), os.getpid()
+    out = tmp_path / "out"
+    out.mkdir()
+    if command == "sweep":
+        name = "mass-defect_sweep.csv"
+        args = ["sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary", "system.defect_mass=0.2:0.8:2",
+                "--out", str(out), "-q"]
+    else:
+        name = "h2o.molden"
+        scene_file = tmp_path / "h2o.toml"
+        scene_file.write_text(WATER)
+        args = ["modes", str(scene_file), "--molden", str(out / name)]
+    stale = out / f".{name}.{dead}~tmp~k1ll3d.tmp"
+    stale.write_text("half a file")
+    running = out / f".{name}.{live}~tmp~w0rk1n.tmp"
+    running.write_text("being written")
+    other = out / f".{name}.x.{dead}~tmp~0th3r.tmp"  # another file's temporary (name 'NAME.x'): not this write's
+    other.write_text("not ours to judge here")
+    code, _, err = run_cli(capsys, *args)
+    assert code == 0, err
+    assert not stale.exists() and running.exists() and other.exists()
+    assert (out / name).stat().st_size > 0
+
+
+def test_a_killed_reports_work_folder_goes_with_the_next_report(tmp_path: Path,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    # what a SIGKILL leaves in a report folder: .work/<pid>/ and temporary files of that pid; the
+    # next report into the folder removes them (a live pid's stay: test_a_live_process_keeps_its_work_folder)
+    scene_file = write_scenes(tmp_path / "scenes", 1)[0]
+    out = tmp_path / "out"
+    dead = _dead_pid()
+    (out / ".work" / str(dead) / "c0" / "out").mkdir(parents=True)
+    (out / ".work" / str(dead) / "c0" / "out" / "c0_spectrum.png").write_bytes(b"\x89PNG half")
+    stale = out / f".summary.json.{dead}~tmp~abcd1234.tmp"
+    stale.write_text("{")
+    code, _, err = run_cli(capsys, "report", str(scene_file), "--out", str(out), "-q")
+    assert code == 0, err
+    assert not (out / ".work").exists() and not stale.exists()
+    complete_png(out / "c0_spectrum.png")

@@ -153,6 +153,63 @@ def test_results_are_frozen(silicon_like: Crystal) -> None:
         silicon_like.cell = silicon_like.cell  # type: ignore[misc]
 
 
+def test_reprs_are_one_short_line_with_the_figures_that_matter() -> None:
+    # issue 30: a band structure of 2,000 q-points printed ~10^5 characters of arrays
+    from phonopy.physical_units import get_physical_units
+
+    argon = crystals.fcc(5.26, 39.948, 0.0325, units="ASE")
+    bands = argon.band_structure(npoints=2000)
+    top = float(bands.omega.max()) * get_physical_units().DefaultToTHz  # phonopy's factor, not the code's
+    results = {
+        "Crystal('fcc', 1 atom (X)": argon,
+        "BandStructure(2000 q-points x 3 branches, path Γ-": bands,
+        "DensityOfStates(tetrahedron on a 8x8x8 mesh, 201 points": argon.dos(8),
+        "ThermalProperties(3 temperatures 10..300 K, mesh 6x6x6": argon.thermal_properties([10, 100, 300], mesh=6),
+        "SoundVelocities(direction (1, 0, 0), velocities": argon.sound_velocities([1, 0, 0]),
+        "Phonons(2000 q-points x 3 branches": argon.phonons(bands.qpoints, vectors=True),
+        "SupercellMode(branch 2 at q (0.5, 0.5, 0)": argon.supercell_mode([0.5, 0.5, 0.0], 2, (2, 2, 2)),
+        "SpringModel(6 springs, 1 shell": argon.springs,
+        "ForceConstants(13 terms, 1 atom": argon.force_constants,
+    }
+    for start, result in results.items():
+        text = repr(result)
+        assert "\n" not in text and len(text) < 200 and "array(" not in text, text
+        assert text.startswith(start), text
+    labels = [("Γ" if label == "GAMMA" else label) for _, label in bands.labels]
+    assert all(label in repr(bands) for label in labels)
+    assert f"0..{top:.4g} THz" in repr(bands)
+
+
+def test_a_mode_on_conventional_cubes_obeys_the_equations_of_motion() -> None:
+    # issue 30: an fcc primitive supercell is a rhombohedron that is hard to read; a supercell
+    # matrix (here 2 x 2 x 2 conventional cubes) writes the mode on cubes. Truth: the fcc sites
+    # of a cube of edge 2a, listed by hand, and Newton's equations with the force constants
+    # applied through the positions (minimum image in the cube: the springs are nearest-neighbour).
+    a = 5.26
+    crystal = crystals.fcc(a, 39.948, 0.0325, units="ASE")
+    cube = crystals.conventional_cube(crystal)
+    assert cube is not None and np.allclose(cube @ crystal.cell, a * np.eye(3))
+    assert crystals.conventional_cube(crystals.bcc(3.0, 1.0, 1.0)) is not None
+    assert crystals.conventional_cube(crystals.honeycomb(2.46, 12.0, 1.0)) is None
+    mode = crystal.supercell_mode([0.5, 0.5, 0.0], 2, 2 * cube)  # X: commensurate with the cube
+    basis = np.array([[0, 0, 0], [0, 0.5, 0.5], [0.5, 0, 0.5], [0.5, 0.5, 0]])
+    sites = np.array([(np.array(c) + b) * a for c in np.ndindex(2, 2, 2) for b in basis])
+    found = np.mod(mode.positions + 1e-9, 2 * a) - 1e-9
+    order = np.lexsort(found.T)
+    np.testing.assert_allclose(found[order], sites[np.lexsort(sites.T)], atol=1e-9)
+    np.testing.assert_allclose(mode.cell, 2 * a * np.eye(3), atol=1e-12)
+    u = mode.amplitudes
+    for i in range(len(u)):
+        gap = mode.positions - mode.positions[i]
+        gap -= 2 * a * np.round(gap / (2 * a))
+        near = np.flatnonzero(np.isclose(np.linalg.norm(gap, axis=1), a / np.sqrt(2)))
+        assert near.size == 12
+        force = sum(0.0325 * np.outer(g, g) / (g @ g) @ (u[j] - u[i]) for g, j in zip(gap[near], near))
+        np.testing.assert_allclose(force, -mode.omega ** 2 * 39.948 * u[i], atol=1e-12)
+    with pytest.raises(ValueError, match="holds 0 cells"):
+        crystal.supercell_mode([0.5, 0.5, 0.0], 2, [[1, 0, 0], [0, 1, 0], [0, 0, 0]])
+
+
 def test_from_ase_reads_cell_positions_masses() -> None:
     from ase.build import bulk
 

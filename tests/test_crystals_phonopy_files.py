@@ -7,6 +7,9 @@ text files hold 15 significant digits: 1e-12 relative is what they allow).
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import phonopy
 import pytest
@@ -69,8 +72,138 @@ def test_bad_files_name_the_file(tmp_path) -> None:
         crystals.read_phonopy(tmp_path / "missing.yaml")
     bad = tmp_path / "bad.yaml"
     bad.write_text("this: [is not phonopy\n")
-    with pytest.raises(ValueError, match="bad.yaml: phonopy could not read it"):
+    with pytest.raises(ValueError, match=r"bad.yaml: line 2: not valid YAML \(.*\); the file looks cut or damaged"):
+        crystals.read_phonopy(bad)
+    bad.write_text("this: is not phonopy\n")
+    with pytest.raises(ValueError, match="bad.yaml: holds no unit_cell section"):
         crystals.read_phonopy(bad)
     good = crystals.write_phonopy(silicon(), tmp_path / "phonopy.yaml", force_constants=False)
     with pytest.raises(ValueError, match="force_constants: .*nope"):
         crystals.read_phonopy(good, force_constants=tmp_path / "nope")
+
+
+# ---------------------------------------------------------------------- issue 34: whole files
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """phonopy's own files for the silicon model: yaml with force constants, structure alone,
+    FORCE_CONSTANTS, and a displacement yaml with its FORCE_SETS (forces -Phi u from phonopy's
+    own force constants: exact for springs)."""
+    from phonopy.file_IO import write_FORCE_SETS
+
+    folder = tmp_path_factory.mktemp("phonopy")
+    crystal = silicon()
+    out = {"yaml": crystals.write_phonopy(crystal, folder / "phonopy.yaml"),
+           "structure": crystals.write_phonopy(crystal, folder / "structure.yaml", force_constants=False),
+           "FORCE_CONSTANTS": crystals.write_force_constants(crystal, folder / "FORCE_CONSTANTS")}
+    phonon = crystal.to_phonopy()
+    fc = np.array(phonon.force_constants)
+    phonon.generate_displacements(distance=0.01)
+    dataset = phonon.dataset
+    for entry in dataset["first_atoms"]:
+        u = np.zeros((len(phonon.supercell), 3))
+        u[entry["number"]] = entry["displacement"]
+        entry["forces"] = -np.einsum("ijab,jb->ia", fc, u)
+    write_FORCE_SETS(dataset, filename=str(folder / "FORCE_SETS"))
+    phonon.save(str(folder / "phonopy_disp.yaml"), settings={"force_sets": False})
+    with_forces = crystal.to_phonopy()
+    with_forces.dataset = dataset
+    with_forces.save(str(folder / "phonopy_params.yaml"))
+    out.update(FORCE_SETS=folder / "FORCE_SETS", disp=folder / "phonopy_disp.yaml", params=folder / "phonopy_params.yaml")
+    return out
+
+
+def test_every_whole_file_reads_back_the_crystal(files: dict[str, Path]) -> None:
+    reference = silicon().frequencies(Q)
+    for crystal, rtol in ((crystals.read_phonopy(files["yaml"]), RTOL),
+                          (crystals.read_phonopy(files["structure"], force_constants=files["FORCE_CONSTANTS"]), RTOL),
+                          (crystals.read_phonopy(files["params"]), 1e-8),  # force constants from forces: 15 digits
+                          (crystals.read_phonopy(files["disp"], force_sets=files["FORCE_SETS"]), 1e-8)):
+        np.testing.assert_allclose(crystal.frequencies(Q), reference, rtol=rtol)
+
+
+def test_nothing_is_read_from_the_current_directory(files: dict[str, Path], tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    # phonopy.load reads FORCE_SETS / FORCE_CONSTANTS / BORN from the current directory when the
+    # yaml lacks them: the same call gave a crystal in one folder and an error in another
+    monkeypatch.chdir(files["yaml"].parent)  # FORCE_SETS and FORCE_CONSTANTS lie here
+    with pytest.raises(ValueError, match=r"phonopy_disp.yaml: holds no force constants and no forces; give the "
+                                         r"FORCE_CONSTANTS file \(force_constants=\) or the FORCE_SETS file"):
+        crystals.read_phonopy(files["disp"])
+    (tmp_path / "BORN").write_text("14.4\n1 0 0 0 1 0 0 0 1\n")
+    monkeypatch.chdir(tmp_path)
+    crystal = crystals.read_phonopy(files["yaml"])  # no BORN is read: no refusal for nac_params
+    np.testing.assert_allclose(crystal.frequencies(Q), silicon().frequencies(Q), rtol=RTOL)
+
+
+def _cut(path: Path, target: Path, fraction: float, at_line: bool) -> Path:
+    text = path.read_text()
+    n = int(len(text) * fraction) if fraction > 0 else len(text) + int(fraction)  # < 0: drop that many characters
+    if at_line:
+        n = text.rfind("\n", 0, n) + 1
+    target.write_text(text[:n])
+    return target
+
+
+#: (file, where it is cut (fraction of its characters, or minus the characters dropped from the end),
+#: whether at a line end, fragment of the refusal)
+CUTS = [
+    ("yaml", 0.3, False, r"line \d+: not valid YAML \(did not find expected ',' or '\]'\); the file looks cut"),
+    ("yaml", 0.5, True, r"line 281: force_constants has shape \[54, 54\] \(2916 blocks\) but holds \d+; the file looks cut"),
+    ("yaml", 0.999, True, r"line 281: force_constants has shape \[54, 54\] \(2916 blocks\) but holds 2913; the file looks cut"),
+    ("params", 0.3, True, r"line 58: the supercell section holds 14 points; the unit cell's 2 atoms and the matrices "
+                          r"give 54; the file looks cut"),
+    ("params", 0.999, True, r"line 281: displacement 1 of 1 has 53 force rows; the supercell has 54 atoms"),
+    ("FORCE_CONSTANTS", 0.3, True, r"line 3507: block 877 of 2916 stops after 2 of its 4 lines; the header \(line 1\) "
+                                   r"announces 54 x 54 blocks; the file looks cut"),
+    ("FORCE_CONSTANTS", 0.7, False, r"line 8169: is '-4.749999999999999     0.000000000000000'; a force-constant row "
+                                    r"reads 3 numbers; the file looks cut"),
+    ("FORCE_CONSTANTS", -5, False, r"line 11665: the last line has no line break, so its last number may be cut"),
+    ("FORCE_SETS", 0.5, True, r"line 31: the file ends within displacement 1 of 1 \(line 2 announces them; 26 of its "
+                              r"54 force rows read\); the file looks cut"),
+    ("FORCE_SETS", -5, False, r"line 59: the last line has no line break"),
+]
+
+
+@pytest.mark.parametrize("name, fraction, at_line, fragment", CUTS,
+                         ids=[f"{c[0]}-{c[1]}{'-line' if c[2] else ''}" for c in CUTS])
+def test_a_cut_file_is_refused_naming_it_and_what_is_missing(name: str, fraction: float, at_line: bool, fragment: str,
+                                                            files: dict[str, Path], tmp_path: Path) -> None:
+    source = files[name]
+    cut = _cut(source, tmp_path / source.name, fraction, at_line)
+    with pytest.raises(ValueError, match=f"^{re.escape(str(cut))}: {fragment}") as raised:
+        if name == "FORCE_CONSTANTS":
+            crystals.read_phonopy(files["structure"], force_constants=cut)
+        elif name == "FORCE_SETS":
+            crystals.read_phonopy(files["disp"], force_sets=cut)
+        else:
+            crystals.read_phonopy(cut)
+    assert "\n" not in str(raised.value)
+
+
+def test_files_of_another_supercell_and_other_refusals(files: dict[str, Path], tmp_path: Path) -> None:
+    lines = files["FORCE_CONSTANTS"].read_text().splitlines(keepends=True)
+    more = tmp_path / "FORCE_CONSTANTS"
+    more.write_text("".join(lines) + lines[1] + "".join(lines[2:5]))
+    with pytest.raises(ValueError, match=r"the file holds 2917 whole blocks; the header \(line 1\) announces 54 x 54 = 2916"):
+        crystals.read_phonopy(files["structure"], force_constants=more)
+    other = crystals.write_force_constants(silicon(), tmp_path / "FC_OTHER", supercell=(4, 4, 4))
+    with pytest.raises(ValueError, match=r"FC_OTHER: line 1: holds 128 x 128 blocks; the supercell of the yaml has 54 atoms"):
+        crystals.read_phonopy(files["structure"], force_constants=other)
+    with pytest.raises(ValueError, match="give force_constants= or force_sets=, not both"):
+        crystals.read_phonopy(files["disp"], force_constants=files["FORCE_CONSTANTS"], force_sets=files["FORCE_SETS"])
+    nac = tmp_path / "nac.yaml"
+    phonon = silicon().to_phonopy()  # phonopy's own yaml with Born charges and the dielectric tensor
+    phonon.nac_params = {"born": np.zeros((2, 3, 3)), "dielectric": np.eye(3) * 11.7, "factor": 14.4}
+    phonon.save(str(nac))
+    with pytest.raises(ValueError, match=r"nac.yaml: line 281: holds non-analytical correction parameters "
+                                         r"\(the nac section: Born charges and dielectric tensor\); vibra.crystals does "
+                                         r"not apply LO-TO corrections yet"):
+        crystals.read_phonopy(nac)
+
+
+def test_from_phonopy_refuses_nac_params_in_one_line() -> None:
+    phonon = silicon().to_phonopy()
+    phonon.nac_params = {"born": np.array([np.eye(3)] * 2), "dielectric": np.eye(3), "factor": 14.4}
+    with pytest.raises(ValueError, match=r"^phonon has non-analytical correction parameters \(nac_params") as raised:
+        crystals.from_phonopy(phonon)
+    assert "\n" not in str(raised.value) and "BORN" in str(raised.value)

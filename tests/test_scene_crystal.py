@@ -109,6 +109,17 @@ def test_phonopy_file_beside_the_scene(tmp_path: Path) -> None:
         Scene.from_dict(dict(data, units="SI"), source=str(tmp_path / "argon.toml"))
 
 
+def test_a_cubic_lattice_is_drawn_on_conventional_cubes() -> None:
+    from vibra.pipeline.plan.crystal import mode_supercell
+
+    argon = crystals.fcc(5.397, 39.948, 0.05141, units="ASE")
+    cubes = mode_supercell(argon, (4, 4, 4))  # 64 primitive cells asked: 2 x 2 x 2 cubes of 4 cells each
+    assert np.allclose(cubes @ argon.cell, 2 * 5.397 * np.eye(3)) and round(abs(np.linalg.det(cubes))) == 32
+    graphene = crystals.honeycomb(2.46, 12.0, 1.0, units="ASE")
+    assert np.array_equal(mode_supercell(graphene, (4, 4, 1)), np.diag([4, 4, 1]))
+    assert np.array_equal(mode_supercell(argon, (1, 1, 1)), crystals.conventional_cube(argon))  # at least one cube
+
+
 def test_plan_draws_bands_thermal_and_a_mode_gif(tmp_path: Path) -> None:
     scene = Scene.from_dict(argon(draw={"frequency_unit": "cm^-1"}), source="argon.toml")
     plan = make_plan(scene)

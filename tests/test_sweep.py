@@ -232,3 +232,26 @@ def test_grid_order_is_the_first_axis_slowest() -> None:
     points = grid({"a": [1.0, 2.0]}, {"b": [3.0, 4.0, 5.0]}).points
     assert list(points) == list(itertools.product([1.0, 2.0], [3.0, 4.0, 5.0]))
     assert [points[i] for i in range(len(points))] == list(points)
+
+
+def test_the_tasks_of_a_large_grid_are_made_when_read() -> None:
+    # issue 34: the task list of a sweep was built in memory (10^5 points: ~41 MiB of tuples and
+    # labels before the first solve); now point i's task and label are made when read
+    import tracemalloc
+
+    from vibra.pipeline import sweep as sweep_module
+
+    def builder(k: float) -> None:  # never called here
+        raise AssertionError
+
+    points = sweep_module.grid(sweep_module.vary("k", 1.0, 2.0, 1_000_001))
+    tracemalloc.start()
+    tasks, labels, _, _ = sweep_module._prepare(builder, points, {}, None)
+    held = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    assert held < 1 << 20, held  # a million points: well under 1 MiB (a list of tuples takes ~200 MiB)
+    assert len(tasks) == len(labels) == 1_000_001
+    assert tasks[500_000] == (builder, 500_000, (("k", 1.5),), (("k", 1.5),))
+    assert labels[-1] == "point 1000000: k=2" and tasks[1:3][1][1] == 2
+    with pytest.raises(IndexError):
+        tasks[1_000_001]

@@ -45,3 +45,30 @@ def freeze_arrays(obj: object) -> None:
                 if hasattr(value, part):
                     getattr(value, part).flags.writeable = False
             object.__setattr__(obj, field.name, value)
+
+
+# ---------------------------------------------------------------------- short reprs
+def span(values: object, unit: str = "", digits: int = 4) -> str:
+    """'a..b unit' (or 'a unit' when all equal, 'none' when empty) for the finite entries of `values`."""
+    array = np.asarray(values, dtype=float)
+    array = array[np.isfinite(array)]
+    if array.size == 0:
+        return "none"
+    low, high = float(array.min()), float(array.max())
+    text = f"{low:.{digits}g}" if low == high else f"{low:.{digits}g}..{high:.{digits}g}"
+    return f"{text} {unit}".rstrip()
+
+
+def frequency_span(omega: object, units: object) -> str:
+    """The span of angular frequencies `omega` as ordinary frequencies in THz where `units` are
+    physical (signed: an imaginary mode is negative), else in rad per time unit."""
+    try:
+        return span(units.omega_to_thz(np.asarray(omega, dtype=float)), "THz")  # type: ignore[attr-defined]
+    except (ValueError, AttributeError):
+        return span(omega, "rad/time unit")
+
+
+def short_repr(obj: object, *parts: str) -> str:
+    """'TypeName(part, part, ...)': the one-line repr of a result (its arrays are summarised
+    by `span`, never printed)."""
+    return f"{type(obj).__name__}({', '.join(part for part in parts if part)})"

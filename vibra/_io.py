@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
 __all__ = ["atomic_write", "atomic_write_text", "atomic_write_bytes", "file_mode", "TEMPORARY_MARK",
-           "temporary_owner", "TargetRefused", "check_target", "check_out_folder", "protected_inputs",
+           "temporary_owner", "pid_alive", "remove_stale_temporaries", "TargetRefused", "check_target", "check_out_folder", "protected_inputs",
            "describe_kind"]
 
 #: Between the writer's pid and mkstemp's random letters in a temporary name:
@@ -262,10 +262,56 @@ def temporary_owner(name: str) -> int | None:
     return int(pid) if pid.isdigit() else None
 
 
+def pid_alive(pid: int) -> bool:
+    """True when process `pid` exists (signal 0 is sent only to check)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it exists, under another user
+        return True
+    except OverflowError:
+        return False
+    return True
+
+
+def remove_stale_temporaries(path: str | os.PathLike[str]) -> list[Path]:
+    """Remove the temporary files of `path` (``.<name>.<pid>~tmp~...`` beside it) whose writer no
+    longer runs (a process killed mid-write, SIGKILL included); return what went.
+
+    `atomic_write` calls it before each write, so the next write of the same file, by any
+    command, cleans what a killed one left. A live writer's temporary file stays.
+    """
+    target = Path(path)
+    prefix = f".{target.name}."
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(target.parent))
+    except OSError:
+        return removed
+    for entry in entries:
+        if not entry.name.startswith(prefix) or TEMPORARY_MARK not in entry.name:
+            continue
+        owner = temporary_owner(entry.name)
+        if owner is None or not entry.name.startswith(f"{prefix}{owner}{TEMPORARY_MARK}") or pid_alive(owner):
+            continue  # another file's temporary (".a.png.x.<pid>~tmp~" is not a.png's), or a live writer's
+        try:
+            if entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            pass
+    return removed
+
+
 def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], *,
                  suffix: str = ".tmp", option: str = "", inputs: Iterable[str | os.PathLike[str]] = (),
                  replace: bool = True, force_hint: str = "replace=True") -> Path:
     """Create `path` atomically: `write(temporary_path)` fills a temporary file, then it is renamed.
+
+    Temporary files of `path` left by killed writers are removed first (`remove_stale_temporaries`).
 
     `path` is checked by `check_target` first (a regular file or a new name, never an input)
     and again just before the rename, so nothing else is ever replaced.
@@ -296,6 +342,7 @@ def atomic_write(path: str | os.PathLike[str], write: Callable[[Path], object], 
     target = check_target(path, **rules)  # type: ignore[arg-type]
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
+        remove_stale_temporaries(target)  # what a killed writer of this file left
         handle, name = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}{TEMPORARY_MARK}", suffix=suffix,
                                         dir=target.parent)
     except OSError as error:  # name the target, never the temporary file

@@ -24,8 +24,8 @@ from vibra.crystals.bands import BandStructure, band_structure
 from vibra.crystals.builders import bcc, diamond, fcc, honeycomb, rock_salt, simple_cubic, square
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.dos import DensityOfStates, dos
-from vibra.crystals.dynamical import (PHASES, Phonons, SupercellMode, dynamical_matrices, group_velocities,
-                                      supercell_mode)
+from vibra.crystals.dynamical import (PHASES, Phonons, SupercellMode, conventional_cube, dynamical_matrices,
+                                      group_velocities, supercell_mode)
 from vibra.crystals.elastic import SoundVelocities, acoustic_slopes, sound_velocities
 from vibra.crystals.finite_difference import (FiniteDifferenceForceConstants, finite_difference_force_constants,
                                               from_ase)
@@ -37,7 +37,7 @@ from vibra.crystals.thermal import ThermalProperties, thermal_properties
 
 __all__ = [
     "BandStructure", "Crystal", "DensityOfStates", "FiniteDifferenceForceConstants", "ForceConstants",
-    "PHASES", "Phonons", "SoundVelocities", "SpringModel", "SupercellMode", "supercell_mode", "SumRuleReport", "ThermalProperties",
+    "PHASES", "Phonons", "SoundVelocities", "SpringModel", "SupercellMode", "supercell_mode", "conventional_cube", "SumRuleReport", "ThermalProperties",
     "acoustic_slopes", "band_structure", "bcc", "diamond", "dos", "dynamical_matrices", "fcc",
     "finite_difference_force_constants", "from_ase", "from_phonopy", "group_velocities", "honeycomb",
     "impose_sum_rules", "read_phonopy", "rock_salt", "simple_cubic", "sound_velocities", "springs", "square",

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, frequency_span, short_repr
 from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, phonons
 from vibra.units import UnitSystem
 
@@ -41,6 +41,11 @@ ALIASES: dict[str, str] = {"G": "GAMMA", "Γ": "GAMMA", "\\Gamma": "GAMMA"}
 
 #: Most q-points a band structure takes (a bound before any allocation).
 MAX_POINTS = 1_000_000
+#: Complex entries of eigenvectors per chunk of a path (~256 KiB; D(q), dD/dk and their solves
+#: take a few times that), and at least `PATH_CHUNK_POINTS` q-points (each chunk is one
+#: `phonons` call): the band structure's memory is bounded by the chunk, not by the path.
+PATH_CHUNK = 1 << 14
+PATH_CHUNK_POINTS = 64
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,6 +89,16 @@ class BandStructure:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        n_q, n_branches = self.omega.shape
+        path = ""
+        for k, (index, label) in enumerate(self.labels):
+            if k:
+                path += "|" if index in self.breaks and self.labels[k - 1][0] == index - 1 else "-"
+            path += "Γ" if label == "GAMMA" else label
+        return short_repr(self, f"{n_q} q-points x {n_branches} branches", "path " + path,
+                          frequency_span(self.omega, self.units), f"{self.units.name} units")
 
     def frequencies_thz(self) -> NDArray[np.float64]:
         """(n_q, n_branches) signed ordinary frequencies, in THz."""
@@ -223,20 +238,7 @@ def band_structure(crystal: Crystal, path: Sequence[Sequence[str]] | None = None
         offset += n
         previous_run = r
     qpoints = np.vstack(qs)
-    result = phonons(crystal, qpoints, vectors=True)
-    omega = result.omega.copy()
-    error = result.omega_error.copy()
-    basis = np.array(result.vectors)
-    values = np.sign(omega) * omega ** 2
-    value_error = 2.0 * np.abs(omega) * error + error ** 2
-    velocity = np.zeros_like(omega)
-    for (first, last), direction in zip(segments, directions):
-        part = slice(first, last + 1)
-        derivative = derivative_matrices(crystal, qpoints[part], direction)
-        slopes, basis[part] = eigenvalue_slopes(derivative, values[part], basis[part], value_error[part])
-        zero = np.abs(omega[part]) <= error[part]
-        velocity[part] = np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * omega[part]))
-    order = _connect(basis, set(breaks))
+    omega, error, velocity, order = _solve_path(crystal, qpoints, segments, directions, set(breaks))
     rows = np.arange(len(qpoints))[:, None]
     return BandStructure(qpoints=qpoints, distances=np.concatenate(dist), omega=omega[rows, order],
                          omega_error=error[rows, order], velocities=velocity[rows, order],
@@ -245,22 +247,64 @@ def band_structure(crystal: Crystal, path: Sequence[Sequence[str]] | None = None
                          units=crystal.units)
 
 
-def _connect(basis: NDArray[np.complex128], breaks: set[int]) -> NDArray[np.intp]:
-    """(n_q, n) column order: order[k, b] is the eigenpair of q-point k on branch b.
+def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[tuple[int, int]],
+                directions: list[NDArray[np.float64]], breaks: set[int]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
+    """omega, omega_error, velocities (solver order) and the branch order, in chunks of `PATH_CHUNK` entries.
 
-    Ascending at the start of each run; afterwards each branch follows the eigenvector of
-    largest overlap with its own at the previous q-point (an assignment, so no two branches
-    take the same one).
+    Each chunk of the path is solved with eigenvectors, rotated by dD/dk along each segment it
+    meets, then connected to the previous q-point; only the previous q-point's eigenvectors outlive
+    a chunk, so memory is bounded by the chunk, not by the path (the eigenvectors of the
+    whole path are never held at once).
+    """
+    n3 = crystal.n_branches
+    step = max(PATH_CHUNK_POINTS, PATH_CHUNK // (n3 * n3))
+    omega = np.empty((len(qpoints), n3))
+    error = np.empty_like(omega)
+    velocity = np.empty_like(omega)
+    order = np.empty((len(qpoints), n3), dtype=np.intp)
+    previous: NDArray[np.complex128] | None = None  # eigenvectors of the last q-point, in branch order
+    for start in range(0, len(qpoints), step):
+        chunk = slice(start, min(len(qpoints), start + step))
+        result = phonons(crystal, qpoints[chunk], vectors=True)
+        omega[chunk], error[chunk] = result.omega, result.omega_error
+        basis = np.array(result.vectors)
+        del result
+        for (first, last), direction in zip(segments, directions):  # the segments this chunk meets
+            low, high = max(first, chunk.start), min(last + 1, chunk.stop)
+            if low >= high:
+                continue
+            part, local = slice(low, high), slice(low - start, high - start)
+            values = np.sign(omega[part]) * omega[part] ** 2
+            value_error = 2.0 * np.abs(omega[part]) * error[part] + error[part] ** 2
+            derivative = derivative_matrices(crystal, qpoints[part], direction)
+            slopes, basis[local] = eigenvalue_slopes(derivative, values, basis[local], value_error)
+            del derivative
+            zero = np.abs(omega[part]) <= error[part]
+            velocity[part] = np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * omega[part]))
+        order[chunk], previous = _connect(basis, {k - start for k in breaks if k >= start}, previous)
+    return omega, error, velocity, order
+
+
+def _connect(basis: NDArray[np.complex128], breaks: set[int], previous: NDArray[np.complex128] | None
+             ) -> tuple[NDArray[np.intp], NDArray[np.complex128]]:
+    """(n_q, n) column order (order[k, b]: the eigenpair of q-point k on branch b), and the last
+    q-point's eigenvectors in that order.
+
+    Ascending at the start of each run (`previous` None, or k in `breaks`); afterwards each
+    branch follows the eigenvector of largest overlap with its own at the previous q-point
+    (`previous` for k = 0: the last q-point of the chunk before; an assignment, so no two
+    branches take the same one).
     """
     n_q, _, n = basis.shape
     order = np.empty((n_q, n), dtype=np.intp)
-    order[0] = np.arange(n)
-    for k in range(1, n_q):
-        if k in breaks:
+    for k in range(n_q):
+        if previous is None or k in breaks:
             order[k] = np.arange(n)
-            continue
-        previous = basis[k - 1][:, order[k - 1]]
-        overlap = np.abs(previous.conj().T @ basis[k]) ** 2
-        _, columns = linear_sum_assignment(-overlap)
-        order[k] = columns
-    return order
+        else:
+            overlap = np.abs(previous.conj().T @ basis[k]) ** 2
+            _, columns = linear_sum_assignment(-overlap)
+            order[k] = columns
+        previous = basis[k][:, order[k]]
+    assert previous is not None
+    return order, previous.copy()

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, short_repr
 import vibra.crystals.bands as bands
 import vibra.crystals.dynamical as dynamical
 import vibra.crystals.elastic as elastic
@@ -87,6 +87,22 @@ class Crystal:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        counts: dict[str, int] = {}
+        for symbol in self.symbols:
+            counts[symbol] = counts.get(symbol, 0) + 1
+        formula = "".join(f"{s}{n if n > 1 else ''}" for s, n in counts.items())
+        lengths = ", ".join(f"{x:.4g}" for x in np.linalg.norm(self.cell, axis=1))
+        axes = "" if all(self.periodic) else f"periodic {tuple(self.periodic)}"
+        if self.springs is not None:
+            model = f"springs: {self.springs.first.size} bonds"
+        elif self.force_constants is not None:
+            model = f"force constants: {self.force_constants.n_terms} terms"
+        else:
+            model = "no force constants"
+        return short_repr(self, repr(self.name), f"{self.n_atoms} atom{'s' if self.n_atoms > 1 else ''} ({formula})", f"|a_i| {lengths} {self.units.length}",
+                          axes, model, f"{self.units.name} units")
 
     # ------------------------------------------------------------------ constructors
     @classmethod

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, frequency_span, short_repr
 from vibra.crystals.dynamical import phonons
 from vibra.crystals.mesh import Mesh, grid_index, mesh_points
 from vibra.units import UnitSystem
@@ -44,6 +44,9 @@ __all__ = ["DensityOfStates", "dos", "METHODS", "tetrahedra"]
 METHODS: tuple[str, ...] = ("tetrahedron", "gaussian")
 #: Default number of frequency points.
 DEFAULT_POINTS = 201
+#: Grid points whose tetrahedra are built and summed at a time (their corner table and its
+#: temporaries take ~5 MiB), so that a 40^3 mesh's DOS needs no 100 MiB table of every corner.
+TETRAHEDRA_CHUNK = 8192
 
 # the 6 tetrahedra of the unit cube along its (1, 1, 1) diagonal: 0 -> e_a -> e_a + e_b -> (1, 1, 1)
 _UNIT = np.eye(3, dtype=np.int64)
@@ -85,6 +88,13 @@ class DensityOfStates:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
+    def __repr__(self) -> str:
+        mesh = "x".join(str(int(n)) for n in self.mesh)
+        method = self.method if self.sigma is None else f"{self.method}, sigma {self.sigma:.3g}"
+        projected = "" if self.projected is None else f"projected on {self.projected.shape[0]} atoms"
+        return short_repr(self, f"{method} on a {mesh} mesh", f"{self.omega.size} points",
+                          frequency_span(self.omega, self.units), projected, f"{self.units.name} units")
+
     def frequencies_thz(self) -> NDArray[np.float64]:
         """(n_points,) ordinary frequencies of `omega`, in THz."""
         return self.units.omega_to_thz(self.omega)
@@ -94,13 +104,15 @@ class DensityOfStates:
         return self.dos / self.units.omega_to_thz(1.0)
 
 
-def tetrahedra(crystal: Crystal, size: NDArray[np.int64]) -> NDArray[np.intp]:
-    """(6 n_points, 4) grid indices of the tetrahedra, cut along the cells' shortest main diagonal."""
+def tetrahedra(crystal: Crystal, size: NDArray[np.int64], start: int = 0, stop: int | None = None
+               ) -> NDArray[np.intp]:
+    """(6 (stop - start), 4) grid indices of the tetrahedra of grid points start .. stop - 1 (default:
+    all), cut along the cells' shortest main diagonal; tetrahedron 6 p + k belongs to grid point p."""
     micro = crystal.reciprocal / size[:, None]  # rows: the grid steps as Cartesian vectors
     lengths = np.linalg.norm(_DIAGONALS @ micro, axis=1)
     signs = _DIAGONALS[int(np.argmin(lengths))]
     corners = _CUBE_TETRAHEDRA * signs  # (6, 4, 3): the cube toward the chosen diagonal
-    index = np.arange(int(np.prod(size)))
+    index = np.arange(start, int(np.prod(size)) if stop is None else stop)
     grid = np.stack([index % size[0], (index // size[0]) % size[1], index // (size[0] * size[1])], axis=1)
     return grid_index(grid[:, None, None, :] + corners[None, :, :, :], size).reshape(-1, 4)
 
@@ -221,14 +233,15 @@ def dos(crystal: Crystal, mesh: Any, *, method: str = "tetrahedron", sigma: floa
                                sigma=width, units=crystal.units)
     full = _full_grid(points, result.omega)  # (n_points, n_bands)
     frequencies = _omega_points(result.omega, omega, 0.02)
-    corners = tetrahedra(crystal, points.size)  # (6 n_points, 4)
     scale = 1.0 / (6.0 * n_points)
     order = np.argsort(frequencies, kind="stable")
     projection = (_projections(result.vectors, crystal.n_atoms) if projected  # full mesh: (n_points, n_bands, n_atoms)
                   else np.zeros((1, 1, 0)))
     summed = np.zeros((max(1, projection.shape[2]), frequencies.size))
-    _tetrahedron_kernel(np.ascontiguousarray(full), corners, np.ascontiguousarray(frequencies[order]),
-                        np.ascontiguousarray(projection), summed)
+    full, sorted_points, projection = (np.ascontiguousarray(x) for x in (full, frequencies[order], projection))
+    for start in range(0, n_points, TETRAHEDRA_CHUNK):  # in grid order: the sums are those of one call
+        corners = tetrahedra(crystal, points.size, start, min(n_points, start + TETRAHEDRA_CHUNK))
+        _tetrahedron_kernel(full, corners, sorted_points, projection, summed)
     unsorted = np.empty_like(summed)
     unsorted[:, order] = summed * scale
     share = unsorted if projected else None

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, short_repr
 from vibra.crystals.dynamical import phonons
 from vibra.units import UnitSystem
 
@@ -63,6 +63,13 @@ class SoundVelocities:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        direction = ", ".join(f"{x:.4g}" for x in self.direction)
+        velocities = ", ".join(f"{v:.6g}" for v in self.velocities)
+        unit = "m/s" if self.units.name == "SI" else f"{self.units.length} per time unit"
+        return short_repr(self, f"direction ({direction})", f"velocities {velocities} {unit}",
+                          f"error <= {float(np.max(self.error)):.2g}", f"{self.units.name} units")
 
 
 def _direction(direction: ArrayLike, crystal: Crystal) -> NDArray[np.float64]:

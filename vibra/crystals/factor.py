@@ -45,8 +45,9 @@ if TYPE_CHECKING:
 
 __all__ = ["factor_rows", "factor_matrices", "singular_frequencies", "REFINE_KR"]
 
-#: Complex entries per chunk of the stacked A(q) (~64 MiB).
-CHUNK_ENTRIES = 1 << 22
+#: Complex entries per chunk of the stacked A(q) (~1 MiB; the QR and SVD take a few times that),
+#: as `vibra.crystals.dynamical.CHUNK_ENTRIES`: memory bounded by the chunk, not by the q-points.
+CHUNK_ENTRIES = 1 << 16
 #: q-points with |k| r_max below this (k folded to the nearest reciprocal lattice point) have
 #: their frequencies refined by the Jacobi SVD of A T (module docstring).
 REFINE_KR = 1e-2

@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, short_repr
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.force_constants import SumRuleReport, impose_sum_rules
@@ -104,6 +104,12 @@ class FiniteDifferenceForceConstants:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        size = "x".join(str(int(n)) for n in self.supercell)
+        return short_repr(self, repr(self.crystal.name), f"{size} supercell", f"step {self.step:g}",
+                          f"{self.n_displacements} displacements", f"{self.n_force_calls} force calls",
+                          f"{self.n_cached} cached" if self.n_cached else "")
 
     def omega_errors(self, qpoints: ArrayLike) -> NDArray[np.float64]:
         """(n_q, n_branches) bound on how far each frequency moves under the force-constant error.

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, short_repr, span
 
 __all__ = ["CrystalLike", "ForceConstants", "SpringModel", "SumRuleReport", "check_force_constants", "impose_sum_rules"]
 
@@ -79,6 +79,12 @@ class ForceConstants:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
+    def __repr__(self) -> str:
+        atoms = int(max(self.first.max(initial=-1), self.second.max(initial=-1))) + 1
+        reach = int(np.abs(self.translations).max(initial=0))
+        return short_repr(self, f"{self.n_terms} terms", f"{atoms} atom{'s' if atoms > 1 else ''}",
+                          f"translations up to {reach} cell{'s' if reach != 1 else ''}")
+
     @property
     def n_terms(self) -> int:
         return int(self.first.shape[0])
@@ -112,6 +118,11 @@ class SpringModel:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        shells = np.unique(self.shells)
+        return short_repr(self, f"{self.first.size} springs", f"{shells.size} shell{'s' if shells.size > 1 else ''}",
+                          f"longitudinal {span(self.longitudinal)}", f"transverse {span(self.transverse)}")
 
 
 def check_force_constants(fc: ForceConstants, n_atoms: int, periodic: tuple[bool, bool, bool]) -> None:

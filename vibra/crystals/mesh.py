@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, short_repr
 
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
@@ -55,6 +55,10 @@ class Mesh:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        mesh = "x".join(str(int(n)) for n in self.size)
+        return short_repr(self, f"{mesh}", f"{self.grid.shape[0]} points", f"{self.irreducible.size} irreducible")
 
     @property
     def qpoints(self) -> NDArray[np.float64]:

@@ -4,14 +4,24 @@
   `write_force_constants` (``FORCE_CONSTANTS``): phonopy's text (``Phonopy.to_phonopy_yaml``,
   ``phonopy.file_IO.get_FORCE_CONSTANTS_lines``) on the `to_phonopy` object, written atomically
   by `vibra._io`;
-- `read_phonopy`: ``phonopy.load`` reads any phonopy yaml (and a ``FORCE_CONSTANTS`` file), then
-  `Crystal.from_phonopy`, optionally with the sum rules imposed (`impose_sum_rules`).
+- `read_phonopy`: a phonopy yaml (and a ``FORCE_CONSTANTS`` or ``FORCE_SETS`` file) through
+  phonopy's readers, then `Crystal.from_phonopy`, optionally with the sum rules imposed
+  (`impose_sum_rules`). Only the files named are read: ``phonopy.load`` would also read
+  ``FORCE_SETS``, ``FORCE_CONSTANTS`` and ``BORN`` from the *current directory* when the yaml
+  lacks them, so the same call would give another crystal in another folder;
+- `check_phonopy_yaml`, `check_force_constants_file`, `check_force_sets_file`: each file is
+  checked whole before any physics (issue 34): a yaml cut mid-file (a YAML error, a point
+  without its mass, fewer supercell atoms or force-constant blocks than its own shape and
+  matrices say, a displacement without all its forces), a ``FORCE_CONSTANTS`` with fewer blocks
+  than its header says or a cut last block, a ``FORCE_SETS`` with fewer displacements or force
+  lines than it announces; one line naming the file, the line and what is missing.
 """
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
@@ -20,7 +30,10 @@ from vibra._io import atomic_write_text
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.phonopy_io import to_phonopy
 
-__all__ = ["read_phonopy", "write_phonopy", "write_force_constants"]
+__all__ = ["read_phonopy", "write_phonopy", "write_force_constants", "check_phonopy_yaml",
+           "check_force_constants_file", "check_force_sets_file", "PhonopyYamlSummary"]
+
+_CUT = "the file looks cut"
 
 
 def write_phonopy(crystal: Crystal, path: str | os.PathLike[str], *, force_constants: bool = True,
@@ -69,9 +82,316 @@ def write_force_constants(crystal: Crystal, path: str | os.PathLike[str], *,
     return atomic_write_text(path, "\n".join(lines) + "\n")
 
 
+@dataclass(frozen=True)
+class PhonopyYamlSummary:
+    """What `check_phonopy_yaml` found in a phonopy yaml.
+
+    Attributes
+    ----------
+    n_supercell : int
+        Atoms of the supercell (unit cell atoms times the supercell matrix's determinant).
+    n_primitive : int
+        Atoms of the primitive cell.
+    force_constants : bool
+        The file holds force constants.
+    forces : bool
+        Its displacements carry forces (phonopy can make force constants from them).
+    """
+
+    n_supercell: int
+    n_primitive: int
+    force_constants: bool
+    forces: bool
+
+
+def _file_text(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{path}: byte {error.start} is not UTF-8 text; phonopy files are text") from None
+    except OSError as error:
+        raise ValueError(f"{path}: cannot be read ({error.strerror or error})") from None
+
+
+def _yaml_line(text: str, key: str) -> int:
+    """1-based line of the top-level `key:` in `text` (for messages)."""
+    for number, line in enumerate(text.splitlines(), start=1):
+        if line.startswith(f"{key}:"):
+            return number
+    return 1
+
+
+def _cell_atoms(path: Path, text: str, data: dict[str, Any], key: str) -> int | None:
+    """Atoms in the cell section `key` (None when absent), each point whole."""
+    cell = data.get(key)
+    if cell is None:
+        return None
+    line = _yaml_line(text, key)
+    if not isinstance(cell, dict) or not isinstance(cell.get("lattice"), list) or len(cell["lattice"]) != 3 \
+            or not isinstance(cell.get("points"), list):
+        raise ValueError(f"{path}: line {line}: the {key} section lacks its lattice (3 vectors) or its points; {_CUT}")
+    points = cell["points"]
+    with_mass = sum(isinstance(point, dict) and "mass" in point for point in points)
+    for index, point in enumerate(points, start=1):
+        coordinates = point.get("coordinates") if isinstance(point, dict) else None
+        if not isinstance(coordinates, list) or len(coordinates) != 3 or (with_mass and "mass" not in point):
+            raise ValueError(f"{path}: line {line}: point {index} of {key} has no "
+                             f"{'coordinates' if not isinstance(coordinates, list) or len(coordinates) != 3 else 'mass'}"
+                             f" (the section holds {len(points)} points); {_CUT}")
+    return len(points)
+
+
+def _determinant(path: Path, text: str, data: dict[str, Any], key: str) -> float:
+    matrix = data.get(key)
+    if matrix is None:
+        return 1.0
+    try:
+        array = np.array(matrix, dtype=float)
+    except (TypeError, ValueError):
+        array = np.zeros(0)
+    if array.shape != (3, 3):
+        raise ValueError(f"{path}: line {_yaml_line(text, key)}: {key} is not a 3 x 3 matrix; {_CUT}")
+    return float(np.linalg.det(array))
+
+
+def check_phonopy_yaml(path: str | os.PathLike[str]) -> PhonopyYamlSummary:
+    """Check that a phonopy yaml is whole before phonopy reads it (module docstring).
+
+    Returns
+    -------
+    PhonopyYamlSummary
+
+    Raises
+    ------
+    ValueError
+        One line naming the file (and the line): not YAML (cut mid-record), no unit cell, a
+        point without coordinates or mass, fewer supercell or primitive atoms than the
+        matrices give, fewer force-constant blocks than ``shape`` says, a displacement whose
+        forces are not one per supercell atom, or non-analytical correction parameters
+        (a ``nac`` section, or ``born_effective_charge`` / ``dielectric_constant``: LO-TO splitting
+        is not applied).
+    """
+    import yaml
+
+    source = Path(path)
+    text = _file_text(source)
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    try:
+        data = yaml.load(text, Loader=loader)  # noqa: S506 (a safe loader: CSafeLoader or SafeLoader)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(error, "problem", None) or type(error).__name__
+        raise ValueError(f"{source}: {where}not valid YAML ({problem}); {_CUT} or damaged") from None
+    if not isinstance(data, dict) or not isinstance(data.get("unit_cell"), dict):
+        raise ValueError(f"{source}: holds no unit_cell section; a phonopy yaml (phonopy.yaml, phonopy_disp.yaml) "
+                         f"starts with its cells{'' if isinstance(data, dict) else ' (this is not a YAML mapping)'}")
+    for key in ("nac", "born_effective_charge", "dielectric_constant"):  # phonopy >= 2.x writes 'nac'; older the others
+        if key in data:
+            raise ValueError(f"{source}: line {_yaml_line(text, key)}: holds non-analytical correction parameters "
+                             f"(the {key} section: Born charges and dielectric tensor); vibra.crystals does not apply "
+                             "LO-TO corrections yet (remove that section to use the force constants alone)")
+    n_unit = _cell_atoms(source, text, data, "unit_cell")
+    assert n_unit is not None  # unit_cell was checked to be there
+    n_super = int(round(n_unit * abs(_determinant(source, text, data, "supercell_matrix"))))
+    n_primitive = int(round(n_unit * abs(_determinant(source, text, data, "primitive_matrix"))))
+    for key, expected in (("supercell", n_super), ("primitive_cell", n_primitive)):
+        found = _cell_atoms(source, text, data, key)
+        if found is not None and found != expected:
+            raise ValueError(f"{source}: line {_yaml_line(text, key)}: the {key} section holds {found} points; "
+                             f"the unit cell's {n_unit} atoms and the matrices give {expected}; {_CUT}")
+    has_fc = "force_constants" in data
+    if has_fc:
+        block = data["force_constants"]
+        line = _yaml_line(text, "force_constants")
+        shape = block.get("shape") if isinstance(block, dict) else None
+        elements = block.get("elements") if isinstance(block, dict) else None
+        if not (isinstance(shape, list) and len(shape) == 2 and all(isinstance(n, int) and n > 0 for n in shape)):
+            raise ValueError(f"{source}: line {line}: force_constants has no shape [n, m]; {_CUT}")
+        blocks = len(elements) if isinstance(elements, list) else 0
+        if blocks != shape[0] * shape[1]:
+            raise ValueError(f"{source}: line {line}: force_constants has shape {shape} ({shape[0] * shape[1]} blocks) "
+                             f"but holds {blocks}; {_CUT}")
+        for index, element in enumerate(elements, start=1):
+            if not (isinstance(element, list) and len(element) == 3
+                    and all(isinstance(row, list) and len(row) == 3 for row in element)):
+                raise ValueError(f"{source}: line {line}: force-constant block {index} of {blocks} is not 3 x 3; {_CUT}")
+        if shape[1] != n_super:
+            raise ValueError(f"{source}: line {line}: force_constants has shape {shape}; the supercell has {n_super} atoms")
+    forces = _check_displacements(source, text, data, n_super)
+    return PhonopyYamlSummary(n_supercell=n_super, n_primitive=n_primitive, force_constants=has_fc, forces=forces)
+
+
+def _check_displacements(source: Path, text: str, data: dict[str, Any], n_super: int) -> bool:
+    """True when the displacements carry forces; each displacement with all its forces."""
+    entries = data.get("displacements")
+    if entries is None:
+        return False
+    line = _yaml_line(text, "displacements")
+    if not isinstance(entries, list) or not entries:
+        raise ValueError(f"{source}: line {line}: displacements is empty; {_CUT}")
+    with_forces = 0
+    for index, entry in enumerate(entries, start=1):
+        if isinstance(entry, dict):  # type 1: one atom displaced
+            whole = isinstance(entry.get("displacement"), list) and len(entry["displacement"]) == 3 and "atom" in entry
+            forces = entry.get("forces")
+        else:  # type 2: every atom, {displacement, force} per atom
+            whole = isinstance(entry, list) and len(entry) == n_super
+            forces = [item.get("force") for item in entry] if whole and all(isinstance(i, dict) for i in entry) else None
+            if forces is not None and all(f is None for f in forces):
+                forces = None
+        if not whole:
+            raise ValueError(f"{source}: line {line}: displacement {index} of {len(entries)} is incomplete; {_CUT}")
+        if forces is not None:
+            with_forces += 1
+            if not (isinstance(forces, list) and len(forces) == n_super
+                    and all(isinstance(f, list) and len(f) == 3 for f in forces)):
+                count = len(forces) if isinstance(forces, list) else 0
+                raise ValueError(f"{source}: line {line}: displacement {index} of {len(entries)} has {count} force rows; "
+                                 f"the supercell has {n_super} atoms; {_CUT}")
+    if 0 < with_forces < len(entries):
+        raise ValueError(f"{source}: line {line}: {with_forces} of the {len(entries)} displacements carry forces; "
+                         f"the others have none; {_CUT}")
+    return with_forces > 0
+
+
+def _ends_whole(source: Path, text: str) -> None:
+    """A text file phonopy wrote ends with a line break; without one the last number may be cut."""
+    if text and not text.endswith("\n"):
+        raise ValueError(f"{source}: line {text.count(chr(10)) + 1}: the last line has no line break, so its last "
+                         f"number may be cut; {_CUT} (if it is whole, end it with a line break)")
+
+
+def _numbers(line: str, count: int) -> list[float] | None:
+    parts = line.split()
+    if len(parts) != count:
+        return None
+    try:
+        values = [float(x) for x in parts]
+    except ValueError:
+        return None
+    return values if all(np.isfinite(values)) else None
+
+
+def check_force_constants_file(path: str | os.PathLike[str], n_supercell: int | None = None) -> tuple[int, int]:
+    """Check that a phonopy ``FORCE_CONSTANTS`` text file is whole; return its (n, m) blocks.
+
+    The header (line 1) gives n m (or n: n x n); then n m blocks of 4 lines: "i j" and three
+    rows of three numbers. `n_supercell`, when given, must be m.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file and the line: a header that is not one or two positive
+        integers, a block cut short or damaged, fewer (or more) blocks than the header says,
+        m not the supercell's atom count.
+    """
+    source = Path(path)
+    if source.suffix == ".hdf5":
+        return (0, 0)  # binary: phonopy's reader checks its shape
+    text = _file_text(source)
+    lines = text.splitlines()
+    header = lines[0].split() if lines else []
+    if not 1 <= len(header) <= 2 or not all(x.isdigit() and int(x) > 0 for x in header):
+        raise ValueError(f"{source}: line 1: is {(lines[0] if lines else '')[:40]!r}; a FORCE_CONSTANTS file starts "
+                         "with its number of blocks, 'n m' (or 'n')")
+    n, m = int(header[0]), int(header[-1])
+    body = [(number, line) for number, line in enumerate(lines[1:], start=2) if line.strip()]
+    expected = n * m
+    whole = len(body) // 4
+    for block in range(min(whole + 1, expected)):
+        chunk = body[4 * block:4 * block + 4]
+        if len(chunk) < 4:
+            last = chunk[-1][0] if chunk else (body[-1][0] if body else 1)
+            raise ValueError(f"{source}: line {last}: block {block + 1} of {expected} stops after {len(chunk)} of its "
+                             f"4 lines; the header (line 1) announces {n} x {m} blocks; {_CUT}")
+        number, pair = chunk[0]
+        if _numbers(pair, 2) is None:
+            raise ValueError(f"{source}: line {number}: is {pair.strip()[:40]!r}; block {block + 1} starts with "
+                             "its atom pair 'i j'")
+        for number, row in chunk[1:]:
+            if _numbers(row, 3) is None:
+                raise ValueError(f"{source}: line {number}: is {row.strip()[:60]!r}; a force-constant row reads 3 "
+                                 f"numbers{'; ' + _CUT if number == body[-1][0] else ''}")
+    if whole != expected or len(body) != 4 * expected:
+        raise ValueError(f"{source}: line {body[-1][0] if body else 1}: the file holds {whole} whole blocks; the header "
+                         f"(line 1) announces {n} x {m} = {expected}" + (f"; {_CUT}" if whole < expected else ""))
+    _ends_whole(source, text)
+    if n_supercell is not None and m != n_supercell:
+        raise ValueError(f"{source}: line 1: holds {n} x {m} blocks; the supercell of the yaml has {n_supercell} atoms")
+    return n, m
+
+
+def check_force_sets_file(path: str | os.PathLike[str], n_supercell: int | None = None) -> int:
+    """Check that a phonopy ``FORCE_SETS`` file is whole; return its number of displacements.
+
+    Type 1: the atom count, the number of displacements, then per displacement the displaced
+    atom, its displacement (3 numbers) and one force row (3 numbers) per atom. Type 2: one row
+    of 6 numbers (displacement, force) per atom and supercell, in whole supercells.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file and the line: fewer displacements or force rows than the
+        file announces (a cut file), a damaged row, an atom count that is not the supercell's.
+    """
+    source = Path(path)
+    text = _file_text(source)
+    rows = [(number, line.split("#")[0].strip()) for number, line in enumerate(text.splitlines(), start=1)]
+    rows = [(number, line) for number, line in rows if line]
+    if not rows:
+        raise ValueError(f"{source}: line 1: the file is empty; a FORCE_SETS file holds displacements and forces")
+    first = rows[0][1].split()
+    if len(first) == 6:  # type 2
+        for number, line in rows:
+            if _numbers(line, 6) is None:
+                raise ValueError(f"{source}: line {number}: is {line[:60]!r}; a type-2 FORCE_SETS row reads 6 numbers "
+                                 f"(displacement, force){'; ' + _CUT if number == rows[-1][0] else ''}")
+        _ends_whole(source, text)
+        if n_supercell is not None and len(rows) % n_supercell:
+            raise ValueError(f"{source}: line {rows[-1][0]}: {len(rows)} rows are not whole supercells of {n_supercell} "
+                             f"atoms ({len(rows) // n_supercell} whole, {len(rows) % n_supercell} rows over); {_CUT}")
+        return len(rows) // (n_supercell or len(rows))
+    if len(rows) < 2 or _numbers(rows[0][1], 1) is None or _numbers(rows[1][1], 1) is None:
+        raise ValueError(f"{source}: line {rows[0][0]}: a FORCE_SETS file starts with the number of atoms and the "
+                         "number of displacements (one integer a line), or with type-2 rows of 6 numbers")
+    n_atoms, n_displacements = int(rows[0][1]), int(rows[1][1])
+    if n_supercell is not None and n_atoms != n_supercell:
+        raise ValueError(f"{source}: line {rows[0][0]}: has forces on {n_atoms} atoms; the supercell of the yaml has "
+                         f"{n_supercell}")
+    per = 2 + n_atoms
+    body = rows[2:]
+    for k in range(n_displacements):
+        chunk = body[per * k:per * (k + 1)]
+        if len(chunk) < per:
+            last = chunk[-1][0] if chunk else rows[-1][0]
+            raise ValueError(f"{source}: line {last}: the file ends within displacement {k + 1} of {n_displacements} "
+                             f"(line {rows[1][0]} announces them; {max(0, len(chunk) - 2)} of its {n_atoms} force rows "
+                             f"read); {_CUT}")
+        for offset, (number, line) in enumerate(chunk):
+            count = 1 if offset == 0 else 3
+            if _numbers(line, count) is None:
+                what = ("the displaced atom's number" if offset == 0 else
+                        "a displacement (3 numbers)" if offset == 1 else "a force row (3 numbers)")
+                raise ValueError(f"{source}: line {number}: is {line[:60]!r}; expected {what}"
+                                 f"{'; ' + _CUT if number == rows[-1][0] else ''}")
+    if len(body) > per * n_displacements:
+        raise ValueError(f"{source}: line {body[per * n_displacements][0]}: more lines follow the {n_displacements} "
+                         f"displacements line {rows[1][0]} announces")
+    _ends_whole(source, text)
+    return n_displacements
+
+
 def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.PathLike[str] | None = None,
-                 symmetrize: bool = False, name: str | None = None) -> Any:
-    """A `Crystal` from a ``phonopy.yaml`` (and a ``FORCE_CONSTANTS`` file), read by ``phonopy.load``.
+                 force_sets: str | os.PathLike[str] | None = None, symmetrize: bool = False,
+                 name: str | None = None) -> Any:
+    """A `Crystal` from a phonopy yaml (and a ``FORCE_CONSTANTS`` or ``FORCE_SETS`` file).
+
+    Every file is checked whole first (`check_phonopy_yaml`, `check_force_constants_file`,
+    `check_force_sets_file`), then read by phonopy's own readers (``PhonopyYaml``,
+    ``parse_FORCE_CONSTANTS``, ``read_force_sets``); phonopy makes the force constants from
+    forces. Only the files named here are read: unlike ``phonopy.load``, nothing is taken
+    from the current directory (``FORCE_SETS``, ``FORCE_CONSTANTS``, ``BORN``).
 
     Parameters
     ----------
@@ -79,9 +399,11 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
         ``phonopy.yaml`` / ``phonopy_disp.yaml`` / ``phonopy_params.yaml``: the structure, the
         supercell and primitive matrices, and force constants or forces if it holds them.
     force_constants : path-like, optional
-        A ``FORCE_CONSTANTS`` (text) or ``force_constants.hdf5`` file for that supercell;
-        otherwise the force constants come from the yaml file (stored, or produced by phonopy
-        from its displacements and forces).
+        A ``FORCE_CONSTANTS`` (text) or ``force_constants.hdf5`` file for that supercell.
+    force_sets : path-like, optional
+        A ``FORCE_SETS`` file (type 1 or 2) with the forces of that supercell's displacements.
+        Without either file, the force constants come from the yaml (stored, or made from the
+        forces of its displacements).
     symmetrize : bool
         Impose the acoustic sum rule and the index symmetry (`impose_sum_rules`, vibra's own
         projection) before use. Off by default: the force constants are taken as they are.
@@ -96,23 +418,70 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
     Raises
     ------
     ValueError
-        A file that is missing or that phonopy cannot read (the message names it), or that
-        yields no force constants; the checks of `phonopy_terms`.
+        A file that is missing, cut or damaged (the message names it and the line); both
+        `force_constants` and `force_sets`; a yaml with non-analytical correction parameters
+        (LO-TO corrections are not applied); no force constants and no forces anywhere; a file
+        phonopy cannot read; the checks of `phonopy_terms`.
     """
-    import phonopy
-
     source = Path(path)
     if not source.is_file():
         raise ValueError(f"{source}: no such phonopy yaml file")
-    extra: dict[str, Any] = {}
-    if force_constants is not None:
-        fc_path = Path(force_constants)
-        if not fc_path.is_file():
-            raise ValueError(f"force_constants: {fc_path}: no such file")
-        extra["force_constants_filename"] = str(fc_path)
-    try:
-        phonon = phonopy.load(str(source), is_compact_fc=False, symmetrize_fc=False, produce_fc=True,
-                              log_level=0, **extra)
-    except Exception as error:  # phonopy raises many kinds for a malformed file
-        raise ValueError(f"{source}: phonopy could not read it ({type(error).__name__}: {error})") from None
+    files: dict[str, Path] = {}
+    for option, value in (("force_constants", force_constants), ("force_sets", force_sets)):
+        if value is not None:
+            files[option] = Path(value)
+            if not files[option].is_file():
+                raise ValueError(f"{option}: {files[option]}: no such file")
+    if len(files) == 2:
+        raise ValueError("give force_constants= or force_sets=, not both (phonopy would make the force constants "
+                         "from the forces and drop the others)")
+    summary = check_phonopy_yaml(source)
+    if "force_constants" in files:
+        check_force_constants_file(files["force_constants"], summary.n_supercell)
+    elif "force_sets" in files:
+        check_force_sets_file(files["force_sets"], summary.n_supercell)
+    elif not (summary.force_constants or summary.forces):
+        raise ValueError(f"{source}: holds no force constants and no forces; give the FORCE_CONSTANTS file "
+                         "(force_constants=) or the FORCE_SETS file (force_sets=) of its supercell")
+    phonon = _load(source, files)
     return Crystal.from_phonopy(phonon, name=name if name is not None else source.stem, symmetrize=symmetrize)
+
+
+def _load(source: Path, files: dict[str, Path]) -> Any:
+    """A `phonopy.Phonopy` with force constants from the (checked) files, and from nowhere else."""
+    from phonopy import Phonopy
+    from phonopy.cui.load_helper import read_force_sets
+    from phonopy.file_IO import parse_FORCE_CONSTANTS, read_force_constants_hdf5
+    from phonopy.harmonic.force_constants import compact_fc_to_full_fc
+    from phonopy.interface.phonopy_yaml import PhonopyYaml
+
+    current = source
+    try:
+        stored = PhonopyYaml().read(source)
+        supercell_matrix = stored.supercell_matrix if stored.supercell_matrix is not None else np.eye(3, dtype=int)
+        phonon = Phonopy(stored.unitcell, supercell_matrix,
+                         primitive_matrix=stored.primitive_matrix if stored.primitive_matrix is not None else "auto",
+                         calculator=stored.calculator, log_level=0)
+        fc = None
+        if "force_constants" in files:
+            current = files["force_constants"]
+            p2s = phonon.primitive.p2s_map
+            fc = (read_force_constants_hdf5(filename=current, p2s_map=p2s) if current.suffix == ".hdf5"
+                  else parse_FORCE_CONSTANTS(filename=str(current), p2s_map=p2s))
+        elif "force_sets" in files:
+            current = files["force_sets"]
+            phonon.dataset = read_force_sets(current, supercell=phonon.supercell)
+            phonon.produce_force_constants()
+        elif stored.force_constants is not None:
+            fc = stored.force_constants
+        else:
+            phonon.dataset = stored.dataset
+            phonon.produce_force_constants()
+        if fc is not None:
+            if fc.shape[0] != fc.shape[1]:
+                fc = compact_fc_to_full_fc(phonon.primitive, fc)
+            phonon.force_constants = fc
+    except Exception as error:  # phonopy raises many kinds for a file it cannot use
+        detail = " ".join(str(error).split())[:200]
+        raise ValueError(f"{current}: phonopy could not read it ({type(error).__name__}: {detail})") from None
+    return phonon

@@ -189,8 +189,9 @@ def phonopy_terms(phonon: Any, *, symmetrize: bool = False) -> dict[str, Any]:
         raise ValueError(f"phonon uses the {phonon.calculator!r} calculator's units; vibra reads phonopy's "
                          "default units (eV/Angstrom^2, Angstrom, amu)")
     if phonon.nac_params is not None:
-        raise ValueError("phonon has non-analytical correction parameters (nac_params); vibra.crystals does not "
-                         "carry them yet: remove them (phonon.nac_params = None) to read the force constants alone")
+        raise ValueError("phonon has non-analytical correction parameters (nac_params, from a BORN file or the yaml's "
+                         "born_effective_charge and dielectric_constant); vibra.crystals does not apply LO-TO "
+                         "corrections yet: remove them (phonon.nac_params = None) to read the force constants alone")
     primitive = phonon.primitive
     fc = np.asarray(phonon.force_constants, dtype=float)
     p2s = np.asarray(primitive.p2s_map)

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, short_repr, span
 from vibra.crystals.dynamical import phonons
 from vibra.crystals.mesh import mesh_points
 from vibra.units import UnitSystem
@@ -74,6 +74,12 @@ class ThermalProperties:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        mesh = "x".join(str(int(n)) for n in self.mesh)
+        return short_repr(self, f"{self.temperatures.size} temperatures {span(self.temperatures, 'K')}",
+                          f"mesh {mesh}", f"zero-point energy {self.zero_point_energy:.6g} {self.units.energy}",
+                          f"{self.excluded} excluded" if self.excluded else "", f"{self.units.name} units")
 
     def _per_mole(self) -> float:
         return energy_unit_joule(self.units) * constants.Avogadro

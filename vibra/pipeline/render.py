@@ -272,7 +272,7 @@ class SceneRenderer:
                 plotter.camera_position = "iso"
                 plotter.camera.elevation = -10
                 plotter.reset_camera()
-                plotter.camera.zoom(1.6)
+                plotter.camera.zoom(1.2)  # the whole supercell in the frame (a cube, for cubic lattices)
                 camera = plotter.camera_position
             else:
                 plotter.camera_position = camera

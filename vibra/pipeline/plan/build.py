@@ -14,7 +14,7 @@ from vibra._validate import ArgumentError
 from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
 from vibra.pipeline.scene.builders import CRYSTAL_BUILDERS
-from vibra.pipeline.scene.files import read_scene_data, scene_data_path
+from vibra.pipeline.scene.files import check_phonopy_scene_files, read_scene_data, scene_data_path
 
 __all__ = ["build_system", "network_structure", "check_xyz_text", "scene_key", "ARGUMENT_KEYS"]
 
@@ -208,10 +208,9 @@ def _build(scene: Scene) -> Any:
         structure = network_structure(scene)
         system = make(structure.positions, cutoff=p["cutoff"], gamma=p["gamma"], name=scene.name)
     elif builder == "phonopy":
-        path = scene_data_path(scene.source, "system.file", p["file"])
-        extra = p["force_constants_file"]
-        fc_path = None if extra is None else scene_data_path(scene.source, "system.force_constants_file", extra)
-        return make(path, force_constants=fc_path, symmetrize=p["symmetrize"], name=scene.name)
+        files = check_phonopy_scene_files(scene.source, p)  # whole files, each refusal at its key
+        return make(files["file"], force_constants=files["force_constants_file"],
+                    force_sets=files["force_sets_file"], symmetrize=p["symmetrize"], name=scene.name)
     elif builder in CRYSTAL_BUILDERS:
         import dataclasses
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import NDArray
 
 from vibra.pipeline.plan.model import Plan
 from vibra.pipeline.scene import Scene, SceneError
@@ -62,6 +63,25 @@ def mode_wave_vector(scene: Scene, crystal: Any) -> Any:
         table = _known_points(scene, crystal)
         return np.asarray(table[_label(scene, table, spec.mode_q, "draw.mode_q")], dtype=float)
     return np.asarray(spec.mode_q, dtype=float)
+
+
+def mode_supercell(crystal: Any, supercell: Any) -> NDArray[np.int64]:
+    """(3, 3) supercell matrix of the mode render for ``draw.supercell`` = (n1, n2, n3).
+
+    For a cubic lattice (simple, face- or body-centred: sc, bcc, fcc, diamond, rock salt) the
+    mode is drawn on conventional cubes, which read along the cube's axes (an fcc primitive
+    supercell is a rhombohedron whose rows of atoms hide each other): as many cubes along
+    each axis as give at most n1 n2 n3 primitive cells (at least 1). Other lattices: diag(n).
+    """
+    from vibra.crystals import conventional_cube
+
+    size = np.asarray(supercell, dtype=np.int64)
+    cube = conventional_cube(crystal)
+    if cube is None or len(set(size.tolist())) != 1:
+        return np.diag(size)
+    per_cube = abs(round(float(np.linalg.det(cube))))
+    edge = max(1, int(float(size[0]) / per_cube ** (1.0 / 3.0) + 1e-9))
+    return edge * cube
 
 
 def check_crystal_plan(scene: Scene, crystal: Any) -> None:
@@ -113,7 +133,7 @@ def crystal_cost(scene: Scene, crystal: Any) -> str:
         parts.append(f"mesh {'x'.join(str(n) for n in spec.mesh)} = {n_mesh} q (fewer by symmetry)")
         work += n_mesh
     if spec.mode:
-        cells = int(np.prod(spec.supercell))
+        cells = abs(round(float(np.linalg.det(mode_supercell(crystal, spec.supercell)))))
         parts.append(f"mode on {cells * crystal.n_atoms} atoms x {spec.frames} frames")
     # each q: D(q) from the terms (n_terms (3n)^2) and one Hermitian solve (~10 (3n)^3 flops)
     flops = work * (fc.n_terms * n3 * n3 + 10 * n3 ** 3)
@@ -178,7 +198,7 @@ def _step_mode(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str
     spec = plan.scene.crystal
     crystal = context.system
     q = mode_wave_vector(plan.scene, crystal)
-    context.supercell_mode = crystal.supercell_mode(q, spec.mode_branch, list(spec.supercell))
+    context.supercell_mode = crystal.supercell_mode(q, spec.mode_branch, mode_supercell(crystal, spec.supercell))
     mode = context.supercell_mode
     return None, f"omega = {_frequency_text(plan.scene, crystal.units, mode.omega)} at q = {np.round(q, 4).tolist()}"
 

@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 from types import TracebackType
 
-from vibra._io import atomic_write_text, check_out_folder, temporary_owner
+from vibra._io import atomic_write_text, check_out_folder, pid_alive, temporary_owner
 
 __all__ = ["MANIFESTS", "WORK", "LOCK_NAME", "PAGE_FOLDERS", "FolderBusy", "FolderLock", "check_out_dir", "pid_alive",
            "clean_stale", "output_is_sound", "code_hash", "work_folder"]
@@ -73,21 +73,6 @@ def check_out_dir(path: str | os.PathLike[str]) -> Path:
                                      f"; vibra writes its {role} there; "
                                      "remove or rename it")
     return target
-
-
-def pid_alive(pid: int) -> bool:
-    """True when process `pid` exists (signal 0 is sent only to check)."""
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # it exists, under another user
-        return True
-    except OverflowError:
-        return False
-    return True
 
 
 def work_folder(out_dir: Path) -> Path:

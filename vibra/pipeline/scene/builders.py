@@ -148,7 +148,8 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
             "masses": "unit masses, as ProDy's ANM", "name": _NAME},
     **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
-                "force_constants": "the file system.force_constants_file beside the scene", "name": _NAME},
+                "force_constants": "the file system.force_constants_file beside the scene",
+                "force_sets": "the file system.force_sets_file beside the scene", "name": _NAME},
     "fput": {"units": _UNITS},
 })
 
@@ -168,7 +169,8 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "oscillator": {},
     "anm": {"pdb": field_spec(string, required=True)},
     **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
-    "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string)},
+    "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string),
+                "force_sets_file": field_spec(string)},
     "fput": {},
 })
 

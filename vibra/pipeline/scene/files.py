@@ -20,7 +20,7 @@ __all__ = ["MAX_DATA_BYTES", "DATA_FILE_KEYS", "scene_data_path", "read_scene_da
 
 #: Keys of ``[system]`` that name a data file beside the scene (the run's inputs with the scene
 #: file itself: no file vibra writes may replace them, see `vibra._io.check_target`).
-DATA_FILE_KEYS: tuple[str, ...] = ("xyz", "pdb", "file", "force_constants_file")  # (the last two: crystal scenes' phonopy files)
+DATA_FILE_KEYS: tuple[str, ...] = ("xyz", "pdb", "file", "force_constants_file", "force_sets_file")  # (the last three: crystal scenes' phonopy files)
 
 #: Largest data file a scene may name, in bytes (16 MiB: a 100,000-atom PDB file is about 8 MiB).
 MAX_DATA_BYTES = 16 << 20
@@ -97,3 +97,45 @@ def scene_inputs(scene: Any) -> tuple[Path, ...]:
             except SceneError:
                 pass
     return tuple(paths)
+
+
+def check_phonopy_scene_files(source: str, params: Any) -> dict[str, Path | None]:
+    """A phonopy crystal scene's files (``system.file``, ``system.force_constants_file``,
+    ``system.force_sets_file``), each inside the scene's folder and whole (`vibra.crystals`'s
+    checks), each refusal at its own key; returns key -> resolved path (None where not given).
+
+    Raises
+    ------
+    SceneError
+        A path outside the folder, a missing or special file, a file that is cut or damaged
+        (the key, the file, the line and what is missing), both extra files given.
+    """
+    from vibra.crystals.phonopy_files import check_force_constants_file, check_force_sets_file, check_phonopy_yaml
+
+    paths: dict[str, Path | None] = {}
+    for key in ("file", "force_constants_file", "force_sets_file"):
+        name = params[key]
+        paths[key] = None if name is None else scene_data_path(source, f"system.{key}", name)
+    if paths["force_constants_file"] is not None and paths["force_sets_file"] is not None:
+        raise SceneError(source, "system.force_sets_file", "is given with system.force_constants_file; give one of "
+                         "them (force constants, or the forces phonopy makes them from)")
+    checks = (("file", check_phonopy_yaml), ("force_constants_file", check_force_constants_file),
+              ("force_sets_file", check_force_sets_file))
+    n_supercell = None
+    for key, check in checks:
+        path = paths[key]
+        if path is None:
+            continue
+        try:
+            found = check(path) if key == "file" else check(path, n_supercell)  # type: ignore[call-arg]
+        except ValueError as error:
+            raise SceneError(source, f"system.{key}", f"{params[key]!r}: {str(error).removeprefix(f'{path}: ')}") \
+                from None
+        if key == "file":
+            n_supercell = found.n_supercell  # type: ignore[union-attr]
+            if not (found.force_constants or found.forces) and paths["force_constants_file"] is None \
+                    and paths["force_sets_file"] is None:  # type: ignore[union-attr]
+                raise SceneError(source, "system.file", f"{params[key]!r} holds no force constants and no forces; name "
+                                 "its FORCE_CONSTANTS file (system.force_constants_file) or its FORCE_SETS file "
+                                 "(system.force_sets_file)")
+    return paths

@@ -18,7 +18,7 @@ from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
 )
 from vibra.pipeline.scene.builders import BUILDER_KINDS, BUILDERS, PLANAR_BUILDERS, builder_fields
-from vibra.pipeline.scene.files import scene_data_path
+from vibra.pipeline.scene.files import check_phonopy_scene_files, scene_data_path
 from vibra.pipeline.scene.specs import (
     FREQUENCY_UNITS, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec,
 )
@@ -426,9 +426,7 @@ def check_crystal(reader: Reader, scene: Any) -> None:
         if scene.units != "ASE":
             reader.fail("units", f"is {scene.units!r}; a phonopy file is in phonopy's units (eV, Angstrom, amu): "
                         "use units = \"ASE\"")
-        scene_data_path(reader.source, "system.file", params["file"])
-        if params["force_constants_file"] is not None:
-            scene_data_path(reader.source, "system.force_constants_file", params["force_constants_file"])
+        check_phonopy_scene_files(reader.source, params)  # inside the folder and whole, at each key
     elif scene.units == "dimensionless":
         reader.fail("units", "is 'dimensionless'; a crystal scene draws frequencies in THz or cm^-1 and thermal "
                     "properties in kJ/mol: use units = \"ASE\" (eV, Angstrom, amu) or \"SI\"")

@@ -400,8 +400,7 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         _refuse_size(target, points, options, name, derive, count, int(max_points))
     tasks, labels, units, table_name = _prepare(target, points, options, name)
     kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
-    arguments = [(kind, payload_target, index, parameters, payload, options, derive)
-                 for payload_target, index, parameters, payload in tasks]
+    arguments = _Lazy(len(tasks), lambda i: (kind, *tasks[i], options, derive))  # made when read
     rows: list[tuple[SweepRow, Any]] = []
     if client is None:
         callback = progress_callback(progress, len(arguments))
@@ -416,9 +415,10 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
                 callback(done, len(arguments), labels[done - 1])
     else:
         starts = range(0, len(arguments), chunk_size)
-        chunks = [(arguments[i:i + chunk_size], labels[i:i + chunk_size]) for i in starts]
-        chunk_labels = [labels[i] if chunk_size == 1 else f"points {i}-{min(i + chunk_size, len(arguments)) - 1}"
-                        for i in starts]
+        chunks = _Lazy(len(starts), lambda c: (arguments[starts[c]:starts[c] + chunk_size],
+                                               labels[starts[c]:starts[c] + chunk_size]))
+        chunk_labels = _Lazy(len(starts), lambda c: labels[starts[c]] if chunk_size == 1 else
+                             f"points {starts[c]}-{min(starts[c] + chunk_size, len(arguments)) - 1}")
         with connect(client, n_workers=n_workers, timeout=timeout) as opened:
             results, failures = run_tasks(opened, _chunk_task, chunks, labels=chunk_labels, progress=progress,
                                           name="vibra-sweep")
@@ -492,39 +492,67 @@ def point_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Seq
     return _first_point_seconds(target, points, options, None, derive)
 
 
+class _Lazy(Sequence[Any]):
+    """`n` items, item i made by `make(i)` when read: a sweep's tasks and labels, never held as lists."""
+
+    def __init__(self, n: int, make: Callable[[int], Any]) -> None:
+        self._n, self._make = n, make
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return [self._make(i) for i in range(*index.indices(self._n))]
+        i = int(index) + (self._n if int(index) < 0 else 0)
+        if not 0 <= i < self._n:
+            raise IndexError(f"index {index} out of range for {self._n} items")
+        return self._make(i)
+
+
 def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None
-             ) -> tuple[list[tuple[Any, int, tuple[tuple[str, Any], ...], Any]], list[str], str | None, str]:
-    """Per point: (target payload, index, parameters, point payload); labels; units; table name."""
-    tasks: list[tuple[Any, int, tuple[tuple[str, Any], ...], Any]] = []
-    labels: list[str] = []
-    if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)):
-        if isinstance(points, Grid):
-            for index, values in enumerate(points.points):
-                parameters = tuple(zip(points.keys, values))
-                tasks.append((target, index, parameters, parameters))
-                labels.append(f"point {index}: " + ", ".join(f"{k}={v:g}" for k, v in parameters))
-        else:
-            for index in range(points.n):
-                tasks.append((target, index, (("member", index),), None))
-                labels.append(f"member {index}")
-        return tasks, labels, None, str(name or getattr(target, "__name__", "sweep"))
-    data, source = _scene_table(target)
-    scene, _ = _scene_at(data, source, {})
-    if scene.kind == "oscillator":
-        raise ValueError(f"{source}: an oscillator scene has no normal modes to sweep")
-    if isinstance(points, Grid):
-        for index, values in enumerate(points.points):
-            parameters = tuple(zip(points.keys, values))
-            _scene_at(data, source, dict(parameters))  # every point validated before any work (not kept)
-            tasks.append(((data, source), index, parameters, parameters))
-            labels.append(f"point {index}: " + ", ".join(f"{k}={v:g}" for k, v in parameters))
+             ) -> tuple[Sequence[tuple[Any, int, tuple[tuple[str, Any], ...], Any]], Sequence[str], str | None, str]:
+    """Per point: (target payload, index, parameters, point payload); labels; units; table name.
+
+    The tasks and labels are lazy sequences (`_Lazy`): point i's are made when read, so a grid
+    of 10^5 points holds no list of them (a scene's points are each validated here first, and
+    nothing of them kept).
+    """
+    builder = callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike))
+    if builder:
+        payload: Any = target
+        units, table_name = None, str(name or getattr(target, "__name__", "sweep"))
     else:
-        if points.draw is None:
+        data, source = _scene_table(target)
+        scene, _ = _scene_at(data, source, {})
+        if scene.kind == "oscillator":
+            raise ValueError(f"{source}: an oscillator scene has no normal modes to sweep")
+        if isinstance(points, Grid):
+            for values in points.points:  # every point validated before any work (not kept)
+                _scene_at(data, source, dict(zip(points.keys, values)))
+        elif points.draw is None:
             raise ValueError("an ensemble of a scene needs draw(generator) -> {key: value}, the values of each member")
-        for index in range(points.n):
-            tasks.append(((data, source), index, (("member", index),), None))
-            labels.append(f"member {index}")
-    return tasks, labels, scene.units, name or scene.name
+        payload, units, table_name = (data, source), scene.units, name or scene.name
+    if isinstance(points, Grid):
+        grid_points, keys = points.points, points.keys
+
+        def task(index: int) -> tuple[Any, int, tuple[tuple[str, Any], ...], Any]:
+            parameters = tuple(zip(keys, grid_points[index]))
+            return payload, index, parameters, parameters
+
+        def label(index: int) -> str:
+            return f"point {index}: " + ", ".join(f"{k}={v:g}" for k, v in zip(keys, grid_points[index]))
+
+        count = len(grid_points)
+    else:
+        def task(index: int) -> tuple[Any, int, tuple[tuple[str, Any], ...], Any]:
+            return payload, index, (("member", index),), None
+
+        def label(index: int) -> str:
+            return f"member {index}"
+
+        count = points.n
+    return _Lazy(count, task), _Lazy(count, label), units, table_name
 
 
 def _scene_table(target: Any) -> tuple[dict[str, Any], str]:
