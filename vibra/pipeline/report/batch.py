@@ -299,7 +299,9 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
                 with protected_inputs(files):  # summary.json and index.html never replace a scene file
                     write_summary(result, merged)
                     write_index(result, merged)
-            finally:  # also when interrupted (Ctrl-C, SIGTERM): what finished processes left goes
+            finally:  # also when interrupted (Ctrl-C, SIGTERM): what finished processes left goes,
+                # and this process's own folder (a signal may have cut its scene's own clean-up short)
+                shutil.rmtree(work_folder(target), ignore_errors=True)
                 clean_stale(target)
                 try:
                     (target / ".work").rmdir()  # every scene is done; removed only when empty
