@@ -39,7 +39,7 @@ __all__ = [
 SUBMODULES: tuple[str, ...] = (
     "assembly", "chains", "charts", "cli", "cluster", "compare", "continuum", "crosscheck", "crystals", "dynamics",
     "generalized", "mechanics",
-    "modes", "molecules", "networks", "pipeline", "response", "solvers", "spectra", "system", "units",
+    "modes", "molecules", "networks", "pipeline", "response", "solvers", "sources", "spectra", "system", "units",
 )
 
 
