@@ -176,3 +176,13 @@ def test_the_module_map_names_every_module() -> None:
                if (path.suffix == ".py" or (path / "__init__.py").exists()) and not path.name.startswith("__")}
     assert present - named == set(), "missing from the module map"
     assert named - present == set(), "in the module map, not in vibra/"
+
+
+def test_sources_are_cited_by_name() -> None:
+    """The course notes are cited by author and title (`vibra.sources`), never as "seed 00N",
+    and nothing points to a DESIGN.md that is not in the repository."""
+    texts = [*(ROOT / "vibra").rglob("*.py"), *(ROOT / "docs").glob("*.md"), ROOT / "README.md",
+             *(ROOT / "chains").glob("*.toml"), *(ROOT / "molecules").glob("*.toml")]
+    offenders = [f"{path.relative_to(ROOT)}: {word}" for path in texts for word in ("seed 00", "DESIGN.md")
+                 if word in path.read_text(encoding="utf-8")]
+    assert offenders == []

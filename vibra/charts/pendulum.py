@@ -1,5 +1,5 @@
 """Charts of the pendulum analyses: period versus amplitude, double-pendulum mode shapes,
-exact versus harmonic trajectories (seed 003 figure 2; seed 000 problem II).
+exact versus harmonic trajectories (Kneller, Mécanique analytique, figure 2; Vieille 1849, problem II).
 
 Each function takes result objects, draws on a new figure with vibra's shared style and
 returns the `matplotlib.figure.Figure`; save it with `vibra.charts.save_figure`.
@@ -109,12 +109,12 @@ def plot_double_pendulum_modes(modes: Modes, a: float, b: float, *, amplitude: f
     axes[0].plot([], [], "o", color="C1", label="m (upper)")
     axes[0].plot([], [], "o", color="C3", label="m′ (lower)")
     axes[0].legend(loc="upper left", fontsize=9)
-    fig.suptitle("Double pendulum normal modes (seed 000, problem II)")
+    fig.suptitle("Double pendulum normal modes (Vieille 1849, problem II)")
     return fig
 
 
 def plot_trajectory_comparison(pairs: Sequence[tuple[PendulumMotion, PendulumMotion]]) -> Figure:
-    """Exact versus harmonic theta(t), one panel per (exact, harmonic) pair (seed 003 fig. 2).
+    """Exact versus harmonic theta(t), one panel per (exact, harmonic) pair (Kneller, Mécanique analytique, fig. 2).
 
     Parameters
     ----------

@@ -247,7 +247,7 @@ def _step_chart_mode_energies(plan: Plan, context: Any, renderer: Any) -> tuple[
 
 def isokinetic_closed_form(run: Any, system: Any, kT: float) -> Any:
     """(n_records,) the seed's friction mu = -(K x).v / (n_dof k_B T) of a harmonic system under the
-    isokinetic constraint (seed 003 §4.2 example 10: -K (r.r') / (3 k_B T) in 3-D), in 1 / time unit."""
+    isokinetic constraint (Kneller, Mécanique analytique, §4.2 example 10: -K (r.r') / (3 k_B T) in 3-D), in 1 / time unit."""
     K = system.hessian().tocsr()
     x, v = np.asarray(run.positions), np.asarray(run.velocities)
     return -np.sum((K @ x.T).T * v, axis=1) / (x.shape[1] * kT)

@@ -4,7 +4,7 @@ A dynamics scene builds a harmonic `System` (``linear_chain``, ``springs``) or a
 (``fput``: the harmonic chain and its anharmonic bond forces) and integrates it with
 `vibra.dynamics.integrate`, with or without a thermostat, then charts what the run recorded:
 
-- ``draw.mode_energies``: energy per normal mode against time (seed 003 eq. 149; FPUT's
+- ``draw.mode_energies``: energy per normal mode against time (Kneller, Mécanique analytique, eq. 149; FPUT's
   recurrence when the energy starts in one mode);
 - ``draw.energies``: kinetic, potential and conserved energy against time, with the
   thermostat's variable (the isokinetic friction mu, or the first Nosé-Hoover xi);
