@@ -139,3 +139,22 @@ def test_a_transition_states_imaginary_mode_is_left_out_with_a_note() -> None:
     with pytest.warns(RuntimeWarning, match="1 imaginary mode"):
         result = thermochemistry([-450.0, 300.0, 1200.0], 298.15, low_frequency="grimme")
     assert result.n_imaginary == 1 and result.wavenumbers.tolist() == [300.0, 1200.0]
+
+
+def test_scale_factor_table_is_goodvibes_and_levels_are_read_by_name() -> None:
+    """Each shipped factor equals the ZPE factor of the same level in GoodVibes' copy of the
+    Truhlar group's database (an independent package); a level name gives its factor, an
+    unknown one is refused with the closest names and the advice to give the number."""
+    from goodvibes import vib_scale_factors as gv
+
+    from vibra.spectra import SCALE_FACTORS
+
+    for level, factor in SCALE_FACTORS.items():
+        assert gv.scaling_data_dict[gv.canonicalize_level(level)].zpe_fac == factor, level
+    by_name = thermochemistry(FREQUENCIES, [100.0, 300.0], scale_factor="b3lyp/6-31g(d)")
+    by_number = thermochemistry(FREQUENCIES, [100.0, 300.0], scale_factor=0.977)
+    assert by_name.scale_factor == 0.977
+    np.testing.assert_array_equal(by_name.entropy, by_number.entropy)
+    with pytest.raises(ValueError, match=r"scale_factor is 'B3LYP/6-31G\(x\)': not a level of theory .*closest: "
+                                         r"B3LYP/6-31G\(d\).*give the factor .* as a number"):
+        thermochemistry(FREQUENCIES, [300.0], scale_factor="B3LYP/6-31G(x)")

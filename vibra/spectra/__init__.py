@@ -43,12 +43,13 @@ from vibra.spectra.ir import (KM_PER_MOL_PER_E2_AMU, PAULING_ELECTRONEGATIVITY, 
                               electronegativity_charges, ir_spectrum)
 from vibra.spectra.isotopes import ISOTOPE_MASSES, IsotopeShifts, isotope_shifts
 from vibra.spectra.raman import RamanSpectrum, raman_spectrum
+from vibra.spectra.scale_factors import SCALE_FACTORS
 from vibra.spectra.thermochemistry import BOLTZMANN_EV_PER_K, Thermochemistry, thermochemistry
 from vibra.system import System
 
 __all__ = [
     "ZERO_RTOL", "KM_PER_MOL_PER_E2_AMU", "BOLTZMANN_EV_PER_K", "ISOTOPE_MASSES",
-    "PAULING_ELECTRONEGATIVITY",
+    "PAULING_ELECTRONEGATIVITY", "SCALE_FACTORS",
     "IRSpectrum", "RamanSpectrum", "StickSpectrum", "BroadenedSpectrum", "Thermochemistry",
     "IsotopeShifts",
     "ir_spectrum", "raman_spectrum", "dipole_derivatives", "electronegativity_charges",

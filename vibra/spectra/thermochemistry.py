@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
+from vibra.spectra.scale_factors import scale_factor as level_factor
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
@@ -169,9 +170,11 @@ def thermochemistry(
         B 115, 14556 (2011)), U and C_v harmonic: GoodVibes' ``QS="truhlar"``.
     cutoff : float
         nu_0 of the treatment, in cm^-1 (> 0; 100 by default, as both papers).
-    scale_factor : float
+    scale_factor : float or str
         Every frequency is multiplied by it first (> 0): the empirical scale factor of the
-        level of theory the Hessian came from (e.g. NIST CCCBDB's listed factors), 1 for none.
+        level of theory the Hessian came from, 1 for none; or that level's name
+        (``"B3LYP/6-31G(d)"``) for its factor in `vibra.spectra.SCALE_FACTORS` (Alecu, Zheng,
+        Zhao and Truhlar 2010).
     bav : float
         Grimme's B_av, kg m^2 (> 0).
 
@@ -197,7 +200,7 @@ def thermochemistry(
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
     _validate.choice(low_frequency, "low_frequency", LOW_FREQUENCY)
     cutoff = _validate.positive_scalar(cutoff, "cutoff", "cutoff (cm^-1)")
-    scale_factor = _validate.positive_scalar(scale_factor, "scale_factor", "frequency scale factor")
+    scale_factor = _validate.positive_scalar(level_factor(scale_factor), "scale_factor", "frequency scale factor")
     bav = _validate.positive_scalar(bav, "bav", "average moment of inertia (kg m^2)")
     rigid = None
     if isinstance(modes, VibrationalAnalysis):

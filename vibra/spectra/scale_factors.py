@@ -1,0 +1,65 @@
+"""Frequency scale factors for thermochemistry, by level of theory: a small cited table.
+
+Harmonic frequencies from a quantum-chemical Hessian are systematically off; thermochemistry
+multiplies them by an empirical factor fitted for the level of theory (method/basis) first.
+The factors below are the zero-point-energy scale factors of the Truhlar group's Database of
+Frequency Scale Factors (I. M. Alecu, J. Zheng, Y. Zhao and D. G. Truhlar, J. Chem. Theory
+Comput. 6, 2872 (2010), and the database's later versions), the ones GoodVibes applies by
+default; NIST's CCCBDB lists comparable ones. A level not in the table is given as a number.
+
+`scale_factor(value)` turns ``scale_factor=`` of `vibra.spectra.thermochemistry` and
+`ideal_gas_thermochemistry` into a number: a positive number as it is, or a level name
+(``"B3LYP/6-31G(d)"``; case, spaces, hyphens and the brackets of the basis do not matter).
+"""
+
+from __future__ import annotations
+
+import difflib
+
+__all__ = ["SCALE_FACTORS", "scale_factor"]
+
+#: ZPE scale factors of common levels of theory (Alecu, Zheng, Zhao and Truhlar 2010; the
+#: Truhlar group's database), as "method/basis" -> factor.
+SCALE_FACTORS: dict[str, float] = {
+    "HF/6-31G(d)": 0.909,
+    "B3LYP/6-31G(d)": 0.977,
+    "B3LYP/def2-TZVP": 0.985,
+    "B3LYP/aug-cc-pVTZ": 0.985,
+    "PBE/def2-TZVP": 1.011,
+    "M06-2X/6-31+G(d,p)": 0.968,
+    "M06-2X/def2-TZVP": 0.971,
+    "wB97X-D/def2-TZVP": 0.975,
+    "CCSD(T)/aug-cc-pVTZ": 0.987,
+}
+
+
+def _key(level: str) -> str:
+    return "".join(ch for ch in level.upper() if ch not in " -_()")
+
+
+_BY_KEY = {_key(level): factor for level, factor in SCALE_FACTORS.items()}
+
+
+def scale_factor(value: float | str) -> float:
+    """The factor for ``scale_factor=``: a number as given, or a level of theory's from
+    `SCALE_FACTORS`.
+
+    Raises
+    ------
+    ValueError
+        A level not in the table (the message lists the closest and says to give the number).
+
+    Examples
+    --------
+    >>> scale_factor("B3LYP/6-31G(d)"), scale_factor("b3lyp/631g(d)"), scale_factor(0.96)
+    (0.977, 0.977, 0.96)
+    """
+    if not isinstance(value, str):
+        return value  # type: ignore[return-value]  (a number: validated where it is used)
+    found = _BY_KEY.get(_key(value))
+    if found is not None:
+        return found
+    close = difflib.get_close_matches(value, list(SCALE_FACTORS), n=3, cutoff=0.5)
+    hint = f"; closest: {', '.join(close)}" if close else ""
+    raise ValueError(f"scale_factor is {value!r}: not a level of theory in vibra.spectra.SCALE_FACTORS{hint}; "
+                     f"give the factor published for your level as a number (e.g. from NIST's CCCBDB)")
