@@ -114,8 +114,8 @@ def residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
 
 def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
                     terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None,
-                    floor: float = -np.inf, ceiling: float | None = None, deviation: Deviation = None
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+                    floor: float = -np.inf, ceiling: float | None = None, deviation: Deviation = None,
+                    split: bool = False) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Spring-space Ritz values, vectors and quadratic residual bounds per cluster (see `springs.checked_dense`).
 
     Works through blocks of whole clusters (~BLOCK columns): O(nnz(B~) k) in all, n_terms x BLOCK memory.
@@ -126,6 +126,8 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
     `precise`: products in extended precision (np.longdouble), whose rounding margin is ~2000
     times smaller; the bound, quadratic in the residual, then stays near the true error where
     stiff springs make the float64 margin (eps |B~|^T |B~| |v|) dominate.
+    `split`: the columns from `cheap_from` on always take the cheap margins (by default a block
+    that starts before `cheap_from` works exactly throughout, tighter for the columns past it).
     `deviation` (`forming_deviation`): B~'s own rounding, entry by entry; the Ritz step then
     works with the exact B~ = stored - D (B~ v - D v), so values and bounds are the exact
     problem's, up to the deviations' own uncertainty S. Without it, the worst case `FORMING`
@@ -163,7 +165,7 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
     while first < len(starts):
         last = int(np.searchsorted(stops, stops[first] + BLOCK - 1, side="right")) if first < len(starts) else first
         last = max(last, first + 1)
-        if starts[first] < cheap_from:  # a block of exact columns ends where the cheap ones begin
+        if split and starts[first] < cheap_from:  # a block of exact columns ends where the cheap ones begin
             last = min(last, max(first + 1, int(np.searchsorted(stops, cheap_from, side="right"))))
         columns = slice(int(starts[first]), int(stops[last - 1]))
         V = basis[:, columns].astype(B.dtype)

@@ -202,7 +202,7 @@ def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: 
     # some bound then misses TARGET, every mode again with the exact margins and deviations
     cheap_from = values.shape[0] if precise else cheap_columns(B, values, terms)
     theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, cheap_from=cheap_from,
-                                        deviation=exact() if precise else None)
+                                        deviation=exact() if precise else None, split=True)
     zero = theta + error <= zero_level(terms, B.shape[1], norm)
     missed = (error > TARGET * theta) & ~zero
     if not precise and np.any(missed[:k]):
