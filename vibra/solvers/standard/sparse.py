@@ -22,9 +22,9 @@ from vibra.solvers.common import (
     tridiagonal_bands,
 )
 from vibra.solvers.standard.krylov import block_eigs
-from vibra.solvers.standard.ordering import DISSECTION_MIN, nested_dissection
-from vibra.solvers.standard.cholmod import CholmodCholesky, use_cholmod
-from vibra.solvers.standard.pardiso import PardisoCholesky, use_pardiso
+from vibra.solvers.standard.ordering import nested_dissection
+from vibra.solvers.standard.cholmod import CholmodCholesky, sparse_backend
+from vibra.solvers.standard.pardiso import PardisoCholesky
 from vibra.solvers.standard.lapack import dense_path
 
 
@@ -34,7 +34,7 @@ class ShiftedInverse:
     Tridiagonal K~: LAPACK pttrf (LDL^T, O(N)), which succeeds exactly when K~ - sigma I is
     positive definite. Otherwise SuperLU in symmetric mode without pivoting, whose pivots
     give the inertia (Sylvester): no negative pivot means sigma is below every eigenvalue.
-    Large K~ (`DISSECTION_MIN` dofs and up) are factorised by a sparse Cholesky, whose success
+    Large K~ (`ordering.DISSECTION_MIN` dofs and up) are factorised by a sparse Cholesky, whose success
     is the inertia: MKL PARDISO's where `pypardiso` is installed (``vibra[pardiso]``,
     `vibra.solvers.standard.pardiso`), else CHOLMOD's (cvxopt, `vibra.solvers.standard.cholmod`)
     in nested-dissection order (`vibra.solvers.standard.ordering`); SuperLU, in that order too,
@@ -58,23 +58,17 @@ class ShiftedInverse:
                 self.below_spectrum = True
                 return
         shifted = (Kt - sigma * sp.identity(self.n, format="csr")).tocsr()
-        if use_pardiso(self.n, DISSECTION_MIN):
+        backend = sparse_backend(self.n)  # (the budget's estimate asks the same)
+        order = None if backend == "pardiso" else nested_dissection(shifted)  # (PARDISO orders its own)
+        if backend != "superlu":
             try:
-                self._cholesky = PardisoCholesky(shifted)
+                self._cholesky = PardisoCholesky(shifted) if backend == "pardiso" else CholmodCholesky(shifted, order)
                 self.below_spectrum = True
-                self.backend = "pardiso"
+                self.backend = backend
                 return
             except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
-                pass
-        order = nested_dissection(shifted)
-        if use_cholmod(self.n, DISSECTION_MIN):
-            try:
-                self._cholesky = CholmodCholesky(shifted, order)
-                self.below_spectrum = True
-                self.backend = "cholmod"
-                return
-            except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
-                pass
+                if order is None:
+                    order = nested_dissection(shifted)
         self.backend = "superlu"
         self._order = order
         ordering = "MMD_AT_PLUS_A"
