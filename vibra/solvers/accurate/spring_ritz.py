@@ -24,7 +24,6 @@ from vibra.solvers.accurate.dd import (
 from vibra.solvers.accurate.dd import mul as dd_mul, split_mp, tree_sum
 from vibra.solvers.common import EPS, SolveResult, sample_columns, small_pencil
 from vibra.solvers.accurate.ring.kernel import _jit
-from vibra.solvers.accurate.products import times
 from vibra.solvers.accurate.rounding import WORST_ENTRY, entry_deviation
 
 __all__ = ["TARGET", "BLOCK", "FORMING", "REFINE_WORK", "Deviation", "forming_deviation", "zero_level",
@@ -173,12 +172,12 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
         # sums, `_error_free_product`), where the Rayleigh quotient's rounding would otherwise
         # grow as 1 / omega relative (a uniform ring of 10^6 sites: 1.4e-13 on its lowest pair,
         # 1.5e-15 now)
-        E = _error_free_product(B, V) if precise else _mul(B, V)
+        E = _error_free_product(B, V) if precise else np.asarray(B @ V)
         # the exact B~ v where it matters (below cheap_from); above, the worst case, which
         # costs no products and stays below those modes' own a-priori bound
         exact = D is not None and columns.start < cheap_from
         if exact:
-            E = E - _mul(D, V)
+            E = E - np.asarray(D @ V)
         # single-mode clusters: Rayleigh quotients ||B~ v||^2 / ||v||^2, all at once
         # (numpy's pairwise sums along each contiguous column: within ~40 unit of the sum, inside
         # the EPS w allowed below, where a plain running sum of 10^6 terms may lose 10^6 unit)
@@ -192,9 +191,9 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
             V[:, start:stop] = V[:, start:stop] @ rotation
             E[:, start:stop] = E[:, start:stop] @ rotation
         w = np.maximum(w, 0.0)  # H is a Gram matrix
-        product = _mul(B_T, E)
+        product = np.asarray(B_T @ E)
         if exact:
-            product = product - _mul(D_T, E)
+            product = product - np.asarray(D_T @ E)
         squares = np.sum((product - V * w) ** 2, axis=0)
         # rounding of B~^T (B~ V) (sums of <= `terms` products; D's, eta times smaller, alike),
         # and what is left of B~'s own rounding: Delta v added to the residual, the Rayleigh
@@ -206,8 +205,8 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
             shifts = grow * reach * lengths
             moved = grow * reach * np.ones_like(lengths)
         else:
-            spread = _mul(A, np.abs(V))  # |B~| |v|
-            products = np.linalg.norm(_mul(A_T, spread), axis=0).astype(float)
+            spread = np.asarray(A @ np.abs(V))  # |B~| |v|
+            products = np.linalg.norm(np.asarray(A_T @ spread), axis=0).astype(float)
             margins = 2 * terms * unit * products * (1 + 4 * eta)
             if not exact:
                 shifts = grow * products
@@ -215,9 +214,9 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
                           + FORMING**2 * np.einsum("ij,ij->j", spread, spread)).astype(float) / lengths**2)
             else:  # only the deviations' uncertainty S (|S| <= eta |B~|) is left
                 assert S is not None
-                unsure = _mul(S, np.abs(V).astype(float))
-                shifts = (np.linalg.norm(_mul(A_T, unsure), axis=0)
-                          + np.linalg.norm(_mul(S_T, np.abs(E).astype(float)), axis=0)) * (1 + 4 * eta) \
+                unsure = np.asarray(S @ np.abs(V).astype(float))
+                shifts = (np.linalg.norm(np.asarray(A_T @ unsure), axis=0)
+                          + np.linalg.norm(np.asarray(S_T @ np.abs(E).astype(float)), axis=0)) * (1 + 4 * eta) \
                     + eta * eta * products
                 moved = (2 * np.einsum("ij,ij->j", np.abs(E).astype(float), unsure)
                          + np.einsum("ij,ij->j", unsure, unsure)) / lengths**2
@@ -251,14 +250,6 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
             error[start:stop] = bound + (2 * terms * unit + EPS) * w[local] + pencil
         first = last
     return theta, vectors, error
-
-
-def _mul(M: Any, X: NDArray[Any]) -> NDArray[Any]:
-    """M @ X for a sparse M: compiled (`products.times`, the same sums in the same order as
-    scipy's) in float64, scipy's product in extended precision."""
-    if M.dtype == np.float64 and X.dtype == np.float64:
-        return times(M, X)
-    return np.asarray(M @ X)
 
 
 #: Entries of B V that `_error_free_product` forms at once.

@@ -26,6 +26,7 @@ and `refinement` (how many, and why).
 
 from __future__ import annotations
 
+import functools
 from typing import Any, Callable
 
 import numpy as np
@@ -192,7 +193,7 @@ def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: 
         counted = _counted(B, form, values, basis, elongations, rotation, gram, k, vectors, terms, norm, precise)
         if counted is not None:
             return counted
-    exact = deviation if callable(deviation) else (lambda: deviation)
+    exact = functools.cache(deviation) if callable(deviation) else (lambda: deviation)  # formed once, if at all
     basis = basis @ rotation
     residuals = np.linalg.norm(transposed_times(B, elongations @ rotation) - basis * values, axis=0)
     # "high" first tries B~'s rounding at its worst case (`FORMING` per entry: no entry
