@@ -175,14 +175,17 @@ def check_phonopy_yaml(path: str | os.PathLike[str]) -> PhonopyYamlSummary:
 
     source = Path(path)
     text = _file_text(source)
-    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    safe = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # plain data only: never a loader that builds objects
+    reader = safe(text)
     try:
-        data = yaml.load(text, Loader=loader)  # noqa: S506 (a safe loader: CSafeLoader or SafeLoader)
+        data = reader.get_single_data()
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None)
         where = f"line {mark.line + 1}: " if mark is not None else ""
         problem = getattr(error, "problem", None) or type(error).__name__
         raise ValueError(f"{source}: {where}not valid YAML ({problem}); {_CUT} or damaged") from None
+    finally:
+        reader.dispose()
     if not isinstance(data, dict) or not isinstance(data.get("unit_cell"), dict):
         raise ValueError(f"{source}: holds no unit_cell section; a phonopy yaml (phonopy.yaml, phonopy_disp.yaml) "
                          f"starts with its cells{'' if isinstance(data, dict) else ' (this is not a YAML mapping)'}")
