@@ -57,6 +57,15 @@ __all__ = [
 ]
 
 
+#: Kinds whose [compute] and [draw] tables are their own: kind -> (parse, check, Scene field).
+#: Crystals: bands, DOS, thermal properties, a mode on a supercell; dynamics: the time step,
+#: the thermostat, the charts.
+OWN_TABLES: dict[str, tuple[Any, Any, str]] = {
+    "crystal": (parse_crystal, check_crystal, "crystal"),
+    "dynamics": (parse_dynamics, check_dynamics, "dynamics"),
+}
+
+
 @dataclass(frozen=True)
 class Scene:
     """A validated scene file.
@@ -141,19 +150,14 @@ class Scene:
                         + ("" if given else "; rename the file or add a name = \"...\" line"))
         units = top["units"] or DEFAULT_UNITS[kind]
         system = parse_system(reader, data["system"], kind)
-        if kind == "crystal":  # its own [compute] and [draw] keys (bands, DOS, thermal, a mode)
-            draw, crystal = parse_crystal(reader, data.get("compute", {}), data.get("draw", {}))
+        own = OWN_TABLES.get(kind)
+        if own is not None:  # a kind with its own [compute] and [draw] keys
+            parse, check, field = own
+            draw, spec = parse(reader, data.get("compute", {}), data.get("draw", {}))
             scene = cls(source=src, kind=kind, name=name, title=top["title"] or name,
                         description=top["description"], units=units, system=system,
-                        compute=ComputeSpec(), draw=draw, crystal=crystal)
-            check_crystal(reader, scene)
-            return scene
-        if kind == "dynamics":  # its own [compute] and [draw] keys (time step, thermostat, the charts)
-            draw, dynamics = parse_dynamics(reader, data.get("compute", {}), data.get("draw", {}))
-            scene = cls(source=src, kind=kind, name=name, title=top["title"] or name,
-                        description=top["description"], units=units, system=system,
-                        compute=ComputeSpec(), draw=draw, dynamics=dynamics)
-            check_dynamics(reader, scene)
+                        compute=ComputeSpec(), draw=draw, **{field: spec})
+            check(reader, scene)
             return scene
         compute = parse_compute(reader, data.get("compute", {}), kind)
         draw = parse_draw(reader, data.get("draw", {}))
