@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import NEAR, _EPS, _TINY, _add, _jit, _mul, _reciprocal, _split, prange
+from vibra.solvers.accurate.ring.kernel import NEAR, _EPS, _TINY, _add, _jit, _mul, _reciprocal, _two_product, prange
 
 
 @_jit()
@@ -19,10 +19,7 @@ def _count(x: float, m: NDArray[np.float64], compliance_h: NDArray[np.float64], 
     """(count below x, certain, last pivot) for one x: `ring.counts.count_below_springs`' loop."""
     n = m.shape[0]
     size = 2 * n
-    x_high, x_low = _split(x)
-    mh, ml = _split(m[0])
-    ph = x * m[0]
-    pl = ((x_high * mh - ph) + x_high * ml + x_low * mh) + x_low * ml
+    ph, pl = _two_product(x, m[0])
     gh, gl = closing, 0.0
     g_error = 0.0
     lh, ll = compliance_h[n - 1], compliance_l[n - 1]
@@ -49,10 +46,7 @@ def _count(x: float, m: NDArray[np.float64], compliance_h: NDArray[np.float64], 
             g_error = g_error + u * (abs(fh) + abs(off[size - 2]))
         th, tl = _mul(rh, rl, square_h[j], square_l[j])
         if j % 2:  # node j + 1 is a site
-            i = (j + 1) // 2
-            mh, ml = _split(m[i])
-            dh = x * m[i]
-            dl = ((x_high * mh - dh) + x_high * ml + x_low * mh) + x_low * ml
+            dh, dl = _two_product(x, m[(j + 1) // 2])
         else:  # node j + 1 is spring j // 2
             dh, dl = compliance_h[j // 2], compliance_l[j // 2]
         ph, pl = _add(dh, dl, -th, -tl)
@@ -197,14 +191,11 @@ def _path_count(x: float, site: NDArray[np.bool_], m: NDArray[np.float64], compl
     square given, 0 between separate paths). No fill: every pivot is exact for couplings,
     masses and springs perturbed by a few units of double-double; a vanished pivot makes the
     count uncertain."""
-    x_high, x_low = _split(x)
     negative = 0
     ph, pl = 0.0, 0.0
     for k in range(site.shape[0]):
         if site[k]:
-            mh, ml = _split(m[k])
-            dh = x * m[k]
-            dl = ((x_high * mh - dh) + x_high * ml + x_low * mh) + x_low * ml
+            dh, dl = _two_product(x, m[k])
         else:
             dh, dl = compliance_h[k], compliance_l[k]
         if k > 0 and square_h[k - 1] != 0.0:

@@ -77,13 +77,13 @@ def test_disordered_rings_are_certified_against_mpmath_counts(spread: float, see
 def test_a_nearly_uniform_ring_splits_its_pairs_within_the_bounds() -> None:
     """2,000 unit masses, springs 1 + 1e-9 x (standard normal): each degenerate pair of the uniform
     ring split by ~1e-9, one frequency each side of the cut chain's (`ring_values._polish`: the
-    bracket on the root's side, regula falsi). Every nonzero bound within 1e-13 relative; a
-    sample covered by 60-digit mpmath counts."""
+    bracket on the root's side, regula falsi). accuracy="certified": every nonzero bound within
+    1e-13 relative; a sample covered by 60-digit mpmath counts."""
     n = 2000
     mass = np.ones(n)
     springs = 1.0 + 1e-9 * np.random.default_rng(0).standard_normal(n)
     ring = linear_chain(n, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
-    modes = ring.modes(vectors=False)
+    modes = ring.modes(vectors=False, accuracy="certified")
     assert modes.solver == "accurate-ring"
     omega, error = modes.omega, modes.omega_error
     relative = error[1:] / omega[1:]
@@ -257,7 +257,8 @@ def test_a_ring_with_a_spring_to_a_wall_agrees_with_the_checked_dense_path(monke
     """A ring with one spring to a wall (1,510 sites) takes `accurate-ring` too (its cut chain's
     factor keeps the wall: `test_ring_walls.py`); the checked dense solve it took before
     (`common.RING_VALUES_FROM` out of reach) is an independent path: every pair of
-    certified intervals overlaps, and both are within 1e-10 relative."""
+    certified intervals overlaps, and both are within 1e-10 relative (the ring's path at
+    accuracy="certified": within 1e-13)."""
 
     n = 1510
     mass, springs = disordered_ring(n, 1.0, 4)
@@ -267,7 +268,7 @@ def test_a_ring_with_a_spring_to_a_wall_agrees_with_the_checked_dense_path(monke
     weights = np.r_[w, 0.5]
     K = (walled.T @ sp.diags(weights) @ walled).tocsr()
     assert ring_counts.ring_pencil(walled, weights, mass).walls
-    modes = normal_modes(K, mass, spring_factor=(walled, weights), vectors=False)
+    modes = normal_modes(K, mass, spring_factor=(walled, weights), vectors=False, accuracy="certified")
     assert modes.solver == "accurate-ring"
     assert np.all(modes.omega_error <= 1e-13 * modes.omega)
     monkeypatch.setattr(solvers.common, "RING_VALUES_FROM", 10**12)  # the ring's own path off

@@ -192,20 +192,25 @@ def test_a_uniform_ring_of_pendulums_of_8000_sites_meets_the_criterion() -> None
     """8,000 sites, each on a wall spring g = 0.01 (the Klein-Gordon lattice): omega_j^2 =
     g + 4 sin^2(pi j / n), in exactly degenerate pairs. All values, and the lowest 10 with
     vectors, through `normal_modes`: solver accurate-ring (before: the band solver, absolute
-    accuracy), every bound covering the closed form and within 1e-13 relative; the vectors'
-    residuals ||K v - omega^2 M v|| / omega^2 below 1e-10."""
+    accuracy), every bound covering the closed form, within 1e-13 relative at accuracy="certified"
+    (the ring's own values path) and within 1e-10 at "high" (the band solver's values bracketed
+    by counts); the vectors' residuals ||K v - omega^2 M v|| / omega^2 below 1e-10."""
     n = 8000
     B, w, mass, _, _ = walled_ring(n, 0.0, 1)
     w[n:] = 0.01
     K = (B.T @ sp.diags(w) @ B).tocsr()
     with mp.workdps(30):
         truth = np.sort(np.array([float(mp.sqrt(mp.mpf("0.01") + 4 * mp.sin(mp.pi * j / n) ** 2)) for j in range(n)]))
-    modes = normal_modes(K, mass, spring_factor=(B, w), vectors=False)
+    modes = normal_modes(K, mass, spring_factor=(B, w), vectors=False, accuracy="certified")
     assert modes.solver == "accurate-ring"
     assert f"{n} of {n} bounds certified" in modes.refinement
     true_error = np.maximum(np.abs(modes.omega - truth) - 1e-16 * truth, 0.0)  # (truth to 1 ulp)
     assert np.all(true_error <= modes.omega_error)
     assert np.all(modes.omega_error <= 1e-13 * modes.omega)
+    high = normal_modes(K, mass, spring_factor=(B, w), vectors=False)
+    assert high.solver == "accurate-ring" and "from the band solver" in high.refinement
+    assert np.all(np.maximum(np.abs(high.omega - truth) - 1e-16 * truth, 0.0) <= high.omega_error)
+    assert np.all(high.omega_error <= 0.5e-10 * high.omega)  # (omega^2 within 1e-10)
     lowest = normal_modes(K, mass, spring_factor=(B, w), n_modes=10)
     assert lowest.solver == "accurate-ring"
     assert np.all(np.abs(lowest.omega - truth[:10]) <= lowest.omega_error)

@@ -383,16 +383,23 @@ def test_all_frequencies_of_a_long_ring_in_high_are_refused_with_fast_among_the_
 
 
 def test_ring_frequencies_match_the_closed_form_and_a_dense_solve() -> None:
-    """A ring above DENSE_LIMIT sites, frequencies only, takes ``accurate-ring`` in "high"
-    (relative accuracy, every bound certified by Sturm counts of its spring form; with vectors,
-    up to RING_DENSE_LIMIT, the checked dense solve); "fast" takes its band (absolute accuracy)."""
+    """A ring above DENSE_LIMIT sites, frequencies only, takes ``accurate-ring``: in "certified"
+    its own values path (relative accuracy, every bound certified by Sturm counts of its spring
+    form), in "high" the band solver's values each bracketed by counts (every bound covering the
+    truth, within 1e-10 in omega^2); with vectors, up to RING_DENSE_LIMIT, the checked dense
+    solve; "fast" takes its band (absolute accuracy)."""
     from vibra.chains import linear_chain, monatomic_frequencies
 
     n = 3000
-    modes = linear_chain(n, ends="periodic").modes(vectors=False)
-    assert modes.solver == "accurate-ring"
     exact = np.sort(monatomic_frequencies(n, ends="periodic"))  # 2 Omega |sin(pi j / n)|
     flexible = exact > 1e-9
+    high = linear_chain(n, ends="periodic").modes(vectors=False)
+    assert high.solver == "accurate-ring" and "from the band solver" in high.refinement
+    assert np.all(high.omega_error[flexible] + 4 * np.finfo(float).eps * exact[flexible]
+                  >= np.abs(high.omega - exact)[flexible])
+    assert np.all(high.omega_error[flexible] <= 0.5e-10 * exact[flexible])
+    modes = linear_chain(n, ends="periodic").modes(vectors=False, accuracy="certified")
+    assert modes.solver == "accurate-ring"
     error = np.abs(modes.omega - exact)
     # relative accuracy (the closed form in float64 is itself within ~4 eps)
     assert np.max(error[flexible] / exact[flexible]) < 1e-13

@@ -38,6 +38,9 @@
                      form's last pivot between the eigenvalues of the chain it is cut into, each
                      certified by compiled double-double Sturm counts, O(n^2) for all,
                      O(n k) for the lowest k (accurate-ring; `accurate/ring/values.py`, `kernel.py`);
+                     at "high", a ring that is not spread: the band solver's values (over
+                     1,500 sites) or shift-invert's (a few), each bracketed by two counts of
+                     K - x M (`accurate/ring/counted.py`, `pencil_counts.py`);
                    - the same, of a chain of 100 sites or more with springs to a wall inside
                      it: dqds (or bisection) on its bidiagonal Cholesky factor, each value
                      certified by the same counts (accurate-walled; `accurate/chain/walled.py`).
@@ -94,6 +97,9 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``accurate/ring/counts.py``         a ring's pencil and its Sturm counts in double-double
                                     (certified bounds)
 ``accurate/ring/values.py``         accurate-ring: a ring's frequencies, roots certified by counts
+``accurate/ring/counted.py``        accurate-ring at "high": a standard solver's values, each
+                                    bracketed by two counts
+``accurate/ring/pencil_counts.py``  the compiled counts of K - x M in double-double
 ``accurate/ring/kernel.py``         its compiled loops (numba): the spring form's pivots, roots
                                     and counts
 ``structured/pencil.py``            K x = omega^2 M x with a full, possibly ill-conditioned M

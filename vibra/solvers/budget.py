@@ -29,6 +29,8 @@ the input, then time:
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
   otherwise); 2e-8 n ncv per Lanczos run, + 1.2e-8 n^2 for a 3-D network's factor (a sparse
   Cholesky: PARDISO or CHOLMOD; 4 times that for SuperLU's LU where neither loads).
+- accurate-ring at "high" from a standard solver (`ring.counted`): the band solve's (all values)
+  or shift-invert's (a few), + 5e-9 n k: two double-double counts of K - x M per value.
 - accurate-ring (a ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
   lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
   (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
@@ -80,6 +82,7 @@ BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dste
 BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate
 RING_S = 2e-8                 # per n k: a ring's values, each certified by counts (`ring.values`)
+RING_COUNTED_S = 5e-9         # per n k: two counts of K - x M per value (`ring.counted`; ~2.3e-9 per point and site, two cores)
 RING_MP_SITES = 5e5           # sites counted in mpmath per ring solve, at most (`ring.values.MP_WORK`)
 MP_COUNT_S = 2e-5             # per site: one mpmath count
 RING_MP_EXPECTED = 2.0        # mpmath counts expected per ring solve (at most 24; most solves need none)
@@ -208,7 +211,7 @@ def available_memory() -> float | None:
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
              nnz: int = 0, accuracy: str = "high", one_dimensional: bool = False, chain: bool = False,
-             ring_counted: bool = False) -> Estimate:
+             ring_route: str | None = None) -> Estimate:
     """Memory and time of `path` computing `k` of `n` modes (with vectors or not) at `accuracy`
     (which bound-tightening steps are counted: `refinement_seconds`)."""
     n2 = float(n) * n
@@ -248,10 +251,15 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
         seconds = (BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
-    elif path == "accurate-ring" and ring_counted:
+    elif path == "accurate-ring" and ring_route == "sparse":
         # shift-invert's values, bracketed by ~2 k double-double counts per level (two levels seen)
         cost = estimate("sparse", n, k=k, vectors=vectors, width=width, nnz=nnz)
         memory, seconds = cost.memory, cost.seconds + RING_S * float(n) * k
+    elif path == "accurate-ring" and ring_route == "banded":
+        # the band solver's values, bracketed by two double-double counts of K - x M each (a
+        # double eigenvalue's two by the same two)
+        cost = estimate("banded", n, k=k, vectors=False, width=width)
+        memory, seconds = cost.memory + 8.0 * 12 * n, cost.seconds + RING_COUNTED_S * float(n) * k
     elif path in ("accurate-ring", "accurate-walled"):
         # the cut chain's values (dqds, or bisection for the lowest k + 1), then each value's
         # roots and counts (a chain on walls: its values' counts, no roots)

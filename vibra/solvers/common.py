@@ -58,11 +58,17 @@ JACOBI_WORK = 4000**3
 BISECTION_SPREAD = 1e4
 
 
-def ring_counted(accuracy: str, few: bool, spread: float) -> bool:
-    """Whether a ring's few lowest modes take shift-invert's values bracketed by Sturm counts
-    (`accurate.ring.values.ring_counted`: "high", a spread shift-invert converges on) rather than
-    the ring's own values path."""
-    return accuracy == "high" and few and spread <= BISECTION_SPREAD
+def ring_route(accuracy: str, few: bool, spread: float, banded: bool) -> str | None:
+    """How accuracy="high" takes a ring's values from a standard solver, each then bracketed by
+    Sturm counts (`accurate.ring.counted`): "sparse", a few lowest modes by shift-invert (which
+    converges where K~'s diagonal spreads no more than BISECTION_SPREAD); "banded", all values
+    (no vectors) by the band solver where the ring has its banded order; None: the ring's own
+    values path (`accurate.ring.values`), as for "certified"."""
+    if accuracy != "high" or spread > BISECTION_SPREAD:
+        return None
+    if few:
+        return "sparse"
+    return "banded" if banded else None
 
 
 #: Modes assumed for a `band` request when estimating its cost (the count is unknown up front).

@@ -70,7 +70,7 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
     n_terms = int(spring_factor[0].shape[0]) if use_factor else 0  # type: ignore[index]
     spread = 1.0
     partial = n_modes is not None and n_modes < n
-    if diagonal and partial and band is None and (width <= 1 and ordering is None or topology in ("ring", "walled-ring")):
+    if diagonal and band is None and (partial and width <= 1 and ordering is None or topology in ("ring", "walled-ring")):
         spread = _diagonal_spread(K, mass)
         if topology == "none" and solver == "auto" and spread > common.BISECTION_SPREAD:
             derived = spring_factor_of_chain(K)  # a chain given as K: its springs from K's entries

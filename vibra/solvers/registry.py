@@ -39,8 +39,8 @@ class Problem:
     `topology` the shape of the springs (`topology.classify`; "none" without a spring factor, and
     "chain-derived" for a chain given as K alone whose springs `lowest.spring_factor_of_chain`
     recovers: only bisection uses them);
-    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (chains and rings, a
-    few modes asked; else 1).
+    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (rings, and chains with
+    a few modes asked; else 1).
     """
 
     n: int
@@ -121,7 +121,8 @@ class SolverPath:
                         accuracy=problem.accuracy,
                         one_dimensional=problem.topology in ("chain", "walled-chain", "ring", "walled-ring"),
                         chain=problem.topology == "chain",
-                        ring_counted=common.ring_counted(problem.accuracy, problem.few, problem.spread))
+                        ring_route=common.ring_route(problem.accuracy, problem.few, problem.spread,
+                                                     problem.ordering is not None and not problem.vectors))
 
 
 # ------------------------------------------------------------------ when each path applies
@@ -251,8 +252,10 @@ PATHS: tuple[SolverPath, ...] = (
                cost="~2e-8 n^2 s (dqds, and a certificate per value)"),
     SolverPath("accurate-ring", "accurate", _ring, _run("accurate-ring"), "relative, each bound a certificate",
                "a ring of 100 sites or more (free or on walls), all values or the lowest n_modes: roots "
-               "between the cut chain's eigenvalues, certified by Sturm counts",
-               cost="~3e-8 n^2 s all values; ~1e-7 n k the lowest k"),
+               "between the cut chain's eigenvalues, certified by Sturm counts; at \"high\" a standard "
+               "solver's values (the band solver's over 1,500 sites, shift-invert's for a few), each "
+               "bracketed by two counts",
+               cost="~3e-8 n^2 s all values; ~1e-7 n k the lowest k; high: the standard solve + ~5e-9 n k"),
     SolverPath("accurate-ring-band", "accurate", _ring_band_vectors, _run("accurate-ring-band"),
                "relative values (certified as accurate-ring), vectors absolute",
                "a ring over 6,000 sites with all its vectors: the band solver's vectors, the ring path's values",

@@ -28,7 +28,8 @@ from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.ring.counts import ring_pencil
 from vibra.solvers.accurate.chain.lowest import lowest_chain_modes
 from vibra.solvers.accurate.chain.sturm_counts import chain_counted, chain_form
-from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_counted, ring_result, ring_vectors
+from vibra.solvers.accurate.ring.counted import ring_band_counted, ring_counted
+from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result, ring_vectors
 from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
@@ -126,12 +127,18 @@ def accurate_walled(p: Any, x: Inputs) -> SolveResult:
 
 
 def accurate_ring(p: Any, x: Inputs) -> SolveResult:
-    if common.ring_counted(p.accuracy, p.few, p.spread) and p.n_modes is not None:
-        # a few of a long ring's modes: shift-invert's, each value bracketed by counts
+    route = common.ring_route(p.accuracy, p.few, p.spread, p.ordering is not None and not p.vectors)
+    if route is not None:
+        # a standard solver's values, each bracketed by counts: a few of a long ring's modes
+        # from shift-invert, all of them from the band solver
         coupling, weights = _factor(x)
         pencil = ring_pencil(coupling, weights, x.mass)
-        counted = ring_counted(pencil, sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=None)) \
-            if pencil is not None else None
+        counted = None
+        if pencil is not None and route == "sparse" and p.n_modes is not None:
+            counted = ring_counted(pencil, sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=None))
+        elif pencil is not None and route == "banded":
+            values = banded_path(x.Kt, p.width, n_modes=p.n_modes, vectors=False, band=None, ordering=p.ordering)
+            counted = ring_band_counted(pencil, values)
         if counted is not None:
             return counted
     coupling, weights, weighted, deviation = _springs(x)

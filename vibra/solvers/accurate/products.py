@@ -17,6 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from vibra.solvers.accurate.ring.kernel import FMA, _fma
+
 __all__ = ["times", "transposed_times", "rayleigh_quotients"]
 
 
@@ -80,6 +82,8 @@ def _two_sum(a: float, b: float) -> tuple[float, float]:  # pragma: no cover (co
 @numba.njit(cache=True, nogil=True, inline="always")
 def _two_product(a: float, b: float) -> tuple[float, float]:  # pragma: no cover (compiled)
     p = a * b
+    if FMA:  # (one fused multiply-add: the same exact error as Dekker's splitting below)
+        return p, _fma(a, b, -p)
     t = 134217729.0 * a
     ah = t - (t - a)
     al = a - ah

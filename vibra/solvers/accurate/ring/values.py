@@ -47,7 +47,7 @@ from vibra.solvers.accurate.ring.counts import (
 )
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
-__all__ = ["ring_values", "ring_result", "ring_counted", "HIGH_LEVELS", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors",
+__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors",
            "cut_chain", "spring_walls", "certify_at_levels", "proven_multisection"]
 
 #: Half-widths of the brackets tried around each root, relative, tightest first (`ring.counts.LADDER`
@@ -248,40 +248,6 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     values = values[order]
     bound = sorted_bounds(values, bound[order], order)
     return RingValues(values, bound, certified[order] & np.isfinite(bound), int(evaluations.sum()), spent, tightened)
-
-
-#: The brackets `ring_counted` tries around a standard solver's values (~1e-12 relative on a
-#: ring of 10^5 sites; 1e-10 is "high"'s promise).
-HIGH_LEVELS = (1e-13, 1e-12, 1e-11, 1e-10)
-
-
-def ring_counted(pencil: RingPencil, result: SolveResult, levels: tuple[float, ...] = HIGH_LEVELS) -> SolveResult | None:
-    """The lowest modes of a ring from a standard solver (`result`: the lowest k, ascending),
-    each value certified by two double-double Sturm counts of the ring's spring form at the
-    tightest of `levels` that holds its index (the counts prove the index too: a mode the solver
-    missed fails them); a free ring's rotation is exactly 0. None where some value is not
-    certified (the ring's own values path takes over). O(n) per count, ~2 k counts per level:
-    what "high" asks of a few modes, without the cut chain's bisection."""
-    k = result.eigenvalues.shape[0]
-    form = _SpringForm(pencil)
-    counts, wall = form.counts, form.wall
-
-    values = result.eigenvalues.copy()
-    bound = np.full(k, np.inf)
-    first = 0
-    if wall is None and k:  # a free ring's eigenvalue 0: its rigid rotation, exactly (B 1 = 0)
-        values[0], bound[0], first = 0.0, 0.0, 1
-    if np.any(values[first:] <= 0):
-        return None
-    certify_at_levels(counts, values, bound, np.arange(first, k), levels, spring_widening(pencil))
-    if not np.all(np.isfinite(bound)):
-        return None
-    counted = SolveResult(values, result.vectors, bound, result.residual, result.orthogonality, "accurate-ring")
-    counted.refined = np.zeros(k, dtype=bool)
-    worst = float(np.max(bound[first:] / values[first:])) if k > first else 0.0
-    counted.refinement = (f"the lowest {k} values from {result.solver}'s shift-invert, each certified by two Sturm "
-                          f"counts of the ring's spring form in double-double, error/omega^2 up to {worst:.1g}")
-    return counted
 
 
 def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None,
