@@ -110,6 +110,8 @@ def certify_values(pencil: RingPencil, values: NDArray[np.float64], bound: NDArr
         width = _width(form, widening, lo, hi, middle, np.full(group.shape[0], use_pencil))
         better = width < bound[group]
         values[group[better]], bound[group[better]] = middle[better], width[better]
+    order = np.argsort(values, kind="stable")  # (a narrowed pair's two middles may cross)
+    values[:], bound[:] = values[order], sorted_bounds(values[order], bound[order], order)
     return spent[0], spent[1]
 
 

@@ -19,11 +19,11 @@ plus one spring) eigenvalue i of the ring lies between the chain's i and i + 1.
   order with its running error, per point in compiled loops (numba threads over blocks of
   `LANES` points, each block's points in SIMD lanes), except the reciprocal of each pivot: one
   Newton step (`_reciprocal`, within `dd.UNIT` as `dd.div` is, at a third of its operations).
-  2.1 ns per point and node on two cores (16 ns one point at a time: the loop is a chain of
+  2.5 ns per point and node on two cores (15 ns one point at a time: the loop is a chain of
   dependent operations; 8 independent points fill the pipeline and the vector units), where
   the numpy version pays its call overhead on each operation over the vector of points.
-- `chain_counts`: the same for a chain's spring form (no closing coupling, no fill), 1.4 ns
-  per point and node on two cores (10.7 ns one at a time). `pivot_roots` 4.5x one root at a
+- `chain_counts`: the same for a chain's spring form (no closing coupling, no fill), 1.5 ns
+  per point and node on two cores (11.6 ns one at a time). `pivot_roots` 4.5x one root at a
   time (`benchmarks/bench_ring_values.py --kernels`; `tests/scalar_kernels.py` keeps the
   one-point loops, which the lanes repeat bit for bit).
 
