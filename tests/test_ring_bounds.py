@@ -73,6 +73,23 @@ def mp_weighted_gram(B: np.ndarray, springs: np.ndarray, mass: np.ndarray) -> mp
     return Kt
 
 
+def small_ring(rng: np.random.Generator, spreads: tuple[float, ...]
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """(B, springs, mass, spread): 3-11 sites, masses and springs over one of `spreads`, B's
+    entries not +-1, a spring to a wall in about 2 of 5."""
+    n, spread = int(rng.integers(3, 12)), float(rng.choice(spreads))
+    springs = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
+    mass = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
+    B = np.zeros((n, n))
+    B[np.arange(n), np.arange(n)] = -rng.uniform(0.2, 1.0, n)
+    B[np.arange(n), (np.arange(n) + 1) % n] = rng.uniform(0.2, 1.0, n)
+    if rng.random() < 0.4:
+        wall = np.zeros((1, n))
+        wall[0, rng.integers(n)] = rng.uniform(0.2, 1.0)
+        B, springs = np.vstack([B, wall]), np.r_[springs, 10.0 ** rng.uniform(-spread / 2, spread / 2)]
+    return B, springs, mass, spread
+
+
 def disordered_ring(n: int, spread: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     return 10.0 ** rng.uniform(0.0, spread, n), 10.0 ** rng.uniform(0.0, spread, n)
@@ -245,16 +262,8 @@ def test_spring_form_counts_are_exact_where_certain_at_every_scale() -> None:
     rng = np.random.default_rng(11)
     checked = certain_total = 0
     for _ in range(40):
-        n, spread = int(rng.integers(3, 12)), float(rng.choice([0.3, 6.0, 12.0]))
-        springs = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
-        mass = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
-        B = np.zeros((n, n))
-        B[np.arange(n), np.arange(n)] = -rng.uniform(0.2, 1.0, n)
-        B[np.arange(n), (np.arange(n) + 1) % n] = rng.uniform(0.2, 1.0, n)
-        if rng.random() < 0.4:
-            wall = np.zeros((1, n))
-            wall[0, rng.integers(n)] = rng.uniform(0.2, 1.0)
-            B, springs = np.vstack([B, wall]), np.r_[springs, 10.0 ** rng.uniform(-spread / 2, spread / 2)]
+        B, springs, mass, spread = small_ring(rng, (0.3, 6.0, 12.0))
+        n = mass.shape[0]
         pencil = ring_counts.ring_pencil(sp.csr_matrix(B), springs, mass)
         assert pencil is not None
         with mp.workdps(80):
