@@ -27,7 +27,7 @@ the input, then time:
   the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
 - banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 2e-9 (b + 1) n^2 + 1e-8 n^2.
 - sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
-  otherwise); 2e-8 n ncv per Lanczos run, + 1.2e-8 n^2 for a 3-D network's factor (a sparse
+  otherwise); 2e-8 n ncv per Lanczos run, + 1.0e-8 n^2 for a 3-D network's factor (a sparse
   Cholesky: PARDISO or CHOLMOD; 4 times that for SuperLU's LU where neither loads).
 - accurate-ring at "high" from a standard solver (`ring.counted`): the band solve's (all values)
   or shift-invert's (a few), + 5e-9 n k: two double-double counts of K - x M per value.
@@ -75,7 +75,7 @@ TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or 
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
-SPARSE_FACTOR_S = 1.2e-8      # per n^2: a 3-D network's factor and its solves (a sparse Cholesky)
+SPARSE_FACTOR_S = 1.0e-8      # per n^2: a 3-D network's factor and its solves (a sparse Cholesky; RESULTS.md)
 SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates
