@@ -92,6 +92,12 @@ class Problem:
     def ringlike(self) -> bool:
         return self.topology in ("ring", "walled-ring")
 
+    @property
+    def ring_route(self) -> str | None:
+        """How "high" takes a ring's values from a standard solver (`common.ring_route`): the band
+        solver's where the ring has its banded order and no vectors are asked."""
+        return common.ring_route(self.accuracy, self.few, self.spread, self.ordering is not None and not self.vectors)
+
 
 Runner = Callable[..., SolveResult]
 
@@ -121,8 +127,7 @@ class SolverPath:
                         accuracy=problem.accuracy,
                         one_dimensional=problem.topology in ("chain", "walled-chain", "ring", "walled-ring"),
                         chain=problem.topology == "chain",
-                        ring_route=common.ring_route(problem.accuracy, problem.few, problem.spread,
-                                                     problem.ordering is not None and not problem.vectors))
+                        ring_route=problem.ring_route)
 
 
 # ------------------------------------------------------------------ when each path applies

@@ -127,7 +127,7 @@ def accurate_walled(p: Any, x: Inputs) -> SolveResult:
 
 
 def accurate_ring(p: Any, x: Inputs) -> SolveResult:
-    route = common.ring_route(p.accuracy, p.few, p.spread, p.ordering is not None and not p.vectors)
+    route = p.ring_route
     if route is not None:
         # a standard solver's values, each bracketed by counts: a few of a long ring's modes
         # from shift-invert, all of them from the band solver

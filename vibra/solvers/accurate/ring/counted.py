@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.accurate.ring.counts import RingPencil, multisection, spring_widening, spring_width
 from vibra.solvers.accurate.ring.pencil_counts import PencilCounts
-from vibra.solvers.accurate.ring.values import _SpringForm, ring_values, sorted_bounds
+from vibra.solvers.accurate.ring.values import SpringForm, ring_values, sorted_bounds
 from vibra.solvers.common import SolveResult
 
 __all__ = ["HIGH_LEVELS", "LOWEST_SHARE", "AIM", "NARROWING", "certify_values", "ring_counted", "ring_band_counted"]
@@ -51,22 +51,21 @@ _EPS = float(np.finfo(float).eps)
 
 
 def certify_values(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[np.float64], expected: float,
-                   levels: tuple[float, ...] = HIGH_LEVELS, aim: float = AIM) -> tuple[int, int]:
+                   levels: tuple[float, ...] = HIGH_LEVELS, aim: float = AIM) -> None:
     """Bound (in place, where still infinite) each positive value j of `values` (ascending,
     approximations of eigenvalues 0, 1, ...) by the tightest of `levels` that two counts prove,
     widened by the counts' perturbation. `expected`: the values' likely absolute error (the first
     level tried for v is the tightest >= expected / v). A bound still over a quarter of `aim`
     relative (the loosest level's, or a cluster's bracket spanning its values' spread) is narrowed by `NARROWING` passes of
-    multisection, the value moved to its middle. Returns (pencil counts, spring-form counts)."""
+    multisection, the value moved to its middle; values and bounds are left in ascending order."""
     form = PencilCounts(pencil)
-    spring = _SpringForm(pencil)
+    spring = SpringForm(pencil)
     widening = spring_widening(pencil)
     positive = values > 0
     with np.errstate(divide="ignore"):
         likely = np.where(positive, expected / np.where(positive, values, 1.0), np.inf)
     start = np.searchsorted(np.asarray(levels), likely)  # the first level at or above the likely error
     start = np.minimum(start, len(levels) - 1)
-    spent = [0, 0]
     bracket = np.full((2, values.shape[0]), np.nan)  # each proven value's bracket
     by_pencil = np.zeros(values.shape[0], dtype=bool)
     for at, t in enumerate(levels):
@@ -89,7 +88,6 @@ def certify_values(pencil: RingPencil, values: NDArray[np.float64], bound: NDArr
             if group.shape[0] == 0:
                 continue
             count, certain = counts(np.r_[low[group], high[group]])
-            spent[0 if use_pencil else 1] += 2 * group.shape[0]
             g = group.shape[0]
             good[group] = (certain[:g] & certain[g:] & (count[:g] <= todo[first[group]])
                            & (todo[last[group]] < count[g:]))
@@ -104,15 +102,19 @@ def certify_values(pencil: RingPencil, values: NDArray[np.float64], bound: NDArr
         group = loose[by_pencil[loose] == use_pencil]
         if group.shape[0] == 0:
             continue
-        lo, hi, used = multisection(counts, bracket[0, group], bracket[1, group], group, NARROWING)
-        spent[0 if use_pencil else 1] += used
+        lo, hi, _ = multisection(counts, bracket[0, group], bracket[1, group], group, NARROWING)
         middle = 0.5 * (lo + hi)
         width = _width(form, widening, lo, hi, middle, np.full(group.shape[0], use_pencil))
         better = width < bound[group]
         values[group[better]], bound[group[better]] = middle[better], width[better]
-    order = np.argsort(values, kind="stable")  # (a narrowed pair's two middles may cross)
+    _in_order(values, bound)  # (a narrowed pair's two middles may cross)
+
+
+def _in_order(values: NDArray[np.float64], bound: NDArray[np.float64]) -> None:
+    """Values sorted in place, each bound then for the eigenvalue of its new index
+    (`ring.values.sorted_bounds`)."""
+    order = np.argsort(values, kind="stable")
     values[:], bound[:] = values[order], sorted_bounds(values[order], bound[order], order)
-    return spent[0], spent[1]
 
 
 def _width(form: PencilCounts, widening: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64],
@@ -145,12 +147,7 @@ def ring_counted(pencil: RingPencil, result: SolveResult, levels: tuple[float, .
     certify_values(pencil, values, bound, 0.0, levels)
     if not np.all(np.isfinite(bound)):
         return None
-    counted = SolveResult(values, result.vectors, bound, result.residual, result.orthogonality, "accurate-ring")
-    counted.refined = np.zeros(k, dtype=bool)
-    worst = float(np.max(bound[first:] / values[first:])) if k > first else 0.0
-    counted.refinement = (f"the lowest {k} values from {result.solver}'s shift-invert, each certified by two Sturm "
-                          f"counts in double-double, error/omega^2 up to {worst:.1g}")
-    return counted
+    return _counted(result, values, bound, first, f"the lowest {k} values from {result.solver}'s shift-invert")
 
 
 def ring_band_counted(pencil: RingPencil, result: SolveResult) -> SolveResult | None:
@@ -170,17 +167,23 @@ def ring_band_counted(pencil: RingPencil, result: SolveResult) -> SolveResult | 
         return None
     note = ""
     if lowest:
-        own = ring_values(pencil, lowest, aim=1e-10)
+        own = ring_values(pencil, lowest, aim=AIM)
         if not own.certified.all():
             return None
         values[:lowest], bound[:lowest] = own.values, own.bound
-        order = np.argsort(values, kind="stable")  # (the two sets meet at a certified gap: kept in order)
-        values, bound = values[order], sorted_bounds(values[order], bound[order], order)
+        _in_order(values, bound)
         note = f"; the lowest {lowest} from the ring's own values path (bisection on the cut chain, roots, counts)"
-    counted = SolveResult(values, None, bound, float("nan"), float("nan"), "accurate-ring")
+    which = f"{'all ' if k == pencil.n else 'the lowest '}{k} values from the band solver (LAPACK)"
+    return _counted(result, values, bound, first, which, note)
+
+
+def _counted(result: SolveResult, values: NDArray[np.float64], bound: NDArray[np.float64], first: int, which: str,
+             note: str = "") -> SolveResult:
+    """The certified values as ``accurate-ring``'s result (`result`'s vectors and figures kept)."""
+    k = values.shape[0]
+    counted = SolveResult(values, result.vectors, bound, result.residual, result.orthogonality, "accurate-ring")
     counted.refined = np.zeros(k, dtype=bool)
     worst = float(np.max(bound[first:] / values[first:])) if k > first else 0.0
-    counted.refinement = (f"{'all ' if k == pencil.n else 'the lowest '}{k} values from the band solver (LAPACK), "
-                          f"each certified by two Sturm counts in double-double (a cluster's values by the same "
-                          f"two), error/omega^2 up to {worst:.1g}{note}")
+    counted.refinement = (f"{which}, each certified by two Sturm counts in double-double (a cluster's values by "
+                          f"the same two), error/omega^2 up to {worst:.1g}{note}")
     return counted

@@ -471,7 +471,7 @@ def _chain_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m:
     masses and springs perturbed by a few units of double-double; a vanished pivot makes the
     count uncertain (and the point keeps the count it had there)."""
     k = x.shape[0]
-    s = np.zeros((7, LANES))  # rows: x, (unused), (unused), the pivot (high, low), negatives, vanished
+    s = np.zeros((5, LANES))  # rows: x, the pivot (high, low), negatives, vanished
     for p in range(LANES):
         s[0, p] = x[min(start + p, k - 1)]
     for j in range(site.shape[0]):
@@ -483,16 +483,16 @@ def _chain_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m:
         for p in range(LANES):
             dh, dl = _two_product(s[0, p], mass)
             dh, dl = (dh, dl) if is_site else (ch, cl)
-            rh, rl = _reciprocal(s[3, p], s[4, p])
+            rh, rl = _reciprocal(s[1, p], s[2, p])
             th, tl = _mul(rh, rl, square, square_low)  # c^2 / p
             eh, el = _add(dh, dl, -th, -tl)
             ph = eh if coupled else dh
-            s[3, p], s[4, p] = ph, (el if coupled else dl)
-            gone = 1.0 if ph == 0.0 else s[6, p]
-            s[5, p] += 1.0 if ph < 0 and gone == 0.0 else 0.0
-            s[6, p] = gone
+            s[1, p], s[2, p] = ph, (el if coupled else dl)
+            gone = 1.0 if ph == 0.0 else s[4, p]
+            s[3, p] += 1.0 if ph < 0 and gone == 0.0 else 0.0
+            s[4, p] = gone
     for p in range(min(LANES, k - start)):
-        negative[start + p], certain[start + p] = int(s[5, p]), s[6, p] == 0.0
+        negative[start + p], certain[start + p] = int(s[3, p]), s[4, p] == 0.0
 
 
 @_jit(parallel=True)

@@ -47,7 +47,7 @@ from vibra.solvers.accurate.ring.counts import (
 )
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
-__all__ = ["ring_values", "ring_result", "RingValues", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors",
+__all__ = ["ring_values", "ring_result", "RingValues", "SpringForm", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors",
            "cut_chain", "spring_walls", "certify_at_levels", "proven_multisection"]
 
 #: Half-widths of the brackets tried around each root, relative, tightest first (`ring.counts.LADDER`
@@ -135,7 +135,7 @@ def cut_chain(m: NDArray[np.float64], w: NDArray[np.float64], c_in: NDArray[np.f
 Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
 
 
-class _SpringForm:
+class SpringForm:
     """A ring's spring form as the compiled counts take it (`kernel.spring_counts`): masses, springs,
     couplings, double-double compliances and squared couplings, the closing coupling, walls, unit u."""
 
@@ -165,7 +165,7 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     of the first `needed` (default: all; the rest only bound their neighbours' gaps)."""
     n = pencil.n
     wanted = n if count is None else max(1, min(int(count), n))
-    form = _SpringForm(pencil)
+    form = SpringForm(pencil)
     m, w, c_in, c_out, wall = form.m, form.w, form.c_in, form.c_out, form.wall
     compliance, off, squares, closing, u = form.compliance, form.off, form.squares, form.closing, form.u
     free = wall is None
