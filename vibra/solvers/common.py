@@ -201,8 +201,13 @@ def mass_weighted(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float
     """K~ = M^-1/2 K M^-1/2 (eq. 139): sparse stays sparse for diagonal M."""
     if mass.ndim == 1:
         scale = 1.0 / np.sqrt(mass)
-        if sp.issparse(K):
-            return sp.csr_matrix(sp.diags(scale) @ K @ sp.diags(scale))
+        if sp.issparse(K):  # (s_i K_ij) s_j on the stored entries, as diag(s) K diag(s) rounds them
+            weighted = sp.csr_matrix(K, copy=True)
+            weighted.sum_duplicates()
+            rows = np.repeat(np.arange(weighted.shape[0]), np.diff(weighted.indptr))
+            weighted.data = weighted.data * scale[rows] * scale[weighted.indices]
+            weighted.eliminate_zeros()  # (the product's pattern: its exact zeros are not stored)
+            return weighted
         weighted = K * scale[:, None]  # one n x n result, scaled in place (no second temporary)
         weighted *= scale[None, :]
         return weighted

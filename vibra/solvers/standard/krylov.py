@@ -12,6 +12,15 @@ precision in floating point, and stops on the Ritz residuals that its own relati
 Directions `deflate` (a free network's zero modes, found by a first small run) are projected
 out before and after every application of F, so that their huge 1 / |sigma| does not swamp
 the rest. No restarts: the basis grows to at most `max_dim` columns (the caller sizes it).
+
+A block of b columns holds at most b copies of a multiple eigenvalue in exact arithmetic;
+rounding seeds the others, but where F barely favours them they may not have grown when
+the wanted pairs converge (one column: a fifth copy lost in 42 of 80 synthetic spectra
+with values up to 8-fold; two: 6 of 80). A run that converges with a cluster of equal Ritz
+values as wide as its block is therefore done again with a wider block (`widen`: afresh,
+since the converged pairs would pass the stopping test before a missing copy had grown),
+until every cluster it finds is narrower than its block: a narrow first block (fewer
+applications of F: 88 at b = 2 against 124 at b = 4 on a protein's network) stays safe.
 """
 
 from __future__ import annotations
@@ -25,6 +34,11 @@ __all__ = ["block_eigs", "BLOCK"]
 
 #: Columns per block: 8 solves cost ~2.4 single ones on a large 3-D factor (see above).
 BLOCK = 8
+
+#: Ritz values within this relative distance of one another count as one multiple value
+#: (`widen`): two values split by more are resolved by the stopping test itself (a Ritz vector
+#: mixing their eigenvectors keeps a residual ~ the split, far above the tolerances asked).
+CLUSTER = 1e-8
 
 
 def _project(x: NDArray[np.float64], deflate: NDArray[np.float64] | None) -> NDArray[np.float64]:
@@ -53,7 +67,7 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
                tol: float = 1e-12, max_dim: int | None = None, block: int = BLOCK,
                deflate: NDArray[np.float64] | None = None, seed: int = 0,
                enough: Callable[[NDArray[np.float64], NDArray[np.float64]], bool] | None = None,
-               start: NDArray[np.float64] | None = None,
+               start: NDArray[np.float64] | None = None, widen: bool = False,
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool]:
     """The k largest eigenpairs of the symmetric operator `apply` (n x n), by block Arnoldi.
 
@@ -76,6 +90,9 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
     start : (n, j) array, optional
         Starting directions (e.g. Ritz vectors of an earlier run); random columns fill the
         first block up to its width.
+    widen : bool
+        On convergence with a cluster of equal Ritz values (`CLUSTER`) as wide as the block,
+        run again with a block one wider than the cluster (see above).
 
     Returns
     -------
@@ -121,6 +138,11 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
             done = m >= k and bool(np.all(residual <= tol * np.abs(mu[wanted])))
             if enough is not None:
                 done = enough(mu[wanted], residual)
+            if done and widen and largest_cluster(mu[wanted]) >= b and b < limit // 2:
+                wider = min(largest_cluster(mu[wanted]) + 1, limit // 2)
+                mu, Y, more, done = block_eigs(apply, n, k, tol=tol, max_dim=max_dim, block=wider, deflate=deflate,
+                                               seed=seed + 1, widen=True)
+                return mu, Y, applied + more, done
             if done or room <= 0:
                 return mu[wanted], basis @ S[:, wanted], applied, done
         width = X.shape[1]
@@ -131,3 +153,16 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
         H = grown
         space[:, m : m + X.shape[1]] = X
         m += X.shape[1]
+
+
+def largest_cluster(mu: NDArray[np.float64]) -> int:
+    """The most values of `mu` that form one chain of neighbours within `CLUSTER` (relative).
+
+    >>> largest_cluster(np.array([3.0, 2.0, 2.0 * (1 + 1e-12), 2.0, 1.0]))
+    3
+    """
+    if mu.shape[0] == 0:
+        return 0
+    values = np.sort(np.abs(mu))
+    apart = np.diff(values) > CLUSTER * values[1:]
+    return int(np.diff(np.flatnonzero(np.r_[True, apart, True])).max())

@@ -188,7 +188,7 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     dominant value is then 1 / (lambda_1 - sigma). Solves stay accurate once projected (their
     error lies in the near-null space). An expensive factor (3-D networks: `fill` >=
     `BLOCK_FILL`) runs `vibra.solvers.standard.krylov.block_eigs` in blocks of `BLOCK_LOWEST` columns
-    (one triangular sweep serves them all); a cheap one, ARPACK (`_shift_invert_arpack`).
+    (widened where a multiple value shows); a cheap one, ARPACK (`_shift_invert_arpack`).
     """
     if factor is None:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
@@ -208,7 +208,7 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
 
     probe = min(k, PROBE)
     while True:
-        mu, basis, _, done = block_eigs(factor.solve, n, probe, block=BLOCK_LOWEST, enough=found)
+        mu, basis, _, done = block_eigs(factor.solve, n, probe, block=BLOCK_PROBE, enough=found)
         values = sigma + 1.0 / mu
         zero = mu >= threshold
         if not zero.all() or probe == k:
@@ -220,7 +220,7 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     # one more sweep of F on the zero modes: their error shrinks by mu_other / mu_zero ~ 1e-9
     Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, zero])[0]))[0] if zero.any() else basis[:, :0]
     mu, rest, _, done = block_eigs(factor.solve, n, k - Z.shape[1], tol=TOLERANCE, block=BLOCK_LOWEST,
-                                   deflate=Z if Z.shape[1] else None, start=basis[:, ~zero])
+                                   deflate=Z if Z.shape[1] else None, start=basis[:, ~zero], widen=True)
     if not done:
         raise RuntimeError(f"shift-invert block Krylov did not converge for the {k} lowest modes of a "
                            f"{n}-dof system; ask for fewer modes or use solver='dense'")
@@ -230,9 +230,17 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     return values[order], basis[:, order]
 
 
-#: Block width of the lowest-mode iteration: 2 to 4 columns per triangular sweep cost the same
-#: time to converge as 1 on 30,000-dof networks (fewer Krylov steps against cheaper solves).
-BLOCK_LOWEST = 4
+#: Block width of the lowest-mode iteration. A block of b columns needs ~70 + 18 (b - 1)
+#: applications of F to converge 21 modes of a protein's or a random network's K~, and a
+#: b-column solve costs nearly b single ones at these sizes (PARDISO; CHOLMOD from b = 2), so
+#: the narrowest block is the cheapest. Two columns, not one: a double value then shows as a
+#: pair, and a cluster as wide as the block sends the run again, wider (`krylov.block_eigs`'s
+#: `widen`: a symmetric lattice pays a second run). (figures: benchmarks/RESULTS.md, "Block width")
+BLOCK_LOWEST = 2
+
+#: Block width of the first run, which finds a free system's zero modes: 6 of them, equal, in
+#: a 3-D network (F amplifies them by ~1e12 per step, so a block of 4 picks up all 6).
+BLOCK_PROBE = 4
 
 
 def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
@@ -265,25 +273,47 @@ def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
         else:
             operator = inverse
         values, basis = _arpack(Kt, ask, sigma, operator, deflate=kept if kept.shape[1] else None, start=start)
-        product = Kt @ basis
         if kept.shape[1]:  # a Rayleigh-Ritz step off the kept pairs
             basis = basis - kept @ (kept.T @ basis)
             product = Kt @ basis
             values, rotation = small_pencil(basis.T @ product, basis.T @ basis)
             basis, product = basis @ rotation, product @ rotation
+            residual = np.linalg.norm(product - basis * values, axis=0)
         else:  # ARPACK's first run: orthonormal Ritz vectors already, their Rayleigh quotients
-            values = np.einsum("ij,ij->j", basis, product)
-        residual = np.linalg.norm(product - basis * values, axis=0)
+            values, residual = _rayleigh_columns(Kt, basis)
         good = residual <= KEPT_RESIDUAL * scale
         if attempt == MAX_RUNS - 1:
             good[:] = True
+        if good.all() and not kept.shape[1]:  # one run was all (no copies of n x k arrays)
+            return _ascending(values, basis)
         start = basis[:, ~good].sum(axis=1) if not good.all() else None
         kept_values = np.r_[kept_values, values[good]]
         kept = np.column_stack([kept, basis[:, good]])
         if kept.shape[1] >= k:
             break
-    order = np.argsort(kept_values)[:k]
-    return kept_values[order], kept[:, order]
+    values, basis = _ascending(kept_values, kept)
+    return values[:k], basis[:, :k]
+
+
+def _ascending(values: NDArray[np.float64], basis: NDArray[np.float64]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Pairs sorted by value; the (n, k) basis is copied only where the order changes."""
+    order = np.argsort(values, kind="stable")
+    if np.array_equal(order, np.arange(order.shape[0])):
+        return values, basis
+    return values[order], basis[:, order]
+
+
+def _rayleigh_columns(Kt: sp.csr_matrix, basis: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each unit column's Rayleigh quotient v^T K~ v and residual ||K~ v - (v^T K~ v) v||, with
+    one (n, k) temporary (at 10^6 dofs, 21 columns: 0.10 s, where `norm(product - basis *
+    values)`'s two temporaries took 0.5 s); the same figures, bit for bit."""
+    basis = np.ascontiguousarray(basis)
+    product = Kt @ basis
+    values = np.einsum("ij,ij->j", basis, product)
+    product -= basis * values
+    return values, np.sqrt(np.einsum("ij,ij->j", product, product))
 
 
 #: Residual ||K~ v - lambda v|| / ||K~||_inf under which a shift-invert pair is kept and
@@ -305,8 +335,7 @@ def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator
         start = start - deflate @ (deflate.T @ start)
     values, basis = sla.eigsh(Kt, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=0.0,
                               ncv=min(Kt.shape[0], max(2 * k + 1, 20)), v0=start)
-    order = np.argsort(values)
-    return values[order], basis[:, order]
+    return _ascending(values, basis)
 
 
 def sparse_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
