@@ -1,8 +1,9 @@
 """Block Krylov iteration for the largest eigenvalues of a symmetric operator F = (K~ - sigma I)^-1.
 
-ARPACK applies F to one vector at a time; a sparse factorisation's triangular sweeps cost
-nearly as much for a block of 8 columns as for 2 (the factor is read once per sweep: 0.031 s
-per column in blocks of 8 against 0.075 s singly on the 16,716-residue ANM's factor). So the
+ARPACK applies F to one vector at a time and restarts; where F is an expensive factor's solve,
+a basis kept whole (no restarts) needs fewer of them, and a block of columns shows a multiple
+eigenvalue's copies (the width is the caller's: where a block's solve costs about as many
+single ones, the narrowest safe block is the cheapest, `sparse.BLOCK_LOWEST`). So the
 shift-invert path runs a block Arnoldi iteration with full reorthogonalisation (classical
 Gram-Schmidt twice), which is Lanczos in exact arithmetic and stays orthogonal to working
 precision in floating point, and stops on the Ritz residuals that its own relation gives:
@@ -32,7 +33,7 @@ from numpy.typing import NDArray
 
 __all__ = ["block_eigs", "BLOCK"]
 
-#: Columns per block: 8 solves cost ~2.4 single ones on a large 3-D factor (see above).
+#: Columns per block where the caller names none (the sparse path names its own).
 BLOCK = 8
 
 #: Ritz values within this relative distance of one another count as one multiple value
@@ -138,8 +139,9 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
             done = m >= k and bool(np.all(residual <= tol * np.abs(mu[wanted])))
             if enough is not None:
                 done = enough(mu[wanted], residual)
-            if done and widen and largest_cluster(mu[wanted]) >= b and b < limit // 2:
-                wider = min(largest_cluster(mu[wanted]) + 1, limit // 2)
+            cluster = largest_cluster(mu[wanted]) if done and widen else 0
+            if cluster >= b and b < limit // 2:
+                wider = min(cluster + 1, limit // 2)
                 mu, Y, more, done = block_eigs(apply, n, k, tol=tol, max_dim=max_dim, block=wider, deflate=deflate,
                                                seed=seed + 1, widen=True)
                 return mu, Y, applied + more, done
