@@ -20,6 +20,7 @@ Conventions (fixed here, used by every module of `vibra.crystals`):
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 from typing import Any, Sequence
 
@@ -32,9 +33,11 @@ import vibra.crystals.bands as bands
 import vibra.crystals.dynamical as dynamical
 import vibra.crystals.elastic as elastic
 import vibra.crystals.phonopy_io as phonopy_io
+import vibra.crystals.supercell as supercell_modes
 import vibra.crystals.thermal as thermal
 from vibra.crystals.dos import DensityOfStates, dos as density_of_states
-from vibra.crystals.force_constants import ForceConstants, SpringModel, check_force_constants
+from vibra.crystals.force_constants import (INDEX_SYMMETRY_RTOL, ForceConstants, ForceConstantsWarning, SpringModel,
+                                            check_force_constants, index_asymmetry)
 from vibra.units import UnitSystem, unit_system
 
 __all__ = ["Crystal", "check_cell"]
@@ -99,6 +102,9 @@ class Crystal:
             model = f"springs: {self.springs.first.size} bonds"
         elif self.force_constants is not None:
             model = f"force constants: {self.force_constants.n_terms} terms"
+            asymmetry = self.index_asymmetry
+            if asymmetry > INDEX_SYMMETRY_RTOL:
+                model += f", index symmetry broken by {asymmetry:.2g}"
         else:
             model = "no force constants"
         return short_repr(self, repr(self.name), f"{self.n_atoms} atom{'s' if self.n_atoms > 1 else ''} ({formula})", f"|a_i| {lengths} {self.units.length}",
@@ -234,11 +240,33 @@ class Crystal:
         """Cell volume |det cell|, in length^3."""
         return float(abs(np.linalg.det(self.cell)))
 
+    @property
+    def index_asymmetry(self) -> float:
+        """How far the force constants break Phi(i 0; j R) = Phi(j 0; i -R)^T, relative to their largest entry.
+
+        0 for a spring model; phonopy's force constants made from forces without symmetrisation
+        break it by ~1e-2. D(q) is then not Hermitian: its Hermitian part is solved, as phonopy
+        does, and the part removed is counted in `Phonons.omega_error` (`Phonons.non_hermitian`).
+        """
+        return 0.0 if self.force_constants is None else index_asymmetry(self.force_constants)
+
     def with_force_constants(self, force_constants: ForceConstants, springs: SpringModel | None = None
                              ) -> Crystal:
-        """The same structure with other force constants (checked against it)."""
+        """The same structure with other force constants (checked against it).
+
+        Force constants that break the index symmetry by more than `INDEX_SYMMETRY_RTOL` of
+        their largest entry draw a `ForceConstantsWarning` naming the figure (see
+        `index_asymmetry`).
+        """
         check_force_constants(force_constants, self.n_atoms, self.periodic)
-        return replace(self, force_constants=force_constants, springs=springs)
+        crystal = replace(self, force_constants=force_constants, springs=springs)
+        asymmetry = index_asymmetry(force_constants)
+        if asymmetry > INDEX_SYMMETRY_RTOL:
+            warnings.warn(f"the force constants of {self.name!r} break the index symmetry Phi(i,j) = Phi(j,i)^T by "
+                          f"{asymmetry:.2g} of their largest entry; D(q) is made Hermitian, (D + D^H)/2, as phonopy "
+                          "does, and the part removed is counted in omega_error (symmetrize='phonopy' or True imposes "
+                          "the symmetry first)", ForceConstantsWarning, stacklevel=2)
+        return crystal
 
     def require_force_constants(self) -> ForceConstants:
         """The force constants, or a ValueError saying how to attach them."""
@@ -289,25 +317,31 @@ class Crystal:
         """Sound velocities along a Cartesian direction: `vibra.crystals.elastic.sound_velocities`."""
         return elastic.sound_velocities(self, direction, step=step)
 
-    def supercell_mode(self, q: ArrayLike, branch: int, supercell: Any) -> dynamical.SupercellMode:
-        """One mode written out on a supercell: `vibra.crystals.dynamical.supercell_mode`."""
-        return dynamical.supercell_mode(self, q, branch, supercell)
+    def supercell_mode(self, q: ArrayLike, branch: int, supercell: Any) -> supercell_modes.SupercellMode:
+        """One mode written out on a supercell: `vibra.crystals.supercell.supercell_mode`."""
+        return supercell_modes.supercell_mode(self, q, branch, supercell)
 
     def to_phonopy(self, supercell: Any = None) -> Any:
         """A `phonopy.Phonopy` with these force constants: `vibra.crystals.phonopy_io.to_phonopy`."""
         return phonopy_io.to_phonopy(self, supercell=supercell)
 
     @classmethod
-    def from_phonopy(cls, phonon: Any, *, name: str = "phonopy", symmetrize: bool = False) -> Crystal:
+    def from_phonopy(cls, phonon: Any, *, name: str = "phonopy", symmetrize: bool | str | None = False,
+                     periodic: Sequence[bool] = (True, True, True)) -> Crystal:
         """The primitive cell and force constants of a `phonopy.Phonopy`, in ASE units (eV, Angstrom, amu).
 
         D(q) is phonopy's exactly: each supercell block is split over its equidistant shortest
-        images as phonopy does (`vibra.crystals.phonopy_io`). With ``symmetrize=True`` the acoustic
-        sum rule and the index symmetry are imposed first (`vibra.crystals.impose_sum_rules`).
+        images as phonopy does (`vibra.crystals.phonopy_io`), and its Hermitian part is solved
+        as phonopy solves it. The force constants are taken as the object holds them by default;
+        ``symmetrize="phonopy"`` applies phonopy's ``symmetrize_force_constants`` first (what
+        ``phonopy.load`` does to force constants made from forces), ``symmetrize=True`` imposes
+        the acoustic sum rule and the index symmetry exactly (`vibra.crystals.impose_sum_rules`).
+        `periodic` gives the vacuum axes of a 1-D or 2-D crystal (phonopy's cells are periodic
+        along all three): no term may then couple cells along them.
         """
         parts = phonopy_io.phonopy_terms(phonon, symmetrize=symmetrize)
         crystal = cls.from_cell(parts["cell"], parts["fractional"], parts["masses"], fractional=True,
-                                symbols=parts["symbols"], units="ASE", name=name)
+                                symbols=parts["symbols"], units="ASE", periodic=periodic, name=name)
         return crystal.with_force_constants(parts["force_constants"])
 
 

@@ -38,8 +38,9 @@ from vibra.units import UnitSystem
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-__all__ = ["PHASES", "Phonons", "SupercellMode", "phonons", "supercell_mode", "conventional_cube", "CUBIC_CENTRINGS", "dynamical_matrices", "derivative_matrices", "group_velocities",
-           "check_qpoints", "eigenvalue_slopes"]
+__all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_matrices", "group_velocities",
+           "check_qpoints", "check_periodic_qpoints", "eigenvalue_slopes", "hermitian_part", "reduce_qpoints",
+           "Assembly", "assembly"]
 
 #: The phase conventions of D(q) (module docstring).
 PHASES: tuple[str, ...] = ("positions", "cell")
@@ -74,7 +75,8 @@ class Phonons:
         mode is -|omega| (as `vibra.Modes.omega`).
     omega_error : (n_q, n_branches) ndarray
         |omega - omega_true| <= omega_error: for eigenvalues of D(q), LAPACK's (3n + 32) eps ||D(q)||_inf
-        plus the rounding of forming D(q) (`_assembly_error`), through the signed square root
+        plus the rounding of forming D(q) (`_assembly_error`) plus the non-Hermitian part removed
+        (`non_hermitian`), through the signed square root
         (`vibra.solvers.common.omega_and_error`); for refined q-points, the factor's bound.
     vectors : (n_q, 3 n_atoms, n_branches) ndarray of complex, or None
         Mass-weighted orthonormal eigenvectors of D(q) as columns (dof 3 i + a is atom i, axis a),
@@ -93,6 +95,10 @@ class Phonons:
         The q-points re-solved through the spring factor (`vibra.crystals.factor`: singular
         values, relative accuracy kept near Gamma) because the eigenvalues of D(q) missed
         HIGH_RTOL there; None when not checked (``accuracy="fast"`` or no springs).
+    non_hermitian : (n_q,) ndarray or None
+        A bound on ||(D - D^H) / 2||_F at each q (`Assembly.skew`), in 1 / time unit^2: the part
+        of D(q) removed to solve its Hermitian part (as phonopy does), nonzero when the force
+        constants break the index symmetry (`Crystal.index_asymmetry`); included in `omega_error`.
     """
 
     qpoints: NDArray[np.float64]
@@ -104,6 +110,7 @@ class Phonons:
     units: UnitSystem
     path: str = "hermitian-eigh"
     refined: NDArray[np.bool_] | None = None
+    non_hermitian: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -111,9 +118,11 @@ class Phonons:
     def __repr__(self) -> str:
         n_q, n_branches = self.omega.shape
         refined = "" if self.refined is None else f"{int(np.count_nonzero(self.refined))} refined"
+        skew = self.non_hermitian
+        removed = f"non-Hermitian part {float(skew.max()):.2g} removed" if skew is not None and skew.max() > 0 else ""
         return short_repr(self, f"{n_q} q-points x {n_branches} branches", frequency_span(self.omega, self.units),
                           "with vectors" if self.vectors is not None else "", f"phase {self.phase!r}",
-                          f"path {self.path!r}", refined, f"{self.units.name} units")
+                          f"path {self.path!r}", refined, removed, f"{self.units.name} units")
 
     def displacements(self) -> NDArray[np.complex128]:
         """(n_q, 3 n_atoms, n_branches) physical displacement patterns M^-1/2 e, in length / sqrt(mass)."""
@@ -147,57 +156,216 @@ def _check_phase(phase: str) -> str:
     return _validate.choice(phase, "phase", PHASES)
 
 
+#: A fractional wave-vector component along a vacuum axis above this is refused (a 1-D or 2-D
+#: crystal has no Bloch wave vector there; its bands would be flat along it).
+VACUUM_Q_ATOL = 1e-12
+
+
+def check_periodic_qpoints(crystal: Crystal, q: NDArray[np.float64], name: str = "qpoints") -> None:
+    """Refuse wave vectors with a component along a vacuum axis of `crystal`, naming the first."""
+    for axis in range(3):
+        if crystal.periodic[axis]:
+            continue
+        off = np.abs(q[:, axis]) > VACUUM_Q_ATOL
+        if off.any():
+            k = int(np.argmax(off))
+            raise ValueError(f"{name}[{k}] is {np.round(q[k], 12).tolist()}: component {axis} lies along a vacuum axis "
+                             f"of {crystal.name!r} (periodic {tuple(crystal.periodic)}); wave vectors of a 1-D or 2-D "
+                             "crystal lie along its periodic axes only (that component must be 0)")
+
+
 # ---------------------------------------------------------------------- assembly
-def _term_vectors(crystal: Crystal, phase: str) -> NDArray[np.float64]:
-    """(n_terms, 3) fractional vectors d of the phase exp(2 pi i q . d)."""
-    fc = crystal.require_force_constants()
-    d = fc.translations.astype(float)
-    if phase == "positions":
-        frac = crystal.fractional
-        d = d + frac[fc.second] - frac[fc.first]
-    return d
+@dataclass(frozen=True, eq=False)
+class Assembly:
+    """What D(q) is made of, independent of q: the force constants' Hermitian part by lattice translation.
 
+    D_cell(q) = sum_R A_R exp(2 pi i q . R) with A_R the (3n, 3n) mass-weighted sum of the blocks
+    of every term with translation R, after the index symmetry is imposed term by term:
+    A_R = (Phi(R) + Phi(-R)^T) / 2, which makes D(q) Hermitian at every q as phonopy's
+    (D + D^H) / 2 does (`hermitian_part`), once instead of per q-point. The positions phase
+    (phonopy's) is D_pos = P^H D_cell P with P = diag(exp(2 pi i q . x_j)). One phase per
+    translation, not per term, and one dense product per chunk of q-points: the arithmetic of a
+    term-by-term sum (issue 42: the earlier (n_terms, (3n)^2) product cost 2.2x phonopy's time on
+    SnO2's 18 branches).
 
-def _scatter(crystal: Crystal) -> NDArray[np.float64]:
-    """(n_terms, (3n)^2) A: row t holds Phi_t / sqrt(m_i m_j) at the entries of block (i, j)."""
-    fc = crystal.require_force_constants()
-    n3 = 3 * crystal.n_atoms
-    scaled = fc.blocks / np.sqrt(crystal.masses[fc.first] * crystal.masses[fc.second])[:, None, None]
-    axis = np.arange(3)
-    rows = 3 * fc.first[:, None, None] + axis[None, :, None]
-    cols = 3 * fc.second[:, None, None] + axis[None, None, :]
-    scatter = np.zeros((fc.n_terms, n3 * n3))
-    scatter[np.arange(fc.n_terms)[:, None, None], rows * n3 + cols] = scaled
-    return scatter
+    Since A_-R = A_R^T, each pair +-R is one phase: D_cell(q) = A_0 + sum_{R in half}
+    [cos(2 pi q . R) (A_R + A_R^T) + i sin(2 pi q . R) (A_R - A_R^T)], half the products.
 
-
-def _assembly_error(crystal: Crystal, scatter: NDArray[np.float64]) -> float:
-    """Bound on ||D~ - D||_2 from forming D: each entry sums its terms' phases times blocks.
-
-    (terms per entry + 4) eps times ||sum_t |A_t| ||_inf, the absolute-value matrix of the terms
-    (>= ||D||: near Gamma D is small by cancellation while this is not). The LAPACK bound alone,
-    eps ||D~||, would miss it.
+    Attributes
+    ----------
+    translations : (n_h, 3) ndarray
+        One of each pair +-R of the nonzero lattice translations (the one whose first nonzero
+        component is positive), in cells.
+    symmetric, antisymmetric : (n_h, (3n)^2) ndarray
+        A_R + A_R^T and A_R - A_R^T flattened row-major, in 1 / time unit^2.
+    zero : ((3n)^2,) ndarray
+        A_0, real symmetric, in 1 / time unit^2.
+    fractional : (n_atoms, 3) ndarray
+        The atoms' fractional positions x_j (for the positions phase).
+    cartesian : (n_h, 3) ndarray
+        R @ cell, in the length unit (for dD/dk).
+    cell : (3, 3) ndarray
+        The crystal's lattice vectors as rows, in the length unit.
+    error : float
+        Bound on ||D~ - D||_2 from forming D in floating point (`_assembly_error`), 1 / time unit^2.
+    skew : float
+        ||sum_R |S_R| ||_F with S_R = (Phi(R) - Phi(-R)^T) / 2 mass-weighted: a bound, at every q,
+        on the Frobenius norm of the anti-Hermitian part removed, 1 / time unit^2 (0 when the
+        force constants obey the index symmetry).
     """
+
+    translations: NDArray[np.float64]
+    symmetric: NDArray[np.float64]
+    antisymmetric: NDArray[np.float64]
+    zero: NDArray[np.float64]
+    fractional: NDArray[np.float64]
+    cartesian: NDArray[np.float64]
+    cell: NDArray[np.float64]
+    error: float
+    skew: float
+
+    @property
+    def n3(self) -> int:
+        return int(round(np.sqrt(self.zero.shape[0])))
+
+
+def assembly(crystal: Crystal) -> Assembly:
+    """The `Assembly` of `crystal`'s force constants (their Hermitian part grouped by translation)."""
     fc = crystal.require_force_constants()
-    n3 = crystal.n_branches
-    absolute = np.abs(scatter).sum(axis=0).reshape(n3, n3)
-    pairs = fc.first * crystal.n_atoms + fc.second
-    per_entry = int(np.bincount(pairs).max()) if pairs.size else 0
-    return float((per_entry + 4) * EPS * absolute.sum(axis=1).max())
+    n = crystal.n_atoms
+    n3 = 3 * n
+    keys = np.column_stack([fc.first, fc.second, fc.translations]).astype(np.int64)
+    partners = np.column_stack([fc.second, fc.first, -fc.translations]).astype(np.int64)
+    table, inverse = np.unique(np.vstack([keys, partners]), axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    summed = np.zeros((table.shape[0], 3, 3))
+    np.add.at(summed, inverse[:fc.n_terms], fc.blocks)
+    # the partner of each key of the table: (j, i, -R)
+    mirrored = np.column_stack([table[:, 1], table[:, 0], -table[:, 2:]])
+    _, located = np.unique(np.vstack([table, mirrored]), axis=0, return_inverse=True)  # the same sorted rows
+    partner = located.ravel()[table.shape[0]:]
+    transposed = np.transpose(summed[partner], (0, 2, 1))
+    weight = 1.0 / np.sqrt(crystal.masses[table[:, 0]] * crystal.masses[table[:, 1]])[:, None, None]
+    hermitian = (summed + transposed) / 2.0 * weight
+    skew_blocks = np.abs(summed - transposed) / 2.0 * weight
+    translations, which = np.unique(table[:, 2:], axis=0, return_inverse=True)
+    which = which.ravel()
+    axis = np.arange(3)
+    entries = ((3 * table[:, 0, None, None] + axis[None, :, None]) * n3
+               + 3 * table[:, 1, None, None] + axis[None, None, :]).reshape(table.shape[0], 9)
+    blocks = np.zeros((translations.shape[0], n3 * n3))
+    np.add.at(blocks, (np.repeat(which, 9), entries.ravel()), hermitian.reshape(-1))
+    skew_matrix = np.zeros(n3 * n3)
+    np.add.at(skew_matrix, entries.ravel(), skew_blocks.reshape(-1))
+    absolute = np.abs(blocks).sum(axis=0).reshape(n3, n3)
+    reach = float(np.abs(translations).sum(axis=1).max()) if translations.size else 0.0
+    error = _assembly_error(absolute, translations.shape[0], reach)
+    nonzero = np.abs(translations).max(axis=1) > 0
+    leading = translations[np.arange(translations.shape[0]), np.argmax(translations != 0, axis=1)]
+    half = nonzero & (leading > 0)
+    zero = blocks[~nonzero].sum(axis=0) if (~nonzero).any() else np.zeros(n3 * n3)
+    forward = blocks[half]
+    # A_-R = A_R^T by construction (the table holds every partner), so the pair needs A_R alone
+    backward = forward.reshape(-1, n3, n3).transpose(0, 2, 1).reshape(-1, n3 * n3)
+    kept = translations[half].astype(float)
+    return Assembly(translations=kept, symmetric=forward + backward, antisymmetric=forward - backward, zero=zero,
+                    fractional=crystal.fractional, cartesian=kept @ crystal.cell, cell=crystal.cell, error=error,
+                    skew=float(np.linalg.norm(skew_matrix)))
 
 
-def _chunks(n_q: int, n_terms: int, n3: int) -> Iterator[slice]:
-    size = max(1, CHUNK_ENTRIES // max(1, n_terms + 2 * n3 * n3))
+def _assembly_error(absolute: NDArray[np.float64], n_translations: int, reach: float) -> float:
+    """Bound on ||D~ - D||_2 from forming D: each entry sums its translations' phases times blocks.
+
+    (n_R + 8 + pi (max_R ||R||_1 + 3)) eps times ||sum_R |A_R| ||_inf, the absolute-value matrix
+    of the terms (>= ||D||: near Gamma D is small by cancellation while this is not). The LAPACK
+    bound alone, eps ||D~||, would miss it. n_R: the sum over translations; 8: the two phase
+    factors of the positions phase; pi ||R||_1 and 3 pi: the rounding of the phase angles
+    2 pi q . R and 2 pi q . x_j for q reduced into the first zone (|q_k| <= 1/2,
+    `reduce_qpoints`): far from it the angles, and their rounding, would grow with |q|.
+    """
+    return float((n_translations + 8 + np.pi * (reach + 3.0)) * EPS * absolute.sum(axis=1).max())
+
+
+def _chunks(n_q: int, n_translations: int, n3: int) -> Iterator[slice]:
+    size = max(1, CHUNK_ENTRIES // max(1, 2 * n_translations + 3 * n3 * n3))
     for start in range(0, n_q, size):
         yield slice(start, min(n_q, start + size))
 
 
-def _assemble(phases_real: NDArray[np.float64], phases_imag: NDArray[np.float64],
-              scatter: NDArray[np.float64], n3: int) -> NDArray[np.complex128]:
-    matrices = np.empty((phases_real.shape[0], n3 * n3), dtype=complex)
-    matrices.real = phases_real @ scatter
-    matrices.imag = phases_imag @ scatter
-    return matrices.reshape(-1, n3, n3)
+def _lattice_phases(q: NDArray[np.float64], translations: NDArray[np.float64]) -> NDArray[np.complex128]:
+    """(n_q, n_R) exp(2 pi i q . R) as products of per-axis phases exp(2 pi i q_k m), |m| <= max |R_k|.
+
+    3 (2 M + 1) sines and cosines per q instead of n_R: each factor is within ~eps (1 + pi |m|)
+    of exact for |q_k| <= 1/2, the same as the phase angle's own rounding (`_assembly_error`).
+    """
+    if translations.shape[0] == 0:
+        return np.ones((q.shape[0], 0), dtype=complex)
+    steps = translations.astype(np.int64)
+    reach = int(np.abs(steps).max())
+    orders = np.arange(-reach, reach + 1)
+    axis = np.exp(2j * np.pi * q[:, :, None] * orders[None, None, :])  # (n_q, 3, 2 M + 1)
+    index = steps + reach
+    return axis[:, 0, index[:, 0]] * axis[:, 1, index[:, 1]] * axis[:, 2, index[:, 2]]
+
+
+def _matrices(parts: Assembly, q: NDArray[np.float64], phase: str,
+              direction: NDArray[np.float64] | None = None) -> NDArray[np.complex128]:
+    """(n_q, 3n, 3n) D(q) (or dD/dk along the Cartesian unit `direction`) for q in the first zone."""
+    n3 = parts.n3
+    phases = _lattice_phases(q, parts.translations)
+    cos, sin = phases.real, phases.imag
+    matrices = np.empty((q.shape[0], n3 * n3), dtype=complex)
+    if direction is None:
+        matrices.real = cos @ parts.symmetric
+        matrices.real += parts.zero
+        matrices.imag = sin @ parts.antisymmetric
+    else:  # d/dk: i w_R (A_R e^{iqR} - A_R^T e^{-iqR}) = -w sin (A + A^T) + i w cos (A - A^T)
+        weight = parts.cartesian @ direction
+        matrices.real = -(sin * weight) @ parts.symmetric
+        matrices.imag = (cos * weight) @ parts.antisymmetric
+    matrices = matrices.reshape(-1, n3, n3)
+    if phase == "positions":
+        atoms = np.exp(2j * np.pi * (q @ parts.fractional.T)).repeat(3, axis=1)  # (n_q, 3n)
+        if direction is not None:  # the atoms' phases depend on k too: + i ((x_j - x_i) . n) D_cell
+            value = _matrices(parts, q, "cell")
+            offset = np.repeat((parts.fractional @ parts.cell) @ direction, 3)
+            matrices = matrices + 1j * (offset[None, None, :] - offset[None, :, None]) * value
+        matrices = np.conj(atoms)[:, :, None] * matrices * atoms[:, None, :]
+    return matrices
+
+
+def hermitian_part(matrices: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
+    """((D + D^H) / 2, ||(D - D^H) / 2||_F per matrix): what is solved, and what was removed.
+
+    Force constants read from files need not obey the index symmetry Phi(i 0; j R) =
+    Phi(j 0; i -R)^T, and then D(q) is not Hermitian; phonopy solves its Hermitian part, and
+    so does vibra (a Hermitian solver reads one triangle, which would silently be another
+    matrix). `assembly` imposes it on the terms, once; this is the same on formed matrices.
+    The Frobenius norm of the removed part bounds its 2-norm, so it bounds how far the
+    eigenvalues of the Hermitian part can move: it is added to the eigenvalue error bound.
+    """
+    adjoint = np.conj(np.swapaxes(matrices, -1, -2))
+    skew = np.linalg.norm((matrices - adjoint).reshape(matrices.shape[0], -1), axis=1) / 2.0
+    return (matrices + adjoint) / 2.0, skew
+
+
+def reduce_qpoints(qpoints: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(q - G, G): each q moved into the first zone's cube, components in [-1/2, 1/2], and the integer G.
+
+    D(q + G) is D(q) up to the unitary phase P(G) = diag(exp(2 pi i G . x_j)) (the identity in
+    the cell phase), so eigenvalues are computed at q - G, where the phases 2 pi q . d keep
+    their accuracy: at q = 10^4 + 0.3 the phase angles would lose 10^4 eps each.
+    """
+    lattice = np.rint(qpoints)
+    return qpoints - lattice, lattice
+
+
+def _shift_phases(crystal: Crystal, lattice: NDArray[np.float64]) -> NDArray[np.complex128] | None:
+    """(n_q, 3n) exp(-2 pi i G . x_j) per dof, the positions-phase factor between D(q) and D(q - G); None when G = 0."""
+    if not lattice.any():
+        return None
+    frac = crystal.fractional
+    return np.exp(-2j * np.pi * (lattice @ frac.T)).repeat(3, axis=1)
 
 
 def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "positions"
@@ -215,11 +383,13 @@ def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "po
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
-    d = _term_vectors(crystal, phase)
-    scatter = _scatter(crystal)
-    n3 = crystal.n_branches
-    angle = 2.0 * np.pi * (q @ d.T)
-    return _assemble(np.cos(angle), np.sin(angle), scatter, n3)
+    check_periodic_qpoints(crystal, q)
+    reduced, lattice = reduce_qpoints(q)
+    matrices = _matrices(assembly(crystal), reduced, phase)
+    shift = _shift_phases(crystal, lattice) if phase == "positions" else None
+    if shift is not None:  # D(q) = P(G)^H D(q - G) P(G) in the positions phase
+        matrices = shift[:, :, None] * matrices * np.conj(shift)[:, None, :]
+    return matrices
 
 
 def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLike, *,
@@ -231,13 +401,14 @@ def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLi
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
+    check_periodic_qpoints(crystal, q)
     n = _unit_direction(direction)
-    d = _term_vectors(crystal, phase)
-    weight = (d @ crystal.cell) @ n  # r . n for each term, in length
-    scatter = _scatter(crystal)
-    angle = 2.0 * np.pi * (q @ d.T)
-    # i w e^{i angle} = -w sin + i w cos
-    return _assemble(-np.sin(angle) * weight, np.cos(angle) * weight, scatter, crystal.n_branches)
+    reduced, lattice = reduce_qpoints(q)
+    matrices = _matrices(assembly(crystal), reduced, phase, direction=n)
+    shift = _shift_phases(crystal, lattice) if phase == "positions" else None
+    if shift is not None:
+        matrices = shift[:, :, None] * matrices * np.conj(shift)[:, None, :]
+    return matrices
 
 
 def _unit_direction(direction: ArrayLike) -> NDArray[np.float64]:
@@ -279,24 +450,24 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     Raises
     ------
     ValueError
-        `qpoints` not (n_q, 3) or not finite; an unknown `phase`; a crystal without force constants.
+        `qpoints` not (n_q, 3) or not finite, or with a component along a vacuum axis; an unknown
+        `phase`; a crystal without force constants.
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
     accuracy = _validate.choice(accuracy, "accuracy", ACCURACY)
     crystal.require_force_constants()
-    d = _term_vectors(crystal, phase)
-    scatter = _scatter(crystal)
+    check_periodic_qpoints(crystal, q)
+    parts = assembly(crystal)
     n3 = crystal.n_branches
-    assembly = _assembly_error(crystal, scatter)
     values = np.empty((q.shape[0], n3))
     error = np.empty_like(values)
     basis = np.empty((q.shape[0], n3, n3), dtype=complex) if vectors else None
-    for part in _chunks(q.shape[0], d.shape[0], n3):
-        angle = 2.0 * np.pi * (q[part] @ d.T)
-        matrices = _assemble(np.cos(angle), np.sin(angle), scatter, n3)
-        values[part], chunk_basis, error[part] = hermitian_stack(matrices, vectors=vectors)
-        error[part] += assembly
+    reduced, lattice = reduce_qpoints(q)
+    for part in _chunks(q.shape[0], parts.translations.shape[0], n3):
+        values[part], chunk_basis, error[part] = hermitian_stack(_matrices(parts, reduced[part], phase),
+                                                                 vectors=vectors)
+        error[part] += parts.error + parts.skew
         if basis is not None:
             basis[part] = chunk_basis
     omega, omega_error = (x.reshape(values.shape) for x in omega_and_error(values.ravel(), error.ravel()))
@@ -307,13 +478,18 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
         if refined.any():
             path += " + spring-svd"
             omega[refined], better, omega_error[refined] = singular_frequencies(
-                crystal, q[refined], crystal.springs, vectors=vectors)
+                crystal, reduced[refined], crystal.springs, vectors=vectors)
             if basis is not None and better is not None:
                 if phase == "positions":  # the factor is in the cell phase: v_pos = conj(P) v_cell
-                    better *= np.exp(-2j * np.pi * q[refined] @ crystal.fractional.T).repeat(3, axis=1)[:, :, None]
+                    better *= np.exp(-2j * np.pi * reduced[refined] @ crystal.fractional.T
+                                     ).repeat(3, axis=1)[:, :, None]
                 basis[refined] = better
+    shift = _shift_phases(crystal, lattice) if phase == "positions" and basis is not None else None
+    if basis is not None and shift is not None:  # eigenvectors of D(q) = P(G)^H D(q - G) P(G)
+        basis *= shift[:, :, None]
     return Phonons(qpoints=q, omega=omega, omega_error=omega_error, vectors=basis, masses=crystal.masses,
-                   phase=phase, units=crystal.units, path=path, refined=refined)
+                   phase=phase, units=crystal.units, path=path, refined=refined,
+                   non_hermitian=np.full(q.shape[0], parts.skew))
 
 
 def eigenvalue_slopes(derivative: NDArray[np.complex128], values: NDArray[np.float64],
@@ -362,144 +538,3 @@ def group_velocities(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLike)
     slopes, _ = eigenvalue_slopes(derivative, values, cast(NDArray[np.complex128], result.vectors), error)
     zero = np.abs(result.omega) <= result.omega_error
     return np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * result.omega))
-
-
-# ---------------------------------------------------------------------- one mode on a supercell
-@dataclass(frozen=True, eq=False)
-class SupercellMode:
-    """One phonon written out on a supercell: what a render animates.
-
-    The displacement of atom j in cell n is u_j(n) = Re[a_j exp(i (2 pi q . n - omega t))] with
-    a_j = e_j / sqrt(m_j) (the cell-phase eigenvector), scaled so that max_j |a_j| = 1.
-
-    Attributes
-    ----------
-    positions : (n_cells n_atoms, 3) ndarray
-        Rest positions of the supercell's atoms, Cartesian, in the length unit; cell by cell.
-    amplitudes : (n_cells n_atoms, 3) ndarray of complex
-        Complex displacement of each atom (dimensionless, largest modulus 1).
-    symbols : tuple of str
-        The label of each atom.
-    cell : (3, 3) ndarray
-        The supercell's lattice vectors as rows, in the length unit.
-    q : (3,) ndarray
-        The wave vector, fractional coordinates of the reciprocal lattice.
-    branch : int
-        Branch index, 0 = lowest.
-    omega : float
-        Angular frequency, rad per time unit (imaginary as -|omega|).
-    units : UnitSystem
-    """
-
-    positions: NDArray[np.float64]
-    amplitudes: NDArray[np.complex128]
-    symbols: tuple[str, ...]
-    cell: NDArray[np.float64]
-    q: NDArray[np.float64]
-    branch: int
-    omega: float
-    units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
-    def __repr__(self) -> str:
-        q = ", ".join(f"{x:.4g}" for x in self.q)
-        return short_repr(self, f"branch {self.branch} at q ({q})", frequency_span([self.omega], self.units),
-                          f"{len(self.positions)} atoms", f"{self.units.name} units")
-
-    def displacements(self, phase: float) -> NDArray[np.float64]:
-        """(n, 3) real displacements Re[a exp(-i phase)] at the phase omega t = `phase` (radians)."""
-        return np.real(self.amplitudes * np.exp(-1j * phase))
-
-
-#: Integer matrices P that turn a centred cubic lattice's primitive cell into its conventional
-#: cube (P @ cell): face-centred (det 4) and body-centred (det 2), in the usual primitive setting.
-CUBIC_CENTRINGS: tuple[NDArray[np.int64], ...] = (
-    np.array([[-1, 1, 1], [1, -1, 1], [1, 1, -1]], dtype=np.int64),
-    np.array([[0, 1, 1], [1, 0, 1], [1, 1, 0]], dtype=np.int64),
-)
-
-
-def conventional_cube(crystal: Crystal) -> NDArray[np.int64] | None:
-    """(3, 3) integer P with P @ cell a cube (the conventional cell of an fcc or bcc lattice, or
-    the identity for a simple cubic one), or None when the lattice is not cubic in that setting."""
-    if not all(crystal.periodic):
-        return None
-    for matrix in (np.eye(3, dtype=np.int64), *CUBIC_CENTRINGS):
-        rows = matrix @ crystal.cell
-        lengths = np.linalg.norm(rows, axis=1)
-        gram = rows @ rows.T
-        if np.allclose(gram, np.diag(np.full(3, lengths[0] ** 2)), rtol=0.0, atol=1e-8 * lengths[0] ** 2):
-            return matrix
-    return None
-
-
-def _supercell_matrix(supercell: ArrayLike, crystal: Crystal) -> NDArray[np.int64]:
-    """(3, 3) integer supercell matrix from 3 sizes or a 3 x 3 matrix (rows: the supercell's lattice
-    vectors in units of the crystal's), checked."""
-    size = np.asarray(supercell)
-    if size.shape == (3,):
-        if not np.issubdtype(size.dtype, np.integer) or (size < 1).any() or (size > 12).any():
-            raise ValueError(f"supercell must be 3 integers from 1 to 12 (cells along each lattice vector), "
-                             f"got {supercell!r}")
-        matrix = np.diag(size).astype(np.int64)
-    elif size.shape == (3, 3) and np.issubdtype(size.dtype, np.integer):
-        matrix = size.astype(np.int64)
-        cells = abs(round(float(np.linalg.det(matrix))))
-        if cells < 1 or cells > 12 ** 3:
-            raise ValueError(f"supercell matrix {matrix.tolist()} holds {cells} cells; expected 1 to {12 ** 3}")
-    else:
-        raise ValueError(f"supercell must be 3 integers (cells along each lattice vector) or a 3 x 3 integer "
-                         f"matrix, got {supercell!r}")
-    for axis in range(3):
-        if not crystal.periodic[axis] and (matrix[axis, axis] != 1 or np.count_nonzero(matrix[axis]) != 1
-                                           or np.count_nonzero(matrix[:, axis]) != 1):
-            raise ValueError(f"supercell[{axis}] is {matrix[axis].tolist()} along a vacuum axis; it must be 1 "
-                             "(that axis unmixed)")
-    return matrix
-
-
-def _cells_in(matrix: NDArray[np.int64]) -> NDArray[np.int64]:
-    """(|det|, 3) the lattice translations n (in cell units) inside the supercell `matrix` @ cell, ordered."""
-    corners = np.array([[a, b, c] for a in (0, 1) for b in (0, 1) for c in (0, 1)]) @ matrix
-    low, high = corners.min(axis=0), corners.max(axis=0)
-    box = np.stack(np.meshgrid(*[np.arange(lo, hi + 1) for lo, hi in zip(low, high)], indexing="ij"),
-                   axis=-1).reshape(-1, 3)
-    fractional = box @ np.linalg.inv(matrix.astype(float))
-    inside = ((fractional > -1e-9) & (fractional < 1.0 - 1e-9)).all(axis=1)
-    return box[inside]
-
-
-def supercell_mode(crystal: Crystal, q: ArrayLike, branch: int, supercell: ArrayLike) -> SupercellMode:
-    """Branch `branch` at `q` written out on a `supercell` of the crystal (see `SupercellMode`).
-
-    `supercell` is 3 sizes (cells along each lattice vector) or a 3 x 3 integer matrix S whose
-    rows are the supercell's lattice vectors in the crystal's (S @ cell), e.g.
-    ``2 * conventional_cube(crystal)`` for 2 x 2 x 2 conventional cubes of an fcc lattice.
-
-    Raises
-    ------
-    ValueError
-        q not 3 finite numbers; branch outside 0 .. n_branches - 1; a supercell that is not 3
-        positive integers (at most 12 each) or an integer matrix of 1 to 12^3 cells, or that is
-        not 1 (unmixed) along a vacuum axis.
-    """
-    point = check_qpoints(np.asarray(q, dtype=float).reshape(1, -1) if np.ndim(q) == 1 else q, "q")
-    if point.shape[0] != 1:
-        raise ValueError(f"q must be one wave vector (3 fractional coordinates), got shape {np.shape(q)}")
-    index = _validate.count(branch, "branch", low=0, high=crystal.n_branches - 1)
-    matrix = _supercell_matrix(supercell, crystal)
-    result = phonons(crystal, point, vectors=True, phase="cell")
-    assert result.vectors is not None
-    vector = result.vectors[0][:, index].reshape(crystal.n_atoms, 3) / np.sqrt(crystal.masses)[:, None]
-    cells = _cells_in(matrix)
-    phase = np.exp(2j * np.pi * cells @ point[0])
-    amplitudes = (phase[:, None, None] * vector[None, :, :]).reshape(-1, 3)
-    largest = float(np.abs(amplitudes).max())
-    if largest > 0:
-        amplitudes = amplitudes / largest
-    positions = (cells @ crystal.cell)[:, None, :] + crystal.positions[None, :, :]
-    return SupercellMode(positions=positions.reshape(-1, 3), amplitudes=amplitudes,
-                         symbols=tuple(crystal.symbols) * len(cells), cell=matrix @ crystal.cell,
-                         q=point[0], branch=index, omega=float(result.omega[0, index]), units=crystal.units)

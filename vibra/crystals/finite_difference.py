@@ -33,6 +33,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Sequence
 
@@ -44,6 +45,7 @@ from vibra._frozen import freeze_arrays, short_repr
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.force_constants import SumRuleReport, impose_sum_rules
+from vibra.crystals.reach import SupercellReach, check_range_from_sizes, supercell_reach, warn_range
 from vibra.molecules.displacements import (CalculatorSource, ForceCache, displaced_forces, force_problem,
                                            is_calculator, is_factory)
 from vibra.molecules.noise import ForceNoise, force_noise_task, is_deterministic_calculator, rounding_noise
@@ -87,6 +89,11 @@ class FiniteDifferenceForceConstants:
         Force calls made in this run (reference included; the noise probe not).
     n_cached : int
         Geometries read from the cache instead.
+    reach : SupercellReach or None
+        How far the force constants reach the supercell's edge (None when not measured).
+    primitive_matrix : (3, 3) ndarray or None
+        The matrix P of the crystal's cell, P^T applied to the given cell's lattice vectors
+        (phonopy's convention): the identity unless ``primitive=True``.
     """
 
     crystal: Crystal
@@ -101,15 +108,20 @@ class FiniteDifferenceForceConstants:
     n_displacements: int
     n_force_calls: int
     n_cached: int = 0
+    reach: SupercellReach | None = None
+    primitive_matrix: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
     def __repr__(self) -> str:
         size = "x".join(str(int(n)) for n in self.supercell)
+        reduced = (self.primitive_matrix is not None and not np.allclose(self.primitive_matrix, np.eye(3)))
+        edge = "" if self.reach is None or self.reach.holds_range else f"range exceeds the supercell ({self.reach.edge_ratio:.2g} at its edge)"
         return short_repr(self, repr(self.crystal.name), f"{size} supercell", f"step {self.step:g}",
                           f"{self.n_displacements} displacements", f"{self.n_force_calls} force calls",
-                          f"{self.n_cached} cached" if self.n_cached else "")
+                          f"{self.n_cached} cached" if self.n_cached else "",
+                          "primitive cell of the cell given" if reduced else "", edge)
 
     def omega_errors(self, qpoints: ArrayLike) -> NDArray[np.float64]:
         """(n_q, n_branches) bound on how far each frequency moves under the force-constant error.
@@ -184,6 +196,7 @@ def finite_difference_force_constants(
     progress: ProgressOption = None,
     n_workers: int | None = None,
     timeout: float = 10.0,
+    primitive: bool = False,
     name: str | None = None,
 ) -> FiniteDifferenceForceConstants:
     """Force constants of the crystal `atoms` from a calculator's forces on a supercell, with their error.
@@ -211,12 +224,20 @@ def finite_difference_force_constants(
         As for `vibra.molecules.finite_difference_hessian`: where the force calls run (None,
         ``"local"``, a scheduler address or a ``distributed.Client``), a folder of per-geometry
         force files (resumable), the calculator's settings for the cache key, progress lines.
+    primitive : bool
+        Reduce the cell to a primitive one first (phonopy's, found by symmetry; the matrix is
+        kept in `FiniteDifferenceForceConstants.primitive_matrix`). Off by default: the crystal
+        is the cell given, so fractional q mean the user's reciprocal basis (a conventional
+        cube stays a cube). Not for a crystal with vacuum axes.
     name : str, optional
         The crystal's name (default: the chemical formula).
 
     Returns
     -------
     FiniteDifferenceForceConstants
+        With `reach`: a supercell whose force constants reach its edge (blocks beyond half its
+        shortest lattice vector above EDGE_RTOL of the largest) draws a `SupercellRangeWarning`
+        naming the supercell that holds the range measured.
 
     Raises
     ------
@@ -225,7 +246,9 @@ def finite_difference_force_constants(
         `client` (pass a factory) or a `cache` (pass `calculator_key`).
     ValueError
         The checks of `Crystal.from_ase`; a supercell that is not 3 positive integers (or not 1
-        along a vacuum axis); delta or symprec not positive; a bad `force_noise` or `client`.
+        along a vacuum axis), or so small that an atom's own images are no farther than its
+        nearest neighbours (refused before any force call, naming the size needed); delta or
+        symprec not positive; a bad `force_noise` or `client`; ``primitive=True`` with vacuum axes.
     RuntimeError
         The calculator failed, or returned forces that are not finite or of the wrong shape
         (each such geometry named; finished force calls stay in `cache`).
@@ -237,6 +260,10 @@ def finite_difference_force_constants(
     if not is_calculator(calc) and not is_factory(calc):
         raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got {type(calc).__name__}")
     size = _check_supercell(supercell, unit.periodic)
+    check_range_from_sizes(unit, size)
+    if primitive and not all(unit.periodic):
+        raise ValueError(f"primitive=True with vacuum axes (pbc {tuple(unit.periodic)}): phonopy's primitive cell may "
+                         "reorder the axes; pass the primitive cell itself (primitive=False)")
     h = _validate.positive_scalar(delta, "delta", "displacement (Angstrom)")
     precision = _validate.positive_scalar(symprec, "symprec", "symmetry tolerance (Angstrom)")
     if isinstance(force_noise, str):
@@ -256,7 +283,11 @@ def finite_difference_force_constants(
 
     cell = PhonopyAtoms(cell=unit.cell, scaled_positions=unit.fractional, masses=unit.masses,
                         symbols=list(unit.symbols))
-    phonon = Phonopy(cell, supercell_matrix=np.diag(size), primitive_matrix=None, symprec=precision, log_level=0)
+    # An explicit primitive matrix: phonopy >= 4 reads None as "auto" and would return another cell.
+    with warnings.catch_warnings():  # phonopy 4 warns that "auto" is its new default: asked for here
+        warnings.simplefilter("ignore")
+        phonon = Phonopy(cell, supercell_matrix=np.diag(size), primitive_matrix="auto" if primitive else np.eye(3),
+                         symprec=precision, log_level=0)
     phonon.generate_displacements(distance=h, is_plusminus="auto")
     first = phonon.dataset["first_atoms"]
     moves = [(int(d["number"]), np.asarray(d["displacement"], dtype=float)) for d in first]
@@ -287,25 +318,32 @@ def finite_difference_force_constants(
     truncation = np.abs(raw[0] - raw[1]) / 3.0 if estimate_error else np.zeros_like(raw[0])
     roundoff = float(sigma / h)
     entry_error = truncation + np.abs(projected - raw[0]) + roundoff
+    reach = supercell_reach(phonon, projected, unit, size)
+    if not reach.holds_range:
+        warn_range(unit.name, size, reach)
     phonon.force_constants = projected
-    crystal = Crystal.from_phonopy(phonon, name=unit.name)
+    crystal = Crystal.from_phonopy(phonon, name=unit.name, periodic=unit.periodic)
+    matrix = np.asarray(phonon.primitive_matrix, dtype=float)
     return FiniteDifferenceForceConstants(
         crystal=crystal, supercell=size, step=h, error_blocks=_fold(phonon, entry_error),
         truncation=float(truncation.max()), roundoff=roundoff, force_noise=float(sigma), noise_source=noise.source,
-        sum_rules=report, n_displacements=n_moves, n_force_calls=computed, n_cached=cached)
+        sum_rules=report, n_displacements=n_moves, n_force_calls=computed, n_cached=cached, reach=reach,
+        primitive_matrix=matrix)
 
 
 def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] | None = None, delta: float = 0.01,
              client: Any = None, cache: str | os.PathLike[str] | None = None, calculator_key: str | None = None,
              progress: ProgressOption = None, wrap: bool = False, left_handed: bool = False,
-             name: str | None = None) -> Crystal:
+             primitive: bool = False, name: str | None = None) -> Crystal:
     """A `Crystal` from an `ase.Atoms`: the structure alone, or with force constants from a calculator.
 
     Without `calculator` and `supercell`: `Crystal.from_ase` (cell, positions, masses, symbols;
     `wrap`, `left_handed` as there). With them: the force constants of
     `finite_difference_force_constants` (displacements reduced by the space group, one force call
     per displaced supercell, sum rules imposed), without the 2h step and the noise probe; use
-    that function for the error estimate.
+    that function for the error estimate. The crystal is the cell given (conventional stays
+    conventional, ``pbc`` False stays a vacuum axis) unless ``primitive=True`` asks for
+    phonopy's primitive cell.
 
     Raises
     ------
@@ -327,7 +365,8 @@ def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] |
                          "larger than the calculator's interaction range")
     return finite_difference_force_constants(
         atoms, calculator, supercell=supercell, delta=delta, estimate_error=False, force_noise=None,
-        client=client, cache=cache, calculator_key=calculator_key, progress=progress, name=name).crystal
+        client=client, cache=cache, calculator_key=calculator_key, progress=progress, primitive=primitive,
+        name=name).crystal
 
 
 def _supercell_atoms(supercell: Any, periodic: tuple[bool, bool, bool]) -> Atoms:

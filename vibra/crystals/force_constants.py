@@ -16,7 +16,8 @@ from numpy.typing import NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr, span
 
-__all__ = ["CrystalLike", "ForceConstants", "SpringModel", "SumRuleReport", "check_force_constants", "impose_sum_rules"]
+__all__ = ["CrystalLike", "ForceConstants", "ForceConstantsWarning", "INDEX_SYMMETRY_RTOL", "SpringModel", "SumRuleReport",
+           "check_force_constants", "impose_sum_rules", "index_asymmetry"]
 
 
 class CrystalLike(Protocol):
@@ -53,6 +54,17 @@ class CrystalLike(Protocol):
     def require_force_constants(self) -> ForceConstants: ...
 
     def with_force_constants(self, force_constants: ForceConstants, springs: SpringModel | None = None) -> Any: ...
+
+
+#: Force constants whose index symmetry is broken by more than this fraction of their largest
+#: entry draw a `ForceConstantsWarning`: phonopy writes FORCE_CONSTANTS with 10 decimals, so
+#: a file it wrote from symmetric force constants stays ~1e-10 within it, while force constants
+#: made from forces without symmetrisation break it by ~1e-4..1e-2 (phonopy's NaCl example: 6.7e-4).
+INDEX_SYMMETRY_RTOL = 1e-8
+
+
+class ForceConstantsWarning(UserWarning):
+    """Force constants that break a symmetry they should have (the index symmetry)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -215,3 +227,25 @@ def impose_sum_rules(full: NDArray[np.float64]) -> tuple[NDArray[np.float64], Su
         rounds += 1
     change = float(np.abs(fc - full).max())
     return fc, SumRuleReport(acoustic=acoustic, index=index, change=change, rounds=rounds)
+
+
+def index_asymmetry(fc: ForceConstants) -> float:
+    """max |Phi(i 0; j R) - Phi(j 0; i -R)^T| over all terms, relative to the largest entry (0 for none).
+
+    Force constants are second derivatives of one energy, so they obey this index symmetry
+    exactly; a term without its partner counts with its whole block. When it is broken, D(q)
+    is not Hermitian and its Hermitian part is solved (`vibra.crystals.dynamical.hermitian_part`).
+    """
+    if fc.n_terms == 0:
+        return 0.0
+    scale = float(np.abs(fc.blocks).max())
+    if scale == 0.0:
+        return 0.0
+    keys = np.column_stack([fc.first, fc.second, fc.translations]).astype(np.int64)
+    partners = np.column_stack([fc.second, fc.first, -fc.translations]).astype(np.int64)
+    table, inverse = np.unique(np.vstack([keys, partners]), axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    summed = np.zeros((table.shape[0], 3, 3))
+    np.add.at(summed, inverse[:fc.n_terms], fc.blocks)  # repeated terms add up, as in D(q)
+    gap = summed[inverse[:fc.n_terms]] - np.transpose(summed[inverse[fc.n_terms:]], (0, 2, 1))
+    return float(np.abs(gap).max()) / scale

@@ -28,7 +28,7 @@ import numpy as np
 
 from vibra._io import atomic_write_text
 from vibra.crystals.crystal import Crystal
-from vibra.crystals.phonopy_io import to_phonopy
+from vibra.crystals.phonopy_io import check_symmetrize, to_phonopy
 
 __all__ = ["read_phonopy", "write_phonopy", "write_force_constants", "check_phonopy_yaml",
            "check_force_constants_file", "check_force_sets_file", "PhonopyYamlSummary"]
@@ -386,8 +386,8 @@ def check_force_sets_file(path: str | os.PathLike[str], n_supercell: int | None 
 
 
 def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.PathLike[str] | None = None,
-                 force_sets: str | os.PathLike[str] | None = None, symmetrize: bool = False,
-                 name: str | None = None) -> Any:
+                 force_sets: str | os.PathLike[str] | None = None, symmetrize: bool | str | None = "auto",
+                 primitive: str | None = None, name: str | None = None) -> Any:
     """A `Crystal` from a phonopy yaml (and a ``FORCE_CONSTANTS`` or ``FORCE_SETS`` file).
 
     Every file is checked whole first (`check_phonopy_yaml`, `check_force_constants_file`,
@@ -407,9 +407,19 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
         A ``FORCE_SETS`` file (type 1 or 2) with the forces of that supercell's displacements.
         Without either file, the force constants come from the yaml (stored, or made from the
         forces of its displacements).
-    symmetrize : bool
-        Impose the acoustic sum rule and the index symmetry (`impose_sum_rules`, vibra's own
-        projection) before use. Off by default: the force constants are taken as they are.
+    symmetrize : "auto", "phonopy", True, "projection" or False
+        ``"auto"`` (default): as ``phonopy.load`` (``symmetrize_fc=True``): force constants made
+        from forces get phonopy's ``symmetrize_force_constants``, force constants read from a
+        file are taken as they are. ``"phonopy"``: phonopy's symmetrisation in every case.
+        True or ``"projection"``: the acoustic sum rule and the index symmetry imposed exactly
+        (`impose_sum_rules`, vibra's own projection). False: as they are. Force constants that
+        still break the index symmetry draw a `ForceConstantsWarning`; their D(q) is made
+        Hermitian as phonopy does (`vibra.crystals.dynamical.hermitian_part`).
+    primitive : None or "auto"
+        The primitive cell: None (default) takes the yaml's ``primitive_matrix``, or the unit
+        cell itself when the yaml has none (an explicit matrix is always passed to phonopy, so
+        the crystal is the cell the file describes); ``"auto"`` lets phonopy find a primitive
+        cell by symmetry (what ``phonopy.load`` does for a yaml without ``primitive_matrix``).
     name : str, optional
         The crystal's name (default: the file's stem).
 
@@ -446,12 +456,19 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
     elif not (summary.force_constants or summary.forces):
         raise ValueError(f"{source}: holds no force constants and no forces; give the FORCE_CONSTANTS file "
                          "(force_constants=) or the FORCE_SETS file (force_sets=) of its supercell")
-    phonon = _load(source, files)
-    return Crystal.from_phonopy(phonon, name=name if name is not None else source.stem, symmetrize=symmetrize)
+    how = check_symmetrize(None if symmetrize == "auto" else symmetrize)
+    if primitive not in (None, "auto"):
+        raise ValueError(f"primitive is {primitive!r}; expected None (the yaml's primitive matrix, or its unit cell) "
+                         "or 'auto' (phonopy's primitive cell by symmetry)")
+    phonon, from_forces = _load(source, files, primitive)
+    if symmetrize == "auto" and from_forces:
+        how = "phonopy"
+    return Crystal.from_phonopy(phonon, name=name if name is not None else source.stem, symmetrize=how)
 
 
-def _load(source: Path, files: dict[str, Path]) -> Any:
-    """A `phonopy.Phonopy` with force constants from the (checked) files, and from nowhere else."""
+def _load(source: Path, files: dict[str, Path], primitive: str | None) -> tuple[Any, bool]:
+    """A `phonopy.Phonopy` with force constants from the (checked) files, and from nowhere else;
+    True when phonopy made them from forces."""
     from phonopy import Phonopy
     from phonopy.cui.load_helper import read_force_sets
     from phonopy.file_IO import parse_FORCE_CONSTANTS, read_force_constants_hdf5
@@ -462,10 +479,16 @@ def _load(source: Path, files: dict[str, Path]) -> Any:
     try:
         stored = PhonopyYaml().read(source)
         supercell_matrix = stored.supercell_matrix if stored.supercell_matrix is not None else np.eye(3, dtype=int)
-        phonon = Phonopy(stored.unitcell, supercell_matrix,
-                         primitive_matrix=stored.primitive_matrix if stored.primitive_matrix is not None else "auto",
+        if primitive == "auto":
+            matrix: Any = "auto"
+        elif stored.primitive_matrix is not None:
+            matrix = np.asarray(stored.primitive_matrix, dtype=float)
+        else:
+            matrix = np.eye(3)
+        phonon = Phonopy(stored.unitcell, supercell_matrix, primitive_matrix=matrix,
                          calculator=stored.calculator, log_level=0)
         fc = None
+        from_forces = False
         if "force_constants" in files:
             current = files["force_constants"]
             p2s = phonon.primitive.p2s_map
@@ -475,11 +498,13 @@ def _load(source: Path, files: dict[str, Path]) -> Any:
             current = files["force_sets"]
             phonon.dataset = read_force_sets(current, supercell=phonon.supercell)
             phonon.produce_force_constants()
+            from_forces = True
         elif stored.force_constants is not None:
             fc = stored.force_constants
         else:
             phonon.dataset = stored.dataset
             phonon.produce_force_constants()
+            from_forces = True
         if fc is not None:
             if fc.shape[0] != fc.shape[1]:
                 fc = compact_fc_to_full_fc(phonon.primitive, fc)
@@ -487,4 +512,4 @@ def _load(source: Path, files: dict[str, Path]) -> Any:
     except Exception as error:  # phonopy raises many kinds for a file it cannot use
         detail = " ".join(str(error).split())[:200]
         raise ValueError(f"{current}: phonopy could not read it ({type(error).__name__}: {detail})") from None
-    return phonon
+    return phonon, from_forces

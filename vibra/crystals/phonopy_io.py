@@ -31,7 +31,7 @@ from vibra.crystals.force_constants import ForceConstants, impose_sum_rules
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-__all__ = ["to_phonopy", "phonopy_terms", "required_supercell", "MAX_SUPERCELL"]
+__all__ = ["to_phonopy", "phonopy_terms", "fold_force_constants", "SYMMETRIZE", "check_symmetrize", "symmetrized", "required_supercell", "MAX_SUPERCELL"]
 
 #: Largest supercell edge (in cells) `to_phonopy` chooses by itself.
 MAX_SUPERCELL = 12
@@ -162,13 +162,58 @@ def to_phonopy(crystal: Crystal, *, supercell: Sequence[int] | None = None) -> A
     return phonon
 
 
-def phonopy_terms(phonon: Any, *, symmetrize: bool = False) -> dict[str, Any]:
+#: The ways `symmetrize=` imposes the sum rules on force constants (`symmetrized`).
+SYMMETRIZE: tuple[str, ...] = ("phonopy", "projection")
+
+
+def check_symmetrize(symmetrize: bool | str | None) -> str | None:
+    """The symmetrisation asked: None (none), "phonopy" or "projection" (True)."""
+    if symmetrize is None or symmetrize is False:
+        return None
+    if symmetrize is True:
+        return "projection"
+    if isinstance(symmetrize, str) and symmetrize in SYMMETRIZE:
+        return symmetrize
+    raise ValueError(f"symmetrize is {symmetrize!r}; expected False (force constants as they are), 'phonopy' "
+                     "(phonopy's symmetrize_force_constants: translational sum rule, then index symmetry, as "
+                     "phonopy.load does) or True / 'projection' (both rules exactly, vibra's impose_sum_rules)")
+
+
+def symmetrized(phonon: Any, fc: NDArray[np.float64], how: str | None) -> NDArray[np.float64]:
+    """Supercell force constants `fc` of `phonon` with the sum rules imposed `how` (a new array; `phonon` untouched).
+
+    ``"phonopy"``: phonopy's own ``symmetrize_force_constants`` (or its compact form), level 1:
+    the translational sum rule, then the index symmetry, as ``phonopy.load(symmetrize_fc=True)``
+    applies to force constants made from forces (the index symmetry then holds exactly, the sum
+    rule nearly). ``"projection"``: `impose_sum_rules`, both rules to 1e-14 (full supercell form).
+    """
+    if how is None:
+        return fc
+    if how == "phonopy":
+        from phonopy.harmonic.force_constants import (symmetrize_compact_force_constants,
+                                                      symmetrize_force_constants)
+        copy = np.array(fc, dtype="double", order="C")
+        if copy.shape[0] == copy.shape[1]:
+            symmetrize_force_constants(copy)
+        else:
+            symmetrize_compact_force_constants(copy, phonon.primitive)
+        return copy
+    if fc.shape[0] != fc.shape[1]:
+        from phonopy.harmonic.force_constants import compact_fc_to_full_fc
+        fc = np.asarray(compact_fc_to_full_fc(phonon.primitive, fc), dtype=float)
+    projected, _ = impose_sum_rules(fc)
+    return projected
+
+
+def phonopy_terms(phonon: Any, *, symmetrize: bool | str | None = False) -> dict[str, Any]:
     """The primitive cell and force-constant terms of a `phonopy.Phonopy`, in ASE units.
 
-    With ``symmetrize=True`` the acoustic sum rule and the index symmetry are imposed first
+    With ``symmetrize="phonopy"`` phonopy's own symmetrisation is applied first (as
+    ``phonopy.load(symmetrize_fc=True)``), with ``symmetrize=True`` (or ``"projection"``) the
+    acoustic sum rule and the index symmetry are imposed exactly
     (`vibra.crystals.force_constants.impose_sum_rules`, on the full supercell force constants;
-    phonopy's compact form is expanded by ``compact_fc_to_full_fc``); the phonopy object is
-    not changed. Returns a dict with ``cell``, ``fractional`` (wrapped into [0, 1)), ``masses``, ``symbols``
+    phonopy's compact form is expanded by ``compact_fc_to_full_fc``): see `symmetrized`. The
+    phonopy object is not changed. Returns a dict with ``cell``, ``fractional`` (wrapped into [0, 1)), ``masses``, ``symbols``
     and ``force_constants`` (`ForceConstants`), for `Crystal.from_phonopy`.
 
     Raises
@@ -193,18 +238,33 @@ def phonopy_terms(phonon: Any, *, symmetrize: bool = False) -> dict[str, Any]:
                          "born_effective_charge and dielectric_constant); vibra.crystals does not apply LO-TO "
                          "corrections yet: remove them (phonon.nac_params = None) to read the force constants alone")
     primitive = phonon.primitive
-    fc = np.asarray(phonon.force_constants, dtype=float)
+    fc = symmetrized(phonon, np.asarray(phonon.force_constants, dtype=float), check_symmetrize(symmetrize))
+    frac = np.asarray(primitive.scaled_positions, dtype=float)
+    frac = frac - np.floor(frac + 1e-12)
+    terms = fold_force_constants(phonon, fc)
+    return {"cell": np.asarray(primitive.cell, dtype=float), "fractional": frac,
+            "masses": np.asarray(primitive.masses, dtype=float), "symbols": tuple(primitive.symbols),
+            "force_constants": terms}
+
+
+def fold_force_constants(phonon: Any, force_constants: ArrayLike) -> ForceConstants:
+    """phonopy's supercell force constants as vibra's terms Phi(i 0; j R), in phonopy's units.
+
+    `force_constants` are full (n_s, n_s, 3, 3) or compact (n_p, n_s, 3, 3) on ``phonon``'s
+    supercell (its own, or another set on the same supercell, such as the short-range part of a
+    Gonze-Lee correction). Each (p, s) block becomes one term per shortest vector between p and
+    the images of s, divided by their number (phonopy's multiplicity), so that the D(q) of the
+    terms is phonopy's; primitive positions are wrapped into [0, 1) and the translations follow.
+    Blocks that are exactly zero are dropped.
+    """
+    primitive = phonon.primitive
+    fc = np.asarray(force_constants, dtype=float)
     p2s = np.asarray(primitive.p2s_map)
     s2p = np.asarray(primitive.s2p_map)
     p2p = primitive.p2p_map
     svecs, multi = primitive.get_smallest_vectors()
     n_p = len(p2s)
     n_s = fc.shape[1]
-    if symmetrize:
-        if fc.shape[0] != fc.shape[1]:
-            from phonopy.harmonic.force_constants import compact_fc_to_full_fc
-            fc = np.asarray(compact_fc_to_full_fc(primitive, fc), dtype=float)
-        fc, _ = impose_sum_rules(fc)
     rows = fc if fc.shape[0] == n_p else fc[p2s]
     frac = np.asarray(primitive.scaled_positions, dtype=float)
     shift = np.floor(frac + 1e-12)
@@ -222,8 +282,5 @@ def phonopy_terms(phonon: Any, *, symmetrize: bool = False) -> dict[str, Any]:
     translations = translations + shift[second] - shift[first]
     blocks = rows[first, k[term]] / count[term][:, None, None]
     keep = np.abs(blocks).max(axis=(1, 2)) > 0.0
-    terms = ForceConstants(first=first[keep].astype(np.intp), second=second[keep].astype(np.intp),
-                           translations=translations[keep].astype(np.int64), blocks=blocks[keep])
-    return {"cell": np.asarray(primitive.cell, dtype=float), "fractional": frac,
-            "masses": np.asarray(primitive.masses, dtype=float), "symbols": tuple(primitive.symbols),
-            "force_constants": terms}
+    return ForceConstants(first=first[keep].astype(np.intp), second=second[keep].astype(np.intp),
+                          translations=translations[keep].astype(np.int64), blocks=blocks[keep])

@@ -88,6 +88,13 @@ def isotope_labels(value: Any, fail: Callable[[str], Any]) -> tuple[str | None, 
 
 ISOTOPES = isotope_labels
 
+
+def symmetrize_option(value: Any, fail: Callable[[str], Any]) -> Any:
+    """A phonopy scene's ``symmetrize``: true, false, "auto", "phonopy" or "projection" (`read_phonopy`)."""
+    if isinstance(value, bool):
+        return value
+    return one_of("auto", "phonopy", "projection")(value, fail)
+
 #: builder -> {parameter: value check}, for every builder parameter a scene may set.
 PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
     "linear_chain": {"n": integer(2), "mass": MASS, "stiffness": scalar_or_list(positive), "spacing": positive,
@@ -116,7 +123,7 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
                "transverse": scalar_or_list(nonnegative), "vacuum": positive},
     "honeycomb": {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
                   "transverse": scalar_or_list(nonnegative), "vacuum": positive},
-    "phonopy": {"symmetrize": boolean},
+    "phonopy": {"symmetrize": symmetrize_option, "primitive": one_of("auto")},
     "fput": {"n": integer(2), "alpha": number, "beta": number, "ends": ENDS, "mass": positive, "stiffness": positive},
 })
 
