@@ -31,7 +31,9 @@ def copper():
 
 @pytest.fixture(scope="module")
 def result() -> FiniteDifferenceForceConstants:
-    return crystals.finite_difference_force_constants(copper(), EMT(), supercell=SUPERCELL, delta=0.01)
+    # symmetry=True: phonopy's symmetric generator and solver, the path these tests pin (EMT on 4x4x4
+    # would otherwise take symmetry="auto"'s cheaper path, tested below)
+    return crystals.finite_difference_force_constants(copper(), EMT(), supercell=SUPERCELL, delta=0.01, symmetry=True)
 
 
 def test_symmetry_reduces_fcc_to_one_displacement(result: FiniteDifferenceForceConstants) -> None:
@@ -104,8 +106,10 @@ def test_sum_rules_hold_and_violations_are_reported(result: FiniteDifferenceForc
 
 
 def test_cache_resumes_and_client_runs_the_same(tmp_path) -> None:
-    first = crystals.finite_difference_force_constants(copper(), EMT(), supercell=(3, 3, 3), cache=tmp_path)
-    again = crystals.finite_difference_force_constants(copper(), EMT(), supercell=(3, 3, 3), cache=tmp_path)
+    first = crystals.finite_difference_force_constants(copper(), EMT(), supercell=(3, 3, 3), cache=tmp_path,
+                                                       symmetry=True)
+    again = crystals.finite_difference_force_constants(copper(), EMT(), supercell=(3, 3, 3), cache=tmp_path,
+                                                       symmetry=True)
     assert first.n_force_calls == 3 and again.n_force_calls == 0 and again.n_cached == 3
     q = [[0.3, 0.1, 0.2]]
     assert np.array_equal(first.crystal.frequencies(q), again.crystal.frequencies(q))
@@ -142,3 +146,32 @@ def test_dask_client_gives_the_serial_result_bit_for_bit() -> None:
     q = [[0.5, 0.0, 0.5], [0.5, 0.5, 0.5]]
     assert np.array_equal(serial.crystal.frequencies(q), local.crystal.frequencies(q))
     assert np.array_equal(serial.error_blocks, local.error_blocks)
+
+
+def test_auto_symmetry_skips_the_search_for_a_closed_form_calculator_and_keeps_the_degeneracies(
+        result: FiniteDifferenceForceConstants) -> None:
+    # EMT on 4x4x4: the search (48 operations x 64 cells x 64 atoms) costs more than five more force calls
+    auto = crystals.finite_difference_force_constants(copper(), EMT(), supercell=SUPERCELL, delta=0.01)
+    assert auto.n_displacements == 6                                   # +-x, +-y, +-z without the search
+    q = np.array([[0.5, 0.0, 0.5], [0.5, 0.5, 0.5], [0.3, 0.1, 0.2]])
+    ours, symmetric = auto.crystal.frequencies(q), result.crystal.frequencies(q)
+    # the space-group average keeps the degeneracies the symmetric solver gives: X and L's transverse pairs
+    assert abs(ours[0, 0] - ours[0, 1]) < 1e-12 * ours[0, 1] and abs(ours[1, 0] - ours[1, 1]) < 1e-12 * ours[1, 1]
+    # both are central-difference force constants on the same supercell: within the error bound of either
+    assert (np.abs(ours - symmetric) <= 2.0 * result.omega_errors(q)).all()
+    # any other calculator keeps the search: its force calls are the cost
+    from ase.calculators.calculator import Calculator, all_changes
+
+    class Opaque(Calculator):
+        implemented_properties = ["energy", "forces"]
+
+        def calculate(self, atoms=None, properties=("forces",), system_changes=all_changes):
+            super().calculate(atoms, properties, system_changes)
+            inner = EMT()
+            self.results = {"energy": inner.get_potential_energy(self.atoms), "forces": inner.get_forces(self.atoms)}
+
+    opaque = crystals.finite_difference_force_constants(copper(), Opaque(), supercell=(2, 2, 2), estimate_error=False,
+                                                        force_noise=None)
+    assert opaque.n_displacements == 1
+    with pytest.raises(ValueError, match="symmetry is 'yes'; expected 'auto', True or False"):
+        crystals.finite_difference_force_constants(copper(), EMT(), supercell=SUPERCELL, symmetry="yes")

@@ -195,15 +195,14 @@ def test_files_of_another_supercell_and_other_refusals(files: dict[str, Path], t
     phonon = silicon().to_phonopy()  # phonopy's own yaml with Born charges and the dielectric tensor
     phonon.nac_params = {"born": np.zeros((2, 3, 3)), "dielectric": np.eye(3) * 11.7, "factor": 14.4}
     phonon.save(str(nac))
-    with pytest.raises(ValueError, match=r"nac.yaml: line 281: holds non-analytical correction parameters "
-                                         r"\(the nac section: Born charges and dielectric tensor\); vibra.crystals does "
-                                         r"not apply LO-TO corrections yet"):
-        crystals.read_phonopy(nac)
+    polar = crystals.read_phonopy(nac)          # the yaml's nac section is read (issue 42), not refused
+    assert polar.nac is not None and polar.nac.method == "gonze" and np.allclose(polar.nac.dielectric, 11.7 * np.eye(3))
 
 
-def test_from_phonopy_refuses_nac_params_in_one_line() -> None:
+def test_from_phonopy_refuses_born_charges_off_the_sum_rule_in_one_line() -> None:
     phonon = silicon().to_phonopy()
     phonon.nac_params = {"born": np.array([np.eye(3)] * 2), "dielectric": np.eye(3), "factor": 14.4}
-    with pytest.raises(ValueError, match=r"^phonon has non-analytical correction parameters \(nac_params") as raised:
+    with pytest.raises(ValueError, match=r"^born misses the acoustic sum rule: \|sum_i Z\*_i\[0\]\[0\]\| = 2 e > 0.1 e") as raised:
         crystals.from_phonopy(phonon)
-    assert "\n" not in str(raised.value) and "BORN" in str(raised.value)
+    assert "\n" not in str(raised.value) and "sum_rule='force'" in str(raised.value)
+    assert crystals.from_phonopy(phonon, nac=False).nac is None    # the force constants alone

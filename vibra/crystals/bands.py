@@ -270,6 +270,8 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
         omega[chunk], error[chunk] = result.omega, result.omega_error
         basis = np.array(result.vectors)
         del result
+        if crystal.nac is not None:  # a polar crystal's Gamma: the LO-TO split of the direction of the path
+            _gamma_along_path(crystal, qpoints, chunk, segments, omega, error, basis)
         for (first, last), direction in zip(segments, directions):  # the segments this chunk meets
             low, high = max(first, chunk.start), min(last + 1, chunk.stop)
             if low >= high:
@@ -284,6 +286,21 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
             velocity[part] = np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * omega[part]))
         order[chunk], previous = _connect(basis, {k - start for k in breaks if k >= start}, previous)
     return omega, error, velocity, order
+
+
+def _gamma_along_path(crystal: Crystal, qpoints: NDArray[np.float64], chunk: slice, segments: list[tuple[int, int]],
+                      omega: NDArray[np.float64], error: NDArray[np.float64], basis: NDArray[np.complex128]) -> None:
+    """Re-solve the Gamma points of `chunk` with the direction of their segment (phonopy's nac_q_direction)."""
+    for first, last in segments:
+        direction = qpoints[last] - qpoints[first]
+        for k in (first, last):
+            if not (chunk.start <= k < chunk.stop) or np.abs(qpoints[k] - np.rint(qpoints[k])).max() > 1e-12:
+                continue
+            if not np.any(direction):
+                continue
+            result = phonons(crystal, qpoints[k:k + 1], vectors=True, q_direction=direction)
+            omega[k], error[k] = result.omega[0], result.omega_error[0]
+            basis[k - chunk.start] = np.asarray(result.vectors)[0]
 
 
 def _connect(basis: NDArray[np.complex128], breaks: set[int], previous: NDArray[np.complex128] | None

@@ -34,6 +34,8 @@ import vibra.crystals.dynamical as dynamical
 import vibra.crystals.elastic as elastic
 import vibra.crystals.phonopy_io as phonopy_io
 import vibra.crystals.supercell as supercell_modes
+from vibra.crystals.born import nac_from_phonopy
+from vibra.crystals.nac import NonAnalytic, non_analytic
 import vibra.crystals.thermal as thermal
 from vibra.crystals.dos import DensityOfStates, dos as density_of_states
 from vibra.crystals.force_constants import (INDEX_SYMMETRY_RTOL, ForceConstants, ForceConstantsWarning, SpringModel,
@@ -76,6 +78,10 @@ class Crystal:
         The springs behind `force_constants` for a spring model, else None.
     name : str
         A short name used in reports.
+    nac : NonAnalytic or None
+        The non-analytic (LO-TO) correction of a polar crystal: Born charges, eps_inf and the
+        Gonze-Lee or Wang form (`with_nac`, `vibra.crystals.nac`); None for none. It goes with the
+        force constants: `with_force_constants` drops it.
     """
 
     cell: NDArray[np.float64]
@@ -87,6 +93,7 @@ class Crystal:
     force_constants: ForceConstants | None = None
     springs: SpringModel | None = None
     name: str = "crystal"
+    nac: NonAnalytic | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -107,8 +114,9 @@ class Crystal:
                 model += f", index symmetry broken by {asymmetry:.2g}"
         else:
             model = "no force constants"
+        polar = "" if self.nac is None else f"LO-TO by {'Gonze-Lee' if self.nac.method == 'gonze' else 'Wang'}"
         return short_repr(self, repr(self.name), f"{self.n_atoms} atom{'s' if self.n_atoms > 1 else ''} ({formula})", f"|a_i| {lengths} {self.units.length}",
-                          axes, model, f"{self.units.name} units")
+                          axes, model, polar, f"{self.units.name} units")
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -259,7 +267,7 @@ class Crystal:
         `index_asymmetry`).
         """
         check_force_constants(force_constants, self.n_atoms, self.periodic)
-        crystal = replace(self, force_constants=force_constants, springs=springs)
+        crystal = replace(self, force_constants=force_constants, springs=springs, nac=None)
         asymmetry = index_asymmetry(force_constants)
         if asymmetry > INDEX_SYMMETRY_RTOL:
             warnings.warn(f"the force constants of {self.name!r} break the index symmetry Phi(i,j) = Phi(j,i)^T by "
@@ -267,6 +275,21 @@ class Crystal:
                           "does, and the part removed is counted in omega_error (symmetrize='phonopy' or True imposes "
                           "the symmetry first)", ForceConstantsWarning, stacklevel=2)
         return crystal
+
+    def with_nac(self, born: ArrayLike, dielectric: ArrayLike, *, method: str = "gonze", factor: float | None = None,
+                 phonon: Any = None, supercell: Any = None, sum_rule: str = "impose") -> Crystal:
+        """The same crystal with the non-analytic (LO-TO) correction of its Born charges and eps_inf.
+
+        `born` (n_atoms, 3, 3) are the Born effective charges Z*_i (in e, phonopy's index order),
+        `dielectric` (3, 3) the high-frequency dielectric tensor eps_inf; ``method="gonze"``
+        (Gonze and Lee's Ewald form, phonopy's default) or ``"wang"``. Everything else, and the
+        checks (eps_inf positive definite, the acoustic sum rule on Z* imposed and reported),
+        is `vibra.crystals.nac.non_analytic`'s. Frequencies, bands (the direction of approach
+        at Gamma taken along the path), group velocities, DOS and thermal properties all use it.
+        """
+        bare = replace(self, nac=None)
+        return replace(self, nac=non_analytic(bare, born, dielectric, method=method, factor=factor, phonon=phonon,
+                                              supercell=supercell, sum_rule=sum_rule))
 
     def require_force_constants(self) -> ForceConstants:
         """The force constants, or a ValueError saying how to attach them."""
@@ -279,18 +302,21 @@ class Crystal:
     # The work lives in the modules of this package (dynamical, bands, dos, thermal, elastic,
     # phonopy_io); these methods are the documented entry points.
     def phonons(self, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions",
-                accuracy: str = "high") -> dynamical.Phonons:
+                accuracy: str = "high", q_direction: ArrayLike | None = None) -> dynamical.Phonons:
         """`Phonons` at `qpoints` (fractional reciprocal coordinates): `vibra.crystals.dynamical.phonons`."""
-        return dynamical.phonons(self, qpoints, vectors=vectors, phase=phase, accuracy=accuracy)
+        return dynamical.phonons(self, qpoints, vectors=vectors, phase=phase, accuracy=accuracy,
+                                 q_direction=q_direction)
 
-    def frequencies(self, qpoints: ArrayLike, *, accuracy: str = "high") -> NDArray[np.float64]:
+    def frequencies(self, qpoints: ArrayLike, *, accuracy: str = "high", q_direction: ArrayLike | None = None
+                    ) -> NDArray[np.float64]:
         """(n_q, n_branches) angular frequencies at `qpoints`, ascending, imaginary as -|omega|.
 
         `qpoints` (n_q, 3) are in fractional coordinates of the reciprocal lattice (phonopy's
         convention); omega in rad per time unit of `units`. ``phonons(q).omega_error`` bounds them.
-        A spring model is solved through its spring factor unless ``accuracy="fast"``.
+        A spring model is solved through its spring factor unless ``accuracy="fast"``. For a polar
+        crystal (`with_nac`), `q_direction` is the direction from which Gamma is approached.
         """
-        return self.phonons(qpoints, accuracy=accuracy).omega
+        return self.phonons(qpoints, accuracy=accuracy, q_direction=q_direction).omega
 
     def modes_at(self, q: ArrayLike, *, phase: str = "positions") -> dynamical.Phonons:
         """`Phonons` at one fractional wave vector `q` (n_q = 1), with eigenvectors."""
@@ -327,7 +353,7 @@ class Crystal:
 
     @classmethod
     def from_phonopy(cls, phonon: Any, *, name: str = "phonopy", symmetrize: bool | str | None = False,
-                     periodic: Sequence[bool] = (True, True, True)) -> Crystal:
+                     periodic: Sequence[bool] = (True, True, True), nac: bool = True) -> Crystal:
         """The primitive cell and force constants of a `phonopy.Phonopy`, in ASE units (eV, Angstrom, amu).
 
         D(q) is phonopy's exactly: each supercell block is split over its equidistant shortest
@@ -337,12 +363,18 @@ class Crystal:
         ``phonopy.load`` does to force constants made from forces), ``symmetrize=True`` imposes
         the acoustic sum rule and the index symmetry exactly (`vibra.crystals.impose_sum_rules`).
         `periodic` gives the vacuum axes of a 1-D or 2-D crystal (phonopy's cells are periodic
-        along all three): no term may then couple cells along them.
+        along all three): no term may then couple cells along them. A phonon with ``nac_params``
+        (a BORN file, a yaml's Born charges) gives a polar crystal with phonopy's correction
+        (`with_nac`, the method phonopy's ``nac_params`` name, Gonze-Lee by default); ``nac=False``
+        reads the force constants alone.
         """
         parts = phonopy_io.phonopy_terms(phonon, symmetrize=symmetrize)
         crystal = cls.from_cell(parts["cell"], parts["fractional"], parts["masses"], fractional=True,
                                 symbols=parts["symbols"], units="ASE", periodic=periodic, name=name)
-        return crystal.with_force_constants(parts["force_constants"])
+        crystal = crystal.with_force_constants(parts["force_constants"])
+        if nac and phonon.nac_params is not None:
+            crystal = crystal.with_nac(**nac_from_phonopy(phonon), phonon=phonon)
+        return crystal
 
 
 # ---------------------------------------------------------------------- checks

@@ -58,6 +58,11 @@ HIGH_RTOL = 1e-10
 #: (benchmarks/RESULTS.md, "Crystals against phonopy": memory).
 CHUNK_ENTRIES = 1 << 16
 
+#: dD/dk of a polar crystal by central differences with a step of this fraction of the shortest
+#: reciprocal lattice vector (phonopy's group velocities difference D(q) likewise): truncation
+#: ~step^2 relative, rounding ~eps / step: both ~1e-10 at 1e-5.
+NAC_DERIVATIVE_STEP = 1e-5
+
 #: Two eigenvalues within this many of their error bounds are one degenerate level.
 DEGENERACY_BOUNDS = 1e4
 
@@ -368,22 +373,26 @@ def _shift_phases(crystal: Crystal, lattice: NDArray[np.float64]) -> NDArray[np.
     return np.exp(-2j * np.pi * (lattice @ frac.T)).repeat(3, axis=1)
 
 
-def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "positions"
-                       ) -> NDArray[np.complex128]:
-    """(n_q, 3 n_atoms, 3 n_atoms) dynamical matrices D(q), in 1 / time unit^2.
+def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "positions",
+                       q_direction: ArrayLike | None = None) -> NDArray[np.complex128]:
+    """(n_q, 3 n_atoms, 3 n_atoms) dynamical matrices D(q), in 1 / time unit^2 (Hermitian).
 
     Parameters
     ----------
     crystal : Crystal
-        With force constants.
+        With force constants (and, for a polar crystal, its non-analytic correction `nac`).
     qpoints : (n_q, 3) array_like
         Fractional reciprocal coordinates.
     phase : {"positions", "cell"}
         The phase convention (module docstring).
+    q_direction : (3,) array_like, optional
+        A polar crystal's direction of approach to Gamma (fractional), phonopy's nac_q_direction.
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
     check_periodic_qpoints(crystal, q)
+    if crystal.nac is not None:  # Gonze-Lee's dipole sum is not periodic in q: q as given, as phonopy
+        return np.asarray(crystal.nac.dynamical_matrices(crystal, q, q_direction=q_direction, phase=phase))
     reduced, lattice = reduce_qpoints(q)
     matrices = _matrices(assembly(crystal), reduced, phase)
     shift = _shift_phases(crystal, lattice) if phase == "positions" else None
@@ -397,12 +406,18 @@ def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLi
     """(n_q, 3n, 3n) dD/dk along the Cartesian unit `direction`, k the Cartesian wave vector.
 
     Analytic: d/dk exp(i k . r) = i (r . n) exp(i k . r), r the Cartesian vector of the term.
-    In 1 / time unit^2 per (rad / length), i.e. length / time unit^2.
+    In 1 / time unit^2 per (rad / length), i.e. length / time unit^2. For a polar crystal, central
+    differences of D(q) with its correction, a step of NAC_DERIVATIVE_STEP |b|_min.
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
     check_periodic_qpoints(crystal, q)
     n = _unit_direction(direction)
+    if crystal.nac is not None:  # the correction's dD/dk by central differences, as phonopy's group velocities
+        step = NAC_DERIVATIVE_STEP * float(np.linalg.norm(crystal.reciprocal, axis=1).min())
+        dq = step * (crystal.cell @ n) / (2.0 * np.pi)  # k = 2 pi q inv(cell)^T, so dq = dk cell n / 2 pi
+        return (dynamical_matrices(crystal, q + dq, phase=phase)
+                - dynamical_matrices(crystal, q - dq, phase=phase)) / (2.0 * step)
     reduced, lattice = reduce_qpoints(q)
     matrices = _matrices(assembly(crystal), reduced, phase, direction=n)
     shift = _shift_phases(crystal, lattice) if phase == "positions" else None
@@ -423,7 +438,7 @@ def _unit_direction(direction: ArrayLike) -> NDArray[np.float64]:
 
 # ---------------------------------------------------------------------- solves
 def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions",
-            accuracy: str = "high") -> Phonons:
+            accuracy: str = "high", q_direction: ArrayLike | None = None) -> Phonons:
     """Frequencies (and eigenvectors) at every q of `qpoints`, solved as stacked Hermitian problems.
 
     Parameters
@@ -441,7 +456,12 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
         near Gamma). ``"high"`` (default): the same, then for a spring model every q-point
         whose bound misses HIGH_RTOL relative (near Gamma, or a zero mode) is re-solved through
         its spring factor (`vibra.crystals.factor`: eps-level relative accuracy, never an
-        imaginary mode); other force constants keep the eigenvalues and their bound.
+        imaginary mode); other force constants keep the eigenvalues and their bound. A polar
+        crystal (with `nac`) keeps the eigenvalues of its corrected D(q).
+    q_direction : (3,) array_like, optional
+        For a polar crystal, the direction (fractional) from which Gamma is approached: at q =
+        Gamma it selects the LO-TO split of that direction (phonopy's nac_q_direction);
+        without it Gamma has no correction.
 
     Returns
     -------
@@ -464,16 +484,25 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     error = np.empty_like(values)
     basis = np.empty((q.shape[0], n3, n3), dtype=complex) if vectors else None
     reduced, lattice = reduce_qpoints(q)
+    polar = crystal.nac
+    if polar is not None:  # Gonze-Lee's dipole sum is not periodic in q: q as given, as phonopy
+        reduced, lattice = q, np.zeros_like(q)
+        g_vectors = 0 if polar.g_vectors is None else polar.g_vectors.shape[0]
     for part in _chunks(q.shape[0], parts.translations.shape[0], n3):
-        values[part], chunk_basis, error[part] = hermitian_stack(_matrices(parts, reduced[part], phase),
-                                                                 vectors=vectors)
+        if polar is None:
+            matrices = _matrices(parts, reduced[part], phase)
+        else:
+            matrices = polar.dynamical_matrices(crystal, q[part], q_direction=q_direction, phase=phase)
+        values[part], chunk_basis, error[part] = hermitian_stack(matrices, vectors=vectors)
         error[part] += parts.error + parts.skew
+        if polar is not None:  # the Ewald sum's rounding: each entry sums n_G terms
+            error[part] += ((g_vectors + 16) * EPS * np.abs(matrices).sum(axis=-1).max(axis=-1))[:, None]
         if basis is not None:
             basis[part] = chunk_basis
     omega, omega_error = (x.reshape(values.shape) for x in omega_and_error(values.ravel(), error.ravel()))
     refined = None
-    path = "hermitian-eigh"
-    if accuracy == "high" and crystal.springs is not None:
+    path = "hermitian-eigh" if polar is None else f"hermitian-eigh + nac-{polar.method}"
+    if accuracy == "high" and crystal.springs is not None and polar is None:
         refined = (omega_error > HIGH_RTOL * np.abs(omega)).any(axis=1)
         if refined.any():
             path += " + spring-svd"

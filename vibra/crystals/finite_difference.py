@@ -44,7 +44,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.crystals.crystal import Crystal
-from vibra.crystals.force_constants import SumRuleReport, impose_sum_rules
+from vibra.crystals.force_constants import SumRuleReport, average_over_space_group, impose_sum_rules
 from vibra.crystals.reach import SupercellReach, check_range_from_sizes, supercell_reach, warn_range
 from vibra.molecules.displacements import (CalculatorSource, ForceCache, displaced_forces, force_problem,
                                            is_calculator, is_factory)
@@ -190,6 +190,7 @@ def finite_difference_force_constants(
     estimate_error: bool = True,
     force_noise: float | str | None = "auto",
     symprec: float = 1e-5,
+    symmetry: bool | str = "auto",
     client: Any = None,
     cache: str | os.PathLike[str] | None = None,
     calculator_key: str | None = None,
@@ -220,6 +221,14 @@ def finite_difference_force_constants(
         As for molecules: probed (``"auto"``), given (eV / Angstrom) or rounding only (None).
     symprec : float
         spglib's tolerance for the space group, Angstrom.
+    symmetry : "auto", True or False
+        Reduce the displacements by the space group (phonopy's generator and solver). Its set-up
+        costs ~n_ops x n_cells x n_supercell_atoms (phonopy's atomic permutations, `SYMMETRY_SECONDS`);
+        for a closed-form calculator (EMT, Lennard-Jones, ...: `DETERMINISTIC_CALCULATORS`) on a
+        large supercell that exceeds the force calls it saves (`FORCE_SECONDS`: ASE's Al test,
+        7x7x7, spent 6.2 s in the symmetry search for one displacement where six without it cost
+        0.4 s). ``"auto"`` (default) estimates both from sizes and keeps the cheaper; any other
+        calculator keeps the symmetry (its force calls are the cost).
     client, cache, calculator_key, progress, n_workers, timeout
         As for `vibra.molecules.finite_difference_hessian`: where the force calls run (None,
         ``"local"``, a scheduler address or a ``distributed.Client``), a folder of per-geometry
@@ -278,6 +287,10 @@ def finite_difference_force_constants(
     if client is not None:
         source.require_picklable()
 
+    if symmetry not in ("auto", True, False):
+        raise ValueError(f"symmetry is {symmetry!r}; expected 'auto', True or False")
+    use_symmetry = symmetry if isinstance(symmetry, bool) else _symmetry_pays(unit, size, calc, precision)
+
     from phonopy import Phonopy  # at the edge: phonopy only when asked
     from phonopy.structure.atoms import PhonopyAtoms
 
@@ -287,7 +300,7 @@ def finite_difference_force_constants(
     with warnings.catch_warnings():  # phonopy 4 warns that "auto" is its new default: asked for here
         warnings.simplefilter("ignore")
         phonon = Phonopy(cell, supercell_matrix=np.diag(size), primitive_matrix="auto" if primitive else np.eye(3),
-                         symprec=precision, log_level=0)
+                         symprec=precision, is_symmetry=use_symmetry, log_level=0)
     phonon.generate_displacements(distance=h, is_plusminus="auto")
     first = phonon.dataset["first_atoms"]
     moves = [(int(d["number"]), np.asarray(d["displacement"], dtype=float)) for d in first]
@@ -323,6 +336,8 @@ def finite_difference_force_constants(
         warn_range(unit.name, size, reach)
     phonon.force_constants = projected
     crystal = Crystal.from_phonopy(phonon, name=unit.name, periodic=unit.periodic)
+    if not use_symmetry:  # the space group's average, which phonopy's symmetric solver would have given
+        crystal = crystal.with_force_constants(_space_group_average(crystal, precision))
     matrix = np.asarray(phonon.primitive_matrix, dtype=float)
     return FiniteDifferenceForceConstants(
         crystal=crystal, supercell=size, step=h, error_blocks=_fold(phonon, entry_error),
@@ -367,6 +382,44 @@ def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] |
         atoms, calculator, supercell=supercell, delta=delta, estimate_error=False, force_noise=None,
         client=client, cache=cache, calculator_key=calculator_key, progress=progress, primitive=primitive,
         name=name).crystal
+
+
+#: phonopy's symmetry set-up, seconds per (space-group operation x cell x supercell atom): its
+#: atomic permutations (measured on ASE's Al test, 48 operations x 343 cells x 343 atoms: 6.2 s).
+SYMMETRY_SECONDS = 1.1e-6
+#: One force call of a closed-form calculator, seconds per supercell atom (EMT measured 1.8-2.1e-4
+#: on 8 to 343 atoms).
+FORCE_SECONDS = 2e-4
+
+
+def _space_group_average(crystal: Crystal, symprec: float) -> Any:
+    import spglib
+
+    kinds: dict[tuple[str, float], int] = {}
+    numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
+    operations = spglib.get_symmetry((crystal.cell, crystal.fractional, numbers), symprec=symprec)
+    force_constants = crystal.require_force_constants()
+    if operations is None:
+        return force_constants
+    return average_over_space_group(force_constants, crystal.cell, crystal.fractional, operations["rotations"],
+                                    operations["translations"])
+
+
+def _symmetry_pays(unit: Crystal, size: NDArray[np.int64], calc: Any, symprec: float) -> bool:
+    """symmetry="auto": True unless a closed-form calculator's extra force calls cost less than the symmetry search."""
+    if not is_deterministic_calculator(calc):
+        return True
+    import spglib
+
+    kinds: dict[tuple[str, float], int] = {}
+    numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(unit.symbols, unit.masses)]
+    operations = spglib.get_symmetry((unit.cell, unit.fractional, numbers), symprec=symprec)
+    n_ops = 1 if operations is None else len(operations["rotations"])
+    cells = int(np.prod(size))
+    n_super = cells * unit.n_atoms
+    search = SYMMETRY_SECONDS * n_ops * cells * n_super
+    saved = 6 * unit.n_atoms * n_super * FORCE_SECONDS  # without symmetry: +-x, +-y, +-z of every atom
+    return search < saved
 
 
 def _supercell_atoms(supercell: Any, periodic: tuple[bool, bool, bool]) -> Atoms:

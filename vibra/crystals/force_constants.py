@@ -17,7 +17,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr, span
 
 __all__ = ["CrystalLike", "ForceConstants", "ForceConstantsWarning", "INDEX_SYMMETRY_RTOL", "SpringModel", "SumRuleReport",
-           "check_force_constants", "impose_sum_rules", "index_asymmetry"]
+           "average_over_space_group", "check_force_constants", "impose_sum_rules", "index_asymmetry"]
 
 
 class CrystalLike(Protocol):
@@ -38,6 +38,7 @@ class CrystalLike(Protocol):
     force_constants: ForceConstants | None
     springs: SpringModel | None
     name: str
+    nac: Any
 
     @property
     def n_atoms(self) -> int: ...
@@ -249,3 +250,45 @@ def index_asymmetry(fc: ForceConstants) -> float:
     np.add.at(summed, inverse[:fc.n_terms], fc.blocks)  # repeated terms add up, as in D(q)
     gap = summed[inverse[:fc.n_terms]] - np.transpose(summed[inverse[fc.n_terms:]], (0, 2, 1))
     return float(np.abs(gap).max()) / scale
+
+
+def average_over_space_group(fc: ForceConstants, cell: NDArray[np.float64], fractional: NDArray[np.float64],
+                             rotations: NDArray[np.int64], translations: NDArray[np.float64],
+                             atol: float = 1e-5) -> ForceConstants:
+    """The force constants averaged over a space group's operations: every symmetry of the crystal kept exactly.
+
+    An operation (W, w) maps x -> W x + w (fractional); atom i goes to atom p(i) in cell L_i, so
+    the term (i, j, R) goes to (p(i), p(j), W R + L_j - L_i) with the block C Phi C^T, C = cell^T
+    W cell^-T the Cartesian rotation. The mean over the group commutes with the acoustic sum rule
+    and the index symmetry, so force constants that obey them still do. Used for finite
+    differences made without phonopy's symmetry search (`vibra.crystals.finite_difference`,
+    ``symmetry="auto"``), whose space-group average costs n_ops x n_terms instead.
+
+    Raises
+    ------
+    ValueError
+        An operation that maps an atom onto no atom (within `atol`, fractional).
+    """
+    keys_all: list[NDArray[np.int64]] = []
+    blocks_all: list[NDArray[np.float64]] = []
+    inverse_t = np.linalg.inv(cell).T
+    for w_matrix, shift in zip(rotations, translations):
+        moved = fractional @ w_matrix.T + shift
+        delta = moved[:, None, :] - fractional[None, :, :]
+        match = np.abs(delta - np.rint(delta)).max(axis=2) < atol
+        if not match.any(axis=1).all():
+            raise ValueError("a symmetry operation maps an atom onto no atom; the crystal's symmetry is looser than "
+                             f"the tolerance {atol:g}")
+        image = np.argmax(match, axis=1)
+        lattice = np.rint(moved - fractional[image]).astype(np.int64)
+        rotation = cell.T @ w_matrix @ inverse_t
+        new_r = fc.translations @ w_matrix.T + lattice[fc.second] - lattice[fc.first]
+        keys_all.append(np.column_stack([image[fc.first], image[fc.second], new_r]))
+        blocks_all.append(rotation[None] @ fc.blocks @ rotation.T[None])
+    keys = np.vstack(keys_all)
+    table, inverse = np.unique(keys, axis=0, return_inverse=True)
+    summed = np.zeros((table.shape[0], 3, 3))
+    np.add.at(summed, inverse.ravel(), np.vstack(blocks_all))
+    summed /= len(rotations)
+    return ForceConstants(first=table[:, 0].astype(np.intp), second=table[:, 1].astype(np.intp),
+                          translations=table[:, 2:].astype(np.int64), blocks=summed)

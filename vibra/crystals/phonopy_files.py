@@ -20,6 +20,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 from dataclasses import dataclass
 from typing import Any, Sequence
@@ -27,6 +28,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from vibra._io import atomic_write_text
+from vibra.crystals.born import read_born
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.phonopy_io import check_symmetrize, to_phonopy
 
@@ -167,9 +169,7 @@ def check_phonopy_yaml(path: str | os.PathLike[str]) -> PhonopyYamlSummary:
         One line naming the file (and the line): not YAML (cut mid-record), no unit cell, a
         point without coordinates or mass, fewer supercell or primitive atoms than the
         matrices give, fewer force-constant blocks than ``shape`` says, a displacement whose
-        forces are not one per supercell atom, or non-analytical correction parameters
-        (a ``nac`` section, or ``born_effective_charge`` / ``dielectric_constant``: LO-TO splitting
-        is not applied).
+        forces are not one per supercell atom.
     """
     import yaml
 
@@ -189,11 +189,6 @@ def check_phonopy_yaml(path: str | os.PathLike[str]) -> PhonopyYamlSummary:
     if not isinstance(data, dict) or not isinstance(data.get("unit_cell"), dict):
         raise ValueError(f"{source}: holds no unit_cell section; a phonopy yaml (phonopy.yaml, phonopy_disp.yaml) "
                          f"starts with its cells{'' if isinstance(data, dict) else ' (this is not a YAML mapping)'}")
-    for key in ("nac", "born_effective_charge", "dielectric_constant"):  # phonopy >= 2.x writes 'nac'; older the others
-        if key in data:
-            raise ValueError(f"{source}: line {_yaml_line(text, key)}: holds non-analytical correction parameters "
-                             f"(the {key} section: Born charges and dielectric tensor); vibra.crystals does not apply "
-                             "LO-TO corrections yet (remove that section to use the force constants alone)")
     n_unit = _cell_atoms(source, text, data, "unit_cell")
     assert n_unit is not None  # unit_cell was checked to be there
     n_super = int(round(n_unit * abs(_determinant(source, text, data, "supercell_matrix"))))
@@ -387,7 +382,8 @@ def check_force_sets_file(path: str | os.PathLike[str], n_supercell: int | None 
 
 def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.PathLike[str] | None = None,
                  force_sets: str | os.PathLike[str] | None = None, symmetrize: bool | str | None = "auto",
-                 primitive: str | None = None, name: str | None = None) -> Any:
+                 primitive: str | None = None, born: str | os.PathLike[str] | None = None, nac: str | None = None,
+                 name: str | None = None) -> Any:
     """A `Crystal` from a phonopy yaml (and a ``FORCE_CONSTANTS`` or ``FORCE_SETS`` file).
 
     Every file is checked whole first (`check_phonopy_yaml`, `check_force_constants_file`,
@@ -420,20 +416,29 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
         cell itself when the yaml has none (an explicit matrix is always passed to phonopy, so
         the crystal is the cell the file describes); ``"auto"`` lets phonopy find a primitive
         cell by symmetry (what ``phonopy.load`` does for a yaml without ``primitive_matrix``).
+    born : path-like, optional
+        A phonopy ``BORN`` file: Born charges and eps_inf for the non-analytic (LO-TO)
+        correction (`vibra.crystals.born.read_born`; its factor, or e^2 / (4 pi eps0) in eV
+        Angstrom when it gives none). Without it, the yaml's own Born charges (phonopy's ``nac``
+        section) are used when it has them; nothing else is read.
+    nac : "gonze", "wang" or None
+        The form of the correction (`Crystal.with_nac`); None: the yaml's, else Gonze-Lee
+        (phonopy's default).
     name : str, optional
         The crystal's name (default: the file's stem).
 
     Returns
     -------
     Crystal
-        phonopy's primitive cell with its force constants, ASE units (see `from_phonopy`).
+        phonopy's primitive cell with its force constants (and correction), ASE units (see
+        `from_phonopy`).
 
     Raises
     ------
     ValueError
         A file that is missing, cut or damaged (the message names it and the line); both
-        `force_constants` and `force_sets`; a yaml with non-analytical correction parameters
-        (LO-TO corrections are not applied); no force constants and no forces anywhere; a file
+        `force_constants` and `force_sets`; a BORN file that does not match the crystal (one line
+        naming the file and the line); no force constants and no forces anywhere; a file
         phonopy cannot read; the checks of `phonopy_terms`.
     """
     source = Path(path)
@@ -460,10 +465,22 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
     if primitive not in (None, "auto"):
         raise ValueError(f"primitive is {primitive!r}; expected None (the yaml's primitive matrix, or its unit cell) "
                          "or 'auto' (phonopy's primitive cell by symmetry)")
+    if born is not None and not Path(born).is_file():
+        raise ValueError(f"born: {Path(born)}: no such file")
+    if nac not in (None, "gonze", "wang"):
+        raise ValueError(f"nac is {nac!r}; expected 'gonze' (Gonze-Lee, phonopy's default), 'wang' or None")
     phonon, from_forces = _load(source, files, primitive)
     if symmetrize == "auto" and from_forces:
         how = "phonopy"
-    return Crystal.from_phonopy(phonon, name=name if name is not None else source.stem, symmetrize=how)
+    crystal = Crystal.from_phonopy(phonon, name=name if name is not None else source.stem, symmetrize=how,
+                                   nac=born is None)
+    if born is not None:
+        charges, dielectric, factor = read_born(born, crystal)
+        crystal = crystal.with_nac(charges, dielectric, factor=factor, method=nac or "gonze", phonon=phonon)
+    elif nac is not None and crystal.nac is not None and crystal.nac.method != nac:
+        crystal = crystal.with_nac(crystal.nac.born, crystal.nac.dielectric, factor=crystal.nac.factor, method=nac,
+                                   phonon=phonon, sum_rule="keep")
+    return crystal
 
 
 def _load(source: Path, files: dict[str, Path], primitive: str | None) -> tuple[Any, bool]:
@@ -485,8 +502,12 @@ def _load(source: Path, files: dict[str, Path], primitive: str | None) -> tuple[
             matrix = np.asarray(stored.primitive_matrix, dtype=float)
         else:
             matrix = np.eye(3)
-        phonon = Phonopy(stored.unitcell, supercell_matrix, primitive_matrix=matrix,
-                         calculator=stored.calculator, log_level=0)
+        with warnings.catch_warnings():  # phonopy 4 warns that "auto" is its new default: asked for here
+            warnings.simplefilter("ignore")
+            phonon = Phonopy(stored.unitcell, supercell_matrix, primitive_matrix=matrix,
+                             calculator=stored.calculator, log_level=0)
+        if stored.nac_params is not None:  # the yaml's own Born charges (phonopy's nac section)
+            phonon.nac_params = stored.nac_params
         fc = None
         from_forces = False
         if "force_constants" in files:

@@ -14,7 +14,8 @@ directions here follow that convention exactly:
 
 Units: phonopy's default (VASP) units are eV/Angstrom^2, Angstrom and amu, i.e. vibra's ``ASE``
 units; an ``SI`` crystal is converted on the way out (factors from scipy.constants). A crystal
-from phonopy is in ``ASE`` units. Non-analytical corrections (``nac_params``) are not carried.
+from phonopy is in ``ASE`` units. Non-analytical corrections (``nac_params``) are carried by
+`Crystal.from_phonopy` (`vibra.crystals.nac`).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from vibra.crystals.force_constants import ForceConstants, impose_sum_rules
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-__all__ = ["to_phonopy", "phonopy_terms", "fold_force_constants", "SYMMETRIZE", "check_symmetrize", "symmetrized", "required_supercell", "MAX_SUPERCELL"]
+__all__ = ["to_phonopy", "to_ase_factors", "phonopy_terms", "fold_force_constants", "SYMMETRIZE", "check_symmetrize", "symmetrized", "required_supercell", "MAX_SUPERCELL"]
 
 #: Largest supercell edge (in cells) `to_phonopy` chooses by itself.
 MAX_SUPERCELL = 12
@@ -42,10 +43,14 @@ IMAGE_RTOL = 1e-4
 _ELEMENT = re.compile(r"^[A-Z][a-z]?$")
 
 
-def _to_ase_factors(crystal: Crystal) -> tuple[float, float, float]:
-    """(length, mass, stiffness) factors from the crystal's units to Angstrom, amu, eV/Angstrom^2."""
+def to_ase_factors(crystal: Crystal, *, dimensionless: bool = False) -> tuple[float, float, float]:
+    """(length, mass, stiffness) factors from the crystal's units to phonopy's Angstrom, amu, eV/Angstrom^2.
+
+    A dimensionless crystal is refused, or with ``dimensionless=True`` goes through as it is
+    (factors 1: phonopy's arithmetic has no units).
+    """
     name = crystal.units.name
-    if name == "ASE":
+    if name == "ASE" or (dimensionless and name == "dimensionless"):
         return 1.0, 1.0, 1.0
     if name == "SI":
         length = 1.0 / constants.angstrom
@@ -139,7 +144,7 @@ def to_phonopy(crystal: Crystal, *, supercell: Sequence[int] | None = None) -> A
     from phonopy import Phonopy  # at the edge: phonopy only when asked
     from phonopy.structure.atoms import PhonopyAtoms
 
-    length, mass, stiffness = _to_ase_factors(crystal)
+    length, mass, stiffness = to_ase_factors(crystal)
     fc = crystal.require_force_constants()
     size = required_supercell(crystal) if supercell is None else _check_supercell(crystal, supercell)
     cell = PhonopyAtoms(cell=crystal.cell * length, scaled_positions=crystal.fractional,
@@ -221,7 +226,8 @@ def phonopy_terms(phonon: Any, *, symmetrize: bool | str | None = False) -> dict
     TypeError
         `phonon` is not a phonopy.Phonopy.
     ValueError
-        No force constants; units other than phonopy's default; non-analytical corrections set.
+        No force constants; units other than phonopy's default. (Non-analytical correction
+        parameters are read by `Crystal.from_phonopy`, not here.)
     """
     from phonopy import Phonopy
 
@@ -233,10 +239,6 @@ def phonopy_terms(phonon: Any, *, symmetrize: bool | str | None = False) -> dict
     if phonon.calculator not in (None, "vasp"):
         raise ValueError(f"phonon uses the {phonon.calculator!r} calculator's units; vibra reads phonopy's "
                          "default units (eV/Angstrom^2, Angstrom, amu)")
-    if phonon.nac_params is not None:
-        raise ValueError("phonon has non-analytical correction parameters (nac_params, from a BORN file or the yaml's "
-                         "born_effective_charge and dielectric_constant); vibra.crystals does not apply LO-TO "
-                         "corrections yet: remove them (phonon.nac_params = None) to read the force constants alone")
     primitive = phonon.primitive
     fc = symmetrized(phonon, np.asarray(phonon.force_constants, dtype=float), check_symmetrize(symmetrize))
     frac = np.asarray(primitive.scaled_positions, dtype=float)

@@ -209,8 +209,15 @@ def _build(scene: Scene) -> Any:
         system = make(structure.positions, cutoff=p["cutoff"], gamma=p["gamma"], name=scene.name)
     elif builder == "phonopy":
         files = check_phonopy_scene_files(scene.source, p)  # whole files, each refusal at its key
-        return make(files["file"], force_constants=files["force_constants_file"],
-                    force_sets=files["force_sets_file"], symmetrize=p["symmetrize"], name=scene.name)
+        try:
+            return make(files["file"], force_constants=files["force_constants_file"],
+                        force_sets=files["force_sets_file"], symmetrize=p["symmetrize"], primitive=p["primitive"],
+                        born=files["born_file"], nac=p["nac"], name=scene.name)
+        except ValueError as error:
+            if files["born_file"] is not None and str(error).startswith(str(files["born_file"])):
+                raise SceneError(scene.source, "system.born_file", f"{p['born_file']!r}: "
+                                 f"{str(error).removeprefix(str(files['born_file']) + ': ')}") from None
+            raise
     elif builder in CRYSTAL_BUILDERS:
         import dataclasses
 

@@ -123,7 +123,7 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
                "transverse": scalar_or_list(nonnegative), "vacuum": positive},
     "honeycomb": {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
                   "transverse": scalar_or_list(nonnegative), "vacuum": positive},
-    "phonopy": {"symmetrize": symmetrize_option, "primitive": one_of("auto")},
+    "phonopy": {"symmetrize": symmetrize_option, "primitive": one_of("auto"), "nac": one_of("gonze", "wang")},
     "fput": {"n": integer(2), "alpha": number, "beta": number, "ends": ENDS, "mass": positive, "stiffness": positive},
 })
 
@@ -156,7 +156,8 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
     **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
                 "force_constants": "the file system.force_constants_file beside the scene",
-                "force_sets": "the file system.force_sets_file beside the scene", "name": _NAME},
+                "force_sets": "the file system.force_sets_file beside the scene",
+                "born": "the file system.born_file beside the scene", "name": _NAME},
     "fput": {"units": _UNITS},
 })
 
@@ -177,7 +178,7 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "anm": {"pdb": field_spec(string, required=True)},
     **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string),
-                "force_sets_file": field_spec(string)},
+                "force_sets_file": field_spec(string), "born_file": field_spec(string)},
     "fput": {},
 })
 

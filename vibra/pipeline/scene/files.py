@@ -20,7 +20,7 @@ __all__ = ["MAX_DATA_BYTES", "DATA_FILE_KEYS", "scene_data_path", "read_scene_da
 
 #: Keys of ``[system]`` that name a data file beside the scene (the run's inputs with the scene
 #: file itself: no file vibra writes may replace them, see `vibra._io.check_target`).
-DATA_FILE_KEYS: tuple[str, ...] = ("xyz", "pdb", "file", "force_constants_file", "force_sets_file")  # (the last three: crystal scenes' phonopy files)
+DATA_FILE_KEYS: tuple[str, ...] = ("xyz", "pdb", "file", "force_constants_file", "force_sets_file", "born_file")  # (the last four: crystal scenes' phonopy files)
 
 #: Largest data file a scene may name, in bytes (16 MiB: a 100,000-atom PDB file is about 8 MiB).
 MAX_DATA_BYTES = 16 << 20
@@ -101,7 +101,7 @@ def scene_inputs(scene: Any) -> tuple[Path, ...]:
 
 def check_phonopy_scene_files(source: str, params: Any) -> dict[str, Path | None]:
     """A phonopy crystal scene's files (``system.file``, ``system.force_constants_file``,
-    ``system.force_sets_file``), each inside the scene's folder and whole (`vibra.crystals`'s
+    ``system.force_sets_file``, ``system.born_file``), each inside the scene's folder and whole (`vibra.crystals`'s
     checks), each refusal at its own key; returns key -> resolved path (None where not given).
 
     Raises
@@ -113,8 +113,8 @@ def check_phonopy_scene_files(source: str, params: Any) -> dict[str, Path | None
     from vibra.crystals.phonopy_files import check_force_constants_file, check_force_sets_file, check_phonopy_yaml
 
     paths: dict[str, Path | None] = {}
-    for key in ("file", "force_constants_file", "force_sets_file"):
-        name = params[key]
+    for key in ("file", "force_constants_file", "force_sets_file", "born_file"):  # a BORN file is checked against the crystal
+        name = params.get(key)
         paths[key] = None if name is None else scene_data_path(source, f"system.{key}", name)
     if paths["force_constants_file"] is not None and paths["force_sets_file"] is not None:
         raise SceneError(source, "system.force_sets_file", "is given with system.force_constants_file; give one of "
