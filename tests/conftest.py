@@ -34,3 +34,18 @@ def dask_client():
     finally:
         client.close()
         cluster.close()
+
+
+@pytest.fixture()
+def codata_phonopy():
+    """phonopy with scipy's constants for the duration of one test, its defaults restored after
+    (its own are older CODATA values: thermal and DOS comparisons would differ by ~1e-7)."""
+    from phonopy.physical_units import set_physical_units
+    from scipy import constants
+
+    set_physical_units(KB_J=constants.k, PlanckConstant=constants.h / constants.e, Avogadro=constants.Avogadro,
+                       AMU=constants.atomic_mass, EV=constants.e)
+    try:
+        yield
+    finally:
+        set_physical_units()

@@ -233,6 +233,7 @@ EXPECTED = {
     "ubiquitin-anm": ["modes", "spectrum", "bfactors", "correlations"],
     "argon-fcc": ["bands", "thermal"],        # and argon-fcc_mode.gif (the supercell render)
     "silicon-diamond": ["bands", "thermal"],  # and silicon-diamond_mode.gif
+    "nacl-polar": ["bands", "infrared"],      # phonopy's NaCl with its BORN file: LO-TO and the reststrahlen band
     "fput-alpha": ["mode_energies"],
     "isokinetic": ["energies"],
     "nose-hoover": ["histogram"],

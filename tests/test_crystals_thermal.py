@@ -9,26 +9,12 @@ Christoffel equation with the closed-form elastic constants of nearest-neighbour
 
 from __future__ import annotations
 
-from typing import Iterator
-
 import numpy as np
 import pytest
-from phonopy.physical_units import set_physical_units
 from scipy import constants
 
 from vibra import crystals
 from vibra.crystals import Crystal
-
-
-@pytest.fixture()
-def codata_phonopy() -> Iterator[None]:
-    """phonopy with scipy's constants for the duration of one test, its defaults restored after."""
-    set_physical_units(KB_J=constants.k, PlanckConstant=constants.h / constants.e, Avogadro=constants.Avogadro,
-                       AMU=constants.atomic_mass, EV=constants.e)
-    try:
-        yield
-    finally:
-        set_physical_units()
 
 
 def spring_crystals() -> list[Crystal]:

@@ -58,9 +58,10 @@ HIGH_RTOL = 1e-10
 #: (benchmarks/RESULTS.md, "Crystals against phonopy": memory).
 CHUNK_ENTRIES = 1 << 16
 
-#: dD/dk of a polar crystal by central differences with a step of this fraction of the shortest
-#: reciprocal lattice vector (phonopy's group velocities difference D(q) likewise): truncation
-#: ~step^2 relative, rounding ~eps / step: both ~1e-10 at 1e-5.
+#: dD/dk of a polar crystal by central differences (phonopy's group velocities difference D(q)
+#: likewise) with a step of this fraction of |k|, the distance from the nearest Gamma (at least
+#: 1e-3 of the shortest reciprocal vector): the correction (q Z)(q Z) / (q eps q) varies on the
+#: scale of |k| itself, so truncation ~(step / |k|)^2 = 1e-10 relative, rounding ~eps |k| / step ~1e-11.
 NAC_DERIVATIVE_STEP = 1e-5
 
 #: Two eigenvalues within this many of their error bounds are one degenerate level.
@@ -414,10 +415,13 @@ def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLi
     check_periodic_qpoints(crystal, q)
     n = _unit_direction(direction)
     if crystal.nac is not None:  # the correction's dD/dk by central differences, as phonopy's group velocities
-        step = NAC_DERIVATIVE_STEP * float(np.linalg.norm(crystal.reciprocal, axis=1).min())
-        dq = step * (crystal.cell @ n) / (2.0 * np.pi)  # k = 2 pi q inv(cell)^T, so dq = dk cell n / 2 pi
+        shortest = float(np.linalg.norm(crystal.reciprocal, axis=1).min())
+        reduced, _ = reduce_qpoints(q)
+        distance = np.linalg.norm(reduced @ crystal.reciprocal, axis=1)  # from the nearest Gamma, rad / length
+        step = NAC_DERIVATIVE_STEP * np.maximum(distance, 1e-3 * shortest)  # the correction varies on |k|'s scale
+        dq = step[:, None] * (crystal.cell @ n)[None, :] / (2.0 * np.pi)  # k = 2 pi q inv(cell)^T: dq = dk cell n / 2 pi
         return (dynamical_matrices(crystal, q + dq, phase=phase)
-                - dynamical_matrices(crystal, q - dq, phase=phase)) / (2.0 * step)
+                - dynamical_matrices(crystal, q - dq, phase=phase)) / (2.0 * step)[:, None, None]
     reduced, lattice = reduce_qpoints(q)
     matrices = _matrices(assembly(crystal), reduced, phase, direction=n)
     shift = _shift_phases(crystal, lattice) if phase == "positions" else None

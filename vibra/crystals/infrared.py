@@ -265,7 +265,8 @@ class InfraredResponse:
 
 
 # ---------------------------------------------------------------------- construction
-def infrared_response(crystal: Crystal, born: ArrayLike, dielectric: ArrayLike, *, damping: ArrayLike | None = None,
+def infrared_response(crystal: Crystal, born: ArrayLike | None = None, dielectric: ArrayLike | None = None, *,
+                      damping: ArrayLike | None = None,
                       factor: float | None = None, symprec: float = 1e-5,
                       born_sum_atol: float = BORN_SUM_ATOL) -> InfraredResponse:
     """The infrared response of `crystal` from its Born charges and high-frequency dielectric tensor.
@@ -274,11 +275,12 @@ def infrared_response(crystal: Crystal, born: ArrayLike, dielectric: ArrayLike, 
     ----------
     crystal : Crystal
         With force constants (the analytic part: no dipole-dipole correction), primitive cell.
-    born : (n_atoms, 3, 3) array_like
+    born : (n_atoms, 3, 3) array_like, optional
         Born effective charges Z*_i,ab = dP_a / du_ib per atom in the crystal's order, in units
-        of the elementary charge e (phonopy's ``nac_params["born"]``).
-    dielectric : (3, 3) array_like
-        ε∞, symmetric positive definite, dimensionless.
+        of the elementary charge e (phonopy's ``nac_params["born"]``); default: the crystal's own
+        (`Crystal.nac`, with its eps_inf and factor).
+    dielectric : (3, 3) array_like, optional
+        ε∞, symmetric positive definite, dimensionless; default: the crystal's own.
     damping : float or (3 n_atoms,) array_like, optional
         γ >= 0 per mode (in the ascending order of `Crystal.modes_at`) or one for all, in rad per
         time unit (``crystal.units.cm1_to_omega(w)`` converts from cm^-1). Default 0: harmonic
@@ -313,6 +315,14 @@ def infrared_response(crystal: Crystal, born: ArrayLike, dielectric: ArrayLike, 
     if not hasattr(crystal, "require_force_constants") or not hasattr(crystal, "modes_at"):
         raise TypeError(f"crystal must be a vibra.crystals.Crystal, got {type(crystal).__name__}")
     crystal.require_force_constants()
+    polar = getattr(crystal, "nac", None)
+    if born is None or dielectric is None:
+        if polar is None:
+            raise ValueError(f"crystal {crystal.name!r} has no Born charges: pass born= and dielectric=, or give the "
+                             "crystal its correction first (crystal.with_nac(born, dielectric), read_phonopy(born=))")
+        born = polar.born if born is None else born
+        dielectric = polar.dielectric if dielectric is None else dielectric
+        factor = polar.factor if factor is None else factor
     n_atoms = crystal.n_atoms
     charges = _validate.real_array(born, "born", ndim=3)
     if charges.shape != (n_atoms, 3, 3):

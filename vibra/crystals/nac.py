@@ -419,7 +419,7 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
         ewald_per_q = 4 * nac.g_vectors.shape[0] * n3 + 2 * n3 * n3
     else:
         assert nac.phase_sums is not None
-        base = crystal
+        base = dataclasses.replace(crystal, nac=None)  # the analytic part: the crystal's own force constants
         weights = crystal.with_force_constants(nac.phase_sums)
         cells = abs(round(float(np.linalg.det(nac.supercell))))
         per_q = base.require_force_constants().n_terms + nac.phase_sums.n_terms + 6 * n3 * n3

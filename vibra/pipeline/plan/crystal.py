@@ -8,7 +8,11 @@ phonopy file beside the scene) and then computes only what its ``[draw]`` table 
 - ``thermal``: free energy, entropy and heat capacity on the same mesh (``crystal-thermal``,
   drawn by ``chart-thermal``);
 - ``mode``: one branch at one q written out on a supercell (``crystal-mode``) and animated
-  (``render-crystal-mode``, a GIF).
+  (``render-crystal-mode``, a GIF);
+- a polar crystal (Born charges in ``system.born_file``): its infrared response, the TO modes at
+  Gamma with their mode charges, ε(ω) with the damping ``system.infrared_damping`` (cm⁻¹) and
+  the LO frequencies along ``system.infrared_direction`` (``crystal-infrared``), drawn as ε(ω)
+  and the reflectivity with its reststrahlen band (``chart-infrared``).
 
 The steps themselves are listed by `vibra.pipeline.plan.model.crystal_steps`.
 `check_crystal_plan` is what ``vibra validate`` checks on the built crystal (path labels, the
@@ -23,15 +27,20 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.pipeline.plan.model import Plan
+from vibra.pipeline.plan.model import Plan, polar_crystal
 from vibra.pipeline.scene import Scene, SceneError
 
-__all__ = ["check_crystal_plan", "crystal_cost", "CRYSTAL_STEPS", "CRYSTAL_STEP_KEYS"]
+__all__ = ["check_crystal_plan", "crystal_cost", "light_direction", "CRYSTAL_STEPS", "CRYSTAL_STEP_KEYS",
+           "DEFAULT_LIGHT_DIRECTION"]
 
 #: step name -> the scene key that controls it.
 CRYSTAL_STEP_KEYS = {"crystal-bands": "compute", "chart-bands": "draw.bands", "crystal-thermal": "compute",
                      "chart-thermal": "draw.thermal", "crystal-mode": "draw.mode",
-                     "render-crystal-mode": "draw.mode"}
+                     "render-crystal-mode": "draw.mode", "crystal-infrared": "system.born_file",
+                     "chart-infrared": "system.born_file"}
+
+#: The light's polarisation when a polar scene gives no ``system.infrared_direction``.
+DEFAULT_LIGHT_DIRECTION = (1.0, 0.0, 0.0)
 
 
 def _known_points(scene: Scene, crystal: Any) -> dict[str, Any]:
@@ -107,6 +116,7 @@ def check_crystal_plan(scene: Scene, crystal: Any) -> None:
         if spec.mode_branch >= crystal.n_branches:
             raise SceneError(scene.source, "draw.mode_branch", f"is {spec.mode_branch}; this crystal has "
                              f"{crystal.n_branches} branches (0 to {crystal.n_branches - 1})")
+    _check_infrared(scene, crystal)
     for axis in range(3):
         if not crystal.periodic[axis]:
             if spec.mode and spec.supercell[axis] != 1:
@@ -115,6 +125,35 @@ def check_crystal_plan(scene: Scene, crystal: Any) -> None:
             if (spec.bands or spec.thermal) and spec.mesh[axis] != 1:
                 raise SceneError(scene.source, "compute.mesh", f"is {list(spec.mesh)}; axis {axis} is a vacuum "
                                  "axis of this crystal and takes 1 point")
+
+
+def _check_infrared(scene: Scene, crystal: Any) -> None:
+    """The infrared keys need Born charges; a polar crystal needs a stable, primitive cell at Gamma."""
+    params = scene.system.parameters
+    if not polar_crystal(scene):
+        for key in ("infrared_damping", "infrared_direction"):
+            if params.get(key) is not None:
+                why = "this crystal has no Born charges" if crystal.nac is None else \
+                    "the infrared response is drawn for the Born charges of a BORN file (this yaml carries its own)"
+                raise SceneError(scene.source, f"system.{key}", f"is set, but {why}: name the BORN file in "
+                                 "system.born_file")
+        return
+    from vibra.crystals import infrared_response
+
+    nac = crystal.nac
+    if nac is None:  # pragma: no cover - read_phonopy(born=) always gives the correction
+        raise SceneError(scene.source, "system.born_file", "gave no non-analytic correction")
+    try:  # what the crystal-infrared step would refuse (a cell not primitive, an unstable optical mode)
+        infrared_response(crystal, nac.born, nac.dielectric, factor=nac.factor)
+    except (ValueError, RuntimeError) as error:
+        raise SceneError(scene.source, "system.born_file", f"the infrared response is not defined: {error}") from None
+
+
+def light_direction(scene: Scene) -> NDArray[np.float64]:
+    """(3,) unit Cartesian polarisation of the light: ``system.infrared_direction`` or [1, 0, 0]."""
+    given = scene.system.parameters.get("infrared_direction")
+    direction = np.asarray(DEFAULT_LIGHT_DIRECTION if given is None else given, dtype=float)
+    return direction / np.linalg.norm(direction)
 
 
 def crystal_cost(scene: Scene, crystal: Any) -> str:
@@ -135,9 +174,19 @@ def crystal_cost(scene: Scene, crystal: Any) -> str:
     if spec.mode:
         cells = abs(round(float(np.linalg.det(mode_supercell(crystal, spec.supercell)))))
         parts.append(f"mode on {cells * crystal.n_atoms} atoms x {spec.frames} frames")
-    # each q: D(q) from the terms (n_terms (3n)^2) and one Hermitian solve (~10 (3n)^3 flops)
-    flops = work * (fc.n_terms * n3 * n3 + 10 * n3 ** 3)
-    parts.append(f"about {flops / 1e9:.2g} Gflop of D(q) solves")
+    infrared = 0
+    if polar_crystal(scene):
+        from vibra.charts.infrared import GRID_POINTS
+
+        parts.append(f"infrared: Gamma modes, eps(omega) on {GRID_POINTS} wavenumbers")
+        work += 1
+        infrared = GRID_POINTS * n3 * 9 * 2 * 8  # eps(omega) and the reflectivity: complex (3 x 3) sums per mode
+    # each q: D(q) from the terms (n_terms (3n)^2) and one Hermitian solve (~10 (3n)^3 flops); a
+    # Gonze-Lee correction adds its Ewald sum over the G-vectors (as vibra.crystals.nac sizes it)
+    nac = getattr(crystal, "nac", None)
+    ewald = 0 if nac is None or nac.g_vectors is None else 4 * len(nac.g_vectors) * n3 + 2 * n3 * n3
+    flops = work * (fc.n_terms * n3 * n3 + 10 * n3 ** 3 + ewald) + infrared
+    parts.append(f"about {flops / 1e9:.2g} Gflop of D(q) solves" + (" and eps(omega)" if infrared else ""))
     return "; ".join(parts)
 
 
@@ -169,10 +218,14 @@ def _step_chart_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | No
     bands, dos = context.bands
     figure = plot_bands_dos(bands, dos, unit=spec.frequency_unit, title=plan.scene.title)
     unit = "THz" if spec.frequency_unit == "THz" else "cm^-1"
+    nac = getattr(context.system, "nac", None)
+    polar = "" if nac is None else (f"; with the Born charges' long-range field ("
+                                    f"{'Gonze-Lee' if nac.method == 'gonze' else 'Wang'} correction) the LO branch "
+                                    "splits from the TO at Gamma, Gamma approached along the path")
     context.save_chart(figure, "bands",
                        f"{plan.scene.title}: phonon bands along the path (vertical lines at the special points, "
                        f"a heavier one where the path breaks) and the {dos.method} DOS on a "
-                       f"{'x'.join(str(int(n)) for n in dos.mesh)} mesh, in {unit}")
+                       f"{'x'.join(str(int(n)) for n in dos.mesh)} mesh, in {unit}{polar}")
     return None, None
 
 
@@ -215,6 +268,45 @@ def _step_render_mode(plan: Plan, context: Any, renderer: Any) -> tuple[str | No
     return None, None
 
 
+def _step_infrared(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.crystals import infrared_response
+
+    crystal = context.system
+    nac = crystal.nac
+    damping = float(plan.scene.system.parameters.get("infrared_damping") or 0.0)
+    response = infrared_response(crystal, nac.born, nac.dielectric, factor=nac.factor,
+                                 damping=crystal.units.cm1_to_omega(damping))
+    context.infrared = response
+    direction = light_direction(plan.scene)
+    bands = crystal.units.omega_to_cm1(response.reststrahlen_bands(direction))
+    product, ratio = response.lyddane_sachs_teller(direction)
+    pairs = ", ".join(f"TO {to:.4g} / LO {lo:.4g}" for to, lo in bands)
+    pairs = f"{pairs} cm^-1" if pairs else "no mode couples to light along the polarisation"
+    return "Gamma modes (analytic D(0)) + oscillator sum over the TO modes", \
+        f"{pairs}; Lyddane-Sachs-Teller off by {abs(product / ratio - 1.0):.1e}"
+
+
+def _step_chart_infrared(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
+    from vibra.charts.infrared import infrared_figure
+
+    response = context.infrared
+    direction = light_direction(plan.scene)
+    figure = infrared_figure(response, direction=direction, title=plan.scene.title)
+    units = response.units
+    bands = units.omega_to_cm1(response.reststrahlen_bands(direction))
+    where = "; ".join(f"{to:.0f} to {lo:.0f} cm^-1" for to, lo in bands) or "none"
+    epsilon_0 = float(direction @ response.static_dielectric() @ direction)
+    epsilon_inf = float(direction @ response.epsilon_inf @ direction)
+    damping = float(plan.scene.system.parameters.get("infrared_damping") or 0.0)
+    context.save_chart(figure, "infrared",
+                       f"{plan.scene.title}: dielectric function eps(omega) (real and imaginary parts) and the "
+                       f"normal-incidence reflectivity for light polarised along {np.round(direction, 3).tolist()}, "
+                       f"from the Born charges and the TO modes at Gamma (damping {damping:g} cm^-1); the "
+                       f"reststrahlen band, TO to LO, is shaded: {where}; eps(0) = {epsilon_0:.4g}, "
+                       f"eps(inf) = {epsilon_inf:.4g}")
+    return None, None
+
+
 #: step name -> the function that runs it (joined to `vibra.pipeline.plan.steps.STEPS`).
 CRYSTAL_STEPS: dict[str, Callable[[Plan, Any, Any], tuple[str | None, str | None]]] = {
     "crystal-bands": _step_bands,
@@ -223,4 +315,6 @@ CRYSTAL_STEPS: dict[str, Callable[[Plan, Any, Any], tuple[str | None, str | None
     "chart-thermal": _step_chart_thermal,
     "crystal-mode": _step_mode,
     "render-crystal-mode": _step_render_mode,
+    "crystal-infrared": _step_infrared,
+    "chart-infrared": _step_chart_infrared,
 }

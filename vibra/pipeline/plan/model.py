@@ -7,7 +7,7 @@ from typing import Any
 
 from vibra.pipeline.scene import Scene
 
-__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "crystal_steps", "dynamics_steps"]
+__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "crystal_steps", "polar_crystal", "dynamics_steps"]
 
 @dataclass(frozen=True)
 class Step:
@@ -162,6 +162,12 @@ def make_plan(scene: Scene) -> Plan:
     return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)
 
 
+def polar_crystal(scene: Scene) -> bool:
+    """True for a crystal scene whose crystal carries Born charges (a phonopy scene's ``born_file``):
+    its bands show the LO-TO split and the plan adds its infrared response."""
+    return scene.kind == "crystal" and scene.system.parameters.get("born_file") is not None
+
+
 def crystal_steps(scene: Scene) -> list[Step]:
     """The steps after ``build`` that a crystal scene asks for."""
     spec = scene.crystal
@@ -173,6 +179,11 @@ def crystal_steps(scene: Scene) -> list[Step]:
         steps.append(Step("crystal-bands", f"bands on {spec.npoints} q-points along {where}; "
                           f"{spec.dos_method} DOS on a {mesh} mesh"))
         steps.append(Step("chart-bands", f"band structure with the DOS beside it, in {spec.frequency_unit}"))
+    if polar_crystal(scene):
+        damping = scene.system.parameters.get("infrared_damping") or 0.0
+        steps.append(Step("crystal-infrared", f"TO modes at Gamma, their mode charges and eps(omega) of the Born "
+                          f"charges, LO frequencies, damping {damping:g} cm^-1"))
+        steps.append(Step("chart-infrared", "dielectric function and reflectivity with the reststrahlen band"))
     if spec.thermal:
         steps.append(Step("crystal-thermal", f"free energy, entropy and heat capacity at {spec.n_temperatures} "
                           f"temperatures in [{spec.temperatures[0]:g}, {spec.temperatures[1]:g}] K on a {mesh} mesh"))

@@ -54,6 +54,7 @@ class _Context:
     bands: Any = None              # crystal scenes: (BandStructure, DensityOfStates)
     thermal: Any = None            # crystal scenes: ThermalProperties
     supercell_mode: Any = None     # crystal scenes: SupercellMode
+    infrared: Any = None           # polar crystal scenes: InfraredResponse
     dynamics: Any = None           # dynamics scenes: DynamicsRuns
     hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)

@@ -30,7 +30,7 @@ from vibra.pipeline.scene.values import (
 )
 
 __all__ = ["isotope_labels", "BUILD_FUNCTIONS", "CRYSTAL_BUILDERS", "PLANAR_BUILDERS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
-           "SCENE_REQUIRED", "builder_function", "builder_fields"]
+           "SCENE_REQUIRED", "INFRARED_KEYS", "direction_vector", "builder_function", "builder_fields"]
 
 #: scene builder -> (vibra module, function). The only way a scene names code.
 BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
@@ -94,6 +94,23 @@ def symmetrize_option(value: Any, fail: Callable[[str], Any]) -> Any:
     if isinstance(value, bool):
         return value
     return one_of("auto", "phonopy", "projection")(value, fail)
+
+
+def direction_vector(value: Any, fail: Callable[[str], Any]) -> tuple[float, float, float]:
+    """A polar crystal's ``infrared_direction``: 3 Cartesian components, not all zero (any length)."""
+    direction = list_of(number, length=3)(value, fail)
+    if not any(direction):
+        fail(f"is {list(direction)}; the light's polarisation needs a direction (3 Cartesian components, "
+             "not all zero)")
+    return direction
+
+
+#: Keys of a polar crystal's infrared response (the plan's ``crystal-infrared`` step, which runs
+#: when the scene names Born charges in ``born_file``): the damping gamma of every optical mode,
+#: in cm^-1 (none: 0, undamped), and the Cartesian polarisation of the light (none: [1, 0, 0]).
+INFRARED_KEYS: Mapping[str, FieldSpec] = MappingProxyType({
+    "infrared_damping": field_spec(nonnegative), "infrared_direction": field_spec(direction_vector),
+})
 
 #: builder -> {parameter: value check}, for every builder parameter a scene may set.
 PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
@@ -178,7 +195,7 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "anm": {"pdb": field_spec(string, required=True)},
     **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string),
-                "force_sets_file": field_spec(string), "born_file": field_spec(string)},
+                "force_sets_file": field_spec(string), "born_file": field_spec(string), **INFRARED_KEYS},
     "fput": {},
 })
 
