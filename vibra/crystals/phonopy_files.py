@@ -487,8 +487,7 @@ def _load(source: Path, files: dict[str, Path], primitive: str | None) -> tuple[
     """A `phonopy.Phonopy` with force constants from the (checked) files, and from nowhere else;
     True when phonopy made them from forces."""
     from phonopy import Phonopy
-    from phonopy.cui.load_helper import read_force_sets
-    from phonopy.file_IO import parse_FORCE_CONSTANTS, read_force_constants_hdf5
+    from phonopy.file_IO import parse_FORCE_CONSTANTS, parse_FORCE_SETS, read_force_constants_hdf5
     from phonopy.harmonic.force_constants import compact_fc_to_full_fc
     from phonopy.interface.phonopy_yaml import PhonopyYaml
 
@@ -517,7 +516,7 @@ def _load(source: Path, files: dict[str, Path], primitive: str | None) -> tuple[
                   else parse_FORCE_CONSTANTS(filename=str(current), p2s_map=p2s))
         elif "force_sets" in files:
             current = files["force_sets"]
-            phonon.dataset = read_force_sets(current, supercell=phonon.supercell)
+            phonon.dataset = parse_FORCE_SETS(natom=len(phonon.supercell), filename=str(current))  # stable since phonopy 2
             phonon.produce_force_constants()
             from_forces = True
         elif stored.force_constants is not None:
