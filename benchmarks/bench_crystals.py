@@ -31,9 +31,38 @@ the imports is not the figure, as ``getrusage(...).ru_maxrss`` would give) minus
 memory before it (``VmRSS``), after a setup of imports, the crystal, its phonopy object, the
 q-points, and the same call on a tiny input (caches, numba's compiled kernels). Resident memory
 counts every allocation (numpy, phonopy's C/Rust, numba), which tracemalloc would not. Writes results/crystals.json (times) and results/crystals_memory.json.
+
+Real force sets (``--real``, issue 42; ``--real --quick``: 200 q, an 8^3 mesh, ZnO and SnO2, a
+4^3 Al supercell, one round, under a minute): phonopy's own NaCl, MgO, ZnO and SnO2 examples
+(tests/data/phonopy: FORCE_SETS, BORN, phonopy_disp.yaml) loaded in both codes on the primitive
+cell phonopy finds ("auto"), phonopy's force-constant symmetrisation as phonopy.load does it:
+
+- frequencies at 2,000 seeded random q without the correction, with Gonze-Lee's and with Wang's
+  (`Crystal.frequencies` against `run_qpoints`, phonopy's ``nac_params["method"]``);
+- with Gonze-Lee: the band structure (eigenvectors, connected branches, group velocities) on the
+  2,000 q-points of vibra's path (phonopy's ``path_connections`` from its breaks), the tetrahedron
+  DOS on a Gamma-centred 20^3 mesh, thermal properties at 100 temperatures on that mesh (phonopy:
+  ``exclude_gamma_acoustic=True``, the zero modes left out as vibra leaves them out);
+- set-up by finite differences on ASE's own phonon tests (Al with EMT on 7x7x7, delta 0.05; ZnS
+  zincblende with Lennard-Jones on 3x3x3, delta 0.005): `from_ase` (symmetry "auto"), the same
+  with phonopy's symmetry search forced on (symmetry=True), against ASE's ``Phonons.run()`` +
+  ``read(acoustic=True)``, each round in a fresh cache folder; frequencies compared on the
+  commensurate mesh (exact there up to the finite differences) and on ASE's band path.
+
+phonopy 4.10 runs its Rust backend (phonors, rayon threads) and its OpenMP C extension:
+RAYON_NUM_THREADS, OMP_NUM_THREADS and OPENBLAS_NUM_THREADS are set to one (VIBRA_BENCH_THREADS)
+at the top of this file, before any import, and recorded with phonopy's own report of its
+threads in results/crystals_real.json.
 """
 
 from __future__ import annotations
+
+import os
+
+# phonopy 4.10's default backend is Rust (phonors, rayon threads) with an OpenMP C extension beside
+# it: both pinned like BLAS (one thread unless VIBRA_BENCH_THREADS), before anything imports them.
+for _variable in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ[_variable] = os.environ.get("VIBRA_BENCH_THREADS", "1")
 
 import argparse
 import gc
@@ -261,11 +290,280 @@ def run_chunks(mesh: int) -> dict:
     return {"rows": rows, "bounds": bounded}
 
 
+# ---------------------------------------------------------------------- issue 42: real force sets
+DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "phonopy"
+REAL = ("NaCl", "MgO", "ZnO", "SnO2")
+
+
+def _backend() -> dict:
+    """phonopy's backend and thread settings as this process sees them (for the JSON)."""
+    from importlib import metadata
+
+    import phonopy
+    from phonopy import _lang
+
+    info = {"phonopy": phonopy.__version__, "ase": __import__("ase").__version__,
+            "threads": {v: os.environ.get(v) for v in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS",
+                                                        "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+                                                        "NUMBA_NUM_THREADS")}}
+    try:
+        info["phonors"] = metadata.version("phonors")
+    except metadata.PackageNotFoundError:      # pragma: no cover
+        info["phonors"] = None
+    for name in ("have_c_ext", "have_phonors", "c_use_openmp", "c_omp_max_threads", "rust_rayon_max_threads"):
+        function = getattr(_lang, name, None)
+        info[name] = function() if function is not None else None
+    return info
+
+
+def _rel_away(ours: np.ndarray, reference: np.ndarray) -> float:
+    """Largest |ours - ref| / |ref| where |ref| > 1e-3 of its largest (away from Gamma's zeros)."""
+    away = np.abs(reference) > 1e-3 * np.abs(reference).max()
+    return float(np.max(np.abs(ours[away] - reference[away]) / np.abs(reference[away])))
+
+
+def _load(name: str, nac: str | None) -> tuple[Crystal, object]:
+    """The same files in both codes, primitive cell found by symmetry in both ("auto")."""
+    import warnings
+
+    import phonopy
+
+    folder = DATA / name
+    yaml, force_sets, born = folder / "phonopy_disp.yaml", folder / "FORCE_SETS", folder / "BORN"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # phonopy 4's notice that "auto" is its new default
+        phonon = phonopy.load(str(yaml), force_sets_filename=str(force_sets), primitive_matrix="auto",
+                              born_filename=str(born) if nac else None, is_nac=bool(nac), log_level=0)
+    if nac:
+        phonon.nac_params = {**phonon.nac_params, "method": nac}
+    crystal = crystals.read_phonopy(yaml, force_sets=force_sets, primitive="auto",
+                                    born=born if nac else None, nac=nac)
+    return crystal, phonon
+
+
+def _failure(function: object) -> str | None:
+    """None if `function()` runs, else its exception in one line (a vibra path under repair: recorded, not timed)."""
+    try:
+        function()
+    except Exception as error:  # noqa: BLE001 - recorded in the JSON
+        return f"{type(error).__name__}: {str(error)[:200]}"
+    return None
+
+
+def run_real(n_q: int, n_path: int, mesh: int, n_temperatures: int, names: tuple[str, ...]) -> list[dict]:
+    """Frequencies (no NAC, Gonze-Lee, Wang), bands, DOS and thermal properties (Gonze-Lee) per crystal."""
+    to_thz = get_physical_units().DefaultToTHz
+    q = np.random.default_rng(42).random((n_q, 3)) - 0.5          # the same seeded q for every crystal
+    temperatures = np.linspace(10.0, 1000.0, n_temperatures)
+    rows = []
+    for name in names:
+        print(name, flush=True)
+        plain, phonon_plain = _load(name, None)
+        gonze, phonon_gonze = _load(name, "gonze")
+        wang, phonon_wang = _load(name, "wang")
+
+        def phonopy_qpoints(phonon: object) -> object:
+            def call() -> np.ndarray:
+                phonon.run_qpoints(q)
+                return phonon.qpoints.frequencies
+            return call
+
+        bands = gonze.band_structure(npoints=n_path)
+        path_q = bands.qpoints
+        paths = [path_q[a:b + 1] for a, b in bands.segments]
+        starts = [int(a) for a, _ in bands.segments]
+        connections = [k + 1 < len(starts) and starts[k + 1] not in bands.breaks for k in range(len(starts))]
+
+        def phonopy_bands() -> object:
+            phonon_gonze.run_band_structure(paths, with_eigenvectors=True, with_group_velocities=True,
+                                            is_band_connection=True, path_connections=connections)
+            return phonon_gonze.band_structure
+
+        phonon_gonze.run_mesh([mesh] * 3, is_gamma_center=True)
+        phonon_gonze.run_total_dos(use_tetrahedron_method=True)
+        omega_points = phonon_gonze.total_dos.frequency_points / to_thz
+
+        def phonopy_dos() -> np.ndarray:
+            phonon_gonze.run_mesh([mesh] * 3, is_gamma_center=True)
+            phonon_gonze.run_total_dos(use_tetrahedron_method=True)
+            return phonon_gonze.total_dos.dos
+
+        def phonopy_thermal() -> dict:
+            # exclude_gamma_acoustic: the three zero modes at Gamma left out, as vibra leaves out every
+            # mode not certainly positive (phonopy's default keeps them and warns: they add ~1e-3 of F)
+            phonon_gonze.run_mesh([mesh] * 3, is_gamma_center=True)
+            phonon_gonze.run_thermal_properties(temperatures=temperatures, exclude_gamma_acoustic=True)
+            tp = phonon_gonze.thermal_properties
+            return {"heat_capacity": tp.heat_capacity, "entropy": tp.entropy, "free_energy": tp.free_energy}
+
+        failures = {"Wang": _failure(lambda: wang.frequencies(q[:1]))}
+        if failures["Wang"]:
+            print(f"  vibra's Wang correction fails, not timed: {failures['Wang']}", flush=True)
+        wang_pair = {} if failures["Wang"] else {"vibra frequencies (Wang)": lambda: wang.frequencies(q)}
+        timings = interleaved({
+            "vibra frequencies (no NAC)": lambda: plain.frequencies(q),
+            "phonopy run_qpoints (no NAC)": phonopy_qpoints(phonon_plain),
+            "vibra frequencies (Gonze)": lambda: gonze.frequencies(q),
+            "phonopy run_qpoints (Gonze)": phonopy_qpoints(phonon_gonze),
+            **wang_pair,
+            "phonopy run_qpoints (Wang)": phonopy_qpoints(phonon_wang),
+            "vibra band_structure (Gonze)": lambda: gonze.band_structure(npoints=n_path),
+            "phonopy run_band_structure (Gonze)": phonopy_bands,
+            f"vibra dos({mesh}) (Gonze)": lambda: gonze.dos(mesh, omega=omega_points),
+            f"phonopy mesh + total_dos ({mesh}^3, Gonze)": phonopy_dos,
+            f"vibra thermal_properties ({mesh}^3, Gonze)": lambda: gonze.thermal_properties(temperatures, mesh=mesh),
+            f"phonopy mesh + thermal_properties ({mesh}^3, Gonze)": phonopy_thermal,
+        })
+        result = {k: t.result for k, t in timings.items()}
+
+        def pair(kind: str) -> dict:
+            theirs = timings[f"phonopy run_qpoints ({kind})"]
+            if failures.get(kind):
+                return {"error": failures[kind], "phonopy_s": theirs.summary()}
+            ours = timings[f"vibra frequencies ({kind})"]
+            return {**ratio(ours, theirs), "rel_diff_max": _rel_away(ours.result * to_thz, theirs.result)}
+
+        frequencies = {"no NAC": pair("no NAC"), "Gonze": pair("Gonze"), "Wang": pair("Wang")}
+        theirs_bands = result["phonopy run_band_structure (Gonze)"]
+        ours_bands = np.sort(result["vibra band_structure (Gonze)"].omega, axis=1) * to_thz
+        reference_bands = np.sort(np.concatenate(theirs_bands.frequencies), axis=1)
+        dos_ref = result[f"phonopy mesh + total_dos ({mesh}^3, Gonze)"]
+        dos_ours = result[f"vibra dos({mesh}) (Gonze)"].dos / to_thz
+        phonon_gonze.run_mesh([mesh] * 3, is_gamma_center=True, is_mesh_symmetry=False)
+        phonon_gonze.run_total_dos(use_tetrahedron_method=True)
+        dos_full = phonon_gonze.total_dos.dos
+        thermal_ref = result[f"phonopy mesh + thermal_properties ({mesh}^3, Gonze)"]
+        thermal_ours = result[f"vibra thermal_properties ({mesh}^3, Gonze)"]
+        thermal = {}
+        for key, ours in (("heat_capacity", thermal_ours.heat_capacity_j_k_mol()),
+                          ("entropy", thermal_ours.entropy_j_k_mol()),
+                          ("free_energy", thermal_ours.free_energy_kj_mol())):
+            reference = np.asarray(thermal_ref[key])
+            thermal[key + "_diff_over_max"] = float(np.abs(ours - reference).max() / np.abs(reference).max())
+        row = {
+            "crystal": name, "n_atoms": gonze.n_atoms, "n_q": int(n_q), "n_path": int(len(path_q)), "mesh": mesh,
+            "n_temperatures": int(n_temperatures),
+            "supercell": np.asarray(phonon_gonze.supercell_matrix).diagonal().tolist(),
+            "frequencies": frequencies,
+            "bands_vs_phonopy": ratio(timings["vibra band_structure (Gonze)"],
+                                      timings["phonopy run_band_structure (Gonze)"]),
+            "bands_rel_diff_max": _rel_away(ours_bands, reference_bands),
+            "dos_vs_phonopy": ratio(timings[f"vibra dos({mesh}) (Gonze)"],
+                                    timings[f"phonopy mesh + total_dos ({mesh}^3, Gonze)"]),
+            "dos_diff_over_max": float(np.abs(dos_ours - dos_ref).max() / dos_ref.max()),
+            "dos_diff_over_max_vs_phonopy_full_mesh": float(np.abs(dos_ours - dos_full).max() / dos_full.max()),
+            "thermal_vs_phonopy": ratio(timings[f"vibra thermal_properties ({mesh}^3, Gonze)"],
+                                        timings[f"phonopy mesh + thermal_properties ({mesh}^3, Gonze)"]),
+            "thermal": thermal,
+            "times_s": {k: t.summary() for k, t in timings.items()},
+        }
+        text = ", ".join(f"{kind} {format_ratio(v) if 'of_min' in v else 'vibra failed: ' + v['error'][:60]}"
+                         f"{' (%.1e)' % v['rel_diff_max'] if 'rel_diff_max' in v else ''}"
+                         for kind, v in frequencies.items())
+        print(f"  frequencies: {text}", flush=True)
+        print(f"  bands {format_ratio(row['bands_vs_phonopy'])} ({row['bands_rel_diff_max']:.1e}), "
+              f"dos {format_ratio(row['dos_vs_phonopy'])} ({row['dos_diff_over_max']:.1e}; full mesh "
+              f"{row['dos_diff_over_max_vs_phonopy_full_mesh']:.1e}), "
+              f"thermal {format_ratio(row['thermal_vs_phonopy'])} "
+              f"({', '.join(f'{k} {v:.1e}' for k, v in thermal.items())})", flush=True)
+        rows.append(row)
+    return rows
+
+
+def _ase_cases(n_al: int) -> dict[str, dict]:
+    """ASE's own phonon tests (ase/test/test_phonons.py): Al with EMT, ZnS zincblende with Lennard-Jones."""
+    from ase.calculators.emt import EMT
+    from ase.calculators.lj import LennardJones
+
+    epsilon_zn, sigma_zn, epsilon_s, sigma_s = 0.1915460, 2.1737900, 4.3692700, 1.8708900
+    epsilon, sigma = np.sqrt(epsilon_zn * epsilon_s), (sigma_zn + sigma_s) / 2
+    d0 = 2 ** (1 / 6) * sigma
+    return {
+        f"Al fcc, EMT, {n_al}x{n_al}x{n_al}, delta 0.05 (test_get_band_structure_with_modes)": {
+            "atoms": bulk("Al", "fcc", a=4.05), "calculator": EMT, "supercell": (n_al,) * 3, "delta": 0.05,
+            "path": "GXULGK"},
+        "ZnS zincblende, Lennard-Jones, 3x3x3, delta 0.005 (test_partial_dos)": {
+            "atoms": bulk("ZnS", "zincblende", a=d0 * np.sqrt(2)),
+            "calculator": lambda: LennardJones(sigma=sigma, epsilon=epsilon, rc=d0 * (1 + np.sqrt(2)) / 2),
+            "supercell": (3, 3, 3), "delta": 0.005, "path": None},
+    }
+
+
+def run_from_ase(n_al: int, n_path: int) -> list[dict]:
+    """vibra from_ase (symmetry "auto", then symmetry=True) against ASE Phonons run + read(acoustic=True)."""
+    import shutil
+    import tempfile
+
+    from ase import units
+    from ase.phonons import Phonons
+
+    to_ev = units._hbar * 1e10 / np.sqrt(units._e * units._amu)    # ASE's own sqrt(eV/A^2/amu) -> eV
+    rows = []
+    for label, case in _ase_cases(n_al).items():
+        print(label, flush=True)
+        atoms, make, supercell, delta = case["atoms"], case["calculator"], case["supercell"], case["delta"]
+        scratch = Path(tempfile.mkdtemp(prefix="bench_crystals_ase_"))
+
+        def ase_phonons() -> Phonons:
+            folder = Path(tempfile.mkdtemp(dir=scratch))            # a fresh, empty cache every round
+            phonons = Phonons(atoms, make(), supercell=supercell, delta=delta, name=str(folder / "phonon"))
+            phonons.run()
+            phonons.read(acoustic=True)
+            return phonons
+
+        def vibra_auto() -> Crystal:
+            return crystals.from_ase(atoms, make(), supercell=supercell, delta=delta)
+
+        def vibra_symmetry() -> Crystal:
+            return crystals.finite_difference_force_constants(
+                atoms, make(), supercell=supercell, delta=delta, estimate_error=False, force_noise=None,
+                symmetry=True).crystal
+
+        try:
+            timings = interleaved({"vibra from_ase (symmetry auto)": vibra_auto,
+                                   "ASE Phonons run + read(acoustic=True)": ase_phonons,
+                                   "vibra from_ase (symmetry=True)": vibra_symmetry})
+        finally:
+            shutil.rmtree(scratch, ignore_errors=True)
+        phonons = timings["ASE Phonons run + read(acoustic=True)"].result
+        grid = np.stack(np.meshgrid(*[np.arange(n) / n for n in supercell], indexing="ij"), -1).reshape(-1, 3)
+        path = atoms.cell.bandpath(case["path"], npoints=n_path)   # None: ASE's default path of the lattice
+        accuracy = {}
+        for key in ("vibra from_ase (symmetry auto)", "vibra from_ase (symmetry=True)"):
+            crystal = timings[key].result
+            accuracy[key] = {
+                "commensurate_rel_diff_max": _rel_away(np.sort(crystal.frequencies(grid), axis=1) * to_ev,
+                                                       np.sort(phonons.band_structure(grid, verbose=False), axis=1)),
+                "bandpath_rel_diff_max": _rel_away(np.sort(crystal.frequencies(path.kpts), axis=1) * to_ev,
+                                                   np.sort(phonons.band_structure(path.kpts, verbose=False), axis=1)),
+            }
+        row = {
+            "case": label, "supercell": list(supercell), "delta": delta, "n_commensurate_q": int(len(grid)),
+            "bandpath": path.path, "n_bandpath": int(len(path.kpts)),
+            "auto_vs_ase": ratio(timings["vibra from_ase (symmetry auto)"],
+                                 timings["ASE Phonons run + read(acoustic=True)"]),
+            "symmetry_vs_ase": ratio(timings["vibra from_ase (symmetry=True)"],
+                                     timings["ASE Phonons run + read(acoustic=True)"]),
+            "accuracy": accuracy,
+            "times_s": {k: t.summary() for k, t in timings.items()},
+        }
+        print(f"  from_ase/ASE {format_ratio(row['auto_vs_ase'])}, "
+              f"symmetry=True/ASE {format_ratio(row['symmetry_vs_ase'])}; "
+              + "; ".join(f"{k}: commensurate {v['commensurate_rel_diff_max']:.1e}, "
+                          f"path {v['bandpath_rel_diff_max']:.1e}"
+                          for k, v in accuracy.items()), flush=True)
+        rows.append(row)
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a 12^3 mesh and one round (smoke run, results/quick/)")
     parser.add_argument("--memory", action="store_true", help="peak memory of each call, each in a fresh process")
     parser.add_argument("--chunks", action="store_true", help="time the memory bounds against unbounded chunks")
+    parser.add_argument("--real", action="store_true",
+                        help="issue 42: phonopy's NaCl, MgO, ZnO, SnO2 force sets (with and without LO-TO) and "
+                             "ASE's phonon tests (results/crystals_real.json)")
     parser.add_argument("--one", nargs=2, metavar=("CASE", "CALL"), help=argparse.SUPPRESS)
     parser.add_argument("--mesh", type=int, default=None, help=argparse.SUPPRESS)
     parser.add_argument("--inputs", default=None, help=argparse.SUPPRESS)
@@ -279,6 +577,38 @@ def main() -> None:
         return
     if args.memory:
         write_json("crystals_memory", run_memory(mesh), 1)
+        return
+    if args.real:
+        sizes = (dict(n_q=200, n_path=200, mesh=8, n_temperatures=20, names=("ZnO", "SnO2")) if args.quick else
+                 dict(n_q=2000, n_path=2000, mesh=20, n_temperatures=100, names=REAL))
+        load = os.getloadavg()[0]
+        print(f"load average at start: {load:.2f} (1 min), threads {_backend()['threads']}", flush=True)
+        payload = {"load_average_at_start": load, "backend": _backend(),
+                   "sizes": {**sizes, "names": list(sizes["names"])},
+                   "crystals": run_real(**sizes),
+                   "from_ase": run_from_ase(4 if args.quick else 7, 100)}
+        payload["load_average_at_end"] = os.getloadavg()[0]
+        payload["peers"] = {
+            "phonopy": "phonopy.load(phonopy_disp.yaml, force_sets_filename=FORCE_SETS, primitive_matrix='auto', "
+                       "born_filename=BORN or None, is_nac=..., log_level=0) (symmetrize_fc=True, its default); "
+                       "nac_params['method'] 'gonze' or 'wang'; its default backend: Rust (phonors) with "
+                       "RAYON_NUM_THREADS=1 and the C extension with OMP_NUM_THREADS=1; run_qpoints (values "
+                       "only), run_band_structure(with_eigenvectors=True, with_group_velocities=True, "
+                       "is_band_connection=True, path_connections from vibra's breaks) on vibra's q-points, "
+                       "run_mesh(mesh, is_gamma_center=True) + run_total_dos(use_tetrahedron_method=True) at "
+                       "phonopy's frequency points, run_mesh + run_thermal_properties(temperatures=..., "
+                       "exclude_gamma_acoustic=True)",
+            "vibra": "read_phonopy(yaml, force_sets=..., primitive='auto', born=..., nac=...) (symmetrize='auto': "
+                     "phonopy's symmetrize_force_constants as phonopy.load); frequencies (accuracy='high'), "
+                     "band_structure(npoints), dos(mesh, omega=phonopy's points), thermal_properties(T, mesh)",
+            "ase": "ase.phonons.Phonons(atoms, calculator, supercell, delta, name=<fresh temporary folder>) "
+                   ".run() + .read(acoustic=True) (every atom +-x, +-y, +-z; ASE's own test cases)",
+            "vibra_from_ase": "vibra.crystals.from_ase(atoms, calculator, supercell, delta) (symmetry 'auto'); "
+                              "symmetry=True: finite_difference_force_constants(..., estimate_error=False, "
+                              "force_noise=None, symmetry=True).crystal, what from_ase does with phonopy's "
+                              "symmetry search forced on",
+        }
+        write_json("crystals_real", payload, ROUNDS)
         return
     payload = run(mesh)
     payload["peers"] = {"phonopy": "phonopy (installed version) on the same force constants, default settings, "

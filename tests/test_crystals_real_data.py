@@ -243,3 +243,21 @@ def test_a_yaml_without_a_primitive_matrix_describes_its_own_cell() -> None:
     assert _read("MgO", primitive="auto").n_atoms == 2
     with pytest.raises(ValueError, match=r"primitive is 'P'; expected None .* or 'auto'"):
         _read("MgO", primitive="P")
+
+
+def test_size_checks_cannot_overflow_and_extreme_temperatures_give_numbers() -> None:
+    from ase.build import bulk
+    from ase.calculators.emt import EMT
+
+    argon = crystals.fcc(5.26, 39.948, 0.0325, units="ASE")
+    # 2^21 x 2^21 x 2^22 is 2^64: zero in int64, which passed a limit check before (issue 44)
+    with pytest.raises(ValueError, match=r"holds 18446744073709551616 points, over the limit"):
+        argon.dos([2 ** 21, 2 ** 21, 2 ** 22])
+    with pytest.raises(ValueError, match=r"supercell \[100, 100, 100\] holds 1000000 atoms, over the limit 4096"):
+        crystals.from_ase(bulk("Cu", "fcc", a=3.61), EMT(), supercell=(100, 100, 100))
+    with pytest.raises(ValueError, match=r"holds 1000000 atoms, over the limit 4096"):
+        argon.to_phonopy(supercell=(10 ** 6, 1, 1))
+    # hbar omega / kT overflows at 1e-300 K: every mode frozen, C = S = 0 and F = the zero-point energy
+    cold = argon.thermal_properties([1e-300, 1e-30, 0.0], mesh=4)
+    assert np.isfinite(cold.heat_capacity).all() and (cold.heat_capacity == 0.0).all()
+    assert (cold.entropy == 0.0).all() and np.allclose(cold.free_energy, cold.zero_point_energy, rtol=0, atol=0)

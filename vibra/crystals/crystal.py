@@ -20,6 +20,7 @@ Conventions (fixed here, used by every module of `vibra.crystals`):
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass, replace
 from typing import Any, Sequence
@@ -247,6 +248,11 @@ class Crystal:
     def volume(self) -> float:
         """Cell volume |det cell|, in length^3."""
         return float(abs(np.linalg.det(self.cell)))
+
+    @functools.cached_property
+    def assembly(self) -> dynamical.Assembly:
+        """What D(q) is made of (`vibra.crystals.dynamical.assembly`), formed once per crystal."""
+        return dynamical.assembly(self)
 
     @property
     def index_asymmetry(self) -> float:

@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
 __all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_matrices", "group_velocities",
            "check_qpoints", "check_periodic_qpoints", "eigenvalue_slopes", "hermitian_part", "reduce_qpoints",
-           "Assembly", "assembly"]
+           "Assembly", "assembly", "lattice_phases"]
 
 #: The phase conventions of D(q) (module docstring).
 PHASES: tuple[str, ...] = ("positions", "cell")
@@ -63,6 +63,10 @@ CHUNK_ENTRIES = 1 << 16
 #: 1e-3 of the shortest reciprocal vector): the correction (q Z)(q Z) / (q eps q) varies on the
 #: scale of |k| itself, so truncation ~(step / |k|)^2 = 1e-10 relative, rounding ~eps |k| / step ~1e-11.
 NAC_DERIVATIVE_STEP = 1e-5
+
+#: Entries of D(q) per call of a polar crystal's correction (16 MiB of complex D): it forms its
+#: short-range and phase-sum parts once per call, so fewer, larger calls.
+POLAR_CHUNK = 1 << 20
 
 #: Two eigenvalues within this many of their error bounds are one degenerate level.
 DEGENERACY_BOUNDS = 1e4
@@ -298,7 +302,7 @@ def _chunks(n_q: int, n_translations: int, n3: int) -> Iterator[slice]:
         yield slice(start, min(n_q, start + size))
 
 
-def _lattice_phases(q: NDArray[np.float64], translations: NDArray[np.float64]) -> NDArray[np.complex128]:
+def lattice_phases(q: NDArray[np.float64], translations: NDArray[np.float64]) -> NDArray[np.complex128]:
     """(n_q, n_R) exp(2 pi i q . R) as products of per-axis phases exp(2 pi i q_k m), |m| <= max |R_k|.
 
     3 (2 M + 1) sines and cosines per q instead of n_R: each factor is within ~eps (1 + pi |m|)
@@ -318,7 +322,7 @@ def _matrices(parts: Assembly, q: NDArray[np.float64], phase: str,
               direction: NDArray[np.float64] | None = None) -> NDArray[np.complex128]:
     """(n_q, 3n, 3n) D(q) (or dD/dk along the Cartesian unit `direction`) for q in the first zone."""
     n3 = parts.n3
-    phases = _lattice_phases(q, parts.translations)
+    phases = lattice_phases(q, parts.translations)
     cos, sin = phases.real, phases.imag
     matrices = np.empty((q.shape[0], n3 * n3), dtype=complex)
     if direction is None:
@@ -375,7 +379,7 @@ def _shift_phases(crystal: Crystal, lattice: NDArray[np.float64]) -> NDArray[np.
 
 
 def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "positions",
-                       q_direction: ArrayLike | None = None) -> NDArray[np.complex128]:
+                       q_direction: ArrayLike | None = None, analytic: bool = False) -> NDArray[np.complex128]:
     """(n_q, 3 n_atoms, 3 n_atoms) dynamical matrices D(q), in 1 / time unit^2 (Hermitian).
 
     Parameters
@@ -388,14 +392,17 @@ def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "po
         The phase convention (module docstring).
     q_direction : (3,) array_like, optional
         A polar crystal's direction of approach to Gamma (fractional), phonopy's nac_q_direction.
+    analytic : bool
+        The force constants' D(q) alone, without a polar crystal's correction (what the
+        correction itself adds to).
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
     check_periodic_qpoints(crystal, q)
-    if crystal.nac is not None:  # Gonze-Lee's dipole sum is not periodic in q: q as given, as phonopy
+    if crystal.nac is not None and not analytic:  # Gonze-Lee's dipole sum is not periodic in q: q as given, as phonopy
         return np.asarray(crystal.nac.dynamical_matrices(crystal, q, q_direction=q_direction, phase=phase))
     reduced, lattice = reduce_qpoints(q)
-    matrices = _matrices(assembly(crystal), reduced, phase)
+    matrices = _matrices(crystal.assembly, reduced, phase)
     shift = _shift_phases(crystal, lattice) if phase == "positions" else None
     if shift is not None:  # D(q) = P(G)^H D(q - G) P(G) in the positions phase
         matrices = shift[:, :, None] * matrices * np.conj(shift)[:, None, :]
@@ -423,7 +430,7 @@ def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLi
         return (dynamical_matrices(crystal, q + dq, phase=phase)
                 - dynamical_matrices(crystal, q - dq, phase=phase)) / (2.0 * step)[:, None, None]
     reduced, lattice = reduce_qpoints(q)
-    matrices = _matrices(assembly(crystal), reduced, phase, direction=n)
+    matrices = _matrices(crystal.assembly, reduced, phase, direction=n)
     shift = _shift_phases(crystal, lattice) if phase == "positions" else None
     if shift is not None:
         matrices = shift[:, :, None] * matrices * np.conj(shift)[:, None, :]
@@ -482,7 +489,7 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     accuracy = _validate.choice(accuracy, "accuracy", ACCURACY)
     crystal.require_force_constants()
     check_periodic_qpoints(crystal, q)
-    parts = assembly(crystal)
+    parts = crystal.assembly
     n3 = crystal.n_branches
     values = np.empty((q.shape[0], n3))
     error = np.empty_like(values)
@@ -492,7 +499,11 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     if polar is not None:  # Gonze-Lee's dipole sum is not periodic in q: q as given, as phonopy
         reduced, lattice = q, np.zeros_like(q)
         g_vectors = 0 if polar.g_vectors is None else polar.g_vectors.shape[0]
-    for part in _chunks(q.shape[0], parts.translations.shape[0], n3):
+    # a polar crystal's D(q) comes whole from its correction, which forms its parts once per call: larger chunks
+    chunks = (_chunks(q.shape[0], parts.translations.shape[0], n3) if polar is None else
+              (slice(start, min(q.shape[0], start + POLAR_CHUNK // (3 * n3 * n3) + 1))
+               for start in range(0, q.shape[0], POLAR_CHUNK // (3 * n3 * n3) + 1)))
+    for part in chunks:
         if polar is None:
             matrices = _matrices(parts, reduced[part], phase)
         else:

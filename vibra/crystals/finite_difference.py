@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import math
 import os
 import warnings
 from dataclasses import dataclass
@@ -171,13 +172,22 @@ class _GeometryCache(ForceCache):
         return self.folder / f"{key.hexdigest()}.npy"
 
 
-def _check_supercell(supercell: Any, periodic: tuple[bool, bool, bool]) -> NDArray[np.int64]:
+#: The largest supercell, in atoms, finite differences build: the full supercell force constants
+#: take 72 n^2 bytes (and the sum-rule projection a few copies), 1.2 GB at 4,096 atoms.
+MAX_SUPERCELL_ATOMS = 4096
+
+
+def _check_supercell(supercell: Any, periodic: tuple[bool, bool, bool], n_atoms: int) -> NDArray[np.int64]:
     raw = np.asarray(supercell)
     if raw.shape != (3,) or not np.issubdtype(raw.dtype, np.integer) or (raw < 1).any():
         raise ValueError(f"supercell must be 3 positive integers (cells along each lattice vector), got {supercell!r}")
     for axis in range(3):
         if not periodic[axis] and raw[axis] != 1:
             raise ValueError(f"supercell[{axis}] is {int(raw[axis])} along a vacuum axis (pbc False); it must be 1")
+    atoms = math.prod(int(n) for n in raw) * n_atoms  # Python integers: no wrap-around
+    if atoms > MAX_SUPERCELL_ATOMS:
+        raise ValueError(f"supercell {[int(n) for n in raw]} holds {atoms} atoms, over the limit {MAX_SUPERCELL_ATOMS} "
+                         f"(its full force constants would take {72 * atoms ** 2 / 1e9:.3g} GB); use a smaller supercell")
     return raw.astype(np.int64)
 
 
@@ -223,7 +233,8 @@ def finite_difference_force_constants(
         spglib's tolerance for the space group, Angstrom.
     symmetry : "auto", True or False
         Reduce the displacements by the space group (phonopy's generator and solver). Its set-up
-        costs ~n_ops x n_cells x n_supercell_atoms (phonopy's atomic permutations, `SYMMETRY_SECONDS`);
+        costs ~0.1 s + n_ops x n_cells x n_supercell_atoms x 1.1 us (phonopy's atomic permutations,
+        `SYMMETRY_SECONDS`);
         for a closed-form calculator (EMT, Lennard-Jones, ...: `DETERMINISTIC_CALCULATORS`) on a
         large supercell that exceeds the force calls it saves (`FORCE_SECONDS`: ASE's Al test,
         7x7x7, spent 6.2 s in the symmetry search for one displacement where six without it cost
@@ -268,7 +279,7 @@ def finite_difference_force_constants(
         raise TypeError("calculator is None and atoms has no calculator attached; pass calculator=")
     if not is_calculator(calc) and not is_factory(calc):
         raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got {type(calc).__name__}")
-    size = _check_supercell(supercell, unit.periodic)
+    size = _check_supercell(supercell, unit.periodic, unit.n_atoms)
     check_range_from_sizes(unit, size)
     if primitive and not all(unit.periodic):
         raise ValueError(f"primitive=True with vacuum axes (pbc {tuple(unit.periodic)}): phonopy's primitive cell may "
@@ -384,12 +395,14 @@ def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] |
         name=name).crystal
 
 
-#: phonopy's symmetry set-up, seconds per (space-group operation x cell x supercell atom): its
-#: atomic permutations (measured on ASE's Al test, 48 operations x 343 cells x 343 atoms: 6.2 s).
+#: phonopy's symmetry set-up: a fixed part (its Symmetry of the cell and of the supercell) and
+#: seconds per (space-group operation x cell x supercell atom), its atomic permutations. Measured:
+#: ASE's Al test (48 operations x 343 cells x 343 atoms) 6.2 s; ZnS on 3x3x3 (24 x 27 x 54) 0.15 s.
+SYMMETRY_FIXED_SECONDS = 0.1
 SYMMETRY_SECONDS = 1.1e-6
-#: One force call of a closed-form calculator, seconds per supercell atom (EMT measured 1.8-2.1e-4
-#: on 8 to 343 atoms).
-FORCE_SECONDS = 2e-4
+#: One force call of a closed-form calculator, seconds per supercell atom: the cheapest listed
+#: (Lennard-Jones, ~2e-5; EMT measured 2e-4), since the choice only weighs those.
+FORCE_SECONDS = 2e-5
 
 
 def _space_group_average(crystal: Crystal, symprec: float) -> Any:
@@ -417,7 +430,7 @@ def _symmetry_pays(unit: Crystal, size: NDArray[np.int64], calc: Any, symprec: f
     n_ops = 1 if operations is None else len(operations["rotations"])
     cells = int(np.prod(size))
     n_super = cells * unit.n_atoms
-    search = SYMMETRY_SECONDS * n_ops * cells * n_super
+    search = SYMMETRY_FIXED_SECONDS + SYMMETRY_SECONDS * n_ops * cells * n_super
     saved = 6 * unit.n_atoms * n_super * FORCE_SECONDS  # without symmetry: +-x, +-y, +-z of every atom
     return search < saved
 

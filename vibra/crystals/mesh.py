@@ -11,6 +11,7 @@ have the structure's symmetry (true for `springs` and for symmetrised phonopy fo
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -85,8 +86,9 @@ def check_mesh(mesh: Any, crystal: Crystal) -> NDArray[np.int64]:
             raise ValueError(f"mesh[{axis}] is {int(raw[axis])}; each mesh size must be a positive integer")
         if not crystal.periodic[axis] and raw[axis] != 1:
             raise ValueError(f"mesh[{axis}] is {int(raw[axis])} along a vacuum axis; it must be 1")
-    if int(np.prod(raw)) > MAX_MESH_POINTS:
-        raise ValueError(f"mesh {raw.tolist()} holds {int(np.prod(raw))} points, over the limit {MAX_MESH_POINTS}")
+    points = math.prod(int(n) for n in raw)  # Python integers: three large sizes cannot wrap around to a small product
+    if points > MAX_MESH_POINTS:
+        raise ValueError(f"mesh {raw.tolist()} holds {points} points, over the limit {MAX_MESH_POINTS}")
     return raw.astype(np.int64)
 
 

@@ -38,7 +38,7 @@ from scipy import constants
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr, span
-from vibra.crystals.dynamical import PHASES, check_qpoints, dynamical_matrices
+from vibra.crystals.dynamical import PHASES, check_qpoints, dynamical_matrices, lattice_phases
 from vibra.crystals.force_constants import ForceConstants
 from vibra.crystals.phonopy_io import fold_force_constants, to_ase_factors, to_phonopy
 from vibra.units import ASE
@@ -330,31 +330,73 @@ def _chunks(start: int, stop: int, per_q: int, entries: int) -> Iterator[slice]:
 
 def _ewald_sum(nac: NonAnalytic, q_cart: NDArray[np.float64], direction: NDArray[np.float64] | None,
                positions: NDArray[np.float64], tolerance: float) -> NDArray[np.complex128]:
-    """(n_c, 3n, 3n) the Gonze-Lee reciprocal sum (module docstring) before the factor and masses."""
+    """(n_c, 3n, 3n) the Gonze-Lee reciprocal sum (module docstring) before the factor and masses.
+
+    C_ia,jb(q) = sum_G w(K) (K Z_i)_a (K Z_j)_b exp(2 pi i G . (r_i - r_j)) - delta_ij dd_q0_i, K = q + G,
+    w = exp(-K eps K / 4 Lambda^2) / (K eps K). (K Z_i)_a (K Z_j)_b = sum_cd K_c K_d Z_ica Z_jdb and
+    K_c K_d = q_c q_d + q_c G_d + G_c q_d + G_c G_d, so the sum over G is one real product of the
+    weights w(q, G) with the q-independent moments [1, G_d, G_c G_d] P_ij(G) for every q at once,
+    then a 9 x 9 contraction with the charges per q and atom pair: phonopy's arithmetic in a few
+    large products instead of a small matrix product per q. A K below the tolerance (Gamma) takes
+    the direction of approach instead, or drops out without one, as phonopy's.
+    """
     assert nac.g_vectors is not None and nac.ewald is not None and nac.dd_q0 is not None
     g = nac.g_vectors
     eps = nac.dielectric
+    n = positions.shape[0]
+    n_c, n_g = q_cart.shape[0], g.shape[0]
     k = q_cart[:, None, :] + g[None, :, :]
     small = (k * k).sum(axis=2) < tolerance ** 2
-    if direction is not None and small.any():
-        k[small] = direction
-    kek = ((k.reshape(-1, 3) @ eps).reshape(k.shape) * k).sum(axis=2)
-    weight = np.zeros_like(kek)
-    regular = ~small
-    weight[regular] = np.exp(-kek[regular] / (4.0 * nac.ewald ** 2)) / kek[regular]
-    if direction is not None:
-        weight[small] = 1.0 / float(direction @ eps @ direction)
-    n = positions.shape[0]
-    # exp(2 pi i G . r_i) for each of atom i's three columns: (n_g, 3n)
-    phases = np.exp(2j * np.pi * (g @ positions.T)).repeat(3, axis=1)
-    # (K Z_i)_b for every q, G, atom i and axis b: one real GEMM, (n_c, n_g, 3n)
-    charged = (k.reshape(-1, 3) @ nac.born.transpose(1, 0, 2).reshape(3, 3 * n)).reshape(k.shape[0], g.shape[0], 3 * n)
-    left = (charged * weight[..., None]) * phases
-    right = charged * phases.conj()
-    matrices = left.transpose(0, 2, 1) @ right
+    kek = np.einsum("qgc,cd,qgd->qg", k, eps, k)
+    safe = np.where(small, 1.0, kek)
+    weight = np.where(small, 0.0, np.exp(-safe / (4.0 * nac.ewald ** 2)) / safe)
+    separation = (positions[:, None, :] - positions[None, :, :]).reshape(-1, 3)  # r_i - r_j, (n^2, 3)
+    pair = np.exp(2j * np.pi * (g @ separation.T))                               # P_ij(G), (n_g, n^2)
+    moments = np.concatenate([pair[:, None, :], g[:, :, None] * pair[:, None, :],
+                              (g[:, :, None] * g[:, None, :]).reshape(n_g, 9)[:, :, None] * pair[:, None, :]],
+                             axis=1).reshape(n_g, 13 * n * n)
+    summed = np.empty((n_c, 13 * n * n), dtype=complex)
+    summed.real = weight @ moments.real
+    summed.imag = weight @ moments.imag
+    summed = summed.reshape(n_c, 13, n * n)
+    zeroth, first, second = summed[:, 0], summed[:, 1:4], summed[:, 4:].reshape(n_c, 3, 3, n * n)
+    m = (q_cart[:, :, None, None] * q_cart[:, None, :, None] * zeroth[:, None, None, :]
+         + q_cart[:, :, None, None] * first[:, None, :, :] + q_cart[:, None, :, None] * first[:, :, None, :]
+         + second)                                                                  # (n_c, 3c, 3d, n^2)
+    born = nac.born
+    charges = np.einsum("ica,jdb->cdijab", born, born).reshape(9, n * n, 9)
+    block = np.einsum("qkp,kpm->qpm", m.reshape(n_c, 9, n * n), charges, optimize=True)
+    matrices = block.reshape(n_c, n, n, 3, 3).transpose(0, 1, 3, 2, 4).reshape(n_c, 3 * n, 3 * n)
+    if direction is not None and small.any():  # K = 0 approached along the direction: w = 1 / (d eps d), K -> d
+        along = direction @ born.transpose(1, 0, 2).reshape(3, 3 * n)             # (d Z_i)_a, (3n,)
+        term = np.outer(along, along) / float(direction @ eps @ direction)
+        for q_index, g_index in zip(*np.nonzero(small)):
+            phase = pair[g_index].reshape(n, n).repeat(3, axis=0).repeat(3, axis=1)
+            matrices[q_index] += term * phase
     for i in range(n):
         matrices[:, 3 * i:3 * i + 3, 3 * i:3 * i + 3] -= nac.dd_q0[i]
     return matrices
+
+
+def _sum_table(terms: ForceConstants, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Wang's phase sums grouped by lattice translation: (n_R, 3) R and (n_R, n^2) the weights s_R,ij."""
+    translations, which = np.unique(terms.translations, axis=0, return_inverse=True)
+    table = np.zeros((translations.shape[0], n * n))
+    np.add.at(table, (which.ravel(), terms.first * n + terms.second), terms.blocks[:, 0, 0])
+    return translations.astype(float), table
+
+
+def _phase_sums(table: tuple[NDArray[np.float64], NDArray[np.float64]], q: NDArray[np.float64],
+                fractional: NDArray[np.float64]) -> NDArray[np.complex128]:
+    """(n_c, n, n) S_ij(q) = sum_R s_R,ij exp(2 pi i q . (R + x_j - x_i)): Wang's supercell phase sums."""
+    translations, weights = table
+    n = fractional.shape[0]
+    phases = lattice_phases(q, translations)
+    sums = np.empty((q.shape[0], n * n), dtype=complex)
+    sums.real = phases.real @ weights
+    sums.imag = phases.imag @ weights
+    atoms = np.exp(2j * np.pi * (q @ fractional.T))
+    return np.conj(atoms)[:, :, None] * sums.reshape(-1, n, n) * atoms[:, None, :]
 
 
 def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLike, *,
@@ -416,16 +458,17 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
         base = crystal.with_force_constants(nac.short_range)
         weights = None
         per_q = base.require_force_constants().n_terms + 4 * n3 * n3
-        ewald_per_q = 4 * nac.g_vectors.shape[0] * n3 + 2 * n3 * n3
+        ewald_per_q = 3 * nac.g_vectors.shape[0] + 30 * n * n + 4 * n3 * n3
     else:
         assert nac.phase_sums is not None
-        base = dataclasses.replace(crystal, nac=None)  # the analytic part: the crystal's own force constants
-        weights = crystal.with_force_constants(nac.phase_sums)
+        base = crystal  # the analytic part: the crystal's own force constants (its assembly formed once)
+        weights = nac.phase_sums
+        sum_table = _sum_table(nac.phase_sums, n)
         cells = abs(round(float(np.linalg.det(nac.supercell))))
         per_q = base.require_force_constants().n_terms + nac.phase_sums.n_terms + 6 * n3 * n3
     out = np.empty((q.shape[0], n3, n3), dtype=complex)
     for part in _chunks(0, q.shape[0], per_q, CHUNK_ENTRIES):
-        matrices = dynamical_matrices(base, q[part])
+        matrices = dynamical_matrices(base, q[part], analytic=True)
         if weights is None:
             for sub in _chunks(part.start, part.stop, ewald_per_q, EWALD_ENTRIES):
                 local = slice(sub.start - part.start, sub.stop - part.start)
@@ -439,9 +482,11 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
             denominator = np.einsum("ca,ab,cb->c", vectors, nac.dielectric, vectors)
             size = np.zeros_like(denominator)
             size[active] = strength / cells / denominator[active]
-            charged = (vectors @ nac.born.transpose(1, 0, 2).reshape(3, n3))
-            matrices += (size[:, None, None] * charged[:, :, None] * charged[:, None, :]) * dynamical_matrices(
-                weights, q[part])
+            charged = (vectors @ nac.born.transpose(1, 0, 2).reshape(3, n3)).reshape(-1, n, 3)
+            sums = _phase_sums(sum_table, q[part], crystal.fractional)      # (n_c, n, n): n^2, not (3n)^2
+            wang = (size[:, None, None, None, None] * charged[:, :, :, None, None] * charged[:, None, None, :, :]
+                    * (sums / np.sqrt(np.outer(crystal.masses, crystal.masses)))[:, :, None, :, None])
+            matrices += wang.reshape(-1, n3, n3)
         if phase == "cell":
             turn = np.exp(2j * np.pi * q[part] @ crystal.fractional.T).repeat(3, axis=1)
             matrices *= turn[:, :, None] * turn.conj()[:, None, :]

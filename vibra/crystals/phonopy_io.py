@@ -20,6 +20,7 @@ from phonopy is in ``ASE`` units. Non-analytical corrections (``nac_params``) ar
 
 from __future__ import annotations
 
+import math
 import re
 from typing import TYPE_CHECKING, Any, Sequence
 
@@ -36,6 +37,9 @@ __all__ = ["to_phonopy", "to_ase_factors", "phonopy_terms", "fold_force_constant
 
 #: Largest supercell edge (in cells) `to_phonopy` chooses by itself.
 MAX_SUPERCELL = 12
+#: The largest supercell, in atoms, `to_phonopy` builds: phonopy's full force constants take
+#: 72 n^2 bytes, 1.2 GB at 4,096 atoms.
+MAX_SUPERCELL_ATOMS = 4096
 #: Another image must be longer than a term's own vector by this (relative) to count as farther;
 #: phonopy's own test for equidistant images uses symprec = 1e-5 (in length units).
 IMAGE_RTOL = 1e-4
@@ -95,6 +99,10 @@ def _check_supercell(crystal: Crystal, supercell: Any) -> NDArray[np.int64]:
         raw = np.diag(raw)
     if raw.shape != (3,) or not np.issubdtype(raw.dtype, np.integer) or (raw < 1).any():
         raise ValueError(f"supercell must be 3 positive integers (cells along each lattice vector), got {supercell!r}")
+    atoms = math.prod(int(n) for n in raw) * crystal.n_atoms  # Python integers: no wrap-around
+    if atoms > MAX_SUPERCELL_ATOMS:
+        raise ValueError(f"supercell {[int(n) for n in raw]} holds {atoms} atoms, over the limit {MAX_SUPERCELL_ATOMS} "
+                         f"(phonopy's full force constants would take {72 * atoms ** 2 / 1e9:.3g} GB)")
     size = raw.astype(np.int64)
     for axis in range(3):
         if not crystal.periodic[axis] and size[axis] != 1:

@@ -38,6 +38,13 @@ if TYPE_CHECKING:
 
 __all__ = ["ThermalProperties", "thermal_properties"]
 
+#: Entries of the (temperatures x modes) temporaries per chunk (8 MiB each): thermal sums in chunks
+#: of temperatures, so memory stays bounded whatever the number of temperatures and mesh points.
+THERMAL_CHUNK = 1 << 20
+#: A mode with hbar omega / kT above this contributes nothing in double precision (e^-x < 1e-300):
+#: it is frozen, and x is capped there so that x e^-x stays 0 instead of inf * 0 = NaN.
+FROZEN_X = 690.0
+
 
 @dataclass(frozen=True, eq=False)
 class ThermalProperties:
@@ -149,15 +156,20 @@ def thermal_properties(crystal: Crystal, temperatures: ArrayLike, *, mesh: Any, 
     free = np.full(t.shape, zero_point)
     entropy = np.zeros(t.shape)
     heat = np.zeros(t.shape)
-    hot = t > 0
-    if hot.any():
-        kt = kb * t[hot][:, None]
-        x = energy[None, :] / kt
-        em = np.exp(-x)
+    hot = np.nonzero(t > 0)[0]
+    step = max(1, THERMAL_CHUNK // max(1, energy.size))  # temperatures per chunk: memory bounded whatever n_t
+    for start in range(0, hot.size, step):
+        rows = hot[start:start + step]
+        kt = kb * t[rows][:, None]
+        with np.errstate(over="ignore"):  # x = E / kT overflows at kT ~ 1e-300 K: the mode is frozen
+            x = energy[None, :] / kt
+        frozen = x > FROZEN_X
+        x = np.where(frozen, FROZEN_X, x)
+        em = np.where(frozen, 0.0, np.exp(-x))
         om = -np.expm1(-x)  # 1 - e^-x without cancellation
-        free[hot] = zero_point + (kt[:, 0] * (np.log(om) @ weights)) / total
-        entropy[hot] = kb * ((x * em / om - np.log(om)) @ weights) / total
-        heat[hot] = kb * ((x ** 2 * em / om ** 2) @ weights) / total
+        free[rows] = zero_point + (kt[:, 0] * (np.log(om) @ weights)) / total
+        entropy[rows] = kb * ((x * em / om - np.log(om)) @ weights) / total
+        heat[rows] = kb * ((x ** 2 * em / om ** 2) @ weights) / total
     excluded = int(np.broadcast_to(points.weights[:, None], keep.shape)[~keep].sum())
     return ThermalProperties(temperatures=t, free_energy=free, entropy=entropy, heat_capacity=heat,
                              zero_point_energy=zero_point, excluded=excluded, mesh=points.size, units=crystal.units)
