@@ -175,3 +175,31 @@ def test_polar_inputs_are_refused_in_one_line(tmp_path: Path) -> None:
         polar = plain.with_nac(np.array([np.eye(3), -np.eye(3)]), 2.0 * np.eye(3))
     assert "LO-TO by Gonze-Lee" in repr(polar)
     assert polar.with_force_constants(plain.force_constants).nac is None   # the correction goes with its force constants
+
+
+@pytest.mark.parametrize("method", ["gonze", "wang"])
+def test_a_polar_crystal_is_periodic_in_q(method: str) -> None:
+    # the truncated sums over G are not periodic in q: D(q) is formed in the first zone (reviewer's find:
+    # q + (3, -2, 5) gave imaginary modes)
+    crystal = _ours("NaCl", method)
+    q = np.array([[0.1, 0.2, 0.3]])
+    base = crystal.frequencies(q)
+    for shift in ([3.0, -2.0, 5.0], [10.0, 0.0, 0.0], [1.0, 0.0, 0.0]):
+        assert np.abs(crystal.frequencies(q + np.array(shift)) - base).max() < 1e-12 * base.max()
+
+
+def test_a_gamma_point_inside_a_segment_takes_the_segments_direction() -> None:
+    crystal = _ours("NaCl")
+    points = {"A": [-0.5, 0.0, -0.5], "B": [0.5, 0.0, 0.5]}   # X to X through Gamma
+    bands = crystal.band_structure([["A", "B"]], npoints=21, points=points)
+    middle = int(np.argmin(np.abs(bands.qpoints).max(axis=1)))
+    assert np.allclose(bands.qpoints[middle], 0.0)
+    along = crystal.frequencies([[0.0, 0.0, 0.0]], q_direction=[1.0, 0.0, 1.0])[0]
+    assert np.allclose(np.sort(bands.omega[middle]), np.sort(along), rtol=1e-10, atol=1e-8 * along.max())
+    assert np.sort(bands.omega[middle])[-1] > 1.4 * np.sort(bands.omega[middle])[-2]   # the LO above the TO
+
+
+def test_a_method_without_charges_is_refused() -> None:
+    folder = DATA / "NaCl"
+    with pytest.raises(ValueError, match=r"nac is 'wang' but .* has no Born charges .*born="):
+        crystals.read_phonopy(folder / "phonopy_disp.yaml", force_sets=folder / "FORCE_SETS", nac="wang")

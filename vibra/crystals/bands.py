@@ -290,14 +290,15 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
 
 def _gamma_along_path(crystal: Crystal, qpoints: NDArray[np.float64], chunk: slice, segments: list[tuple[int, int]],
                       omega: NDArray[np.float64], error: NDArray[np.float64], basis: NDArray[np.complex128]) -> None:
-    """Re-solve the Gamma points of `chunk` with the direction of their segment (phonopy's nac_q_direction)."""
+    """Re-solve the Gamma points of `chunk` (any point equal to a reciprocal lattice vector, at the ends
+    of a segment or inside it) with the direction of their segment (phonopy's nac_q_direction)."""
     for first, last in segments:
         direction = qpoints[last] - qpoints[first]
-        for k in (first, last):
-            if not (chunk.start <= k < chunk.stop) or np.abs(qpoints[k] - np.rint(qpoints[k])).max() > 1e-12:
-                continue
-            if not np.any(direction):
-                continue
+        low, high = max(first, chunk.start), min(last + 1, chunk.stop)
+        if low >= high or not np.any(direction):
+            continue
+        part = qpoints[low:high]
+        for k in low + np.nonzero(np.abs(part - np.rint(part)).max(axis=1) <= 1e-12)[0]:
             result = phonons(crystal, qpoints[k:k + 1], vectors=True, q_direction=direction)
             omega[k], error[k] = result.omega[0], result.omega_error[0]
             basis[k - chunk.start] = np.asarray(result.vectors)[0]

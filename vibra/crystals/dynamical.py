@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_matrices", "group_velocities",
-           "check_qpoints", "check_periodic_qpoints", "eigenvalue_slopes", "hermitian_part", "reduce_qpoints",
+           "check_qpoints", "check_periodic_qpoints", "eigenvalue_slopes", "reduce_qpoints", "brillouin_qpoints",
            "Assembly", "assembly", "lattice_phases"]
 
 #: The phase conventions of D(q) (module docstring).
@@ -192,7 +192,7 @@ class Assembly:
     D_cell(q) = sum_R A_R exp(2 pi i q . R) with A_R the (3n, 3n) mass-weighted sum of the blocks
     of every term with translation R, after the index symmetry is imposed term by term:
     A_R = (Phi(R) + Phi(-R)^T) / 2, which makes D(q) Hermitian at every q as phonopy's
-    (D + D^H) / 2 does (`hermitian_part`), once instead of per q-point. The positions phase
+    (D + D^H) / 2 does, once instead of per q-point. The positions phase
     (phonopy's) is D_pos = P^H D_cell P with P = diag(exp(2 pi i q . x_j)). One phase per
     translation, not per term, and one dense product per chunk of q-points: the arithmetic of a
     term-by-term sum (issue 42: the earlier (n_terms, (3n)^2) product cost 2.2x phonopy's time on
@@ -344,19 +344,23 @@ def _matrices(parts: Assembly, q: NDArray[np.float64], phase: str,
     return matrices
 
 
-def hermitian_part(matrices: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
-    """((D + D^H) / 2, ||(D - D^H) / 2||_F per matrix): what is solved, and what was removed.
+def brillouin_qpoints(qpoints: NDArray[np.float64], reciprocal: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(q - G, G): each q moved into the first Brillouin zone (Wigner-Seitz cell of the reciprocal lattice).
 
-    Force constants read from files need not obey the index symmetry Phi(i 0; j R) =
-    Phi(j 0; i -R)^T, and then D(q) is not Hermitian; phonopy solves its Hermitian part, and
-    so does vibra (a Hermitian solver reads one triangle, which would silently be another
-    matrix). `assembly` imposes it on the terms, once; this is the same on formed matrices.
-    The Frobenius norm of the removed part bounds its 2-norm, so it bounds how far the
-    eigenvalues of the Hermitian part can move: it is added to the eigenvalue error bound.
+    For a polar crystal, whose truncated sums over G are not periodic in q: a q already in the
+    zone, or on its boundary, is kept as given (as phonopy evaluates it, so band paths agree with
+    phonopy's); one farther out is moved to its nearest image.
     """
-    adjoint = np.conj(np.swapaxes(matrices, -1, -2))
-    skew = np.linalg.norm((matrices - adjoint).reshape(matrices.shape[0], -1), axis=1) / 2.0
-    return (matrices + adjoint) / 2.0, skew
+    base = np.rint(qpoints)
+    shifts = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)], dtype=float)
+    candidates = base[:, None, :] + shifts[None, :, :]                        # (n_q, 27, 3) lattice vectors G
+    lengths = np.linalg.norm((qpoints[:, None, :] - candidates) @ reciprocal, axis=2)
+    best = np.argmin(lengths, axis=1)
+    own = np.linalg.norm(qpoints @ reciprocal, axis=1)
+    keep = own <= lengths[np.arange(len(best)), best] * (1.0 + 1e-12)
+    lattice = np.where(keep[:, None], 0.0, candidates[np.arange(len(best)), best])
+    return qpoints - lattice, lattice
 
 
 def reduce_qpoints(qpoints: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -399,10 +403,12 @@ def dynamical_matrices(crystal: Crystal, qpoints: ArrayLike, *, phase: str = "po
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
     check_periodic_qpoints(crystal, q)
-    if crystal.nac is not None and not analytic:  # Gonze-Lee's dipole sum is not periodic in q: q as given, as phonopy
-        return np.asarray(crystal.nac.dynamical_matrices(crystal, q, q_direction=q_direction, phase=phase))
-    reduced, lattice = reduce_qpoints(q)
-    matrices = _matrices(crystal.assembly, reduced, phase)
+    polar = crystal.nac is not None and not analytic
+    reduced, lattice = brillouin_qpoints(q, crystal.reciprocal) if polar else reduce_qpoints(q)
+    if polar:  # its truncated sum over G is not periodic: the first Brillouin zone, as phonopy's paths
+        matrices = np.asarray(crystal.nac.dynamical_matrices(crystal, reduced, q_direction=q_direction, phase=phase))
+    else:
+        matrices = _matrices(crystal.assembly, reduced, phase)
     shift = _shift_phases(crystal, lattice) if phase == "positions" else None
     if shift is not None:  # D(q) = P(G)^H D(q - G) P(G) in the positions phase
         matrices = shift[:, :, None] * matrices * np.conj(shift)[:, None, :]
@@ -494,10 +500,9 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     values = np.empty((q.shape[0], n3))
     error = np.empty_like(values)
     basis = np.empty((q.shape[0], n3, n3), dtype=complex) if vectors else None
-    reduced, lattice = reduce_qpoints(q)
     polar = crystal.nac
-    if polar is not None:  # Gonze-Lee's dipole sum is not periodic in q: q as given, as phonopy
-        reduced, lattice = q, np.zeros_like(q)
+    reduced, lattice = reduce_qpoints(q) if polar is None else brillouin_qpoints(q, crystal.reciprocal)
+    if polar is not None:  # its truncated sum over G is not periodic in q: the first Brillouin zone (as given there)
         g_vectors = 0 if polar.g_vectors is None else polar.g_vectors.shape[0]
     # a polar crystal's D(q) comes whole from its correction, which forms its parts once per call: larger chunks
     chunks = (_chunks(q.shape[0], parts.translations.shape[0], n3) if polar is None else
@@ -507,7 +512,7 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
         if polar is None:
             matrices = _matrices(parts, reduced[part], phase)
         else:
-            matrices = polar.dynamical_matrices(crystal, q[part], q_direction=q_direction, phase=phase)
+            matrices = polar.dynamical_matrices(crystal, reduced[part], q_direction=q_direction, phase=phase)
         values[part], chunk_basis, error[part] = hermitian_stack(matrices, vectors=vectors)
         error[part] += parts.error + parts.skew
         if polar is not None:  # the Ewald sum's rounding: each entry sums n_G terms

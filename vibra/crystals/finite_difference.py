@@ -45,7 +45,8 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.crystals.crystal import Crystal
-from vibra.crystals.force_constants import SumRuleReport, average_over_space_group, impose_sum_rules
+from vibra.crystals.force_constants import ForceConstants, SumRuleReport, average_over_space_group, impose_sum_rules
+from vibra.crystals.phonopy_io import MAX_SUPERCELL_ATOMS  # one limit: phonopy's full force constants, 72 n^2 bytes
 from vibra.crystals.reach import SupercellReach, check_range_from_sizes, supercell_reach, warn_range
 from vibra.molecules.displacements import (CalculatorSource, ForceCache, displaced_forces, force_problem,
                                            is_calculator, is_factory)
@@ -172,11 +173,6 @@ class _GeometryCache(ForceCache):
         return self.folder / f"{key.hexdigest()}.npy"
 
 
-#: The largest supercell, in atoms, finite differences build: the full supercell force constants
-#: take 72 n^2 bytes (and the sum-rule projection a few copies), 1.2 GB at 4,096 atoms.
-MAX_SUPERCELL_ATOMS = 4096
-
-
 def _check_supercell(supercell: Any, periodic: tuple[bool, bool, bool], n_atoms: int) -> NDArray[np.int64]:
     raw = np.asarray(supercell)
     if raw.shape != (3,) or not np.issubdtype(raw.dtype, np.integer) or (raw < 1).any():
@@ -238,8 +234,11 @@ def finite_difference_force_constants(
         for a closed-form calculator (EMT, Lennard-Jones, ...: `DETERMINISTIC_CALCULATORS`) on a
         large supercell that exceeds the force calls it saves (`FORCE_SECONDS`: ASE's Al test,
         7x7x7, spent 6.2 s in the symmetry search for one displacement where six without it cost
-        0.4 s). ``"auto"`` (default) estimates both from sizes and keeps the cheaper; any other
-        calculator keeps the symmetry (its force calls are the cost).
+        0.4 s). ``"auto"`` (default) estimates both from sizes and keeps the cheaper, and without
+        the search averages the force constants over the space group (spglib's, to `symprec`),
+        which gives what phonopy's symmetric solver would; any other calculator keeps the
+        search (its force calls are the cost). ``False``: no search and no average (the raw
+        finite differences, sum rules imposed).
     client, cache, calculator_key, progress, n_workers, timeout
         As for `vibra.molecules.finite_difference_hessian`: where the force calls run (None,
         ``"local"``, a scheduler address or a ``distributed.Client``), a folder of per-geometry
@@ -300,7 +299,16 @@ def finite_difference_force_constants(
 
     if symmetry not in ("auto", True, False):
         raise ValueError(f"symmetry is {symmetry!r}; expected 'auto', True or False")
-    use_symmetry = symmetry if isinstance(symmetry, bool) else _symmetry_pays(unit, size, calc, precision)
+    use_symmetry = symmetry is True
+    operations = None
+    if symmetry == "auto":
+        operations = _space_group(unit, precision)
+        use_symmetry = _symmetry_pays(unit, size, calc, operations)
+        if not use_symmetry:  # the average must map every atom: checked now, before any force call
+            try:
+                _space_group_average(unit.with_force_constants(_NO_TERMS), operations, precision)
+            except ValueError:
+                use_symmetry = True
 
     from phonopy import Phonopy  # at the edge: phonopy only when asked
     from phonopy.structure.atoms import PhonopyAtoms
@@ -347,8 +355,9 @@ def finite_difference_force_constants(
         warn_range(unit.name, size, reach)
     phonon.force_constants = projected
     crystal = Crystal.from_phonopy(phonon, name=unit.name, periodic=unit.periodic)
-    if not use_symmetry:  # the space group's average, which phonopy's symmetric solver would have given
-        crystal = crystal.with_force_constants(_space_group_average(crystal, precision))
+    if symmetry == "auto" and not use_symmetry:  # the space group's average, as phonopy's symmetric solver gives
+        own = operations if not primitive else _space_group(crystal, precision)  # a primitive cell has its own
+        crystal = crystal.with_force_constants(_space_group_average(crystal, own, precision))
     matrix = np.asarray(phonon.primitive_matrix, dtype=float)
     return FiniteDifferenceForceConstants(
         crystal=crystal, supercell=size, step=h, error_blocks=_fold(phonon, entry_error),
@@ -395,6 +404,9 @@ def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] |
         name=name).crystal
 
 
+_NO_TERMS = ForceConstants(first=np.zeros(0, dtype=np.intp), second=np.zeros(0, dtype=np.intp),
+                           translations=np.zeros((0, 3), dtype=np.int64), blocks=np.zeros((0, 3, 3)))
+
 #: phonopy's symmetry set-up: a fixed part (its Symmetry of the cell and of the supercell) and
 #: seconds per (space-group operation x cell x supercell atom), its atomic permutations. Measured:
 #: ASE's Al test (48 operations x 343 cells x 343 atoms) 6.2 s; ZnS on 3x3x3 (24 x 27 x 54) 0.15 s.
@@ -405,28 +417,30 @@ SYMMETRY_SECONDS = 1.1e-6
 FORCE_SECONDS = 2e-5
 
 
-def _space_group_average(crystal: Crystal, symprec: float) -> Any:
+def _space_group(crystal: Crystal, symprec: float) -> Any:
+    """spglib's operations of the cell (species told apart by symbol and mass), or None."""
     import spglib
 
     kinds: dict[tuple[str, float], int] = {}
     numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
-    operations = spglib.get_symmetry((crystal.cell, crystal.fractional, numbers), symprec=symprec)
+    return spglib.get_symmetry((crystal.cell, crystal.fractional, numbers), symprec=symprec)
+
+
+def _space_group_average(crystal: Crystal, operations: Any, symprec: float) -> Any:
+    """The crystal's force constants averaged over `operations` (spglib's), atoms matched within
+    `symprec` (Angstrom, as spglib's) in fractional terms."""
     force_constants = crystal.require_force_constants()
     if operations is None:
         return force_constants
+    atol = symprec / float(np.linalg.norm(crystal.cell, axis=1).min())
     return average_over_space_group(force_constants, crystal.cell, crystal.fractional, operations["rotations"],
-                                    operations["translations"])
+                                    operations["translations"], atol=atol)
 
 
-def _symmetry_pays(unit: Crystal, size: NDArray[np.int64], calc: Any, symprec: float) -> bool:
+def _symmetry_pays(unit: Crystal, size: NDArray[np.int64], calc: Any, operations: Any) -> bool:
     """symmetry="auto": True unless a closed-form calculator's extra force calls cost less than the symmetry search."""
     if not is_deterministic_calculator(calc):
         return True
-    import spglib
-
-    kinds: dict[tuple[str, float], int] = {}
-    numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(unit.symbols, unit.masses)]
-    operations = spglib.get_symmetry((unit.cell, unit.fractional, numbers), symprec=symprec)
     n_ops = 1 if operations is None else len(operations["rotations"])
     cells = int(np.prod(size))
     n_super = cells * unit.n_atoms

@@ -238,7 +238,7 @@ def index_asymmetry(fc: ForceConstants) -> float:
 
     Force constants are second derivatives of one energy, so they obey this index symmetry
     exactly; a term without its partner counts with its whole block. When it is broken, D(q)
-    is not Hermitian and its Hermitian part is solved (`vibra.crystals.dynamical.hermitian_part`).
+    is not Hermitian and its Hermitian part is solved (`vibra.crystals.dynamical.assembly`).
     """
     if fc.n_terms == 0:
         return 0.0

@@ -32,10 +32,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import constants
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr, span
+from vibra.crystals.nac import FACTOR_ASE, FACTOR_SI, SUM_RULE_TOLERANCE
 from vibra.crystals.mesh import symmetry_cell
 from vibra.units import UnitSystem
 
@@ -45,10 +45,8 @@ if TYPE_CHECKING:
 __all__ = ["InfraredResponse", "infrared_response", "coulomb_factor", "BORN_SUM_ATOL", "DEGENERACY_RTOL",
            "ACTIVE_RTOL", "DIELECTRIC_SYMMETRY_ATOL"]
 
-#: Largest |sum_i Z*_i,ab| (in e) accepted by default. DFPT charges miss charge neutrality by a
-#: few hundredths of e (phonopy's ZnO example: 0.060 e; NaCl 3e-4 e); a miss of tenths of e means
-#: charges in another atom order or another unit. What is accepted is removed evenly over the atoms.
-BORN_SUM_ATOL = 0.1
+#: Largest |sum_i Z*_i,ab| (in e) accepted by default: the correction's own (`vibra.crystals.nac`).
+BORN_SUM_ATOL = SUM_RULE_TOLERANCE
 #: Two Gamma frequencies within this fraction of the largest |ω| form one degenerate level
 #: (phonopy's default is 1e-5 THz absolute, about 1e-6 of a 10 THz spectrum).
 DEGENERACY_RTOL = 1e-5
@@ -60,9 +58,7 @@ DIELECTRIC_SYMMETRY_ATOL = 1e-6
 
 
 def coulomb_factor(units: UnitSystem) -> float:
-    """e² / (4π ε0) in the energy x length of `units`: eV Angstrom (ASE, about 14.3996) or J m (SI).
-
-    From scipy.constants (phonopy's Hartree x Bohr, 14.399645 eV Angstrom, is the same number).
+    """e² / (4π ε0) in the energy x length of `units`: the correction's (`vibra.crystals.nac`, CODATA).
 
     Raises
     ------
@@ -70,9 +66,9 @@ def coulomb_factor(units: UnitSystem) -> float:
         `units` is dimensionless (pass ``factor=`` to `infrared_response`).
     """
     if units.name == "ASE":
-        return float(constants.e / (4.0 * np.pi * constants.epsilon_0 * constants.angstrom))
+        return float(FACTOR_ASE)
     if units.name == "SI":
-        return float(constants.e ** 2 / (4.0 * np.pi * constants.epsilon_0))
+        return float(FACTOR_SI)
     raise ValueError(f"the crystal is in {units.name} units, which have no e^2 / (4 pi eps0); pass factor= "
                      "(the Coulomb factor in the crystal's energy x length)")
 

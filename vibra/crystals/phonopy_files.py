@@ -410,7 +410,7 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
         True or ``"projection"``: the acoustic sum rule and the index symmetry imposed exactly
         (`impose_sum_rules`, vibra's own projection). False: as they are. Force constants that
         still break the index symmetry draw a `ForceConstantsWarning`; their D(q) is made
-        Hermitian as phonopy does (`vibra.crystals.dynamical.hermitian_part`).
+        Hermitian as phonopy does (`vibra.crystals.dynamical.assembly`).
     primitive : None or "auto"
         The primitive cell: None (default) takes the yaml's ``primitive_matrix``, or the unit
         cell itself when the yaml has none (an explicit matrix is always passed to phonopy, so
@@ -477,6 +477,9 @@ def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.Path
     if born is not None:
         charges, dielectric, factor = read_born(born, crystal)
         crystal = crystal.with_nac(charges, dielectric, factor=factor, method=nac or "gonze", phonon=phonon)
+    elif nac is not None and crystal.nac is None:
+        raise ValueError(f"nac is {nac!r} but {source} has no Born charges (no nac section); give the BORN file "
+                         "(born=) for the correction")
     elif nac is not None and crystal.nac is not None and crystal.nac.method != nac:
         crystal = crystal.with_nac(crystal.nac.born, crystal.nac.dielectric, factor=crystal.nac.factor, method=nac,
                                    phonon=phonon, sum_rule="keep")

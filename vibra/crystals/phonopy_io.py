@@ -155,6 +155,11 @@ def to_phonopy(crystal: Crystal, *, supercell: Sequence[int] | None = None) -> A
     length, mass, stiffness = to_ase_factors(crystal)
     fc = crystal.require_force_constants()
     size = required_supercell(crystal) if supercell is None else _check_supercell(crystal, supercell)
+    atoms = math.prod(int(n) for n in size) * crystal.n_atoms
+    if atoms > MAX_SUPERCELL_ATOMS:  # the default supercell too (up to 12^3 cells)
+        raise ValueError(f"the force constants of {crystal.name!r} need a supercell {[int(n) for n in size]} of {atoms} "
+                         f"atoms, over the limit {MAX_SUPERCELL_ATOMS} (phonopy's full force constants would take "
+                         f"{72 * atoms ** 2 / 1e9:.3g} GB)")
     cell = PhonopyAtoms(cell=crystal.cell * length, scaled_positions=crystal.fractional,
                         masses=crystal.masses * mass, **_species(crystal))
     phonon = Phonopy(cell, supercell_matrix=np.diag(size), primitive_matrix="P", log_level=0)
