@@ -33,6 +33,7 @@ from vibra._frozen import freeze_arrays, short_repr
 import vibra.crystals.bands as bands
 import vibra.crystals.dynamical as dynamical
 import vibra.crystals.elastic as elastic
+import vibra.crystals.mesh as mesh_module
 import vibra.crystals.phonopy_io as phonopy_io
 import vibra.crystals.supercell as supercell_modes
 from vibra.crystals.born import nac_from_phonopy
@@ -248,6 +249,11 @@ class Crystal:
     def volume(self) -> float:
         """Cell volume |det cell|, in length^3."""
         return float(abs(np.linalg.det(self.cell)))
+
+    @functools.cached_property
+    def point_rotations(self) -> Any:
+        """The space group's rotations (spglib's), searched once per crystal (`vibra.crystals.mesh`)."""
+        return mesh_module.point_rotations(self)
 
     @functools.cached_property
     def assembly(self) -> dynamical.Assembly:
