@@ -326,7 +326,7 @@ def test_refuses_born_breaking_the_sum_rule() -> None:
 
 
 @pytest.mark.parametrize("dielectric, message", [
-    (np.eye(2), r"dielectric must be the 3 x 3 tensor eps_inf, got shape \(2, 2\)"),
+    (np.eye(2), r"dielectric must be the 3 x 3 tensor eps_inf, dimensionless; got shape \(2, 2\)"),
     (np.eye(3) + np.diag([0.1, 0.0], 1), r"dielectric is not symmetric: \|dielectric\[0,1\] - dielectric\[1,0\]\|"),
     (np.diag([2.0, 2.0, -1.0]), r"dielectric is not positive definite \(lowest eigenvalue -1\)"),
 ])

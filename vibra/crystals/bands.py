@@ -110,11 +110,6 @@ class BandStructure:
 
 
 # ---------------------------------------------------------------------- special points
-def _species_numbers(crystal: Crystal) -> list[int]:
-    kinds: dict[tuple[str, float], int] = {}
-    return [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
-
-
 def special_points(crystal: Crystal) -> tuple[dict[str, NDArray[np.float64]], list[list[str]]]:
     """SeeK-path's special points (fractional, this crystal's reciprocal basis) and its path as runs of labels.
 
@@ -123,9 +118,9 @@ def special_points(crystal: Crystal) -> tuple[dict[str, NDArray[np.float64]], li
     """
     import seekpath  # at the edge: only for an automatic path
 
-    from vibra.crystals.mesh import symmetry_cell  # (points are fractional: the cell's scale does not matter)
+    from vibra.crystals.mesh import species_numbers, symmetry_cell  # (points are fractional: the cell's scale does not matter)
 
-    structure = (symmetry_cell(crystal).tolist(), crystal.fractional.tolist(), _species_numbers(crystal))
+    structure = (symmetry_cell(crystal).tolist(), crystal.fractional.tolist(), species_numbers(crystal))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # SupercellWarning, EdgeCaseWarning: documented above
         found = seekpath.get_path_orig_cell(structure, with_time_reversal=True)

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra import _validate
+from vibra.crystals.mesh import species_numbers
 from vibra.crystals.phonopy_io import to_ase_factors
 
 if TYPE_CHECKING:
@@ -31,8 +32,7 @@ def _phonopy_atoms(crystal: Crystal) -> Any:
     from phonopy.structure.atoms import PhonopyAtoms
 
     length, mass, _ = to_ase_factors(crystal, dimensionless=True)
-    kinds: dict[tuple[str, float], int] = {}
-    numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
+    numbers = species_numbers(crystal)
     return PhonopyAtoms(cell=crystal.cell * length, scaled_positions=crystal.fractional, numbers=numbers,
                         masses=crystal.masses * mass)
 

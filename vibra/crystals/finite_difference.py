@@ -47,6 +47,7 @@ from vibra.cluster import ProgressOption, check_client, connect, progress_callba
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.force_constants import ForceConstants, SumRuleReport, average_over_space_group, impose_sum_rules
 from vibra.crystals.phonopy_io import MAX_SUPERCELL_ATOMS  # one limit: phonopy's full force constants, 72 n^2 bytes
+from vibra.crystals.mesh import species_numbers
 from vibra.crystals.reach import SupercellReach, check_range_from_sizes, supercell_reach, warn_range
 from vibra.molecules.displacements import (CalculatorSource, ForceCache, displaced_forces, force_problem,
                                            is_calculator, is_factory)
@@ -421,9 +422,7 @@ def _space_group(crystal: Crystal, symprec: float) -> Any:
     """spglib's operations of the cell (species told apart by symbol and mass), or None."""
     import spglib
 
-    kinds: dict[tuple[str, float], int] = {}
-    numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
-    return spglib.get_symmetry((crystal.cell, crystal.fractional, numbers), symprec=symprec)
+    return spglib.get_symmetry((crystal.cell, crystal.fractional, species_numbers(crystal)), symprec=symprec)
 
 
 def _space_group_average(crystal: Crystal, operations: Any, symprec: float) -> Any:

@@ -35,15 +35,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr, span
-from vibra.crystals.nac import FACTOR_ASE, FACTOR_SI, SUM_RULE_TOLERANCE
-from vibra.crystals.mesh import symmetry_cell
+from vibra.crystals.nac import FACTOR_ASE, FACTOR_SI, SUM_RULE_TOLERANCE, check_dielectric
+from vibra.crystals.mesh import species_numbers, symmetry_cell
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
     from vibra.crystals.crystal import Crystal
 
 __all__ = ["InfraredResponse", "infrared_response", "coulomb_factor", "BORN_SUM_ATOL", "DEGENERACY_RTOL",
-           "ACTIVE_RTOL", "DIELECTRIC_SYMMETRY_ATOL"]
+           "ACTIVE_RTOL"]
 
 #: Largest |sum_i Z*_i,ab| (in e) accepted by default: the correction's own (`vibra.crystals.nac`).
 BORN_SUM_ATOL = SUM_RULE_TOLERANCE
@@ -53,8 +53,6 @@ DEGENERACY_RTOL = 1e-5
 #: A level couples to light along a direction when its strength there exceeds this fraction of
 #: the strongest level's: below it the strength is rounding of a symmetry zero.
 ACTIVE_RTOL = 1e-8
-#: Largest |ε∞_ab - ε∞_ba| accepted (ε∞ is symmetric; DFPT prints it to 1e-6 or so).
-DIELECTRIC_SYMMETRY_ATOL = 1e-6
 
 
 def coulomb_factor(units: UnitSystem) -> float:
@@ -332,7 +330,7 @@ def infrared_response(crystal: Crystal, born: ArrayLike | None = None, dielectri
         raise ValueError(f"born breaks charge neutrality: |sum_i born[i,{a},{b}]| = {miss:.4g} e > "
                          f"born_sum_atol={tolerance:g} e; check the atom order and units of the charges "
                          "(or raise born_sum_atol)")
-    epsilon = _check_dielectric(dielectric)
+    epsilon = check_dielectric(dielectric)
     coulomb = coulomb_factor(crystal.units) if factor is None else _validate.positive_scalar(factor, "factor",
                                                                                              "Coulomb factor")
     tolerance_length = _validate.positive_scalar(symprec, "symprec", "symmetry tolerance")
@@ -371,23 +369,6 @@ def _unit(direction: ArrayLike, name: str) -> NDArray[np.float64]:
     if norm == 0.0:
         raise ValueError(f"{name} is the zero vector; it needs a direction")
     return vector / norm
-
-
-def _check_dielectric(dielectric: ArrayLike) -> NDArray[np.float64]:
-    epsilon = _validate.real_array(dielectric, "dielectric", ndim=2)
-    if epsilon.shape != (3, 3):
-        raise ValueError(f"dielectric must be the 3 x 3 tensor eps_inf, got shape {epsilon.shape}")
-    gap = np.abs(epsilon - epsilon.T)
-    if gap.max() > DIELECTRIC_SYMMETRY_ATOL:
-        i, j = (int(x) for x in np.unravel_index(np.argmax(gap), (3, 3)))
-        raise ValueError(f"dielectric is not symmetric: |dielectric[{i},{j}] - dielectric[{j},{i}]| = "
-                         f"{gap[i, j]:.3g} > atol={DIELECTRIC_SYMMETRY_ATOL:g}")
-    epsilon = 0.5 * (epsilon + epsilon.T)
-    lowest = float(np.linalg.eigvalsh(epsilon).min())
-    if lowest <= 0.0:
-        raise ValueError(f"dielectric is not positive definite (lowest eigenvalue {lowest:.4g}); eps_inf of a "
-                         "stable insulator has positive eigenvalues (usually >= 1)")
-    return epsilon
 
 
 def _levels(omega: NDArray[np.float64]) -> NDArray[np.int64]:
@@ -469,8 +450,7 @@ def _symmetry_operations(crystal: Crystal, symprec: float) -> dict[str, Any]:
     Gamma displacements; a cell that is not primitive is refused."""
     import spglib  # at the edge
 
-    kinds = {pair: k + 1 for k, pair in enumerate(dict.fromkeys(zip(crystal.symbols, crystal.masses.tolist())))}
-    numbers = [kinds[pair] for pair in zip(crystal.symbols, crystal.masses.tolist())]
+    numbers = species_numbers(crystal)
     cell = symmetry_cell(crystal)  # spglib's tolerance is a length: the cell scaled to unit size
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # spglib's notice about its error handling

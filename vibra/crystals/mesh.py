@@ -24,7 +24,7 @@ from vibra._frozen import freeze_arrays, short_repr
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-__all__ = ["point_rotations", "Mesh", "mesh_points", "check_mesh", "grid_index", "MAX_MESH_POINTS"]
+__all__ = ["point_rotations", "species_numbers", "Mesh", "mesh_points", "check_mesh", "grid_index", "MAX_MESH_POINTS"]
 
 #: Most grid points a mesh may hold (a bound before any allocation).
 MAX_MESH_POINTS = 8_000_000
@@ -100,6 +100,13 @@ def symmetry_cell(crystal: Crystal) -> NDArray[np.float64]:
     return np.asarray(crystal.cell, dtype=float) / scale
 
 
+def species_numbers(crystal: Crystal) -> list[int]:
+    """One integer per atom for spglib: atoms are one species when both symbol and mass agree
+    (an isotope breaks a symmetry its element keeps). The one place this is decided."""
+    kinds: dict[tuple[str, float], int] = {}
+    return [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
+
+
 def point_rotations(crystal: Crystal) -> NDArray[np.int32] | None:
     """(n_ops, 3, 3) the rotations of the crystal's space group (spglib's, fractional), or None.
 
@@ -108,11 +115,9 @@ def point_rotations(crystal: Crystal) -> NDArray[np.int32] | None:
     """
     import spglib  # at the edge: spglib only for a symmetry-reduced mesh
 
-    kinds: dict[tuple[str, float], int] = {}
-    numbers = [kinds.setdefault((s, float(m)), len(kinds) + 1) for s, m in zip(crystal.symbols, crystal.masses)]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)  # spglib's notice about its error handling
-        found = spglib.get_symmetry((symmetry_cell(crystal), crystal.fractional, numbers))
+        found = spglib.get_symmetry((symmetry_cell(crystal), crystal.fractional, species_numbers(crystal)))
     return None if found is None else np.asarray(found["rotations"], dtype=np.int32)
 
 

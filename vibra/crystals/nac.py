@@ -46,7 +46,7 @@ from vibra.units import ASE
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-__all__ = ["NonAnalytic", "non_analytic", "nac_dynamical_matrices",
+__all__ = ["NonAnalytic", "non_analytic", "nac_dynamical_matrices", "check_dielectric",
            "METHODS", "SUM_RULES", "SUM_RULE_TOLERANCE", "FACTOR_ASE", "FACTOR_SI", "Q_ZERO_ANGSTROM"]
 
 #: The forms of the correction (module docstring).
@@ -162,20 +162,24 @@ def _check_born(born: ArrayLike, n_atoms: int) -> NDArray[np.float64]:
 DIELECTRIC_RTOL = 1e-6
 
 
-def _check_dielectric(dielectric: ArrayLike) -> NDArray[np.float64]:
-    eps = _validate.real_array(dielectric, "dielectric")
-    if eps.shape != (3, 3):
-        raise ValueError(f"dielectric must be the 3x3 tensor eps_inf (dimensionless), got shape {eps.shape}")
-    gap = float(np.abs(eps - eps.T).max())
-    if gap > DIELECTRIC_RTOL * float(np.abs(eps).max()):
-        i, j = np.unravel_index(int(np.argmax(np.abs(eps - eps.T))), (3, 3))
-        raise ValueError(f"dielectric is not symmetric: |eps[{i},{j}] - eps[{j},{i}]| = {gap:.3g}; "
-                         "eps_inf must be a symmetric positive definite 3x3 tensor")
-    values = np.linalg.eigvalsh((eps + eps.T) / 2.0)
-    if values.min() <= 0.0:
-        raise ValueError(f"dielectric has eigenvalues {np.round(values, 6).tolist()}; eps_inf must be a "
-                         "symmetric positive definite 3x3 tensor")
-    return eps
+def check_dielectric(dielectric: ArrayLike) -> NDArray[np.float64]:
+    """(3, 3) eps_inf, symmetric to DIELECTRIC_RTOL of its largest entry (then symmetrised) and positive
+    definite: the one check of the correction and of the infrared response (`vibra.crystals.infrared`)."""
+    epsilon = _validate.real_array(dielectric, "dielectric", ndim=2)
+    if epsilon.shape != (3, 3):
+        raise ValueError(f"dielectric must be the 3 x 3 tensor eps_inf, dimensionless; got shape {epsilon.shape}")
+    gap = np.abs(epsilon - epsilon.T)
+    tolerance = DIELECTRIC_RTOL * float(np.abs(epsilon).max())
+    if gap.max() > tolerance:
+        i, j = (int(x) for x in np.unravel_index(np.argmax(gap), (3, 3)))
+        raise ValueError(f"dielectric is not symmetric: |dielectric[{i},{j}] - dielectric[{j},{i}]| = "
+                         f"{gap[i, j]:.3g} > {tolerance:.3g} ({DIELECTRIC_RTOL:g} of its largest entry)")
+    epsilon = 0.5 * (epsilon + epsilon.T)
+    lowest = float(np.linalg.eigvalsh(epsilon).min())
+    if lowest <= 0.0:
+        raise ValueError(f"dielectric is not positive definite (lowest eigenvalue {lowest:.4g}); eps_inf of a "
+                         "stable insulator has positive eigenvalues (usually >= 1)")
+    return epsilon
 
 
 def _check_primitive(crystal: Crystal, phonon: Any) -> None:
@@ -259,7 +263,7 @@ def non_analytic(crystal: Crystal, born: ArrayLike, dielectric: ArrayLike, *, me
     """
     crystal.require_force_constants()
     charges = _check_born(born, crystal.n_atoms)
-    eps = _check_dielectric(dielectric)
+    eps = check_dielectric(dielectric)
     method = _validate.choice(method, "method", METHODS)
     unit = _default_factor(crystal) if factor is None else _validate.positive_scalar(factor, "factor")
     if phonon is not None:

@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra.crystals.force_constants import ForceConstants, impose_sum_rules
+from vibra.crystals.mesh import species_numbers
 
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
@@ -123,8 +124,7 @@ def _species(crystal: Crystal) -> dict[str, Any]:
         from ase.data import chemical_symbols
         if all(s in chemical_symbols[1:] for s in by_symbol):
             return {"symbols": list(crystal.symbols)}
-    kinds = {pair: k + 1 for k, pair in enumerate(dict.fromkeys(pairs))}
-    return {"numbers": [kinds[pair] for pair in pairs]}
+    return {"numbers": species_numbers(crystal)}
 
 
 def to_phonopy(crystal: Crystal, *, supercell: Sequence[int] | None = None) -> Any:
