@@ -2,7 +2,10 @@
 
 The layout is phonopy's familiar one: bands on the left along the path (a vertical line at each
 special point, labels under the axis with Greek Gamma, two labels joined as ``U|K`` where the
-path breaks), the DOS on the right on the same frequency axis, in THz or cm^-1.
+path breaks), the DOS on the right on the same frequency axis, in THz or cm^-1. Given the
+crystal's Gamma modes (`vibra.crystals.irreps.gamma_modes`), each optical level at every Gamma
+of the path is labelled with its irreducible representation; in a polar crystal a level that the
+long-range field moved (the LO mode, approached along the path) is labelled ``LO``.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from matplotlib.figure import Figure
 
 from vibra.charts._style import new_figure
 
-__all__ = ["plot_bands_dos", "plot_thermal", "path_ticks", "FREQUENCY_LABELS"]
+__all__ = ["plot_bands_dos", "plot_thermal", "path_ticks", "gamma_labels", "FREQUENCY_LABELS", "LEVEL_RTOL"]
 
 #: Axis label of each frequency unit a crystal chart draws in.
 FREQUENCY_LABELS = {"THz": "frequency (THz)", "cm^-1": "wavenumber (cm$^{-1}$)"}
@@ -48,7 +51,47 @@ def _in_unit(units: Any, omega: Any, unit: str) -> np.ndarray:
     return np.asarray(units.omega_to_thz(omega) if unit == "THz" else units.omega_to_cm1(omega))
 
 
-def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str = "") -> Figure:
+#: Two band values at a Gamma point within this fraction of the spectrum's range are one level
+#: on the chart, and a level within it of a Gamma mode of D(0) takes that mode's label (the
+#: chart's resolution: 1e-3 of the height is under a pixel of a 5.5-inch axis at 100 dpi).
+LEVEL_RTOL = 1e-3
+
+
+def gamma_labels(bands: Any, gamma: Any, unit: str) -> list[tuple[float, float, str]]:
+    """(x, frequency in `unit`, label) of each optical level at each Gamma point of the path.
+
+    A level of the bands at Gamma that matches a level of the analytic D(0) (`gamma`, a
+    `vibra.crystals.irreps.GammaModes`) within `LEVEL_RTOL` of the spectrum takes its irrep; one
+    that matches none is a longitudinal mode lifted by the non-analytic term and is labelled
+    ``LO``. Acoustic levels (at zero) are not labelled.
+    """
+    values = _in_unit(bands.units, bands.omega, unit)
+    reference = _in_unit(gamma.units, gamma.level_frequencies(), unit)
+    names = gamma.level_labels()
+    scale = max(float(np.ptp(values)), float(np.abs(values).max()), np.finfo(float).tiny)
+    qpoints = np.asarray(bands.qpoints)
+    found: dict[float, set[float]] = {}
+    for index, _ in bands.labels:
+        if np.abs(qpoints[index] - np.round(qpoints[index])).max() > 1e-9:
+            continue  # not Gamma (nor one of its images)
+        x = float(bands.distances[index])
+        found.setdefault(x, set()).update(float(v) for v in values[index])
+    marks: list[tuple[float, float, str]] = []
+    for x, seen in found.items():
+        level = -np.inf
+        for value in sorted(seen):
+            if value - level <= LEVEL_RTOL * scale or abs(value) <= LEVEL_RTOL * scale:
+                level = max(level, value)
+                continue  # one level already marked, or acoustic
+            level = value
+            near = np.abs(reference - value)
+            k = int(np.argmin(near))
+            marks.append((x, value, names[k] if near[k] <= LEVEL_RTOL * scale else "LO"))
+    return marks
+
+
+def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str = "",
+                   gamma: Any | None = None) -> Figure:
     """Bands along the path (left) and the DOS (right) on one frequency axis in `unit`.
 
     Parameters
@@ -58,6 +101,9 @@ def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str
         Drawn beside the bands, in states per cell per `unit` (it integrates to 3 n_atoms).
     unit : {"THz", "cm^-1"}
     title : str
+    gamma : vibra.crystals.irreps.GammaModes, optional
+        The crystal's Gamma modes: each optical level at each Gamma of the path is labelled with
+        its irrep (`gamma_labels`).
     """
     if unit not in FREQUENCY_LABELS:
         raise ValueError(f"unit is {unit!r}; expected one of {', '.join(FREQUENCY_LABELS)}")
@@ -86,6 +132,14 @@ def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str
     high = float(values.max())
     left.set_ylim(low - 0.02 * (high - low), high + 0.05 * (high - low))
     left.set_title("phonon bands")
+    if gamma is not None:
+        end = float(x[-1])
+        for position, value, label in gamma_labels(bands, gamma, unit):
+            at_end = position >= end - 1e-9 * max(1.0, abs(end))
+            left.annotate(label, (position, value), xytext=(-3 if at_end else 3, 0), textcoords="offset points",
+                          ha="right" if at_end else "left", va="center", fontsize="small", color="0.15",
+                          bbox={"boxstyle": "round,pad=0.12", "facecolor": "white", "edgecolor": "none",
+                                "alpha": 0.8})
     if right is not None:
         per_unit = float(_in_unit(dos.units, 1.0, unit))  # d(unit) / d(omega)
         axis = _in_unit(dos.units, dos.omega, unit)

@@ -27,8 +27,7 @@ vector representation (χ(R) = tr R: infrared active) and its symmetric square
 from __future__ import annotations
 
 from dataclasses import dataclass
-import warnings
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -36,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr, span
 from vibra.crystals.nac import FACTOR_ASE, FACTOR_SI, SUM_RULE_TOLERANCE, check_dielectric
-from vibra.crystals.mesh import species_numbers, symmetry_cell
+from vibra.crystals.irreps import DEGENERACY_RTOL, analytic_gamma, classify_levels, symmetry_operations
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
@@ -47,9 +46,6 @@ __all__ = ["InfraredResponse", "infrared_response", "coulomb_factor", "BORN_SUM_
 
 #: Largest |sum_i Z*_i,ab| (in e) accepted by default: the correction's own (`vibra.crystals.nac`).
 BORN_SUM_ATOL = SUM_RULE_TOLERANCE
-#: Two Gamma frequencies within this fraction of the largest |ω| form one degenerate level
-#: (phonopy's default is 1e-5 THz absolute, about 1e-6 of a 10 THz spectrum).
-DEGENERACY_RTOL = 1e-5
 #: A level couples to light along a direction when its strength there exceeds this fraction of
 #: the strongest level's: below it the strength is rounding of a symmetry zero.
 ACTIVE_RTOL = 1e-8
@@ -335,13 +331,10 @@ def infrared_response(crystal: Crystal, born: ArrayLike | None = None, dielectri
                                                                                              "Coulomb factor")
     tolerance_length = _validate.positive_scalar(symprec, "symprec", "symmetry tolerance")
 
-    symmetry = _symmetry_operations(crystal, tolerance_length)
+    symmetry = symmetry_operations(crystal, tolerance_length)
     charges = charges - residual[None, :, :] / n_atoms
-    phonons = crystal.modes_at([0.0, 0.0, 0.0])
-    omega = np.asarray(phonons.omega[0], dtype=float)
-    levels = _levels(omega)
+    omega, vectors, levels = analytic_gamma(crystal)
     gamma = _check_damping(damping, omega.size, levels)
-    vectors = _real_vectors(np.asarray(phonons.vectors[0]), levels)
     acoustic = _acoustic(vectors, crystal.masses)
     if (omega[~acoustic] <= 0).any():
         k = int(np.flatnonzero(~acoustic & (omega <= 0))[0])
@@ -352,7 +345,7 @@ def infrared_response(crystal: Crystal, born: ArrayLike | None = None, dielectri
     strengths = mode_charges[:, :, None] * mode_charges[:, None, :]
     strengths[acoustic] = 0.0
     gamma = np.where(acoustic, 0.0, gamma)
-    labels, ir, raman, point_group = _symmetry(symmetry, vectors, levels)
+    labels, ir, raman, point_group = classify_levels(symmetry, vectors, levels)
     return InfraredResponse(omega=omega, vectors=vectors, acoustic=acoustic, mode_charges=mode_charges,
                             strengths=strengths, damping=gamma, epsilon_inf=epsilon, born=charges,
                             born_residual=residual, volume=crystal.volume, factor=coulomb, levels=levels,
@@ -369,14 +362,6 @@ def _unit(direction: ArrayLike, name: str) -> NDArray[np.float64]:
     if norm == 0.0:
         raise ValueError(f"{name} is the zero vector; it needs a direction")
     return vector / norm
-
-
-def _levels(omega: NDArray[np.float64]) -> NDArray[np.int64]:
-    """(n_modes,) degenerate-level index of each ascending frequency."""
-    scale = max(float(np.abs(omega).max()), np.finfo(float).tiny)
-    new = np.ones(omega.size, dtype=bool)
-    new[1:] = np.diff(omega) > DEGENERACY_RTOL * scale
-    return np.cumsum(new) - 1
 
 
 def _check_damping(damping: ArrayLike | None, n_modes: int, levels: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -397,18 +382,6 @@ def _check_damping(damping: ArrayLike | None, n_modes: int, levels: NDArray[np.i
 
 
 # ---------------------------------------------------------------------- modes
-def _real_vectors(vectors: NDArray[np.complex128], levels: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Real orthonormal eigenvectors spanning each level's space (D(0) is real: each level's space
-    is closed under conjugation, so [Re V, Im V] has its rank)."""
-    real = np.empty(vectors.shape)
-    for level in np.unique(levels):
-        members = np.flatnonzero(levels == level)
-        block = np.concatenate([vectors[:, members].real, vectors[:, members].imag], axis=1)
-        left, _, _ = np.linalg.svd(block, full_matrices=False)
-        real[:, members] = left[:, :members.size]
-    return real
-
-
 def _acoustic(vectors: NDArray[np.float64], masses: NDArray[np.float64]) -> NDArray[np.bool_]:
     """The three modes with the largest weight on the mass-weighted uniform translations."""
     translations = np.kron(np.sqrt(masses)[:, None], np.eye(3)) / np.sqrt(masses.sum())
@@ -442,113 +415,3 @@ def _orient_levels(vectors: NDArray[np.float64], levels: NDArray[np.int64], acou
         if oriented[np.argmax(np.abs(oriented[:, k])), k] < 0:
             oriented[:, k] = -oriented[:, k]
     return oriented
-
-
-# ---------------------------------------------------------------------- symmetry
-def _symmetry_operations(crystal: Crystal, symprec: float) -> dict[str, Any]:
-    """spglib's operations of the cell, in fractional and Cartesian form, with their action on the
-    Gamma displacements; a cell that is not primitive is refused."""
-    import spglib  # at the edge
-
-    numbers = species_numbers(crystal)
-    cell = symmetry_cell(crystal)  # spglib's tolerance is a length: the cell scaled to unit size
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)  # spglib's notice about its error handling
-        try:
-            dataset = spglib.get_symmetry_dataset((cell, crystal.fractional, numbers), symprec=symprec)
-        except Exception as error:  # spglib raises its own SpglibCppError
-            raise RuntimeError(f"spglib found no space group for {crystal.name!r} at symprec={symprec:g}: "
-                               f"{error}") from None
-    if dataset is None:
-        raise RuntimeError(f"spglib found no space group for {crystal.name!r} at symprec={symprec:g}")
-    rotations = np.asarray(dataset.rotations)
-    if len({r.tobytes() for r in rotations}) < len(rotations):
-        raise ValueError(f"crystal {crystal.name!r} is not a primitive cell (a pure translation maps it onto "
-                         "itself); its Gamma modes include folded zone-boundary modes: use the primitive cell")
-    lattice = crystal.cell.T  # columns a_i: x_cart = lattice @ x_frac
-    cartesian = lattice @ rotations @ np.linalg.inv(lattice)
-    grounds = _ground_matrices(crystal, cell, rotations, np.asarray(dataset.translations), cartesian, symprec)
-    return {"rotations": rotations, "cartesian": cartesian, "grounds": grounds,
-            "point_group": str(dataset.pointgroup).strip(), "transformation": np.asarray(dataset.transformation_matrix)}
-
-
-def _symmetry(symmetry: dict[str, Any], vectors: NDArray[np.float64], levels: NDArray[np.int64]
-              ) -> tuple[tuple[str, ...], NDArray[np.bool_], NDArray[np.bool_], str]:
-    """Irrep labels and infrared / Raman activity of each mode from the characters of its level."""
-    cartesian = symmetry["cartesian"]
-    vector_chars = np.trace(cartesian, axis1=1, axis2=2)
-    square_chars = 0.5 * (vector_chars ** 2 + np.trace(cartesian @ cartesian, axis1=1, axis2=2))
-    table = _character_table(symmetry["point_group"], symmetry["rotations"], symmetry["transformation"])
-    order = float(len(cartesian))
-    labels: list[str] = [""] * vectors.shape[1]
-    ir = np.zeros(vectors.shape[1], dtype=bool)
-    raman = np.zeros(vectors.shape[1], dtype=bool)
-    for level in np.unique(levels):
-        members = np.flatnonzero(levels == level)
-        block = vectors[:, members]
-        chars = np.einsum("km,rkl,lm->r", block, symmetry["grounds"], block)
-        ir[members] = np.dot(chars, vector_chars) / order > 0.5
-        raman[members] = np.dot(chars, square_chars) / order > 0.5
-        label = _decompose(chars, table)
-        for m in members:
-            labels[m] = label
-    return tuple(labels), ir, raman, symmetry["point_group"]
-
-
-def _ground_matrices(crystal: Crystal, cell: NDArray[np.float64], rotations: NDArray[np.int64],
-                     translations: NDArray[np.float64], cartesian: NDArray[np.float64], symprec: float
-                     ) -> NDArray[np.float64]:
-    """(n_ops, 3n, 3n) action of each operation on Gamma displacements: atom i -> j, u -> R u."""
-    frac = crystal.fractional
-    n = crystal.n_atoms
-    grounds = np.zeros((len(rotations), 3 * n, 3 * n))
-    for k, (rotation, translation) in enumerate(zip(rotations, translations)):
-        moved = frac @ rotation.T + translation
-        delta = moved[:, None, :] - frac[None, :, :]
-        delta -= np.round(delta)
-        distance = np.linalg.norm(delta @ cell, axis=2)
-        images = np.argmin(distance, axis=1)
-        if (distance[np.arange(n), images] > symprec).any() or len(set(images.tolist())) != n:
-            raise RuntimeError(f"symmetry operation {k} of spglib does not map the atoms of {crystal.name!r} onto "
-                               f"each other within symprec={symprec:g}")
-        for i, j in enumerate(images):
-            grounds[k, 3 * j:3 * j + 3, 3 * i:3 * i + 3] = cartesian[k]
-    return grounds
-
-
-def _character_table(point_group: str, rotations: NDArray[np.int64], transformation: NDArray[np.float64]
-                     ) -> dict[str, NDArray[np.float64]] | None:
-    """{irrep label: (n_ops,) character of each operation}, from phonopy's table for the point group
-    (conventional rotations T r T^-1 matched against its mapping table); None when it has none."""
-    from phonopy.phonon.character_table import character_table  # at the edge
-
-    conventional = [np.rint(transformation @ r @ np.linalg.inv(transformation)).astype(int) for r in rotations]
-    for entry in character_table.get(point_group) or []:
-        classes = []
-        for rotation in conventional:
-            found = [name for name, members in entry["mapping_table"].items()
-                     if any((np.array(member) == rotation).all() for member in members)]
-            classes.append(found[0] if found else None)
-        if None in classes:
-            continue
-        columns = [entry["rotation_list"].index(name) for name in classes]
-        return {label: np.real(np.asarray(chars, dtype=complex)[columns])
-                for label, chars in entry["character_table"].items()}
-    return None
-
-
-def _decompose(chars: NDArray[np.float64], table: dict[str, NDArray[np.float64]] | None) -> str:
-    """The irreps in a level's characters, ``"Eg"`` or ``"A1+E"`` (``"2A1"`` twice), ``"?"`` when none fit."""
-    if table is None:
-        return "?"
-    parts = []
-    rebuilt = np.zeros_like(chars)
-    for label, irrep in table.items():
-        count = float(np.dot(irrep, chars) / np.dot(irrep, irrep))
-        n = int(round(count))
-        if n > 0:
-            parts.append(label if n == 1 else f"{n}{label}")
-            rebuilt += n * irrep
-    if not parts or np.abs(rebuilt - chars).max() > 1e-3:
-        return "?"
-    return "+".join(parts)

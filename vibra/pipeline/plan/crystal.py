@@ -213,10 +213,17 @@ def _step_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, st
 
 def _step_chart_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
     from vibra.charts.crystals import plot_bands_dos
+    from vibra.crystals.irreps import NotPrimitiveError, gamma_modes
 
     spec = plan.scene.crystal
     bands, dos = context.bands
-    figure = plot_bands_dos(bands, dos, unit=spec.frequency_unit, title=plan.scene.title)
+    try:
+        gamma = gamma_modes(context.system)
+        irreps = "; optical levels at Gamma labelled with their irreps (point group " + gamma.point_group + ")"
+    except NotPrimitiveError:
+        gamma = None
+        irreps = "; Gamma levels unlabelled: the cell is not primitive (its Gamma holds folded zone-boundary modes)"
+    figure = plot_bands_dos(bands, dos, unit=spec.frequency_unit, title=plan.scene.title, gamma=gamma)
     unit = "THz" if spec.frequency_unit == "THz" else "cm^-1"
     nac = getattr(context.system, "nac", None)
     polar = "" if nac is None else (f"; with the Born charges' long-range field ("
@@ -225,7 +232,7 @@ def _step_chart_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | No
     context.save_chart(figure, "bands",
                        f"{plan.scene.title}: phonon bands along the path (vertical lines at the special points, "
                        f"a heavier one where the path breaks) and the {dos.method} DOS on a "
-                       f"{'x'.join(str(int(n)) for n in dos.mesh)} mesh, in {unit}{polar}")
+                       f"{'x'.join(str(int(n)) for n in dos.mesh)} mesh, in {unit}{polar}{irreps}")
     return None, None
 
 
