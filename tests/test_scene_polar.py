@@ -138,3 +138,36 @@ def test_cli_refuses_a_bad_damping_in_one_line(tmp_path: Path) -> None:
                          capture_output=True, text=True, cwd=ROOT)
     assert run.returncode != 0 and "Traceback" not in run.stderr
     assert "bad.toml: system.infrared_damping: must be >= 0, got -8.0" in run.stdout + run.stderr
+
+
+def test_a_yaml_with_its_own_born_charges_gets_the_infrared_chart(tmp_path: Path) -> None:
+    """phonopy's own ``phonopy.save`` of the scene's crystal (force sets and the nac section in one
+    yaml) plans and draws the infrared response as the BORN file does, to the same numbers."""
+    import phonopy
+
+    phonon = phonopy.load(DATA / "phonopy_disp.yaml", force_sets_filename=DATA / "FORCE_SETS",
+                          born_filename=DATA / "BORN", log_level=0)
+    phonon.save(tmp_path / "phonopy_params.yaml")  # phonopy writes the Born charges in its nac section
+    assert "born_effective_charge" in (tmp_path / "phonopy_params.yaml").read_text()
+    data = nacl(system={"file": "phonopy_params.yaml", "force_sets_file": None, "born_file": None})
+    scene = Scene.from_dict(data, source=str(tmp_path / "own.toml"))
+    plan = make_plan(scene)
+    assert plan.step_names == ("build", "crystal-bands", "chart-bands", "crystal-infrared", "chart-infrared")
+    out = tmp_path / "out"
+    out.mkdir()
+    work = tmp_path / "work"
+    work.mkdir()
+    result = execute(plan, out, work)
+    assert result.outputs == ("own_bands.png", "own_infrared.png")
+    record = next(r for r in result.records if r.name == "crystal-infrared")
+    assert "TO 154 / LO 246.7 cm^-1" in record.accuracy  # the BORN file's figures (the same charges)
+    # without the nac section the same yaml is a plain crystal: no infrared steps, and the keys refused
+    phonon.nac_params = None
+    phonon.save(tmp_path / "plain.yaml")
+    plain = nacl(system={"file": "plain.yaml", "force_sets_file": None, "born_file": None,
+                         "infrared_damping": None, "infrared_direction": None})
+    assert make_plan(Scene.from_dict(plain, source=str(tmp_path / "plain.toml"))).step_names == (
+        "build", "crystal-bands", "chart-bands")
+    with pytest.raises(SceneError, match=r"system\.infrared_damping: is set, but this crystal has no Born charges"):
+        validate(Scene.from_dict(nacl(system={"file": "plain.yaml", "force_sets_file": None, "born_file": None}),
+                                 source=str(tmp_path / "plain.toml")))

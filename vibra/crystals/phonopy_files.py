@@ -98,12 +98,16 @@ class PhonopyYamlSummary:
         The file holds force constants.
     forces : bool
         Its displacements carry forces (phonopy can make force constants from them).
+    born : bool
+        It carries Born charges and eps_inf (phonopy's ``nac`` section, or the two keys at the top
+        level as phonopy wrote them before 2.18): the crystal read from it is polar.
     """
 
     n_supercell: int
     n_primitive: int
     force_constants: bool
     forces: bool
+    born: bool = False
 
 
 def _file_text(path: Path) -> str:
@@ -217,7 +221,10 @@ def check_phonopy_yaml(path: str | os.PathLike[str]) -> PhonopyYamlSummary:
         if shape[1] != n_super:
             raise ValueError(f"{source}: line {line}: force_constants has shape {shape}; the supercell has {n_super} atoms")
     forces = _check_displacements(source, text, data, n_super)
-    return PhonopyYamlSummary(n_supercell=n_super, n_primitive=n_primitive, force_constants=has_fc, forces=forces)
+    section = data.get("nac") if isinstance(data.get("nac"), dict) else data  # phonopy's _parse_nac
+    born = "born_effective_charge" in section and "dielectric_constant" in section
+    return PhonopyYamlSummary(n_supercell=n_super, n_primitive=n_primitive, force_constants=has_fc, forces=forces,
+                              born=born)
 
 
 def _check_displacements(source: Path, text: str, data: dict[str, Any], n_super: int) -> bool:

@@ -9,7 +9,7 @@ phonopy file beside the scene) and then computes only what its ``[draw]`` table 
   drawn by ``chart-thermal``);
 - ``mode``: one branch at one q written out on a supercell (``crystal-mode``) and animated
   (``render-crystal-mode``, a GIF);
-- a polar crystal (Born charges in ``system.born_file``): its infrared response, the TO modes at
+- a polar crystal (Born charges in ``system.born_file`` or the yaml's ``nac`` section): its infrared response, the TO modes at
   Gamma with their mode charges, ε(ω) with the damping ``system.infrared_damping`` (cm⁻¹) and
   the LO frequencies along ``system.infrared_direction`` (``crystal-infrared``), drawn as ε(ω)
   and the reflectivity with its reststrahlen band (``chart-infrared``).
@@ -133,20 +133,19 @@ def _check_infrared(scene: Scene, crystal: Any) -> None:
     if not polar_crystal(scene):
         for key in ("infrared_damping", "infrared_direction"):
             if params.get(key) is not None:
-                why = "this crystal has no Born charges" if crystal.nac is None else \
-                    "the infrared response is drawn for the Born charges of a BORN file (this yaml carries its own)"
-                raise SceneError(scene.source, f"system.{key}", f"is set, but {why}: name the BORN file in "
-                                 "system.born_file")
+                raise SceneError(scene.source, f"system.{key}", "is set, but this crystal has no Born charges: "
+                                 "name the BORN file in system.born_file (or read a yaml with a nac section)")
         return
     from vibra.crystals import infrared_response
 
     nac = crystal.nac
-    if nac is None:  # pragma: no cover - read_phonopy(born=) always gives the correction
-        raise SceneError(scene.source, "system.born_file", "gave no non-analytic correction")
+    where = "system.born_file" if params.get("born_file") is not None else "system.file"  # the charges' source
+    if nac is None:  # pragma: no cover - read_phonopy gives the correction of a BORN file or a nac section
+        raise SceneError(scene.source, where, "gave no non-analytic correction")
     try:  # what the crystal-infrared step would refuse (a cell not primitive, an unstable optical mode)
         infrared_response(crystal, nac.born, nac.dielectric, factor=nac.factor)
     except (ValueError, RuntimeError) as error:
-        raise SceneError(scene.source, "system.born_file", f"the infrared response is not defined: {error}") from None
+        raise SceneError(scene.source, where, f"the infrared response is not defined: {error}") from None
 
 
 def light_direction(scene: Scene) -> NDArray[np.float64]:

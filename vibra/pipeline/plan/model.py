@@ -163,9 +163,17 @@ def make_plan(scene: Scene) -> Plan:
 
 
 def polar_crystal(scene: Scene) -> bool:
-    """True for a crystal scene whose crystal carries Born charges (a phonopy scene's ``born_file``):
-    its bands show the LO-TO split and the plan adds its infrared response."""
-    return scene.kind == "crystal" and scene.system.parameters.get("born_file") is not None
+    """True for a crystal scene whose crystal carries Born charges (a phonopy scene's ``born_file``,
+    or the ``nac`` section of its yaml): its bands show the LO-TO split and the plan adds its
+    infrared response."""
+    if scene.kind != "crystal" or scene.system.builder != "phonopy":
+        return False
+    params = scene.system.parameters
+    if params.get("born_file") is not None:
+        return True
+    from vibra.pipeline.scene.files import phonopy_yaml_summary
+
+    return phonopy_yaml_summary(scene.source, params["file"]).born
 
 
 def crystal_steps(scene: Scene) -> list[Step]:

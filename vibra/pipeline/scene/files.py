@@ -9,6 +9,7 @@ with that cap, so what was checked is what is parsed.
 
 from __future__ import annotations
 
+import functools
 import os
 import stat
 from pathlib import Path
@@ -99,6 +100,31 @@ def scene_inputs(scene: Any) -> tuple[Path, ...]:
     return tuple(paths)
 
 
+@functools.lru_cache(maxsize=32)
+def _yaml_summary(path: str, mtime_ns: int, size: int) -> Any:
+    from vibra.crystals.phonopy_files import check_phonopy_yaml
+
+    return check_phonopy_yaml(path)
+
+
+def phonopy_yaml_summary(source: str, name: str, key: str = "system.file") -> Any:
+    """`vibra.crystals.phonopy_files.check_phonopy_yaml` of the phonopy yaml `name` beside the scene
+    `source`, read once per version of the file (a scene is loaded, validated and planned: one
+    parse); a refusal names `key`.
+
+    Raises
+    ------
+    SceneError
+        The path's refusals (`scene_data_path`), or a yaml that is not whole.
+    """
+    path = scene_data_path(source, key, name)
+    info = path.stat()
+    try:
+        return _yaml_summary(str(path), info.st_mtime_ns, info.st_size)
+    except ValueError as error:
+        raise SceneError(source, key, f"{name!r}: {str(error).removeprefix(f'{path}: ')}") from None
+
+
 def check_phonopy_scene_files(source: str, params: Any) -> dict[str, Path | None]:
     """A phonopy crystal scene's files (``system.file``, ``system.force_constants_file``,
     ``system.force_sets_file``, ``system.born_file``), each inside the scene's folder and whole (`vibra.crystals`'s
@@ -110,7 +136,7 @@ def check_phonopy_scene_files(source: str, params: Any) -> dict[str, Path | None
         A path outside the folder, a missing or special file, a file that is cut or damaged
         (the key, the file, the line and what is missing), both extra files given.
     """
-    from vibra.crystals.phonopy_files import check_force_constants_file, check_force_sets_file, check_phonopy_yaml
+    from vibra.crystals.phonopy_files import check_force_constants_file, check_force_sets_file
 
     paths: dict[str, Path | None] = {}
     for key in ("file", "force_constants_file", "force_sets_file", "born_file"):  # a BORN file is checked against the crystal
@@ -119,23 +145,22 @@ def check_phonopy_scene_files(source: str, params: Any) -> dict[str, Path | None
     if paths["force_constants_file"] is not None and paths["force_sets_file"] is not None:
         raise SceneError(source, "system.force_sets_file", "is given with system.force_constants_file; give one of "
                          "them (force constants, or the forces phonopy makes them from)")
-    checks = (("file", check_phonopy_yaml), ("force_constants_file", check_force_constants_file),
-              ("force_sets_file", check_force_sets_file))
     n_supercell = None
-    for key, check in checks:
+    if paths["file"] is not None:
+        found = phonopy_yaml_summary(source, params["file"])
+        n_supercell = found.n_supercell
+        if not (found.force_constants or found.forces) and paths["force_constants_file"] is None \
+                and paths["force_sets_file"] is None:
+            raise SceneError(source, "system.file", f"{params['file']!r} holds no force constants and no forces; name "
+                             "its FORCE_CONSTANTS file (system.force_constants_file) or its FORCE_SETS file "
+                             "(system.force_sets_file)")
+    for key, check in (("force_constants_file", check_force_constants_file), ("force_sets_file", check_force_sets_file)):
         path = paths[key]
         if path is None:
             continue
         try:
-            found = check(path) if key == "file" else check(path, n_supercell)  # type: ignore[call-arg]
+            check(path, n_supercell)
         except ValueError as error:
             raise SceneError(source, f"system.{key}", f"{params[key]!r}: {str(error).removeprefix(f'{path}: ')}") \
                 from None
-        if key == "file":
-            n_supercell = found.n_supercell  # type: ignore[union-attr]
-            if not (found.force_constants or found.forces) and paths["force_constants_file"] is None \
-                    and paths["force_sets_file"] is None:  # type: ignore[union-attr]
-                raise SceneError(source, "system.file", f"{params[key]!r} holds no force constants and no forces; name "
-                                 "its FORCE_CONSTANTS file (system.force_constants_file) or its FORCE_SETS file "
-                                 "(system.force_sets_file)")
     return paths
