@@ -37,6 +37,25 @@ def dask_client():
 
 
 @pytest.fixture()
+def client_timeouts(monkeypatch):
+    """The ``timeout=`` of every ``distributed.Client`` opened during the test (the real client is
+    still opened: a refused connection is the library's own). A test checks that its timeout
+    reached Dask instead of timing the call: a wall-clock bound fails on a loaded machine."""
+    import distributed
+
+    seen: list[object] = []
+    real = distributed.Client
+
+    class Recording(real):  # type: ignore[misc, valid-type]
+        def __init__(self, *args, **kwargs):
+            seen.append(kwargs.get("timeout"))
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(distributed, "Client", Recording)
+    return seen
+
+
+@pytest.fixture()
 def codata_phonopy():
     """phonopy with scipy's constants for the duration of one test, its defaults restored after
     (its own are older CODATA values: thermal and DOS comparisons would differ by ~1e-7)."""

@@ -63,12 +63,11 @@ def test_open_client_is_left_open(dask_client) -> None:
     assert dask_client.status == "running"
 
 
-def test_unreachable_address_raises_within_the_timeout() -> None:
-    start = time.perf_counter()
+def test_unreachable_address_raises_within_the_timeout(client_timeouts) -> None:
     with pytest.raises(cluster.ClusterError, match=r"no Dask scheduler answered at 'tcp://127\.0\.0\.1:9' within 1 s"):
         with cluster.connect("tcp://127.0.0.1:9", timeout=1.0):
             pass
-    assert time.perf_counter() - start < 15
+    assert client_timeouts == [1.0]  # Dask was told the timeout (no clock: STYLE.md, tests)
 
 
 def test_run_tasks_keeps_order_and_failures_apart(dask_client) -> None:

@@ -264,14 +264,13 @@ def _umask() -> int:
 
 
 # ---------------------------------------------------------------- bad input
-def test_unreachable_scheduler_fails_within_the_timeout_and_writes_nothing(tmp_path) -> None:
+def test_unreachable_scheduler_fails_within_the_timeout_and_writes_nothing(tmp_path, client_timeouts) -> None:
     atoms = mol.h2o_atoms()
     calc = mol.ValenceForceField(mol.valence_model(atoms))
-    start = time.perf_counter()
     with pytest.raises(ClusterError, match=r"no Dask scheduler answered at 'tcp://127\.0\.0\.1:9' within 1 s"):
         mol.finite_difference_hessian(atoms, calc, client="tcp://127.0.0.1:9", timeout=1.0,
                                       cache=tmp_path / "cache")
-    assert time.perf_counter() - start < 15
+    assert client_timeouts == [1.0]
     assert not (tmp_path / "cache").exists()
 
 

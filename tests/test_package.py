@@ -60,17 +60,16 @@ def test_import_vibra_is_light() -> None:
 
 
 def test_star_import_binds_all_and_costs_no_more_than_import_vibra() -> None:
-    code = (
-        "import sys, time\n"
-        "start = time.perf_counter(); import vibra; middle = time.perf_counter()\n"
+    code = (  # the cost as modules imported, not as a time (no clock in tests)
+        "import sys\n"
+        "import vibra; before = set(sys.modules)\n"
         "from vibra import *\n"
-        "end = time.perf_counter()\n"
         "names = dict(globals())\n"
-        "print(end - middle)\n"
+        "print(sorted(m for m in set(sys.modules) - before if not m.startswith('vibra')))\n"
         "print(all(name in names for name in vibra.__all__))\n"
         f"print(sorted(m for m in {HEAVY!r} if m in sys.modules))\n"
     )
     extra, bound, heavy = _run(code).split("\n")[:3]
-    assert float(extra) < 0.3
+    assert extra == "[]"  # only vibra's own lazily bound modules
     assert bound == "True"
     assert heavy == "[]"
