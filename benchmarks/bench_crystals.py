@@ -31,6 +31,8 @@ the imports is not the figure, as ``getrusage(...).ru_maxrss`` would give) minus
 memory before it (``VmRSS``), after a setup of imports, the crystal, its phonopy object, the
 q-points, and the same call on a tiny input (caches, numba's compiled kernels). Resident memory
 counts every allocation (numpy, phonopy's C/Rust, numba), which tracemalloc would not. Writes results/crystals.json (times) and results/crystals_memory.json.
+``--memory --real``: the same for phonopy's NaCl and ZnO with Gonze-Lee's correction (frequencies,
+bands, DOS and thermal properties on a 20^3 mesh; results/crystals_memory_real.json).
 
 Real force sets (``--real``, issue 42; ``--real --quick``: 200 q, an 8^3 mesh, ZnO and SnO2, a
 4^3 Al supercell, one round, under a minute): phonopy's own NaCl, MgO, ZnO and SnO2 examples
@@ -160,6 +162,10 @@ def run(mesh: int) -> dict:
 
 CALLS = ("vibra frequencies", "phonopy run_qpoints", "vibra band_structure", "phonopy run_band_structure",
          "vibra dos", "phonopy mesh + total_dos")
+#: ... and for the real force sets with the LO-TO correction (``--memory --real``), thermal too.
+REAL_CALLS = (*CALLS, "vibra thermal", "phonopy mesh + thermal")
+#: The real cases of ``--memory --real``: a 2-atom and a 4-atom cell, Gonze-Lee.
+REAL_MEMORY_CASES = ("real:NaCl:gonze", "real:ZnO:gonze")
 
 
 def _status_kib(field: str) -> int:
@@ -193,6 +199,11 @@ def _call(call: str, crystal: Crystal, phonon: object, q_points: np.ndarray, seg
     elif call == "phonopy mesh + total_dos":
         phonon.run_mesh([mesh] * 3, is_gamma_center=True)
         phonon.run_total_dos(use_tetrahedron_method=True)
+    elif call == "vibra thermal":
+        crystal.thermal_properties(np.linspace(10.0, 1000.0, 100), mesh=[mesh] * 3)
+    elif call == "phonopy mesh + thermal":
+        phonon.run_mesh([mesh] * 3, is_gamma_center=True)
+        phonon.run_thermal_properties(temperatures=np.linspace(10.0, 1000.0, 100))
     else:
         raise SystemExit(f"unknown call {call!r}")
 
@@ -205,8 +216,7 @@ def one_call(label: str, call: str, mesh: int, inputs: str) -> dict:
     same call once on a tiny input (2 q-points, a 2^3 mesh: imports, numba's compiled kernels,
     phonopy's caches), so that the peak counts the call's own arrays.
     """
-    crystal = cases()[label]
-    phonon = crystal.to_phonopy()
+    crystal, phonon = _memory_case(label)
     data = np.load(inputs)
     q_points, bounds, omega_points = data["q"], data["segments"], data["omega"]
     segments = [q_points[a:b + 1] for a, b in bounds]
@@ -221,22 +231,33 @@ def one_call(label: str, call: str, mesh: int, inputs: str) -> dict:
             "setup_mib": base / 1024, "ru_maxrss_whole_run_mib": ru_peak / 1024}
 
 
-def run_memory(mesh: int) -> dict:
+def _memory_case(label: str) -> tuple[Crystal, object]:
+    """(crystal, phonopy object) of a memory case: a spring model of `cases`, or ``real:NAME:NAC``
+    (phonopy's force set NAME with its Born charges, `_load`)."""
+    if label.startswith("real:"):
+        _, name, nac = label.split(":")
+        return _load(name, nac)
+    crystal = cases()[label]
+    return crystal, crystal.to_phonopy()
+
+
+def run_memory(mesh: int, real: bool = False) -> dict:
     """Each call of each case in a fresh process; the peak resident memory above its setup."""
     import os
     import tempfile
 
     rows = []
     to_thz = get_physical_units().DefaultToTHz
-    for label, crystal in cases().items():
+    labels = REAL_MEMORY_CASES if real else tuple(cases())
+    for label in labels:
+        crystal, phonon = _memory_case(label)
         bands = crystal.band_structure(npoints=2000)
-        phonon = crystal.to_phonopy()
         phonon.run_mesh([8] * 3, is_gamma_center=True)   # phonopy's frequency points span the same range
         phonon.run_total_dos(use_tetrahedron_method=True)
         inputs = Path(tempfile.mkdtemp()) / "inputs.npz"
         np.savez(inputs, q=bands.qpoints, segments=np.array(bands.segments),
                  omega=phonon.total_dos.frequency_points / to_thz)
-        for call in CALLS:
+        for call in REAL_CALLS if real else CALLS:
             out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one", label, call, "--mesh",
                                   str(mesh), "--inputs", str(inputs)], check=True, capture_output=True, text=True,
                                  env={**os.environ, "VIBRA_BENCH_THREADS": THREADS})
@@ -580,7 +601,10 @@ def main() -> None:
         write_json("crystals_chunks", run_chunks(mesh))
         return
     if args.memory:
-        write_json("crystals_memory", run_memory(mesh), 1)
+        if args.real:  # the corrected paths on phonopy's force sets (a 20^3 mesh, as --real times them)
+            write_json("crystals_memory_real", run_memory(args.mesh or 20, real=True), 1)
+        else:
+            write_json("crystals_memory", run_memory(mesh), 1)
         return
     if args.real:
         sizes = (dict(n_q=200, n_path=200, mesh=8, n_temperatures=20, names=("ZnO", "SnO2")) if args.quick else

@@ -260,6 +260,14 @@ class Crystal:
         """What D(q) is made of (`vibra.crystals.dynamical.assembly`), formed once per crystal."""
         return dynamical.assembly(self)
 
+    @functools.cached_property
+    def nac_parts(self) -> Any:
+        """What D(q) with the correction is made of (`vibra.crystals.nac.parts`: the short-range
+        crystal, the Ewald or phase-sum tables), formed once per crystal; None without `nac`."""
+        from vibra.crystals.nac import parts
+
+        return None if self.nac is None else parts(self, self.nac)
+
     @property
     def index_asymmetry(self) -> float:
         """How far the force constants break Phi(i 0; j R) = Phi(j 0; i -R)^T, relative to their largest entry.

@@ -344,6 +344,10 @@ def _matrices(parts: Assembly, q: NDArray[np.float64], phase: str,
     return matrices
 
 
+#: The 27 lattice vectors around the nearest one (`brillouin_qpoints`).
+_SHIFTS = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)], dtype=float)
+
+
 def brillouin_qpoints(qpoints: NDArray[np.float64], reciprocal: NDArray[np.float64]
                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(q - G, G): each q moved into the first Brillouin zone (Wigner-Seitz cell of the reciprocal lattice).
@@ -353,13 +357,16 @@ def brillouin_qpoints(qpoints: NDArray[np.float64], reciprocal: NDArray[np.float
     phonopy's); one farther out is moved to its nearest image.
     """
     base = np.rint(qpoints)
-    shifts = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)], dtype=float)
-    candidates = base[:, None, :] + shifts[None, :, :]                        # (n_q, 27, 3) lattice vectors G
-    lengths = np.linalg.norm((qpoints[:, None, :] - candidates) @ reciprocal, axis=2)
-    best = np.argmin(lengths, axis=1)
-    own = np.linalg.norm(qpoints @ reciprocal, axis=1)
-    keep = own <= lengths[np.arange(len(best)), best] * (1.0 + 1e-12)
-    lattice = np.where(keep[:, None], 0.0, candidates[np.arange(len(best)), best])
+    metric = reciprocal @ reciprocal.T                                         # |x B|^2 = x M x
+    offset = qpoints - base                                                    # in [-1/2, 1/2]
+    # |(offset - s) B|^2 for the 27 shifts s at once: x M x - 2 x M s + s M s (one small product)
+    squared = (np.einsum("qa,ab,qb->q", offset, metric, offset)[:, None] - 2.0 * (offset @ (metric @ _SHIFTS.T))
+               + np.einsum("sa,ab,sb->s", _SHIFTS, metric, _SHIFTS)[None, :])
+    nearest = squared.min(axis=1)
+    best = np.argmax(squared <= nearest[:, None] * (1.0 + 2e-12), axis=1)  # of equal images, the first shift
+    own = np.einsum("qa,ab,qb->q", qpoints, metric, qpoints)
+    keep = own <= nearest * (1.0 + 2e-12)
+    lattice = np.where(keep[:, None], 0.0, base + _SHIFTS[best])
     return qpoints - lattice, lattice
 
 

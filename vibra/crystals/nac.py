@@ -68,9 +68,10 @@ FACTOR_SI = constants.e ** 2 / (4.0 * np.pi * constants.epsilon_0)
 #: phonopy's |q| (Cartesian, no 2 pi) below which q is Gamma, in 1 / Angstrom.
 Q_ZERO_ANGSTROM = 1e-5
 #: Array entries per chunk of q-points for the analytic part, D(q) from force constants (complex
-#: entries of the largest temporary: 16 MiB each; `dynamical_matrices` prepares its terms once per chunk).
-CHUNK_ENTRIES = 1 << 20
-#: ... and per sub-chunk of the Ewald sum, whose (q, G, 3n) temporaries stay in cache (1 MiB each:
+#: entries of the largest temporary: 4 MiB each; `dynamical_matrices` prepares its terms once per chunk).
+#: 16 MiB ran no faster on phonopy's NaCl and ZnO (2,000 q, within the noise) and held 7 MiB more.
+CHUNK_ENTRIES = 1 << 18
+#: ... and per sub-chunk of the Ewald sum, whose (q, G) temporaries stay in cache (1 MiB each:
 #: 2000 q-points of NaCl ran 1.5x faster than with 4 MiB).
 EWALD_ENTRIES = 1 << 16
 
@@ -332,8 +333,56 @@ def _chunks(start: int, stop: int, per_q: int, entries: int) -> Iterator[slice]:
         yield slice(first, min(stop, first + size))
 
 
-def _ewald_sum(nac: NonAnalytic, q_cart: NDArray[np.float64], direction: NDArray[np.float64] | None,
-               positions: NDArray[np.float64], tolerance: float) -> NDArray[np.complex128]:
+@dataclass(frozen=True, eq=False)
+class Parts:
+    """What D(q) with the correction is made of, formed once per crystal (`parts`, kept by
+    `Crystal.nac_parts`): the crystal whose force constants give the analytic part (the
+    short-range set for Gonze-Lee, the crystal's own for Wang) and the q-independent tables of
+    the correction."""
+
+    base: Any                                        # Crystal
+    table: Any                                       # _EwaldTable (Gonze-Lee) or Wang's sum table
+
+
+@dataclass(frozen=True, eq=False)
+class _EwaldTable:
+    """The q-independent parts of the Gonze-Lee reciprocal sum (`_ewald_sum`)."""
+
+    g: NDArray[np.float64]            # (n_g, 3) G
+    g_squared: NDArray[np.float64]    # (n_g,) |G|^2
+    eps_g: NDArray[np.float64]        # (n_g, 3) eps G
+    g_eps_g: NDArray[np.float64]      # (n_g,) G eps G
+    pair: NDArray[np.complex128]      # (n_g, n^2) P_ij(G) = exp(2 pi i G . (r_i - r_j))
+    moments_real: NDArray[np.float64]  # (n_g, 13 n^2) [1, G_d, G_c G_d] P_ij(G), real part
+    moments_imag: NDArray[np.float64]  # ... and imaginary part
+    charges: NDArray[np.float64]      # (n^2, 9, 9) Z_ica Z_jdb, rows cd, columns ab
+
+
+def parts(crystal: Crystal, nac: NonAnalytic) -> Parts:
+    """The analytic crystal and the q-independent tables of `nac` on `crystal` (`Parts`)."""
+    n = crystal.n_atoms
+    if nac.method != "gonze":
+        assert nac.phase_sums is not None
+        return Parts(base=crystal, table=_sum_table(nac.phase_sums, n))
+    assert nac.short_range is not None and nac.g_vectors is not None
+    g = np.ascontiguousarray(nac.g_vectors, dtype=float)
+    eps_g = g @ nac.dielectric  # eps is symmetric
+    separation = (crystal.positions[:, None, :] - crystal.positions[None, :, :]).reshape(-1, 3)  # r_i - r_j
+    pair = np.exp(2j * np.pi * (g @ separation.T))
+    n_g = g.shape[0]
+    moments = np.concatenate([pair[:, None, :], g[:, :, None] * pair[:, None, :],
+                              (g[:, :, None] * g[:, None, :]).reshape(n_g, 9)[:, :, None] * pair[:, None, :]],
+                             axis=1).reshape(n_g, 13 * n * n)
+    born = nac.born
+    charges = np.einsum("ica,jdb->ijcdab", born, born).reshape(n * n, 9, 9)
+    table = _EwaldTable(g=g, g_squared=(g * g).sum(axis=1), eps_g=eps_g, g_eps_g=(g * eps_g).sum(axis=1),
+                        pair=pair, moments_real=np.ascontiguousarray(moments.real),
+                        moments_imag=np.ascontiguousarray(moments.imag), charges=charges)
+    return Parts(base=crystal.with_force_constants(nac.short_range), table=table)
+
+
+def _ewald_sum(nac: NonAnalytic, table: _EwaldTable, q_cart: NDArray[np.float64], direction: NDArray[np.float64] | None,
+               tolerance: float) -> NDArray[np.complex128]:
     """(n_c, 3n, 3n) the Gonze-Lee reciprocal sum (module docstring) before the factor and masses.
 
     C_ia,jb(q) = sum_G w(K) (K Z_i)_a (K Z_j)_b exp(2 pi i G . (r_i - r_j)) - delta_ij dd_q0_i, K = q + G,
@@ -341,41 +390,40 @@ def _ewald_sum(nac: NonAnalytic, q_cart: NDArray[np.float64], direction: NDArray
     K_c K_d = q_c q_d + q_c G_d + G_c q_d + G_c G_d, so the sum over G is one real product of the
     weights w(q, G) with the q-independent moments [1, G_d, G_c G_d] P_ij(G) for every q at once,
     then a 9 x 9 contraction with the charges per q and atom pair: phonopy's arithmetic in a few
-    large products instead of a small matrix product per q. A K below the tolerance (Gamma) takes
-    the direction of approach instead, or drops out without one, as phonopy's.
+    large products instead of a small matrix product per q. |K|^2 and K eps K are expanded the
+    same way (q-independent G parts, one product q G^T): q lies in the first Brillouin zone, so
+    |K| >= |G| / 2 wherever G != 0 and the expansion costs at most a few ulps of K eps K; at
+    G = 0 it is q's own. A K below the tolerance (Gamma) takes the direction of approach
+    instead, or drops out without one, as phonopy's.
     """
-    assert nac.g_vectors is not None and nac.ewald is not None and nac.dd_q0 is not None
-    g = nac.g_vectors
+    assert nac.ewald is not None and nac.dd_q0 is not None
     eps = nac.dielectric
-    n = positions.shape[0]
-    n_c, n_g = q_cart.shape[0], g.shape[0]
-    k = q_cart[:, None, :] + g[None, :, :]
-    small = (k * k).sum(axis=2) < tolerance ** 2
-    kek = np.einsum("qgc,cd,qgd->qg", k, eps, k)
+    n = nac.born.shape[0]
+    n_c = q_cart.shape[0]
+    q_g = q_cart @ table.g.T
+    k_squared = (q_cart * q_cart).sum(axis=1)[:, None] + 2.0 * q_g + table.g_squared
+    small = k_squared < tolerance ** 2
+    kek = np.einsum("qc,cd,qd->q", q_cart, eps, q_cart)[:, None] + 2.0 * (q_cart @ table.eps_g.T) + table.g_eps_g
     safe = np.where(small, 1.0, kek)
-    weight = np.where(small, 0.0, np.exp(-safe / (4.0 * nac.ewald ** 2)) / safe)
-    separation = (positions[:, None, :] - positions[None, :, :]).reshape(-1, 3)  # r_i - r_j, (n^2, 3)
-    pair = np.exp(2j * np.pi * (g @ separation.T))                               # P_ij(G), (n_g, n^2)
-    moments = np.concatenate([pair[:, None, :], g[:, :, None] * pair[:, None, :],
-                              (g[:, :, None] * g[:, None, :]).reshape(n_g, 9)[:, :, None] * pair[:, None, :]],
-                             axis=1).reshape(n_g, 13 * n * n)
+    weight = np.exp(safe * (-0.25 / nac.ewald ** 2))
+    weight /= safe
+    weight[small] = 0.0
     summed = np.empty((n_c, 13 * n * n), dtype=complex)
-    summed.real = weight @ moments.real
-    summed.imag = weight @ moments.imag
+    summed.real = weight @ table.moments_real
+    summed.imag = weight @ table.moments_imag
     summed = summed.reshape(n_c, 13, n * n)
     zeroth, first, second = summed[:, 0], summed[:, 1:4], summed[:, 4:].reshape(n_c, 3, 3, n * n)
     m = (q_cart[:, :, None, None] * q_cart[:, None, :, None] * zeroth[:, None, None, :]
          + q_cart[:, :, None, None] * first[:, None, :, :] + q_cart[:, None, :, None] * first[:, :, None, :]
          + second)                                                                  # (n_c, 3c, 3d, n^2)
-    born = nac.born
-    charges = np.einsum("ica,jdb->cdijab", born, born).reshape(9, n * n, 9)
-    block = np.einsum("qkp,kpm->qpm", m.reshape(n_c, 9, n * n), charges, optimize=True)
-    matrices = block.reshape(n_c, n, n, 3, 3).transpose(0, 1, 3, 2, 4).reshape(n_c, 3 * n, 3 * n)
+    block = np.matmul(m.reshape(n_c, 9, n * n).transpose(2, 0, 1), table.charges)     # (n^2, n_c, 9 ab)
+    matrices = block.reshape(n, n, n_c, 3, 3).transpose(2, 0, 3, 1, 4).reshape(n_c, 3 * n, 3 * n)
     if direction is not None and small.any():  # K = 0 approached along the direction: w = 1 / (d eps d), K -> d
+        born = nac.born
         along = direction @ born.transpose(1, 0, 2).reshape(3, 3 * n)             # (d Z_i)_a, (3n,)
         term = np.outer(along, along) / float(direction @ eps @ direction)
         for q_index, g_index in zip(*np.nonzero(small)):
-            phase = pair[g_index].reshape(n, n).repeat(3, axis=0).repeat(3, axis=1)
+            phase = table.pair[g_index].reshape(n, n).repeat(3, axis=0).repeat(3, axis=1)
             matrices[q_index] += term * phase
     for i in range(n):
         matrices[:, 3 * i:3 * i + 3, 3 * i:3 * i + 3] -= nac.dd_q0[i]
@@ -457,17 +505,17 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
     scale = strength / np.outer(root, root)
     q_cart = q @ np.linalg.inv(crystal.cell).T
     n3 = 3 * n
+    made = crystal.nac_parts if nac is crystal.nac else parts(crystal, nac)  # formed once per crystal
+    base = made.base
     if nac.method == "gonze":
-        assert nac.short_range is not None and nac.g_vectors is not None
-        base = crystal.with_force_constants(nac.short_range)
+        assert nac.g_vectors is not None
         weights = None
         per_q = base.require_force_constants().n_terms + 4 * n3 * n3
-        ewald_per_q = 3 * nac.g_vectors.shape[0] + 30 * n * n + 4 * n3 * n3
+        ewald_per_q = 4 * nac.g_vectors.shape[0] + 30 * n * n + 4 * n3 * n3
     else:
         assert nac.phase_sums is not None
-        base = crystal  # the analytic part: the crystal's own force constants (its assembly formed once)
         weights = nac.phase_sums
-        sum_table = _sum_table(nac.phase_sums, n)
+        sum_table = made.table
         cells = abs(round(float(np.linalg.det(nac.supercell))))
         per_q = base.require_force_constants().n_terms + nac.phase_sums.n_terms + 6 * n3 * n3
     out = np.empty((q.shape[0], n3, n3), dtype=complex)
@@ -476,7 +524,7 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
         if weights is None:
             for sub in _chunks(part.start, part.stop, ewald_per_q, EWALD_ENTRIES):
                 local = slice(sub.start - part.start, sub.stop - part.start)
-                matrices[local] += _ewald_sum(nac, q_cart[sub], direction, crystal.positions, tolerance) * scale
+                matrices[local] += _ewald_sum(nac, made.table, q_cart[sub], direction, tolerance) * scale
         else:  # Wang: f / N (q Z_i)(q Z_j)^T / (q eps q) times the phase sums S_ij(q) / sqrt(m_i m_j)
             vectors = q_cart[part]
             active = (vectors * vectors).sum(axis=1) >= tolerance ** 2
