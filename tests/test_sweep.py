@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from vibra.pipeline.scene import SceneError, load_scene
 from vibra.pipeline.sweep import SweepTable, ensemble, grid, member_rng, parse_vary, sweep, vary
 
 DEFECT = Path(__file__).resolve().parent.parent / "chains" / "mass-defect.toml"
+ROOT = DEFECT.parent.parent
 SEED = 20261123
 
 
@@ -253,3 +255,30 @@ def test_the_tasks_of_a_large_grid_are_made_when_read() -> None:
     assert labels[-1] == "point 1000000: k=2" and tasks[1:3][1][1] == 2
     with pytest.raises(IndexError):
         tasks[1_000_001]
+
+
+# ---------------------------------------------------------------------- what a sweep does not apply to
+FPUT = ROOT / "dynamics" / "fput-alpha.toml"
+
+
+@pytest.mark.parametrize("scene, key, low, high, match", [
+    (ROOT / "crystals" / "argon-fcc.toml", "system.stiffness", 0.04, 0.06,
+     r"argon-fcc\.toml: kind: a crystal scene has phonon branches over the wave vector"),
+    (FPUT, "compute.dt", 0.05, 0.1, r"compute\.dt: changes only a dynamics scene's run: .* every point would be the same"),
+    (FPUT, "draw.n_modes_drawn", 1, 3, r"draw\.n_modes_drawn: changes no solve"),
+])
+def test_a_sweep_that_cannot_vary_the_table_is_refused_up_front(scene, key, low, high, match) -> None:
+    with pytest.raises(SceneError, match=match):
+        sweep(scene, vary(key, low, high, 3))
+
+
+def test_a_sweep_whose_points_are_all_equal_warns() -> None:
+    from vibra.pipeline.sweep import SweepWarning
+
+    # FPUT's alpha is the cubic term: the normal modes are the harmonic chain's at every alpha
+    with pytest.warns(SweepWarning, match=r"all 3 points of system\.alpha gave the same frequencies"):
+        table = sweep(FPUT, vary("system.alpha", 0.1, 0.3, 3))
+    assert len(table.rows) == 3
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SweepWarning)  # a key that changes the modes: no warning
+        sweep(DEFECT, vary("system.defect_mass", 0.2, 0.6, 3))

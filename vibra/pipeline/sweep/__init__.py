@@ -71,7 +71,7 @@ from vibra.pipeline.sweep.points import (
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
            "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS",
-           "point_seconds"]
+           "point_seconds", "SweepWarning", "SOLVE_KEYS", "NOT_SWEPT", "check_swept_keys"]
 
 # ---------------------------------------------------------------------- results
 @dataclass(frozen=True, eq=False)
@@ -261,6 +261,28 @@ def _scene_at(data: Mapping[str, Any], source: str, values: Mapping[str, Any]) -
         return Scene.from_dict(table, source=source), table
 
 
+#: The scene keys outside ``[system]`` that change a sweep's table: the units and what `_solve_scene`
+#: reads of ``[compute]``. Any other key (a dynamics scene's time step, a chart's setting) changes
+#: no point: sweeping it is refused up front (`check_swept_keys`).
+SOLVE_KEYS = ("units", "compute.n_modes", "compute.accuracy", "compute.band", "compute.solver")
+#: Scene kinds a sweep does not apply to, and why (one line each).
+NOT_SWEPT = {
+    "oscillator": "an oscillator scene has no normal modes to sweep",
+    "crystal": "a crystal scene has phonon branches over the wave vector, not one list of normal modes: vibra sweep "
+               "does not apply to it (vary the crystal in a script and tabulate Crystal.frequencies at the q you want)",
+}
+
+
+def check_swept_keys(keys: Sequence[str], source: str, kind: str) -> None:
+    """Refuse a swept key that changes no point of the table (a key outside ``[system]`` and `SOLVE_KEYS`)."""
+    for key in keys:
+        if key.startswith("system.") or key in SOLVE_KEYS:
+            continue
+        what = "only a dynamics scene's run" if kind == "dynamics" and key.startswith("compute.") else "no solve"
+        raise SceneError(source, key, f"changes {what}: a sweep tabulates the normal modes of the scene's system, "
+                         f"so every point would be the same; vary a key of [system] or one of {', '.join(SOLVE_KEYS)}")
+
+
 def _solve_scene(table: Mapping[str, Any], source: str, vectors: bool = False) -> tuple[Any, Any, str]:
     scene = Scene.from_dict(table, source=source)
     system = build_system(scene)
@@ -430,7 +452,26 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     if units is None:
         units = rows[0][0].units if rows else ""
     keys = points.keys if isinstance(points, Grid) else ("member",)
+    _warn_if_constant(rows, keys, table_name)
     return SweepTable(name=table_name, keys=tuple(keys), units=units or "", rows=_tracked(rows, keys))
+
+
+class SweepWarning(UserWarning):
+    """A sweep whose points all gave the same table row: the swept keys change no normal mode."""
+
+
+def _warn_if_constant(rows: Sequence[tuple[SweepRow, Any]], keys: Sequence[str], name: str) -> None:
+    """Warn when every point gave the same frequencies and derived values, bit for bit (e.g. a
+    dynamics scene's anharmonic coefficient: its normal modes are the harmonic system's)."""
+    if len(rows) < 2:
+        return
+    first = rows[0][0]
+    if all(np.array_equal(row.omega, first.omega) and row.derived == first.derived for row, _ in rows[1:]):
+        import warnings
+
+        warnings.warn(f"{name}: all {len(rows)} points of {', '.join(keys)} gave the same frequencies: the swept "
+                      "key(s) change no normal mode of the system (a dynamics scene's anharmonic terms, for "
+                      "one, do not enter its harmonic modes)", SweepWarning, stacklevel=3)
 
 
 def _tracked(results: Sequence[tuple[SweepRow, Any]], keys: Sequence[str]) -> tuple[SweepRow, ...]:
@@ -525,11 +566,12 @@ def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name
     else:
         data, source = _scene_table(target)
         scene, _ = _scene_at(data, source, {})
-        if scene.kind == "oscillator":
-            raise ValueError(f"{source}: an oscillator scene has no normal modes to sweep")
+        if scene.kind in NOT_SWEPT:
+            raise SceneError(source, "kind", NOT_SWEPT[scene.kind])
         if isinstance(points, Grid):
             for values in points.points:  # every point validated before any work (not kept)
                 _scene_at(data, source, dict(zip(points.keys, values)))
+            check_swept_keys(points.keys, source, scene.kind)
         elif points.draw is None:
             raise ValueError("an ensemble of a scene needs draw(generator) -> {key: value}, the values of each member")
         payload, units, table_name = (data, source), scene.units, name or scene.name
