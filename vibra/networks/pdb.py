@@ -28,7 +28,8 @@ from numpy.typing import NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 
-__all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX", "StructureWarning", "check_pdb_text"]
+__all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX", "StructureWarning", "check_pdb_text",
+           "check_mmcif", "MMCIF_COLUMNS"]
 
 MAX_FILE_BYTES = 512 * 2**20  #: largest structure file `from_pdb` reads, checked before reading
 PEPTIDE_BOND_MAX = 2.0  #: longest C-N distance (Å) read as a peptide bond (1.33 Å in a chain)
@@ -43,6 +44,62 @@ _B_FACTOR_END = 66
 
 class StructureWarning(UserWarning):
     """A structure file that may be incomplete, read anyway (the message names the file and line)."""
+
+
+#: The ``_atom_site`` columns Biopython's mmCIF reader needs (one of each tuple; its own list).
+MMCIF_COLUMNS: tuple[tuple[str, ...], ...] = (
+    ("id",), ("label_atom_id",), ("label_comp_id",), ("auth_asym_id", "label_asym_id"),
+    ("auth_seq_id", "label_seq_id"), ("Cartn_x",), ("Cartn_y",), ("Cartn_z",), ("label_alt_id",),
+    ("pdbx_PDB_ins_code",), ("B_iso_or_equiv",), ("occupancy",), ("group_PDB",),
+)
+#: Columns whose every value must be a number ("." and "?" allowed where mmCIF allows a value to be unknown).
+_MMCIF_NUMBERS = {"Cartn_x": False, "Cartn_y": False, "Cartn_z": False, "B_iso_or_equiv": True, "occupancy": True}
+
+
+def check_mmcif(file: Path) -> dict[str, Any]:
+    """The mmCIF dictionary of `file` (Biopython's ``MMCIF2Dict``) after checking its atom records
+    whole: a ``data_`` block, an ``_atom_site`` loop with every column `MMCIF_COLUMNS` names, as
+    many values in each column (a cut file or a row that misses a field breaks this), and numbers
+    where numbers belong, the first bad row named.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file and what is wrong.
+    """
+    from Bio.PDB.MMCIF2Dict import MMCIF2Dict
+
+    try:
+        table = MMCIF2Dict(str(file))
+    except Exception as error:  # Biopython's tokenizer raises ValueError and others on malformed text
+        raise ValueError(f"{file}: not an mmCIF file ({' '.join(str(error).split())}); expected a 'data_' block "
+                         "with an _atom_site loop") from None
+    prefix = "_atom_site."
+    if not any(key.startswith(prefix) for key in table):
+        raise ValueError(f"{file}: no _atom_site loop (the atom records of an mmCIF file); nothing to read")
+    for names in MMCIF_COLUMNS:
+        if not any(prefix + name in table for name in names):
+            raise ValueError(f"{file}: the _atom_site loop has no column {' or '.join(prefix + n for n in names)}")
+    columns = {key: value for key, value in table.items() if key.startswith(prefix)}
+    lengths = {len(value) if isinstance(value, list) else 1 for value in columns.values()}
+    if len(lengths) > 1:
+        raise ValueError(f"{file}: the _atom_site loop's {len(columns)} columns hold {min(lengths)} to {max(lengths)} "
+                         "values: the file is cut, or a row misses a field")
+    for name, unknown_allowed in _MMCIF_NUMBERS.items():
+        values = columns[prefix + name]
+        for row, value in enumerate(values if isinstance(values, list) else [values], start=1):
+            if unknown_allowed and value in (".", "?"):
+                continue
+            try:
+                number = float(value)
+            except ValueError:
+                number = float("nan")
+            if not np.isfinite(number):
+                atom = columns[prefix + "id"]
+                atom_id = atom[row - 1] if isinstance(atom, list) else atom
+                raise ValueError(f"{file}: _atom_site row {row} (atom id {atom_id}): {name} is {value!r}, not a "
+                                 "number; a field of that row (or one before it) is missing or damaged") from None
+    return table
 
 
 def check_pdb_text(text: str, name: str) -> tuple[str, ...]:
@@ -237,7 +294,8 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     cif = file.suffix.lower() in (".cif", ".mmcif")
     text = None if cif else file.read_text(encoding="latin-1")
     notes = list(check_pdb_text(text, str(file))) if text is not None else []
-    atoms = _read_atoms(file, backbone=selection == "CA", text=text, model=model, altloc=altloc)
+    table = check_mmcif(file) if cif else None  # whole before Biopython reads it: its errors name no row
+    atoms = _read_atoms(file, backbone=selection == "CA", text=text, model=model, altloc=altloc, table=table)
     held = sorted({atom[0].split(":")[0] for atom in atoms})
     if wanted_chains is not None:
         atoms = [atom for atom in atoms if atom[0].split(":")[0] in wanted_chains]
@@ -281,6 +339,32 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     )
 
 
+def _cif_structure(parser: Any, file: Path, table: dict[str, Any], backbone: bool) -> Any:
+    """Biopython's structure from an mmCIF dictionary already read and checked (what
+    ``MMCIFParser.get_structure`` does after its own reading; through the reading when a
+    Biopython lacks those steps), its ``_atom_site`` rows cut to N, CA and C for a backbone."""
+    import warnings as _warnings
+
+    from Bio.PDB.PDBExceptions import PDBConstructionWarning
+
+    steps = [getattr(parser, name, None) for name in ("_build_structure", "_get_header")]
+    builder = getattr(parser, "_structure_builder", None)
+    if None in steps or builder is None:  # pragma: no cover - another Biopython: read the file itself
+        return parser.get_structure(file.stem, str(file))
+    if backbone:
+        names = table["_atom_site.label_atom_id"]
+        keep = [i for i, name in enumerate(names) if name in _BACKBONE]
+        table = {key: ([value[i] for i in keep] if key.startswith("_atom_site.") and isinstance(value, list)
+                       else value)
+                 for key, value in table.items() if not key.startswith("_atom_site_anisotrop.")}
+    with _warnings.catch_warnings():
+        _warnings.filterwarnings("ignore", category=PDBConstructionWarning)
+        parser._mmcif_dict = table
+        steps[0](file.stem)
+        builder.set_header(steps[1]())
+    return builder.get_structure()
+
+
 def _decimal_float64(values: NDArray[np.float32]) -> NDArray[np.float64]:
     """Biopython keeps coordinates in float32; its shortest repr gives back the file's decimals
     (PDB 8.3f: at most 7 significant digits) as float64."""
@@ -292,14 +376,16 @@ _BACKBONE = frozenset({"N", "CA", "C"})
 
 
 def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, model: int = 1,
-                altloc: str | None = None) -> list[tuple[str, str, NDArray[np.float32], float, bool, int]]:
+                altloc: str | None = None, table: dict[str, Any] | None = None
+                ) -> list[tuple[str, str, NDArray[np.float32], float, bool, int]]:
     """(residue label, atom name, xyz, B, in an amino acid, residue number) of each atom of the
     `model`-th model (from 1), of each residue's `altloc` conformation where it has one, else its first.
 
     `backbone`: a PDB file's ATOM/HETATM records of other atoms than N, CA and C are dropped
     before Biopython parses it (a C-alpha selection needs no more; 2.5 times fewer atoms to
     parse in a protein). `text`: the PDB file's content when already read (what was checked is
-    what is parsed).
+    what is parsed); `table`: an mmCIF file's dictionary when already read (`check_mmcif`), used
+    as it is instead of a second reading, its rows likewise cut to the backbone.
     """
     from Bio.PDB.MMCIFParser import MMCIFParser  # here only: `import vibra.networks` needs no Biopython
     from Bio.PDB.PDBParser import PDBParser
@@ -317,7 +403,8 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, 
                      if not line.startswith(("ATOM", "HETATM")) or line[12:16].strip() in _BACKBONE]
         source = io.StringIO("".join(lines))
     try:
-        structure = parser.get_structure(file.stem, source)
+        structure = _cif_structure(parser, file, table, backbone) if cif and table is not None \
+            else parser.get_structure(file.stem, source)
     except Exception as error:  # Biopython raises several types on malformed input
         raise ValueError(f"{file}: cannot be read as {'mmCIF' if cif else 'PDB'}: {error}") from None
     models = list(structure)
