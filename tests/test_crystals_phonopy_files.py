@@ -206,3 +206,70 @@ def test_from_phonopy_refuses_born_charges_off_the_sum_rule_in_one_line() -> Non
         crystals.from_phonopy(phonon)
     assert "\n" not in str(raised.value) and "sum_rule='force'" in str(raised.value)
     assert crystals.from_phonopy(phonon, nac=False).nac is None    # the force constants alone
+
+
+# ---------------------------------------------------------------------- phonopy's own FORCE_CONSTANTS writer
+REAL = Path(__file__).resolve().parent / "data" / "phonopy" / "NaCl"
+
+
+@pytest.fixture(scope="module")
+def phonopy_written(tmp_path_factory) -> dict[str, Path]:
+    """NaCl's force constants written by phonopy's own write_FORCE_CONSTANTS, full and compact
+    (phonopy ends these files without a line break)."""
+    import warnings
+
+    from phonopy.file_IO import write_FORCE_CONSTANTS
+
+    folder = tmp_path_factory.mktemp("phonopy_fc")
+    files = {}
+    for compact in (False, True):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            phonon = phonopy.load(REAL / "phonopy_disp.yaml", force_sets_filename=REAL / "FORCE_SETS",
+                                  is_compact_fc=compact, is_nac=False, log_level=0)
+        path = folder / ("FORCE_CONSTANTS_compact" if compact else "FORCE_CONSTANTS_full")
+        write_FORCE_CONSTANTS(phonon.force_constants, str(path),
+                              p2s_map=phonon.primitive.p2s_map if compact else None)
+        files["compact" if compact else "full"] = path
+        files["phonon"] = phonon  # type: ignore[assignment]  (the two hold the same force constants)
+    return files
+
+
+@pytest.mark.parametrize("kind", ["full", "compact"])
+def test_phonopy_s_own_force_constants_file_is_read(phonopy_written: dict, kind: str) -> None:
+    path = phonopy_written[kind]
+    assert not path.read_text().endswith("\n")  # phonopy's writer: "\n".join(lines), no final break
+    crystal = crystals.read_phonopy(REAL / "phonopy_disp.yaml", force_constants=path, symmetrize=False)
+    phonon = phonopy_written["phonon"]
+    q = [[0.1, 0.2, 0.3], [0.5, 0.0, 0.5]]
+    phonon.run_qpoints(q)
+    from phonopy.physical_units import get_physical_units
+
+    # the same force constants in both codes: equal to rounding (1e-10 relative away from Gamma, issue 42)
+    # in phonopy's own unit conversion (its CODATA differs from scipy's by 1.2e-7)
+    np.testing.assert_allclose(crystal.frequencies(q) * get_physical_units().DefaultToTHz,
+                               phonon.qpoints.frequencies, rtol=1e-10)
+
+
+@pytest.mark.parametrize("line, text, message", [
+    (9, "1 7", r"line 10: block 3 is the pair '1 7'; phonopy's order puts '1 3' there"),
+    (257, "1 1", r"line 258: block 65 is the pair '1 1'; its first atom should be above 1 \(line 2\)"),
+    (21, "1.5 6", r"line 22: block 6 is the pair '1\.5 6'; an atom pair is two whole atom numbers"),
+    (5, "2 2", r"line 6: block 2 is the pair '2 2'; phonopy's order puts '1 2' there \(its row starts with atom 1 "
+               r"at line 2"),
+])
+def test_a_block_out_of_place_is_refused(phonopy_written: dict, tmp_path: Path, line: int, text: str,
+                                         message: str) -> None:
+    lines = phonopy_written["compact"].read_text().splitlines(keepends=True)
+    lines[line] = text + "\n"
+    bad = tmp_path / "FORCE_CONSTANTS"
+    bad.write_text("".join(lines))
+    with pytest.raises(ValueError, match=message):
+        crystals.read_phonopy(REAL / "phonopy_disp.yaml", force_constants=bad)
+
+
+def test_a_cut_last_number_of_phonopy_s_file_is_still_refused(phonopy_written: dict, tmp_path: Path) -> None:
+    cut = tmp_path / "FORCE_CONSTANTS"
+    cut.write_text(phonopy_written["compact"].read_text()[:-5])
+    with pytest.raises(ValueError, match=r"the last line has no line break, so its last number may be cut"):
+        crystals.read_phonopy(REAL / "phonopy_disp.yaml", force_constants=cut)

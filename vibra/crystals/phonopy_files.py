@@ -260,9 +260,15 @@ def _check_displacements(source: Path, text: str, data: dict[str, Any], n_super:
     return with_forces > 0
 
 
-def _ends_whole(source: Path, text: str) -> None:
-    """A text file phonopy wrote ends with a line break; without one the last number may be cut."""
+def _ends_whole(source: Path, text: str, row_width: int | None = None) -> None:
+    """A text file phonopy wrote ends with a line break; without one the last number may be cut.
+
+    phonopy's own ``write_FORCE_CONSTANTS`` ends without one: its rows have one fixed width
+    ("%22.15f" x 3), so `row_width` given, a last line of that width is whole (a cut number
+    would shorten it)."""
     if text and not text.endswith("\n"):
+        if row_width is not None and len(text.rsplit("\n", 1)[-1]) == row_width:
+            return
         raise ValueError(f"{source}: line {text.count(chr(10)) + 1}: the last line has no line break, so its last "
                          f"number may be cut; {_CUT} (if it is whole, end it with a line break)")
 
@@ -304,6 +310,7 @@ def check_force_constants_file(path: str | os.PathLike[str], n_supercell: int | 
     body = [(number, line) for number, line in enumerate(lines[1:], start=2) if line.strip()]
     expected = n * m
     whole = len(body) // 4
+    firsts: list[tuple[int, int]] = []  # (atom i, line) of each row's first block
     for block in range(min(whole + 1, expected)):
         chunk = body[4 * block:4 * block + 4]
         if len(chunk) < 4:
@@ -311,9 +318,11 @@ def check_force_constants_file(path: str | os.PathLike[str], n_supercell: int | 
             raise ValueError(f"{source}: line {last}: block {block + 1} of {expected} stops after {len(chunk)} of its "
                              f"4 lines; the header (line 1) announces {n} x {m} blocks; {_CUT}")
         number, pair = chunk[0]
-        if _numbers(pair, 2) is None:
+        labels = _numbers(pair, 2)
+        if labels is None:
             raise ValueError(f"{source}: line {number}: is {pair.strip()[:40]!r}; block {block + 1} starts with "
                              "its atom pair 'i j'")
+        _check_pair(source, number, block, labels, n, m, firsts)
         for number, row in chunk[1:]:
             if _numbers(row, 3) is None:
                 raise ValueError(f"{source}: line {number}: is {row.strip()[:60]!r}; a force-constant row reads 3 "
@@ -321,10 +330,37 @@ def check_force_constants_file(path: str | os.PathLike[str], n_supercell: int | 
     if whole != expected or len(body) != 4 * expected:
         raise ValueError(f"{source}: line {body[-1][0] if body else 1}: the file holds {whole} whole blocks; the header "
                          f"(line 1) announces {n} x {m} = {expected}" + (f"; {_CUT}" if whole < expected else ""))
-    _ends_whole(source, text)
+    widths = [len(line) for _, line in body[-8:-1] if len(line.split()) == 3]  # the force rows before the last
+    _ends_whole(source, text, widths[-1] if widths and len(set(widths)) == 1 else None)
     if n_supercell is not None and m != n_supercell:
         raise ValueError(f"{source}: line 1: holds {n} x {m} blocks; the supercell of the yaml has {n_supercell} atoms")
     return n, m
+
+
+def _check_pair(source: Path, number: int, block: int, labels: Any, n: int, m: int,
+                firsts: list[tuple[int, int]]) -> None:
+    """Block `block`'s atom pair "i j" against phonopy's order: row r = block // m of the n atoms
+    (i = r + 1 for a full n x n set; for a compact one the supercell index of the r-th primitive
+    atom, increasing), column j = block % m + 1. phonopy's reader takes the blocks in order and
+    checks only the set of i, so a pair out of place would be read as another pair silently.
+    `firsts`: (i, line) of each row's first block so far."""
+    if any(x != int(x) for x in labels):
+        raise ValueError(f"{source}: line {number}: block {block + 1} is the pair {' '.join(f'{x:g}' for x in labels)!r}; "
+                         "an atom pair is two whole atom numbers 'i j'")
+    i, j = (int(x) for x in labels)
+    row, column = divmod(block, m)
+    order = f"the blocks go in phonopy's order: i over the {n} atoms, j over the {m}"
+    if column == 0:
+        if (n == m and i != row + 1) or (firsts and i <= firsts[-1][0]) or not 1 <= i <= m:
+            expected = f"{row + 1}" if n == m else f"above {firsts[-1][0]} (line {firsts[-1][1]})" if firsts else \
+                f"in 1..{m}"
+            raise ValueError(f"{source}: line {number}: block {block + 1} is the pair '{i} {j}'; its first atom should "
+                             f"be {expected} ({order})")
+        firsts.append((i, number))
+    first, line = firsts[-1]
+    if i != first or j != column + 1:
+        raise ValueError(f"{source}: line {number}: block {block + 1} is the pair '{i} {j}'; phonopy's order puts "
+                         f"'{first} {column + 1}' there (its row starts with atom {first} at line {line}; {order})")
 
 
 def check_force_sets_file(path: str | os.PathLike[str], n_supercell: int | None = None) -> int:
