@@ -64,9 +64,10 @@ CHUNK_ENTRIES = 1 << 16
 #: scale of |k| itself, so truncation ~(step / |k|)^2 = 1e-10 relative, rounding ~eps |k| / step ~1e-11.
 NAC_DERIVATIVE_STEP = 1e-5
 
-#: Entries of D(q) per call of a polar crystal's correction (16 MiB of complex D): it forms its
-#: short-range and phase-sum parts once per call, so fewer, larger calls.
-POLAR_CHUNK = 1 << 20
+#: Entries of D(q) per call of a polar crystal's correction (4 MiB of complex D; its parts are
+#: kept per crystal, `Crystal.nac_parts`): 16 MiB ran 0-3 % faster on phonopy's NaCl and ZnO and
+#: held 4-6 MiB more at 2,000 q (bench_crystals --memory --real).
+POLAR_CHUNK = 1 << 18
 
 #: Two eigenvalues within this many of their error bounds are one degenerate level.
 DEGENERACY_BOUNDS = 1e4

@@ -68,9 +68,9 @@ FACTOR_SI = constants.e ** 2 / (4.0 * np.pi * constants.epsilon_0)
 #: phonopy's |q| (Cartesian, no 2 pi) below which q is Gamma, in 1 / Angstrom.
 Q_ZERO_ANGSTROM = 1e-5
 #: Array entries per chunk of q-points for the analytic part, D(q) from force constants (complex
-#: entries of the largest temporary: 4 MiB each; `dynamical_matrices` prepares its terms once per chunk).
-#: 16 MiB ran no faster on phonopy's NaCl and ZnO (2,000 q, within the noise) and held 7 MiB more.
-CHUNK_ENTRIES = 1 << 18
+#: entries of the largest temporary: 1 MiB each; `dynamical_matrices` prepares its terms once per chunk).
+#: 4 and 16 MiB ran no faster on phonopy's NaCl and ZnO (2,000 q, within the noise) and held more.
+CHUNK_ENTRIES = 1 << 16
 #: ... and per sub-chunk of the Ewald sum, whose (q, G) temporaries stay in cache (1 MiB each:
 #: 2000 q-points of NaCl ran 1.5x faster than with 4 MiB).
 EWALD_ENTRIES = 1 << 16
@@ -510,14 +510,14 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
     if nac.method == "gonze":
         assert nac.g_vectors is not None
         weights = None
-        per_q = base.require_force_constants().n_terms + 4 * n3 * n3
+        per_q = 4 * n3 * n3  # the chunk's own arrays: the analytic part bounds its terms itself
         ewald_per_q = 4 * nac.g_vectors.shape[0] + 30 * n * n + 4 * n3 * n3
     else:
         assert nac.phase_sums is not None
         weights = nac.phase_sums
         sum_table = made.table
         cells = abs(round(float(np.linalg.det(nac.supercell))))
-        per_q = base.require_force_constants().n_terms + nac.phase_sums.n_terms + 6 * n3 * n3
+        per_q = 2 * sum_table[0].shape[0] + 8 * n3 * n3  # its phases and the (n_c, 3n, 3n) products
     out = np.empty((q.shape[0], n3, n3), dtype=complex)
     for part in _chunks(0, q.shape[0], per_q, CHUNK_ENTRIES):
         matrices = dynamical_matrices(base, q[part], analytic=True)
