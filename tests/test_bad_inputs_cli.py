@@ -496,6 +496,7 @@ def test_a_folder_where_an_output_file_goes_fails_that_scene(tmp_path: Path,
     scene_file.write_text(chain(draw="spectrum = true\n"))
     out = tmp_path / "out"
     (out / "small_spectrum.png").mkdir(parents=True)
+    (out / ".vibra").mkdir()  # a folder vibra wrote before (another folder is refused whole: test_hostile_files)
     code, stdout, err = run_cli(capsys, "report", str(scene_file), "--out", str(out), "--quiet", "--jobs", "1")
     assert code == 1
     assert f"FAILED {scene_file}: name: this scene's output file {out / 'small_spectrum.png'}: is a folder; vibra " \
@@ -1130,7 +1131,7 @@ def test_a_killed_writers_temporary_files_go_with_the_next_write(command: str, t
     # command that writes the same file removes it, and a live writer's stays
     dead, live = _dead_pid(), os.getpid()
     out = tmp_path / "out"
-    out.mkdir()
+    (out / ".vibra").mkdir(parents=True)  # the killed writer had claimed the folder (vibra._io.claim_out_folder)
     if command == "sweep":
         name = "mass-defect_sweep.csv"
         args = ["sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary", "system.defect_mass=0.2:0.8:2",
@@ -1160,6 +1161,7 @@ def test_a_killed_reports_work_folder_goes_with_the_next_report(tmp_path: Path,
     out = tmp_path / "out"
     dead = _dead_pid()
     (out / ".work" / str(dead) / "c0" / "out").mkdir(parents=True)
+    (out / ".vibra").mkdir()  # the killed run had claimed the folder (vibra._io.claim_out_folder)
     (out / ".work" / str(dead) / "c0" / "out" / "c0_spectrum.png").write_bytes(b"\x89PNG half")
     stale = out / f".summary.json.{dead}~tmp~abcd1234.tmp"
     stale.write_text("{")

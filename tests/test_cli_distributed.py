@@ -27,8 +27,8 @@ def test_sweep_writes_table_and_chart_each_row_against_montroll_potts(tmp_path, 
     code = main(["sweep", str(DEFECT), "--vary", "system.defect_mass=0.2:0.7:6", "--out", str(tmp_path)])
     captured = capsys.readouterr()
     assert code == 0, captured.err
-    assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "mass-defect_sweep.csv", "mass-defect_sweep.json", "mass-defect_sweep.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [  # and .vibra/, the mark of vibra's own folder
+        ".vibra", "mass-defect_sweep.csv", "mass-defect_sweep.json", "mass-defect_sweep.png"]
     rows = list(csv.DictReader((tmp_path / "mass-defect_sweep.csv").open()))
     assert len(rows) == 6
     for row in rows:

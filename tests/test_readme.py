@@ -72,3 +72,15 @@ def test_every_local_link_and_image_exists() -> None:
     targets = re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", README)
     local = [t for t in targets if not re.match(r"[a-z]+://", t)]
     assert local and [t for t in local if not (ROOT / t).exists()] == []
+
+
+def test_the_quick_start_out_folder_is_vibra_s_own_in_a_fresh_clone() -> None:
+    """`--out plots` writes only into a new, empty or vibra-marked folder (vibra._io.claim_out_folder);
+    plots/ is committed with the showcase, so its .vibra/ mark is committed too."""
+    from vibra._io import OWN_MARK, claim_out_folder
+
+    tracked = subprocess.run(["git", "ls-files", "plots"], cwd=ROOT, capture_output=True, text=True).stdout.split()
+    if tracked:  # a git checkout: what a fresh clone holds
+        assert f"plots/{OWN_MARK}/README" in tracked
+    assert (ROOT / "plots" / OWN_MARK).is_dir()
+    claim_out_folder(ROOT / "plots", mark=False)  # no refusal: the quick start's report writes there

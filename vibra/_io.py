@@ -11,6 +11,19 @@ with the context manager `protected_inputs` (the command line and the report use
 existing regular file is replaced unless ``replace=False`` (the command line's ``--molden``
 without ``--force``). Nothing is opened, created or removed at a refused target.
 
+**Never in a system folder** (`system_folder`): nothing is written in ``/`` itself, nor in
+``/etc``, ``/usr``, ``/bin``, ``/proc``, ``/sys``, ``/dev`` ... or below them (`SYSTEM_TREES`,
+`SYSTEM_TOPS`), compared by resolved path (a symlink to ``/etc`` is ``/etc``); ``force`` or
+``--force`` never lifts this.
+
+**One rule for every output folder** (`check_out_folder`, then `claim_out_folder`, for the
+writers that fill a folder: ``vibra report``, ``vibra sweep``): the folder is created when
+missing; an existing one must be a writable folder outside the system folders, and either
+empty or vibra's own output, marked by a ``.vibra/`` folder (`OWN_MARK`) that vibra makes
+there when it first writes in it. Any other folder (a home folder, a project, a symlink to
+one) is refused unless ``force`` (``--force``). Inside it, vibra follows no symbolic link:
+its own names (``.vibra``, ``.work``, pages) must be real folders and files.
+
 A file is written to a temporary name in its destination folder (hidden, with the writer's pid:
 ``.<name>.<pid>~tmp~<random>``, see `temporary_owner`) (so the final rename never
 crosses file systems), given the mode an ordinary ``open()`` would give it (0666 less the
@@ -41,13 +54,26 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
 __all__ = ["atomic_write", "atomic_write_text", "atomic_write_bytes", "file_mode", "TEMPORARY_MARK",
-           "temporary_owner", "pid_alive", "remove_stale_temporaries", "TargetRefused", "check_target", "check_out_folder", "protected_inputs",
-           "describe_kind"]
+           "temporary_owner", "pid_alive", "remove_stale_temporaries", "TargetRefused", "check_target", "check_out_folder",
+           "claim_out_folder", "protected_inputs", "describe_kind", "system_folder", "SYSTEM_TREES", "SYSTEM_TOPS",
+           "OWN_MARK"]
 
 #: Between the writer's pid and mkstemp's random letters in a temporary name:
 #: ``.<target name>.<pid>~tmp~<random><suffix>``, so a temporary file left by a killed process
 #: can be told from one being written (`temporary_owner`).
 TEMPORARY_MARK = "~tmp~"
+
+#: Folders vibra never writes in, nor anywhere below them (resolved paths).
+SYSTEM_TREES = ("/bin", "/boot", "/dev", "/etc", "/lib", "/lib32", "/lib64", "/libx32", "/proc", "/run", "/sbin",
+                "/sys", "/usr", "/System", "/Library", "/private/etc", "/private/var/db")
+
+#: Folders vibra never writes in directly (their subfolders are the users' own: /home/ada, /var/tmp).
+SYSTEM_TOPS = ("/", "/home", "/media", "/mnt", "/opt", "/srv", "/var", "/Users", "/Volumes", "/private",
+               "/private/var")
+
+#: The folder that marks an output folder as vibra's own (`claim_out_folder`); ``vibra report``
+#: keeps its lock and skip records there.
+OWN_MARK = ".vibra"
 
 _UMASK_LOCK = threading.Lock()
 
@@ -127,6 +153,38 @@ def _same_file(target: Path, source: Path) -> bool:
         return False
 
 
+def system_folder(path: str | os.PathLike[str]) -> str | None:
+    """The system folder `path` is or lies in once resolved (`SYSTEM_TREES`: the folder or below;
+    `SYSTEM_TOPS`: the folder itself), or None.
+
+    >>> system_folder("/usr/share"), system_folder("/"), system_folder("/var"), system_folder("/var/tmp")
+    ('/usr', '/', '/var', None)
+    """
+    real = os.path.realpath(path)
+    for tree in SYSTEM_TREES:
+        if real == tree or real.startswith(tree + os.sep):
+            return tree
+    return real if real in SYSTEM_TOPS else None
+
+
+def _refuse_system(path: str | os.PathLike[str], folder: Path, option: str, verb: str) -> None:
+    """Refuse `path` when `folder` (where it is written, or the folder itself: `verb` says which),
+    or the existing folder in which `folder` would be created, is a system folder (`system_folder`)."""
+    places = [(folder, verb)]
+    existing = next((p for p in (folder, *folder.parents) if os.path.isdir(p)), None)
+    if existing is not None and existing != folder:
+        places.append((existing, "would be created in"))
+    for place, said in places:
+        system = system_folder(place)
+        if system is not None:
+            named = "the root folder /" if system == "/" else f"the system folder {system}"
+            real = os.path.realpath(place)
+            said = "is in" if said == "is" and real != system else said
+            seen = "" if os.path.abspath(place) == real else f" ({place} resolves to {real})"
+            raise TargetRefused(path, f"{said} {named}{seen}; vibra never writes in system folders, not even with "
+                                "--force; expected a folder of your own", option=option, code=errno.EPERM)
+
+
 def check_target(path: str | os.PathLike[str], *, option: str = "",
                  inputs: Iterable[str | os.PathLike[str]] = (), replace: bool = True,
                  force_hint: str = "replace=True") -> Path:
@@ -173,6 +231,7 @@ def check_target(path: str | os.PathLike[str], *, option: str = "",
             code = errno.EISDIR if stat.S_ISDIR(info.st_mode) else errno.EINVAL
             raise TargetRefused(path, f"is {describe_kind(info.st_mode)}; vibra writes regular files only; expected "
                                 "a file name (a regular file or a new name)", option=option, code=code)
+        _refuse_system(path, target.parent, option, "is in")
         if not replace:
             raise TargetRefused(path, f"exists; {force_hint} replaces it (or give a new name)", option=option,
                                 code=errno.EEXIST)
@@ -192,17 +251,22 @@ def check_target(path: str | os.PathLike[str], *, option: str = "",
             raise TargetRefused(path, f"its folder {folder} is {what}, not a folder; expected a path inside "
                                 "a folder", option=option, code=errno.ENOTDIR)
         break
+    _refuse_system(path, target.parent, option, "is in")
     return target
 
 
-def check_out_folder(path: str | os.PathLike[str], *, option: str = "--out") -> Path:
-    """Create the output folder `path` when missing and check it is a writable folder; return it.
+def check_out_folder(path: str | os.PathLike[str], *, option: str = "--out", create: bool = True) -> Path:
+    """Check that the output folder `path` is, or can be created as, a writable folder outside the
+    system folders; create it when missing (unless ``create=False``); return it.
+
+    A folder writer then checks its own names and calls `claim_out_folder` before it writes.
 
     Raises
     ------
     TargetRefused
         `path` (or the nearest existing parent) is a file, device, FIFO, socket, dangling
-        symlink or symlink loop, cannot be created, or is not writable.
+        symlink or symlink loop; it is, lies in or would be created in a system folder
+        (`system_folder`); it cannot be created, or is not writable.
     """
     target = Path(path)
     for folder in [target, *target.parents]:
@@ -226,6 +290,9 @@ def check_out_folder(path: str | os.PathLike[str], *, option: str = "--out") -> 
             raise TargetRefused(target, f"{where}is {what}; expected a folder (created when missing)", option=option,
                                 code=errno.ENOTDIR)
         break
+    _refuse_system(target, target, option, "is")
+    if not create and not os.path.isdir(target):
+        return target
     try:
         target.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -235,6 +302,55 @@ def check_out_folder(path: str | os.PathLike[str], *, option: str = "--out") -> 
         raise TargetRefused(target, f"the folder is not writable; choose another {option or 'folder'} or change its "
                             "permissions",
                             option=option, code=errno.EACCES)
+    return target
+
+
+def claim_out_folder(path: str | os.PathLike[str], *, option: str = "--out", force: bool = False,
+                     force_hint: str = "--force", mark: bool = True) -> Path:
+    """The ownership rule of an output folder: vibra writes into `path` only when it is empty,
+    new, or vibra's own output (it holds the `OWN_MARK` folder ``.vibra/``), or when `force`;
+    then (``mark=True``) it marks the folder as its own. Return `path`.
+
+    Call it after `check_out_folder` and the writer's own checks, before the first write;
+    ``mark=False`` checks only (before a long computation). A folder not there yet passes
+    (it is created empty).
+
+    Raises
+    ------
+    TargetRefused
+        `path` holds entries and no ``.vibra/`` folder (a home folder, a project, a symlink to
+        one), without `force`; or ``.vibra`` there is not a folder.
+    """
+    target = Path(path)
+    marker = target / OWN_MARK
+    try:
+        names = sorted(os.listdir(target))
+    except FileNotFoundError:
+        return target  # not created yet: it will be empty
+    except OSError as error:
+        raise TargetRefused(target, f"cannot be listed ({error.strerror}); expected a folder vibra can read",
+                            option=option, code=error.errno or errno.EACCES) from None
+    try:
+        own = stat.S_ISDIR(os.lstat(marker).st_mode)
+    except FileNotFoundError:
+        own = False
+    else:
+        if not own:
+            raise TargetRefused(target, f"{marker} is not a folder; vibra marks its output folders with a {OWN_MARK}/ "
+                                "folder; remove or rename it", option=option, code=errno.ENOTDIR)
+    if names and not own and not force:
+        more = f" and {len(names) - 1} more" if len(names) > 1 else ""
+        link = f"(a symlink to {os.readlink(target)}) " if os.path.islink(target) else ""
+        raise TargetRefused(target, f"{link}holds files vibra did not write ({names[0]!r}{more}) and no "
+                            f"{OWN_MARK}/ mark; vibra writes only into a new or empty folder or one it wrote "
+                            f"before; give such a folder, or {force_hint} to write there anyway", option=option,
+                            code=errno.ENOTEMPTY)
+    if mark and not own:
+        try:
+            marker.mkdir(exist_ok=True)
+        except OSError as error:
+            raise TargetRefused(target, f"cannot mark it as vibra's output ({error.strerror}); expected a writable "
+                                "folder", option=option, code=error.errno or errno.EACCES) from None
     return target
 
 

@@ -17,6 +17,10 @@ one of the run's inputs, the scene file or the .xyz / .pdb file it names):
   every run (all three are checked before any is written);
 - ``vibra modes --molden FILE``: a new FILE only; an existing one is replaced with ``--force``.
 
+Every ``--out DIR`` is new, empty or a folder vibra wrote before (marked by ``DIR/.vibra/``), unless
+``--force``, and never ``/`` nor a system folder (``/etc``, ``/usr``, ... `vibra._io.check_out_folder`,
+`vibra._io.claim_out_folder`).
+
 Exit codes: 0 success; 1 one or more scenes failed (invalid or failing), or the output folder
 is busy or unusable; 2 usage error (a bad option, a scene path that does not exist: nothing
 is written); 3 an unexpected internal error; 130 interrupted (Ctrl-C); 143 (129) terminated by
@@ -110,11 +114,13 @@ def build_parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="render scene files (or folders of *.toml) to PNG, summary.json, index.html")
     rep.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders (each must exist)")
     rep.add_argument("--out", default="plots", metavar="DIR",
-                     help="output folder (default: plots/); each run rewrites its own files there "
-                          "(<scene>_*.png, summary.json, index.html), never an input nor anything but a regular file")
+                     help="output folder (default: plots/): new, empty, or one vibra wrote before (else --force); "
+                          "each run rewrites its own files there (<scene>_*.png, summary.json, index.html), never an "
+                          "input nor anything but a regular file")
     rep.add_argument("--jobs", "-j", type=_positive_int("--jobs"), default=None, metavar="N",
                      help="parallel worker processes (default: the cores this process may use)")
-    rep.add_argument("--force", action="store_true", help="redo scenes whose inputs did not change")
+    rep.add_argument("--force", action="store_true", help="redo scenes whose inputs did not change, and write into "
+                     "an existing --out folder that vibra did not write (never a system folder)")
     rep.add_argument("--window-size", type=_window, default=None, metavar="WxH",
                      help="override the image size of every scene, e.g. 800x500")
     rep.add_argument("--wait", type=_seconds, default=60.0, metavar="SECONDS",
@@ -138,8 +144,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="a dotted key of the scene and its range, e.g. system.defect_mass=0.2:0.8:7 "
                           "(KEY=log:START:STOP:N for logarithmic spacing); repeat for a grid")
     swp.add_argument("--out", default="plots", metavar="DIR",
-                     help="output folder (default: plots/); each run rewrites <scene>_sweep.csv, .json and .png "
-                          "there (regular files only, never an input)")
+                     help="output folder (default: plots/): new, empty, or one vibra wrote before (else --force); "
+                          "each run rewrites <scene>_sweep.csv, .json and .png there (regular files only, never an "
+                          "input)")
+    swp.add_argument("--force", action="store_true", help="write into an existing --out folder that vibra did not "
+                     "write (never a system folder)")
     swp.add_argument("--max-points", type=_positive_int("--max-points"), default=None, metavar="N",
                      help="refuse grids of more than N points (default 100000); the refusal gives the count "
                           "and an estimate of the time from one solved point")
@@ -304,7 +313,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from vibra._io import TargetRefused, check_out_folder, check_target, protected_inputs
+    from vibra._io import TargetRefused, protected_inputs
     from vibra.charts import save_figure
     from vibra.charts.sweep import sweep_figure
     from vibra.cluster import ClusterError, check_client
@@ -324,10 +333,10 @@ def _sweep(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_USAGE
     try:
-        inputs = scene_inputs(load_scene(args.scene))
+        scene = load_scene(args.scene)
+        inputs = scene_inputs(scene)
         out = Path(args.out)
-        if os.path.lexists(out):  # an existing --out must be a writable folder; it is created after the solve
-            check_out_folder(out, option="--out")
+        _sweep_targets(out, scene.name, inputs, force=args.force, create=False)  # before the solve; made after it
         count, limit = len(points.points), args.max_points or DEFAULT_MAX_POINTS
         if ANNOUNCE_POINTS < count <= limit:  # a long sweep says so, once, even with --quiet
             seconds = point_seconds(args.scene, points)
@@ -336,10 +345,7 @@ def _sweep(args: argparse.Namespace) -> int:
         table = sweep(args.scene, points, client=args.scheduler, n_workers=args.jobs, timeout=args.timeout,
                       chunk_size=args.chunk_size, progress=not args.quiet,
                       max_points=args.max_points or DEFAULT_MAX_POINTS)
-        check_out_folder(out, option="--out")
-        targets = [out / f"{table.name}_sweep.{ending}" for ending in ("csv", "json", "png")]
-        for target in targets:  # all three checked before any is written
-            check_target(target, option="--out", inputs=inputs)
+        targets = _sweep_targets(out, table.name, inputs, force=args.force, create=True)
         with protected_inputs(inputs):
             written = [table.to_csv(targets[0]), table.to_json(targets[1]),
                        save_figure(sweep_figure(table)[0], targets[2])]
@@ -356,6 +362,20 @@ def _sweep(args: argparse.Namespace) -> int:
     for path in written:
         print(f"wrote {path}")
     return EXIT_OK
+
+
+def _sweep_targets(out: Path, name: str, inputs: Sequence[Any], *, force: bool, create: bool) -> list[Path]:
+    """The files of ``vibra sweep --out``: the folder rule (`vibra._io.check_out_folder`), then its three
+    targets, all checked before any is written (never an input), then the ownership rule
+    (`vibra._io.claim_out_folder`, which marks the folder when `create`)."""
+    from vibra._io import check_out_folder, check_target, claim_out_folder
+
+    check_out_folder(out, option="--out", create=create)
+    targets = [out / f"{name}_sweep.{ending}" for ending in ("csv", "json", "png")]
+    for target in targets:
+        check_target(target, option="--out", inputs=inputs)
+    claim_out_folder(out, option="--out", force=force, mark=create)
+    return targets
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate, solvers
 from vibra.solvers.standard import gpu
 from vibra._frozen import freeze_arrays, owned_arrays
-from vibra._results import ModesResult
+from vibra._results import ModesResult, Stored, stored
 from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -73,8 +73,13 @@ class Modes(ModesResult):
     smaller `Modes`), a short repr, `to_dict` / `from_dict`, and `save` / `load` (``.npz``).
     """
 
-    PER_MODE: ClassVar[dict[str, tuple[int, int]]] = {
-        "omega": (0, 1), "vectors": (1, 1), "shapes": (1, 1), "omega_error": (0, 1), "refined": (0, 1)}
+    STORED: ClassVar[dict[str, Stored]] = {  # how save / load / from_dict check each array (vibra._results)
+        "omega": stored(("n_modes",), finite=True),
+        "vectors": stored(("n_dof", "n_modes"), optional=True, finite=True),
+        "shapes": stored(("n_dof", "n_modes"), optional=True, finite=True),
+        "mass": stored(("n_dof",), ("n_dof", "n_dof"), finite=True),
+        "omega_error": stored(("n_modes",)),
+        "refined": stored(("n_modes",), kind="bool", optional=True)}
     PATH_FIELD: ClassVar[str] = "solver"
 
     omega: NDArray[np.float64]

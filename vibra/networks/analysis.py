@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays
-from vibra._io import atomic_write_text
+from vibra._io import atomic_write_text, check_target
 from vibra.modes import Modes
 
 __all__ = ["cross_correlations", "fit_bfactors", "BFactorFit", "collectivity", "hinges", "perturbation_response",
@@ -234,7 +234,12 @@ def write_nmd(path: str | os.PathLike[str], modes: Modes, structure: Any, *, tit
     """Write the nonzero `modes` of an ANM for VMD's NMWiz (``.nmd``, ProDy's ``writeNMD`` layout):
     names, residue names and numbers, chains, B-factors and coordinates from `structure` (a
     `vibra.networks.Structure` from `from_pdb`), then one line per mode: its index (from 1),
-    sqrt(1 / lambda) and the vector. Written atomically."""
+    sqrt(1 / lambda) and the vector. Written atomically (`vibra._io.atomic_write`), never over
+    the structure's own file (``structure.path``: the PDB it was read from) nor another input
+    of the run."""
+    source = getattr(structure, "path", None)
+    inputs = [source] if isinstance(source, (str, os.PathLike)) else []
+    check_target(path, inputs=inputs)  # before any work
     U, w = _sites(modes, 3)
     positions = np.asarray(getattr(structure, "positions", structure), dtype=float)
     if positions.ndim != 2 or positions.shape != (U.shape[0], 3):
@@ -257,7 +262,7 @@ def write_nmd(path: str | os.PathLike[str], modes: Modes, structure: Any, *, tit
     V = U.reshape(U.shape[0] * 3, -1)
     for index in range(V.shape[1]):
         lines.append(f"mode {index + 1} {np.sqrt(w[index]):.2f} " + " ".join(f"{x:.3f}" for x in V[:, index]))
-    return atomic_write_text(path, "\n".join(lines) + "\n")
+    return atomic_write_text(path, "\n".join(lines) + "\n", inputs=inputs)
 
 
 def superpose(target: ArrayLike, reference: ArrayLike) -> NDArray[np.float64]:

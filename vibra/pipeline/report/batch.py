@@ -31,7 +31,7 @@ from typing import Any, Callable, Sequence
 from vibra._io import TargetRefused, check_target, protected_inputs
 from vibra.cluster import check_client, connect, run_tasks
 from vibra.pipeline.report.folder import (
-    FOLDER_FILES, MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
+    MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
 )
 from vibra.pipeline.report.outcome import BatchResult, ProgressBar, SceneOutcome
 from vibra.pipeline.report.pages import merged_outcomes, write_index, write_summary
@@ -240,7 +240,9 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
     jobs : int
         Worker processes (1: run in this process).
     force : bool
-        Redo scenes whose inputs are unchanged since their last successful run.
+        Redo scenes whose inputs are unchanged since their last successful run, and write into an
+        existing folder that vibra did not write (by default `out_dir` must be new, empty or
+        vibra's own: `vibra._io.claim_out_folder`).
     window_size : (int, int), optional
         Override every scene's image size in pixels.
     progress : bool
@@ -265,8 +267,8 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
         A path does not exist (nothing is touched).
     ValueError
         `jobs` < 1 or `paths` holds no scene file.
-    NotADirectoryError, PermissionError
-        `out_dir` is not a writable folder (`check_out_dir`).
+    NotADirectoryError, vibra._io.TargetRefused
+        `out_dir` is not a writable folder report may fill (`check_out_dir`).
     FolderBusy
         Another run held the folder for longer than `wait`.
     """
@@ -287,9 +289,7 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
         check_client(scheduler, "scheduler")
     cluster = contextlib.nullcontext() if scheduler is None else connect(scheduler, n_workers=jobs, timeout=timeout)
     with cluster as client:  # an unreachable scheduler fails here, before the folder is touched
-        target = check_out_dir(out_dir)
-        for name in FOLDER_FILES:  # before any work: report's own files never replace a scene file
-            check_target(target / name, option="--out", inputs=files)
+        target = check_out_dir(out_dir, inputs=files, force=force)  # report's files never replace a scene file
         with FolderLock(target, wait=wait):
             clean_stale(target)
             try:

@@ -1,8 +1,11 @@
 """The output folder of `vibra report`: checked, locked, cleaned, and its files verified before reuse.
 
-- `check_out_dir`: the folder must be a folder (created when missing) that vibra can write;
-  a regular file, a dangling symlink, a symlink loop, a device (``/dev/null``) or a
-  read-only folder is refused with one line, before anything is written.
+- `check_out_dir`: the folder must be a folder (created when missing) that vibra can write,
+  outside the system folders, and new, empty or vibra's own output (``.vibra/``) unless
+  ``force`` (`vibra._io.check_out_folder`, `vibra._io.claim_out_folder`); a regular file, a
+  dangling symlink, a symlink loop, a device (``/dev/null``), a read-only folder, ``/``,
+  ``/etc`` or a folder of someone else's files (a symlink to one included) is refused with
+  one line, before anything is written.
 - `FolderLock`: one `vibra report` at a time per folder. The lock is ``DIR/.vibra/lock``, an
   ``fcntl.flock`` on an open file (released by the kernel when its holder dies, so a killed
   run never leaves the folder locked) holding the holder's pid, start time and command. A
@@ -18,6 +21,7 @@
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import functools
 import hashlib
@@ -29,13 +33,17 @@ import sys
 import time
 from pathlib import Path
 from types import TracebackType
+from typing import Iterable
 
-from vibra._io import atomic_write_text, check_out_folder, pid_alive, temporary_owner
+from vibra._io import (
+    OWN_MARK, TargetRefused, atomic_write_text, check_out_folder, check_target, claim_out_folder, describe_kind,
+    pid_alive, temporary_owner,
+)
 
 __all__ = ["MANIFESTS", "WORK", "LOCK_NAME", "PAGE_FOLDERS", "FolderBusy", "FolderLock", "check_out_dir", "pid_alive",
            "clean_stale", "output_is_sound", "code_hash", "work_folder"]
 
-MANIFESTS = ".vibra"
+MANIFESTS = OWN_MARK  # ".vibra": the skip records and the lock, and the mark of vibra's own folder
 WORK = ".work"
 LOCK_NAME = "lock"
 #: Files `report` itself writes in the output folder (checked to be files, not folders).
@@ -48,18 +56,22 @@ class FolderBusy(RuntimeError):
     """Another `vibra report` holds the output folder's lock (the message names it)."""
 
 
-def check_out_dir(path: str | os.PathLike[str]) -> Path:
-    """Create the output folder when missing and check it is a writable folder; return it.
+def check_out_dir(path: str | os.PathLike[str], *, inputs: Iterable[str | os.PathLike[str]] = (),
+                  force: bool = False) -> Path:
+    """Create the output folder when missing and check it is a writable folder report may fill; return it.
 
     The folder rule is `vibra._io.check_out_folder`; then the names report writes itself
     (``summary.json``, ``index.html``, ``references.html``, ``scenes/``, ``assets/``, ``.vibra/``,
-    ``.work/``) must be of the right kind.
+    ``.work/``) must be of the right kind and never a symbolic link, its own files never one of
+    `inputs` (the scene files), and the folder new, empty or vibra's own unless `force`
+    (`vibra._io.claim_out_folder`, which marks it).
 
     Raises
     ------
     vibra._io.TargetRefused
         `path` (or a parent) is a file, device, dangling symlink or symlink loop; the folder
-        (or the parent it would be made in) is not writable.
+        (or the parent it would be made in) is not writable or a system folder; a report file
+        would replace an input; the folder holds files vibra did not write (without `force`).
     NotADirectoryError
         One of report's own names is a folder where a file goes, or the reverse.
     """
@@ -69,10 +81,25 @@ def check_out_dir(path: str | os.PathLike[str]) -> Path:
         wanted_dir = name not in FOLDER_FILES
         if os.path.lexists(entry) and (entry.is_dir() != wanted_dir or entry.is_symlink()):
             role = "report pages" if name in PAGE_FOLDERS else "bookkeeping" if wanted_dir else "report"
-            raise NotADirectoryError(f"--out {target}: {entry} is {'not a folder' if wanted_dir else 'a folder'}"
-                                     f"; vibra writes its {role} there; "
+            what = (f"a symbolic link (to {os.readlink(entry)}), not a {'folder' if wanted_dir else 'file'}; vibra "
+                    "follows no link out of its output folder" if entry.is_symlink()
+                    else "not a folder" if wanted_dir else "a folder")
+            raise NotADirectoryError(f"--out {target}: {entry} is {what}; vibra writes its {role} there; "
                                      "remove or rename it")
-    return target
+    for name in (MANIFESTS, *PAGE_FOLDERS):  # report's own folders hold its regular files only
+        try:
+            entries = list(os.scandir(target / name))
+        except FileNotFoundError:
+            continue
+        for entry in entries:
+            kind = os.lstat(entry.path).st_mode
+            if not stat.S_ISREG(kind):
+                what = f"a symbolic link (to {os.readlink(entry.path)})" if stat.S_ISLNK(kind) else describe_kind(kind)
+                raise TargetRefused(entry.path, f"is {what}; vibra keeps only its own regular files in {name}/ and "
+                                    "follows no link out of its output folder; remove it", option="--out")
+    for name in FOLDER_FILES:  # before any work: report's own files never replace a scene file
+        check_target(target / name, option="--out", inputs=inputs)
+    return claim_out_folder(target, option="--out", force=force)
 
 
 def work_folder(out_dir: Path) -> Path:
@@ -91,7 +118,7 @@ def clean_stale(out_dir: Path) -> list[Path]:
     if work.is_dir():
         for entry in work.iterdir():
             owner = entry.name.split("-")[-1]  # "<pid>" (and the "<scene>-<pid>" of older versions)
-            if not owner.isdigit() or not pid_alive(int(owner)):
+            if entry.is_symlink() or not owner.isdigit() or not pid_alive(int(owner)):  # a link is never ours
                 if entry.is_dir() and not entry.is_symlink():
                     shutil.rmtree(entry, ignore_errors=True)
                 else:
@@ -109,9 +136,9 @@ def clean_stale(out_dir: Path) -> list[Path]:
 
 
 def output_is_sound(path: Path) -> bool:
-    """True when `path` is a non-empty regular file that decodes (PNG/GIF) or parses (JSON)."""
+    """True when `path` is a non-empty regular file (not a link) that decodes (PNG/GIF) or parses (JSON)."""
     try:
-        info = path.stat()
+        info = os.lstat(path)
     except OSError:
         return False
     if not stat.S_ISREG(info.st_mode) or info.st_size == 0:
@@ -180,7 +207,20 @@ class FolderLock:
     def acquire(self) -> None:
         """Take the lock, waiting up to `wait` seconds; raise `FolderBusy` naming the holder."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        descriptor = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        try:  # never through a link, nor a FIFO or a file linked elsewhere: the lock is truncated in place
+            descriptor = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o666)
+        except OSError as error:
+            if error.errno != errno.ELOOP:
+                raise
+            raise TargetRefused(self.path, "is a symbolic link; vibra follows no link out of its output folder; "
+                                "remove it", option="--out") from None
+        info = os.fstat(descriptor)
+        if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:
+            os.close(descriptor)
+            what = describe_kind(info.st_mode) if not stat.S_ISREG(info.st_mode) else \
+                f"a file with {info.st_nlink} names (a hard link)"
+            raise TargetRefused(self.path, f"is {what}; vibra keeps its own lock file there; remove it",
+                                option="--out")
         deadline = time.monotonic() + self.wait
         while True:
             try:

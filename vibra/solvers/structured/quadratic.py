@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays, owned_arrays
-from vibra._results import ModesResult
+from vibra._results import ModesResult, Stored, stored
 from vibra.solvers import budget as _budget
 from vibra.solvers.structured.equilibrated import check_mass_matrix, equilibrated_cholesky
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
@@ -103,9 +103,11 @@ class QuadraticModes(ModesResult):
     method: str
     units: UnitSystem = DIMENSIONLESS
 
-    PER_MODE: ClassVar[dict[str, tuple[int, int]]] = {
-        "natural_frequency": (0, 1), "eigenvalues": (0, 1), "shapes": (1, 1), "damping_ratio": (0, 1),
-        "omega_error": (0, 1), "state_vectors": (1, 2)}
+    STORED: ClassVar[dict[str, Stored]] = {  # how save / load / from_dict check each array (vibra._results)
+        "natural_frequency": stored(("n_modes",)), "eigenvalues": stored(("n_modes", 2), kind="complex"),
+        "shapes": stored(("n_dof", "n_modes"), kind="complex"), "damping_ratio": stored(("n_modes",)),
+        "omega_error": stored(("n_modes",)),
+        "state_vectors": stored((("n_dof", 2), ("n_modes", 2)), kind="complex")}
     PATH_FIELD: ClassVar[str] = "method"
 
     def __post_init__(self) -> None:
