@@ -10,8 +10,11 @@ Everything here works in place on float64 arrays over the free degrees of freedo
   positions over a time h (Zhang 1997; Minary, Martyna and Tuckerman 2003).
 - `nose_hoover_chain`: the symmetric Trotter half-step of a Nosé-Hoover chain (Martyna, Klein
   and Tuckerman 1992; Martyna, Tuckerman, Tobias and Klein 1996) over a time h.
-- `run`: n_steps of a composition scheme (kick coefficients `kicks`, drift coefficients
-  `drifts`; see `vibra.dynamics.schemes`), recording every `record_every` steps.
+- `run`: steps first..last of a run of a composition scheme (kick coefficients `kicks`, drift
+  coefficients `drifts`; see `vibra.dynamics.schemes`), recording every `record_every` steps;
+  `integrate` calls it over consecutive chunks of the run (`vibra.dynamics.cost.chunk_steps`),
+  which return to Python, and again with ``check`` over a chunk that ended outside the finite
+  numbers, to name the step where it left them.
 """
 
 from __future__ import annotations
@@ -19,7 +22,6 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
 
 __all__ = ["NONE", "ISOKINETIC", "NOSE_HOOVER", "forces_into", "isokinetic_kick", "nose_hoover_chain", "run"]
 
@@ -131,29 +133,53 @@ def nose_hoover_chain(v, masses, xi, eta, Q, kT, n_f, h):  # pragma: no cover
 
 
 @numba.njit(cache=True, nogil=True)
+def _finite_state(x, v, force, masses, xi, eta, n):  # pragma: no cover
+    """Whether every dof's m v^2 and x F are finite numbers (so x, v and F are, and their energies
+    unless a sum overflows), and the thermostat's variables."""
+    for i in range(n):
+        if not (math.isfinite(masses[i] * v[i] * v[i]) and math.isfinite(x[i] * force[i])
+                and math.isfinite(x[i]) and math.isfinite(force[i])):
+            return False
+    for j in range(xi.shape[0]):
+        if not (math.isfinite(xi[j]) and math.isfinite(eta[j])):
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
 def run(x, v, masses, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta,
         kicks, drifts, kind, kT, n_f, Q, xi, eta, two_kinetic, dt, n_steps, record_every,
-        rec_x, rec_v, rec_state):  # pragma: no cover
-    """Advance (x, v) and the thermostat (xi, eta) in place; fill the record arrays.
+        rec_x, rec_v, rec_state, force, carry, first, last, check):  # pragma: no cover
+    """Advance (x, v) and the thermostat (xi, eta) in place over steps first..last (1-based,
+    inclusive) of a run of n_steps; fill the record rows of those steps.
 
     Without a thermostat or with the isokinetic one, a step is the composition
     K(kicks[0] dt) D(drifts[0] dt) K(kicks[1] dt) ... D(drifts[-1] dt) K(kicks[-1] dt).
     With the Nosé-Hoover chain, `drifts` holds the weights w of symmetric sub-steps
     NHC(w dt / 2) K(w dt / 2) D(w dt) K(w dt / 2) NHC(w dt / 2) (one weight: velocity Verlet).
+
+    The run may be cut into calls over consecutive ranges (chunks): `force` ((n + 1,), the
+    forces at x) and `carry` ((1,), the kick pending from the last step) hold what one call
+    leaves to the next, so that the chunks do exactly the arithmetic of one call over 1..n_steps
+    (the call with first == 1 computes the first forces and records the initial state). With
+    `check`, the call stops after the first step whose state is not finite (`_finite_state`:
+    x, v, the forces at x, which go first where the last kick of a step is still pending, each
+    dof's m v^2 and x F, xi, eta) and returns that step's number; it returns 0 otherwise.
     """
     n = v.shape[0]                                    # x and force carry the wall's ghost entry n
     chain = xi.shape[0]
-    force = np.empty(n + 1)
     inverse_mass = 1.0 / masses
-    pending = kicks[0]
-    forces_into(x, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta, force)
-    row = 0
-    rec_x[row] = x[:n]
-    rec_v[row] = v
-    for j in range(chain):
-        rec_state[row, j] = xi[j]
-        rec_state[row, chain + j] = eta[j]
-    for step in range(1, n_steps + 1):
+    pending = carry[0]
+    if first == 1:
+        pending = kicks[0]
+        forces_into(x, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha, bond_beta, force)
+        rec_x[0] = x[:n]
+        rec_v[0] = v
+        for j in range(chain):
+            rec_state[0, j] = xi[j]
+            rec_state[0, chain + j] = eta[j]
+    row = (first - 1) // record_every
+    for step in range(first, last + 1):
         if kind == NOSE_HOOVER:
             for w in drifts:
                 h = w * dt
@@ -198,3 +224,8 @@ def run(x, v, masses, indptr, indices, data, bond_i, bond_j, bond_k, bond_alpha,
             for j in range(chain):
                 rec_state[row, j] = xi[j]
                 rec_state[row, chain + j] = eta[j]
+        if check and not _finite_state(x, v, force, masses, xi, eta, n):
+            carry[0] = pending
+            return step
+    carry[0] = pending
+    return 0

@@ -34,7 +34,7 @@ from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis, vibrational_analysis
 from vibra.molecules.checks import check_atoms
 from vibra.molecules.rigid_body import is_linear, principal_moments
-from vibra.spectra.thermochemistry import BOLTZMANN_EV_PER_K, thermochemistry
+from vibra.spectra.thermochemistry import BOLTZMANN_EV_PER_K, check_finite, thermochemistry, warn_negative_entropy
 from vibra.system import System, Vibrating
 
 if TYPE_CHECKING:
@@ -259,7 +259,14 @@ def ideal_gas_thermochemistry(
         No geometry; a geometry that is not a 3-D molecule in ASE units; modes of another
         atom count; a number of vibrations (real plus imaginary) other than 3N-6 (3N-5 linear,
         0 for one atom); a pressure or temperature not positive; a spin not a multiple of 1/2;
-        a symmetry number < 1.
+        a symmetry number < 1; a temperature at which a result is not a finite float (the message
+        names it).
+
+    Warns
+    -----
+    RuntimeWarning
+        The entropy comes out negative (the classical translation and rotation do not hold that
+        cold: below ~1 K for light molecules at 1 bar), naming the temperatures and the part.
 
     Examples
     --------
@@ -305,31 +312,40 @@ def ideal_gas_thermochemistry(
 
     k = BOLTZMANN_EV_PER_K
     k_si = constants.k
-    kt_si = k_si * temps
+    log_t = np.log(temps)              # logarithms of products of T: the products underflow at a tiny T
     mass_kg = float(np.sum(masses)) * constants.m_u
     translational = _part(
         temps, 2.5 * k * temps,
-        k * (np.log((2 * np.pi * mass_kg * kt_si / constants.h**2) ** 1.5 * kt_si / p) + 2.5), 2.5 * k)
+        k * (1.5 * (np.log(2 * np.pi * mass_kg * k_si / constants.h**2) + log_t) + np.log(k_si / p) + log_t + 2.5),
+        2.5 * k)
     moments = principal_moments(positions, masses)
     inertia_si = moments * constants.m_u * constants.angstrom**2
     if shape == "monatomic":
         rotational = _part(temps, 0.0, 0.0, 0.0)
     elif shape == "linear":
         rotational = _part(temps, k * temps,
-                           k * (np.log(8 * np.pi**2 * inertia_si[-1] * kt_si / (sigma * constants.h**2)) + 1.0), k)
+                           k * (np.log(8 * np.pi**2 * inertia_si[-1] * k_si / (sigma * constants.h**2)) + log_t + 1.0),
+                           k)
     else:
         rotational = _part(
             temps, 1.5 * k * temps,
-            k * (np.log(np.sqrt(np.pi * np.prod(inertia_si)) / sigma
-                        * (8 * np.pi**2 * kt_si / constants.h**2) ** 1.5) + 1.5), 1.5 * k)
+            k * (0.5 * np.log(np.pi * np.prod(inertia_si)) - np.log(sigma)
+                 + 1.5 * (np.log(8 * np.pi**2 * k_si / constants.h**2) + log_t) + 1.5), 1.5 * k)
     vibrational = _part(temps, vibrations.internal_energy, vibrations.entropy, vibrations.heat_capacity)
     electronic = _part(temps, 0.0, k * np.log(2 * spin + 1), 0.0)
     parts = (translational, rotational, vibrational, electronic)
     enthalpy = sum((part.enthalpy for part in parts), np.zeros_like(temps))
     entropy = sum((part.entropy for part in parts), np.zeros_like(temps))
+    with np.errstate(over="ignore", invalid="ignore"):
+        gibbs = enthalpy - temps * entropy
+    check_finite("ideal_gas_thermochemistry", temps, vibrations.wavenumbers, per_mode={},
+                 totals={"enthalpy": enthalpy, "entropy": entropy, "gibbs": gibbs})
+    warn_negative_entropy("ideal_gas_thermochemistry", temps, entropy, {
+        "translation (Sackur-Tetrode, a classical gas)": translational.entropy,
+        "rigid rotation (a classical rotor)": rotational.entropy, "the vibrations": vibrational.entropy})
     return IdealGasThermochemistry(
         temperatures=temps, pressure=p, enthalpy=enthalpy, entropy=entropy,
-        gibbs=enthalpy - temps * entropy,
+        gibbs=gibbs,
         heat_capacity=sum((part.heat_capacity for part in parts), np.zeros_like(temps)),
         translational=translational, rotational=rotational, vibrational=vibrational, electronic=electronic,
         zero_point_energy=vibrations.zero_point_energy, mass=float(np.sum(masses)),

@@ -17,7 +17,8 @@ from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
 
-__all__ = ["BOLTZMANN_EV_PER_K", "GRIMME_BAV", "LOW_FREQUENCY", "Thermochemistry", "thermochemistry"]
+__all__ = ["BOLTZMANN_EV_PER_K", "GRIMME_BAV", "LOW_FREQUENCY", "Thermochemistry", "thermochemistry", "check_finite",
+           "warn_negative_entropy"]
 
 #: Boltzmann's constant in eV/K (CODATA 2018 via scipy; ase.units.kB is CODATA 2014 and
 #: differs by 3.4e-7 relative).
@@ -189,7 +190,16 @@ def thermochemistry(
     ValueError
         Dimensionless modes; wavenumbers or temperatures not 1-D, not finite, or
         temperatures not positive; an unknown `low_frequency`; a cutoff, scale factor or B_av
-        not positive and finite.
+        not positive and finite; a temperature at which a result is not a finite float (k_B T
+        near the smallest float, ~1e-304 K and below, or T near the largest): the message names
+        the temperature, the quantity and the mode. Down to there the limits are exact: at
+        T = 1e-300 K, C_v = S = 0 and U = F = ZPE.
+
+    Warns
+    -----
+    RuntimeWarning
+        Imaginary modes left out; with ``"grimme"``, a negative total entropy (its classical free
+        rotors do not hold below ~0.01 K), naming the temperatures and the mode.
 
     Examples
     --------
@@ -229,24 +239,37 @@ def thermochemistry(
     energies = wavenumbers * _EV_PER_CM1                        # (n_vib,) eV
     kt = BOLTZMANN_EV_PER_K * temps                             # (n_T,) eV
     zpe = 0.5 * float(np.sum(energies))
-    x = energies[None, :] / kt[:, None]
-    log_q = -np.sum(_log_one_minus(x), axis=1)                  # the harmonic partition function
-    u, s, c = _per_mode(wavenumbers, temps, low_frequency, cutoff, bav)
-    internal, entropy, heat_capacity = u.sum(axis=1), s.sum(axis=1), c.sum(axis=1)
-    # each frequency's bound: every per-mode term evaluated at nu -+ its bound, the larger
-    # change counted (the terms are monotonic in nu: the exact worst case of independent
-    # errors, curvature included, where a first-order dQ/dnu would fall short)
-    f = u - temps[:, None] * s
-    changes = []
-    for moved in (wavenumbers + bounds, np.maximum(wavenumbers - bounds, 1e-300)):
-        mu, ms, _ = _per_mode(moved, temps, low_frequency, cutoff, bav)
-        changes.append((np.abs(mu - u), np.abs(ms - s), np.abs(mu - temps[:, None] * ms - f)))
-    u_error, s_error, f_error = (np.maximum(up, down).sum(axis=1) for up, down in zip(*changes))
+    with np.errstate(all="ignore"):                             # each result checked below, by temperature and mode
+        x = energies[None, :] / kt[:, None]
+        log_q = -np.sum(_log_one_minus(x), axis=1)              # the harmonic partition function
+        u, s, c = _per_mode(wavenumbers, temps, low_frequency, cutoff, bav)
+        internal, entropy, heat_capacity = u.sum(axis=1), s.sum(axis=1), c.sum(axis=1)
+        # each frequency's bound: every per-mode term evaluated at nu -+ its bound, the larger
+        # change counted (the terms are monotonic in nu: the exact worst case of independent
+        # errors, curvature included, where a first-order dQ/dnu would fall short)
+        f = u - temps[:, None] * s
+        changes = []
+        for moved in (wavenumbers + bounds, np.maximum(wavenumbers - bounds, 1e-300)):
+            mu, ms, _ = _per_mode(moved, temps, low_frequency, cutoff, bav)
+            changes.append((np.abs(mu - u), np.abs(ms - s), np.abs(mu - temps[:, None] * ms - f)))
+        u_error, s_error, f_error = (np.maximum(up, down).sum(axis=1) for up, down in zip(*changes))
+        helmholtz = internal - temps * entropy
+        log_q_bottom = log_q - zpe / kt
+    check_finite("thermochemistry", temps, wavenumbers,
+                 per_mode={"internal_energy": u, "entropy": s, "heat_capacity": c, "helmholtz_energy": f},
+                 totals={"internal_energy": internal, "entropy": entropy, "heat_capacity": heat_capacity,
+                         "helmholtz_energy": helmholtz, "log_partition_function": log_q,
+                         "log_partition_function_bottom": log_q_bottom, "internal_energy_error": u_error,
+                         "entropy_error": s_error, "helmholtz_energy_error": f_error})
+    if low_frequency == "grimme" and np.any(entropy < 0):       # its free rotors are classical
+        k = int(np.argmin(s[int(np.argmax(entropy < 0))]))
+        warn_negative_entropy("thermochemistry", temps, entropy,
+                              {f"Grimme's free rotor of the mode at {float(wavenumbers[k]):.6g} cm^-1": s[:, k]})
     return Thermochemistry(
         temperatures=temps, wavenumbers=wavenumbers, vibrational_energies=energies,
         zero_point_energy=zpe, log_partition_function=log_q,
-        log_partition_function_bottom=log_q - zpe / kt, internal_energy=internal,
-        heat_capacity=heat_capacity, entropy=entropy, helmholtz_energy=internal - temps * entropy,
+        log_partition_function_bottom=log_q_bottom, internal_energy=internal,
+        heat_capacity=heat_capacity, entropy=entropy, helmholtz_energy=helmholtz,
         n_imaginary=n_imaginary, low_frequency=low_frequency, scale_factor=scale_factor,
         internal_energy_error=u_error, entropy_error=s_error, helmholtz_energy_error=f_error,
     )
@@ -266,7 +289,9 @@ def _harmonic(energies: NDArray[np.float64], kt: NDArray[np.float64]
     occupation = decay / one_minus                              # 1 / (e^x - 1)
     u = energies[None, :] * (0.5 + occupation)
     s = BOLTZMANN_EV_PER_K * (x * occupation - _log_one_minus(x))
-    c = BOLTZMANN_EV_PER_K * x**2 * decay / one_minus**2
+    # x^2 e^-x / (1 - e^-x)^2 as a square: x^2 alone overflows (T -> 0) or underflows with
+    # (1 - e^-x)^2 (T -> infinity) where the quotient is 0 or 1
+    c = BOLTZMANN_EV_PER_K * (x * np.exp(-0.5 * x) / one_minus) ** 2
     return u, s, c
 
 
@@ -280,13 +305,55 @@ def _per_mode(wavenumbers: NDArray[np.float64], temps: NDArray[np.float64], low_
     elif low_frequency == "grimme":
         w = 1.0 / (1.0 + (cutoff / wavenumbers) ** 4)
         mu = constants.h / (8 * np.pi**2 * wavenumbers / constants.centi * constants.c)   # kg m^2
-        reduced = mu * bav / (mu + bav)
-        rotor = BOLTZMANN_EV_PER_K * (0.5 + 0.5 * np.log(8 * np.pi**3 * reduced[None, :] * constants.k
-                                                           * temps[:, None] / constants.h**2))
+        reduced = bav / (1.0 + bav / mu)                        # mu B_av / (mu + B_av), finite as mu -> inf
+        # ln(8 pi^3 mu' k T / h^2) as a sum: the product underflows at a tiny T where its log does not
+        rotor = BOLTZMANN_EV_PER_K * (0.5 + 0.5 * (np.log(8 * np.pi**3 * reduced[None, :] * constants.k / constants.h**2)
+                                                   + np.log(temps[:, None])))
         s = w * s + (1 - w) * rotor
         u = w * u + (1 - w) * 0.5 * kt[:, None]
         c = w * c + (1 - w) * 0.5 * BOLTZMANN_EV_PER_K
     return u, s, c
+
+
+def check_finite(where: str, temperatures: NDArray[np.float64], wavenumbers: NDArray[np.float64], *,
+                 per_mode: dict[str, NDArray[np.float64]], totals: dict[str, NDArray[np.float64]]) -> None:
+    """Raise naming the first temperature (and mode) at which a result is not a finite float.
+
+    `per_mode` arrays are (n_T, n_modes), `totals` (n_T,); `where` names the public function.
+    The one check behind `thermochemistry` and `ideal_gas_thermochemistry`: a temperature so
+    low (k_B T near the smallest float) or so high that a quantity leaves the floats is refused,
+    never returned as NaN or inf.
+    """
+    for name, values in totals.items():
+        bad = ~np.isfinite(values)
+        if bad.any():
+            i = int(np.argmax(bad))
+            modes = per_mode.get(name)
+            mode = ""
+            if modes is not None and not np.isfinite(modes[i]).all():
+                k = int(np.argmax(~np.isfinite(modes[i])))
+                mode = f" (the mode at {float(wavenumbers[k]):.6g} cm^-1 gives {float(modes[i, k])!r})"
+            kt = BOLTZMANN_EV_PER_K * float(temperatures[i])
+            raise ValueError(f"{where}: temperatures[{i}] is {float(temperatures[i])!r} K, where {name} is "
+                             f"{float(values[i])!r}{mode}; expected temperatures whose results are finite floats "
+                             f"(k_B T = {kt:.3g} eV here)")
+
+
+def warn_negative_entropy(where: str, temperatures: NDArray[np.float64], entropy: NDArray[np.float64],
+                          parts: dict[str, NDArray[np.float64]]) -> None:
+    """A RuntimeWarning naming the temperatures where the total `entropy` ((n_T,), eV/K) comes out
+    negative, and the most negative of its classical `parts` ((n_T,) each) there: a model that does
+    not hold that cold (an entropy is never negative)."""
+    negative = entropy < 0
+    if not negative.any():
+        return
+    i = int(np.argmax(negative))
+    culprit = min(parts, key=lambda name: float(parts[name][i]))
+    cold = np.asarray(temperatures)[negative]
+    warnings.warn(f"{where}: the entropy is negative ({float(entropy[i]):.3g} eV/K) at temperatures[{i}] = "
+                  f"{float(temperatures[i]):.6g} K ({cold.size} temperature(s) up to {float(cold.max()):.6g} K), "
+                  f"from {culprit} ({float(parts[culprit][i]):.3g} eV/K): a classical model that does not hold this "
+                  "cold; S, F and G there are not physical", RuntimeWarning, stacklevel=3)
 
 
 def _vibrational_values(signed: NDArray[np.float64], zero_rtol: float, where: str

@@ -24,10 +24,11 @@ from typing import Any, Callable
 
 import numpy as np
 
+from vibra._validate import ArgumentError
 from vibra.pipeline.plan.model import Plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.dynamics import THERMOSTATS
-from vibra.pipeline.scene.limits import dynamics_estimate
+from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, dynamics_estimate
 from vibra.solvers.budget import describe_bytes, describe_seconds
 from vibra.sources import cite
 
@@ -186,28 +187,34 @@ def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str 
     x0, v0 = initial_state(scene, system, modes)
     forces = anharmonic_forces(scene)
     labels, runs = [], []
+    time_limit = DEFAULT_TIME_LIMIT_S if spec.time_limit_s is None else spec.time_limit_s   # checked at validate
     for chain in spec.chains:
         thermostat, label = _thermostat(scene, chain)
-        with np.errstate(over="ignore", invalid="ignore"):  # a run that diverges is refused just below
+        try:
             run = dynamics.integrate(system, x0, v0, spec.dt, spec.n_steps, forces=forces, thermostat=thermostat,
-                                     integrator=spec.integrator, record_every=spec.record_every)
-        finite = np.isfinite(run.positions).all(axis=1) & np.isfinite(run.velocities).all(axis=1) \
-            & np.isfinite(run.kinetic) & np.isfinite(run.conserved)
-        if not finite.all():
-            where = float(run.t[int(np.argmin(finite))])
+                                     integrator=spec.integrator, record_every=spec.record_every,
+                                     max_seconds=time_limit, drift_tolerance=float("inf"))   # reported below
+        except dynamics.IntegrationError as error:
+            way_out = ("an anharmonic potential with alpha or beta != 0 is unbounded (a large amplitude escapes it, or "
+                       "a large dt does): lower compute.energy (or x0, v0), system.alpha, or compute.dt"
+                       if forces is not None else "lower compute.dt, or bring compute.temperature and compute.tau "
+                       "to the system's energies and periods")
             raise SceneError(scene.source, "compute", f"the run ({label}) diverged: its state left the finite "
-                             f"numbers by t = {where:.4g}; an anharmonic potential with alpha or beta != 0 is "
-                             "unbounded (a large amplitude escapes it, or a large dt does): lower compute.energy "
-                             "(or x0, v0), system.alpha, or compute.dt")
+                             f"numbers at step {error.step} (t = {error.time:.4g}); {way_out}") from error
+        except ArgumentError as error:                # k_B T or the Nosé-Hoover masses beyond floating point
+            key = "compute.tau" if str(error).startswith("thermostat.tau") else "compute.temperature"
+            raise SceneError(scene.source, key, str(error).split(": ", 1)[1]) from error
         runs.append(run)
         labels.append(label)
     kT = 0.0 if spec.temperature is None else system.units.boltzmann * spec.temperature
     context.dynamics = DynamicsRuns(labels=tuple(labels), runs=tuple(runs), modes=modes, kT=kT)
-    conserved = np.asarray(runs[0].conserved)
-    drift = float(np.max(np.abs(conserved - conserved[0]))) / max(abs(float(conserved[0])), np.finfo(float).tiny)
+    drift = runs[0].conserved_drift()
     what = "kinetic energy" if spec.thermostat == "isokinetic" else (
         "extended energy" if spec.thermostat == "nose-hoover" else "energy")
     how = f"{runs[0].integrator}, {'compiled' if runs[0].compiled else 'Python'} loop"
+    if drift > dynamics.DRIFT_TOLERANCE:
+        return how, (f"largest relative change of the {what}: {drift:.2e}, beyond the library's tolerance "
+                     f"{dynamics.DRIFT_TOLERANCE:g} (vibra.dynamics.DRIFT_TOLERANCE): lower compute.dt")
     return how, f"largest relative change of the {what}: {drift:.2e}"
 
 

@@ -19,8 +19,7 @@ import os
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-__all__ = ["MAX_DYNAMICS_STEPS", "SECONDS_PER_FORCE", "SECONDS_PER_DOF_FORCE", "SECONDS_PER_THERMOSTAT_FORCE",
-           "DYNAMICS_START_SECONDS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF",
+__all__ = ["MAX_DYNAMICS_STEPS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF",
            "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "sites_and_dim", "n_dof_bound",
            "default_memory_limit", "MemoryEstimate", "memory_estimate", "all_modes_seconds", "gib"]
 
@@ -53,18 +52,6 @@ def sites_and_dim(builder: str, p: Mapping[str, Any]) -> tuple[int, int] | None:
 
 #: Most steps one dynamics run may take (``compute.n_steps``), whatever the time limit.
 MAX_DYNAMICS_STEPS = 100_000_000
-#: Seconds of one force evaluation (a kick) of `vibra.dynamics.integrate`'s compiled loop: a fixed
-#: part, a part per degree of freedom and a part per Nosé-Hoover thermostat of the chain; plus, once
-#: per scene, loading the cached compiled kernels. Measured on the project's 2-core machine (one
-#: thread, shared): 1.2e-7 to 3e-7 s a step for one NH thermostat on one oscillator, 2.9e-7 to
-#: 8e-7 for a chain of 4, 1.9e-7 isokinetic in 3-D, 1.2e-6 for a 255-site FPUT chain (velocity
-#: Verlet); 0.6 to 0.8 s for the first call in a process.
-SECONDS_PER_FORCE = 2e-7
-SECONDS_PER_DOF_FORCE = 5e-9
-SECONDS_PER_THERMOSTAT_FORCE = 1.2e-7
-DYNAMICS_START_SECONDS = 0.5
-#: Force evaluations per step of each `vibra.dynamics` integrator.
-_FORCES_PER_STEP = {"verlet": 1, "yoshida4": 3, "blanes-moan": 6}
 
 
 @dataclass(frozen=True)
@@ -87,7 +74,10 @@ class DynamicsEstimate:
 
 
 def dynamics_estimate(n_dof: int, spec: Any) -> DynamicsEstimate:
-    """What the runs of a dynamics scene (`vibra.pipeline.scene.dynamics.DynamicsSpec`) cost, from sizes.
+    """What the runs of a dynamics scene (`vibra.pipeline.scene.dynamics.DynamicsSpec`) cost, from sizes:
+    the time of each run is `vibra.dynamics.cost.integration_seconds`, the estimate `integrate`
+    checks against its ``max_seconds`` too, plus loading the compiled kernels once
+    (`vibra.dynamics.cost.START_SECONDS`).
 
     >>> from types import SimpleNamespace
     >>> spec = SimpleNamespace(n_steps=1000, record_every=10, integrator="verlet", n_runs=1, chains=(1,),
@@ -97,9 +87,11 @@ def dynamics_estimate(n_dof: int, spec: Any) -> DynamicsEstimate:
     """
     records = spec.n_steps // spec.record_every + 1
     memory = spec.n_runs * records * (3 * n_dof + 8) * 8
-    thermostats = sum(spec.chains) if spec.thermostat == "nose-hoover" else 0
-    per_force = spec.n_runs * (SECONDS_PER_FORCE + SECONDS_PER_DOF_FORCE * n_dof) + SECONDS_PER_THERMOSTAT_FORCE * thermostats
-    seconds = DYNAMICS_START_SECONDS + per_force * spec.n_steps * _FORCES_PER_STEP[spec.integrator]
+    from vibra.dynamics.cost import START_SECONDS, integration_seconds   # here: numba loads with vibra.dynamics
+
+    chains = spec.chains if spec.thermostat == "nose-hoover" else (0,) * spec.n_runs
+    seconds = START_SECONDS + sum(integration_seconds(n_dof, spec.n_steps, spec.integrator, chain=chain)
+                                  for chain in chains)
     return DynamicsEstimate(memory=memory, seconds=seconds, records=records)
 
 
