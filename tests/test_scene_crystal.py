@@ -137,3 +137,33 @@ def test_plan_draws_bands_thermal_and_a_mode_gif(tmp_path: Path) -> None:
         assert gif.n_frames == 4 and gif.size == (320, 200)
         assert np.asarray(gif.convert("RGB")).std() > 5.0            # rendered off-screen, not blank
     assert "cm^-1" in result.records[5].accuracy                     # the mode's frequency, in the scene's unit
+
+
+def test_a_mode_animation_is_costed_and_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The animation's render time is estimated from its atoms and frames before any work (issue 44):
+    vibra validate prints it, and past the limit the scene is refused with the frames that fit."""
+    import tomllib
+
+    import vibra.pipeline.plan.crystal as plan_crystal
+    from vibra.pipeline.plan.crystal import crystal_cost
+    from vibra.pipeline.scene.limits import (
+        RENDER_SECONDS_FIXED,
+        RENDER_SECONDS_PER_ATOM_FRAME,
+        frames_that_fit,
+        render_seconds,
+    )
+
+    data = tomllib.loads((ROOT / "crystals" / "argon-fcc.toml").read_text())
+    data["draw"].update(supercell=[12, 12, 12], frames=48)
+    scene = Scene.from_dict(data, source=str(ROOT / "crystals" / "argon-fcc.toml"))
+    crystal = validate(scene)
+    assert "mode on 1372 atoms x 48 frames (~63 s to render)" in crystal_cost(scene, crystal)
+    seconds = render_seconds(1372, 48)
+    assert seconds == RENDER_SECONDS_FIXED + RENDER_SECONDS_PER_ATOM_FRAME * 1372 * 48
+    monkeypatch.setattr(plan_crystal, "DEFAULT_TIME_LIMIT_S", 30.0)  # a limit the scene exceeds
+    fit = frames_that_fit(1372, 30.0)
+    assert render_seconds(1372, fit) <= 30.0 < render_seconds(1372, fit + 1)
+    with pytest.raises(SceneError, match=rf"draw\.frames: is 48: the animation of 1372 atoms \(draw\.supercell "
+                                         rf"\[12, 12, 12\]\) would take about 63 s to render, more than 30 s; "
+                                         rf"{fit} frames fit"):
+        validate(scene)

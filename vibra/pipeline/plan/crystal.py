@@ -29,6 +29,8 @@ from numpy.typing import NDArray
 
 from vibra.pipeline.plan.model import Plan, polar_crystal
 from vibra.pipeline.scene import Scene, SceneError
+from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, frames_that_fit, render_seconds
+from vibra.solvers.budget import describe_seconds
 
 __all__ = ["check_crystal_plan", "crystal_cost", "light_direction", "CRYSTAL_STEPS", "CRYSTAL_STEP_KEYS",
            "DEFAULT_LIGHT_DIRECTION"]
@@ -116,6 +118,13 @@ def check_crystal_plan(scene: Scene, crystal: Any) -> None:
         if spec.mode_branch >= crystal.n_branches:
             raise SceneError(scene.source, "draw.mode_branch", f"is {spec.mode_branch}; this crystal has "
                              f"{crystal.n_branches} branches (0 to {crystal.n_branches - 1})")
+        atoms = _mode_atoms(crystal, spec.supercell)
+        seconds = render_seconds(atoms, spec.frames)
+        if seconds > DEFAULT_TIME_LIMIT_S:
+            raise SceneError(scene.source, "draw.frames", f"is {spec.frames}: the animation of {atoms} atoms "
+                             f"(draw.supercell {list(spec.supercell)}) would take about {describe_seconds(seconds)} "
+                             f"to render, more than {DEFAULT_TIME_LIMIT_S:g} s; {frames_that_fit(atoms, DEFAULT_TIME_LIMIT_S)} "
+                             "frames fit, or take a smaller supercell")
     _check_infrared(scene, crystal)
     for axis in range(3):
         if not crystal.periodic[axis]:
@@ -155,6 +164,11 @@ def light_direction(scene: Scene) -> NDArray[np.float64]:
     return direction / np.linalg.norm(direction)
 
 
+def _mode_atoms(crystal: Any, supercell: Any) -> int:
+    """Atoms drawn in a crystal's mode animation on `supercell` (`mode_supercell`'s cells)."""
+    return abs(round(float(np.linalg.det(mode_supercell(crystal, supercell))))) * crystal.n_atoms
+
+
 def crystal_cost(scene: Scene, crystal: Any) -> str:
     """The size of a crystal scene and the work it asks for, in one line (``vibra validate``)."""
     spec = scene.crystal
@@ -171,8 +185,9 @@ def crystal_cost(scene: Scene, crystal: Any) -> str:
         parts.append(f"mesh {'x'.join(str(n) for n in spec.mesh)} = {n_mesh} q (fewer by symmetry)")
         work += n_mesh
     if spec.mode:
-        cells = abs(round(float(np.linalg.det(mode_supercell(crystal, spec.supercell)))))
-        parts.append(f"mode on {cells * crystal.n_atoms} atoms x {spec.frames} frames")
+        atoms = _mode_atoms(crystal, spec.supercell)
+        parts.append(f"mode on {atoms} atoms x {spec.frames} frames (~{describe_seconds(render_seconds(atoms, spec.frames))} "
+                     "to render)")
     infrared = 0
     if polar_crystal(scene):
         from vibra.charts.infrared import GRID_POINTS
