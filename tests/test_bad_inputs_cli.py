@@ -829,11 +829,13 @@ def test_sweep_outputs_never_replace_the_scene(tmp_path: Path, capsys: pytest.Ca
 
 def test_a_billion_point_sweep_is_refused_with_the_count_and_an_estimate(tmp_path: Path,
                                                                          capsys: pytest.CaptureFixture[str]) -> None:
-    # issue 34: MemoryError building 10^9 points; the refusal needs one point solved, not the grid in memory
+    # issue 34: MemoryError building 10^9 points; the refusal needs one point built and costed by its size
+    # (issue 44: an estimate from sizes, not a timed solve), not the grid in memory
     code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
                            "system.defect_mass=0.2:0.8:1000000000", "--out", str(tmp_path / "o"), "-q")
     assert code == 1 and err.count("\n") == 1, err
-    assert "1,000,000,000 points is more than max_points=100,000 (--max-points); one point took" in err
+    assert "1,000,000,000 points is more than max_points=100,000 (--max-points); one point is estimated at ~" in err
+    assert "from its size (" in err and "dofs, " in err
     assert "so the sweep would take about" in err and not (tmp_path / "o").exists()
 
 
@@ -1020,7 +1022,7 @@ def test_a_long_sweep_says_its_size_and_time_first_even_quiet(tmp_path: Path, ca
     monkeypatch.setattr(cli, "ANNOUNCE_POINTS", 2)
     code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",
                            "system.defect_mass=0.2:0.8:3", "--out", str(tmp_path), "-q")
-    assert code == 0 and err.count("\n") == 1 and err.startswith("vibra sweep: 3 points; one point took ")
+    assert code == 0 and err.count("\n") == 1 and err.startswith("vibra sweep: 3 points; one point is estimated at ~")
     assert "in one process" in err
     monkeypatch.setattr(cli, "ANNOUNCE_POINTS", 3)
     code, _, err = run_cli(capsys, "sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary",

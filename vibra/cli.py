@@ -319,7 +319,7 @@ def _sweep(args: argparse.Namespace) -> int:
     from vibra.cluster import ClusterError, check_client
     from vibra.pipeline.scene import SceneError, load_scene, scene_inputs
     from vibra.solvers.budget import describe_seconds
-    from vibra.pipeline.sweep import DEFAULT_MAX_POINTS, grid, parse_vary, point_seconds, sweep
+    from vibra.pipeline.sweep import DEFAULT_MAX_POINTS, estimate_seconds, grid, parse_vary, sweep
 
     try:
         points = grid(*(parse_vary(text) for text in args.vary))
@@ -339,9 +339,10 @@ def _sweep(args: argparse.Namespace) -> int:
         _sweep_targets(out, scene.name, inputs, force=args.force, create=False)  # before the solve; made after it
         count, limit = len(points.points), args.max_points or DEFAULT_MAX_POINTS
         if ANNOUNCE_POINTS < count <= limit:  # a long sweep says so, once, even with --quiet
-            seconds = point_seconds(args.scene, points)
-            print(f"vibra sweep: {count:,} points; one point took {seconds:.2g} s here, so about "
-                  f"{describe_seconds(count * seconds)} in one process", file=sys.stderr)
+            estimate = estimate_seconds(args.scene, points)
+            print(f"vibra sweep: {count:,} points; " + ("its time cannot be estimated before it runs" if estimate is None
+                  else f"one point is estimated at ~{describe_seconds(estimate[0])} from its size ({estimate[1]}), "
+                  f"so about {describe_seconds(count * estimate[0])} in one process"), file=sys.stderr)
         table = sweep(args.scene, points, client=args.scheduler, n_workers=args.jobs, timeout=args.timeout,
                       chunk_size=args.chunk_size, progress=not args.quiet,
                       max_points=args.max_points or DEFAULT_MAX_POINTS)

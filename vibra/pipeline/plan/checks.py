@@ -27,7 +27,7 @@ from vibra import solvers
 from vibra.solvers.budget import describe_bytes, describe_seconds
 from vibra.solvers.common import DENSE_ALL_LIMIT
 
-__all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
+__all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT", "solve_request",
            "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
 
 #: A response grid is checked against the system's frequencies up to this many dofs (a fast
@@ -240,12 +240,24 @@ def cost_summary(scene: Scene, system: Any) -> str:
     compute = scene.compute
     try:
         plan = make_plan(scene)
-        factor = system.spring_factor() if compute.accuracy != "fast" else None
-        request = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=plan.n_modes, vectors=plan.vectors,
-                               band=compute.band, solver=compute.solver, spring_factor=factor,
-                               accuracy=compute.accuracy)
-    except (ValueError, TypeError, AttributeError, NotImplementedError):
+    except (ValueError, TypeError):
+        return f"{n_dof} dofs"
+    request = solve_request(system, n_modes=plan.n_modes, vectors=plan.vectors, band=compute.band,
+                            solver=compute.solver, accuracy=compute.accuracy)
+    if request is None:
         return f"{n_dof} dofs"  # (what the solve would refuse, check_plan refused first)
     cost = request.cost
     return (f"{n_dof} dofs; modes: {request.path} path, {cost.what}, estimated ~{describe_seconds(cost.seconds)} "
             f"and {describe_bytes(cost.memory)}")
+
+
+def solve_request(system: Any, *, n_modes: Any, vectors: bool, band: Any, solver: str, accuracy: str) -> Any | None:
+    """The solver registry's plan of `system.modes(...)` with these arguments (its path and its cost,
+    estimated from sizes before any work), or None for a system or a request it would refuse:
+    what ``vibra validate`` prints and what a sweep multiplies by its points."""
+    try:
+        factor = system.spring_factor() if accuracy != "fast" else None
+        return solvers.plan(system.hessian(), system.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
+                            solver=solver, spring_factor=factor, accuracy=accuracy)
+    except (ValueError, TypeError, AttributeError, NotImplementedError):
+        return None

@@ -72,7 +72,7 @@ from vibra.pipeline.sweep.points import (
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
            "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS",
-           "point_seconds", "SweepWarning", "SOLVE_KEYS", "NOT_SWEPT", "check_swept_keys"]
+           "estimate_seconds", "SweepWarning", "SOLVE_KEYS", "NOT_SWEPT", "check_swept_keys"]
 
 # ---------------------------------------------------------------------- results
 @dataclass(frozen=True, eq=False)
@@ -453,45 +453,65 @@ def _tracked(results: Sequence[tuple[SweepRow, Any]], keys: Sequence[str]) -> tu
 
 def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None, derive: Any,
                  count: int, max_points: int) -> None:
-    """Raise the refusal of a sweep of `count` > `max_points` points, timed from its first point."""
-    seconds = _first_point_seconds(target, points, options, name, derive)
-    raise ValueError(f"{count:,} points is more than max_points={max_points:,} (--max-points); one point took "
-                     f"{seconds:.2g} s here, so the sweep would take about {describe_seconds(count * seconds)} in "
-                     "one process; sweep fewer points, or raise max_points (--max-points) to run it")
+    """Raise the refusal of a sweep of `count` > `max_points` points, with its estimated time."""
+    raise ValueError(f"{count:,} points is more than max_points={max_points:,} (--max-points); "
+                     f"{_estimate_text(target, points, options, name, count)}; sweep fewer points, or raise "
+                     "max_points (--max-points) to run it")
 
 
-def _first_point_seconds(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None,
-                         derive: Any) -> float:
-    """Seconds the first point takes here (its second run when the first took under a second)."""
-    import time
+def _estimate_text(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None,
+                   count: int) -> str:
+    estimate = _point_estimate(target, points, options, name)
+    if estimate is None:
+        return "its time cannot be estimated before it runs (the first point's solve is not planned)"
+    seconds, what = estimate
+    return (f"one point is estimated at ~{describe_seconds(seconds)} from its size ({what}), so the sweep would "
+            f"take about {describe_seconds(count * seconds)} in one process")
+
+
+def _point_estimate(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None
+                    ) -> tuple[float, str] | None:
+    """(seconds, what) of the first point's solve, from the solver registry's cost of its sizes
+    (`vibra.pipeline.plan.checks.solve_request`: the estimate ``vibra validate`` prints), never from
+    the clock: the first point's system is built (cheap), not solved. None when the registry does
+    not plan it (a quadratic system, a request it would refuse)."""
+    from vibra.pipeline.plan.checks import solve_request
 
     first: Grid | Ensemble = (Grid(points.keys, (points.points[0],)) if isinstance(points, Grid)
                               else Ensemble(points.seed, 1, points.draw))
     tasks, _, _, _ = _prepare(target, first, options, name)
-    kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
-    payload_target, index, parameters, payload = tasks[0]
-    seconds = math.inf
-    for _ in range(2):  # the second run, when the first was short, leaves imports and caches out
-        start = time.perf_counter()
-        _point_task(kind, payload_target, index, parameters, payload, options, derive)
-        seconds = min(seconds, time.perf_counter() - start)
-        if seconds > 1.0:
-            break
-    return seconds
+    payload_target, index, _, payload = tasks[0]
+    if callable(payload_target) and not isinstance(payload_target, tuple):  # a builder
+        kwargs = dict(payload) if payload is not None else {"rng": member_rng(options["seed"], index)}
+        system = payload_target(**kwargs)
+        request = dict(n_modes=options["n_modes"], band=options["band"], solver=options["solver"],
+                       accuracy=options["accuracy"])
+    else:
+        data, source = payload_target
+        if payload is None:
+            payload = dict(options["draw"](member_rng(options["seed"], index)))
+        scene, _ = _scene_at(data, source, dict(payload))
+        system = build_system(scene)
+        c = scene.compute
+        request = dict(n_modes=c.n_modes, band=c.band, solver=c.solver, accuracy=c.accuracy)
+    planned = solve_request(system, vectors=bool(options.get("track", False)), **request)
+    if planned is None:
+        return None
+    return float(planned.cost.seconds), f"{system.n_dof} dofs, {planned.path} path"
 
 
-def point_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
-                  derive: Callable[[Any, Any], Mapping[str, float]] | None = None, n_modes: int | None = None,
-                  band: tuple[float, float] | None = None, accuracy: Literal["high", "fast"] = "high",
-                  solver: str = "auto") -> float:
-    """Seconds the first point of a sweep takes in this process (a measurement: for messages only,
-    never for a decision). Arguments as in `sweep`."""
+def estimate_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
+                     n_modes: int | None = None, band: tuple[float, float] | None = None,
+                     accuracy: Literal["high", "fast"] = "high", solver: str = "auto") -> tuple[float, str] | None:
+    """(seconds per point, what) of a sweep, estimated from the first point's sizes before any
+    solve (the solver registry's cost, as ``vibra validate`` prints it); None when the registry
+    does not plan the solve. Arguments as in `sweep`."""
     if isinstance(points, Axis) or (isinstance(points, Mapping) and not isinstance(points, Grid)):
         points = grid(points)
     options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver}
     if isinstance(points, Ensemble):
         options.update(seed=points.seed, draw=points.draw)
-    return _first_point_seconds(target, points, options, None, derive)
+    return _point_estimate(target, points, options, None)
 
 
 class _Lazy(Sequence[Any]):
