@@ -353,28 +353,26 @@ from vibra import System, dynamics
 oscillator = System.from_hessian([0.0], 1.0, [[1.0]], units="dimensionless")
 dynamics.integrate(oscillator, [1.0], [0.0], 0.01, 1000, record_every=100)      # load the compiled kernels
 print("ready", flush=True)
-dynamics.integrate(oscillator, [1.0], [0.0], 0.01, 3_000_000_000, record_every=1_000_000, max_seconds=float("inf"))
+dynamics.integrate(oscillator, [1.0], [0.0], 0.01, 300_000_000_000, record_every=100_000_000, max_seconds=float("inf"))
 print("finished", flush=True)
 """
 
 
 def test_ctrl_c_stops_a_compiled_integration() -> None:
-    # 3e9 steps run for minutes in one compiled call; in chunks of ~CHUNK_SECONDS, SIGINT stops them
-    # between two. The bound is generous (a loaded machine): any chunked run stops within it.
+    # 3e11 steps run for most of an hour in one compiled call; in chunks of ~CHUNK_SECONDS, SIGINT
+    # stops them between two. No time is asserted: communicate's timeout is only the guard against
+    # a run that does not stop (an unchunked loop would hold the signal for the whole hour).
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     process = subprocess.Popen([sys.executable, "-c", INTERRUPTED], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True, env=env)
     try:
         assert process.stdout is not None and process.stdout.readline().strip() == "ready"
         time.sleep(1.0)
-        sent = time.monotonic()
         process.send_signal(signal.SIGINT)
-        out, err = process.communicate(timeout=60)
-        waited = time.monotonic() - sent
+        out, err = process.communicate(timeout=120)
     finally:
         if process.poll() is None:
             process.kill()
             process.communicate()
     assert "KeyboardInterrupt" in err and "finished" not in out, err
     assert process.returncode != 0
-    assert waited < 60

@@ -158,8 +158,10 @@ def test_a_mode_animation_is_costed_and_bounded(monkeypatch: pytest.MonkeyPatch)
     scene = Scene.from_dict(data, source=str(ROOT / "crystals" / "argon-fcc.toml"))
     crystal = validate(scene)
     assert "mode on 1372 atoms x 48 frames (~63 s to render)" in crystal_cost(scene, crystal)
-    seconds = render_seconds(1372, 48)
-    assert seconds == RENDER_SECONDS_FIXED + RENDER_SECONDS_PER_ATOM_FRAME * 1372 * 48
+    # the estimate against the render measured when the constants were set (61.6 s on the shared
+    # 2-core machine): within the corpus's 3x rule
+    assert 61.6 / 3 < render_seconds(1372, 48) < 61.6 * 3
+    assert 0 < RENDER_SECONDS_FIXED and 0 < RENDER_SECONDS_PER_ATOM_FRAME
     monkeypatch.setattr(plan_crystal, "DEFAULT_TIME_LIMIT_S", 30.0)  # a limit the scene exceeds
     fit = frames_that_fit(1372, 30.0)
     assert render_seconds(1372, fit) <= 30.0 < render_seconds(1372, fit + 1)

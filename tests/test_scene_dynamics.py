@@ -294,3 +294,16 @@ def test_histogram_width_is_the_boltzmann_variance_of_one_chain_site(tmp_path: P
     (_, labels, sigma, _), _ = calls[0]
     assert labels == ("Nosé-Hoover chain of 4",)
     assert sigma**2 == pytest.approx(0.5 * 2 * 3 / (5 * 2.0), rel=1e-12)
+
+
+@pytest.mark.parametrize("compute, key", [({"temperature": 1e-310}, "compute.temperature"),
+                                          ({"tau": 1e-200}, "compute.tau")])
+def test_validate_refuses_a_thermostat_scale_the_run_would_refuse(compute: dict, key: str) -> None:
+    """vibra validate runs the run's own check of k_B T and the Nosé-Hoover masses (review of issue 44):
+    it said ok, and the report then failed."""
+    import tomllib
+
+    data = tomllib.loads((ROOT / "dynamics" / "nose-hoover.toml").read_text())
+    data["compute"].update(compute)
+    with pytest.raises(SceneError, match=rf"{key}: .*(outside the normal floats|leave the normal floats)"):
+        validate(Scene.from_dict(data, source=str(ROOT / "dynamics" / "nose-hoover.toml")))

@@ -65,7 +65,8 @@ TEMPORARY_MARK = "~tmp~"
 
 #: Folders vibra never writes in, nor anywhere below them (resolved paths).
 SYSTEM_TREES = ("/bin", "/boot", "/dev", "/etc", "/lib", "/lib32", "/lib64", "/libx32", "/proc", "/run", "/sbin",
-                "/sys", "/usr", "/System", "/Library", "/private/etc", "/private/var/db")
+                "/sys", "/usr", "/var/lib", "/var/log", "/var/cache", "/var/spool", "/var/mail", "/snap", "/nix",
+                "/System", "/Library", "/private/etc", "/private/var/db")
 
 #: Folders vibra never writes in directly (their subfolders are the users' own: /home/ada, /var/tmp).
 SYSTEM_TOPS = ("/", "/home", "/media", "/mnt", "/opt", "/srv", "/var", "/Users", "/Volumes", "/private",

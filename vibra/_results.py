@@ -52,6 +52,9 @@ MAX_LOAD_BYTES = 2 * 1024**3
 
 #: Most bytes of a result file's JSON entry (its numbers and names other than arrays), in bytes.
 MAX_SCALARS_BYTES = 1024**2
+#: Deepest nesting of brackets the JSON part may have: vibra writes 3 levels; a hostile file of
+#: 10^5 levels would overflow the C stack of json's scanner when the recursion limit is raised.
+MAX_JSON_DEPTH = 32
 
 #: A named size of a stored array (``"n_modes"``), that size times a factor (``("n_modes", 2)``),
 #: or a fixed size (``2``).
@@ -465,6 +468,16 @@ def _header(archive: zipfile.ZipFile, info: zipfile.ZipInfo, refuse: Callable[[s
     return entry
 
 
+def _json_depth(text: str) -> int:
+    """The deepest nesting of [ and { in a JSON text, strings left out (numpy over its bytes)."""
+    import re
+
+    bare = re.sub(r'"(?:\\.|[^"\\])*"', '""', text).encode("utf-8", "replace")
+    codes = np.frombuffer(bare, dtype=np.uint8)
+    steps = (np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}"))))
+    return int(np.cumsum(steps).max()) if steps.size else 0
+
+
 def _read_result_file(cls: type[ModesResult], path: Path, limit: int) -> dict[str, Any]:
     """The fields of the result file `path`: every header checked (`_header`, `check_stored`,
     the total against `limit` bytes) before any array is read."""
@@ -502,6 +515,9 @@ def _read_result_file(cls: type[ModesResult], path: Path, limit: int) -> dict[st
             raise refuse(_SCALARS)(f"is {head.bytes:,} bytes; a vibra result keeps at most "
                                    f"{MAX_SCALARS_BYTES:,} there (MAX_SCALARS_BYTES)")
         text = str(_read(archive, head, refuse(_SCALARS)))
+        depth = _json_depth(text)
+        if depth > MAX_JSON_DEPTH:  # json's C scanner recurses per level: a deep text can overflow the C stack
+            raise refuse(_SCALARS)(f"is not JSON vibra writes (nested {depth} levels deep; at most {MAX_JSON_DEPTH})")
         try:
             data = json.loads(text)
         except (ValueError, RecursionError) as error:

@@ -57,13 +57,14 @@ def _in_unit(units: Any, omega: Any, unit: str) -> np.ndarray:
 LEVEL_RTOL = 1e-3
 
 
-def gamma_labels(bands: Any, gamma: Any, unit: str) -> list[tuple[float, float, str]]:
+def gamma_labels(bands: Any, gamma: Any, unit: str, *, polar: bool = True) -> list[tuple[float, float, str]]:
     """(x, frequency in `unit`, label) of each optical level at each Gamma point of the path.
 
     A level of the bands at Gamma that matches a level of the analytic D(0) (`gamma`, a
-    `vibra.crystals.irreps.GammaModes`) within `LEVEL_RTOL` of the spectrum takes its irrep; one
-    that matches none is a longitudinal mode lifted by the non-analytic term and is labelled
-    ``LO``. Acoustic levels (at zero) are not labelled.
+    `vibra.crystals.irreps.GammaModes`) within `LEVEL_RTOL` of the spectrum takes its irrep; in a
+    `polar` crystal one that matches none is a longitudinal mode lifted by the non-analytic term
+    and is labelled ``LO`` (otherwise it is left unlabelled). Acoustic levels (at zero) are not
+    labelled.
     """
     values = _in_unit(bands.units, bands.omega, unit)
     reference = _in_unit(gamma.units, gamma.level_frequencies(), unit)
@@ -86,12 +87,15 @@ def gamma_labels(bands: Any, gamma: Any, unit: str) -> list[tuple[float, float, 
             level = value
             near = np.abs(reference - value)
             k = int(np.argmin(near))
-            marks.append((x, value, names[k] if near[k] <= LEVEL_RTOL * scale else "LO"))
+            if near[k] <= LEVEL_RTOL * scale:
+                marks.append((x, value, names[k]))
+            elif polar:
+                marks.append((x, value, "LO"))
     return marks
 
 
 def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str = "",
-                   gamma: Any | None = None) -> Figure:
+                   gamma: Any | None = None, polar: bool = True) -> Figure:
     """Bands along the path (left) and the DOS (right) on one frequency axis in `unit`.
 
     Parameters
@@ -104,6 +108,9 @@ def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str
     gamma : vibra.crystals.irreps.GammaModes, optional
         The crystal's Gamma modes: each optical level at each Gamma of the path is labelled with
         its irrep (`gamma_labels`).
+    polar : bool
+        The crystal carries the non-analytic correction: a Gamma level of the bands that matches
+        no level of D(0) is its LO mode (``False``: left unlabelled).
     """
     if unit not in FREQUENCY_LABELS:
         raise ValueError(f"unit is {unit!r}; expected one of {', '.join(FREQUENCY_LABELS)}")
@@ -134,7 +141,7 @@ def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str
     left.set_title("phonon bands")
     if gamma is not None:
         end = float(x[-1])
-        for position, value, label in gamma_labels(bands, gamma, unit):
+        for position, value, label in gamma_labels(bands, gamma, unit, polar=polar):
             at_end = position >= end - 1e-9 * max(1.0, abs(end))
             left.annotate(label, (position, value), xytext=(-3 if at_end else 3, 0), textcoords="offset points",
                           ha="right" if at_end else "left", va="center", fontsize="small", color="0.15",

@@ -260,6 +260,16 @@ class Crystal:
         """What D(q) is made of (`vibra.crystals.dynamical.assembly`), formed once per crystal."""
         return dynamical.assembly(self)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The fields only: the caches (`assembly`, `point_rotations`, `nac_parts`: the Ewald
+        moments grow as n_G n_atoms^2) are formed again where the crystal is used (a Dask worker),
+        not shipped with it."""
+        return {field: getattr(self, field) for field in self.__dataclass_fields__}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        for field, value in state.items():
+            object.__setattr__(self, field, value)
+
     @functools.cached_property
     def nac_parts(self) -> Any:
         """What D(q) with the correction is made of (`vibra.crystals.nac.parts`: the short-range

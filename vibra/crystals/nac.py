@@ -38,7 +38,7 @@ from scipy import constants
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr, span
-from vibra.crystals.dynamical import PHASES, check_qpoints, dynamical_matrices, lattice_phases
+from vibra.crystals.dynamical import PHASES, brillouin_qpoints, check_qpoints, dynamical_matrices, lattice_phases
 from vibra.crystals.force_constants import ForceConstants
 from vibra.crystals.phonopy_io import fold_force_constants, to_ase_factors, to_phonopy
 from vibra.units import ASE
@@ -366,7 +366,7 @@ def parts(crystal: Crystal, nac: NonAnalytic) -> Parts:
         return Parts(base=crystal, table=_sum_table(nac.phase_sums, n))
     assert nac.short_range is not None and nac.g_vectors is not None
     g = np.ascontiguousarray(nac.g_vectors, dtype=float)
-    eps_g = g @ nac.dielectric  # eps is symmetric
+    eps_g = g @ (0.5 * (nac.dielectric + nac.dielectric.T))  # 2 q (eps_s G) = q eps G + G eps q for any eps
     separation = (crystal.positions[:, None, :] - crystal.positions[None, :, :]).reshape(-1, 3)  # r_i - r_j
     pair = np.exp(2j * np.pi * (g @ separation.T))
     n_g = g.shape[0]
@@ -375,14 +375,14 @@ def parts(crystal: Crystal, nac: NonAnalytic) -> Parts:
                              axis=1).reshape(n_g, 13 * n * n)
     born = nac.born
     charges = np.einsum("ica,jdb->ijcdab", born, born).reshape(n * n, 9, 9)
-    table = _EwaldTable(g=g, g_squared=(g * g).sum(axis=1), eps_g=eps_g, g_eps_g=(g * eps_g).sum(axis=1),
+    table = _EwaldTable(g=g, g_squared=(g * g).sum(axis=1), eps_g=eps_g, g_eps_g=((g @ nac.dielectric) * g).sum(axis=1),
                         pair=pair, moments_real=np.ascontiguousarray(moments.real),
                         moments_imag=np.ascontiguousarray(moments.imag), charges=charges)
     return Parts(base=crystal.with_force_constants(nac.short_range), table=table)
 
 
 def _ewald_sum(nac: NonAnalytic, table: _EwaldTable, q_cart: NDArray[np.float64], direction: NDArray[np.float64] | None,
-               tolerance: float) -> NDArray[np.complex128]:
+               tolerance: float, outside: NDArray[np.bool_] | None = None) -> NDArray[np.complex128]:
     """(n_c, 3n, 3n) the Gonze-Lee reciprocal sum (module docstring) before the factor and masses.
 
     C_ia,jb(q) = sum_G w(K) (K Z_i)_a (K Z_j)_b exp(2 pi i G . (r_i - r_j)) - delta_ij dd_q0_i, K = q + G,
@@ -393,8 +393,10 @@ def _ewald_sum(nac: NonAnalytic, table: _EwaldTable, q_cart: NDArray[np.float64]
     large products instead of a small matrix product per q. |K|^2 and K eps K are expanded the
     same way (q-independent G parts, one product q G^T): q lies in the first Brillouin zone, so
     |K| >= |G| / 2 wherever G != 0 and the expansion costs at most a few ulps of K eps K; at
-    G = 0 it is q's own. A K below the tolerance (Gamma) takes the direction of approach
-    instead, or drops out without one, as phonopy's.
+    G = 0 it is q's own. The rows `outside` that zone (a caller's own q, not moved there) take
+    K = q + G formed directly, as the expansion would lose |G|^2 / |K|^2 ulps where q nears -G.
+    A K below the tolerance (Gamma) takes the direction of approach instead, or drops out
+    without one, as phonopy's.
     """
     assert nac.ewald is not None and nac.dd_q0 is not None
     eps = nac.dielectric
@@ -404,6 +406,11 @@ def _ewald_sum(nac: NonAnalytic, table: _EwaldTable, q_cart: NDArray[np.float64]
     k_squared = (q_cart * q_cart).sum(axis=1)[:, None] + 2.0 * q_g + table.g_squared
     small = k_squared < tolerance ** 2
     kek = np.einsum("qc,cd,qd->q", q_cart, eps, q_cart)[:, None] + 2.0 * (q_cart @ table.eps_g.T) + table.g_eps_g
+    if outside is not None and outside.any():  # K formed directly where the expansion would cancel
+        k = q_cart[outside][:, None, :] + table.g[None, :, :]
+        k_squared[outside] = (k * k).sum(axis=2)
+        kek[outside] = ((k @ eps) * k).sum(axis=2)
+        small = k_squared < tolerance ** 2
     safe = np.where(small, 1.0, kek)
     weight = np.exp(safe * (-0.25 / nac.ewald ** 2))
     weight /= safe
@@ -506,6 +513,7 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
     q_cart = q @ np.linalg.inv(crystal.cell).T
     n3 = 3 * n
     made = crystal.nac_parts if nac is crystal.nac else parts(crystal, nac)  # formed once per crystal
+    outside = brillouin_qpoints(q, crystal.reciprocal)[1].any(axis=1)  # q a caller did not move into the zone
     base = made.base
     if nac.method == "gonze":
         assert nac.g_vectors is not None
@@ -524,7 +532,8 @@ def nac_dynamical_matrices(crystal: Crystal, nac: NonAnalytic, qpoints: ArrayLik
         if weights is None:
             for sub in _chunks(part.start, part.stop, ewald_per_q, EWALD_ENTRIES):
                 local = slice(sub.start - part.start, sub.stop - part.start)
-                matrices[local] += _ewald_sum(nac, made.table, q_cart[sub], direction, tolerance) * scale
+                matrices[local] += _ewald_sum(nac, made.table, q_cart[sub], direction, tolerance,
+                                              outside[sub]) * scale
         else:  # Wang: f / N (q Z_i)(q Z_j)^T / (q eps q) times the phase sums S_ij(q) / sqrt(m_i m_j)
             vectors = q_cart[part]
             active = (vectors * vectors).sum(axis=1) >= tolerance ** 2

@@ -41,7 +41,7 @@ from vibra.dynamics.trajectory import Trajectory
 from vibra.solvers import budget
 from vibra.system import System
 
-__all__ = ["integrate", "MAX_RECORD_BYTES", "DRIFT_TOLERANCE"]
+__all__ = ["integrate", "check_thermostat_scale", "MAX_RECORD_BYTES", "DRIFT_TOLERANCE"]
 
 #: Largest memory the recorded positions and velocities may take (bytes); a larger request is
 #: refused before anything is allocated (raise `record_every`).
@@ -68,18 +68,20 @@ def _force_function(forces: Any, n_dof: int, x0: NDArray[np.float64]) -> Callabl
     return forces
 
 
-def _thermostat_scale(thermostat: Any, kT: float, n_dof: int, energy: str) -> None:
-    """Refuse a thermostat whose k_B T (or Nosé-Hoover masses Q) floating point cannot hold."""
+def check_thermostat_scale(thermostat: Any, kT: float, n_dof: int, energy: str) -> None:
+    """Refuse a thermostat whose k_B T (or Nosé-Hoover masses Q) floating point cannot hold: an
+    `ArgumentError` naming ``thermostat.temperature`` or ``thermostat.tau`` (what a scene checks
+    before it runs, and `integrate` before it starts)."""
     tiny, huge = np.finfo(float).tiny, np.finfo(float).max
     unit = "" if energy == "1" else f" {energy}"
     if not tiny <= n_dof * kT <= huge:
-        raise _validate.ArgumentError("thermostat", f"thermostat.temperature is {thermostat.temperature!r}: n_dof k_B T = {n_dof * kT:.3g}"
+        raise _validate.ArgumentError("thermostat.temperature", f"thermostat.temperature is {thermostat.temperature!r}: n_dof k_B T = {n_dof * kT:.3g}"
                          f"{unit} is outside the normal floats ({tiny:.3g} to {huge:.3g}); expected a "
                          "temperature on the scale of the system's energies")
     if isinstance(thermostat, NoseHoover):
         Q = kT * thermostat.tau**2
         if not (tiny <= Q and n_dof * Q <= huge):
-            raise _validate.ArgumentError("thermostat", f"thermostat.tau is {thermostat.tau!r}: the Nosé-Hoover masses k_B T tau^2 = {Q:.3g} "
+            raise _validate.ArgumentError("thermostat.tau", f"thermostat.tau is {thermostat.tau!r}: the Nosé-Hoover masses k_B T tau^2 = {Q:.3g} "
                              f"(and n_dof times that) leave the normal floats ({tiny:.3g} to {huge:.3g}); expected "
                              "tau of the order of the system's periods")
 
@@ -99,7 +101,7 @@ def _isokinetic_velocities(v: NDArray[np.float64], masses: NDArray[np.float64], 
         scaled = v * np.sqrt(two_kinetic / mv2)
         kept = float(np.sum(masses * scaled * scaled))
     if not (np.all(np.isfinite(scaled)) and abs(kept / two_kinetic - 1.0) < 1e-12):
-        raise _validate.ArgumentError("thermostat", f"thermostat.temperature is {temperature!r}: velocities of these masses carrying "
+        raise _validate.ArgumentError("thermostat.temperature", f"thermostat.temperature is {temperature!r}: velocities of these masses carrying "
                          f"n_dof k_B T = {two_kinetic:.3g} in kinetic energy leave the normal floats "
                          f"(sum m v^2 comes out {kept:.3g}); expected a temperature on the scale of the "
                          "system's energies")
@@ -230,7 +232,7 @@ def integrate(
     two_kinetic = 0.0
     if thermostat is not None:
         kT = system.units.boltzmann * thermostat.temperature
-        _thermostat_scale(thermostat, kT, n_dof, system.units.energy)
+        check_thermostat_scale(thermostat, kT, n_dof, system.units.energy)
     if isinstance(thermostat, Isokinetic):
         two_kinetic = n_dof * kT
         v = _isokinetic_velocities(v, masses, two_kinetic, thermostat.temperature)
@@ -411,7 +413,8 @@ def _compiled_loop(x: NDArray[np.float64], v: NDArray[np.float64], xi: NDArray[n
                                   kicks, drifts, kind, kT, n_f, Q, xi, eta, two_kinetic, dt, n_steps, record_every,
                                   rec_x, rec_v, rec_state, force, carry, first, last, check)
             except ZeroDivisionError:                  # numba's: the isokinetic kick's velocities all vanished
-                return last, f"the velocities vanished in an isokinetic kick (between steps {first} and {last})", None
+                # the chunk's first step: the records before it are the ones written (the chunk's own may not be)
+                return first, f"the velocities vanished in an isokinetic kick (between steps {first} and {last})", None
             if check or finite_state(x[:n], v, force[:n], masses, xi, eta):
                 break
             for array, start in zip((x, v, xi, eta, force, carry), saved):

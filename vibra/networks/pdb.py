@@ -52,8 +52,10 @@ MMCIF_COLUMNS: tuple[tuple[str, ...], ...] = (
     ("auth_seq_id", "label_seq_id"), ("Cartn_x",), ("Cartn_y",), ("Cartn_z",), ("label_alt_id",),
     ("pdbx_PDB_ins_code",), ("B_iso_or_equiv",), ("occupancy",), ("group_PDB",),
 )
-#: Columns whose every value must be a number ("." and "?" allowed where mmCIF allows a value to be unknown).
-_MMCIF_NUMBERS = {"Cartn_x": False, "Cartn_y": False, "Cartn_z": False, "B_iso_or_equiv": True, "occupancy": True}
+#: Columns whose every value must be a number (Biopython reads each with float(); "?" is refused there too).
+_MMCIF_NUMBERS = ("Cartn_x", "Cartn_y", "Cartn_z", "B_iso_or_equiv", "occupancy")
+#: ... and a whole number (the residue number Biopython reads, the model number where given).
+_MMCIF_INTEGERS = (("auth_seq_id", "label_seq_id"), ("pdbx_PDB_model_num",))
 
 
 def check_mmcif(file: Path) -> dict[str, Any]:
@@ -80,26 +82,42 @@ def check_mmcif(file: Path) -> dict[str, Any]:
     for names in MMCIF_COLUMNS:
         if not any(prefix + name in table for name in names):
             raise ValueError(f"{file}: the _atom_site loop has no column {' or '.join(prefix + n for n in names)}")
-    columns = {key: value for key, value in table.items() if key.startswith(prefix)}
-    lengths = {len(value) if isinstance(value, list) else 1 for value in columns.values()}
+    columns = {key: value if isinstance(value, list) else [value]
+               for key, value in table.items() if key.startswith(prefix)}
+    lengths = {len(value) for value in columns.values()}
+    wanted = [(name, False) for name in _MMCIF_NUMBERS] + [
+        (next(n for n in names if prefix + n in columns), True)
+        for names in _MMCIF_INTEGERS if any(prefix + n in columns for n in names)]
+    bad = _first_bad_value(columns, prefix, wanted)
     if len(lengths) > 1:
+        where = (f"row {bad[0]} is the first whose {bad[1]} is not a number" if bad is not None
+                 else "its last row is cut")
         raise ValueError(f"{file}: the _atom_site loop's {len(columns)} columns hold {min(lengths)} to {max(lengths)} "
-                         "values: the file is cut, or a row misses a field")
-    for name, unknown_allowed in _MMCIF_NUMBERS.items():
-        values = columns[prefix + name]
-        for row, value in enumerate(values if isinstance(values, list) else [values], start=1):
-            if unknown_allowed and value in (".", "?"):
-                continue
+                         f"values: the file is cut, or a row misses a field ({where})")
+    if bad is not None:
+        row, name, value, whole = bad
+        atom_id = columns[prefix + "id"][row - 1]
+        raise ValueError(f"{file}: _atom_site row {row} (atom id {atom_id}): {name} is {value!r}, not a "
+                         f"{'whole number' if whole else 'number'}; a field of that row (or one before it) is "
+                         "missing or damaged")
+    return table
+
+
+def _first_bad_value(columns: dict[str, list[str]], prefix: str, wanted: list[tuple[str, bool]]
+                     ) -> tuple[int, str, str, bool] | None:
+    """(row from 1, column, value, whole wanted) of the first value that is not a finite number
+    (a whole one where `wanted` says so), in row order over the rows every column holds."""
+    rows = min(len(columns[prefix + name]) for name, _ in wanted)
+    for row in range(rows):
+        for name, whole in wanted:
+            value = columns[prefix + name][row]
             try:
-                number = float(value)
+                number = float(int(value)) if whole else float(value)
             except ValueError:
                 number = float("nan")
             if not np.isfinite(number):
-                atom = columns[prefix + "id"]
-                atom_id = atom[row - 1] if isinstance(atom, list) else atom
-                raise ValueError(f"{file}: _atom_site row {row} (atom id {atom_id}): {name} is {value!r}, not a "
-                                 "number; a field of that row (or one before it) is missing or damaged") from None
-    return table
+                return row + 1, name, value, whole
+    return None
 
 
 def check_pdb_text(text: str, name: str) -> tuple[str, ...]:

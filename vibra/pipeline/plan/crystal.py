@@ -237,7 +237,11 @@ def _step_chart_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | No
     except NotPrimitiveError:
         gamma = None
         irreps = "; Gamma levels unlabelled: the cell is not primitive (its Gamma holds folded zone-boundary modes)"
-    figure = plot_bands_dos(bands, dos, unit=spec.frequency_unit, title=plan.scene.title, gamma=gamma)
+    except RuntimeError as error:  # spglib found no group, or its operations do not map the atoms
+        gamma = None
+        irreps = f"; Gamma levels unlabelled: {' '.join(str(error).split())}"
+    figure = plot_bands_dos(bands, dos, unit=spec.frequency_unit, title=plan.scene.title, gamma=gamma,
+                            polar=getattr(context.system, "nac", None) is not None)
     unit = "THz" if spec.frequency_unit == "THz" else "cm^-1"
     nac = getattr(context.system, "nac", None)
     polar = "" if nac is None else (f"; with the Born charges' long-range field ("

@@ -140,6 +140,14 @@ def check_dynamics_plan(scene: Scene, system: Any) -> None:
                          f"omega_max = {omega_max:.6g} {system.units.omega}: {spec.integrator} is stable for dt < "
                          f"{STABLE_OMEGA_DT[spec.integrator]:.4g} / omega_max = {bound:.6g} (a step of a twentieth "
                          f"of the shortest period, {np.pi / (10 * omega_max):.3g}, keeps the energy accurate)")
+    thermostat, _ = _thermostat(scene, 1)  # the scale does not depend on the chain
+    if thermostat is not None:  # k_B T or the Nosé-Hoover masses within floating point, as the run checks
+        from vibra.dynamics.integrate import check_thermostat_scale
+
+        try:
+            check_thermostat_scale(thermostat, system.units.boltzmann * spec.temperature, n_dof, system.units.energy)
+        except ArgumentError as error:
+            raise _thermostat_error(scene, error) from None
     if spec.histogram or spec.mode is not None:
         lowest = np.asarray(system.modes(max(1, spec.mode or 1), vectors=False).omega)
         rigid = np.abs(lowest) <= 1e-8 * omega_max
@@ -149,6 +157,12 @@ def check_dynamics_plan(scene: Scene, system: Any) -> None:
         if spec.mode is not None and rigid[spec.mode - 1]:
             raise SceneError(scene.source, "compute.mode", f"is {spec.mode}, a rigid mode (omega = 0); choose a "
                              "vibrating mode, or hold the system (fixed ends)")
+
+
+def _thermostat_error(scene: Scene, error: ArgumentError) -> SceneError:
+    """A thermostat's scale refusal at its scene key (``thermostat.tau`` -> ``compute.tau``)."""
+    key = {"thermostat.tau": "compute.tau"}.get(error.argument, "compute.temperature")
+    return SceneError(scene.source, key, str(error).split(": ", 1)[1])
 
 
 def dynamics_cost(scene: Scene, system: Any) -> str:
@@ -202,8 +216,7 @@ def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str 
             raise SceneError(scene.source, "compute", f"the run ({label}) diverged: its state left the finite "
                              f"numbers at step {error.step} (t = {error.time:.4g}); {way_out}") from error
         except ArgumentError as error:                # k_B T or the Nosé-Hoover masses beyond floating point
-            key = "compute.tau" if str(error).startswith("thermostat.tau") else "compute.temperature"
-            raise SceneError(scene.source, key, str(error).split(": ", 1)[1]) from error
+            raise _thermostat_error(scene, error) from error
         runs.append(run)
         labels.append(label)
     kT = 0.0 if spec.temperature is None else system.units.boltzmann * spec.temperature

@@ -19,6 +19,8 @@ import os
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from vibra.solvers.budget import TIME_LIMIT_S
+
 __all__ = ["MAX_DYNAMICS_STEPS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF",
            "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "render_seconds", "frames_that_fit",
            "RENDER_SECONDS_PER_ATOM_FRAME", "RENDER_SECONDS_FIXED", "sites_and_dim", "n_dof_bound",
@@ -29,8 +31,9 @@ BYTES_PER_DOF = 512
 #: Seconds per N^2 of an all-frequency solve of N dofs (tridiagonal and bidiagonal paths are
 #: O(N^2)). (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 SECONDS_PER_DOF_SQUARED = 1e-8
-#: Longest estimated all-frequency solve a scene may ask for without ``compute.time_limit_s``, in s.
-DEFAULT_TIME_LIMIT_S = 600.0
+#: Longest estimated all-frequency solve a scene may ask for without ``compute.time_limit_s``, in s:
+#: the library's own limit (`vibra.solvers.budget.TIME_LIMIT_S`), one decision.
+DEFAULT_TIME_LIMIT_S = TIME_LIMIT_S
 
 #: An off-screen mode animation (pyvista, a sphere per atom per frame, then the GIF): seconds per
 #: atom and frame, and the fixed part (the plotter, the file), from solid argon's 32 atoms x 16

@@ -43,7 +43,6 @@ systems with ``track=False`` (branches are then the ranks).
 
 from __future__ import annotations
 
-import copy
 import csv
 import dataclasses
 import io
@@ -61,9 +60,10 @@ from vibra._frozen import freeze_arrays
 from vibra._io import atomic_write_text
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.pipeline.plan import build_system
-from vibra.pipeline.scene import Scene, SceneError, tomllib
+from vibra.pipeline.scene import Scene, SceneError
 from vibra.solvers.budget import describe_seconds
 from vibra.pipeline.sweep.applies import NOT_SWEPT, SOLVE_KEYS, SweepWarning, check_swept_keys, warn_if_constant
+from vibra.pipeline.sweep.tables import scene_at, scene_table
 from vibra.pipeline.sweep.tracking import BranchTracker
 from vibra.pipeline.sweep.points import (
     DEFAULT_MAX_POINTS, Axis, Ensemble, Grid, GridPoints, ValueRange, ensemble, grid, member_rng,
@@ -227,41 +227,6 @@ def _cell(value: Any) -> str:
 
 
 # ---------------------------------------------------------------------- one point
-def _override(data: Mapping[str, Any], key: str, value: Any, source: str) -> dict[str, Any]:
-    """A deep copy of a scene table with ``data[section][...][name] = value``."""
-    parts = key.split(".")
-    if len(parts) < 2 or not all(parts):
-        raise SceneError(source, key, "a swept key must be a dotted path into a table, such as system.defect_mass")
-    out = copy.deepcopy(dict(data))
-    node: Any = out
-    for depth, part in enumerate(parts[:-1]):
-        child = node.get(part) if isinstance(node, dict) else None
-        if child is None:
-            child = {}
-            node[part] = child
-        if not isinstance(child, dict):
-            raise SceneError(source, ".".join(parts[:depth + 1]), f"is a value, not a table; cannot set {key}")
-        node = child
-    node[parts[-1]] = value.tolist() if isinstance(value, np.ndarray) else value
-    return out
-
-
-def _scene_at(data: Mapping[str, Any], source: str, values: Mapping[str, Any]) -> tuple[Scene, dict[str, Any]]:
-    """The validated scene with `values` set, and the table it was built from."""
-    table = dict(data)
-    for key, value in values.items():
-        table = _override(table, key, value, source)
-    try:
-        return Scene.from_dict(table, source=source), table
-    except SceneError as error:  # an integer key swept with float values: 3.0 -> 3
-        whole = {k: int(v) for k, v in values.items() if isinstance(v, float) and v.is_integer()}
-        if not whole or "expected an integer" not in str(error):
-            raise
-        for key, value in whole.items():
-            table = _override(table, key, value, source)
-        return Scene.from_dict(table, source=source), table
-
-
 def _solve_scene(table: Mapping[str, Any], source: str, vectors: bool = False) -> tuple[Any, Any, str]:
     scene = Scene.from_dict(table, source=source)
     system = build_system(scene)
@@ -278,11 +243,11 @@ def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str,
         data, source = target
         if payload is None:  # an ensemble member: draw its values here, from its own generator
             drawn = dict(options["draw"](member_rng(options["seed"], index)))
-            _, payload = _scene_at(data, source, drawn)
+            _, payload = scene_at(data, source, drawn)
             parameters = parameters + tuple((str(k), v) for k, v in drawn.items()
                                             if isinstance(v, (int, float)) and not isinstance(v, bool))
         else:  # the point's values: its table is made here (the grid keeps none)
-            _, payload = _scene_at(data, source, dict(payload))
+            _, payload = scene_at(data, source, dict(payload))
         system, modes, _ = _solve_scene(payload, source, options.get("track", False))
     else:
         kwargs = dict(payload) if payload is not None else {"rng": member_rng(options["seed"], index)}
@@ -490,7 +455,7 @@ def _point_estimate(target: Any, points: Grid | Ensemble, options: dict[str, Any
         data, source = payload_target
         if payload is None:
             payload = dict(options["draw"](member_rng(options["seed"], index)))
-        scene, _ = _scene_at(data, source, dict(payload))
+        scene, _ = scene_at(data, source, dict(payload))
         system = build_system(scene)
         c = scene.compute
         request = dict(n_modes=c.n_modes, band=c.band, solver=c.solver, accuracy=c.accuracy)
@@ -545,13 +510,13 @@ def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name
         payload: Any = target
         units, table_name = None, str(name or getattr(target, "__name__", "sweep"))
     else:
-        data, source = _scene_table(target)
-        scene, _ = _scene_at(data, source, {})
+        data, source = scene_table(target)
+        scene, _ = scene_at(data, source, {})
         if scene.kind in NOT_SWEPT:
             raise SceneError(source, "kind", NOT_SWEPT[scene.kind])
         if isinstance(points, Grid):
             for values in points.points:  # every point validated before any work (not kept)
-                _scene_at(data, source, dict(zip(points.keys, values)))
+                scene_at(data, source, dict(zip(points.keys, values)))
             check_swept_keys(points.keys, source, scene.kind)
         elif points.draw is None:
             raise ValueError("an ensemble of a scene needs draw(generator) -> {key: value}, the values of each member")
@@ -576,37 +541,3 @@ def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name
 
         count = points.n
     return _Lazy(count, task), _Lazy(count, label), units, table_name
-
-
-def _scene_table(target: Any) -> tuple[dict[str, Any], str]:
-    """The raw scene table and its source name, from a path, a mapping or a `Scene`."""
-    if isinstance(target, Scene):
-        data = _strip_none(target.dump())
-        system = data.pop("system")
-        data["system"] = {"builder": system["builder"], **system.get("parameters", {})}
-        return data, target.source
-    if isinstance(target, Mapping):
-        return dict(target), str(target.get("name", "<scene>"))
-    if isinstance(target, (str, os.PathLike)):
-        path = Path(target)
-        try:
-            text = path.read_bytes().decode("utf-8")
-        except FileNotFoundError:
-            raise SceneError(str(path), "", "file not found") from None
-        except (OSError, UnicodeDecodeError) as error:
-            raise SceneError(str(path), "", f"cannot read the scene file ({error})") from None
-        try:
-            return tomllib.loads(text), str(path)
-        except tomllib.TOMLDecodeError as error:
-            raise SceneError(str(path), "", f"invalid TOML: {error}") from None
-    raise TypeError(f"target must be a scene file, a scene table, a Scene or a builder, got {type(target).__name__}")
-
-
-def _strip_none(value: Any) -> Any:
-    """A `Scene.dump` as a scene table: no None values (defaults), no 'source', lists for tuples."""
-    if isinstance(value, Mapping):
-        return {k: _strip_none(v) for k, v in value.items() if v is not None and k != "source"}
-    if isinstance(value, (list, tuple)):
-        return [_strip_none(v) for v in value]
-    return value
-
