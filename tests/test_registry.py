@@ -72,6 +72,68 @@ def test_classify_ignores_stored_zeros_and_leaves_b_as_it_was() -> None:
     assert (B != before).nnz == 0 and B.nnz == before.nnz
 
 
+def _kind_by_definition(rows: list[tuple[int, ...]], n: int) -> str:
+    """The topology of springs `rows` (the dofs each row of B touches) on n dofs, from the
+    definitions of `vibra.solvers.topology` written out plainly: a walk over the sites."""
+    if not rows or any(len(row) not in (1, 2) or len(set(row)) != len(row) for row in rows):
+        return "network"
+    springs = [tuple(sorted(row)) for row in rows if len(row) == 2]
+    walls = [row[0] for row in rows if len(row) == 1]
+    if all(j == i + 1 for i, j in springs) and len(set(springs)) == len(springs):
+        joined = {i for i, _ in springs}  # c joined to c + 1
+        first = {c for c in range(n) if c - 1 not in joined}
+        last = {c for c in range(n) if c not in joined}
+        if all(walls.count(c) <= (c in first) + (c in last) for c in range(n)):
+            return "chain"
+        return "walled-chain" if len(springs) == n - 1 else "network"
+    degree = [sum(c in pair for pair in springs) for c in range(n)]
+    if n >= 3 and len(springs) == n and all(d == 2 for d in degree):
+        neighbours = {c: [j if i == c else i for i, j in springs if c in (i, j)] for c in range(n)}
+        seen, previous, site = {0}, -1, 0
+        for _ in range(n - 1):  # walk the cycle from site 0: it must reach every site
+            onward = [c for c in neighbours[site] if c != previous]
+            if not onward:
+                break
+            previous, site = site, onward[0]
+            seen.add(site)
+        if len(seen) == n:
+            return "walled-ring" if walls else "ring"
+    return "network"
+
+
+def test_classify_agrees_with_the_definitions_on_random_patterns() -> None:
+    """2,000 random patterns of 1..8 dofs (runs, cycles, repeated and crossing springs, walls, a
+    three-dof term, an empty row) in random row order: `classify` (numpy, vectorised) gives the
+    kind the definitions give."""
+    rng = np.random.default_rng(45)
+    seen = set()
+    for _ in range(2000):
+        n = int(rng.integers(1, 9))
+        shape = int(rng.integers(0, 3))
+        if shape == 0:  # a run, maybe broken
+            rows = [(i, i + 1) for i in range(n - 1) if rng.random() < 0.85]
+        elif shape == 1:  # a cycle, maybe relabelled or broken
+            order = rng.permutation(n) if rng.random() < 0.5 else np.arange(n)
+            rows = [(int(order[i]), int(order[(i + 1) % n])) for i in range(n) if rng.random() < 0.9]
+        else:
+            rows = [tuple(int(c) for c in rng.integers(0, n, size=2)) for _ in range(int(rng.integers(0, 2 * n + 1)))]
+        rows += [(int(rng.integers(0, n)),) for _ in range(int(rng.integers(0, 3)))]
+        if rng.random() < 0.05:
+            rows.append(())
+        if rng.random() < 0.05 and n >= 3:
+            rows.append((0, 1, 2))
+        rows = [rows[i] for i in rng.permutation(len(rows))]
+        rows = [row for row in rows if len(row) != 2 or row[0] != row[1]]  # (one entry, in a matrix)
+        B = np.zeros((len(rows), n))
+        for r, row in enumerate(rows):
+            B[r, list(row)] = [(-1.0) ** k for k in range(len(row))]
+        expected = _kind_by_definition(rows, n)
+        assert classify(B) == expected, (rows, n)
+        assert classify(sp.csr_matrix(B)) == expected
+        seen.add(expected)
+    assert seen == {"chain", "walled-chain", "ring", "walled-ring", "network"}
+
+
 def systems() -> dict[str, tuple[System, dict[str, object]]]:
     """Small and large systems of every shape, each with what the grid may ask of it."""
     rng = np.random.default_rng(5)

@@ -424,14 +424,21 @@ def test_refined_vectors_of_a_double_eigenvalue_reach_extended_precision() -> No
     assert np.abs(np.asarray(fine.T @ fine, dtype=float) - np.eye(2)).max() < 1e-15
 
 
-def test_the_error_free_product_is_within_one_unit_of_each_entry() -> None:
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_error_free_product_is_within_one_unit_of_each_entry(compiled: bool,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     """`spring_ritz._error_free_product` (B V in long double by two-product and two-sum): each
     entry within one unit of the exact rational value (Python fractions), on sparse B with
     entries over 1e-3..1e3 of both signs, where the plain product loses tens of units to
-    cancellation. The Rayleigh quotient of a low mode is formed from it."""
+    cancellation. The Rayleigh quotient of a low mode is formed from it. Both routes: the
+    compiled triple-double sums and the numpy loop in long double (which serves products too
+    small to pay for loading the kernel, `spring_ritz.NUMPY_PRODUCT_S`)."""
     from fractions import Fraction
 
+    from vibra.solvers.accurate import spring_ritz
     from vibra.solvers.accurate.spring_ritz import _error_free_product
+
+    monkeypatch.setattr(spring_ritz, "compiled_pays", lambda seconds: compiled)
 
     rng = np.random.default_rng(0)
     ld = np.longdouble

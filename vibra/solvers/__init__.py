@@ -67,6 +67,8 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``dispatch.py``                     `plan` (describe the request, let the registry choose,
                                     estimate), `solve`
 ``budget.py``                       memory / time estimates, the guard and its limits, progress
+``compiled.py``                     the compiled kernels' loading (numba on a kernel's first call,
+                                    never with vibra) and when a kernel pays (`compiled_pays`)
 ``standard/lapack.py``              dense, tridiagonal, banded (absolute accuracy)
 ``standard/sparse.py``              shift-invert for a few modes or a band (the factor, the
                                     shift, the probe)

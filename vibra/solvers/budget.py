@@ -22,6 +22,8 @@ OpenBLAS, rounded so that estimates err on the high side by a small factor), mem
 the input, then time:
 
 - dense: 8 n^2 (K~; twice with vectors) + 8 n k; 5e-11 n^3 (values), 1.5e-10 n^3 (vectors).
+- accurate-bisection: 1e-6 n k with vectors, 5e-7 n k without (compiled bisection, dstein,
+  certificates), + 2e-6 n k where dstebz takes the values (`gk_bisection.compiled_bisection_pays`).
 - tridiagonal, accurate-bidiagonal: O(n), 8 n^2 with all vectors (LAPACK allocates them);
   1e-8 n^2 for all values (dqds / MRRR), + 1e-7 n k with vectors. accurate-bidiagonal adds
   the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
@@ -55,6 +57,7 @@ from dataclasses import dataclass
 from typing import Callable, TextIO
 
 from vibra.solvers.common import BAND_LIMIT, RING_DENSE_LIMIT
+from vibra.solvers.accurate.chain.gk_bisection import DSTEBZ_S, compiled_bisection_pays
 from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, triplet_seconds
 from vibra.solvers.standard.cholmod import sparse_backend
 
@@ -251,6 +254,8 @@ def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_term
         # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
         memory = 8.0 * 64 * n + vector_bytes
         seconds = (BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
+        if not compiled_bisection_pays(n, k):  # the values by dstebz (no numba to load), 2e-6 n k
+            seconds += DSTEBZ_S * n * k
     elif path == "accurate-ring" and ring_route == "sparse":
         # shift-invert's values, bracketed by ~2 k double-double counts per level (two levels seen)
         cost = estimate("sparse", n, k=k, vectors=vectors, width=width, nnz=nnz)

@@ -2,8 +2,8 @@
 
 K = B^T W B: each row of B is one spring (two entries: the sites it joins; one entry: a spring
 to a wall, an anchor). What the accurate paths can exploit depends only on which dofs the
-springs join, never on their values, so the plan decides it here, in O(nnz) with no
-allocation beyond B's pattern, and every path trusts it:
+springs join, never on their values, so the plan decides it here, in O(nnz) numpy operations
+(no compiled kernel: this runs on every call), and every path trusts it:
 
 - ``"chain"``: the springs form chains of consecutive dofs (c, c + 1), one spring per pair,
   with at most one anchor at each end of a chain: K~ tridiagonal, a bidiagonal spring factor
@@ -25,8 +25,7 @@ from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
-
-from vibra.solvers.accurate.ring.kernel import _jit
+from numpy.typing import NDArray
 
 __all__ = ["Topology", "classify", "KINDS"]
 
@@ -72,60 +71,35 @@ _NETWORK, _CHAIN, _WALLED_CHAIN, _RING_CANDIDATE = 0, 1, 2, 3
 _CODES: dict[int, Topology] = {_NETWORK: "network", _CHAIN: "chain", _WALLED_CHAIN: "walled-chain"}
 
 
-@_jit()
-def _pattern_kind(indptr: Any, indices: Any, n: int) -> int:  # pragma: no cover - compiled
-    """One pass over B's pattern (rows with sorted column indices): chain (springs (c, c + 1),
-    one per pair, walls only at the ends of each run, one each), walled chain (one run through
-    all n dofs, walls anywhere), a ring candidate (n springs, every dof in two: the cycle is
-    checked by the caller), or a network."""
-    joined = np.zeros(n, dtype=np.int32)   # springs (c, c + 1)
-    degree = np.zeros(n, dtype=np.int32)   # springs at each dof
-    walls = np.zeros(n, dtype=np.int32)
-    consecutive = True
-    pairs = 0
-    for row in range(indptr.shape[0] - 1):
-        count = indptr[row + 1] - indptr[row]
-        if count == 1:
-            walls[indices[indptr[row]]] += 1
-        elif count == 2:
-            a, b = indices[indptr[row]], indices[indptr[row] + 1]
-            if a == b:
-                return 0
-            degree[a] += 1
-            degree[b] += 1
-            pairs += 1
-            if b == a + 1:
-                joined[a] += 1
-            else:
-                consecutive = False
-        else:
-            return 0
-    if consecutive:
-        unbranched = True
-        for c in range(n):
-            if joined[c] > 1:
-                unbranched = False
-                break
-        if unbranched:
-            chain = True
-            for c in range(n):
-                start = c == 0 or joined[c - 1] == 0
-                end = joined[c] == 0
-                allowed = (1 if start else 0) + (1 if end else 0)
-                if walls[c] > allowed:
-                    chain = False
-                    break
-            if chain:
-                return 1
-            if pairs == n - 1:  # one run through all dofs (no pair repeated): walls inside it
-                return 2
-        return 0
-    if n >= 3 and pairs == n:
-        for c in range(n):
-            if degree[c] != 2:
-                return 0
-        return 3
-    return 0
+def _pattern_kind(indptr: NDArray[np.integer], indices: NDArray[np.integer], n: int) -> int:
+    """One vectorised pass over B's pattern (rows with sorted column indices, no explicit zeros):
+    chain (springs (c, c + 1), one per pair, walls only at the ends of each run, one each), walled
+    chain (one run through all n dofs, walls anywhere), a ring candidate (n springs, every dof in
+    two: the cycle is checked by the caller), or a network. numpy, O(nnz): a few array operations
+    on every call, no compiled kernel to load (`vibra.solvers.common.COMPILED_FROM_S`)."""
+    per_row = np.diff(indptr)
+    if np.any((per_row != 1) & (per_row != 2)):
+        return _NETWORK
+    starts = indptr[:-1]
+    paired = per_row == 2
+    a, b = indices[starts[paired]], indices[starts[paired] + 1]
+    if np.any(a == b):
+        return _NETWORK
+    pairs = a.shape[0]
+    walls = np.bincount(indices[starts[~paired]], minlength=n)
+    if np.all(b == a + 1):  # every spring joins consecutive dofs
+        joined = np.bincount(a, minlength=n)  # springs (c, c + 1)
+        if np.any(joined > 1):
+            return _NETWORK
+        start = np.r_[True, joined[:-1] == 0]  # c begins a run
+        end = joined == 0                      # c ends one
+        if np.all(walls <= start.astype(np.intp) + end):
+            return _CHAIN
+        # one run through all dofs (no pair repeated): walls inside it
+        return _WALLED_CHAIN if pairs == n - 1 else _NETWORK
+    if n >= 3 and pairs == n and np.all(np.bincount(np.r_[a, b], minlength=n) == 2):
+        return _RING_CANDIDATE
+    return _NETWORK
 
 
 def _one_cycle(first: np.ndarray, second: np.ndarray, n: int) -> bool:

@@ -5,24 +5,30 @@ scipy's CSR product (`csr_matvecs`) walks the block row by row with a generic in
 the (n, k) Fortran-ordered bases ARPACK returns it costs ~4 times a column-by-column pass (a
 10^6-site chain, k = 21: 0.39 s against 0.09 s; figures in benchmarks/RESULTS.md, "Figures
 formerly in code comments"). Same sums, same order of terms within a row as scipy's: the
-results agree bit for bit.
+results agree bit for bit. Also the triple-double product of `spring_ritz._error_free_product`
+(`triple_rows`). Compiled on first call (`vibra.solvers.compiled`).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import numba
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import FMA, _fma
+from vibra.solvers.accurate.ring.kernel import FMA, _fma, _jit
+from vibra.solvers.compiled import compiled_pays, jit
 
-__all__ = ["times", "transposed_times", "rayleigh_quotients"]
+__all__ = ["times", "transposed_times", "rayleigh_quotients", "triple_rows", "SCIPY_PRODUCT_S"]
+
+#: Seconds per stored entry of B and column of V of scipy's CSR product, the kernels' counterpart
+#: (the same bits): 3e-9 (V C-ordered) to 1.1e-8 (Fortran-ordered) measured, one core. A product
+#: estimated under `vibra.solvers.compiled.COMPILED_FROM_S` (~10^7 entries x columns) takes scipy.
+SCIPY_PRODUCT_S = 1e-8
 
 
-@numba.njit(cache=True, nogil=True)
+@jit(cache=True, nogil=True)
 def _columns(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArray[np.float64],
              V: NDArray[np.float64], out: NDArray[np.float64]) -> None:  # pragma: no cover (compiled)
     rows, k = out.shape
@@ -34,7 +40,7 @@ def _columns(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArra
             out[i, j] = total
 
 
-@numba.njit(cache=True, nogil=True)
+@jit(cache=True, nogil=True)
 def _rows(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArray[np.float64],
           V: NDArray[np.float64], out: NDArray[np.float64]) -> None:  # pragma: no cover (compiled)
     rows, k = out.shape
@@ -55,7 +61,11 @@ def times(B: Any, V: NDArray[np.float64]) -> NDArray[np.float64]:
     B = sp.csr_matrix(B)
     V = np.asarray(V, dtype=np.float64)
     data = np.asarray(B.data, dtype=np.float64)
-    if V.flags.c_contiguous and not V.flags.f_contiguous:
+    by_rows = V.flags.c_contiguous and not V.flags.f_contiguous
+    if not compiled_pays(SCIPY_PRODUCT_S * B.nnz * V.shape[1]):  # scipy's product: the same sums, in order
+        product = np.asarray(sp.csr_matrix((data, B.indices, B.indptr), shape=B.shape) @ V)
+        return product if by_rows else np.asfortranarray(product)
+    if by_rows:
         out = np.empty((B.shape[0], V.shape[1]))
         _rows(B.indptr, B.indices, data, V, out)
         return out
@@ -72,14 +82,14 @@ def transposed_times(B: Any, E: NDArray[np.float64]) -> NDArray[np.float64]:
     return times(sp.csr_matrix(B).T.tocsr(), E)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@jit(cache=True, nogil=True, inline="always")
 def _two_sum(a: float, b: float) -> tuple[float, float]:  # pragma: no cover (compiled)
     s = a + b
     v = s - a
     return s, (a - (s - v)) + (b - v)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@jit(cache=True, nogil=True, inline="always")
 def _two_product(a: float, b: float) -> tuple[float, float]:  # pragma: no cover (compiled)
     p = a * b
     if FMA:  # (one fused multiply-add: the same exact error as Dekker's splitting below)
@@ -93,7 +103,7 @@ def _two_product(a: float, b: float) -> tuple[float, float]:  # pragma: no cover
     return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@jit(cache=True, nogil=True, inline="always")
 def _add(xh: float, xl: float, yh: float, yl: float) -> tuple[float, float]:  # pragma: no cover
     s, e = _two_sum(xh, yh)
     e += xl + yl
@@ -101,7 +111,7 @@ def _add(xh: float, xl: float, yh: float, yl: float) -> tuple[float, float]:  # 
     return h, e - (h - s)
 
 
-@numba.njit(cache=True, nogil=True)
+@jit(cache=True, nogil=True)
 def _rayleigh_columns(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArray[np.float64],
                       V: NDArray[np.float64], out: NDArray[np.float64]) -> None:  # pragma: no cover
     rows = indptr.shape[0] - 1
@@ -133,3 +143,38 @@ def rayleigh_quotients(B: Any, V: NDArray[np.float64]) -> NDArray[np.float64]:
     out = np.empty(V.shape[1])
     _rayleigh_columns(B.indptr, B.indices, np.asarray(B.data, dtype=np.float64), np.asfortranarray(V), out)
     return out
+
+
+@_jit()
+def triple_rows(indptr: Any, indices: Any, data: Any, V: Any, parts: Any) -> None:  # pragma: no cover - compiled
+    """parts[0] + parts[1] + parts[2] = B V row by row (`spring_ritz._error_free_product`):
+    Dekker's two-product of every entry (split at 2^27 + 1; no FMA), the high parts summed by
+    two-sum into parts[0], their errors and the products' low parts by two-sum into parts[1],
+    what those leave into parts[2]."""
+    splitter = 134217729.0
+    columns = V.shape[1]
+    for i in range(indptr.shape[0] - 1):
+        for p in range(indptr[i], indptr[i + 1]):
+            a = data[p]
+            c = splitter * a
+            a_high = c - (c - a)
+            a_low = a - a_high
+            row = indices[p]
+            for j in range(columns):
+                b = V[row, j]
+                product = a * b
+                d = splitter * b
+                b_high = d - (d - b)
+                b_low = b - b_high
+                error = ((a_high * b_high - product) + a_high * b_low + a_low * b_high) + a_low * b_low
+                high = parts[0, i, j]
+                total = high + product
+                back = total - high
+                carry = (high - (total - back)) + (product - back)
+                parts[0, i, j] = total
+                for term in (carry, error):
+                    low = parts[1, i, j]
+                    sum_low = low + term
+                    back_low = sum_low - low
+                    parts[2, i, j] += (low - (sum_low - back_low)) + (term - back_low)
+                    parts[1, i, j] = sum_low

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from typing import Any, Optional, Tuple
 
-import mpmath
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
@@ -23,8 +22,8 @@ from vibra.solvers.accurate.dd import (
 )
 from vibra.solvers.accurate.dd import mul as dd_mul, split_mp, tree_sum
 from vibra.solvers.common import EPS, SolveResult, sample_columns, small_pencil
-from vibra.solvers.accurate.ring.kernel import _jit
 from vibra.solvers.accurate.rounding import WORST_ENTRY, entry_deviation
+from vibra.solvers.compiled import compiled_pays
 
 __all__ = ["TARGET", "BLOCK", "FORMING", "REFINE_WORK", "Deviation", "forming_deviation", "zero_level",
            "most_terms", "cluster_bounds", "residual_bounds", "refine_modes"]
@@ -255,6 +254,11 @@ def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray
 #: Entries of B V that `_error_free_product` forms at once.
 EFT_ELEMENTS = 2**20
 
+#: Seconds per stored entry of B and column of V of `_numpy_product` in long double, the compiled
+#: product's counterpart: 1.7e-7 (6e6 entries x columns) to 7e-7 (3e3) measured, one core (the
+#: compiled: 5e-9).
+NUMPY_PRODUCT_S = 2e-7
+
 
 def _pairwise_squares(X: NDArray[Any]) -> NDArray[Any]:
     """The squared norm of each column of X, by numpy's pairwise summation (a contiguous row per
@@ -270,10 +274,13 @@ def _error_free_product(B: sp.csr_matrix, V: NDArray[Any]) -> NDArray[Any]:
     Where every entry of B and V is a float64 (the stored B~ and a float64 basis, cast: the
     usual case), compiled (`_compiled_product`): each product split exactly by Dekker's
     two-product and all of them summed by two-sum into a triple-double (hi, lo, lower) per
-    entry, left over below 2^-150 (|B| |V|)_i, then rounded once to long double; ~100 times the
-    numpy loop below, which serves any other input (`_numpy_product`)."""
+    entry, left over below 2^-150 (|B| |V|)_i, then rounded once to long double; ~40 times the
+    numpy loop below, which serves any other input (`_numpy_product`), and float64 ones in long
+    double where it is estimated under `vibra.solvers.compiled.COMPILED_FROM_S` (`NUMPY_PRODUCT_S`)."""
     if _float64_exact(B.data) and _float64_exact(V):
-        return _compiled_product(B, V)
+        if compiled_pays(NUMPY_PRODUCT_S * B.nnz * V.shape[1]):
+            return _compiled_product(B, V)
+        return _numpy_product(sp.csr_matrix(B, dtype=np.longdouble), np.asarray(V, dtype=np.longdouble))
     return _numpy_product(B, V)
 
 
@@ -290,46 +297,14 @@ def _compiled_product(B: sp.csr_matrix, V: NDArray[Any]) -> NDArray[Any]:
     if rows > rows_per_block:  # (three float64 parts and the long double result per block)
         return np.concatenate([_compiled_product(B[start: start + rows_per_block], V64)
                                for start in range(0, rows, rows_per_block)])
+    from vibra.solvers.accurate.products import triple_rows  # compiled: loaded on first use
+
     parts = np.zeros((3, rows, columns))
-    _triple_rows(np.asarray(B.indptr, dtype=np.int64), np.asarray(B.indices, dtype=np.int64),
-                 np.asarray(B.data, dtype=np.float64), V64, parts)
+    triple_rows(np.asarray(B.indptr, dtype=np.int64), np.asarray(B.indices, dtype=np.int64),
+                np.asarray(B.data, dtype=np.float64), V64, parts)
     result: NDArray[Any] = (parts[0].astype(np.longdouble) + parts[1].astype(np.longdouble)) + parts[2].astype(
         np.longdouble)
     return result
-
-
-@_jit()
-def _triple_rows(indptr: Any, indices: Any, data: Any, V: Any, parts: Any) -> None:  # pragma: no cover - compiled
-    """parts[0] + parts[1] + parts[2] = B V row by row: Dekker's two-product of every entry
-    (split at 2^27 + 1; no FMA), the high parts summed by two-sum into parts[0], their errors and
-    the products' low parts by two-sum into parts[1], what those leave into parts[2]."""
-    splitter = 134217729.0
-    columns = V.shape[1]
-    for i in range(indptr.shape[0] - 1):
-        for p in range(indptr[i], indptr[i + 1]):
-            a = data[p]
-            c = splitter * a
-            a_high = c - (c - a)
-            a_low = a - a_high
-            row = indices[p]
-            for j in range(columns):
-                b = V[row, j]
-                product = a * b
-                d = splitter * b
-                b_high = d - (d - b)
-                b_low = b - b_high
-                error = ((a_high * b_high - product) + a_high * b_low + a_low * b_high) + a_low * b_low
-                high = parts[0, i, j]
-                total = high + product
-                back = total - high
-                carry = (high - (total - back)) + (product - back)
-                parts[0, i, j] = total
-                for term in (carry, error):
-                    low = parts[1, i, j]
-                    sum_low = low + term
-                    back_low = sum_low - low
-                    parts[2, i, j] += (low - (sum_low - back_low)) + (term - back_low)
-                    parts[1, i, j] = sum_low
 
 
 def _numpy_product(B: sp.csr_matrix, V: NDArray[Any]) -> NDArray[Any]:
@@ -398,6 +373,8 @@ def refine_modes(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
     B = sp.csr_matrix(coupling, dtype=float, copy=True)
     B.sum_duplicates()
     B.eliminate_zeros()
+    import mpmath  # here only: `import vibra` loads no mpmath
+
     with mpmath.workdps(40):  # B~'s entries from the inputs, and K~ = B~^T B~ from them
         rows = _mp_rows(B, weights, mass)
         Kh, Kl = split_mp(_mp_stiffness(rows, B, n).tolist())
@@ -459,6 +436,8 @@ def refine_modes(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: ND
 
 def _mp_rows(B: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> list[list[Any]]:
     """Each row's entries sqrt(w) c / sqrt(m) of B~, in mpmath at the current precision."""
+    import mpmath  # (as in `refine_modes`)
+
     roots = [1 / mpmath.sqrt(mpmath.mpf(float(m))) for m in mass]
     return [[mpmath.sqrt(mpmath.mpf(float(weights[r]))) * mpmath.mpf(float(c)) * roots[j]
              for j, c in zip(B.indices[B.indptr[r]:B.indptr[r + 1]].tolist(), B.data[B.indptr[r]:B.indptr[r + 1]].tolist())]
@@ -467,6 +446,8 @@ def _mp_rows(B: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.fl
 
 def _mp_stiffness(rows: list[list[Any]], B: sp.csr_matrix, n: int) -> Any:
     """K~ = B~^T B~ in mpmath from `_mp_rows`, spring by spring."""
+    import mpmath  # (as in `refine_modes`)
+
     K = mpmath.zeros(n, n)
     for r, scaled in enumerate(rows):
         columns = B.indices[B.indptr[r]:B.indptr[r + 1]].tolist()

@@ -16,10 +16,11 @@ from __future__ import annotations
 
 from typing import Any
 
-import numba
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+
+from vibra.solvers.compiled import jit
 
 __all__ = ["cholmod_available", "use_cholmod", "sparse_backend", "CholmodCholesky", "factor_entries"]
 
@@ -126,7 +127,7 @@ def factor_entries(matrix: Any, order: NDArray[np.intp] | None) -> int:
     return int(_row_counts(indptr, indices, _elimination_tree(indptr, indices, n), n))
 
 
-@numba.njit(cache=True)
+@jit(cache=True)
 def _elimination_tree(indptr: Any, indices: Any, n: int) -> Any:  # pragma: no cover (compiled)
     parent = np.full(n, -1, dtype=np.int64)
     ancestor = np.full(n, -1, dtype=np.int64)  # path-compressed ancestors
@@ -142,7 +143,7 @@ def _elimination_tree(indptr: Any, indices: Any, n: int) -> Any:  # pragma: no c
     return parent
 
 
-@numba.njit(cache=True)
+@jit(cache=True)
 def _row_counts(indptr: Any, indices: Any, parent: Any, n: int) -> int:  # pragma: no cover (compiled)
     mark = np.full(n, -1, dtype=np.int64)
     total = 0

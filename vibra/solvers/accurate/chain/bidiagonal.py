@@ -20,6 +20,7 @@ from vibra._lapack import bidiagonal_singular_values, bidiagonal_triplets
 from vibra.solvers.common import (
     BDSQR_LIMIT, EPS, SolveResult, absolute_figures, selected, tridiagonal_bands,
 )
+from vibra.solvers.compiled import compiled_pays
 from vibra.solvers.accurate.rounding import (
     UNIT, Scalings, centred, entry_deviation, kato_temple, rayleigh_refinement, scaling_logs,
 )
@@ -39,6 +40,12 @@ CERTIFY_ALL = 3000
 #: With the compiled kernel, values only: every segment whose a-priori bound exceeds this is
 #: certified (smaller ones: ~40 sites or fewer, the bound already within the 1e-13 target).
 CERTIFY_ABOVE = 1e-13
+
+#: Seconds per size^2 of a segment's numpy certificates (`inverse_iteration` and `certify_modes`),
+#: the compiled ones' counterpart: 3.1e-7 (300 sites) to 5.2e-7 (100) measured, one core (the
+#: compiled: ~3e-8 at 300). A segment whose numpy certificates are estimated under
+#: `vibra.solvers.compiled.COMPILED_FROM_S` (~500 sites) takes them, not the compiled kernel.
+NUMPY_CERTIFY_S = 3.5e-7
 
 #: Entries per block of modes certified together (size x block doubles per temporary).
 CHUNK = 1 << 18
@@ -289,7 +296,12 @@ def inverse_iteration(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDA
                 if info == 0 and np.all(np.isfinite(solved)):
                     break
                 shift = shift * (1 + 4 * EPS) + np.finfo(float).tiny  # an exact pivot of zero
-            z = solved / np.linalg.norm(solved)
+            with np.errstate(over="ignore"):
+                norm = np.linalg.norm(solved)
+            if not np.isfinite(norm):  # (a solve past 1e154: scaled first, its norm overflowed)
+                solved = solved / np.abs(solved).max()
+                norm = np.linalg.norm(solved)
+            z = solved / norm
         right[:, j], left[:, j] = z[0::2], z[1::2]
     left /= np.maximum(np.linalg.norm(left, axis=0), np.finfo(float).tiny)
     right /= np.maximum(np.linalg.norm(right, axis=0), np.finfo(float).tiny)
@@ -308,8 +320,9 @@ def certify_all(size: int, a_priori: float) -> bool:
     """Whether every value of a segment of `size` sites is certified (values only).
 
     With the compiled kernel (`triplets`, about dqds' own cost): wherever the a-priori bound
-    exceeds `CERTIFY_ABOVE` (below it, it is tight enough). On the numpy route (`_compiled`
-    None, ~15x dqds): only from `CERTIFY_FROM` to `CERTIFY_ALL` sites.
+    exceeds `CERTIFY_ABOVE` (below it, it is tight enough), by the numpy certificates where
+    they cost less than loading the kernel (`certified_values`: ~500 sites or fewer). Without
+    it (`_compiled` None, ~15x dqds): only from `CERTIFY_FROM` to `CERTIFY_ALL` sites.
     """
     if _compiled() is not None:
         return a_priori > CERTIFY_ABOVE
@@ -337,7 +350,7 @@ def certified_values(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDAr
     if zeros:
         value[0], relative[0] = 0.0, 0.0
     below, above = neighbour_bounds(sigma, 0, zeros, 4 * solving_bound(size))
-    compiled = _compiled()
+    compiled = _compiled() if compiled_pays(NUMPY_CERTIFY_S * size * size) else None
     if triplets is None and compiled is not None:
         block = slice(zeros, size)
         start = np.random.default_rng(2024).standard_normal(2 * size)

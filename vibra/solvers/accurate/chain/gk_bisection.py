@@ -17,17 +17,21 @@ point is hi 2^-32, then the geometric mean while hi > 2 lo, then the midpoint, t
 from 0 that never left it: the value is 0, a free chain's padding).
 With vectors, dstein takes these values where the Golub-Kahan matrix's block structure is
 known without dstebz (`lowest._compiled_with_blocks`).
+
+Where dstebz is estimated under `vibra.solvers.compiled.COMPILED_FROM_S` (`compiled_bisection_pays`:
+a chain of 2,000 sites, its lowest 10 modes), `lowest.golub_kahan_lowest` takes it instead: the
+same promise (each value to about two ulps of itself), without loading numba.
 """
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers.accurate.ring.kernel import LANES, _jit, prange
+from vibra.solvers.compiled import compiled_pays, threads as _threads
 
-__all__ = ["bidiagonal_values_by_bisection"]
+__all__ = ["bidiagonal_values_by_bisection", "compiled_bisection_pays", "DSTEBZ_S"]
 
 _EPS = float(np.finfo(float).eps)
 _SAFE_MIN = float(np.finfo(float).tiny)
@@ -35,6 +39,18 @@ _SAFE_MIN = float(np.finfo(float).tiny)
 #: Most values one thread bisects together (`LANES` at a time, a finished lane taking the next);
 #: fewer where that leaves a thread idle.
 CHUNK = 4 * LANES
+
+#: Seconds per site and value of LAPACK dstebz on a bidiagonal's Golub-Kahan form, the compiled
+#: bisection's counterpart: 1.5e-6 (2,000 sites, 11 values) to 2.7e-6 (100,000 sites, 21 values)
+#: measured, one core (the compiled bisection: 3-6e-7 warm).
+DSTEBZ_S = 2e-6
+
+
+def compiled_bisection_pays(size: int, k: int) -> bool:
+    """Whether k singular values of a bidiagonal of `size` take the compiled bisection rather
+    than dstebz (`vibra.solvers.compiled.compiled_pays`, from dstebz's estimate); decided by
+    `lowest.golub_kahan_lowest`, the caller that has both."""
+    return compiled_pays(DSTEBZ_S * size * k)
 
 
 @_jit()
@@ -134,7 +150,7 @@ def bidiagonal_values_by_bisection(d: NDArray[np.float64], e: NDArray[np.float64
     top = float(edges.max(initial=0.0)) * (1 + 4 * _EPS) + pivmin
     if k <= 0:
         return np.zeros(0)
-    threads = numba.get_num_threads()
+    threads = _threads()
     chunk = int(min(CHUNK, max(LANES, LANES * -(-k // (LANES * threads)))))  # (every thread busy)
     values: NDArray[np.float64] = _bisect(int(skip), int(k), size, squares, top, pivmin, chunk)
     return values

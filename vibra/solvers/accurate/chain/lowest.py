@@ -4,8 +4,9 @@ A chain's frequencies are the singular values of its bidiagonal spring factor B~
 (`bidiagonal.chain_bidiagonals`). The singular values of an upper bidiagonal
 (d, e) are the positive eigenvalues of the Golub-Kahan tridiagonal TGK (zero diagonal,
 off-diagonal d1, e1, d2, e2, ..., dn), whose Sturm counts are relatively accurate
-(Demmel and Kahan 1990). Bisection (compiled, LANES values at a time, `gk_bisection`; with
-vectors, where TGK's blocks are not known without it, LAPACK dstebz) therefore finds the lowest
+(Demmel and Kahan 1990). Bisection (compiled, LANES values at a time, `gk_bisection`; LAPACK
+dstebz with vectors where TGK's blocks are not known without it, and wherever it costs less than
+loading the kernel, `gk_bisection.compiled_bisection_pays`) therefore finds the lowest
 k to a few ulps of themselves however far below ||K~|| they lie, in O(n k) per bit: a disordered chain
 whose masses and springs spread over 1e12, where a shift chosen from ||K~|| sees the lowest
 eigenvalues as one cluster, costs no more than a uniform one. Vectors come from inverse
@@ -26,7 +27,7 @@ from vibra.solvers.accurate.chain.bidiagonal import (
     segment_scalings, solving_bound, worst_forming,
 )
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
-from vibra.solvers.accurate.chain.gk_bisection import bidiagonal_values_by_bisection
+from vibra.solvers.accurate.chain.gk_bisection import bidiagonal_values_by_bisection, compiled_bisection_pays
 from vibra.solvers.accurate.rounding import UNIT, Scalings
 
 __all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certified_lowest", "DQDS_FACTOR",
@@ -55,9 +56,9 @@ def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int
     if not vectors and s <= DQDS_FACTOR * k:
         # dqds on all s values (O(s^2)) beats bisection for k of them (O(s k) per bit) here
         return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
-    if not vectors:  # the same counts, LANES values at a time
+    if not vectors and compiled_bisection_pays(s, k):  # the same counts, LANES values at a time
         return bidiagonal_values_by_bisection(d, e[: s - 1], skip, k), None, None
-    known = _compiled_with_blocks(d, e, off, lower, first, k)
+    known = _compiled_with_blocks(d, e, off, lower, first, k)  # (None: dstebz, cheaper for few values)
     values, block, split = known if known is not None else tridiagonal_eigenvalues_by_index(zero, off, lower,
                                                                                             first + k - 1)
     order = np.argsort(values, kind="stable")  # dstebz groups the values by split-off block
@@ -84,8 +85,11 @@ def _compiled_with_blocks(d: NDArray[np.float64], e: NDArray[np.float64], off: N
     values from the compiled bisection (`gk_bisection`), for dstein: where TGK's blocks are
     known without it, none (no off-diagonal with a square below the safe minimum, dstebz's
     split with a zero diagonal) or only a free chain's padding (d[-1] exactly 0: a last 1 x 1
-    block, whose eigenvalue 0 is one of TGK's two zeros). Else None (dstebz decides)."""
+    block, whose eigenvalue 0 is one of TGK's two zeros). Else None (dstebz decides), as where
+    dstebz is the cheaper for these k values (`gk_bisection.compiled_bisection_pays`)."""
     size = d.shape[0]
+    if not compiled_bisection_pays(size, k):
+        return None
     n = 2 * size
     splits = np.flatnonzero(off * off < np.finfo(float).tiny)
     padded = splits.shape[0] == 1 and splits[0] == n - 2 and d[size - 1] == 0.0

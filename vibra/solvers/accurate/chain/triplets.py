@@ -30,11 +30,11 @@ from __future__ import annotations
 
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers.accurate.rounding import _SPLIT, UNIT as _UNIT
+from vibra.solvers.compiled import jit
 
 __all__ = ["triplet_figures"]
 
@@ -43,7 +43,7 @@ _EPS = 2 * _UNIT
 
 
 def _jit(function: Any) -> Any:
-    return numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy")(function)
+    return jit(cache=True, fastmath=False, nogil=True, error_model="numpy")(function)
 
 
 @_jit

@@ -35,7 +35,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-import mpmath
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
@@ -169,6 +168,8 @@ def _entries(terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.floa
              edges: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]], n: int, digits: int
              ) -> tuple[list[Any], list[Any]]:
     """K's diagonal a and cycle couplings b in mpmath at `digits` digits, from the inputs."""
+    import mpmath  # here only: `import vibra` loads no mpmath
+
     with mpmath.workdps(digits):
         a = [mpmath.mpf(0)] * n
         for i, w, c in zip(*(t.tolist() for t in terms)):
@@ -342,6 +343,8 @@ def count_below_mp(pencil: RingPencil, x: float, digits: int) -> tuple[int, bool
     """`count_below` at one x in mpmath with `digits` digits (pivots within a few units of
     10^-digits of each entry: a pencil within `mp_rho` of (K, M)); for the values that
     double-double cannot resolve (||K~|| / omega^2 beyond ~1e16)."""
+    import mpmath  # here only: `import vibra` loads no mpmath
+
     n = pencil.n
     if digits not in pencil.built:
         pencil.built[digits] = _entries(pencil.terms, pencil.edges, n, digits)

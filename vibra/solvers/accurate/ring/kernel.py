@@ -30,18 +30,18 @@ plus one spring) eigenvalue i of the ring lies between the chain's i and i + 1.
 numba compiles without fast-math (IEEE operations, no contraction into FMA), so the
 error-free transformations stay exact; a product's exact error is one explicit fused
 multiply-add where the CPU has it (`FMA`, `_two_product`: the same two numbers as Dekker's
-splitting, at a tenth of its operations). The first call compiles (~5 s), cached on disk after.
+splitting, at a tenth of its operations). The first call compiles (~5 s), cached on disk after;
+numba itself is loaded on the first call, not with vibra (`vibra.solvers.compiled`).
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-import numba
 import numpy as np
-from llvmlite import binding as _llvm, ir as _ir
-from numba.extending import intrinsic
 from numpy.typing import NDArray
+
+from vibra.solvers.compiled import HOST_FMA, intrinsic, jit, prange
 
 __all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor"]
 
@@ -51,12 +51,9 @@ _TINY = float(np.finfo(float).tiny)
 
 
 def _jit(parallel: bool = False) -> Any:
-    def wrap(function: Any) -> Any:
-        return numba.njit(cache=True, fastmath=False, nogil=True, error_model="numpy", parallel=parallel)(function)
-    return wrap
-
-
-prange = numba.prange
+    """The kernels' numba options: no fast-math (IEEE operations), cached on disk; compiled on
+    first call (`vibra.solvers.compiled.jit`)."""
+    return jit(cache=True, fastmath=False, nogil=True, error_model="numpy", parallel=parallel)
 
 
 # --- double-double, scalar: the operations of `vibra.solvers.accurate.dd` and `vibra.solvers.accurate.rounding` ---
@@ -83,13 +80,17 @@ def _split(a: float) -> tuple[float, float]:
 
 #: Whether this CPU fuses a multiply and an add in one rounding (x86-64 since 2013, every ARM64):
 #: then a product's exact error is one instruction (`_two_product`), else Dekker's splitting.
-FMA = bool(_llvm.get_host_cpu_features().get("fma", False))
+#: (LLVM's host features, read when a kernel is first compiled or FMA is first tested.)
+FMA = HOST_FMA
 
 
 @intrinsic
 def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
     """a b + c with one rounding (LLVM's llvm.fma: the FMA instruction; numba offers no fma)."""
-    signature = numba.types.float64(numba.types.float64, numba.types.float64, numba.types.float64)
+    from llvmlite import ir as _ir
+    from numba import types
+
+    signature = types.float64(types.float64, types.float64, types.float64)
 
     def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
         double = _ir.DoubleType()

@@ -1,0 +1,182 @@
+"""Compiled kernels (numba), loaded on their first call: ``import vibra`` imports no numba.
+
+One mechanism for every kernel module (`accurate/ring/kernel.py`, `accurate/ring/pencil_counts.py`,
+`accurate/chain/gk_bisection.py`, `accurate/chain/triplets.py`, `accurate/products.py`,
+`standard/cholmod.py`): each decorates its loops with `jit` (numba.njit's options) instead of
+numba's own decorator and takes `prange`, `intrinsic` and `HOST_FMA` from here. A decorated
+function is a `Kernel`, a plain Python object, until it is first called; then numba is imported,
+the kernel and every kernel, `prange`, intrinsic and `HOST_FMA` its module names are handed to
+numba, and the module's names are bound to numba's dispatchers (`bind`), so that later calls go
+straight to numba. What runs is numba's compiled code and on-disk cache (``cache=True``),
+unchanged: the same bits as with ``numba.njit`` at import.
+
+Which steps run a kernel is decided in one place too, `compiled_pays`: loading numba and a
+kernel's cache costs a process ~0.5 s the first time (`LOAD_SECONDS`), ~3 s on a cold disk, so a
+step whose numpy / LAPACK / scipy counterpart is estimated (from sizes, never the clock) under
+`COMPILED_FROM_S` takes the counterpart, on every call of every process: the same input gives the
+same result whatever ran before. Each step states its counterpart's rate and what its results
+share with the kernel's (the same bits, or the same accuracy bound):
+
+- a chain's lowest modes (`chain.lowest.golub_kahan_lowest`): LAPACK dstebz
+  (`gk_bisection.DSTEBZ_S`), each value to two ulps as the kernel's;
+- a chain's certificates, values only (`chain.bidiagonal.certified_values`): inverse iteration
+  and `certify_modes` in numpy (`bidiagonal.NUMPY_CERTIFY_S`), bounds as tight;
+- B~ V for the spring-space Ritz step (`products.times`): scipy's product
+  (`products.SCIPY_PRODUCT_S`), the same bits;
+- B~ V in extended precision (`spring_ritz._error_free_product`): its numpy loop in long double
+  (`spring_ritz.NUMPY_PRODUCT_S`), each entry within one unit as the kernel's.
+
+The other kernels have no counterpart that costs less than loading numba (a ring's roots and
+counts, a chain's Sturm counts, the double-double Rayleigh quotients, a sparse factor's fill):
+their paths load numba on their first call.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import threading
+from types import ModuleType
+from typing import Any, Callable
+
+__all__ = ["Kernel", "jit", "intrinsic", "prange", "HOST_FMA", "bind", "threads", "compiled_pays",
+           "COMPILED_FROM_S", "LOAD_SECONDS"]
+
+#: Seconds a process spends the first time it runs a compiled kernel: importing numba and loading
+#: its typing context and the kernel's on-disk cache. 0.44-0.59 s measured on the 2 shared cores
+#: of the development machine (benchmarks/bench_startup.py, results/startup.json: "compiled
+#: kernel: first", a 3-site kernel), 3.2 s in issue 45's profile (a cold disk). Compiling a kernel
+#: not yet in the cache takes seconds more, once per machine and version of its module.
+LOAD_SECONDS = 0.5
+
+#: A step takes its compiled kernel where its numpy / LAPACK / scipy counterpart is estimated to
+#: take at least this long (seconds, from sizes). Below it, the first call of a process is faster
+#: without numba (by ~`LOAD_SECONDS`) and a later call slower by less than this; from it on, the
+#: kernel (2-10x faster than the counterpart) saves more on each later call than this. A chain of
+#: 2,000 sites, its lowest 10 modes: ~0.05 s by LAPACK bisection, no numba (issue 45).
+COMPILED_FROM_S = 0.1
+
+
+def compiled_pays(counterpart_seconds: float) -> bool:
+    """Whether a step runs its compiled kernel rather than its counterpart, estimated (from sizes)
+    to take `counterpart_seconds`: from `COMPILED_FROM_S` on."""
+    return counterpart_seconds >= COMPILED_FROM_S
+
+
+_LOCK = threading.RLock()
+_BOUND: set[int] = set()  # the module namespaces already bound to numba's objects
+
+
+def _numba() -> ModuleType:
+    return importlib.import_module("numba")  # here only: the first kernel call loads numba
+
+
+class _Lazy:
+    """Something a kernel's module names that numba must see as its own object (`bind`)."""
+
+    def resolve(self) -> Any:
+        raise NotImplementedError
+
+
+class Kernel(_Lazy):
+    """A function numba compiles on its first call (`jit`); calling it calls numba's dispatcher."""
+
+    def __init__(self, function: Callable[..., Any], options: dict[str, Any]) -> None:
+        self.py_func = function
+        self.options = options
+        self._dispatcher: Any = None
+        functools.update_wrapper(self, function)
+
+    def resolve(self) -> Any:
+        """numba's dispatcher of this function (created once; its module's names bound first)."""
+        with _LOCK:
+            if self._dispatcher is None:
+                self._dispatcher = _numba().njit(**self.options)(self.py_func)
+                bind(self.py_func.__globals__)
+            return self._dispatcher
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        return self.resolve()(*args, **kwargs)
+
+    def __repr__(self) -> str:
+        return f"<compiled kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
+
+
+def jit(**options: Any) -> Callable[[Callable[..., Any]], Kernel]:
+    """``numba.njit(**options)``, applied on the function's first call (a `Kernel`)."""
+    def wrap(function: Callable[..., Any]) -> Kernel:
+        return Kernel(function, dict(options))
+    return wrap
+
+
+class _Intrinsic(_Lazy):
+    """``numba.extending.intrinsic(function)``, made when a kernel that names it is bound."""
+
+    def __init__(self, function: Callable[..., Any]) -> None:
+        self.function = function
+        self._made: Any = None
+        functools.update_wrapper(self, function)
+
+    def resolve(self) -> Any:
+        with _LOCK:
+            if self._made is None:
+                _numba()
+                self._made = importlib.import_module("numba.extending").intrinsic(self.function)
+            return self._made
+
+
+def intrinsic(function: Callable[..., Any]) -> _Intrinsic:
+    """``numba.extending.intrinsic``, lazily (the typing function imports numba and llvmlite itself)."""
+    return _Intrinsic(function)
+
+
+class _Prange(_Lazy):
+    """``numba.prange`` in compiled code; ``range`` if called from Python."""
+
+    def __call__(self, *args: int) -> range:
+        return range(*args)
+
+    def resolve(self) -> Any:
+        return _numba().prange
+
+
+prange = _Prange()
+
+
+@functools.cache
+def _host_fma() -> bool:
+    return bool(importlib.import_module("llvmlite.binding").get_host_cpu_features().get("fma", False))
+
+
+class _HostFMA(_Lazy):
+    """Whether this CPU fuses a multiply and an add in one rounding (LLVM's host features; x86-64
+    since 2013, every ARM64): a bool to compiled code, true or false as one in Python."""
+
+    def __bool__(self) -> bool:
+        return _host_fma()
+
+    def __repr__(self) -> str:
+        return repr(bool(self))
+
+    def resolve(self) -> bool:
+        return _host_fma()
+
+
+HOST_FMA = _HostFMA()
+
+
+def bind(namespace: dict[str, Any]) -> None:
+    """Bind every `Kernel`, intrinsic, `prange` and `HOST_FMA` a module names (its globals) to
+    numba's objects, the kernels' modules in turn (once per module)."""
+    with _LOCK:
+        if id(namespace) in _BOUND:
+            return
+        _BOUND.add(id(namespace))
+        for name, value in list(namespace.items()):
+            if isinstance(value, _Lazy):
+                namespace[name] = value.resolve()
+
+
+def threads() -> int:
+    """numba's thread count (the parallel kernels' threads)."""
+    return int(_numba().get_num_threads())
