@@ -317,3 +317,19 @@ def test_from_calculator_passes_client_and_cache_on(dask_client, tmp_path) -> No
     parallel = mol.from_calculator(atoms, calc, client=dask_client, cache=tmp_path)
     np.testing.assert_array_equal(serial.hessian().toarray(), parallel.hessian().toarray())
     assert len(list(tmp_path.glob("*.npy"))) == 1 + 6 * 3
+
+
+def test_a_cache_file_declaring_a_huge_array_is_recomputed_without_reading_it(tmp_path) -> None:
+    """The header is read first (issue 44): a file declaring 10^9 forces is skipped, never allocated."""
+    atoms = mol.h2o_atoms()
+    calc = mol.ValenceForceField(mol.valence_model(atoms))
+    first = mol.finite_difference_hessian(atoms, calc, cache=tmp_path)
+    target = sorted(tmp_path.glob("*.npy"))[5]
+    header = {"descr": "<f8", "fortran_order": False, "shape": (10**9, 3)}
+    with open(target, "wb") as handle:
+        np.lib.format.write_array_header_1_0(handle, header)
+        handle.write(b"\0" * 64)                           # 64 bytes where 24 GB are declared
+    with pytest.warns(CacheWarning, match=r"declares float64 \(1000000000, 3\), not \(3, 3\) float64 forces"):
+        again = mol.finite_difference_hessian(atoms, calc, cache=tmp_path)
+    assert (again.n_force_calls, again.n_cached) == (1, 36)
+    _assert_identical(first, again)

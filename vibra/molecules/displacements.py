@@ -291,6 +291,14 @@ class ForceCache:
         if not path.is_file():
             return None
         try:
+            with open(path, "rb") as handle:  # the header first: a file declaring 10^9 values is not read
+                version = np.lib.format.read_magic(handle)
+                shape, _, dtype = (np.lib.format.read_array_header_1_0(handle) if version == (1, 0)
+                                   else np.lib.format.read_array_header_2_0(handle))
+            if shape != (self.n_atoms, 3) or np.dtype(dtype) != np.float64:
+                warnings.warn(f"{path}: cache file declares {np.dtype(dtype)} {shape}, not ({self.n_atoms}, 3) "
+                              f"float64 forces; recomputing {displacement.label}", CacheWarning, stacklevel=3)
+                return None
             values = np.load(path, allow_pickle=False)
         except (OSError, ValueError, EOFError) as error:
             warnings.warn(f"{path}: unreadable cache file ({error}); recomputing {displacement.label}",
