@@ -851,3 +851,18 @@ def test_docs_spectra_example_runs_as_written(tmp_path, monkeypatch):
     assert len(namespace["sticks"].wavenumbers) == 3
     for name, size in [("co2_ir.png", (960, 600)), ("co2_raman.png", (960, 600)), ("co2_thermo.png", (1200, 540))]:
         _check_png(tmp_path / name, size)
+
+
+@pytest.mark.parametrize("spectrum, kwargs, match", [
+    ("ir", {"charges": [1e308, -1e308, 0.0]}, r"the intensity of the line at .* cm\^-1 is inf: charges too large"),
+    ("raman", {"bonds": [[0, 1], [1, 2]], "derivative_parallel": 1e300},
+     r"the activity of the line at .* cm\^-1 is inf: the bond polarisabilities or the geometry too large"),
+])
+def test_an_overflowing_spectrum_is_refused_where_it_appears(spectrum: str, kwargs: dict, match: str) -> None:
+    """No silent inf in a spectrum (issue 44): the line and the inputs are named."""
+    from vibra import molecules
+    from vibra.spectra import ir_spectrum, raman_spectrum
+
+    co2 = molecules.co2()
+    with pytest.raises(ValueError, match=match):
+        (ir_spectrum if spectrum == "ir" else raman_spectrum)(co2, co2.modes(), **kwargs)

@@ -80,6 +80,19 @@ def vibrational_mask(modes: Modes, zero_rtol: float, where: str,
 
 
 
+def finite_lines(values: NDArray[np.float64], wavenumbers: NDArray[np.float64], what: str, inputs: str) -> NDArray[np.float64]:
+    """`values` (one per line) when finite; else a ValueError naming the first line that is not
+    (its wavenumber) and the inputs whose scale overflowed, where it appears (issue 44: no silent
+    inf in a spectrum)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"the {what} of the line at {float(wavenumbers[k]):.6g} cm^-1 is {float(values[k])!r}: "
+                         f"{inputs} too large for floating point; expected values on the scale of the model's units")
+    return values
+
+
 def active_lines(values: NDArray[np.float64], rtol: float) -> NDArray[np.bool_]:
     rtol = nonnegative_float(rtol, "rtol")
     scale = float(values.max()) if values.size else 0.0

@@ -13,7 +13,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
-from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, nonnegative_float,
+from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, finite_lines, nonnegative_float,
                                   system_and_modes, vibrational_mask)
 from vibra.system import System
 
@@ -181,10 +181,14 @@ def ir_spectrum(
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
     keep = vibrational_mask(modes, zero_rtol, "ir_spectrum", rigid)
     shapes = cartesian_shapes(system, modes)[:, :, keep]  # (n_sites, 3, n_vib)
-    dmu_dq = np.einsum("iba,ibk->ka", derivatives, shapes)
+    with np.errstate(over="ignore", invalid="ignore"):
+        dmu_dq = np.einsum("iba,ibk->ka", derivatives, shapes)
+        intensities = np.sum(dmu_dq**2, axis=1)
+    wavenumbers = modes.wavenumbers_cm1()[keep]
+    finite_lines(intensities, wavenumbers, "intensity", "charges" if model == "point charges" else "dipole_derivatives")
     return IRSpectrum(
-        mode_indices=np.flatnonzero(keep), wavenumbers=modes.wavenumbers_cm1()[keep],
-        dipole_derivatives=dmu_dq, intensities=np.sum(dmu_dq**2, axis=1), model=model,
+        mode_indices=np.flatnonzero(keep), wavenumbers=wavenumbers,
+        dipole_derivatives=dmu_dq, intensities=intensities, model=model,
     )
 
 

@@ -11,7 +11,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
-from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, nonnegative_float,
+from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, finite_lines, nonnegative_float,
                                   system_and_modes, vibrational_mask)
 from vibra.system import System
 
@@ -166,12 +166,16 @@ def raman_spectrum(
     turn_outer = np.einsum("bak,bc->bkac", turn, e)                 # de e^T, (n_bonds, n_vib, 3, 3)
     turn_outer = turn_outer + np.swapaxes(turn_outer, 2, 3)         # de e^T + e de^T
     derivative += np.einsum("b,bkac->kac", a_par - a_perp, turn_outer)
-    isotropic = np.trace(derivative, axis1=1, axis2=2) / 3.0
-    anisotropy = np.sqrt(np.maximum(_anisotropy_squared(derivative), 0.0))
+    with np.errstate(over="ignore", invalid="ignore"):
+        isotropic = np.trace(derivative, axis1=1, axis2=2) / 3.0
+        anisotropy = np.sqrt(np.maximum(_anisotropy_squared(derivative), 0.0))
+        activities = 45.0 * isotropic**2 + 7.0 * anisotropy**2
+    wavenumbers = modes.wavenumbers_cm1()[keep]
+    finite_lines(activities, wavenumbers, "activity", "the bond polarisabilities or the geometry")
     return RamanSpectrum(
-        mode_indices=np.flatnonzero(keep), wavenumbers=modes.wavenumbers_cm1()[keep],
+        mode_indices=np.flatnonzero(keep), wavenumbers=wavenumbers,
         polarizability_derivatives=derivative, isotropic=isotropic, anisotropy=anisotropy,
-        activities=45.0 * isotropic**2 + 7.0 * anisotropy**2,
+        activities=activities,
     )
 
 
