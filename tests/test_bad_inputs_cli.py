@@ -347,9 +347,7 @@ def test_special_files_are_refused_without_reading(target: str, tmp_path: Path) 
         os.mkfifo(path)
     else:
         path.symlink_to("/dev/zero" if target == "dev-zero" else "/dev/null")
-    start = time.monotonic()
-    run = vibra("validate", str(path), timeout=30)
-    assert time.monotonic() - start < 30
+    run = vibra("validate", str(path), timeout=30)  # the timeout is the guard against a hang, not a figure
     assert run.returncode == 1 and "not a regular file" in one_line_failure(run.stdout)
     report = vibra("report", str(path), "--out", str(tmp_path / "out"), "--quiet", timeout=30)
     assert report.returncode == 1 and "not a regular file" in report.stderr and "Traceback" not in report.stderr
