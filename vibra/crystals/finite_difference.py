@@ -34,6 +34,7 @@ import contextlib
 import hashlib
 import math
 import os
+import sys
 import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Sequence
@@ -45,6 +46,8 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays, short_repr
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.crystals.crystal import Crystal
+from vibra.crystals.fd_cost import (FORCE_SECONDS, SYMMETRY_FIXED_SECONDS, SYMMETRY_SECONDS,  # noqa: F401 (their home)
+                                    check_memory, force_constants_cost, symmetry_pays)
 from vibra.crystals.force_constants import ForceConstants, SumRuleReport, average_over_space_group, impose_sum_rules
 from vibra.crystals.phonopy_io import MAX_SUPERCELL_ATOMS  # one limit: phonopy's full force constants, 72 n^2 bytes
 from vibra.crystals.mesh import species_numbers
@@ -206,6 +209,7 @@ def finite_difference_force_constants(
     timeout: float = 10.0,
     primitive: bool = False,
     name: str | None = None,
+    max_memory: float | None = None,
 ) -> FiniteDifferenceForceConstants:
     """Force constants of the crystal `atoms` from a calculator's forces on a supercell, with their error.
 
@@ -251,6 +255,13 @@ def finite_difference_force_constants(
         cube stays a cube). Not for a crystal with vacuum axes.
     name : str, optional
         The crystal's name (default: the chemical formula).
+    max_memory : float, optional
+        Bytes the run may hold at its peak (`vibra.crystals.fd_cost`: eight full supercell
+        force-constant arrays, 72 n^2 bytes each, the symmetry search's permutations and the
+        forces); None takes the solvers' `MEMORY_LIMIT` or the memory available,
+        ``float("inf")`` none. Checked from sizes before phonopy builds the supercell; with
+        ``progress=True`` the estimate (force calls, memory, and for a closed-form calculator
+        the seconds) is printed first.
 
     Returns
     -------
@@ -269,6 +280,8 @@ def finite_difference_force_constants(
         along a vacuum axis), or so small that an atom's own images are no farther than its
         nearest neighbours (refused before any force call, naming the size needed); delta or
         symprec not positive; a bad `force_noise` or `client`; ``primitive=True`` with vacuum axes.
+        `vibra.solvers.ResourceLimitError` (a ValueError): more memory than `max_memory`, naming
+        the cells that would fit.
     RuntimeError
         The calculator failed, or returned forces that are not finite or of the wrong shape
         (each such geometry named; finished force calls stay in `cache`).
@@ -301,15 +314,22 @@ def finite_difference_force_constants(
     if symmetry not in ("auto", True, False):
         raise ValueError(f"symmetry is {symmetry!r}; expected 'auto', True or False")
     use_symmetry = symmetry is True
-    operations = None
+    operations = _space_group(unit, precision) if symmetry is not False else None
+    n_ops = 1 if operations is None else len(operations["rotations"])
+    cells = math.prod(int(n) for n in size)
+    deterministic = is_deterministic_calculator(calc)
     if symmetry == "auto":
-        operations = _space_group(unit, precision)
-        use_symmetry = _symmetry_pays(unit, size, calc, operations)
+        use_symmetry = symmetry_pays(unit.n_atoms, cells, n_ops, deterministic)
         if not use_symmetry:  # the average must map every atom: checked now, before any force call
             try:
                 _space_group_average(unit.with_force_constants(_NO_TERMS), operations, precision)
             except ValueError:
                 use_symmetry = True
+
+    steps = 2 if estimate_error else 1
+    sizes = dict(n_ops=n_ops, symmetry=use_symmetry, steps=steps)
+    bound = force_constants_cost(unit.n_atoms, cells, deterministic=deterministic, **sizes)
+    check_memory(bound, supercell=[int(n) for n in size], n_unit=unit.n_atoms, max_memory=max_memory, **sizes)
 
     from phonopy import Phonopy  # at the edge: phonopy only when asked
     from phonopy.structure.atoms import PhonopyAtoms
@@ -325,6 +345,9 @@ def finite_difference_force_constants(
     first = phonon.dataset["first_atoms"]
     moves = [(int(d["number"]), np.asarray(d["displacement"], dtype=float)) for d in first]
     template = _supercell_atoms(phonon.supercell, unit.periodic)
+    cost = force_constants_cost(unit.n_atoms, cells, deterministic=deterministic, n_moves=len(moves), **sizes)
+    if progress is True:
+        print(f"{unit.name}: {cost.describe()}", file=sys.stderr, flush=True)
     multiples = [1, 2] if estimate_error else [1]
     geometries = [_Geometry(-1, (0.0, 0.0, 0.0))]
     geometries += [_Geometry(atom, tuple(float(v) for v in m * vector))  # type: ignore[misc]
@@ -370,7 +393,7 @@ def finite_difference_force_constants(
 def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] | None = None, delta: float = 0.01,
              client: Any = None, cache: str | os.PathLike[str] | None = None, calculator_key: str | None = None,
              progress: ProgressOption = None, wrap: bool = False, left_handed: bool = False,
-             primitive: bool = False, name: str | None = None) -> Crystal:
+             primitive: bool = False, name: str | None = None, max_memory: float | None = None) -> Crystal:
     """A `Crystal` from an `ase.Atoms`: the structure alone, or with force constants from a calculator.
 
     Without `calculator` and `supercell`: `Crystal.from_ase` (cell, positions, masses, symbols;
@@ -402,21 +425,11 @@ def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] |
     return finite_difference_force_constants(
         atoms, calculator, supercell=supercell, delta=delta, estimate_error=False, force_noise=None,
         client=client, cache=cache, calculator_key=calculator_key, progress=progress, primitive=primitive,
-        name=name).crystal
+        name=name, max_memory=max_memory).crystal
 
 
 _NO_TERMS = ForceConstants(first=np.zeros(0, dtype=np.intp), second=np.zeros(0, dtype=np.intp),
                            translations=np.zeros((0, 3), dtype=np.int64), blocks=np.zeros((0, 3, 3)))
-
-#: phonopy's symmetry set-up: a fixed part (its Symmetry of the cell and of the supercell) and
-#: seconds per (space-group operation x cell x supercell atom), its atomic permutations. Measured:
-#: ASE's Al test (48 operations x 343 cells x 343 atoms) 6.2 s; ZnS on 3x3x3 (24 x 27 x 54) 0.15 s.
-SYMMETRY_FIXED_SECONDS = 0.1
-SYMMETRY_SECONDS = 1.1e-6
-#: One force call of a closed-form calculator, seconds per supercell atom: the cheapest listed
-#: (Lennard-Jones, ~2e-5; EMT measured 2e-4), since the choice only weighs those.
-FORCE_SECONDS = 2e-5
-
 
 def _space_group(crystal: Crystal, symprec: float) -> Any:
     """spglib's operations of the cell (species told apart by symbol and mass), or None."""
@@ -434,18 +447,6 @@ def _space_group_average(crystal: Crystal, operations: Any, symprec: float) -> A
     atol = symprec / float(np.linalg.norm(crystal.cell, axis=1).min())
     return average_over_space_group(force_constants, crystal.cell, crystal.fractional, operations["rotations"],
                                     operations["translations"], atol=atol)
-
-
-def _symmetry_pays(unit: Crystal, size: NDArray[np.int64], calc: Any, operations: Any) -> bool:
-    """symmetry="auto": True unless a closed-form calculator's extra force calls cost less than the symmetry search."""
-    if not is_deterministic_calculator(calc):
-        return True
-    n_ops = 1 if operations is None else len(operations["rotations"])
-    cells = int(np.prod(size))
-    n_super = cells * unit.n_atoms
-    search = SYMMETRY_FIXED_SECONDS + SYMMETRY_SECONDS * n_ops * cells * n_super
-    saved = 6 * unit.n_atoms * n_super * FORCE_SECONDS  # without symmetry: +-x, +-y, +-z of every atom
-    return search < saved
 
 
 def _supercell_atoms(supercell: Any, periodic: tuple[bool, bool, bool]) -> Atoms:
