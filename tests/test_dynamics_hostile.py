@@ -376,3 +376,24 @@ def test_ctrl_c_stops_a_compiled_integration() -> None:
             process.communicate()
     assert "KeyboardInterrupt" in err and "finished" not in out, err
     assert process.returncode != 0
+
+
+def test_highest_frequency_work_is_bounded_and_an_unconverged_arpack_gives_a_safe_upper_bound(monkeypatch) -> None:
+    """Above DENSE_OMEGA_MAX a non-chain's highest frequency comes from ARPACK with a bounded
+    number of restarts; unconverged, the Gershgorin bound is taken: never below the true
+    highest frequency (dense eigvalsh, the truth), so the dt it gives stays stable."""
+    import numpy as np
+    import scipy.sparse as sp
+
+    from vibra.dynamics import stability
+
+    n = stability.DENSE_OMEGA_MAX + 500
+    A = sp.random(n, n, density=5 / n, random_state=1)
+    K = (A @ A.T + sp.eye(n)).tocsr()
+    masses = np.random.default_rng(0).uniform(1.0, 2.0, n)
+    scale = 1.0 / np.sqrt(masses)
+    truth = float(np.sqrt(np.linalg.eigvalsh((K.toarray() * scale).T * scale)[-1]))
+    assert abs(stability.highest_omega(K, masses) - truth) <= 1e-8 * truth
+    monkeypatch.setattr(stability, "ARPACK_RESTARTS", 1)
+    bounded = stability.highest_omega(K, masses)
+    assert bounded >= truth * (1 - 1e-12) and bounded == stability.gershgorin_omega(K, masses)

@@ -22,6 +22,10 @@ __all__ = ["highest_omega", "gershgorin_omega", "stable_dt", "check_stable", "DE
 #: Up to this many dofs the highest frequency comes from a dense eigvalsh of K~; above, from
 #: LAPACK's bisection of the one it needs where K~ is tridiagonal (a chain), from ARPACK otherwise.
 DENSE_OMEGA_MAX = 1500
+#: ARPACK restarts allowed for the highest frequency (issue 44: its work bounded, O(restarts x nnz x
+#: 20)); the largest eigenvalue of a stiffness matrix converges in a few, and where it does not
+#: the Gershgorin bound (`gershgorin_omega`, an upper bound: a smaller, still stable dt) is taken.
+ARPACK_RESTARTS = 300
 
 
 
@@ -35,8 +39,12 @@ def highest_omega(K: sp.csr_matrix, masses: NDArray[np.float64]) -> float:
     elif _is_tridiagonal(K_tilde):
         top = float(eigvalsh_tridiagonal(K_tilde.diagonal(), K_tilde.diagonal(1), select="i",
                                          select_range=(n - 1, n - 1), lapack_driver="stebz")[0])
-    else:
-        top = float(sla.eigsh(K_tilde, k=1, which="LA", tol=1e-10, return_eigenvectors=False)[0])
+    else:  # bounded work: ARPACK_RESTARTS x (~20 products with K~); unconverged, the Gershgorin bound (larger: a safe dt)
+        try:
+            top = float(sla.eigsh(K_tilde, k=1, which="LA", tol=1e-10, maxiter=ARPACK_RESTARTS,
+                                  return_eigenvectors=False)[0])
+        except sla.ArpackNoConvergence:
+            return gershgorin_omega(K, masses)
     return float(np.sqrt(top)) if top > 0 else 0.0
 
 
