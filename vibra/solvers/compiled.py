@@ -29,6 +29,12 @@ share with the kernel's (the same bits, or the same accuracy bound):
 The other kernels have no counterpart that costs less than loading numba (a ring's roots and
 counts, a chain's Sturm counts, the double-double Rayleigh quotients, a sparse factor's fill):
 their paths load numba on their first call.
+
+**Ctrl-C between calls** (issue 44). A compiled loop never returns to the interpreter, which
+sees a SIGINT only when it does; so a kernel over many independent values (a chain's bisection,
+its certificates, a ring's roots) is called on `batches` of them, each estimated (from sizes) to
+take about `INTERRUPT_S`, and Ctrl-C stops the solve within about a second. Each value is
+computed alone, so the batches give the same bits as one call.
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ from types import ModuleType
 from typing import Any, Callable
 
 __all__ = ["Kernel", "jit", "intrinsic", "prange", "HOST_FMA", "bind", "threads", "compiled_pays",
-           "COMPILED_FROM_S", "LOAD_SECONDS"]
+           "COMPILED_FROM_S", "LOAD_SECONDS", "batches", "INTERRUPT_S", "SITE_SECONDS"]
 
 #: Seconds a process spends the first time it runs a compiled kernel: importing numba and loading
 #: its typing context and the kernel's on-disk cache. 0.44-0.59 s measured on the 2 shared cores
@@ -55,6 +61,34 @@ LOAD_SECONDS = 0.5
 #: kernel (2-10x faster than the counterpart) saves more on each later call than this. A chain of
 #: 2,000 sites, its lowest 10 modes: ~0.05 s by LAPACK bisection, no numba (issue 45).
 COMPILED_FROM_S = 0.1
+
+
+#: Seconds of work one compiled call over many values is given (`batches`): Ctrl-C is seen
+#: between calls, so this bounds how long it waits.
+INTERRUPT_S = 1.0
+
+#: Seconds per site of one pass of a compiled loop over a chain or ring for one value (a Sturm
+#: count, an evaluation of l(x), a sweep of a triplet's recurrences), per thread: ~2 ns measured
+#: (a 10^6-site chain's count in ~2 ms). Only sizes `batches`: a factor of 2 off moves the
+#: interval between chances to stop from 1 s to 0.5 or 2 s.
+SITE_SECONDS = 2e-9
+
+
+def batches(k: int, seconds_per_value: float, multiple: int = 1) -> list[tuple[int, int]]:
+    """[start, stop) ranges covering 0..k, each estimated to take about `INTERRUPT_S` (from
+    `seconds_per_value`, from sizes), in whole multiples of `multiple` values (a kernel's lanes
+    times its threads) so that each call keeps every thread busy.
+
+    >>> batches(10, 0.3), batches(10, 0.0)
+    ([(0, 3), (3, 6), (6, 9), (9, 10)], [(0, 10)])
+    """
+    if k <= 0:
+        return []
+    multiple = max(1, int(multiple))
+    if seconds_per_value <= 0:
+        return [(0, k)]
+    size = max(multiple, int(INTERRUPT_S / seconds_per_value) // multiple * multiple)
+    return [(start, min(k, start + size)) for start in range(0, k, size)]
 
 
 def compiled_pays(counterpart_seconds: float) -> bool:

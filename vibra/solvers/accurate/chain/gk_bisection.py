@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers.accurate.ring.kernel import LANES, _jit, prange
-from vibra.solvers.compiled import compiled_pays, threads as _threads
+from vibra.solvers.compiled import batches, compiled_pays, threads as _threads
 
 __all__ = ["bidiagonal_values_by_bisection", "compiled_bisection_pays", "DSTEBZ_S"]
 
@@ -44,6 +44,9 @@ CHUNK = 4 * LANES
 #: bisection's counterpart: 1.5e-6 (2,000 sites, 11 values) to 2.7e-6 (100,000 sites, 21 values)
 #: measured, one core (the compiled bisection: 3-6e-7 warm).
 DSTEBZ_S = 2e-6
+#: The compiled bisection's own rate, seconds per site and value on one thread (3-6e-7 measured
+#: warm): sizes its `batches`.
+BISECTION_S = 5e-7
 
 
 def compiled_bisection_pays(size: int, k: int) -> bool:
@@ -151,6 +154,11 @@ def bidiagonal_values_by_bisection(d: NDArray[np.float64], e: NDArray[np.float64
     if k <= 0:
         return np.zeros(0)
     threads = _threads()
-    chunk = int(min(CHUNK, max(LANES, LANES * -(-k // (LANES * threads)))))  # (every thread busy)
-    values: NDArray[np.float64] = _bisect(int(skip), int(k), size, squares, top, pivmin, chunk)
+    per_value = BISECTION_S * size / threads  # batches of ~1 s: Ctrl-C is seen between them
+    parts = []
+    for first, stop in batches(int(k), per_value, LANES * threads):
+        count = stop - first
+        chunk = int(min(CHUNK, max(LANES, LANES * -(-count // (LANES * threads)))))  # (every thread busy)
+        parts.append(_bisect(int(skip) + first, count, size, squares, top, pivmin, chunk))
+    values: NDArray[np.float64] = parts[0] if len(parts) == 1 else np.concatenate(parts)
     return values

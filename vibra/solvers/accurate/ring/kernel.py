@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.compiled import HOST_FMA, intrinsic, jit, prange
+from vibra.solvers.compiled import HOST_FMA, batches, intrinsic, jit, prange, threads
 
 __all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor"]
 
@@ -248,8 +248,13 @@ def spring_counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance: tu
     walls = wall is not None
     wall_h, wall_l = (np.zeros(m.shape[0]), np.zeros(m.shape[0])) if wall is None else \
         (np.ascontiguousarray(wall[0], dtype=float), np.ascontiguousarray(wall[1], dtype=float))
-    count, certain, last = _counts(np.ascontiguousarray(x, dtype=float), m, compliance[0], compliance[1], off,
-                                   squares[0], squares[1], wall_h, wall_l, walls, float(closing), float(u))
+    x = np.ascontiguousarray(x, dtype=float)
+    parts = [_counts(x[first:stop], m, compliance[0], compliance[1], off, squares[0], squares[1], wall_h, wall_l,
+                     walls, float(closing), float(u))  # batches of ~1 s: Ctrl-C is seen between them
+             for first, stop in batches(x.shape[0], COUNT_S * m.shape[0] / threads(), LANES * threads())]
+    if not parts:
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.bool_), np.zeros(0)
+    count, certain, last = (np.concatenate(column) for column in zip(*parts))
     return count.astype(np.intp), certain, last
 
 
@@ -263,6 +268,12 @@ NEAR = 1e-6
 
 #: Roots one thread finds together (`LANES` at a time, a finished lane taking the next root).
 CHUNK = 16 * LANES
+
+#: Seconds per site of one value's double-double inertia count (`spring_counts`) and of one
+#: root's ~20 evaluations of l(x) (`pivot_roots`), one thread: they size the kernels'
+#: `batches` (Ctrl-C is seen between them), nothing else.
+COUNT_S = 1e-8
+ROOT_S = 20 * 2e-9
 
 
 @_jit()
@@ -454,8 +465,13 @@ def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: N
     -1 or +1 where the root was taken at the lower or upper pole (within NEAR), 0 inside.
     `wall`: the springs to a wall per site (float64), None for a free ring."""
     tie = np.zeros(m.shape[0]) if wall is None else np.ascontiguousarray(wall, dtype=float)
-    roots, evaluations, side = _roots(*(np.ascontiguousarray(a, dtype=float) for a in (low, high, pole_low, pole_high)),
-                                m, np.ascontiguousarray(compliance, dtype=float), off, tie, float(closing))
+    brackets = [np.ascontiguousarray(a, dtype=float) for a in (low, high, pole_low, pole_high)]
+    compliance = np.ascontiguousarray(compliance, dtype=float)
+    parts = [_roots(*(a[first:stop] for a in brackets), m, compliance, off, tie, float(closing))
+             for first, stop in batches(brackets[0].shape[0], ROOT_S * m.shape[0] / threads(), CHUNK * threads())]
+    if not parts:
+        return np.zeros(0), np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    roots, evaluations, side = (np.concatenate(column) for column in zip(*parts))
     return roots, evaluations.astype(np.intp), side.astype(np.intp)
 
 
