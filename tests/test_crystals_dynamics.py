@@ -162,8 +162,8 @@ def test_reprs_are_one_short_line_with_the_figures_that_matter() -> None:
     top = float(bands.omega.max()) * get_physical_units().DefaultToTHz  # phonopy's factor, not the code's
     results = {
         "Crystal('fcc', 1 atom (X)": argon,
-        "BandStructure(2000 q-points x 3 branches, path Γ-": bands,
-        "DensityOfStates(tetrahedron on a 8x8x8 mesh, 201 points": argon.dos(8),
+        "BandStructure(2000 q-points x 3 branches, along Γ-": bands,
+        "DensityOfStates(201 points on a 8x8x8 mesh": argon.dos(8),
         "ThermalProperties(3 temperatures 10..300 K, mesh 6x6x6": argon.thermal_properties([10, 100, 300], mesh=6),
         "SoundVelocities(direction (1, 0, 0), velocities": argon.sound_velocities([1, 0, 0]),
         "Phonons(2000 q-points x 3 branches": argon.phonons(bands.qpoints, vectors=True),

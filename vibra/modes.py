@@ -54,7 +54,8 @@ class Modes(ModesResult):
     orthogonality : float
         Largest |D^T D - I| entry (NaN without vectors).
     solver : str
-        The solver path that ran (see `vibra.solvers`).
+        The solver path that ran (see `vibra.solvers`); `path` is the same, under the name
+        every result type shares.
     units : UnitSystem
         Units of omega and of the shapes.
     refined : (n_modes,) bool ndarray or None
@@ -68,9 +69,10 @@ class Modes(ModesResult):
         bound's reach refined by spring-space Rayleigh-Ritz (6 zero within rounding); 1494
         kept from the dense solve, ..."``; None where `refined` is None.
 
-    Shared with `vibra.solvers.structured.quadratic.QuadraticModes` (`vibra._results.ModesResult`): `path` (the
-    same as `solver`), ``len(modes)``, ``modes[6:]`` / ``modes[k]`` / ``modes[mask]`` (a
-    smaller `Modes`), a short repr, `to_dict` / `from_dict`, and `save` / `load` (``.npz``).
+    The result protocol every result type shares (`vibra._results.Result`, here
+    `ModesResult`): `path` (the same as `solver`), ``len(modes)``, ``modes[6:]`` / ``modes[k]`` /
+    ``modes[mask]`` (a smaller `Modes`), a short repr, `to_dict` / `from_dict`, and `save` /
+    `load` (``.npz``).
     """
 
     STORED: ClassVar[dict[str, Stored]] = {  # how save / load / from_dict check each array (vibra._results)
@@ -112,7 +114,7 @@ class Modes(ModesResult):
         >>> print(vibra.normal_modes(K, [1.0, 1.0, 1.0], vectors=False).summary().splitlines()[0])
         3 modes of 3 dofs by the dense path
         """
-        lines = [f"{self.n_modes} modes of {self.n_dof} dofs by the {self.solver} path"]
+        lines = [f"{self.n_modes} modes of {self.n_dof} dofs by the {self.path} path"]
         if self.n_modes:
             nonzero = np.abs(self.omega) > self.omega_error
             relative = self.omega_error[nonzero] / np.abs(self.omega[nonzero])

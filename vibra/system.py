@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate, assembly
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, short_repr
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.solvers.common import ACCURACY_LEVELS
@@ -62,7 +62,7 @@ class Vibrating(Protocol):
 _AXES = "xyz"
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class System(FreeDofs):
     """A vibrating system: sites, masses, and a factorised quadratic potential.
 
@@ -115,6 +115,12 @@ class System(FreeDofs):
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def __repr__(self) -> str:
+        """One line, never the arrays: name, sites and dimension, dofs, frozen dofs, units."""
+        frozen = f"{int(self.frozen.sum())} dofs frozen" if self.frozen.any() else "unconstrained"
+        return short_repr(self, repr(self.name), f"{self.masses.size} sites in {self.positions.shape[1]}-D",
+                          f"{self.n_dof} dofs", frozen, f"{self.units.name} units")
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -193,7 +199,7 @@ class System(FreeDofs):
         rows: list[sp.coo_matrix] = []
         weight_parts: list[NDArray[np.float64]] = []
         if springs is not None:
-            pairs = _index_array(springs, "springs", n_sites, shape=(-1, 2))
+            pairs = _validate.indices(springs, "springs", n_sites, shape=(-1, 2))
             k = _per_item(stiffness, len(pairs), "stiffness")
             _validate.positive(k, "stiffness", "spring constant")
             same = pairs[:, 0] == pairs[:, 1]
@@ -218,7 +224,7 @@ class System(FreeDofs):
         elif cell is not None:
             raise ValueError("cell was given without springs")
         if anchors is not None:
-            sites = _index_array(anchors, "anchors", n_sites, shape=(-1,))
+            sites = _validate.indices(anchors, "anchors", n_sites, shape=(-1,))
             k = _per_item(anchor_stiffness, len(sites), "anchor_stiffness")
             _validate.positive(k, "anchor_stiffness", "spring constant")
             if anchor_directions is None:
@@ -548,8 +554,7 @@ class System(FreeDofs):
 # ---------------------------------------------------------------------- helpers
 def _positions(positions: ArrayLike) -> NDArray[np.float64]:
     array = _validate.real_array(positions, "positions", ndim=(1, 2))
-    if array.ndim == 1:
-        array = array[:, None]
+    array = array[:, None] if array.ndim == 1 else array
     if array.shape[0] < 1:
         raise ValueError("positions must hold at least one site, got none")
     if array.shape[1] not in (1, 2, 3):
@@ -578,16 +583,13 @@ def _per_item(value: ArrayLike | float | None, n: int, name: str) -> NDArray[np.
     return array
 
 
-_index_array = _validate.indices
-
-
 def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLike | None) -> NDArray[np.bool_]:
     mask = np.zeros(n_sites * dim, dtype=bool)
     if sites is not None:
-        index = _index_array(sites, "frozen_sites", n_sites, shape=(-1,))
+        index = _validate.indices(sites, "frozen_sites", n_sites, shape=(-1,))
         mask[(index[:, None] * dim + np.arange(dim)).ravel()] = True
     if dofs is not None:
-        index = _index_array(dofs, "frozen_dofs", n_sites * dim, shape=(-1,), what="dof")
+        index = _validate.indices(dofs, "frozen_dofs", n_sites * dim, shape=(-1,), what="dof")
         mask[index] = True
     if mask.all():
         raise ValueError("every degree of freedom is frozen; nothing is left to vibrate")
@@ -595,6 +597,4 @@ def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLik
 
 
 def _site_labels(n_sites: int, dim: int) -> tuple[str, ...]:
-    if dim == 1:
-        return tuple(str(i) for i in range(n_sites))
-    return tuple(f"{i}{_AXES[a]}" for i in range(n_sites) for a in range(dim))
+    return tuple(str(i) if dim == 1 else f"{i}{_AXES[a]}" for i in range(n_sites) for a in range(dim))

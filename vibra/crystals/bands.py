@@ -20,14 +20,15 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays, frequency_span, short_repr
+from vibra._frozen import freeze_arrays, frequency_span
+from vibra._results import Result, stored
 from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, phonons
 from vibra.units import UnitSystem
 
@@ -48,9 +49,13 @@ PATH_CHUNK = 1 << 14
 PATH_CHUNK_POINTS = 64
 
 
-@dataclass(frozen=True, eq=False)
-class BandStructure:
-    """Phonon bands along a path in reciprocal space.
+@dataclass(frozen=True, eq=False, repr=False)
+class BandStructure(Result):
+    """Phonon bands along a path in reciprocal space (a `vibra._results.Result` over its q-points).
+
+    A slice keeps a contiguous run of q-points (``bands[40:80]``; a step, an index array or a
+    mask with gaps is refused), with the segments cut to it and the labels and breaks inside it,
+    their indices counted from its first q-point; `distances` keep their values.
 
     Attributes
     ----------
@@ -75,7 +80,14 @@ class BandStructure:
         Indices where a new continuous run starts (a discontinuity of the path), 0 excluded.
     units : UnitSystem
         The crystal's units.
+    path : str
+        How the frequencies were solved (`Phonons.path`: ``" + spring-svd"`` where some q-points were re-solved).
     """
+
+    STORED = {"qpoints": stored(("n_q", 3)), "distances": stored(("n_q",)),  # how save / load check them
+              "omega": stored(("n_q", "n_branches")), "omega_error": stored(("n_q", "n_branches")),
+              "velocities": stored(("n_q", "n_branches")), "segments": stored(("n_segments", 2), kind="int")}
+    AXIS, NOUNS = "n_q", ("q-point", "q-points")
 
     qpoints: NDArray[np.float64]
     distances: NDArray[np.float64]
@@ -86,19 +98,44 @@ class BandStructure:
     labels: tuple[tuple[int, str], ...]
     breaks: tuple[int, ...]
     units: UnitSystem
+    path: str = "hermitian-eigh"
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
-    def __repr__(self) -> str:
-        n_q, n_branches = self.omega.shape
-        path = ""
+    def _repr_parts(self) -> tuple[str, ...]:
+        along = ""
         for k, (index, label) in enumerate(self.labels):
             if k:
-                path += "|" if index in self.breaks and self.labels[k - 1][0] == index - 1 else "-"
-            path += "Γ" if label == "GAMMA" else label
-        return short_repr(self, f"{n_q} q-points x {n_branches} branches", "path " + path,
-                          frequency_span(self.omega, self.units), f"{self.units.name} units")
+                along += "|" if index in self.breaks and self.labels[k - 1][0] == index - 1 else "-"
+            along += "Γ" if label == "GAMMA" else label
+        return (f"{self._size()} x {self.omega.shape[1]} branches", "along " + along if along else "",
+                frequency_span(self.omega, self.units))
+
+    def _sliced(self, chosen: NDArray[np.intp]) -> dict[str, Any]:
+        """The segments, labels and breaks of a contiguous run of q-points, counted from its first."""
+        if np.any(np.diff(chosen) != 1):
+            raise IndexError("a BandStructure is sliced by a contiguous run of q-points (step 1): its segments, "
+                             "labels and breaks index them")
+        start, stop = (int(chosen[0]), int(chosen[-1]) + 1) if chosen.size else (0, 0)
+        low, high = np.maximum(self.segments[:, 0], start), np.minimum(self.segments[:, 1], stop - 1)
+        keep = low <= high
+        return {"segments": np.stack([low[keep], high[keep]], axis=1) - start,
+                "labels": tuple((k - start, label) for k, label in self.labels if start <= k < stop),
+                "breaks": tuple(k - start for k in self.breaks if start < k < stop)}
+
+    @classmethod
+    def _from_stored(cls, values: dict[str, Any], where: Callable[[str], str]) -> BandStructure:
+        """A stored band structure whose segments, labels and breaks index its q-points."""
+        n_q = len(values["qpoints"])
+        segments = values["segments"]
+        if segments.size and (segments.min() < 0 or segments.max() >= n_q or np.any(segments[:, 0] > segments[:, 1])):
+            raise ValueError(f"{where('segments')} holds {segments.tolist()[:4]}...; expected (first, last) index "
+                             f"pairs, first <= last, into the {n_q} q-points")
+        for key, indices in (("labels", [k for k, _ in values["labels"]]), ("breaks", values["breaks"])):
+            if any(not 0 <= k < n_q for k in indices):
+                raise ValueError(f"{where(key)} holds an index outside the {n_q} q-points ({list(indices)[:6]})")
+        return cls(**values)
 
     def frequencies_thz(self) -> NDArray[np.float64]:
         """(n_q, n_branches) signed ordinary frequencies, in THz."""
@@ -233,19 +270,20 @@ def band_structure(crystal: Crystal, path: Sequence[Sequence[str]] | None = None
         offset += n
         previous_run = r
     qpoints = np.vstack(qs)
-    omega, error, velocity, order = _solve_path(crystal, qpoints, segments, directions, set(breaks))
+    omega, error, velocity, order, paths = _solve_path(crystal, qpoints, segments, directions, set(breaks))
     rows = np.arange(len(qpoints))[:, None]
     return BandStructure(qpoints=qpoints, distances=np.concatenate(dist), omega=omega[rows, order],
                          omega_error=error[rows, order], velocities=velocity[rows, order],
                          segments=np.array(segments, dtype=np.int64),
                          labels=tuple((int(k), label) for k, label in labels), breaks=tuple(int(k) for k in breaks),
-                         units=crystal.units)
+                         units=crystal.units, path=max(paths, key=len))
 
 
 def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[tuple[int, int]],
                 directions: list[NDArray[np.float64]], breaks: set[int]
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
-    """omega, omega_error, velocities (solver order) and the branch order, in chunks of `PATH_CHUNK` entries.
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], list[str]]:
+    """omega, omega_error, velocities (solver order), the branch order, in chunks of `PATH_CHUNK` entries,
+    and the paths of the chunks' solves (`Phonons.path`, each once).
 
     Each chunk of the path is solved with eigenvectors, rotated by dD/dk along each segment it
     meets, then connected to the previous q-point; only the previous q-point's eigenvectors outlive
@@ -259,10 +297,12 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
     velocity = np.empty_like(omega)
     order = np.empty((len(qpoints), n3), dtype=np.intp)
     previous: NDArray[np.complex128] | None = None  # eigenvectors of the last q-point, in branch order
+    paths: dict[str, None] = {}
     for start in range(0, len(qpoints), step):
         chunk = slice(start, min(len(qpoints), start + step))
         result = phonons(crystal, qpoints[chunk], vectors=True)
         omega[chunk], error[chunk] = result.omega, result.omega_error
+        paths[result.path] = None
         basis = np.array(result.vectors)
         del result
         if crystal.nac is not None:  # a polar crystal's Gamma: the LO-TO split of the direction of the path
@@ -280,7 +320,7 @@ def _solve_path(crystal: Crystal, qpoints: NDArray[np.float64], segments: list[t
             zero = np.abs(omega[part]) <= error[part]
             velocity[part] = np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * omega[part]))
         order[chunk], previous = _connect(basis, {k - start for k in breaks if k >= start}, previous)
-    return omega, error, velocity, order
+    return omega, error, velocity, order, list(paths)
 
 
 def _gamma_along_path(crystal: Crystal, qpoints: NDArray[np.float64], chunk: slice, segments: list[tuple[int, int]],

@@ -30,7 +30,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays, frequency_span, short_repr
+from vibra._frozen import freeze_arrays, frequency_span
+from vibra._results import Result, stored
 from vibra.crystals.dynamical import phonons
 from vibra.crystals.mesh import Mesh, grid_index, mesh_points
 from vibra.units import UnitSystem
@@ -56,9 +57,10 @@ _CUBE_TETRAHEDRA = np.array([[[0, 0, 0], _UNIT[a], _UNIT[a] + _UNIT[b], [1, 1, 1
 _DIAGONALS = np.array([[1, 1, 1], [-1, 1, 1], [1, -1, 1], [1, 1, -1]], dtype=np.int64)
 
 
-@dataclass(frozen=True, eq=False)
-class DensityOfStates:
-    """Phonon density of states of a crystal, per unit cell.
+@dataclass(frozen=True, eq=False, repr=False)
+class DensityOfStates(Result):
+    """Phonon density of states of a crystal, per unit cell (a `vibra._results.Result` over its points;
+    `path` is the method).
 
     Attributes
     ----------
@@ -78,6 +80,10 @@ class DensityOfStates:
         The crystal's units.
     """
 
+    STORED = {"omega": stored(("n_points",)), "dos": stored(("n_points",)),  # how save / load check them
+              "projected": stored(("n_atoms", "n_points"), optional=True), "mesh": stored((3,), kind="int")}
+    AXIS, NOUNS, PATH_FIELD = "n_points", ("point", "points"), "method"
+
     omega: NDArray[np.float64]
     dos: NDArray[np.float64]
     projected: NDArray[np.float64] | None
@@ -89,12 +95,11 @@ class DensityOfStates:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
-    def __repr__(self) -> str:
+    def _repr_parts(self) -> tuple[str, ...]:
         mesh = "x".join(str(int(n)) for n in self.mesh)
-        method = self.method if self.sigma is None else f"{self.method}, sigma {self.sigma:.3g}"
-        projected = "" if self.projected is None else f"projected on {self.projected.shape[0]} atoms"
-        return short_repr(self, f"{method} on a {mesh} mesh", f"{self.omega.size} points",
-                          frequency_span(self.omega, self.units), projected, f"{self.units.name} units")
+        return (f"{self._size()} on a {mesh} mesh", frequency_span(self.omega, self.units),
+                "" if self.sigma is None else f"sigma {self.sigma:.3g}",
+                "" if self.projected is None else f"projected on {self.projected.shape[0]} atoms")
 
     def frequencies_thz(self) -> NDArray[np.float64]:
         """(n_points,) ordinary frequencies of `omega`, in THz."""

@@ -29,7 +29,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays, frequency_span, short_repr
+from vibra._frozen import freeze_arrays, frequency_span
+from vibra._results import Result, stored
 from vibra.crystals.factor import singular_frequencies
 from vibra.solvers.common import EPS, omega_and_error
 from vibra.solvers.standard.hermitian import hermitian_stack
@@ -73,9 +74,9 @@ POLAR_CHUNK = 1 << 18
 DEGENERACY_BOUNDS = 1e4
 
 
-@dataclass(frozen=True, eq=False)
-class Phonons:
-    """Phonon frequencies (and eigenvectors) of a crystal at a set of wave vectors.
+@dataclass(frozen=True, eq=False, repr=False)
+class Phonons(Result):
+    """Phonon frequencies (and eigenvectors) of a crystal at a set of wave vectors (a `vibra._results.Result`).
 
     Attributes
     ----------
@@ -112,6 +113,11 @@ class Phonons:
         constants break the index symmetry (`Crystal.index_asymmetry`); included in `omega_error`.
     """
 
+    STORED = {"qpoints": stored(("n_q", 3)), "omega": stored(("n_q", "n_branches")),  # (vibra._results)
+              "omega_error": stored(("n_q", "n_branches")), "masses": stored(("n_atoms",)),
+              "vectors": stored(("n_q", ("n_atoms", 3), "n_branches"), kind="complex", optional=True),
+              "refined": stored(("n_q",), kind="bool", optional=True), "non_hermitian": stored(("n_q",), optional=True)}
+    AXIS, NOUNS = "n_q", ("q-point", "q-points")
     qpoints: NDArray[np.float64]
     omega: NDArray[np.float64]
     omega_error: NDArray[np.float64]
@@ -126,14 +132,12 @@ class Phonons:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
-    def __repr__(self) -> str:
-        n_q, n_branches = self.omega.shape
-        refined = "" if self.refined is None else f"{int(np.count_nonzero(self.refined))} refined"
-        skew = self.non_hermitian
-        removed = f"non-Hermitian part {float(skew.max()):.2g} removed" if skew is not None and skew.max() > 0 else ""
-        return short_repr(self, f"{n_q} q-points x {n_branches} branches", frequency_span(self.omega, self.units),
-                          "with vectors" if self.vectors is not None else "", f"phase {self.phase!r}",
-                          f"path {self.path!r}", refined, removed, f"{self.units.name} units")
+    def _repr_parts(self) -> tuple[str, ...]:
+        skew = 0.0 if self.non_hermitian is None else float(np.max(self.non_hermitian, initial=0.0))
+        return (f"{self._size()} x {self.omega.shape[1]} branches", frequency_span(self.omega, self.units),
+                "with vectors" if self.vectors is not None else "", f"phase {self.phase!r}",
+                "" if self.refined is None else f"{int(np.count_nonzero(self.refined))} refined",
+                f"non-Hermitian part {skew:.2g} removed" if skew > 0 else "")
 
     def displacements(self) -> NDArray[np.complex128]:
         """(n_q, 3 n_atoms, n_branches) physical displacement patterns M^-1/2 e, in length / sqrt(mass)."""
@@ -155,8 +159,7 @@ class Phonons:
 def check_qpoints(qpoints: ArrayLike, name: str = "qpoints") -> NDArray[np.float64]:
     """(n_q, 3) finite fractional wave vectors (a single (3,) q is taken as one row)."""
     q = _validate.real_array(qpoints, name, ndim=(1, 2))
-    if q.ndim == 1:
-        q = q[None, :]
+    q = q[None, :] if q.ndim == 1 else q
     if q.shape[1] != 3 or q.shape[0] == 0:
         raise ValueError(f"{name} must have shape (n_q, 3) with n_q >= 1 (fractional reciprocal coordinates), "
                          f"got {q.shape}")

@@ -28,7 +28,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr, span
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.crystals.dynamical import phonons
 from vibra.crystals.mesh import mesh_points
 from vibra.units import UnitSystem
@@ -46,9 +47,10 @@ THERMAL_CHUNK = 1 << 20
 FROZEN_X = 690.0
 
 
-@dataclass(frozen=True, eq=False)
-class ThermalProperties:
-    """Harmonic thermal properties per unit cell against temperature.
+@dataclass(frozen=True, eq=False, repr=False)
+class ThermalProperties(Result):
+    """Harmonic thermal properties per unit cell against temperature (a `vibra._results.Result` over
+    the temperatures).
 
     Attributes
     ----------
@@ -68,7 +70,13 @@ class ThermalProperties:
         The mesh.
     units : UnitSystem
         The crystal's units.
+    path : str
+        How the mesh's frequencies were solved (`Phonons.path`).
     """
+
+    STORED = {"temperatures": stored(("n_t",)), "free_energy": stored(("n_t",)),  # how save / load check them
+              "entropy": stored(("n_t",)), "heat_capacity": stored(("n_t",)), "mesh": stored((3,), kind="int")}
+    AXIS, NOUNS = "n_t", ("temperature", "temperatures")
 
     temperatures: NDArray[np.float64]
     free_energy: NDArray[np.float64]
@@ -78,15 +86,16 @@ class ThermalProperties:
     excluded: int
     mesh: NDArray[np.int64]
     units: UnitSystem
+    path: str = "hermitian-eigh"
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
-    def __repr__(self) -> str:
+    def _repr_parts(self) -> tuple[str, ...]:
         mesh = "x".join(str(int(n)) for n in self.mesh)
-        return short_repr(self, f"{self.temperatures.size} temperatures {span(self.temperatures, 'K')}",
-                          f"mesh {mesh}", f"zero-point energy {self.zero_point_energy:.6g} {self.units.energy}",
-                          f"{self.excluded} excluded" if self.excluded else "", f"{self.units.name} units")
+        return (f"{self._size()} {span(self.temperatures, 'K')}", f"mesh {mesh}",
+                f"zero-point energy {self.zero_point_energy:.6g} {self.units.energy}",
+                f"{self.excluded} excluded" if self.excluded else "")
 
     def _per_mole(self) -> float:
         return energy_unit_joule(self.units) * constants.Avogadro
@@ -172,4 +181,5 @@ def thermal_properties(crystal: Crystal, temperatures: ArrayLike, *, mesh: Any, 
         heat[rows] = kb * ((x ** 2 * em / om ** 2) @ weights) / total
     excluded = int(np.broadcast_to(points.weights[:, None], keep.shape)[~keep].sum())
     return ThermalProperties(temperatures=t, free_energy=free, entropy=entropy, heat_capacity=heat,
-                             zero_point_energy=zero_point, excluded=excluded, mesh=points.size, units=crystal.units)
+                             zero_point_energy=zero_point, excluded=excluded, mesh=points.size, units=crystal.units,
+                             path=result.path)

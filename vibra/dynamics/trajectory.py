@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._frozen import freeze_arrays
+from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.units import UnitSystem
 
@@ -38,8 +39,9 @@ def relative_changes(conserved: NDArray[np.float64], kinetic: NDArray[np.float64
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class Trajectory:
-    """A recorded trajectory, in the units of its system.
+class Trajectory(Result):
+    """A recorded trajectory, in the units of its system (a `vibra._results.Result` over its records:
+    ``run[::10]`` keeps every tenth record; `path` is the integrator).
 
     Attributes
     ----------
@@ -77,6 +79,12 @@ class Trajectory:
         The system's units.
     """
 
+    STORED = {"t": stored(("n_records",)), "positions": stored(("n_records", "n_dof")),  # how save / load check them
+              "velocities": stored(("n_records", "n_dof")), "kinetic": stored(("n_records",)),
+              "potential": stored(("n_records",)), "conserved": stored(("n_records",)),
+              "thermostat_state": stored(("n_records", "n_state")), "masses": stored(("n_dof",))}
+    AXIS, NOUNS, PATH_FIELD, SIZED = "n_records", ("record", "records"), "integrator", {"thermostat_labels": "n_state"}
+
     t: NDArray[np.float64]
     positions: NDArray[np.float64]
     velocities: NDArray[np.float64]
@@ -94,9 +102,10 @@ class Trajectory:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
-    def __repr__(self) -> str:
-        return (f"Trajectory({len(self.t)} records of {self.positions.shape[1]} dofs to t = {float(self.t[-1]):.6g}, "
-                f"dt = {self.dt:g}, {self.integrator}, units {self.units.name})")
+    def _repr_parts(self) -> tuple[str, ...]:
+        end = f" to t = {float(self.t[-1]):.6g}" if self.t.size else ""
+        return (f"{self._size()} of {self.positions.shape[1]} dofs{end}", f"dt = {self.dt:g}",
+                "compiled" if self.compiled else "Python loop")
 
     @property
     def energy(self) -> NDArray[np.float64]:

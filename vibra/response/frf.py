@@ -17,7 +17,8 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.response.direct import direct_response, state_space_response
 from vibra.response.matrices import check_skew, check_structure, half_bandwidth, response_cost, velocity_matrix
@@ -30,9 +31,10 @@ from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 METHODS = ("direct", "modal", "state_space")
 
 
-@dataclass(frozen=True, eq=False)
-class FrequencyResponse:
-    """Steady-state response x(w) = (K - w^2 M + i w (C + G))^-1 f over many frequencies.
+@dataclass(frozen=True, eq=False, repr=False)
+class FrequencyResponse(Result):
+    """Steady-state response x(w) = (K - w^2 M + i w (C + G))^-1 f over many frequencies (a
+    `vibra._results.Result` over the frequencies; `path` is the method).
 
     Attributes
     ----------
@@ -65,6 +67,11 @@ class FrequencyResponse:
         Whether a gyroscopic matrix G took part (x(w) = (K - w^2 M + i w (C + G))^-1 f).
     """
 
+    STORED = {"omegas": stored(("n_freq",)), "response": stored(("n_freq", "n_dof"), kind="complex"),  # how saved
+              "force": stored(("n_dof",), kind="number"), "truncation_error": stored(("n_freq",)),
+              "natural_frequencies": stored(("n_modes",), optional=True)}
+    AXIS, NOUNS, PATH_FIELD = "n_freq", ("frequency", "frequencies"), "method"
+
     omegas: NDArray[np.float64]
     response: NDArray[np.complex128]
     force: NDArray[Any]
@@ -79,6 +86,11 @@ class FrequencyResponse:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        modes = "" if self.n_modes is None else f"{self.n_modes} modes"
+        return (f"{self._size()} x {self.n_dof} dofs", f"omega {span(self.omegas)}", modes,
+                f"solver {self.solver!r}", "gyroscopic" if self.gyroscopic else "")
 
     @property
     def n_dof(self) -> int:
@@ -157,7 +169,9 @@ def frequency_response(
         Modal method: normal modes of (K, M) already computed (at least `n_modes`; one more
         sharpens the error estimate). Computed with `vibra.normal_modes` otherwise.
     units : str or UnitSystem
-        Unit system of K, M, C, carried by the result.
+        Unit system of K, M, C, carried by the result and named on its charts. The default,
+        dimensionless, suits bare matrices (omega in rad per time unit); give ``"SI"`` for K
+        in N/m, M in kg and C in kg/s (omega in rad/s, receptance in m/N).
     max_memory, max_seconds : float, optional
         Limits of the estimated memory (bytes) and time (s), as in `vibra.normal_modes`:
         a larger request raises `vibra.solvers.ResourceLimitError` before any allocation.

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays
+from vibra._results import Result, stored
 from vibra.modes import Modes, normal_modes
 from vibra.response.damping import is_modal, modal_damping, modal_projection
 from vibra.response.matrices import check_skew, check_structure, mass_times, velocity_matrix
@@ -29,9 +30,10 @@ from vibra.response.state_space import state_space_motion
 TRANSIENT_METHODS = ("modal", "state space")
 
 
-@dataclass(frozen=True, eq=False)
-class Transient:
-    """Motion of a multi-dof system under a harmonic force.
+@dataclass(frozen=True, eq=False, repr=False)
+class Transient(Result):
+    """Motion of a multi-dof system under a harmonic force (a `vibra._results.Result` over its
+    times; `path` is the method).
 
     Attributes
     ----------
@@ -50,6 +52,10 @@ class Transient:
         a gyroscopic G).
     """
 
+    STORED = {"t": stored(("n_t",)), "displacement": stored(("n_t", "n_dof")),  # how save / load check them
+              "velocity": stored(("n_t", "n_dof"))}
+    AXIS, NOUNS, PATH_FIELD = "n_t", ("time", "times"), "method"
+
     t: NDArray[np.float64]
     displacement: NDArray[np.float64]
     velocity: NDArray[np.float64]
@@ -58,6 +64,10 @@ class Transient:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        end = f" to t = {float(self.t[-1]):.6g}" if self.t.size else ""
+        return f"{self._size()} of {self.displacement.shape[1]} dofs{end}", f"{self.n_modes} modes"
 
 
 def transient_response(

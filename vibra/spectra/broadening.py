@@ -9,7 +9,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.spectra.common import nonnegative_float
 
 __all__ = ["StickSpectrum", "BroadenedSpectrum", "stick_spectrum", "broadened_spectrum"]
@@ -18,9 +19,10 @@ _SHAPES = ("lorentzian", "gaussian")
 _BLOCK = 1 << 20   # entries of one profile block in broadened_spectrum (8 MiB)
 
 
-@dataclass(frozen=True, eq=False)
-class StickSpectrum:
-    """Line positions and strengths, degenerate lines merged.
+@dataclass(frozen=True, eq=False, repr=False)
+class StickSpectrum(Result):
+    """Line positions and strengths, degenerate lines merged (a `vibra._results.Result` over the
+    lines; `path` is the kind).
 
     Attributes
     ----------
@@ -34,6 +36,9 @@ class StickSpectrum:
         ``"IR"``, ``"Raman"`` or a free label; charts use it for titles and axis direction.
     """
 
+    STORED = {"wavenumbers": stored(("n_lines",)), "intensities": stored(("n_lines",))}  # (vibra._results)
+    AXIS, NOUNS, PATH_FIELD = "n_lines", ("line", "lines"), "kind"
+
     wavenumbers: NDArray[np.float64]
     intensities: NDArray[np.float64]
     unit: str
@@ -42,6 +47,9 @@ class StickSpectrum:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
+    def _repr_parts(self) -> tuple[str, ...]:
+        return self._size(), f"{span(self.wavenumbers, 'cm^-1')}", f"intensities in {self.unit}"
+
     def broadened(self, grid: ArrayLike, width: float,
                   shape: Literal["lorentzian", "gaussian"] = "lorentzian") -> BroadenedSpectrum:
         """These lines broadened on `grid` (see `broadened_spectrum`)."""
@@ -49,9 +57,10 @@ class StickSpectrum:
                                   unit=self.unit, kind=self.kind)
 
 
-@dataclass(frozen=True, eq=False)
-class BroadenedSpectrum:
-    """A spectrum on a wavenumber grid: each line a unit-area profile times its intensity.
+@dataclass(frozen=True, eq=False, repr=False)
+class BroadenedSpectrum(Result):
+    """A spectrum on a wavenumber grid: each line a unit-area profile times its intensity (a
+    `vibra._results.Result` over the grid; `path` is the line shape).
 
     Attributes
     ----------
@@ -70,6 +79,9 @@ class BroadenedSpectrum:
         ``"IR"``, ``"Raman"`` or a free label.
     """
 
+    STORED = {"grid": stored(("n_points",)), "values": stored(("n_points",))}  # (vibra._results)
+    AXIS, NOUNS, PATH_FIELD = "n_points", ("point", "points"), "shape"
+
     grid: NDArray[np.float64]
     values: NDArray[np.float64]
     width: float
@@ -79,6 +91,10 @@ class BroadenedSpectrum:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        return (self._size(), f"{span(self.grid, 'cm^-1')}", f"{self.kind}", f"FWHM {self.width:.4g} cm^-1",
+                f"values in {self.unit} per cm^-1")
 
 
 def stick_spectrum(wavenumbers: NDArray[np.float64], values: NDArray[np.float64], merge_cm1: float,

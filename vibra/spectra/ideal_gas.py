@@ -29,7 +29,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis, vibrational_analysis
 from vibra.molecules.checks import check_atoms
@@ -51,9 +52,10 @@ _J_PER_MOL_PER_EV = constants.e * constants.N_A
 Shape = Literal["monatomic", "linear", "nonlinear"]
 
 
-@dataclass(frozen=True, eq=False)
-class ThermoContribution:
-    """One part (translation, rotation, vibration or electronic) of the ideal-gas functions.
+@dataclass(frozen=True, eq=False, repr=False)
+class ThermoContribution(Result):
+    """One part (translation, rotation, vibration or electronic) of the ideal-gas functions (a
+    `vibra._results.Result` over the temperatures).
 
     Attributes
     ----------
@@ -66,6 +68,9 @@ class ThermoContribution:
     heat_capacity : (n_T,) ndarray
         C_p of this part, in eV/K per molecule.
     """
+
+    STORED = dict.fromkeys(("enthalpy", "entropy", "gibbs", "heat_capacity"), stored(("n_T",)))  # (vibra._results)
+    AXIS, NOUNS, PATH = "n_T", ("temperature", "temperatures"), "ideal gas"
 
     enthalpy: NDArray[np.float64]
     entropy: NDArray[np.float64]
@@ -83,9 +88,12 @@ def _part(temperatures: NDArray[np.float64], enthalpy: ArrayLike, entropy: Array
     return ThermoContribution(enthalpy=h, entropy=s, gibbs=h - temperatures * s, heat_capacity=c)
 
 
-@dataclass(frozen=True, eq=False)
-class IdealGasThermochemistry:
-    """Enthalpy, entropy, Gibbs energy and heat capacity of an ideal gas of one molecule.
+@dataclass(frozen=True, eq=False, repr=False)
+class IdealGasThermochemistry(Result):
+    """Enthalpy, entropy, Gibbs energy and heat capacity of an ideal gas of one molecule (a
+    `vibra._results.Result` over the temperatures, its parts sliced with it and stored as
+    ``"translational.enthalpy"``, ...; `path` is the treatment of the low modes, ``"harmonic"``
+    when none).
 
     Attributes
     ----------
@@ -126,6 +134,12 @@ class IdealGasThermochemistry:
         vibrational part depends on the frequencies), eV and eV/K per molecule.
     """
 
+    STORED = {**dict.fromkeys(("temperatures", "enthalpy", "entropy", "gibbs", "heat_capacity"), stored(("n_T",))),
+              "moments_of_inertia": stored((3,)),  # how save / load check them (vibra._results)
+              **dict.fromkeys(("enthalpy_error", "entropy_error", "gibbs_error"), stored(("n_T",), optional=True))}
+    NESTED = dict.fromkeys(("translational", "rotational", "vibrational", "electronic"), ThermoContribution)
+    AXIS, NOUNS = "n_T", ("temperature", "temperatures")
+
     temperatures: NDArray[np.float64]
     pressure: float
     enthalpy: NDArray[np.float64]
@@ -151,6 +165,15 @@ class IdealGasThermochemistry:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    @property
+    def path(self) -> str:
+        """How the low modes were treated: ``"harmonic"`` (none), ``"grimme"`` or ``"truhlar"``."""
+        return self.low_frequency or "harmonic"
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        return (f"{self._size()} {span(self.temperatures, 'K')}", f"{self.pressure:g} Pa", f"{self.shape}",
+                f"symmetry number {self.symmetry_number}", f"mass {self.mass:.6g} amu")
 
     def entropy_j_per_mol_k(self) -> NDArray[np.float64]:
         """(n_T,) S per mole, in J/(mol K)."""

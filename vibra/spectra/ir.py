@@ -10,7 +10,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
 from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, finite_lines, nonnegative_float,
@@ -43,9 +44,10 @@ _IR_UNITS = ("km/mol", "e^2/amu")
 
 
 
-@dataclass(frozen=True, eq=False)
-class IRSpectrum:
-    """IR activity of the vibrational modes of one system.
+@dataclass(frozen=True, eq=False, repr=False)
+class IRSpectrum(Result):
+    """IR activity of the vibrational modes of one system (a `vibra._results.Result` over the
+    modes; `path` is the model).
 
     Attributes
     ----------
@@ -63,6 +65,10 @@ class IRSpectrum:
         ``"point charges"`` or ``"dipole derivatives"``.
     """
 
+    STORED = {"mode_indices": stored(("n_vib",), kind="int"), "wavenumbers": stored(("n_vib",)),  # (vibra._results)
+              "dipole_derivatives": stored(("n_vib", 3)), "intensities": stored(("n_vib",))}
+    AXIS, NOUNS, PATH_FIELD = "n_vib", ("mode", "modes"), "model"
+
     mode_indices: NDArray[np.intp]
     wavenumbers: NDArray[np.float64]
     dipole_derivatives: NDArray[np.float64]
@@ -71,6 +77,10 @@ class IRSpectrum:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        return (self._size(), span(self.wavenumbers, "cm^-1"), f"intensities {span(self.intensities)} e^2/amu",
+                f"{int(self.active().sum())} active")
 
     def intensities_km_per_mol(self) -> NDArray[np.float64]:
         """(n_vib,) integrated absorption coefficients, in km/mol."""

@@ -9,16 +9,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.molecules import ISOTOPE_MASSES
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
 from vibra.system import System, Vibrating
 
 __all__ = ["ISOTOPE_MASSES", "IsotopeShifts", "isotope_shifts"]
 
-@dataclass(frozen=True, eq=False)
-class IsotopeShifts:
-    """Wavenumbers of the vibrational modes before and after an isotopic substitution.
+@dataclass(frozen=True, eq=False, repr=False)
+class IsotopeShifts(Result):
+    """Wavenumbers of the vibrational modes before and after an isotopic substitution (a
+    `vibra._results.Result` over the modes; `path` says how they are paired).
 
     Modes are paired by shape, not by rank: each original vibration with the substituted
     vibration whose physical shape overlaps it most, one to one (`vibra.compare.match_modes`
@@ -47,6 +49,12 @@ class IsotopeShifts:
         Pairs `match_modes` could not tell apart (two candidates of similar overlap).
     """
 
+    STORED = {"sites": stored(("n_sub",), kind="int"), "original_masses": stored(("n_sub",)),  # (vibra._results)
+              "new_masses": stored(("n_sub",)), "wavenumbers": stored(("n_vib",)),
+              "shifted_wavenumbers": stored(("n_vib",)), "overlap": stored(("n_vib",)),
+              "ambiguous": stored(("n_vib",), kind="bool")}
+    AXIS, NOUNS, SIZED, PATH = "n_vib", ("mode", "modes"), {"labels": "n_sub"}, "paired by shape"
+
     sites: NDArray[np.intp]
     original_masses: NDArray[np.float64]
     new_masses: NDArray[np.float64]
@@ -58,6 +66,10 @@ class IsotopeShifts:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        return (self._size(), f"{self.sites.size} substituted", f"shifts {span(self.shifts, 'cm^-1')}",
+                f"{int(self.ambiguous.sum())} ambiguous" if self.ambiguous.any() else "")
 
     @property
     def shifts(self) -> NDArray[np.float64]:

@@ -8,7 +8,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
 from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian_shapes, finite_lines, nonnegative_float,
@@ -18,9 +19,10 @@ from vibra.system import System
 __all__ = ["RamanSpectrum", "raman_spectrum"]
 
 
-@dataclass(frozen=True, eq=False)
-class RamanSpectrum:
-    """Raman activity of the vibrational modes in the bond-polarisability model.
+@dataclass(frozen=True, eq=False, repr=False)
+class RamanSpectrum(Result):
+    """Raman activity of the vibrational modes in the bond-polarisability model (a
+    `vibra._results.Result` over the modes; `path` is the model).
 
     Attributes
     ----------
@@ -39,6 +41,11 @@ class RamanSpectrum:
         45 a'^2 + 7 g'^2, in Angstrom^4/amu.
     """
 
+    STORED = {"mode_indices": stored(("n_vib",), kind="int"), "wavenumbers": stored(("n_vib",)),  # (vibra._results)
+              "polarizability_derivatives": stored(("n_vib", 3, 3)), "isotropic": stored(("n_vib",)),
+              "anisotropy": stored(("n_vib",)), "activities": stored(("n_vib",))}
+    AXIS, NOUNS, PATH = "n_vib", ("mode", "modes"), "bond polarisability"
+
     mode_indices: NDArray[np.intp]
     wavenumbers: NDArray[np.float64]
     polarizability_derivatives: NDArray[np.float64]
@@ -48,6 +55,10 @@ class RamanSpectrum:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        return (self._size(), span(self.wavenumbers, "cm^-1"), f"activities {span(self.activities)} Angstrom^4/amu",
+                f"{int(self.active().sum())} active")
 
     def active(self, rtol: float = 1e-8) -> NDArray[np.bool_]:
         """(n_vib,) True where the activity exceeds `rtol` times the strongest line."""

@@ -12,7 +12,8 @@ from scipy import constants
 
 from vibra.spectra.scale_factors import scale_factor as level_factor
 from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._frozen import freeze_arrays, span
+from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
@@ -35,9 +36,10 @@ LOW_FREQUENCY = (None, "grimme", "truhlar")
 GRIMME_BAV = 1.0e-44
 
 
-@dataclass(frozen=True, eq=False)
-class Thermochemistry:
-    """Harmonic vibrational thermochemistry at several temperatures.
+@dataclass(frozen=True, eq=False, repr=False)
+class Thermochemistry(Result):
+    """Harmonic vibrational thermochemistry at several temperatures (a `vibra._results.Result` over
+    the temperatures; `path` is the treatment of the low modes, ``"harmonic"`` when none).
 
     Energies are measured from the bottom of the potential well (as ASE's HarmonicThermo
     does with potentialenergy=0) unless stated otherwise.
@@ -81,6 +83,14 @@ class Thermochemistry:
         wavenumbers given as numbers.
     """
 
+    STORED = {"temperatures": stored(("n_T",)), "wavenumbers": stored(("n_vib",)),  # (vibra._results)
+              "vibrational_energies": stored(("n_vib",)), "log_partition_function": stored(("n_T",)),
+              **dict.fromkeys(("log_partition_function_bottom", "internal_energy", "heat_capacity", "entropy",
+                               "helmholtz_energy"), stored(("n_T",))),
+              **dict.fromkeys(("internal_energy_error", "entropy_error", "helmholtz_energy_error"),
+                              stored(("n_T",), optional=True))}
+    AXIS, NOUNS = "n_T", ("temperature", "temperatures")
+
     temperatures: NDArray[np.float64]
     wavenumbers: NDArray[np.float64]
     vibrational_energies: NDArray[np.float64]
@@ -100,6 +110,16 @@ class Thermochemistry:
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
+
+    @property
+    def path(self) -> str:
+        """How the low modes were treated: ``"harmonic"`` (none), ``"grimme"`` or ``"truhlar"``."""
+        return self.low_frequency or "harmonic"
+
+    def _repr_parts(self) -> tuple[str, ...]:
+        return (f"{self._size()} {span(self.temperatures, 'K')}", f"{self.wavenumbers.size} modes",
+                f"ZPE {self.zero_point_energy:.6g} eV", f"{self.n_imaginary} imaginary left out" if self.n_imaginary
+                else "", f"scaled by {self.scale_factor:g}" if self.scale_factor != 1.0 else "")
 
     @property
     def partition_function(self) -> NDArray[np.float64]:

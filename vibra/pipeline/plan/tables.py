@@ -14,6 +14,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from vibra.solvers.structured.quadratic import QuadraticModes
+
 __all__ = ["frequency_lines", "omega_unit_text", "species_text", "RIGID_RTOL"]
 
 #: A mode with |omega| <= RIGID_RTOL * max |omega| is a rigid-body (zero) mode.
@@ -75,7 +77,7 @@ def frequency_lines(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool
         Write ``nu1``, ``cm^-1`` and ``sqrt`` instead of ``ν1``, ``cm⁻¹`` and ``√`` (a terminal
         that cannot show them).
     """
-    if hasattr(modes, "damping_ratio"):
+    if isinstance(modes, QuadraticModes):
         return _quadratic_lines(scene, modes, ascii=ascii)
     units = modes.units
     omega = np.asarray(modes.omega) if units.time_s is None else modes.omega_rad_per_s()
@@ -133,6 +135,6 @@ def _quadratic_lines(scene: Any, modes: Any, *, ascii: bool) -> tuple[str, ...]:
     columns += [("damping ratio", ">14", lambda k: f"{modes.damping_ratio[k]:.3g}"),
                 ("motion", "<10", lambda k: "grows" if modes.unstable[k] else "stable")]
     lines = _text_table(list(range(modes.n_modes)), columns)
-    lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.method} method): complex mode shapes, "
+    lines.append(f"solved as M q'' + G q' + K q = 0 ({modes.path} method): complex mode shapes, "
                  "omega_n = sqrt(lambda_1 lambda_2) per eigenvalue pair")
     return tuple(lines)

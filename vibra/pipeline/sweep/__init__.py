@@ -25,9 +25,10 @@ derived quantities (a mapping of names to numbers) per point. Tasks run in this 
 ``Client``); a builder, ``draw`` and ``derive`` are then pickled and sent to the workers
 (module-level functions, or anything cloudpickle ships).
 
-The result is a frozen `SweepTable`: one `SweepRow` per point in point order (parameters,
-frequencies, the branch of each frequency, derived quantities, solver, accuracy figures), written with
-`SweepTable.to_csv` and `SweepTable.to_json` (atomically). Rows do not depend on where or
+The result is a frozen `SweepTable` (`vibra.pipeline.sweep.results`): one `SweepRow` per point in
+point order (parameters, frequencies, the branch of each frequency, derived quantities, solver,
+accuracy figures), written with `SweepTable.to_csv` and `SweepTable.to_json` (atomically), and
+stored to load back with `save` / `load` as every result is. Rows do not depend on where or
 in which order the points ran (there is no timing in them): a table from 1 worker equals
 the table from 100 when every worker does its linear algebra alike (Dask's workers use one
 BLAS thread each).
@@ -43,28 +44,21 @@ systems with ``track=False`` (branches are then the ranks).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
-import json
-import math
 import os
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable, Literal, Mapping, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
-from vibra._frozen import freeze_arrays
-from vibra._io import atomic_write_text
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.pipeline.plan import build_system
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.solvers.budget import describe_seconds
 from vibra.pipeline.sweep.applies import NOT_SWEPT, SOLVE_KEYS, SweepWarning, check_swept_keys, warn_if_constant
 from vibra.pipeline.sweep.tables import scene_at, scene_table
+from vibra.pipeline.sweep.cost import check_sweep_memory
 from vibra.pipeline.sweep.tracking import BranchTracker
+from vibra.pipeline.sweep.results import SweepRow, SweepTable
 from vibra.pipeline.sweep.points import (
     DEFAULT_MAX_POINTS, Axis, Ensemble, Grid, GridPoints, ValueRange, ensemble, grid, member_rng,
     parse_vary, vary,
@@ -73,157 +67,6 @@ from vibra.pipeline.sweep.points import (
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
            "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS",
            "estimate_seconds", "SweepWarning", "SOLVE_KEYS", "NOT_SWEPT", "check_swept_keys"]
-
-# ---------------------------------------------------------------------- results
-@dataclass(frozen=True, eq=False)
-class SweepRow:
-    """The result at one point.
-
-    Attributes
-    ----------
-    index : int
-        Position of the point (grid order, or the ensemble member).
-    parameters : tuple of (str, value)
-        The swept values (``("member", i)`` first for an ensemble, then the scalar values drawn).
-    omega : (n_modes,) ndarray
-        Angular frequencies, ascending, in the system's units (rad/s for SI scenes).
-    derived : tuple of (str, float)
-        What ``derive`` returned, in its own units.
-    solver : str
-        The solver path (`Modes.solver`).
-    residual : float
-        Largest eigen-residual, in the units of omega**2.
-    omega_error : float
-        Largest error estimate of omega (`Modes.omega_error`), in the units of omega.
-    units : str
-        Name of the unit system of omega (``"SI"``: rad/s).
-    branch : (n_modes,) ndarray of int or None
-        The branch of each frequency (`vibra.pipeline.sweep.tracking`): omega[k] lies on branch
-        branch[k]; None in a row made before the sweep tracked it.
-    """
-
-    index: int
-    parameters: tuple[tuple[str, Any], ...]
-    omega: NDArray[np.float64]
-    derived: tuple[tuple[str, float], ...]
-    solver: str
-    residual: float
-    omega_error: float
-    units: str = ""
-    branch: NDArray[np.intp] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
-    def as_json(self) -> dict[str, Any]:
-        """JSON-ready row (floats as floats)."""
-        return {"index": self.index, "parameters": dict(self.parameters),
-                "omega": [float(w) for w in self.omega], "derived": dict(self.derived),
-                "solver": self.solver, "residual": _finite_or_none(self.residual),
-                "omega_error": _finite_or_none(self.omega_error), "units": self.units,
-                "branch": None if self.branch is None else [int(b) for b in self.branch]}
-
-
-@dataclass(frozen=True, eq=False)
-class SweepTable:
-    """A sweep's rows, in point order.
-
-    Attributes
-    ----------
-    name : str
-        The scene's name (or the builder's), for file names.
-    keys : tuple of str
-        The swept keys (``("member",)`` for an ensemble).
-    units : str
-        Unit system of omega (``"SI"``: rad/s; ``"ASE"``: rad per ASE time unit; ...).
-    rows : tuple of SweepRow
-    """
-
-    name: str
-    keys: tuple[str, ...]
-    units: str
-    rows: tuple[SweepRow, ...]
-
-    def column(self, key: str) -> NDArray[np.float64]:
-        """(n_rows,) values of one parameter or derived quantity."""
-        out = []
-        for row in self.rows:
-            values = dict(row.parameters) | dict(row.derived)
-            if key not in values:
-                raise KeyError(f"{key!r} is not a parameter or derived quantity of this table "
-                               f"(have: {', '.join(list(dict(row.parameters)) + list(dict(row.derived)))})")
-            out.append(float(values[key]))
-        return np.array(out)
-
-    def branch_lines(self) -> list[tuple[tuple[tuple[str, Any], ...], NDArray[np.float64], NDArray[np.float64]]]:
-        """The branches of each line of the grid, for drawing them as curves.
-
-        Returns
-        -------
-        list of (others, x, omega)
-            One entry per line: the values of the other swept keys (pairs), the (n_points,)
-            values of the first swept key (the member index for an ensemble), and the
-            (n_points, n_branches) omega of each branch at each point (NaN where a point has no
-            mode on that branch), in the table's units.
-        """
-        key = self.keys[0]
-        lines: dict[tuple[tuple[str, Any], ...], list[SweepRow]] = {}
-        for row in self.rows:
-            values = dict(row.parameters)
-            lines.setdefault(tuple((k, values.get(k)) for k in self.keys[1:]), []).append(row)
-        out = []
-        for others, rows in lines.items():
-            width = max((int(np.max(r.branch, initial=-1)) + 1 if r.branch is not None else r.omega.size
-                         for r in rows), default=0)
-            omega = np.full((len(rows), width), np.nan)
-            for i, row in enumerate(rows):
-                branch = np.arange(row.omega.size) if row.branch is None else row.branch
-                omega[i, branch] = row.omega
-            x = np.array([float(dict(r.parameters).get(key, r.index)) for r in rows])
-            out.append((others, x, omega))
-        return out
-
-    def json_text(self) -> str:
-        """The table as JSON: name, keys, units and every row."""
-        return json.dumps({"name": self.name, "keys": list(self.keys), "units": self.units,
-                           "rows": [row.as_json() for row in self.rows]}, indent=1) + "\n"
-
-    def csv_text(self) -> str:
-        """The table as CSV: index, parameters, derived, solver, residual, omega_error, n_modes, omega_0, ...,
-        then branch_0, ...: the branch of omega_0, ... (see `SweepRow.branch`)."""
-        parameters = list(dict.fromkeys(k for row in self.rows for k, _ in row.parameters))
-        derived = list(dict.fromkeys(k for row in self.rows for k, _ in row.derived))
-        width = max((row.omega.shape[0] for row in self.rows), default=0)
-        buffer = io.StringIO()
-        writer = csv.writer(buffer, lineterminator="\n")
-        tracked = any(row.branch is not None for row in self.rows)
-        writer.writerow(["index", *parameters, *derived, "solver", "residual", "omega_error", "n_modes",
-                         *(f"omega_{k}" for k in range(width)), *(f"branch_{k}" for k in range(width if tracked else 0))])
-        for row in self.rows:
-            p, d = dict(row.parameters), dict(row.derived)
-            writer.writerow([row.index, *(_cell(p.get(k, "")) for k in parameters),
-                             *(_cell(d.get(k, "")) for k in derived), row.solver, repr(row.residual),
-                             repr(row.omega_error), row.omega.shape[0], *(repr(float(w)) for w in row.omega),
-                             *([""] * (width - row.omega.shape[0]) if tracked else []),
-                             *((str(int(b)) for b in row.branch) if tracked and row.branch is not None else ())])
-        return buffer.getvalue()
-
-    def to_json(self, path: str | os.PathLike[str]) -> Path:
-        """Write `json_text` to `path` atomically."""
-        return atomic_write_text(path, self.json_text())
-
-    def to_csv(self, path: str | os.PathLike[str]) -> Path:
-        """Write `csv_text` to `path` atomically."""
-        return atomic_write_text(path, self.csv_text())
-
-
-def _finite_or_none(value: float) -> float | None:
-    """JSON has no NaN: a figure that was not computed (NaN) is written as null."""
-    return value if math.isfinite(value) else None
-
-
-def _cell(value: Any) -> str:
-    return repr(float(value)) if isinstance(value, (float, np.floating)) else str(value)
 
 
 # ---------------------------------------------------------------------- one point
@@ -262,7 +105,7 @@ def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str,
     if vectors is not None and (np.iscomplexobj(vectors) or np.ndim(vectors) != 2):
         vectors = None
     row = SweepRow(index=index, parameters=parameters, omega=np.asarray(modes.omega, dtype=float), derived=extra,
-                   solver=str(modes.solver), residual=float(modes.residual),
+                   solver=str(modes.path), residual=float(modes.residual),
                    omega_error=float(errors.max()) if errors.size else 0.0, units=str(modes.units.name))
     return row, (None if vectors is None else (np.asarray(vectors), errors))
 
@@ -286,7 +129,8 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
           progress: ProgressOption = None, n_workers: int | None = None, timeout: float = 10.0,
           n_modes: int | None = None, band: tuple[float, float] | None = None,
           accuracy: Literal["high", "fast"] = "high", solver: str = "auto", name: str | None = None,
-          chunk_size: int = 1, max_points: int = DEFAULT_MAX_POINTS, track: bool = True) -> SweepTable:
+          chunk_size: int = 1, max_points: int = DEFAULT_MAX_POINTS, track: bool = True,
+          max_memory: float | None = None) -> SweepTable:
     """Solve `target` at every point of `points`; one row per point, in point order.
 
     Parameters
@@ -322,6 +166,10 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     track : bool
         Connect each mode to a branch by overlap along the grid's lines (`SweepRow.branch`; see
         the module); False: frequencies only, branches by rank.
+    max_memory : float, optional
+        Bytes the sweep may hold (its rows, the tracked vectors and one solve:
+        `vibra.pipeline.sweep.cost`, from the first point's sizes, before any point is solved);
+        None takes the solvers' `MEMORY_LIMIT` or the memory available, ``float("inf")`` none.
 
     Returns
     -------
@@ -334,7 +182,8 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         wrong value; checked for every point before any is solved.
     ValueError, TypeError
         Malformed points, target, client or options; an ensemble of a scene without ``draw``;
-        more points than `max_points` (the message gives the count and the time estimate).
+        more points than `max_points` (the message gives the count and the time estimate); more
+        memory than `max_memory` (`vibra.solvers.ResourceLimitError`, naming the points that fit).
     RuntimeError
         One or more points failed while solving (each named with its values).
     vibra.cluster.ClusterError
@@ -365,14 +214,17 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     if count > max_points:
         _refuse_size(target, points, options, name, derive, count, int(max_points))
     tasks, labels, units, table_name = _prepare(target, points, options, name)
+    _check_memory(target, points, options, name, count, distributed=client is not None, max_memory=max_memory)
     kind = "builder" if callable(target) and not isinstance(target, (Scene, Mapping, str, os.PathLike)) else "scene"
     arguments = _Lazy(len(tasks), lambda i: (kind, *tasks[i], options, derive))  # made when read
-    rows: list[tuple[SweepRow, Any]] = []
-    if client is None:
+    keys = points.keys if isinstance(points, Grid) else ("member",)
+    tracker = BranchTracker()
+    rows: list[SweepRow] = []
+    if client is None:  # each row tracked as it comes (grid order): only each line's last vectors are held
         callback = progress_callback(progress, len(arguments))
         for done, args in enumerate(arguments, start=1):
             try:
-                rows.append(_point_task(*args))
+                rows.append(_track(tracker, *_point_task(*args), keys))
             except SceneError:
                 raise
             except Exception as error:
@@ -392,28 +244,44 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
             raise RuntimeError(f"{len(failures)} of {len(chunks)} sweep tasks failed: "
                                + "; ".join(f.describe() for f in failures[:5])
                                + ("; ..." if len(failures) > 5 else ""))
-        rows = [row for chunk_rows in results for row in chunk_rows]
+        rows = [_track(tracker, row, extra, keys) for chunk_rows in results for row, extra in chunk_rows]
     if units is None:
-        units = rows[0][0].units if rows else ""
-    keys = points.keys if isinstance(points, Grid) else ("member",)
-    warn_if_constant(rows, keys, table_name)
-    return SweepTable(name=table_name, keys=tuple(keys), units=units or "", rows=_tracked(rows, keys))
+        units = rows[0].units if rows else ""
+    warn_if_constant([(row, None) for row in rows], keys, table_name)
+    return SweepTable(name=table_name, keys=tuple(keys), units=units or "", rows=tuple(rows))
 
 
-def _tracked(results: Sequence[tuple[SweepRow, Any]], keys: Sequence[str]) -> tuple[SweepRow, ...]:
-    """The rows with their branches: by overlap along each line of the grid where vectors came back,
-    by rank elsewhere (an ensemble, complex modes, ``track=False``)."""
-    tracker = BranchTracker()
-    rows = []
-    for row, extra in results:
-        if extra is None:
-            branch = np.arange(row.omega.size, dtype=np.intp)
-        else:
-            vectors, errors = extra
-            values = dict(row.parameters)
-            branch = tracker.add(tuple(values.get(k) for k in keys[1:]), row.omega, vectors, errors)
-        rows.append(dataclasses.replace(row, branch=branch))
-    return tuple(rows)
+def _track(tracker: BranchTracker, row: SweepRow, extra: Any, keys: Sequence[str]) -> SweepRow:
+    """The row with its branches: by overlap along its line of the grid where vectors came back,
+    by rank elsewhere (an ensemble, complex modes, ``track=False``); the vectors are dropped."""
+    if extra is None:
+        branch = np.arange(row.omega.size, dtype=np.intp)
+    else:
+        vectors, errors = extra
+        values = dict(row.parameters)
+        branch = tracker.add(tuple(values.get(k) for k in keys[1:]), row.omega, vectors, errors)
+    return dataclasses.replace(row, branch=branch)
+
+
+def _check_memory(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None, count: int,
+                  *, distributed: bool, max_memory: float | None) -> None:
+    """Refuse a sweep whose rows, tracked vectors and one solve exceed the memory left
+    (`vibra.pipeline.sweep.cost`), from the first point's sizes, before any point is solved."""
+    try:
+        first = _first_plan(target, points, options, name)
+    except SceneError:
+        raise
+    except Exception:  # noqa: BLE001 - a point that fails to build is reported by the sweep itself, named
+        return
+    if first is None:
+        return
+    system, planned = first
+    n_dof = int(system.n_dof)
+    n_modes = n_dof if planned.problem is None or planned.problem.n_modes is None else int(planned.problem.n_modes)
+    lines = len({tuple(p[1:]) for p in points.points}) if isinstance(points, Grid) else 1
+    check_sweep_memory(count, n_dof=n_dof, n_modes=min(n_modes, n_dof), solve=float(planned.cost.memory),
+                       track=bool(options.get("track", False)), lines=lines, distributed=distributed,
+                       max_memory=max_memory)
 
 
 def _refuse_size(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None, derive: Any,
@@ -440,6 +308,16 @@ def _point_estimate(target: Any, points: Grid | Ensemble, options: dict[str, Any
     (`vibra.pipeline.plan.checks.solve_request`: the estimate ``vibra validate`` prints), never from
     the clock: the first point's system is built (cheap), not solved. None when the registry does
     not plan it (a quadratic system, a request it would refuse)."""
+    first = _first_plan(target, points, options, name)
+    if first is None:
+        return None
+    system, planned = first
+    return float(planned.cost.seconds), f"{system.n_dof} dofs, {planned.path} path"
+
+
+def _first_plan(target: Any, points: Grid | Ensemble, options: dict[str, Any], name: str | None
+                ) -> tuple[Any, Any] | None:
+    """(system, the solver registry's plan) of the first point, built and planned, not solved."""
     from vibra.pipeline.plan.checks import solve_request
 
     first: Grid | Ensemble = (Grid(points.keys, (points.points[0],)) if isinstance(points, Grid)
@@ -460,9 +338,7 @@ def _point_estimate(target: Any, points: Grid | Ensemble, options: dict[str, Any
         c = scene.compute
         request = dict(n_modes=c.n_modes, band=c.band, solver=c.solver, accuracy=c.accuracy)
     planned = solve_request(system, vectors=bool(options.get("track", False)), **request)
-    if planned is None:
-        return None
-    return float(planned.cost.seconds), f"{system.n_dof} dofs, {planned.path} path"
+    return None if planned is None else (system, planned)
 
 
 def estimate_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
