@@ -202,13 +202,3 @@ def test_altloc_picks_the_conformation_prody_reads(code: str) -> None:
         networks.from_pdb(path, altloc="C")
     with pytest.raises(ValueError, match=r"altloc is 'AB'; expected one alternate-location character"):
         networks.from_pdb(path, altloc="AB")
-
-
-DOC = Path(__file__).resolve().parent.parent / "docs" / "networks.md"
-BLOCKS = [block.split("\n", 1)[1] for block in DOC.read_text().split("```")[1::2] if block.startswith("python")]
-
-
-@pytest.mark.parametrize("index", range(len(BLOCKS)))
-def test_each_docs_block_runs_alone(index: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(tmp_path)
-    exec(compile(BLOCKS[index], f"docs/networks.md block {index}", "exec"), {"__name__": "__docs__"})

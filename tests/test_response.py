@@ -711,7 +711,7 @@ def test_charts_name_the_units_of_the_system() -> None:
     K = np.array([[2.0, -1.0], [-1.0, 2.0]])
     si = R.frequency_response(K, [1.0, 1.0], 0.1 * np.eye(2), np.linspace(0.1, 2.0, 50), [1.0, 0.0],
                                      units="SI")
-    figure = plot_frf(si, 0, title="two masses")
+    figure = plot_frf(si, 0, K=K, M=[1.0, 1.0], title="two masses")
     assert figure.axes[0].get_ylabel().endswith("per unit force (m/N)")
     assert figure.axes[0].get_title() == "two masses"
     assert figure.axes[1].get_xlabel().endswith("(rad/s)")

@@ -67,6 +67,7 @@ def plot_mode_orbits(modes: Any, *, coordinates: Sequence[str] = ("x", "y"), len
     n = shapes.shape[1]
     figure, axes = new_figure(1, n, figsize=(4.2 * n + 0.8, 4.6), squeeze=False)
     frequency = np.asarray(modes.natural_frequency)
+    omega_unit = modes.units.omega if hasattr(modes, "units") else "rad/s"  # the modes' own unit system
     for panel, k in zip(axes[0], range(n)):
         x = shapes[:2, k]
         x = x / max(float(np.abs(x).max()), 1e-300)
@@ -85,7 +86,7 @@ def plot_mode_orbits(modes: Any, *, coordinates: Sequence[str] = ("x", "y"), len
         panel.set_ylim(-1.25, 1.25)
         panel.set_xlabel(f"{coordinates[0]} ({length_unit}, relative)")
         panel.set_ylabel(f"{coordinates[1]} ({length_unit}, relative)")
-        panel.set_title(f"mode {k}: omega = {frequency[k]:.4g} rad/s\n{rotation_sense(x)}", fontsize=11)
+        panel.set_title(f"mode {k}: omega = {frequency[k]:.4g} {omega_unit}\n{rotation_sense(x)}", fontsize=11)
     if title:
         figure.suptitle(title)
     return figure
