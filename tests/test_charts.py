@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from vibra.charts import save_figure
-from vibra.charts.networks import plot_b_factors, plot_cross_correlations
+from vibra.charts.networks import b_factor_axis, plot_b_factors, plot_cross_correlations
 from vibra.charts.spectra import plot_molecule_spectra, species_text
 from vibra.pipeline.plan import build_system
 from vibra.pipeline.plan.analysis import LINE_WIDTH_CM1, molecule_spectra, molecule_symmetry
@@ -82,21 +82,31 @@ def test_species_text() -> None:
     assert species_text("A1g") == "$A_{1g}$" and species_text("E''") == "$E$''" and species_text("") == ""
 
 
-def test_b_factors_share_one_axis_and_mark_an_off_scale_tail() -> None:
+def test_b_factors_share_one_axis_linear_or_log_as_the_data_need() -> None:
+    # issue 48: a fitted curve near 0.1 Å2 beside one residue at 53 Å2 read as a flat line
     labels = [f"A:GLY{i}:CA" for i in range(1, 11)]
     experimental = np.linspace(5.0, 20.0, 10)
-    fitted = experimental.copy()
-    fitted[-1] = 90.0  # a tail above the crystallographic range
+    fitted = experimental[::-1].copy()  # within a decade: a linear axis holding every value
     figure = plot_b_factors(labels, experimental, fitted, 0.9, scale=2.0, title="t")
-    profile = figure.axes[0]
+    profile, scatter = figure.axes
     assert len(figure.axes) == 2  # the profile and the scatter: no twin axis
-    assert profile.get_ylabel() == "B-factor (Å²)"
-    assert profile.get_ylim()[1] == pytest.approx(1.25 * 20.0)
-    assert any("off scale: up to 90" in t.get_text() for t in profile.texts)
+    assert profile.get_ylabel() == "B-factor (Å²)" and profile.get_yscale() == "linear"
+    assert profile.get_ylim()[0] == 0.0 and profile.get_ylim()[1] >= 20.0
+    assert scatter.get_xlim() == scatter.get_ylim()  # the diagonal is the diagonal
     legend = [t.get_text() for t in profile.get_legend().get_texts()]
-    assert any("r = 0.900" in t and "x 2" in t for t in legend)
+    assert any("r = 0.900" in t and "x 2" in t and "ProDy" in t for t in legend)
+    tail = np.full(10, 0.1)
+    tail[-1] = 53.0  # a tail two decades above the rest: log axes, every point in view
+    figure = plot_b_factors(labels, experimental, tail, 0.5, scale=1.8, method="least_squares")
+    profile, scatter = figure.axes
+    assert profile.get_yscale() == scatter.get_xscale() == scatter.get_yscale() == "log"
+    assert profile.get_ylim()[0] < 0.1 and profile.get_ylim()[1] > 53.0 and "log" in profile.get_ylabel()
+    assert any("least-squares" in t.get_text() for t in profile.get_legend().get_texts())
+    assert b_factor_axis(experimental, fitted) == "linear" and b_factor_axis(experimental, tail) == "log"
     with pytest.raises(ValueError, match="two equal 1-D arrays"):
         plot_b_factors(labels, experimental, fitted[:5], 0.9)
+    with pytest.raises(ValueError, match="method is 'median'"):
+        plot_b_factors(labels, experimental, fitted, 0.9, method="median")
 
 
 def test_cross_correlation_map_has_a_diverging_colour_bar() -> None:

@@ -137,11 +137,11 @@ def network_scene(folder: Path, pdb: str = "1ubi.pdb", extra: str = "") -> Path:
 def test_network_scene_b_factor_correlation_matches_prody(tmp_path: Path) -> None:
     prody = pytest.importorskip("prody")
     prody.confProDy(verbosity="none")
-    scene = load_scene(UBIQUITIN / "ubiquitin-anm.toml")
+    scene = load_scene(UBIQUITIN / "ubiquitin-anm.toml")  # residues 1-71: the tail 72-76 left out (issue 48)
     result = execute(make_plan(scene), tmp_path, tmp_path)
     [step] = [r for r in result.records if r.name == "fluctuations"]
     mine = float((step.accuracy or "").split("r = ")[1].split()[0])
-    structure = prody.parsePDB(str(UBIQUITIN / "1ubi.pdb")).select("calpha")
+    structure = prody.parsePDB(str(UBIQUITIN / "1ubi.pdb")).select("calpha and resnum 1 to 71")
     anm = prody.ANM("1ubi")
     anm.buildHessian(structure, cutoff=15.0, gamma=1.0)
     anm.calcModes(n_modes=20)
@@ -149,12 +149,14 @@ def test_network_scene_b_factor_correlation_matches_prody(tmp_path: Path) -> Non
     assert mine == pytest.approx(reference, abs=1e-3)  # the step prints r to 3 decimals
     assert result.outputs == ("ubiquitin-anm_modes.png", "ubiquitin-anm_view.json", "ubiquitin-anm_spectrum.png",
                               "ubiquitin-anm_bfactors.png", "ubiquitin-anm_correlations.png")
-    assert any(f"r = {reference:.3f}" in caption for caption in result.captions)
+    [caption] = [c for c in result.captions if "B-factors per residue" in c]
+    assert f"r = {reference:.3f}" in caption and "ProDy's calcTempFactors" in caption
+    assert "on one log axis" in caption  # the 20 slowest modes put the loops two decades above the rest
 
 
 def test_network_charts_draw_prodys_fitted_b_factors_and_cross_correlations() -> None:
-    # Truth: ProDy on the same structure (calcSqFlucts, calcCrossCorr), the least-squares scale
-    # s = f.b / f.f written out here; the chart's numbers are those of the analysis step.
+    # Truth: ProDy on the same atoms (calcTempFactors, calcCrossCorr); the chart's numbers are
+    # those of the analysis step, fitted as ProDy does (issue 48: one convention).
     prody = pytest.importorskip("prody")
     prody.confProDy(verbosity="none")
     from vibra.pipeline.plan.analysis import network_fluctuations
@@ -163,13 +165,12 @@ def test_network_charts_draw_prodys_fitted_b_factors_and_cross_correlations() ->
     scene = load_scene(UBIQUITIN / "ubiquitin-anm.toml")
     system = build_system(scene)
     network = network_fluctuations(network_structure(scene), system, system.modes(26))
-    structure = prody.parsePDB(str(UBIQUITIN / "1ubi.pdb")).select("calpha")
+    structure = prody.parsePDB(str(UBIQUITIN / "1ubi.pdb")).select("calpha and resnum 1 to 71")
     anm = prody.ANM("1ubi")
     anm.buildHessian(structure, cutoff=15.0, gamma=1.0)
     anm.calcModes(n_modes=20)
     flucts, betas = prody.calcSqFlucts(anm), structure.getBetas()
-    scale = float(flucts @ betas / (flucts @ flucts))
-    np.testing.assert_allclose(network.fit.predicted, scale * flucts, rtol=1e-6)
+    np.testing.assert_allclose(network.fit.predicted, prody.calcTempFactors(anm, structure), rtol=1e-6)
     assert network.fit.correlation == pytest.approx(np.corrcoef(flucts, betas)[0, 1], abs=1e-9)
     np.testing.assert_allclose(network.cross_correlations, prody.calcCrossCorr(anm), atol=1e-6)
 

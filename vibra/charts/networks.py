@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 
 from vibra.charts._style import new_figure
 
-__all__ = ["plot_b_factors", "plot_cross_correlations"]
+__all__ = ["b_factor_axis", "plot_b_factors", "plot_cross_correlations"]
 
 
 def _residue_ticks(axes: Any, labels: Sequence[str], *, axis: str = "x") -> None:
@@ -25,14 +25,40 @@ def _residue_ticks(axes: Any, labels: Sequence[str], *, axis: str = "x") -> None
         axes.set_yticks(ticks, names, fontsize=9)
 
 
+#: Legend wording of `vibra.networks.fit_bfactors`' scale conventions.
+_FIT_WORDS = {"sum": "ProDy's scale (ΣB / Σf)", "least_squares": "least-squares scale"}
+
+
+def b_factor_axis(experimental: Any, fitted: Any) -> str:
+    """``"linear"`` or ``"log"``: the axis on which both B-factor curves read, decided by the data.
+
+    Linear when the data span less than a decade: the largest value of either curve is below
+    10 times the smaller of their two medians, so the bulk of the residues fills at least a tenth
+    of a linear axis. Log otherwise: a few residues far above the rest (a free terminus) would
+    squash every other residue to the baseline of a linear axis.
+
+    Examples
+    --------
+    >>> b_factor_axis([8.0, 10.0, 30.0], [9.0, 12.0, 25.0]), b_factor_axis([8.0, 10.0, 30.0], [0.1, 0.2, 50.0])
+    ('linear', 'log')
+    """
+    e = np.asarray(experimental, dtype=float)
+    p = np.asarray(fitted, dtype=float)
+    values = np.concatenate([e, p])
+    bulk = min(float(np.median(e)), float(np.median(p)))
+    return "linear" if bulk > 0 and float(values.max(initial=0.0)) < 10.0 * bulk else "log"
+
+
 def plot_b_factors(labels: Sequence[str], experimental: Any, fitted: Any, correlation: float, *,
-                   scale: float | None = None, title: str = "") -> Figure:
+                   scale: float | None = None, method: str = "sum", title: str = "") -> Figure:
     """Fitted against crystallographic B-factors: per residue on one axis (left), one against the other (right).
 
     An elastic network fixes B-factors only up to the scale kT / gamma; `fitted` are the
-    network's fluctuations times the least-squares scale onto the crystallographic values
-    (`vibra.networks.fit_bfactors`), so both curves share one axis in Å². The Pearson
-    correlation, in the legend and the title, does not depend on the scale.
+    network's fluctuations times the scale `vibra.networks.fit_bfactors` chose (`method`:
+    ProDy's ratio of the sums by default, or least squares), so both curves share one axis in
+    Å². That axis is linear or logarithmic as the data need (`b_factor_axis`); on a log axis
+    values <= 0 are left off. The Pearson correlation, in the legend and the titles, does not
+    depend on the scale.
 
     Parameters
     ----------
@@ -44,41 +70,49 @@ def plot_b_factors(labels: Sequence[str], experimental: Any, fitted: Any, correl
         Pearson correlation of the two.
     scale : float, optional
         The fitted scale (shown in the legend), in Å² per unit of the network's fluctuations.
+    method : {"sum", "least_squares"}
+        How `scale` was chosen (`vibra.networks.fit_bfactors`), for the legend.
     title : str
         Prefix of the figure title (the scene's title).
+
+    Raises
+    ------
+    ValueError
+        experimental and fitted not two 1-D arrays of one length; an unknown method.
     """
     e = np.asarray(experimental, dtype=float)
     p = np.asarray(fitted, dtype=float)
     if e.shape != p.shape or e.ndim != 1:
         raise ValueError(f"experimental and fitted must be two equal 1-D arrays, got shapes {e.shape} and {p.shape}")
+    if method not in _FIT_WORDS:
+        raise ValueError(f"method is {method!r}; expected one of {', '.join(repr(m) for m in _FIT_WORDS)}")
+    axis = b_factor_axis(e, p)
     residues = np.arange(1, len(e) + 1)
     figure, (axes, scatter) = new_figure(1, 2, figsize=(13.0, 5.0), gridspec_kw={"width_ratios": [1.7, 1.0]})
     axes.plot(residues, e, color="0.25", linewidth=1.6, label="crystallographic (file)")
-    how = "network, least-squares fit" + ("" if scale is None else f" (x {scale:.3g})")
+    how = f"network, {_FIT_WORDS[method]}" + ("" if scale is None else f" x {scale:.3g}")
     axes.plot(residues, p, color="C3", linewidth=1.6, label=f"{how}, r = {correlation:.3f}")
     axes.set_xlabel("residue (C-alpha site, in file order)")
-    axes.set_ylabel("B-factor (Å²)")
-    # one axis for both, set by the crystallographic values: a fitted tail far above them is marked
-    # at the top with its value, instead of squashing every other residue to the baseline
-    ceiling = 1.25 * float(e.max(initial=0.0)) or 1.0
-    axes.set_ylim(0.0, ceiling)
-    above = np.flatnonzero(p > ceiling)
-    if above.size:
-        axes.plot(residues[above], np.full(above.size, ceiling), linestyle="none", marker="^", color="C3",
-                  clip_on=False, markersize=7, label="fitted, off scale")
-        k = int(above[np.argmax(p[above])])
-        axes.annotate(f"off scale: up to {p[k]:.0f} Å² ({labels[k].split(':')[1] if ':' in labels[k] else k + 1})",
-                      (residues[k], ceiling), textcoords="offset points", xytext=(-6, -14), ha="right",
-                      fontsize=9, color="C3")
+    axes.set_ylabel("B-factor (Å²)" + (", log scale" if axis == "log" else ""))
+    top = max(float(e.max(initial=0.0)), float(p.max(initial=0.0)), 1e-300)
+    if axis == "log":
+        positive = np.concatenate([e[e > 0], p[p > 0]])
+        bottom = float(positive.min(initial=top))
+        low, high = bottom / 1.5, top * 1.5
+        for panel in (axes, scatter):
+            panel.set_yscale("log")
+        scatter.set_xscale("log")
+    else:
+        low, high = 0.0, 1.08 * top
+    axes.set_ylim(low, high)
     _residue_ticks(axes, labels)
     axes.legend(loc="lower left", bbox_to_anchor=(0.0, 1.01), ncols=2, frameon=False)
-    top = max(float(e.max(initial=0.0)), float(p.max(initial=0.0)), 1e-300)
-    bottom = max(min(float(e[e > 0].min(initial=top)), float(p[p > 0].min(initial=top))), 1e-3 * top)
-    positive = (e > 0) & (p > 0)
-    scatter.scatter(e[positive], p[positive], s=16, color="C3", alpha=0.8)
-    scatter.plot([bottom, top], [bottom, top], color="0.4", linestyle="--", linewidth=1.0, label="fitted = crystallographic")
-    scatter.set_xscale("log")
-    scatter.set_yscale("log")
+    shown = (e > 0) & (p > 0) if axis == "log" else np.ones(e.shape, dtype=bool)
+    scatter.scatter(e[shown], p[shown], s=16, color="C3", alpha=0.8)
+    scatter.plot([low, high], [low, high], color="0.4", linestyle="--", linewidth=1.0,
+                 label="fitted = crystallographic")
+    scatter.set_xlim(low, high)
+    scatter.set_ylim(low, high)
     scatter.set_xlabel("crystallographic B-factor (Å²)")
     scatter.set_ylabel("fitted B-factor (Å²)")
     scatter.legend(loc="upper left")

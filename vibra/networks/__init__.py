@@ -16,15 +16,16 @@ from vibra.networks.models import (
 )
 from vibra.networks.pdb import MAX_FILE_BYTES, Structure, StructureWarning, check_pdb_text, from_pdb
 from vibra.networks.analysis import (
-    BFactorFit, DeformationOverlap, PerturbationResponse, collectivity, cross_correlations, deformation_overlap,
-    fit_bfactors, hinges, perturbation_response, superpose, write_nmd,
+    BFACTOR_METHODS, BFactorFit, DeformationOverlap, PerturbationResponse, collectivity, cross_correlations,
+    deformation_overlap, fit_bfactors, hinges, perturbation_response, superpose, write_nmd,
 )
 
 __all__ = [
     "Structure", "StructureWarning", "check_pdb_text", "Fluctuations", "contact_pairs", "anm", "gnm", "from_pdb",
     "fluctuations",
     "square_fluctuations", "predicted_b_factors", "b_factor_correlation", "BOLTZMANN_KCAL_PER_MOL",
-    "RIGID_RTOL", "MAX_FILE_BYTES", "BFactorFit", "PerturbationResponse", "collectivity", "cross_correlations",
+    "RIGID_RTOL", "MAX_FILE_BYTES", "BFACTOR_METHODS", "BFactorFit", "PerturbationResponse", "collectivity",
+    "cross_correlations",
     "fit_bfactors", "hinges", "perturbation_response", "write_nmd", "DeformationOverlap", "deformation_overlap",
     "superpose",
 ]

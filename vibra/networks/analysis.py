@@ -39,8 +39,11 @@ from vibra._frozen import freeze_arrays
 from vibra._io import atomic_write_text, check_target
 from vibra.modes import Modes
 
-__all__ = ["cross_correlations", "fit_bfactors", "BFactorFit", "collectivity", "hinges", "perturbation_response",
+__all__ = ["cross_correlations", "fit_bfactors", "BFactorFit", "BFACTOR_METHODS", "collectivity", "hinges", "perturbation_response",
            "PerturbationResponse", "write_nmd", "superpose", "deformation_overlap", "DeformationOverlap"]
+
+#: `fit_bfactors`' scale conventions: ProDy's ratio of the sums (the default), or least squares.
+BFACTOR_METHODS = ("sum", "least_squares")
 
 #: A mode with lambda <= ZERO_RTOL * max |lambda| (or |omega| within its omega_error) is a
 #: rigid-body (zero) mode and is left out.
@@ -130,11 +133,50 @@ class BFactorFit:
 def fit_bfactors(modes: Modes, experimental: ArrayLike, *, method: str = "sum", dim: int = 3) -> BFactorFit:
     """Mean square fluctuations of the nonzero `modes`, scaled onto the `experimental` B-factors.
 
-    ``method="sum"`` scales by sum(B_exp) / sum(fluctuations) (ProDy's ``calcTempFactors``);
-    ``"least_squares"`` by the s minimising ||s f - B_exp||^2. Either way the correlation is the
-    scale-free figure of merit.
+    An elastic network gives B-factors only up to its scale kT / gamma; this is the one place
+    vibra fixes that scale (the report's B-factor chart calls it too). The convention is
+    ProDy's ``calcTempFactors``: f_i = sum_k |v_k,i|^2 / lambda_k over the nonzero modes given
+    (``calcSqFlucts``), scaled by s = sum_i B_i / sum_i f_i, so the fitted and the experimental
+    B-factors have the same mean. ``method="least_squares"`` takes instead the s minimising
+    ||s f - B||^2 = f.B / f.f, which a few very mobile sites (a free terminus) dominate. Either
+    way the Pearson correlation, the scale-free figure of merit, is the same.
+
+    Parameters
+    ----------
+    modes : Modes
+        Modes of an ANM (``dim=3``) or a GNM (``dim=1``) with vectors; rigid-body modes among
+        them are left out (`ZERO_RTOL`).
+    experimental : (n_sites,) array_like
+        Crystallographic B-factors, in Å^2, one per site in the order of the modes' sites.
+    method : {"sum", "least_squares"}
+        ``"sum"``: ProDy's ratio of the sums (the default); ``"least_squares"``: the
+        least-squares scale.
+    dim : {1, 2, 3}
+        Dofs per site of the modes.
+
+    Returns
+    -------
+    BFactorFit
+        The fitted B-factors in Å^2, the fluctuations, the scale, the correlation, `method`.
+
+    Raises
+    ------
+    ValueError
+        An unknown method; experimental not 1-D, not finite, of another length than the
+        modes' sites, or all equal (nothing to fit).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vibra import networks
+    >>> rng = np.random.default_rng(0)
+    >>> modes = networks.anm(rng.normal(size=(12, 3)) * 4, cutoff=12.0).modes()
+    >>> measured = np.linspace(10.0, 30.0, 12)
+    >>> fit = networks.fit_bfactors(modes, measured)
+    >>> bool(np.isclose(fit.predicted.sum(), measured.sum()))  # ProDy's: the same mean
+    True
     """
-    _validate.choice(method, "method", ("sum", "least_squares"))
+    _validate.choice(method, "method", BFACTOR_METHODS)
     U, w = _sites(modes, dim)
     flucts = np.einsum("idk,idk,k->i", U, U, w)
     b = _validate.real_array(experimental, "experimental", ndim=1)

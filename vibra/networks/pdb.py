@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays
+from vibra._validate import ArgumentError
 
 __all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX", "StructureWarning", "check_pdb_text",
            "check_mmcif", "MMCIF_COLUMNS"]
@@ -277,7 +278,10 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         message names the line), unreadable by the parser, an unknown selection, a model the
         file does not have, or nothing selected (no atoms, no C-alpha atoms, no atom in the
         chains or residues asked: the message names the selection and what the file holds);
-        the message names the file.
+        the message names the file. A selection that finds nothing, a model or an altloc
+        the file lacks is a `vibra._validate.ArgumentError` whose ``argument`` is the
+        parameter at fault (``"chains"``, ``"residues"``, ``"selection"``, ``"model"``,
+        ``"altloc"``), so a scene reports it at its own key.
 
     Warns
     -----
@@ -318,25 +322,30 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     if wanted_chains is not None:
         atoms = [atom for atom in atoms if atom[0].split(":")[0] in wanted_chains]
         if not atoms:
-            raise ValueError(f"{file}: no atoms in chain(s) {''.join(sorted(wanted_chains))}; the model holds "
-                             f"chain(s) {''.join(held) or 'none'}")
+            raise ArgumentError("chains", f"{file}: no atoms in chain(s) {''.join(sorted(wanted_chains))}; the "
+                                f"model holds chain(s) {''.join(held) or 'none'}")
     if residues is not None:
+        spans = _residue_spans(atoms)
         atoms = [atom for atom in atoms if residues[0] <= atom[5] <= residues[1]]
         if not atoms:
-            raise ValueError(f"{file}: no atoms in residues {residues[0]}..{residues[1]}"
-                             + (f" of chain(s) {''.join(sorted(wanted_chains))}" if wanted_chains else ""))
+            raise ArgumentError("residues", f"{file}: no atoms in residues {residues[0]}..{residues[1]}"
+                                + (f" of chain(s) {''.join(sorted(wanted_chains))}" if wanted_chains else "")
+                                + f"; the model holds residues {spans}")
     if selection == "protein":
         atoms = [atom for atom in atoms if atom[4]]
         if not atoms:
-            raise ValueError(f"{file}: no atoms of amino-acid residues in the selection")
+            raise ArgumentError("selection", f"{file}: no atoms of amino-acid residues in the selection")
     elif names is not None:
+        found = sorted({atom[1].upper() for atom in atoms if atom[4]})
         atoms = [atom for atom in atoms if atom[4] and atom[1].upper() in names]
         if not atoms:
-            raise ValueError(f"{file}: no atoms named {', '.join(sorted(names))} in amino-acid residues of the selection")
+            raise ArgumentError("selection", f"{file}: no atoms named {', '.join(sorted(names))} in amino-acid "
+                                f"residues of the selection; they have atoms named {_listed(found)}")
     if selection == "CA":
         atoms = [atom for atom in atoms if atom[1] == "CA" and atom[4]]
         if not atoms:
-            raise ValueError(f"{file}: no C-alpha atoms (atoms named CA in amino-acid residues) in the first model")
+            raise ArgumentError("selection", f"{file}: no C-alpha atoms (atoms named CA in amino-acid residues) "
+                                "in the selection")
         if text is not None:
             counts: dict[str, int] = {}
             for atom in atoms:
@@ -355,6 +364,22 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         b_factors=np.array([atom[3] for atom in atoms], dtype=float),
         labels=tuple(f"{atom[0]}:{atom[1]}" for atom in atoms),
     )
+
+
+def _residue_spans(atoms: list[tuple[str, str, NDArray[np.float32], float, bool, int]]) -> str:
+    """``"1..76 (chain A)"``: the first and last residue number of each chain among `atoms`."""
+    spans: dict[str, tuple[int, int]] = {}
+    for atom in atoms:
+        chain, number = atom[0].split(":")[0], atom[5]
+        low, high = spans.get(chain, (number, number))
+        spans[chain] = (min(low, number), max(high, number))
+    return ", ".join(f"{low}..{high} (chain {chain or '-'})" for chain, (low, high) in sorted(spans.items())) or "none"
+
+
+def _listed(names: list[str], limit: int = 12) -> str:
+    """Up to `limit` names, comma-separated, with how many more."""
+    shown = ", ".join(names[:limit]) or "none"
+    return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
 def _cif_structure(parser: Any, file: Path, table: dict[str, Any], backbone: bool) -> Any:
@@ -427,7 +452,7 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, 
         raise ValueError(f"{file}: cannot be read as {'mmCIF' if cif else 'PDB'}: {error}") from None
     models = list(structure)
     if models and model > len(models):
-        raise ValueError(f"{file}: model is {model}; the file has {len(models)} model(s)")
+        raise ArgumentError("model", f"{file}: model is {model}; the file has {len(models)} model(s)")
     atoms = []
     seen: set[str] = set()
     for chain in models[model - 1] if models else []:
@@ -449,8 +474,8 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, 
                     continue
                 atoms.append((label, atom.get_id(), atom.coord, float(atom.get_bfactor()), amino, int(number)))
     if altloc is not None and altloc not in seen:
-        raise ValueError(f"{file}: altloc is {altloc!r}; the model's alternate locations are "
-                         f"{', '.join(sorted(seen)) or 'none'}")
+        raise ArgumentError("altloc", f"{file}: altloc is {altloc!r}; the model's alternate locations are "
+                            f"{', '.join(sorted(seen)) or 'none'}")
     return atoms
 
 

@@ -212,8 +212,9 @@ class NetworkFluctuations:
     n_modes : int
         Modes computed (the rigid ones among them are left out of the sum).
     fit : BFactorFit
-        The same fluctuations scaled onto the crystallographic B-factors by least squares
-        (`vibra.networks.fit_bfactors`), in Å^2.
+        The same fluctuations scaled onto the crystallographic B-factors by
+        `vibra.networks.fit_bfactors` (ProDy's convention by default: the ratio of the sums),
+        in Å^2; None when the file's B column is flat.
     cross_correlations : (n_sites, n_sites) ndarray
         Normalised residue cross-correlations of the same modes (`vibra.networks.cross_correlations`),
         dimensionless in [-1, 1].
@@ -228,19 +229,21 @@ class NetworkFluctuations:
     cross_correlations: Any = None
 
 
-def network_fluctuations(structure: Any, system: Any, modes: Any) -> NetworkFluctuations:
+def network_fluctuations(structure: Any, system: Any, modes: Any, *, fit: str = "sum") -> NetworkFluctuations:
     """B-factors predicted from `modes` of an elastic network, against those of its `structure`,
-    fitted onto them by least squares, and the residue cross-correlations of the same modes."""
+    fitted onto them by `vibra.networks.fit_bfactors` (`fit`: its ``method``, ProDy's ratio of
+    the sums by default, or ``"least_squares"``), and the residue cross-correlations of the
+    same modes."""
     from vibra.networks import (b_factor_correlation, cross_correlations, fit_bfactors, predicted_b_factors,
                                 square_fluctuations)
 
     predicted = predicted_b_factors(square_fluctuations(system, modes))
     experimental = np.asarray(structure.b_factors, dtype=float)
     dim = int(system.dim)
-    fit = fit_bfactors(modes, experimental, method="least_squares", dim=dim) if np.ptp(experimental) > 0 else None
+    fitted = fit_bfactors(modes, experimental, method=fit, dim=dim) if np.ptp(experimental) > 0 else None
     return NetworkFluctuations(labels=tuple(structure.labels), experimental=experimental, predicted=predicted,
                                correlation=float(b_factor_correlation(predicted, experimental)),
-                               n_modes=int(modes.n_modes), fit=fit,
+                               n_modes=int(modes.n_modes), fit=fitted,
                                cross_correlations=cross_correlations(modes, dim=dim))
 
 

@@ -113,20 +113,31 @@ def build_system(scene: Scene) -> Any:
 
 
 def network_structure(scene: Scene) -> Any:
-    """The C-alpha sites and B-factors (`vibra.networks.Structure`) of a network scene's ``system.pdb``.
+    """The sites and B-factors (`vibra.networks.Structure`) of a network scene's ``system.pdb``, as
+    its keys ``selection``, ``chains``, ``residues``, ``model`` and ``altloc`` choose them
+    (`vibra.networks.from_pdb`'s arguments of the same names; C-alpha atoms by default).
 
     The file must lie inside the scene's folder (`vibra.pipeline.scene.files.scene_data_path`).
 
     Raises
     ------
     SceneError
-        A path outside the scene's folder, a missing or unreadable file, no C-alpha atoms.
+        A path outside the scene's folder, a missing or unreadable file (at ``system.pdb``);
+        a selection that finds nothing, a model or altloc the file lacks (at that key when the
+        scene gives it, else at ``system.pdb``; the message says what the file holds).
     """
     from vibra.networks import from_pdb
 
-    path = scene_data_path(scene.source, "system.pdb", scene.system.parameters["pdb"])
+    p = scene.system.parameters
+    path = scene_data_path(scene.source, "system.pdb", p["pdb"])
+    options = {key: list(value) if isinstance(value, tuple) and key == "selection" else value
+               for key in ("selection", "chains", "residues", "model", "altloc")
+               if (value := p.get(key)) is not None}
     try:
-        return from_pdb(path, selection="CA")
+        return from_pdb(path, **options)
+    except ArgumentError as error:  # from_pdb names its argument: the scene's key when given, else the file
+        key = error.argument if error.argument in options else "pdb"
+        raise SceneError(scene.source, f"system.{key}", str(error)) from None
     except (ValueError, OSError) as error:
         raise SceneError(scene.source, "system.pdb", str(error)) from None
 

@@ -31,6 +31,7 @@ from vibra.pipeline.plan.views import mode_view
 from vibra.pipeline.scene import Scene
 from vibra.pipeline.scene.values import element_symbol
 from vibra.sources import cite
+from vibra.solvers.structured.quadratic import QuadraticModes
 
 __all__ = ["execute", "frequency_lines", "STEPS"]
 
@@ -67,7 +68,7 @@ class _Context:
 
 def _is_quadratic(modes: Any) -> bool:
     """True for the modes of a gyroscopic or damped system (`vibra.solvers.structured.quadratic.QuadraticModes`)."""
-    return hasattr(modes, "damping_ratio")
+    return isinstance(modes, QuadraticModes)
 
 
 def _accuracy_text(modes: Any) -> str:
@@ -159,7 +160,7 @@ def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
     error = empty_band(plan.scene, context.modes)  # only a band can come back empty
     if error is not None:
         raise error
-    solver = context.modes.method if _is_quadratic(context.modes) else context.modes.solver
+    solver = context.modes.path
     return solver, _accuracy_text(context.modes)
 
 
@@ -336,20 +337,26 @@ def _step_fluctuations(plan: Plan, context: _Context, renderer: Any) -> tuple[st
 
 
 def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.charts.networks import plot_b_factors
+    from vibra.charts.networks import b_factor_axis, plot_b_factors
 
     network = context.network
     fit = network.fit
     if fit is None:  # the file's B column is flat: nothing to fit, the raw prediction is drawn
-        fitted, correlation, scale, how = network.predicted, network.correlation, None, "kT/gamma = 1"
+        fitted, correlation, scale, method = network.predicted, network.correlation, None, "sum"
+        how = "unscaled (kT/gamma = 1: the file's B-factors are all equal, nothing to fit)"
     else:
-        fitted, correlation, scale = fit.predicted, fit.correlation, fit.scale
-        how = f"scaled by least squares onto the crystallographic values (x {fit.scale:.3g})"
+        fitted, correlation, scale, method = fit.predicted, fit.correlation, fit.scale, fit.method
+        how = ("scaled as ProDy's calcTempFactors does, to the crystallographic sum" if method == "sum"
+               else "scaled by least squares onto the crystallographic values") + f" (x {fit.scale:.3g})"
     figure = plot_b_factors(network.labels, network.experimental, fitted, correlation, scale=scale,
-                            title=plan.scene.title)
+                            method=method, title=plan.scene.title)
+    axis = b_factor_axis(network.experimental, fitted)
+    n_rigid = int(np.sum(context.modes.zero_modes(1e-6)))
+    used = (f"all {network.n_modes - n_rigid}" if network.n_modes == context.system.n_dof else
+            f"the {network.n_modes - n_rigid} lowest") + f" non-rigid modes ({n_rigid} rigid-body modes left out)"
     _save_chart(context, figure, "bfactors",
-                f"{plan.scene.title}: B-factors per residue, crystallographic and predicted from the "
-                f"{network.n_modes} lowest modes (rigid ones left out), {how}, on one axis; "
+                f"{plan.scene.title}: B-factors per residue, crystallographic and predicted from {used}, "
+                f"{how}, on one {axis} axis; "
                 f"Pearson correlation r = {correlation:.3f}")
     return None, None
 

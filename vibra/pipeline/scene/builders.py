@@ -25,12 +25,12 @@ from types import MappingProxyType
 from typing import Any, Callable, Iterator, Mapping
 
 from vibra.pipeline.scene.values import (
-    Check, FieldSpec, boolean, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
+    Check, FieldSpec, boolean, brief, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
     scalar_or_list, string,
 )
 
 __all__ = ["isotope_labels", "BUILD_FUNCTIONS", "CRYSTAL_BUILDERS", "PLANAR_BUILDERS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
-           "SCENE_REQUIRED", "INFRARED_KEYS", "direction_vector", "builder_function", "builder_fields"]
+           "SCENE_REQUIRED", "INFRARED_KEYS", "STRUCTURE_KEYS", "direction_vector", "builder_function", "builder_fields"]
 
 #: scene builder -> (vibra module, function). The only way a scene names code.
 BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
@@ -105,6 +105,59 @@ def direction_vector(value: Any, fail: Callable[[str], Any]) -> tuple[float, flo
     return direction
 
 
+def chain_ids(value: Any, fail: Callable[[str], Any]) -> tuple[str, ...]:
+    """A network scene's ``chains``: ``"A"``, ``"AB"`` (one character per chain) or ``["A", "B"]``."""
+    if isinstance(value, str):
+        if not value.strip() or value != value.strip():
+            fail(f"is {brief(value)}; expected chain identifiers such as \"A\" or \"AB\" (one character "
+                 "each) or a list such as [\"A\", \"B\"]")
+        return tuple(value)
+    ids = list_of(string)(value, fail)
+    for i, chain in enumerate(ids):
+        if not chain.strip() or chain != chain.strip():
+            fail(f"[{i}] is {brief(chain)}; a chain identifier is one or more characters without spaces")
+    return ids
+
+
+def residue_range(value: Any, fail: Callable[[str], Any]) -> tuple[int, int]:
+    """A network scene's ``residues``: ``[first, last]`` residue numbers, both kept (first <= last)."""
+    first, last = list_of(integer(-9999), length=2)(value, fail)
+    if first > last:
+        fail(f"is [{first}, {last}]; expected [first, last] residue numbers with first <= last")
+    return first, last
+
+
+def atom_selection(value: Any, fail: Callable[[str], Any]) -> Any:
+    """A network scene's ``selection``: "CA", "protein", "all", or a list of atom names (`from_pdb`)."""
+    if isinstance(value, list):
+        names = list_of(string)(value, fail)
+        for i, name in enumerate(names):
+            if not name.strip():
+                fail(f"[{i}] is {brief(name)}; an atom name such as \"CA\" or \"N\"")
+        return names
+    if value not in ("CA", "protein", "all"):
+        fail(f"is {brief(value)}; expected \"CA\" (C-alpha atoms), \"protein\" (every atom of the amino "
+             "acids), \"all\" (every atom) or a list of atom names such as [\"N\", \"CA\", \"C\"]")
+    return value
+
+
+def altloc_code(value: Any, fail: Callable[[str], Any]) -> str:
+    """A network scene's ``altloc``: one alternate-location character (``"B"``)."""
+    code = string(value, fail)
+    if len(code) != 1 or not code.strip():
+        fail(f"is {brief(value)}; expected one alternate-location character such as \"A\" or \"B\"")
+    return code
+
+
+#: The keys of a network scene that choose the sites of its structure file: those of
+#: `vibra.networks.from_pdb`, under the same names (its errors name the argument, which is the
+#: key); a key not given keeps from_pdb's default (C-alpha atoms of every chain of the first model).
+STRUCTURE_KEYS: Mapping[str, FieldSpec] = MappingProxyType({
+    "selection": field_spec(atom_selection), "chains": field_spec(chain_ids), "residues": field_spec(residue_range),
+    "model": field_spec(integer(1)), "altloc": field_spec(altloc_code),
+})
+
+
 #: Keys of a polar crystal's infrared response (the plan's ``crystal-infrared`` step, which runs
 #: when the scene names Born charges in ``born_file``): the damping gamma of every optical mode,
 #: in cm^-1 (none: 0, undamped), and the Cartesian polarisation of the light (none: [1, 0, 0]).
@@ -168,7 +221,8 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
                  "G": "gyroscopic and damped scenes are not wired yet (issue 15)",
                  "C": "gyroscopic and damped scenes are not wired yet (issue 15)"},
     "oscillator": {},
-    "anm": {"positions": "the C-alpha atoms of the structure file system.pdb",
+    "anm": {"positions": "the sites of the structure file system.pdb that system.selection, chains, residues, "
+                         "model and altloc choose (C-alpha atoms by default)",
             "masses": "unit masses, as ProDy's ANM", "name": _NAME},
     **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
@@ -192,7 +246,7 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "charged_particle": {},
     "matrices": {},
     "oscillator": {},
-    "anm": {"pdb": field_spec(string, required=True)},
+    "anm": {"pdb": field_spec(string, required=True), **STRUCTURE_KEYS},
     **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string),
                 "force_sets_file": field_spec(string), "born_file": field_spec(string), **INFRARED_KEYS},
