@@ -18,8 +18,8 @@ from vibra import System, normal_modes, solvers
 from vibra.mechanics.lagrangian import double_pendulum
 from vibra.solvers import budget
 from vibra.solvers.accurate import golub_kahan, spring_ritz
-from test_accurate_bounds import network
-from test_solvers import mp_spring_omegas
+from helpers.springs import network
+from helpers.springs import mp_spring_omegas
 
 
 def free_chain(n: int) -> System:

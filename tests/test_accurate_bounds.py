@@ -15,35 +15,10 @@ import mpmath
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from test_solvers import mp_spring_omegas
+from helpers.springs import mp_spring_omegas, network, solve
 
 from vibra import normal_modes, solvers
 from vibra.chains.builders import linear_chain
-
-
-def network(rng: np.random.Generator, n_sites: int, spring_decades: float, mass_decades: float
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(B, w, masses) of a rigid 3-D network: each random site joined to its 8 nearest neighbours,
-    spring constants log-uniform over +-spring_decades, masses over +-mass_decades."""
-    positions = rng.normal(size=(n_sites, 3))
-    distance = np.linalg.norm(positions[:, None] - positions[None], axis=-1)
-    nearest = np.argsort(distance, axis=1)[:, 1:9]
-    pairs = np.array(sorted({(min(i, j), max(i, j)) for i in range(n_sites) for j in nearest[i].tolist()}))
-    directions = positions[pairs[:, 1]] - positions[pairs[:, 0]]
-    directions /= np.linalg.norm(directions, axis=1)[:, None]
-    B = np.zeros((len(pairs), 3 * n_sites))
-    rows = np.arange(len(pairs))
-    for axis in range(3):
-        B[rows, 3 * pairs[:, 1] + axis] = directions[:, axis]
-        B[rows, 3 * pairs[:, 0] + axis] = -directions[:, axis]
-    springs = 10.0 ** rng.uniform(-spring_decades, spring_decades, len(pairs))
-    masses = np.repeat(10.0 ** rng.uniform(-mass_decades, mass_decades, n_sites), 3)
-    return B, springs, masses
-
-
-def solve(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, **kwargs: Any) -> Any:
-    K = B.T @ (springs[:, None] * B)
-    return normal_modes(0.5 * (K + K.T), masses, spring_factor=(sp.csr_matrix(B), springs), **kwargs)
 
 
 @pytest.mark.parametrize("vectors", [False, True])
@@ -181,7 +156,6 @@ def test_ill_conditioned_network_bounds_guide_beyond_the_double_double_budget(ve
     assert np.all(high_error <= 1e-10 * reference)
     assert np.all(high.omega_error[6:] >= high_error)
     assert np.all(high.omega_error[6:] <= 1e-10 * high.omega[6:]) or 'accuracy="certified" tightens' in high.refinement
-
 
 
 @pytest.mark.parametrize("accuracy", ["fast", "high"])

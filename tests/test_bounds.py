@@ -14,7 +14,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from test_partial_solves import _truth
+from helpers.springs import partial_truth as _truth
 from vibra.modes import normal_modes
 from vibra.solvers.common import omega_and_error
 

@@ -22,8 +22,8 @@ from vibra import normal_modes
 from vibra.chains import linear_chain
 from vibra.solvers.accurate.chain import sturm_counts
 
-from test_chain_bounds_large import sturm_count
-from test_ring_bounds import sampled
+from helpers.chains import sturm_count
+from helpers.rings import sampled
 
 
 def dimer(half: int, weak: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

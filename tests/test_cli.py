@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from ase.data import atomic_masses, atomic_numbers
+from helpers.package import BUNDLED_FOLDERS
 from PIL import Image
 
 from vibra import molecules
@@ -238,8 +239,6 @@ EXPECTED = {
     "isokinetic": ["energies"],
     "nose-hoover": ["histogram"],
 }
-#: The folders the README's first command renders.
-BUNDLED_FOLDERS = ("chains", "molecules", "networks", "crystals", "dynamics")
 
 
 @pytest.mark.slow

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 import sympy
+from helpers.images import check_png
 from matplotlib.figure import Figure
 
 from vibra import Modes, chains, continuum
@@ -376,12 +377,8 @@ def test_dispersion_curves_and_power_law_fit_validation():
 
 # ---------------------------------------------------------------------- charts
 def _check_png(fig: Figure, path) -> None:
-    import matplotlib.image as mpimg
-
     save_figure(fig, path)
-    pixels = mpimg.imread(path)
-    assert pixels.shape[0] > 300 and pixels.shape[1] > 500
-    assert pixels[..., :3].std() > 0.05  # not blank
+    check_png(path, least=(300, 500))
 
 
 def test_charts_render(tmp_path):

@@ -9,11 +9,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from helpers.package import HEAVY
 
 import vibra
-
-#: What ``import vibra`` never imports (issue 45): each is loaded by the code that uses it only.
-HEAVY = ("pyvista", "ase", "phonopy", "matplotlib", "numba", "llvmlite", "sympy", "mpmath", "yaml")
 
 
 def _run(code: str) -> str:

@@ -10,12 +10,17 @@ import mpmath
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from helpers.springs import partial_truth as _truth
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vibra.modes import normal_modes
 from vibra.solvers.accurate.chain import lowest
-from vibra.solvers.accurate.chain.lowest import chain_segments, lowest_chain_path, spring_factor_of_chain
+from vibra.solvers.accurate.chain.lowest import (
+    chain_segments,
+    lowest_chain_path,
+    spring_factor_of_chain,
+)
 
 
 def _chain(n: int, spread: float, seed: int, anchored: bool = False):
@@ -35,43 +40,6 @@ def _chain(n: int, spread: float, seed: int, anchored: bool = False):
     weighted = sp.csr_matrix(sp.diags(np.sqrt(weights)) @ B @ sp.diags(1.0 / np.sqrt(mass)))
     K = sp.csr_matrix(B.T @ sp.diags(weights) @ B)
     return weighted, K, mass, springs, anchor
-
-
-def _truth(mass, springs, anchor, k: int) -> list:
-    """The lowest k omega^2 of the chain by bisection on Sturm counts, 60 digits."""
-    with mpmath.workdps(60):
-        m = [mpmath.mpf(float(x)) for x in mass]
-        s = [mpmath.mpf(float(x)) for x in springs]
-        n = len(m)
-        diag = [((s[i - 1] if i > 0 else 0) + (s[i] if i < n - 1 else 0)) / m[i] for i in range(n)]
-        diag[0] += mpmath.mpf(anchor) / m[0]
-        off2 = [s[i] ** 2 / (m[i] * m[i + 1]) for i in range(n - 1)]
-
-        def below(x):
-            count, q = 0, diag[0] - x
-            for i in range(n):
-                if i:
-                    q = diag[i] - x - off2[i - 1] / q
-                if q == 0:
-                    q = mpmath.mpf("1e-80")
-                count += q < 0
-            return count
-
-        top = 2 * max(diag) + 1
-        values = []
-        for j in range(1, k + 1):
-            low, high = mpmath.mpf(0), top
-            if j == 1 and anchor == 0:  # a free chain's translation: exactly zero
-                values.append(mpmath.mpf(0))
-                continue
-            while high - low > mpmath.mpf("1e-25") * high:
-                middle = mpmath.sqrt(low * high) if low > 0 else high / 2**40
-                if below(middle) >= j:
-                    high = middle
-                else:
-                    low = middle
-            values.append((low + high) / 2)
-        return values
 
 
 def _check(result, truth, relative: float = 1e-10) -> None:

@@ -11,13 +11,17 @@ from __future__ import annotations
 import dataclasses
 import doctest
 
-import matplotlib.image
 import numpy as np
 import pytest
+from helpers.images import check_png
 from scipy.integrate import quad, simpson, solve_ivp
 
 from vibra.charts._style import save_figure
-from vibra.charts.pendulum import plot_double_pendulum_modes, plot_period_vs_amplitude, plot_trajectory_comparison
+from vibra.charts.pendulum import (
+    plot_double_pendulum_modes,
+    plot_period_vs_amplitude,
+    plot_trajectory_comparison,
+)
 from vibra.mechanics.lagrangian import double_pendulum
 from vibra.mechanics.pendulum import (
     HarmonicError,
@@ -255,27 +259,23 @@ def test_bad_input(call, error, pattern):
 
 
 # ---------------------------------------------------------------------- charts
-def _check_png(path, size):
-    image = matplotlib.image.imread(path)
-    assert image.shape[:2] == size
-    assert image[..., :3].std() > 0.05  # not blank
 
 
 def test_chart_period_vs_amplitude(tmp_path):
     fig = plot_period_vs_amplitude(harmonic_error(np.linspace(0.05, 3.0, 25), n_points=201))
     # figsize (11, 4.6) in at savefig.dpi 120
-    _check_png(save_figure(fig, tmp_path / "period.png"), (552, 1320))
+    check_png(save_figure(fig, tmp_path / "period.png"), (552, 1320))
 
 
 def test_chart_double_pendulum_modes(tmp_path):
     modes = double_pendulum(1.0, 1.0, 1.0, 1.0).modes()
-    _check_png(save_figure(plot_double_pendulum_modes(modes, 1.0, 1.0), tmp_path / "modes.png"), (576, 1200))
+    check_png(save_figure(plot_double_pendulum_modes(modes, 1.0, 1.0), tmp_path / "modes.png"), (576, 1200))
 
 
 def test_chart_trajectory_comparison(tmp_path):
     t = np.linspace(0.0, 4 * np.pi, 300)
     pairs = [(exact_motion(a, t), harmonic_motion(a, t)) for a in (0.1, 2.5)]
-    _check_png(save_figure(plot_trajectory_comparison(pairs), tmp_path / "trajectories.png"), (528, 1320))
+    check_png(save_figure(plot_trajectory_comparison(pairs), tmp_path / "trajectories.png"), (528, 1320))
 
 
 def test_chart_bad_input():

@@ -28,7 +28,7 @@ def test_the_readme_is_short() -> None:
 
 
 def test_the_two_quick_start_commands() -> None:
-    from test_cli import BUNDLED_FOLDERS
+    from helpers.package import BUNDLED_FOLDERS
 
     report, tests = (block.strip() for block in blocks("bash"))
     assert report == f"pip install -e . && vibra report {' '.join(BUNDLED_FOLDERS)} --out plots"

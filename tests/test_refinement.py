@@ -22,8 +22,13 @@ import numpy as np
 import pytest
 import scipy.linalg
 import scipy.sparse as sp
-from test_accurate_bounds import network, solve
-from test_solvers import anisotropic_lattice, lattice_frequencies, mp_spring_omegas
+from helpers.springs import (
+    anisotropic_lattice,
+    lattice_frequencies,
+    mp_spring_omegas,
+    network,
+    solve,
+)
 
 from vibra import System, normal_modes, solvers
 from vibra.chains.builders import linear_chain

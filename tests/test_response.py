@@ -15,12 +15,17 @@ import mpmath
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from helpers.images import check_png
 from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
 from vibra import response as R
 from vibra.charts._style import save_figure
-from vibra.charts.response import plot_frf, plot_oscillator_response, plot_rayleigh_damping
+from vibra.charts.response import (
+    plot_frf,
+    plot_oscillator_response,
+    plot_rayleigh_damping,
+)
 
 mpmath.mp.dps = 40
 
@@ -682,24 +687,18 @@ def test_result_types_are_frozen(fixed_chain) -> None:
 
 
 # ====================================================================== charts
-def _check_png(path, size) -> None:
-    import matplotlib.image as mpimg
-
-    image = mpimg.imread(path)
-    assert image.shape[:2] == size
-    assert image[..., :3].std() > 0.05                # not blank
 
 
 def test_charts_render(tmp_path, fixed_chain) -> None:
     K, M, force, omegas = fixed_chain
     path = save_figure(plot_oscillator_response(), tmp_path / "fig7.png")
-    _check_png(path, (552, 1320))                     # 11 x 4.6 in at 120 dpi
+    check_png(path, (552, 1320))                     # 11 x 4.6 in at 120 dpi
     result = R.frequency_response(K, M, R.friction_damping(M, 0.1), omegas[1:], force, method="modal")
     path = save_figure(plot_frf(result, N - 1), tmp_path / "frf.png")
-    _check_png(path, (780, 1080))
+    check_png(path, (780, 1080))
     path = save_figure(plot_rayleigh_damping(0.05, 1e-3, omegas[1:], natural_frequencies=result.natural_frequencies),
                        tmp_path / "rayleigh.png")
-    _check_png(path, (600, 960))
+    check_png(path, (600, 960))
     with pytest.raises(ValueError, match=r"dof is 24; expected 0 <= dof <= 23"):
         plot_frf(result, N)
     with pytest.raises(TypeError, match=r"oscillators\[0\] must be an Oscillator, got float"):

@@ -19,80 +19,22 @@ import mpmath as mp
 import numpy as np
 import pytest
 import scipy.linalg as la
+from helpers.rings import (
+    covered,
+    disordered_ring,
+    mp_weighted_gram,
+    ring_count,
+    sampled,
+    small_ring,
+)
 
-from vibra.chains import linear_chain
 from vibra import Modes, solvers
-
-
-def ring_count(mass: np.ndarray, springs: np.ndarray, x: mp.mpf, dps: int = 40,
-               ground: np.ndarray | None = None) -> int:
-    """How many eigenvalues of (K, M) lie below x, for the ring (mass, springs), with a spring
-    ground[i] from site i to a wall where given."""
-    with mp.workdps(dps):
-        n = len(mass)
-        k = [mp.mpf(float(s)) for s in springs]
-        m = [mp.mpf(float(v)) for v in mass]
-        g = [mp.mpf(0)] * n if ground is None else [mp.mpf(float(v)) for v in ground]
-        x = mp.mpf(x)
-        a = [k[i - 1] + k[i] + g[i] - x * m[i] for i in range(n)]
-        pivot, fill, last = a[0], -k[n - 1], a[n - 1]
-        negative = 0
-        for i in range(n - 2):
-            negative += pivot < 0
-            following = a[i + 1] - k[i] ** 2 / pivot
-            last -= fill * fill / pivot
-            fill = k[i] * fill / pivot - (k[n - 2] if i + 1 == n - 2 else 0)
-            pivot = following
-        negative += pivot < 0
-        last -= fill * fill / pivot
-        return negative + int(last < 0)
-
-
-def covered(mass: np.ndarray, springs: np.ndarray, omega: float, error: float, j: int) -> bool:
-    """Whether [(omega - error)^2, (omega + error)^2] holds the j-th eigenvalue omega_j^2."""
-    with mp.workdps(40):
-        low = mp.mpf(omega) - mp.mpf(error)
-        high = (mp.mpf(omega) + mp.mpf(error)) ** 2
-        below = 0 if low <= 0 else ring_count(mass, springs, low**2)
-        return below <= j < ring_count(mass, springs, high)
+from vibra.chains import linear_chain
 
 
 def within(mass: np.ndarray, springs: np.ndarray, omega: float, relative: float, j: int) -> bool:
     """Whether the j-th omega lies within `relative` of the given one."""
     return covered(mass, springs, omega, relative * omega, j)
-
-
-def mp_weighted_gram(B: np.ndarray, springs: np.ndarray, mass: np.ndarray) -> mp.matrix:
-    """K~ = M^-1/2 B^T W B M^-1/2 in mpmath at the working precision, from the inputs."""
-    n = B.shape[1]
-    Kt = mp.matrix(n, n)
-    for i in range(n):
-        for j in range(n):
-            Kt[i, j] = sum(mp.mpf(springs[r]) * mp.mpf(B[r, i]) * mp.mpf(B[r, j]) for r in range(len(springs))
-                           ) / mp.sqrt(mp.mpf(mass[i]) * mp.mpf(mass[j]))
-    return Kt
-
-
-def small_ring(rng: np.random.Generator, spreads: tuple[float, ...]
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """(B, springs, mass, spread): 3-11 sites, masses and springs over one of `spreads`, B's
-    entries not +-1, a spring to a wall in about 2 of 5."""
-    n, spread = int(rng.integers(3, 12)), float(rng.choice(spreads))
-    springs = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
-    mass = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
-    B = np.zeros((n, n))
-    B[np.arange(n), np.arange(n)] = -rng.uniform(0.2, 1.0, n)
-    B[np.arange(n), (np.arange(n) + 1) % n] = rng.uniform(0.2, 1.0, n)
-    if rng.random() < 0.4:
-        wall = np.zeros((1, n))
-        wall[0, rng.integers(n)] = rng.uniform(0.2, 1.0)
-        B, springs = np.vstack([B, wall]), np.r_[springs, 10.0 ** rng.uniform(-spread / 2, spread / 2)]
-    return B, springs, mass, spread
-
-
-def disordered_ring(n: int, spread: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    return 10.0 ** rng.uniform(0.0, spread, n), 10.0 ** rng.uniform(0.0, spread, n)
 
 
 @pytest.mark.parametrize("n", [3, 4, 7, 12])
@@ -102,12 +44,6 @@ def test_ring_count_matches_a_dense_solve(n: int) -> None:
     values = la.eigh(ring.hessian().toarray(), np.diag(mass), eigvals_only=True)
     middles = np.r_[-1.0, 0.5 * (values[:-1] + values[1:]), 2.0 * values[-1]]
     assert [ring_count(mass, springs, mp.mpf(x)) for x in middles] == list(range(n + 1))
-
-
-def sampled(n: int, relative: np.ndarray, rng: np.random.Generator) -> list[int]:
-    """The lowest and highest modes, the loosest bounds and a random sample."""
-    loosest = np.argsort(-relative)[:8]
-    return sorted({0, 1, 2, 3, n - 2, n - 1, *loosest.tolist(), *rng.choice(n, 8, replace=False).tolist()})
 
 
 @pytest.mark.slow
@@ -196,8 +132,9 @@ def test_a_ring_with_a_spread_of_1e12_is_certified_mode_by_mode(vectors: bool, m
 def test_ring_pencil_recognises_rings_only() -> None:
     """`ring_counts.ring_pencil`: a ring (with or without springs to a wall) gives a pencil whose counts
     match the mpmath oracle; a chain, two separate rings or a full mass matrix give None."""
-    from vibra.solvers.accurate.ring import counts as ring_counts
     import scipy.sparse as sp
+
+    from vibra.solvers.accurate.ring import counts as ring_counts
 
     mass, springs = disordered_ring(9, 2.0, 3)
     ring = linear_chain(9, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")

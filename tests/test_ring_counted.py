@@ -21,7 +21,7 @@ from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.ring import counted, counts as ring_counts, kernel as ring_kernel
 from vibra.solvers.accurate.ring.pencil_counts import PencilCounts, pencil_entries
 
-from test_ring_bounds import covered, disordered_ring, mp_weighted_gram, small_ring
+from helpers.rings import covered, disordered_ring, mp_weighted_gram, small_ring
 
 
 def test_the_fused_product_is_exact_as_dekkers() -> None:
@@ -178,7 +178,7 @@ def test_high_takes_a_long_rings_band_values_each_bracketed(n: int) -> None:
 def test_a_walled_ring_above_the_dense_limit_is_bracketed_at_high() -> None:
     """A ring of 1,600 pendulums (a spring to a wall at every site, 10^0.3 disorder): "high" takes
     the band solver's values, each bound covering the truth (mpmath counts with the walls)."""
-    from test_ring_walls import covered as walled_covered, walled_ring
+    from helpers.rings import walled_covered, walled_ring
 
     n = 1600
     B, w, mass, springs, ground = walled_ring(n, 0.3, 9)

@@ -16,13 +16,15 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 import scipy.sparse as sp
+from helpers.rings import disordered_ring, ring_count, sampled
+from helpers.rings import kernel_arrays as _kernel_arrays
 
 from vibra import normal_modes, solvers
 from vibra.chains import linear_chain
-from vibra.solvers.accurate.ring import counts as ring_counts, kernel as ring_kernel, values as ring_values
 from vibra.solvers.accurate.dd import UNIT, div, mul
-
-from test_ring_bounds import disordered_ring, ring_count, sampled
+from vibra.solvers.accurate.ring import counts as ring_counts
+from vibra.solvers.accurate.ring import kernel as ring_kernel
+from vibra.solvers.accurate.ring import values as ring_values
 
 
 def criterion(omega: np.ndarray, error: np.ndarray, true_error: np.ndarray) -> np.ndarray:
@@ -108,15 +110,6 @@ def test_bounds_of_values_sorted_after_bounding_still_hold() -> None:
     assert sorted_bound[1] >= 1e-9 and sorted_bound[2] >= 9e-9 - 1e-20
     assert sorted_bound[2] <= 1e-8 and sorted_bound[0] == 1e-3 and sorted_bound[3] == 1e-3
     assert ring_values.sorted_bounds(np.sort(values), bound, np.arange(4)) is bound
-
-
-def _kernel_arrays(pencil: ring_counts.RingPencil) -> tuple:
-    m, w, c_in, c_out = ring_values.spring_arrays(pencil)
-    n = pencil.n
-    compliance = div(np.ones(n), np.zeros(n), w, np.zeros(n))
-    off = np.empty(2 * n - 1)
-    off[0::2], off[1::2] = c_in, c_out[: n - 1]
-    return m, compliance, off, mul(off, np.zeros_like(off), off, np.zeros_like(off)), float(c_out[n - 1])
 
 
 @pytest.mark.parametrize("n", [3, 5, 40, 300])

@@ -15,50 +15,23 @@ dense solve here) for long rings.
 
 from __future__ import annotations
 
-from typing import Any
-
 import mpmath as mp
 import numpy as np
 import pytest
 import scipy.linalg as la
 import scipy.sparse as sp
+from helpers.rings import certified_by_eigsy, ring_count, walled_ring
+from helpers.rings import kernel_arrays as _kernel_arrays
+from helpers.rings import walled_covered as covered
 
 from vibra import normal_modes
 from vibra._lapack import bidiagonal_singular_values
-from vibra.solvers.accurate.ring import counts as ring_counts, kernel as ring_kernel, values as ring_values
 from vibra.solvers.accurate.dd import UNIT
-
-from test_ring_bounds import mp_weighted_gram, ring_count
-from test_ring_values import _kernel_arrays
-
+from vibra.solvers.accurate.ring import counts as ring_counts
+from vibra.solvers.accurate.ring import kernel as ring_kernel
+from vibra.solvers.accurate.ring import values as ring_values
 
 EPS = float(np.finfo(float).eps)
-
-
-def walled_ring(n: int, spread: float, seed: int, walls: int | None = None
-                ) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(B, w, mass, springs, ground): n sites on a ring (spring i joins sites i and i + 1 mod n),
-    a spring to a wall at every site (walls None) or at `walls` random sites (ground[i] the
-    wall spring at site i, 0 where none); masses and springs log-uniform over 10^spread."""
-    rng = np.random.default_rng(seed)
-    springs = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
-    mass = 10.0 ** rng.uniform(-spread / 2, spread / 2, n)
-    where = np.arange(n) if walls is None else np.sort(rng.choice(n, walls, replace=False))
-    ground = np.zeros(n)
-    ground[where] = 10.0 ** rng.uniform(-spread / 2, spread / 2, where.shape[0])
-    sites = np.arange(n)
-    cycle_part = sp.csr_matrix((np.r_[-np.ones(n), np.ones(n)], (np.r_[sites, sites], np.r_[sites, (sites + 1) % n])),
-                               shape=(n, n))
-    wall_part = sp.csr_matrix((np.ones(where.shape[0]), (np.arange(where.shape[0]), where)), shape=(where.shape[0], n))
-    return sp.vstack([cycle_part, wall_part]).tocsr(), np.r_[springs, ground[where]], mass, springs, ground
-
-
-def covered(mass: np.ndarray, springs: np.ndarray, ground: np.ndarray, omega: float, error: float, j: int,
-            dps: int = 40) -> bool:
-    """Whether [(omega - error)^2, (omega + error)^2] holds the j-th eigenvalue."""
-    with mp.workdps(dps):
-        low, high = (mp.mpf(omega) - mp.mpf(error)) ** 2, (mp.mpf(omega) + mp.mpf(error)) ** 2
-        return ring_count(mass, springs, low, dps, ground) <= j < ring_count(mass, springs, high, dps, ground)
 
 
 @pytest.mark.parametrize("n", [3, 4, 7, 12])
@@ -171,20 +144,6 @@ def test_small_walled_rings_are_certified_against_80_digit_eigenvalues() -> None
         pencil = ring_counts.ring_pencil(sp.csr_matrix(B), springs, mass)
         assert pencil is not None and pencil.walls
         certified_by_eigsy(B, springs, mass, lambda count: ring_values.ring_values(pencil, count))
-
-
-def certified_by_eigsy(B: np.ndarray, springs: np.ndarray, mass: np.ndarray, solve: Any) -> None:
-    """All values and the lowest 1 and 2 (`solve(count)`): each certified, covered by its bound
-    against mpmath.eigsy of K~ at 80 digits, and within 2e-13 relative in omega^2."""
-    with mp.workdps(80):
-        exact = sorted(mp.eigsy(mp_weighted_gram(B, springs, mass), eigvals_only=True))
-    for count in (None, 1, 2):
-        found = solve(count)
-        assert found is not None and found.certified.all()
-        assert np.all(found.bound <= 2e-13 * found.values)
-        with mp.workdps(80):
-            for j in range(found.values.shape[0]):
-                assert abs(mp.mpf(found.values[j]) - exact[j]) <= found.bound[j], (B.shape, count, j)
 
 
 @pytest.mark.slow

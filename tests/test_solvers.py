@@ -8,13 +8,11 @@ sine / cosine modes of uniform chains (vectors above the dbdsqr limit).
 
 from __future__ import annotations
 
-from typing import Any
-
-
 import mpmath
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from helpers.springs import anisotropic_lattice, lattice_frequencies, mp_spring_omegas
 
 from vibra import System, normal_modes, solvers
 
@@ -52,23 +50,6 @@ def spring_network(rng: np.random.Generator, n_sites: int) -> tuple[np.ndarray, 
     return B, springs, masses
 
 
-def mp_spring_omegas(B: np.ndarray, springs: np.ndarray, masses: np.ndarray, digits: int = 50,
-                     exact: bool = False) -> Any:
-    """omega of K~ = M^-1/2 B^T W B M^-1/2 from mpmath.eigsy at `digits` digits, with B~ = W^1/2 B M^-1/2
-    formed in mpmath from the float64 entries of B, w and M taken as exact (no float64 K);
-    rounded to float64, or (`exact`) the mpmath numbers themselves, ascending."""
-    with mpmath.workdps(digits):
-        n_terms, n = B.shape
-        root_w = [mpmath.sqrt(mpmath.mpf(float(x))) for x in springs]
-        inverse_root_m = [1 / mpmath.sqrt(mpmath.mpf(float(x))) for x in masses]
-        weighted = mpmath.matrix(n_terms, n)
-        for row, column in zip(*np.nonzero(B)):
-            weighted[int(row), int(column)] = root_w[row] * mpmath.mpf(float(B[row, column])) * inverse_root_m[column]
-        values = mpmath.eigsy(weighted.T * weighted, eigvals_only=True)
-        omegas = sorted(mpmath.sqrt(abs(v)) for v in values)
-        return omegas if exact else np.array([float(w) for w in omegas])
-
-
 @pytest.mark.parametrize("vectors", [False, True])
 def test_jacobi_path_on_an_ill_conditioned_3d_network(rng: np.random.Generator, vectors: bool) -> None:
     """Every non-rigid frequency to 1e-10 relative against 50-digit mpmath.
@@ -97,28 +78,6 @@ def test_jacobi_path_on_an_ill_conditioned_3d_network(rng: np.random.Generator, 
     assert np.max(fast.omega_error[flexible] / reference[flexible]) > 1e-6
     if vectors:
         assert modes.residual < 1e-12 and modes.orthogonality < 1e-12
-
-
-# ---------------------------------------------------------------------- accurate-rayleigh
-def anisotropic_lattice(side: int, stiffness: tuple[float, float, float]) -> System:
-    """A simple-cubic lattice of side**3 unit masses with nearest-neighbour springs stiffness[axis]."""
-    grid = np.stack(np.meshgrid(*(np.arange(side),) * 3, indexing="ij"), axis=-1).reshape(-1, 3).astype(float)
-    index = np.arange(side**3).reshape((side,) * 3)
-    pairs, constants = [], []
-    for axis in range(3):
-        lines = np.moveaxis(index, axis, 0)
-        bonds = np.c_[lines[:-1].ravel(), lines[1:].ravel()]
-        pairs.append(bonds)
-        constants.append(np.full(len(bonds), stiffness[axis]))
-    return System.from_springs(grid, 1.0, np.vstack(pairs), np.concatenate(constants))
-
-
-def lattice_frequencies(side: int, stiffness: tuple[float, float, float]) -> np.ndarray:
-    """Ascending omega of `anisotropic_lattice`: side^2 free chains per axis, each with the
-    closed form 2 sqrt(kappa_a) sin(j pi / 2 side), j = 0..side-1."""
-    j = np.arange(side)
-    return np.sort(np.concatenate([np.repeat(2.0 * np.sqrt(kappa) * np.sin(j * np.pi / (2 * side)), side**2)
-                                   for kappa in stiffness]))
 
 
 def test_all_modes_of_a_large_anisotropic_lattice_relatively_accurate() -> None:

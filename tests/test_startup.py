@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from test_package import HEAVY
+from helpers.package import HEAVY
 from vibra.solvers import compiled
 from vibra.solvers.accurate import products
 from vibra.solvers.accurate.chain import gk_bisection, lowest

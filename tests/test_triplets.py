@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from test_chain_bounds_large import all_modes, assert_guides_by_counts, disordered
+from helpers.chains import all_modes, assert_guides_by_counts, disordered
 from vibra.solvers.accurate.chain import bidiagonal
 from vibra.solvers.accurate.rounding import Scalings
 

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from vibra import System, normal_modes
 from vibra.solvers.accurate.chain import walled
 
-from test_ring_walls import certified_by_eigsy
+from helpers.rings import certified_by_eigsy
 
 
 def chain_on_walls(n: int, spread: float, seed: int, walls: int | None = None
