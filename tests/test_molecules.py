@@ -201,10 +201,13 @@ def test_linear_detection_is_relative(scale: float) -> None:
 
 
 # ----------------------------------------------------------------- valence coordinates
-def test_internal_coordinates_and_b_matrix_against_ase_geometry(rng: np.random.Generator) -> None:
-    atoms = molecule("CH3CH2OH")
+@pytest.mark.parametrize("name", ["CH3CH2OH", "CH3CHO"])
+def test_internal_coordinates_and_b_matrix_against_ase_geometry(rng: np.random.Generator, name: str) -> None:
+    """B rows of stretches, bends, torsions and (CH3CHO's carbonyl carbon) out-of-plane impropers."""
+    atoms = molecule(name)
     model = mol.valence_model(atoms, torsion=0.1)
     assert len(model.torsions) > 0 and len(model.angles) > 0
+    assert len(model.out_of_plane) == (3 if name == "CH3CHO" else 0)
     x = atoms.positions + 0.05 * rng.standard_normal(atoms.positions.shape)
     moved = atoms.copy()
     moved.positions = x
@@ -216,6 +219,7 @@ def test_internal_coordinates_and_b_matrix_against_ase_geometry(rng: np.random.G
             [probe.get_distance(i, j) for i, j in model.bonds],
             np.radians([probe.get_angle(*t) for t in model.angles]),
             np.radians([probe.get_dihedral(*q) for q in model.torsions]),
+            np.radians([probe.get_dihedral(*q) for q in model.out_of_plane]).reshape(-1),
         ])
 
     b = model.wilson_b(x).toarray()
@@ -232,9 +236,30 @@ def test_internal_coordinates_and_b_matrix_against_ase_geometry(rng: np.random.G
     np.testing.assert_allclose(b, numeric, atol=1e-7)
 
 
+@pytest.mark.parametrize("name, n_angles, n_torsions, n_out_of_plane", [
+    ("C2H6", 12, 9, 0),          # 3 x 3 dihedrals about C-C
+    ("NH3", 3, 0, 0),            # pyramidal: no out-of-plane term
+    ("C6H6", 18, 24, 18),        # 4 dihedrals about each ring bond; 3 impropers at each carbon
+    ("C3H6_D3h", 15, 24, 0),     # the ring's C-C-C angles left out: 5 angles at each carbon
+    ("C3H4_D2d", 6, 4, 6),       # H-C...C-H about the straight C=C=C (a linear bend); CH2 carbons planar
+    ("2-butyne", 12, 9, 0),      # H-C...C-H about the straight C-C#C-C
+    ("ClF3", 3, 0, 2),           # T-shaped: the axis through the two axial F is left out
+])
+def test_internal_terms_counted_by_hand(name: str, n_angles: int, n_torsions: int, n_out_of_plane: int) -> None:
+    """Truth: the terms counted from each molecule's structure (module docstring of internal_terms)."""
+    from vibra.molecules.internal_terms import internal_terms
+
+    atoms = molecule(name)
+    bonds = np.array(mol.bonds_from_distances(atoms.positions, atoms.get_chemical_symbols()))
+    terms = internal_terms(atoms.positions, bonds, linear_tolerance_deg=1.0)
+    assert len(terms.angles) == n_angles
+    assert (len(terms.torsions), len(terms.out_of_plane)) == (n_torsions, n_out_of_plane)
+    assert len(terms.torsion_axis) == n_torsions and not terms.torsions.flags.writeable
+
+
 def test_linear_bend_rows_and_calculator_forces(rng: np.random.Generator) -> None:
     atoms = Atoms("OCOH", positions=[(-1.16, 0, 0), (0, 0, 0), (1.16, 0, 0), (2.1, 0.6, 0.1)])
-    model = mol.valence_model(atoms, bonds=np.array([[0, 1], [1, 2], [2, 3]]), torsion=None)
+    model = mol.valence_model(atoms, bonds=np.array([[0, 1], [1, 2], [2, 3]]), stretch=30.0, bend=3.0, torsion=None)
     assert len(model.linear_angles) == 1 and len(model.angles) == 1
     calc = mol.ValenceForceField(model)
     x = atoms.positions + 0.03 * rng.standard_normal(atoms.positions.shape)
@@ -263,13 +288,21 @@ def test_linear_bend_rows_and_calculator_forces(rng: np.random.Generator) -> Non
     assert energy == pytest.approx(expected, rel=1e-10)
 
 
-def test_central_springs_on_linear_molecule_warn() -> None:
+def test_central_springs_on_linear_molecule_warn_once_naming_the_keyword() -> None:
+    """The builder warns, once, saying which keyword adds the missing bends; the analysis of that
+    system does not warn again (issue 48: the warning was printed twice and named no keyword).
+    A Hessian given as a matrix is warned of by the analysis, which alone sees its zero modes."""
     atoms = mol.co2_atoms()
     model = mol.valence_model(atoms, bend=None)
-    with pytest.warns(mol.SoftModeWarning, match="7 zero-frequency modes .* only 5"):
+    with pytest.warns(mol.SoftModeWarning, match="7 zero-frequency modes .* only 5") as caught:
         system = mol.from_atoms(atoms, model)
-    with pytest.warns(mol.SoftModeWarning, match="no restoring force"):
+    assert len(caught) == 1 and 'no bends: pass bend="typed"' in str(caught[0].message)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", mol.SoftModeWarning)
         mol.vibrational_analysis(system)
+    with pytest.warns(mol.SoftModeWarning, match="2 motion.* no restoring force") as caught:
+        mol.vibrational_analysis(mol.from_hessian(atoms, system.hessian().toarray()))
+    assert len(caught) == 1
 
 
 # ----------------------------------------------------------------- finite differences
@@ -529,6 +562,10 @@ def _bad_inputs():
         (lambda: mol.valence_model(co2, bond_scale=0.0), ValueError, r"bond_scale is 0\.0"),
         (lambda: mol.valence_model(co2, linear_tolerance_deg=90), ValueError, r"linear_tolerance_deg is 90"),
         (lambda: mol.valence_model(co2, bend=[]), ValueError, r"linear_bend is required"),
+        (lambda: mol.valence_model(co2, torsion="typd"), ValueError, r"torsion is 'typd'; expected \"typed\""),
+        (lambda: mol.valence_model(co2, stretch=None), ValueError, r"stretch is None; every bond needs"),
+        (lambda: mol.molecule("C2H6", torsion=0), ValueError, r"torsion is 0; .*\(pass torsion=None to leave"),
+        (lambda: mol.valence_model(molecule("H2CO"), out_of_plane=-1.0), ValueError, r"out_of_plane\[0\] is .*-1\.0"),
         (lambda: _co2_model().wilson_b(np.zeros((2, 3))), ValueError, r"positions must have shape \(3, 3\)"),
         (lambda: mol.ValenceForceField("model"), TypeError, r"model must be a ValenceModel, got str"),
         (lambda: _energy_on(mol.h2o_atoms()[:2], calc), ValueError, r"atoms has 2 atoms; this force field is for 3"),

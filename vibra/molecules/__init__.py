@@ -7,13 +7,15 @@ reported in cm^-1.
 Where K comes from
 ------------------
 - A **valence force field** (`ValenceModel`, `valence.py`): bond stretches, angle bends, linear
-  bends (two perpendicular bending coordinates, as CO2 needs) and optional torsions, with
-  potential V = 1/2 sum_t w_t (q_t(X) - q_t0)^2. At an equilibrium dV/dq = 0, so the Hessian is
-  exactly K = B^T diag(w) B with B the Wilson B matrix (row t = gradient of q_t,
-  `coordinates.py`); `from_atoms` (`hessians.py`) builds the `System` with `System.from_terms`
-  so that the accurate solver path stays available. `ValenceForceField` (`calculator.py`) is an
-  ASE calculator for the same potential with the exact nonlinear coordinates (used by the
-  cross-checks against ASE and phonopy).
+  bends (two perpendicular bending coordinates, as CO2 needs), torsions and out-of-plane impropers
+  (`internal_terms.py`), with potential V = 1/2 sum_t w_t (q_t(X) - q_t0)^2 and, by default, typed
+  constants by element pair and bond order, bend centre, torsion axis and planar centre from one
+  small table fitted to observed fundamentals (`force_constants.py`). At an equilibrium dV/dq = 0,
+  so the Hessian is exactly K = B^T diag(w) B with B the Wilson B matrix (row t = gradient of q_t,
+  `coordinates.py`); `from_atoms` (`hessians.py`) builds the `System` with `System.from_terms` so
+  that the accurate solver path stays available. `ValenceForceField` (`calculator.py`) is an ASE
+  calculator for the same potential with the exact nonlinear coordinates (used by the cross-checks
+  against ASE and phonopy).
 - **Any ASE calculator**: `finite_difference_hessian` (`finite_difference.py`: 2- or 4-point
   central differences of the forces, symmetrised, with a Richardson estimate of its truncation
   error and a round-off estimate) and `from_calculator`.

@@ -132,6 +132,14 @@ class VibrationalAnalysis:
         return "\n".join(lines)
 
 
+def _reported_when_built(system: System) -> bool:
+    """A molecule from a valence force field (K = B^T W B exactly, chemical symbols set, as
+    `from_atoms` and `molecule` build it): its builder counted the zero modes of B and warned,
+    naming the missing terms, so the analysis does not warn a second time."""
+    return (getattr(system, "symbols", None) is not None and getattr(system, "extra_hessian", None) is None
+            and system.spring_factor() is not None)
+
+
 def vibrational_analysis(
     system: System,
     *,
@@ -170,7 +178,9 @@ def vibrational_analysis(
     Warns
     -----
     SoftModeWarning
-        Vibrations with zero frequency (the force field does not hold some motion).
+        Vibrations with zero frequency (the force field does not hold some motion). Not for a
+        molecule of `from_atoms` or `molecule`: those warn once, when built, naming the
+        keyword that adds the missing terms.
     RuntimeWarning
         Imaginary vibrations (from `normal_modes`); they are kept and flagged.
 
@@ -247,7 +257,10 @@ def vibrational_analysis(
         rigid[np.argsort(-overlap, kind="stable")[:n_rigid]] = True
     scale = float(np.abs(modes.omega).max()) if n_dof else 0.0
     soft = (~rigid) & (np.abs(modes.omega) <= zero_rtol * scale)
-    warn_soft_modes(int(soft.sum()) + n_rigid, n_rigid, system.name)
+    if soft.any() and not _reported_when_built(system):
+        warn_soft_modes(int(soft.sum()) + n_rigid, n_rigid, system.name,
+                        "its Hessian holds them with no force (a force field that lacks terms, or a geometry "
+                        "off the minimum); for a valence force field see vibra.molecules.valence_model")
     d = np.asarray(modes.vectors)
     reduced_mass = 1.0 / np.sum(d**2 / mass_dof[:, None], axis=0)
     return VibrationalAnalysis(

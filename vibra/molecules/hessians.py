@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import _validate
 from vibra.molecules.checks import check_atoms, masses_or_default, molecule_name, nonnegative_scalar
+from vibra.molecules.internal_terms import internal_terms
 from vibra.molecules.rigid_body import expected_rigid_count, warn_soft_modes
 from vibra.molecules.valence import ValenceModel, valence_model
 from vibra.system import System
@@ -32,6 +33,25 @@ def _residual_force_check(model: ValenceModel, positions: NDArray[np.float64], t
             "vanish, so relax the geometry or use reference values taken from it"
         )
 
+
+
+def _remedy(model: ValenceModel, positions: NDArray[np.float64]) -> str:
+    """What to pass to `valence_model` (or `molecule`) for the kinds of terms the model lacks."""
+    terms = internal_terms(positions, model.bonds, linear_tolerance_deg=1.0)
+    missing = []
+    if not len(model.angles) + len(model.linear_angles) and len(terms.angles) + len(terms.linear_angles):
+        missing.append('no bends: pass bend="typed" (the default) or a constant in eV/rad^2; central springs '
+                       "cannot hold the bends of a linear or planar molecule")
+    if not len(model.torsions) and len(terms.torsions):
+        missing.append(f"no torsions ({len(terms.torsions)} dihedrals would hold the twists about its bonds): "
+                       'pass torsion="typed" (the default) or a constant in eV/rad^2, not torsion=None')
+    if not len(model.out_of_plane) and len(terms.out_of_plane):
+        missing.append("no out-of-plane terms (its planar centres fold freely): pass "
+                       'out_of_plane="typed" (the default) or a constant in eV/rad^2, not out_of_plane=None')
+    if not missing:
+        return ("add the terms that hold them: a missing bond (bonds= or a larger bond_scale), or bend=, "
+                "torsion= and out_of_plane= constants (valence_model)")
+    return "the force field has " + "; ".join(missing)
 
 
 def _zero_count_of_factor(b: sp.csr_matrix, masses: NDArray[np.float64], dim: int, rtol: float = 1e-8) -> int:
@@ -111,7 +131,9 @@ def from_atoms(
     b = model.wilson_b(positions)
     label = molecule_name(atoms, name)
     n_zero = _zero_count_of_factor(b, site_masses, 3)
-    warn_soft_modes(n_zero, expected_rigid_count(positions, site_masses, 1e-6), label)
+    n_rigid = expected_rigid_count(positions, site_masses, 1e-6)
+    if n_zero > n_rigid:
+        warn_soft_modes(n_zero, n_rigid, label, _remedy(model, positions))
     system = System.from_terms(positions, site_masses, coupling=b, weights=model.weights(), units="ASE", name=label)
     return system.with_symbols(atoms.get_chemical_symbols())
 

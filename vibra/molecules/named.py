@@ -142,11 +142,14 @@ def molecule(
     """A molecule by name (ASE's collection) or from `Atoms`, at its valence-force-field equilibrium.
 
     The force field is ``valence_model(atoms, **valence_model_options)`` (same defaults:
-    bonds from covalent radii, stretch 30 eV/A^2, bend 3 eV/rad^2, no torsions). Its reference
-    values are the input geometry, which is therefore the equilibrium (module docstring); a
-    nearly straight angle treated as a linear bend is straightened by relaxation first.
-    Chains and planar molecules need ``torsion=`` (eV/rad^2) to hold their twists; without it
-    the `SoftModeWarning` of `from_atoms` names the zero modes.
+    bonds from covalent radii; stretches, bends, torsions and out-of-plane terms with the typed
+    constants of `vibra.molecules.force_constants`, by element pair and bond order, bend
+    centre, torsion axis and planar centre, fitted to observed fundamentals; docs/molecules.md
+    gives their errors against experiment). Its reference values are the input geometry, which
+    is therefore the equilibrium (module docstring); a nearly straight angle treated as a
+    linear bend is straightened by relaxation first. ``torsion=None`` or ``out_of_plane=None``
+    leave chains and planar molecules free to twist or fold; the one `SoftModeWarning` of
+    `from_atoms` then names the zero modes and the keyword that holds them.
 
     Parameters
     ----------
@@ -161,7 +164,9 @@ def molecule(
     name : str, optional
         Name of the system (the given molecule name, or the Hill formula of `Atoms`).
     **valence_model_options
-        Keyword arguments of `valence_model` (``stretch``, ``bend``, ``torsion``, ``bonds``, ...).
+        Keyword arguments of `valence_model` (``stretch``, ``bend``, ``torsion``,
+        ``out_of_plane``, ``bonds``, ...): ``"typed"`` (the default), a number, one number per
+        term, or None to leave out a kind of term.
 
     Returns
     -------

@@ -98,13 +98,13 @@ def expected_rigid_count(positions: NDArray[np.float64], masses: NDArray[np.floa
     return 5 if is_linear(positions, masses, rtol=linear_rtol) else 6
 
 
-def warn_soft_modes(n_zero: int, n_rigid: int, name: str, stacklevel: int = 3) -> None:
+def warn_soft_modes(n_zero: int, n_rigid: int, name: str, remedy: str, stacklevel: int = 3) -> None:
+    """One `SoftModeWarning` when `n_zero` zero-frequency modes exceed the `n_rigid` rigid-body
+    motions; `remedy` says what to pass or change."""
     if n_zero > n_rigid:
         warnings.warn(
-            f"{name}: the force field leaves {n_zero} zero-frequency modes but the geometry allows only "
-            f"{n_rigid} rigid-body ones; {n_zero - n_rigid} motion(s) have no restoring force (central "
-            "springs cannot hold the bend of a linear molecule, nor bends a planar one's out-of-plane "
-            "motion: add bends, linear bends or torsions)",
+            f"{name}: {n_zero - n_rigid} motion(s) have no restoring force: the force field leaves {n_zero} "
+            f"zero-frequency modes but the geometry allows only {n_rigid} rigid-body ones; {remedy}",
             SoftModeWarning, stacklevel=stacklevel,
         )
 
