@@ -34,6 +34,12 @@ def _wavenumber_label(kind: str, decreasing: bool) -> str:
     return f"{name} (cm$^{{-1}}$), {direction}"
 
 
+def _level_text(spectrum: Any) -> str:
+    """``", RHF/STO-3G"``: the level of theory a spectrum carries, for a title (``""`` for none)."""
+    level = getattr(spectrum, "level", "")
+    return f", {level}" if level else ""
+
+
 def _unit_label(unit: str) -> str:
     return unit.replace("^2", "$^2$").replace("^4", "$^4$").replace("Angstrom", "Å")
 
@@ -47,7 +53,8 @@ def plot_stick_spectrum(sticks: StickSpectrum, *, title: str | None = None,
     sticks : StickSpectrum
         From ``IRSpectrum.sticks()`` or ``RamanSpectrum.sticks()``.
     title : str, optional
-        Figure title (default: "<kind> stick spectrum").
+        Figure title (default: "<kind> stick spectrum", with the level of theory where the
+        spectrum carries one: "IR stick spectrum, RHF/STO-3G").
     decreasing : bool, optional
         Wavenumber axis decreasing to the right (default: True for IR, False for Raman).
 
@@ -71,7 +78,7 @@ def plot_stick_spectrum(sticks: StickSpectrum, *, title: str | None = None,
     ax.set_ylim(0.0, 1.15 * top if top > 0 else 1.0)
     what = "Raman activity" if sticks.kind.lower() == "raman" else f"{sticks.kind} intensity"
     ax.set_ylabel(f"{what} ({_unit_label(sticks.unit)})")
-    ax.set_title(title or f"{sticks.kind} stick spectrum")
+    ax.set_title(title or f"{sticks.kind} stick spectrum{_level_text(sticks)}")
     return fig
 
 
@@ -86,7 +93,8 @@ def plot_broadened_spectrum(spectrum: BroadenedSpectrum, *, sticks: StickSpectru
     sticks : StickSpectrum, optional
         Lines drawn on a right-hand axis in their own unit.
     title : str, optional
-        Figure title.
+        Figure title (default: "<kind> spectrum", with the level of theory where the spectrum
+        carries one).
     decreasing : bool, optional
         Wavenumber axis decreasing to the right (default: True for IR, False for Raman).
 
@@ -124,7 +132,7 @@ def plot_broadened_spectrum(spectrum: BroadenedSpectrum, *, sticks: StickSpectru
         ax.invert_xaxis()
     ax.set_xlabel(_wavenumber_label(spectrum.kind, down))
     ax.legend(handles, labels, loc="upper left" if down else "upper right")
-    ax.set_title(title or f"{spectrum.kind} spectrum")
+    ax.set_title(title or f"{spectrum.kind} spectrum{_level_text(spectrum)}")
     return fig
 
 

@@ -34,7 +34,9 @@ the pickled bytes of the factory (its qualified name and, for a ``functools.part
 arguments) or of a copy of the instance after its ``reset()`` (ASE's `Calculator.reset`
 forgets the last geometry and results): its class and settings (e.g. the force field of a
 `ValenceForceField`), whether or not it computed anything before. The cache does not know the calculator's code or version: after
-changing either, use a new folder. A file is verified when read (it must load as a finite
+changing either, use a new folder. A run that also differentiates properties
+(``properties=("dipole", "polarizability")``, `PROPERTY_ROWS`) stores their values as more
+rows below the forces in the same file, and their names enter the key. A file is verified when read (it must load as a finite
 ``(n_atoms, 3)`` float64 array without pickles); a file that does not is recomputed and
 replaced, with a `CacheWarning`.
 """
@@ -60,9 +62,19 @@ if TYPE_CHECKING:
     from ase import Atoms
 
 __all__ = ["Displacement", "displacement_plan", "displaced_positions", "displaced_forces", "force_problem",
-           "CalculatorSource", "ForceCache", "CacheWarning"]
+           "CalculatorSource", "ForceCache", "CacheWarning", "PROPERTY_ROWS", "property_rows"]
 
 _AXES = "xyz"
+
+#: Properties a finite difference can differentiate beside the forces, and the rows of 3 each adds
+#: below the forces in one geometry's array: the dipole (e Angstrom, 1 row) and the polarisability
+#: (Angstrom^3, a polarisability volume, 3 rows).
+PROPERTY_ROWS = {"dipole": 1, "polarizability": 3}
+
+
+def property_rows(properties: Sequence[str]) -> int:
+    """Rows of 3 that `properties` (names in `PROPERTY_ROWS`) add below the forces."""
+    return sum(PROPERTY_ROWS[name] for name in properties)
 
 
 class CacheWarning(UserWarning):
@@ -119,10 +131,12 @@ def displaced_positions(positions: NDArray[np.float64], displacement: Displaceme
     return positions + shift if displacement.sign > 0 else positions + -shift
 
 
-def force_problem(values: NDArray[np.float64], n_atoms: int, label: str) -> str | None:
-    """Why `values` are not usable forces of `n_atoms` atoms at `label` (None when they are)."""
-    if values.shape != (n_atoms, 3):
-        return f"calculator returned forces of shape {values.shape} at {label}; expected ({n_atoms}, 3)"
+def force_problem(values: NDArray[np.float64], n_atoms: int, label: str, rows: int = 0) -> str | None:
+    """Why `values` are not usable forces of `n_atoms` atoms (and `rows` rows of properties below
+    them, `property_rows`) at `label` (None when they are)."""
+    if values.shape != (n_atoms + rows, 3):
+        what = "forces" if not rows else "forces and properties"
+        return f"calculator returned {what} of shape {values.shape} at {label}; expected ({n_atoms + rows}, 3)"
     bad = ~np.isfinite(values)
     if bad.any():
         a, c = (int(v) for v in np.argwhere(bad)[0])
@@ -238,16 +252,31 @@ def is_factory(value: Any) -> bool:
     return isinstance(value, type) or (callable(value) and not is_calculator(value))
 
 
-def displaced_forces(atoms: Atoms, source: CalculatorSource, positions: NDArray[np.float64]) -> NDArray[np.float64]:
+def displaced_forces(atoms: Atoms, source: CalculatorSource, positions: NDArray[np.float64],
+                     properties: Sequence[str] = ()) -> NDArray[np.float64]:
     """Forces (n_atoms, 3), eV / Angstrom, at `positions`, from a calculator in its initial state.
 
     The task each Dask worker runs (and the serial loop calls): `atoms` gives the numbers,
-    cell and periodic flags, `positions` the geometry.
+    cell and periodic flags, `positions` the geometry. With `properties` (names in
+    `PROPERTY_ROWS`) their values from the same calculation follow the forces as more rows:
+    the dipole ``atoms.get_dipole_moment()`` (e Angstrom) as one row, the polarisability
+    ``calc.get_property("polarizability")`` (Angstrom^3) as three, in the order given.
     """
     work = atoms.copy()
     work.calc = source.make()
     work.set_positions(positions)
-    return np.asarray(work.get_forces(), dtype=float)
+    forces = np.asarray(work.get_forces(), dtype=float)
+    if not properties:
+        return forces
+    blocks = [forces]
+    for name in properties:
+        value = (work.get_dipole_moment() if name == "dipole" else work.calc.get_property(name, work))
+        array = np.asarray(value, dtype=float)
+        if array.size != 3 * PROPERTY_ROWS[name]:
+            raise ValueError(f"the calculator's {name} has shape {array.shape}; expected "
+                             f"{(3,) if name == 'dipole' else (3, 3)}")
+        blocks.append(array.reshape(PROPERTY_ROWS[name], 3))
+    return np.vstack(blocks)
 
 
 class ForceCache:
@@ -263,17 +292,24 @@ class ForceCache:
         h, Angstrom.
     calculator_digest : str
         `CalculatorSource.digest`.
+    properties : sequence of str
+        Properties stored below the forces (`displaced_forces`); they enter the key, so a file
+        of forces alone is never read as one with properties.
     """
 
-    def __init__(self, folder: str | os.PathLike[str], atoms: Atoms, step: float, calculator_digest: str) -> None:
+    def __init__(self, folder: str | os.PathLike[str], atoms: Atoms, step: float, calculator_digest: str,
+                 properties: Sequence[str] = ()) -> None:
         self.folder = Path(folder)
         self.n_atoms = len(atoms)
+        self.rows = property_rows(properties)
         geometry = hashlib.sha256(b"vibra finite-difference cache 1\0")
         geometry.update(np.ascontiguousarray(atoms.get_atomic_numbers(), dtype=np.int64).tobytes())
         geometry.update(np.ascontiguousarray(atoms.get_positions(), dtype=np.float64).tobytes())
         geometry.update(np.ascontiguousarray(atoms.cell.array, dtype=np.float64).tobytes())
         geometry.update(np.ascontiguousarray(atoms.pbc, dtype=np.bool_).tobytes())
         geometry.update(calculator_digest.encode("ascii"))
+        if properties:  # (forces alone keep the keys they always had)
+            geometry.update(("\0properties " + ",".join(properties)).encode("ascii"))
         self.base = geometry.digest()
         self.step = float(step)
 
@@ -295,17 +331,20 @@ class ForceCache:
                 version = np.lib.format.read_magic(handle)
                 shape, _, dtype = (np.lib.format.read_array_header_1_0(handle) if version == (1, 0)
                                    else np.lib.format.read_array_header_2_0(handle))
-            if shape != (self.n_atoms, 3) or np.dtype(dtype) != np.float64:
-                warnings.warn(f"{path}: cache file declares {np.dtype(dtype)} {shape}, not ({self.n_atoms}, 3) "
-                              f"float64 forces; recomputing {displacement.label}", CacheWarning, stacklevel=3)
+            if shape != (self.n_atoms + self.rows, 3) or np.dtype(dtype) != np.float64:
+                warnings.warn(f"{path}: cache file declares {np.dtype(dtype)} {shape}, not "
+                              f"({self.n_atoms + self.rows}, 3) float64 forces; recomputing {displacement.label}",
+                              CacheWarning, stacklevel=3)
                 return None
             values = np.load(path, allow_pickle=False)
         except (OSError, ValueError, EOFError) as error:
             warnings.warn(f"{path}: unreadable cache file ({error}); recomputing {displacement.label}",
                           CacheWarning, stacklevel=3)
             return None
-        if values.dtype != np.float64 or force_problem(values, self.n_atoms, displacement.label) is not None:
-            warnings.warn(f"{path}: cache file holds {values.dtype} {values.shape}, not finite ({self.n_atoms}, 3) "
+        if values.dtype != np.float64 or force_problem(values, self.n_atoms, displacement.label,
+                                                       self.rows) is not None:
+            warnings.warn(f"{path}: cache file holds {values.dtype} {values.shape}, not finite "
+                          f"({self.n_atoms + self.rows}, 3) "
                           f"float64 forces; recomputing {displacement.label}", CacheWarning, stacklevel=3)
             return None
         return np.asarray(values, dtype=np.float64)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,8 +17,10 @@ from vibra.cluster import ProgressOption, check_client, connect, progress_callba
 from vibra.modes import Modes
 from vibra.molecules.displacements import (CalculatorSource, Displacement, ForceCache, displaced_forces,
                                            displaced_positions, displacement_plan, force_problem, is_calculator,
-                                           is_factory)
+                                           is_factory, property_rows)
 from vibra.molecules.noise import ForceNoise, force_noise_task, is_deterministic_calculator, rounding_noise
+from vibra.molecules.property_derivatives import (PropertyDerivatives, central_difference, check_properties,
+                                                  property_derivatives)
 from vibra.molecules.checks import check_atoms, masses_or_default, molecule_name, nonnegative_scalar
 from vibra.system import System
 
@@ -74,6 +76,9 @@ class FiniteDifferenceHessian:
         Calculator force evaluations spent in this run, including the reference geometry.
     n_cached : int
         Geometries whose forces were read from the cache instead (0 without a cache).
+    derivatives : PropertyDerivatives or None
+        The dipole and polarisability derivatives from the same geometries, with their error
+        estimates, when `finite_difference_hessian` was asked for ``properties``.
     """
 
     hessian: NDArray[np.float64]
@@ -93,6 +98,7 @@ class FiniteDifferenceHessian:
     error_method: str
     n_force_calls: int
     n_cached: int = 0
+    derivatives: PropertyDerivatives | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -168,6 +174,8 @@ def finite_difference_hessian(
     progress: ProgressOption = None,
     n_workers: int | None = None,
     timeout: float = 10.0,
+    properties: Sequence[str] = (),
+    property_noise: Mapping[str, float] | None = None,
 ) -> FiniteDifferenceHessian:
     """Hessian of any ASE calculator by central differences of its forces.
 
@@ -239,6 +247,15 @@ def finite_difference_hessian(
         Worker processes of ``client="local"`` (default: the usable cores).
     timeout : float
         Seconds to wait for a scheduler address to answer.
+    properties : sequence of {"dipole", "polarizability"}
+        Also differentiate these, read from the same calculation at every geometry (the dipole
+        ``atoms.get_dipole_moment()`` in e Angstrom, the polarisability
+        ``calc.get_property("polarizability")`` in Angstrom^3), with the same stencil, cache
+        and error estimate: `FiniteDifferenceHessian.derivatives`
+        (`vibra.molecules.property_derivatives`).
+    property_noise : mapping, optional
+        Noise of one component of a property (e Angstrom, Angstrom^3) for its round-off part;
+        a property left out gets the rounding level (the force probe does not measure it).
 
     Returns
     -------
@@ -291,6 +308,7 @@ def finite_difference_hessian(
         given = None if force_noise is None else nonnegative_scalar(force_noise, "force_noise", "eV/Angstrom")
     tolerance = None if force_tolerance is None else nonnegative_scalar(force_tolerance, "force_tolerance",
                                                                    "eV/Angstrom")
+    names, given_noise = check_properties(properties, property_noise)
     check_client(client)
     if calculator_key is not None and not isinstance(calculator_key, str):
         raise TypeError(f"calculator_key must be a str, got {type(calculator_key).__name__}")
@@ -299,7 +317,7 @@ def finite_difference_hessian(
         source.require_picklable()
     template = atoms.copy()
     template.calc = None
-    store = None if cache is None else ForceCache(cache, template, h, source.digest())
+    store = None if cache is None else ForceCache(cache, template, h, source.digest(), names)
     n = len(template)
     # step multiples evaluated: the stencil's own, plus one coarser for the Richardson estimate
     multiples = [1] if stencil == 2 else [1, 2]
@@ -308,17 +326,19 @@ def finite_difference_hessian(
     plan = displacement_plan(n, multiples)
     with contextlib.ExitStack() as stack:
         cluster = _Cluster(client, stack, n_workers, timeout)
-        forces = _gather_forces(plan, template, source, positions, h, store, tolerance, cluster=cluster,
+        forces = _gather_forces(plan, template, source, positions, h, store, tolerance, names, cluster=cluster,
                                 progress=progress)
-        floor = rounding_noise(max(float(np.abs(values).max()) for values in forces.forces))
+        floor = rounding_noise(max(float(np.abs(values[:n]).max()) for values in forces.forces))
         if given is None:
             noise = ForceNoise(0.0, "rounding", 0)
         elif isinstance(given, str):                   # "auto"
-            noise = _probe(template, source, calc, forces.forces[0], floor, cluster)
+            noise = _probe(template, source, calc, forces.forces[0][:n], floor, cluster)
         else:
             noise = ForceNoise(given, "given", 0)
+    derivatives = None if not names else property_derivatives(
+        [values[n:] for values in forces.forces], plan, multiples, h, int(stencil), names, given_noise, estimate_error)
     return _assemble(forces, plan, multiples, h, int(stencil), noise, floor, positions, masses,
-                     template.get_atomic_numbers(), estimate_error)
+                     template.get_atomic_numbers(), estimate_error, derivatives)
 
 
 class _Cluster:
@@ -379,9 +399,11 @@ class _Gathered:
 
 def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: CalculatorSource,
                    positions: NDArray[np.float64], h: float, store: ForceCache | None, tolerance: float | None,
-                   *, cluster: _Cluster, progress: ProgressOption) -> _Gathered:
-    """Forces at every geometry of `plan`: from the cache, in this process, or on a cluster."""
+                   properties: tuple[str, ...], *, cluster: _Cluster, progress: ProgressOption) -> _Gathered:
+    """Forces (and the `properties` below them) at every geometry of `plan`: from the cache, in this
+    process, or on a cluster."""
     n = len(template)
+    rows = property_rows(properties)
     found: dict[int, NDArray[np.float64]] = {}
     if store is not None:
         for d in plan:
@@ -389,26 +411,26 @@ def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: Calc
             if values is not None:
                 found[d.index] = values
     if 0 in found:
-        _check_reference(found[0], tolerance)
+        _check_reference(found[0][:n], tolerance)
     missing = [d for d in plan if d.index not in found]
     n_cached = len(found)
 
     def accept(d: Displacement, values: NDArray[np.float64]) -> str | None:
-        problem = force_problem(values, n, d.label)
+        problem = force_problem(values, n, d.label, rows)
         if problem is not None:
             return problem
         if store is not None:
             store.store(d, values)
         found[d.index] = values
         if d.index == 0:
-            _check_reference(values, tolerance)
+            _check_reference(values[:n], tolerance)
         return None
 
     if missing and cluster.client is None:
         callback = progress_callback(progress, len(missing))
         for done, d in enumerate(missing, start=1):
             try:
-                values = displaced_forces(template, source, displaced_positions(positions, d, h))
+                values = displaced_forces(template, source, displaced_positions(positions, d, h), properties)
             except Exception as error:
                 raise RuntimeError(f"calculator failed at {d.label}: {type(error).__name__}: {error}"
                                    + _kept(store, len(found))) from error
@@ -427,7 +449,7 @@ def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: Calc
 
         _, failures = run_tasks(
             cluster.get(), displaced_forces,
-            [(template, source, displaced_positions(positions, d, h)) for d in missing],
+            [(template, source, displaced_positions(positions, d, h), properties) for d in missing],
             labels=[d.label for d in missing], on_result=on_result, progress=progress,
             name="vibra-fd")
         problems.extend(f"calculator failed at {f.describe()}" for f in failures)
@@ -445,27 +467,18 @@ def _kept(store: ForceCache | None, n_done: int) -> str:
 
 def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: list[int], h: float, stencil: int,
               noise: ForceNoise, floor: float, positions: NDArray[np.float64], masses: NDArray[np.float64],
-              numbers: NDArray[np.int_], estimate_error: bool) -> FiniteDifferenceHessian:
+              numbers: NDArray[np.int_], estimate_error: bool,
+              derivatives: PropertyDerivatives | None = None) -> FiniteDifferenceHessian:
     """The Hessian and its error estimate from the forces of every geometry, in the plan's order."""
     n_dof = positions.size
-    forces = gathered.forces
+    forces = tuple(values[:positions.shape[0]] for values in gathered.forces)
     residual = float(np.linalg.norm(forces[0], axis=1).max())
     quotient = {m: np.empty((n_dof, n_dof)) for m in multiples}
     for d_plus, d_minus in zip(plan[1::2], plan[2::2]):
         m = d_plus.multiple
         plus, minus = forces[d_plus.index].ravel(), forces[d_minus.index].ravel()
         quotient[m][d_plus.dof] = (minus - plus) / (2.0 * m * h)
-    if stencil == 2:
-        raw = quotient[1]
-        truncation_raw = np.abs(quotient[1] - quotient[2]) / 3.0 if estimate_error else None
-        noise_gain = np.sqrt(2.0) / 2.0
-    else:
-        raw = (4.0 * quotient[1] - quotient[2]) / 3.0
-        truncation_raw = None
-        if estimate_error:
-            coarse = (4.0 * quotient[2] - quotient[4]) / 3.0
-            truncation_raw = np.abs(raw - coarse) / 15.0
-        noise_gain = np.sqrt(2.0 * 64.0 + 2.0) / 12.0
+    raw, truncation_raw, noise_gain = central_difference(quotient, stencil, estimate_error)
     asymmetry_matrix = np.abs(raw - raw.T) / 2.0
     hessian = (raw + raw.T) / 2.0
     if truncation_raw is not None:
@@ -484,7 +497,7 @@ def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: li
         force_noise=float(sigma), noise_source=noise.source, n_noise_calls=noise.n_force_calls,
         asymmetry=float(asymmetry_matrix.max()), residual_force=residual, positions=positions,
         masses=masses, numbers=numbers, step=h, stencil=stencil,
-        error_method=method, n_force_calls=gathered.computed, n_cached=gathered.cached,
+        error_method=method, n_force_calls=gathered.computed, n_cached=gathered.cached, derivatives=derivatives,
     )
 
 

@@ -13,6 +13,10 @@ Models (see docs/spectra.md):
   From a calculator: dmu_a/dx_ib by central differences of ``atoms.get_dipole_moment()``,
   projected on the modes. Intensity |dmu/dQ_k|^2 in e^2/amu; times
   N_A / (12 epsilon_0 c^2) it is the integrated absorption coefficient in km/mol.
+- IR and Raman from electronic structure (`electronic.py`): the dipole and polarisability
+  derivatives of an engine (`vibra.molecules.engines`, e.g. PySCF's Hartree-Fock and DFT)
+  projected on the modes: intensities in km/mol, activities in Angstrom^4/amu, depolarisation
+  ratios and differential cross sections, each labelled with the level of theory.
 - Raman, bond polarisabilities: each bond adds
   alpha_b = alpha_par e e^T + alpha_perp (I - e e^T) (e the unit bond vector), whose two
   values depend on the bond length. The mode's polarisability derivative alpha'_k collects
@@ -27,7 +31,7 @@ when a `vibra.molecules.VibrationalAnalysis` is passed as the modes, every mode 
 a translation or rotation) are skipped everywhere; imaginary modes are skipped with a
 RuntimeWarning.
 
-Modules: `ir.py`, `raman.py`, `broadening.py` (stick and broadened spectra), `thermochemistry.py`, `ideal_gas.py`,
+Modules: `ir.py`, `raman.py`, `electronic.py`, `broadening.py` (stick and broadened spectra), `thermochemistry.py`, `ideal_gas.py`,
 `isotopes.py` (isotope shifts), and `common.py` (mode selection and checks they share).
 """
 
@@ -37,6 +41,7 @@ from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
 from vibra.spectra.broadening import BroadenedSpectrum, StickSpectrum, broadened_spectrum
 from vibra.spectra.common import ZERO_RTOL
+from vibra.spectra.electronic import electronic_ir_spectrum, electronic_raman_spectrum
 from vibra.spectra.ideal_gas import (STANDARD_PRESSURE, IdealGasThermochemistry, ThermoContribution,
                                      ideal_gas_thermochemistry)
 from vibra.spectra.ir import (KM_PER_MOL_PER_E2_AMU, PAULING_ELECTRONEGATIVITY, IRSpectrum, dipole_derivatives,
@@ -53,7 +58,7 @@ __all__ = [
     "IRSpectrum", "RamanSpectrum", "StickSpectrum", "BroadenedSpectrum", "Thermochemistry",
     "IsotopeShifts",
     "ir_spectrum", "raman_spectrum", "dipole_derivatives", "electronegativity_charges",
-    "broadened_spectrum", "thermochemistry", "isotope_shifts",
+    "broadened_spectrum", "thermochemistry", "isotope_shifts", "electronic_ir_spectrum", "electronic_raman_spectrum",
     "STANDARD_PRESSURE", "IdealGasThermochemistry", "ThermoContribution", "ideal_gas_thermochemistry",
 ]
 

@@ -34,6 +34,9 @@ class StickSpectrum(Result):
         Unit of the intensities (``"km/mol"``, ``"e^2/amu"``, ``"Angstrom^4/amu"``).
     kind : str
         ``"IR"``, ``"Raman"`` or a free label; charts use it for titles and axis direction.
+    level : str
+        The level of theory the lines were computed at (``"RHF/STO-3G"``; ``""`` for vibra's
+        models); charts put it in their titles.
     """
 
     STORED = {"wavenumbers": stored(("n_lines",)), "intensities": stored(("n_lines",))}  # (vibra._results)
@@ -43,6 +46,7 @@ class StickSpectrum(Result):
     intensities: NDArray[np.float64]
     unit: str
     kind: str
+    level: str = ""
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -54,7 +58,7 @@ class StickSpectrum(Result):
                   shape: Literal["lorentzian", "gaussian"] = "lorentzian") -> BroadenedSpectrum:
         """These lines broadened on `grid` (see `broadened_spectrum`)."""
         return broadened_spectrum(self.wavenumbers, self.intensities, grid, width, shape=shape,
-                                  unit=self.unit, kind=self.kind)
+                                  unit=self.unit, kind=self.kind, level=self.level)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -77,6 +81,8 @@ class BroadenedSpectrum(Result):
         Unit of the line intensities.
     kind : str
         ``"IR"``, ``"Raman"`` or a free label.
+    level : str
+        The level of theory of the lines (``""`` for vibra's models).
     """
 
     STORED = {"grid": stored(("n_points",)), "values": stored(("n_points",))}  # (vibra._results)
@@ -88,6 +94,7 @@ class BroadenedSpectrum(Result):
     shape: str
     unit: str
     kind: str
+    level: str = ""
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -98,17 +105,17 @@ class BroadenedSpectrum(Result):
 
 
 def stick_spectrum(wavenumbers: NDArray[np.float64], values: NDArray[np.float64], merge_cm1: float,
-            unit: str, kind: str) -> StickSpectrum:
+            unit: str, kind: str, level: str = "") -> StickSpectrum:
     merge_cm1 = nonnegative_float(merge_cm1, "merge_cm1")
     order = np.argsort(wavenumbers, kind="stable")
     positions, strengths = wavenumbers[order], values[order]
     if positions.size == 0:
-        return StickSpectrum(np.zeros(0), np.zeros(0), unit, kind)
+        return StickSpectrum(np.zeros(0), np.zeros(0), unit, kind, level)
     starts = np.concatenate([[True], np.diff(positions) > merge_cm1])
     group = np.cumsum(starts) - 1
     total = np.asarray(np.bincount(group, weights=strengths), dtype=float)
     mean = np.asarray(np.bincount(group, weights=positions), dtype=float) / np.bincount(group)
-    return StickSpectrum(wavenumbers=mean, intensities=total, unit=unit, kind=kind)
+    return StickSpectrum(wavenumbers=mean, intensities=total, unit=unit, kind=kind, level=level)
 
 
 
@@ -121,6 +128,7 @@ def broadened_spectrum(
     *,
     unit: str = "arb. units",
     kind: str = "IR",
+    level: str = "",
 ) -> BroadenedSpectrum:
     """Lines broadened into a spectral density on a wavenumber grid.
 
@@ -146,6 +154,8 @@ def broadened_spectrum(
         Unit of `intensities`, carried for labels.
     kind : str
         Label of the spectrum (``"IR"``, ``"Raman"``).
+    level : str
+        The level of theory of the lines, carried for chart titles.
 
     Returns
     -------
@@ -191,4 +201,4 @@ def broadened_spectrum(
             profile = np.exp(-0.5 * (offset / sigma) ** 2) / (sigma * np.sqrt(2.0 * np.pi))
         values[start:start + rows] = profile @ strengths
     return BroadenedSpectrum(grid=points, values=values, width=width, shape=shape,
-                             unit=str(unit), kind=str(kind))
+                             unit=str(unit), kind=str(kind), level=str(level))

@@ -63,10 +63,18 @@ class IRSpectrum(Result):
         |dmu/dQ_k|^2, in e^2/amu.
     model : str
         ``"point charges"`` or ``"dipole derivatives"``.
+    level : str
+        The level of theory of the dipole derivatives (``"RHF/STO-3G"``; ``""`` for the point
+        charges and for derivatives given as numbers); charts show it.
+    intensity_errors : (n_vib,) ndarray or None
+        First-order bound on each intensity's error from the error estimate of the dipole
+        derivatives, in e^2/amu (None where none was given): sum_a 2 |dmu_a/dQ_k| d_a + d_a^2,
+        d_a = sum_ib |error_iba| |u_k[i, b]|.
     """
 
     STORED = {"mode_indices": stored(("n_vib",), kind="int"), "wavenumbers": stored(("n_vib",)),  # (vibra._results)
-              "dipole_derivatives": stored(("n_vib", 3)), "intensities": stored(("n_vib",))}
+              "dipole_derivatives": stored(("n_vib", 3)), "intensities": stored(("n_vib",)),
+              "intensity_errors": stored(("n_vib",), optional=True)}
     AXIS, NOUNS, PATH_FIELD = "n_vib", ("mode", "modes"), "model"
 
     mode_indices: NDArray[np.intp]
@@ -74,6 +82,8 @@ class IRSpectrum(Result):
     dipole_derivatives: NDArray[np.float64]
     intensities: NDArray[np.float64]
     model: str
+    level: str = ""
+    intensity_errors: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -85,6 +95,10 @@ class IRSpectrum(Result):
     def intensities_km_per_mol(self) -> NDArray[np.float64]:
         """(n_vib,) integrated absorption coefficients, in km/mol."""
         return self.intensities * KM_PER_MOL_PER_E2_AMU
+
+    def intensity_errors_km_per_mol(self) -> NDArray[np.float64] | None:
+        """(n_vib,) `intensity_errors` in km/mol (None where there are none)."""
+        return None if self.intensity_errors is None else self.intensity_errors * KM_PER_MOL_PER_E2_AMU
 
     def active(self, rtol: float = 1e-8) -> NDArray[np.bool_]:
         """(n_vib,) True where the intensity exceeds `rtol` times the strongest line.
@@ -99,12 +113,12 @@ class IRSpectrum(Result):
         """Stick spectrum; lines closer than `merge_cm1` (cm^-1) are merged and summed."""
         _validate.choice(unit, "unit", _IR_UNITS)
         values = self.intensities_km_per_mol() if unit == "km/mol" else self.intensities
-        return stick_spectrum(self.wavenumbers, values, merge_cm1, unit, "IR")
+        return stick_spectrum(self.wavenumbers, values, merge_cm1, unit, "IR", self.level)
 
     def table(self) -> str:
         """Text table: mode, wavenumber (cm^-1), intensity (km/mol, e^2/amu), IR active."""
         active = self.active()
-        lines = [f"IR ({self.model})", " mode  wavenumber/cm^-1   I/(km/mol)    I/(e^2/amu)  active"]
+        lines = [f"IR ({self.model}{', ' + self.level if self.level else ''})", " mode  wavenumber/cm^-1   I/(km/mol)    I/(e^2/amu)  active"]
         for k in range(len(self.wavenumbers)):
             lines.append(
                 f"{self.mode_indices[k]:5d}  {self.wavenumbers[k]:16.2f}  "

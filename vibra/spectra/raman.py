@@ -1,4 +1,6 @@
-"""Raman activities in the bond-polarisability model."""
+"""Raman activities in the bond-polarisability model (and the spectrum type they share with
+polarisability derivatives from electronic structure: activities, depolarisation ratios and
+differential cross sections)."""
 
 from __future__ import annotations
 
@@ -6,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import constants
 
 from vibra import _validate
 from vibra._frozen import freeze_arrays, span
@@ -16,13 +19,13 @@ from vibra.spectra.common import (ZERO_RTOL, active_lines, bond_pairs, cartesian
                                   system_and_modes, vibrational_mask)
 from vibra.system import System
 
-__all__ = ["RamanSpectrum", "raman_spectrum"]
+__all__ = ["RamanSpectrum", "raman_spectrum", "raman_invariants"]
 
 
 @dataclass(frozen=True, eq=False, repr=False)
 class RamanSpectrum(Result):
-    """Raman activity of the vibrational modes in the bond-polarisability model (a
-    `vibra._results.Result` over the modes; `path` is the model).
+    """Raman activity of the vibrational modes, from the bond-polarisability model or from
+    polarisability derivatives (a `vibra._results.Result` over the modes; `path` is the model).
 
     Attributes
     ----------
@@ -39,12 +42,22 @@ class RamanSpectrum(Result):
         in Angstrom^2/sqrt(amu).
     activities : (n_vib,) ndarray
         45 a'^2 + 7 g'^2, in Angstrom^4/amu.
+    model : str
+        ``"bond polarisability"`` or ``"polarizability derivatives"``.
+    level : str
+        The level of theory of the polarisability derivatives (``""`` for the bond model).
+    activity_errors : (n_vib,) ndarray or None
+        First-order bound on each activity's error from the error estimate of the
+        polarisability derivatives, in Angstrom^4/amu (None where none was given):
+        15 (2 |alpha'_k| |delta_k| + |delta_k|^2), Frobenius norms, 15 the largest value of
+        (45 a'^2 + 7 g'^2) / |alpha'|^2 (an isotropic tensor).
     """
 
     STORED = {"mode_indices": stored(("n_vib",), kind="int"), "wavenumbers": stored(("n_vib",)),  # (vibra._results)
               "polarizability_derivatives": stored(("n_vib", 3, 3)), "isotropic": stored(("n_vib",)),
-              "anisotropy": stored(("n_vib",)), "activities": stored(("n_vib",))}
-    AXIS, NOUNS, PATH = "n_vib", ("mode", "modes"), "bond polarisability"
+              "anisotropy": stored(("n_vib",)), "activities": stored(("n_vib",)),
+              "activity_errors": stored(("n_vib",), optional=True)}
+    AXIS, NOUNS, PATH_FIELD = "n_vib", ("mode", "modes"), "model"
 
     mode_indices: NDArray[np.intp]
     wavenumbers: NDArray[np.float64]
@@ -52,6 +65,9 @@ class RamanSpectrum(Result):
     isotropic: NDArray[np.float64]
     anisotropy: NDArray[np.float64]
     activities: NDArray[np.float64]
+    model: str = "bond polarisability"
+    level: str = ""
+    activity_errors: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -66,12 +82,58 @@ class RamanSpectrum(Result):
 
     def sticks(self, *, merge_cm1: float = 0.01) -> StickSpectrum:
         """Stick spectrum of the activities (Angstrom^4/amu), degenerate lines summed."""
-        return stick_spectrum(self.wavenumbers, self.activities, merge_cm1, "Angstrom^4/amu", "Raman")
+        return stick_spectrum(self.wavenumbers, self.activities, merge_cm1, "Angstrom^4/amu", "Raman", self.level)
+
+    def depolarization_ratios(self) -> NDArray[np.float64]:
+        """(n_vib,) depolarisation ratio of each line for linearly polarised incident light,
+        rho = 3 g'^2 / (45 a'^2 + 4 g'^2): 0 to 3/4, 3/4 for a line with no isotropic part (a
+        non-totally-symmetric mode); NaN for a line without activity (undefined)."""
+        denominator = 45.0 * self.isotropic**2 + 4.0 * self.anisotropy**2
+        ratio = np.full(denominator.shape, np.nan)
+        np.divide(3.0 * self.anisotropy**2, denominator, out=ratio, where=denominator > 0)
+        return ratio
+
+    def cross_sections_cm2_per_sr(self, laser_nm: float = 532.0, temperature: float = 298.15) -> NDArray[np.float64]:
+        """(n_vib,) differential Raman cross sections d sigma / d Omega, in cm^2/sr.
+
+        d sigma_k / d Omega = (2 pi)^4 / 45 (nu_0 - nu_k)^4 h / (8 pi^2 c nu_k) S_k
+        / (1 - exp(-h c nu_k / k T)), nu in cm^-1 (nu_0 = 10^7 / laser_nm), S_k the activity
+        (Angstrom^4/amu as cm^4/g), CGS units (P. L. Polavarapu, J. Phys. Chem. 94, 8106
+        (1990); J. Neugebauer, M. Reiher, C. Kind and B. A. Hess, J. Comput. Chem. 23, 895
+        (2002)): the Stokes line, linearly polarised incident light, the scattered
+        light of both polarisations collected at 90 degrees; the last factor is the Bose
+        population of the initial level (1 at T = 0).
+
+        Parameters
+        ----------
+        laser_nm : float
+            Wavelength of the exciting laser, in nm (its wavenumber must exceed every line's).
+        temperature : float
+            Temperature, in K (>= 0).
+
+        Raises
+        ------
+        ValueError
+            A wavelength that is not positive and finite or whose wavenumber does not exceed the
+            highest line; a negative or non-finite temperature.
+        """
+        wavelength = _validate.positive_scalar(laser_nm, "laser_nm")
+        temperature = nonnegative_float(temperature, "temperature")
+        laser = 1e7 / wavelength                                    # cm^-1
+        if self.wavenumbers.size and laser <= float(self.wavenumbers.max()):
+            raise ValueError(f"laser_nm is {wavelength!r}: {laser:.6g} cm^-1, not above the highest line at "
+                             f"{float(self.wavenumbers.max()):.6g} cm^-1")
+        h, c, k = constants.h * 1e7, constants.c * 1e2, constants.k * 1e7        # erg s, cm/s, erg/K
+        activity = self.activities * 1e-32 / (constants.atomic_mass * 1e3)       # Angstrom^4/amu -> cm^4/g
+        nu = self.wavenumbers
+        bose = np.ones_like(nu) if temperature == 0.0 else -np.expm1(-h * c * nu / (k * temperature))
+        return np.asarray((2.0 * np.pi) ** 4 / 45.0 * (laser - nu) ** 4 * h / (8.0 * np.pi**2 * c * nu)
+                          * activity / bose, dtype=float)
 
     def table(self) -> str:
         """Text table: mode, wavenumber (cm^-1), a', g', activity, Raman active."""
         active = self.active()
-        lines = ["Raman (bond polarisability)",
+        lines = [f"Raman ({self.model}{', ' + self.level if self.level else ''})",
                  " mode  wavenumber/cm^-1        a'          g'   activity/(A^4/amu)  active"]
         for k in range(len(self.wavenumbers)):
             lines.append(
@@ -177,10 +239,7 @@ def raman_spectrum(
     turn_outer = np.einsum("bak,bc->bkac", turn, e)                 # de e^T, (n_bonds, n_vib, 3, 3)
     turn_outer = turn_outer + np.swapaxes(turn_outer, 2, 3)         # de e^T + e de^T
     derivative += np.einsum("b,bkac->kac", a_par - a_perp, turn_outer)
-    with np.errstate(over="ignore", invalid="ignore"):
-        isotropic = np.trace(derivative, axis1=1, axis2=2) / 3.0
-        anisotropy = np.sqrt(np.maximum(_anisotropy_squared(derivative), 0.0))
-        activities = 45.0 * isotropic**2 + 7.0 * anisotropy**2
+    isotropic, anisotropy, activities = raman_invariants(derivative)
     wavenumbers = modes.wavenumbers_cm1()[keep]
     finite_lines(activities, wavenumbers, "activity", "the bond polarisabilities or the geometry")
     return RamanSpectrum(
@@ -188,6 +247,16 @@ def raman_spectrum(
         polarizability_derivatives=derivative, isotropic=isotropic, anisotropy=anisotropy,
         activities=activities,
     )
+
+
+def raman_invariants(derivative: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                                 NDArray[np.float64]]:
+    """a' = tr / 3, g' >= 0 and 45 a'^2 + 7 g'^2 of each (3, 3) tensor of `derivative` (n_vib, 3, 3)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        isotropic = np.trace(derivative, axis1=1, axis2=2) / 3.0
+        anisotropy = np.sqrt(np.maximum(_anisotropy_squared(derivative), 0.0))
+        activities = 45.0 * isotropic**2 + 7.0 * anisotropy**2
+    return isotropic, anisotropy, activities
 
 
 def _anisotropy_squared(t: NDArray[np.float64]) -> NDArray[np.float64]:
