@@ -129,7 +129,8 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     _add_scheduler(rep, "scenes")
     val = sub.add_parser("validate", help="check scene files and build their systems: every check the report runs "
-                         "before solving; prints each scene's size and estimated cost")
+                         "before solving; prints each scene's size and estimated cost, or every problem of its "
+                         "keys (a FAIL line each)")
     val.add_argument("paths", nargs="+", metavar="PATH", help="scene files or folders")
     mod = sub.add_parser("modes", help="print a table of a scene's frequencies")
     mod.add_argument("scene", metavar="SCENE", help="one scene file")
@@ -141,8 +142,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "and a chart")
     swp.add_argument("scene", metavar="SCENE", help="one scene file")
     swp.add_argument("--vary", action="append", required=True, metavar="KEY=START:STOP:N",
-                     help="a dotted key of the scene and its range, e.g. system.defect_mass=0.2:0.8:7 "
-                          "(KEY=log:START:STOP:N for logarithmic spacing); repeat for a grid")
+                     help="a dotted key of the scene and its range, e.g. system.defect_mass=0.2:0.8:7, one value "
+                          "of a list, e.g. system.stiffness[1]=50:150:5, or a response key (compute.response.alpha: "
+                          "the table gets the response's peak); KEY=log:START:STOP:N for logarithmic spacing; repeat "
+                          "for a grid")
     swp.add_argument("--out", default="plots", metavar="DIR",
                      help="output folder (default: plots/): new, empty, or one vibra wrote before (else --force); "
                           "each run rewrites <scene>_sweep.csv, .json and .png there (regular files only, never an "
@@ -183,9 +186,10 @@ def _validate(paths: Sequence[str]) -> int:
         try:
             scene = load_scene(file)
             system = validate(scene)  # the builders' own checks, and what the later steps would refuse
-        except SceneError as error:
+        except SceneError as error:  # every problem of the scene's keys, one line each
             failed += 1
-            print(f"FAIL {error}")
+            for problem in error.errors:
+                print(f"FAIL {problem}")
         else:
             cost = crystal_cost(scene, system) if scene.kind == "crystal" else cost_summary(scene, system)
             print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r}): {cost}")
@@ -305,7 +309,8 @@ def _report(args: argparse.Namespace) -> int:
         return EXIT_FAILED
     print(result.table())
     for outcome in result.failed:
-        print(f"FAILED {outcome.error}", file=sys.stderr)
+        for line in str(outcome.error).splitlines():  # a scene's problems, one line each (SceneError.errors)
+            print(f"FAILED {line}", file=sys.stderr)
         if args.debug and outcome.detail:
             print(outcome.detail, file=sys.stderr)
     print(f"open {Path(args.out) / 'index.html'}")
@@ -350,8 +355,9 @@ def _sweep(args: argparse.Namespace) -> int:
         with protected_inputs(inputs):
             written = [table.to_csv(targets[0]), table.to_json(targets[1]),
                        save_figure(sweep_figure(table)[0], targets[2])]
-    except SceneError as error:
-        print(f"vibra sweep: {error}", file=sys.stderr)
+    except SceneError as error:  # every problem of the scene, one line each
+        for problem in error.errors:
+            print(f"vibra sweep: {problem}", file=sys.stderr)
         return EXIT_FAILED
     except TargetRefused as error:
         print(f"vibra sweep: {error}", file=sys.stderr)

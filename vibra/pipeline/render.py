@@ -403,6 +403,10 @@ class SceneRenderer:
         plotter = self._plotter((rows, columns))
         centre = positions.mean(axis=0)
         extent = float(np.ptp(positions, axis=0).max())
+        # seen along the structure's thinnest principal axis, its longest one across the panel: the
+        # widest projection (a two-lobed protein shows both lobes side by side)
+        axes = np.linalg.eigh(np.cov((positions - centre).T))[1] if n >= 3 else np.eye(3)[:, ::-1]
+        direction, up = axes[:, 0], axes[:, 1]
         line = pv.lines_from_points(positions)
         shown = np.arange(0, n, every)
         titles: list[str] = []
@@ -421,8 +425,8 @@ class SceneRenderer:
                 plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
             titles.append(f"mode {k}: {_frequency_text(scene, modes, k)}")
             plotter.camera.focal_point = tuple(centre)
-            plotter.camera.position = tuple(centre + np.array([0.0, -2.6 * extent, 0.9 * extent]))
-            plotter.camera.up = (0.0, 0.0, 1.0)
+            plotter.camera.position = tuple(centre + 3.0 * extent * direction)
+            plotter.camera.up = tuple(up)
             plotter.reset_camera()
             plotter.camera.zoom(1.3 if rows == 1 else 0.98)  # the tallest structure part stays in view
         name = f"{scene.name}_modes.png"
