@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 __all__ = ["SceneError", "KINDS", "UNITS", "DEFAULT_UNITS", "SAFE_NAME", "SystemSpec", "ResponseSpec",
            "ContinuumSpec", "ComputeSpec", "DrawSpec", "CrystalSpec", "FREQUENCY_UNITS"]
@@ -21,14 +21,61 @@ SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
 
 class SceneError(ValueError):
-    """A scene file that cannot be used; the message reads ``file: key.path: problem``."""
+    """A scene file that cannot be used; the message reads ``file: key.path: problem``.
+
+    One error may carry several problems of the same scene (`SceneError.combine`: what
+    `Scene.from_dict` finds in every key of every section): `errors` lists them, each a
+    `SceneError` of its own, and the message is their lines, one per problem. `key` and
+    `problem` are then the first one's.
+
+    Attributes
+    ----------
+    source : str
+        The scene file (or the name a table was given).
+    key : str
+        The dotted key path of the (first) problem; ``""`` for the file as a whole.
+    problem : str
+        What is wrong at `key` and what is expected.
+    errors : tuple of SceneError
+        Every problem, in the order found (``(self,)`` for a single one).
+    """
 
     def __init__(self, source: str, key: str, message: str) -> None:
         self.source = source
         self.key = key
         self.problem = message
+        self._problems: tuple[SceneError, ...] = ()  # several: one single error each
         where = f"{key}: " if key else ""
         super().__init__(f"{source}: {where}{message}")
+
+    @property
+    def errors(self) -> tuple[SceneError, ...]:
+        return self._problems or (self,)
+
+    @classmethod
+    def combine(cls, errors: Sequence[SceneError]) -> SceneError:
+        """One error carrying `errors` (flattened, repeats dropped): the first itself when it is alone."""
+        parts: list[tuple[str, str, str]] = []
+        for error in errors:
+            for one in error.errors:
+                if (one.source, one.key, one.problem) not in parts:
+                    parts.append((one.source, one.key, one.problem))
+        if not parts:
+            raise ValueError("SceneError.combine needs at least one error")
+        if len(parts) == 1 and len(errors) == 1 and not errors[0]._problems:
+            return errors[0]
+        singles = [SceneError(*part) for part in parts]
+        combined = cls(*parts[0])
+        combined._problems = tuple(singles)
+        combined.args = ("\n".join(str(single) for single in singles),)
+        return combined
+
+    def __reduce__(self) -> tuple[Any, ...]:  # pickles with every problem (a Dask worker's error)
+        return (_rebuild_scene_error, (tuple((e.source, e.key, e.problem) for e in self.errors),))
+
+
+def _rebuild_scene_error(parts: tuple[tuple[str, str, str], ...]) -> SceneError:
+    return SceneError.combine([SceneError(*part) for part in parts])
 
 
 @dataclass(frozen=True)
