@@ -562,7 +562,7 @@ def test_the_guard_takes_the_smallest_memory_limit(monkeypatch: pytest.MonkeyPat
                                                    "address-space limit (ulimit -v)": lambda: 1 * gib,
                                                    "cgroup memory limit": lambda: None})
     assert budget.available_memory() == 1 * gib
-    cost = budget.estimate("dense", 20_000, k=20_000, vectors=True)
+    cost = solvers.estimate("dense", 20_000, k=20_000, vectors=True)  # (the registry's cost function)
     with pytest.raises(budget.ResourceLimitError, match=r"left under the address-space limit \(ulimit -v\)"):
         budget.guard(cost, n_dof=20_000, max_memory=None, max_seconds=float("inf"), alternatives=[])
     monkeypatch.setitem(budget.MEMORY_READERS, "cgroup memory limit", lambda: 0.5 * gib)

@@ -80,10 +80,10 @@ def test_from_imports_and_monkeypatches_through_an_old_name_reach_the_one_module
 
     monkeypatch.setattr(vibra.pencil, "_layout_probe", 1, raising=False)
     assert pencil._layout_probe == 1  # type: ignore[attr-defined]
-    monkeypatch.setattr("vibra.scene.limits.SECONDS_PER_DOF_SQUARED", 2.0)
+    monkeypatch.setattr("vibra.scene.limits.BYTES_PER_DOF", 2)
     from vibra.pipeline.scene import limits
 
-    assert limits.SECONDS_PER_DOF_SQUARED == 2.0
+    assert limits.BYTES_PER_DOF == 2
 
 
 @pytest.mark.parametrize("old", ["vibra.scene.schema", "vibra.report", "vibra.structures", "vibra.pencil"])

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Callable, Literal, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
+from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy
 from vibra.solvers.structured.pencil import check_mass_matrix
 from vibra.solvers.structured.quadratic import QuadraticModes, check_gyroscopic, quadratic_modes
 from vibra.units import UnitSystem, unit_system
@@ -296,7 +297,7 @@ class GeneralizedSystem(FreeDofs):
         self,
         n_modes: int | None = None,
         *,
-        accuracy: Literal["high", "fast", "certified"] = "high",
+        accuracy: Accuracy = "high",
         vectors: bool = True,
         band: tuple[float, float] | None = None,
         solver: str = "auto",
@@ -323,7 +324,7 @@ class GeneralizedSystem(FreeDofs):
         ValueError
             An unknown accuracy; n_modes or band with G or C.
         """
-        _validate.choice(accuracy, "accuracy", ("fast", "high", "certified"))
+        _validate.choice(accuracy, "accuracy", ACCURACY_LEVELS)
         if self.is_quadratic:
             if n_modes is not None or band is not None:
                 raise ValueError("n_modes and band are not available for a system with G or C: "

@@ -21,6 +21,7 @@ from vibra import _validate, solvers
 from vibra.solvers.standard import gpu
 from vibra._frozen import freeze_arrays, owned_arrays
 from vibra._results import ModesResult, Stored, stored
+from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -358,13 +359,14 @@ def normal_modes(
         (None: the memory available now). ``float("inf")`` disables the check.
     max_seconds : float, optional
         Refuse a solve estimated to take longer, in s; default
-        `vibra.solvers.budget.TIME_LIMIT_S` (600 s). ``float("inf")`` disables the check.
+        `vibra.solvers.budget.TIME_LIMIT_S` (`vibra.solvers.accuracy.TIME_LIMIT_S`, 600 s).
+        ``float("inf")`` disables the check.
     progress : bool or callable, optional
         True writes progress lines to stderr, False keeps quiet, a callable receives
         ``(fraction done, message)``; None (default) writes lines only for solves estimated
         to take over `vibra.solvers.budget.PROGRESS_AFTER_S` (5 s).
     accuracy : {"high", "fast", "certified"}
-        What the result promises (`vibra.solvers.ACCURACY_LEVELS`). "fast": LAPACK/ARPACK-class
+        What the result promises (`vibra.solvers.accuracy`, the one place that says it). "fast": LAPACK/ARPACK-class
         solves, absolute accuracy ~eps ||K~|| (the spring factor is not used). "high" (the
         default): with a spring factor, every requested frequency to ~1e-10 relative where the
         structure allows, with an a-posteriori bound; the steps that would only tighten a bound
@@ -375,7 +377,8 @@ def normal_modes(
     device : {"cpu", "gpu"}
         "gpu" ("cuda" is the same) solves all modes densely on an NVIDIA GPU through CuPy
         (``pip install "vibra[gpu]"``), then keeps `n_modes` or `band`; only with solver
-        "auto" or "dense". Its memory (K~ and cuSOLVER's workspace, about 5 n^2 doubles) is
+        "auto" or "dense"; planned and guarded (`max_memory`, `max_seconds`) like any path, the
+        spring factor unused. Its memory (K~ and cuSOLVER's workspace, about 5 n^2 doubles) is
         checked against the GPU's free memory before anything is allocated. Without CuPy or a
         GPU it raises `vibra.solvers.standard.gpu.GPUUnavailableError`; it never falls back to the CPU.
 
@@ -430,28 +433,22 @@ def normal_modes(
     factor = None
     if spring_factor is not None:
         factor = solvers.check_spring_factor(spring_factor, n_dof)
-    if solver == "accurate" and (factor is None or accuracy == "fast"):
+    if solver == "accurate" and (factor is None or not uses_springs(accuracy)):
         raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B"
                          + (' and accuracy "high" or "certified"' if factor is not None else ""))
-    if accuracy == "fast":
-        factor = None  # the standard paths: absolute accuracy
     unit = unit_system(units)
     max_memory = _validate.optional_limit(max_memory, "max_memory")
     max_seconds = _validate.optional_limit(max_seconds, "max_seconds")
     if not (progress is None or isinstance(progress, (bool, np.bool_)) or callable(progress)):
         raise TypeError(f"progress must be None, a bool or a callable(fraction, message), got {progress!r}")
     device = gpu.check_device(device)
-    if device == "gpu":
-        if solver not in ("auto", "dense"):
-            raise ValueError(f"device='gpu' runs the dense path only; solver is {solver!r} (use 'auto' or 'dense')")
-        if not sp.issparse(K_matrix):
-            _validate.finite(K_matrix, "K")
-        K_matrix = _validate.symmetric(K_matrix, "K", symmetrize=symmetrize)
-        result = gpu.solve_gpu(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band)
-        return _modes_from(result, K_matrix, mass, unit)
+    if device == "gpu" and solver not in ("auto", "dense"):
+        raise ValueError(f"device='gpu' runs the dense path only; solver is {solver!r} (use 'auto' or 'dense')")
+    if not uses_springs(accuracy) or device == "gpu":
+        factor = None  # "fast" and the GPU: the standard paths, absolute accuracy
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                           spring_factor=factor, accuracy=accuracy)
+                           spring_factor=factor, accuracy=accuracy, device=device)
     solvers.check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                              max_seconds=max_seconds)
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, Callable, Literal, Protocol, Sequence, runtime_checkable
+from typing import Any, Callable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp
@@ -33,7 +33,7 @@ from vibra import _validate, assembly
 from vibra._frozen import freeze_arrays, short_repr
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
-from vibra.solvers.common import ACCURACY_LEVELS
+from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy, uses_springs
 from vibra.units import UnitSystem, unit_system
 
 __all__ = ["System", "GeneralizedSystem", "Vibrating"]
@@ -502,7 +502,7 @@ class System(FreeDofs):
         self,
         n_modes: int | None = None,
         *,
-        accuracy: Literal["high", "fast", "certified"] = "high",
+        accuracy: Accuracy = "high",
         vectors: bool = True,
         band: tuple[float, float] | None = None,
         solver: str = "auto",
@@ -542,7 +542,7 @@ class System(FreeDofs):
         """
         _validate.choice(accuracy, "accuracy", ACCURACY_LEVELS)
         on_gpu = isinstance(device, str) and device in ("gpu", "cuda")
-        factor = self.spring_factor() if accuracy != "fast" and not on_gpu else None
+        factor = self.spring_factor() if uses_springs(accuracy) and not on_gpu else None
         return normal_modes(
             self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
             solver=solver, spring_factor=factor, units=self.units, device=device,

@@ -32,6 +32,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays, frequency_span
 from vibra._results import Result, stored
 from vibra.crystals.factor import singular_frequencies
+from vibra.solvers.accuracy import HIGH_TARGET, check as check_accuracy, uses_springs
 from vibra.solvers.common import EPS, omega_and_error
 from vibra.solvers.standard.hermitian import hermitian_stack
 from vibra.units import UnitSystem
@@ -46,12 +47,11 @@ __all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_mat
 #: The phase conventions of D(q) (module docstring).
 PHASES: tuple[str, ...] = ("positions", "cell")
 
-#: The accuracy levels of `phonons` (the crystals' subset of vibra's levels).
+#: The levels `phonons` offers (`vibra.solvers.accuracy`; "certified" refused: D(q)'s bounds are not certificates).
 ACCURACY: tuple[str, ...] = ("high", "fast")
 
-#: accuracy="high" re-solves a spring model's q-point through its factor when a bound of the
-#: eigenvalues of D(q) exceeds this relative to omega (docs/architecture.md, "Accuracy": ~1e-10 where the structure allows).
-HIGH_RTOL = 1e-10
+#: "high" re-solves a spring model's q-point through its factor where a bound on D(q) misses this (`accuracy.HIGH_TARGET`).
+HIGH_RTOL = HIGH_TARGET
 
 #: Entries per chunk of the stacked D(q) and phases (~1 MiB of complex D(q); the peak is a few
 #: times that): small enough that frequencies on a path take no more memory than phonopy's
@@ -499,11 +499,11 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     ------
     ValueError
         `qpoints` not (n_q, 3) or not finite, or with a component along a vacuum axis; an unknown
-        `phase`; a crystal without force constants.
+        `phase` or `accuracy` (or "certified"); a crystal without force constants.
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
-    accuracy = _validate.choice(accuracy, "accuracy", ACCURACY)
+    accuracy = check_accuracy(accuracy, offered=ACCURACY, by="phonons")
     crystal.require_force_constants()
     check_periodic_qpoints(crystal, q)
     parts = crystal.assembly
@@ -533,7 +533,7 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     omega, omega_error = (x.reshape(values.shape) for x in omega_and_error(values.ravel(), error.ravel()))
     refined = None
     path = "hermitian-eigh" if polar is None else f"hermitian-eigh + nac-{polar.method}"
-    if accuracy == "high" and crystal.springs is not None and polar is None:
+    if uses_springs(accuracy) and crystal.springs is not None and polar is None:
         refined = (omega_error > HIGH_RTOL * np.abs(omega)).any(axis=1)
         if refined.any():
             path += " + spring-svd"

@@ -46,9 +46,10 @@
                      certified by the same counts (accurate-walled; `accurate/chain/walled.py`).
 =================  ==========================================================================
 
-Before anything is allocated, `plan` describes the request (`registry.Problem`: sizes, the
+Before anything is allocated, `plan` describes the request (`problem.Problem`: sizes, the
 accuracy level, the springs' shape from `topology.classify`), the registry (`registry.PATHS`)
-chooses the path, and `budget.estimate` gives its memory and time (a `SolvePlan`); `budget.guard` refuses (`ResourceLimitError`, a ValueError) a request over the limits
+chooses the path, and that path's declared cost function (`SolverPath.estimate`, from the rates
+of `budget`) gives its memory and time (a `SolvePlan`); `budget.guard` refuses (`ResourceLimitError`, a ValueError) a request over the limits
 with the figures and the cheaper requests (`vectors=False`, `n_modes`, `band`), and
 `budget.Progress` reports solves estimated to take over `budget.PROGRESS_AFTER_S` on stderr.
 
@@ -58,15 +59,18 @@ relative residual and the orthogonality error, which `vibra.modes.Modes` carries
 Where each path lives (one folder per family of paths; the registry and its helpers at the top):
 
 ==================================  ==========================================================
+``accuracy.py``                     what each accuracy level means: levels, targets, the time
+                                    limit, what "fast" skips
 ``common.py``                       `SolveResult`, mass weighting, the accuracy figures, size limits
+``problem.py``                      `Problem`: one request described before any work
 ``topology.py``                     the springs' shape (chain, walled chain, ring, walled ring,
                                     network), classified once
-``registry.py``                     every path: when it applies, what it costs, how it runs
-                                    (`PATHS`, `choose`)
+``registry.py``                     every path declared once: when it applies, its cost function,
+                                    its runner, its name (`PATHS`, `choose`, `estimate`)
 ``runners.py``                      one run function per registered path
 ``dispatch.py``                     `plan` (describe the request, let the registry choose,
                                     estimate), `solve`
-``budget.py``                       memory / time estimates, the guard and its limits, progress
+``budget.py``                       the measured rates, the guard and its limits, progress
 ``compiled.py``                     the compiled kernels' loading (numba on a kernel's first call,
                                     never with vibra) and when a kernel pays (`compiled_pays`)
 ``standard/lapack.py``              dense, tridiagonal, banded (absolute accuracy)
@@ -106,6 +110,7 @@ Where each path lives (one folder per family of paths; the registry and its help
                                     and counts
 ``structured/pencil.py``            K x = omega^2 M x with a full, possibly ill-conditioned M
 ``structured/equilibrated.py``      its solver (pencil-jacobi, pencil-cholesky), as the registry runs it
+``structured/first_order.py``       the quadratic paths' first-order forms and their eigensolvers
 ``structured/quadratic.py``         gyroscopic and damped modes (`QuadraticModes`)
 ==================================  ==========================================================
 
@@ -122,9 +127,11 @@ Examples
 
 from __future__ import annotations
 
-from vibra.solvers.budget import Estimate, Progress, ResourceLimitError, estimate, guard
-from vibra.solvers.common import ACCURACY_LEVELS, SolveResult, mass_weighted, physical_shapes
+from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS
+from vibra.solvers.budget import Estimate, Progress, ResourceLimitError, guard
+from vibra.solvers.common import SolveResult, mass_weighted, physical_shapes
 from vibra.solvers.dispatch import SOLVER_NAMES, SolvePlan, alternatives, check_solve_plan, plan, solve
+from vibra.solvers.registry import estimate
 
 # Importable from vibra.solvers as before, though not part of its API (`__all__`), so that no
 # ``from vibra.solvers import X`` breaks: constants and helpers of its modules, the former names.

@@ -1,9 +1,10 @@
-"""Resource guard of the solver paths: memory and time estimated before any allocation.
+"""Resource guard of the solver paths: the measured rates, the limits, the guard and progress.
 
-`estimate` gives, for one solver path and one request, the memory the path allocates beyond
-its input and the time it takes, from operation counts (the cost of each path below) and the
-rates in this module. `guard` refuses a request whose estimate exceeds the limits, with the
-figures and the cheaper requests that answer the question; `Progress` reports long solves.
+The rates below (seconds per unit of work, bytes per site) are what the cost function of each
+path in `vibra.solvers.registry` (its `SolverPath.estimate`, from sizes before any work) is built
+from; `refinement_seconds` is the bound-tightening step several accurate paths share. `guard`
+refuses a request whose estimate exceeds the limits, with the figures and the cheaper requests
+that answer the question; `Progress` reports long solves.
 
 Limits (module-level settings; `normal_modes(max_memory=..., max_seconds=..., progress=...)`
 overrides them per call):
@@ -12,40 +13,14 @@ overrides them per call):
   now: the smallest of ``MemAvailable`` (/proc/meminfo), the room under the address-space
   limit (``ulimit -v``, RLIMIT_AS) and under the cgroup memory limit (v2 ``memory.max``, v1
   ``memory.limit_in_bytes``) (`available_memory`, `memory_sources`).
-- `TIME_LIMIT_S`: estimated seconds above which a solve is refused (600 s by default, as a
-  scene's `vibra.pipeline.scene.limits.DEFAULT_TIME_LIMIT_S`; ``max_seconds=float("inf")`` runs anyway).
+- `TIME_LIMIT_S`: estimated seconds above which a solve is refused (`vibra.solvers.accuracy.TIME_LIMIT_S`,
+  600 s, which a scene's ``compute.time_limit_s`` defaults to as well; ``max_seconds=float("inf")`` runs anyway).
 - `PROGRESS_AFTER_S`: solves estimated to take longer than this (5 s) report their progress
   on stderr: a line when they start (the estimate), one per stage, one when done.
 
-Costs (n dofs, k modes wanted, b half-bandwidth; rates measured on one ~3 GHz core with
-OpenBLAS, rounded so that estimates err on the high side by a small factor), memory beyond
-the input, then time:
-
-- dense: 8 n^2 (K~; twice with vectors) + 8 n k; 5e-11 n^3 (values), 1.5e-10 n^3 (vectors).
-- accurate-bisection: 1e-6 n k with vectors, 5e-7 n k without (compiled bisection, dstein,
-  certificates), + 2e-6 n k where dstebz takes the values (`gk_bisection.compiled_bisection_pays`).
-- tridiagonal, accurate-bidiagonal: O(n), 8 n^2 with all vectors (LAPACK allocates them);
-  1e-8 n^2 for all values (dqds / MRRR), + 1e-7 n k with vectors. accurate-bidiagonal adds
-  the certificates of every value (`triplets`): ~1.3 kB per site, 1e-8 n^2.
-- banded (a ring: b = 2): 24 (b + 1) n, + 8 n^2 with vectors; 2e-9 (b + 1) n^2 + 1e-8 n^2.
-- sparse, accurate-ritz: (ncv + 2k + 3) n words + the factor (O(n) tridiagonal, ~20 nnz
-  otherwise); 2e-8 n ncv per Lanczos run, + 1.0e-8 n^2 for a 3-D network's factor (a sparse
-  Cholesky: PARDISO or CHOLMOD; 4 times that for SuperLU's LU where neither loads).
-- accurate-ring at "high" from a standard solver (`ring.counted`): the band solve's (all values)
-  or shift-invert's (a few), + 5e-9 n k: two double-double counts of K - x M per value.
-- accurate-ring (a ring's values): ~40 n words; 1e-8 n^2 (dqds of the cut chain; for the
-  lowest k of a long ring, compiled bisection, 5e-7 n k, when cheaper) + 2e-8 n k
-  (measured 1.4-2.4e-8 on two cores: roots of its spring form, ~2.5 double-double counts of 2n
-  nodes per value, 8 points at a time in SIMD lanes) + at most 5e5 sites of mpmath counts
-  (2e-5 s each); with vectors (the lowest k), a Golub-Kahan LU per mode, ~2e-6 n k.
-- accurate-rayleigh: 32 n^2; as dense with vectors. accurate-jacobi: 24 n (n_terms + n).
-- accurate-checked: time as dense with vectors (the usual case: no refinement); memory the
-  larger of that and accurate-jacobi's (a refinement may run).
-- Refinement on the accurate paths with a spring factor (checked, jacobi, rayleigh, a long
-  ring's band): the singular-triplet step, at most `golub_kahan.TRIPLET_SECONDS` (10 s), and on
-  rings up to 6,000 sites the Sturm counts of their certificates, 2e-6 n^2 (`refinement_seconds`).
-- A `band` request is estimated as `dispatch.BAND_MODES_ESTIMATE` (64) modes (its count is unknown
-  before the solve).
+Rates: measured on one ~3 GHz core with OpenBLAS (the GPU's on an H100, `benchmarks/RESULTS.md`,
+"GPU path"), rounded so that estimates err on the high side by a small factor; each cost function
+of the registry says which it uses.
 """
 
 from __future__ import annotations
@@ -56,21 +31,20 @@ import time
 from dataclasses import dataclass
 from typing import Callable, TextIO
 
-from vibra.solvers.common import BAND_LIMIT, RING_DENSE_LIMIT
-from vibra.solvers.accurate.chain.gk_bisection import DSTEBZ_S, compiled_bisection_pays
+from vibra.solvers.accuracy import TIME_LIMIT_S as DEFAULT_TIME_LIMIT_S
+from vibra.solvers.common import RING_DENSE_LIMIT
 from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, triplet_seconds
-from vibra.solvers.standard.cholmod import sparse_backend
 
 #: Bytes a solve may allocate; None means the memory available when the solve starts.
 MEMORY_LIMIT: float | None = None
 
 #: Estimated seconds above which a solve is refused (override: ``max_seconds=``).
-TIME_LIMIT_S = 600.0
+TIME_LIMIT_S = DEFAULT_TIME_LIMIT_S
 
 #: Solves estimated to take longer than this report progress on stderr.
 PROGRESS_AFTER_S = 5.0
 
-# Seconds per unit of work (see the table in the module docstring).
+# Seconds per unit of work (the cost functions of `vibra.solvers.registry` say where each counts).
 # (the measurements behind them: benchmarks/RESULTS.md, "Figures formerly in code comments")
 DENSE_VALUES_S = 5e-11        # per n^3: Householder tridiagonalisation + MRRR values
 DENSE_VECTORS_S = 1.5e-10     # per n^3: the same with back-transformed vectors
@@ -78,6 +52,7 @@ TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or 
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
+KRYLOV_RITZ_S = 1e-9          # per n k^2: the Rayleigh-Ritz step on a shift-invert basis
 SPARSE_FACTOR_S = 1.0e-8      # per n^2: a 3-D network's factor and its solves (a sparse Cholesky; RESULTS.md)
 SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
@@ -97,6 +72,15 @@ TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and
 DD_RAYLEIGH_S = 3e-8
 HIGH_LOOSE = 1                # modes "high" is estimated to refine by triplets (bounds over 1e-10: rare)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
+# per n^3 of the quadratic paths' first-order form of 2n (measured 1.0-1.6e-9 and 2.1-3.2e-9 (2n)^3 s
+# at n = 100..400): two Hermitian solves (skew-symmetric), one geev (hamiltonian), two (companion)
+SKEW_S = 2e-8
+HAMILTONIAN_S = 2.2e-8
+COMPANION_S = 4.4e-8
+# per n^3 on the GPU (cuSOLVER syevd, end to end; an H100: 1.19 s at 9,000 dofs, 29.9 s at 30,000;
+# frequencies only 0.81 s and 19.4 s; benchmarks/RESULTS.md, "GPU path")
+GPU_VECTORS_S = 2e-12
+GPU_VALUES_S = 1.5e-12
 
 
 class ResourceLimitError(ValueError):
@@ -210,102 +194,6 @@ def available_memory() -> float | None:
     memory limit (v2 ``memory.max``, v1 ``memory.limit_in_bytes``); None if none is known."""
     tightest = tightest_memory()
     return None if tightest is None else tightest[1]
-
-
-def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0,
-             nnz: int = 0, accuracy: str = "high", one_dimensional: bool = False, chain: bool = False,
-             ring_route: str | None = None) -> Estimate:
-    """Memory and time of `path` computing `k` of `n` modes (with vectors or not) at `accuracy`
-    (which bound-tightening steps are counted: `refinement_seconds`)."""
-    n2 = float(n) * n
-    vector_bytes = 8.0 * n * k if vectors else 0.0
-    what = f"{'all ' if k == n else ''}{k} mode{'s' if k != 1 else ''} of {n} dofs" + (
-        ", with vectors" if vectors else ", frequencies only")
-    if path in ("dense", "gpu"):  # (the GPU path checks the device's own memory before allocating)
-        memory = 8.0 * n2 * (2 if vectors else 1) + vector_bytes + 8.0 * 26 * n
-        seconds = (DENSE_VECTORS_S * k / n + DENSE_VALUES_S) * n2 * n if vectors else DENSE_VALUES_S * n2 * n
-    elif path in ("tridiagonal", "accurate-bidiagonal"):
-        # LAPACK stemr and the dqds + MRRR pairing allocate all n vectors unless a subset is asked.
-        memory = 8.0 * 12 * n + (8.0 * n2 if vectors and k == n else vector_bytes)
-        if path == "accurate-bidiagonal":  # dqds of all values, each certified (`triplets`)
-            memory += CERTIFY_BYTES * n
-            values_s = (TRIDIAGONAL_S + CERTIFY_S) * n2
-        else:
-            values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
-        seconds = values_s + (TRIDIAGONAL_VECTORS_S * n * k if vectors else 0.0)
-    elif path in ("banded", "accurate-ring-band"):
-        memory = 8.0 * (width + 1) * n * 3 + (8.0 * n2 + vector_bytes if vectors else 0.0)
-        # the band's reduction to tridiagonal, then its values as on the tridiagonal path (a
-        # subset by bisection; figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
-        values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
-        seconds = BANDED_S * (width + 1) * n2 + values_s + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
-    elif path in ("sparse", "accurate-ritz"):
-        # ARPACK's restarted basis for a narrow band (a chain, a ring reordered: a cheap
-        # factor); the block Krylov basis (up to max(10 k, 200) columns, `krylov.block_eigs`)
-        # for any other
-        columns = max(2 * k + 1, 20) if width <= BAND_LIMIT else min(n, max(10 * k, 200))
-        # the basis + the factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) else
-        memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if width <= 1 else 12.0 * 20 * max(nnz, n))
-        seconds = LANCZOS_S * n * columns * 10 + 1e-9 * n * k * k
-        if width > 16:  # a 3-D network: its factor's cost grows as n^2 (nested dissection)
-            seconds += SPARSE_FACTOR_S * n2 * (SUPERLU_SLOWER if sparse_backend(n) == "superlu" else 1.0)
-    elif path == "accurate-bisection":
-        # Sturm bisection (dstebz) on the 2n Golub-Kahan tridiagonal, inverse iteration (dstein),
-        # the certificates' double-double residuals in blocks (measured peak ~430 n bytes)
-        memory = 8.0 * 64 * n + vector_bytes
-        seconds = (BISECTION_VECTORS_S if vectors else BISECTION_VALUES_S) * n * k
-        if not compiled_bisection_pays(n, k):  # the values by dstebz (no numba to load), 2e-6 n k
-            seconds += DSTEBZ_S * n * k
-    elif path == "accurate-ring" and ring_route == "sparse":
-        # shift-invert's values, bracketed by ~2 k double-double counts per level (two levels seen)
-        cost = estimate("sparse", n, k=k, vectors=vectors, width=width, nnz=nnz)
-        memory, seconds = cost.memory, cost.seconds + RING_S * float(n) * k
-    elif path == "accurate-ring" and ring_route == "banded":
-        # the band solver's values, bracketed by two double-double counts of K - x M each (a
-        # double eigenvalue's two by the same two)
-        cost = estimate("banded", n, k=k, vectors=False, width=width)
-        memory, seconds = cost.memory + 8.0 * 12 * n, cost.seconds + RING_COUNTED_S * float(n) * k
-    elif path in ("accurate-ring", "accurate-walled"):
-        # the cut chain's values (dqds, or bisection for the lowest k + 1), then each value's
-        # roots and counts (a chain on walls: its values' counts, no roots)
-        memory = 8.0 * 40 * n + vector_bytes
-        each = BISECTION_VALUES_S  # (the poles: values only)
-        poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, each * n * (k + 1.0))
-        seconds = poles + RING_S * float(n) * k
-        if accuracy == "certified":  # (mpmath counts: "high" stops at 1e-10, which the dd counts meet)
-            seconds += MP_COUNT_S * min(RING_MP_SITES, RING_MP_EXPECTED * n)
-        if vectors and path == "accurate-walled" and k >= n - 1:  # all of them: stemr's (tridiagonal)
-            memory += 8.0 * 12 * n
-            seconds += TRIDIAGONAL_VECTORS_S * n * k
-        elif vectors:  # each mode's sparse LU of the 2n Golub-Kahan matrix (`golub_kahan.singular_vectors`)
-            seconds += TRIPLET_UNIT_S * TRIPLET_ROW * 2.0 * n * k
-    elif path in ("pencil-jacobi", "pencil-cholesky"):
-        # M's and K's equilibrated Cholesky factors, then gejsv on n x n (or eigh of L^-1 K L^-T)
-        memory = 8.0 * n2 * 6
-        seconds = (JACOBI_S + DENSE_VECTORS_S) * n2 * n if path == "pencil-jacobi" else DENSE_VECTORS_S * 2 * n2 * n
-    elif path in ("accurate-rayleigh",):
-        # K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K
-        memory = 8.0 * n2 * 4
-        seconds = DENSE_VECTORS_S * n2 * n
-    elif path == "accurate-checked":
-        fast = estimate("dense", n, k=min(k + 1, n), vectors=True)
-        refined = estimate("accurate-jacobi", n, k=k, vectors=vectors, n_terms=n_terms)
-        memory, seconds = max(fast.memory, refined.memory), fast.seconds
-    elif path in ("skew-symmetric", "hamiltonian", "companion"):
-        # the first-order form of 2n: two Hermitian solves (skew), one or two geev (measured
-        # 1.0-1.6e-9 and 2.1-3.2e-9 (2n)^3 s at n = 100..400); complex vectors of 2n, twice
-        memory = 200.0 * n2
-        seconds = {"skew-symmetric": 2.0, "hamiltonian": 2.2, "companion": 4.4}[path] * 1e-8 * n2 * n
-    else:  # accurate-jacobi
-        rows = max(n_terms, n)
-        memory = 8.0 * rows * n * 3 + (8.0 * n2 if vectors else 0.0)
-        seconds = JACOBI_S * rows * n * n
-    if n_terms and path in ("accurate-checked", "accurate-jacobi", "accurate-rayleigh", "accurate-ritz"):
-        seconds += refinement_seconds(n, n_terms, k=k, accuracy=accuracy, one_dimensional=one_dimensional,
-                                      chain=chain and path == "accurate-ritz")
-    if path == "accurate-ring-band":  # a ring's band vectors: its frequencies by `ring.values` too
-        seconds += RING_S * n2
-    return Estimate(path, memory, seconds, what)
 
 
 def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: str = "high",

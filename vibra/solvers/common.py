@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from vibra import _validate
+from vibra.solvers.accuracy import LEVELS
 
 #: Machine epsilon of float64.
 EPS = float(np.finfo(float).eps)
@@ -25,14 +26,8 @@ EPS = float(np.finfo(float).eps)
 #: Largest n for which "auto" uses dense LAPACK when a sparse path could serve.
 DENSE_LIMIT = 1500
 
-#: The accuracy levels every solve takes (`normal_modes`, `System.modes`, scene files):
-#: "fast" - LAPACK/ARPACK-class, absolute accuracy (~eps ||K~||), with its bound;
-#: "high" (the default) - every requested frequency to ~1e-10 relative where the springs are
-#: known (the relative-accuracy paths), with an a-posteriori bound; the steps that only tighten
-#: a bound already within 1e-10 are left to "certified", and a bound left loose says so;
-#: "certified" - every bound a certificate within 1000x the true error or 1e-13 relative, at
-#: the cost it takes (estimated up front, refused over the time budget).
-ACCURACY_LEVELS = ("fast", "high", "certified")
+#: The accuracy levels every solve takes: what each means is said once, in `vibra.solvers.accuracy`.
+ACCURACY_LEVELS = LEVELS
 
 #: A ring (or a chain with springs to a wall inside it) of at least this many sites takes its
 #: own values path (`ring.values`, `chain.walled`), far cheaper there than the checked dense

@@ -10,16 +10,15 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers.budget import (
-    Estimate, Progress, ProgressCallback, describe_bytes, describe_seconds, estimate, guard,
+    Estimate, Progress, ProgressCallback, describe_bytes, describe_seconds, guard,
 )
 import vibra.solvers.common as common
 from vibra.solvers.common import (
     BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
 from vibra.solvers.accurate.chain.lowest import spring_factor_of_chain
-from vibra.solvers.registry import (
-    BY_NAME, Problem, choose, path_names,
-)
+from vibra.solvers.problem import Problem
+from vibra.solvers.registry import BY_NAME, choose, path_names
 from vibra.solvers.runners import Inputs
 from vibra.solvers.topology import classify
 
@@ -105,17 +104,25 @@ def plan(
     _check_named(solver, K, mass, n_modes=n_modes, band=band, spring_factor=spring_factor)
     problem = describe(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                        spring_factor=spring_factor, accuracy=accuracy, device=device)
+    return plan_problem(problem, solver)
+
+
+def plan_problem(problem: Problem, solver: str) -> SolvePlan:
+    """The `SolvePlan` of a described request: the registry's path for it (`registry.choose`) and
+    that path's estimate, with the costs of the cheaper requests where more was asked; every
+    solve (`plan`, `quadratic_modes`) is planned here. Raises ValueError when `solver` cannot
+    serve it."""
     path = choose(problem, solver)
     cost = path.estimate(problem)
     fast = lowest = None
     if path.family == "accurate" and problem.topology != "chain-derived":
         springless = replace(problem, topology="none", n_terms=0)  # what accuracy="fast" runs
         fast = choose(springless, "auto").estimate(springless)
-        if band is None and (n_modes is None or n_modes > 50) and problem.n > 10:
+        if problem.band is None and (problem.n_modes is None or problem.n_modes > 50) and problem.n > 10:
             ten = replace(problem, n_modes=10)
             lowest = choose(ten, solver).estimate(ten)
     return SolvePlan(path.family if solver == "auto" else solver, path.name, problem.width, problem.ordering, cost,
-                     problem.nnz, problem.n, fast, lowest, accuracy, problem)
+                     problem.nnz, problem.n, fast, lowest, problem.accuracy, problem)
 
 
 def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *,
@@ -148,20 +155,27 @@ def _stored(K: NDArray[np.float64] | sp.csr_matrix) -> int:
 
 def alternatives(request: SolvePlan, *, n: int, n_modes: int | None, vectors: bool,
                  band: tuple[float, float] | None) -> list[str]:
-    """The cheaper requests that answer most questions, each with its own estimate."""
+    """The cheaper requests that answer most questions, each with its own estimate (the
+    registry's cost functions on the request changed)."""
+    problem = request.problem
+    assert problem is not None
+    if problem.quadratic:
+        return ["none with G or C (all 2n eigenvalues at once); without them, the symmetric paths' partial "
+                "solves (n_modes=, band=)"]
+    path = BY_NAME[request.path]
     options = []
     if request.fast is not None and request.fast.seconds < request.cost.seconds:
         options.append(f'accuracy="fast" (normal_modes: no spring_factor; {request.fast.path}, absolute accuracy: '
                        f'~{_short(request.fast)})')
     if vectors:
-        values = estimate(request.path, n, k=n_modes or n, vectors=False, width=request.width)
+        values = path.estimate(replace(problem, vectors=False))
         options.append(f"vectors=False (frequencies only: ~{_short(values)})")
     if request.lowest is not None:
         options.append(f"n_modes=10 (the lowest modes, {request.lowest.path}: ~{_short(request.lowest)})")
     elif n_modes is None or n_modes > 50:
         how = "sparse shift-invert" if request.nnz < 0.1 * n * n else "a dense subset"
-        few = estimate("sparse" if how.startswith("sparse") else "dense", n, k=10, vectors=vectors,
-                       width=request.width, nnz=request.nnz)
+        ten = replace(problem, n_modes=min(10, n), band=None, topology="none", n_terms=0, device="cpu")
+        few = choose(ten, "sparse" if how.startswith("sparse") else "dense").estimate(ten)
         options.append(f"n_modes=10 (the lowest modes by {how}: ~{_short(few)})")
     if band is None:
         options.append("band=(low, high) (only the modes in a frequency window)")
@@ -220,9 +234,9 @@ def solve(
     assert problem is not None
     path = BY_NAME[request.path]
     report = Progress(progress, request.cost)
-    if path.name == "gpu" or path.family == "pencil":  # (K and M as given: no K~ formed)
-        assert path.run is not None  # (a quadratic path only for G or C: structured.quadratic runs those)
+    if not path.weighted:  # (K and M as given: no K~ formed)
         result = path.run(problem, Inputs(None, K, mass, None, band, 1.0, report.step))
+        result.solver = path.reported(result)
         report.done()
         return result
     Kt = mass_weighted(K, mass)
@@ -230,9 +244,7 @@ def solve(
     # Far from 1, K~'s scale trips LAPACK's bisection and ARPACK (omega^2 ~ 1e-300 or 1e+300):
     # scale by an even power of 2 (exact in floating point) and scale the results back.
     exponent = _scale_exponent(Kt)
-    factor = spring_factor if path.family == "accurate" else None
-    if path.name == "sparse":
-        factor = spring_factor  # (the sparse path uses it for its shift's rounding, where given)
+    factor = spring_factor if path.springs else None  # (the sparse path: for its shift's rounding, where given)
     scale = 1.0
     if exponent:
         scale = 2.0**-exponent
@@ -244,8 +256,8 @@ def solve(
             band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
         if factor is not None:
             factor = (factor[0], factor[1] * scale)
-    assert path.run is not None
     result = path.run(problem, Inputs(Kt, K, mass, factor, band, scale, report.step))
+    result.solver = path.reported(result)  # (the name the registry declares, or its declared fallback)
     if exponent:
         result.eigenvalues = result.eigenvalues * 2.0**exponent
         result.error = result.error * 2.0**exponent
@@ -269,4 +281,5 @@ def _scale_exponent(Kt: NDArray[np.float64] | sp.csr_matrix) -> int:
     return exponent - exponent % 2
 
 
-__all__ = ["SOLVER_NAMES", "SOLVER_PATHS", "SolvePlan", "describe", "plan", "alternatives", "check_solve_plan", "solve"]
+__all__ = ["SOLVER_NAMES", "SOLVER_PATHS", "SolvePlan", "describe", "plan", "plan_problem", "alternatives",
+           "check_solve_plan", "solve"]

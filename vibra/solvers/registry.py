@@ -1,142 +1,291 @@
-"""The registry of solver paths: the one place that decides which path serves a request.
+"""The registry of solver paths: the one place that declares each path and decides which serves a request.
 
-A request is first described as a `Problem` (sizes, what is asked, the accuracy level and the
-shape of the springs, `topology.classify`: all from the pattern and the sizes, O(nnz), before
-any work). Each `SolverPath` says whether it `applies` to a problem, what it costs
-(`estimate`: seconds and bytes from sizes, never from the clock) and how it runs. `PATHS` lists
-them in order of preference: for ``solver="auto"`` the first that applies is taken, within
-the family the request names (the standard paths for ``accuracy="fast"`` or without springs,
-the accurate ones with them). `dispatch.plan` and `dispatch.solve`, ``vibra validate``, the
-budget guard and the README's table all read this registry; nothing else branches on path
-names.
+A request is first described as a `problem.Problem` (sizes, what is asked, the accuracy level
+and the shape of the springs, `topology.classify`: all from the pattern and the sizes, O(nnz),
+before any work). Each `SolverPath` is one declaration: its name (what a result reports), when
+it `applies` to a problem, what it costs (`estimate`: seconds and bytes from sizes, with the
+measured rates of `budget`, never from the clock) and how it runs (`run`, a function of
+`runners`). `PATHS` lists them in order of preference: for ``solver="auto"`` the first that
+applies on the problem's device and equation is taken (an accurate path only where the
+springs are known); a named family (``solver="sparse"``) takes its own. `dispatch.plan` and
+`dispatch.solve`, `quadratic_modes`, ``vibra validate``, the budget guard and the README's table
+all read this registry; nothing else branches on path names.
 
 A path may name `fallbacks`: what it reports instead when a check on its own result (never the
 clock) hands the modes to a stronger method: ``accurate-checked`` becomes ``accurate-jacobi``
 when a requested bound still misses 1e-10 after spring-space Rayleigh-Ritz.
+
+Costs (n dofs, k modes wanted, b half-bandwidth; the rates of `budget`, measured on one ~3 GHz
+core with OpenBLAS and rounded so that estimates err on the high side by a small factor):
+memory beyond the input, then time, in each path's cost function below. A `band` request is
+estimated as `common.BAND_MODES_ESTIMATE` (64) modes (its count is unknown before the solve).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
-import numpy as np
-from numpy.typing import NDArray
-
-from vibra.solvers.budget import Estimate, estimate
 import vibra.solvers.common as common
 import vibra.solvers.runners as runners
+from vibra.solvers.accuracy import relative
+from vibra.solvers.budget import (
+    BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, COMPANION_S, DENSE_VALUES_S,
+    DENSE_VECTORS_S, GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S,
+    RING_COUNTED_S, RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SPARSE_FACTOR_S, SUPERLU_SLOWER,
+    TRIDIAGONAL_S, TRIDIAGONAL_VECTORS_S, TRIPLET_ROW, TRIPLET_UNIT_S, Estimate, refinement_seconds,
+)
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
+from vibra.solvers.accurate.chain.gk_bisection import DSTEBZ_S, compiled_bisection_pays
+from vibra.solvers.problem import Problem, quadratic_problem
+from vibra.solvers.standard.cholmod import sparse_backend
 
-__all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "path_names", "quadratic_problem", "readme_table"]
+__all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "estimate", "path_names", "quadratic_problem",
+           "readme_table"]
 
-
-@dataclass(frozen=True)
-class Problem:
-    """One request, described before any work: sizes, what is asked, and structure.
-
-    `width` is K~'s half-bandwidth (after `ordering`, a ring's banded order, where there is one);
-    `topology` the shape of the springs (`topology.classify`; "none" without a spring factor, and
-    "chain-derived" for a chain given as K alone whose springs `lowest.spring_factor_of_chain`
-    recovers: only bisection uses them);
-    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (rings, and chains with
-    a few modes asked; else 1).
-    """
-
-    n: int
-    n_modes: int | None
-    band: tuple[float, float] | None
-    vectors: bool
-    accuracy: str
-    diagonal_mass: bool
-    width: int
-    ordering: NDArray[np.intp] | None
-    sparse: bool
-    nnz: int
-    n_terms: int
-    topology: str
-    spread: float = 1.0
-    device: str = "cpu"
-    # M q'' + (G + C) q' + K q = 0: "undamped" (no G, no C: the symmetric paths), "gyroscopic"
-    # (G only) or "damped" (C given); `definite`: K~ positive definite (its Cholesky factor exists)
-    equation: str = "undamped"
-    definite: bool = True
-
-    @property
-    def quadratic(self) -> bool:
-        """G or C given: a quadratic eigenproblem (`structured.quadratic`)."""
-        return self.equation != "undamped"
-
-    @property
-    def partial(self) -> bool:
-        """Fewer modes than all of them (by count)."""
-        return self.n_modes is not None and self.n_modes < self.n
-
-    @property
-    def few(self) -> bool:
-        """A few modes (or a band) of a system over DENSE_LIMIT dofs: the partial solvers' work."""
-        return (self.n_modes is not None and self.n_modes < self.n - 1 or self.band is not None) and self.n > DENSE_LIMIT
-
-    @property
-    def tridiagonal(self) -> bool:
-        return self.width <= 1 and self.ordering is None
-
-    @property
-    def k(self) -> int:
-        """Modes to estimate for: n_modes, or common.BAND_MODES_ESTIMATE for a band, or all."""
-        if self.n_modes is not None:
-            return self.n_modes
-        return min(self.n, common.BAND_MODES_ESTIMATE) if self.band is not None else self.n
-
-    @property
-    def ringlike(self) -> bool:
-        return self.topology in ("ring", "walled-ring")
-
-    @property
-    def ring_route(self) -> str | None:
-        """How "high" takes a ring's values from a standard solver (`common.ring_route`): the band
-        solver's where the ring has its banded order and no vectors are asked."""
-        return common.ring_route(self.accuracy, self.few, self.spread, self.ordering is not None and not self.vectors)
-
-
-Runner = Callable[..., SolveResult]
+Runner = Callable[[Problem, Any], Any]
 
 
 @dataclass(frozen=True)
 class SolverPath:
-    """One solver path: its name (what `Modes.solver` reports), the `solver=` family that
-    selects it, when it applies, what it costs, and how it runs (`run` takes the `Problem`
-    and the inputs of `dispatch.solve`)."""
+    """One solver path, declared once: its name (what `Modes.path` reports), the `solver=`
+    family that selects it, when it applies, what it costs, how it runs, and its table entry.
+
+    `run(problem, inputs)` is a function of `runners` (a direct reference): `runners.Inputs`
+    for the symmetric paths, `structured.first_order.Reduced` for the quadratic ones.
+    `weighted`: it runs on K~ = M^-1/2 K M^-1/2 (`dispatch.solve` forms it; False: K and M as
+    given); `springs`: it takes the spring factor (B, w) where one is given. `device`: where it
+    runs. `serves`: when a named family (solver="...") may take it (default `applies`).
+    """
 
     name: str
     family: str
     applies: Callable[[Problem], bool]
-    run: Runner | None  # None: the quadratic family, run by `structured.quadratic` (its own result type)
+    estimate: Callable[[Problem], Estimate]
+    run: Runner
     guarantee: str
     picked: str
     cost: str = ""
     fallbacks: tuple[str, ...] = field(default=())
-    auto: bool = True   # "auto" may pick it (the GPU path only when asked)
-    serves: Callable[[Problem], bool] | None = None  # when named (solver="..."): default `applies`
+    device: str = "cpu"
+    weighted: bool = True
+    springs: bool = False
+    serves: Callable[[Problem], bool] | None = None
 
-    def estimate(self, problem: Problem) -> Estimate:
-        """Seconds and bytes from sizes (`budget.estimate`), before any work."""
-        k = problem.n if self.name == "dense" and problem.band is not None else problem.k
-        return estimate(self.name, problem.n, k=k, vectors=problem.vectors, width=problem.width,
-                        n_terms=problem.n_terms if self.family == "accurate" else 0, nnz=problem.nnz,
-                        accuracy=problem.accuracy,
-                        one_dimensional=problem.topology in ("chain", "walled-chain", "ring", "walled-ring"),
-                        chain=problem.topology == "chain",
-                        ring_route=problem.ring_route)
+    def reported(self, result: SolveResult) -> str:
+        """The name a result of this path reports: its own, or the declared fallback its runner took."""
+        return result.solver if result.solver in self.fallbacks else self.name
+
+
+# ------------------------------------------------------------------ what each path costs
+def _made(name: str, p: Problem, memory: float, seconds: float, k: int | None = None) -> Estimate:
+    k = p.k if k is None else k
+    what = f"{'all ' if k == p.n else ''}{k} mode{'s' if k != 1 else ''} of {p.n} dofs" + (
+        ", with vectors" if p.vectors else ", frequencies only")
+    return Estimate(name, memory, seconds, what)
+
+
+def _refined(p: Problem, seconds: float, *, chain: bool = False) -> float:
+    """`seconds` plus what an accurate path with a spring factor may add after its solve
+    (`budget.refinement_seconds`: the singular-triplet step, a ring's certifying counts)."""
+    if not p.n_terms:
+        return seconds
+    return seconds + refinement_seconds(p.n, p.n_terms, k=p.k, accuracy=p.accuracy,
+                                        one_dimensional=p.one_dimensional, chain=chain)
+
+
+def _dense_parts(p: Problem, k: int, vectors: bool) -> tuple[float, float]:
+    """LAPACK eigh of the dense K~: 8 n^2 bytes (twice with vectors) + 8 n k; DENSE_VALUES_S n^3
+    for values, + DENSE_VECTORS_S k n^2 with vectors."""
+    n, n2 = p.n, float(p.n) * p.n
+    memory = 8.0 * n2 * (2 if vectors else 1) + (8.0 * n * k if vectors else 0.0) + 8.0 * 26 * n
+    seconds = (DENSE_VECTORS_S * k / n + DENSE_VALUES_S) * n2 * n if vectors else DENSE_VALUES_S * n2 * n
+    return memory, seconds
+
+
+def _dense_cost(p: Problem) -> Estimate:
+    k = p.n if p.band is not None else p.k  # (a band: all values, then those inside it)
+    return _made("dense", p, *_dense_parts(p, k, p.vectors), k)
+
+
+def _gpu_cost(p: Problem) -> Estimate:
+    """The host's copies as on the dense path (the GPU's own memory is checked on the device,
+    `standard.gpu.check_gpu_memory`), cuSOLVER syevd's time."""
+    memory, _ = _dense_parts(p, p.k, p.vectors)
+    return _made("gpu", p, memory, (GPU_VECTORS_S if p.vectors else GPU_VALUES_S) * float(p.n) ** 3)
+
+
+def _tridiagonal_parts(p: Problem, *, certify: bool = False) -> tuple[float, float]:
+    """LAPACK stemr / stebz (and the dqds + MRRR pairing) allocate all n vectors unless a subset
+    is asked: O(n), 8 n^2 with all vectors; TRIDIAGONAL_S n^2 for all values (60 n k for a few),
+    + TRIDIAGONAL_VECTORS_S n k with vectors. `certify`: every value's triplet certificate too."""
+    n, k, n2 = p.n, p.k, float(p.n) * p.n
+    memory = 8.0 * 12 * n + (8.0 * n2 if p.vectors and k == n else (8.0 * n * k if p.vectors else 0.0))
+    if certify:  # dqds of all values, each certified (`triplets`): ~1.3 kB per site
+        memory += CERTIFY_BYTES * n
+        values_s = (TRIDIAGONAL_S + CERTIFY_S) * n2
+    else:
+        values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
+    return memory, values_s + (TRIDIAGONAL_VECTORS_S * n * k if p.vectors else 0.0)
+
+
+def _tridiagonal_cost(p: Problem) -> Estimate:
+    return _made("tridiagonal", p, *_tridiagonal_parts(p))
+
+
+def _bidiagonal_cost(p: Problem) -> Estimate:
+    return _made("accurate-bidiagonal", p, *_tridiagonal_parts(p, certify=True))
+
+
+def _banded_parts(p: Problem, vectors: bool) -> tuple[float, float]:
+    """LAPACK sbevd / sbevx (a ring: b = 2): 24 (b + 1) n bytes, + 8 n^2 with vectors; the band's
+    reduction BANDED_S (b + 1) n^2, then its values as on the tridiagonal path (a subset by
+    bisection), + DENSE_VECTORS_S n^3 with vectors."""
+    n, k, n2 = p.n, p.k, float(p.n) * p.n
+    memory = 8.0 * (p.width + 1) * n * 3 + (8.0 * n2 + 8.0 * n * k if vectors else 0.0)
+    values_s = TRIDIAGONAL_S * (n2 if k == n else 60.0 * n * k)
+    return memory, BANDED_S * (p.width + 1) * n2 + values_s + (DENSE_VECTORS_S * n2 * n if vectors else 0.0)
+
+
+def _banded_cost(p: Problem) -> Estimate:
+    return _made("banded", p, *_banded_parts(p, p.vectors))
+
+
+def _ring_band_cost(p: Problem) -> Estimate:
+    """The band solve with vectors, then the ring path's values (RING_S n^2)."""
+    memory, seconds = _banded_parts(p, p.vectors)
+    return _made("accurate-ring-band", p, memory, seconds + RING_S * (float(p.n) * p.n))
+
+
+def _sparse_parts(p: Problem) -> tuple[float, float]:
+    """Shift-invert: ARPACK's restarted basis for a narrow band (a chain, a ring reordered: a
+    cheap factor), the block Krylov basis (up to max(10 k, 200) columns, `krylov.block_eigs`)
+    for any other; (columns + 2k + 3) n words + the factor (O(n) for a tridiagonal K~ (pttrf),
+    ~20 nnz (SuperLU fill) else); LANCZOS_S n columns per Lanczos run, + SPARSE_FACTOR_S n^2 for a
+    3-D network's factor (nested dissection; SUPERLU_SLOWER times that for SuperLU's LU where
+    neither PARDISO nor CHOLMOD loads)."""
+    n, k = p.n, p.k
+    columns = max(2 * k + 1, 20) if p.width <= BAND_LIMIT else min(n, max(10 * k, 200))
+    memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if p.width <= 1 else 12.0 * 20 * max(p.nnz, n))
+    seconds = LANCZOS_S * n * columns * 10 + KRYLOV_RITZ_S * n * k * k
+    if p.width > 16:  # a 3-D network: its factor's cost grows as n^2
+        seconds += SPARSE_FACTOR_S * (float(n) * n) * (SUPERLU_SLOWER if sparse_backend(n) == "superlu" else 1.0)
+    return memory, seconds
+
+
+def _sparse_cost(p: Problem) -> Estimate:
+    return _made("sparse", p, *_sparse_parts(p))
+
+
+def _ritz_cost(p: Problem) -> Estimate:
+    """The sparse path's, + the spring-space products and the refinement "certified" asks for."""
+    memory, seconds = _sparse_parts(p)
+    return _made("accurate-ritz", p, memory, _refined(p, seconds, chain=p.topology == "chain"))
+
+
+def _bisection_cost(p: Problem) -> Estimate:
+    """Sturm bisection on the 2n Golub-Kahan tridiagonal (compiled, in SIMD lanes), inverse
+    iteration (dstein), the certificates' double-double residuals in blocks (measured peak ~430 n
+    bytes); + DSTEBZ_S n k where dstebz takes the values (`gk_bisection.compiled_bisection_pays`)."""
+    n, k = p.n, p.k
+    seconds = (BISECTION_VECTORS_S if p.vectors else BISECTION_VALUES_S) * n * k
+    if not compiled_bisection_pays(n, k):
+        seconds += DSTEBZ_S * n * k
+    return _made("accurate-bisection", p, 8.0 * 64 * n + (8.0 * n * k if p.vectors else 0.0), seconds)
+
+
+def _counted_parts(p: Problem, walled: bool) -> tuple[float, float]:
+    """A ring's (or a walled chain's) values: the cut chain's values (dqds, or bisection for the
+    lowest k + 1 when cheaper), then each value's roots of its spring form and counts (~2.5
+    double-double counts of 2n nodes per value, RING_S n k), ~40 n words; "certified": at most
+    RING_MP_SITES sites of mpmath counts. With vectors: stemr's for all of a walled chain's, else a
+    Golub-Kahan LU per mode (`golub_kahan.singular_vectors`)."""
+    n, k, n2 = p.n, p.k, float(p.n) * p.n
+    memory = 8.0 * 40 * n + (8.0 * n * k if p.vectors else 0.0)
+    poles = TRIDIAGONAL_S * n2 if k >= n - 1 else min(TRIDIAGONAL_S * n2, BISECTION_VALUES_S * n * (k + 1.0))
+    seconds = poles + RING_S * float(n) * k
+    if p.accuracy == "certified":  # (mpmath counts: "high" stops at 1e-10, which the dd counts meet)
+        seconds += MP_COUNT_S * min(RING_MP_SITES, RING_MP_EXPECTED * n)
+    if p.vectors and walled and k >= n - 1:
+        memory += 8.0 * 12 * n
+        seconds += TRIDIAGONAL_VECTORS_S * n * k
+    elif p.vectors:
+        seconds += TRIPLET_UNIT_S * TRIPLET_ROW * 2.0 * n * k
+    return memory, seconds
+
+
+def _ring_cost(p: Problem) -> Estimate:
+    """At "high" from a standard solver (`p.ring_route`, `ring.counted`): shift-invert's values
+    (a few), each bracketed by ~2 counts per level, or the band solver's (all), each by two
+    counts of K - x M; else the ring's own values path (`_counted_parts`)."""
+    route = p.ring_route
+    if route == "sparse":
+        memory, seconds = _sparse_parts(p)
+        return _made("accurate-ring", p, memory, seconds + RING_S * float(p.n) * p.k)
+    if route == "banded":
+        memory, seconds = _banded_parts(p, False)
+        return _made("accurate-ring", p, memory + 8.0 * 12 * p.n, seconds + RING_COUNTED_S * float(p.n) * p.k)
+    return _made("accurate-ring", p, *_counted_parts(p, walled=False))
+
+
+def _walled_cost(p: Problem) -> Estimate:
+    return _made("accurate-walled", p, *_counted_parts(p, walled=True))
+
+
+def _pencil_jacobi_cost(p: Problem) -> Estimate:
+    """M's and K's equilibrated Cholesky factors, then gejsv on n x n: 8 n^2 bytes a few times."""
+    n2 = float(p.n) * p.n
+    return _made("pencil-jacobi", p, 8.0 * n2 * 6, (JACOBI_S + DENSE_VECTORS_S) * n2 * p.n)
+
+
+def _pencil_cholesky_cost(p: Problem) -> Estimate:
+    """M's equilibrated Cholesky factor, then eigh of L^-1 K L^-T."""
+    n2 = float(p.n) * p.n
+    return _made("pencil-cholesky", p, 8.0 * n2 * 6, DENSE_VECTORS_S * 2 * n2 * p.n)
+
+
+def _rayleigh_cost(p: Problem) -> Estimate:
+    """K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K: 32 n^2
+    bytes; as dense with vectors, + the refinement."""
+    n2 = float(p.n) * p.n
+    return _made("accurate-rayleigh", p, 8.0 * n2 * 4, _refined(p, DENSE_VECTORS_S * n2 * p.n))
+
+
+def _checked_cost(p: Problem) -> Estimate:
+    """Time as the dense solve with vectors (the usual case: no refinement), + the refinement;
+    memory the larger of that and one-sided Jacobi's (gejsv of the n_terms x n B~: 24 n (n_terms
+    + n), + 8 n^2 with vectors), which a loose bound may run."""
+    n, k = p.n, p.k
+    fast_memory, fast_seconds = _dense_parts(p, min(k + 1, n), True)
+    rows = max(p.n_terms, n)
+    jacobi_memory = 8.0 * rows * n * 3 + (8.0 * (float(n) * n) if p.vectors else 0.0)
+    return _made("accurate-checked", p, max(fast_memory, jacobi_memory), _refined(p, fast_seconds))
+
+
+def _first_order_cost(name: str, rate: float) -> Callable[[Problem], Estimate]:
+    """The first-order form of 2n (`structured.first_order`): complex vectors of 2n, twice, ~200 n^2
+    bytes; `rate` n^3 (two Hermitian solves of 2n, or one or two geev)."""
+    def cost(p: Problem) -> Estimate:
+        n2 = float(p.n) * p.n
+        return _made(name, p, 200.0 * n2, rate * n2 * p.n)
+    return cost
+
+
+def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0, nnz: int = 0,
+             accuracy: str = "high", topology: str | None = None) -> Estimate:
+    """Memory and time of the path named `path` computing `k` of `n` modes (with vectors or not) at
+    `accuracy`, from sizes alone: its declaration's `estimate` on that request (`topology`: "network"
+    where `n_terms` springs are given, else "none")."""
+    shape = topology if topology is not None else ("network" if n_terms else "none")
+    problem = Problem(n=n, n_modes=None if k >= n else k, band=None, vectors=vectors, accuracy=accuracy,
+                      diagonal_mass=True, width=width, ordering=None, sparse=True, nnz=nnz, n_terms=n_terms,
+                      topology=shape)
+    return BY_NAME[path].estimate(problem)
 
 
 # ------------------------------------------------------------------ when each path applies
 def _standard_wide(p: Problem) -> bool:
     return not (p.vectors and (p.partial or p.band is not None))
-
-
-def _dense(p: Problem) -> bool:
-    return p.device == "cpu"
 
 
 def _tridiagonal(p: Problem) -> bool:
@@ -151,8 +300,7 @@ def _banded(p: Problem) -> bool:
     # shift-invert O(n k), so the cheaper estimate takes it
     # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
     if _sparse(p):
-        sizes = dict(k=p.k, vectors=p.vectors, width=p.width, nnz=p.nnz)
-        return estimate("banded", p.n, **sizes).seconds <= estimate("sparse", p.n, **sizes).seconds
+        return _banded_cost(p).seconds <= _sparse_cost(p).seconds
     return True
 
 
@@ -163,7 +311,7 @@ def _sparse(p: Problem) -> bool:
 
 
 def _pencil(p: Problem) -> bool:
-    return not p.diagonal_mass and p.device == "cpu"
+    return not p.diagonal_mass
 
 
 def _bisection(p: Problem) -> bool:
@@ -193,7 +341,7 @@ def _ring_band_vectors(p: Problem) -> bool:
 
 
 def _ritz(p: Problem) -> bool:
-    return p.few
+    return p.springs and p.few
 
 
 def _jacobi_allowed(p: Problem) -> bool:
@@ -201,15 +349,15 @@ def _jacobi_allowed(p: Problem) -> bool:
 
 
 def _checked(p: Problem) -> bool:
-    return not p.few and _jacobi_allowed(p)
+    return p.springs and not p.few and _jacobi_allowed(p)
 
 
 def _rayleigh(p: Problem) -> bool:
-    return not p.few and not _jacobi_allowed(p)
+    return p.springs and not p.few and not _jacobi_allowed(p)
 
 
-def _gpu(p: Problem) -> bool:
-    return p.device == "gpu"
+def _anything(p: Problem) -> bool:
+    return True
 
 
 def _companion(p: Problem) -> bool:
@@ -224,104 +372,97 @@ def _hamiltonian(p: Problem) -> bool:
     return p.equation == "gyroscopic"
 
 
-def quadratic_problem(n: int, *, damped: bool, definite: bool) -> Problem:
-    """The `Problem` of a quadratic eigenproblem of n dofs (all 2n eigenvalues, dense)."""
-    return Problem(n=n, n_modes=None, band=None, vectors=True, accuracy="high", diagonal_mass=False, width=n,
-                   ordering=None, sparse=False, nnz=n * n, n_terms=0, topology="none",
-                   equation="damped" if damped else "gyroscopic", definite=definite)
-
-
-def _run(name: str) -> Runner:
-    """The runner of path `name`: the function of `runners` named after it."""
-    run: Runner = getattr(runners, name.replace("-", "_"))
-    return run
-
-
-#: Every path, in order of preference within its family.
+#: Every path, in order of preference.
 PATHS: tuple[SolverPath, ...] = (
-    SolverPath("gpu", "gpu", _gpu, _run("gpu"), "absolute ~ n ε‖K̃‖",
-               'only when asked, device="gpu": all modes densely on an NVIDIA GPU (CuPy)', auto=False,
-               cost="n^3 on the GPU; ~5 n^2 doubles of its memory, checked first"),
-    SolverPath("accurate-bisection", "accurate", _bisection, _run("accurate-bisection"),
+    SolverPath("gpu", "dense", _anything, _gpu_cost, runners.gpu, "absolute ~ n ε‖K̃‖",
+               'only when asked, device="gpu": all modes densely on an NVIDIA GPU (CuPy)', device="gpu",
+               weighted=False, cost="n^3 on the GPU; ~5 n^2 doubles of its memory, checked first"),
+    SolverPath("accurate-bisection", "accurate", _bisection, _bisection_cost, runners.accurate_bisection,
                "relative, each bound a certificate",
                'the lowest modes of a chain whose K~ diagonal spreads over 1e4: bisection on the bidiagonal '
-               'spring factor',
+               'spring factor', springs=True,
                cost="~5e-7 n k s values, ~1e-6 n k with vectors (compiled, SIMD lanes)"),
-    SolverPath("accurate-walled", "accurate", _walled, _run("accurate-walled"), "relative, each bound a certificate",
+    SolverPath("accurate-walled", "accurate", _walled, _walled_cost, runners.accurate_walled,
+               "relative, each bound a certificate",
                "a chain of 100 sites or more with springs to a wall inside it: dqds or bisection on its "
-               "bidiagonal Cholesky factor, certified by Sturm counts",
+               "bidiagonal Cholesky factor, certified by Sturm counts", springs=True,
                cost="~3e-8 n^2 s all values; O(n k) the lowest k"),
-    SolverPath("accurate-bidiagonal", "accurate", _bidiagonal, _run("accurate-bidiagonal"),
+    SolverPath("accurate-bidiagonal", "accurate", _bidiagonal, _bidiagonal_cost, runners.accurate_bidiagonal,
                "relative, each bound a certificate where the a-priori one exceeds 1e-13",
-               "a chain (each spring joins neighbouring sites): dqds on its bidiagonal spring factor",
+               "a chain (each spring joins neighbouring sites): dqds on its bidiagonal spring factor", springs=True,
                cost="~2e-8 n^2 s (dqds, and a certificate per value)"),
-    SolverPath("accurate-ring", "accurate", _ring, _run("accurate-ring"), "relative, each bound a certificate",
+    SolverPath("accurate-ring", "accurate", _ring, _ring_cost, runners.accurate_ring, "relative, each bound a certificate",
                "a ring of 100 sites or more (free or on walls), all values or the lowest n_modes: roots "
                "between the cut chain's eigenvalues, certified by Sturm counts; at \"high\" a standard "
                "solver's values (the band solver's over 1,500 sites, shift-invert's for a few), each "
-               "bracketed by two counts",
+               "bracketed by two counts", springs=True,
                cost="~3e-8 n^2 s all values; ~1e-7 n k the lowest k; high: the standard solve + ~5e-9 n k"),
-    SolverPath("accurate-ring-band", "accurate", _ring_band_vectors, _run("accurate-ring-band"),
+    SolverPath("accurate-ring-band", "accurate", _ring_band_vectors, _ring_band_cost, runners.accurate_ring_band,
                "relative values (certified as accurate-ring), vectors absolute",
                "a ring over 6,000 sites with all its vectors: the band solver's vectors, the ring path's values",
-               cost="the band solve with vectors, then the ring path's values"),
-    SolverPath("accurate-ritz", "accurate", _ritz, _run("accurate-ritz"), "relative, bound per mode",
+               springs=True, cost="the band solve with vectors, then the ring path's values"),
+    SolverPath("accurate-ritz", "accurate", _ritz, _ritz_cost, runners.accurate_ritz, "relative, bound per mode",
                "a few modes (or a band) of a large spring system: shift-invert vectors, spring-space "
                "Rayleigh-Ritz, a Kato-Temple bound per mode (a chain's values bracketed by two Sturm counts each)",
+               springs=True,
                cost="the sparse path's, + O(nnz k) spring-space products; certified: one Golub-Kahan LU per loose mode"),
-    SolverPath("accurate-checked", "accurate", _checked, _run("accurate-checked"), "relative, bound per mode",
+    SolverPath("accurate-checked", "accurate", _checked, _checked_cost, runners.accurate_checked,
+               "relative, bound per mode",
                "all modes of any other spring system up to 1,500 dofs (or rings to 6,000 sites): the dense "
                "solve, each mode checked by its residual, the low ones refined in spring space",
-               fallbacks=("accurate-jacobi",),
+               fallbacks=("accurate-jacobi",), springs=True,
                cost="dense eigh with vectors (~1.5e-10 n^3 s); Jacobi ~5e-10 n_terms n^2 s where it escalates"),
-    SolverPath("accurate-rayleigh", "accurate", _rayleigh, _run("accurate-rayleigh"),
+    SolverPath("accurate-rayleigh", "accurate", _rayleigh, _rayleigh_cost, runners.accurate_rayleigh,
                "relative where the bound says so",
                "all modes of a large spring system where one-sided Jacobi would cost too much: the checked "
-               "dense solve without it",
+               "dense solve without it", springs=True,
                cost="dense eigh with vectors (~1.5e-10 n^3 s, 32 n^2 bytes)"),
-    SolverPath("pencil-jacobi", "pencil", lambda p: _pencil(p) and p.accuracy != "fast", _run("pencil-jacobi"),
-               "relative ~ n ε (cond M_s + cond K_s) per mode",
+    SolverPath("pencil-jacobi", "pencil", lambda p: _pencil(p) and relative(p.accuracy), _pencil_jacobi_cost,
+               runners.pencil_jacobi, "relative ~ n ε (cond M_s + cond K_s) per mode",
                "a full mass matrix (generalised coordinates): the equilibrated pencil, K's and M's Cholesky "
                "factors, one-sided Jacobi (LAPACK gejsv) where K is positive definite",
-               fallbacks=("pencil-cholesky",), serves=lambda p: p.device == "cpu",
+               fallbacks=("pencil-cholesky",), serves=_anything, weighted=False,
                cost="~1e-9 n^3 s (two Cholesky factors, a pivoted QR, gejsv); 8 n^2 bytes a few times"),
-    SolverPath("pencil-cholesky", "pencil", _pencil, _run("pencil-cholesky"),
+    SolverPath("pencil-cholesky", "pencil", _pencil, _pencil_cholesky_cost, runners.pencil_cholesky,
                "absolute ~ n ε ‖L⁻¹K_sL⁻ᵀ‖",
                'a full mass matrix with accuracy="fast" (or K not positive definite): the equilibrated '
-               "pencil reduced by M's Cholesky factor, LAPACK eigh",
+               "pencil reduced by M's Cholesky factor, LAPACK eigh", weighted=False,
                cost="~3e-10 n^3 s; 8 n^2 bytes a few times"),
-    SolverPath("tridiagonal", "tridiagonal", _tridiagonal, _run("tridiagonal"), "absolute ~ n ε‖K̃‖",
-               "a tridiagonal K~ over 1,500 dofs, all modes or values only: LAPACK stemr / stebz",
+    SolverPath("tridiagonal", "tridiagonal", _tridiagonal, _tridiagonal_cost, runners.tridiagonal,
+               "absolute ~ n ε‖K̃‖", "a tridiagonal K~ over 1,500 dofs, all modes or values only: LAPACK stemr / stebz",
                serves=lambda p: p.diagonal_mass and p.width <= 1,
                cost="~1e-8 n^2 s all values, + 1e-7 n k s with vectors"),
-    SolverPath("banded", "banded", _banded, _run("banded"), "absolute ~ n ε‖K̃‖",
+    SolverPath("banded", "banded", _banded, _banded_cost, runners.banded, "absolute ~ n ε‖K̃‖",
                "a narrow band (a ring reordered to half-width 2, a ladder) over 1,500 dofs: LAPACK sbevd / sbevx",
                serves=lambda p: p.diagonal_mass,
                cost="~2e-9 (b + 1) n^2 s, + 1.5e-10 n^3 s with vectors"),
-    SolverPath("sparse", "sparse", _sparse, _run("sparse"), "absolute ~ ε‖K̃‖",
+    SolverPath("sparse", "sparse", _sparse, _sparse_cost, runners.sparse, "absolute ~ ε‖K̃‖",
                "a few modes (or a band of a chain) of a large sparse K: shift-invert with an inertia-checked "
                "shift (a band holding over a quarter of the modes: the dense solve)", fallbacks=("dense",),
-               serves=lambda p: p.n_modes is not None or p.band is not None,
+               serves=lambda p: p.n_modes is not None or p.band is not None, springs=True,
                cost="the factor (O(n) for a chain, ~20 nnz words else) + ~2e-7 n k s of Krylov iteration"),
-    SolverPath("dense", "dense", _dense, _run("dense"), "absolute ~ n ε‖K̃‖",
+    SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
                cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),
-    SolverPath("skew-symmetric", "quadratic", _skew, None,
+    SolverPath("skew-symmetric", "quadratic", _skew, _first_order_cost("skew-symmetric", SKEW_S),
+               runners.skew_symmetric,
                "exactly real frequencies; absolute ~ ε‖A‖, small ones relative (from A⁻¹)",
                "gyroscopic (G, no C), K positive definite: Hermitian eigh of i A, A = [[0, F^T], [-F, -G~]] "
-               "real skew-symmetric (a stable system never gets a spurious growth rate)",
+               "real skew-symmetric (a stable system never gets a spurious growth rate)", weighted=False,
                cost="~2e-8 n^3 s (two Hermitian solves of 2n); ~200 n^2 bytes"),
-    SolverPath("hamiltonian", "quadratic", _hamiltonian, None,
+    SolverPath("hamiltonian", "quadratic", _hamiltonian, _first_order_cost("hamiltonian", HAMILTONIAN_S),
+               runners.hamiltonian,
                "absolute ~ ε‖A‖ cond(λ); on the imaginary axis where the mirror test proves it",
                "gyroscopic (G, no C), K indefinite or singular: geev of the Hamiltonian first-order form",
-               cost="~2e-8 n^3 s (geev of 2n); ~200 n^2 bytes"),
-    SolverPath("companion", "quadratic", _companion, None,
+               weighted=False, cost="~2e-8 n^3 s (geev of 2n); ~200 n^2 bytes"),
+    SolverPath("companion", "quadratic", _companion, _first_order_cost("companion", COMPANION_S), runners.companion,
                "absolute ~ ε‖A‖ cond(λ); small ones relative (from A⁻¹) where K is definite",
-               "damped (C given): geev of the first companion form [[0, I], [-K~, -(G~ + C~)]]",
+               "damped (C given): geev of the first companion form [[0, I], [-K~, -(G~ + C~)]]", weighted=False,
                cost="~4e-8 n^3 s (geev of 2n, twice where K is definite); ~200 n^2 bytes"),
 )
 
 BY_NAME: dict[str, SolverPath] = {path.name: path for path in PATHS}
+
 
 def path_names() -> tuple[str, ...]:
     """Every name a result can report: the paths and their fallbacks."""
@@ -331,31 +472,20 @@ def path_names() -> tuple[str, ...]:
 
 
 def choose(problem: Problem, solver: str) -> SolverPath:
-    """The path for `problem`: ``solver="auto"`` takes the first that applies among the accurate
-    paths (where the springs are known and the level is not "fast") and the standard ones;
-    a named family its own (raises ValueError when none of them applies)."""
-    if problem.quadratic:  # (G or C: the quadratic methods, by what is given; no other family serves)
-        for path in PATHS:
-            if path.family == "quadratic" and (solver in ("auto", path.name)) and path.applies(problem):
+    """The path for `problem`, among those for its device and equation (the symmetric paths, or
+    the quadratic ones for G or C): ``solver="auto"`` takes the first that applies; a named
+    family its own (a quadratic method by its name). Raises ValueError when none of them applies."""
+    serving = [path for path in PATHS if path.device == problem.device and (path.family == "quadratic") == problem.quadratic]
+    if problem.quadratic:
+        for path in serving:
+            if solver in ("auto", path.name) and path.applies(problem):
                 return path
-        served = [path.name for path in PATHS if path.family == "quadratic" and path.applies(problem)]
+        served = [path.name for path in serving if path.applies(problem)]
         raise ValueError(f"solver={solver!r} cannot serve this quadratic eigenproblem: "
                          f"expected 'auto' or one of {served}")
-    if problem.device == "gpu":
-        return BY_NAME["gpu"]
-    if solver == "auto":
-        families = ("accurate",) if problem.topology not in ("none", "chain-derived") else ()
-        families += ("pencil", "tridiagonal", "banded", "sparse", "dense")
-        candidates = [path for path in PATHS if path.family in families and path.auto]
-        if problem.topology == "chain-derived":  # a chain given as K: bisection where it is spread
-            candidates.insert(0, BY_NAME["accurate-bisection"])
-        for path in candidates:
-            if path.applies(problem):
-                return path
-    else:
-        for path in PATHS:
-            if path.family == solver and (path.serves or path.applies)(problem):
-                return path
+    for path in serving:
+        if (path.applies(problem) if solver == "auto" else path.family == solver and (path.serves or path.applies)(problem)):
+            return path
     raise ValueError(f"solver={solver!r} cannot serve this request")
 
 

@@ -1,5 +1,7 @@
-"""How each registered solver path runs (`registry.PATHS`): one function per path, named after
-it, each given the `registry.Problem` the plan chose it for and the inputs of `dispatch.solve`.
+"""How each registered solver path runs: one function per path, which its declaration in
+`registry.PATHS` names (`SolverPath.run`), each given the `problem.Problem` the plan chose it for
+and the inputs of `dispatch.solve` (`Inputs`; the quadratic paths: the reduced problem of
+`quadratic_modes`, `structured.first_order.Reduced`).
 
 A runner trusts the plan: the structure it needs (a chain, a ring, a walled chain) was
 classified once (`topology.classify`), so none of them decides again which path it is. The
@@ -35,6 +37,9 @@ from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
 from vibra.solvers.structured.equilibrated import pencil_result
 from vibra.solvers.accurate.chain.walled import walled_result
+from vibra.solvers.accuracy import uses_springs
+from vibra.solvers.problem import Problem
+from vibra.solvers.structured.first_order import Reduced, Solved, companion_solve, hamiltonian_solve, skew_solve
 
 __all__ = ["Inputs"]
 
@@ -55,27 +60,27 @@ class Inputs:
 
 
 # ------------------------------------------------------------------ standard paths
-def dense(p: Any, x: Inputs) -> SolveResult:
+def dense(p: Problem, x: Inputs) -> SolveResult:
     return dense_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, overwrite=x.Kt is not x.K)
 
 
-def tridiagonal(p: Any, x: Inputs) -> SolveResult:
+def tridiagonal(p: Problem, x: Inputs) -> SolveResult:
     return tridiagonal_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band)
 
 
-def banded(p: Any, x: Inputs) -> SolveResult:
+def banded(p: Problem, x: Inputs) -> SolveResult:
     return banded_path(x.Kt, p.width, n_modes=p.n_modes, vectors=p.vectors, band=x.band, ordering=p.ordering)
 
 
-def sparse(p: Any, x: Inputs) -> SolveResult:
+def sparse(p: Problem, x: Inputs) -> SolveResult:
     return sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, spring_factor=x.factor)
 
 
-def pencil_jacobi(p: Any, x: Inputs) -> SolveResult:
+def pencil_jacobi(p: Problem, x: Inputs) -> SolveResult:
     return pencil_result(x.K, _full(x.mass), n_modes=p.n_modes, vectors=p.vectors, band=x.band)
 
 
-def pencil_cholesky(p: Any, x: Inputs) -> SolveResult:
+def pencil_cholesky(p: Problem, x: Inputs) -> SolveResult:
     return pencil_result(x.K, _full(x.mass), n_modes=p.n_modes, vectors=p.vectors, band=x.band, jacobi=False)
 
 
@@ -84,12 +89,25 @@ def _full(mass: NDArray[np.float64]) -> NDArray[np.float64]:
     return mass if mass.ndim == 2 else np.diag(mass)
 
 
-def gpu(p: Any, x: Inputs) -> SolveResult:
+def gpu(p: Problem, x: Inputs) -> SolveResult:
     return gpu_module.solve_gpu(x.K, x.mass, n_modes=p.n_modes, vectors=p.vectors, band=p.band)
 
 
+# ------------------------------------------------------------------ quadratic paths (M q'' + (G + C) q' + K q = 0)
+def skew_symmetric(p: Problem, r: Reduced) -> Solved:
+    return skew_solve(r)
+
+
+def hamiltonian(p: Problem, r: Reduced) -> Solved:
+    return hamiltonian_solve(r)
+
+
+def companion(p: Problem, r: Reduced) -> Solved:
+    return companion_solve(r)
+
+
 # ------------------------------------------------------------------ accurate paths
-def accurate_bisection(p: Any, x: Inputs) -> SolveResult:
+def accurate_bisection(p: Problem, x: Inputs) -> SolveResult:
     result = lowest_chain_modes(x.Kt, x.K, x.mass, x.factor, n_modes=int(p.n_modes), vectors=p.vectors,
                                 scale=x.scale)
     if result is None:  # the plan classified a chain: its bidiagonal factor exists
@@ -97,7 +115,7 @@ def accurate_bisection(p: Any, x: Inputs) -> SolveResult:
     return relative_account(result, "by bisection on the chain's bidiagonal spring factor")
 
 
-def accurate_bidiagonal(p: Any, x: Inputs) -> SolveResult:
+def accurate_bidiagonal(p: Problem, x: Inputs) -> SolveResult:
     coupling, weights = _factor(x)
     weighted = weighted_factor(coupling, weights, x.mass)
     segments = chain_bidiagonals(weighted)
@@ -109,7 +127,7 @@ def accurate_bidiagonal(p: Any, x: Inputs) -> SolveResult:
     return chain_counted(chain, coupling, weights, x.mass, x.band)
 
 
-def accurate_walled(p: Any, x: Inputs) -> SolveResult:
+def accurate_walled(p: Problem, x: Inputs) -> SolveResult:
     coupling, weights = _factor(x)
     weighted = weighted_factor(coupling, weights, x.mass)
     walled = walled_result(coupling, weights, x.mass, weighted, p.n_modes, vectors=p.vectors and p.few)
@@ -126,7 +144,7 @@ def accurate_walled(p: Any, x: Inputs) -> SolveResult:
     return paired
 
 
-def accurate_ring(p: Any, x: Inputs) -> SolveResult:
+def accurate_ring(p: Problem, x: Inputs) -> SolveResult:
     route = p.ring_route
     if route is not None:
         # a standard solver's values, each bracketed by counts: a few of a long ring's modes
@@ -149,7 +167,7 @@ def accurate_ring(p: Any, x: Inputs) -> SolveResult:
     return ring_vectors(weighted, x.mass, ring) if p.vectors else ring
 
 
-def accurate_ring_band(p: Any, x: Inputs) -> SolveResult:
+def accurate_ring_band(p: Problem, x: Inputs) -> SolveResult:
     """A long ring with all its vectors: the band solver's vectors, each paired by rank with the
     ring path's certified frequency."""
     coupling, weights, weighted, deviation = _springs(x)
@@ -165,7 +183,7 @@ def accurate_ring_band(p: Any, x: Inputs) -> SolveResult:
     return result
 
 
-def accurate_ritz(p: Any, x: Inputs) -> SolveResult:
+def accurate_ritz(p: Problem, x: Inputs) -> SolveResult:
     coupling, weights, weighted, deviation = _springs(x, lazy=True)
     if x.band is None:
         k = int(p.n_modes)
@@ -175,7 +193,7 @@ def accurate_ritz(p: Any, x: Inputs) -> SolveResult:
         _, basis = shift_invert(matrix, min(k + 1, p.n - 2), sigma, shifted)  # one more: the gap
         # a chain's Ritz values bracketed by Sturm counts of its spring form: "high" from 3e-14,
         # "certified" from 8 eps, its values the vectors' Rayleigh quotients in double-double
-        form = chain_form(coupling, weights, x.mass) if p.topology == "chain" and p.accuracy != "fast" else None
+        form = chain_form(coupling, weights, x.mass) if p.topology == "chain" and uses_springs(p.accuracy) else None
         result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation, form=form,
                                                precise=p.accuracy == "certified"),
                                   f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
@@ -187,22 +205,22 @@ def accurate_ritz(p: Any, x: Inputs) -> SolveResult:
     return _finished(p, x, result, weighted, deviation)
 
 
-def accurate_checked(p: Any, x: Inputs) -> SolveResult:
+def accurate_checked(p: Problem, x: Inputs) -> SolveResult:
     return _checked(p, x, jacobi=True)
 
 
-def accurate_rayleigh(p: Any, x: Inputs) -> SolveResult:
+def accurate_rayleigh(p: Problem, x: Inputs) -> SolveResult:
     return _checked(p, x, jacobi=False)
 
 
-def _checked(p: Any, x: Inputs, *, jacobi: bool) -> SolveResult:
+def _checked(p: Problem, x: Inputs, *, jacobi: bool) -> SolveResult:
     coupling, weights, weighted, deviation = _springs(x)
     result = checked_dense(weighted, n_modes=p.n_modes, vectors=p.vectors, band=x.band, jacobi=jacobi,
                            deviation=deviation)
     return _finished(p, x, result, weighted, deviation)
 
 
-def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: Any) -> SolveResult:
+def _finished(p: Problem, x: Inputs, result: SolveResult, weighted: Any, deviation: Any) -> SolveResult:
     """A ring's bounds certified by its Sturm counts (up to RING_DENSE_LIMIT sites); any other
     system's tightened as far as the accuracy level asks (`accurate.springs.tightened`)."""
     if p.ringlike and p.n <= common.RING_DENSE_LIMIT and result.error.shape[0]:
@@ -222,7 +240,7 @@ def _finished(p: Any, x: Inputs, result: SolveResult, weighted: Any, deviation: 
     return result
 
 
-def _aim(p: Any) -> float:
+def _aim(p: Problem) -> float:
     """The relative bound a ring's pair step tightens to: "certified" as far as it goes, "high"
     to `accurate.TARGET` (1e-10), which the counts alone already meet."""
     return MP_WANTED if p.accuracy == "certified" else TARGET

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Mapping
+from typing import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,6 +12,7 @@ from vibra import _validate
 from vibra._frozen import freeze_arrays, span
 from vibra._results import Result, stored
 from vibra.molecules import ISOTOPE_MASSES
+from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
 from vibra.system import System, Vibrating
 
@@ -102,7 +103,7 @@ def isotope_shifts(
     substitutions: Mapping[int, float | str],
     *,
     zero_rtol: float = ZERO_RTOL,
-    accuracy: Literal["high", "fast"] = "high",
+    accuracy: Accuracy = "high",
 ) -> IsotopeShifts:
     """Vibrational wavenumbers before and after replacing the masses of some sites.
 
@@ -154,7 +155,7 @@ def isotope_shifts(
     if not substitutions:
         raise ValueError("substitutions is empty; give at least one site -> new mass")
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
-    _validate.choice(accuracy, "accuracy", ("fast", "high", "certified"))
+    _validate.choice(accuracy, "accuracy", ACCURACY_LEVELS)
     masses = np.array(system.masses, dtype=float)
     sites, labels, old, new = [], [], [], []
     for site, value in substitutions.items():

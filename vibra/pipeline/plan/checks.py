@@ -24,10 +24,12 @@ from vibra.pipeline.plan.model import make_plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.values import element_symbol
 from vibra import solvers
+from vibra.generalized import GeneralizedSystem
+from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.budget import describe_bytes, describe_seconds
-from vibra.solvers.common import DENSE_ALL_LIMIT
 
 __all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT", "solve_request",
+           "solve_limits",
            "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
 
 #: A response grid is checked against the system's frequencies up to this many dofs (a fast
@@ -67,25 +69,43 @@ def step_error(scene: Scene, step: str, error: BaseException) -> SceneError:
     return SceneError(scene.source, key, f"the {step} step failed: {text}")
 
 
-def _solver(scene: Scene, system: Any) -> None:
-    """The scene's solver, asked of the dispatcher itself (`vibra.solvers.plan`: no solve, no
-    allocation), so that validate refuses exactly what the solve would refuse."""
+def solve_limits(scene: Scene, system: Any) -> dict[str, float]:
+    """The resource limits a scene raised (``compute.memory_limit_gib``, ``compute.time_limit_s``), as
+    the ``max_memory`` / ``max_seconds`` of its solve (a `GeneralizedSystem` takes the defaults)."""
     compute = scene.compute
-    if compute.solver == "auto" or getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
-        return
-    factor = system.spring_factor() if compute.accuracy != "fast" else None
+    limits: dict[str, float] = {}
+    if not isinstance(system, GeneralizedSystem):  # (it has no resource options)
+        if compute.memory_limit_gib is not None:
+            limits["max_memory"] = compute.memory_limit_gib * 2.0**30
+        if compute.time_limit_s is not None:
+            limits["max_seconds"] = compute.time_limit_s
+    return limits
+
+
+def _solve_plan(scene: Scene, system: Any) -> None:
+    """The scene's solve, planned by the solver registry (`vibra.solvers.plan`: its path and its cost
+    from sizes, nothing solved or allocated) with the plan's modes and shapes, and guarded with the
+    scene's limits (`solve_limits`), as the modes step will run it: validate refuses what the solve
+    would refuse, with the same figures."""
+    compute = scene.compute
+    if getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
+        return  # (a quadratic eigenproblem: planned and guarded by `quadratic_modes`)
+    factor = system.spring_factor() if uses_springs(compute.accuracy) else None
     if compute.solver == "accurate" and factor is None:
         raise SceneError(scene.source, "compute.solver", f"'accurate' needs a spring system (K = B^T W B); the "
                          f"{scene.system.builder!r} builder gives none; use 'auto' or 'dense'")
+    plan = make_plan(scene)
     try:
-        solvers.plan(system.hessian(), system.mass_matrix(), n_modes=compute.n_modes, vectors=False,
-                     band=compute.band, solver=compute.solver, spring_factor=factor, accuracy=compute.accuracy)
+        request = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=plan.n_modes, vectors=plan.vectors,
+                               band=compute.band, solver=compute.solver, spring_factor=factor,
+                               accuracy=compute.accuracy)
     except ValueError as error:
+        if compute.solver == "auto":
+            raise
         raise SceneError(scene.source, "compute.solver", f"{error}; use 'auto'") from error
-    wanted = compute.n_modes is None and compute.band is None
-    if compute.solver == "dense" and wanted and system.n_dof > DENSE_ALL_LIMIT:
-        raise SceneError(scene.source, "compute.solver", f"'dense' on {system.n_dof} dofs would need "
-                         f"{8 * system.n_dof**2 / 2**30:.1f} GiB; give compute.n_modes or use 'auto'")
+    limits = solve_limits(scene, system)
+    solvers.check_solve_plan(request, n_modes=plan.n_modes, vectors=plan.vectors, band=compute.band,
+                             max_memory=limits.get("max_memory"), max_seconds=limits.get("max_seconds"))
 
 
 def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
@@ -195,7 +215,7 @@ def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
             raise step_error(scene, "dynamics-run", error) from error
         return
     try:
-        _solver(scene, system)
+        _solve_plan(scene, system)
         _symbols(scene, system)
         _dry_run(scene, system, response)
     except REFUSALS as error:
@@ -256,7 +276,7 @@ def solve_request(system: Any, *, n_modes: Any, vectors: bool, band: Any, solver
     estimated from sizes before any work), or None for a system or a request it would refuse:
     what ``vibra validate`` prints and what a sweep multiplies by its points."""
     try:
-        factor = system.spring_factor() if accuracy != "fast" else None
+        factor = system.spring_factor() if uses_springs(accuracy) else None
         return solvers.plan(system.hessian(), system.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
                             solver=solver, spring_factor=factor, accuracy=accuracy)
     except (ValueError, TypeError, AttributeError, NotImplementedError):

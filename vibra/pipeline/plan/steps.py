@@ -18,13 +18,12 @@ from typing import Any, Callable
 import numpy as np
 
 from vibra._io import atomic_write_text
-from vibra.generalized import GeneralizedSystem
 from vibra.pipeline.plan.analysis import (LINE_WIDTH_CM1, chain_dispersion, molecule_spectra, molecule_symmetry,
                                           network_fluctuations, symmetry_hints)
 from vibra.pipeline.plan.build import build_system, network_structure
 from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
 from vibra.pipeline.plan.dynamics import DYNAMICS_STEPS, dynamics_cost
-from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, step_error
+from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, solve_limits, step_error
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
 from vibra.pipeline.plan.tables import frequency_lines
 from vibra.pipeline.plan.views import mode_view
@@ -149,12 +148,7 @@ def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
 
 def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     compute = plan.scene.compute
-    limits = {}  # limits the scene raised reach the solver's own guard (validate checked them)
-    if not isinstance(context.system, GeneralizedSystem):  # (it has no resource options)
-        if compute.memory_limit_gib is not None:
-            limits["max_memory"] = compute.memory_limit_gib * 2.0**30
-        if compute.time_limit_s is not None:
-            limits["max_seconds"] = compute.time_limit_s
+    limits = solve_limits(plan.scene, context.system)  # the solver's own guard, as validate checked it
     context.modes = context.system.modes(plan.n_modes, accuracy=compute.accuracy, vectors=plan.vectors,
                                          band=compute.band, solver=compute.solver, **limits)
     error = empty_band(plan.scene, context.modes)  # only a band can come back empty

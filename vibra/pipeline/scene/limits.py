@@ -5,8 +5,11 @@
 array is allocated, saying what it would take and the cheaper request that answers the
 question (``n_modes``, no shapes, fewer response points). The figures are upper bounds of the
 arrays the plan keeps (float64, 8 bytes a number), not of the solvers' small workspaces.
-Likewise a request for all modes of a large system, O(N^2) work, is refused when its
-estimate exceeds ``compute.time_limit_s`` (default `DEFAULT_TIME_LIMIT_S`).
+Likewise a request for all modes of a large system, O(N^2) work at least, is refused when its
+estimate exceeds ``compute.time_limit_s`` (default `DEFAULT_TIME_LIMIT_S`): the solver registry's
+cost (`vibra.solvers.registry`) of the cheapest all-modes solve a system of N dofs can have, a
+chain's, at the scene's accuracy (`all_modes_seconds`); the built system's own solve is planned
+and guarded with the same cost functions and limits (`vibra.pipeline.plan.checks`).
 
 >>> from types import MappingProxyType
 >>> sites_and_dim("linear_chain", MappingProxyType({"n": 10}))
@@ -19,20 +22,18 @@ import os
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from vibra.solvers.budget import TIME_LIMIT_S
+from vibra.solvers.accuracy import TIME_LIMIT_S
+from vibra.solvers.dispatch import plan_problem
+from vibra.solvers.problem import chain_problem
 
-__all__ = ["MAX_DYNAMICS_STEPS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF",
-           "SECONDS_PER_DOF_SQUARED", "DEFAULT_TIME_LIMIT_S", "render_seconds", "frames_that_fit",
+__all__ = ["MAX_DYNAMICS_STEPS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF", "DEFAULT_TIME_LIMIT_S", "render_seconds", "frames_that_fit",
            "RENDER_SECONDS_PER_ATOM_FRAME", "RENDER_SECONDS_FIXED", "sites_and_dim", "n_dof_bound",
            "default_memory_limit", "MemoryEstimate", "memory_estimate", "all_modes_seconds", "gib"]
 
 #: Bytes a built system keeps per degree of freedom (positions, masses, sparse K and M, spring factor).
 BYTES_PER_DOF = 512
-#: Seconds per N^2 of an all-frequency solve of N dofs (tridiagonal and bidiagonal paths are
-#: O(N^2)). (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
-SECONDS_PER_DOF_SQUARED = 1e-8
-#: Longest estimated all-frequency solve a scene may ask for without ``compute.time_limit_s``, in s:
-#: the library's own limit (`vibra.solvers.budget.TIME_LIMIT_S`), one decision.
+#: Longest estimated solve a scene may ask for without ``compute.time_limit_s``, in s: the library's
+#: own limit (`vibra.solvers.accuracy.TIME_LIMIT_S`), one decision.
 DEFAULT_TIME_LIMIT_S = TIME_LIMIT_S
 
 #: An off-screen mode animation (pyvista, a sphere per atom per frame, then the GIF): seconds per
@@ -160,15 +161,15 @@ def n_dof_bound(builder: str, parameters: Mapping[str, Any]) -> int | None:
 
 
 def all_modes_seconds(builder: str, parameters: Mapping[str, Any], compute: Any) -> float:
-    """Estimated seconds of the scene's solve when it asks for all modes (0 for a partial request).
-
-    All N frequencies cost O(N^2) work (`SECONDS_PER_DOF_SQUARED`); ``n_modes`` or ``band``
-    use a partial solver instead.
+    """Estimated seconds of the scene's solve when it asks for all modes (0 for a partial request),
+    before the system is built: the solver registry's plan of all frequencies of a chain of that
+    many dofs at the scene's accuracy (`vibra.solvers.problem.chain_problem`: O(N^2), the cheapest
+    all-modes solve there is); ``n_modes`` or ``band`` use a partial solver instead.
     """
     n_dof = n_dof_bound(builder, parameters)
     if n_dof is None or compute.n_modes is not None or compute.band is not None:
         return 0.0
-    return SECONDS_PER_DOF_SQUARED * float(n_dof) ** 2
+    return plan_problem(chain_problem(n_dof, accuracy=compute.accuracy), "auto").cost.seconds
 
 
 def memory_estimate(builder: str, parameters: Mapping[str, Any], compute: Any, draw: Any) -> MemoryEstimate | None:

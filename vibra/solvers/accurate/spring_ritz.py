@@ -21,6 +21,7 @@ from vibra.solvers.accurate.dd import (
     UNIT as DD_UNIT, add as dd_add, div as dd_div, lu as dd_lu, lu_solve as dd_lu_solve,
 )
 from vibra.solvers.accurate.dd import mul as dd_mul, split_mp, tree_sum
+from vibra.solvers.accuracy import HIGH_TARGET
 from vibra.solvers.common import EPS, SolveResult, sample_columns, small_pencil
 from vibra.solvers.accurate.rounding import WORST_ENTRY, entry_deviation
 from vibra.solvers.compiled import compiled_pays
@@ -30,7 +31,7 @@ __all__ = ["TARGET", "BLOCK", "FORMING", "REFINE_WORK", "Deviation", "forming_de
 
 #: Relative accuracy of omega^2 that `accurate.springs.checked_dense` asks of each requested mode before it
 #: accepts the fast solve's result for it (omega then to ~TARGET / 2).
-TARGET = 1e-10
+TARGET = HIGH_TARGET
 
 #: Columns per block in `cluster_bounds` (memory n_terms x BLOCK).
 BLOCK = 128

@@ -38,7 +38,7 @@ is reported with a negative omega_n, as `Modes` reports an imaginary frequency.
 from __future__ import annotations
 
 import warnings
-from typing import ClassVar, Optional, Tuple
+from typing import ClassVar
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,18 +48,19 @@ from numpy.typing import ArrayLike, NDArray
 from vibra import _validate
 from vibra._frozen import freeze_arrays, owned_arrays
 from vibra._results import ModesResult, Stored, stored
-from vibra.solvers import budget as _budget
+from vibra.solvers.dispatch import check_solve_plan, plan_problem
+from vibra.solvers.problem import quadratic_problem
+from vibra.solvers.registry import BY_NAME, PATHS
 from vibra.solvers.structured.equilibrated import check_mass_matrix, equilibrated_cholesky
+from vibra.solvers.structured.first_order import EPS, FACTOR, Reduced
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
 __all__ = ["QuadraticModes", "quadratic_modes", "check_gyroscopic", "METHODS"]
 
-#: The methods of `quadratic_modes` (chosen from G, C and K; see the module).
-METHODS = ("skew-symmetric", "hamiltonian", "companion")
+#: The methods of `quadratic_modes` (chosen from G, C and K; see the module): the registry's
+#: quadratic paths.
+METHODS = tuple(path.name for path in PATHS if path.family == "quadratic")
 
-EPS = float(np.finfo(float).eps)
-# Safety factor of the error figures over eps ||A|| cond(lambda).
-_FACTOR = 8.0
 # Relative tolerance of the skew-symmetry check of G.
 SKEW_RTOL = 1e-10
 
@@ -301,22 +302,18 @@ def quadratic_modes(
     K_t, C_t = 0.5 * (K_t + K_t.T), 0.5 * (C_t + C_t.T)
     G_t = 0.5 * (G_t - G_t.T)
     stiffness = equilibrated_cholesky(K_t)
-    from vibra.solvers import registry  # (the registry's runners import this module)
-
-    problem = registry.quadratic_problem(n, damped=bool(damping.any()), definite=stiffness is not None)
-    path = registry.choose(problem, solver)
-    _budget.guard(path.estimate(problem), n_dof=n, max_memory=max_memory, max_seconds=max_seconds,
-                  alternatives=["none with G or C (all 2n eigenvalues at once); without them, the symmetric "
-                                "paths' partial solves (n_modes=, band=)"])
-    values, positions, condition, inverse = SOLVE[path.name](Reduced(K_t, G_t, C_t, stiffness))
-    method = path.name
+    request = plan_problem(quadratic_problem(n, damped=bool(damping.any()), definite=stiffness is not None), solver)
+    check_solve_plan(request, n_modes=None, vectors=True, band=None, max_memory=max_memory, max_seconds=max_seconds)
+    problem = request.problem
+    values, positions, condition, inverse = BY_NAME[request.path].run(problem, Reduced(K_t, G_t, C_t, stiffness))
+    method = request.path  # (the name the registry declares)
     structure = mass_condition + (stiffness[2] if stiffness is not None else 0.0)
     norm_A = float(max(np.abs(values).max(initial=0.0), 1e-300))
-    value_error = _FACTOR * EPS * (norm_A * condition + 2 * n * structure * np.abs(values))
+    value_error = FACTOR * EPS * (norm_A * condition + 2 * n * structure * np.abs(values))
     if inverse is not None:
         values, positions, value_error = _refine_small(values, positions, value_error, inverse, 2 * n * structure)
     quadratics = None
-    if method == "companion":
+    if problem.equation == "damped":  # (the companion form's eigenvalues: refined by their quadratics)
         values, quadratics = _rayleigh(values, positions, K_t, G_t + C_t, value_error)
         if not gyroscopic.any():   # y^H K y and y^H C y are real: drop their rounding
             quadratics = quadratics.real.astype(complex)
@@ -324,92 +321,10 @@ def quadratic_modes(
     return _result(values, positions, value_error, pairs, P, method, unit_system(units), warn, quadratics)
 
 
-@dataclass(frozen=True)
-class Reduced:
-    """The quadratic eigenproblem with M made the identity (q = P y): K~, G~, C~ and K~'s
-    equilibrated Cholesky factor (None where K~ is not positive definite)."""
-
-    K_t: NDArray[np.float64]
-    G_t: NDArray[np.float64]
-    C_t: NDArray[np.float64]
-    stiffness: tuple[NDArray[np.float64], NDArray[np.float64], float] | None
-
-
-Solved = Tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64],
-               Optional[Tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]]]
-
-
-def companion_solve(r: Reduced) -> Solved:
-    """``companion``: geev of A = [[0, I], [-K~, -(G~ + C~)]]; with K~ positive definite also of
-    A^-1 = [[-K~^-1 D~, -K~^-1], [I, 0]] (K~^-1 from its Cholesky factor), whose eigenvalues
-    1/lambda give the small ones to high relative accuracy."""
-    n = r.K_t.shape[0]
-    D_t = r.G_t + r.C_t
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-r.K_t, -D_t]])
-    values, right, condition = _general(A)
-    inverse = None
-    if r.stiffness is not None:
-        k_scale, k_lower, _ = r.stiffness
-
-        def solve_K(X: NDArray[np.float64]) -> NDArray[np.float64]:
-            return np.asarray(k_scale[:, None] * la.cho_solve((k_lower, True), k_scale[:, None] * X))
-        inverse_A = np.block([[-solve_K(D_t), -solve_K(np.eye(n))], [np.eye(n), np.zeros((n, n))]])
-        inverse_values, inverse_right, inverse_condition = _general(inverse_A)
-        inverse = (1.0 / inverse_values, inverse_right[:n], inverse_condition)
-    return values, right[:n], condition, inverse
-
-
-def skew_solve(r: Reduced) -> Solved:
-    """``skew-symmetric``: `_skew` (K~ positive definite, no C)."""
-    assert r.stiffness is not None
-    return _skew(r.K_t, r.G_t, r.stiffness)
-
-
-def hamiltonian_solve(r: Reduced) -> Solved:
-    """``hamiltonian``: geev of A = [[-G~/2, I], [G~^2/4 - K~, -G~/2]], eigenvalues within their
-    error of the imaginary axis put on it (`_onto_axis`)."""
-    n = r.K_t.shape[0]
-    A = np.block([[-0.5 * r.G_t, np.eye(n)], [0.25 * r.G_t @ r.G_t - r.K_t, -0.5 * r.G_t]])
-    values, right, condition = _general(A)
-    norm = float(np.abs(A).sum(axis=0).max())
-    values = _onto_axis(values, _FACTOR * EPS * norm * condition)
-    return values, right[:n], condition, None
-
-
-#: The solver of each quadratic path of the registry (which `registry.choose` picks).
-SOLVE = {"companion": companion_solve, "skew-symmetric": skew_solve, "hamiltonian": hamiltonian_solve}
-
-
-def _skew(K_t: NDArray[np.float64], G_t: NDArray[np.float64],
-          stiffness: tuple[NDArray[np.float64], NDArray[np.float64], float]
-          ) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64],
-                     tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]]:
-    """Eigenpairs of the real skew-symmetric A = [[0, F^T], [-F, -G~]] through eigh(i A).
-
-    Also those of A^-1 = [[-F^-1 G~ F^-T, -F^-1], [F^-T, 0]], skew-symmetric too, whose
-    eigenvalues 1/lambda give the small frequencies to high relative accuracy.
-    """
-    n = K_t.shape[0]
-    k_scale, k_lower, _ = stiffness
-    F = k_lower / k_scale[:, None]                     # K~ = F F^T
-    F_inverse = la.solve_triangular(k_lower, np.eye(n), lower=True) * k_scale[None, :]
-    A = np.block([[np.zeros((n, n)), F.T], [-F, -G_t]])
-    inverse_A = np.block([[-F_inverse @ G_t @ F_inverse.T, -F_inverse], [F_inverse.T, np.zeros((n, n))]])
-    out = []
-    for matrix, invert in ((A, False), (0.5 * (inverse_A - inverse_A.T), True)):
-        mu, Z = la.eigh(1j * matrix)                   # matrix z = -i mu z, exactly imaginary
-        values = -1j * mu
-        if invert:
-            values = 1.0 / np.where(values == 0, np.inf, values)
-        positions = Z[n:] / np.where(values == 0, 1.0, values)[None, :]   # v = lambda y
-        out.append((values.astype(complex), positions, np.ones(2 * n)))  # normal: condition 1
-    return out[0][0], out[0][1], out[0][2], out[1]
-
-
 def _refine_small(values: NDArray[np.complex128], positions: NDArray[np.complex128], error: NDArray[np.float64],
                   inverse: tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]],
                   structure: float) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]:
-    """Take the eigenvalues below the geometric mean of the spectrum from A^-1 (see `_skew`).
+    """Take the eigenvalues below the geometric mean of the spectrum from A^-1 (see `first_order.skew_eigen`).
 
     A^-1's eigenvalues 1/lambda carry an absolute error eps ||A^-1||, i.e. a relative error
     eps |lambda| / min|lambda| on lambda: the small eigenvalues are resolved there, the
@@ -432,7 +347,7 @@ def _refine_small(values: NDArray[np.complex128], positions: NDArray[np.complex1
         free.remove(k)
         values[j], positions[:, j] = inverse_values[k], inverse_positions[:, k]
         magnitude = abs(values[j])
-        error[j] = _FACTOR * EPS * (magnitude**2 * inverse_norm * inverse_condition[k] + structure * magnitude)
+        error[j] = FACTOR * EPS * (magnitude**2 * inverse_norm * inverse_condition[k] + structure * magnitude)
     return values, positions, error
 
 
@@ -473,31 +388,6 @@ def _rayleigh(values: NDArray[np.complex128], positions: NDArray[np.complex128],
                 partner = int(np.argmin(np.abs(values - np.conj(value))))
                 out[partner] = np.conj(best)
     return out, coefficients
-
-
-def _general(A: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.float64]]:
-    """Eigenvalues, right eigenvectors and eigenvalue condition numbers 1 / |y^H x| of A."""
-    values, left, right = la.eig(A, left=True, right=True)
-    right = (right / np.linalg.norm(right, axis=0)).astype(complex)
-    left = left / np.linalg.norm(left, axis=0)
-    overlap = np.abs(np.einsum("ij,ij->j", left.conj(), right))
-    return values, right, 1.0 / np.maximum(overlap, EPS)
-
-
-def _onto_axis(values: NDArray[np.complex128], tolerance: NDArray[np.float64]) -> NDArray[np.complex128]:
-    """Hamiltonian spectra: put a simple eigenvalue within `tolerance` of the axis onto it.
-
-    The spectrum is symmetric under lambda -> -conj(lambda). If no other computed eigenvalue
-    lies within 2 tolerance of the mirror of lambda, lambda is its own mirror: Re lambda = 0.
-    """
-    out = values.copy()
-    for j, value in enumerate(values):
-        if abs(value.real) > tolerance[j]:
-            continue
-        others = np.delete(values, j)
-        if not np.any(np.abs(others + np.conj(value)) <= 2.0 * tolerance[j]):
-            out[j] = complex(0.0, value.imag)
-    return out
 
 
 def _pairs(values: NDArray[np.complex128], positions: NDArray[np.complex128]) -> list[tuple[int, int]]:
@@ -546,7 +436,7 @@ def _result(values: NDArray[np.complex128], positions: NDArray[np.complex128], v
                 # The pair's symmetric functions are well conditioned even where each root is not.
                 size = max(abs(values[first]), abs(values[second]))
                 value_error = value_error.copy()
-                value_error[first] = value_error[second] = _FACTOR * EPS * size * (2 + 2 * n)
+                value_error[first] = value_error[second] = FACTOR * EPS * size * (2 + 2 * n)
     magnitude = np.sqrt(np.abs(product))
     natural = np.sign(product) * magnitude
     ratio = -total / (2.0 * np.where(magnitude > 0, magnitude, 1.0)) + 0.0   # + 0.0: no -0.0

@@ -31,12 +31,13 @@ from numpy.typing import NDArray
 from vibra.solvers.accurate.ring.counts import RingPencil, multisection, spring_widening, spring_width
 from vibra.solvers.accurate.ring.pencil_counts import PencilCounts
 from vibra.solvers.accurate.ring.values import SpringForm, ring_values, sorted_bounds
+from vibra.solvers.accuracy import HIGH_TARGET
 from vibra.solvers.common import SolveResult
 
 __all__ = ["HIGH_LEVELS", "LOWEST_SHARE", "AIM", "NARROWING", "certify_values", "ring_counted", "ring_band_counted"]
 
 #: The brackets tried around a standard solver's values, tightest first (1e-10 is "high"'s promise).
-HIGH_LEVELS = (1e-13, 1e-12, 1e-11, 1e-10)
+HIGH_LEVELS = (1e-13, 1e-12, 1e-11, HIGH_TARGET)
 
 #: The largest share of a ring's values that the ring's own path takes over when no level proves
 #: them (bisection for the lowest k costs ~5e-7 n k s, dqds of all ~1e-8 n^2 s: even near 1/16).
@@ -44,7 +45,7 @@ LOWEST_SHARE = 1.0 / 16
 
 #: "high"'s promise, relative to omega^2: a bound over a quarter of it is narrowed (`NARROWING` passes of
 #: multisection, `ring.counts.SECTIONS` - 1 counts each: 16^2 = 256 times narrower).
-AIM = 1e-10
+AIM = HIGH_TARGET
 NARROWING = 2
 
 _EPS = float(np.finfo(float).eps)

@@ -1,0 +1,115 @@
+"""`Problem`: one request to the solver registry, described before any work.
+
+A request is described by its sizes, what is asked, the accuracy level and the shape of the
+springs (`topology.classify`): all from the pattern and the sizes, O(nnz). The registry's
+predicates (which path applies), cost functions (what it costs) and runners (how it runs) all
+take one (`vibra.solvers.registry`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+import vibra.solvers.common as common
+from vibra.solvers.accuracy import uses_springs
+from vibra.solvers.common import DENSE_LIMIT
+
+__all__ = ["Problem", "quadratic_problem", "chain_problem"]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One request, described before any work: sizes, what is asked, and structure.
+
+    `width` is K~'s half-bandwidth (after `ordering`, a ring's banded order, where there is one);
+    `topology` the shape of the springs (`topology.classify`; "none" without a spring factor, and
+    "chain-derived" for a chain given as K alone whose springs `lowest.spring_factor_of_chain`
+    recovers: only bisection uses them);
+    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (rings, and chains with
+    a few modes asked; else 1).
+    """
+
+    n: int
+    n_modes: int | None
+    band: tuple[float, float] | None
+    vectors: bool
+    accuracy: str
+    diagonal_mass: bool
+    width: int
+    ordering: NDArray[np.intp] | None
+    sparse: bool
+    nnz: int
+    n_terms: int
+    topology: str
+    spread: float = 1.0
+    device: str = "cpu"
+    # M q'' + (G + C) q' + K q = 0: "undamped" (no G, no C: the symmetric paths), "gyroscopic"
+    # (G only) or "damped" (C given); `definite`: K~ positive definite (its Cholesky factor exists)
+    equation: str = "undamped"
+    definite: bool = True
+
+    @property
+    def quadratic(self) -> bool:
+        """G or C given: a quadratic eigenproblem (`structured.quadratic`)."""
+        return self.equation != "undamped"
+
+    @property
+    def springs(self) -> bool:
+        """The spring factor (B, w) of K is given: the accurate paths may serve."""
+        return self.topology not in ("none", "chain-derived")
+
+    @property
+    def partial(self) -> bool:
+        """Fewer modes than all of them (by count)."""
+        return self.n_modes is not None and self.n_modes < self.n
+
+    @property
+    def few(self) -> bool:
+        """A few modes (or a band) of a system over DENSE_LIMIT dofs: the partial solvers' work."""
+        return (self.n_modes is not None and self.n_modes < self.n - 1 or self.band is not None) and self.n > DENSE_LIMIT
+
+    @property
+    def tridiagonal(self) -> bool:
+        return self.width <= 1 and self.ordering is None
+
+    @property
+    def k(self) -> int:
+        """Modes to estimate for: n_modes, or common.BAND_MODES_ESTIMATE for a band, or all."""
+        if self.n_modes is not None:
+            return self.n_modes
+        return min(self.n, common.BAND_MODES_ESTIMATE) if self.band is not None else self.n
+
+    @property
+    def ringlike(self) -> bool:
+        return self.topology in ("ring", "walled-ring")
+
+    @property
+    def one_dimensional(self) -> bool:
+        """Springs along one line (a chain or a ring, walls or not)."""
+        return self.topology in ("chain", "walled-chain", "ring", "walled-ring")
+
+    @property
+    def ring_route(self) -> str | None:
+        """How "high" takes a ring's values from a standard solver (`common.ring_route`): the band
+        solver's where the ring has its banded order and no vectors are asked."""
+        return common.ring_route(self.accuracy, self.few, self.spread, self.ordering is not None and not self.vectors)
+
+
+def quadratic_problem(n: int, *, damped: bool, definite: bool) -> Problem:
+    """The `Problem` of a quadratic eigenproblem of n dofs (all 2n eigenvalues, dense)."""
+    return Problem(n=n, n_modes=None, band=None, vectors=True, accuracy="high", diagonal_mass=False, width=n,
+                   ordering=None, sparse=False, nnz=n * n, n_terms=0, topology="none",
+                   equation="damped" if damped else "gyroscopic", definite=definite)
+
+
+def chain_problem(n: int, *, accuracy: str, n_modes: int | None = None, vectors: bool = False) -> Problem:
+    """The `Problem` of a chain of n dofs (tridiagonal K~, diagonal masses, its springs known unless
+    the level skips them): the cheapest request of that size, which a check made from sizes alone,
+    before any system is built, plans (`vibra.pipeline.scene.limits.all_modes_seconds`)."""
+    springs = uses_springs(accuracy)
+    return Problem(n=n, n_modes=n_modes, band=None, vectors=vectors, accuracy=accuracy, diagonal_mass=True, width=1,
+                   ordering=None, sparse=True, nnz=3 * n, n_terms=max(n - 1, 0) if springs else 0,
+                   topology="chain" if springs else "none")
