@@ -266,6 +266,8 @@ FPUT = ROOT / "dynamics" / "fput-alpha.toml"
      r"argon-fcc\.toml: kind: a crystal scene has phonon branches over the wave vector"),
     (FPUT, "compute.dt", 0.05, 0.1, r"compute\.dt: changes only a dynamics scene's run: .* every point would be the same"),
     (FPUT, "draw.n_modes_drawn", 1, 3, r"draw\.n_modes_drawn: changes no solve"),
+    # FPUT's alpha is the cubic term: the normal modes are the harmonic chain's at every alpha
+    (FPUT, "system.alpha", 0.1, 0.3, r"system\.alpha: is an anharmonic term: it changes only the trajectory"),
 ])
 def test_a_sweep_that_cannot_vary_the_table_is_refused_up_front(scene, key, low, high, match) -> None:
     with pytest.raises(SceneError, match=match):
@@ -275,9 +277,11 @@ def test_a_sweep_that_cannot_vary_the_table_is_refused_up_front(scene, key, low,
 def test_a_sweep_whose_points_are_all_equal_warns() -> None:
     from vibra.pipeline.sweep import SweepWarning
 
-    # FPUT's alpha is the cubic term: the normal modes are the harmonic chain's at every alpha
-    with pytest.warns(SweepWarning, match=r"all 3 points of system\.alpha gave the same frequencies"):
-        table = sweep(FPUT, vary("system.alpha", 0.1, 0.3, 3))
+    def chain_ignoring(label: float) -> object:  # a builder keyword that changes no mode
+        return linear_chain(4)
+
+    with pytest.warns(SweepWarning, match=r"all 3 points of label gave the same frequencies"):
+        table = sweep(chain_ignoring, vary("label", 0.1, 0.3, 3))
     assert len(table.rows) == 3
     with warnings.catch_warnings():
         warnings.simplefilter("error", SweepWarning)  # a key that changes the modes: no warning

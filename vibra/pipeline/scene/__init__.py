@@ -5,7 +5,8 @@ what to compute (how many modes, shapes or not, response, continuum comparison,
 cross-check) and what to draw. `load_scene(path)` reads a file with `tomllib` and
 `Scene.from_dict(data, source=path)` validates every key before any work: unknown keys
 (with the closest valid key suggested), wrong types and impossible values are reported as
-`SceneError` with the file name and the key path. The schema is documented in
+`SceneError` with the file name and the key path, every problem of every section at once
+(`SceneError.errors`). The schema is documented in
 ``docs/scenes.md``.
 
 Nothing in a scene is executed: a builder name is looked up in `BUILD_FUNCTIONS`, a fixed
@@ -124,10 +125,28 @@ class Scene:
         ------
         SceneError
             Unknown key (closest valid key suggested), wrong type, impossible value or an
-            inconsistent combination, with the file name and key path.
+            inconsistent combination, with the file name and key path. Every key of every
+            section is checked before it is raised: one error carries all their problems
+            (`SceneError.errors`, one line each in its message). The combinations of valid
+            values are checked after that, and the first one that fails is raised.
         """
         src = str(source)
         reader = Reader(src)
+        errors: list[SceneError] = []
+
+        def section(read: Any) -> Any:  # one section: its problems collected, the next one read too
+            try:
+                value = read()
+            except SceneError as error:
+                errors.append(error)
+                reader.pending = []
+                return None
+            if reader.pending:
+                errors.append(reader.take())
+                return None
+            return value
+
+        # a bad kind or [system] stops here (the sections depend on them); any other problem is noted
         top = reader.table(data, "", {
             "kind": field_spec(one_of(*KINDS), required=True),
             "name": field_spec(string, Path(src).stem if src != "<scene>" else None),
@@ -141,26 +160,33 @@ class Scene:
         kind = top["kind"]
         name = top["name"]
         if name is None:
-            reader.fail("name", "is required when the scene has no file name")
-        if not SAFE_NAME.match(name) or ".." in name:
+            reader.note("name", "is required when the scene has no file name")
+        elif not SAFE_NAME.match(name) or ".." in name:
             given = "name" in data
-            reader.fail("name", f"{name!r}{'' if given else ' (the file name, as no name is given)'} "
+            reader.note("name", f"{name!r}{'' if given else ' (the file name, as no name is given)'} "
                         "is not a safe file name: use letters, digits, '_', '.', '-' (no spaces, '/', '..' "
                         "or absolute paths); outputs stay inside the output folder"
                         + ("" if given else "; rename the file or add a name = \"...\" line"))
+        if reader.pending:
+            errors.append(reader.take())
         units = top["units"] or DEFAULT_UNITS[kind]
-        system = parse_system(reader, data["system"], kind)
+        system = section(lambda: parse_system(reader, top["system"], kind))
         own = OWN_TABLES.get(kind)
         if own is not None:  # a kind with its own [compute] and [draw] keys
             parse, check, field = own
-            draw, spec = parse(reader, data.get("compute", {}), data.get("draw", {}))
+            parsed = section(lambda: parse(reader, top["compute"], top["draw"]))
+            if errors:
+                raise SceneError.combine(errors)
+            draw, spec = parsed
             scene = cls(source=src, kind=kind, name=name, title=top["title"] or name,
                         description=top["description"], units=units, system=system,
                         compute=ComputeSpec(), draw=draw, **{field: spec})
             check(reader, scene)
             return scene
-        compute = parse_compute(reader, data.get("compute", {}), kind)
-        draw = parse_draw(reader, data.get("draw", {}))
+        compute = section(lambda: parse_compute(reader, top["compute"], kind))
+        draw = section(lambda: parse_draw(reader, top["draw"]))
+        if errors:  # every problem of every section at once; the combinations need them all valid
+            raise SceneError.combine(errors)
         scene = cls(source=src, kind=kind, name=name, title=top["title"] or name,
                     description=top["description"], units=units, system=system,
                     compute=compute, draw=draw)

@@ -14,6 +14,7 @@ from types import MappingProxyType
 from typing import Any, Callable, Mapping
 
 from vibra.modes import SOLVERS
+from vibra.solvers.accuracy import DEFAULT as DEFAULT_ACCURACY, LEVELS as ACCURACY_LEVELS, uses_springs
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
 )
@@ -27,45 +28,82 @@ from vibra.pipeline.scene.values import (
     string, table,
 )
 
-__all__ = ["Reader", "parse_system", "parse_compute", "parse_draw", "check_combinations", "parse_crystal",
+__all__ = ["Reader", "unknown_key", "parse_system", "parse_compute", "parse_draw", "check_combinations", "parse_crystal",
            "check_crystal"]
 
 
 class Reader:
-    """Checks tables against field specs, failing with file and key path."""
+    """Checks tables against field specs, failing with file and key path, and collects what it finds.
+
+    `table` checks every key of a table before it stops: an unknown key, a missing required key
+    and a bad value each become a problem in `pending`, and the table's values come back with
+    the default in place of a bad one, so the next table of the section is checked too. A bad
+    required key stops the section at once (what follows needs it), and so does `fail`, the
+    check of a combination: with problems pending it raises those instead of its own, which may
+    only echo them (a bad ``compute.temperature`` read as absent is "required" again).
+    `Scene.from_dict` runs each section, takes `pending` after it (`take`), and raises them all.
+    """
 
     def __init__(self, source: str) -> None:
         self.source = source
+        self.pending: list[SceneError] = []
 
     def fail(self, key: str, message: str) -> Any:
+        if self.pending:
+            raise self.take()
         raise SceneError(self.source, key, message)
+
+    def note(self, key: str, message: str) -> None:
+        """A problem that stops nothing: checking goes on, and the scene is refused at the end."""
+        self.pending.append(SceneError(self.source, key, message))
+
+    def take(self) -> SceneError:
+        """The pending problems as one `SceneError` (`SceneError.combine`), cleared from the reader."""
+        error = SceneError.combine(self.pending)
+        self.pending = []
+        return error
 
     def _failer(self, key: str) -> Callable[[str], Any]:
         def fail(message: str) -> Any:
-            return self.fail(key, message)
+            raise SceneError(self.source, key, message)
         return fail
 
     def table(self, data: Any, path: str, fields: Mapping[str, FieldSpec]) -> dict[str, Any]:
         if not isinstance(data, Mapping):
-            self.fail(path, f"expected a table, got {kind_name(data)} ({brief(data)})")
+            self.note(path, f"expected a table, got {kind_name(data)} ({brief(data)})")
+            raise self.take()
+        before = len(self.pending)
         for key in data:
             if key not in fields:
                 full = f"{path}.{key}" if path else str(key)
                 full = full if len(full) <= 60 and "\n" not in full else brief(full).strip("'")
-                close = difflib.get_close_matches(key, list(fields), n=1, cutoff=0.6)
-                hint = f"; did you mean {close[0]!r}?" if close else ""
-                allowed = ", ".join(sorted(fields))
-                self.fail(full, f"unknown key{hint} (allowed here: {allowed})")
+                self.note(full, unknown_key(str(key), fields))
         out: dict[str, Any] = {}
+        stop = False
         for key, spec in fields.items():
             full = f"{path}.{key}" if path else key
             if key not in data:
                 if spec.required:
-                    self.fail(full, "is required")
+                    self.note(full, "is required")
+                    stop = True
                 out[key] = spec.default
                 continue
-            out[key] = spec.check(data[key], self._failer(full))
+            try:
+                out[key] = spec.check(data[key], self._failer(full))
+            except SceneError as error:
+                self.pending.append(error)
+                out[key] = spec.default
+                stop = stop or spec.required
+        if stop and len(self.pending) > before:
+            raise self.take()
         return out
+
+
+def unknown_key(key: str, allowed: Any) -> str:
+    """The problem of an unknown key: the closest allowed key suggested, then all of them."""
+    close = difflib.get_close_matches(key, list(allowed), n=1, cutoff=0.6)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    return f"unknown key{hint} (allowed here: {', '.join(sorted(allowed))})"
 
 
 def parse_system(reader: Reader, data: Any, kind: str) -> SystemSpec:
@@ -104,7 +142,7 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
         "n_modes": field_spec(integer(1)),
         "band": field_spec(_band),
         "shapes": field_spec(boolean, False),
-        "accuracy": field_spec(one_of("high", "fast", "certified"), "high"),
+        "accuracy": field_spec(one_of(*ACCURACY_LEVELS), DEFAULT_ACCURACY),
         "solver": field_spec(one_of(*SOLVERS), "auto"),
         "response": field_spec(table),
         "continuum": field_spec(table),
@@ -153,7 +191,7 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
     if values["solver"] == "sparse" and values["n_modes"] is None and values["band"] is None:
         reader.fail("compute.solver", "'sparse' computes a few modes; give compute.n_modes or compute.band, "
                     "or choose another solver")
-    if values["solver"] == "accurate" and values["accuracy"] == "fast":
+    if values["solver"] == "accurate" and not uses_springs(values["accuracy"]):
         reader.fail("compute.solver", "'accurate' needs accuracy = \"high\" or \"certified\" (the fast path drops the spring "
                     "factor the accurate solver works on)")
     return ComputeSpec(n_modes=values["n_modes"], band=values["band"], shapes=values["shapes"],

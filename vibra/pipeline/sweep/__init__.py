@@ -3,7 +3,8 @@
 A sweep is a scene file (or a parsed scene table, or a Python builder) and a set of points:
 
 - a **grid** (`grid`, `vary`): the Cartesian product of value ranges, one per dotted key of
-  the scene (``system.defect_mass``, ``system.stiffness``, ``compute.n_modes``), linear or
+  the scene (``system.defect_mass``, ``system.stiffness``, one value of a list such as
+  ``system.stiffness[1]``, ``compute.n_modes``, ``compute.response.alpha``), linear or
   logarithmic; for a builder the keys are its keyword arguments. Ranges and grids are lazy
   sequences (`ValueRange`, `GridPoints`): a value is computed when it is read, so a grid of
   10^9 points takes a few bytes until it runs. `sweep` refuses more than ``max_points``
@@ -17,10 +18,14 @@ A sweep is a scene file (or a parsed scene table, or a Python builder) and a set
 
 Each point is one task: the scene is rebuilt with the point's values and validated as a
 scene file would be (`vibra.pipeline.scene.Scene.from_dict`: an unknown key is refused with the
-closest valid one), every point before any is solved; the system is built and its modes
-solved as ``vibra modes`` does (the scene's ``[compute]`` choices: ``n_modes``, ``band``,
-``accuracy``, ``solver``; frequencies only). An optional ``derive(system, modes)`` adds
-derived quantities (a mapping of names to numbers) per point. Tasks run in this process
+closest valid one), every point before any is solved, and a key that changes nothing a sweep
+computes is refused naming it (`vibra.pipeline.sweep.applies`: a dynamics scene's time step,
+a chart's setting); the system is built and its modes solved as ``vibra modes`` does (the
+scene's ``[compute]`` choices: ``n_modes``, ``band``, ``accuracy``, ``solver``; frequencies
+only), and a scene with ``[compute.response]`` adds the peak of its forced response as two
+derived columns (`response_summary`: ``peak_receptance (m/N)`` and ``peak_omega (rad/s)`` for
+SI), so a sweep of its damping tabulates what the damping changes. An optional
+``derive(system, modes)`` adds derived quantities (a mapping of names to numbers) per point. Tasks run in this process
 (``client=None``) or on a Dask cluster (`vibra.cluster`: ``"local"``, an address or a
 ``Client``); a builder, ``draw`` and ``derive`` are then pickled and sent to the workers
 (module-level functions, or anything cloudpickle ships).
@@ -46,15 +51,18 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from typing import Any, Callable, Literal, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.pipeline.plan import build_system
 from vibra.pipeline.scene import Scene, SceneError
+from vibra.solvers.accuracy import Accuracy, check as check_accuracy
 from vibra.solvers.budget import describe_seconds
-from vibra.pipeline.sweep.applies import NOT_SWEPT, SOLVE_KEYS, SweepWarning, check_swept_keys, warn_if_constant
+from vibra.pipeline.sweep.applies import (
+    NOT_SWEPT, SOLVE_KEYS, SweepWarning, check_swept_keys, response_summary, warn_if_constant,
+)
 from vibra.pipeline.sweep.tables import scene_at, scene_table
 from vibra.pipeline.sweep.cost import check_sweep_memory
 from vibra.pipeline.sweep.tracking import BranchTracker
@@ -70,12 +78,14 @@ __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble",
 
 
 # ---------------------------------------------------------------------- one point
-def _solve_scene(table: Mapping[str, Any], source: str, vectors: bool = False) -> tuple[Any, Any, str]:
+def _solve_scene(table: Mapping[str, Any], source: str, vectors: bool = False
+                 ) -> tuple[Any, Any, tuple[tuple[str, float], ...]]:
+    """The point's system, its modes and its response columns (`response_summary`; () without a response)."""
     scene = Scene.from_dict(table, source=source)
     system = build_system(scene)
     c = scene.compute
     modes = system.modes(c.n_modes, accuracy=c.accuracy, vectors=vectors, band=c.band, solver=c.solver)
-    return system, modes, scene.units
+    return system, modes, response_summary(scene, system)
 
 
 def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str, Any], ...], payload: Any,
@@ -86,20 +96,22 @@ def _point_task(kind: str, target: Any, index: int, parameters: tuple[tuple[str,
         data, source = target
         if payload is None:  # an ensemble member: draw its values here, from its own generator
             drawn = dict(options["draw"](member_rng(options["seed"], index)))
-            _, payload = scene_at(data, source, drawn)
+            scene, payload = scene_at(data, source, drawn)
+            check_swept_keys(tuple(drawn), source, scene)
             parameters = parameters + tuple((str(k), v) for k, v in drawn.items()
                                             if isinstance(v, (int, float)) and not isinstance(v, bool))
         else:  # the point's values: its table is made here (the grid keeps none)
             _, payload = scene_at(data, source, dict(payload))
-        system, modes, _ = _solve_scene(payload, source, options.get("track", False))
+        system, modes, response = _solve_scene(payload, source, options.get("track", False))
     else:
+        response = ()
         kwargs = dict(payload) if payload is not None else {"rng": member_rng(options["seed"], index)}
         system = target(**kwargs)
         modes = system.modes(options["n_modes"], accuracy=options["accuracy"], vectors=options.get("track", False),
                              band=options["band"], solver=options["solver"])
-    extra: tuple[tuple[str, float], ...] = ()
+    extra: tuple[tuple[str, float], ...] = response
     if derive is not None:
-        extra = tuple((str(k), float(v)) for k, v in dict(derive(system, modes)).items())
+        extra += tuple((str(k), float(v)) for k, v in dict(derive(system, modes)).items())
     errors = np.asarray(modes.omega_error)
     vectors = getattr(modes, "vectors", None) if options.get("track", False) else None
     if vectors is not None and (np.iscomplexobj(vectors) or np.ndim(vectors) != 2):
@@ -128,7 +140,7 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
           derive: Callable[[Any, Any], Mapping[str, float]] | None = None, client: Any = None,
           progress: ProgressOption = None, n_workers: int | None = None, timeout: float = 10.0,
           n_modes: int | None = None, band: tuple[float, float] | None = None,
-          accuracy: Literal["high", "fast"] = "high", solver: str = "auto", name: str | None = None,
+          accuracy: Accuracy = "high", solver: str = "auto", name: str | None = None,
           chunk_size: int = 1, max_points: int = DEFAULT_MAX_POINTS, track: bool = True,
           max_memory: float | None = None) -> SweepTable:
     """Solve `target` at every point of `points`; one row per point, in point order.
@@ -179,7 +191,10 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
     ------
     SceneError
         A point's scene is invalid: an unknown key (the closest valid key suggested), a
-        wrong value; checked for every point before any is solved.
+        wrong value, an index past the end of a swept list (``system.stiffness[5]``: the
+        message gives the list's length) or into a value that is not a list; checked for
+        every point before any is solved. A swept key that changes nothing a sweep computes
+        (`check_swept_keys`: a dynamics scene's run, a chart's setting), named.
     ValueError, TypeError
         Malformed points, target, client or options; an ensemble of a scene without ``draw``;
         more points than `max_points` (the message gives the count and the time estimate); more
@@ -206,7 +221,7 @@ def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[fl
         raise TypeError(f"points must be a Grid, Axis, mapping or Ensemble, got {type(points).__name__}")
     if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) or max_points < 1:
         raise ValueError(f"max_points is {max_points!r}; expected an integer >= 1")
-    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver,
+    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": check_accuracy(accuracy), "solver": solver,
                                "track": bool(track) and isinstance(points, Grid)}
     if isinstance(points, Ensemble):
         options.update(seed=points.seed, draw=points.draw)
@@ -343,13 +358,13 @@ def _first_plan(target: Any, points: Grid | Ensemble, options: dict[str, Any], n
 
 def estimate_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
                      n_modes: int | None = None, band: tuple[float, float] | None = None,
-                     accuracy: Literal["high", "fast"] = "high", solver: str = "auto") -> tuple[float, str] | None:
+                     accuracy: Accuracy = "high", solver: str = "auto") -> tuple[float, str] | None:
     """(seconds per point, what) of a sweep, estimated from the first point's sizes before any
     solve (the solver registry's cost, as ``vibra validate`` prints it); None when the registry
     does not plan the solve. Arguments as in `sweep`."""
     if isinstance(points, Axis) or (isinstance(points, Mapping) and not isinstance(points, Grid)):
         points = grid(points)
-    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": accuracy, "solver": solver}
+    options: dict[str, Any] = {"n_modes": n_modes, "band": band, "accuracy": check_accuracy(accuracy), "solver": solver}
     if isinstance(points, Ensemble):
         options.update(seed=points.seed, draw=points.draw)
     return _point_estimate(target, points, options, None)
@@ -390,10 +405,11 @@ def _prepare(target: Any, points: Grid | Ensemble, options: dict[str, Any], name
         scene, _ = scene_at(data, source, {})
         if scene.kind in NOT_SWEPT:
             raise SceneError(source, "kind", NOT_SWEPT[scene.kind])
-        if isinstance(points, Grid):
-            for values in points.points:  # every point validated before any work (not kept)
+        if isinstance(points, Grid):  # the first point, then its keys, then every point, before any work
+            for number, values in enumerate(points.points):  # (nothing of them kept)
                 scene_at(data, source, dict(zip(points.keys, values)))
-            check_swept_keys(points.keys, source, scene.kind)
+                if number == 0:
+                    check_swept_keys(points.keys, source, scene)
         elif points.draw is None:
             raise ValueError("an ensemble of a scene needs draw(generator) -> {key: value}, the values of each member")
         payload, units, table_name = (data, source), scene.units, name or scene.name

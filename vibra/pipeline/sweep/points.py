@@ -117,7 +117,8 @@ class Axis:
     Attributes
     ----------
     key : str
-        Dotted key of the scene (``system.defect_mass``) or a builder's keyword.
+        Dotted key of the scene (``system.defect_mass``), one value of a list in it
+        (``system.stiffness[1]``, ``system.positions[2][0]``), or a builder's keyword.
     values : sequence of int or float
         The values, in the key's own unit (a tuple, or a lazy `ValueRange` from `vary`).
     """
@@ -128,6 +129,13 @@ class Axis:
 
 def vary(key: str, start: float, stop: float, n: int, *, spacing: Literal["linear", "log"] = "linear") -> Axis:
     """`n` values from `start` to `stop` (both included), evenly or logarithmically spaced.
+
+    `key` is a dotted key of the scene (``system.defect_mass``), one value of a list
+    (``system.stiffness[1]``: the scene must give the list, or its builder a default list),
+    or a builder's keyword; `sweep` checks it against the scene.
+
+    >>> vary("system.stiffness[1]", 1.0, 2.0, 3).values[1]
+    1.5
 
     Raises
     ------
@@ -156,6 +164,9 @@ def vary(key: str, start: float, stop: float, n: int, *, spacing: Literal["linea
 
 def parse_vary(text: str) -> Axis:
     """An `Axis` from the command-line form ``KEY=START:STOP:N`` or ``KEY=log:START:STOP:N``.
+
+    >>> parse_vary("system.stiffness[1]=50:150:5").key
+    'system.stiffness[1]'
 
     Raises
     ------
