@@ -180,7 +180,8 @@ def electronic_structure(
     """
     from ase.data import chemical_symbols
 
-    from vibra.molecules.engines import AseEngine, EngineCalculator
+    from vibra.molecules.engines.ase_engine import AseEngine
+    from vibra.molecules.engines.calculator import EngineCalculator
 
     positions, _ = check_atoms(atoms)
     if not isinstance(engine, Engine):
