@@ -1,10 +1,5 @@
-"""Tests of the package layout (issue 29, item 6): `vibra._moved` and the names it keeps working.
-
-A module that moved (`vibra._moved.MOVED`) is reached by its old name as the very module object
-of its new name, never a second copy: ``import vibra.pencil``, ``vibra.scene.schema``,
-``from vibra.lagrangian import ...`` and a monkeypatch through an old name all act on the one
-module. Truth: `sys.modules`, object identity and a fresh interpreter.
-"""
+"""Tests of the package layout (issues 29 and 43): one name per module, every listed submodule
+imports, no module over 600 lines, the module map names every module."""
 
 from __future__ import annotations
 
@@ -21,7 +16,6 @@ import pytest
 
 import vibra
 from vibra import solvers
-from vibra._moved import MOVED, new_name
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,83 +30,20 @@ def _vibra_modules_by_file() -> dict[str, list[ModuleType]]:
     return by_file
 
 
-@pytest.mark.parametrize(("old", "new"), sorted(MOVED.items()))
-def test_an_old_name_is_the_moved_module_itself(old: str, new: str) -> None:
-    module = importlib.import_module(old)
-    assert module is importlib.import_module(new)
-    assert sys.modules[old] is sys.modules[new] is module
-    assert module.__name__ == new and module.__spec__ is not None and module.__spec__.name == new
-    assert getattr(vibra, old.rpartition(".")[2]) is module  # vibra.__getattr__ serves old names too
-    twins = _vibra_modules_by_file()[module.__file__]
-    assert twins == [module], f"{module.__file__} is loaded as {len(twins)} module objects"
-
-
-def test_no_vibra_file_is_loaded_twice() -> None:
-    for old in MOVED:
-        importlib.import_module(old)
-    importlib.import_module("vibra.scene.schema")
-    importlib.import_module("vibra.report.batch")
-    duplicates = {file: len(modules) for file, modules in _vibra_modules_by_file().items() if len(modules) > 1}
-    assert duplicates == {}
-
-
-def test_a_module_below_a_moved_package_is_the_new_one() -> None:
-    import vibra.pipeline.scene.schema
-    import vibra.scene.schema
-
-    assert vibra.scene.schema is vibra.pipeline.scene.schema
-    from vibra.plan.steps import STEPS
-    from vibra.pipeline.plan.steps import STEPS as steps
-
-    assert STEPS is steps
-    assert new_name("vibra.scene.schema") == "vibra.pipeline.scene.schema"
-    assert new_name("vibra.scenery") is None and new_name("vibra.pipeline.scene") is None
-
-
-def test_from_imports_and_monkeypatches_through_an_old_name_reach_the_one_module(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    from vibra.lagrangian import linearize
-    from vibra.mechanics.lagrangian import linearize as real
-
-    assert linearize is real
-    import vibra.pencil
-    import vibra.solvers.structured.pencil as pencil
-
-    monkeypatch.setattr(vibra.pencil, "_layout_probe", 1, raising=False)
-    assert pencil._layout_probe == 1  # type: ignore[attr-defined]
-    monkeypatch.setattr("vibra.scene.limits.BYTES_PER_DOF", 2)
-    from vibra.pipeline.scene import limits
-
-    assert limits.BYTES_PER_DOF == 2
-
-
-@pytest.mark.parametrize("old", ["vibra.scene.schema", "vibra.report", "vibra.structures", "vibra.pencil"])
-def test_an_old_name_imported_first_in_a_fresh_interpreter(old: str) -> None:
-    """The old name before the new one (nothing imported yet): still one module."""
-    new = new_name(old)
-    code = (f"import importlib, sys\n"
-            f"a = importlib.import_module({old!r}); b = importlib.import_module({new!r})\n"
-            "twins = {id(m) for m in list(sys.modules.values()) if getattr(m, '__file__', None) == a.__file__}\n"
-            "print(a is b, a.__name__, a.__spec__.name, len(twins))\n")
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
-    assert result.stdout.split() == ["True", new, new, "1"]
-
-
-def test_a_pickle_naming_an_old_module_loads() -> None:
-    """Pickles written before the move name the old modules (protocol 0: the names as text)."""
-    from vibra.pipeline.plan import Plan
-    from vibra.solvers.structured.quadratic import QuadraticModes
-
-    for cls, old in ((QuadraticModes, b"vibra.quadratic"), (Plan, b"vibra.plan.model")):
-        data = pickle.dumps(cls, protocol=0).replace(cls.__module__.encode(), old)
-        assert old in data and pickle.loads(data) is cls
-
-
-def test_an_unknown_name_is_still_not_found() -> None:
+def test_an_unknown_name_is_not_found() -> None:
     with pytest.raises(ModuleNotFoundError):
         importlib.import_module("vibra.no_such_module")
+
+
+@pytest.mark.parametrize("old", ["vibra.pencil", "vibra.scene", "vibra.scene.schema", "vibra.lagrangian",
+                                 "vibra.structures", "vibra.report"])
+def test_no_second_name_for_a_module(old: str) -> None:
+    """The names modules had before the layout of issue 29 are gone (issue 43: no shim for a version
+    never released): one name per module."""
     with pytest.raises(ModuleNotFoundError):
-        importlib.import_module("vibra.scene.no_such_module")
+        importlib.import_module(old)
+    assert not hasattr(vibra, old.split(".")[1])
+    assert not any(type(finder).__name__ == "MovedFinder" for finder in sys.meta_path)
 
 
 @pytest.mark.parametrize("name", vibra.SUBMODULES)

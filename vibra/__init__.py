@@ -12,8 +12,7 @@ Two kinds of public names, listed in one place each below:
   ``import vibra`` stays light: no pyvista, ase, phonopy or matplotlib. Import them by name
   (``from vibra import chains``).
 
-``dir(vibra)`` lists both, plus ``__version__``. Modules that moved keep their old names
-(``vibra.pencil``, ``vibra.scene.schema``, ...) as the same module objects: see `vibra._moved`.
+``dir(vibra)`` lists both, plus ``__version__``.
 """
 
 from __future__ import annotations
@@ -21,13 +20,10 @@ from __future__ import annotations
 from importlib import import_module as _import_module
 from typing import Any as _Any
 
-from vibra._moved import MOVED as _MOVED, install as _install_moved
 from vibra.generalized import GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.system import System
 from vibra.units import ASE, DIMENSIONLESS, SI, UnitSystem
-
-_install_moved()  # old module names (vibra.pencil, vibra.scene, ...) resolve to the moved modules
 
 __version__ = "0.1.0"
 
@@ -44,7 +40,7 @@ SUBMODULES: tuple[str, ...] = (
 
 
 def __getattr__(name: str) -> _Any:
-    if name in SUBMODULES or f"vibra.{name}" in _MOVED:  # an old name: the moved module itself
+    if name in SUBMODULES:
         return _import_module(f"vibra.{name}")
     raise AttributeError(f"module 'vibra' has no attribute {name!r}")
 
