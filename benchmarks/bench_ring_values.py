@@ -181,7 +181,7 @@ def run_lowest(cases: list[tuple[int, float]], rounds: int, k: int = 10) -> list
 def run_kernels(rounds: int, n: int = 20000, points: int = 512) -> list[dict]:
     import scalar_kernels
 
-    from vibra._lapack import bidiagonal_singular_values
+    from vibra._core.lapack import bidiagonal_singular_values
     from vibra.solvers.accurate.ring import counts as ring_counts, kernel as ring_kernel, values as ring_values
     from vibra.solvers.accurate.dd import UNIT, div, mul
 

@@ -350,7 +350,7 @@ def test_bad_input_is_refused_naming_the_argument(call: Callable[[], Any], error
 
 
 # ---------------------------------------------------------------------- issue 34: files vibra writes
-# The one rule (vibra._io.check_target): a target is a regular file or a new name, never a folder,
+# The one rule (vibra._core.filesystem.check_target): a target is a regular file or a new name, never a folder,
 # device, FIFO, socket or symbolic link, never one of the run's inputs (by path or inode). Truth: the
 # rule itself and the file system after the call (names, kinds, sizes, mtimes and inodes of every
 # entry of the test's folder), never the code's own report of what it did.
@@ -362,7 +362,7 @@ from pathlib import Path  # noqa: E402
 
 from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
 
-from vibra._io import TargetRefused, atomic_write_text, check_target, protected_inputs  # noqa: E402
+from vibra._core.filesystem import TargetRefused, atomic_write_text, check_target, protected_inputs  # noqa: E402
 
 
 @functools.cache
@@ -539,7 +539,7 @@ def test_a_refused_target_is_one_line_naming_the_option(tmp_path: Path) -> None:
 
 def test_a_target_that_turns_into_a_fifo_while_writing_is_not_replaced(tmp_path: Path) -> None:
     # the rule runs again just before the rename: a FIFO made meanwhile stays a FIFO
-    from vibra._io import atomic_write
+    from vibra._core.filesystem import atomic_write
 
     target = tmp_path / "late"
 
@@ -604,7 +604,7 @@ def test_the_cgroup_limit_is_read(layout: dict[str, str], expected: float | None
 
 _DROPPED = """
 import os, sys
-from vibra._io import TargetRefused, atomic_write_text  # imported first: nobody may not read the interpreter's files
+from vibra._core.filesystem import TargetRefused, atomic_write_text  # imported first: nobody may not read the interpreter's files
 os.setgid(65534); os.setuid(65534)  # nobody: permissions that bind
 try:
     atomic_write_text(sys.argv[1], "x")

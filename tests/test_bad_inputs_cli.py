@@ -962,7 +962,7 @@ def test_builder_arguments_map_to_scene_keys_by_construction() -> None:
     # (or system.name), a network's positions from system.pdb
     import dataclasses
 
-    from vibra._validate import ArgumentError, finite
+    from vibra._core.validate import ArgumentError, finite
     from vibra.pipeline.plan.build import scene_key
     from vibra.pipeline.scene import Scene
 
@@ -1135,7 +1135,7 @@ def test_a_killed_writers_temporary_files_go_with_the_next_write(command: str, t
     # command that writes the same file removes it, and a live writer's stays
     dead, live = _dead_pid(), os.getpid()
     out = tmp_path / "out"
-    (out / ".vibra").mkdir(parents=True)  # the killed writer had claimed the folder (vibra._io.claim_out_folder)
+    (out / ".vibra").mkdir(parents=True)  # the killed writer had claimed the folder (vibra._core.filesystem.claim_out_folder)
     if command == "sweep":
         name = "mass-defect_sweep.csv"
         args = ["sweep", str(ROOT / "chains" / "mass-defect.toml"), "--vary", "system.defect_mass=0.2:0.8:2",
@@ -1165,7 +1165,7 @@ def test_a_killed_reports_work_folder_goes_with_the_next_report(tmp_path: Path,
     out = tmp_path / "out"
     dead = _dead_pid()
     (out / ".work" / str(dead) / "c0" / "out").mkdir(parents=True)
-    (out / ".vibra").mkdir()  # the killed run had claimed the folder (vibra._io.claim_out_folder)
+    (out / ".vibra").mkdir()  # the killed run had claimed the folder (vibra._core.filesystem.claim_out_folder)
     (out / ".work" / str(dead) / "c0" / "out" / "c0_spectrum.png").write_bytes(b"\x89PNG half")
     stale = out / f".summary.json.{dead}~tmp~abcd1234.tmp"
     stale.write_text("{")

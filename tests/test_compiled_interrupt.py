@@ -20,7 +20,6 @@ import pytest
 
 from vibra.solvers import compiled
 from vibra.solvers.accurate.chain import gk_bisection
-from vibra.solvers.accurate.ring import kernel as ring_kernel
 
 
 def test_batches_cover_every_value_once_in_whole_multiples() -> None:

@@ -4,7 +4,7 @@ page (issue 48, item 3).
 Read: every page under docs/ (the API pages included), README.md and every notebook (markdown
 and code cells). A vibra name is a dotted path (``vibra.charts.save_figure``) or a name imported
 ``from vibra... import``. None may have a private component (``_x``; dunders are public), and
-each must exist: the test imports it. Source files named by their path (``vibra/_io.py``, where
+each must exist: the test imports it. Source files named by their path (``vibra/_core/filesystem.py``, where
 a rule is implemented) are not names a reader calls, and are left alone; so is the module map of
 docs/architecture.md, the contributors' map, which names every module, private ones included
 (tests/test_layout.py).
@@ -90,7 +90,7 @@ def resolves(path: str) -> bool:
 
 
 REFERENCES = [(where, name) for source in SOURCES for where, text in lines(source) for name in names(text)]
-#: rows of docs/architecture.md's module map ("| `vibra.units`, `vibra._validate`, ... | stage |")
+#: rows of docs/architecture.md's module map ("| `vibra.units`, `vibra._core.validate`, ... | stage |")
 MODULE_MAP = {where for source in SOURCES if source.name == "architecture.md" and source.parent.name == "docs"
               for where, text in lines(source) if text.startswith("| `vibra.")}
 
@@ -112,13 +112,13 @@ def test_every_vibra_name_in_the_docs_exists() -> None:
 
 
 def test_the_scanner_sees_imports_and_paths() -> None:
-    text = ("from vibra.charts._style import save_figure\nimport vibra._io as io\nvibra.x._y(1)\n"
+    text = ("from vibra.charts._style import save_figure\nimport vibra._core.filesystem as io\nvibra.x._y(1)\n"
             "from vibra.charts import (\n    save_figure,\n    _hidden as h,\n)\nvibra.__version__")
     found = list(names("\n".join(_joined(text))))
     assert [name for name in found if private(name)] == [
-        "vibra.charts._style", "vibra._io", "vibra.x._y", "vibra.charts._style.save_figure", "vibra.charts._hidden"]
+        "vibra.charts._style", "vibra._core.filesystem", "vibra.x._y", "vibra.charts._style.save_figure", "vibra.charts._hidden"]
     assert "vibra.charts.save_figure" in found and not private("vibra.__version__")
-    assert not list(names("`vibra/_io.py` holds the writer; vibra report --out plots"))
+    assert not list(names("`vibra/_core/filesystem.py` holds the writer; vibra report --out plots"))
     assert resolves("vibra.charts.save_figure") and not resolves("vibra.charts.no_such_chart")
 
 

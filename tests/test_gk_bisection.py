@@ -14,7 +14,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from vibra._lapack import tridiagonal_eigenvalues_by_index
+from vibra._core.lapack import tridiagonal_eigenvalues_by_index
 from vibra.solvers.accurate.chain import gk_bisection
 
 

@@ -6,7 +6,7 @@ the field (never a bare BadZipFile, a "missing positional argument" or numpy's a
 allow_pickle), or the correct result. Every case also checks that no file of the user's changed
 (bytes, mtime and inode of everything in the folders involved).
 
-Truth: the rules as documented in `vibra._io` and `vibra._results` (and docs/scenes.md, "What vibra
+Truth: the rules as documented in `vibra._core.filesystem` and `vibra._results` (and docs/scenes.md, "What vibra
 may write"); a round trip is compared field by field with the result that was saved.
 """
 
@@ -28,7 +28,7 @@ import pytest
 
 import vibra
 from vibra import cli, networks
-from vibra._io import SYSTEM_TREES, TargetRefused, check_out_folder, check_target
+from vibra._core.filesystem import SYSTEM_TREES, TargetRefused, check_out_folder, check_target
 from vibra._results import MAX_LOAD_BYTES
 from vibra.modes import Modes
 from vibra.solvers.structured.quadratic import QuadraticModes

@@ -5,9 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
-import pickle
 import re
-import subprocess
 import sys
 from pathlib import Path
 from types import ModuleType

@@ -75,9 +75,9 @@ def test_every_local_link_and_image_exists() -> None:
 
 
 def test_the_quick_start_out_folder_is_vibra_s_own_in_a_fresh_clone() -> None:
-    """`--out plots` writes only into a new, empty or vibra-marked folder (vibra._io.claim_out_folder);
+    """`--out plots` writes only into a new, empty or vibra-marked folder (vibra._core.filesystem.claim_out_folder);
     plots/ is committed with the showcase, so its .vibra/ mark is committed too."""
-    from vibra._io import OWN_MARK, claim_out_folder
+    from vibra._core.filesystem import OWN_MARK, claim_out_folder
 
     tracked = subprocess.run(["git", "ls-files", "plots"], cwd=ROOT, capture_output=True, text=True).stdout.split()
     if tracked:  # a git checkout: what a fresh clone holds

@@ -389,7 +389,7 @@ def test_every_writer_gives_files_the_umask_mode(tmp_path: Path, umask_027: obje
     import os
     import stat
 
-    from vibra import _io
+    from vibra._core import filesystem as _io
     from vibra.charts import new_figure, save_figure
     from vibra.pipeline.render import write_gif, write_png
 
@@ -429,7 +429,7 @@ def test_report_outputs_get_the_umask_mode(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("error", [OSError("disk full"), KeyboardInterrupt()])
 def test_atomic_write_cleans_up_and_keeps_the_old_file(tmp_path: Path, error: BaseException) -> None:
-    from vibra._io import atomic_write
+    from vibra._core.filesystem import atomic_write
 
     target = tmp_path / "result.png"
     target.write_bytes(b"old complete file")
@@ -445,7 +445,7 @@ def test_atomic_write_cleans_up_and_keeps_the_old_file(tmp_path: Path, error: Ba
 
 
 def test_atomic_write_is_a_rename_in_the_target_folder(tmp_path: Path) -> None:
-    from vibra._io import atomic_write
+    from vibra._core.filesystem import atomic_write
 
     seen = []
     atomic_write(tmp_path / "sub" / "x.txt", lambda temporary: (seen.append(temporary), temporary.write_text("x")))

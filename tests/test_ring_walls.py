@@ -25,7 +25,7 @@ from helpers.rings import kernel_arrays as _kernel_arrays
 from helpers.rings import walled_covered as covered
 
 from vibra import normal_modes
-from vibra._lapack import bidiagonal_singular_values
+from vibra._core.lapack import bidiagonal_singular_values
 from vibra.solvers.accurate.dd import UNIT
 from vibra.solvers.accurate.ring import counts as ring_counts
 from vibra.solvers.accurate.ring import kernel as ring_kernel

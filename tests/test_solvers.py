@@ -222,7 +222,7 @@ def test_solve_refuses_accurate_without_a_spring_factor() -> None:
 )
 def test_bidiagonal_routines_refuse_what_lapack_would_misread(diagonal, superdiagonal, match) -> None:  # type: ignore[no-untyped-def]
     # dlasq1 returns finite singular values for a NaN diagonal: the wrappers must refuse it.
-    from vibra._lapack import bidiagonal_singular_values
+    from vibra._core.lapack import bidiagonal_singular_values
 
     with pytest.raises(ValueError, match=match):
         bidiagonal_singular_values(diagonal, superdiagonal)
@@ -231,7 +231,7 @@ def test_bidiagonal_routines_refuse_what_lapack_would_misread(diagonal, superdia
 def test_bidiagonal_singular_values_to_high_relative_accuracy() -> None:
     """A graded bidiagonal (entries over 60 decades): dqds keeps every singular value to a few
     ulps relative; truth from mpmath's SVD at 80 digits."""
-    from vibra._lapack import bidiagonal_singular_values
+    from vibra._core.lapack import bidiagonal_singular_values
 
     d = 10.0 ** -np.arange(0.0, 60.0, 6.0)
     e = 0.5 * 10.0 ** -np.arange(3.0, 57.0, 6.0)

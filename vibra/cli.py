@@ -7,7 +7,7 @@ Every failure is one line on stderr (``file: key.path: what is wrong; what is ex
 and a non-zero exit, never a traceback; an unexpected exception is reported in one line too,
 with a hint to rerun with ``--debug``, which shows the traceback.
 
-What each command may replace (one rule for every file, `vibra._io.check_target`: a target is
+What each command may replace (one rule for every file, `vibra._core.filesystem.check_target`: a target is
 a regular file or a new name, never a folder, device, FIFO, socket or symbolic link, and never
 one of the run's inputs, the scene file or the .xyz / .pdb file it names):
 
@@ -18,8 +18,8 @@ one of the run's inputs, the scene file or the .xyz / .pdb file it names):
 - ``vibra modes --molden FILE``: a new FILE only; an existing one is replaced with ``--force``.
 
 Every ``--out DIR`` is new, empty or a folder vibra wrote before (marked by ``DIR/.vibra/``), unless
-``--force``, and never ``/`` nor a system folder (``/etc``, ``/usr``, ... `vibra._io.check_out_folder`,
-`vibra._io.claim_out_folder`).
+``--force``, and never ``/`` nor a system folder (``/etc``, ``/usr``, ... `vibra._core.filesystem.check_out_folder`,
+`vibra._core.filesystem.claim_out_folder`).
 
 Exit codes: 0 success; 1 one or more scenes failed (invalid or failing), or the output folder
 is busy or unusable; 2 usage error (a bad option, a scene path that does not exist: nothing
@@ -200,7 +200,7 @@ def _validate(paths: Sequence[str]) -> int:
 def _check_molden(scene: Any, target: str, force: bool) -> None:
     """`vibra modes --molden FILE`, before any work: a molecule scene, and FILE a new (or, with
     --force, an existing regular) file that is not one of the scene's inputs."""
-    from vibra._io import TargetRefused, check_target
+    from vibra._core.filesystem import TargetRefused, check_target
     from vibra.pipeline.scene import SceneError, scene_inputs
 
     if scene.kind != "molecule":
@@ -214,7 +214,7 @@ def _check_molden(scene: Any, target: str, force: bool) -> None:
 
 def _write_molden(scene: Any, system: Any, target: str) -> None:
     """`vibra modes --molden FILE`: the molecule's vibrations as a Molden file; refusals as a SceneError."""
-    from vibra._io import TargetRefused, protected_inputs
+    from vibra._core.filesystem import TargetRefused, protected_inputs
     from vibra.molecules import vibrational_analysis, write_molden
     from vibra.pipeline.scene import SceneError, scene_inputs
 
@@ -285,7 +285,7 @@ def _unicode_output() -> bool:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from vibra._io import TargetRefused
+    from vibra._core.filesystem import TargetRefused
     from vibra.cluster import ClusterError
     from vibra.pipeline.report import FolderBusy, available_cores, missing_paths, report
 
@@ -318,7 +318,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from vibra._io import TargetRefused, protected_inputs
+    from vibra._core.filesystem import TargetRefused, protected_inputs
     from vibra.charts import save_figure
     from vibra.charts.sweep import sweep_figure
     from vibra.cluster import ClusterError, check_client
@@ -372,10 +372,10 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _sweep_targets(out: Path, name: str, inputs: Sequence[Any], *, force: bool, create: bool) -> list[Path]:
-    """The files of ``vibra sweep --out``: the folder rule (`vibra._io.check_out_folder`), then its three
+    """The files of ``vibra sweep --out``: the folder rule (`vibra._core.filesystem.check_out_folder`), then its three
     targets, all checked before any is written (never an input), then the ownership rule
-    (`vibra._io.claim_out_folder`, which marks the folder when `create`)."""
-    from vibra._io import check_out_folder, check_target, claim_out_folder
+    (`vibra._core.filesystem.claim_out_folder`, which marks the folder when `create`)."""
+    from vibra._core.filesystem import check_out_folder, check_target, claim_out_folder
 
     check_out_folder(out, option="--out", create=create)
     targets = [out / f"{name}_sweep.{ending}" for ending in ("csv", "json", "png")]

@@ -41,7 +41,7 @@ import scipy.linalg as la
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 
 __all__ = ["overlap", "mac", "cumulative_overlap", "subspace_overlap", "match_modes", "ModeMatch",
            "DEGENERATE", "AMBIGUOUS"]

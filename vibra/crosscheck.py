@@ -36,10 +36,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra import molecules
 from vibra.molecules.checks import check_atoms, nonnegative_scalar
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 from vibra.units import ASE
 
 if TYPE_CHECKING:

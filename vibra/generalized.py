@@ -30,8 +30,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy
 from vibra.solvers.structured.pencil import check_mass_matrix

@@ -17,15 +17,16 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate, solvers
+from vibra import solvers
+from vibra._core import validate as _validate
 from vibra.solvers.standard import gpu
-from vibra._frozen import freeze_arrays, owned_arrays
+from vibra._core.frozen import freeze_arrays, owned_arrays
 from vibra._results import ModesResult, Stored, stored
 from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
-__all__ = ["Modes", "normal_modes", "SOLVERS"]
+__all__ = ["Modes", "normal_modes", "pencil_modes", "SOLVERS"]
 
 #: Solver paths accepted by `normal_modes(solver=...)`: `vibra.solvers.SOLVER_NAMES`.
 SOLVERS = solvers.SOLVER_NAMES
@@ -493,3 +494,60 @@ def _band(band: Any) -> tuple[float, float]:
     if values.shape != (2,) or not values[0] < values[1]:
         raise ValueError(f"band must be (low, high) with low < high, got {band!r}")
     return float(values[0]), float(values[1])
+
+
+def pencil_modes(
+    K: ArrayLike,
+    M: ArrayLike,
+    *,
+    n_modes: int | None = None,
+    vectors: bool = True,
+    band: tuple[float, float] | None = None,
+    units: str | UnitSystem = DIMENSIONLESS,
+) -> Modes:
+    """Normal modes of M u'' + K u = 0 for a dense, possibly ill-conditioned M (`vibra.solvers.structured.pencil`).
+
+    Parameters
+    ----------
+    K : (n, n) array_like
+        Symmetric stiffness matrix (an indefinite K gives negative omega for its unstable
+        modes, as in `vibra.normal_modes`).
+    M : (n, n) array_like
+        Symmetric positive-definite mass matrix (checked by `check_mass_matrix`).
+    n_modes : int, optional
+        How many of the lowest modes to return (all by default).
+    vectors : bool
+        False returns frequencies only.
+    band : (float, float), optional
+        Only modes with omega in [band[0], band[1]] (signed).
+    units : str or UnitSystem
+        Unit system carried by the result.
+
+    Returns
+    -------
+    Modes
+        solver ``"pencil-jacobi"`` (K positive definite) or ``"pencil-cholesky"``;
+        shapes M-orthonormal, vectors M^1/2 shapes; omega_error from perturbation theory
+        (see the module).
+
+    Raises
+    ------
+    ValueError
+        K not square, finite and symmetric; M refused by `check_mass_matrix`; n_modes out
+        of range; both n_modes and band.
+
+    Examples
+    --------
+    >>> modes = pencil_modes([[9810.00981, 0.0], [0.0, 9.81]], [[1000.001, 1.0], [1.0, 1e-3]])
+    >>> modes.solver, [float(f"{w:.6e}") for w in modes.omega ** 2]
+    ('pencil-jacobi', [9.8002, 9819820000.0])
+    """
+    K_matrix = _validate.real_array(K, "K", ndim=2)
+    if K_matrix.shape[0] != K_matrix.shape[1]:
+        raise ValueError(f"K must be square, got shape {K_matrix.shape}")
+    # M's own checks (the messages name its equilibrated condition), then the registry's
+    # pencil paths, as `normal_modes(K, M, solver="pencil")` runs them
+    from vibra.solvers.structured.pencil import check_mass_matrix
+
+    mass = check_mass_matrix(M, K_matrix.shape[0], "M")
+    return normal_modes(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver="pencil", units=units)

@@ -22,15 +22,15 @@ then refer to the free degrees of freedom only, in the order of `free_dofs`.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 from typing import Any, Callable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate, assembly
-from vibra._frozen import freeze_arrays, short_repr
+from vibra import assembly
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy, uses_springs
@@ -62,7 +62,7 @@ class Vibrating(Protocol):
 _AXES = "xyz"
 
 
-@dataclass(frozen=True, eq=False, repr=False)
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class System(FreeDofs):
     """A vibrating system: sites, masses, and a factorised quadratic potential.
 

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from vibra import _validate
+from vibra._core import validate as _validate
 
 __all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "unit_system", "omega_unit_text"]
 

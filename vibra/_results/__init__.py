@@ -39,8 +39,8 @@ from typing import Any, Callable, ClassVar, TypeVar
 
 import numpy as np
 
-from vibra._frozen import owned_arrays, short_repr, span
-from vibra._io import atomic_write
+from vibra._core.frozen import owned_arrays, short_repr, span
+from vibra._core.filesystem import atomic_write
 from vibra._results.files import (FORMAT_VERSION, MAX_JSON_DEPTH, MAX_LOAD_BYTES, MAX_SCALARS_BYTES, Dim, Layout,
                                   Stored, check_stored, check_version, read_result_file, sequence_lengths, short,
                                   stored)
@@ -178,7 +178,7 @@ class Result:
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write this result to `path` (a ``.npz`` file: arrays, and the rest as JSON), atomically
-        (`vibra._io.atomic_write`: a regular file or a new name, never an input of the run)."""
+        (`vibra._core.filesystem.atomic_write`: a regular file or a new name, never an input of the run)."""
         target = Path(path)
         if target.suffix != ".npz":
             raise ValueError(f"path must end in .npz, got {str(target)!r}")

@@ -26,7 +26,7 @@ from typing import Any, Callable, Literal, Union
 
 import numpy as np
 
-from vibra._io import describe_kind
+from vibra._core.filesystem import describe_kind
 
 __all__ = ["FORMAT_VERSION", "MAX_LOAD_BYTES", "MAX_SCALARS_BYTES", "MAX_JSON_DEPTH", "Dim", "Stored", "stored",
            "Layout", "check_stored", "check_version", "read_result_file", "sequence_lengths", "short"]

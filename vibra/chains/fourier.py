@@ -6,7 +6,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.chains.closed_forms import diatomic_eigenvalues
 from vibra.modes import Modes
 from vibra.system import System, Vibrating

@@ -20,7 +20,7 @@ import matplotlib
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from vibra._io import atomic_write
+from vibra._core.filesystem import atomic_write
 
 __all__ = ["STYLE", "ChartFigure", "new_figure", "save_figure", "plain_math"]
 
@@ -69,7 +69,7 @@ def new_figure(nrows: int = 1, ncols: int = 1, **kwargs: Any) -> tuple[ChartFigu
 
 
 def save_figure(fig: Figure, path: str | os.PathLike[str]) -> Path:
-    """Write `fig` to `path` as PNG atomically (`vibra._io.atomic_write`), mode 0666 less the umask."""
+    """Write `fig` to `path` as PNG atomically (`vibra._core.filesystem.atomic_write`), mode 0666 less the umask."""
     def write(temporary: Path) -> None:
         with matplotlib.rc_context(STYLE):
             fig.savefig(temporary, format="png")

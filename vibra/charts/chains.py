@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.charts._style import new_figure
 from vibra.continuum import ConvergenceStudy, DispersionCurves, PulseResult
 from vibra.modes import Modes

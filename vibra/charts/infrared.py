@@ -13,7 +13,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.charts._style import new_figure, save_figure
 from vibra.crystals.infrared import InfraredResponse
 

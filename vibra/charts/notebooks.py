@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.charts._style import new_figure
 
 __all__ = ["plot_cost_vs_error", "plot_step_errors", "plot_time_series"]

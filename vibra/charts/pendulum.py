@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.charts._style import new_figure
 from vibra.modes import Modes
 from vibra.mechanics.pendulum import HarmonicError, PendulumMotion

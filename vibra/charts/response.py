@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.charts._style import new_figure
 from vibra.modes import normal_modes
 from vibra.response import FrequencyResponse, Oscillator, rayleigh_damping_ratio

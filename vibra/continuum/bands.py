@@ -16,8 +16,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.chains import ENDS, diatomic_band_edges, diatomic_eigenvalues, diatomic_half_splitting
 from vibra.modes import Modes
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system

@@ -8,8 +8,8 @@ from typing import Literal, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.chains import ENDS, linear_chain, monatomic_frequencies, periodic_modes
 
 __all__ = ["ConvergenceStudy", "convergence_study", "power_law_fit"]

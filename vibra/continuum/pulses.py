@@ -13,8 +13,8 @@ import numpy as np
 import scipy.fft
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.chains import ENDS
 from vibra.continuum.convergence import power_law_fit
 

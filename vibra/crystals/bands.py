@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, frequency_span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, frequency_span
 from vibra._results import Result, stored
 from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, phonons
 from vibra.units import UnitSystem

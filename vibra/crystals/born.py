@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.crystals.mesh import species_numbers
 from vibra.crystals.phonopy_io import to_ase_factors
 

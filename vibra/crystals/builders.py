@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.springs import springs
 from vibra.units import UnitSystem

@@ -28,8 +28,8 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr
 import vibra.crystals.bands as bands
 import vibra.crystals.dynamical as dynamical
 import vibra.crystals.elastic as elastic

@@ -29,8 +29,8 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, frequency_span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, frequency_span
 from vibra._results import Result, stored
 from vibra.crystals.dynamical import phonons
 from vibra.crystals.mesh import Mesh, grid_index, mesh_points

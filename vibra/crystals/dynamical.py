@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING, Iterator, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, frequency_span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, frequency_span
 from vibra._results import Result, stored
 from vibra.crystals.factor import singular_frequencies
 from vibra.solvers.accuracy import HIGH_TARGET, check as check_accuracy, uses_springs

@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr
 from vibra.crystals.dynamical import phonons
 from vibra.units import UnitSystem
 

@@ -42,8 +42,8 @@ from typing import TYPE_CHECKING, Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.fd_cost import (FORCE_SECONDS, SYMMETRY_FIXED_SECONDS, SYMMETRY_SECONDS,  # noqa: F401 (their home)

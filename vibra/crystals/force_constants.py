@@ -13,8 +13,8 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr, span
 
 __all__ = ["CrystalLike", "ForceConstants", "ForceConstantsWarning", "INDEX_SYMMETRY_RTOL", "SpringModel", "SumRuleReport",
            "average_over_space_group", "check_force_constants", "impose_sum_rules", "index_asymmetry"]

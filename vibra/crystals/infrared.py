@@ -32,8 +32,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr, span
 from vibra.crystals.nac import FACTOR_ASE, FACTOR_SI, SUM_RULE_TOLERANCE, check_dielectric
 from vibra.crystals.irreps import DEGENERACY_RTOL, analytic_gamma, classify_levels, symmetry_operations
 from vibra.units import UnitSystem

@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr, frequency_span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr, frequency_span
 from vibra.crystals.mesh import species_numbers, symmetry_cell
 from vibra.units import UnitSystem
 

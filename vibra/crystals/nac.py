@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, short_repr, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, short_repr, span
 from vibra.crystals.dynamical import PHASES, brillouin_qpoints, check_qpoints, dynamical_matrices, lattice_phases
 from vibra.crystals.force_constants import ForceConstants
 from vibra.crystals.phonopy_io import fold_force_constants, to_ase_factors, to_phonopy

@@ -3,7 +3,7 @@
 - `write_phonopy` (``phonopy.yaml``, with or without the force constants) and
   `write_force_constants` (``FORCE_CONSTANTS``): phonopy's text (``Phonopy.to_phonopy_yaml``,
   ``phonopy.file_IO.get_FORCE_CONSTANTS_lines``) on the `to_phonopy` object, written atomically
-  by `vibra._io`;
+  by `vibra._core.filesystem`;
 - `read_phonopy`: a phonopy yaml (and a ``FORCE_CONSTANTS`` or ``FORCE_SETS`` file) through
   phonopy's readers, then `Crystal.from_phonopy`, optionally with the sum rules imposed
   (`impose_sum_rules`). Only the files named are read: ``phonopy.load`` would also read
@@ -27,7 +27,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vibra._io import atomic_write_text
+from vibra._core.filesystem import atomic_write_text
 from vibra.crystals.born import read_born
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.phonopy_io import check_symmetrize, to_phonopy
@@ -44,7 +44,7 @@ def write_phonopy(crystal: Crystal, path: str | os.PathLike[str], *, force_const
 
     phonopy's own writer builds the text (``Phonopy.to_phonopy_yaml``: the unit cell, the
     supercell and primitive matrices and, when asked, the full supercell force constants);
-    vibra writes it atomically (`vibra._io`). ``phonopy.load(path)`` reads it back.
+    vibra writes it atomically (`vibra._core.filesystem`). ``phonopy.load(path)`` reads it back.
 
     Parameters
     ----------

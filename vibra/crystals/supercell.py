@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, frequency_span, short_repr
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, frequency_span, short_repr
 from vibra.crystals.dynamical import check_qpoints, phonons
 from vibra.units import UnitSystem
 

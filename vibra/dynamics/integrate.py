@@ -28,7 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 import vibra.dynamics.cost as cost
 import vibra.dynamics.kernels as kernels
 from vibra.dynamics.fput import BondForces

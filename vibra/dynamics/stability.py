@@ -14,7 +14,7 @@ import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 from scipy.linalg import eigvalsh_tridiagonal
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.dynamics.schemes import INTEGRATORS, STABLE_OMEGA_DT
 
 __all__ = ["highest_omega", "gershgorin_omega", "stable_dt", "check_stable", "DENSE_OMEGA_MAX"]

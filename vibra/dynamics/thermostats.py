@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from vibra import _validate
+from vibra._core import validate as _validate
 
 __all__ = ["Isokinetic", "NoseHoover", "Thermostat"]
 

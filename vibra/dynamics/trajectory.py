@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.units import UnitSystem

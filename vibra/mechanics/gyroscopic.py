@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 import sympy
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.generalized import GeneralizedSystem
 from vibra.mechanics.linearization import linearize
 from vibra.mechanics.rigid import disk_inertia, parallel_axis

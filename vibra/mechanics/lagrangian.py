@@ -33,8 +33,8 @@ import numpy as np
 import sympy
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.generalized import GeneralizedSystem
 from vibra.mechanics.linearization import EQUILIBRIUM_RTOL, linearize
 from vibra.units import UnitSystem

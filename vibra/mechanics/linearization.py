@@ -29,7 +29,7 @@ import numpy as np
 import sympy
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.generalized import GeneralizedSystem
 from vibra.solvers.structured.pencil import check_mass_matrix
 from vibra.units import UnitSystem

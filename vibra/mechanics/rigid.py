@@ -30,9 +30,9 @@ import numpy as np
 import sympy
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.mechanics.lagrangian import linearize
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 from vibra.generalized import GeneralizedSystem
 from vibra.system import System
 from vibra.units import UnitSystem

@@ -12,8 +12,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy import constants
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.modes import Modes, normal_modes
 from vibra.molecules.checks import nonnegative_scalar
 from vibra.molecules.rigid_body import is_linear, rigid_body_vectors, warn_soft_modes

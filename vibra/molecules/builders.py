@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Literal, Mapping, Sequence
 
 import numpy as np
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.molecules.hessians import from_atoms
 from vibra.molecules.isotopes import isotope_masses
 from vibra.molecules.valence import valence_model

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 
 __all__ = ["CharacterTable", "character_table", "symmetry_number", "LINEAR_ORDER"]
 

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 
 __all__ = ["MIN_DISTANCE", "check_atoms", "nonnegative_scalar", "molecule_name", "masses_or_default"]
 

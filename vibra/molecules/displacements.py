@@ -25,7 +25,7 @@ pass a factory instead.
 The cache
 ---------
 One ``<key>.npy`` file per geometry in the cache folder, written atomically
-(`vibra._io.atomic_write`) as soon as the forces arrive. The key is the SHA-256 of the
+(`vibra._core.filesystem.atomic_write`) as soon as the forces arrive. The key is the SHA-256 of the
 reference geometry (atomic numbers, positions, cell and periodic flags, as bytes), the
 displacement (degree of freedom, sign and step multiple m: the stencil enters as the
 multiples it evaluates, so a 4-point run reuses the +-h forces of a 2-point run on the same
@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._io import atomic_write_bytes
+from vibra._core.filesystem import atomic_write_bytes
 
 if TYPE_CHECKING:
     from ase import Atoms

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from vibra import _validate
+from vibra._core import validate as _validate
 
 __all__ = ["BOND_SCALE", "symbols_from_masses", "bonds_from_distances"]
 

@@ -6,11 +6,11 @@ it they use ``system.symbols`` when the `System` has that field, else each mass 
 isotope table (`ISOTOPE_MASSES`: 2.0141 amu is H, 17.9992 amu is O) or, failing that, by the
 element of nearest standard atomic mass (`symbols_from_masses`).
 
-Every file is written with `vibra._io.atomic_write` (a temporary file in the same folder, then
-`os.replace`), so a reader never sees half a file, and under its one rule (`vibra._io.check_target`):
+Every file is written with `vibra._core.filesystem.atomic_write` (a temporary file in the same folder, then
+`os.replace`), so a reader never sees half a file, and under its one rule (`vibra._core.filesystem.check_target`):
 the path must be a regular file (replaced) or a new name; a folder, device, FIFO, socket or
-symbolic link, or an input of the run (`vibra._io.protected_inputs`), is refused with
-`vibra._io.TargetRefused` (an `OSError`) before anything is written.
+symbolic link, or an input of the run (`vibra._core.filesystem.protected_inputs`), is refused with
+`vibra._core.filesystem.TargetRefused` (an `OSError`) before anything is written.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from vibra import _validate
-from vibra._io import atomic_write
+from vibra._core import validate as _validate
+from vibra._core.filesystem import atomic_write
 from vibra.modes import Modes
 from vibra.molecules.analysis import VibrationalAnalysis
 from vibra.molecules.elements import symbols_from_masses
@@ -240,7 +240,7 @@ def write_molden(path: str | os.PathLike[str], system: System,
         not one per written vibration or negative.
     OSError
         `path` cannot be written (e.g. a file stands where its folder should be);
-        `vibra._io.TargetRefused` where it is not a regular file or a new name, or an input.
+        `vibra._core.filesystem.TargetRefused` where it is not a regular file or a new name, or an input.
 
     Examples
     --------

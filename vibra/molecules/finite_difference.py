@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.modes import Modes
 from vibra.molecules.displacements import (CalculatorSource, Displacement, ForceCache, displaced_forces,

@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.molecules.checks import check_atoms, masses_or_default, molecule_name, nonnegative_scalar
 from vibra.molecules.internal_terms import internal_terms
 from vibra.molecules.rigid_body import expected_rigid_count, warn_soft_modes

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 from vibra.molecules.coordinates import bond_angle
 
 __all__ = ["InternalTerms", "internal_terms", "PLANAR_TOLERANCE_DEG", "AXIS_ANGLE_MARGIN_DEG"]

@@ -9,7 +9,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.system import System
 from vibra.units import ASE
 

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.molecules.displacements import CalculatorSource, force_problem, is_factory
 
 if TYPE_CHECKING:

@@ -14,7 +14,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 from vibra.molecules.displacements import PROPERTY_ROWS, Displacement
 from vibra.molecules.noise import rounding_noise
 

@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 
 __all__ = ["SoftModeWarning", "is_linear", "rigid_body_vectors", "expected_rigid_count", "warn_soft_modes",
            "principal_moments"]

@@ -51,8 +51,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.molecules.character_tables import LINEAR_ORDER, CharacterTable, character_table, symmetry_number
 from vibra.system import Vibrating
 

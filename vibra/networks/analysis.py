@@ -34,9 +34,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
-from vibra._io import atomic_write_text, check_target
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
+from vibra._core.filesystem import atomic_write_text, check_target
 from vibra.modes import Modes
 
 __all__ = ["cross_correlations", "fit_bfactors", "BFactorFit", "BFACTOR_METHODS", "collectivity", "hinges", "perturbation_response",
@@ -276,7 +276,7 @@ def write_nmd(path: str | os.PathLike[str], modes: Modes, structure: Any, *, tit
     """Write the nonzero `modes` of an ANM for VMD's NMWiz (``.nmd``, ProDy's ``writeNMD`` layout):
     names, residue names and numbers, chains, B-factors and coordinates from `structure` (a
     `vibra.networks.Structure` from `from_pdb`), then one line per mode: its index (from 1),
-    sqrt(1 / lambda) and the vector. Written atomically (`vibra._io.atomic_write`), never over
+    sqrt(1 / lambda) and the vector. Written atomically (`vibra._core.filesystem.atomic_write`), never over
     the structure's own file (``structure.path``: the PDB it was read from) nor another input
     of the run."""
     source = getattr(structure, "path", None)

@@ -34,8 +34,8 @@ import scipy.constants
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra.modes import Modes
 from vibra.system import System, Vibrating
 

@@ -25,9 +25,9 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
-from vibra._validate import ArgumentError
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
+from vibra._core.validate import ArgumentError
 
 __all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX", "StructureWarning", "check_pdb_text",
            "check_mmcif", "MMCIF_COLUMNS"]
@@ -298,7 +298,7 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         file does not have, or nothing selected (no atoms, no C-alpha atoms, no atom in the
         chains or residues asked: the message names the selection and what the file holds);
         the message names the file. A selection that finds nothing, a model or an altloc
-        the file lacks is a `vibra._validate.ArgumentError` whose ``argument`` is the
+        the file lacks is a `vibra._core.validate.ArgumentError` whose ``argument`` is the
         parameter at fault (``"chains"``, ``"residues"``, ``"selection"``, ``"model"``,
         ``"altloc"``), so a scene reports it at its own key.
 

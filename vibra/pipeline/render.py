@@ -10,7 +10,7 @@ The renderer draws what the plan computed and nothing more:
   with displacement arrows (along the chain for axial motion, across it for a string).
   Long chains show an evenly decimated set of sites, and the caption says so.
 
-Every image is written atomically by `vibra._io.atomic_write` (a temporary file in the
+Every image is written atomically by `vibra._core.filesystem.atomic_write` (a temporary file in the
 destination folder, then renamed), so an interrupted run never leaves a half-written PNG.
 One `SceneRenderer` reuses its plotters for all images of a scene.
 """
@@ -25,7 +25,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._io import atomic_write
+from vibra._core.filesystem import atomic_write
 from vibra.pipeline.render_geometry import (MAX_CHAIN_SITES, MAX_NETWORK_ARROWS, arrow_start, chain_sites,
                                             displacements3, molecule_bonds, molecule_symbols, network_arrow_step,
                                             positions3, view_direction)
@@ -67,7 +67,7 @@ def _report_theme() -> Any:
 
 
 def write_png(image: NDArray[np.uint8], path: str | os.PathLike[str]) -> Path:
-    """Write an (height, width, 3 or 4) uint8 image to `path` as PNG, atomically (`vibra._io`)."""
+    """Write an (height, width, 3 or 4) uint8 image to `path` as PNG, atomically (`vibra._core.filesystem`)."""
     from PIL import Image
 
     picture = Image.fromarray(np.ascontiguousarray(image))

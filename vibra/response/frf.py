@@ -16,8 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.response.direct import direct_response, state_space_response

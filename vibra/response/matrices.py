@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.solvers.structured.quadratic import SKEW_RTOL, check_gyroscopic
 from vibra.solvers.budget import Estimate
 from vibra.solvers.common import bandwidth

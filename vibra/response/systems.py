@@ -17,8 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, owned_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, owned_arrays
 from vibra.generalized import GeneralizedSystem
 from vibra.response.frf import FrequencyResponse, frequency_response
 from vibra.response.matrices import velocity_matrix

@@ -17,8 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays
 from vibra._results import Result, stored
 from vibra.modes import Modes, normal_modes
 from vibra.response.damping import is_modal, modal_damping, modal_projection

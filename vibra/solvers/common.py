@@ -17,7 +17,7 @@ import scipy.sparse.linalg  # noqa: F401  (sp.linalg.norm)
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.solvers.accuracy import LEVELS
 
 #: Machine epsilon of float64.

@@ -8,8 +8,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, span
 from vibra._results import Result, stored
 from vibra.spectra.common import nonnegative_float
 

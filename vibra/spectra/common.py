@@ -9,7 +9,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
 from vibra.system import System, Vibrating

@@ -28,8 +28,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis, vibrational_analysis

@@ -8,8 +8,8 @@ from typing import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, span
 from vibra._results import Result, stored
 from vibra.molecules import ISOTOPE_MASSES
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy

@@ -11,8 +11,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra.spectra.scale_factors import scale_factor as level_factor
-from vibra import _validate
-from vibra._frozen import freeze_arrays, span
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis

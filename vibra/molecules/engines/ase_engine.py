@@ -9,7 +9,7 @@ from typing import Any, Collection, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.molecules.displacements import CalculatorSource, is_calculator, is_factory
 from vibra.molecules.engines.protocol import EngineResult
 

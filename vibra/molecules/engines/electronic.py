@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 from vibra.cluster import ProgressOption
 from vibra.modes import Modes
 from vibra.molecules.checks import check_atoms, masses_or_default

@@ -36,7 +36,7 @@ from typing import Any, Collection, Mapping, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._frozen import freeze_arrays
+from vibra._core.frozen import freeze_arrays
 
 __all__ = ["Engine", "EngineResult", "CAPABILITIES", "engine_methods"]
 

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import constants
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.molecules.engines.protocol import EngineResult
 
 __all__ = ["PySCFEngine", "HARTREE_EV", "BOHR_ANGSTROM", "require_pyscf"]

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from vibra._validate import ArgumentError
+from vibra._core.validate import ArgumentError
 from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
 from vibra.pipeline.scene.builders import CRYSTAL_BUILDERS

@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from vibra._validate import ArgumentError
+from vibra._core.validate import ArgumentError
 from vibra.pipeline.plan.model import Plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.dynamics import THERMOSTATS

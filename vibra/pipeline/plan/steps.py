@@ -4,7 +4,7 @@
 its accuracy figure and its wall time. Analysis steps (``crosscheck``, ``response``,
 ``continuum``, ``dispersion``, ``structure``) compute everything the drawings need; the
 ``render-*`` and ``chart-*`` steps hand those results to `vibra.pipeline.render` and `vibra.charts`,
-which only draw. Every file is written through `vibra._io` (atomically).
+which only draw. Every file is written through `vibra._core.filesystem` (atomically).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from vibra._io import atomic_write_text
+from vibra._core.filesystem import atomic_write_text
 from vibra.pipeline.plan.analysis import (LINE_WIDTH_CM1, chain_dispersion, molecule_spectra, molecule_symmetry,
                                           network_fluctuations, symmetry_hints)
 from vibra.pipeline.plan.build import build_system, network_structure

@@ -13,7 +13,7 @@
 
 from __future__ import annotations
 
-from vibra._io import atomic_write_text
+from vibra._core.filesystem import atomic_write_text
 from vibra.charts.modes import shapes_figure, spectrum_figure
 from vibra.pipeline.report.batch import available_cores, missing_paths, report, run_scene
 from vibra.pipeline.report.folder import FolderBusy, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound

@@ -28,7 +28,7 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from vibra._io import TargetRefused, check_target, protected_inputs
+from vibra._core.filesystem import TargetRefused, check_target, protected_inputs
 from vibra.cluster import check_client, connect, run_tasks
 from vibra.pipeline.report.folder import (
     MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
@@ -107,7 +107,7 @@ def _numbers(scene: Any, modes: Any) -> dict[str, Any]:
 
 def _publish(source: str, staging: Path, target: Path, outputs: Sequence[str]) -> None:
     """Move the staged outputs into `target`; every destination is checked by the one rule of
-    `vibra._io.check_target` (a regular file or a new name, never an input of the run) before any moves."""
+    `vibra._core.filesystem.check_target` (a regular file or a new name, never an input of the run) before any moves."""
     from vibra.pipeline.scene import SceneError
 
     def checked(output: str) -> Path:
@@ -119,7 +119,7 @@ def _publish(source: str, staging: Path, target: Path, outputs: Sequence[str]) -
 
     for output in outputs:
         checked(output)
-    for output in outputs:  # each rename is atomic (modes set by vibra._io)
+    for output in outputs:  # each rename is atomic (modes set by vibra._core.filesystem)
         os.replace(staging / output, checked(output))
 
 
@@ -242,7 +242,7 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
     force : bool
         Redo scenes whose inputs are unchanged since their last successful run, and write into an
         existing folder that vibra did not write (by default `out_dir` must be new, empty or
-        vibra's own: `vibra._io.claim_out_folder`).
+        vibra's own: `vibra._core.filesystem.claim_out_folder`).
     window_size : (int, int), optional
         Override every scene's image size in pixels.
     progress : bool
@@ -267,7 +267,7 @@ def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[s
         A path does not exist (nothing is touched).
     ValueError
         `jobs` < 1 or `paths` holds no scene file.
-    NotADirectoryError, vibra._io.TargetRefused
+    NotADirectoryError, vibra._core.filesystem.TargetRefused
         `out_dir` is not a writable folder report may fill (`check_out_dir`).
     FolderBusy
         Another run held the folder for longer than `wait`.

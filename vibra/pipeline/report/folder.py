@@ -2,7 +2,7 @@
 
 - `check_out_dir`: the folder must be a folder (created when missing) that vibra can write,
   outside the system folders, and new, empty or vibra's own output (``.vibra/``) unless
-  ``force`` (`vibra._io.check_out_folder`, `vibra._io.claim_out_folder`); a regular file, a
+  ``force`` (`vibra._core.filesystem.check_out_folder`, `vibra._core.filesystem.claim_out_folder`); a regular file, a
   dangling symlink, a symlink loop, a device (``/dev/null``), a read-only folder, ``/``,
   ``/etc`` or a folder of someone else's files (a symlink to one included) is refused with
   one line, before anything is written.
@@ -12,7 +12,7 @@
   second run waits up to its ``wait`` seconds (``--wait``, default 60) for the lock, then
   refuses with `FolderBusy`, naming the holder.
 - `clean_stale`: removes the work folders (``DIR/.work/<pid>/``) and temporary files
-  (``.<name>.<pid>~tmp~...``, `vibra._io`) of processes that no longer run.
+  (``.<name>.<pid>~tmp~...``, `vibra._core.filesystem`) of processes that no longer run.
 - `output_is_sound`: a stored PNG or GIF must decode, a JSON must parse, no file may be empty;
   a scene whose stored outputs fail this is run again instead of skipped.
 - `code_hash`: SHA-256 of vibra's own ``.py`` files, part of the skip key (changed code
@@ -35,7 +35,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Iterable
 
-from vibra._io import (
+from vibra._core.filesystem import (
     OWN_MARK, TargetRefused, atomic_write_text, check_out_folder, check_target, claim_out_folder, describe_kind,
     pid_alive, temporary_owner,
 )
@@ -60,15 +60,15 @@ def check_out_dir(path: str | os.PathLike[str], *, inputs: Iterable[str | os.Pat
                   force: bool = False) -> Path:
     """Create the output folder when missing and check it is a writable folder report may fill; return it.
 
-    The folder rule is `vibra._io.check_out_folder`; then the names report writes itself
+    The folder rule is `vibra._core.filesystem.check_out_folder`; then the names report writes itself
     (``summary.json``, ``index.html``, ``references.html``, ``scenes/``, ``assets/``, ``.vibra/``,
     ``.work/``) must be of the right kind and never a symbolic link, its own files never one of
     `inputs` (the scene files), and the folder new, empty or vibra's own unless `force`
-    (`vibra._io.claim_out_folder`, which marks it).
+    (`vibra._core.filesystem.claim_out_folder`, which marks it).
 
     Raises
     ------
-    vibra._io.TargetRefused
+    vibra._core.filesystem.TargetRefused
         `path` (or a parent) is a file, device, dangling symlink or symlink loop; the folder
         (or the parent it would be made in) is not writable or a system folder; a report file
         would replace an input; the folder holds files vibra did not write (without `force`).
@@ -110,7 +110,7 @@ def work_folder(out_dir: Path) -> Path:
 def clean_stale(out_dir: Path) -> list[Path]:
     """Remove work folders and temporary files of processes that no longer run; return what went.
 
-    Work folders are ``DIR/.work/<pid>/``; temporary files are `vibra._io`'s
+    Work folders are ``DIR/.work/<pid>/``; temporary files are `vibra._core.filesystem`'s
     ``.<name>.<pid>~tmp~...`` in ``DIR`` and ``DIR/.vibra``. Those of a live process stay.
     """
     removed: list[Path] = []

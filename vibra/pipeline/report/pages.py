@@ -11,7 +11,7 @@ import json
 from pathlib import Path
 from typing import Sequence
 
-from vibra._io import atomic_write_text
+from vibra._core.filesystem import atomic_write_text
 from vibra.pipeline.report.folder import output_is_sound
 from vibra.pipeline.report.outcome import BatchResult, SceneOutcome
 from vibra.pipeline.report.site import write_site

@@ -8,7 +8,7 @@ import html
 from pathlib import Path
 from typing import Sequence
 
-from vibra._io import atomic_write_text
+from vibra._core.filesystem import atomic_write_text
 from vibra.charts import plain_math
 from vibra.pipeline.report.frame import SCENES, grouped, images, page, page_name, scene_href
 from vibra.pipeline.report.outcome import SceneOutcome

@@ -17,7 +17,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from vibra._io import atomic_write_bytes
+from vibra._core.filesystem import atomic_write_bytes
 
 __all__ = ["ASSETS", "ASSET_FILES", "VIEW_SUFFIX", "copy_assets", "view_html", "read_view"]
 

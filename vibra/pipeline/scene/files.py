@@ -20,7 +20,7 @@ from vibra.pipeline.scene.specs import SceneError
 __all__ = ["MAX_DATA_BYTES", "DATA_FILE_KEYS", "scene_data_path", "read_scene_data", "scene_inputs"]
 
 #: Keys of ``[system]`` that name a data file beside the scene (the run's inputs with the scene
-#: file itself: no file vibra writes may replace them, see `vibra._io.check_target`).
+#: file itself: no file vibra writes may replace them, see `vibra._core.filesystem.check_target`).
 DATA_FILE_KEYS: tuple[str, ...] = ("xyz", "pdb", "file", "force_constants_file", "force_sets_file", "born_file")  # (the last four: crystal scenes' phonopy files)
 
 #: Largest data file a scene may name, in bytes (16 MiB: a 100,000-atom PDB file is about 8 MiB).

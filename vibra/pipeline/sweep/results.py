@@ -27,8 +27,8 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._frozen import freeze_arrays, span
-from vibra._io import atomic_write_text
+from vibra._core.frozen import freeze_arrays, span
+from vibra._core.filesystem import atomic_write_text
 from vibra._results import Result, stored
 
 __all__ = ["SweepRow", "SweepTable"]

@@ -1,6 +1,6 @@
 """The equilibrated pencil's solver: the raw solve behind the pencil paths (`pencil_result`)
 and the checks of a full mass matrix. The method, its accuracy and its error figure are
-described in `vibra.solvers.structured.pencil` (the public module, with `pencil_modes`); this
+described in `vibra.solvers.structured.pencil` (`vibra.modes.pencil_modes` calls it); this
 one holds no `Modes` so that the registry's runners can import it."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import scipy.linalg as la
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
+from vibra._core import validate as _validate
 from vibra.solvers.common import SolveResult, selected
 
 __all__ = ["check_mass_matrix", "scaled_condition", "equilibrated_cholesky", "pencil_result"]

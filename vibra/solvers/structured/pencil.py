@@ -30,68 +30,8 @@ pendulum above within about 30 times of the true error.
 
 from __future__ import annotations
 
-from numpy.typing import ArrayLike
-
-from vibra import _validate
-from vibra.modes import Modes, normal_modes
 from vibra.solvers.structured.equilibrated import (
     check_mass_matrix, equilibrated_cholesky, pencil_result, scaled_condition,
 )
-from vibra.units import DIMENSIONLESS, UnitSystem
 
-__all__ = ["check_mass_matrix", "scaled_condition", "equilibrated_cholesky", "pencil_modes", "pencil_result"]
-
-
-def pencil_modes(
-    K: ArrayLike,
-    M: ArrayLike,
-    *,
-    n_modes: int | None = None,
-    vectors: bool = True,
-    band: tuple[float, float] | None = None,
-    units: str | UnitSystem = DIMENSIONLESS,
-) -> Modes:
-    """Normal modes of M u'' + K u = 0 for a dense, possibly ill-conditioned M (see the module).
-
-    Parameters
-    ----------
-    K : (n, n) array_like
-        Symmetric stiffness matrix (an indefinite K gives negative omega for its unstable
-        modes, as in `vibra.normal_modes`).
-    M : (n, n) array_like
-        Symmetric positive-definite mass matrix (checked by `check_mass_matrix`).
-    n_modes : int, optional
-        How many of the lowest modes to return (all by default).
-    vectors : bool
-        False returns frequencies only.
-    band : (float, float), optional
-        Only modes with omega in [band[0], band[1]] (signed).
-    units : str or UnitSystem
-        Unit system carried by the result.
-
-    Returns
-    -------
-    Modes
-        solver ``"pencil-jacobi"`` (K positive definite) or ``"pencil-cholesky"``;
-        shapes M-orthonormal, vectors M^1/2 shapes; omega_error from perturbation theory
-        (see the module).
-
-    Raises
-    ------
-    ValueError
-        K not square, finite and symmetric; M refused by `check_mass_matrix`; n_modes out
-        of range; both n_modes and band.
-
-    Examples
-    --------
-    >>> modes = pencil_modes([[9810.00981, 0.0], [0.0, 9.81]], [[1000.001, 1.0], [1.0, 1e-3]])
-    >>> modes.solver, [float(f"{w:.6e}") for w in modes.omega ** 2]
-    ('pencil-jacobi', [9.8002, 9819820000.0])
-    """
-    K_matrix = _validate.real_array(K, "K", ndim=2)
-    if K_matrix.shape[0] != K_matrix.shape[1]:
-        raise ValueError(f"K must be square, got shape {K_matrix.shape}")
-    # M's own checks (the messages name its equilibrated condition), then the registry's
-    # pencil paths, as `normal_modes(K, M, solver="pencil")` runs them
-    mass = check_mass_matrix(M, K_matrix.shape[0], "M")
-    return normal_modes(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver="pencil", units=units)
+__all__ = ["check_mass_matrix", "scaled_condition", "equilibrated_cholesky", "pencil_result"]

@@ -45,8 +45,8 @@ import numpy as np
 import scipy.linalg as la
 from numpy.typing import ArrayLike, NDArray
 
-from vibra import _validate
-from vibra._frozen import freeze_arrays, owned_arrays
+from vibra._core import validate as _validate
+from vibra._core.frozen import freeze_arrays, owned_arrays
 from vibra._results import ModesResult, Stored, stored
 from vibra.solvers.dispatch import check_solve_plan, plan_problem
 from vibra.solvers.problem import quadratic_problem

@@ -16,7 +16,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra._lapack import bidiagonal_singular_values, bidiagonal_triplets
+from vibra._core.lapack import bidiagonal_singular_values, bidiagonal_triplets
 from vibra.solvers.common import (
     BDSQR_LIMIT, EPS, SolveResult, absolute_figures, selected, tridiagonal_bands,
 )

@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra._lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
+from vibra._core.lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
 from vibra.solvers.accurate.chain.bidiagonal import (
     Segment, certify_modes, chunk, compose, inverse_iteration, neighbour_bounds, chain_bidiagonals,
     segment_scalings, solving_bound, worst_forming,

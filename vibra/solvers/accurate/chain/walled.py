@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra._lapack import bidiagonal_singular_values
+from vibra._core.lapack import bidiagonal_singular_values
 from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.ring.counts import spring_width
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul

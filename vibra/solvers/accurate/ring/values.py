@@ -36,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra._lapack import bidiagonal_singular_values
+from vibra._core.lapack import bidiagonal_singular_values
 from vibra.solvers.accurate.ring.kernel import NEAR, pivot_roots, spring_counts, walled_factor
 from vibra.solvers.common import SolveResult
 from vibra.solvers.accurate.golub_kahan import Refiner, singular_vectors
