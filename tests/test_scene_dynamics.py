@@ -158,6 +158,28 @@ def test_nose_hoover_scene_histograms_against_the_boltzmann_gaussian(tmp_path: P
     assert distances[0] > 0.026 and distances[1] < 0.0102
 
 
+def test_report_groups_dynamics_and_shows_the_modes_and_what_the_run_conserved(tmp_path: Path) -> None:
+    from vibra.pipeline.report import report
+
+    out = tmp_path / "out"
+    [outcome] = report([ROOT / "dynamics" / "isokinetic.toml"], out, progress=False).outcomes
+    assert outcome.status == "ok", outcome.error
+    index = (out / "index.html").read_text(encoding="utf-8")
+    assert "<h2 id='dynamics'>Dynamics</h2>" in index and "Other scenes" not in index
+    assert "1 scene, 1 figure." in index and "scene(s)" not in index
+    page = (out / "scenes" / "isokinetic.html").read_text(encoding="utf-8")
+    table = page.split("<h2>Normal modes the run starts from</h2>")[1].split("<pre>")[1].split("</pre>")[0]
+    header, *rows = table.splitlines()
+    assert "omega (√(k/m))" in header
+    # the isotropic oscillator's three modes, omega = sqrt(k / m) = sqrt(3 / 2)
+    assert [float(row.split()[1]) for row in rows] == pytest.approx([np.sqrt(1.5)] * 3, rel=1e-9)
+    conserved = page.split("<h2>What the run conserved</h2><p>")[1].split("</p>")[0]
+    assert conserved.startswith("Largest relative change of the kinetic energy: ")
+    run = dynamics.integrate(validate(load_scene(ROOT / "dynamics" / "isokinetic.toml")), [1.0, 0.0, 0.0],
+                             [0.0, 1.0, 0.3], 0.01, 4000, thermostat=dynamics.Isokinetic(0.5), record_every=2)
+    assert conserved.endswith(f": {run.conserved_drift():.2e}.")
+
+
 def test_plan_steps_follow_the_draw_table() -> None:
     scene = Scene.from_dict(oscillator_scene(compute={"chain": [1, 2, 3]}, draw={"energies": True}), source="o.toml")
     assert make_plan(scene).step_names == ("build", "dynamics-run", "chart-energies", "chart-histogram")

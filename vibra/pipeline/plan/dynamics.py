@@ -2,8 +2,9 @@
 
 A dynamics scene (``kind = "dynamics"``, keys in `vibra.pipeline.scene.dynamics`) builds a
 harmonic `System` or an FPUT chain and runs `vibra.dynamics.integrate` once per Nosé-Hoover
-chain length of ``compute.chain`` (once without one). The charts draw only what the library
-computed:
+chain length of ``compute.chain`` (once without one). The run step also keeps the lowest normal
+modes of the harmonic part (the report's frequency table) and reports each run's
+`Trajectory.conserved_drift`. The charts draw only what the library computed:
 
 - ``chart-mode-energies``: `Trajectory.mode_energies` of the lowest modes against time;
 - ``chart-energies``: `Trajectory.kinetic`, `potential`, `conserved` and the thermostat's
@@ -29,12 +30,16 @@ from vibra.pipeline.plan.model import Plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.dynamics import THERMOSTATS
 from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, dynamics_estimate
-from vibra.solvers.budget import describe_bytes, describe_seconds
+from vibra.solvers.budget import ResourceLimitError, describe_bytes, describe_seconds
 from vibra.sources import cite
 
 __all__ = ["check_dynamics_plan", "dynamics_cost", "DynamicsRuns", "DYNAMICS_STEPS", "DYNAMICS_STEP_KEYS",
            "anharmonic_forces", "initial_state"]
 
+#: How many of the lowest normal modes the report's table lists when the run needs none.
+TABLE_MODES = 6
+#: The estimated cost (`vibra.solvers.budget`) beyond which that table is left out.
+TABLE_LIMITS = {"max_seconds": 1.0, "max_memory": 2.0**28}
 #: step name -> the scene key that controls it.
 DYNAMICS_STEP_KEYS = {"dynamics-run": "compute", "chart-mode-energies": "draw.mode_energies",
                       "chart-energies": "draw.energies", "chart-histogram": "draw.histogram"}
@@ -191,6 +196,15 @@ def _thermostat(scene: Scene, chain: int) -> tuple[Any, str]:
     return None, "no thermostat"
 
 
+def _table_modes(system: Any) -> Any:
+    """The lowest `TABLE_MODES` normal modes (no shapes) for the report's table, or None when the solver
+    registry estimates them beyond `TABLE_LIMITS` (the table is left out rather than the run slowed)."""
+    try:
+        return system.modes(min(system.n_dof, TABLE_MODES), vectors=False, **TABLE_LIMITS)
+    except ResourceLimitError:
+        return None
+
+
 def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:
     from vibra import dynamics
 
@@ -198,6 +212,7 @@ def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str 
     spec = scene.dynamics
     wanted = _wanted_modes(scene)
     modes = system.modes(wanted) if wanted else None
+    context.modes = modes if modes is not None else _table_modes(system)
     x0, v0 = initial_state(scene, system, modes)
     forces = anharmonic_forces(scene)
     labels, runs = [], []
@@ -221,14 +236,16 @@ def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str 
         labels.append(label)
     kT = 0.0 if spec.temperature is None else system.units.boltzmann * spec.temperature
     context.dynamics = DynamicsRuns(labels=tuple(labels), runs=tuple(runs), modes=modes, kT=kT)
-    drift = runs[0].conserved_drift()
+    drifts = [run.conserved_drift() for run in runs]
     what = "kinetic energy" if spec.thermostat == "isokinetic" else (
         "extended energy" if spec.thermostat == "nose-hoover" else "energy")
+    values = f"{drifts[0]:.2e}" if len(runs) == 1 else ", ".join(
+        f"{drift:.2e} ({label})" for label, drift in zip(labels, drifts))
     how = f"{runs[0].integrator}, {'compiled' if runs[0].compiled else 'Python'} loop"
-    if drift > dynamics.DRIFT_TOLERANCE:
-        return how, (f"largest relative change of the {what}: {drift:.2e}, beyond the library's tolerance "
+    if any(drift > dynamics.DRIFT_TOLERANCE for drift in drifts):
+        return how, (f"largest relative change of the {what}: {values}, beyond the library's tolerance "
                      f"{dynamics.DRIFT_TOLERANCE:g} (vibra.dynamics.DRIFT_TOLERANCE): lower compute.dt")
-    return how, f"largest relative change of the {what}: {drift:.2e}"
+    return how, f"largest relative change of the {what}: {values}"
 
 
 def mode_energy_lines(runs: DynamicsRuns) -> tuple[Any, Any]:

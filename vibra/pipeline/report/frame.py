@@ -20,7 +20,7 @@ __all__ = ["GROUPS", "SCENES", "IMAGE_SUFFIXES", "page", "grouped", "page_name",
 #: Scene kind -> heading of its group, in the order the report shows them.
 GROUPS = (("chain", "Chains"), ("molecule", "Molecules"), ("network", "Networks"),
           ("generalized", "Generalised systems"), ("oscillator", "Oscillators"), ("crystal", "Crystals"),
-          ("", "Other scenes"))
+          ("dynamics", "Dynamics"), ("", "Other scenes"))
 #: The folder of the scene pages, inside the report folder.
 SCENES = "scenes"
 IMAGE_SUFFIXES = (".png", ".gif")

@@ -17,7 +17,8 @@ __all__ = ["scene_page", "KIND_WORDS"]
 #: Scene kind -> what the page says the scene is.
 KIND_WORDS = {"chain": "a chain of masses and springs", "molecule": "a molecule",
               "network": "an elastic network of a protein", "generalized": "a system in generalised coordinates",
-              "oscillator": "driven damped oscillators", "crystal": "a crystal"}
+              "oscillator": "driven damped oscillators", "crystal": "a crystal",
+              "dynamics": "a dynamics run"}
 
 
 def _steps_table(outcome: SceneOutcome) -> str:
@@ -28,6 +29,25 @@ def _steps_table(outcome: SceneOutcome) -> str:
                     f"<td>{e(plain_math(s.accuracy or ''))}</td><td>{s.seconds:.3f}</td></tr>")
     rows.append("</table>")
     return "".join(rows)
+
+
+def _dynamics_parts(outcome: SceneOutcome) -> list[str]:
+    """A dynamics scene's normal modes (the lowest, those of the harmonic part the run starts from) and what
+    the run conserved: the ``dynamics-run`` step's `Trajectory.conserved_drift` of each run."""
+    e = html.escape
+    parts = []
+    if outcome.frequencies:
+        parts.append("<h2>Normal modes the run starts from</h2><p class='note'>The lowest normal modes of the "
+                     "system's harmonic part (rigid modes apart).</p>"
+                     "<pre>" + e(plain_math("\n".join(outcome.frequencies))) + "</pre>")
+    drift = next((s.accuracy for s in outcome.steps if s.name == "dynamics-run" and s.accuracy), None)
+    if drift:
+        parts.append("<h2>What the run conserved</h2><p>" + e(drift[:1].upper() + drift[1:]) + ".</p>"
+                     "<p class='note'>The largest change |C(t) - C(0)| over the recorded states, relative to "
+                     "the energy (Trajectory.conserved_drift), of what the run conserves: C is the energy "
+                     "without a thermostat, the extended energy of a Nosé-Hoover thermostat (its conserved "
+                     "quantity), or the kinetic energy that Gauss's isokinetic constraint holds.</p>")
+    return parts
 
 
 def scene_page(outcome: SceneOutcome, scenes: Sequence[SceneOutcome], out_dir: Path) -> str:
@@ -69,7 +89,9 @@ def scene_page(outcome: SceneOutcome, scenes: Sequence[SceneOutcome], out_dir: P
         parts.append("<div class='figs'>" + "".join(figures) + "</div>")
     if view is not None:
         parts.append("<h2>The modes in 3-D</h2>" + view_html(view))
-    if o.frequencies:
+    if o.kind == "dynamics":
+        parts.extend(_dynamics_parts(o))
+    elif o.frequencies:
         parts.append("<h2>Frequencies</h2><pre>" + e(plain_math("\n".join(o.frequencies))) + "</pre>")
     details = []
     if o.steps:

@@ -19,6 +19,11 @@ from vibra.sources import SOURCES
 __all__ = ["index_page", "references_page", "write_site"]
 
 
+def _count(n: int, noun: str) -> str:
+    """``"1 scene"``, ``"3 scenes"``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def _card(o: SceneOutcome) -> str:
     e = html.escape
     pictures = images(o)
@@ -26,7 +31,7 @@ def _card(o: SceneOutcome) -> str:
         top = f"<img src='{e(pictures[0][0], quote=True)}' alt='' loading='lazy'>"
     else:
         top = "<div class='none'>failed</div>" if o.status == "failed" else "<div class='none'>no figure</div>"
-    extras = [f"{len(pictures)} figure{'s' if len(pictures) != 1 else ''}"]
+    extras = [_count(len(pictures), "figure")]
     if any(f.endswith(VIEW_SUFFIX) for f in o.outputs):
         extras.append("3-D view")
     if o.status == "failed":
@@ -40,7 +45,7 @@ def index_page(scenes: Sequence[SceneOutcome]) -> str:
     failed = sum(1 for o in scenes if o.status == "failed")
     n_images = sum(len(images(o)) for o in scenes)
     parts = ["<h1>vibra report</h1>",
-             f"<p class='lead'>{len(scenes)} scene(s), {n_images} figure(s)"
+             f"<p class='lead'>{_count(len(scenes), 'scene')}, {_count(n_images, 'figure')}"
              + (f", <span class='failed'>{failed} failed</span>" if failed else "")
              + ". Pick a scene for its figures, its modes in 3-D and its frequencies.</p>"]
     for heading, members in grouped(scenes):
