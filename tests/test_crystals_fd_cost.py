@@ -98,3 +98,18 @@ def test_sizes_multiply_in_python_integers() -> None:
     """A bound on a huge supercell (10^6 cells of 10^3 atoms) is a finite, huge figure (no int64 wrap)."""
     cost = force_constants_cost(1000, 10 ** 6, n_ops=48, symmetry=True, steps=2, deterministic=False)
     assert cost.memory > 1e20 and cost.n_supercell_atoms == 10 ** 9 and cost.seconds is None
+
+
+def test_the_solvers_memory_limit_set_after_import_reaches_finite_differences_and_sweeps(monkeypatch) -> None:
+    """One rule (`budget.memory_limit`): `MEMORY_LIMIT` is read at the call, not copied at import
+    (a copy would ignore a user's `vibra.solvers.budget.MEMORY_LIMIT = ...`)."""
+    from vibra.pipeline.sweep.cost import check_sweep_memory
+    from vibra.solvers import budget
+
+    monkeypatch.setattr(budget, "MEMORY_LIMIT", 1e5)
+    sizes = dict(n_ops=48, symmetry=True, steps=2)
+    with pytest.raises(ResourceLimitError, match="max_memory"):
+        check_memory(force_constants_cost(1, 27, deterministic=False, **sizes), supercell=[3, 3, 3], n_unit=1,
+                     max_memory=None, **sizes)
+    with pytest.raises(ResourceLimitError, match="max_memory"):
+        check_sweep_memory(1000, n_dof=100, n_modes=100, solve=0.0, track=True, lines=1000, distributed=False)

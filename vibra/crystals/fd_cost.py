@@ -21,8 +21,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from vibra.solvers.budget import (MEMORY_LIMIT, ResourceLimitError, describe_bytes, describe_seconds,
-                                  tightest_memory)
+from vibra.solvers.budget import ResourceLimitError, describe_bytes, describe_seconds, memory_limit
 
 __all__ = ["ForceConstantsCost", "force_constants_cost", "check_memory", "symmetry_pays",
            "SYMMETRY_FIXED_SECONDS", "SYMMETRY_SECONDS", "FORCE_SECONDS", "FULL_ARRAYS"]
@@ -129,13 +128,10 @@ def check_memory(cost: ForceConstantsCost, *, supercell: Any, n_unit: int, n_ops
     """Raise `ResourceLimitError` if `cost` needs more memory than `max_memory` (None: the
     solvers' `MEMORY_LIMIT`, else the memory available; ``float("inf")``: no limit), naming the
     number of cells that would fit."""
-    limit = max_memory if max_memory is not None else MEMORY_LIMIT
-    source = "max_memory"
-    if limit is None:
-        tightest = tightest_memory()
-        if tightest is None:
-            return
-        source, limit = f"left under the {tightest[0]}", tightest[1]
+    known = memory_limit(max_memory)
+    if known is None:
+        return
+    source, limit = known
     if cost.memory <= limit:
         return
     cells = _largest_cells(n_unit, n_ops, symmetry, steps, limit)

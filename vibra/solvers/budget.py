@@ -244,6 +244,18 @@ def describe_seconds(seconds: float) -> str:
     return f"{seconds / 86400:.3g} days"
 
 
+def memory_limit(max_memory: float | None) -> tuple[str, float] | None:
+    """(what it is, bytes) of the memory a computation may take: `max_memory` when given, else
+    `MEMORY_LIMIT` (read at the call, so that setting it applies everywhere), else the memory
+    available now; None where none is known. One rule for solves, finite differences and sweeps."""
+    if max_memory is not None:
+        return "max_memory", float(max_memory)
+    if MEMORY_LIMIT is not None:
+        return "max_memory", float(MEMORY_LIMIT)
+    tightest = tightest_memory()
+    return None if tightest is None else (f"left under the {tightest[0]}", tightest[1])
+
+
 def guard(cost: Estimate, *, n_dof: int, max_memory: float | None, max_seconds: float | None,
           alternatives: list[str]) -> None:
     """Raise `ResourceLimitError` if `cost` exceeds the memory or time limit, naming the way out.
@@ -251,16 +263,11 @@ def guard(cost: Estimate, *, n_dof: int, max_memory: float | None, max_seconds: 
     `max_memory` / `max_seconds` None take `MEMORY_LIMIT` (or the available memory) and
     `TIME_LIMIT_S`; ``float("inf")`` disables a limit.
     """
-    memory_limit = max_memory if max_memory is not None else MEMORY_LIMIT
-    source = "max_memory"
-    if memory_limit is None:
-        tightest = tightest_memory()
-        if tightest is not None:
-            source, memory_limit = f"left under the {tightest[0]}", tightest[1]
+    source, room = memory_limit(max_memory) or ("", None)
     time_limit = max_seconds if max_seconds is not None else TIME_LIMIT_S
     reasons = []
-    if memory_limit is not None and cost.memory > memory_limit:
-        reasons.append(f"more memory than the {describe_bytes(memory_limit)} {source}")
+    if room is not None and cost.memory > room:
+        reasons.append(f"more memory than the {describe_bytes(room)} {source}")
     if cost.seconds > time_limit:
         reasons.append(f"longer than max_seconds={time_limit:g}")
     if not reasons:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from vibra.solvers.budget import MEMORY_LIMIT, ResourceLimitError, describe_bytes, tightest_memory
+from vibra.solvers.budget import ResourceLimitError, describe_bytes, memory_limit
 
 __all__ = ["SweepMemory", "sweep_memory", "check_sweep_memory", "ROW_BYTES", "MODE_BYTES"]
 
@@ -59,22 +59,13 @@ def sweep_memory(count: int, *, n_dof: int, n_modes: int, solve: float, track: b
     return SweepMemory(rows=rows, vectors=8.0 * n_dof * n_modes * held, solve=float(solve))
 
 
-def _limit(max_memory: float | None) -> tuple[str, float] | None:
-    if max_memory is not None:
-        return "max_memory", float(max_memory)
-    if MEMORY_LIMIT is not None:
-        return "memory limit (vibra.solvers.budget.MEMORY_LIMIT)", float(MEMORY_LIMIT)
-    tightest = tightest_memory()
-    return None if tightest is None else (f"memory left under the {tightest[0]}", tightest[1])
-
-
 def check_sweep_memory(count: int, *, n_dof: int, n_modes: int, solve: float, track: bool, lines: int,
                        distributed: bool, max_memory: float | None = None) -> SweepMemory:
     """The sweep's `SweepMemory`; `ResourceLimitError` when it exceeds the limit, naming the
     points that would fit (and ``track=False`` when the vectors are what does not fit)."""
     memory = sweep_memory(count, n_dof=n_dof, n_modes=n_modes, solve=solve, track=track, lines=lines,
                           distributed=distributed)
-    limit = _limit(max_memory)
+    limit = memory_limit(max_memory)
     if limit is None or memory.total <= limit[1]:
         return memory
     source, room = limit
