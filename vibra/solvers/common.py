@@ -52,6 +52,14 @@ JACOBI_WORK = 4000**3
 #: spectrum's scale, sees the lowest eigenvalues as one cluster there and may not converge.
 BISECTION_SPREAD = 1e4
 
+#: K~'s diagonal spread (`Problem.spread`) above which "high" expects bounds over 1e-10 after the
+#: spring-space Ritz check (`Problem.loose`), and its estimates count what follows them (the
+#: checked path's Jacobi fallback, the triplet step). On 190 random 3-D networks of 60-300 sites,
+#: springs and masses log-uniform over up to 12 and 6 decades: no fallback below a spread of
+#: 1e4; 26 of 136 below 1e7 fell back, 48 of 54 above it, all above 1e8; the triplet step ran
+#: from 6.1e6. A protein's ANM spreads ~10-20. (benchmarks/RESULTS.md, "Loose bounds and the spread")
+LOOSE_SPREAD = 1e7
+
 
 def ring_route(accuracy: str, few: bool, spread: float, banded: bool) -> str | None:
     """How accuracy="high" takes a ring's values from a standard solver, each then bracketed by

@@ -54,8 +54,8 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
              spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, accuracy: str = "high",
              device: str = "cpu") -> Problem:
     """The `registry.Problem` of a request: sizes, K~'s band (a ring reordered where the band
-    solver could use it), the springs' shape (`topology.classify`), and for a chain K~'s
-    diagonal spread; O(nnz), nothing of K~ formed."""
+    solver could use it), the springs' shape (`topology.classify`), and K~'s diagonal spread
+    where the springs or a few modes of a chain are given; O(nnz), nothing of K~ formed."""
     n = K.shape[0]
     diagonal = mass.ndim == 1
     width = bandwidth(K) if diagonal else n - 1
@@ -69,7 +69,9 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
     n_terms = int(spring_factor[0].shape[0]) if use_factor else 0  # type: ignore[index]
     spread = 1.0
     partial = n_modes is not None and n_modes < n
-    if diagonal and band is None and (partial and width <= 1 and ordering is None or topology in ("ring", "walled-ring")):
+    ringlike = topology in ("ring", "walled-ring")  # (a ring's band request routes as if unspread)
+    if diagonal and (band is None and (partial and width <= 1 and ordering is None or ringlike)
+                     or use_factor and not ringlike):
         spread = _diagonal_spread(K, mass)
         if topology == "none" and solver == "auto" and spread > common.BISECTION_SPREAD:
             derived = spring_factor_of_chain(K)  # a chain given as K: its springs from K's entries

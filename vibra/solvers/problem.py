@@ -28,8 +28,8 @@ class Problem:
     `topology` the shape of the springs (`topology.classify`; "none" without a spring factor, and
     "chain-derived" for a chain given as K alone whose springs `lowest.spring_factor_of_chain`
     recovers: only bisection uses them);
-    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (rings, and chains with
-    a few modes asked; else 1).
+    `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (where masses are
+    diagonal and the springs or a few modes of a chain are given; else 1).
     """
 
     n: int
@@ -81,6 +81,13 @@ class Problem:
         if self.n_modes is not None:
             return self.n_modes
         return min(self.n, common.BAND_MODES_ESTIMATE) if self.band is not None else self.n
+
+    @property
+    def loose(self) -> bool:
+        """Bounds over 1e-10 expected after the spring-space Ritz check: K~'s diagonal spreads
+        over `common.LOOSE_SPREAD` (masses or springs over decades); the checked path's Jacobi
+        fallback and "high"'s triplet step are then counted in its estimate."""
+        return self.spread > common.LOOSE_SPREAD
 
     @property
     def ringlike(self) -> bool:

@@ -30,7 +30,8 @@ import vibra.solvers.common as common
 import vibra.solvers.runners as runners
 from vibra.solvers.accuracy import relative
 from vibra.solvers.budget import (
-    BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, COMPANION_S, DENSE_VALUES_S,
+    BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, CHECK_CALL_S, CHECK_FORM_S,
+    CHECK_TERM_S, COMPANION_S, DENSE_VALUES_S, JACOBI_FALLBACK_S,
     DENSE_VECTORS_S, GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S,
     RING_COUNTED_S, RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SPARSE_FACTOR_S, SUPERLU_SLOWER,
     TRIDIAGONAL_S, TRIDIAGONAL_VECTORS_S, TRIPLET_ROW, TRIPLET_UNIT_S, Estimate, refinement_seconds,
@@ -91,7 +92,7 @@ def _refined(p: Problem, seconds: float, *, chain: bool = False) -> float:
     if not p.n_terms:
         return seconds
     return seconds + refinement_seconds(p.n, p.n_terms, k=p.k, accuracy=p.accuracy,
-                                        one_dimensional=p.one_dimensional, chain=chain)
+                                        one_dimensional=p.one_dimensional, chain=chain, loose=p.loose)
 
 
 def _dense_parts(p: Problem, k: int, vectors: bool) -> tuple[float, float]:
@@ -244,21 +245,32 @@ def _pencil_cholesky_cost(p: Problem) -> Estimate:
     return _made("pencil-cholesky", p, 8.0 * n2 * 6, DENSE_VECTORS_S * 2 * n2 * p.n)
 
 
+def _check_seconds(p: Problem) -> float:
+    """The spring-space check of `springs.checked_dense` beyond its dense solve: CHECK_CALL_S, +
+    CHECK_TERM_S per spring term and mode checked (k + 1), + CHECK_FORM_S n^2 (K~ formed dense)."""
+    return CHECK_CALL_S + CHECK_TERM_S * float(p.n_terms) * min(p.k + 1, p.n) + CHECK_FORM_S * float(p.n) * p.n
+
+
 def _rayleigh_cost(p: Problem) -> Estimate:
     """K~ (its vectors in place), divide and conquer's 2 n^2 work space, the mass-weighted K: 32 n^2
-    bytes; as dense with vectors, + the refinement."""
+    bytes; as dense with vectors, + the check (`_check_seconds`), + the refinement."""
     n2 = float(p.n) * p.n
-    return _made("accurate-rayleigh", p, 8.0 * n2 * 4, _refined(p, DENSE_VECTORS_S * n2 * p.n))
+    return _made("accurate-rayleigh", p, 8.0 * n2 * 4, _refined(p, DENSE_VECTORS_S * n2 * p.n + _check_seconds(p)))
 
 
 def _checked_cost(p: Problem) -> Estimate:
-    """Time as the dense solve with vectors (the usual case: no refinement), + the refinement;
-    memory the larger of that and one-sided Jacobi's (gejsv of the n_terms x n B~: 24 n (n_terms
-    + n), + 8 n^2 with vectors), which a loose bound may run."""
+    """Time as the dense solve with vectors and its check (`_check_seconds`), + one-sided Jacobi
+    where loose bounds are expected (`Problem.loose`: its fallback, JACOBI_FALLBACK_S n_terms n^2),
+    + the refinement; memory the larger of the dense solve's and Jacobi's (gejsv of the
+    n_terms x n B~: 24 n (n_terms + n), + 8 n^2 with vectors), which a loose bound may run on any
+    input."""
     n, k = p.n, p.k
     fast_memory, fast_seconds = _dense_parts(p, min(k + 1, n), True)
     rows = max(p.n_terms, n)
     jacobi_memory = 8.0 * rows * n * 3 + (8.0 * (float(n) * n) if p.vectors else 0.0)
+    fast_seconds += _check_seconds(p)
+    if p.loose:
+        fast_seconds += JACOBI_FALLBACK_S * float(rows) * n * n
     return _made("accurate-checked", p, max(fast_memory, jacobi_memory), _refined(p, fast_seconds))
 
 
