@@ -64,9 +64,9 @@ def one_line_failure(text: str) -> str:
     """The first FAIL line of a validate run of one scene (a FAIL line per problem of its keys, each one
     line: every other line is the summary), and no traceback."""
     lines = [line for line in text.splitlines() if line.startswith("FAIL ")]
-    assert lines and all(line.startswith(("FAIL ", "ok   ")) or re.fullmatch(r"\d+ scene\(s\), \d+ invalid", line)
+    assert lines and all(line.startswith(("FAIL ", "ok   ")) or re.fullmatch(r"\d+ scenes?, \d+ invalid", line)
                          for line in text.splitlines()), text
-    assert "1 scene(s), 1 invalid" in text, text
+    assert "1 scene, 1 invalid" in text, text
     assert "Traceback" not in text
     return lines[0]
 
@@ -847,7 +847,7 @@ def test_max_points_bounds_and_raises_the_limit(tmp_path: Path, capsys: pytest.C
     code, _, err = run_cli(capsys, *args, "--max-points", "2")
     assert code == 1 and "3 points is more than max_points=2" in err and list(tmp_path.iterdir()) == []
     code, out, _ = run_cli(capsys, *args, "--max-points", "3")
-    assert code == 0 and "3 point(s)" in out
+    assert code == 0 and "3 points" in out
     with pytest.raises(SystemExit) as stop:
         cli.main([*args, "--max-points", "0"])
     assert stop.value.code == 2 and "--max-points must be >= 1" in capsys.readouterr().err
@@ -900,7 +900,7 @@ def test_a_network_scene_with_a_pdb_cut_between_lines_warns_in_one_line(tmp_path
 #: (case, .xyz text, fragment): issue 34's "atom count line against the atoms read", and the NaN
 #: coordinate once reported at name_or_atoms.positions[1,0] rather than the scene's key.
 XYZ_CASES = [
-    ("count-above-atoms", "4\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 5: the file ends after 3 atom line(s), "
+    ("count-above-atoms", "4\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 5: the file ends after 3 atom lines, "
      "but line 1 announces 4; the file looks truncated"),
     ("count-below-atoms", "2\nwater\n" + WATER_XYZ.split("\n", 2)[2], "line 5: more lines follow the 2 atoms"),
     ("cut-mid-line", WATER_XYZ[:-12], "line 5: is 'H 0.0 -0'; an atom line reads 'symbol x y z'"),

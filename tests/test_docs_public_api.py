@@ -128,7 +128,8 @@ def test_the_scanner_sees_imports_and_paths() -> None:
 TOPIC = {
     "chains": "chains.md", "continuum": "chains.md", "crystals": "crystals.md", "infrared": "crystals.md",
     "dynamics": "dynamics.md", "networks": "networks.md", "orbits": "generalized.md", "pendulum": "generalized.md",
-    "response": "response.md", "spectra": "spectra.md", "sweep": "distributed.md", "modes": "scenes.md",
+    "response": "response.md", "spectra": "spectra.md", "experiment": "spectra.md", "sweep": "distributed.md",
+    "modes": "scenes.md",
     "renders": "scenes.md",
 }
 #: charts of vibra.charts.notebooks, shared by notebooks of several topics: each on its own page

@@ -197,7 +197,7 @@ def test_trajectory_is_frozen() -> None:
         run.dt = 1.0  # type: ignore[misc]
     with pytest.raises(ValueError, match="read-only"):
         run.positions[0, 0] = 1.0
-    assert repr(run).startswith("Trajectory(11 records of 1 dofs to t = 1, dt = 0.1, compiled, path 'verlet'")
+    assert repr(run).startswith("Trajectory(11 records of 1 dof to t = 1, dt = 0.1, compiled, path 'verlet'")
 
 
 def test_python_forces_run_the_same_steps_as_the_compiled_loop() -> None:

@@ -119,12 +119,12 @@ def test_noiseless_calculators_cost_at_most_two_extra_calls(name: str, monkeypat
         return original(self, *args, **kwargs)
 
     monkeypatch.setattr(mol.ValenceForceField, "calculate", counted)
-    listed = finite_difference_hessian(atoms, mol.ValenceForceField(model))
+    listed = finite_difference_hessian(atoms, mol.ValenceForceField(model), symmetry=False)
     assert (listed.noise_source, listed.n_noise_calls) == ("analytic", ANALYTIC_CALLS)
     assert len(listed_calls) == FD_CALLS[name] == listed.n_force_calls  # the probe called nothing
     monkeypatch.setattr(mol.ValenceForceField, "calculate", original)
     calc = _Counted(model)
-    probed = finite_difference_hessian(atoms, calc)
+    probed = finite_difference_hessian(atoms, calc, symmetry=False)
     assert (probed.noise_source, probed.n_noise_calls) == ("probed", PROBE_CALLS)
     assert calc.calls == FD_CALLS[name] + PROBE_CALLS
     # found deterministic, it gets the rounding level, bit for bit what the listed class gets
@@ -136,12 +136,12 @@ def test_force_noise_given_or_none_spends_nothing() -> None:
     atoms = mol.co2_atoms()
     model = mol.valence_model(atoms)
     calc = _Noisy(model, 1e-4)
-    given = finite_difference_hessian(atoms, calc, force_noise=2e-4)
+    given = finite_difference_hessian(atoms, calc, force_noise=2e-4, symmetry=False)
     assert (given.noise_source, given.force_noise, given.n_noise_calls) == ("given", 2e-4, 0)
     assert given.roundoff == pytest.approx(np.sqrt(2.0) / 2.0 * 2e-4 / 0.01, rel=1e-15)  # 2-point: sqrt(2)/2 sigma/h
-    off = finite_difference_hessian(atoms, calc, force_noise=0.0)
+    off = finite_difference_hessian(atoms, calc, force_noise=0.0, symmetry=False)
     assert (off.noise_source, off.roundoff) == ("given", 0.0)
-    unchecked = finite_difference_hessian(atoms, calc, force_noise=None)
+    unchecked = finite_difference_hessian(atoms, calc, force_noise=None, symmetry=False)
     assert (unchecked.noise_source, unchecked.n_noise_calls) == ("rounding", 0)
     assert 0.0 < unchecked.force_noise < 1e-12  # 8 eps of the largest force (~0.3 eV/A at +-2h)
     assert calc.calls == 3 * 37  # no probe in any of the three runs
@@ -150,7 +150,7 @@ def test_force_noise_given_or_none_spends_nothing() -> None:
 def test_from_calculator_does_not_probe() -> None:
     atoms = mol.co2_atoms()
     calc = _Counted(mol.valence_model(atoms))
-    mol.from_calculator(atoms, calc)
+    mol.from_calculator(atoms, calc, symmetry=False)
     assert calc.calls == 1 + 18  # the 2-point stencil only: it returns no error estimate
 
 
@@ -198,7 +198,7 @@ def test_probe_failure_is_reported_as_such() -> None:
 
     with pytest.raises(RuntimeError, match=r"calculator failed while measuring its force noise: .*non-finite "
                        r"forces at a perturbed start.*pass force_noise=<number> or None to skip it"):
-        finite_difference_hessian(atoms, _Stops(mol.valence_model(atoms)))
+        finite_difference_hessian(atoms, _Stops(mol.valence_model(atoms)), symmetry=False)
 
 
 def test_force_noise_string_other_than_auto_is_refused() -> None:

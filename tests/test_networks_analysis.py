@@ -160,7 +160,7 @@ def test_from_pdb_selections_match_prodys() -> None:
     for model in (1, 2, 3):
         np.testing.assert_allclose(networks.from_pdb(ensemble, model=model).positions,
                                    frames.getCoordsets(model - 1), atol=5e-4)
-    for kwargs, message in ((dict(chains="E"), "no atoms in chain.s. E; the model holds chain.s. ABCD"),
+    for kwargs, message in ((dict(chains="E"), "no atoms in chain E; the model holds chains ABCD"),
                             (dict(residues=(5000, 6000)), "no atoms in residues 5000..6000"),
                             (dict(selection=["XX"]), "no atoms named XX"),
                             (dict(residues=(5, 1)), "residues is .5, 1.; expected .first, last."),

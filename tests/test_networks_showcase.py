@@ -134,7 +134,7 @@ def test_scene_keys_select_the_sites_as_prody_does(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("system, message", [
-    ('chains = "B"', r"system\.chains: .*no atoms in chain\(s\) B; the model holds chain\(s\) A$"),
+    ('chains = "B"', r"system\.chains: .*no atoms in chain B; the model holds chain A$"),
     ("residues = [100, 200]", (r"system\.residues: .*no atoms in residues 100\.\.200; the model holds residues "
                                r"1\.\.76 \(chain A\)$")),
     ('selection = ["XX"]', r"system\.selection: .*no atoms named XX .*; they have atoms named C, CA, CB"),

@@ -174,7 +174,7 @@ def test_report_outputs_summary_and_index(tmp_path: Path) -> None:
     for name in outcome.outputs:
         if name.endswith(".png"):
             assert f"src='../{name}'" in page
-    assert "id='view-data'" in page and "src='../assets/3Dmol-min.js'" in page
+    assert "class='view-data'" in page and "src='../assets/3Dmol-min.js'" in page
     assert not (out / ".work").exists()
     assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
         "assets", "index.html", "references.html", "scenes", "small_modes.png", "small_spectrum.png",
@@ -609,7 +609,7 @@ def test_chain_view_holds_the_closed_form_shapes(tmp_path: Path) -> None:
         expected *= MAX_MOTION * CHAIN_SPACING / np.abs(expected).max()
         assert np.allclose(np.abs(vectors[:, 0]), np.abs(expected), atol=1e-4)  # rounded to 4 decimals
         assert np.allclose(vectors[:, 0] * np.sign(vectors[0, 0]), expected, atol=1e-4)
-        assert mode["label"].startswith(f"mode {j - 1}: ")
+        assert mode["label"].startswith(f"mode {j}: ")  # numbered from the lowest, as the table
 
 
 def test_report_pages_navigate_offline_and_name_sources(tmp_path: Path) -> None:
@@ -642,7 +642,7 @@ def test_report_pages_navigate_offline_and_name_sources(tmp_path: Path) -> None:
     assert "<figcaption>H2O:" not in water  # the caption does not repeat the title
     view = json.loads((out / "water_view.json").read_text())
     assert view["elements"] == ["O", "H", "H"] and sorted(map(sorted, view["bonds"])) == [[0, 1], [0, 2]]
-    assert [m["label"] for m in view["modes"]][0].startswith("mode 6: 159") and len(view["modes"]) == 3
+    assert [m["label"] for m in view["modes"]][0].startswith("ν2: 159") and len(view["modes"]) == 3
     assert [m["label"].split("cm⁻¹, ")[1] for m in view["modes"]] == ["A1 (C2v)", "A1 (C2v)", "B2 (C2v)"]
     assert "not positive definite" in (out / "scenes" / "bad.html").read_text()
     references = (out / "references.html").read_text()

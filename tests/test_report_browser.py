@@ -15,39 +15,25 @@ so, only where there is no Chromium executable at all.
 
 from __future__ import annotations
 
-import io
 import os
-import shutil
 import time
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
-from PIL import Image
+from helpers.browser import SKIP_REASON, chromium, pixels as _pixels
 from playwright.sync_api import sync_playwright
 
 from vibra.pipeline.report import report
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def _playwrights_chromium() -> str | None:
-    """The Chromium that ``playwright install chromium`` downloaded, if it did."""
-    with sync_playwright() as driver:
-        path = driver.chromium.executable_path
-    return path if Path(path).is_file() else None
-
-
-CHROMIUM = (os.environ.get("VIBRA_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
-            or _playwrights_chromium())
+CHROMIUM = chromium()
 SCENES = [ROOT / "chains" / "diatomic.toml", ROOT / "molecules" / "h2o.toml",
           ROOT / "networks" / "ubiquitin" / "ubiquitin-anm.toml"]
 SCREEN = {"width": 1280, "height": 1080}
 
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium executable: neither chromium nor "
-                                "chromium-browser on the path, $VIBRA_CHROMIUM unset, and no browser of "
-                                "Playwright's own (apt-get install chromium)")
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason=SKIP_REASON)
 
 _LINKS = """() => Array.from(document.querySelectorAll("img[src], script[src], a[href], link[href]"))
     .map(e => e.src || e.href)"""
@@ -55,11 +41,6 @@ _IMAGES = """() => Promise.all(Array.from(document.images).map(img => {
     img.loading = "eager";
     return img.decode().then(() => [img.src, img.naturalWidth], () => [img.src, 0]);
 }))"""
-
-
-def _pixels(png: bytes) -> np.ndarray:
-    with Image.open(io.BytesIO(png)) as image:
-        return np.asarray(image.convert("RGB"), dtype=np.int16)
 
 
 def _local_file(url: str, out: Path) -> Path:
@@ -94,8 +75,8 @@ def test_report_pages_in_chromium(tmp_path: Path) -> None:
                     _local_file(url, out)
                 for url, width in page.evaluate(_IMAGES):
                     assert width > 0, f"{path.name}: image {url} does not decode"
-                if page.locator("#view3d").count():
-                    canvas = page.locator("#view3d canvas").first
+                if page.locator(".vibra-view .view-mode").count():  # a crystal's view: tests/test_viewer_browser.py
+                    canvas = page.locator(".view3d canvas").first
                     canvas.wait_for(state="visible", timeout=30_000)
                     canvas.scroll_into_view_if_needed()
                     frames = []
@@ -105,11 +86,11 @@ def test_report_pages_in_chromium(tmp_path: Path) -> None:
                     assert frames[0].std() > 5.0, f"{path.name}: the 3-D view is blank"
                     changed = max(float(np.abs(f - frames[0]).mean()) for f in frames[1:])
                     assert changed > 0.0, f"{path.name}: the 3-D view does not animate"
-                    page.select_option("#view-mode", index=page.locator("#view-mode option").count() - 1)
-                    page.eval_on_selector("#view-amplitude", "e => { e.value = '2.5'; "
+                    page.select_option(".view-mode", index=page.locator(".view-mode option").count() - 1)
+                    page.eval_on_selector(".view-amplitude", "e => { e.value = '2.5'; "
                                           "e.dispatchEvent(new Event('input')); }")
-                    page.click("#view-play")  # pause, then play: the frames are rebuilt each time
-                    page.click("#view-play")
+                    page.click(".view-play")  # pause, then play: the frames are rebuilt each time
+                    page.click(".view-play")
                     assert _pixels(canvas.screenshot()).std() > 5.0, f"{path.name}: blank after the controls"
                     views += 1
                     page.evaluate("window.scrollTo(0, 0)")

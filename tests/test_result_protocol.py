@@ -319,3 +319,12 @@ def test_the_repr_of_a_256_site_crystal_supercell_is_one_short_line() -> None:
     assert len(system.labels) == 768 and len(pairs) == 256 * 6
     text = repr(system)
     assert text == "System('fcc-256', 256 sites in 3-D, 765 dofs, 3 dofs frozen, SI units)"
+
+
+# ---------------------------------------------------------------------- VibrationalAnalysis
+def test_the_repr_of_a_vibrational_analysis_is_one_line_without_arrays() -> None:
+    """Not a stored result (it holds its system), but printed as often: one line, no array."""
+    analysis = mol.vibrational_analysis(mol.molecule("CO2"))
+    text = repr(analysis)
+    assert "\n" not in text and "array" not in text and len(text) < 120
+    assert text.startswith("VibrationalAnalysis(CO2: 4 vibrations, 5 rigid-body modes, linear, path ")

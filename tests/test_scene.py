@@ -230,7 +230,7 @@ def test_builder_refusal_is_a_scene_error_at_its_key() -> None:
     ({**chain(), "name": ""}, r"name: '' is not a safe file name"),
     ({**chain(), "name": "a/b"}, r"name: 'a/b' is not a safe file name"),
     ({**chain(), "name": "a..b"}, r"name: 'a\.\.b' is not a safe file name"),
-    ({**chain(), "units": "cgs"}, r"units: is 'cgs'; expected one of 'SI', 'ASE', 'dimensionless'"),
+    ({**chain(), "units": "cgs"}, r"units: is 'cgs'; expected one of 'SI', 'ASE', 'dimensionless' \(in any capitalisation\)"),
     ({**chain(), "compute": {"n_modes": 5}}, r"compute\.n_modes: is 5; the system has only 4 degrees of freedom"),
     ({**chain(), "compute": {"n_modes": 2, "band": [0.0, 1.0]}}, r"compute\.band: give either n_modes or band"),
     ({**chain(), "compute": {"band": [2.0, 1.0]}}, r"compute\.band: must be \[low, high\] with low < high"),

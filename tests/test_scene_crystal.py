@@ -54,7 +54,7 @@ def test_validate_prints_size_and_cost() -> None:
                          cwd=ROOT)
     assert run.returncode == 0, run.stdout + run.stderr
     line = next(text for text in run.stdout.splitlines() if "argon-fcc" in text)
-    assert "1 atoms per cell, 3 branches" in line and "mesh 20x20x20 = 8000 q" in line and "Gflop" in line
+    assert "1 atom per cell, 3 branches" in line and "mesh 20x20x20 = 8000 q" in line and "Gflop" in line
 
 
 @pytest.mark.parametrize("changes, message", [
@@ -128,8 +128,8 @@ def test_plan_draws_bands_thermal_and_a_mode_gif(tmp_path: Path) -> None:
     work = tmp_path / "work"
     work.mkdir()
     result = execute(plan, tmp_path, work)
-    assert result.outputs == ("argon_bands.png", "argon_thermal.png", "argon_mode.gif")
-    for name in result.outputs[:2]:
+    assert result.outputs == ("argon_bands.png", "argon_view.json", "argon_thermal.png", "argon_mode.gif")
+    for name in ("argon_bands.png", "argon_thermal.png"):
         with Image.open(tmp_path / name) as image:
             picture = np.asarray(image.convert("RGB"))
         assert picture.shape[1] >= 600 and picture.std() > 5.0       # a chart, not blank

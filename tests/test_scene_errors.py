@@ -38,7 +38,7 @@ def test_validate_prints_every_problem_in_a_fail_line_each(capsys: pytest.Captur
     assert [line.split(": ", 2)[1] for line in fails] == [key for key, _ in THREE_PROBLEMS]
     for line, (key, problem) in zip(fails, THREE_PROBLEMS):
         assert line.startswith(f"FAIL {THREE}: {key}: {problem}")
-    assert "ok   " in out and "2 scene(s), 1 invalid" in out  # the other scene is still checked
+    assert "ok   " in out and "2 scenes, 1 invalid" in out  # the other scene is still checked
     assert "Traceback" not in out
 
 

@@ -84,12 +84,12 @@ def test_report_draws_the_split_bands_and_the_infrared_chart(tmp_path: Path) -> 
     work = tmp_path / "work"
     work.mkdir()
     result = execute(make_plan(scene), tmp_path, work)
-    assert result.outputs == ("nacl-polar_bands.png", "nacl-polar_infrared.png")
-    for name in result.outputs:
+    assert result.outputs == ("nacl-polar_bands.png", "nacl-polar_view.json", "nacl-polar_infrared.png")
+    for name in (n for n in result.outputs if n.endswith(".png")):
         with Image.open(tmp_path / name) as image:
             picture = np.asarray(image.convert("RGB"))
         assert picture.shape[1] >= 600 and picture.std() > 5.0        # a chart, not blank
-    bands, infrared = result.captions
+    bands, _, infrared = result.captions  # the middle one: the interactive view's data
     assert "the LO branch splits from the TO at Gamma" in bands
     assert "reststrahlen band" in infrared and "damping 8 cm^-1" in infrared and "154 to 247 cm^-1" in infrared
     record = next(r for r in result.records if r.name == "crystal-infrared")
@@ -158,7 +158,7 @@ def test_a_yaml_with_its_own_born_charges_gets_the_infrared_chart(tmp_path: Path
     work = tmp_path / "work"
     work.mkdir()
     result = execute(plan, out, work)
-    assert result.outputs == ("own_bands.png", "own_infrared.png")
+    assert result.outputs == ("own_bands.png", "own_view.json", "own_infrared.png")
     record = next(r for r in result.records if r.name == "crystal-infrared")
     assert "TO 154 / LO 246.7 cm^-1" in record.accuracy  # the BORN file's figures (the same charges)
     # without the nac section the same yaml is a plain crystal: no infrared steps, and the keys refused

@@ -36,6 +36,8 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, Iterator, NoReturn, Sequence
 
+from vibra._core.text import counted
+
 __all__ = ["main", "build_parser", "EXIT_OK", "EXIT_FAILED", "EXIT_USAGE", "EXIT_INTERNAL"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
@@ -193,7 +195,7 @@ def _validate(paths: Sequence[str]) -> int:
         else:
             cost = crystal_cost(scene, system) if scene.kind == "crystal" else cost_summary(scene, system)
             print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r}): {cost}")
-    print(f"{len(files)} scene(s), {failed} invalid")
+    print(f"{counted(len(files), 'scene')}, {failed} invalid")
     return EXIT_FAILED if failed else EXIT_OK
 
 
@@ -255,6 +257,9 @@ def _modes(path: str, molden: str | None = None, force: bool = False) -> int:
         try:
             system = build_system(scene)
             check_plan(scene, system, response=False)  # the table needs the modes only
+            from vibra.pipeline.plan.electronic import engine_system
+
+            system = engine_system(scene, system)  # an engine scene: the engine's Hessian (issue 46)
             modes = system.modes(compute.n_modes, accuracy=compute.accuracy, band=compute.band,
                                  vectors=scene.kind == "molecule",  # the species of a 1-D molecule need shapes
                                  solver=compute.solver)
@@ -268,7 +273,7 @@ def _modes(path: str, molden: str | None = None, force: bool = False) -> int:
     seconds = time.perf_counter() - start
     symmetry = molecule_symmetry(system, modes) if scene.kind == "molecule" else None
     solver = getattr(modes, "solver", None) or getattr(modes, "method", "")  # QuadraticModes name a method
-    print(f"{scene.title}: {modes.n_modes} of {system.n_dof} modes, solver {solver}, {seconds:.3f} s")
+    print(f"{scene.title}: {modes.n_modes} of {counted(system.n_dof, 'mode')}, solver {solver}, {seconds:.3f} s")
     print("\n".join(frequency_lines(scene, modes, symmetry, ascii=not _unicode_output())))
     if molden is not None:
         print(f"Molden file written: {molden}")
@@ -365,7 +370,7 @@ def _sweep(args: argparse.Namespace) -> int:
     except (ClusterError, ImportError, RuntimeError, ValueError, OSError) as error:
         print(f"vibra sweep: {args.scene}: {' '.join(str(error).split())}", file=sys.stderr)
         return EXIT_FAILED
-    print(f"{table.name}: {len(table.rows)} point(s) of {', '.join(table.keys)}, solver {table.rows[0].solver}")
+    print(f"{table.name}: {counted(len(table.rows), 'point')} of {', '.join(table.keys)}, solver {table.rows[0].solver}")
     for path in written:
         print(f"wrote {path}")
     return EXIT_OK

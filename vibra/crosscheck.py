@@ -428,18 +428,19 @@ def crosscheck(
         system = molecules.from_atoms(work, model, name=label)
         calc = molecules.ValenceForceField(model)
         estimate = molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
-                                                       force_noise=force_noise)
+                                                       force_noise=force_noise, symmetry=False)
         source = "analytic valence force field B^T W B"
     else:
         calc = calculator
         estimate = molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
-                                                       force_noise=force_noise, force_tolerance=tolerance)
+                                                       force_noise=force_noise, force_tolerance=tolerance,
+                                                       symmetry=False)  # the peers' Cartesian plan
         system = estimate.system(name=label)
         source = f"finite differences ({nfree}-point, step {step:g} A) of {type(calculator).__name__}"
     # the 2-point estimate for phonopy: the noise the first run found or was given (no second probe)
     found = estimate.force_noise if estimate.noise_source in ("measured", "given") else None
     phonopy_estimate = estimate if nfree == 2 else molecules.finite_difference_hessian(
-        work, calc, step=step, stencil=2, force_noise=found)
+        work, calc, step=step, stencil=2, force_noise=found, symmetry=False)
 
     with warnings.catch_warnings():
         # an imaginary mode is kept and flagged in the table, not raised

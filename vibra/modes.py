@@ -25,6 +25,7 @@ from vibra._results import ModesResult, Stored, stored
 from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
+from vibra._core.text import counted
 
 __all__ = ["Modes", "normal_modes", "pencil_modes", "SOLVERS"]
 
@@ -116,7 +117,7 @@ class Modes(ModesResult):
         >>> print(vibra.normal_modes(K, [1.0, 1.0, 1.0], vectors=False).summary().splitlines()[0])
         3 modes of 3 dofs by the dense path
         """
-        lines = [f"{self.n_modes} modes of {self.n_dof} dofs by the {self.path} path"]
+        lines = [f"{counted(self.n_modes, 'mode')} of {counted(self.n_dof, 'dof')} by the {self.path} path"]
         if self.n_modes:
             nonzero = np.abs(self.omega) > self.omega_error
             relative = self.omega_error[nonzero] / np.abs(self.omega[nonzero])
@@ -126,7 +127,10 @@ class Modes(ModesResult):
         if self.vectors is not None:
             lines.append(f"residual {self.residual:.1e}, orthogonality {self.orthogonality:.1e}")
         if self.refined is not None:
-            lines.append(f"refined: {int(self.refined.sum())} of {self.n_modes}: {self.refinement}")
+            count = f"{int(self.refined.sum())} of {self.n_modes}"
+            # the refinement text names its count itself ("6 of 9 modes below ..."): not said twice
+            lines.append(f"refined: {self.refinement}" if self.refinement.startswith(count) else
+                         f"refined: {count}: {self.refinement}")
         return "\n".join(lines)
 
     def overlap(self, other: Any, *, weighted: bool = True) -> NDArray[np.float64]:
@@ -344,10 +348,13 @@ def normal_modes(
         False computes frequencies only (cheaper).
     band : (float, float), optional
         Only modes with omega in [band[0], band[1]] (signed, rad per time unit).
-    solver : {"auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil"}
+    solver : {"auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil", "slepc"}
         The solver path; "auto" chooses from the structure of K and what is asked (a full
         mass matrix M: the pencil paths, `vibra.solvers.structured.pencil`, which keep the
-        accuracy of an ill-conditioned M). "accurate" needs `spring_factor`.
+        accuracy of an ill-conditioned M). "accurate" needs `spring_factor`. "slepc" (only
+        when named, with `n_modes`) solves on SLEPc over MPI in a separate program
+        (`vibra.solvers.distributed`, docs/distributed.md); without mpiexec or slepc4py it
+        raises `vibra.solvers.distributed.SlepcUnavailableError` naming what to install.
     symmetrize : bool
         Replace a non-symmetric K by (K + K^T) / 2 instead of raising.
     spring_factor : (B, w), optional

@@ -22,7 +22,7 @@ from scipy import constants
 
 from vibra._core import validate as _validate
 
-__all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "unit_system", "omega_unit_text"]
+__all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "UNIT_NAMES", "UNITS_EXPECTED", "unit_system", "omega_unit_text"]
 
 
 @dataclass(frozen=True)
@@ -148,10 +148,17 @@ ASE = UnitSystem("ASE", mass="amu", length="Angstrom", energy="eV", time_s=_ase_
 DIMENSIONLESS = UnitSystem("dimensionless", mass="1", length="1", energy="1", time_s=None)
 
 _BY_NAME = {"si": SI, "ase": ASE, "dimensionless": DIMENSIONLESS}
+#: The unit systems' names as vibra writes them; `unit_system` reads each in any capitalisation.
+UNIT_NAMES = ("SI", "ASE", "dimensionless")
+#: What `unit_system` (and a scene's ``units`` key, which goes through it) accepts, for messages.
+UNITS_EXPECTED = f"expected one of {', '.join(repr(name) for name in UNIT_NAMES)} (in any capitalisation)"
 
 
 def unit_system(units: str | UnitSystem) -> UnitSystem:
-    """Return the `UnitSystem` named `units` (``"SI"``, ``"ASE"``, ``"dimensionless"``).
+    """Return the `UnitSystem` named `units` (``"SI"``, ``"ASE"``, ``"dimensionless"``, in any capitalisation).
+
+    The one parser of unit names: the library's ``units=`` arguments and scene files' ``units``
+    key both go through it.
 
     Examples
     --------
@@ -167,9 +174,7 @@ def unit_system(units: str | UnitSystem) -> UnitSystem:
     try:
         return _BY_NAME[units.lower()]
     except KeyError:
-        raise ValueError(
-            f"units is {units!r}; expected one of 'SI', 'ASE', 'dimensionless'"
-        ) from None
+        raise ValueError(f"units is {units!r}; {UNITS_EXPECTED}") from None
 
 
 def omega_unit_text(units: UnitSystem, *, stiffness: str = "k", ascii: bool = False) -> str:

@@ -6,5 +6,6 @@ another test module. ``tests/`` is on sys.path under pytest's default import mod
 - `helpers.chains`: chains and their Sturm counts;
 - `helpers.rings`: rings (free and walled) and their exact counts;
 - `helpers.images`: checks that a PNG was written, has its size and is not blank;
-- `helpers.package`: facts about the package (its bundled scene folders, its heavy imports).
+- `helpers.package`: facts about the package (its bundled scene folders, its heavy imports);
+- `helpers.browser`: the Chromium the browser tests drive, and canvas pixels.
 """

@@ -238,6 +238,32 @@ class ModesResult(Result):
         values = np.asarray(getattr(self, first))
         return (self._size(), f"{first} {span(values)}" if values.size and np.isrealobj(values) else "")
 
+    def show(self, system: Any, indices: Any = None) -> Any:
+        """The interactive 3-D view of these modes on `system` (`vibra._results.display.system_view`):
+        the report's viewer, a `View` that Jupyter shows as the cell's value (``_repr_html_``), offline
+        (3Dmol.js, about 530 kB, inlined once per output), or `View.save` writes as a page.
+
+        A `Modes` holds no positions, so the system it was computed from draws it. By default the
+        non-zero modes are embedded, at most what `system_view` caps (the cell says what was left out).
+
+        Parameters
+        ----------
+        system : System
+            The system these modes belong to (a chain, molecule, network or any System with sites).
+        indices : sequence of int, optional
+            The modes to show (default: every mode that is not a zero mode).
+
+        Examples
+        --------
+        >>> import vibra
+        >>> chain = vibra.System.from_springs([0.0, 1.0, 2.0], 1.0, [[0, 1], [1, 2]], 1.0)
+        >>> chain.modes().show(chain)
+        View(2 modes of 'system')
+        """
+        from vibra._results.display import system_view
+
+        return system_view(system, self, indices)
+
 
 # ---------------------------------------------------------------------- the layout of a type
 @functools.cache

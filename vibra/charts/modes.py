@@ -10,6 +10,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from vibra._core.text import counted
 from vibra.charts._style import new_figure, plain_math
 
 __all__ = ["spectrum_figure", "shapes_figure"]
@@ -56,13 +57,13 @@ def spectrum_figure(scene: Any, modes: Any) -> tuple[Any, str]:
     axes.set_ylabel("number of modes")
     axes.margins(x=0.06)  # the outermost labels stay inside the axes
     axes.yaxis.get_major_locator().set_params(integer=True)
-    axes.set_title(f"{scene.title}: {modes.n_modes} modes")
+    axes.set_title(f"{scene.title}: {counted(modes.n_modes, 'mode')}")
     axes.set_ylim(0, max(merged.values()) + 0.7)
     _stagger_labels(figure, axes, labels)
     n_zero = int(zero.sum())
-    caption = (f"{scene.title}: stick spectrum of {modes.n_modes} computed modes ({plain_math(label)}); "
+    caption = (f"{scene.title}: stick spectrum of {counted(modes.n_modes, 'computed mode')} ({plain_math(label)}); "
                f"stick height = number of modes at that frequency"
-               + (f", {n_zero} zero (rigid-body) mode(s) in grey" if n_zero else ""))
+               + (f", {counted(n_zero, 'zero (rigid-body) mode')} in grey" if n_zero else ""))
     return figure, caption
 
 

@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 
 from vibra.charts._style import new_figure
 
-__all__ = ["b_factor_axis", "plot_b_factors", "plot_cross_correlations"]
+__all__ = ["b_factor_axis", "plot_b_factors", "plot_cross_correlations", "plot_mode_profiles"]
 
 
 def _residue_ticks(axes: Any, labels: Sequence[str], *, axis: str = "x") -> None:
@@ -153,4 +153,38 @@ def plot_cross_correlations(labels: Sequence[str], correlations: Any, *, n_modes
     bar.set_label("cross-correlation C$_{ij}$ (dimensionless): + together, − opposite")
     modes = "" if n_modes is None else f" from the {n_modes} lowest modes"
     axes.set_title(f"{title}{chr(10) if title else ''}residue cross-correlations{modes}", fontsize=12)
+    return figure
+
+
+def plot_mode_profiles(labels: Sequence[str], shapes: Any, names: Sequence[str], *, title: str = "") -> Figure:
+    """Mode shapes along the sequence: each mode's amplitude per residue, one row per mode (a GNM's modes).
+
+    Parameters
+    ----------
+    labels : (n_sites,) sequence of str
+        ``"chain:RESNAMEnumber:CA"`` per site.
+    shapes : (n_sites, n_modes) array_like
+        One scalar amplitude per residue and mode (any normalisation: each is drawn as
+        u_i / max |u|, dimensionless; the sign of a mode is arbitrary).
+    names : (n_modes,) sequence of str
+        Each mode's name and frequency, for its row.
+    title : str
+        Prefix of the figure title.
+    """
+    U = np.asarray(shapes, dtype=float)
+    if U.ndim != 2 or U.shape[0] != len(labels) or U.shape[1] != len(names):
+        raise ValueError(f"shapes must be ({len(labels)}, {len(names)}) for {len(labels)} labels and "
+                         f"{len(names)} names, got shape {U.shape}")
+    figure, axes = new_figure(len(names), 1, figsize=(8.0, 1.2 + 1.5 * len(names)), squeeze=False, sharex=True)
+    residues = np.arange(1, U.shape[0] + 1)
+    for row, (panel, name) in enumerate(zip(axes[:, 0], names)):
+        u = U[:, row] / max(float(np.abs(U[:, row]).max()), 1e-300)
+        panel.bar(residues, u, width=1.0, color=np.where(u >= 0, "#b2182b", "#2166ac"))
+        panel.axhline(0.0, color="black", linewidth=0.8)
+        panel.set_ylim(-1.05, 1.05)
+        panel.set_ylabel("u$_i$ / max |u|", fontsize=9)
+        panel.set_title(name, fontsize=10, loc="left")
+    _residue_ticks(axes[-1, 0], labels, axis="x")
+    axes[-1, 0].set_xlabel("residue")
+    figure.suptitle(f"{title}{chr(10) if title else ''}mode shapes along the sequence (a sign change is a hinge)")
     return figure

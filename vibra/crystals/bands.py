@@ -145,6 +145,22 @@ class BandStructure(Result):
         """(n_q, n_branches) signed wavenumbers, in cm^-1."""
         return self.units.omega_to_cm1(self.omega)
 
+    def show(self, crystal: Crystal, *, unit: str = "THz") -> Any:
+        """The interactive view of these bands (`vibra.crystals.animation.bands_view`): click a point
+        (q, branch) to animate that branch's mode on a supercell; in Jupyter, the cell's value shows it
+        (offline: 3Dmol.js, about 530 kB, is inlined once per output).
+
+        Parameters
+        ----------
+        crystal : Crystal
+            The crystal these bands were computed from (its cell, atoms and force constants).
+        unit : {"THz", "cm^-1"}
+            The unit of the band axis.
+        """
+        from vibra.crystals.animation import bands_view  # (same layer; loaded only to draw)
+
+        return bands_view(crystal, self, unit=unit)
+
 
 # ---------------------------------------------------------------------- special points
 def special_points(crystal: Crystal) -> tuple[dict[str, NDArray[np.float64]], list[list[str]]]:

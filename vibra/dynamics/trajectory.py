@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from vibra._core.text import counted
 from vibra._core.frozen import freeze_arrays
 from vibra._results import Result, stored
 from vibra.modes import Modes
@@ -104,7 +105,7 @@ class Trajectory(Result):
 
     def _repr_parts(self) -> tuple[str, ...]:
         end = f" to t = {float(self.t[-1]):.6g}" if self.t.size else ""
-        return (f"{self._size()} of {self.positions.shape[1]} dofs{end}", f"dt = {self.dt:g}",
+        return (f"{self._size()} of {counted(self.positions.shape[1], 'dof')}{end}", f"dt = {self.dt:g}",
                 "compiled" if self.compiled else "Python loop")
 
     @property

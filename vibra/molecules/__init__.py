@@ -31,7 +31,9 @@ masses, force constants and the zero-point energy.
 Symmetry (`symmetry.py`, `character_tables.py`): `point_group(atoms_or_system, tolerance)` finds
 the Schoenflies point group (tolerance in Angstrom, linear groups included) with its operations,
 atom permutations and character table; `mode_species` and `VibrationalAnalysis.species` label
-each vibration with its Mulliken symbol; IR and Raman activity follow from the table.
+each vibration with its Mulliken symbol; IR and Raman activity follow from the table;
+`VibrationalAnalysis.numbers` and `herzberg_numbers` (`numbering.py`) number the vibrations as
+Herzberg and Shimanouchi's tables do (nu1, nu2, ... by species).
 
 `co2` and `h2o` are ready-made models (`builders.py`); `molecule` builds any molecule of ASE's
 collection or any `Atoms` at its valence-force-field equilibrium (`named.py`); isotope labels
@@ -63,6 +65,7 @@ from vibra.molecules.export import (BOHR_ANGSTROM, system_atoms, to_vibrations_d
                                     write_mode_trajectory, write_molden)
 from vibra.molecules.isotopes import ISOTOPE_MASSES, isotope_mass, isotope_masses, substitute_isotopes
 from vibra.molecules.named import EQUILIBRIUM_FORCE, molecule, molecule_atoms, molecule_names
+from vibra.molecules.numbering import herzberg_numbers
 from vibra.molecules.rigid_body import SoftModeWarning, is_linear, principal_moments, rigid_body_vectors
 from vibra.molecules.symmetry import SYMMETRY_TOLERANCE, PointGroup, mode_species, point_group, symmetry_number
 from vibra.molecules.valence import ValenceModel, valence_model
@@ -74,6 +77,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "EXPERIMENTAL", "ExperimentalFundamentals", "Fundamental", "experimental_fundamentals", "match_fundamentals",
+    "herzberg_numbers",
     "SoftModeWarning", "ValenceModel", "ValenceForceField", "valence_model", "from_atoms",
     "FiniteDifferenceHessian", "finite_difference_hessian", "from_calculator", "from_hessian",
     "from_vibrations_data", "from_phonopy", "VibrationalAnalysis", "vibrational_analysis",

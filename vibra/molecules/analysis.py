@@ -14,8 +14,10 @@ from scipy import constants
 
 from vibra._core import validate as _validate
 from vibra._core.frozen import freeze_arrays
+from vibra._core.text import counted
 from vibra.modes import Modes, normal_modes
 from vibra.molecules.checks import nonnegative_scalar
+from vibra.molecules.numbering import herzberg_numbers
 from vibra.molecules.rigid_body import is_linear, rigid_body_vectors, warn_soft_modes
 from vibra.molecules.symmetry import PointGroup, mode_species, point_group
 from vibra.system import System, Vibrating
@@ -71,6 +73,13 @@ class VibrationalAnalysis:
     def __post_init__(self) -> None:
         freeze_arrays(self)
 
+    def __repr__(self) -> str:
+        """One line: the molecule, its vibrations and rigid-body modes, imaginary ones, the path."""
+        imaginary = int(np.count_nonzero(self.imaginary))
+        return (f"VibrationalAnalysis({self.name}: {counted(self.n_vibrations, 'vibration')}, "
+                f"{counted(self.n_rigid, 'rigid-body mode')}{', linear' if self.linear else ''}"
+                f"{', ' + counted(imaginary, 'imaginary mode') if imaginary else ''}, path {self.modes.path!r})")
+
     @cached_property
     def point_group(self) -> PointGroup:
         """Point group of the molecule (`vibra.molecules.point_group`, tolerance 0.01 Angstrom)."""
@@ -89,6 +98,18 @@ class VibrationalAnalysis:
         """
         shapes = np.asarray(self.modes.shapes)[:, self.vibrations]
         return mode_species(self.point_group, shapes, self.modes.omega[self.vibrations])
+
+    @cached_property
+    def numbers(self) -> tuple[int, ...]:
+        """Herzberg's number of each vibration (1 for nu1), in the order of `vibrations`.
+
+        By species in the order of `point_group`'s character table, decreasing frequency within
+        a species, a degenerate set counted once (`vibra.molecules.numbering.herzberg_numbers`):
+        the numbering of Shimanouchi's tables. A C1 molecule: by decreasing frequency alone.
+        """
+        group = self.point_group
+        return herzberg_numbers(group.table.labels, self.species, self.vibration_wavenumbers_cm1(),
+                                linear=group.name in ("Cinfv", "Dinfh"), n_atoms=group.permutations.shape[1])
 
     @property
     def vibrations(self) -> NDArray[np.intp]:
@@ -207,7 +228,7 @@ def vibrational_analysis(
         raise TypeError("system is in generalised coordinates; a vibrational analysis needs sites")
     if system.frozen.any():
         raise ValueError(
-            f"system has {int(system.frozen.sum())} frozen degree(s) of freedom; translations and "
+            f"system has {counted(int(system.frozen.sum()), 'frozen degree of freedom')}; translations and "
             "rotations are not free, so there are no rigid-body modes to separate"
         )
     project = _validate.boolean(project, "project")

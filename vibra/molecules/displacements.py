@@ -39,6 +39,11 @@ changing either, use a new folder. A run that also differentiates properties
 rows below the forces in the same file, and their names enter the key. A file is verified when read (it must load as a finite
 ``(n_atoms, 3)`` float64 array without pickles); a file that does not is recomputed and
 replaced, with a `CacheWarning`.
+
+A symmetry-reduced plan (`vibra.molecules.displacement_symmetry`) evaluates a subset of the
+full plan's geometries under the same keys: a key names one geometry, whose forces do not
+depend on which plan asked for them, so a reduced and a full run share those files, and only
+evaluated forces are ever stored (rows rebuilt by symmetry never are).
 """
 
 from __future__ import annotations
@@ -111,10 +116,12 @@ class Displacement:
                 f"along {_AXES[self.dof % 3]}")
 
 
-def displacement_plan(n_atoms: int, multiples: Sequence[int]) -> tuple[Displacement, ...]:
-    """The reference, then for each dof and each step multiple m: +m h, then -m h."""
+def displacement_plan(n_atoms: int, multiples: Sequence[int],
+                      dofs: Sequence[int] | None = None) -> tuple[Displacement, ...]:
+    """The reference, then for each dof (all, or those of `dofs`: a symmetry-reduced plan,
+    `vibra.molecules.displacement_symmetry`) and each step multiple m: +m h, then -m h."""
     plan = [Displacement(0, -1, 0, 0)]
-    for dof in range(3 * n_atoms):
+    for dof in (range(3 * n_atoms) if dofs is None else dofs):
         for m in multiples:
             for sign in (1, -1):
                 plan.append(Displacement(len(plan), dof, int(m), sign))

@@ -10,6 +10,15 @@ the labels of `vibra.molecules.mode_species` and its wavenumber.
 CO2's nu1 (Sigma_g+) is in Fermi resonance with 2 nu2; Shimanouchi's 1333 cm^-1 is the
 unperturbed value between the observed 1285 and 1388 cm^-1 doublet.
 
+Gas-phase IR intensities (integrated band intensities, km/mol), where a value could be
+sourced: H2O only, from the NIST CCCBDB page "Experimental data for H2O (Water)" (Release 18,
+October 2016, https://cccbdb.nist.gov/exp2x.asp?casno=7732185, "Vibrational levels"), which lists
+2.9 (nu1) and 62.5 (nu2) km/mol with the reference it codes 1992Cul/Lie:502, and 41.7 (nu3)
+km/mol; read from that page's stored copy (the public web-page corpus this project searches),
+not recalled. CO2 and CH4 intensities are left out (None): no copy of a source could be read
+here, and a value without a readable source is not written down. `intensity_source` names the
+source of an entry's intensities.
+
 `experimental_fundamentals(symbols, masses)` finds the entry of a molecule from its symbols
 and masses (a hydrogen of mass near 2.014 amu counts as D), and `match_fundamentals` pairs
 the entry with computed vibrations by species (lowest with lowest within a species).
@@ -29,21 +38,27 @@ from numpy.typing import ArrayLike
 
 from vibra.molecules.isotopes import ISOTOPE_MASSES
 
-__all__ = ["Fundamental", "ExperimentalFundamentals", "EXPERIMENTAL", "SHIMANOUCHI_1972",
+__all__ = ["Fundamental", "ExperimentalFundamentals", "EXPERIMENTAL", "SHIMANOUCHI_1972", "CCCBDB_H2O_INTENSITIES",
            "experimental_fundamentals", "match_fundamentals"]
 
 #: The source of every value in `EXPERIMENTAL`.
 SHIMANOUCHI_1972 = ("T. Shimanouchi, Tables of Molecular Vibrational Frequencies, Consolidated Vol. I, "
                     "NSRDS-NBS 39 (1972), via NIST CCCBDB")
+#: The source of H2O's IR intensities.
+CCCBDB_H2O_INTENSITIES = ("NIST CCCBDB, Release 18 (October 2016), Experimental data for H2O, vibrational levels "
+                          "(https://cccbdb.nist.gov/exp2x.asp?casno=7732185): nu1 and nu2 intensities from its "
+                          "reference 1992Cul/Lie:502, nu3 as listed there")
 
 
 @dataclass(frozen=True)
 class Fundamental:
-    """One observed fundamental: its name (``"nu1"``), symmetry species and wavenumber in cm^-1."""
+    """One observed fundamental: its name (``"nu1"``), symmetry species, wavenumber in cm^-1 and
+    gas-phase IR intensity in km/mol (the whole degenerate set; None where none is sourced)."""
 
     name: str
     species: str
     wavenumber_cm1: float
+    intensity_km_per_mol: float | None = None
 
 
 @dataclass(frozen=True)
@@ -53,16 +68,25 @@ class ExperimentalFundamentals:
     name: str
     fundamentals: tuple[Fundamental, ...]
     source: str
+    intensity_source: str | None = None
+
+    @property
+    def has_intensities(self) -> bool:
+        """Whether any fundamental carries an observed IR intensity."""
+        return any(f.intensity_km_per_mol is not None for f in self.fundamentals)
 
 
-def _entry(name: str, *values: tuple[str, str, float]) -> ExperimentalFundamentals:
-    return ExperimentalFundamentals(name, tuple(Fundamental(*v) for v in values), SHIMANOUCHI_1972)
+def _entry(name: str, *values: tuple[str, str, float] | tuple[str, str, float, float],
+           intensity_source: str | None = None) -> ExperimentalFundamentals:
+    return ExperimentalFundamentals(name, tuple(Fundamental(*v) for v in values), SHIMANOUCHI_1972,
+                                    intensity_source)
 
 
 #: Formula (isotopes as D) -> observed fundamentals.
 EXPERIMENTAL: dict[str, ExperimentalFundamentals] = {
     "CO2": _entry("CO2", ("nu1", "Sigma_g+", 1333.0), ("nu2", "Pi_u", 667.0), ("nu3", "Sigma_u+", 2349.0)),
-    "H2O": _entry("H2O", ("nu1", "A1", 3657.0), ("nu2", "A1", 1595.0), ("nu3", "B2", 3756.0)),
+    "H2O": _entry("H2O", ("nu1", "A1", 3657.0, 2.9), ("nu2", "A1", 1595.0, 62.5), ("nu3", "B2", 3756.0, 41.7),
+                  intensity_source=CCCBDB_H2O_INTENSITIES),
     "D2O": _entry("D2O", ("nu1", "A1", 2671.0), ("nu2", "A1", 1178.0), ("nu3", "B2", 2788.0)),
     "CH4": _entry("CH4", ("nu1", "A1", 2917.0), ("nu2", "E", 1534.0), ("nu3", "T2", 3019.0),
                   ("nu4", "T2", 1306.0)),

@@ -15,6 +15,7 @@ from vibra._core import validate as _validate
 from vibra._core.frozen import freeze_arrays
 from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.modes import Modes
+from vibra.molecules.displacement_symmetry import Reduction, reduction
 from vibra.molecules.displacements import (CalculatorSource, Displacement, ForceCache, displaced_forces,
                                            displaced_positions, displacement_plan, force_problem, is_calculator,
                                            is_factory, property_rows)
@@ -76,6 +77,12 @@ class FiniteDifferenceHessian:
         Calculator force evaluations spent in this run, including the reference geometry.
     n_cached : int
         Geometries whose forces were read from the cache instead (0 without a cache).
+    n_full_plan : int
+        Geometries the full Cartesian plan would take (``n_force_calls + n_cached`` when the
+        plan was not symmetry-reduced).
+    symmetry : str
+        How the plan used the point group, in words (`vibra.molecules.displacement_symmetry`):
+        the group and the atoms and directions displaced, or why every Cartesian displacement ran.
     derivatives : PropertyDerivatives or None
         The dipole and polarisability derivatives from the same geometries, with their error
         estimates, when `finite_difference_hessian` was asked for ``properties``.
@@ -99,6 +106,8 @@ class FiniteDifferenceHessian:
     n_force_calls: int
     n_cached: int = 0
     derivatives: PropertyDerivatives | None = None
+    n_full_plan: int = 0
+    symmetry: str = ""
 
     def __post_init__(self) -> None:
         freeze_arrays(self)
@@ -176,6 +185,7 @@ def finite_difference_hessian(
     timeout: float = 10.0,
     properties: Sequence[str] = (),
     property_noise: Mapping[str, float] | None = None,
+    symmetry: bool = True,
 ) -> FiniteDifferenceHessian:
     """Hessian of any ASE calculator by central differences of its forces.
 
@@ -256,6 +266,12 @@ def finite_difference_hessian(
     property_noise : mapping, optional
         Noise of one component of a property (e Angstrom, Angstrom^3) for its round-off part;
         a property left out gets the rounding level (the force probe does not measure it).
+    symmetry : bool
+        Displace only the symmetry-unique atoms and directions of the point group and rebuild
+        the other rows (forces, dipole, polarisability) with its operations
+        (`vibra.molecules.displacement_symmetry`), where the geometry has a group beyond C1 to
+        within what `step` tolerates (h^2 / 6 Angstrom); else, or with False, every Cartesian
+        displacement. The result says which (`symmetry`, `n_full_plan`).
 
     Returns
     -------
@@ -284,8 +300,8 @@ def finite_difference_hessian(
     >>> from vibra.molecules import ValenceForceField, h2o_atoms, valence_model
     >>> atoms = h2o_atoms()
     >>> result = finite_difference_hessian(atoms, ValenceForceField(valence_model(atoms)))
-    >>> result.hessian.shape, result.n_force_calls, result.error_method
-    ((9, 9), 37, 'richardson')
+    >>> result.hessian.shape, result.n_force_calls, result.n_full_plan, result.error_method
+    ((9, 9), 25, 37, 'richardson')
     >>> result.noise_source, result.n_noise_calls       # a closed-form force field: not probed
     ('analytic', 0)
     """
@@ -310,6 +326,8 @@ def finite_difference_hessian(
                                                                    "eV/Angstrom")
     names, given_noise = check_properties(properties, property_noise)
     check_client(client)
+    if not isinstance(symmetry, (bool, np.bool_)):
+        raise TypeError(f"symmetry must be True or False, got {type(symmetry).__name__}")
     if calculator_key is not None and not isinstance(calculator_key, str):
         raise TypeError(f"calculator_key must be a str, got {type(calculator_key).__name__}")
     source = CalculatorSource(calc, key=calculator_key)
@@ -323,7 +341,8 @@ def finite_difference_hessian(
     multiples = [1] if stencil == 2 else [1, 2]
     if estimate_error:
         multiples.append(2 if stencil == 2 else 4)
-    plan = displacement_plan(n, multiples)
+    reduced = reduction(template, h, bool(symmetry))
+    plan = displacement_plan(n, multiples, reduced.dofs)
     with contextlib.ExitStack() as stack:
         cluster = _Cluster(client, stack, n_workers, timeout)
         forces = _gather_forces(plan, template, source, positions, h, store, tolerance, names, cluster=cluster,
@@ -336,9 +355,10 @@ def finite_difference_hessian(
         else:
             noise = ForceNoise(given, "given", 0)
     derivatives = None if not names else property_derivatives(
-        [values[n:] for values in forces.forces], plan, multiples, h, int(stencil), names, given_noise, estimate_error)
+        [values[n:] for values in forces.forces], plan, multiples, h, int(stencil), names, given_noise, estimate_error,
+        reduced)
     return _assemble(forces, plan, multiples, h, int(stencil), noise, floor, positions, masses,
-                     template.get_atomic_numbers(), estimate_error, derivatives)
+                     template.get_atomic_numbers(), estimate_error, derivatives, reduced)
 
 
 class _Cluster:
@@ -468,7 +488,8 @@ def _kept(store: ForceCache | None, n_done: int) -> str:
 def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: list[int], h: float, stencil: int,
               noise: ForceNoise, floor: float, positions: NDArray[np.float64], masses: NDArray[np.float64],
               numbers: NDArray[np.int_], estimate_error: bool,
-              derivatives: PropertyDerivatives | None = None) -> FiniteDifferenceHessian:
+              derivatives: PropertyDerivatives | None = None,
+              reduced: Reduction | None = None) -> FiniteDifferenceHessian:
     """The Hessian and its error estimate from the forces of every geometry, in the plan's order."""
     n_dof = positions.size
     forces = tuple(values[:positions.shape[0]] for values in gathered.forces)
@@ -478,6 +499,8 @@ def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: li
         m = d_plus.multiple
         plus, minus = forces[d_plus.index].ravel(), forces[d_minus.index].ravel()
         quotient[m][d_plus.dof] = (minus - plus) / (2.0 * m * h)
+    if reduced is not None:  # the rows not displaced, rebuilt by the point group's operations
+        quotient = {m: reduced.complete(q, "forces") for m, q in quotient.items()}
     raw, truncation_raw, noise_gain = central_difference(quotient, stencil, estimate_error)
     asymmetry_matrix = np.abs(raw - raw.T) / 2.0
     hessian = (raw + raw.T) / 2.0
@@ -492,12 +515,16 @@ def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: li
     else:  # measured noise never below rounding; a deterministic calculator: rounding alone
         sigma = max(noise.value, floor) if noise.noisy else floor
     roundoff = float(noise_gain * sigma / h)
+    if reduced is not None:  # the operations' miss, on the rebuilt rows (vibra.molecules.displacement_symmetry)
+        truncation = truncation + reduced.geometry_error(forces, plan, h)
     return FiniteDifferenceHessian(
         hessian=hessian, error=truncation + roundoff, truncation=truncation, roundoff=roundoff,
         force_noise=float(sigma), noise_source=noise.source, n_noise_calls=noise.n_force_calls,
         asymmetry=float(asymmetry_matrix.max()), residual_force=residual, positions=positions,
         masses=masses, numbers=numbers, step=h, stencil=stencil,
         error_method=method, n_force_calls=gathered.computed, n_cached=gathered.cached, derivatives=derivatives,
+        n_full_plan=1 + 2 * len(multiples) * n_dof,
+        symmetry=reduced.note if reduced is not None else "every Cartesian displacement",
     )
 
 
@@ -514,13 +541,14 @@ def from_calculator(
     cache: str | os.PathLike[str] | None = None,
     calculator_key: str | None = None,
     progress: ProgressOption = None,
+    symmetry: bool = True,
 ) -> System:
     """A molecule whose Hessian is a finite difference of any ASE calculator's forces.
 
     See `finite_difference_hessian` (which also returns the error estimate); this runs it
     without the extra Richardson step and without the force-noise probe (no error estimate is
-    returned) and returns the `System` (ASE units); `client`, `cache`, `calculator_key` and
-    `progress` are passed on to it.
+    returned) and returns the `System` (ASE units); `client`, `cache`, `calculator_key`,
+    `progress` and `symmetry` are passed on to it.
 
     Examples
     --------
@@ -531,5 +559,5 @@ def from_calculator(
     """
     result = finite_difference_hessian(atoms, calculator, step=step, stencil=stencil, estimate_error=False,
                                        force_noise=None, force_tolerance=force_tolerance, client=client, cache=cache,
-                                       calculator_key=calculator_key, progress=progress)
+                                       calculator_key=calculator_key, progress=progress, symmetry=symmetry)
     return result.system(masses=masses, name=molecule_name(atoms, name))

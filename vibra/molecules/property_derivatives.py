@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core.frozen import freeze_arrays
+from vibra.molecules.displacement_symmetry import Reduction
 from vibra.molecules.displacements import PROPERTY_ROWS, Displacement
 from vibra.molecules.noise import rounding_noise
 
@@ -116,10 +117,15 @@ def central_difference(quotients: Mapping[int, NDArray[np.float64]], stencil: in
 
 def property_derivatives(samples: Sequence[NDArray[np.float64]], plan: Sequence[Displacement],
                          multiples: Sequence[int], h: float, stencil: int, properties: Sequence[str],
-                         noise: Mapping[str, float], estimate_error: bool) -> PropertyDerivatives:
+                         noise: Mapping[str, float], estimate_error: bool,
+                         symmetry: Reduction | None = None) -> PropertyDerivatives:
     """The derivatives from the property rows of every geometry (`samples[k]`: the rows below the
-    forces of plan entry k, `property_rows(properties)` of them), assembled as the Hessian is."""
-    n_dof = (len(plan) - 1) // (2 * len(multiples))
+    forces of plan entry k, `property_rows(properties)` of them), assembled as the Hessian is.
+
+    With a symmetry-reduced plan (`symmetry`, `vibra.molecules.displacement_symmetry`) the rows
+    of the dofs not displaced are rebuilt from the others, each difference quotient rotated as
+    the property transforms (R mu; R alpha R^T), before the stencil and its error estimate."""
+    n_dof = symmetry.n_dof if symmetry is not None else (len(plan) - 1) // (2 * len(multiples))
     values: dict[str, Any] = {"dipole": None, "dipole_error": None, "polarizability": None,
                               "polarizability_error": None, "reference_dipole": None,
                               "reference_polarizability": None}
@@ -135,12 +141,16 @@ def property_derivatives(samples: Sequence[NDArray[np.float64]], plan: Sequence[
         for d_plus, d_minus in zip(plan[1::2], plan[2::2]):
             m = d_plus.multiple
             quotient[m][d_plus.dof] = (block[d_plus.index] - block[d_minus.index]) / (2.0 * m * h)
+        if symmetry is not None:
+            quotient = {m: symmetry.complete(q, name) for m, q in quotient.items()}
         derivative, truncation, gain = central_difference(quotient, stencil, estimate_error)
         if name in noise:
             sigma, source = noise[name], "given"
         else:
             sigma, source = rounding_noise(max(float(np.abs(b).max()) for b in block)), "rounding"
         error = (np.zeros_like(derivative) if truncation is None else truncation) + gain * sigma / h
+        if symmetry is not None:  # the operations' miss, on the rebuilt rows
+            error = error + symmetry.geometry_error(block, plan, h)
         shape = (n_dof, 3) if rows == 1 else (n_dof, 3, 3)
         values[name] = derivative.reshape(shape)
         values[f"{name}_error"] = error.reshape(shape)

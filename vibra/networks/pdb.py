@@ -25,6 +25,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from vibra._core.text import counted, plural
 from vibra._core import validate as _validate
 from vibra._core.frozen import freeze_arrays
 from vibra._core.validate import ArgumentError
@@ -341,14 +342,16 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     if wanted_chains is not None:
         atoms = [atom for atom in atoms if atom[0].split(":")[0] in wanted_chains]
         if not atoms:
-            raise ArgumentError("chains", f"{file}: no atoms in chain(s) {''.join(sorted(wanted_chains))}; the "
-                                f"model holds chain(s) {''.join(held) or 'none'}")
+            raise ArgumentError("chains", f"{file}: no atoms in {plural('chain', len(wanted_chains))} "
+                                f"{''.join(sorted(wanted_chains))}; the model holds "
+                                f"{plural('chain', len(held))} {''.join(held) or 'none'}")
     if residues is not None:
         spans = _residue_spans(atoms)
         atoms = [atom for atom in atoms if residues[0] <= atom[5] <= residues[1]]
         if not atoms:
             raise ArgumentError("residues", f"{file}: no atoms in residues {residues[0]}..{residues[1]}"
-                                + (f" of chain(s) {''.join(sorted(wanted_chains))}" if wanted_chains else "")
+                                + (f" of {plural('chain', len(wanted_chains))} {''.join(sorted(wanted_chains))}"
+                                   if wanted_chains else "")
                                 + f"; the model holds residues {spans}")
     if selection == "protein":
         atoms = [atom for atom in atoms if atom[4]]
@@ -476,7 +479,7 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, 
         raise ValueError(f"{file}: cannot be read as {'mmCIF' if cif else 'PDB'}: {error}") from None
     models = list(structure)
     if models and model > len(models):
-        raise ArgumentError("model", f"{file}: model is {model}; the file has {len(models)} model(s)")
+        raise ArgumentError("model", f"{file}: model is {model}; the file has {counted(len(models), 'model')}")
     atoms = []
     seen: set[str] = set()
     for chain in models[model - 1] if models else []:

@@ -104,6 +104,12 @@ def _frequency_text(scene: Any, modes: Any, k: int) -> str:
     return f"ω = {value:.4g} {omega_unit_text(units, stiffness='gamma' if scene.kind == 'network' else 'k')}"
 
 
+def _mode_name(names: Mapping[int, str] | None, k: int) -> str:
+    """Mode k's name as the plan numbers it (`vibra.pipeline.plan.tables.mode_names`: "ν2 (B2)",
+    "mode 1"); its index in Modes ("mode 6") for a caller that passed none."""
+    return (names or {}).get(int(k)) or f"mode {k}"
+
+
 def _symmetry_line(line: str) -> str:
     """A hint line with its species set as mathtext and ∞ in the group (``Sigma_u+ (Dinfh)`` -> Σu⁺ (D∞h))."""
     from vibra.charts.spectra import species_text
@@ -189,26 +195,37 @@ class SceneRenderer:
     # ------------------------------------------------------------------ public
     def render_modes(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
                      out_dir: Path, *, structure: MoleculeStructure | None = None,
-                     hints: Mapping[int, str] | None = None) -> list[tuple[str, str]]:
+                     hints: Mapping[int, str] | None = None,
+                     names: Mapping[int, str] | None = None,
+                     sites: Any = None) -> list[tuple[str, str]]:
         """Render the modes `indices`; returns (file name, caption) per image written.
 
         `structure` gives a molecule's elements and bonds (`vibra.pipeline.plan` passes the ones it
         computed; when None they are taken from `molecule_symbols` and `molecule_bonds`).
         `hints` maps a mode index to its symmetry / IR-activity text, drawn under the
-        frequency and added to the caption.
+        frequency and added to the caption. `names` maps a mode index to its name in the
+        report's numbering ("ν2 (B2)", "mode 1"; `vibra.pipeline.plan.tables.mode_names`),
+        used in titles and captions; without it a mode is called by its index ("mode 6").
+        `sites` are the (n_sites, 3) coordinates, in Å, of a Gaussian network model, whose
+        System holds one scalar dof per site and no geometry: its modes are drawn as the
+        structure coloured by each residue's amplitude.
         """
         if modes.shapes is None:
             raise ValueError("render_modes needs mode shapes; the modes were computed with vectors=False")
+        if scene.kind == "network" and sites is not None:
+            return [self._scalar_network_image(scene, np.asarray(sites, dtype=float), modes, indices, out_dir, names)]
         if scene.kind == "network":
-            return [self._network_image(scene, system, modes, indices, out_dir)]
+            return [self._network_image(scene, system, modes, indices, out_dir, names)]
         if scene.kind == "molecule":
             return self._molecule_images(scene, system, modes, indices, out_dir,
-                                         structure or _default_structure(scene, system), hints or {})
-        return [self._chain_image(scene, system, modes, indices, out_dir)]
+                                         structure or _default_structure(scene, system), hints or {}, names)
+        return [self._chain_image(scene, system, modes, indices, out_dir, names)]
 
     def render_gif(self, scene: Any, system: Any, modes: Any, index: int, out_dir: Path,
-                   work_dir: Path, *, structure: MoleculeStructure | None = None) -> tuple[str, str]:
-        """Animated GIF of mode `index` over one period; returns (file name, caption)."""
+                   work_dir: Path, *, structure: MoleculeStructure | None = None,
+                   names: Mapping[int, str] | None = None) -> tuple[str, str]:
+        """Animated GIF of mode `index` over one period; returns (file name, caption); `names` as
+        for `render_modes`."""
         from vibra.charts.renders import annotate_render
 
         molecule = None
@@ -220,14 +237,14 @@ class SceneRenderer:
             if molecule is not None:
                 view = view_direction(positions3(system), [displacements3(system, np.asarray(modes.shapes)[:, index])])
                 title, points = self._draw_molecule(plotter, scene, system, modes, index, molecule, view, phase=phase,
-                                                    arrows=False)
+                                                    arrows=False, names=names)
                 self._frame(plotter, positions3(system).mean(axis=0), points, view)
             else:
-                title = self._draw_chain(plotter, scene, system, modes, index, phase=phase)
+                title = self._draw_chain(plotter, scene, system, modes, index, phase=phase, names=names)
             frames.append(annotate_render(self._snapshot(plotter), titles=[title]))
         name = f"{scene.name}_mode{index}.gif"
         write_gif(frames, out_dir / name)
-        return name, (f"{scene.title}: animation of mode {index} ({_frequency_text(scene, modes, index)}), "
+        return name, (f"{scene.title}: animation of {_mode_name(names, index)} ({_frequency_text(scene, modes, index)}), "
                       "displacements exaggerated")
 
     # ------------------------------------------------------------------ crystals
@@ -285,7 +302,7 @@ class SceneRenderer:
     # ------------------------------------------------------------------ molecules
     def _molecule_images(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
                          out_dir: Path, structure: MoleculeStructure,
-                         hints: Mapping[int, str]) -> list[tuple[str, str]]:
+                         hints: Mapping[int, str], names: Mapping[int, str] | None) -> list[tuple[str, str]]:
         from vibra.charts.renders import annotate_render
 
         groups: list[list[int]] = []
@@ -311,7 +328,8 @@ class SceneRenderer:
             titles, reach = [], []
             for column, k in enumerate(group):
                 plotter.subplot(0, column)
-                title, points = self._draw_molecule(plotter, scene, system, modes, k, structure, view, hint=hints.get(k))
+                title, points = self._draw_molecule(plotter, scene, system, modes, k, structure, view, hint=hints.get(k),
+                                                    names=names)
                 titles.append(title)
                 reach.append(points)
             for column in range(len(group)):  # one scale for the partners: the same molecule, the same size
@@ -321,17 +339,19 @@ class SceneRenderer:
             image = annotate_render(self._snapshot(plotter), grid=(1, len(group)), titles=titles,
                                     font_size=12.0 if len(group) < 3 else 10.5)
             write_png(image, out_dir / name)
-            label = " and ".join(str(k) for k in group)
+            label = " and ".join(dict.fromkeys(_mode_name(names, k) for k in group))  # a degenerate set: one name
             together = f" (degenerate, x{len(group)}, side by side)" if len(group) > 1 else ""
             hint = hints.get(group[0])
             text = _frequency_text(scene, modes, group[0]) + (f", {hint}" if hint else "")
-            images.append((name, f"{scene.title}: mode {label}{together}: {text}; viewed from the direction that "
+            what = "vibration " if names else ""  # "Vibration ν2": a page capitalises a caption's first letter
+            images.append((name, f"{scene.title}: {what}{label}{together}: {text}; viewed from the direction that "
                            "hides no atom"))
         return images
 
     def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
                        structure: MoleculeStructure, view: tuple[Any, Any], *, phase: float | None = None,
-                       arrows: bool = True, hint: str | None = None) -> tuple[str, NDArray[np.float64]]:
+                       arrows: bool = True, hint: str | None = None,
+                       names: Mapping[int, str] | None = None) -> tuple[str, NDArray[np.float64]]:
         """Draw mode k in the current subplot; returns its title and the points the camera must frame."""
         pv = self._pv
         from ase.data import atomic_numbers, covalent_radii
@@ -364,7 +384,9 @@ class SceneRenderer:
                 start = arrow_start(positions, bond_list, i, vector, float(radii[i]))
                 plotter.add_mesh(_arrow(pv, start, vector, 0.035 * reference), color="crimson", smooth_shading=True)
                 reach.append(np.vstack([start, start + vector]))
-        lines = [f"mode {k}: {_frequency_text(scene, modes, k)}"] + ([] if not hint else hint.split("; "))
+        head = f"{_mode_name(names, k)} {_frequency_text(scene, modes, k)}" if names else \
+            f"mode {k}: {_frequency_text(scene, modes, k)}"
+        lines = [head] + ([] if not hint else hint.split("; "))
         return "\n".join(_symmetry_line(line) for line in lines), np.vstack(reach)
 
     def _frame(self, plotter: Any, centre: Any, points: Any, view: tuple[Any, Any]) -> None:
@@ -390,7 +412,7 @@ class SceneRenderer:
 
     # ------------------------------------------------------------------ networks
     def _network_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
-                       out_dir: Path) -> tuple[str, str]:
+                       out_dir: Path, names: Mapping[int, str] | None = None) -> tuple[str, str]:
         """The C-alpha trace as a tube, one panel per mode, arrows on every k-th site (k from the size)."""
         pv = self._pv
         from vibra.charts.renders import ColourBar, annotate_render
@@ -401,12 +423,7 @@ class SceneRenderer:
         columns = min(len(indices), 3)
         rows = -(-len(indices) // columns)
         plotter = self._plotter((rows, columns))
-        centre = positions.mean(axis=0)
         extent = float(np.ptp(positions, axis=0).max())
-        # seen along the structure's thinnest principal axis, its longest one across the panel: the
-        # widest projection (a two-lobed protein shows both lobes side by side)
-        axes = np.linalg.eigh(np.cov((positions - centre).T))[1] if n >= 3 else np.eye(3)[:, ::-1]
-        direction, up = axes[:, 0], axes[:, 1]
         line = pv.lines_from_points(positions)
         shown = np.arange(0, n, every)
         titles: list[str] = []
@@ -423,35 +440,75 @@ class SceneRenderer:
                       for i, v in zip(shown, vectors) if np.linalg.norm(v) > 0.05 * size]
             if arrows:
                 plotter.add_mesh(pv.merge(arrows), color="crimson", smooth_shading=True)
-            titles.append(f"mode {k}: {_frequency_text(scene, modes, k)}")
-            plotter.camera.focal_point = tuple(centre)
-            plotter.camera.position = tuple(centre + 3.0 * extent * direction)
-            plotter.camera.up = tuple(up)
-            plotter.reset_camera()
-            plotter.camera.zoom(1.3 if rows == 1 else 0.98)  # the tallest structure part stays in view
+            titles.append(f"{_mode_name(names, k)}: {_frequency_text(scene, modes, k)}")
+            self._network_camera(plotter, positions, rows)
         name = f"{scene.name}_modes.png"
         note = f"one arrow every {every} residues" if every > 1 else "one arrow per residue"
         bar = ColourBar("residue's share of the motion |u$_i$| / max |u| (dimensionless)", "viridis")
         write_png(annotate_render(self._snapshot(plotter), grid=(rows, columns), titles=titles,
                                   note=f"{note}, length proportional to the motion", colour_bar=bar), out_dir / name)
-        listed = ", ".join(f"{k} ({_frequency_text(scene, modes, k)})" for k in indices)
-        return name, (f"{scene.title}: slowest non-rigid modes {listed} as arrows on the C-alpha trace "
+        listed = ", ".join(f"{_mode_name(names, k)} ({_frequency_text(scene, modes, k)})" for k in indices)
+        return name, (f"{scene.title}: slowest non-rigid modes, {listed}, as arrows on the C-alpha trace "
                       f"({n} residues, tube through the C-alpha atoms coloured by each residue's share of the motion, "
                       f"colour bar below; {note}, length proportional to the motion, the smallest 5% left out)")
+
+    def _network_camera(self, plotter: Any, positions: Any, rows: int, zoom: float = 1.3) -> None:
+        """The network camera rule: along the structure's thinnest principal axis, its longest one
+        across the panel (the widest projection: a two-lobed protein shows both lobes side by side)."""
+        centre = positions.mean(axis=0)
+        extent = float(np.ptp(positions, axis=0).max())
+        axes = np.linalg.eigh(np.cov((positions - centre).T))[1] if len(positions) >= 3 else np.eye(3)[:, ::-1]
+        plotter.camera.focal_point = tuple(centre)
+        plotter.camera.position = tuple(centre + 3.0 * extent * axes[:, 0])
+        plotter.camera.up = tuple(axes[:, 1])
+        plotter.reset_camera()
+        plotter.camera.zoom(zoom if rows == 1 else 0.98)  # the tallest structure part stays in view
+
+    def _scalar_network_image(self, scene: Any, positions: Any, modes: Any, indices: Sequence[int], out_dir: Path,
+                              names: Mapping[int, str] | None) -> tuple[str, str]:
+        """A GNM's modes: the C-alpha trace as a tube coloured by each residue's signed amplitude
+        u_i / max |u| on a diverging map (the two signs move in opposition), one panel per mode."""
+        pv = self._pv
+        from vibra.charts.renders import ColourBar, annotate_render
+
+        columns = min(len(indices), 3)
+        rows = -(-len(indices) // columns)
+        plotter = self._plotter((rows, columns))
+        extent = float(np.ptp(positions, axis=0).max())
+        line = pv.lines_from_points(positions)
+        titles: list[str] = []
+        for panel, k in enumerate(indices):
+            plotter.subplot(panel // columns, panel % columns)
+            shape = np.asarray(modes.shapes)[:, k]
+            trace = line.copy()
+            trace["amplitude"] = shape / max(float(np.abs(shape).max()), 1e-300)
+            plotter.add_mesh(trace.tube(radius=0.015 * extent, n_sides=12), scalars="amplitude", cmap="RdBu_r",
+                             clim=(-1.0, 1.0), show_scalar_bar=False, smooth_shading=True, ambient=0.45, diffuse=0.6)
+            titles.append(f"{_mode_name(names, k)}: {_frequency_text(scene, modes, k)}")
+            self._network_camera(plotter, positions, rows, zoom=1.05)  # no arrows reach out: the whole chain framed
+        name = f"{scene.name}_modes.png"
+        bar = ColourBar("residue's amplitude u$_i$ / max |u| (dimensionless; the sign is arbitrary per mode)",
+                        "RdBu_r", -1.0, 1.0)
+        write_png(annotate_render(self._snapshot(plotter), grid=(rows, columns), titles=titles, colour_bar=bar),
+                  out_dir / name)
+        listed = ", ".join(f"{_mode_name(names, k)} ({_frequency_text(scene, modes, k)})" for k in indices)
+        return name, (f"{scene.title}: slowest non-rigid modes, {listed}, of the Gaussian network model (one scalar "
+                      f"amplitude per residue) as colours on the C-alpha trace ({len(positions)} residues): red and "
+                      "blue move in opposition, white residues are the hinges")
 
     # ------------------------------------------------------------------ chains
     def _chain_sites(self, system: Any) -> NDArray[np.intp]:
         return chain_sites(system.masses)
 
     def _chain_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
-                     out_dir: Path) -> tuple[str, str]:
+                     out_dir: Path, names: Mapping[int, str] | None = None) -> tuple[str, str]:
         from vibra.charts.renders import annotate_render
 
         plotter = self._plotter((len(indices), 1))
         titles = []
         for row, k in enumerate(indices):
             plotter.subplot(row, 0)
-            titles.append(self._draw_chain(plotter, scene, system, modes, k))
+            titles.append(self._draw_chain(plotter, scene, system, modes, k, names=names))
         name = f"{scene.name}_modes.png"
         sites = self._chain_sites(system)
         drawn = None
@@ -464,12 +521,12 @@ class SceneRenderer:
         note = (f"; one site in {sites[1] - sites[0]} shown ({len(sites)} of {system.n_sites}, "
                 "evenly spaced)" if len(sites) < system.n_sites else "")
         direction = "across the string (transverse)" if transverse else "along the chain (axial motion)"
-        listed = ", ".join(f"{k} ({_frequency_text(scene, modes, k)})" for k in indices)
-        return name, (f"{scene.title}: modes {listed}; one row per mode, arrows {direction}, "
+        listed = ", ".join(f"{_mode_name(names, k)} ({_frequency_text(scene, modes, k)})" for k in indices)
+        return name, (f"{scene.title}: {listed}; one row per mode, arrows {direction}, "
                       f"sphere volume proportional to mass{note}")
 
     def _draw_chain(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
-                    *, phase: float | None = None) -> str:
+                    *, phase: float | None = None, names: Mapping[int, str] | None = None) -> str:
         """One row of masses for mode k in the current subplot (displaced when `phase` is given); its title."""
         pv = self._pv
         sites = self._chain_sites(system)
@@ -525,4 +582,4 @@ class SceneRenderer:
         camera.up = (0.0, 1.0, 0.0)
         camera.parallel_scale = scale
         plotter.renderer.ResetCameraClippingRange()
-        return f"mode {k}: {_frequency_text(scene, modes, k)}"
+        return f"{_mode_name(names, k)}: {_frequency_text(scene, modes, k)}"

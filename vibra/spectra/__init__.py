@@ -31,7 +31,7 @@ when a `vibra.molecules.VibrationalAnalysis` is passed as the modes, every mode 
 a translation or rotation) are skipped everywhere; imaginary modes are skipped with a
 RuntimeWarning.
 
-Modules: `ir.py`, `raman.py`, `electronic.py`, `broadening.py` (stick and broadened spectra), `thermochemistry.py`, `ideal_gas.py`,
+Modules: `ir.py`, `raman.py`, `electronic.py`, `experiment.py` (computed against observed fundamentals), `broadening.py` (stick and broadened spectra), `thermochemistry.py`, `ideal_gas.py`,
 `isotopes.py` (isotope shifts), and `common.py` (mode selection and checks they share).
 """
 
@@ -42,13 +42,14 @@ from vibra.molecules import VibrationalAnalysis
 from vibra.spectra.broadening import BroadenedSpectrum, StickSpectrum, broadened_spectrum
 from vibra.spectra.common import ZERO_RTOL
 from vibra.spectra.electronic import electronic_ir_spectrum, electronic_raman_spectrum
+from vibra.spectra.experiment import ExperimentComparison, compare_with_experiment
 from vibra.spectra.ideal_gas import (STANDARD_PRESSURE, IdealGasThermochemistry, ThermoContribution,
                                      ideal_gas_thermochemistry)
 from vibra.spectra.ir import (KM_PER_MOL_PER_E2_AMU, PAULING_ELECTRONEGATIVITY, IRSpectrum, dipole_derivatives,
                               electronegativity_charges, ir_spectrum)
 from vibra.spectra.isotopes import ISOTOPE_MASSES, IsotopeShifts, isotope_shifts
 from vibra.spectra.raman import RamanSpectrum, raman_spectrum
-from vibra.spectra.scale_factors import SCALE_FACTORS
+from vibra.spectra.scale_factors import SCALE_FACTORS, fundamental_scale_factor
 from vibra.spectra.thermochemistry import BOLTZMANN_EV_PER_K, Thermochemistry, thermochemistry
 from vibra.system import System
 
@@ -60,6 +61,7 @@ __all__ = [
     "ir_spectrum", "raman_spectrum", "dipole_derivatives", "electronegativity_charges",
     "broadened_spectrum", "thermochemistry", "isotope_shifts", "electronic_ir_spectrum", "electronic_raman_spectrum",
     "STANDARD_PRESSURE", "IdealGasThermochemistry", "ThermoContribution", "ideal_gas_thermochemistry",
+    "ExperimentComparison", "compare_with_experiment", "fundamental_scale_factor",
 ]
 
 # re-exported from the stages below, as the single-module vibra.spectra did

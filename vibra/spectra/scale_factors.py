@@ -7,6 +7,17 @@ Frequency Scale Factors (I. M. Alecu, J. Zheng, Y. Zhao and D. G. Truhlar, J. Ch
 Comput. 6, 2872 (2010), and the database's later versions), the ones GoodVibes applies by
 default; NIST's CCCBDB lists comparable ones. A level not in the table is given as a number.
 
+Fundamentals: Alecu et al. found the factors that bring harmonic frequencies to observed
+fundamentals to be a fixed multiple of the ZPE factors, lambda_F = 0.974 lambda_ZPE (their
+ratio over the levels of the database), so `fundamental_scale_factor(level)` gives
+0.974 x the level's ZPE factor (B3LYP/6-31G(d): 0.952; HF/6-31G(d): 0.885): the factor that
+`vibra.spectra.compare_with_experiment` multiplies computed harmonic wavenumbers by before
+setting them beside observed fundamentals.
+
+Level names are matched loosely: case, spaces, hyphens, brackets and commas do not matter,
+``*`` is ``(d)`` and ``**`` is ``(d,p)``, and ``RHF`` is ``HF`` (what `PySCFEngine.level` writes:
+``"RHF/6-31G*"`` is ``"HF/6-31G(d)"``).
+
 `scale_factor(value)` turns ``scale_factor=`` of `vibra.spectra.thermochemistry` and
 `ideal_gas_thermochemistry` into a number: a positive number as it is, or a level name
 (``"B3LYP/6-31G(d)"``; case, spaces, hyphens and the brackets of the basis do not matter).
@@ -16,7 +27,7 @@ from __future__ import annotations
 
 import difflib
 
-__all__ = ["SCALE_FACTORS", "scale_factor"]
+__all__ = ["SCALE_FACTORS", "FUNDAMENTAL_TO_ZPE", "scale_factor", "fundamental_scale_factor"]
 
 #: ZPE scale factors of common levels of theory (Alecu, Zheng, Zhao and Truhlar 2010; the
 #: Truhlar group's database), as "method/basis" -> factor.
@@ -33,8 +44,16 @@ SCALE_FACTORS: dict[str, float] = {
 }
 
 
+#: lambda_F / lambda_ZPE (Alecu, Zheng, Zhao and Truhlar 2010): fundamentals from ZPE factors.
+FUNDAMENTAL_TO_ZPE = 0.974
+
+
 def _key(level: str) -> str:
-    return "".join(ch for ch in level.upper() if ch not in " -_()")
+    text = level.upper().replace("**", "(D,P)").replace("*", "(D)")
+    method, _, basis = text.partition("/")
+    if method.strip() == "RHF":
+        method = "HF"
+    return "".join(ch for ch in f"{method}/{basis}" if ch not in " -_(),")
 
 
 _BY_KEY = {_key(level): factor for level, factor in SCALE_FACTORS.items()}
@@ -63,3 +82,19 @@ def scale_factor(value: float | str) -> float:
     hint = f"; closest: {', '.join(close)}" if close else ""
     raise ValueError(f"scale_factor is {value!r}: not a level of theory in vibra.spectra.SCALE_FACTORS{hint}; "
                      f"give the factor published for your level as a number (e.g. from NIST's CCCBDB)")
+
+
+def fundamental_scale_factor(level: str) -> float | None:
+    """The factor that brings harmonic wavenumbers of `level` to observed fundamentals:
+    `FUNDAMENTAL_TO_ZPE` x the level's ZPE factor in `SCALE_FACTORS`, or None for a level not
+    in the table.
+
+    Examples
+    --------
+    >>> fundamental_scale_factor("RHF/6-31G*"), fundamental_scale_factor("GFN2-xTB")
+    (0.885, None)
+    """
+    if not isinstance(level, str):
+        raise TypeError(f"level must be a str, got {type(level).__name__}")
+    found = _BY_KEY.get(_key(level))
+    return None if found is None else round(FUNDAMENTAL_TO_ZPE * found, 3)

@@ -20,6 +20,10 @@ of any engine), adds the analytic Hessian where there is one, and returns an
 activities (Angstrom^4/amu), depolarisation ratios and cross sections, labelled with the level
 of theory.
 
+`check_engine_choice` (`choice.py`) validates an engine chosen by name (a scene's ``[system]
+engine``, ``method``, ``basis``) without running anything, `engine_cost` estimates its time and
+memory from sizes before any SCF, and `make_engine` builds it.
+
 ``import vibra.molecules.engines`` imports neither ASE nor PySCF: `EngineCalculator` (an ASE
 ``Calculator`` subclass) loads on first access, and PySCF when an engine is made.
 """
@@ -29,6 +33,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from vibra.molecules.engines.ase_engine import AseEngine
+from vibra.molecules.engines.choice import (ENGINES, EngineChoice, EngineChoiceError, EngineCost, EngineMissingError,
+                                            check_engine_choice, engine_cost, make_engine)
 from vibra.molecules.engines.electronic import HESSIAN_SOURCES, ElectronicStructure, electronic_structure
 from vibra.molecules.engines.protocol import CAPABILITIES, Engine, EngineResult, engine_methods
 from vibra.molecules.engines.pyscf_engine import BOHR_ANGSTROM, HARTREE_EV, PySCFEngine, require_pyscf
@@ -38,7 +44,8 @@ if TYPE_CHECKING:
 
 __all__ = ["Engine", "EngineResult", "CAPABILITIES", "engine_methods", "AseEngine", "PySCFEngine",
            "EngineCalculator", "ElectronicStructure", "electronic_structure", "HESSIAN_SOURCES",
-           "HARTREE_EV", "BOHR_ANGSTROM", "require_pyscf"]
+           "HARTREE_EV", "BOHR_ANGSTROM", "require_pyscf", "ENGINES", "EngineChoice", "EngineChoiceError",
+           "EngineMissingError", "EngineCost", "check_engine_choice", "engine_cost", "make_engine"]
 
 _LAZY = {"EngineCalculator": "vibra.molecules.engines.calculator"}
 

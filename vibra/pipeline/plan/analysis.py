@@ -42,6 +42,9 @@ class MoleculeSymmetry:
         Per mode the observed fundamental it corresponds to (`vibra.molecules.experimental`).
     source : str or None
         The source of the observed values (None when the molecule has none bundled).
+    numbers : tuple of int
+        Per mode its number in Herzberg's convention (`vibra.molecules.numbering`; 2 for nu2,
+        shared by a degenerate set), 0 for a rigid mode; by decreasing frequency alone in C1.
     """
 
     group: str
@@ -50,6 +53,7 @@ class MoleculeSymmetry:
     raman_active: tuple[bool | None, ...]
     experimental: tuple[Any, ...]
     source: str | None
+    numbers: tuple[int, ...] = ()
 
 
 def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
@@ -61,6 +65,7 @@ def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
     not 3-D sites or its point group cannot be found.
     """
     from vibra.molecules import experimental_fundamentals, match_fundamentals, vibrational_analysis
+    from vibra.molecules.numbering import herzberg_numbers
 
     if getattr(system, "n_sites", 0) < 2 or system.frozen.any():
         return None
@@ -92,8 +97,11 @@ def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
     observed: list[Any] = [None] * len(species)
     if entry is not None:
         observed = match_fundamentals(entry, species, modes.wavenumbers_cm1())
+    numbers = herzberg_numbers(table.labels, species, modes.wavenumbers_cm1(), linear=group.name in ("Cinfv", "Dinfh"),
+                               n_atoms=system.n_sites)
     return MoleculeSymmetry(group=group.name, species=tuple(species), ir_active=ir, raman_active=raman,
-                            experimental=tuple(observed), source=None if entry is None else entry.source)
+                            experimental=tuple(observed), source=None if entry is None else entry.source,
+                            numbers=numbers)
 
 
 def _site_displacements(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -237,9 +245,9 @@ def network_fluctuations(structure: Any, system: Any, modes: Any, *, fit: str = 
     from vibra.networks import (b_factor_correlation, cross_correlations, fit_bfactors, predicted_b_factors,
                                 square_fluctuations)
 
-    predicted = predicted_b_factors(square_fluctuations(system, modes))
+    dim = int(system.dim)  # 1 for a GNM: its scalar fluctuation taken as isotropic (predicted_b_factors)
+    predicted = predicted_b_factors(square_fluctuations(system, modes), dofs_per_site=dim)
     experimental = np.asarray(structure.b_factors, dtype=float)
-    dim = int(system.dim)
     fitted = fit_bfactors(modes, experimental, method=fit, dim=dim) if np.ptp(experimental) > 0 else None
     return NetworkFluctuations(labels=tuple(structure.labels), experimental=experimental, predicted=predicted,
                                correlation=float(b_factor_correlation(predicted, experimental)),

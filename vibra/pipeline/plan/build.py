@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from vibra._core.validate import ArgumentError
+from vibra._core.text import counted
 from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
 from vibra.pipeline.scene.builders import CRYSTAL_BUILDERS
@@ -24,6 +25,7 @@ __all__ = ["build_system", "network_structure", "check_xyz_text", "scene_key", "
 ARGUMENT_KEYS: dict[str, dict[str, Any]] = {
     "molecule": {"name_or_atoms": lambda p: "system.xyz" if p.get("xyz") is not None else "system.name"},
     "anm": {"positions": "system.pdb", "masses": "system.pdb"},
+    "gnm": {"positions": "system.pdb"},
 }
 
 
@@ -66,7 +68,7 @@ def check_xyz_text(text: str, source: str, name: str) -> int:
         raise fail(1, f"announces {count} atoms; expected at least 1")
     atoms = lines[2:]
     if len(atoms) < count:
-        raise fail(len(lines), f"the file ends after {len(atoms)} atom line(s), but line 1 announces {count}; "
+        raise fail(len(lines), f"the file ends after {counted(len(atoms), 'atom line')}, but line 1 announces {count}; "
                    "the file looks truncated")
     for number, line in enumerate(atoms[:count], start=3):
         fields = line.split()
@@ -215,7 +217,7 @@ def _build(scene: Scene) -> Any:
     elif builder == "matrices":
         system = make(np.asarray(p["M"]), np.asarray(p["K"]), coordinates=p["coordinates"],
                       units=scene.units, name=scene.name)
-    elif builder == "anm":
+    elif builder in ("anm", "gnm"):  # the same keys; a GNM's System keeps the site indices, not the coordinates
         structure = network_structure(scene)
         system = make(structure.positions, cutoff=p["cutoff"], gamma=p["gamma"], name=scene.name)
     elif builder == "phonopy":

@@ -20,6 +20,7 @@ from vibra.pipeline.plan.analysis import chain_dispersion
 from vibra.pipeline.plan.build import build_system
 from vibra.pipeline.plan.crystal import CRYSTAL_STEP_KEYS, check_crystal_plan
 from vibra.pipeline.plan.dynamics import DYNAMICS_STEP_KEYS, check_dynamics_plan, dynamics_cost
+from vibra.pipeline.plan.electronic import check_engine_plan, engine_missing, engine_summary
 from vibra.pipeline.plan.model import make_plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.values import element_symbol
@@ -27,6 +28,7 @@ from vibra import solvers
 from vibra.generalized import GeneralizedSystem
 from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.budget import describe_bytes, describe_seconds
+from vibra._core.text import counted
 
 __all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT", "solve_request",
            "solve_limits",
@@ -44,7 +46,8 @@ STEP_KEYS = {
     "continuum": "compute.continuum", "dispersion": "draw.dispersion", "structure": "system",
     "render-modes": "draw.modes", "render-gif": "draw.gif", "chart-spectrum": "draw.spectrum",
     "chart-dispersion": "draw.dispersion", "chart-response": "draw.response",
-    "chart-convergence": "draw.convergence",
+    "chart-convergence": "draw.convergence", "electronic": "system.engine", "engine-missing": "system.engine",
+    "chart-experiment": "draw.spectrum",
     **CRYSTAL_STEP_KEYS,
     **DYNAMICS_STEP_KEYS,
 }
@@ -220,6 +223,7 @@ def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
         _dry_run(scene, system, response)
     except REFUSALS as error:
         raise step_error(scene, "modes", error) from error
+    check_engine_plan(scene, system)  # an engine's cost estimate against the limits, before any SCF
 
 
 def validate(scene: Scene) -> Any:
@@ -230,6 +234,9 @@ def validate(scene: Scene) -> Any:
     SceneError
         Whatever the builder or the checks refuse, at the key that controls it.
     """
+    missing = engine_missing(scene) if scene.kind == "molecule" else None
+    if missing is not None:  # (the report renders such a scene as a page saying what to install)
+        raise SceneError(scene.source, "system.engine", str(missing))
     try:
         system = build_system(scene)
         check_plan(scene, system)
@@ -249,25 +256,28 @@ def cost_summary(scene: Scene, system: Any) -> str:
     '4 dofs'
     """
     if scene.kind == "oscillator":
-        return f"{len(system)} oscillator(s), closed forms"
+        return f"{counted(len(system), 'oscillator')}, closed forms"
     if scene.kind == "dynamics":
         return dynamics_cost(scene, system)
     n_dof = getattr(system, "n_dof", None)
     if not isinstance(n_dof, (int, np.integer)):  # a kind without one K (a crystal's D(q) per wave vector)
         return f"{scene.kind} system"
     if getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
-        return f"{n_dof} dofs; a quadratic eigenproblem"
+        return f"{counted(n_dof, 'dof')}; a quadratic eigenproblem"
+    engine = engine_summary(scene, system) if scene.kind == "molecule" else None
+    if engine is not None:
+        return f"{counted(n_dof, 'dof')}; {engine}"
     compute = scene.compute
     try:
         plan = make_plan(scene)
     except (ValueError, TypeError):
-        return f"{n_dof} dofs"
+        return counted(n_dof, "dof")
     request = solve_request(system, n_modes=plan.n_modes, vectors=plan.vectors, band=compute.band,
                             solver=compute.solver, accuracy=compute.accuracy)
     if request is None:
-        return f"{n_dof} dofs"  # (what the solve would refuse, check_plan refused first)
+        return counted(n_dof, "dof")  # (what the solve would refuse, check_plan refused first)
     cost = request.cost
-    return (f"{n_dof} dofs; modes: {request.path} path, {cost.what}, estimated ~{describe_seconds(cost.seconds)} "
+    return (f"{counted(n_dof, 'dof')}; modes: {request.path} path, {cost.what}, estimated ~{describe_seconds(cost.seconds)} "
             f"and {describe_bytes(cost.memory)}")
 
 

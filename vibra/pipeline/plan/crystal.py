@@ -31,6 +31,7 @@ from vibra.pipeline.plan.model import Plan, polar_crystal
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, frames_that_fit, render_seconds
 from vibra.solvers.budget import describe_seconds
+from vibra._core.text import counted
 
 __all__ = ["check_crystal_plan", "crystal_cost", "light_direction", "CRYSTAL_STEPS", "CRYSTAL_STEP_KEYS",
            "DEFAULT_LIGHT_DIRECTION"]
@@ -175,7 +176,8 @@ def crystal_cost(scene: Scene, crystal: Any) -> str:
     assert spec is not None
     fc = crystal.require_force_constants()
     n3 = crystal.n_branches
-    parts = [f"{crystal.n_atoms} atoms per cell, {n3} branches, {fc.n_terms} force-constant terms"]
+    parts = [f"{counted(crystal.n_atoms, 'atom')} per cell, {counted(n3, 'branch')}, "
+             f"{counted(fc.n_terms, 'force-constant term')}"]
     work = 0
     if spec.bands:
         parts.append(f"bands {spec.npoints} q")
@@ -251,6 +253,10 @@ def _step_chart_bands(plan: Plan, context: Any, renderer: Any) -> tuple[str | No
                        f"{plan.scene.title}: phonon bands along the path (vertical lines at the special points, "
                        f"a heavier one where the path breaks) and the {dos.method} DOS on a "
                        f"{'x'.join(str(int(n)) for n in dos.mesh)} mesh, in {unit}{polar}{irreps}")
+    # the interactive view of the same bands (issue 46, item 5): click a point, see its mode on a supercell
+    from vibra.pipeline.plan.views import write_band_view
+
+    write_band_view(plan, context, bands, unit=spec.frequency_unit)
     return None, None
 
 
@@ -259,7 +265,7 @@ def _step_thermal(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, 
     temperatures = np.linspace(spec.temperatures[0], spec.temperatures[1], spec.n_temperatures)
     context.thermal = context.system.thermal_properties(temperatures, mesh=list(spec.mesh))
     excluded = context.thermal.excluded
-    return "harmonic sums over the mesh", f"{excluded} mode(s) left out as not certainly positive"
+    return "harmonic sums over the mesh", f"{counted(excluded, 'mode')} left out as not certainly positive"
 
 
 def _step_chart_thermal(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str | None]:

@@ -32,6 +32,7 @@ from vibra.pipeline.scene.dynamics import THERMOSTATS
 from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, dynamics_estimate
 from vibra.solvers.budget import ResourceLimitError, describe_bytes, describe_seconds
 from vibra.sources import cite
+from vibra._core.text import counted
 
 __all__ = ["check_dynamics_plan", "dynamics_cost", "DynamicsRuns", "DYNAMICS_STEPS", "DYNAMICS_STEP_KEYS",
            "anharmonic_forces", "initial_state"]
@@ -131,10 +132,10 @@ def check_dynamics_plan(scene: Scene, system: Any) -> None:
     for key in ("x0", "v0"):
         value = getattr(spec, key)
         if value is not None and len(value) != n_dof:
-            raise SceneError(scene.source, f"compute.{key}", f"needs {n_dof} values (one per free degree of "
-                             f"freedom), got {len(value)}")
+            raise SceneError(scene.source, f"compute.{key}", f"needs {counted(n_dof, 'value')} (one per free "
+                             f"degree of freedom), got {len(value)}")
     if spec.mode is not None and spec.mode > n_dof:
-        raise SceneError(scene.source, "compute.mode", f"is {spec.mode}; the system has {n_dof} modes (1 to {n_dof})")
+        raise SceneError(scene.source, "compute.mode", f"is {spec.mode}; the system has {counted(n_dof, 'mode')} (1 to {n_dof})")
     if spec.histogram and spec.histogram_dof >= n_dof:
         raise SceneError(scene.source, "draw.histogram_dof", f"is {spec.histogram_dof}; degrees of freedom run "
                          f"from 0 to {n_dof - 1}")
@@ -175,8 +176,7 @@ def dynamics_cost(scene: Scene, system: Any) -> str:
     spec = scene.dynamics
     assert spec is not None
     estimate = dynamics_estimate(system.n_dof, spec)
-    runs = f"{spec.n_runs} runs" if spec.n_runs > 1 else "1 run"
-    dofs = "1 dof" if system.n_dof == 1 else f"{system.n_dof} dofs"
+    runs, dofs = counted(spec.n_runs, "run"), counted(system.n_dof, "dof")
     return (f"{dofs}; {runs} of {spec.n_steps} {spec.integrator} steps of dt = {spec.dt:g} "
             f"({THERMOSTATS[spec.thermostat]}), {estimate.records} records each; estimated "
             f"~{describe_seconds(estimate.seconds)} and {describe_bytes(estimate.memory)}")

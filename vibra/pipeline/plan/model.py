@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from vibra.pipeline.scene import Scene
+from vibra._core.text import counted
 
 __all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "crystal_steps", "polar_crystal", "dynamics_steps"]
 
@@ -108,13 +109,17 @@ def make_plan(scene: Scene) -> Plan:
         return Plan(scene=scene, steps=tuple(steps + crystal_steps(scene)), n_modes=None, vectors=False)
     if scene.kind == "dynamics":  # a time integration: its own steps and charts
         return Plan(scene=scene, steps=tuple(steps + dynamics_steps(scene)), n_modes=None, vectors=False)
+    engine = _engine_steps(scene)  # a molecule computed by an electronic-structure engine
+    if engine is not None and engine[0].name == "engine-missing":
+        return Plan(scene=scene, steps=engine, n_modes=None, vectors=False)
+    steps.extend(engine or ())
     # network fluctuations and a molecule's IR/Raman intensities need shapes
     vectors = bool(compute.shapes or draw.needs_shapes or scene.kind == "network"
                    or (scene.kind == "molecule" and draw.spectrum))
     n_modes = compute.n_modes
     if scene.kind != "oscillator":
         if n_modes is not None:
-            how = f"lowest {n_modes} modes (partial solver)"
+            how = f"lowest {counted(n_modes, 'mode')} (partial solver)"
         elif compute.band is not None:
             how = f"modes with omega in [{compute.band[0]:g}, {compute.band[1]:g}]"
         else:
@@ -149,6 +154,9 @@ def make_plan(scene: Scene) -> Plan:
     if draw.spectrum:
         steps.append(Step("chart-spectrum", "IR and Raman spectra (model intensities, Lorentzian lines)"
                           if scene.kind == "molecule" else "stick spectrum of the frequencies"))
+    if draw.spectrum and engine is not None:
+        steps.append(Step("chart-experiment", "computed (scaled) against observed fundamentals and IR intensities, "
+                          "where the molecule has observed values bundled"))
     if draw.dispersion:
         steps.append(Step("chart-dispersion", "dispersion relation with the chain's modes"))
     if draw.response:
@@ -160,6 +168,24 @@ def make_plan(scene: Scene) -> Plan:
     if draw.convergence:
         steps.append(Step("chart-convergence", "error of the chain's modes against N (log-log)"))
     return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)
+
+
+def _engine_steps(scene: Scene) -> tuple[Step, ...] | None:
+    """The steps of a molecule scene's electronic-structure engine (`vibra.pipeline.plan.electronic`):
+    ``electronic`` after the build, or ``engine-missing`` alone when its package is not installed;
+    None for the bundled force field."""
+    if scene.kind != "molecule":
+        return None
+    from vibra.pipeline.plan.electronic import engine_missing, scene_engine
+
+    choice = scene_engine(scene)
+    if choice is None:
+        return None
+    missing = engine_missing(scene)
+    if missing is not None:
+        return (Step("engine-missing", f"nothing computed: {missing}"),)
+    return (Step("electronic", f"{choice.level}: optimise the geometry, then the analytic Hessian and the dipole "
+                 "and polarisability derivatives by finite differences (vibra.molecules.engines)"),)
 
 
 def polar_crystal(scene: Scene) -> bool:

@@ -23,14 +23,16 @@ from vibra.pipeline.plan.analysis import (LINE_WIDTH_CM1, chain_dispersion, mole
 from vibra.pipeline.plan.build import build_system, network_structure
 from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
 from vibra.pipeline.plan.dynamics import DYNAMICS_STEPS, dynamics_cost
+from vibra.pipeline.plan.electronic import ELECTRONIC_STEPS, electronic_hints, electronic_spectra
 from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, solve_limits, step_error
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
-from vibra.pipeline.plan.tables import frequency_lines
+from vibra.pipeline.plan.tables import frequency_lines, mode_names
 from vibra.pipeline.plan.views import mode_view
 from vibra.pipeline.scene import Scene
 from vibra.pipeline.scene.values import element_symbol
 from vibra.sources import cite
 from vibra.solvers.structured.quadratic import QuadraticModes
+from vibra._core.text import counted
 
 __all__ = ["execute", "frequency_lines", "STEPS"]
 
@@ -56,6 +58,7 @@ class _Context:
     supercell_mode: Any = None     # crystal scenes: SupercellMode
     infrared: Any = None           # polar crystal scenes: InfraredResponse
     dynamics: Any = None           # dynamics scenes: DynamicsRuns
+    electronic: Any = None         # molecule scenes with an engine: ElectronicStructure
     hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)
     captions: list[str] = field(default_factory=list)
@@ -74,7 +77,7 @@ def _accuracy_text(modes: Any) -> str:
     parts = []
     if _is_quadratic(modes):
         scale = max(float(np.abs(modes.natural_frequency).max(initial=0.0)), np.finfo(float).tiny)
-        stable = "stable" if modes.stable else f"UNSTABLE ({int(np.sum(modes.unstable))} growing mode(s))"
+        stable = "stable" if modes.stable else f"UNSTABLE ({counted(int(np.sum(modes.unstable)), 'growing mode')})"
         return (f"max omega error {float(np.max(modes.omega_error, initial=0.0)) / scale:.2e} (relative to max "
                 f"omega), {stable}")
     if np.isfinite(modes.residual):
@@ -143,7 +146,7 @@ def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
         return None, crystal_cost(plan.scene, system)
     if plan.scene.kind == "dynamics":
         return None, dynamics_cost(plan.scene, system)
-    return None, f"{system.n_dof} degrees of freedom"
+    return None, counted(system.n_dof, "degree of freedom")
 
 
 def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
@@ -244,6 +247,11 @@ def _drawn_modes(plan: Plan, context: _Context) -> list[int]:
     return moving[: plan.scene.draw.n_draw]
 
 
+def _mode_names(plan: Plan, context: _Context) -> dict[int, str]:
+    """The drawn modes' names as the frequency table numbers them ("ν2 (A1)", "mode 1")."""
+    return mode_names(plan.scene, context.modes, context.symmetry, species=True)
+
+
 def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     if _is_quadratic(context.modes):  # gyroscopic: complex shapes trace orbits in the (x, y) plane
         from vibra.charts.orbits import plot_mode_orbits
@@ -271,17 +279,35 @@ def _step_render_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[st
             figure, caption = shapes_figure(plan.scene, context.system, context.modes, indices)
         _save_chart(context, figure, "modes", caption)
         return None, None
+    scalar = plan.scene.system.builder == "gnm"  # one amplitude per residue: drawn as colours, no 3-D view
+    sites = network_structure(plan.scene) if scalar else None
     for name, caption in renderer.render_modes(plan.scene, context.system, context.modes, indices,
                                                context.out_dir, structure=context.structure,
-                                               hints=context.hints):
+                                               hints=context.hints, names=_mode_names(plan, context),
+                                               sites=None if sites is None else sites.positions):
         context.outputs.append(name)
         context.captions.append(caption)
-    view = mode_view(plan.scene, context.system, context.modes, indices, structure=context.structure,
-                     symmetry=context.symmetry)
+    if scalar:
+        _gnm_profiles(plan, context, sites.labels, indices)
+    view = None if scalar else mode_view(plan.scene, context.system, context.modes, indices,
+                                         structure=context.structure, symmetry=context.symmetry)
     if view is not None:  # the report's interactive 3-D view of the same modes
         _write_text(context, f"{plan.scene.name}_view.json", json.dumps(view, separators=(",", ":")),
                     "the drawn modes in 3-D: drag to rotate, scroll to zoom, pick a mode and its amplitude")
     return None, None
+
+
+def _gnm_profiles(plan: Plan, context: _Context, labels: Any, indices: list[int]) -> None:
+    """The drawn modes of a Gaussian network model along the sequence (`plot_mode_profiles`)."""
+    from vibra.charts.networks import plot_mode_profiles
+
+    names = _mode_names(plan, context)
+    omega = np.asarray(context.modes.omega)
+    titles = [f"{names.get(k, f'mode {k}')}: ω = {omega[k]:.4g} √(γ/m)" for k in indices]
+    figure = plot_mode_profiles(labels, np.asarray(context.modes.shapes)[:, indices], titles, title=plan.scene.title)
+    _save_chart(context, figure, "profiles",
+                f"{plan.scene.title}: the drawn modes' amplitude per residue along the sequence, each scaled to a "
+                "largest |u| of 1 (red and blue move in opposition; a sign change is a hinge)")
 
 
 def _molecule_structure(scene: Scene, system: Any) -> Any:
@@ -309,9 +335,13 @@ def _step_structure(plan: Plan, context: _Context, renderer: Any) -> tuple[str |
     """Elements, bonds, and each drawn mode's symmetry / IR-activity text (molecules)."""
     context.structure = _molecule_structure(plan.scene, context.system)
     structure = context.structure
-    context.hints = symmetry_hints(context.system, context.modes, _drawn_modes(plan, context),
-                                   structure.symbols, structure.bonds, context.symmetry)
-    return None, f"{len(structure.bonds)} bonds"
+    if context.electronic is not None:  # the engine's own IR intensities, not point charges
+        context.hints = electronic_hints(context.electronic, context.system, context.modes,
+                                         _drawn_modes(plan, context), context.symmetry)
+    else:
+        context.hints = symmetry_hints(context.system, context.modes, _drawn_modes(plan, context),
+                                       structure.symbols, structure.bonds, context.symmetry)
+    return None, counted(len(structure.bonds), "bond")
 
 
 def _step_symmetry(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
@@ -327,7 +357,7 @@ def _step_fluctuations(plan: Plan, context: _Context, renderer: Any) -> tuple[st
     """B-factors of a network scene predicted from its computed modes (`network_fluctuations`)."""
     context.network = network_fluctuations(network_structure(plan.scene), context.system, context.modes)
     return "kT sum |u_k|^2 / omega_k^2 (rigid modes left out)", \
-        f"B-factor correlation r = {context.network.correlation:.3f} over {len(context.network.labels)} residues"
+        f"B-factor correlation r = {context.network.correlation:.3f} over {counted(len(context.network.labels), 'residue')}"
 
 
 def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
@@ -375,7 +405,8 @@ def _step_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str 
 def _step_render_gif(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     index = _drawn_modes(plan, context)[0]
     name, caption = renderer.render_gif(plan.scene, context.system, context.modes, index,
-                                        context.out_dir, context.work_dir, structure=context.structure)
+                                        context.out_dir, context.work_dir, structure=context.structure,
+                                        names=_mode_names(plan, context))
     context.outputs.append(name)
     context.captions.append(caption)
     return None, None
@@ -388,8 +419,11 @@ def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[
         from vibra.charts.spectra import plot_molecule_spectra
 
         structure = context.structure or _molecule_structure(plan.scene, context.system)
-        spectra = molecule_spectra(context.system, context.modes, structure.symbols, structure.bonds,
-                                   context.symmetry)
+        if context.electronic is not None:  # an engine's dipole and polarisability derivatives
+            spectra = electronic_spectra(context.electronic, line_width=LINE_WIDTH_CM1)
+        else:
+            spectra = molecule_spectra(context.system, context.modes, structure.symbols, structure.bonds,
+                                       context.symmetry)
         figure = plot_molecule_spectra(spectra, title=plan.scene.title)
         _save_chart(context, figure, "spectrum",
                     f"{plan.scene.title}: IR and Raman spectra, Lorentzian lines (FWHM {LINE_WIDTH_CM1:g} cm^-1) "
@@ -466,4 +500,5 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "chart-convergence": _step_chart_convergence,
     **CRYSTAL_STEPS,
     **DYNAMICS_STEPS,
+    **ELECTRONIC_STEPS,
 }

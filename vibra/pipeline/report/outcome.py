@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from vibra._core.text import counted
 __all__ = ["SceneOutcome", "BatchResult", "ProgressBar"]
 
 
@@ -158,8 +159,8 @@ class BatchResult:
         for o in self.outcomes:
             lines.append(f"{o.name:<{width}}  {o.status:<7}  {o.seconds:>7.2f}  {len(o.outputs):>5}  "
                          f"{o.error.splitlines()[0] if o.error else ''}")
-        lines.append(f"{len(self.outcomes)} scene(s), {len(self.failed)} failed, {self.n_images} image(s), "
-                     f"{self.seconds:.1f} s with {self.jobs} job(s)")
+        lines.append(f"{counted(len(self.outcomes), 'scene')}, {len(self.failed)} failed, "
+                     f"{counted(self.n_images, 'image')}, {self.seconds:.1f} s with {counted(self.jobs, 'job')}")
         return "\n".join(lines)
 
 

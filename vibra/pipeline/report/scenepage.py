@@ -10,7 +10,7 @@ from typing import Sequence
 from vibra.charts import plain_math
 from vibra.pipeline.report.frame import IMAGE_SUFFIXES, page, short_caption
 from vibra.pipeline.report.outcome import SceneOutcome
-from vibra.pipeline.report.viewer import VIEW_SUFFIX, read_view, view_html
+from vibra.pipeline.report.viewer import VIEW_SUFFIX, read_view, view_heading, view_html
 
 __all__ = ["scene_page", "KIND_WORDS"]
 
@@ -88,7 +88,7 @@ def scene_page(outcome: SceneOutcome, scenes: Sequence[SceneOutcome], out_dir: P
     if figures:
         parts.append("<div class='figs'>" + "".join(figures) + "</div>")
     if view is not None:
-        parts.append("<h2>The modes in 3-D</h2>" + view_html(view))
+        parts.append(f"<h2>{view_heading(view)}</h2>" + view_html(view))
     if o.kind == "dynamics":
         parts.extend(_dynamics_parts(o))
     elif o.frequencies:

@@ -15,13 +15,12 @@ from vibra.pipeline.report.outcome import SceneOutcome
 from vibra.pipeline.report.scenepage import scene_page
 from vibra.pipeline.report.viewer import VIEW_SUFFIX, copy_assets
 from vibra.sources import SOURCES
+from vibra._core.text import counted
 
 __all__ = ["index_page", "references_page", "write_site"]
 
 
-def _count(n: int, noun: str) -> str:
-    """``"1 scene"``, ``"3 scenes"``."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
+_count = counted  # "1 scene", "3 scenes": the one plural rule (`vibra._core.text`)
 
 
 def _card(o: SceneOutcome) -> str:

@@ -40,7 +40,7 @@ from vibra.pipeline.scene.schema import (
     Reader, check_combinations, check_crystal, parse_compute, parse_crystal, parse_draw, parse_system,
 )
 from vibra.pipeline.scene.specs import (
-    DEFAULT_UNITS, KINDS, SAFE_NAME, UNITS, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec,
+    DEFAULT_UNITS, KINDS, SAFE_NAME, UNITS, units_name, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec,
     SceneError, SystemSpec,
 )
 from vibra.pipeline.scene.values import field_spec, one_of, string, table
@@ -152,7 +152,7 @@ class Scene:
             "name": field_spec(string, Path(src).stem if src != "<scene>" else None),
             "title": field_spec(string),
             "description": field_spec(string, ""),
-            "units": field_spec(one_of(*UNITS)),
+            "units": field_spec(units_name),  # through vibra.units.unit_system, as the library reads units
             "system": field_spec(table, required=True),
             "compute": field_spec(table, {}),
             "draw": field_spec(table, {}),

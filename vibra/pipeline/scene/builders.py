@@ -45,6 +45,7 @@ BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
     "charged_particle": ("vibra.mechanics.gyroscopic", "charged_particle"),
     "matrices": ("vibra.system", "System.generalized"),
     "anm": ("vibra.networks", "anm"),
+    "gnm": ("vibra.networks", "gnm"),
     "oscillator": ("vibra.response", "Oscillator"),
     "simple_cubic": ("vibra.crystals", "simple_cubic"),
     "bcc": ("vibra.crystals", "bcc"),
@@ -66,7 +67,7 @@ BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "linear_chain": ("chain", "dynamics"), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
     "springs": ("chain", "molecule", "dynamics"), "fput": ("dynamics",), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
     "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
-    "anm": ("network",),
+    "anm": ("network",), "gnm": ("network",),
     **{builder: ("crystal",) for builder in CRYSTAL_BUILDERS},
 })
 
@@ -185,6 +186,7 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
     "matrices": {"M": matrix, "K": matrix, "coordinates": list_of(string)},
     "oscillator": {"w0": positive, "gamma": scalar_or_list(nonnegative), "m": positive},
     "anm": {"cutoff": positive, "gamma": positive},
+    "gnm": {"cutoff": positive, "gamma": positive},
     **{builder: {"a": positive, "mass": positive, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
                  "transverse": scalar_or_list(nonnegative)} for builder in ("simple_cubic", "bcc", "fcc")},
     **{builder: {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
@@ -224,6 +226,8 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
     "anm": {"positions": "the sites of the structure file system.pdb that system.selection, chains, residues, "
                          "model and altloc choose (C-alpha atoms by default)",
             "masses": "unit masses, as ProDy's ANM", "name": _NAME},
+    "gnm": {"positions": "the sites of the structure file system.pdb that system.selection, chains, residues, "
+                         "model and altloc choose (C-alpha atoms by default)", "name": _NAME},
     **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
                 "force_constants": "the file system.force_constants_file beside the scene",
@@ -241,12 +245,16 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "co2": dict(FROZEN),
     "h2o": dict(FROZEN),
     "molecule": {"xyz": field_spec(string), "stretch": field_spec(positive),
-                 "bend": field_spec(positive), "torsion": field_spec(positive)},
+                 "bend": field_spec(positive), "torsion": field_spec(positive),
+                 # an electronic-structure engine instead of the force field (vibra.molecules.engines.choice,
+                 # checked in schema._check_molecule; the plan's "electronic" step runs it)
+                 "engine": field_spec(string), "method": field_spec(string), "basis": field_spec(string)},
     "double_pendulum": {},
     "charged_particle": {},
     "matrices": {},
     "oscillator": {},
     "anm": {"pdb": field_spec(string, required=True), **STRUCTURE_KEYS},
+    "gnm": {"pdb": field_spec(string, required=True), **STRUCTURE_KEYS},  # the anm builder's keys
     **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string),
                 "force_sets_file": field_spec(string), "born_file": field_spec(string), **INFRARED_KEYS},

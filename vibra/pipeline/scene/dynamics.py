@@ -24,6 +24,7 @@ from typing import Any
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, MAX_DYNAMICS_STEPS, default_memory_limit, dynamics_estimate, gib, n_dof_bound,
 )
+from vibra._core.text import counted
 from vibra.pipeline.scene.specs import DrawSpec
 from vibra.pipeline.scene.values import (
     boolean, field_spec, integer, list_of, number, one_of, positive, scalar_or_list,
@@ -201,11 +202,11 @@ def check_dynamics(reader: Any, scene: Any) -> None:
             if value is not None and len(value) != n_dof:
                 reader.fail(f"compute.{key}", f"needs {n_dof} values (one per degree of freedom), got {len(value)}")
         if spec.mode is not None and spec.mode > n_dof:
-            reader.fail("compute.mode", f"is {spec.mode}; the system has {n_dof} modes (1 to {n_dof})")
+            reader.fail("compute.mode", f"is {spec.mode}; the system has {counted(n_dof, 'mode')} (1 to {n_dof})")
         if spec.histogram_dof >= n_dof:
             reader.fail("draw.histogram_dof", f"is {spec.histogram_dof}; degrees of freedom run from 0 to {n_dof - 1}")
     if spec.mode_energies and spec.n_modes_drawn > n_dof:
-        reader.fail("draw.n_modes_drawn", f"is {spec.n_modes_drawn}; the system has {n_dof} modes")
+        reader.fail("draw.n_modes_drawn", f"is {spec.n_modes_drawn}; the system has {counted(n_dof, 'mode')}")
     estimate = dynamics_estimate(n_dof, spec)
     limit = default_memory_limit() if spec.memory_limit_gib is None else spec.memory_limit_gib * 2**30
     if estimate.memory > limit:
@@ -213,6 +214,6 @@ def check_dynamics(reader: Any, scene: Any) -> None:
                     f"than the limit of {gib(limit)}; raise compute.record_every, or compute.memory_limit_gib")
     time_limit = DEFAULT_TIME_LIMIT_S if spec.time_limit_s is None else spec.time_limit_s
     if estimate.seconds > time_limit:
-        reader.fail("compute.n_steps", f"is {spec.n_steps}: {spec.n_runs} run(s) of {n_dof} dofs would take about "
+        reader.fail("compute.n_steps", f"is {spec.n_steps}: {counted(spec.n_runs, 'run')} of {counted(n_dof, 'dof')} would take about "
                     f"{estimate.seconds:.2g} s, more than the limit of {time_limit:g} s; take fewer steps, or raise "
                     "compute.time_limit_s")

@@ -15,6 +15,7 @@ from typing import Any, Callable, Mapping
 
 from vibra.modes import SOLVERS
 from vibra.solvers.accuracy import DEFAULT as DEFAULT_ACCURACY, LEVELS as ACCURACY_LEVELS, uses_springs
+from vibra._core.text import counted
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
 )
@@ -240,7 +241,7 @@ def check_combinations(reader: Reader, scene: Any) -> None:
         reader.fail("compute.crosscheck", "is available for the 3-D molecules 'co2' (dims = 3) and 'h2o'")
     if draw.gif and kind not in ("chain", "molecule"):
         reader.fail("draw.gif", f"animates chains and molecules, not a {kind!r} scene")
-    if scene.system.builder == "anm":
+    if scene.system.builder in ("anm", "gnm"):
         scene_data_path(reader.source, "system.pdb", params["pdb"])
         for key in ("gif", "dispersion", "response"):
             if getattr(draw, key):
@@ -261,13 +262,13 @@ def check_combinations(reader: Reader, scene: Any) -> None:
     n_dof = _check_frozen(reader, scene)
     if n_dof is not None:
         if compute.n_modes is not None and compute.n_modes > n_dof:
-            reader.fail("compute.n_modes", f"is {compute.n_modes}; the system has only {n_dof} degrees of freedom")
+            reader.fail("compute.n_modes", f"is {compute.n_modes}; the system has only {counted(n_dof, 'degree of freedom')}")
         if compute.response is not None and compute.response.force_site >= n_dof:
             reader.fail("compute.response.force_site",
                         f"is {compute.response.force_site}; degrees of freedom run from 0 to {n_dof - 1}")
         if compute.response is not None and (compute.response.n_modes or 0) > n_dof:
             reader.fail("compute.response.n_modes",
-                        f"is {compute.response.n_modes}; the system has only {n_dof} degrees of freedom")
+                        f"is {compute.response.n_modes}; the system has only {counted(n_dof, 'degree of freedom')}")
     builder = scene.system.builder
     if builder == "linear_chain":
         n = params["n"]
@@ -401,6 +402,27 @@ def _check_molecule(reader: Reader, params: Mapping[str, Any]) -> None:
         scene_data_path(reader.source, "system.xyz", params["xyz"])
     if params["isotopes"] is not None and params["masses"] is not None:
         reader.fail("system.masses", "give isotopes (labels) or masses (amu), not both")
+    _check_engine(reader, params)
+
+
+def _check_engine(reader: Reader, params: Mapping[str, Any]) -> None:
+    """``engine``, ``method`` and ``basis`` by name (`vibra.molecules.engines.choice`: nothing runs); a
+    missing package is left to `vibra validate` and the report (`vibra.pipeline.plan.electronic`)."""
+    if params.get("engine") is None and params.get("method") is None and params.get("basis") is None:
+        return
+    from vibra.molecules.engines.choice import EngineChoiceError, EngineMissingError, check_engine_choice
+
+    try:
+        choice = check_engine_choice(params.get("engine"), params.get("method"), params.get("basis"), require=False)
+    except EngineChoiceError as error:
+        reader.fail(f"system.{error.key}", str(error))
+    except EngineMissingError:
+        return
+    if choice.electronic:
+        for key in ("stretch", "bend", "torsion"):
+            if params.get(key) is not None:
+                reader.fail(f"system.{key}", f"sets the bundled force field, but engine = {choice.engine!r} "
+                            "computes the molecule; remove it")
 
 
 # ---------------------------------------------------------------------- crystal scenes

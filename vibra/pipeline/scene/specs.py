@@ -4,20 +4,35 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
-__all__ = ["SceneError", "KINDS", "UNITS", "DEFAULT_UNITS", "SAFE_NAME", "SystemSpec", "ResponseSpec",
+from vibra.pipeline.scene.values import brief
+from vibra.units import UNIT_NAMES, UNITS_EXPECTED, unit_system
+
+__all__ = ["SceneError", "KINDS", "UNITS", "units_name", "DEFAULT_UNITS", "SAFE_NAME", "SystemSpec", "ResponseSpec",
            "ContinuumSpec", "ComputeSpec", "DrawSpec", "CrystalSpec", "FREQUENCY_UNITS"]
 
 #: How a crystal scene labels its frequency axis (``draw.frequency_unit``).
 FREQUENCY_UNITS = ("THz", "cm^-1")
 
 KINDS = ("chain", "molecule", "oscillator", "generalized", "network", "crystal", "dynamics")
-UNITS = ("SI", "ASE", "dimensionless")
+UNITS = UNIT_NAMES  # a scene's units key is read by `units_name`, through `vibra.units.unit_system`
 DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI", "network": "dimensionless",
                  "crystal": "ASE", "dynamics": "dimensionless"}
 #: A scene name: letters, digits and ``_ . -`` (output files are ``<name>_<what>.png``).
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+
+
+def units_name(value: Any, fail: Callable[[str], Any]) -> str:
+    """A scene's ``units`` as `vibra.units.unit_system` reads it (any capitalisation), in vibra's spelling.
+
+    >>> units_name("si", print), units_name("Dimensionless", print)
+    ('SI', 'dimensionless')
+    """
+    try:
+        return unit_system(value).name if isinstance(value, str) else fail(f"is {brief(value)}; {UNITS_EXPECTED}")
+    except ValueError:
+        return fail(f"is {brief(value)}; {UNITS_EXPECTED}")
 
 
 class SceneError(ValueError):

@@ -10,6 +10,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from vibra._core.text import counted
+
 __all__ = ["brief", "Check", "FieldSpec", "field_spec", "kind_name", "number", "positive", "nonnegative", "integer",
            "boolean", "string", "one_of", "list_of", "scalar_or_list", "index_pairs", "matrix", "coordinates",
            "table", "HYDROGEN_ISOTOPES", "element_symbol"]
@@ -98,9 +100,9 @@ def list_of(item: Check, *, length: int | None = None, min_length: int = 1) -> C
         if not isinstance(value, list):
             fail(f"expected a list, got {kind_name(value)} ({brief(value)})")
         if length is not None and len(value) != length:
-            fail(f"needs {length} values, got {len(value)}")
+            fail(f"needs {counted(length, 'value')}, got {len(value)}")
         if len(value) < min_length:
-            fail(f"needs at least {min_length} values, got {len(value)}")
+            fail(f"needs at least {counted(min_length, 'value')}, got {len(value)}")
         out = []
         for i, entry in enumerate(value):
             out.append(item(entry, _prefixed(fail, f"[{i}] ")))

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from vibra._core.text import counted
 from vibra.solvers.budget import ResourceLimitError, describe_bytes, memory_limit
 
 __all__ = ["SweepMemory", "sweep_memory", "check_sweep_memory", "ROW_BYTES", "MODE_BYTES"]
@@ -77,5 +78,6 @@ def check_sweep_memory(count: int, *, n_dof: int, n_modes: int, solve: float, tr
     if track and memory.vectors and untracked.total <= room:
         ways.append("track=False (branches by rank; no vectors held)")
     raise ResourceLimitError(
-        f"{count:,} points of {n_dof} dofs and {n_modes} modes would hold {memory.describe()}, more than the "
+        f"{counted(count, 'point', thousands=True)} of {counted(n_dof, 'dof')} and {counted(n_modes, 'mode')} would "
+        f"hold {memory.describe()}, more than the "
         f"{describe_bytes(room)} {source}; {' or '.join(ways)}")
