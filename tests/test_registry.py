@@ -198,6 +198,18 @@ def test_the_plan_names_the_path_that_runs_and_every_path_is_reached(monkeypatch
     gpu = solvers.plan(np.eye(3), np.ones(3), n_modes=None, vectors=True, band=None, solver="auto",
                        spring_factor=None, device="gpu")
     reached.add(gpu.path)
+    slepc = solvers.plan(sp.identity(40, format="csr"), np.ones(40), n_modes=6, vectors=True, band=None,
+                         solver="slepc", spring_factor=None)  # (only when named: its runs in test_slepc.py)
+    reached.add(slepc.path)
+    # (issue 47) the iterative paths, where the factorisation's estimate is the larger: its rate
+    # raised here (the 1,800-dof network's runs: test_solver_registry_paths.py, test_iterative.py)
+    monkeypatch.setattr(registry, "SPARSE_FACTOR_S", 1.0)
+    monkeypatch.setattr(registry, "ITERATIVE_FROM", 0)  # (its gate lowered to 1,800 dofs)
+    network = systems()["network-1800"][0]
+    for level in ("fast", "high"):
+        reached.add(solvers.plan(network.hessian(), network.mass_matrix(), n_modes=8, vectors=True, band=None,
+                                 solver="auto", spring_factor=network.spring_factor() if level != "fast" else None,
+                                 accuracy=level).path)
     reached.update(quadratic_paths())
     missing = [path.name for path in registry.PATHS if path.name not in reached]
     assert not missing, f"registered but never planned: {missing}"

@@ -50,6 +50,14 @@ def lattice(rows: int, columns: int) -> System:
     return System.from_springs(sites, 1.0, bonds, 1.0)
 
 
+def network(n_sites: int) -> System:
+    """A random 3-D elastic network (uniform sites at density 0.05, springs within 8.5 units)."""
+    from vibra import networks
+
+    side = (n_sites / 0.05) ** (1.0 / 3.0)
+    return networks.anm(np.random.default_rng(0).uniform(0.0, side, size=(n_sites, 3)), cutoff=8.5)
+
+
 def generalized() -> System:
     rng = np.random.default_rng(3)
     coupled = rng.normal(size=(12, 12))
@@ -77,6 +85,10 @@ CASES: dict[str, tuple[Callable[[], System], dict[str, Any]]] = {
     "banded": (lambda: ring(1600), dict(vectors=False, accuracy="fast")),
     "sparse": (lambda: line(1600), dict(n_modes=4, accuracy="fast")),
     "dense": (lambda: line(40), dict(accuracy="fast")),
+    # a 3-D network over DENSE_LIMIT dofs, the factorisation's rate raised so that its estimate
+    # passes the iterative path's (which the plan weighs, `registry._cheaper_rival`)
+    "iterative": (lambda: network(600), dict(n_modes=8, accuracy="fast", factor_rate=1.0)),
+    "accurate-iterative": (lambda: network(600), dict(n_modes=8, factor_rate=1.0)),
 }
 
 #: The quadratic paths: (K, G or C) with M = I, from `tests/test_registry.py`'s cases.
@@ -113,8 +125,13 @@ def fake_gpu(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     return calls
 
 
+#: Paths "auto" never takes (only solver="slepc" names it): planned, solved over MPI and checked
+#: against the dense solve in tests/test_slepc.py, which skips with its reason where MPI is missing.
+NAMED_ONLY = {"slepc"}
+
+
 def test_every_registered_path_has_a_case() -> None:
-    assert set(CASES) | set(QUADRATIC) == set(registry.BY_NAME)
+    assert set(CASES) | set(QUADRATIC) | NAMED_ONLY == set(registry.BY_NAME)
 
 
 @pytest.mark.parametrize("name", list(CASES))
@@ -123,6 +140,9 @@ def test_each_path_is_planned_solved_and_reported_as_declared(name: str, lowered
     build, request = CASES[name]
     if "dense_limit" in request:  # (read by the registry's predicates; this request reaches no other one)
         monkeypatch.setattr(registry, "DENSE_LIMIT", request["dense_limit"])
+    if "factor_rate" in request:  # (read by the sparse paths' cost function only)
+        monkeypatch.setattr(registry, "SPARSE_FACTOR_S", request["factor_rate"])
+        monkeypatch.setattr(registry, "ITERATIVE_FROM", 0)  # (a 1,800-dof network: the path's gate lowered)
     system = build()
     accuracy = request.get("accuracy", "high")
     device = request.get("device", "cpu")

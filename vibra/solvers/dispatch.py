@@ -24,7 +24,7 @@ from vibra.solvers.topology import classify
 
 #: The solver names that `normal_modes(solver=...)`, `System.modes(solver=...)` and scene
 #: files accept; ``"auto"`` chooses one of the paths (`registry.PATHS`).
-SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil")
+SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil", "slepc")
 
 #: Every path a result can report in `Modes.solver` (the registry's, and their fallbacks).
 SOLVER_PATHS = path_names()
@@ -55,7 +55,8 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
              device: str = "cpu") -> Problem:
     """The `registry.Problem` of a request: sizes, K~'s band (a ring reordered where the band
     solver could use it), the springs' shape (`topology.classify`), and K~'s diagonal spread
-    where the springs or a few modes of a chain are given; O(nnz), nothing of K~ formed."""
+    where the springs or a few modes of a chain are given, or K~ is large and not banded; O(nnz),
+    nothing of K~ formed."""
     n = K.shape[0]
     diagonal = mass.ndim == 1
     width = bandwidth(K) if diagonal else n - 1
@@ -71,7 +72,7 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
     partial = n_modes is not None and n_modes < n
     ringlike = topology in ("ring", "walled-ring")  # (a ring's band request routes as if unspread)
     if diagonal and (band is None and (partial and width <= 1 and ordering is None or ringlike)
-                     or use_factor and not ringlike):
+                     or use_factor and not ringlike or width > BAND_LIMIT and n > DENSE_LIMIT):
         spread = _diagonal_spread(K, mass)
         if topology == "none" and solver == "auto" and spread > common.BISECTION_SPREAD:
             derived = spring_factor_of_chain(K)  # a chain given as K: its springs from K's entries
@@ -137,6 +138,9 @@ def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDAr
         raise ValueError("solver='banded' needs diagonal masses")
     if solver == "sparse" and n_modes is None and band is None:
         raise ValueError("solver='sparse' computes a few modes: give n_modes or band")
+    if solver == "slepc" and (n_modes is None or band is not None or mass.ndim != 1 or n_modes >= K.shape[0] - 1):
+        raise ValueError("solver='slepc' computes the lowest modes of a large K with diagonal masses: give n_modes "
+                         f"below n_dof - 1 = {K.shape[0] - 1}")
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
 

@@ -34,10 +34,12 @@ from vibra.solvers.accurate.ring.counted import ring_band_counted, ring_counted
 from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result, ring_vectors
 from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
+from vibra.solvers.standard.iterative import lowest_modes
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
 from vibra.solvers.structured.equilibrated import pencil_result
 from vibra.solvers.accurate.chain.walled import walled_result
 from vibra.solvers.accuracy import uses_springs
+from vibra.solvers.distributed.slepc import slepc_path
 from vibra.solvers.problem import Problem
 from vibra.solvers.structured.first_order import Reduced, Solved, companion_solve, hamiltonian_solve, skew_solve
 
@@ -76,6 +78,13 @@ def sparse(p: Problem, x: Inputs) -> SolveResult:
     return sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, spring_factor=x.factor)
 
 
+def iterative(p: Problem, x: Inputs) -> SolveResult:
+    result = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, on_stage=x.on_stage)  # type: ignore[arg-type]
+    if not p.vectors:
+        result.vectors = None
+    return result
+
+
 def pencil_jacobi(p: Problem, x: Inputs) -> SolveResult:
     return pencil_result(x.K, _full(x.mass), n_modes=p.n_modes, vectors=p.vectors, band=x.band)
 
@@ -91,6 +100,10 @@ def _full(mass: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def gpu(p: Problem, x: Inputs) -> SolveResult:
     return gpu_module.solve_gpu(x.K, x.mass, n_modes=p.n_modes, vectors=p.vectors, band=p.band)
+
+
+def slepc(p: Problem, x: Inputs) -> SolveResult:  # (issue 47 item 3: SLEPc over MPI, `solvers.distributed`)
+    return slepc_path(x.Kt, n_modes=int(p.n_modes), vectors=p.vectors)  # type: ignore[arg-type]
 
 
 # ------------------------------------------------------------------ quadratic paths (M q'' + (G + C) q' + K q = 0)
@@ -184,24 +197,37 @@ def accurate_ring_band(p: Problem, x: Inputs) -> SolveResult:
 
 
 def accurate_ritz(p: Problem, x: Inputs) -> SolveResult:
-    coupling, weights, weighted, deviation = _springs(x, lazy=True)
     if x.band is None:
-        k = int(p.n_modes)
         matrix = sp.csr_matrix(x.Kt)
         rounding = semidefinite_rounding(x.factor, float(abs(matrix).sum(axis=1).max()))
         sigma, shifted = lowest_shift(matrix, rounding=rounding)
-        _, basis = shift_invert(matrix, min(k + 1, p.n - 2), sigma, shifted)  # one more: the gap
-        # a chain's Ritz values bracketed by Sturm counts of its spring form: "high" from 3e-14,
-        # "certified" from 8 eps, its values the vectors' Rayleigh quotients in double-double
-        form = chain_form(coupling, weights, x.mass) if p.topology == "chain" and uses_springs(p.accuracy) else None
-        result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation, form=form,
-                                               precise=p.accuracy == "certified"),
-                                  f"by spring-space Rayleigh-Ritz on {basis.shape[1]} shift-invert vectors")
-    else:
-        standard = sparse_path(x.Kt, n_modes=None, vectors=True, band=x.band)
-        deviation = deviation()
-        result = relative_account(spring_ritz_band(weighted, standard, x.band, vectors=p.vectors, deviation=deviation),
-                                  "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
+        _, basis = shift_invert(matrix, min(int(p.n_modes) + 1, p.n - 2), sigma, shifted)  # type: ignore[arg-type]
+        return _spring_ritz(p, x, basis, "shift-invert")  # (one more vector than asked: the gap)
+    coupling, weights, weighted, deviation = _springs(x, lazy=True)
+    standard = sparse_path(x.Kt, n_modes=None, vectors=True, band=x.band)
+    deviation = deviation()
+    result = relative_account(spring_ritz_band(weighted, standard, x.band, vectors=p.vectors, deviation=deviation),
+                              "by spring-space Rayleigh-Ritz on the sparse path's vectors in the band")
+    return _finished(p, x, result, weighted, deviation)
+
+
+def accurate_iterative(p: Problem, x: Inputs) -> SolveResult:
+    """The iterative path's k + 1 lowest vectors (the last bounds the gap), then as `accurate_ritz`."""
+    basis = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, extra=1, on_stage=x.on_stage).vectors  # type: ignore[arg-type]
+    assert basis is not None
+    return _spring_ritz(p, x, basis, "LOBPCG")
+
+
+def _spring_ritz(p: Problem, x: Inputs, basis: NDArray[np.float64], how: str) -> SolveResult:
+    """Spring-space Rayleigh-Ritz on k + 1 vectors of the lowest modes (`checked_ritz`), bounds tightened."""
+    coupling, weights, weighted, deviation = _springs(x, lazy=True)
+    k = int(p.n_modes)  # type: ignore[arg-type]
+    # a chain's Ritz values bracketed by Sturm counts of its spring form: "high" from 3e-14,
+    # "certified" from 8 eps, its values the vectors' Rayleigh quotients in double-double
+    form = chain_form(coupling, weights, x.mass) if p.topology == "chain" and uses_springs(p.accuracy) else None
+    result = relative_account(checked_ritz(weighted, basis, k, vectors=p.vectors, deviation=deviation, form=form,
+                                           precise=p.accuracy == "certified"),
+                              f"by spring-space Rayleigh-Ritz on {basis.shape[1]} {how} vectors")
     return _finished(p, x, result, weighted, deviation)
 
 

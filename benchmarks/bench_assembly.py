@@ -1,0 +1,147 @@
+"""The lowest 20 modes of large protein assemblies: the iterative path against the factorisation (issue 47).
+
+The network: ANM (cutoff 15 Å, ProDy's default, gamma 1) of a synthetic assembly of copies of
+ubiquitin packed face to face (`assembly_builder.synthetic_assembly`): n_sites = dofs / 3.
+Methods, each in its own subprocess (so that its peak resident memory, ru_maxrss, is its own),
+on the same K~ (masses 1):
+
+- ``iterative``: `vibra.solvers.standard.iterative.lowest_modes` ("fast": residuals <= 1e-8 ||K~||);
+- ``iterative-high``: `normal_modes(..., accuracy="high")` on the accurate-iterative path forced by
+  the registry's rule (the factorisation's rate raised; relative bounds from spring-space Ritz);
+- ``factorisation``: vibra's sparse path (`sparse_path`: CHOLMOD / PARDISO shift-invert, the path
+  the plan picks at these sizes today);
+- ``eigsh``: the strongest peer named, scipy's ``eigsh(K~, k, sigma=-1e-4 ||K~||, which="LM")``
+  (shift-invert with SuperLU), tol 0 (machine precision).
+
+Each row records time (one run: the 10^5 rows take minutes, so N = 1, with the load average
+beside it), peak memory, the cost model's estimate, the largest residual ||K~ v - lambda v|| /
+||K~||_inf, and the lowest values; eigsh is skipped over `EIGSH_MOST` dofs (the row says why), and a
+failed run's row gives its exit status. Results: results/assembly.json.
+
+Usage: ``python benchmarks/bench_assembly.py [--sizes 10000,100000] [--methods ...] [--budget 900]``
+(3·10^5 and 10^6 dofs: ``--sizes 300000,1000000 --methods iterative``, hours on 2 cores; not run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from _common import RESULTS, write_json  # noqa: E402  (pins BLAS threads before numpy)
+
+import numpy as np  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+MODES = 20
+CUTOFF = 15.0
+#: eigsh (SuperLU, minimum-degree order) above this many dofs: skipped (its fill grows past the machine).
+EIGSH_MOST = 30_000
+METHODS = ("iterative", "iterative-high", "factorisation", "eigsh")
+
+
+def _system(dofs: int):  # type: ignore[no-untyped-def]
+    from assembly_builder import synthetic_assembly
+    from vibra import networks
+
+    return networks.anm(synthetic_assembly(dofs // 3), cutoff=CUTOFF)
+
+
+def _estimate(method: str, n: int, nnz: int, n_terms: int) -> float | None:
+    from vibra.solvers.registry import estimate
+
+    name = {"iterative": "iterative", "iterative-high": "accurate-iterative", "factorisation": "sparse"}.get(method)
+    if name is None:
+        return None
+    accuracy = "high" if method == "iterative-high" else "fast"
+    return estimate(name, n, k=MODES, vectors=True, nnz=nnz, width=n - 1, accuracy=accuracy,
+                    n_terms=n_terms if accuracy == "high" else 0).seconds
+
+
+def run_one(method: str, dofs: int) -> dict:
+    """One method on one size, in this process: its figures."""
+    from vibra import normal_modes
+    from vibra.solvers import registry
+    from vibra.solvers.standard.iterative import lowest_modes
+    from vibra.solvers.standard.sparse import sparse_path
+    import scipy.sparse.linalg as sla
+
+    import pyamg  # noqa: F401  (imported before the clock: the path imports it on first use)
+
+    built = time.perf_counter()
+    system = _system(dofs)
+    K = system.hessian()
+    build_s = time.perf_counter() - built
+    n = K.shape[0]
+    norm = float(abs(K).sum(axis=1).max())
+    start = time.perf_counter()
+    if method == "iterative":
+        result = lowest_modes(K, MODES)
+        values, vectors = result.eigenvalues, result.vectors
+    elif method == "iterative-high":
+        registry.SPARSE_FACTOR_S = 1.0  # (the plan weighs the two: the factorisation's estimate made the larger)
+        modes = normal_modes(K, system.mass_matrix(), n_modes=MODES, spring_factor=system.spring_factor(),
+                             accuracy="high", max_seconds=float("inf"), max_memory=float("inf"))
+        assert modes.path == "accurate-iterative", modes.path
+        values, vectors = modes.omega ** 2 * np.sign(modes.omega), modes.vectors
+    elif method == "factorisation":
+        result = sparse_path(K, n_modes=MODES, vectors=True, band=None)
+        values, vectors = result.eigenvalues, result.vectors
+    else:
+        values, vectors = sla.eigsh(K.tocsc(), k=MODES, sigma=-1e-4 * norm, which="LM", tol=0.0)
+    seconds = time.perf_counter() - start
+    residual = np.linalg.norm(K @ vectors - vectors * values, axis=0) / norm
+    return {"method": method, "dofs": n, "nnz": int(K.nnz), "seconds": seconds, "build_seconds": build_s,
+            "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0,
+            "estimate_seconds": _estimate(method, n, int(K.nnz), int(system.spring_factor()[0].shape[0])),
+            "max_relative_residual": float(residual.max()),
+            "values": [float(v) for v in np.sort(values)], "load_average": os.getloadavg()[0]}
+
+
+def _measured(method: str, dofs: int, budget: float) -> dict:
+    """One method on one size in its own process (its peak memory its own); a failure's exit status
+    and last line of stderr."""
+    done = subprocess.run([sys.executable, __file__, "--one", method, str(dofs)], capture_output=True,
+                          text=True, timeout=4 * budget)
+    if done.returncode:
+        return {"method": method, "dofs": dofs, "failed": f"exit status {done.returncode}",
+                "stderr": done.stderr.strip().splitlines()[-1:]}
+    return dict(json.loads(done.stdout.strip().splitlines()[-1]))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="10000,100000")
+    parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--budget", type=float, default=900.0, help="a method is stopped after 4 times this (s)")
+    parser.add_argument("--one", nargs=2, metavar=("METHOD", "DOFS"), help=argparse.SUPPRESS)
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args()
+    if args.one:
+        print(json.dumps(run_one(args.one[0], int(args.one[1]))))
+        return
+    rows = []
+    path = RESULTS / "assembly.json"
+    for dofs in (int(x) for x in args.sizes.split(",")):
+        for method in args.methods.split(","):
+            print(f"{dofs} dofs, {method} ...", flush=True)
+            if method == "eigsh" and dofs > EIGSH_MOST:
+                rows.append({"method": method, "dofs": dofs, "skipped": f"over {EIGSH_MOST} dofs: SuperLU's "
+                             "minimum-degree factor of a 3-D network (the peer's own ordering) does not fit the time"})
+            else:
+                rows.append(_measured(method, dofs, args.budget))
+            print(rows[-1] if "failed" in rows[-1] else {k: v for k, v in rows[-1].items() if k != "values"},
+                  flush=True)
+            write_json("assembly", {"modes": MODES, "cutoff_angstrom": CUTOFF, "rows": rows,
+                                    "note": "one run per row (N = 1), each method in its own process; "
+                                            "load_average: the 1-minute load when it finished"}, rounds=1)
+    print(path)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,192 @@
+"""The iterative path (`vibra.solvers.standard.iterative`, issue 47): LOBPCG with a multigrid preconditioner.
+
+Truth comes from outside it: LAPACK's dense eigh (numpy) on networks of a few thousand dofs, the
+factorisation path (CHOLMOD / PARDISO shift-invert) at 30,000 dofs, and the rigid translations,
+which are in the kernel of any network of pair springs exactly. Tolerances:
+
+- eigenvalues: a pair (lambda, v) with residual r = ||K~ v - lambda v|| has an eigenvalue within r of
+  lambda (symmetric K~); the path refuses a residual over ACCEPTED ||K~||_inf, and LAPACK's own
+  error is ~n eps ||K~||, so |lambda - lambda_dense| <= ACCEPTED ||K~||_inf + 1e-12 ||K~||_inf;
+- subspaces (degenerate modes: compare spans): by Davis-Kahan, sin of the largest principal angle
+  between the k computed vectors and the true lowest-k space is at most ||R||_F / gap, gap the
+  distance of lambda_{k+1} from the k-th computed value; asserted with a factor 2 for rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as la
+import scipy.sparse as sp
+
+from vibra import networks
+from vibra.solvers.common import mass_weighted
+from vibra.solvers.problem import Problem
+from vibra.solvers import registry
+from vibra.solvers.registry import BY_NAME, choose, estimate
+from vibra.solvers.standard import iterative
+from vibra.solvers.standard.iterative import ACCEPTED, iterative_cost, lowest_modes, rigid_body_modes, translations
+from vibra.solvers.standard.sparse import sparse_path
+
+
+def _network(n_sites: int, *, seed: int = 0, cutoff: float = 8.5) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """K~ of a random ANM (uniform sites at density 0.05, as the corpus's network), masses, positions."""
+    rng = np.random.default_rng(seed)
+    side = (n_sites / 0.05) ** (1.0 / 3.0)
+    positions = rng.uniform(0.0, side, size=(n_sites, 3))
+    masses = rng.uniform(0.5, 2.0, n_sites)
+    system = networks.anm(positions, cutoff=cutoff, masses=masses)
+    mass = system.mass_matrix()
+    return sp.csr_matrix(mass_weighted(system.hessian(), mass)), mass, positions
+
+
+def _norm(Kt: sp.csr_matrix) -> float:
+    return float(abs(Kt).sum(axis=1).max())
+
+
+@pytest.fixture(scope="module")
+def small() -> tuple[sp.csr_matrix, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    Kt, mass, positions = _network(800)
+    values, vectors = la.eigh(Kt.toarray())
+    return Kt, mass, positions, values, vectors
+
+
+def test_eigenpairs_against_dense(small):
+    Kt, mass, _, values, vectors = small
+    k = 20
+    result = lowest_modes(Kt, k, mass=mass)
+    norm = _norm(Kt)
+    assert result.solver == "iterative"
+    assert np.all(np.abs(result.eigenvalues - values[:k]) <= ACCEPTED * norm + 1e-12 * norm)
+    residual = Kt @ result.vectors - result.vectors * result.eigenvalues
+    gap = values[k] - result.eigenvalues[k - 1]
+    assert gap > 0
+    cosines = la.svdvals(vectors[:, :k].T @ result.vectors)
+    sine = np.sqrt(max(0.0, 1.0 - float(cosines.min()) ** 2))
+    assert sine <= 2.0 * np.linalg.norm(residual) / gap
+    # orthonormal vectors, ascending values, every residual within the promise
+    assert np.abs(result.vectors.T @ result.vectors - np.eye(k)).max() <= 1e-12
+    assert np.all(np.diff(result.eigenvalues) >= 0)
+    assert np.all(np.linalg.norm(residual, axis=0) <= ACCEPTED * norm)
+
+
+def test_rigid_body_modes_exact(small):
+    """Six zero modes (a connected network): the translations, mass-weighted, lie in the returned
+    zero space to rounding (they are projected out of the iteration, not iterated on), and the six
+    values are zero to ~eps ||K~|| (the level at which LAPACK's are)."""
+    Kt, mass, positions, values, _ = small
+    result = lowest_modes(Kt, 10, mass=mass)
+    norm = _norm(Kt)
+    assert np.all(np.abs(result.eigenvalues[:6]) <= 1e-12 * norm)
+    assert result.eigenvalues[6] > 1e-6 * norm
+    T = translations(Kt.shape[0], mass, Kt)
+    zero = result.vectors[:, :6]
+    assert np.linalg.norm(T - zero @ (zero.T @ T)) <= 1e-12
+    # all six rigid-body modes in the same space: the rotations were iterated on, so within
+    # Davis-Kahan's ||R_zero||_F / lambda_7 (the residuals of the six over the gap to the seventh)
+    R = rigid_body_modes(positions, mass)
+    residual = Kt @ zero - zero * result.eigenvalues[:6]
+    bound = 2.0 * np.linalg.norm(residual) / result.eigenvalues[6]
+    assert la.norm(R - zero @ (zero.T @ R), 2) <= bound
+    assert np.linalg.norm(Kt @ R) <= 1e-12 * norm * np.sqrt(Kt.shape[0])
+
+
+def test_given_rigid_basis(small):
+    Kt, mass, positions, values, _ = small
+    result = lowest_modes(Kt, 12, mass=mass, rigid=rigid_body_modes(positions, mass))
+    assert np.all(np.abs(result.eigenvalues - values[:12]) <= (ACCEPTED + 1e-12) * _norm(Kt))
+
+
+def test_refuses_when_not_converged(small):
+    Kt, mass, _, _, _ = small
+    with pytest.raises(RuntimeError, match=r"did not converge: mode \d+'s residual .*\(max_iterations=1\).*solver='sparse'"):
+        lowest_modes(Kt, 20, mass=mass, max_iterations=1)
+
+
+@pytest.mark.parametrize("n_modes", [0, 2.5, 1000])
+def test_bad_mode_count(small, n_modes):
+    Kt, mass, _, _, _ = small
+    with pytest.raises(ValueError, match=r"n_modes is .*; expected an integer from 1 to \d+ for a 2400-dof K~"):
+        lowest_modes(Kt, n_modes, mass=mass)
+
+
+def test_translations_need_sites_of_three():
+    K = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(10, 10), format="csr")
+    assert translations(10, None, K).shape == (10, 0)
+
+
+def _problem(n: int, per_row: int, k: int, accuracy: str = "fast") -> Problem:
+    springs = accuracy != "fast"
+    return Problem(n=n, n_modes=k, band=None, vectors=True, accuracy=accuracy, diagonal_mass=True, width=n - 1,
+                   ordering=None, sparse=True, nnz=n * per_row, n_terms=25 * n if springs else 0,
+                   topology="network" if springs else "none")
+
+
+@pytest.mark.parametrize("accuracy, factorisation, iterative_name",
+                         [("fast", "sparse", "iterative"), ("high", "accurate-ritz", "accurate-iterative")])
+def test_plan_chooses_by_estimated_cost(accuracy, factorisation, iterative_name, monkeypatch):
+    """The corpus sizes (30,000 dofs at 331 entries per row, 50,148 at ~140) and a 10^6-dof ANM keep
+    the factorisation, the smaller estimate; where the factorisation's estimate is made the larger
+    (its rate raised), the same requests take the iterative path: the choice is the estimates'."""
+    sizes = ((30_000, 331), (50_148, 140), (1_000_000, 160))
+    for n, per_row in sizes:
+        problem = _problem(n, per_row, 20, accuracy)
+        chosen = choose(problem, "auto")
+        assert chosen.name == factorisation
+        assert chosen.estimate(problem).seconds <= BY_NAME[iterative_name].estimate(problem).seconds
+    monkeypatch.setattr(registry, "SPARSE_FACTOR_S", 1.0)
+    for n, per_row in sizes:
+        problem = _problem(n, per_row, 20, accuracy)
+        chosen = choose(problem, "auto")
+        assert chosen.name == iterative_name
+        assert chosen.estimate(problem).seconds <= BY_NAME[factorisation].estimate(problem).seconds
+
+
+def test_not_for_chains_or_many_modes():
+    chain = Problem(n=100_000, n_modes=20, band=None, vectors=True, accuracy="fast", diagonal_mass=True, width=1,
+                    ordering=None, sparse=True, nnz=300_000, n_terms=0, topology="none")
+    assert not BY_NAME["iterative"].applies(chain)
+    assert BY_NAME["iterative"].applies(_problem(1_000_000, 160, 20))
+    assert not BY_NAME["iterative"].applies(_problem(1_000_000, 160, 500))  # over MOST_MODES
+
+
+def test_cost_monotone():
+    base_memory, base_seconds = iterative_cost(100_000, 10_000_000, 20)
+    for n, nnz, k in ((200_000, 10_000_000, 20), (100_000, 20_000_000, 20), (100_000, 10_000_000, 40)):
+        memory, seconds = iterative_cost(n, nnz, k)
+        assert memory > base_memory and seconds > base_seconds
+    cost = estimate("iterative", 1_000_000, k=20, vectors=True, nnz=160_000_000, width=999_999, accuracy="fast")
+    assert cost.path == "iterative" and cost.seconds > 0 and cost.memory > 8.0 * 160_000_000
+
+
+@pytest.mark.slow
+def test_against_factorisation_30000():
+    """The corpus's 30,000-dof random network: the same 20 lowest values as the factorisation path
+    (shift-invert, residuals ~1e-14 ||K~||), within the iterative path's promise."""
+    Kt, mass, _ = _network(10_000)
+    k = 20
+    ours = lowest_modes(Kt, k, mass=mass)
+    theirs = sparse_path(Kt, n_modes=k, vectors=True, band=None)
+    assert np.all(np.abs(ours.eigenvalues - theirs.eigenvalues) <= (ACCEPTED + 1e-12) * _norm(Kt))
+
+
+def test_block_multigrid_symmetric(small):
+    """LOBPCG needs a symmetric preconditioner: x^T P(y) = y^T P(x) to rounding."""
+    Kt, mass, _, _, _ = small
+    A = (Kt + iterative.SHIFT * _norm(Kt) * sp.identity(Kt.shape[0])).tocsr()
+    P = iterative.BlockMultigrid(A, translations(Kt.shape[0], mass, Kt))
+    rng = np.random.default_rng(1)
+    x, y = rng.standard_normal((2, Kt.shape[0]))
+    assert abs(x @ P(y) - y @ P(x)) <= 1e-10 * abs(x @ P(x))
+
+
+def test_not_below_its_size_or_where_the_springs_spread():
+    """"auto" takes the path only from `ITERATIVE_FROM` dofs and where K~'s diagonal does not
+    spread over decades (`Problem.loose`): a 1,536-dof lattice with springs 1e-4..1e4 once went
+    to it and stalled at a residual of 1.5e-8 ||K~||; the factorisation serves both."""
+    from dataclasses import replace
+    from vibra.solvers.standard.iterative import ITERATIVE_FROM
+    large = _problem(1_000_000, 160, 20)
+    assert BY_NAME["iterative"].applies(large)
+    assert not BY_NAME["iterative"].applies(_problem(ITERATIVE_FROM - 3, 160, 20))
+    assert not BY_NAME["iterative"].applies(replace(large, spread=1e8))

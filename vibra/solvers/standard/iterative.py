@@ -1,0 +1,314 @@
+"""The iterative path: the lowest modes of a large 3-D network by LOBPCG with a multigrid preconditioner.
+
+The factorisation of the sparse path (`vibra.solvers.standard.sparse`) grows like n^(4/3) in
+memory and n^2 in work on a 3-D network; this path grows like its matrix, O(nnz) per step:
+
+- the rigid-body translations (a network's dofs in sites of three, `ordering.site_block`, each
+  axis moved as one, mass-weighted: M^1/2 t) are in K~'s kernel exactly and are projected out
+  of the iteration (`lobpcg`'s constraints `Y`), then returned as modes of value 0 to rounding,
+  as the factorisation path returns them; the rotations (which need the coordinates, which K~
+  does not carry) are found by the iteration like any other mode;
+- the preconditioner is smoothed-aggregation algebraic multigrid (pyamg) of K~ + sigma I
+  (`SHIFT` ||K~||_inf: the singular K~ made definite, below the wanted modes) with the
+  translations as its near-null space, applied to the whole block at once (`BlockMultigrid`:
+  pyamg's own cycle works one column at a time, ~20 times slower on a block of 20);
+- scipy's `lobpcg` on a block of k - 3 + `EXTRA` columns (`block_columns`), stopped at a
+  residual of `TOLERANCE` ||K~||_inf, after which one Rayleigh-Ritz step on [translations,
+  block] gives the returned pairs; every returned pair's residual is measured and a pair over
+  `ACCEPTED` ||K~||_inf (the level's promise, "fast") refuses the result (RuntimeError naming
+  the residual, the iterations and the factorisation path as the way out).
+
+Inputs are K~ (sparse, symmetric) and k only, so that another backend (SLEPc) can take the same
+request. The cost model is `iterative_cost` (seconds and bytes from n, nnz and k).
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Callable
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+from numpy.typing import NDArray
+
+from vibra.solvers.budget import (
+    ITERATIVE_GROWTH, ITERATIVE_PRODUCT_S, ITERATIVE_PRODUCTS, ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS,
+)
+from vibra.solvers.common import SolveResult, absolute_figures
+from vibra.solvers.standard.ordering import site_block
+
+__all__ = ["ACCEPTED", "MOST_MODES", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
+           "translations"]
+
+#: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a decade under `ACCEPTED`,
+#: so that the final Rayleigh-Ritz step's rounding and LOBPCG's own (its Gram matrices) stay inside it.
+TOLERANCE = 1e-9
+
+#: The largest residual ||K~ v - lambda v|| / ||K~||_inf a returned pair may have (the "fast"
+#: promise on this path: an eigenvalue within that of a true one, Weyl; issue 47).
+ACCEPTED = 1e-8
+
+#: Columns beyond the wanted modes in LOBPCG's block: the (k+1)-th value bounds the gap that
+#: the k-th converges with, and a cluster cut by the block's edge converges slowly.
+EXTRA = 4
+
+#: LOBPCG iterations at most (measured: 31 at 3e3 dofs, 59 at 1e4, 359 at 3e4 on a protein assembly).
+MAX_ITERATIONS = 1000
+
+#: Modes this path serves at most: LOBPCG's Rayleigh-Ritz costs n (3b)^2 per iteration, which
+#: passes the products' O(nnz b) beyond ~100 columns.
+MOST_MODES = 100
+
+#: Dofs from which "auto" may take this path (its estimate against the factorisation's decides
+#: beyond): below, the factorisation was faster on every network measured (2.0 s against 3.8 s at
+#: 10^4 dofs) and this path's estimate runs up to 5x under the actual time (below ~3,000 dofs).
+ITERATIVE_FROM = 10_000
+
+#: The preconditioner's shift, relative to ||K~||_inf: K~ + sigma I is definite, and sigma lies
+#: below the lowest nonzero mode of the networks measured (~1e-3 ||K~||_inf at 10^4..10^6 dofs).
+SHIFT = 1e-4
+
+
+#: pyamg's strength threshold: couplings under STRENGTH sqrt(|a_ii a_jj|) do not join aggregates
+#: (0 joins every neighbour: on a network of ~50 neighbours per site two levels, a weak coarse space).
+STRENGTH = 0.1
+
+#: Chebyshev smoothing: its degree (products with A per sweep) and the ratio of the top of D^-1 A's
+#: spectrum to the bottom of the part it damps (the rest the coarse levels take).
+DEGREE = 3
+CHEBYSHEV_RATIO = 30.0
+
+#: The coarsest level's size at most (a dense pseudo-inverse).
+MAX_COARSE = 500
+
+
+def translations(n: int, mass: NDArray[np.float64] | None, pattern: sp.spmatrix) -> NDArray[np.float64]:
+    """(n, 3) orthonormal mass-weighted rigid translations M^1/2 t of a 3-D network (dofs in sites of
+    three, site-major), or (n, 0) when K~'s dofs do not come in sites of three."""
+    if n % 3 or site_block(sp.csr_matrix(pattern)) != 3:
+        return np.zeros((n, 0))
+    weights = np.ones(n) if mass is None else np.sqrt(np.asarray(mass, dtype=float))
+    basis = np.zeros((n, 3))
+    for axis in range(3):
+        basis[axis::3, axis] = weights[axis::3]
+    return basis / np.linalg.norm(basis, axis=0)
+
+
+def rigid_body_modes(positions: NDArray[np.float64], mass: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """(3 n_sites, 6) orthonormal mass-weighted rigid-body modes M^1/2 u of sites at `positions`
+    ((n_sites, 3), site-major dofs): three translations and three rotations about the centroid."""
+    positions = np.asarray(positions, dtype=float)
+    centred = positions - positions.mean(axis=0)
+    n_sites = positions.shape[0]
+    basis = np.zeros((n_sites, 3, 6))
+    for axis in range(3):
+        basis[:, axis, axis] = 1.0
+        unit = np.zeros(3)
+        unit[axis] = 1.0
+        basis[:, :, 3 + axis] = np.cross(unit, centred)
+    flat = basis.reshape(3 * n_sites, 6)
+    if mass is not None:
+        flat = flat * np.sqrt(np.asarray(mass, dtype=float))[:, None]
+    return np.asarray(np.linalg.qr(flat)[0])
+
+
+def block_columns(k: int, rigid: int) -> int:
+    """LOBPCG's block width for the k lowest modes, `rigid` of them known and projected out."""
+    return k - rigid + EXTRA
+
+
+class BlockMultigrid:
+    """Smoothed-aggregation multigrid of A = K~ + sigma I applied to a block of columns at once.
+
+    The hierarchy (aggregates, smoothed prolongators P and Galerkin coarse matrices) is pyamg's
+    (`pyamg.smoothed_aggregation_solver`, near-null space `near_null`, K~'s 3 x 3 site blocks kept
+    together where it has them); one V-cycle per application with Chebyshev smoothing before and
+    after (`DEGREE` products, block-Jacobi preconditioned: a fixed polynomial, so the cycle is
+    symmetric, as LOBPCG needs) and a dense pseudo-inverse on the coarsest level.
+    """
+
+    def __init__(self, A: sp.csr_matrix, near_null: NDArray[np.float64]) -> None:
+        import pyamg
+
+        blocks = 3 if A.shape[0] % 3 == 0 and site_block(A) == 3 else 1
+        fine = A.tobsr(blocksize=(blocks, blocks)) if blocks > 1 else A
+        hierarchy = pyamg.smoothed_aggregation_solver(fine, B=near_null if near_null.shape[1] else None,
+                                                      strength=("symmetric", {"theta": STRENGTH}),
+                                                      max_coarse=MAX_COARSE, keep=False)
+        self.levels: list[tuple[sp.csr_matrix, NDArray[np.float64], float, sp.csr_matrix]] = []
+        for index, level in enumerate(hierarchy.levels[:-1]):
+            size = blocks if index == 0 else int(getattr(level.A, "blocksize", (1, 1))[0])
+            matrix = A if index == 0 else sp.csr_matrix(level.A)
+            inverse = _block_inverse(matrix, size)
+            self.levels.append((matrix, inverse, _spectral_radius(matrix, inverse), sp.csr_matrix(level.P)))
+        coarse = np.asarray(hierarchy.levels[-1].A.toarray())
+        self._coarse = la.pinvh(0.5 * (coarse + coarse.T))
+        self.depth = len(hierarchy.levels)
+
+    def __call__(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
+        X = np.asarray(X)
+        single = X.ndim == 1
+        out = self._cycle(0, X.reshape(X.shape[0], -1))
+        return out.ravel() if single else out
+
+    def _cycle(self, index: int, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+        if index == len(self.levels):
+            return np.asarray(self._coarse @ rhs)
+        matrix, inverse, radius, P = self.levels[index]
+        x = _smooth(matrix, inverse, radius, rhs)
+        residual = rhs - matrix @ x
+        x += P @ self._cycle(index + 1, np.asarray(P.T @ residual))
+        residual = rhs - matrix @ x
+        x += _smooth(matrix, inverse, radius, residual)
+        return x
+
+
+def _smooth(matrix: sp.csr_matrix, inverse: NDArray[np.float64], radius: float, rhs: NDArray[np.float64]
+            ) -> NDArray[np.float64]:
+    """`DEGREE` steps of Chebyshev iteration on A x = rhs from 0, preconditioned by the block diagonal D,
+    aimed at D^-1 A's eigenvalues in [radius / `CHEBYSHEV_RATIO`, radius] (a fixed polynomial: symmetric)."""
+    upper, lower = radius, radius / CHEBYSHEV_RATIO
+    centre, half = 0.5 * (upper + lower), 0.5 * (upper - lower)
+    sigma = centre / half
+    rho = 1.0 / sigma
+    step = _apply_block(inverse, rhs) / centre
+    x = step.copy()
+    residual = rhs
+    for _ in range(DEGREE - 1):
+        residual = residual - matrix @ step
+        following = 1.0 / (2.0 * sigma - rho)
+        step = following * rho * step + (2.0 * following / half) * _apply_block(inverse, residual)
+        x += step
+        rho = following
+    return x
+
+
+def _block_inverse(matrix: sp.csr_matrix, blocks: int) -> NDArray[np.float64]:
+    """(n / b, b, b) inverses of A's b x b diagonal blocks (b = `blocks`; 1: the diagonal's)."""
+    n = matrix.shape[0]
+    if blocks == 1 or n % blocks:
+        diagonal = matrix.diagonal()
+        return np.where(diagonal != 0, 1.0 / np.where(diagonal != 0, diagonal, 1.0), 0.0).reshape(-1, 1, 1)
+    diagonal = sp.bsr_matrix(matrix, blocksize=(blocks, blocks))
+    sites = np.arange(n // blocks)
+    rows = np.repeat(sites, np.diff(diagonal.indptr))
+    own = rows == diagonal.indices
+    return np.linalg.pinv(diagonal.data[own][np.argsort(rows[own])], hermitian=True)  # (a coarse block may be singular)
+
+
+def _apply_block(inverse: NDArray[np.float64], X: NDArray[np.float64]) -> NDArray[np.float64]:
+    """D^-1 X, D^-1 given as its (n / b, b, b) diagonal blocks."""
+    b = inverse.shape[1]
+    if b == 1:
+        return X * inverse.ravel()[:, None]
+    columns = X.shape[1]
+    return np.einsum("sij,sjc->sic", inverse, X.reshape(-1, b, columns)).reshape(-1, columns)
+
+
+def _spectral_radius(matrix: sp.csr_matrix, inverse: NDArray[np.float64]) -> float:
+    """rho(D^-1 A) from 15 power steps, raised by 10% (a lower bound from below otherwise)."""
+    x = np.random.default_rng(0).standard_normal((matrix.shape[0], 1))
+    value = 1.0
+    for _ in range(15):
+        y = _apply_block(inverse, matrix @ x)
+        value = float(np.linalg.norm(y) / np.linalg.norm(x))
+        x = y / np.linalg.norm(y)
+    return 1.1 * value
+
+
+def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | None = None,
+                 rigid: NDArray[np.float64] | None = None, extra: int = 0,
+                 max_iterations: int = MAX_ITERATIONS, on_stage: Callable[[float, str], None] | None = None
+                 ) -> SolveResult:
+    """The `n_modes` lowest eigenpairs of the sparse symmetric positive semidefinite K~, ascending.
+
+    Parameters
+    ----------
+    Kt : (n, n) sparse matrix
+        K~ = M^-1/2 K M^-1/2, in omega^2 units.
+    n_modes : int
+        Modes wanted (rigid-body ones included), 1 <= n_modes <= n / 5 - 4 - extra.
+    mass : (n,) ndarray, optional
+        The dofs' masses, for the translations M^1/2 t (`translations`); 1 where not given.
+    rigid : (n, r) ndarray, optional
+        A known basis of K~'s kernel (mass-weighted rigid-body modes), projected out of the
+        iteration; by default the translations.
+    extra : int
+        Columns to return beyond `n_modes` (Rayleigh-Ritz on them bounds the gap; "high").
+    max_iterations : int
+        LOBPCG's iterations at most.
+
+    Raises
+    ------
+    ValueError
+        n_modes not an integer from 1 to n / 5 - 4 - extra.
+    RuntimeError
+        A returned pair's residual over `ACCEPTED` ||K~||_inf (LOBPCG did not converge).
+    """
+    Kt = sp.csr_matrix(Kt)
+    n = Kt.shape[0]
+    wanted = n_modes + extra
+    most = n // 5 - EXTRA - extra
+    if not isinstance(n_modes, (int, np.integer)) or not 1 <= n_modes <= most:
+        raise ValueError(f"n_modes is {n_modes!r}; expected an integer from 1 to {most} for a {n}-dof K~ "
+                         "(LOBPCG's block stays under n / 5; the dense solver serves more)")
+    norm = float(abs(Kt).sum(axis=1).max())
+    kernel = translations(n, mass, Kt) if rigid is None else np.linalg.qr(np.asarray(rigid, dtype=float))[0]
+    kernel = kernel[:, :min(kernel.shape[1], wanted)]
+    stage = on_stage or (lambda fraction, message: None)
+    shifted = (Kt + SHIFT * norm * sp.identity(n, format="csr")).tocsr()
+    preconditioner = BlockMultigrid(shifted, kernel if kernel.shape[1] else np.zeros((n, 0)))
+    del shifted
+    stage(0.2, f"multigrid preconditioner of {preconditioner.depth} levels built")
+    columns = block_columns(wanted, kernel.shape[1])
+    start = np.random.default_rng(0).standard_normal((n, columns))
+    operator = sla.LinearOperator((n, n), matvec=preconditioner, matmat=preconditioner, dtype=float)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (non-convergence is judged below, by the residuals themselves)
+        _, block, history = sla.lobpcg(Kt, start, M=operator, Y=kernel if kernel.shape[1] else None,
+                                       tol=TOLERANCE * norm, maxiter=max_iterations, largest=False,
+                                       retResidualNormsHistory=True)
+    del start
+    stage(0.9, f"LOBPCG: {len(history)} iterations of {columns} columns")
+    basis = np.column_stack([kernel, block]) if kernel.shape[1] else block
+    del block
+    basis = np.linalg.qr(basis)[0]
+    product = Kt @ basis
+    values, rotation = np.linalg.eigh(basis.T @ product)
+    keep = rotation[:, :wanted]
+    vectors, product = basis @ keep, product @ keep
+    values = values[:wanted]
+    del basis
+    product -= vectors * values
+    residuals = np.sqrt(np.einsum("ij,ij->j", product, product))
+    del product
+    worst = int(np.argmax(residuals[:n_modes]))
+    if residuals[worst] > ACCEPTED * norm:
+        raise RuntimeError(
+            f"the iterative path did not converge: mode {worst}'s residual is {residuals[worst] / norm:.2g} "
+            f"||K~|| after LOBPCG's iterations (max_iterations={max_iterations}), over the "
+            f"{ACCEPTED:g} promised; use solver='sparse' (the factorisation) for this network")
+    result = absolute_figures(Kt, values, vectors, "iterative", floor=4.0, norm=norm)
+    result.error = np.maximum(result.error, residuals)
+    return result
+
+
+def iterative_cost(n: int, nnz: int, k: int) -> tuple[float, float]:
+    """(bytes, seconds) of `lowest_modes` for the k lowest modes of an n-dof K~ with nnz stored entries.
+
+    Memory: the shifted copy and its block form for pyamg (~2 x 12 nnz bytes), the hierarchy's
+    prolongator and coarse matrices (~4 nnz bytes at the operator complexity ~1.0 measured), LOBPCG's
+    blocks (X, AX, P, AP, R, AR and their Gram products: ~12 n b doubles) and the cycle's
+    temporaries (~4 n b), b = `block_columns`(k, 3). Time: the setup (`ITERATIVE_SETUP_S` per
+    stored entry) and `ITERATIVE_STEPS` (n / 10^4)^`ITERATIVE_GROWTH` iterations (the count grows with
+    n: the low spectrum of a large assembly is a tight cluster), each `ITERATIVE_PRODUCTS` sparse products on b
+    columns (`ITERATIVE_PRODUCT_S` per entry and column) and the Rayleigh-Ritz of 3 b columns
+    (`ITERATIVE_RITZ_S` per n b^2).
+    """
+    b = block_columns(k, 3)
+    memory = 28.0 * nnz + 8.0 * 16 * n * b
+    per_step = ITERATIVE_PRODUCTS * ITERATIVE_PRODUCT_S * float(nnz) * b + ITERATIVE_RITZ_S * float(n) * b * b
+    steps = ITERATIVE_STEPS * (n / 1e4) ** ITERATIVE_GROWTH
+    return memory, ITERATIVE_SETUP_S * nnz + steps * per_step
