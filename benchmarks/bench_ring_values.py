@@ -182,7 +182,8 @@ def run_kernels(rounds: int, n: int = 20000, points: int = 512) -> list[dict]:
     import scalar_kernels
 
     from vibra._core.lapack import bidiagonal_singular_values
-    from vibra.solvers.accurate.ring import counts as ring_counts, kernel as ring_kernel, values as ring_values
+    from vibra.solvers.accurate import count_kernels as ring_kernel
+    from vibra.solvers.accurate.ring import counts as ring_counts, values as ring_values
     from vibra.solvers.accurate.dd import UNIT, div, mul
 
     rows = []

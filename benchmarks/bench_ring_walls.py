@@ -7,7 +7,7 @@ lattice) left the ring path: over 6,000 sites "high" took its band (absolute acc
 up to 10% relative on the lowest modes with a spread of 1e6, negative frequencies with one of
 1e12), and its lowest modes shift-invert Lanczos (minutes, or no convergence, on a wide
 spread). Now the cut chain keeps its walls in a relatively accurate bidiagonal Cholesky factor
-(`ring.values.cut_chain`) and the spring form's counts carry them (`ring.kernel`).
+(`counting.cut_chain`) and the spring form's counts carry them (`count_kernels`).
 
 Per ring, by the protocol of STYLE.md (one process, warm-up, interleaved rounds, BLAS threads 1;
 numba's threads: the machine's cores, 2 here):

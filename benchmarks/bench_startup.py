@@ -10,7 +10,7 @@ Every figure is a fresh process (interpreter start, imports, exit), timed by the
   `corpus.chain(2_000, spread=1e3)`), and 26 modes of the 1,500-dof random network
   (`corpus.random_network(500)`) at "high" and at "fast"; warm = the best of the calls after
   the first (9 for the chain, 4 for a network);
-- the first call of a tiny compiled kernel after ``import vibra`` (`ring.kernel.walled_factor`
+- the first call of a tiny compiled kernel after ``import vibra`` (`count_kernels.walled_factor`
   on 3 sites): what loading numba and a kernel's cache costs a process, the figure behind
   `vibra.solvers.compiled.LOAD_SECONDS`.
 
@@ -77,7 +77,7 @@ KERNEL = r"""
 import json, sys, time
 import numpy as np
 import vibra
-from vibra.solvers.accurate.ring import kernel
+from vibra.solvers.accurate import count_kernels as kernel
 a, b, tie = np.ones(3), np.ones(2), np.zeros(3)
 start = time.perf_counter()
 kernel.walled_factor(a, b, tie)

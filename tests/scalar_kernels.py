@@ -1,5 +1,5 @@
-"""The compiled kernels of `vibra.solvers.accurate.ring.kernel` one point at a time, as they were before
-the kernels took `ring_kernel.LANES` points together (commit eabb4f5): a reference whose
+"""The compiled kernels of `vibra.solvers.accurate.count_kernels` one point at a time, as they were before
+the kernels took `count_kernels.LANES` points together (commit eabb4f5): a reference whose
 arithmetic, in the same order, the lane kernels must reproduce bit for bit (a regression
 guard of the restructuring, not an independent truth: the counts' truth is mpmath and the
 dense solves of the tests that call this), and the peer of `bench_ring_values.py --kernels`."""
@@ -9,17 +9,20 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import NEAR, _EPS, _TINY, _add, _jit, _mul, _reciprocal, _two_product, prange
+from vibra.solvers.accurate.count_kernels import (
+    NEAR, _EPS, _TINY, _add, kernel_jit, scalar_mul, scalar_reciprocal, scalar_two_product,
+)
+from vibra.solvers.compiled import prange
 
 
-@_jit()
+@kernel_jit()
 def _count(x: float, m: NDArray[np.float64], compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64],
            off: NDArray[np.float64], square_h: NDArray[np.float64], square_l: NDArray[np.float64],
            closing: float, u: float) -> tuple[int, bool, float]:
     """(count below x, certain, last pivot) for one x: `ring.counts.count_below_springs`' loop."""
     n = m.shape[0]
     size = 2 * n
-    ph, pl = _two_product(x, m[0])
+    ph, pl = scalar_two_product(x, m[0])
     gh, gl = closing, 0.0
     g_error = 0.0
     lh, ll = compliance_h[n - 1], compliance_l[n - 1]
@@ -31,22 +34,22 @@ def _count(x: float, m: NDArray[np.float64], compliance_h: NDArray[np.float64], 
             negative += 1
         if ph == 0:
             vanished = True
-        rh, rl = _reciprocal(ph, pl)
-        qh, ql = _mul(gh, gl, rh, rl)
-        sh, sl = _mul(gh, gl, qh, ql)
+        rh, rl = scalar_reciprocal(ph, pl)
+        qh, ql = scalar_mul(gh, gl, rh, rl)
+        sh, sl = scalar_mul(gh, gl, qh, ql)
         lh, ll = _add(lh, ll, -sh, -sl)
         inverse = abs(rh) * (1 + 1e-12)  # 1 / |p|, rounded up (float64 bookkeeping)
         last_error = last_error + (2 * abs(gh) + g_error) * g_error * inverse + u * (2 * abs(sh) + abs(lh))
         if j == size - 2:
             break
-        fh, fl = _mul(-off[j], 0.0, qh, ql)
+        fh, fl = scalar_mul(-off[j], 0.0, qh, ql)
         g_error = abs(off[j]) * inverse * g_error * (1 + 1e-12) + 4 * u * abs(fh)
         if j == size - 3:
             fh, fl = _add(fh, fl, off[size - 2], 0.0)
             g_error = g_error + u * (abs(fh) + abs(off[size - 2]))
-        th, tl = _mul(rh, rl, square_h[j], square_l[j])
+        th, tl = scalar_mul(rh, rl, square_h[j], square_l[j])
         if j % 2:  # node j + 1 is a site
-            dh, dl = _two_product(x, m[(j + 1) // 2])
+            dh, dl = scalar_two_product(x, m[(j + 1) // 2])
         else:  # node j + 1 is spring j // 2
             dh, dl = compliance_h[j // 2], compliance_l[j // 2]
         ph, pl = _add(dh, dl, -th, -tl)
@@ -58,7 +61,7 @@ def _count(x: float, m: NDArray[np.float64], compliance_h: NDArray[np.float64], 
     return n - negative, certain, lh
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance_h: NDArray[np.float64],
             compliance_l: NDArray[np.float64], off: NDArray[np.float64], square_h: NDArray[np.float64],
             square_l: NDArray[np.float64], closing: float, u: float
@@ -73,7 +76,7 @@ def _counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance_h: NDArra
     return count, certain, last
 
 
-@_jit()
+@kernel_jit()
 def _pivot(x: float, m: NDArray[np.float64], compliance: NDArray[np.float64], off: NDArray[np.float64],
            closing: float) -> tuple[float, float]:
     """(l(x), l'(x)): the last pivot of the spring form at x and its derivative, float64."""
@@ -109,7 +112,7 @@ def _pivot(x: float, m: NDArray[np.float64], compliance: NDArray[np.float64], of
     return last, dlast
 
 
-@_jit()
+@kernel_jit()
 def _root(low: float, high: float, pole_low: float, pole_high: float, m: NDArray[np.float64],
           compliance: NDArray[np.float64], off: NDArray[np.float64], closing: float) -> tuple[float, int, int]:
     """(root of l in (low, high), evaluations, side): the rational step on the pole on the
@@ -167,7 +170,7 @@ def _root(low: float, high: float, pole_low: float, pole_high: float, m: NDArray
     return x, count, 0
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: NDArray[np.float64],
            pole_high: NDArray[np.float64], m: NDArray[np.float64], compliance: NDArray[np.float64],
            off: NDArray[np.float64], closing: float
@@ -182,7 +185,7 @@ def _roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: NDArra
     return out, evaluations, side
 
 
-@_jit()
+@kernel_jit()
 def _path_count(x: float, site: NDArray[np.bool_], m: NDArray[np.float64], compliance_h: NDArray[np.float64],
                 compliance_l: NDArray[np.float64], square_h: NDArray[np.float64], square_l: NDArray[np.float64]
                 ) -> tuple[int, bool]:
@@ -195,12 +198,12 @@ def _path_count(x: float, site: NDArray[np.bool_], m: NDArray[np.float64], compl
     ph, pl = 0.0, 0.0
     for k in range(site.shape[0]):
         if site[k]:
-            dh, dl = _two_product(x, m[k])
+            dh, dl = scalar_two_product(x, m[k])
         else:
             dh, dl = compliance_h[k], compliance_l[k]
         if k > 0 and square_h[k - 1] != 0.0:
-            rh, rl = _reciprocal(ph, pl)
-            th, tl = _mul(rh, rl, square_h[k - 1], square_l[k - 1])  # c^2 / p
+            rh, rl = scalar_reciprocal(ph, pl)
+            th, tl = scalar_mul(rh, rl, square_h[k - 1], square_l[k - 1])  # c^2 / p
             ph, pl = _add(dh, dl, -th, -tl)
         else:
             ph, pl = dh, dl
@@ -211,7 +214,7 @@ def _path_count(x: float, site: NDArray[np.bool_], m: NDArray[np.float64], compl
     return negative, True
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
                   compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
                   square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
@@ -226,7 +229,7 @@ def _chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np
 def spring_counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
                   off: NDArray[np.float64], squares: tuple[NDArray[np.float64], NDArray[np.float64]],
                   closing: float, u: float) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64]]:
-    """`ring_kernel.spring_counts`, one point at a time."""
+    """`count_kernels.spring_counts`, one point at a time."""
     return _counts(np.ascontiguousarray(x, dtype=float), m, compliance[0], compliance[1], off, squares[0], squares[1],
                    float(closing), float(u))
 
@@ -234,7 +237,7 @@ def spring_counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance: tu
 def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: NDArray[np.float64],
                 pole_high: NDArray[np.float64], m: NDArray[np.float64], compliance: NDArray[np.float64],
                 off: NDArray[np.float64], closing: float) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
-    """`ring_kernel.pivot_roots`, one root at a time."""
+    """`count_kernels.pivot_roots`, one root at a time."""
     return _roots(*(np.ascontiguousarray(a, dtype=float) for a in (low, high, pole_low, pole_high)), m,
                   np.ascontiguousarray(compliance, dtype=float), off, float(closing))
 
@@ -242,6 +245,6 @@ def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: N
 def chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
                  compliance: tuple[NDArray[np.float64], NDArray[np.float64]],
                  squares: tuple[NDArray[np.float64], NDArray[np.float64]]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """`ring_kernel._chain_counts` (negative pivots, certain), one point at a time."""
+    """`count_kernels._chain_counts` (negative pivots, certain), one point at a time."""
     return _chain_counts(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(site), m, compliance[0],
                          compliance[1], squares[0], squares[1])

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from vibra.solvers import compiled
-from vibra.solvers.accurate.chain import gk_bisection
+from vibra.solvers.accurate import gk_bisection
 
 
 def test_batches_cover_every_value_once_in_whole_multiples() -> None:
@@ -62,7 +62,7 @@ def test_sigint_stops_a_long_bisection() -> None:
     started must end the child with KeyboardInterrupt long before (the hang guard: 120 s)."""
     script = textwrap.dedent("""
         import sys, numpy as np
-        from vibra.solvers.accurate.chain import gk_bisection
+        from vibra.solvers.accurate import gk_bisection
         rng = np.random.default_rng(1)
         d, e = rng.uniform(0.5, 2.0, 200_000), rng.uniform(0.5, 2.0, 199_999)
         gk_bisection.bidiagonal_values_by_bisection(d, e, 0, 8)   # numba loaded, kernel compiled

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from vibra._core.lapack import tridiagonal_eigenvalues_by_index
-from vibra.solvers.accurate.chain import gk_bisection
+from vibra.solvers.accurate import gk_bisection
 
 
 EPS = float(np.finfo(float).eps)
@@ -88,26 +88,24 @@ def test_bad_indices_are_refused() -> None:
 
 @pytest.mark.parametrize(("padded", "spread", "skip"), [(True, 0.0, 0), (True, 6.0, 0), (False, 6.0, 0), (True, 0.0, 4)])
 def test_vectors_from_compiled_values_match_the_lapack_route(padded: bool, spread: float, skip: int) -> None:
-    """With vectors, `lowest.golub_kahan_lowest` takes its values from the compiled bisection and
+    """With vectors, `gk_bisection.golub_kahan_lowest` takes its values from the compiled bisection and
     gives dstein the block structure itself (one block, or a free chain's padding: d[-1] = 0
     splits off a 1 x 1 block with one of the two zero eigenvalues). Against the dstebz route on
     a 20,000-site chain's bidiagonal spring factor (its lowest values well apart): the same values within 4 ulps, the same vectors up to sign
     within 1e-12 (distinct values here), residuals ||B v - sigma u|| within 1e-13 ||B||."""
-    from vibra.solvers.accurate.chain import lowest
-
     rng = np.random.default_rng(5)  # a chain's spring factor: masses and springs over 10^spread
     size = 20000
     m, w = 10.0 ** rng.uniform(0, spread, size), 10.0 ** rng.uniform(0, spread, size)
     d, e = np.sqrt(w / m), np.sqrt(w[:-1] / m[1:])  # (fixed at the far end: w[-1] to a wall)
     if padded:
         d[-1] = 0.0  # a free chain: its last row, padding
-    ours = lowest.golub_kahan_lowest(d, e, skip, 12, vectors=True)
-    saved = lowest._compiled_with_blocks
-    lowest._compiled_with_blocks = lambda *arguments: None  # dstebz's values and blocks: the LAPACK route
+    ours = gk_bisection.golub_kahan_lowest(d, e, skip, 12, vectors=True)
+    saved = gk_bisection._compiled_with_blocks
+    gk_bisection._compiled_with_blocks = lambda *arguments: None  # dstebz's values and blocks: the LAPACK route
     try:
-        lapack = lowest.golub_kahan_lowest(d, e, skip, 12, vectors=True)
+        lapack = gk_bisection.golub_kahan_lowest(d, e, skip, 12, vectors=True)
     finally:
-        lowest._compiled_with_blocks = saved
+        gk_bisection._compiled_with_blocks = saved
     sigma, u, v = ours
     assert np.all(np.abs(sigma - lapack[0]) <= 4 * EPS * lapack[0])
     for mine, theirs in ((u, lapack[1]), (v, lapack[2])):

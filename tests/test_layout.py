@@ -3,6 +3,7 @@ imports, no module over 600 lines, the module map names every module."""
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import importlib
 import re
@@ -115,3 +116,83 @@ def test_sources_are_cited_by_name() -> None:
     offenders = [f"{path.relative_to(ROOT)}: {word}" for path in texts for word in ("seed 00", "DESIGN.md")
                  if word in path.read_text(encoding="utf-8")]
     assert offenders == []
+
+
+# ------------------------------------------------- folders (issue 43 item 5)
+def _runtime_imports() -> list[tuple[str, str, str, str]]:
+    """(importing module, its file, imported module, imported name or "") for every import of vibra
+    inside vibra, function bodies included; an ``if TYPE_CHECKING:`` block is no import at run time."""
+    modules = {}
+    for path in (ROOT / "vibra").rglob("*.py"):
+        parts = list(path.relative_to(ROOT).with_suffix("").parts)
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    found = []
+    for name, path in sorted(modules.items()):
+        stack: list[ast.AST] = [ast.parse(path.read_text(encoding="utf-8"))]
+        while stack:
+            node = stack.pop()
+            if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+                stack.extend(node.orelse)
+                continue
+            stack.extend(ast.iter_child_nodes(node))
+            if isinstance(node, ast.Import):
+                pairs = [(alias.name, "") for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                pairs = [(f"{node.module}.{a.name}", "") if f"{node.module}.{a.name}" in modules
+                         else (node.module, a.name) for a in node.names]
+            else:
+                continue
+            for target, imported in pairs:
+                while target and target not in modules:
+                    target = target.rpartition(".")[0]
+                if target.startswith("vibra") and target != name:
+                    found.append((name, f"{path.relative_to(ROOT)}:{node.lineno}", target, imported))
+    return found
+
+
+def _folder(module: str) -> str:
+    """The package (folder) a module's file lies in: a package's own __init__ lies in that package."""
+    path = ROOT.joinpath(*module.split("."))
+    return module if (path / "__init__.py").exists() else module.rpartition(".")[0]
+
+
+def test_no_import_loop_between_sibling_folders() -> None:
+    """Folder-level import graph: an import from a module under folder A into one under folder B,
+    where A and B are different folders of the same parent (e.g. `solvers/accurate/chain/` and
+    `solvers/accurate/ring/`), is an edge A -> B; those edges form no loop. A folder importing from
+    the folders above it, or a parent's modules importing its subfolders, is no sibling edge."""
+    edges: dict[str, dict[str, str]] = {}
+    for name, where, target, _ in _runtime_imports():
+        source, goal = _folder(name).split("."), _folder(target).split(".")
+        common = 0
+        while common < min(len(source), len(goal)) and source[common] == goal[common]:
+            common += 1
+        if common < len(source) and common < len(goal):
+            a, b = ".".join(source[:common + 1]), ".".join(goal[:common + 1])
+            edges.setdefault(a, {}).setdefault(b, f"{where} imports {target}")
+
+    def path_back(start: str) -> list[str] | None:
+        paths, seen = [[start]], {start}
+        while paths:
+            path = paths.pop(0)
+            for goal in sorted(edges.get(path[-1], {})):
+                if goal == start:
+                    return path + [start]
+                if goal not in seen:
+                    seen.add(goal)
+                    paths.append(path + [goal])
+        return None
+
+    loops = []
+    for folder in sorted(edges):
+        if (loop := path_back(folder)) and folder == min(loop):  # each loop once
+            loops.append(" -> ".join(loop) + "  (" + "; ".join(edges[a][b] for a, b in zip(loop, loop[1:])) + ")")
+    assert loops == [], "move what both folders use up into their parent:\n" + "\n".join(loops)
+
+
+def test_no_private_name_is_imported_from_another_folder() -> None:
+    """`from vibra.x.y import _z` only from a module of the same folder: what modules of two folders
+    share is public (issue 43 item 5; STYLE.md: private names stay in their module's folder)."""
+    offenders = [f"{where} imports {imported} from {target}" for name, where, target, imported in _runtime_imports()
+                 if imported.startswith("_") and not imported.startswith("__") and _folder(name) != _folder(target)]
+    assert offenders == [], "\n".join(offenders)

@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vibra.modes import normal_modes
-from vibra.solvers.accurate.chain import lowest
+from vibra.solvers.accurate import gk_bisection
 from vibra.solvers.accurate.chain.lowest import (
     chain_segments,
     lowest_chain_path,
@@ -70,7 +70,7 @@ def test_lowest_ten_of_a_disordered_chain_spread_1e12(anchored: bool, vectors: b
 
 def test_bisection_branch_is_taken_for_values_when_dqds_would_cost_more(monkeypatch) -> None:
     weighted, K, mass, springs, anchor = _chain(200, 1e12, 3)
-    monkeypatch.setattr(lowest, "DQDS_FACTOR", 0)  # force bisection
+    monkeypatch.setattr(gk_bisection, "DQDS_FACTOR", 0)  # force bisection
     Kt = sp.csr_matrix(sp.diags(mass**-0.5) @ K @ sp.diags(mass**-0.5))
     _check(lowest_chain_path(Kt, chain_segments(weighted), 10, vectors=False), _truth(mass, springs, anchor, 10))
 
@@ -82,12 +82,12 @@ def test_lowest_modes_match_mpmath_over_spreads(spread_exponent, seed, n, k, anc
     weighted, K, mass, springs, anchor = _chain(n, 10.0**spread_exponent, seed, anchored)
     Kt = sp.csr_matrix(sp.diags(mass**-0.5) @ K @ sp.diags(mass**-0.5))
     k = min(k, n)
-    saved = lowest.DQDS_FACTOR
-    lowest.DQDS_FACTOR = 0 if force_bisection else saved
+    saved = gk_bisection.DQDS_FACTOR
+    gk_bisection.DQDS_FACTOR = 0 if force_bisection else saved
     try:
         result = lowest_chain_path(Kt, chain_segments(weighted), k, vectors=force_bisection)
     finally:
-        lowest.DQDS_FACTOR = saved
+        gk_bisection.DQDS_FACTOR = saved
     _check(result, _truth(mass, springs, anchor, k))
 
 

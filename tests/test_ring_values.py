@@ -23,7 +23,7 @@ from vibra import normal_modes, solvers
 from vibra.chains import linear_chain
 from vibra.solvers.accurate.dd import UNIT, div, mul
 from vibra.solvers.accurate.ring import counts as ring_counts
-from vibra.solvers.accurate.ring import kernel as ring_kernel
+from vibra.solvers.accurate import count_kernels, counting
 from vibra.solvers.accurate.ring import values as ring_values
 
 
@@ -99,22 +99,22 @@ def test_a_nearly_uniform_ring_splits_its_pairs_within_the_bounds() -> None:
 
 
 def test_bounds_of_values_sorted_after_bounding_still_hold() -> None:
-    """`ring_values.sorted_bounds`: two values bounded for eigenvalues 1 and 2 that sorting swaps.
+    """`counting.sorted_bounds`: two values bounded for eigenvalues 1 and 2 that sorting swaps.
     Eigenvalue 1 within 1e-10 of 2 + 1e-9 and eigenvalue 2 within 1e-8 of 2 put eigenvalue 2 in
     [2 + 0.9e-9, 2 + 1e-8]: within 9e-9 of 2 + 1e-9, its new position (and eigenvalue 1 within
     1e-8 of 2); identity orders are left alone."""
     values = np.array([1.0, 2.0 + 1e-9, 2.0, 3.0])
     bound = np.array([1e-3, 1e-10, 1e-8, 1e-3])
     order = np.argsort(values, kind="stable")
-    sorted_bound = ring_values.sorted_bounds(values[order], bound[order], order)
+    sorted_bound = counting.sorted_bounds(values[order], bound[order], order)
     assert sorted_bound[1] >= 1e-9 and sorted_bound[2] >= 9e-9 - 1e-20
     assert sorted_bound[2] <= 1e-8 and sorted_bound[0] == 1e-3 and sorted_bound[3] == 1e-3
-    assert ring_values.sorted_bounds(np.sort(values), bound, np.arange(4)) is bound
+    assert counting.sorted_bounds(np.sort(values), bound, np.arange(4)) is bound
 
 
 @pytest.mark.parametrize("n", [3, 5, 40, 300])
 def test_compiled_counts_agree_with_the_numpy_spring_form_and_a_dense_solve(n: int) -> None:
-    """`ring_kernel.spring_counts` (compiled, its reciprocal by one Newton step) against
+    """`count_kernels.spring_counts` (compiled, its reciprocal by one Newton step) against
     `ring_counts.count_below_springs` (numpy) and the eigenvalues of a dense eigh: at points across
     1e-20..1e20 and beside every eigenvalue, the counts agree wherever certain, and every
     certain count matches the dense solve where that resolves the point (small rings)."""
@@ -127,7 +127,7 @@ def test_compiled_counts_agree_with_the_numpy_spring_form_and_a_dense_solve(n: i
         values = la.eigh(ring.hessian().toarray(), np.diag(mass), eigvals_only=True)
         beside = np.abs(values[1:]) * (1 + np.array([[-1e-6], [1e-6]]))
         x = np.r_[10.0 ** rng.uniform(-20, 20, 200), beside.ravel()]
-        compiled, sure, _ = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
+        compiled, sure, _ = count_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
         reference, reference_sure, _ = ring_counts.count_below_springs(pencil, x)
         both = sure & reference_sure
         assert np.array_equal(compiled[both], reference[both])
@@ -138,19 +138,19 @@ def test_compiled_counts_agree_with_the_numpy_spring_form_and_a_dense_solve(n: i
 
 
 def test_compiled_counts_do_not_depend_on_how_points_are_grouped() -> None:
-    """The kernels count `ring_kernel.LANES` points together (a block's last point repeated to
+    """The kernels count `count_kernels.LANES` points together (a block's last point repeated to
     fill it): each point's count, certainty and last pivot are the same counted alone, in
     blocks of any fill, in any order (the lanes share no arithmetic)."""
     mass, springs = disordered_ring(257, 6.0, 4)
     ring = linear_chain(257, ends="periodic", mass=mass, stiffness=springs, units="dimensionless")
     pencil = ring_counts.ring_pencil(*ring.spring_factor(), mass)
     m, compliance, off, squares, closing = _kernel_arrays(pencil)
-    x = np.r_[10.0 ** np.random.default_rng(1).uniform(-8, 4, 3 * ring_kernel.LANES + 5), 0.0, -1.0, np.inf]
-    together = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
+    x = np.r_[10.0 ** np.random.default_rng(1).uniform(-8, 4, 3 * count_kernels.LANES + 5), 0.0, -1.0, np.inf]
+    together = count_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
     order = np.random.default_rng(2).permutation(x.shape[0])
-    shuffled = ring_kernel.spring_counts(x[order], m, compliance, off, squares, closing, 4 * UNIT)
+    shuffled = count_kernels.spring_counts(x[order], m, compliance, off, squares, closing, 4 * UNIT)
     for j in range(x.shape[0]):
-        alone = ring_kernel.spring_counts(x[j: j + 1], m, compliance, off, squares, closing, 4 * UNIT)
+        alone = count_kernels.spring_counts(x[j: j + 1], m, compliance, off, squares, closing, 4 * UNIT)
         for part, every, mixed in zip(alone, together, shuffled):
             assert np.array_equal(part[0], every[j], equal_nan=True)
             assert np.array_equal(mixed[np.flatnonzero(order == j)[0]], every[j], equal_nan=True)
@@ -162,14 +162,14 @@ def test_compiled_counts_do_not_depend_on_how_points_are_grouped() -> None:
     masses[0::2] = mass
     path = (site, masses, div(np.ones_like(weights), np.zeros_like(weights), weights, np.zeros_like(weights)),
             mul(np.ones_like(weights), np.zeros_like(weights), np.ones_like(weights), np.zeros_like(weights)))
-    together = ring_kernel.chain_counts(x, *path)
+    together = count_kernels.chain_counts(x, *path)
     for j in range(x.shape[0]):
-        alone = ring_kernel.chain_counts(x[j: j + 1], *path)
+        alone = count_kernels.chain_counts(x[j: j + 1], *path)
         assert alone[0][0] == together[0][j] and alone[1][0] == together[1][j]
 
 
 def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
-    """The kernels take `ring_kernel.LANES` points together, each point's operations in the
+    """The kernels take `count_kernels.LANES` points together, each point's operations in the
     same order as one point at a time (`scalar_kernels`, the previous kernels: a regression
     guard, the counts' truth being the mpmath and dense tests here): on 200 random forms with
     entries over 1e-150..1e150 (zero, huge and tiny couplings) at points over +-1e300, 0, +-inf
@@ -189,13 +189,13 @@ def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
             closing = float(rng.choice([1.0, -1.0, 1e-150]))
             x = np.r_[10.0 ** rng.uniform(-300, 300, 13), -(10.0 ** rng.uniform(-300, 300, 4)), 0.0, np.inf, -np.inf,
                       np.nan]
-            lanes = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
+            lanes = count_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
             one = scalar_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT)
             for a, b in zip(lanes, one):
                 assert np.array_equal(a, b, equal_nan=True)
             site = rng.random(n) < 0.5
             path = (site, m, compliance, (squares[0][:n], squares[1][:n]))
-            count, certain = ring_kernel.chain_counts(x, *path)
+            count, certain = count_kernels.chain_counts(x, *path)
             negative, sure = scalar_kernels.chain_counts(x, *path)
             assert np.array_equal(certain, sure)
             assert np.array_equal(count, np.count_nonzero(site) - negative)
@@ -209,7 +209,7 @@ def test_lane_kernels_repeat_the_one_point_kernels_bit_for_bit() -> None:
         poles = np.sort(la.svdvals(np.diag(d) + np.diag(np.abs(np.sqrt(w[:-1]) * c_out[:-1] / np.sqrt(m[1:])), 1)))**2
         low, high = poles[1:-1], poles[2:]
         arguments = (low, high, low, high, m, compliance[0], off, closing)
-        for a, b in zip(ring_kernel.pivot_roots(*arguments), scalar_kernels.pivot_roots(*arguments)):
+        for a, b in zip(count_kernels.pivot_roots(*arguments), scalar_kernels.pivot_roots(*arguments)):
             assert np.array_equal(a, b)
 
 

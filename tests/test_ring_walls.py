@@ -3,8 +3,8 @@
 Before, a ring with any spring to a wall left the ring path above 6,000 sites for the band
 solver (absolute accuracy: its lowest modes off relatively by ||K~|| eps / omega^2) and its
 lowest modes for shift-invert. Now its cut chain (walls kept) has a relatively accurate
-bidiagonal Cholesky factor (`ring_values.cut_chain`), and the spring form's counts and pivots
-carry each site's wall (`ring_kernel`), so every frequency is certified as a free ring's is.
+bidiagonal Cholesky factor (`counting.cut_chain`), and the spring form's counts and pivots
+carry each site's wall (`count_kernels`), so every frequency is certified as a free ring's is.
 
 Truth from outside the code under test: the closed form of the uniform ring on a wall,
 omega_j^2 = (g + 4 k sin^2(pi j / n)) / m in 30-digit mpmath; eigenvalues of K~ in
@@ -28,7 +28,7 @@ from vibra import normal_modes
 from vibra._core.lapack import bidiagonal_singular_values
 from vibra.solvers.accurate.dd import UNIT
 from vibra.solvers.accurate.ring import counts as ring_counts
-from vibra.solvers.accurate.ring import kernel as ring_kernel
+from vibra.solvers.accurate import count_kernels, counting
 from vibra.solvers.accurate.ring import values as ring_values
 
 EPS = float(np.finfo(float).eps)
@@ -43,7 +43,7 @@ def test_the_walled_count_matches_a_dense_solve(n: int) -> None:
 
 
 def test_the_cut_chains_factor_is_relatively_accurate() -> None:
-    """`ring_values.cut_chain` with walls: the squared singular values of its bidiagonal factor
+    """`counting.cut_chain` with walls: the squared singular values of its bidiagonal factor
     against 80-digit eigenvalues of the cut chain's K~ (30 chains of 2-59 sites, masses,
     springs and walls over up to 1e12, B's entries not +-1, walls at some sites). Bound:
     8 n eps relatively, from dqds's own few ulps per entry and the recurrence's rounding
@@ -58,7 +58,7 @@ def test_the_cut_chains_factor_is_relatively_accurate() -> None:
         wall = np.zeros(n)
         k = int(rng.integers(1, n + 1))
         wall[rng.choice(n, k, replace=False)] = 10.0 ** rng.uniform(-spread / 2, spread / 2, k)
-        d, e = ring_values.cut_chain(m, w, c_in, c_out, wall)
+        d, e = counting.cut_chain(m, w, c_in, c_out, wall)
         got = np.sort(bidiagonal_singular_values(d, e) ** 2)
         with mp.workdps(80):
             K = mp.matrix(n, n)
@@ -80,7 +80,7 @@ def test_the_cut_chains_factor_is_relatively_accurate() -> None:
 
 @pytest.mark.parametrize("n", [3, 5, 40, 300])
 def test_compiled_counts_with_walls_agree_with_the_numpy_spring_form_and_a_dense_solve(n: int) -> None:
-    """`ring_kernel.spring_counts` with walls against `ring_counts.count_below_springs` (numpy, walls
+    """`count_kernels.spring_counts` with walls against `ring_counts.count_below_springs` (numpy, walls
     eliminated into each site's diagonal the same way) and a dense eigh: at points across
     1e-20..1e20 and beside every eigenvalue the counts agree wherever both are certain, and
     match the dense solve where it resolves the point."""
@@ -94,7 +94,7 @@ def test_compiled_counts_with_walls_agree_with_the_numpy_spring_form_and_a_dense
         values = la.eigh((B.T @ sp.diags(w) @ B).toarray(), np.diag(mass), eigvals_only=True)
         beside = np.abs(values) * (1 + np.array([[-1e-6], [1e-6]]))
         x = np.r_[10.0 ** rng.uniform(-20, 20, 200), beside.ravel()]
-        compiled, sure, _ = ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT, wall)
+        compiled, sure, _ = count_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT, wall)
         reference, reference_sure, _ = ring_counts.count_below_springs(pencil, x)
         both = sure & reference_sure
         assert np.array_equal(compiled[both], reference[both])
@@ -113,15 +113,15 @@ def test_zero_walls_change_no_bit_of_a_free_rings_kernels() -> None:
     m, compliance, off, squares, closing = _kernel_arrays(free)
     x = np.r_[10.0 ** rng.uniform(-12, 6, 61), 0.0, -1.0, np.inf, np.nan]
     zero = (np.zeros(501), np.zeros(501))
-    for a, b in zip(ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT),
-                    ring_kernel.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT, zero)):
+    for a, b in zip(count_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT),
+                    count_kernels.spring_counts(x, m, compliance, off, squares, closing, 4 * UNIT, zero)):
         assert np.array_equal(a, b, equal_nan=True)
     _, w_path, c_in, c_out = ring_values.spring_arrays(free)
-    d, e = ring_values.cut_chain(m, w_path, c_in, c_out, None)
+    d, e = counting.cut_chain(m, w_path, c_in, c_out, None)
     poles = np.sort(bidiagonal_singular_values(d, e)) ** 2
     low, high = poles[1:-1], poles[2:]
-    for a, b in zip(ring_kernel.pivot_roots(low, high, low, high, m, compliance[0], off, closing),
-                    ring_kernel.pivot_roots(low, high, low, high, m, compliance[0], off, closing, zero[0])):
+    for a, b in zip(count_kernels.pivot_roots(low, high, low, high, m, compliance[0], off, closing),
+                    count_kernels.pivot_roots(low, high, low, high, m, compliance[0], off, closing, zero[0])):
         assert np.array_equal(a, b)
 
 

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from helpers.package import HEAVY
 from vibra.solvers import compiled
 from vibra.solvers.accurate import products
-from vibra.solvers.accurate.chain import gk_bisection, lowest
+from vibra.solvers.accurate import gk_bisection
 
 ROOT = Path(__file__).resolve().parents[1]
 EPS = float(np.finfo(float).eps)
@@ -69,7 +69,7 @@ def test_a_kernel_loads_numba_on_its_first_call_and_binds_its_module() -> None:
     (and `prange`, `HOST_FMA`) are then numba's own objects; the result is the bits of the same
     function run by Python (sums, products, quotients and square roots: IEEE either way)."""
     code = ("import numpy as np\n"
-            "from vibra.solvers.accurate.ring import kernel\n"
+            "from vibra.solvers.accurate import count_kernels as kernel\n"
             "before = 'numba' in sys.modules\n"
             "a, b, tie = np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.25]), np.array([0.0, 1e-3, 7.0])\n"
             "d, e = kernel.walled_factor(a, b, tie)\n"
@@ -91,12 +91,12 @@ def test_the_decision_is_by_size() -> None:
 @pytest.mark.parametrize("vectors", [False, True])
 def test_both_bisection_routes_give_the_singular_values(vectors: bool) -> None:
     """The lowest 10 singular values of a 300-entry bidiagonal (entries 0.5..2): dstebz (the route
-    `lowest.golub_kahan_lowest` takes at this size) and the compiled bisection each within 8 ulps
+    `gk_bisection.golub_kahan_lowest` takes at this size) and the compiled bisection each within 8 ulps
     of the other and within 1e-13 of numpy's SVD (well conditioned: absolute accuracy suffices)."""
     rng = np.random.default_rng(7)
     d, e = rng.uniform(0.5, 2.0, 300), rng.uniform(0.5, 2.0, 300)
     truth = np.sort(np.linalg.svd(np.diag(d) + np.diag(e[:-1], 1), compute_uv=False))[:10]
-    lapack = lowest.golub_kahan_lowest(d, e[:-1], 0, 10, vectors=vectors)[0]
+    lapack = gk_bisection.golub_kahan_lowest(d, e[:-1], 0, 10, vectors=vectors)[0]
     kernel = gk_bisection.bidiagonal_values_by_bisection(d, e[:-1], 0, 10)
     assert np.all(np.abs(lapack - kernel) <= 8 * EPS * kernel)
     assert np.all(np.abs(kernel - truth) <= 1e-13 * truth)

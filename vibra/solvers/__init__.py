@@ -81,6 +81,10 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``standard/pardiso.py``             the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
 ``standard/krylov.py``              block Krylov iteration (block Arnoldi, full reorthogonalisation)
 ``standard/gpu.py``                 ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
+``standard/iterative.py``           iterative, accurate-iterative: LOBPCG with a multigrid
+                                    preconditioner (pyamg) for the lowest modes of large networks
+``distributed/slepc.py``            ``solver="slepc"``: SLEPc over MPI (a worker run by Debian's
+                                    python3, ``distributed/slepc_worker.py``)
 ``accurate/springs.py``             the accurate paths of any spring system: -checked, -ritz,
                                     -rayleigh, -jacobi; a ring's bounds certified by counts
 ``accurate/spring_ritz.py``         spring-space Rayleigh-Ritz per cluster, residual bounds, B~'s
@@ -90,12 +94,17 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``accurate/dd.py``                  double-double arithmetic on arrays: sums, LU and its solves
 ``accurate/rounding.py``            error-free arithmetic behind the chain bounds (entry roundings,
                                     scalings)
+``accurate/count_kernels.py``       compiled loops chains and rings share (numba): double-double
+                                    primitives, the spring form's pivots, roots and counts
+``accurate/counting.py``            certifying values by counts: ladders, multisection, sorted
+                                    bounds, the cut chain
+``accurate/gk_bisection.py``        Golub-Kahan bisection of a bidiagonal, compiled, LANES values
+                                    at a time
 ``accurate/chain/bidiagonal.py``    accurate-bidiagonal: dqds / dbdsqr on a chain's bidiagonal;
                                     certificates
 ``accurate/chain/triplets.py``      the chains' compiled certificates (numba), one triplet per value
 ``accurate/chain/lowest.py``        accurate-bisection: the lowest modes of a chain by Golub-Kahan
                                     bisection
-``accurate/chain/gk_bisection.py``  that bisection, compiled, LANES values at a time
 ``accurate/chain/walled.py``        accurate-walled: a chain with springs to a wall inside it,
                                     values certified by counts
 ``accurate/chain/sturm_counts.py``  Sturm counts of a chain's spring form: certificates for values
@@ -106,8 +115,6 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``accurate/ring/counted.py``        accurate-ring at "high": a standard solver's values, each
                                     bracketed by two counts
 ``accurate/ring/pencil_counts.py``  the compiled counts of K - x M in double-double
-``accurate/ring/kernel.py``         its compiled loops (numba): the spring form's pivots, roots
-                                    and counts
 ``structured/pencil.py``            K x = omega^2 M x with a full, possibly ill-conditioned M
 ``structured/equilibrated.py``      its solver (pencil-jacobi, pencil-cholesky), as the registry runs it
 ``structured/first_order.py``       the quadratic paths' first-order forms and their eigensolvers

@@ -1,7 +1,7 @@
 """Compiled kernels (numba), loaded on their first call: ``import vibra`` imports no numba.
 
-One mechanism for every kernel module (`accurate/ring/kernel.py`, `accurate/ring/pencil_counts.py`,
-`accurate/chain/gk_bisection.py`, `accurate/chain/triplets.py`, `accurate/products.py`,
+One mechanism for every kernel module (`accurate/count_kernels.py`, `accurate/ring/pencil_counts.py`,
+`accurate/gk_bisection.py`, `accurate/chain/triplets.py`, `accurate/products.py`,
 `standard/cholmod.py`): each decorates its loops with `jit` (numba.njit's options) instead of
 numba's own decorator and takes `prange`, `intrinsic` and `HOST_FMA` from here. A decorated
 function is a `Kernel`, a plain Python object, until it is first called; then numba is imported,
@@ -17,7 +17,7 @@ step whose numpy / LAPACK / scipy counterpart is estimated (from sizes, never th
 same result whatever ran before. Each step states its counterpart's rate and what its results
 share with the kernel's (the same bits, or the same accuracy bound):
 
-- a chain's lowest modes (`chain.lowest.golub_kahan_lowest`): LAPACK dstebz
+- a chain's lowest modes (`gk_bisection.golub_kahan_lowest`): LAPACK dstebz
   (`gk_bisection.DSTEBZ_S`), each value to two ulps as the kernel's;
 - a chain's certificates, values only (`chain.bidiagonal.certified_values`): inverse iteration
   and `certify_modes` in numpy (`bidiagonal.NUMPY_CERTIFY_S`), bounds as tight;

@@ -39,7 +39,7 @@ from vibra.solvers.budget import (
 )
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
 from vibra.solvers.distributed.slepc import ranks as slepc_ranks, slepc_cost
-from vibra.solvers.accurate.chain.gk_bisection import DSTEBZ_S, compiled_bisection_pays
+from vibra.solvers.accurate.gk_bisection import DSTEBZ_S, compiled_bisection_pays
 from vibra.solvers.problem import Problem, quadratic_problem
 from vibra.solvers.standard.cholmod import sparse_backend
 from vibra.solvers.standard.iterative import ITERATIVE_FROM, MOST_MODES, iterative_cost

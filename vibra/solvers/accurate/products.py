@@ -17,7 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import FMA, _fma, _jit
+from vibra.solvers.accurate.count_kernels import FMA, fma, kernel_jit
 from vibra.solvers.compiled import compiled_pays, jit
 
 __all__ = ["times", "transposed_times", "rayleigh_quotients", "triple_rows", "SCIPY_PRODUCT_S"]
@@ -93,7 +93,7 @@ def _two_sum(a: float, b: float) -> tuple[float, float]:  # pragma: no cover (co
 def _two_product(a: float, b: float) -> tuple[float, float]:  # pragma: no cover (compiled)
     p = a * b
     if FMA:  # (one fused multiply-add: the same exact error as Dekker's splitting below)
-        return p, _fma(a, b, -p)
+        return p, fma(a, b, -p)
     t = 134217729.0 * a
     ah = t - (t - a)
     al = a - ah
@@ -145,7 +145,7 @@ def rayleigh_quotients(B: Any, V: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-@_jit()
+@kernel_jit()
 def triple_rows(indptr: Any, indices: Any, data: Any, V: Any, parts: Any) -> None:  # pragma: no cover - compiled
     """parts[0] + parts[1] + parts[2] = B V row by row (`spring_ritz._error_free_product`):
     Dekker's two-product of every entry (split at 2^27 + 1; no FMA), the high parts summed by

@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["two_sum", "two_product", "entry_deviation", "scaling_logs", "walk_bound", "weighted_forming",
-           "rayleigh_refinement", "kato_temple", "Scalings", "UNIT", "WORST_ENTRY", "centred", "vector_sums", "forming_from_sums"]
+__all__ = ["two_sum", "two_product", "dekker_split", "split_product", "SPLIT", "entry_deviation", "scaling_logs",
+           "walk_bound", "weighted_forming", "rayleigh_refinement", "kato_temple", "Scalings", "UNIT", "WORST_ENTRY", "centred", "vector_sums", "forming_from_sums"]
 
 #: Unit roundoff of float64 (half of machine epsilon).
 UNIT = float(np.finfo(float).eps) / 2
@@ -35,7 +35,7 @@ UNIT = float(np.finfo(float).eps) / 2
 #: rounding cannot be computed (entries whose exact value is unknown here).
 WORST_ENTRY = 6.0 * UNIT
 
-_SPLIT = 134217729.0  # 2^27 + 1, Dekker's splitter for float64
+SPLIT = 134217729.0  # 2^27 + 1, Dekker's splitter for float64
 
 
 def two_sum(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -45,8 +45,8 @@ def two_sum(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.
     return s, (a - (s - bb)) + (b - bb)
 
 
-def _split(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    c = _SPLIT * a
+def dekker_split(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    c = SPLIT * a
     high = c - (c - a)
     return high, a - high
 
@@ -60,10 +60,10 @@ def two_product(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray
     >>> float(p[0] - 1.0) == 2.0**-29, float(e[0]) == 2.0**-60
     (True, True)
     """
-    return _product(a, b, *_split(a), *_split(b))
+    return split_product(a, b, *dekker_split(a), *dekker_split(b))
 
 
-def _product(a: NDArray[np.float64], b: NDArray[np.float64], ah: NDArray[np.float64], al: NDArray[np.float64],
+def split_product(a: NDArray[np.float64], b: NDArray[np.float64], ah: NDArray[np.float64], al: NDArray[np.float64],
              bh: NDArray[np.float64], bl: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """`two_product` with the halves of a and b already split (shared by many products)."""
     p = a * b
@@ -245,8 +245,8 @@ def _residual(diagonal: NDArray[np.float64], upper: NDArray[np.float64], sigma: 
     u^2-level terms; the rounded result then differs from the exact one by <= u |r| + 8 u^2 sum|p|.
     """
     d = diagonal[:, None]
-    there_high, there_low = _split(there)
-    p1, e1 = _product(d, there, *_split(d), there_high, there_low)
+    there_high, there_low = dekker_split(there)
+    p1, e1 = split_product(d, there, *dekker_split(d), there_high, there_low)
     shifted, shifted_high, shifted_low = (np.zeros_like(there) for _ in range(3))
     if transpose:  # (B^T u)_i = d_i u_i + e_{i-1} u_{i-1}
         for target, source in ((shifted, there), (shifted_high, there_high), (shifted_low, there_low)):
@@ -256,9 +256,9 @@ def _residual(diagonal: NDArray[np.float64], upper: NDArray[np.float64], sigma: 
         for target, source in ((shifted, there), (shifted_high, there_high), (shifted_low, there_low)):
             target[:-1] = source[1:]
         coefficient = np.r_[upper, 0.0][:, None]
-    p2, e2 = _product(coefficient, shifted, *_split(coefficient), shifted_high, shifted_low)
+    p2, e2 = split_product(coefficient, shifted, *dekker_split(coefficient), shifted_high, shifted_low)
     minus = -sigma[None, :]
-    p3, e3 = _product(minus, here, *_split(minus), *_split(here))
+    p3, e3 = split_product(minus, here, *dekker_split(minus), *dekker_split(here))
     s, t1 = two_sum(p1, p2)
     s, t2 = two_sum(s, p3)
     result = s + (((t1 + t2) + (e1 + e2)) + e3)

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from vibra.solvers.accurate.chain.sturm_counts import ChainForm, certify_chain_values
 from vibra.solvers.accurate.products import rayleigh_quotients, times, transposed_times
 from vibra.solvers.accurate.ring.counts import RingPencil, certify, count_below
-from vibra.solvers.accurate.ring.values import LEVELS
+from vibra.solvers.accurate.counting import LEVELS
 from vibra.solvers.accurate.golub_kahan import HIGH_ROWS, HIGH_WORK, WANTED, loose_modes, refine_triplets
 from vibra.solvers.accurate.spring_ritz import (
     FORMING, TARGET, Deviation, cluster_bounds, most_terms, refine_modes, residual_bounds,
@@ -464,7 +464,7 @@ PRECISE_CLUSTER = 64
 
 #: The count brackets (relative half-widths) tried for a chain's spring-space Ritz values
 #: (`checked_ritz`): float64 Rayleigh quotients carry ~1e-14 relative rounding at 10^6 sites,
-#: so the tighter `ring.values.LEVELS` would only cost counts.
+#: so the tighter `counting.LEVELS` would only cost counts.
 COUNT_LEVELS = tuple(level for level in LEVELS if level >= 3e-14)
 
 

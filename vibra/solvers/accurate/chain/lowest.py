@@ -21,97 +21,15 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra._core.lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
 from vibra.solvers.accurate.chain.bidiagonal import (
     Segment, certify_modes, chunk, compose, inverse_iteration, neighbour_bounds, chain_bidiagonals,
     segment_scalings, solving_bound, worst_forming,
 )
 from vibra.solvers.common import EPS, SolveResult, absolute_figures
-from vibra.solvers.accurate.chain.gk_bisection import bidiagonal_values_by_bisection, compiled_bisection_pays
+from vibra.solvers.accurate.gk_bisection import golub_kahan_lowest
 from vibra.solvers.accurate.rounding import UNIT, Scalings
 
-__all__ = ["lowest_chain_path", "chain_segments", "golub_kahan_lowest", "certified_lowest", "DQDS_FACTOR",
-           "spring_factor_of_chain", "lowest_chain_modes"]
-
-#: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (O(s^2))
-#: rather than bisection for k of them (compiled, `gk_bisection`: O(s k)), whichever is cheaper.
-#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
-DQDS_FACTOR = 10
-
-
-def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool
-                       ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]:
-    """Singular values skip..skip+k-1 (ascending, 0-based) of the upper bidiagonal (d, e).
-
-    Returns (sigma, u, v): u (s, k) left and v (s, k) right singular vectors when `vectors`
-    (None otherwise), from the Golub-Kahan eigenvectors z = [v1, u1, v2, u2, ...] / sqrt 2.
-    """
-    s = d.shape[0]
-    off = np.empty(2 * s - 1)
-    off[0::2] = d
-    off[1::2] = e
-    zero = np.zeros(2 * s)
-    first = s + skip
-    lower = first - 1 if vectors else first  # the -sigma partner of the lowest: a zero pair needs both
-    if not vectors and s <= DQDS_FACTOR * k:
-        # dqds on all s values (O(s^2)) beats bisection for k of them (O(s k) per bit) here
-        return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
-    if not vectors and compiled_bisection_pays(s, k):  # the same counts, LANES values at a time
-        return bidiagonal_values_by_bisection(d, e[: s - 1], skip, k), None, None
-    known = _compiled_with_blocks(d, e, off, lower, first, k)  # (None: dstebz, cheaper for few values)
-    values, block, split = known if known is not None else tridiagonal_eigenvalues_by_index(zero, off, lower,
-                                                                                            first + k - 1)
-    order = np.argsort(values, kind="stable")  # dstebz groups the values by split-off block
-    sigma = np.abs(values[order][first - lower:])
-    if not vectors:
-        return sigma, None, None
-    z = tridiagonal_vectors(zero, off, values, block, split)[:, order]
-    right, left = z[0::2], z[1::2]
-    u = left[:, first - lower:].copy()
-    v = right[:, first - lower:].copy()
-    if sigma.size and sigma[0] <= 4.0 * EPS * float(np.abs(off).max(initial=0.0)):
-        # sigma ~ 0 (a free chain's translation): TGK's null space mixes [v; 0] and [0; u];
-        # each side's null vector is the dominant direction of that side's parts of the pair.
-        u[:, 0] = _dominant(left[:, :2])
-        v[:, 0] = _dominant(right[:, :2])
-    u /= np.maximum(np.linalg.norm(u, axis=0), np.finfo(float).tiny)
-    v /= np.maximum(np.linalg.norm(v, axis=0), np.finfo(float).tiny)
-    return sigma, u, v
-
-
-def _compiled_with_blocks(d: NDArray[np.float64], e: NDArray[np.float64], off: NDArray[np.float64], lower: int,
-                          first: int, k: int) -> tuple[NDArray[np.float64], NDArray[np.intc], NDArray[np.intc]] | None:
-    """(values, block, split) as dstebz returns them for TGK's eigenvalues lower..first+k-1, the
-    values from the compiled bisection (`gk_bisection`), for dstein: where TGK's blocks are
-    known without it, none (no off-diagonal with a square below the safe minimum, dstebz's
-    split with a zero diagonal) or only a free chain's padding (d[-1] exactly 0: a last 1 x 1
-    block, whose eigenvalue 0 is one of TGK's two zeros). Else None (dstebz decides), as where
-    dstebz is the cheaper for these k values (`gk_bisection.compiled_bisection_pays`)."""
-    size = d.shape[0]
-    if not compiled_bisection_pays(size, k):
-        return None
-    n = 2 * size
-    splits = np.flatnonzero(off * off < np.finfo(float).tiny)
-    padded = splits.shape[0] == 1 and splits[0] == n - 2 and d[size - 1] == 0.0
-    if splits.shape[0] and not padded:
-        return None
-    sigma = bidiagonal_values_by_bisection(d, e[: size - 1], first - size, k)
-    values = np.r_[-sigma[0], sigma] if lower < first else sigma  # (-sigma_skip: the lower partner)
-    block = np.ones(values.shape[0], dtype=np.intc)
-    if not padded:
-        return values, block, np.array([n], dtype=np.intc)
-    zeros = np.flatnonzero(values == 0.0)
-    if zeros.shape[0] >= 2:  # one zero is the padding block's: grouped by block, it comes last
-        values = np.r_[np.delete(values, zeros[-1]), 0.0]
-        block[-1] = 2
-    return values, block, np.array([n - 1, n], dtype=np.intc)
-
-
-def _dominant(parts: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The leading left singular vector of a (s, 2) block."""
-    basis, _, _ = np.linalg.svd(parts, full_matrices=False)
-    column: NDArray[np.float64] = basis[:, 0]
-    return column
+__all__ = ["lowest_chain_path", "chain_segments", "certified_lowest", "spring_factor_of_chain", "lowest_chain_modes"]
 
 
 def chain_segments(weighted: Any) -> list[Segment] | None:

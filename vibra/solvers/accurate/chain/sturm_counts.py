@@ -8,11 +8,11 @@ pair split by ~the weak spring.
 
 Here the chain's spring form [[W^-1, B], [B^T, x M]], built from the springs, couplings and
 masses as given, is a path of sites and springs (several paths for several chains, joined by
-zero couplings): its pivots, in double-double (`ring.kernel.chain_counts`, compiled), have no
+zero couplings): its pivots, in double-double (`count_kernels.chain_counts`, compiled), have no
 fill and are exact for couplings, masses and springs perturbed by a few units of
 double-double, so a count is exact for an omega within phi = 2 (N + 1) u relatively (N nodes,
 u = 4 dd.UNIT; as `ring.counts.spring_widening` for a ring, without its closing term). A value whose
-bound exceeds `golub_kahan.WANTED` is bracketed at the tightest of `ring.values.LEVELS` whose two
+bound exceeds `golub_kahan.WANTED` is bracketed at the tightest of `counting.LEVELS` whose two
 counts hold its index: a cluster's values are certified together, whatever their spacing.
 """
 
@@ -23,12 +23,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import chain_counts
+from vibra.solvers.accurate.count_kernels import chain_counts
 from vibra.solvers.common import SolveResult
-from vibra.solvers.accurate.ring.counts import spring_width, stored_factor
+from vibra.solvers.accurate.counting import LEVELS, spring_width, stored_factor
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 from vibra.solvers.accurate.golub_kahan import WANTED
-from vibra.solvers.accurate.ring.values import LEVELS
 
 __all__ = ["ChainForm", "chain_form", "certify_chain_values", "chain_counted"]
 

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.rounding import _SPLIT, UNIT as _UNIT
+from vibra.solvers.accurate.rounding import SPLIT, UNIT as _UNIT
 from vibra.solvers.compiled import jit
 
 __all__ = ["triplet_figures"]
@@ -73,7 +73,7 @@ FLOAT_ENOUGH = 16
 @_jit
 def _hi(a: float) -> float:
     """The high half of Dekker's split (the low half is a - high, exactly)."""
-    c = _SPLIT * a
+    c = SPLIT * a
     return c - (c - a)
 
 

@@ -7,12 +7,12 @@ before, "high" took the checked dense solve (O(n^3): 15.7 s at 5,000 sites, refu
 ~20,000). Here:
 
 - values: the squared singular values of the chain's bidiagonal Cholesky factor, formed from
-  the springs without cancellation (`ring.values.cut_chain`: relatively accurate entries), by
+  the springs without cancellation (`counting.cut_chain`: relatively accurate entries), by
   dqds for all (O(n^2)), or by compiled Golub-Kahan bisection for the lowest k (O(n k));
 - bounds: each value certified by two double-double inertia counts of the spring form
-  [[W^-1, B], [B^T, x M - walls]] (`ring.kernel.spring_counts`: the ring's counts with a
+  [[W^-1, B], [B^T, x M - walls]] (`count_kernels.spring_counts`: the ring's counts with a
   closing coupling of zero, through a spring of no length in the ring's place), at the
-  tightest of `ring.values.LEVELS` that proves it, else by multisection; widened by the counts'
+  tightest of `counting.LEVELS` that proves it, else by multisection; widened by the counts'
   own perturbation (2 (2n + 1) u relatively, as `ring.counts.spring_widening` without the closing
   term): rigorous for the masses and springs as given;
 - the lowest modes' vectors by Golub-Kahan inverse iteration on B~ (`golub_kahan.singular_vectors`).
@@ -35,12 +35,13 @@ from numpy.typing import NDArray
 
 from vibra._core.lapack import bidiagonal_singular_values
 from vibra.solvers.common import SolveResult
-from vibra.solvers.accurate.ring.counts import spring_width
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul
 from vibra.solvers.accurate.golub_kahan import singular_vectors
-from vibra.solvers.accurate.chain.lowest import golub_kahan_lowest
-from vibra.solvers.accurate.ring.kernel import spring_counts
-from vibra.solvers.accurate.ring.values import LEVELS, certify_at_levels, cut_chain, proven_multisection, sorted_bounds
+from vibra.solvers.accurate.gk_bisection import golub_kahan_lowest
+from vibra.solvers.accurate.count_kernels import spring_counts
+from vibra.solvers.accurate.counting import (
+    LEVELS, certify_at_levels, cut_chain, proven_multisection, sorted_bounds, spring_width,
+)
 from vibra.solvers.accurate.spring_ritz import spring_figures
 
 __all__ = ["WalledChain", "walled_chain", "walled_values", "walled_result", "has_inner_walls"]

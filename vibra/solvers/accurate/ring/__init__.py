@@ -3,6 +3,5 @@
 - `counts`: a ring's pencil and its Sturm counts in double-double (certified bounds)
 - `values`: accurate-ring, every frequency (or the lowest), roots certified by counts
 - `counted`: accurate-ring at "high", a standard solver's values each bracketed by two counts
-- `kernel`: the compiled loops (numba): the spring form's pivots, roots and counts
 - `pencil_counts`: the compiled counts of K - x M, for the values its perturbation leaves sharp
 """

@@ -8,7 +8,7 @@ bracketed, [v (1 - t), v (1 + t)] for the tightest t of `HIGH_LEVELS` that two c
 count below the lower end <= j < count below the upper end. Values whose brackets overlap (a
 double eigenvalue, a uniform ring's) share one bracket, two counts for the cluster. The counts
 are K - x M's in double-double (`ring.pencil_counts`: exact within ~1e-30 (R + x), R ~ ||K~||),
-or the spring form's (`ring.kernel.spring_counts`, relatively accurate at any x, twice the
+or the spring form's (`count_kernels.spring_counts`, relatively accurate at any x, twice the
 cost per site) for a value that perturbation would blur (below ~1e-19 R). Each bound is the
 bracket widened by the counts' own perturbation: a certificate for the masses and springs as
 given, whatever the standard solver's accuracy; a value no level proves is not guessed.
@@ -28,9 +28,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.counts import RingPencil, multisection, spring_widening, spring_width
+from vibra.solvers.accurate.counting import multisection, sorted_bounds, spring_width
+from vibra.solvers.accurate.ring.counts import RingPencil, spring_widening
 from vibra.solvers.accurate.ring.pencil_counts import PencilCounts
-from vibra.solvers.accurate.ring.values import SpringForm, ring_values, sorted_bounds
+from vibra.solvers.accurate.ring.values import SpringForm, ring_values
 from vibra.solvers.accuracy import HIGH_TARGET
 from vibra.solvers.common import SolveResult
 
@@ -44,7 +45,7 @@ HIGH_LEVELS = (1e-13, 1e-12, 1e-11, HIGH_TARGET)
 LOWEST_SHARE = 1.0 / 16
 
 #: "high"'s promise, relative to omega^2: a bound over a quarter of it is narrowed (`NARROWING` passes of
-#: multisection, `ring.counts.SECTIONS` - 1 counts each: 16^2 = 256 times narrower).
+#: multisection, `counting.SECTIONS` - 1 counts each: 16^2 = 256 times narrower).
 AIM = HIGH_TARGET
 NARROWING = 2
 
@@ -113,7 +114,7 @@ def certify_values(pencil: RingPencil, values: NDArray[np.float64], bound: NDArr
 
 def _in_order(values: NDArray[np.float64], bound: NDArray[np.float64]) -> None:
     """Values sorted in place, each bound then for the eigenvalue of its new index
-    (`ring.values.sorted_bounds`)."""
+    (`counting.sorted_bounds`)."""
     order = np.argsort(values, kind="stable")
     values[:], bound[:] = values[order], sorted_bounds(values[order], bound[order], order)
 

@@ -33,28 +33,24 @@ because no library offers inertia counts of a cyclic tridiagonal in extended pre
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import depth_first_order
 
+from vibra.solvers.accurate.counting import LADDER, SECTION_PASSES, multisection, spring_width, stored_factor
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul, split_mp
-from vibra.solvers.accurate.rounding import _product, _split
+from vibra.solvers.accurate.rounding import dekker_split, split_product
 
-__all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_springs", "count_below_mp", "mp_rho", "certify", "RHO_UNIT", "LADDER",
-           "MP_WORK", "spring_width", "multisection"]
+__all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_springs", "count_below_mp", "mp_rho", "certify", "RHO_UNIT",
+           "MP_WORK"]
 
 #: The counts are exact for a pencil within RHO_UNIT (R + |x|) of (K, M): pivots within
 #: 4 operations' rounding of each entry (diagonal, off-diagonal squared), 4 `dd.UNIT` each
 #: (dd.UNIT: 16 units of 2^-104, double-double's operations not being correctly rounded).
 RHO_UNIT = 16 * _UNIT_DD
-
-#: Half-widths of the brackets tried, relative to each eigenvalue, tightest first; a mode
-#: certified at one level is not tried again.
-LADDER = (8 * 2.0**-53, 64 * 2.0**-53, 1e-13, 1e-12, 1e-11)
-
 
 @dataclass
 class RingPencil:
@@ -156,14 +152,6 @@ def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
                       terms, edge_terms, ends, (terms[0][walls], terms[1][walls], terms[2][walls]))
 
 
-def stored_factor(coupling: Any) -> tuple[sp.csr_matrix, NDArray[np.intp]]:
-    """B as a float CSR copy, indices sorted, explicit zeros dropped, and its entries per row."""
-    B = sp.csr_matrix(coupling, dtype=float, copy=True)
-    B.sort_indices()
-    B.eliminate_zeros()
-    return B, np.diff(B.indptr)
-
-
 def _entries(terms: tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64]],
              edges: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]], n: int, digits: int
              ) -> tuple[list[Any], list[Any]]:
@@ -187,12 +175,12 @@ def count_below(pencil: RingPencil, x: NDArray[np.float64]) -> tuple[NDArray[np.
     (ah, al), (bh, bl), m = pencil.a, pencil.b, pencil.m
     u = _UNIT_DD
 
-    x_high, x_low = _split(x)  # (Dekker halves of x, shared by every product x m_i)
+    x_high, x_low = dekker_split(x)  # (Dekker halves of x, shared by every product x m_i)
     zero = np.zeros_like(x)
 
     def diagonal(i: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        mh, ml = _split(m[i])
-        ph, pl = _product(x, m[i], x_high, x_low, mh, ml)
+        mh, ml = dekker_split(m[i])
+        ph, pl = split_product(x, m[i], x_high, x_low, mh, ml)
         return _add(ah[i], al[i], -ph, -pl)
 
     ph, pl = diagonal(0)
@@ -263,7 +251,7 @@ def count_below_springs(pencil: RingPencil, x: NDArray[np.float64]
     off = np.empty(size - 1)
     off[0::2], off[1::2] = c_in, c_out[: n - 1]
     square_h, square_l = _mul(off, np.zeros_like(off), off, np.zeros_like(off))
-    x_high, x_low = _split(x)
+    x_high, x_low = dekker_split(x)
     zero, one = np.zeros_like(x), np.ones_like(x)
 
     compliance = _div(np.ones(n), np.zeros(n), w, np.zeros(n))  # 1 / w, once
@@ -272,8 +260,8 @@ def count_below_springs(pencil: RingPencil, x: NDArray[np.float64]
         i = j // 2
         if j % 2:  # spring i: 1 / w_i
             return compliance[0][i] + zero, compliance[1][i] + zero
-        mh, ml = _split(m[i])
-        ph, pl = _product(x, m[i], x_high, x_low, mh, ml)
+        mh, ml = dekker_split(m[i])
+        ph, pl = split_product(x, m[i], x_high, x_low, mh, ml)
         return _add(ph, pl, -wall_h[i] + zero, -wall_l[i] + zero)
 
     ph, pl = diagonal(0)
@@ -316,21 +304,6 @@ def spring_widening(pencil: RingPencil) -> NDArray[np.float64]:
     u = 4 * _UNIT_DD
     phi = 2 * (2 * n + 1) * u
     return np.array([phi, 4 * n * u * float(_closing(pencil).min()) * (1 + phi)])
-
-
-def spring_width(lo: NDArray[np.float64], hi: NDArray[np.float64], middle: NDArray[np.float64],
-                 widening: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Half-width about `middle` of the omega^2 that a bracket [lo, hi] of `count_below_springs`
-    counts proves (its `widening` (phi, theta |b~|)): omega within sqrt(lo) (1 - phi) - s ..
-    sqrt(hi) (1 + phi) + s, squared. Each side is formed as a sum of nonnegative terms (the
-    difference hi - middle exact by Sterbenz, the widening's terms tiny beside it): squaring
-    sqrt(hi) (1 + phi) in float64 would round by more than phi ~ 1e-26 and could leave the
-    width at zero."""
-    phi, shift = float(widening[0]), float(widening[1])
-    root_hi, root_lo = np.sqrt(hi) * (1 + 1e-15), np.sqrt(np.maximum(lo, 0.0)) * (1 + 1e-15)
-    above = (hi - middle) + hi * (2 * phi + phi * phi) + shift * (2 * root_hi * (1 + phi) + shift)
-    below = np.minimum(middle, (middle - lo) + 2 * phi * lo + 2 * shift * root_lo)
-    return np.maximum(above, below) * (1 + 1e-12)
 
 
 def _closing(pencil: RingPencil) -> NDArray[np.float64]:
@@ -378,43 +351,6 @@ def mp_rho(pencil: RingPencil, x: float, digits: int) -> float:
 #: Most pivots computed in mpmath per certificate (a mode's two counts cost 2 n): beyond
 #: it, the values double-double cannot certify keep their residual bound.
 MP_WORK = 100_000
-
-
-#: Multisection of the spring form's brackets: points per bracket and pass, and passes (14
-#: narrow a bracket as wide as the value itself, 16^14 ~ 7e16, to 8 eps; a value the LADDER
-#: brackets needs one or two).
-#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
-SECTIONS = 16
-SECTION_PASSES = 14
-
-
-def multisection(count_at: Callable[[NDArray[np.float64]], tuple[NDArray[np.intp], NDArray[np.bool_]]],
-                 lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp], passes: int
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-    """Narrow each bracket [lo, hi] that holds eigenvalue `index` (proven by two counts) by
-    SECTIONS - 1 counts (`count_at` gives (count, certain) per point) per pass, to the tightest
-    proven sub-bracket, until 2 LADDER[0] relative (8 eps either side) or `passes` passes.
-    Returns (lo, hi, counts spent)."""
-    lo, hi = lo.copy(), hi.copy()
-    fractions = np.arange(1, SECTIONS) / SECTIONS
-    used = 0
-    for _ in range(passes):
-        wide = np.flatnonzero(hi - lo > 2 * LADDER[0] * hi)
-        if wide.shape[0] == 0:
-            break
-        points = lo[wide, None] + (hi[wide] - lo[wide])[:, None] * fractions  # (k, SECTIONS - 1)
-        count, certain = count_at(points.ravel())
-        used += count.shape[0]
-        count, certain = count.reshape(points.shape), certain.reshape(points.shape)
-        below = certain & (count <= index[wide, None])
-        over = certain & (count > index[wide, None])
-        has_below, has_over = below.any(axis=1), over.any(axis=1)
-        last_below = points.shape[1] - 1 - np.argmax(below[:, ::-1], axis=1)
-        first_over = np.argmax(over, axis=1)
-        rows = np.arange(wide.shape[0])
-        lo[wide[has_below]] = np.maximum(lo[wide[has_below]], points[rows[has_below], last_below[has_below]])
-        hi[wide[has_over]] = np.minimum(hi[wide[has_over]], points[rows[has_over], first_over[has_over]])
-    return lo, hi, used
 
 
 def _spring_brackets(pencil: RingPencil, values: NDArray[np.float64], index: NDArray[np.intp],

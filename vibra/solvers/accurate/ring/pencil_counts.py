@@ -5,7 +5,7 @@ of ~1e-30 ||K~|| leaves relatively sharp (every value of a ring whose K~ spans <
 `ring.counts.count_below` (numpy, the reference) counts the negative pivots of an LDL^T of the
 cyclic tridiagonal K - x M, the corner carried as fill g of the last row, whose pivot l carries
 a running error bound. This is the same elimination, LANES points at a time in SIMD lanes
-(`ring.kernel`'s layout), with two changes that keep its error analysis:
+(`count_kernels`' layout), with two changes that keep its error analysis:
 
 - K's entries are formed from the springs in double-double here (`pencil_entries`: each a sum
   of at most `terms` products w c^2, every one positive, so within (terms + 1) `dd.UNIT` of
@@ -17,7 +17,7 @@ a running error bound. This is the same elimination, LANES points at a time in S
   the analysis attributes to each entry (the diagonal, the squared coupling), 11 operations
   where the correctly rounding addition takes 20.
 
-Per node: the pivot's reciprocal by one Newton step (`ring.kernel._reciprocal`), g / p, g^2 / p,
+Per node: the pivot's reciprocal by one Newton step (`count_kernels.scalar_reciprocal`), g / p, g^2 / p,
 the next fill and pivot; its rounding within `RHO_UNIT` (R + |x|) as in `count_below` (the
 diagonal within 2 units of |a| + x m, the coupling within 2 relatively), the fill's own
 rounding within 6 units (3 operations and the coupling's perturbation) of it.
@@ -31,7 +31,10 @@ from numpy.typing import NDArray
 from vibra.solvers.accurate.dd import UNIT, add, mul
 from vibra.solvers.accurate.rounding import two_product
 from vibra.solvers.accurate.ring.counts import RHO_UNIT, RingPencil
-from vibra.solvers.accurate.ring.kernel import LANES, _jit, _mul, _reciprocal, _two_product, _two_sum, prange
+from vibra.solvers.accurate.count_kernels import (
+    LANES, kernel_jit, scalar_mul, scalar_reciprocal, scalar_two_product, scalar_two_sum,
+)
+from vibra.solvers.compiled import prange
 
 __all__ = ["PencilCounts", "pencil_entries", "pencil_width"]
 
@@ -39,16 +42,16 @@ __all__ = ["PencilCounts", "pencil_entries", "pencil_width"]
 _X, _PH, _PL, _GH, _GL, _GE, _LH, _LL, _LE, _NEG, _VAN = range(11)
 
 
-@_jit()
+@kernel_jit()
 def _sum(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
     """a + b in double-double, within `dd.UNIT` (|a| + |b|): one two_sum of the high parts."""
-    s, e = _two_sum(ah, bh)
+    s, e = scalar_two_sum(ah, bh)
     e = e + (al + bl)
     h = s + e
     return h, e - (h - s)
 
 
-@_jit()
+@kernel_jit()
 def _pencil_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], a_h: NDArray[np.float64],
                   a_l: NDArray[np.float64], b_h: NDArray[np.float64], b_l: NDArray[np.float64],
                   square_h: NDArray[np.float64], square_l: NDArray[np.float64], u: float,
@@ -62,10 +65,10 @@ def _pencil_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], a_
     for p in range(LANES):
         xp = x[min(start + p, k - 1)]
         s[_X, p] = xp
-        th, tl = _two_product(xp, m[0])
+        th, tl = scalar_two_product(xp, m[0])
         s[_PH, p], s[_PL, p] = _sum(a_h[0], a_l[0], -th, -tl)
         s[_GH, p], s[_GL, p] = b_h[n - 1], b_l[n - 1]  # the corner: fill of row 0
-        th, tl = _two_product(xp, m[n - 1])
+        th, tl = scalar_two_product(xp, m[n - 1])
         s[_LH, p], s[_LL, p] = _sum(a_h[n - 1], a_l[n - 1], -th, -tl)
         s[_LE, p] = u * (abs(a_h[n - 1]) + abs(xp) * m[n - 1])
     for i in range(n - 1):
@@ -76,21 +79,21 @@ def _pencil_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], a_
             ph, pl = s[_PH, p], s[_PL, p]
             s[_NEG, p] += 1.0 if ph < 0 else 0.0
             s[_VAN, p] += 1.0 if ph == 0 else 0.0
-            rh, rl = _reciprocal(ph, pl)
+            rh, rl = scalar_reciprocal(ph, pl)
             gh, gl = s[_GH, p], s[_GL, p]
-            qh, ql = _mul(gh, gl, rh, rl)  # g / p
-            sh, sl = _mul(gh, gl, qh, ql)  # g^2 / p
+            qh, ql = scalar_mul(gh, gl, rh, rl)  # g / p
+            sh, sl = scalar_mul(gh, gl, qh, ql)  # g^2 / p
             lh, ll = _sum(s[_LH, p], s[_LL, p], -sh, -sl)
             s[_LH, p], s[_LL, p] = lh, ll
             inverse = abs(rh) * (1 + 1e-12)  # 1 / |p|, rounded up
             g_error = s[_GE, p]
             # g^2 / p's error: from g's, its rounding (3 operations), the sum's (|l_old| <= |l| + |g^2 / p|)
             s[_LE, p] = s[_LE, p] + (2 * abs(gh) + g_error) * g_error * inverse + u * (3 * abs(sh) + abs(lh))
-            fh, fl = _mul(-bh, -bl, qh, ql)  # the next fill: -b g / p
+            fh, fl = scalar_mul(-bh, -bl, qh, ql)  # the next fill: -b g / p
             s[_GE, p] = abs(bh) * inverse * g_error * (1 + 1e-12) + 6 * u * abs(fh)
             s[_GH, p], s[_GL, p] = fh, fl
-            th, tl = _mul(rh, rl, square, square_low)  # b^2 / p
-            dh, dl = _two_product(s[_X, p], mass)
+            th, tl = scalar_mul(rh, rl, square, square_low)  # b^2 / p
+            dh, dl = scalar_two_product(s[_X, p], mass)
             dh, dl = _sum(ah, al, -dh, -dl)  # a - x m
             s[_PH, p], s[_PL, p] = _sum(dh, dl, -th, -tl)
         if i == n - 3:  # the last row's own coupling joins the fill
@@ -106,7 +109,7 @@ def _pencil_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], a_
         count[start + p] = int(s[_NEG, p]) + (1 if lh < 0 else 0)
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _counts(x: NDArray[np.float64], m: NDArray[np.float64], a_h: NDArray[np.float64], a_l: NDArray[np.float64],
             b_h: NDArray[np.float64], b_l: NDArray[np.float64], square_h: NDArray[np.float64],
             square_l: NDArray[np.float64], u: float) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:

@@ -6,9 +6,9 @@ come from dqds on a bidiagonal factor of its K~ (relatively accurate): its sprin
 free ring (p_0 = 0), and for a ring with springs to a wall the Cholesky factor that
 `cut_chain` forms from the springs without cancellation. The ring's eigenvalue i
 lies in [p_i, p_i+1] (interlacing: the ring is the chain plus a positive rank-one term), where
-it is the root of the spring form's last pivot (`ring.kernel.pivot_roots`, float64, a few
+it is the root of the spring form's last pivot (`count_kernels.pivot_roots`, float64, a few
 O(n) evaluations each). Each root is then certified by two double-double inertia counts of
-the spring form (`ring.kernel.spring_counts`, the arithmetic and error analysis of
+the spring form (`count_kernels.spring_counts`, the arithmetic and error analysis of
 `ring.counts.count_below_springs`): [v (1 - t), v (1 + t)] holds eigenvalue i when the counts there
 are <= i and > i, for the tightest t of `LEVELS` that proves it; a root no level proves
 is bracketed by multisection from its interlacing interval. The bound is that bracket widened
@@ -20,7 +20,7 @@ bisection on its Golub-Kahan form (`lowest.golub_kahan_lowest`, O(n k)) instead 
 of them, so that a ring of any length costs O(n k) (5.6 s for 10 of 10^6 sites on two cores).
 
 Cost: per mode ~1.5 float64 evaluations of l and ~2.5 double-double counts of 2n nodes, both
-compiled 8 points at a time (SIMD lanes, `ring.kernel.LANES`), and the cut chain's dqds: in all
+compiled 8 points at a time (SIMD lanes, `count_kernels.LANES`), and the cut chain's dqds: in all
 ~2.4e-8 n^2 s on two cores (68 s at 50,000 sites, 240 s at 100,000, dqds 40% of it), where the
 dense Jacobi route of the smaller rings would take minutes and the band solver gives absolute
 accuracy only. There is no length limit: the budget (`budget.TIME_LIMIT_S`) refuses what
@@ -37,23 +37,19 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._core.lapack import bidiagonal_singular_values
-from vibra.solvers.accurate.ring.kernel import NEAR, pivot_roots, spring_counts, walled_factor
+from vibra.solvers.accurate.count_kernels import NEAR, pivot_roots, spring_counts
 from vibra.solvers.common import SolveResult
-from vibra.solvers.accurate.golub_kahan import Refiner, singular_vectors
-from vibra.solvers.accurate.spring_ritz import Deviation, cluster_bounds, most_terms, spring_figures
-from vibra.solvers.accurate.chain.lowest import golub_kahan_lowest
-from vibra.solvers.accurate.ring.counts import (
-    RingPencil, _closing, count_below_mp, mp_rho, multisection, ring_pencil, spring_widening, spring_width,
+from vibra.solvers.accurate.counting import (
+    LEVELS, certify_at_levels, cut_chain, proven_multisection, sorted_bounds, spring_width,
 )
+from vibra.solvers.accurate.golub_kahan import Refiner, singular_vectors
+from vibra.solvers.accurate.gk_bisection import golub_kahan_lowest
+from vibra.solvers.accurate.spring_ritz import Deviation, cluster_bounds, most_terms, spring_figures
+from vibra.solvers.accurate.ring.counts import RingPencil, _closing, count_below_mp, mp_rho, ring_pencil, spring_widening
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 
-__all__ = ["ring_values", "ring_result", "RingValues", "SpringForm", "spring_arrays", "sorted_bounds", "pair_step", "ring_vectors",
-           "cut_chain", "spring_walls", "certify_at_levels", "proven_multisection"]
-
-#: Half-widths of the brackets tried around each root, relative, tightest first (`ring.counts.LADDER`
-#: with steps between: a root at a pole, a double eigenvalue of a uniform ring or a mode
-#: localised far from the cut, has counts uncertain within ~sqrt(n) 1e-15 of it).
-LEVELS = (8 * 2.0**-53, 64 * 2.0**-53, 3e-14, 1e-13, 1.4e-13, 1.9e-13, 3e-13, 1e-12, 1e-11)
+__all__ = ["ring_values", "ring_result", "RingValues", "SpringForm", "spring_arrays", "pair_step", "ring_vectors",
+           "spring_walls"]
 
 #: The levels tried first for a root taken at a pole.
 SNAPPED_LEVELS = LEVELS[1:3]
@@ -72,11 +68,6 @@ MP_COUNTS = 24
 #: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
 MP_WORK = 5e5
 MP_LEVELS = (64 * 2.0**-53, 3e-14, 1e-13)
-
-#: Passes of `ring.counts.multisection` for the roots the LEVELS do not prove (16^16 ~ 2e19: an
-#: interlacing bracket as wide as its value to 8 eps, or a full range to ~1e-19).
-PASSES = 16
-
 
 @dataclass
 class RingValues:
@@ -107,29 +98,6 @@ def spring_walls(pencil: RingPencil) -> tuple[NDArray[np.float64], NDArray[np.fl
     """The springs to a wall at each site (sum of w c^2, double-double) in `spring_arrays`' order."""
     turn = (int(np.argmin(_closing(pencil))) + 1) % pencil.n
     return np.roll(pencil.wall[0], -turn), np.roll(pencil.wall[1], -turn)
-
-
-def cut_chain(m: NDArray[np.float64], w: NDArray[np.float64], c_in: NDArray[np.float64], c_out: NDArray[np.float64],
-              wall: NDArray[np.float64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(d, e): a lower bidiagonal L (diagonal d, subdiagonal e) with L L^T = K~ of the chain that
-    the ring is cut into (springs 0..n-2 of `spring_arrays`, site i's springs to a wall summing
-    to wall[i]), every entry relatively accurate: its squared singular values are the chain's
-    eigenvalues to a few ulps (dqds, or bisection).
-
-    Free (`wall` None): L is B~ itself (n x (n - 1), a zero column added). With walls, K~ =
-    B~ B~^T + D^2 (D_i^2 = wall_i / m_i) is not a product of one bidiagonal; its Cholesky factor
-    is, and with a_i, b_i spring i's entries of B~ on sites i and i + 1 (signs dropped: a
-    diagonal +-1 similarity) its entries come from sums of positive terms only:
-    s_0 = D_0^2, d_i^2 = a_i^2 + s_i, e_i = a_i b_i / d_i, s_i+1 = D_i+1^2 + b_i^2 s_i / d_i^2
-    (s_i = d_i^2 - a_i^2: what the sites up to i keep of their walls), so no cancellation: the
-    factor is as accurate as its inputs, where forming K~ and factoring it would lose the
-    lowest eigenvalues to ||K~|| eps."""
-    root_w, root_m = np.sqrt(w[:-1]), np.sqrt(m)
-    a = np.abs(root_w * c_in[:-1] / root_m[:-1])
-    b = np.abs(root_w * c_out[:-1] / root_m[1:])
-    if wall is None:
-        return np.r_[a, 0.0], b
-    return walled_factor(np.r_[a, 0.0], b, wall / m)
 
 
 Tighten = Callable[[NDArray[np.float64], NDArray[np.float64]], None]
@@ -282,32 +250,6 @@ def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.fl
     return result
 
 
-def sorted_bounds(values: NDArray[np.float64], bound: NDArray[np.float64], order: NDArray[np.intp]
-                  ) -> NDArray[np.float64]:
-    """Bounds for the eigenvalues in ascending order, given values sorted by `order` (value k
-    was bounded for eigenvalue order[k]): unchanged where the order is the identity. Within a
-    block of positions that `order` maps onto itself (indices a..b), the first j values hold j of
-    the eigenvalues a..b below max (v + bound), so eigenvalue a + j - 1 does too; likewise from
-    the top with min (v - bound)."""
-    k = values.shape[0]
-    if k == 0 or np.array_equal(order, np.arange(k)):
-        return bound
-    bound = bound.copy()
-    ends = np.flatnonzero(np.maximum.accumulate(order) == np.arange(k))
-    start = 0
-    for end in ends.tolist():
-        if end > start:
-            v, b = values[start: end + 1], bound[start: end + 1]
-            with np.errstate(invalid="ignore"):
-                upper = np.maximum.accumulate(v + b)
-                lower = np.minimum.accumulate((v - b)[::-1])[::-1]
-                # (+ 4 eps |v|: the rounding of v +- bound and of the differences)
-                widest = np.maximum(upper - v, v - lower) * (1 + 1e-12) + 4 * np.finfo(float).eps * np.abs(v)
-                bound[start: end + 1] = np.maximum(b, widest)
-        start = end + 1
-    return bound
-
-
 def _mp_counts(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[np.float64],
                wanted: float = MP_WANTED) -> int:
     """Tighten, in place, the bounds still above `wanted` relative (the lowest modes of a long
@@ -338,27 +280,6 @@ def _mp_counts(pencil: RingPencil, values: NDArray[np.float64], bound: NDArray[n
 
 
 Pivots = Callable[[NDArray[np.float64]], NDArray[np.float64]]
-Counts = Callable[[NDArray[np.float64]], tuple[NDArray[np.intp], NDArray[np.bool_]]]
-
-
-def certify_at_levels(counts: Counts, values: NDArray[np.float64], bound: NDArray[np.float64],
-                      modes: NDArray[np.intp], levels: tuple[float, ...], widening: NDArray[np.float64]) -> int:
-    """Certify value j (eigenvalue j) of `modes` at the tightest of `levels` that proves it: the
-    counts at v (1 -+ t) are <= j and > j; its bound (in place, where still infinite) is that
-    bracket widened by the counts' perturbation (`ring.counts.spring_width`). Returns the counts spent."""
-    used = 0
-    for level in levels:
-        todo = modes[~np.isfinite(bound[modes])]
-        if todo.shape[0] == 0:
-            break
-        v = values[todo]
-        lo, hi = v * (1 - level), v * (1 + level)
-        count, certain = counts(np.r_[lo, hi])
-        used += count.shape[0]
-        k = todo.shape[0]
-        good = certain[:k] & certain[k:] & (count[:k] <= todo) & (todo < count[k:])
-        bound[todo[good]] = spring_width(lo[good], hi[good], v[good], widening)
-    return used
 
 
 def _secant(pivots: Pivots, roots: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
@@ -380,7 +301,7 @@ def _secant(pivots: Pivots, roots: NDArray[np.float64]) -> tuple[NDArray[np.floa
 
 def _polish(pivots: Pivots, pole: NDArray[np.float64], side: NDArray[np.intp]
             ) -> tuple[NDArray[np.float64], int]:
-    """Roots taken at a pole (`ring.kernel.NEAR`; side -1: just above it, +1: just below),
+    """Roots taken at a pole (`count_kernels.NEAR`; side -1: just above it, +1: just below),
     each refined on double-double values of l, whose noise (~1e-31 over the distance to the
     pole) float64's (~1e-16 over it) would swamp.
 
@@ -491,18 +412,6 @@ def _model_root(y: NDArray[np.float64], values: NDArray[np.float64], first: NDAr
             chosen = candidates[np.arange(candidates.shape[0]), nearest]
             guess[fine] = np.where(on_side.any(axis=1), chosen, np.nan)
     return guess
-
-
-def proven_multisection(counts: Counts, lo: NDArray[np.float64], hi: NDArray[np.float64], index: NDArray[np.intp]
-                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-    """`ring.counts.multisection` for up to PASSES passes, the ends first proven by two counts
-    (lo = hi = nan where they fail)."""
-    k = lo.shape[0]
-    count, certain = counts(np.r_[lo, hi])
-    ok = certain[:k] & certain[k:] & (count[:k] <= index) & (index < count[k:])
-    lo, hi = np.where(ok, lo, np.nan), np.where(ok, hi, np.nan)
-    lo[ok], hi[ok], used = multisection(counts, lo[ok], hi[ok], index[ok], PASSES)
-    return lo, hi, used + 2 * k
 
 
 def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64], aim: float = MP_WANTED) -> Tighten:

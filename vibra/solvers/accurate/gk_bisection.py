@@ -9,17 +9,17 @@ relatively (Demmel and Kahan 1990), so bisection finds every singular value to a
 itself, however far below ||B|| it lies. For x > 0 the count is s + #(sigma < x).
 
 LAPACK dstebz runs these counts one point at a time (~20 ns per node and count here, ~2.2e-6 n s
-per value of a chain of n sites: 28 s of the lowest 13 of 10^6 sites). Here `ring.kernel.LANES`
+per value of a chain of n sites: 28 s of the lowest 13 of 10^6 sites). Here `count_kernels.LANES`
 values are bisected together, one point each, in SIMD lanes (a lane that has converged takes the
 next value), and the bisection homes in on the exponent first: from a lower end of 0 the next
 point is hi 2^-32, then the geometric mean while hi > 2 lo, then the midpoint, to 2 ulps
 (hi - lo <= 2 eps hi) or to twice the underflow threshold, dstebz's ABSTOL here (an interval
 from 0 that never left it: the value is 0, a free chain's padding).
 With vectors, dstein takes these values where the Golub-Kahan matrix's block structure is
-known without dstebz (`lowest._compiled_with_blocks`).
+known without dstebz (`_compiled_with_blocks`).
 
 Where dstebz is estimated under `vibra.solvers.compiled.COMPILED_FROM_S` (`compiled_bisection_pays`:
-a chain of 2,000 sites, its lowest 10 modes), `lowest.golub_kahan_lowest` takes it instead: the
+a chain of 2,000 sites, its lowest 10 modes), `golub_kahan_lowest` takes it instead: the
 same promise (each value to about two ulps of itself), without loading numba.
 """
 
@@ -28,10 +28,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.accurate.ring.kernel import LANES, _jit, prange
-from vibra.solvers.compiled import batches, compiled_pays, threads as _threads
+from vibra._core.lapack import bidiagonal_singular_values, tridiagonal_eigenvalues_by_index, tridiagonal_vectors
+from vibra.solvers.accurate.count_kernels import LANES, kernel_jit
+from vibra.solvers.common import EPS
+from vibra.solvers.compiled import batches, compiled_pays, prange, threads as _threads
 
-__all__ = ["bidiagonal_values_by_bisection", "compiled_bisection_pays", "DSTEBZ_S"]
+__all__ = ["golub_kahan_lowest", "bidiagonal_values_by_bisection", "compiled_bisection_pays", "DSTEBZ_S", "DQDS_FACTOR"]
 
 _EPS = float(np.finfo(float).eps)
 _SAFE_MIN = float(np.finfo(float).tiny)
@@ -52,11 +54,11 @@ BISECTION_S = 5e-7
 def compiled_bisection_pays(size: int, k: int) -> bool:
     """Whether k singular values of a bidiagonal of `size` take the compiled bisection rather
     than dstebz (`vibra.solvers.compiled.compiled_pays`, from dstebz's estimate); decided by
-    `lowest.golub_kahan_lowest`, the caller that has both."""
+    `golub_kahan_lowest`, the caller that has both."""
     return compiled_pays(DSTEBZ_S * size * k)
 
 
-@_jit()
+@kernel_jit()
 def _counts(x: NDArray[np.float64], squares: NDArray[np.float64], pivmin: float, below: NDArray[np.int64]) -> None:
     """Sturm counts of TGK - x I (zero diagonal, `squares` its off-diagonal squared) at the LANES
     points x, into below."""
@@ -77,7 +79,7 @@ def _counts(x: NDArray[np.float64], squares: NDArray[np.float64], pivmin: float,
         below[p] = int(s[1, p])
 
 
-@_jit()
+@kernel_jit()
 def _next_point(low: float, high: float) -> float:
     if low == 0.0:
         return high * 2.0**-32 if high > 2.0**32 * _SAFE_MIN else 0.5 * high
@@ -86,7 +88,7 @@ def _next_point(low: float, high: float) -> float:
     return 0.5 * (low + high)
 
 
-@_jit()
+@kernel_jit()
 def _bisect_chunk(first: int, stop: int, base: int, size: int, squares: NDArray[np.float64], top: float,
                   pivmin: float, out: NDArray[np.float64]) -> None:
     """Singular values first..stop-1 (0-based ascending) of the bidiagonal of `size`, into
@@ -126,7 +128,7 @@ def _bisect_chunk(first: int, stop: int, base: int, size: int, squares: NDArray[
             x[p] = _next_point(low[p], high[p])
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _bisect(skip: int, k: int, size: int, squares: NDArray[np.float64], top: float, pivmin: float, chunk: int
             ) -> NDArray[np.float64]:
     out = np.zeros(k)
@@ -162,3 +164,84 @@ def bidiagonal_values_by_bisection(d: NDArray[np.float64], e: NDArray[np.float64
         parts.append(_bisect(int(skip) + first, count, size, squares, top, pivmin, chunk))
     values: NDArray[np.float64] = parts[0] if len(parts) == 1 else np.concatenate(parts)
     return values
+
+
+#: Values only: a bidiagonal of size s <= DQDS_FACTOR * k takes dqds on all its values (O(s^2))
+#: rather than bisection for k of them (compiled, `gk_bisection`: O(s k)), whichever is cheaper.
+#: (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
+DQDS_FACTOR = 10
+
+
+def golub_kahan_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, k: int, *, vectors: bool
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]:
+    """Singular values skip..skip+k-1 (ascending, 0-based) of the upper bidiagonal (d, e).
+
+    Returns (sigma, u, v): u (s, k) left and v (s, k) right singular vectors when `vectors`
+    (None otherwise), from the Golub-Kahan eigenvectors z = [v1, u1, v2, u2, ...] / sqrt 2.
+    """
+    s = d.shape[0]
+    off = np.empty(2 * s - 1)
+    off[0::2] = d
+    off[1::2] = e
+    zero = np.zeros(2 * s)
+    first = s + skip
+    lower = first - 1 if vectors else first  # the -sigma partner of the lowest: a zero pair needs both
+    if not vectors and s <= DQDS_FACTOR * k:
+        # dqds on all s values (O(s^2)) beats bisection for k of them (O(s k) per bit) here
+        return bidiagonal_singular_values(d, e)[skip : skip + k], None, None
+    if not vectors and compiled_bisection_pays(s, k):  # the same counts, LANES values at a time
+        return bidiagonal_values_by_bisection(d, e[: s - 1], skip, k), None, None
+    known = _compiled_with_blocks(d, e, off, lower, first, k)  # (None: dstebz, cheaper for few values)
+    values, block, split = known if known is not None else tridiagonal_eigenvalues_by_index(zero, off, lower,
+                                                                                            first + k - 1)
+    order = np.argsort(values, kind="stable")  # dstebz groups the values by split-off block
+    sigma = np.abs(values[order][first - lower:])
+    if not vectors:
+        return sigma, None, None
+    z = tridiagonal_vectors(zero, off, values, block, split)[:, order]
+    right, left = z[0::2], z[1::2]
+    u = left[:, first - lower:].copy()
+    v = right[:, first - lower:].copy()
+    if sigma.size and sigma[0] <= 4.0 * EPS * float(np.abs(off).max(initial=0.0)):
+        # sigma ~ 0 (a free chain's translation): TGK's null space mixes [v; 0] and [0; u];
+        # each side's null vector is the dominant direction of that side's parts of the pair.
+        u[:, 0] = _dominant(left[:, :2])
+        v[:, 0] = _dominant(right[:, :2])
+    u /= np.maximum(np.linalg.norm(u, axis=0), np.finfo(float).tiny)
+    v /= np.maximum(np.linalg.norm(v, axis=0), np.finfo(float).tiny)
+    return sigma, u, v
+
+
+def _compiled_with_blocks(d: NDArray[np.float64], e: NDArray[np.float64], off: NDArray[np.float64], lower: int,
+                          first: int, k: int) -> tuple[NDArray[np.float64], NDArray[np.intc], NDArray[np.intc]] | None:
+    """(values, block, split) as dstebz returns them for TGK's eigenvalues lower..first+k-1, the
+    values from the compiled bisection (`gk_bisection`), for dstein: where TGK's blocks are
+    known without it, none (no off-diagonal with a square below the safe minimum, dstebz's
+    split with a zero diagonal) or only a free chain's padding (d[-1] exactly 0: a last 1 x 1
+    block, whose eigenvalue 0 is one of TGK's two zeros). Else None (dstebz decides), as where
+    dstebz is the cheaper for these k values (`gk_bisection.compiled_bisection_pays`)."""
+    size = d.shape[0]
+    if not compiled_bisection_pays(size, k):
+        return None
+    n = 2 * size
+    splits = np.flatnonzero(off * off < np.finfo(float).tiny)
+    padded = splits.shape[0] == 1 and splits[0] == n - 2 and d[size - 1] == 0.0
+    if splits.shape[0] and not padded:
+        return None
+    sigma = bidiagonal_values_by_bisection(d, e[: size - 1], first - size, k)
+    values = np.r_[-sigma[0], sigma] if lower < first else sigma  # (-sigma_skip: the lower partner)
+    block = np.ones(values.shape[0], dtype=np.intc)
+    if not padded:
+        return values, block, np.array([n], dtype=np.intc)
+    zeros = np.flatnonzero(values == 0.0)
+    if zeros.shape[0] >= 2:  # one zero is the padding block's: grouped by block, it comes last
+        values = np.r_[np.delete(values, zeros[-1]), 0.0]
+        block[-1] = 2
+    return values, block, np.array([n - 1, n], dtype=np.intc)
+
+
+def _dominant(parts: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The leading left singular vector of a (s, 2) block."""
+    basis, _, _ = np.linalg.svd(parts, full_matrices=False)
+    column: NDArray[np.float64] = basis[:, 0]
+    return column

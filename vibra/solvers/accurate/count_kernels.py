@@ -1,5 +1,7 @@
-"""Compiled loops of the ring's values-only path (numba): roots of the spring form's last pivot,
-and its inertia counts in double-double.
+"""Compiled loops (numba) shared by the ring and chain paths: roots of the spring form's last pivot
+and its inertia counts in double-double (`ring.values`, `chain.walled`), a chain's counts
+(`chain.sturm_counts`), and the scalar double-double operations they and `ring.pencil_counts`,
+`gk_bisection` and `products` are built from (`kernel_jit`, `scalar_mul`, ...).
 
 A ring with its dofs taken around the cycle, cut at its closing spring r
 (`ring.counts.count_below_springs` picks it), has the spring form A(x) = [[W^-1, B], [B^T, x M]]
@@ -18,7 +20,7 @@ plus one spring) eigenvalue i of the ring lies between the chain's i and i + 1.
 - `spring_counts`: `ring.counts.count_below_springs`, the same double-double operations in the same
   order with its running error, per point in compiled loops (numba threads over blocks of
   `LANES` points, each block's points in SIMD lanes), except the reciprocal of each pivot: one
-  Newton step (`_reciprocal`, within `dd.UNIT` as `dd.div` is, at a third of its operations).
+  Newton step (`scalar_reciprocal`, within `dd.UNIT` as `dd.div` is, at a third of its operations).
   2.5 ns per point and node on two cores (15 ns one point at a time: the loop is a chain of
   dependent operations; 8 independent points fill the pipeline and the vector units), where
   the numpy version pays its call overhead on each operation over the vector of points.
@@ -29,7 +31,7 @@ plus one spring) eigenvalue i of the ring lies between the chain's i and i + 1.
 
 numba compiles without fast-math (IEEE operations, no contraction into FMA), so the
 error-free transformations stay exact; a product's exact error is one explicit fused
-multiply-add where the CPU has it (`FMA`, `_two_product`: the same two numbers as Dekker's
+multiply-add where the CPU has it (`FMA`, `scalar_two_product`: the same two numbers as Dekker's
 splitting, at a tenth of its operations). The first call compiles (~5 s), cached on disk after;
 numba itself is loaded on the first call, not with vibra (`vibra.solvers.compiled`).
 """
@@ -43,14 +45,15 @@ from numpy.typing import NDArray
 
 from vibra.solvers.compiled import HOST_FMA, batches, intrinsic, jit, prange, threads
 
-__all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor"]
+__all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor", "kernel_jit", "LANES", "FMA", "fma",
+           "scalar_two_sum", "scalar_two_product", "scalar_mul", "scalar_reciprocal"]
 
 _SPLIT = 134217729.0  # 2^27 + 1 (Dekker)
 _EPS = float(np.finfo(float).eps)
 _TINY = float(np.finfo(float).tiny)
 
 
-def _jit(parallel: bool = False) -> Any:
+def kernel_jit(parallel: bool = False) -> Any:
     """The kernels' numba options: no fast-math (IEEE operations), cached on disk; compiled on
     first call (`vibra.solvers.compiled.jit`)."""
     return jit(cache=True, fastmath=False, nogil=True, error_model="numpy", parallel=parallel)
@@ -58,20 +61,20 @@ def _jit(parallel: bool = False) -> Any:
 
 # --- double-double, scalar: the operations of `vibra.solvers.accurate.dd` and `vibra.solvers.accurate.rounding` ---
 
-@_jit()
-def _two_sum(a: float, b: float) -> tuple[float, float]:
+@kernel_jit()
+def scalar_two_sum(a: float, b: float) -> tuple[float, float]:
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
 
 
-@_jit()
+@kernel_jit()
 def _fast(a: float, b: float) -> tuple[float, float]:
     s = a + b
     return s, b - (s - a)
 
 
-@_jit()
+@kernel_jit()
 def _split(a: float) -> tuple[float, float]:
     c = _SPLIT * a
     high = c - (c - a)
@@ -79,13 +82,13 @@ def _split(a: float) -> tuple[float, float]:
 
 
 #: Whether this CPU fuses a multiply and an add in one rounding (x86-64 since 2013, every ARM64):
-#: then a product's exact error is one instruction (`_two_product`), else Dekker's splitting.
+#: then a product's exact error is one instruction (`scalar_two_product`), else Dekker's splitting.
 #: (LLVM's host features, read when a kernel is first compiled or FMA is first tested.)
 FMA = HOST_FMA
 
 
 @intrinsic
-def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+def fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
     """a b + c with one rounding (LLVM's llvm.fma: the FMA instruction; numba offers no fma)."""
     from llvmlite import ir as _ir
     from numba import types
@@ -100,39 +103,39 @@ def _fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
     return signature, codegen
 
 
-@_jit()
-def _two_product(a: float, b: float) -> tuple[float, float]:
+@kernel_jit()
+def scalar_two_product(a: float, b: float) -> tuple[float, float]:
     """(p, e): p = fl(a b), e = a b - p exactly (the same two numbers either way: e is unique)."""
     p = a * b
     if FMA:
-        return p, _fma(a, b, -p)
+        return p, fma(a, b, -p)
     ah, al = _split(a)
     bh, bl = _split(b)
     return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
-@_jit()
+@kernel_jit()
 def _add(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
-    s, e = _two_sum(ah, bh)
-    t, f = _two_sum(al, bl)
+    s, e = scalar_two_sum(ah, bh)
+    t, f = scalar_two_sum(al, bl)
     s, e = _fast(s, e + t)
     return _fast(s, e + f)
 
 
-@_jit()
-def _mul(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
-    p, e = _two_product(ah, bh)
+@kernel_jit()
+def scalar_mul(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
+    p, e = scalar_two_product(ah, bh)
     return _fast(p, e + (ah * bl + al * bh))
 
 
-@_jit()
-def _reciprocal(ph: float, pl: float) -> tuple[float, float]:
+@kernel_jit()
+def scalar_reciprocal(ph: float, pl: float) -> tuple[float, float]:
     """1 / (ph + pl) in double-double by one Newton step: r = fl(1 / ph), e = 1 - (ph + pl) r
     formed from Dekker's exact product (|e| <= 2^-51.9, its own rounding ~2^-104 |r e|
     relatively), r (1 + e) to within e^2 + 3 2^-105 ~ 6 2^-104 relatively: inside `dd.UNIT`
     (16 2^-104), as `dd.div(1, 0, ph, pl)` is, at a third of its operations."""
     r = 1.0 / ph
-    p, q = _two_product(ph, r)
+    p, q = scalar_two_product(ph, r)
     e = ((1.0 - p) - q) - pl * r
     return _fast(r, r * e)
 
@@ -147,7 +150,7 @@ LANES = 8
 _X, _PH, _PL, _GH, _GL, _GE, _LH, _LL, _LE, _RH, _RL, _QH, _QL, _INV, _NEG, _VAN = range(16)
 
 
-@_jit()
+@kernel_jit()
 def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], compliance_h: NDArray[np.float64],
                  compliance_l: NDArray[np.float64], off: NDArray[np.float64], square_h: NDArray[np.float64],
                  square_l: NDArray[np.float64], wall_h: NDArray[np.float64], wall_l: NDArray[np.float64],
@@ -166,7 +169,7 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
     for p in range(LANES):
         xp = x[min(start + p, k - 1)]
         s[_X, p] = xp
-        s[_PH, p], s[_PL, p] = _two_product(xp, m[0])
+        s[_PH, p], s[_PL, p] = scalar_two_product(xp, m[0])
         if walls:
             s[_PH, p], s[_PL, p] = _add(s[_PH, p], s[_PL, p], -wall_h[0], -wall_l[0])
         s[_GH, p] = closing
@@ -177,12 +180,12 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
             ph = s[_PH, p]
             s[_NEG, p] += 1.0 if ph < 0 else 0.0
             s[_VAN, p] += 1.0 if ph == 0 else 0.0
-            rh, rl = _reciprocal(ph, s[_PL, p])
+            rh, rl = scalar_reciprocal(ph, s[_PL, p])
             s[_RH, p], s[_RL, p] = rh, rl
             gh, gl = s[_GH, p], s[_GL, p]
-            qh, ql = _mul(gh, gl, rh, rl)
+            qh, ql = scalar_mul(gh, gl, rh, rl)
             s[_QH, p], s[_QL, p] = qh, ql
-            sh, sl = _mul(gh, gl, qh, ql)
+            sh, sl = scalar_mul(gh, gl, qh, ql)
             lh, ll = _add(s[_LH, p], s[_LL, p], -sh, -sl)
             s[_LH, p], s[_LL, p] = lh, ll
             inverse = abs(rh) * (1 + 1e-12)  # 1 / |p|, rounded up (float64 bookkeeping)
@@ -201,15 +204,15 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
         walled = walls and site
         wh, wl = -wall_h[(j + 1) // 2], -wall_l[(j + 1) // 2]
         for p in range(LANES):
-            fh, fl = _mul(-c, 0.0, s[_QH, p], s[_QL, p])
+            fh, fl = scalar_mul(-c, 0.0, s[_QH, p], s[_QL, p])
             g_error = abs(c) * s[_INV, p] * s[_GE, p] * (1 + 1e-12) + 4 * u * abs(fh)
             jh, jl = _add(fh, fl, c_last, 0.0)
             joined = g_error + u * (abs(jh) + abs(c_last))
             s[_GE, p] = joined if closes else g_error
             s[_GH, p] = jh if closes else fh
             s[_GL, p] = jl if closes else fl
-            th, tl = _mul(s[_RH, p], s[_RL, p], square, square_low)
-            dh, dl = _two_product(s[_X, p], mass)
+            th, tl = scalar_mul(s[_RH, p], s[_RL, p], square, square_low)
+            dh, dl = scalar_two_product(s[_X, p], mass)
             if walled:
                 dh, dl = _add(dh, dl, wh, wl)
             s[_PH, p], s[_PL, p] = _add(dh if site else ch, dl if site else cl, -th, -tl)
@@ -221,7 +224,7 @@ def _count_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], com
         last[start + p] = lh
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _counts(x: NDArray[np.float64], m: NDArray[np.float64], compliance_h: NDArray[np.float64],
             compliance_l: NDArray[np.float64], off: NDArray[np.float64], square_h: NDArray[np.float64],
             square_l: NDArray[np.float64], wall_h: NDArray[np.float64], wall_l: NDArray[np.float64], walls: bool,
@@ -276,7 +279,7 @@ COUNT_S = 1e-8
 ROOT_S = 20 * 2e-9
 
 
-@_jit()
+@kernel_jit()
 def _pivot_block(x: NDArray[np.float64], m: NDArray[np.float64], compliance: NDArray[np.float64],
                  off: NDArray[np.float64], wall: NDArray[np.float64], closing: float, f: NDArray[np.float64],
                  fp: NDArray[np.float64]) -> None:
@@ -323,13 +326,13 @@ def _pivot_block(x: NDArray[np.float64], m: NDArray[np.float64], compliance: NDA
         f[q], fp[q] = s[5, q], s[6, q]
 
 
-@_jit()
+@kernel_jit()
 def _middle(a: float, b: float) -> float:
     """Bisection's next point in (a, b): geometric where b > 64 a > 0."""
     return np.sqrt(a) * np.sqrt(b) if a > 0 and b > 64 * a else 0.5 * (a + b)
 
 
-@_jit()
+@kernel_jit()
 def _roots_chunk(first: int, stop: int, low: NDArray[np.float64], high: NDArray[np.float64],
                  pole_low: NDArray[np.float64], pole_high: NDArray[np.float64], m: NDArray[np.float64],
                  compliance: NDArray[np.float64], off: NDArray[np.float64], wall: NDArray[np.float64], closing: float,
@@ -367,7 +370,7 @@ def _roots_chunk(first: int, stop: int, low: NDArray[np.float64], high: NDArray[
                 busy -= root[q] < 0
 
 
-@_jit()
+@kernel_jit()
 def _begin(q: int, following: int, stop: int, low: NDArray[np.float64], high: NDArray[np.float64],
            pole_low: NDArray[np.float64], pole_high: NDArray[np.float64], x: NDArray[np.float64],
            a: NDArray[np.float64], b: NDArray[np.float64], root: NDArray[np.int64], stage: NDArray[np.int64],
@@ -388,7 +391,7 @@ def _begin(q: int, following: int, stop: int, low: NDArray[np.float64], high: ND
     return following
 
 
-@_jit()
+@kernel_jit()
 def _next_stage(q: int, first: int, pole_low: float, pole_high: float, x: NDArray[np.float64],
                 a: NDArray[np.float64], b: NDArray[np.float64], stage: NDArray[np.int64]) -> None:
     """The first of the stages from `first` on that evaluates l, with its point."""
@@ -400,7 +403,7 @@ def _next_stage(q: int, first: int, pole_low: float, pole_high: float, x: NDArra
         stage[q], x[q] = 2, _middle(a[q], b[q])
 
 
-@_jit()
+@kernel_jit()
 def _advance(q: int, f: float, fp: float, pole_low: float, pole_high: float, x: NDArray[np.float64],
              a: NDArray[np.float64], b: NDArray[np.float64], stage: NDArray[np.int64], steps: NDArray[np.int64]
              ) -> tuple[bool, float, int]:
@@ -442,7 +445,7 @@ def _advance(q: int, f: float, fp: float, pole_low: float, pole_high: float, x: 
     return False, 0.0, 0
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: NDArray[np.float64],
            pole_high: NDArray[np.float64], m: NDArray[np.float64], compliance: NDArray[np.float64],
            off: NDArray[np.float64], wall: NDArray[np.float64], closing: float
@@ -477,7 +480,7 @@ def pivot_roots(low: NDArray[np.float64], high: NDArray[np.float64], pole_low: N
 
 # --- a chain's counts (no closing coupling, no fill) ---
 
-@_jit()
+@kernel_jit()
 def _chain_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m: NDArray[np.float64],
                  compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
                  square_l: NDArray[np.float64], negative: NDArray[np.int64], certain: NDArray[np.bool_]) -> None:
@@ -498,10 +501,10 @@ def _chain_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m:
         coupled = j > 0 and square_h[j - 1] != 0.0
         square, square_low = (square_h[j - 1], square_l[j - 1]) if j > 0 else (0.0, 0.0)
         for p in range(LANES):
-            dh, dl = _two_product(s[0, p], mass)
+            dh, dl = scalar_two_product(s[0, p], mass)
             dh, dl = (dh, dl) if is_site else (ch, cl)
-            rh, rl = _reciprocal(s[1, p], s[2, p])
-            th, tl = _mul(rh, rl, square, square_low)  # c^2 / p
+            rh, rl = scalar_reciprocal(s[1, p], s[2, p])
+            th, tl = scalar_mul(rh, rl, square, square_low)  # c^2 / p
             eh, el = _add(dh, dl, -th, -tl)
             ph = eh if coupled else dh
             s[1, p], s[2, p] = ph, (el if coupled else dl)
@@ -512,7 +515,7 @@ def _chain_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m:
         negative[start + p], certain[start + p] = int(s[3, p]), s[4, p] == 0.0
 
 
-@_jit(parallel=True)
+@kernel_jit(parallel=True)
 def _chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
                   compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
                   square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
@@ -538,7 +541,7 @@ def chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.
 
 # --- the cut chain's factor with walls ---
 
-@_jit()
+@kernel_jit()
 def _walled(a: NDArray[np.float64], b: NDArray[np.float64], tie: NDArray[np.float64]
             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     n = a.shape[0]
@@ -556,6 +559,6 @@ def _walled(a: NDArray[np.float64], b: NDArray[np.float64], tie: NDArray[np.floa
 def walled_factor(a: NDArray[np.float64], b: NDArray[np.float64], tie: NDArray[np.float64]
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(d, e) of the lower bidiagonal Cholesky factor of B~ B~^T + diag(tie), B~ lower bidiagonal
-    with diagonal a and subdiagonal b, all nonnegative (`ring.values.cut_chain`'s recurrence, every
+    with diagonal a and subdiagonal b, all nonnegative (`counting.cut_chain`'s recurrence, every
     step a sum, product or quotient of nonnegative numbers: relatively accurate)."""
     return _walled(*(np.ascontiguousarray(v, dtype=float) for v in (a, b, tie)))
