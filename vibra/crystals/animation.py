@@ -40,8 +40,11 @@ from vibra._results.display import MAX_MOTION, View
 from vibra.crystals.dynamical import phonons
 
 if TYPE_CHECKING:
-    from vibra.crystals.bands import BandStructure
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
+
+#: A `vibra.crystals.BandStructure` (not imported here, not even for typing: `BandStructure.show`
+#: imports this module, and the two stay out of an import cycle).
+BandStructure = Any
 
 __all__ = ["band_view", "bands_view", "frame_positions", "repeats", "FRAMES", "MAX_REPEATS", "MIN_REPEATS",
            "MAX_ATOMS", "MAX_VECTOR_NUMBERS", "UNITS"]
