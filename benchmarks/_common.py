@@ -166,6 +166,18 @@ def write_json(name: str, payload: dict[str, Any], rounds: int | None = None) ->
     return target
 
 
+
+def write_markdown(name: str, header: list[str], rows: list[list[str]], *, align: str = "---") -> Path:
+    """Write ``results/<name>.md``: a Markdown table of `header` and `rows` (cells already
+    formatted), and print it; `align` is every column's separator cell ("---:" right-aligns)."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(f" {align} " for _ in header) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    target = RESULTS / f"{name}.md"
+    target.write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return target
+
 def new_figure(nrows: int = 1, ncols: int = 1, figsize: tuple[float, float] = (8.0, 5.0)) -> tuple[Figure, Any]:
     """A matplotlib Figure (no pyplot, no global state) and its axes."""
     fig = Figure(figsize=figsize, dpi=100, layout="constrained")

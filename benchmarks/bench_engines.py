@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, write_json  # noqa: E402,I001  (pins BLAS threads before numpy)
+from _common import write_json, write_markdown  # noqa: E402,I001  (pins BLAS threads before numpy)
 
 CASES = [("H2O", "hf", "sto-3g"), ("CH4", "hf", "sto-3g"), ("CO2", "hf", "sto-3g"), ("NH3", "hf", "sto-3g"),
          ("H2CO", "hf", "sto-3g"), ("C2H4", "hf", "sto-3g"),
@@ -75,14 +75,11 @@ def report(rows: list[dict]) -> None:
     rows = with_estimates(rows)
     write_json("bench_engines", {"cases": rows, "note": "one run per case (a cost-model check, not a speed race); "
                                  "time = the process's CPU time"}, rounds=1)
-    lines = ["| molecule | level | basis functions | estimate (s) | CPU (s) | CPU / estimate | wall (s) | "
-             "peak memory / estimate | constants fitted on it |", "|---|---|---|---|---|---|---|---|---|"]
-    for row in rows:
-        lines.append(f"| {row['molecule']} | {row['level']} | {row['n_basis']} | {row['estimate_s']:.2f} | "
-                     f"{row['cpu_s']:.2f} | {row['ratio_time']:.2f} | {row['wall_s']:.1f} | {row['ratio_memory']:.2f} | "
-                     f"{'yes' if row['calibration'] else 'no (held out)'} |")
-    (RESULTS / "bench_engines.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_markdown("bench_engines", ["molecule", "level", "basis functions", "estimate (s)", "CPU (s)",
+                                     "CPU / estimate", "wall (s)", "peak memory / estimate", "constants fitted on it"],
+                   [[row["molecule"], row["level"], f"{row['n_basis']}", f"{row['estimate_s']:.2f}",
+                     f"{row['cpu_s']:.2f}", f"{row['ratio_time']:.2f}", f"{row['wall_s']:.1f}",
+                     f"{row['ratio_memory']:.2f}", "yes" if row["calibration"] else "no (held out)"] for row in rows])
 
 
 def main() -> None:

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, ROUNDS, format_ratio, interleaved, ratio, write_json  # noqa: E402,I001
+from _common import ROUNDS, format_ratio, interleaved, ratio, write_json, write_markdown  # noqa: E402,I001
 
 import numpy as np  # noqa: E402
 
@@ -66,14 +66,11 @@ def main() -> None:
             "symmetry": r.symmetry,
         })
     write_json("bench_fd_symmetry", {"rows": rows}, rounds)
-    lines = ["| calculator | force calls | best, reduced | best, full | time ratio reduced / full | "
-             "worst abs(H_r - H_f) / (E_r + E_f) |", "| --- | ---: | ---: | ---: | ---: | ---: |"]
-    for row in rows:
-        lines.append(f"| {row['calculator']} | {row['calls_reduced']} / {row['calls_full']} | "
-                     f"{row['reduced']['min_s']:.3f} s | {row['full']['min_s']:.3f} s | "
-                     f"{format_ratio(row['ratio'])} | {row['worst_over_estimates']:.2f} |")
-    (RESULTS / "bench_fd_symmetry.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    write_markdown("bench_fd_symmetry", ["calculator", "force calls", "best, reduced", "best, full",
+                                         "time ratio reduced / full", "worst abs(H_r - H_f) / (E_r + E_f)"],
+                   [[row["calculator"], f"{row['calls_reduced']} / {row['calls_full']}",
+                     f"{row['reduced']['min_s']:.3f} s", f"{row['full']['min_s']:.3f} s", format_ratio(row["ratio"]),
+                     f"{row['worst_over_estimates']:.2f}"] for row in rows], align="---:")
 
 
 if __name__ == "__main__":
