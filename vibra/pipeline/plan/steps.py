@@ -377,7 +377,7 @@ def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[
     axis = b_factor_axis(network.experimental, fitted)
     n_rigid = int(np.sum(context.modes.zero_modes(1e-6)))
     used = (f"all {network.n_modes - n_rigid}" if network.n_modes == context.system.n_dof else
-            f"the {network.n_modes - n_rigid} lowest") + f" non-rigid modes ({n_rigid} rigid-body modes left out)"
+            f"the {network.n_modes - n_rigid} lowest") + f" non-rigid modes ({counted(n_rigid, 'rigid-body mode')} left out)"
     _save_chart(context, figure, "bfactors",
                 f"{plan.scene.title}: B-factors per residue, crystallographic and predicted from {used}, "
                 f"{how}, on one {axis} axis; "
