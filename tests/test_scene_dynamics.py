@@ -24,7 +24,7 @@ from PIL import Image
 import vibra.charts.dynamics as charts
 from vibra import dynamics
 from vibra.pipeline.plan import execute, make_plan, validate
-from vibra.pipeline.plan.checks import cost_summary
+from vibra.pipeline.plan import cost_summary
 from vibra.pipeline.scene import Scene, SceneError, load_scene
 from vibra.pipeline.scene.limits import MAX_DYNAMICS_STEPS
 

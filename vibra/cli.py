@@ -175,7 +175,6 @@ def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
 
 def _validate(paths: Sequence[str]) -> int:
     from vibra.pipeline.plan import cost_summary, validate
-    from vibra.pipeline.plan.crystal import crystal_cost
     from vibra.pipeline.scene import SceneError, find_scene_files, load_scene
 
     files = find_scene_files(list(paths))
@@ -193,7 +192,7 @@ def _validate(paths: Sequence[str]) -> int:
             for problem in error.errors:
                 print(f"FAIL {problem}")
         else:
-            cost = crystal_cost(scene, system) if scene.kind == "crystal" else cost_summary(scene, system)
+            cost = cost_summary(scene, system)
             print(f"ok   {file} ({scene.kind}, builder {scene.system.builder!r}): {cost}")
     print(f"{counted(len(files), 'scene')}, {failed} invalid")
     return EXIT_FAILED if failed else EXIT_OK
@@ -241,15 +240,13 @@ def _modes(path: str, molden: str | None = None, force: bool = False) -> int:
 
     from vibra.pipeline.plan import REFUSALS, build_system, check_plan, frequency_lines, step_error
     from vibra.pipeline.plan.analysis import molecule_symmetry
-    from vibra.pipeline.scene import SceneError, load_scene
+    from vibra.pipeline.scene import SCENE_KINDS, SceneError, load_scene
 
     try:
         scene = load_scene(path)
-        if scene.kind == "oscillator":
-            raise SceneError(path, "kind", "an oscillator scene has no normal modes to list")
-        if scene.kind == "crystal":
-            raise SceneError(path, "kind", "a crystal has a band of frequencies at every wave vector, not one list of "
-                             "modes; draw its bands with vibra report, or use vibra.crystals (frequencies(q))")
+        refusal = SCENE_KINDS[scene.kind].no_modes
+        if refusal is not None:
+            raise SceneError(path, "kind", refusal)
         if molden is not None:
             _check_molden(scene, molden, force)  # before any work: nothing is solved for a refused FILE
         start = time.perf_counter()

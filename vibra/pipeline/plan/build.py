@@ -14,7 +14,7 @@ from vibra._core.validate import ArgumentError
 from vibra._core.text import counted
 from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
-from vibra.pipeline.scene.builders import CRYSTAL_BUILDERS
+from vibra.pipeline.scene.builders import lattice_builders
 from vibra.pipeline.scene.files import check_phonopy_scene_files, read_scene_data, scene_data_path
 
 __all__ = ["build_system", "network_structure", "check_xyz_text", "scene_key", "ARGUMENT_KEYS"]
@@ -231,7 +231,7 @@ def _build(scene: Scene) -> Any:
                 raise SceneError(scene.source, "system.born_file", f"{p['born_file']!r}: "
                                  f"{str(error).removeprefix(str(files['born_file']) + ': ')}") from None
             raise
-    elif builder in CRYSTAL_BUILDERS:
+    elif builder in lattice_builders():
         import dataclasses
 
         return dataclasses.replace(make(units=scene.units, **lists), name=scene.name)

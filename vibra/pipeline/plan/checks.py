@@ -1,7 +1,8 @@
 """What `vibra validate` checks on a built system, and how a failing step becomes a `SceneError`.
 
-`check_plan(scene, system)` runs, on the system the builder returned, the cheap checks of
-what the later steps would refuse: a solver that cannot serve the system's structure, a
+`check_modes_plan(scene, system)` runs, on the system the builder of a modes scene returned (the
+kinds of `modes_plan`; `vibra.pipeline.plan.kinds.check_plan` picks each kind's checks), the cheap
+checks of what the later steps would refuse: a solver that cannot serve the system's structure, a
 response grid that starts at omega = 0 on a free system, elements the drawings do not know,
 and, for a small system (up to `SPECTRUM_CHECK_LIMIT` dofs), a dry run of the solve
 (frequencies only: an empty band, a failing solver) and of the response grid (a pole of an
@@ -12,16 +13,13 @@ scene key that controls that step, so the command line prints one line, never a 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
 from vibra.pipeline.plan.analysis import chain_dispersion
-from vibra.pipeline.plan.build import build_system
-from vibra.pipeline.plan.crystal import CRYSTAL_STEP_KEYS, check_crystal_plan
-from vibra.pipeline.plan.dynamics import DYNAMICS_STEP_KEYS, check_dynamics_plan, dynamics_cost
-from vibra.pipeline.plan.electronic import check_engine_plan, engine_missing, engine_summary
-from vibra.pipeline.plan.model import make_plan
+from vibra.pipeline.plan.electronic import check_engine_plan, engine_summary
+from vibra.pipeline.plan.model import modes_plan
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.values import element_symbol
 from vibra import solvers
@@ -30,9 +28,8 @@ from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.budget import describe_bytes, describe_seconds
 from vibra._core.text import counted
 
-__all__ = ["check_plan", "validate", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT", "solve_request",
-           "solve_limits",
-           "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
+__all__ = ["check_modes_plan", "modes_summary", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
+           "solve_request", "solve_limits", "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
 
 #: A response grid is checked against the system's frequencies up to this many dofs (a fast
 #: frequencies-only solve); larger systems are checked when the response step runs.
@@ -40,7 +37,8 @@ SPECTRUM_CHECK_LIMIT = 2000
 #: The response of a small system is computed as a dry run when n_dof x n_points is at most this.
 DRY_RESPONSE_LIMIT = 200_000
 
-#: step name -> the scene key that controls it (named in the error of a failing step).
+#: step name -> the scene key that controls it (named in the error of a failing step); a kind's
+#: own steps add theirs (`PlanKind.step_keys`).
 STEP_KEYS = {
     "build": "system", "modes": "compute", "crosscheck": "compute.crosscheck", "response": "compute.response",
     "continuum": "compute.continuum", "dispersion": "draw.dispersion", "structure": "system",
@@ -48,8 +46,6 @@ STEP_KEYS = {
     "chart-dispersion": "draw.dispersion", "chart-response": "draw.response",
     "chart-convergence": "draw.convergence", "electronic": "system.engine", "engine-missing": "system.engine",
     "chart-experiment": "draw.spectrum",
-    **CRYSTAL_STEP_KEYS,
-    **DYNAMICS_STEP_KEYS,
 }
 
 #: What a library function raises when it refuses a request or a solve fails (`LinAlgError` is
@@ -57,11 +53,12 @@ STEP_KEYS = {
 REFUSALS = (ValueError, TypeError, ArithmeticError, RuntimeError, MemoryError)
 
 
-def step_error(scene: Scene, step: str, error: BaseException) -> SceneError:
-    """The `SceneError` for `error` raised by `step`, at the scene key that controls the step."""
+def step_error(scene: Scene, step: str, error: BaseException, *, keys: Mapping[str, str] | None = None) -> SceneError:
+    """The `SceneError` for `error` raised by `step`, at the scene key that controls the step
+    (`STEP_KEYS`, or `keys`: the scene kind's own steps, `PlanKind.step_keys`)."""
     if isinstance(error, SceneError):
         return error
-    key = STEP_KEYS.get(step, "")
+    key = (keys or {}).get(step) or STEP_KEYS.get(step, "")
     if step == "modes" and scene.compute.solver != "auto":
         key = "compute.solver"
     text = " ".join(str(error).split()) or type(error).__name__
@@ -97,7 +94,7 @@ def _solve_plan(scene: Scene, system: Any) -> None:
     if compute.solver == "accurate" and factor is None:
         raise SceneError(scene.source, "compute.solver", f"'accurate' needs a spring system (K = B^T W B); the "
                          f"{scene.system.builder!r} builder gives none; use 'auto' or 'dense'")
-    plan = make_plan(scene)
+    plan = modes_plan(scene)
     try:
         request = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=plan.n_modes, vectors=plan.vectors,
                                band=compute.band, solver=compute.solver, spring_factor=factor,
@@ -193,8 +190,9 @@ def _symbols(scene: Scene, system: Any) -> None:
                              f"of drawn modes do not know; known: {', '.join(PAULING_ELECTRONEGATIVITY)}")
 
 
-def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
-    """Check, on the built `system`, what the plan's later steps would refuse (cheap checks only).
+def check_modes_plan(scene: Scene, system: Any, response: bool = True) -> None:
+    """Check, on the built `system` of a modes scene (`modes_plan`), what the plan's later steps would
+    refuse (cheap checks only).
 
     Raises
     ------
@@ -203,20 +201,6 @@ def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
         a pole: omega = 0 for a free system, an undamped resonance (``compute.response``;
         checked only when `response` is true).
     """
-    if scene.kind == "oscillator":
-        return
-    if scene.kind == "crystal":
-        try:
-            check_crystal_plan(scene, system)
-        except REFUSALS as error:
-            raise step_error(scene, "build", error) from error
-        return
-    if scene.kind == "dynamics":
-        try:
-            check_dynamics_plan(scene, system)
-        except REFUSALS as error:
-            raise step_error(scene, "dynamics-run", error) from error
-        return
     try:
         _solve_plan(scene, system)
         _symbols(scene, system)
@@ -226,41 +210,19 @@ def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
     check_engine_plan(scene, system)  # an engine's cost estimate against the limits, before any SCF
 
 
-def validate(scene: Scene) -> Any:
-    """What ``vibra validate`` runs on a scene: build its system and `check_plan`; return the system.
-
-    Raises
-    ------
-    SceneError
-        Whatever the builder or the checks refuse, at the key that controls it.
-    """
-    missing = engine_missing(scene) if scene.kind == "molecule" else None
-    if missing is not None:  # (the report renders such a scene as a page saying what to install)
-        raise SceneError(scene.source, "system.engine", str(missing))
-    try:
-        system = build_system(scene)
-        check_plan(scene, system)
-    except REFUSALS as error:
-        raise step_error(scene, "build", error) from error
-    return system
-
-
-def cost_summary(scene: Scene, system: Any) -> str:
-    """What ``vibra validate`` prints of an accepted scene: its size, and the solver path the
+def modes_summary(scene: Scene, system: Any) -> str:
+    """What ``vibra validate`` prints of an accepted modes scene: its size, and the solver path the
     report's modes solve would take with its estimated time and memory (`vibra.solvers.plan`:
     from sizes, nothing solved or allocated).
 
+    >>> from vibra.pipeline.plan.build import build_system
     >>> from vibra.pipeline.scene import Scene
     >>> scene = Scene.from_dict({"kind": "chain", "system": {"builder": "linear_chain", "n": 4}}, source="c.toml")
-    >>> cost_summary(scene, build_system(scene)).split(";")[0]
+    >>> modes_summary(scene, build_system(scene)).split(";")[0]
     '4 dofs'
     """
-    if scene.kind == "oscillator":
-        return f"{counted(len(system), 'oscillator')}, closed forms"
-    if scene.kind == "dynamics":
-        return dynamics_cost(scene, system)
     n_dof = getattr(system, "n_dof", None)
-    if not isinstance(n_dof, (int, np.integer)):  # a kind without one K (a crystal's D(q) per wave vector)
+    if not isinstance(n_dof, (int, np.integer)):  # (a system without one K)
         return f"{scene.kind} system"
     if getattr(system, "G", None) is not None or getattr(system, "C", None) is not None:
         return f"{counted(n_dof, 'dof')}; a quadratic eigenproblem"
@@ -269,7 +231,7 @@ def cost_summary(scene: Scene, system: Any) -> str:
         return f"{counted(n_dof, 'dof')}; {engine}"
     compute = scene.compute
     try:
-        plan = make_plan(scene)
+        plan = modes_plan(scene)
     except (ValueError, TypeError):
         return counted(n_dof, "dof")
     request = solve_request(system, n_modes=plan.n_modes, vectors=plan.vectors, band=compute.band,

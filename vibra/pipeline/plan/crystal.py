@@ -14,10 +14,10 @@ phonopy file beside the scene) and then computes only what its ``[draw]`` table 
   the LO frequencies along ``system.infrared_direction`` (``crystal-infrared``), drawn as ε(ω)
   and the reflectivity with its reststrahlen band (``chart-infrared``).
 
-The steps themselves are listed by `vibra.pipeline.plan.model.crystal_steps`.
+The steps themselves are listed by `crystal_steps`.
 `check_crystal_plan` is what ``vibra validate`` checks on the built crystal (path labels, the
 mode's q label and branch, the supercell along vacuum axes), and `crystal_cost` the size and
-cost line it prints.
+cost line it prints. `KIND` declares all of it for the crystal scene kind (`vibra.pipeline.plan.kinds`).
 """
 
 from __future__ import annotations
@@ -27,14 +27,15 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.pipeline.plan.model import Plan, polar_crystal
+from vibra.pipeline.plan.checks import REFUSALS, step_error
+from vibra.pipeline.plan.model import Plan, PlanKind, Step, build_step
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, frames_that_fit, render_seconds
 from vibra.solvers.budget import describe_seconds
 from vibra._core.text import counted
 
 __all__ = ["check_crystal_plan", "crystal_cost", "light_direction", "CRYSTAL_STEPS", "CRYSTAL_STEP_KEYS",
-           "DEFAULT_LIGHT_DIRECTION"]
+           "DEFAULT_LIGHT_DIRECTION", "polar_crystal", "crystal_steps", "crystal_plan", "KIND"]
 
 #: step name -> the scene key that controls it.
 CRYSTAL_STEP_KEYS = {"crystal-bands": "compute", "chart-bands": "draw.bands", "crystal-thermal": "compute",
@@ -349,3 +350,61 @@ CRYSTAL_STEPS: dict[str, Callable[[Plan, Any, Any], tuple[str | None, str | None
     "crystal-infrared": _step_infrared,
     "chart-infrared": _step_chart_infrared,
 }
+
+
+def polar_crystal(scene: Scene) -> bool:
+    """True for a crystal scene whose crystal carries Born charges (a phonopy scene's ``born_file``,
+    or the ``nac`` section of its yaml): its bands show the LO-TO split and the plan adds its
+    infrared response."""
+    if scene.kind != "crystal" or scene.system.builder != "phonopy":
+        return False
+    params = scene.system.parameters
+    if params.get("born_file") is not None:
+        return True
+    from vibra.pipeline.scene.files import phonopy_yaml_summary
+
+    return phonopy_yaml_summary(scene.source, params["file"]).born
+
+
+def crystal_steps(scene: Scene) -> list[Step]:
+    """The steps after ``build`` that a crystal scene asks for."""
+    spec = scene.crystal
+    assert spec is not None
+    mesh = "x".join(str(n) for n in spec.mesh)
+    steps = []
+    if spec.bands:
+        where = "SeeK-path's path" if spec.path is None else "the path " + " | ".join("-".join(r) for r in spec.path)
+        steps.append(Step("crystal-bands", f"bands on {spec.npoints} q-points along {where}; "
+                          f"{spec.dos_method} DOS on a {mesh} mesh"))
+        steps.append(Step("chart-bands", f"band structure with the DOS beside it, in {spec.frequency_unit}"))
+    if polar_crystal(scene):
+        damping = scene.system.parameters.get("infrared_damping") or 0.0
+        steps.append(Step("crystal-infrared", f"TO modes at Gamma, their mode charges and eps(omega) of the Born "
+                          f"charges, LO frequencies, damping {damping:g} cm^-1"))
+        steps.append(Step("chart-infrared", "dielectric function and reflectivity with the reststrahlen band"))
+    if spec.thermal:
+        steps.append(Step("crystal-thermal", f"free energy, entropy and heat capacity at {spec.n_temperatures} "
+                          f"temperatures in [{spec.temperatures[0]:g}, {spec.temperatures[1]:g}] K on a {mesh} mesh"))
+        steps.append(Step("chart-thermal", "thermal properties against temperature"))
+    if spec.mode:
+        cells = "x".join(str(n) for n in spec.supercell)
+        steps.append(Step("crystal-mode", f"branch {spec.mode_branch} at q = {spec.mode_q} on a {cells} supercell"))
+        steps.append(Step("render-crystal-mode", f"animated GIF of that mode, {spec.frames} frames (pyvista)"))
+    return steps
+
+
+def crystal_plan(scene: Scene) -> Plan:
+    """A crystal scene's plan: no Modes of one system, but bands, DOS, thermal properties, a mode on a supercell."""
+    return Plan(scene=scene, steps=(build_step(scene), *crystal_steps(scene)), n_modes=None, vectors=False)
+
+
+def _check(scene: Scene, crystal: Any, response: bool) -> None:
+    try:
+        check_crystal_plan(scene, crystal)
+    except REFUSALS as error:
+        raise step_error(scene, "build", error) from error
+
+
+#: The crystal scene kind: what it plans, checks, prints and runs.
+KIND = PlanKind("crystal", plan=crystal_plan, check=_check, summary=crystal_cost, build_note=crystal_cost,
+                steps=CRYSTAL_STEPS, step_keys=CRYSTAL_STEP_KEYS, renders=True)

@@ -15,7 +15,8 @@ modes of the harmonic part (the report's frequency table) and reports each run's
 
 `check_dynamics_plan` is what ``vibra validate`` checks on the built system (the stable time
 step from omega_max, the initial state's length, a rigid mode under the histogram), and
-`dynamics_cost` the line it prints.
+`dynamics_cost` the line it prints. `KIND` declares all of it for the dynamics scene kind
+(`vibra.pipeline.plan.kinds`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,8 @@ from typing import Any, Callable
 import numpy as np
 
 from vibra._core.validate import ArgumentError
-from vibra.pipeline.plan.model import Plan
+from vibra.pipeline.plan.checks import REFUSALS, step_error
+from vibra.pipeline.plan.model import Plan, PlanKind, Step, build_step
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.dynamics import THERMOSTATS
 from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, dynamics_estimate
@@ -35,7 +37,7 @@ from vibra.sources import cite
 from vibra._core.text import counted
 
 __all__ = ["check_dynamics_plan", "dynamics_cost", "DynamicsRuns", "DYNAMICS_STEPS", "DYNAMICS_STEP_KEYS",
-           "anharmonic_forces", "initial_state"]
+           "anharmonic_forces", "initial_state", "dynamics_steps", "dynamics_plan", "KIND"]
 
 #: How many of the lowest normal modes the report's table lists when the run needs none.
 TABLE_MODES = 6
@@ -354,3 +356,40 @@ DYNAMICS_STEPS: dict[str, Callable[[Plan, Any, Any], tuple[str | None, str | Non
     "chart-energies": _step_chart_energies,
     "chart-histogram": _step_chart_histogram,
 }
+
+
+def dynamics_steps(scene: Scene) -> list[Step]:
+    """The steps after ``build`` that a dynamics scene asks for."""
+    spec = scene.dynamics
+    assert spec is not None
+    thermostat = {"none": "no thermostat", "isokinetic": "the isokinetic constraint",
+                  "nose-hoover": "Nosé-Hoover chain(s) of " + ", ".join(str(c) for c in spec.chains)}[spec.thermostat]
+    start = f"energy {spec.energy:g} in mode {spec.mode}" if spec.mode is not None else "x0, v0 of the scene"
+    steps = [Step("dynamics-run", f"{spec.n_steps} {spec.integrator} steps of dt = {spec.dt:g} with {thermostat}, "
+                  f"from {start}, one state in {spec.record_every} recorded")]
+    if spec.mode_energies:
+        steps.append(Step("chart-mode-energies", f"energy of the lowest {spec.n_modes_drawn} normal modes against time"))
+    if spec.energies:
+        steps.append(Step("chart-energies", "kinetic, potential and conserved energy and the thermostat variable "
+                          "against time"))
+    if spec.histogram:
+        steps.append(Step("chart-histogram", f"positions of dof {spec.histogram_dof} against the Boltzmann "
+                          "distribution"))
+    return steps
+
+
+def dynamics_plan(scene: Scene) -> Plan:
+    """A dynamics scene's plan: a time integration, its own steps and charts."""
+    return Plan(scene=scene, steps=(build_step(scene), *dynamics_steps(scene)), n_modes=None, vectors=False)
+
+
+def _check(scene: Scene, system: Any, response: bool) -> None:
+    try:
+        check_dynamics_plan(scene, system)
+    except REFUSALS as error:
+        raise step_error(scene, "dynamics-run", error, keys=DYNAMICS_STEP_KEYS) from error
+
+
+#: The dynamics scene kind: what it plans, checks, prints and runs.
+KIND = PlanKind("dynamics", plan=dynamics_plan, check=_check, summary=dynamics_cost, build_note=dynamics_cost,
+                steps=DYNAMICS_STEPS, step_keys=DYNAMICS_STEP_KEYS)

@@ -1,14 +1,15 @@
-"""The plan's values: `Step`, `Plan`, `StepRecord`, `PlanResult`, and `make_plan` (scene -> steps)."""
+"""The plan's values: `Step`, `Plan`, `StepRecord`, `PlanResult`, `PlanKind` (what a scene kind computes), and
+`modes_plan`, the steps of the kinds whose result is one set of normal modes (scene -> steps)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping
 
 from vibra.pipeline.scene import Scene
 from vibra._core.text import counted
 
-__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "make_plan", "crystal_steps", "polar_crystal", "dynamics_steps"]
+__all__ = ["Step", "Plan", "StepRecord", "PlanResult", "PlanKind", "build_step", "modes_plan"]
 
 @dataclass(frozen=True)
 class Step:
@@ -101,14 +102,55 @@ class PlanResult:
     modes: Any = None
 
 
-def make_plan(scene: Scene) -> Plan:
-    """The steps that compute exactly what `scene` asks (no work is done here)."""
+@dataclass(frozen=True)
+class PlanKind:
+    """What one scene kind computes, declared once (its scene facts: `vibra.pipeline.scene.kinds.SceneKind`).
+
+    The plan, the checks ``vibra validate`` runs, its summary line and the build step's figure are
+    read from here (`vibra.pipeline.plan.kinds`); nothing else branches on the kind's name for them.
+
+    Attributes
+    ----------
+    name : str
+        The scene kind (a key of `vibra.pipeline.scene.SCENE_KINDS`).
+    plan : callable
+        ``plan(scene) -> Plan``: the steps that compute exactly what the scene asks.
+    check : callable
+        ``check(scene, system, response)``: what the later steps would refuse, on the built system
+        (a `SceneError` at the key that controls it); `response`: whether to dry-run a response grid.
+    summary : callable
+        ``summary(scene, system) -> str``: what ``vibra validate`` prints of an accepted scene.
+    build_note : callable
+        ``build_note(scene, system) -> str or None``: the build step's figure in the report.
+    steps : Mapping
+        Its own step functions, by step name (``(plan, context, renderer) -> (solver, accuracy)``),
+        added to `vibra.pipeline.plan.steps.STEPS`.
+    step_keys : Mapping
+        Its own steps' scene keys, by step name (where `step_error` reports a failing step).
+    renders : bool
+        Whether its ``render-*`` steps draw with pyvista (`vibra.pipeline.render.SceneRenderer`).
+    """
+
+    name: str
+    plan: Callable[[Scene], Plan]
+    check: Callable[[Scene, Any, bool], None]
+    summary: Callable[[Scene, Any], str]
+    build_note: Callable[[Scene, Any], str | None]
+    steps: Mapping[str, Callable[..., tuple[str | None, str | None]]] = field(default_factory=dict)
+    step_keys: Mapping[str, str] = field(default_factory=dict)
+    renders: bool = False
+
+
+def build_step(scene: Scene) -> Step:
+    """The first step of every plan: build the scene's system."""
+    return Step("build", f"build the system with builder {scene.system.builder!r}")
+
+
+def modes_plan(scene: Scene) -> Plan:
+    """The steps of a scene whose result is one set of normal modes (chain, molecule, network,
+    generalised system; an oscillator's closed forms): exactly what `scene` asks, no work done here."""
     compute, draw = scene.compute, scene.draw
-    steps = [Step("build", f"build the system with builder {scene.system.builder!r}")]
-    if scene.kind == "crystal":  # no Modes of one system: bands, DOS, thermal properties, a mode on a supercell
-        return Plan(scene=scene, steps=tuple(steps + crystal_steps(scene)), n_modes=None, vectors=False)
-    if scene.kind == "dynamics":  # a time integration: its own steps and charts
-        return Plan(scene=scene, steps=tuple(steps + dynamics_steps(scene)), n_modes=None, vectors=False)
+    steps = [build_step(scene)]
     engine = _engine_steps(scene)  # a molecule computed by an electronic-structure engine
     if engine is not None and engine[0].name == "engine-missing":
         return Plan(scene=scene, steps=engine, n_modes=None, vectors=False)
@@ -186,64 +228,3 @@ def _engine_steps(scene: Scene) -> tuple[Step, ...] | None:
         return (Step("engine-missing", f"nothing computed: {missing}"),)
     return (Step("electronic", f"{choice.level}: optimise the geometry, then the analytic Hessian and the dipole "
                  "and polarisability derivatives by finite differences (vibra.molecules.engines)"),)
-
-
-def polar_crystal(scene: Scene) -> bool:
-    """True for a crystal scene whose crystal carries Born charges (a phonopy scene's ``born_file``,
-    or the ``nac`` section of its yaml): its bands show the LO-TO split and the plan adds its
-    infrared response."""
-    if scene.kind != "crystal" or scene.system.builder != "phonopy":
-        return False
-    params = scene.system.parameters
-    if params.get("born_file") is not None:
-        return True
-    from vibra.pipeline.scene.files import phonopy_yaml_summary
-
-    return phonopy_yaml_summary(scene.source, params["file"]).born
-
-
-def crystal_steps(scene: Scene) -> list[Step]:
-    """The steps after ``build`` that a crystal scene asks for."""
-    spec = scene.crystal
-    assert spec is not None
-    mesh = "x".join(str(n) for n in spec.mesh)
-    steps = []
-    if spec.bands:
-        where = "SeeK-path's path" if spec.path is None else "the path " + " | ".join("-".join(r) for r in spec.path)
-        steps.append(Step("crystal-bands", f"bands on {spec.npoints} q-points along {where}; "
-                          f"{spec.dos_method} DOS on a {mesh} mesh"))
-        steps.append(Step("chart-bands", f"band structure with the DOS beside it, in {spec.frequency_unit}"))
-    if polar_crystal(scene):
-        damping = scene.system.parameters.get("infrared_damping") or 0.0
-        steps.append(Step("crystal-infrared", f"TO modes at Gamma, their mode charges and eps(omega) of the Born "
-                          f"charges, LO frequencies, damping {damping:g} cm^-1"))
-        steps.append(Step("chart-infrared", "dielectric function and reflectivity with the reststrahlen band"))
-    if spec.thermal:
-        steps.append(Step("crystal-thermal", f"free energy, entropy and heat capacity at {spec.n_temperatures} "
-                          f"temperatures in [{spec.temperatures[0]:g}, {spec.temperatures[1]:g}] K on a {mesh} mesh"))
-        steps.append(Step("chart-thermal", "thermal properties against temperature"))
-    if spec.mode:
-        cells = "x".join(str(n) for n in spec.supercell)
-        steps.append(Step("crystal-mode", f"branch {spec.mode_branch} at q = {spec.mode_q} on a {cells} supercell"))
-        steps.append(Step("render-crystal-mode", f"animated GIF of that mode, {spec.frames} frames (pyvista)"))
-    return steps
-
-
-def dynamics_steps(scene: Scene) -> list[Step]:
-    """The steps after ``build`` that a dynamics scene asks for."""
-    spec = scene.dynamics
-    assert spec is not None
-    thermostat = {"none": "no thermostat", "isokinetic": "the isokinetic constraint",
-                  "nose-hoover": "Nosé-Hoover chain(s) of " + ", ".join(str(c) for c in spec.chains)}[spec.thermostat]
-    start = f"energy {spec.energy:g} in mode {spec.mode}" if spec.mode is not None else "x0, v0 of the scene"
-    steps = [Step("dynamics-run", f"{spec.n_steps} {spec.integrator} steps of dt = {spec.dt:g} with {thermostat}, "
-                  f"from {start}, one state in {spec.record_every} recorded")]
-    if spec.mode_energies:
-        steps.append(Step("chart-mode-energies", f"energy of the lowest {spec.n_modes_drawn} normal modes against time"))
-    if spec.energies:
-        steps.append(Step("chart-energies", "kinetic, potential and conserved energy and the thermostat variable "
-                          "against time"))
-    if spec.histogram:
-        steps.append(Step("chart-histogram", f"positions of dof {spec.histogram_dof} against the Boltzmann "
-                          "distribution"))
-    return steps

@@ -21,10 +21,9 @@ from vibra._core.filesystem import atomic_write_text
 from vibra.pipeline.plan.analysis import (LINE_WIDTH_CM1, chain_dispersion, molecule_spectra, molecule_symmetry,
                                           network_fluctuations, symmetry_hints)
 from vibra.pipeline.plan.build import build_system, network_structure
-from vibra.pipeline.plan.crystal import CRYSTAL_STEPS, crystal_cost
-from vibra.pipeline.plan.dynamics import DYNAMICS_STEPS, dynamics_cost
-from vibra.pipeline.plan.electronic import ELECTRONIC_STEPS, electronic_hints, electronic_spectra
-from vibra.pipeline.plan.checks import REFUSALS, check_plan, empty_band, response_request, solve_limits, step_error
+from vibra.pipeline.plan.electronic import electronic_hints, electronic_spectra
+from vibra.pipeline.plan.checks import REFUSALS, empty_band, response_request, solve_limits, step_error
+from vibra.pipeline.plan.kinds import PLAN_KINDS, build_note, check_plan, plan_kind
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
 from vibra.pipeline.plan.tables import frequency_lines, mode_names
 from vibra.pipeline.plan.views import mode_view
@@ -59,6 +58,7 @@ class _Context:
     infrared: Any = None           # polar crystal scenes: InfraredResponse
     dynamics: Any = None           # dynamics scenes: DynamicsRuns
     electronic: Any = None         # molecule scenes with an engine: ElectronicStructure
+    results: dict[str, Any] = field(default_factory=dict)  # what a kind's own steps computed, by name
     hints: dict[int, str] = field(default_factory=dict)
     outputs: list[str] = field(default_factory=list)
     captions: list[str] = field(default_factory=list)
@@ -107,6 +107,7 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
     PlanResult
     """
     context = _Context(scene=plan.scene, out_dir=out_dir, work_dir=work_dir)
+    kind = plan_kind(plan.scene)
     records = []
     renderer = None
     try:
@@ -115,14 +116,13 @@ def execute(plan: Plan, out_dir: Path, work_dir: Path, *,
                 on_step(step.name)
             before = len(context.outputs)
             start = time.perf_counter()
-            if step.name.startswith("render") and renderer is None and plan.scene.kind in ("chain", "molecule", "network",
-                                                                                             "crystal"):
+            if step.name.startswith("render") and renderer is None and kind.renders:
                 from vibra.pipeline.render import SceneRenderer
                 renderer = SceneRenderer(plan.scene.draw.window_size)
             try:
                 solver, accuracy = STEPS[step.name](plan, context, renderer)
             except REFUSALS as error:  # a library refusal or a failed solve: one line at the step's key
-                raise step_error(plan.scene, step.name, error) from error
+                raise step_error(plan.scene, step.name, error, keys=kind.step_keys) from error
             seconds = time.perf_counter() - start
             records.append(StepRecord(name=step.name, what=step.what, seconds=seconds, solver=solver,
                                       accuracy=accuracy, outputs=tuple(context.outputs[before:])))
@@ -140,13 +140,7 @@ def _step_build(plan: Plan, context: _Context, renderer: Any) -> tuple[str | Non
     context.system = build_system(plan.scene)
     system = context.system
     check_plan(plan.scene, system)  # what validate checks: solver fits, response grid off the poles
-    if plan.scene.kind == "oscillator":
-        return None, None
-    if plan.scene.kind == "crystal":
-        return None, crystal_cost(plan.scene, system)
-    if plan.scene.kind == "dynamics":
-        return None, dynamics_cost(plan.scene, system)
-    return None, counted(system.n_dof, "degree of freedom")
+    return None, build_note(plan.scene, system)
 
 
 def _step_modes(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
@@ -498,7 +492,5 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "chart-dispersion": _step_chart_dispersion,
     "chart-response": _step_chart_response,
     "chart-convergence": _step_chart_convergence,
-    **CRYSTAL_STEPS,
-    **DYNAMICS_STEPS,
-    **ELECTRONIC_STEPS,
+    **{name: run for kind in PLAN_KINDS.values() for name, run in kind.steps.items()},  # each kind's own steps
 }

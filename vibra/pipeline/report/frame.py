@@ -12,15 +12,16 @@ from typing import Sequence
 
 from vibra.charts import plain_math
 from vibra.pipeline.report.outcome import SceneOutcome
+from vibra.pipeline.scene.kinds import REPORT_ORDER, SCENE_KINDS
 from vibra.pipeline.scene.specs import SAFE_NAME
 
 __all__ = ["GROUPS", "SCENES", "IMAGE_SUFFIXES", "page", "grouped", "page_name", "scene_href", "short_caption",
            "images"]
 
-#: Scene kind -> heading of its group, in the order the report shows them.
-GROUPS = (("chain", "Chains"), ("molecule", "Molecules"), ("network", "Networks"),
-          ("generalized", "Generalised systems"), ("oscillator", "Oscillators"), ("crystal", "Crystals"),
-          ("dynamics", "Dynamics"), ("", "Other scenes"))
+#: Scene kind -> heading of its group (`SceneKind.heading`), in the order the report shows them
+#: (`REPORT_ORDER`, then any other kind); "" collects the scenes of no known kind.
+GROUPS = tuple((name, SCENE_KINDS[name].heading) for name in sorted(
+    SCENE_KINDS, key=lambda name: (REPORT_ORDER + tuple(SCENE_KINDS)).index(name))) + (("", "Other scenes"),)
 #: The folder of the scene pages, inside the report folder.
 SCENES = "scenes"
 IMAGE_SUFFIXES = (".png", ".gif")

@@ -11,14 +11,12 @@ from vibra.charts import plain_math
 from vibra.pipeline.report.frame import IMAGE_SUFFIXES, page, short_caption
 from vibra.pipeline.report.outcome import SceneOutcome
 from vibra.pipeline.report.viewer import VIEW_SUFFIX, read_view, view_heading, view_html
+from vibra.pipeline.scene.kinds import SCENE_KINDS
 
 __all__ = ["scene_page", "KIND_WORDS"]
 
-#: Scene kind -> what the page says the scene is.
-KIND_WORDS = {"chain": "a chain of masses and springs", "molecule": "a molecule",
-              "network": "an elastic network of a protein", "generalized": "a system in generalised coordinates",
-              "oscillator": "driven damped oscillators", "crystal": "a crystal",
-              "dynamics": "a dynamics run"}
+#: Scene kind -> what the page says the scene is (`SceneKind.phrase`).
+KIND_WORDS = {name: kind.phrase for name, kind in SCENE_KINDS.items()}
 
 
 def _steps_table(outcome: SceneOutcome) -> str:

@@ -34,14 +34,13 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, BUILDERS, builder_function
-from vibra.pipeline.scene.dynamics import DynamicsSpec, check_dynamics, parse_dynamics
+from vibra.pipeline.scene.dynamics import DynamicsSpec
 from vibra.pipeline.scene.files import scene_inputs
-from vibra.pipeline.scene.schema import (
-    Reader, check_combinations, check_crystal, parse_compute, parse_crystal, parse_draw, parse_system,
-)
+from vibra.pipeline.scene.kinds import DEFAULT_UNITS, KINDS, SCENE_KINDS, SceneKind
+from vibra.pipeline.scene.schema import Reader, check_combinations, parse_compute, parse_draw, parse_system
 from vibra.pipeline.scene.specs import (
-    DEFAULT_UNITS, KINDS, SAFE_NAME, UNITS, units_name, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec,
-    SceneError, SystemSpec,
+    SAFE_NAME, UNITS, units_name, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec, SceneError,
+    SystemSpec,
 )
 from vibra.pipeline.scene.values import field_spec, one_of, string, table
 
@@ -52,19 +51,12 @@ else:  # pragma: no cover - Python 3.10
 
 __all__ = [
     "SceneError", "Scene", "SystemSpec", "ComputeSpec", "ResponseSpec", "ContinuumSpec",
-    "DrawSpec", "CrystalSpec", "DynamicsSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "load_scene", "find_scene_files", "builder_function",
+    "DrawSpec", "CrystalSpec", "DynamicsSpec", "BUILDERS", "BUILD_FUNCTIONS", "KINDS", "SCENE_KINDS", "SceneKind",
+    "load_scene", "find_scene_files", "builder_function",
     "tomllib", "MAX_SCENE_BYTES", "MAX_SCENE_DEPTH", "read_scene_bytes", "parse_scene_text",
     "scene_inputs",
 ]
 
-
-#: Kinds whose [compute] and [draw] tables are their own: kind -> (parse, check, Scene field).
-#: Crystals: bands, DOS, thermal properties, a mode on a supercell; dynamics: the time step,
-#: the thermostat, the charts.
-OWN_TABLES: dict[str, tuple[Any, Any, str]] = {
-    "crystal": (parse_crystal, check_crystal, "crystal"),
-    "dynamics": (parse_dynamics, check_dynamics, "dynamics"),
-}
 
 
 @dataclass(frozen=True)
@@ -171,9 +163,9 @@ class Scene:
             errors.append(reader.take())
         units = top["units"] or DEFAULT_UNITS[kind]
         system = section(lambda: parse_system(reader, top["system"], kind))
-        own = OWN_TABLES.get(kind)
+        own = SCENE_KINDS[kind].tables
         if own is not None:  # a kind with its own [compute] and [draw] keys
-            parse, check, field = own
+            parse, check, field = own.parse, own.check, own.field
             parsed = section(lambda: parse(reader, top["compute"], top["draw"]))
             if errors:
                 raise SceneError.combine(errors)

@@ -29,11 +29,26 @@ from vibra.pipeline.scene.values import (
     scalar_or_list, string,
 )
 
-__all__ = ["isotope_labels", "BUILD_FUNCTIONS", "CRYSTAL_BUILDERS", "PLANAR_BUILDERS", "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
+__all__ = ["isotope_labels", "BUILD_FUNCTIONS", "LATTICE_MODULE", "LATTICE_CHECKS", "lattice_builders", "planar",
+           "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
            "SCENE_REQUIRED", "INFRARED_KEYS", "STRUCTURE_KEYS", "direction_vector", "builder_function", "builder_fields"]
 
-#: scene builder -> (vibra module, function). The only way a scene names code.
-BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
+#: The module whose public functions (its ``__all__``) are the lattice builders of crystal scenes. A
+#: lattice builder's scene entry is its signature there: its parameters are checked by name
+#: (`LATTICE_CHECKS`), it makes ``kind = "crystal"`` scenes, and it is planar (a vacuum axis along z)
+#: when it takes a ``vacuum``; so a new lattice builder touches that module only. The module is
+#: imported when a lattice builder is first looked up (a chain scene does not import the crystals).
+LATTICE_MODULE = "vibra.crystals.builders"
+
+
+@functools.cache
+def lattice_builders() -> tuple[str, ...]:
+    """The lattice builders, in the order of `vibra.crystals.builders.__all__`."""
+    return tuple(importlib.import_module(LATTICE_MODULE).__all__)
+
+
+#: scene builder -> (vibra module, function), before and after the lattice builders.
+_FUNCTIONS_BEFORE = {
     "linear_chain": ("vibra.chains", "linear_chain"),
     "diatomic_chain": ("vibra.chains", "diatomic_chain"),
     "beaded_string": ("vibra.chains", "beaded_string"),
@@ -47,29 +62,53 @@ BUILD_FUNCTIONS: dict[str, tuple[str, str]] = {
     "anm": ("vibra.networks", "anm"),
     "gnm": ("vibra.networks", "gnm"),
     "oscillator": ("vibra.response", "Oscillator"),
-    "simple_cubic": ("vibra.crystals", "simple_cubic"),
-    "bcc": ("vibra.crystals", "bcc"),
-    "fcc": ("vibra.crystals", "fcc"),
-    "diamond": ("vibra.crystals", "diamond"),
-    "rock_salt": ("vibra.crystals", "rock_salt"),
-    "square": ("vibra.crystals", "square"),
-    "honeycomb": ("vibra.crystals", "honeycomb"),
+}
+_FUNCTIONS_AFTER = {
     "phonopy": ("vibra.crystals", "read_phonopy"),
     "fput": ("vibra.dynamics", "fput"),
 }
 
-#: The crystal builders (scene kind "crystal"); the 2-D ones have a vacuum axis along z.
-CRYSTAL_BUILDERS = ("simple_cubic", "bcc", "fcc", "diamond", "rock_salt", "square", "honeycomb", "phonopy")
-PLANAR_BUILDERS = ("square", "honeycomb")
+
+class _BuilderMapping(Mapping[str, Any]):
+    """builder -> a value: from `fixed` for the named builders, from `lattice(builder)` for the lattice
+    builders; keys in the order of `BUILD_FUNCTIONS`. A named builder is looked up without importing
+    the crystals."""
+
+    def __init__(self, fixed: Mapping[str, Any], lattice: Callable[[str], Any]) -> None:
+        self._fixed, self._lattice = fixed, lattice
+
+    def __getitem__(self, builder: str) -> Any:
+        if builder in self._fixed:
+            return self._fixed[builder]
+        if isinstance(builder, str) and builder not in _FUNCTIONS_BEFORE and builder not in _FUNCTIONS_AFTER \
+                and builder in lattice_builders():
+            return self._lattice(builder)
+        raise KeyError(builder)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter((*_FUNCTIONS_BEFORE, *lattice_builders(), *_FUNCTIONS_AFTER))
+
+    def __len__(self) -> int:
+        return len(_FUNCTIONS_BEFORE) + len(lattice_builders()) + len(_FUNCTIONS_AFTER)
+
+
+#: scene builder -> (vibra module, function). The only way a scene names code.
+BUILD_FUNCTIONS: Mapping[str, tuple[str, str]] = _BuilderMapping(
+    {**_FUNCTIONS_BEFORE, **_FUNCTIONS_AFTER}, lambda builder: (LATTICE_MODULE, builder))
 
 #: builder -> the scene kinds it serves.
-BUILDER_KINDS: Mapping[str, tuple[str, ...]] = MappingProxyType({
+BUILDER_KINDS: Mapping[str, tuple[str, ...]] = _BuilderMapping({
     "linear_chain": ("chain", "dynamics"), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
     "springs": ("chain", "molecule", "dynamics"), "fput": ("dynamics",), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
     "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
-    "anm": ("network",), "gnm": ("network",),
-    **{builder: ("crystal",) for builder in CRYSTAL_BUILDERS},
-})
+    "anm": ("network",), "gnm": ("network",), "phonopy": ("crystal",),
+}, lambda builder: ("crystal",))
+
+
+def planar(builder: str) -> bool:
+    """Whether a crystal builder makes a 2-D crystal (a vacuum axis along z): it takes a ``vacuum``."""
+    return builder in lattice_builders() and "vacuum" in builder_fields(builder)
+
 
 MASS = scalar_or_list(positive)
 ENDS = one_of("free", "fixed", "periodic")
@@ -166,8 +205,20 @@ INFRARED_KEYS: Mapping[str, FieldSpec] = MappingProxyType({
     "infrared_damping": field_spec(nonnegative), "infrared_direction": field_spec(direction_vector),
 })
 
+#: A lattice builder's parameters -> their value checks (`LATTICE_MODULE`: checked by name).
+LATTICE_CHECKS: Mapping[str, Check] = MappingProxyType({
+    "a": positive, "mass": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
+    "transverse": scalar_or_list(nonnegative), "vacuum": positive,
+})
+
+
+def _lattice_checks(builder: str) -> Mapping[str, Check]:
+    parameters = inspect.signature(builder_function(builder)).parameters
+    return MappingProxyType({name: check for name, check in LATTICE_CHECKS.items() if name in parameters})
+
+
 #: builder -> {parameter: value check}, for every builder parameter a scene may set.
-PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
+PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = _BuilderMapping({
     "linear_chain": {"n": integer(2), "mass": MASS, "stiffness": scalar_or_list(positive), "spacing": positive,
                      "ends": ENDS},
     "diatomic_chain": {"n_cells": integer(1), "masses": list_of(positive, length=2),
@@ -187,22 +238,14 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = MappingProxyType({
     "oscillator": {"w0": positive, "gamma": scalar_or_list(nonnegative), "m": positive},
     "anm": {"cutoff": positive, "gamma": positive},
     "gnm": {"cutoff": positive, "gamma": positive},
-    **{builder: {"a": positive, "mass": positive, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
-                 "transverse": scalar_or_list(nonnegative)} for builder in ("simple_cubic", "bcc", "fcc")},
-    **{builder: {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
-                 "transverse": scalar_or_list(nonnegative)} for builder in ("diamond", "rock_salt")},
-    "square": {"a": positive, "mass": positive, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
-               "transverse": scalar_or_list(nonnegative), "vacuum": positive},
-    "honeycomb": {"a": positive, "masses": MASS, "stiffness": scalar_or_list(positive), "shells": integer(1, 12),
-                  "transverse": scalar_or_list(nonnegative), "vacuum": positive},
     "phonopy": {"symmetrize": symmetrize_option, "primitive": one_of("auto"), "nac": one_of("gonze", "wang")},
     "fput": {"n": integer(2), "alpha": number, "beta": number, "ends": ENDS, "mass": positive, "stiffness": positive},
-})
+}, _lattice_checks)
 
 _UNITS = "the scene's top-level units"
 _NAME = "the scene's name"
 #: builder -> {parameter: why a scene does not set it}.
-NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
+NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = _BuilderMapping({
     "linear_chain": {"units": _UNITS, "name": _NAME},
     "diatomic_chain": {"units": _UNITS, "name": _NAME},
     "beaded_string": {"units": _UNITS, "name": _NAME},
@@ -228,16 +271,15 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = MappingProxyType({
             "masses": "unit masses, as ProDy's ANM", "name": _NAME},
     "gnm": {"positions": "the sites of the structure file system.pdb that system.selection, chains, residues, "
                          "model and altloc choose (C-alpha atoms by default)", "name": _NAME},
-    **{builder: {"units": _UNITS} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"path": "the file system.file beside the scene (phonopy.yaml)",
                 "force_constants": "the file system.force_constants_file beside the scene",
                 "force_sets": "the file system.force_sets_file beside the scene",
                 "born": "the file system.born_file beside the scene", "name": _NAME},
     "fput": {"units": _UNITS},
-})
+}, lambda builder: {"units": _UNITS})
 
 #: builder -> keys a scene may set that are not builder parameters (the plan applies them).
-SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
+SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = _BuilderMapping({
     "linear_chain": {"defect_site": field_spec(integer(0)), "defect_mass": field_spec(positive), **FROZEN},
     "diatomic_chain": dict(FROZEN),
     "beaded_string": dict(FROZEN),
@@ -255,11 +297,10 @@ SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = MappingProxyType({
     "oscillator": {},
     "anm": {"pdb": field_spec(string, required=True), **STRUCTURE_KEYS},
     "gnm": {"pdb": field_spec(string, required=True), **STRUCTURE_KEYS},  # the anm builder's keys
-    **{builder: {} for builder in CRYSTAL_BUILDERS[:-1]},
     "phonopy": {"file": field_spec(string, required=True), "force_constants_file": field_spec(string),
                 "force_sets_file": field_spec(string), "born_file": field_spec(string), **INFRARED_KEYS},
     "fput": {},
-})
+}, lambda builder: {})
 
 #: builder -> parameters a scene must give although the builder has a default for them.
 SCENE_REQUIRED: Mapping[str, tuple[str, ...]] = MappingProxyType({
@@ -297,8 +338,9 @@ def builder_fields(builder: str) -> Mapping[str, FieldSpec]:
         if name in skipped or parameter.kind in (parameter.VAR_POSITIONAL, parameter.VAR_KEYWORD):
             continue
         if name not in checks:
+            table = "LATTICE_CHECKS" if builder in lattice_builders() else "PARAMETER_CHECKS or NOT_IN_SCENES"
             raise RuntimeError(f"builder {builder!r} has a parameter {name!r} that the scene schema does not know; "
-                               "add it to PARAMETER_CHECKS or NOT_IN_SCENES in vibra/pipeline/scene/builders.py")
+                               f"add it to {table} in vibra/pipeline/scene/builders.py")
         no_default = parameter.default is inspect.Parameter.empty
         fields[name] = field_spec(checks[name], None if no_default else _default(parameter.default),
                                   required=no_default or name in SCENE_REQUIRED.get(builder, ()))

@@ -19,7 +19,7 @@ from vibra._core.text import counted
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
 )
-from vibra.pipeline.scene.builders import BUILDER_KINDS, BUILDERS, PLANAR_BUILDERS, builder_fields
+from vibra.pipeline.scene.builders import BUILDER_KINDS, BUILDERS, builder_fields, planar
 from vibra.pipeline.scene.files import check_phonopy_scene_files, scene_data_path
 from vibra.pipeline.scene.specs import (
     FREQUENCY_UNITS, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec,
@@ -110,9 +110,11 @@ def unknown_key(key: str, allowed: Any) -> str:
 def parse_system(reader: Reader, data: Any, kind: str) -> SystemSpec:
     if not isinstance(data, Mapping):
         reader.fail("system", f"expected a table, got {kind_name(data)}")
-    builders = [b for b, kinds in BUILDER_KINDS.items() if kind in kinds]
+    def builders() -> str:  # (read only for a message: listing them imports the lattice builders)
+        return ", ".join(b for b, kinds in BUILDER_KINDS.items() if kind in kinds)
+
     if "builder" not in data:
-        reader.fail("system.builder", f"is required (for kind {kind!r}: {', '.join(builders)})")
+        reader.fail("system.builder", f"is required (for kind {kind!r}: {builders()})")
     builder = data["builder"]
     if not isinstance(builder, str):
         reader.fail("system.builder", f"expected a string, got {kind_name(builder)} ({brief(builder)})")
@@ -123,7 +125,7 @@ def parse_system(reader: Reader, data: Any, kind: str) -> SystemSpec:
     kinds = BUILDER_KINDS[builder]
     if kind not in kinds:
         reader.fail("system.builder", f"builder {builder!r} does not make a {kind!r} scene "
-                    f"(for {kind!r}: {', '.join(builders)})")
+                    f"(for {kind!r}: {builders()})")
     params = {k: v for k, v in data.items() if k != "builder"}
     values = reader.table(params, "system", builder_fields(builder))
     if (values.get("defect_site") is None) != (values.get("defect_mass") is None):
@@ -490,7 +492,7 @@ def check_crystal(reader: Reader, scene: Any) -> None:
     elif scene.units == "dimensionless":
         reader.fail("units", "is 'dimensionless'; a crystal scene draws frequencies in THz or cm^-1 and thermal "
                     "properties in kJ/mol: use units = \"ASE\" (eV, Angstrom, amu) or \"SI\"")
-    if builder in PLANAR_BUILDERS:
+    if planar(builder):
         if spec.supercell[2] != 1:
             reader.fail("draw.supercell", f"is {list(spec.supercell)}; a 2-D crystal has one cell along z (the "
                         "vacuum axis): use [n1, n2, 1]")

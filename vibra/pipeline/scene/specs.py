@@ -9,16 +9,13 @@ from typing import Any, Callable, Mapping, Sequence
 from vibra.pipeline.scene.values import brief
 from vibra.units import UNIT_NAMES, UNITS_EXPECTED, unit_system
 
-__all__ = ["SceneError", "KINDS", "UNITS", "units_name", "DEFAULT_UNITS", "SAFE_NAME", "SystemSpec", "ResponseSpec",
+__all__ = ["SceneError", "UNITS", "units_name", "SAFE_NAME", "SystemSpec", "ResponseSpec",
            "ContinuumSpec", "ComputeSpec", "DrawSpec", "CrystalSpec", "FREQUENCY_UNITS"]
 
 #: How a crystal scene labels its frequency axis (``draw.frequency_unit``).
 FREQUENCY_UNITS = ("THz", "cm^-1")
 
-KINDS = ("chain", "molecule", "oscillator", "generalized", "network", "crystal", "dynamics")
 UNITS = UNIT_NAMES  # a scene's units key is read by `units_name`, through `vibra.units.unit_system`
-DEFAULT_UNITS = {"chain": "SI", "molecule": "ASE", "oscillator": "SI", "generalized": "SI", "network": "dimensionless",
-                 "crystal": "ASE", "dynamics": "dimensionless"}
 #: A scene name: letters, digits and ``_ . -`` (output files are ``<name>_<what>.png``).
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 

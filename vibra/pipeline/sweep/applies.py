@@ -26,7 +26,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vibra.pipeline.scene import Scene, SceneError
+from vibra.pipeline.scene import SCENE_KINDS, Scene, SceneError
 from vibra.pipeline.sweep.tables import split_key
 
 __all__ = ["SOLVE_KEYS", "RESPONSE_TABLE", "TRAJECTORY_ONLY", "NOT_SWEPT", "check_swept_keys", "response_summary",
@@ -41,12 +41,8 @@ RESPONSE_TABLE = "compute.response"
 #: builder -> the ``[system]`` keys of a dynamics scene that enter only its trajectory, not its
 #: normal modes (the FPUT chain's cubic and quartic terms: its modes are the harmonic chain's).
 TRAJECTORY_ONLY = {"fput": ("alpha", "beta")}
-#: Scene kinds a sweep does not apply to, and why (one line each).
-NOT_SWEPT = {
-    "oscillator": "an oscillator scene has no normal modes to sweep",
-    "crystal": "a crystal scene has phonon branches over the wave vector, not one list of normal modes: vibra sweep "
-               "does not apply to it (vary the crystal in a script and tabulate Crystal.frequencies at the q you want)",
-}
+#: Scene kinds a sweep does not apply to, and why (one line each: `SceneKind.no_sweep`).
+NOT_SWEPT = {name: kind.no_sweep for name, kind in SCENE_KINDS.items() if kind.no_sweep is not None}
 _COMPUTES = ("a sweep tabulates the normal modes of the scene's system (and the peak of its forced response, "
              "with [compute.response])")
 
