@@ -2,6 +2,7 @@
 
 - `models`: the `anm` and `gnm` builders, thermal fluctuations, predicted B-factors
 - `pdb`: `from_pdb`, the PDB / mmCIF reader (Biopython) and its `Structure`
+- `assemblies`: the biological-assembly records (REMARK 350 BIOMT, mmCIF) `from_pdb(assembly=...)` applies
 - `analysis`: cross-correlations, fitted B-factors, collectivity, hinges, perturbation response,
   the NMWiz export (ProDy's conventions, no dense 3N x 3N covariance)
 

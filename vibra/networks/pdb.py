@@ -29,6 +29,9 @@ from vibra._core.text import counted, plural
 from vibra._core import validate as _validate
 from vibra._core.frozen import freeze_arrays
 from vibra._core.validate import ArgumentError
+from vibra.networks.assemblies import (
+    assembly_copies, assembly_transforms, mmcif_assemblies, mmcif_residue_chains, pdb_assemblies,
+)
 
 __all__ = ["Structure", "from_pdb", "MAX_FILE_BYTES", "PEPTIDE_BOND_MAX", "StructureWarning", "check_pdb_text",
            "check_mmcif", "MMCIF_COLUMNS"]
@@ -231,7 +234,8 @@ class Structure:
     b_factors : (n_sites,) ndarray
         Crystallographic temperature factors, in Å^2.
     labels : tuple of str
-        One ``"chain:RESNAMEnumber[icode]:atom"`` label per site, e.g. ``"A:MET1:CA"``.
+        One ``"chain:RESNAMEnumber[icode]:atom"`` label per site, e.g. ``"A:MET1:CA"``; in a
+        biological assembly the chain of copy k is ``A{k}`` (``"A2:MET1:CA"``).
     """
 
     path: str
@@ -252,7 +256,7 @@ class Structure:
 
 def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA", *,
              chains: str | Sequence[str] | None = None, residues: tuple[int, int] | None = None,
-             model: int = 1, altloc: str | None = None) -> Structure:
+             model: int = 1, altloc: str | None = None, assembly: int | str | None = None) -> Structure:
     """Coordinates and B-factors of a PDB (or mmCIF: ``.cif``) file, read with Biopython.
 
     One model is read (the first by default; `model` picks another of an NMR ensemble), and of
@@ -282,6 +286,12 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         The alternate-location code to read (``"B"``) where a residue has it; a residue
         without that conformation keeps its first (ProDy's ``altloc="B"`` drops that
         residue's altloc atoms instead). A code no atom of the model carries is refused.
+    assembly : int or str, optional
+        A biological assembly of the file (PDB ``REMARK 350 BIOMOLECULE``, mmCIF
+        ``_pdbx_struct_assembly_gen`` id) to build from the sites selected; the asymmetric unit
+        by default. Each transform is applied to the chains it names, the copies follow one
+        another in transform order, and copy k of chain ``A`` is chain ``A{k}`` (ProDy's
+        ``parsePDB(path, biomol=True)`` order and copy numbers: `vibra.networks.assemblies`).
 
     Returns
     -------
@@ -301,7 +311,10 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         the message names the file. A selection that finds nothing, a model or an altloc
         the file lacks is a `vibra._core.validate.ArgumentError` whose ``argument`` is the
         parameter at fault (``"chains"``, ``"residues"``, ``"selection"``, ``"model"``,
-        ``"altloc"``), so a scene reports it at its own key.
+        ``"altloc"``, ``"assembly"``), so a scene reports it at its own key. An assembly id the
+        file lacks (its ids listed) or a file without assembly records (an ArgumentError), an
+        operator expression naming an operator the file does not list, a transform that is not
+        a rotation (which one, and why).
 
     Warns
     -----
@@ -326,6 +339,9 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     model = _validate.count(model, "model", low=1, high=10**6)
     if altloc is not None and not (isinstance(altloc, str) and len(altloc) == 1 and altloc.strip()):
         raise ValueError(f"altloc is {altloc!r}; expected one alternate-location character such as 'A' or 'B'")
+    if assembly is not None and not ((isinstance(assembly, (int, np.integer)) and not isinstance(assembly, bool)
+                                      and assembly >= 1) or (isinstance(assembly, str) and assembly.strip())):
+        raise ValueError(f"assembly is {assembly!r}; expected an assembly id such as 1 or '1'")
     if not file.exists():
         raise FileNotFoundError(f"{file}: no such file")
     if not file.is_file():
@@ -337,6 +353,9 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     text = None if cif else file.read_text(encoding="latin-1")
     notes = list(check_pdb_text(text, str(file))) if text is not None else []
     table = check_mmcif(file) if cif else None  # whole before Biopython reads it: its errors name no row
+    transforms = None if assembly is None else assembly_transforms(
+        mmcif_assemblies(table, str(file)) if table is not None else pdb_assemblies(text or "", str(file)),
+        assembly, str(file))
     atoms = _read_atoms(file, backbone=selection == "CA", text=text, model=model, altloc=altloc, table=table)
     held = sorted({atom[0].split(":")[0] for atom in atoms})
     if wanted_chains is not None:
@@ -385,11 +404,22 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
         warnings.warn(note, StructureWarning, stacklevel=2)
     if not atoms:
         raise ValueError(f"{file}: no atoms in the first model")
+    positions = _decimal_float64(np.array([atom[2] for atom in atoms], dtype=np.float32))
+    b_factors = np.array([atom[3] for atom in atoms], dtype=float)
+    labels = [f"{atom[0]}:{atom[1]}" for atom in atoms]
+    if transforms is not None:
+        residue_chains = mmcif_residue_chains(table) if table is not None else {}
+        named = [residue_chains.get(atom[0], atom[0].split(":")[0]) for atom in atoms]
+        source, copy, positions = assembly_copies(positions, named, transforms)
+        if source.size == 0:
+            applied = sorted({chain for transform in transforms for chain in transform.chains})
+            raise ArgumentError("assembly", f"{file}: assembly {assembly} applies to chains {_listed(applied)}; "
+                                "no site selected lies in them")
+        b_factors = b_factors[source]
+        labels = [f"{labels[i].split(':', 1)[0]}{k}:{labels[i].split(':', 1)[1]}" for i, k in zip(source, copy)]
     return Structure(
         path=str(file), selection=selection if isinstance(selection, str) else ",".join(sorted(names or ())),
-        positions=_decimal_float64(np.array([atom[2] for atom in atoms], dtype=np.float32)),
-        b_factors=np.array([atom[3] for atom in atoms], dtype=float),
-        labels=tuple(f"{atom[0]}:{atom[1]}" for atom in atoms),
+        positions=positions, b_factors=b_factors, labels=tuple(labels),
     )
 
 

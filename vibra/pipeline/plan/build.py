@@ -133,7 +133,7 @@ def network_structure(scene: Scene) -> Any:
     p = scene.system.parameters
     path = scene_data_path(scene.source, "system.pdb", p["pdb"])
     options = {key: list(value) if isinstance(value, tuple) and key == "selection" else value
-               for key in ("selection", "chains", "residues", "model", "altloc")
+               for key in ("selection", "chains", "residues", "model", "altloc", "assembly")
                if (value := p.get(key)) is not None}
     try:
         return from_pdb(path, **options)

@@ -194,7 +194,7 @@ def altloc_code(value: Any, fail: Callable[[str], Any]) -> str:
 #: key); a key not given keeps from_pdb's default (C-alpha atoms of every chain of the first model).
 STRUCTURE_KEYS: Mapping[str, FieldSpec] = MappingProxyType({
     "selection": field_spec(atom_selection), "chains": field_spec(chain_ids), "residues": field_spec(residue_range),
-    "model": field_spec(integer(1)), "altloc": field_spec(altloc_code),
+    "model": field_spec(integer(1)), "altloc": field_spec(altloc_code), "assembly": field_spec(integer(1)),
 })
 
 
