@@ -121,14 +121,21 @@ def main() -> None:
     parser.add_argument("--budget", type=float, default=900.0, help="a method is stopped after 4 times this (s)")
     parser.add_argument("--one", nargs=2, metavar=("METHOD", "DOFS"), help=argparse.SUPPRESS)
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--merge", action="store_true",
+                        help="keep the stored rows of other (method, size) pairs; replace the ones measured now")
     args = parser.parse_args()
     if args.one:
         print(json.dumps(run_one(args.one[0], int(args.one[1]))))
         return
     rows = []
     path = RESULTS / "assembly.json"
-    for dofs in (int(x) for x in args.sizes.split(",")):
-        for method in args.methods.split(","):
+    sizes = [int(x) for x in args.sizes.split(",")]
+    methods = args.methods.split(",")
+    if args.merge and path.exists():
+        rows = [row for row in json.loads(path.read_text())["rows"]
+                if not (row["method"] in methods and any(abs(row["dofs"] - size) <= 3 for size in sizes))]
+    for dofs in sizes:
+        for method in methods:
             print(f"{dofs} dofs, {method} ...", flush=True)
             if method == "eigsh" and dofs > EIGSH_MOST:
                 rows.append({"method": method, "dofs": dofs, "skipped": f"over {EIGSH_MOST} dofs: SuperLU's "

@@ -175,6 +175,8 @@ def test_save_figure_is_public() -> None:
 # ---------------------------------------------------------------------- examples on a base install
 def test_the_network_examples_read_the_repositorys_own_file() -> None:
     blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "networks.md").read_text(encoding="utf-8"), re.S)
-    assert blocks and all("networks/ubiquitin/1ubi.pdb" in block for block in blocks)
+    assert blocks and all(re.search(r'"networks/\w+/[\w.-]+\.pdb"', block) for block in blocks)
+    read = {path for block in blocks for path in re.findall(r'"(networks/\w+/[\w.-]+\.pdb)"', block)}
+    assert read and all((ROOT / path).is_file() for path in read), read
     assert not [block for block in blocks if re.search(r"^\s*(import|from) prody", block, re.M)]  # an extra
     assert (ROOT / "networks" / "ubiquitin" / "1ubi.pdb").is_file()

@@ -330,8 +330,8 @@ class Progress:
 
 # ---- the iterative path (`vibra.solvers.standard.iterative.iterative_cost`; benchmarks/RESULTS.md, "Iterative path")
 ITERATIVE_SETUP_S = 3e-7      # per stored entry of K~: the multigrid hierarchy (pyamg; 0.31 s at 1.6e6, 1.1 s at 5e6, quiet)
-ITERATIVE_PRODUCT_S = 4e-10   # per stored entry and column of one sparse product with a block (1.8e-10 at 1e4 dofs, 5.6e-10 at 3e4)
+ITERATIVE_PRODUCT_S = 2e-10   # per stored entry and column of one sparse product with a block (the cycle in single precision: 1.8e-10 at 3e4 dofs, CPU time)
 ITERATIVE_PRODUCTS = 9.0      # products per iteration: K~ once, the V-cycle's Chebyshev smoothing and residuals 8 times
 ITERATIVE_RITZ_S = 5e-9       # per n b^2: LOBPCG's Rayleigh-Ritz on 3 b columns, per iteration
-ITERATIVE_STEPS = 60.0        # LOBPCG iterations at 10^4 dofs (59 measured on the synthetic assembly)...
-ITERATIVE_GROWTH = 1.2        # ... growing as n^1.2 (31 at 3e3 dofs, 59 at 1e4, 359 at 3e4; RESULTS.md)
+ITERATIVE_STEPS = 20.0        # LOBPCG iterations at 10^4 dofs (20 measured on the synthetic assembly, block 2k)...
+ITERATIVE_GROWTH = 0.8        # ... growing as n^0.8 (20 at 1e4, 36-45 at 3e4, 113-122 at 1e5; RESULTS.md)
