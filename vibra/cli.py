@@ -77,24 +77,17 @@ def _positive_int(option: str) -> Callable[[str], int]:
     return parse
 
 
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--wait must be a number of seconds, got {text!r}") from None
-    if not 0 <= value <= 86400:
-        raise argparse.ArgumentTypeError(f"--wait must be between 0 and 86400 s, got {text}")
-    return value
-
-
-def _timeout(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--timeout must be a number of seconds, got {text!r}") from None
-    if not 0 < value <= 3600:
-        raise argparse.ArgumentTypeError(f"--timeout must be between 0 and 3600 s, got {text}")
-    return value
+def _seconds(option: str, high: float, *, zero: bool) -> Callable[[str], float]:
+    """An argparse type: seconds up to `high` (0 itself only with `zero`), refused in one line naming `option`."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} must be a number of seconds, got {text!r}") from None
+        if not ((value >= 0 if zero else value > 0) and value <= high):
+            raise argparse.ArgumentTypeError(f"{option} must be between 0 and {high:g} s, got {text}")
+        return value
+    return parse
 
 
 def _version() -> str:
@@ -125,7 +118,7 @@ def build_parser() -> argparse.ArgumentParser:
                      "an existing --out folder that vibra did not write (never a system folder)")
     rep.add_argument("--window-size", type=_window, default=None, metavar="WxH",
                      help="override the image size of every scene, e.g. 800x500")
-    rep.add_argument("--wait", type=_seconds, default=60.0, metavar="SECONDS",
+    rep.add_argument("--wait", type=_seconds("--wait", 86400, zero=True), default=60.0, metavar="SECONDS",
                      help="how long to wait for another report writing into the same folder (default 60; "
                           "0: refuse at once)")
     rep.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
@@ -169,7 +162,7 @@ def _add_scheduler(parser: argparse.ArgumentParser, what: str) -> None:
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help=f"run the {what} on Dask: 'local' (a local cluster of --jobs processes) or a "
                              "scheduler address such as tcp://host:8786; needs vibra[distributed]")
-    parser.add_argument("--timeout", type=_timeout, default=10.0, metavar="SECONDS",
+    parser.add_argument("--timeout", type=_seconds("--timeout", 3600, zero=False), default=10.0, metavar="SECONDS",
                         help="how long to wait for the scheduler to answer (default 10)")
 
 

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Sequence, TextIO, Union
 
 __all__ = ["EXTRA", "ClusterError", "TaskFailure", "TaskProgress", "ProgressOption", "require_distributed",
-           "check_client", "connect", "run_tasks", "default_workers", "progress_callback"]
+           "check_client", "connect", "ClientOnDemand", "run_tasks", "default_workers", "progress_callback"]
 
 #: The optional extra that installs Dask.
 EXTRA = "vibra[distributed]"
@@ -172,6 +172,21 @@ def connect(client: Any, *, n_workers: int | None = None, timeout: float = 10.0)
         yield opened
     finally:
         opened.close()
+
+
+class ClientOnDemand:
+    """Where the tasks of one run go: `client` None (this process), or a client `connect`-ed when
+    first needed (`get`) and closed with `stack`, so a run whose work is all cached connects to nothing."""
+
+    def __init__(self, client: Any, stack: contextlib.ExitStack, n_workers: int | None, timeout: float) -> None:
+        self.client, self.stack, self.n_workers, self.timeout = client, stack, n_workers, timeout
+        self.opened: Any = None
+
+    def get(self) -> Any:
+        if self.opened is None:
+            self.opened = self.stack.enter_context(connect(self.client, n_workers=self.n_workers,
+                                                           timeout=self.timeout))
+        return self.opened
 
 
 class TaskProgress:

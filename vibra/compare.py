@@ -41,7 +41,7 @@ import scipy.linalg as la
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 
 __all__ = ["overlap", "mac", "cumulative_overlap", "subspace_overlap", "match_modes", "ModeMatch",
            "DEGENERATE", "AMBIGUOUS"]
@@ -165,7 +165,7 @@ def _groups(modes: Any, count: int, tolerance: float) -> list[NDArray[np.intp]]:
 
 
 @dataclass(frozen=True, eq=False)
-class ModeMatch:
+class ModeMatch(Frozen):
     """What `match_modes` found.
 
     Attributes
@@ -190,9 +190,6 @@ class ModeMatch:
     group_overlap: NDArray[np.float64]
     degenerate: NDArray[np.bool_]
     ambiguous: NDArray[np.bool_]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __len__(self) -> int:
         return int(self.pairs.shape[0])

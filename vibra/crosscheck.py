@@ -39,7 +39,7 @@ from scipy import constants
 from vibra._core import validate as _validate
 from vibra import molecules
 from vibra.molecules.checks import check_atoms, nonnegative_scalar
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.units import ASE
 
 if TYPE_CHECKING:
@@ -98,7 +98,7 @@ class CrossCheckRow:
 
 
 @dataclass(frozen=True, eq=False)
-class CrossCheck:
+class CrossCheck(Frozen):
     """vibra, ASE and phonopy wavenumbers of one molecule, side by side.
 
     Attributes
@@ -163,9 +163,6 @@ class CrossCheck:
     force_noise: float
     noise_source: str
     notes: tuple[str, ...]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def ase_difference_cm1(self) -> NDArray[np.float64]:

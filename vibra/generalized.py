@@ -31,7 +31,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.modes import Modes, normal_modes
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy
 from vibra.solvers.structured.pencil import check_mass_matrix
@@ -41,7 +41,7 @@ from vibra.units import UnitSystem, unit_system
 __all__ = ["GeneralizedSystem", "FreeDofs"]
 
 
-class FreeDofs:
+class FreeDofs(Frozen):
     """Which degrees of freedom move: shared by `vibra.System` and `GeneralizedSystem`.
 
     A subclass has a field ``frozen`` ((n_total,) ndarray of bool, True for a degree of
@@ -121,9 +121,6 @@ class GeneralizedSystem(FreeDofs):
     name: str = "system"
     G: NDArray[np.float64] | None = None
     C: NDArray[np.float64] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @classmethod
     def from_matrices(

@@ -99,9 +99,6 @@ class Modes(ModesResult):
     refined: NDArray[np.bool_] | None = None
     refinement: str | None = None
 
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
     def __setstate__(self, state: dict[str, Any]) -> None:
         """Unpickling: the fields, then read-only arrays again (pickle skips __post_init__)."""
         self.__dict__.update(state)

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra import assembly
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr
+from vibra._core.frozen import short_repr
 from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy, uses_springs
@@ -112,9 +112,6 @@ class System(FreeDofs):
     labels: tuple[str, ...]
     name: str = "system"
     symbols: tuple[str, ...] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         """One line, never the arrays: name, sites and dimension, dofs, frozen dofs, units."""
@@ -563,11 +560,7 @@ def _positions(positions: ArrayLike) -> NDArray[np.float64]:
 
 
 def _site_masses(masses: ArrayLike, n_sites: int) -> NDArray[np.float64]:
-    array = _validate.real_array(masses, "masses", ndim=(0, 1))
-    if array.ndim == 0:
-        array = np.full(n_sites, float(array))
-    if array.shape[0] != n_sites:
-        raise ValueError(f"masses must have {n_sites} entries (one per site), got {array.shape[0]}")
+    array = _validate.per_entry(masses, n_sites, "masses", "site")
     _validate.positive(array, "masses", "mass")
     return array
 
@@ -575,12 +568,7 @@ def _site_masses(masses: ArrayLike, n_sites: int) -> NDArray[np.float64]:
 def _per_item(value: ArrayLike | float | None, n: int, name: str) -> NDArray[np.float64]:
     if value is None:
         raise ValueError(f"{name} is required")
-    array = _validate.real_array(value, name, ndim=(0, 1))
-    if array.ndim == 0:
-        return np.full(n, float(array))
-    if array.shape[0] != n:
-        raise ValueError(f"{name} must have {n} entries, got {array.shape[0]}")
-    return array
+    return _validate.per_entry(value, n, name)
 
 
 def _frozen_mask(n_sites: int, dim: int, sites: ArrayLike | None, dofs: ArrayLike | None) -> NDArray[np.bool_]:

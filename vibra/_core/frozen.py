@@ -1,7 +1,8 @@
 """Immutability of result objects: frozen dataclasses whose arrays are read-only.
 
-Every result type calls `freeze_arrays(self)` in `__post_init__` (STYLE.md, "Results are
-frozen, documented values").
+Every result type is a frozen dataclass built on `Frozen`, whose `__post_init__` calls
+`freeze_arrays(self)` (STYLE.md, "Results are frozen, documented values"); a class with more
+to do after its fields are set calls `freeze_arrays` itself.
 """
 
 from __future__ import annotations
@@ -45,6 +46,14 @@ def freeze_arrays(obj: object) -> None:
                 if hasattr(value, part):
                     getattr(value, part).flags.writeable = False
             object.__setattr__(obj, field.name, value)
+
+
+class Frozen:
+    """Base of vibra's frozen dataclasses (results, systems, models): their arrays are copied and made
+    read-only (`freeze_arrays`) as soon as the fields are set. `vibra._results.Result` is one."""
+
+    def __post_init__(self) -> None:
+        freeze_arrays(self)
 
 
 # ---------------------------------------------------------------------- short reprs

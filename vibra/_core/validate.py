@@ -166,33 +166,29 @@ def finite(array: NDArray[Any], name: str) -> None:
             if np.isfinite(np.sum(array)):  # a finite sum has no NaN or inf: no n-sized mask needed
                 return
     bad = ~np.isfinite(array)
+    _refuse_first(bad, array, name, "every entry must be finite")
+
+
+def _refuse_first(bad: NDArray[np.bool_], array: NDArray[np.float64], name: str, rule: str) -> None:
+    """Raise `ArgumentError` naming the first entry of `array` where `bad` holds, and the `rule` it breaks."""
     if bad.any():
         index = tuple(int(i) for i in np.argwhere(bad)[0])
         where = ",".join(str(i) for i in index)
-        raise ArgumentError(argument_of(name),
-                            f"{name}[{where}] is {_scalar(array[index])}; every entry must be finite")
+        raise ArgumentError(argument_of(name), f"{name}[{where}] is {_scalar(array[index])}; {rule}")
 
 
 def positive(array: NDArray[np.float64], name: str, what: str = "value") -> None:
     """Raise if any entry of `array` is not strictly positive (and finite)."""
     finite(array, name)
     bad = ~(array > 0)
-    if bad.any():
-        index = tuple(int(i) for i in np.argwhere(bad)[0])
-        where = ",".join(str(i) for i in index)
-        raise ArgumentError(argument_of(name),
-                            f"{name}[{where}] is {_scalar(array[index])}; every {what} must be positive and finite")
+    _refuse_first(bad, array, name, f"every {what} must be positive and finite")
 
 
 def nonnegative(array: NDArray[np.float64], name: str, what: str = "value") -> None:
     """Raise if any entry of `array` is negative or not finite."""
     finite(array, name)
     bad = array < 0
-    if bad.any():
-        index = tuple(int(i) for i in np.argwhere(bad)[0])
-        where = ",".join(str(i) for i in index)
-        raise ArgumentError(argument_of(name), f"{name}[{where}] is {_scalar(array[index])}; every {what} must be "
-                            ">= 0")
+    _refuse_first(bad, array, name, f"every {what} must be >= 0")
 
 
 def square_matrix(value: Any, name: str) -> NDArray[np.float64] | sp.csr_matrix:
@@ -458,6 +454,18 @@ def real_values(value: Any, name: str) -> NDArray[np.float64]:
     if np.ndim(value) == 0:
         return np.asarray(real_scalar(value, name))
     return real_array(value, name, ndim=1)
+
+
+def per_entry(value: Any, n: int, name: str, each: str = "") -> NDArray[np.float64]:
+    """(n,) floats from one real number (every entry) or a 1-D array of `n`; `each` says what one
+    entry belongs to in the message (``"site"``: "(one per site)")."""
+    array = real_array(value, name, ndim=(0, 1))
+    if array.ndim == 0:
+        return np.full(n, float(array))
+    if array.shape[0] != n:
+        per = f" (one per {each})" if each else ""
+        raise ValueError(f"{name} must have {n} entries{per}, got {array.shape[0]}")
+    return array
 
 
 def positive_pair(value: Any, name: str, what: str) -> tuple[float, float]:

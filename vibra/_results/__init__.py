@@ -39,7 +39,7 @@ from typing import Any, Callable, ClassVar, TypeVar
 
 import numpy as np
 
-from vibra._core.frozen import owned_arrays, short_repr, span
+from vibra._core.frozen import Frozen, owned_arrays, short_repr, span
 from vibra._core.filesystem import atomic_write
 from vibra._results.files import (FORMAT_VERSION, MAX_JSON_DEPTH, MAX_LOAD_BYTES, MAX_SCALARS_BYTES, Dim, Layout,
                                   Stored, check_stored, check_version, read_result_file, sequence_lengths, short,
@@ -52,7 +52,7 @@ __all__ = ["Result", "ModesResult", "layout", "axis_arrays", "FORMAT_VERSION", "
 R = TypeVar("R", bound="Result")
 
 
-class Result:
+class Result(Frozen):
     """Base of the frozen result dataclasses: `path`, ``len``, ``[...]``, `to_dict` / `from_dict`,
     `save` / `load`, and a short ``repr`` (module docstring).
 

@@ -11,14 +11,14 @@ of it for a chart), and the rod / string modes for each end condition.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.chains import ENDS, diatomic_band_edges, diatomic_eigenvalues, diatomic_half_splitting
+from vibra.chains.builders import Ends
 from vibra.modes import Modes
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 
@@ -34,8 +34,6 @@ __all__ = [
     "dispersion_curves",
 ]
 
-Ends = Literal["free", "fixed", "periodic"]
-_positive_scalar = _validate.positive_scalar
 _site_count = _validate.min_count
 
 
@@ -45,8 +43,8 @@ def _chain_parameters(masses: ArrayLike, stiffness: ArrayLike) -> tuple[int, flo
     k_array = _validate.real_values(stiffness, "stiffness")
     diatomic = (mass_array.ndim == 1 and mass_array.shape[0] != 1) or (k_array.ndim == 1 and k_array.shape[0] != 1)
     if not diatomic:
-        m = _positive_scalar(mass_array.reshape(()), "masses", "mass")
-        k = _positive_scalar(k_array.reshape(()), "stiffness", "spring constant")
+        m = _validate.positive_scalar(mass_array.reshape(()), "masses", "mass")
+        k = _validate.positive_scalar(k_array.reshape(()), "stiffness", "spring constant")
         return 1, m, m, k, k
     m1, m2 = _validate.positive_pair(mass_array, "masses", "mass")
     k1, k2 = _validate.positive_pair(k_array, "stiffness", "spring constant")
@@ -85,7 +83,7 @@ def dispersion(q: ArrayLike, *, masses: ArrayLike = 1.0, stiffness: ArrayLike = 
     """
     q_array = np.atleast_1d(_validate.real_values(q, "q"))
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
-    a = _positive_scalar(spacing, "spacing", "spacing")
+    a = _validate.positive_scalar(spacing, "spacing", "spacing")
     if n_branches == 1:
         return (2.0 * np.sqrt(k1 / m1) * np.abs(np.sin(0.5 * q_array * a)))[None, :]
     low, high = diatomic_eigenvalues(2.0 * a * q_array, m1, m2, k1, k2)
@@ -108,7 +106,7 @@ def group_velocity(q: ArrayLike, *, masses: ArrayLike = 1.0, stiffness: ArrayLik
     """
     q_array = np.atleast_1d(_validate.real_values(q, "q"))
     n_branches, m1, m2, k1, k2 = _chain_parameters(masses, stiffness)
-    a = _positive_scalar(spacing, "spacing", "spacing")
+    a = _validate.positive_scalar(spacing, "spacing", "spacing")
     sign = np.where(q_array >= 0, 1.0, -1.0)
     if n_branches == 1:
         return (np.sqrt(k1 / m1) * a * np.cos(0.5 * q_array * a) * sign)[None, :]
@@ -160,9 +158,9 @@ def wave_speed(mass: float, stiffness: float, spacing: float) -> float:
     >>> wave_speed(1.0, 4.0, 0.5)
     1.0
     """
-    m = _positive_scalar(mass, "mass", "mass")
-    k = _positive_scalar(stiffness, "stiffness", "spring constant")
-    a = _positive_scalar(spacing, "spacing", "spacing")
+    m = _validate.positive_scalar(mass, "mass", "mass")
+    k = _validate.positive_scalar(stiffness, "stiffness", "spring constant")
+    a = _validate.positive_scalar(spacing, "spacing", "spacing")
     return float(np.sqrt(k / m) * a)
 
 
@@ -178,7 +176,7 @@ def continuum_length(n: int, spacing: float, *, ends: Ends = "free") -> float:
     (1.0, 1.1)
     """
     n = _site_count(n, "n", low=2, what="a chain")
-    a = _positive_scalar(spacing, "spacing", "spacing")
+    a = _validate.positive_scalar(spacing, "spacing", "spacing")
     _validate.choice(ends, "ends", ENDS)
     return (n + 1) * a if ends == "fixed" else n * a
 
@@ -197,8 +195,8 @@ def continuum_frequencies(n_modes: int, *, length: float = 1.0, wave_speed: floa
     array([0., 2., 2., 4.])
     """
     count = _validate.count(n_modes, "n_modes", low=1, high=np.iinfo(np.int64).max)
-    L = _positive_scalar(length, "length", "length")
-    c = _positive_scalar(wave_speed, "wave_speed", "speed")
+    L = _validate.positive_scalar(length, "length", "length")
+    c = _validate.positive_scalar(wave_speed, "wave_speed", "speed")
     _validate.choice(ends, "ends", ENDS)
     index = np.arange(count)
     if ends == "free":
@@ -262,7 +260,7 @@ def assign_wavenumbers(modes: Modes | ArrayLike, *, ends: Ends = "free", spacing
     array([0.  , 0.25, 0.5 , 0.75])
     """
     _validate.choice(ends, "ends", ENDS)
-    a = _positive_scalar(spacing, "spacing", "spacing")
+    a = _validate.positive_scalar(spacing, "spacing", "spacing")
     per_cell = _validate.count(sites_per_cell, "sites_per_cell", low=1, high=2)
     if isinstance(modes, Modes):
         n = modes.n_dof
@@ -287,7 +285,7 @@ def assign_wavenumbers(modes: Modes | ArrayLike, *, ends: Ends = "free", spacing
 
 
 @dataclass(frozen=True, eq=False)
-class DispersionCurves:
+class DispersionCurves(Frozen):
     """Dispersion branches over the first Brillouin zone, with a finite chain's modes on them.
 
     Attributes
@@ -325,9 +323,6 @@ class DispersionCurves:
     n_sites: int | None
     ends: str
     units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def n_branches(self) -> int:
@@ -379,7 +374,7 @@ def dispersion_curves(*, masses: ArrayLike = 1.0, stiffness: ArrayLike = 1.0, sp
     (2, 1.570796, 0.414214)
     """
     edges = band_edges(masses=masses, stiffness=stiffness)
-    a = _positive_scalar(spacing, "spacing", "spacing")
+    a = _validate.positive_scalar(spacing, "spacing", "spacing")
     if modes is not None and not isinstance(modes, Modes):
         raise TypeError(f"modes must be a vibra.Modes, got {type(modes).__name__}")
     _validate.choice(ends, "ends", ENDS)

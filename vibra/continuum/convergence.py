@@ -9,17 +9,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.chains import ENDS, linear_chain, monatomic_frequencies, periodic_modes
+from vibra.chains.builders import Ends
 
 __all__ = ["ConvergenceStudy", "convergence_study", "power_law_fit"]
 
-Ends = Literal["free", "fixed", "periodic"]
-_positive_scalar = _validate.positive_scalar
 
 
 @dataclass(frozen=True, eq=False)
-class ConvergenceStudy:
+class ConvergenceStudy(Frozen):
     """The lowest modes of uniform chains of N sites against the continuum, L fixed.
 
     Attributes
@@ -62,9 +61,6 @@ class ConvergenceStudy:
     coefficient: NDArray[np.float64]
     solver: str
 
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
     def expected_coefficient(self) -> NDArray[np.float64]:
         """(n_k,) leading coefficient of |error| N^2 from the small-angle expansion.
 
@@ -76,7 +72,7 @@ class ConvergenceStudy:
 
     def n_for_error(self, target: float) -> NDArray[np.int64]:
         """(n_k,) smallest N the fit predicts for |error| <= target (dimensionless)."""
-        goal = _positive_scalar(target, "target", "error")
+        goal = _validate.positive_scalar(target, "target", "error")
         resolution = np.ceil((self.coefficient / goal) ** (1.0 / self.order)).astype(np.int64)
         return resolution - (1 if self.ends == "fixed" else 0)
 
@@ -184,8 +180,8 @@ def convergence_study(
         raise ValueError(f"modes[{i}] is {ks[i]}; mode labels start at 1 (the zero mode has no relative error)")
     sizes = _validate.increasing_counts(n_sites, "n_sites")
     _validate.choice(ends, "ends", ENDS)
-    L = _positive_scalar(length, "length", "length")
-    c = _positive_scalar(wave_speed, "wave_speed", "speed")
+    L = _validate.positive_scalar(length, "length", "length")
+    c = _validate.positive_scalar(wave_speed, "wave_speed", "speed")
     _validate.choice(method, "method", ("modes", "closed form"))
     _validate.choice(accuracy, "accuracy", ("high", "fast"))
     # Position of continuum mode k in the chain's ascending spectrum.

@@ -7,25 +7,24 @@ difference from the wave equation is the chain's dispersion.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Sequence
 
 import numpy as np
 import scipy.fft
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.chains import ENDS
+from vibra.chains.builders import Ends
 from vibra.continuum.convergence import power_law_fit
 
 __all__ = ["PulseResult", "gaussian_pulse", "PulseStudy", "pulse_study"]
 
-Ends = Literal["free", "fixed", "periodic"]
-_positive_scalar = _validate.positive_scalar
 
 
 @dataclass(frozen=True, eq=False)
-class PulseResult:
+class PulseResult(Frozen):
     """A Gaussian pulse on a uniform chain against d'Alembert's solution of eq. 165.
 
     Attributes
@@ -68,9 +67,6 @@ class PulseResult:
     center: float
     amplitude: float
     ends: str
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def n_sites(self) -> int:
@@ -157,15 +153,15 @@ def gaussian_pulse(
     if (t < 0).any():
         i = int(np.argmax(t < 0))
         raise ValueError(f"times[{i}] is {float(t[i])!r}; every time must be >= 0")
-    L = _positive_scalar(length, "length", "length")
-    sigma = _positive_scalar(width, "width", "width")
+    L = _validate.positive_scalar(length, "length", "length")
+    sigma = _validate.positive_scalar(width, "width", "width")
     if sigma > 0.1 * L:
         raise ValueError(f"width is {sigma!r}; it must be <= length / 10 = {0.1 * L!r}")
     x0 = 0.25 * L if center is None else _validate.real_scalar(center, "center")
     if not 0.0 <= x0 <= L:
         raise ValueError(f"center is {x0!r}; it must lie in [0, length] = [0, {L!r}]")
-    c = _positive_scalar(wave_speed, "wave_speed", "speed")
-    amp = _positive_scalar(amplitude, "amplitude", "amplitude")
+    c = _validate.positive_scalar(wave_speed, "wave_speed", "speed")
+    amp = _validate.positive_scalar(amplitude, "amplitude", "amplitude")
     _validate.choice(ends, "ends", ENDS)
     dx = L / (n + 1) if ends == "fixed" else L / n
     offset = {"periodic": 0.0, "free": 0.5, "fixed": 1.0}[ends]
@@ -210,7 +206,7 @@ def gaussian_pulse(
 
 
 @dataclass(frozen=True, eq=False)
-class PulseStudy:
+class PulseStudy(Frozen):
     """Pulse error against d'Alembert for several chain sizes and pulse widths.
 
     Attributes
@@ -238,9 +234,6 @@ class PulseStudy:
     order_in_n: NDArray[np.float64]
     order_in_width: NDArray[np.float64]
     ends: str
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
 
 def pulse_study(n_sites: Sequence[int] | ArrayLike, widths: Sequence[float] | ArrayLike, *, time: float,
@@ -284,7 +277,7 @@ def pulse_study(n_sites: Sequence[int] | ArrayLike, widths: Sequence[float] | Ar
     if sigma.size < 2:
         raise ValueError(f"widths must hold at least two widths, got {sigma.size}")
     _validate.increasing(sigma, "widths", "widths")
-    time = _positive_scalar(time, "time", "comparison time")  # the error at t = 0 is 0: no fit
+    time = _validate.positive_scalar(time, "time", "comparison time")  # the error at t = 0 is 0: no fit
     errors = np.array([[gaussian_pulse(int(n), [time], width=float(s), length=length, wave_speed=wave_speed,
                                        ends=ends).error[0] for s in sigma] for n in sizes])
     order_n = np.array([power_law_fit(sizes.astype(float), errors[:, j])[0] for j in range(sigma.size)])

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, frequency_span
+from vibra._core.frozen import frequency_span
 from vibra._results import Result, stored
 from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, phonons
 from vibra.units import UnitSystem
@@ -99,9 +99,6 @@ class BandStructure(Result):
     breaks: tuple[int, ...]
     units: UnitSystem
     path: str = "hermitian-eigh"
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         along = ""

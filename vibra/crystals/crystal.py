@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr
+from vibra._core.frozen import Frozen, short_repr
 import vibra.crystals.bands as bands
 import vibra.crystals.dynamical as dynamical
 import vibra.crystals.elastic as elastic
@@ -53,7 +53,7 @@ FRACTIONAL_ATOL = 1e-10
 
 
 @dataclass(frozen=True, eq=False)
-class Crystal:
+class Crystal(Frozen):
     """A periodic crystal: a unit cell, atoms with masses, and (optionally) force constants.
 
     Build one with `Crystal.from_cell`, `Crystal.from_ase`, a builder of `vibra.crystals`
@@ -96,9 +96,6 @@ class Crystal:
     springs: SpringModel | None = None
     name: str = "crystal"
     nac: NonAnalytic | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         counts: dict[str, int] = {}

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, frequency_span
+from vibra._core.frozen import frequency_span
 from vibra._results import Result, stored
 from vibra.crystals.dynamical import phonons
 from vibra.crystals.mesh import Mesh, grid_index, mesh_points
@@ -91,9 +91,6 @@ class DensityOfStates(Result):
     mesh: NDArray[np.int64]
     sigma: float | None
     units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         mesh = "x".join(str(int(n)) for n in self.mesh)

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, frequency_span
+from vibra._core.frozen import frequency_span
 from vibra._results import Result, stored
 from vibra.crystals.factor import singular_frequencies
 from vibra.solvers.accuracy import HIGH_TARGET, check as check_accuracy, uses_springs
@@ -128,9 +128,6 @@ class Phonons(Result):
     path: str = "hermitian-eigh"
     refined: NDArray[np.bool_] | None = None
     non_hermitian: NDArray[np.float64] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         skew = 0.0 if self.non_hermitian is None else float(np.max(self.non_hermitian, initial=0.0))
@@ -437,7 +434,7 @@ def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLi
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
     check_periodic_qpoints(crystal, q)
-    n = _unit_direction(direction)
+    n = unit_direction(direction)
     if crystal.nac is not None:  # the correction's dD/dk by central differences, as phonopy's group velocities
         shortest = float(np.linalg.norm(crystal.reciprocal, axis=1).min())
         reduced, _ = reduce_qpoints(q)
@@ -454,7 +451,7 @@ def derivative_matrices(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLi
     return matrices
 
 
-def _unit_direction(direction: ArrayLike) -> NDArray[np.float64]:
+def unit_direction(direction: ArrayLike) -> NDArray[np.float64]:
     n = _validate.real_array(direction, "direction", ndim=1)
     if n.shape != (3,):
         raise ValueError(f"direction must be a Cartesian 3-vector, got shape {n.shape}")
@@ -590,7 +587,7 @@ def group_velocities(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLike)
     see `vibra.crystals.elastic.sound_velocities`).
     """
     q = check_qpoints(qpoints)
-    n = _unit_direction(direction)
+    n = unit_direction(direction)
     result = phonons(crystal, q, vectors=True)
     derivative = derivative_matrices(crystal, q, n)
     values = np.sign(result.omega) * result.omega ** 2

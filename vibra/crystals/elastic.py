@@ -23,8 +23,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr
-from vibra.crystals.dynamical import phonons
+from vibra._core.frozen import Frozen, short_repr
+from vibra.crystals.dynamical import phonons, unit_direction
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
@@ -37,7 +37,7 @@ DEFAULT_STEP = 1e-3
 
 
 @dataclass(frozen=True, eq=False)
-class SoundVelocities:
+class SoundVelocities(Frozen):
     """Sound velocities along one direction.
 
     Attributes
@@ -61,9 +61,6 @@ class SoundVelocities:
     step: float
     units: UnitSystem
 
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
     def __repr__(self) -> str:
         direction = ", ".join(f"{x:.4g}" for x in self.direction)
         velocities = ", ".join(f"{v:.6g}" for v in self.velocities)
@@ -73,13 +70,7 @@ class SoundVelocities:
 
 
 def _direction(direction: ArrayLike, crystal: Crystal) -> NDArray[np.float64]:
-    n = _validate.real_array(direction, "direction", ndim=1)
-    if n.shape != (3,):
-        raise ValueError(f"direction must be a Cartesian 3-vector, got shape {n.shape}")
-    norm = float(np.linalg.norm(n))
-    if norm == 0.0:
-        raise ValueError("direction is the zero vector; give a Cartesian direction such as [1, 0, 0]")
-    n = n / norm
+    n = unit_direction(direction)
     for axis in range(3):
         if not crystal.periodic[axis] and abs(float(n @ crystal.reciprocal[axis])) > 1e-12 * np.linalg.norm(
                 crystal.reciprocal[axis]):

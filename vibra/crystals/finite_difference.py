@@ -43,8 +43,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr
-from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
+from vibra._core.frozen import Frozen, short_repr
+from vibra.cluster import ClientOnDemand, ProgressOption, check_client
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.fd_cost import (FORCE_SECONDS, SYMMETRY_FIXED_SECONDS, SYMMETRY_SECONDS,  # noqa: F401 (their home)
                                     check_memory, force_constants_cost, symmetry_pays)
@@ -52,9 +52,8 @@ from vibra.crystals.force_constants import ForceConstants, SumRuleReport, averag
 from vibra.crystals.phonopy_io import MAX_SUPERCELL_ATOMS  # one limit: phonopy's full force constants, 72 n^2 bytes
 from vibra.crystals.mesh import species_numbers
 from vibra.crystals.reach import SupercellReach, check_range_from_sizes, supercell_reach, warn_range
-from vibra.molecules.displacements import (CalculatorSource, ForceCache, displaced_forces, force_problem,
-                                           is_calculator, is_factory)
-from vibra.molecules.noise import ForceNoise, force_noise_task, is_deterministic_calculator, rounding_noise
+from vibra.molecules.displacements import ForceCache, calculator_of, calculator_source, gather_forces
+from vibra.molecules.noise import is_deterministic_calculator, rounding_noise, run_noise
 
 if TYPE_CHECKING:
     from ase import Atoms
@@ -63,7 +62,7 @@ __all__ = ["FiniteDifferenceForceConstants", "finite_difference_force_constants"
 
 
 @dataclass(frozen=True, eq=False)
-class FiniteDifferenceForceConstants:
+class FiniteDifferenceForceConstants(Frozen):
     """A crystal whose force constants are finite differences of a calculator's forces, with their error.
 
     Attributes
@@ -117,9 +116,6 @@ class FiniteDifferenceForceConstants:
     reach: SupercellReach | None = None
     primitive_matrix: NDArray[np.float64] | None = None
 
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
     def __repr__(self) -> str:
         size = "x".join(str(int(n)) for n in self.supercell)
         reduced = (self.primitive_matrix is not None and not np.allclose(self.primitive_matrix, np.eye(3)))
@@ -163,6 +159,16 @@ class _Geometry:
             return "the reference supercell"
         shown = ", ".join(f"{v:+.4g}" for v in self.vector)
         return f"supercell atom {self.atom} displaced by ({shown}) Angstrom"
+
+
+def _moved(base: NDArray[np.float64]) -> Any:
+    """The positions of each `_Geometry`: the reference supercell's `base`, one atom moved."""
+    def positions(g: _Geometry) -> NDArray[np.float64]:
+        moved = base.copy()
+        if g.atom >= 0:
+            moved[g.atom] += np.asarray(g.vector)
+        return moved
+    return positions
 
 
 class _GeometryCache(ForceCache):
@@ -287,11 +293,7 @@ def finite_difference_force_constants(
         (each such geometry named; finished force calls stay in `cache`).
     """
     unit = Crystal.from_ase(atoms, name=name)
-    calc = calculator if calculator is not None else atoms.calc
-    if calc is None:
-        raise TypeError("calculator is None and atoms has no calculator attached; pass calculator=")
-    if not is_calculator(calc) and not is_factory(calc):
-        raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got {type(calc).__name__}")
+    calc = calculator_of(atoms, calculator)
     size = _check_supercell(supercell, unit.periodic, unit.n_atoms)
     check_range_from_sizes(unit, size)
     if primitive and not all(unit.periodic):
@@ -305,11 +307,7 @@ def finite_difference_force_constants(
     elif force_noise is not None:
         force_noise = _validate.nonnegative_scalar(force_noise, "force_noise")
     check_client(client)
-    if calculator_key is not None and not isinstance(calculator_key, str):
-        raise TypeError(f"calculator_key must be a str, got {type(calculator_key).__name__}")
-    source = CalculatorSource(calc, key=calculator_key)
-    if client is not None:
-        source.require_picklable()
+    source = calculator_source(calc, calculator_key, client)
 
     if symmetry not in ("auto", True, False):
         raise ValueError(f"symmetry is {symmetry!r}; expected 'auto', True or False")
@@ -354,16 +352,13 @@ def finite_difference_force_constants(
                    for m in multiples for atom, vector in moves]
     store = None if cache is None else _GeometryCache(cache, template, h, source.digest())
     with contextlib.ExitStack() as stack:
-        cluster = _Cluster(client, stack, n_workers, timeout)
-        forces, computed, cached = _gather(geometries, template, source, store, cluster, progress)
+        cluster = ClientOnDemand(client, stack, n_workers, timeout)
+        gathered = gather_forces(geometries, template, source, _moved(template.get_positions()), store, cluster,
+                                 progress, name="vibra-crystal-fd")
+        forces = gathered.forces
         floor = rounding_noise(max(float(np.abs(f).max()) for f in forces))
-        if force_noise is None:
-            noise = ForceNoise(0.0, "rounding", 0)
-        elif isinstance(force_noise, str):
-            noise = _probe(template, source, calc, forces[0], floor, cluster)
-        else:
-            noise = ForceNoise(float(force_noise), "given", 0)
-    sigma = noise.value if noise.source == "given" else (max(noise.value, floor) if noise.noisy else floor)
+        noise = run_noise(force_noise, template, source, calc, forces[0], floor, cluster)
+    sigma = noise.level(floor)
     reference = forces[0]
     n_moves = len(moves)
     raw = []
@@ -386,8 +381,8 @@ def finite_difference_force_constants(
     return FiniteDifferenceForceConstants(
         crystal=crystal, supercell=size, step=h, error_blocks=_fold(phonon, entry_error),
         truncation=float(truncation.max()), roundoff=roundoff, force_noise=float(sigma), noise_source=noise.source,
-        sum_rules=report, n_displacements=n_moves, n_force_calls=computed, n_cached=cached, reach=reach,
-        primitive_matrix=matrix)
+        sum_rules=report, n_displacements=n_moves, n_force_calls=gathered.computed, n_cached=gathered.cached,
+        reach=reach, primitive_matrix=matrix)
 
 
 def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] | None = None, delta: float = 0.01,
@@ -478,103 +473,3 @@ def _fold(phonon: Any, entry_error: NDArray[np.float64]) -> NDArray[np.float64]:
     for i, p in enumerate(p2s):
         np.add.at(folded[i], s2pp, entry_error[p])
     return folded
-
-
-class _Cluster:
-    """Where the force calls go: None (this process), or a client connected once, when first needed."""
-
-    def __init__(self, client: Any, stack: contextlib.ExitStack, n_workers: int | None, timeout: float) -> None:
-        self.client, self.stack, self.n_workers, self.timeout = client, stack, n_workers, timeout
-        self.opened: Any = None
-
-    def get(self) -> Any:
-        if self.opened is None:
-            self.opened = self.stack.enter_context(connect(self.client, n_workers=self.n_workers,
-                                                           timeout=self.timeout))
-        return self.opened
-
-
-def _gather(geometries: list[_Geometry], template: Atoms, source: CalculatorSource, store: _GeometryCache | None,
-            cluster: _Cluster, progress: ProgressOption) -> tuple[list[NDArray[np.float64]], int, int]:
-    """Forces at every geometry: from the cache, in this process, or one Dask task each."""
-    n = len(template)
-    base = template.get_positions()
-    found: dict[int, NDArray[np.float64]] = {}
-    if store is not None:
-        for k, g in enumerate(geometries):
-            values = store.load(g)
-            if values is not None:
-                found[k] = values
-    n_cached = len(found)
-    missing = [k for k in range(len(geometries)) if k not in found]
-
-    def positions(g: _Geometry) -> NDArray[np.float64]:
-        moved = base.copy()
-        if g.atom >= 0:
-            moved[g.atom] += np.asarray(g.vector)
-        return moved
-
-    def kept() -> str:
-        if store is None:
-            return " (pass cache= to keep the finished force calls of a run)"
-        return f" ({len(found)} finished force call(s) kept in the cache {str(store.folder)!r}; a rerun computes the rest)"
-
-    def accept(k: int, values: NDArray[np.float64]) -> str | None:
-        problem = force_problem(values, n, geometries[k].label)
-        if problem is None:
-            found[k] = values
-            if store is not None:
-                store.store(geometries[k], values)
-        return problem
-
-    if missing and cluster.client is None:
-        callback = progress_callback(progress, len(missing))
-        for done, k in enumerate(missing, start=1):
-            try:
-                values = displaced_forces(template, source, positions(geometries[k]))
-            except Exception as error:
-                raise RuntimeError(f"calculator failed at {geometries[k].label}: {type(error).__name__}: {error}"
-                                   + kept()) from error
-            problem = accept(k, values)
-            if problem is not None:
-                raise RuntimeError(problem + kept())
-            if callback is not None:
-                callback(done, len(missing), geometries[k].label)
-    elif missing:
-        problems: list[str] = []
-
-        def on_result(i: int, values: NDArray[np.float64]) -> None:
-            problem = accept(missing[i], values)
-            if problem is not None:
-                problems.append(problem)
-
-        _, failures = run_tasks(cluster.get(), displaced_forces,
-                                [(template, source, positions(geometries[k])) for k in missing],
-                                labels=[geometries[k].label for k in missing], on_result=on_result,
-                                progress=progress, name="vibra-crystal-fd")
-        problems.extend(f"calculator failed at {f.describe()}" for f in failures)
-        if problems:
-            raise RuntimeError(f"{len(problems)} of {len(geometries)} force calls failed: " + "; ".join(problems)
-                               + kept())
-    return [found[k] for k in range(len(geometries))], len(missing), n_cached
-
-
-def _probe(template: Atoms, source: CalculatorSource, calc: Any, reference: NDArray[np.float64], floor: float,
-           cluster: _Cluster) -> ForceNoise:
-    """force_noise="auto": the molecules' probe (`vibra.molecules.noise`), on the reference supercell."""
-    if is_deterministic_calculator(calc):
-        return ForceNoise(0.0, "analytic", 0)
-    advice = " (force_noise='auto' probes the calculator; pass force_noise=<number> or None to skip it)"
-    if cluster.client is None:
-        try:
-            return force_noise_task(template, source, reference, floor)
-        except Exception as error:
-            raise RuntimeError(f"calculator failed while measuring its force noise: {type(error).__name__}: "
-                               f"{error}{advice}") from error
-    results, failures = run_tasks(cluster.get(), force_noise_task,
-                                  [(template, source, reference, floor)], labels=["the force-noise probe"],
-                                  name="vibra-noise")
-    if failures:
-        raise RuntimeError(f"calculator failed while measuring its force noise: {failures[0].describe()}{advice}")
-    found: ForceNoise = results[0]
-    return found

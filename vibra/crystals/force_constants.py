@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr, span
+from vibra._core.frozen import Frozen, short_repr, span
 
 __all__ = ["CrystalLike", "ForceConstants", "ForceConstantsWarning", "INDEX_SYMMETRY_RTOL", "SpringModel", "SumRuleReport",
            "average_over_space_group", "check_force_constants", "impose_sum_rules", "index_asymmetry"]
@@ -75,7 +75,7 @@ class ForceConstantsWarning(UserWarning):
 
 
 @dataclass(frozen=True, eq=False)
-class ForceConstants:
+class ForceConstants(Frozen):
     """Force constants as terms Phi(i 0; j R), in energy / length^2 of the crystal's units.
 
     Attributes
@@ -95,9 +95,6 @@ class ForceConstants:
     translations: NDArray[np.int64]
     blocks: NDArray[np.float64]
 
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
     def __repr__(self) -> str:
         atoms = int(max(self.first.max(initial=-1), self.second.max(initial=-1))) + 1
         reach = int(np.abs(self.translations).max(initial=0))
@@ -110,7 +107,7 @@ class ForceConstants:
 
 
 @dataclass(frozen=True, eq=False)
-class SpringModel:
+class SpringModel(Frozen):
     """The springs a spring model is made of, each bond once.
 
     Attributes
@@ -134,9 +131,6 @@ class SpringModel:
     longitudinal: NDArray[np.float64]
     transverse: NDArray[np.float64]
     shells: NDArray[np.int64]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         shells = np.unique(self.shells)

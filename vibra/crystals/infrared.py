@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr, span
+from vibra._core.frozen import Frozen, short_repr, span
 from vibra.crystals.nac import FACTOR_ASE, FACTOR_SI, SUM_RULE_TOLERANCE, check_dielectric
 from vibra.crystals.irreps import DEGENERACY_RTOL, analytic_gamma, classify_levels, symmetry_operations
 from vibra.units import UnitSystem
@@ -68,7 +68,7 @@ def coulomb_factor(units: UnitSystem) -> float:
 
 
 @dataclass(frozen=True, eq=False)
-class InfraredResponse:
+class InfraredResponse(Frozen):
     """The Gamma modes of a polar crystal and its infrared dielectric response.
 
     Modes are in ascending frequency, as `Crystal.modes_at` gives them; within a degenerate level
@@ -130,9 +130,6 @@ class InfraredResponse:
     raman_active: NDArray[np.bool_]
     point_group: str
     units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         optical = ~self.acoustic

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr, frequency_span
+from vibra._core.frozen import Frozen, frequency_span, short_repr
 from vibra.crystals.mesh import species_numbers, symmetry_cell
 from vibra.units import UnitSystem
 
@@ -43,7 +43,7 @@ class NotPrimitiveError(ValueError):
 
 
 @dataclass(frozen=True, repr=False)
-class GammaModes:
+class GammaModes(Frozen):
     """The modes of a crystal at Gamma with their irreducible representations.
 
     Attributes
@@ -70,9 +70,6 @@ class GammaModes:
     raman_active: NDArray[np.bool_]
     point_group: str
     units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         return short_repr(self, f"point group {self.point_group}", f"{len(self.level_labels())} levels",

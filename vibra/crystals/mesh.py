@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._core.frozen import freeze_arrays, short_repr
+from vibra._core.frozen import Frozen, short_repr
 
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
@@ -31,7 +31,7 @@ MAX_MESH_POINTS = 8_000_000
 
 
 @dataclass(frozen=True, eq=False)
-class Mesh:
+class Mesh(Frozen):
     """A Gamma-centred mesh and its irreducible points.
 
     Attributes
@@ -53,9 +53,6 @@ class Mesh:
     mapping: NDArray[np.intp]
     irreducible: NDArray[np.intp]
     weights: NDArray[np.int64]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         mesh = "x".join(str(int(n)) for n in self.size)

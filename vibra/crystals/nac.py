@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, short_repr, span
+from vibra._core.frozen import Frozen, short_repr, span
 from vibra.crystals.dynamical import PHASES, brillouin_qpoints, check_qpoints, dynamical_matrices, lattice_phases
 from vibra.crystals.force_constants import ForceConstants
 from vibra.crystals.phonopy_io import fold_force_constants, to_ase_factors, to_phonopy
@@ -77,7 +77,7 @@ EWALD_ENTRIES = 1 << 16
 
 
 @dataclass(frozen=True, eq=False)
-class NonAnalytic:
+class NonAnalytic(Frozen):
     """The non-analytic correction of one crystal, ready to add at any q.
 
     Attributes
@@ -121,9 +121,6 @@ class NonAnalytic:
     ewald: float | None = None
     dd_q0: NDArray[np.complex128] | None = None
     phase_sums: ForceConstants | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def dynamical_matrices(self, crystal: Crystal, qpoints: ArrayLike, *, q_direction: ArrayLike | None = None,
                            phase: str = "positions") -> NDArray[np.complex128]:

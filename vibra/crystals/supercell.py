@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, frequency_span, short_repr
+from vibra._core.frozen import Frozen, frequency_span, short_repr
 from vibra.crystals.dynamical import check_qpoints, phonons
 from vibra.units import UnitSystem
 
@@ -24,7 +24,7 @@ __all__ = ["SupercellMode", "supercell_mode", "conventional_cube", "CUBIC_CENTRI
 
 
 @dataclass(frozen=True, eq=False)
-class SupercellMode:
+class SupercellMode(Frozen):
     """One phonon written out on a supercell: what a render animates.
 
     The displacement of atom j in cell n is u_j(n) = Re[a_j exp(i (2 pi q . n - omega t))] with
@@ -57,9 +57,6 @@ class SupercellMode:
     branch: int
     omega: float
     units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         q = ", ".join(f"{x:.4g}" for x in self.q)

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.crystals.dynamical import phonons
 from vibra.crystals.mesh import mesh_points
@@ -87,9 +87,6 @@ class ThermalProperties(Result):
     mesh: NDArray[np.int64]
     units: UnitSystem
     path: str = "hermitian-eigh"
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         mesh = "x".join(str(int(n)) for n in self.mesh)

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.chains.builders import ENDS, linear_chain
 from vibra.system import System
 from vibra.units import UnitSystem
@@ -24,7 +24,7 @@ __all__ = ["BondForces", "fput"]
 
 
 @dataclass(frozen=True, eq=False)
-class BondForces:
+class BondForces(Frozen):
     """Anharmonic forces of bonds between dofs: V_b(d) = alpha_b d^3 / 3 + beta_b d^4 / 4,
     d = u[j_b] - u[i_b] (an index -1 is a wall at rest). Added to -K u by `integrate`.
 
@@ -51,9 +51,6 @@ class BondForces:
     alpha: NDArray[np.float64]
     beta: NDArray[np.float64]
     n_dof: int
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _elongation(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         padded = np.append(np.asarray(u, dtype=float), 0.0)      # index -1: the wall at rest

@@ -101,6 +101,17 @@ def _chain_force(j, two_kinetic, xi, Q, kT, n_f):  # pragma: no cover
 
 
 @numba.njit(cache=True, nogil=True)
+def _chain_kick(j, two_kinetic, xi, Q, kT, n_f, half, quarter):  # pragma: no cover
+    """xi_j over h / 2 (`half`): the last thermostat kicked, any other scaled by xi_{j+1} over h / 4 either side."""
+    g = _chain_force(j, two_kinetic, xi, Q, kT, n_f)
+    if j == xi.shape[0] - 1:
+        xi[j] += half * g
+    else:
+        f = math.exp(-quarter * xi[j + 1])
+        xi[j] = (xi[j] * f + half * g) * f
+
+
+@numba.njit(cache=True, nogil=True)
 def nose_hoover_chain(v, masses, xi, eta, Q, kT, n_f, h):  # pragma: no cover
     """The chain's flow over h (a symmetric sweep: xi_M .. xi_1, eta and v, xi_1 .. xi_M)."""
     n = v.shape[0]
@@ -111,12 +122,7 @@ def nose_hoover_chain(v, masses, xi, eta, Q, kT, n_f, h):  # pragma: no cover
     half = 0.5 * h
     quarter = 0.25 * h
     for j in range(chain - 1, -1, -1):
-        g = _chain_force(j, two_kinetic, xi, Q, kT, n_f)
-        if j == chain - 1:
-            xi[j] += half * g
-        else:
-            f = math.exp(-quarter * xi[j + 1])
-            xi[j] = (xi[j] * f + half * g) * f
+        _chain_kick(j, two_kinetic, xi, Q, kT, n_f, half, quarter)
     for j in range(chain):
         eta[j] += h * xi[j]
     scale = math.exp(-h * xi[0])
@@ -124,12 +130,7 @@ def nose_hoover_chain(v, masses, xi, eta, Q, kT, n_f, h):  # pragma: no cover
         v[i] *= scale
     two_kinetic *= scale * scale
     for j in range(chain):
-        g = _chain_force(j, two_kinetic, xi, Q, kT, n_f)
-        if j == chain - 1:
-            xi[j] += half * g
-        else:
-            f = math.exp(-quarter * xi[j + 1])
-            xi[j] = (xi[j] * f + half * g) * f
+        _chain_kick(j, two_kinetic, xi, Q, kT, n_f, half, quarter)
 
 
 @numba.njit(cache=True, nogil=True)

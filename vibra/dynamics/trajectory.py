@@ -8,7 +8,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core.text import counted
-from vibra._core.frozen import freeze_arrays
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.units import UnitSystem
@@ -99,9 +98,6 @@ class Trajectory(Result):
     integrator: str
     compiled: bool
     units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         end = f" to t = {float(self.t[-1]):.6g}" if self.t.size else ""

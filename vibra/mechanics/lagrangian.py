@@ -34,7 +34,7 @@ import sympy
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.generalized import GeneralizedSystem
 from vibra.mechanics.linearization import EQUILIBRIUM_RTOL, linearize
 from vibra.units import UnitSystem
@@ -205,7 +205,7 @@ def double_pendulum_rhs(
 
 
 @dataclass(frozen=True, eq=False)
-class DoublePendulumMotion:
+class DoublePendulumMotion(Frozen):
     """A motion of the double pendulum from the full non-linear equations (13).
 
     Attributes
@@ -229,9 +229,6 @@ class DoublePendulumMotion:
     phi_dot: NDArray[np.float64]
     energy: NDArray[np.float64]
     parameters: NDArray[np.float64]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
 
 def integrate_double_pendulum(

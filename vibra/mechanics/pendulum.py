@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 
 __all__ = [
     "PendulumMotion",
@@ -53,7 +53,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class PendulumMotion:
+class PendulumMotion(Frozen):
     """One motion theta(t) of the simple pendulum.
 
     Attributes
@@ -81,9 +81,6 @@ class PendulumMotion:
     eta: float
     method: str
 
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
     @property
     def kinetic(self) -> NDArray[np.float64]:
         """(n_t,) kinetic energy theta'^2 / 2 per unit m l^2, in rad^2 per time unit^2."""
@@ -103,7 +100,7 @@ class PendulumMotion:
 
 
 @dataclass(frozen=True, eq=False)
-class HarmonicError:
+class HarmonicError(Frozen):
     """How far the harmonic approximation is from the exact pendulum, per amplitude.
 
     Attributes
@@ -131,9 +128,6 @@ class HarmonicError:
     trajectory_error: NDArray[np.float64]
     n_periods: float
     omega: float
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def relative_trajectory_error(self) -> NDArray[np.float64]:

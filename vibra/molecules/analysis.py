@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 from scipy import constants
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra._core.text import counted
 from vibra.modes import Modes, normal_modes
 from vibra.molecules.checks import nonnegative_scalar
@@ -26,7 +26,7 @@ __all__ = ["VibrationalAnalysis", "vibrational_analysis"]
 
 
 @dataclass(frozen=True, eq=False)
-class VibrationalAnalysis:
+class VibrationalAnalysis(Frozen):
     """Normal modes of a molecule split into rigid-body motions and vibrations.
 
     Attributes
@@ -69,9 +69,6 @@ class VibrationalAnalysis:
     projected: bool
     name: str = "molecule"
     system: System | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         """One line: the molecule, its vibrations and rigid-body modes, imaginary ones, the path."""

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 
 __all__ = ["CharacterTable", "character_table", "symmetry_number", "LINEAR_ORDER"]
 
@@ -61,7 +61,7 @@ _I_TABLE: _Table = {
 
 
 @dataclass(frozen=True, eq=False)
-class CharacterTable:
+class CharacterTable(Frozen):
     """Characters of a point group's irreducible representations, one column per operation.
 
     Attributes
@@ -87,9 +87,6 @@ class CharacterTable:
     dimensions: NDArray[np.intp]
     ir_active: NDArray[np.bool_]
     raman_active: NDArray[np.bool_]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def index(self, label: str) -> int:
         """Row of `label`; ValueError naming the known labels when it is not one."""

@@ -56,18 +56,20 @@ import pickle
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core.filesystem import atomic_write_bytes
+from vibra.cluster import ClientOnDemand, ProgressOption, progress_callback, run_tasks
 
 if TYPE_CHECKING:
     from ase import Atoms
 
 __all__ = ["Displacement", "displacement_plan", "displaced_positions", "displaced_forces", "force_problem",
-           "CalculatorSource", "ForceCache", "CacheWarning", "PROPERTY_ROWS", "property_rows"]
+           "CalculatorSource", "ForceCache", "CacheWarning", "PROPERTY_ROWS", "property_rows", "GatheredForces",
+           "gather_forces", "calculator_of", "calculator_source"]
 
 _AXES = "xyz"
 
@@ -259,6 +261,27 @@ def is_factory(value: Any) -> bool:
     return isinstance(value, type) or (callable(value) and not is_calculator(value))
 
 
+def calculator_of(atoms: Atoms, calculator: Any) -> Any:
+    """`calculator`, or ``atoms.calc`` when it is None: an ASE calculator or a factory of one (TypeError else)."""
+    calc = calculator if calculator is not None else atoms.calc
+    if calc is None:
+        raise TypeError("calculator is None and atoms has no calculator attached; pass calculator=")
+    if not is_calculator(calc) and not is_factory(calc):
+        raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got {type(calc).__name__}")
+    return calc
+
+
+def calculator_source(calc: Any, calculator_key: str | None, client: Any) -> CalculatorSource:
+    """The `CalculatorSource` of a finite-difference run: `calculator_key` checked, and a calculator
+    that a `client` would have to pickle checked for that."""
+    if calculator_key is not None and not isinstance(calculator_key, str):
+        raise TypeError(f"calculator_key must be a str, got {type(calculator_key).__name__}")
+    source = CalculatorSource(calc, key=calculator_key)
+    if client is not None:
+        source.require_picklable()
+    return source
+
+
 def displaced_forces(atoms: Atoms, source: CalculatorSource, positions: NDArray[np.float64],
                      properties: Sequence[str] = ()) -> NDArray[np.float64]:
     """Forces (n_atoms, 3), eV / Angstrom, at `positions`, from a calculator in its initial state.
@@ -361,3 +384,89 @@ class ForceCache:
         buffer = io.BytesIO()
         np.save(buffer, np.ascontiguousarray(forces, dtype=np.float64), allow_pickle=False)
         return atomic_write_bytes(self.path(displacement), buffer.getvalue())
+
+
+@dataclass(frozen=True)
+class GatheredForces:
+    """The forces of every geometry of a finite-difference run (`gather_forces`)."""
+
+    forces: tuple[NDArray[np.float64], ...]   # one array per geometry, in the order asked
+    computed: int                              # force calls made in this run
+    cached: int                                # geometries read from the cache
+
+
+def gather_forces(geometries: Sequence[Any], template: Atoms, source: CalculatorSource,
+                  positions: Callable[[Any], NDArray[np.float64]], store: ForceCache | None,
+                  cluster: ClientOnDemand, progress: ProgressOption, *, properties: tuple[str, ...] = (),
+                  check_reference: Callable[[NDArray[np.float64]], None] | None = None,
+                  name: str = "vibra-fd") -> GatheredForces:
+    """Forces (and the `properties` below them) at every geometry: from the cache, in this process, or
+    one Dask task each on `cluster`; the molecules' and the crystals' finite differences.
+
+    Each geometry has a ``label`` and is the key of `store`; `positions(geometry)` is where its atoms
+    are. The first geometry is the reference: `check_reference` sees its forces as soon as they
+    are read or computed. A calculator that raises or returns unusable forces (`force_problem`) is
+    a RuntimeError naming each geometry, and saying what the cache kept.
+    """
+    n = len(template)
+    rows = property_rows(properties)
+    found: dict[int, NDArray[np.float64]] = {}
+    if store is not None:
+        for k, g in enumerate(geometries):
+            values = store.load(g)
+            if values is not None:
+                found[k] = values
+    if 0 in found and check_reference is not None:
+        check_reference(found[0][:n])
+    missing = [k for k in range(len(geometries)) if k not in found]
+    n_cached = len(found)
+
+    def kept() -> str:
+        if store is None:
+            return " (pass cache= to keep the finished force calls of a run)"
+        return (f" ({len(found)} finished force call(s) kept in the cache {str(store.folder)!r}; "
+                "a rerun computes only the rest)")
+
+    def accept(k: int, values: NDArray[np.float64]) -> str | None:
+        problem = force_problem(values, n, geometries[k].label, rows)
+        if problem is not None:
+            return problem
+        if store is not None:
+            store.store(geometries[k], values)
+        found[k] = values
+        if k == 0 and check_reference is not None:
+            check_reference(values[:n])
+        return None
+
+    if missing and cluster.client is None:
+        callback = progress_callback(progress, len(missing))
+        for done, k in enumerate(missing, start=1):
+            label = geometries[k].label
+            try:
+                values = displaced_forces(template, source, positions(geometries[k]), properties)
+            except Exception as error:
+                raise RuntimeError(f"calculator failed at {label}: {type(error).__name__}: {error}"
+                                   + kept()) from error
+            problem = accept(k, values)
+            if problem is not None:
+                raise RuntimeError(problem + kept())
+            if callback is not None:
+                callback(done, len(missing), label)
+    elif missing:
+        problems: list[str] = []
+
+        def on_result(i: int, values: NDArray[np.float64]) -> None:
+            problem = accept(missing[i], values)
+            if problem is not None:
+                problems.append(problem)
+
+        _, failures = run_tasks(
+            cluster.get(), displaced_forces,
+            [(template, source, positions(geometries[k]), properties) for k in missing],
+            labels=[geometries[k].label for k in missing], on_result=on_result, progress=progress, name=name)
+        problems.extend(f"calculator failed at {f.describe()}" for f in failures)
+        if problems:
+            raise RuntimeError(f"{len(problems)} of {len(geometries)} force calls failed: " + "; ".join(problems)
+                               + kept())
+    return GatheredForces(forces=tuple(found[k] for k in range(len(geometries))), computed=len(missing),
+                          cached=n_cached)

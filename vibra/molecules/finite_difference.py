@@ -12,14 +12,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
-from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
+from vibra._core.frozen import Frozen
+from vibra.cluster import ClientOnDemand, ProgressOption, check_client
 from vibra.modes import Modes
 from vibra.molecules.displacement_symmetry import Reduction, reduction
-from vibra.molecules.displacements import (CalculatorSource, Displacement, ForceCache, displaced_forces,
-                                           displaced_positions, displacement_plan, force_problem, is_calculator,
-                                           is_factory, property_rows)
-from vibra.molecules.noise import ForceNoise, force_noise_task, is_deterministic_calculator, rounding_noise
+from vibra.molecules.displacements import (Displacement, ForceCache, GatheredForces, calculator_of, calculator_source,
+                                           displaced_positions, displacement_plan, gather_forces)
+from vibra.molecules.noise import ForceNoise, rounding_noise, run_noise
 from vibra.molecules.property_derivatives import (PropertyDerivatives, central_difference, check_properties,
                                                   property_derivatives)
 from vibra.molecules.checks import check_atoms, masses_or_default, molecule_name, nonnegative_scalar
@@ -32,7 +31,7 @@ __all__ = ["FiniteDifferenceHessian", "finite_difference_hessian", "from_calcula
 
 
 @dataclass(frozen=True, eq=False)
-class FiniteDifferenceHessian:
+class FiniteDifferenceHessian(Frozen):
     """A Hessian from central differences of forces, with its own error estimate.
 
     Attributes
@@ -108,9 +107,6 @@ class FiniteDifferenceHessian:
     derivatives: PropertyDerivatives | None = None
     n_full_plan: int = 0
     symmetry: str = ""
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def system(self, *, masses: ArrayLike | None = None, name: str = "molecule") -> System:
         """The `System` with this Hessian (ASE units), optionally with other masses (amu)."""
@@ -306,11 +302,7 @@ def finite_difference_hessian(
     ('analytic', 0)
     """
     positions, masses = check_atoms(atoms)
-    calc = calculator if calculator is not None else atoms.calc
-    if calc is None:
-        raise TypeError("calculator is None and atoms has no calculator attached; pass calculator=")
-    if not is_calculator(calc) and not is_factory(calc):
-        raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got {type(calc).__name__}")
+    calc = calculator_of(atoms, calculator)
     h = _validate.real_scalar(step, "step")
     if not h > 0:
         raise ValueError(f"step is {h!r}; the displacement must be positive (Angstrom)")
@@ -328,11 +320,7 @@ def finite_difference_hessian(
     check_client(client)
     if not isinstance(symmetry, (bool, np.bool_)):
         raise TypeError(f"symmetry must be True or False, got {type(symmetry).__name__}")
-    if calculator_key is not None and not isinstance(calculator_key, str):
-        raise TypeError(f"calculator_key must be a str, got {type(calculator_key).__name__}")
-    source = CalculatorSource(calc, key=calculator_key)
-    if client is not None:
-        source.require_picklable()
+    source = calculator_source(calc, calculator_key, client)
     template = atoms.copy()
     template.calc = None
     store = None if cache is None else ForceCache(cache, template, h, source.digest(), names)
@@ -344,58 +332,17 @@ def finite_difference_hessian(
     reduced = reduction(template, h, bool(symmetry))
     plan = displacement_plan(n, multiples, reduced.dofs)
     with contextlib.ExitStack() as stack:
-        cluster = _Cluster(client, stack, n_workers, timeout)
-        forces = _gather_forces(plan, template, source, positions, h, store, tolerance, names, cluster=cluster,
-                                progress=progress)
+        cluster = ClientOnDemand(client, stack, n_workers, timeout)
+        forces = gather_forces(plan, template, source, lambda d: displaced_positions(positions, d, h), store,
+                               cluster, progress, properties=names,
+                               check_reference=lambda reference: _check_reference(reference, tolerance))
         floor = rounding_noise(max(float(np.abs(values[:n]).max()) for values in forces.forces))
-        if given is None:
-            noise = ForceNoise(0.0, "rounding", 0)
-        elif isinstance(given, str):                   # "auto"
-            noise = _probe(template, source, calc, forces.forces[0][:n], floor, cluster)
-        else:
-            noise = ForceNoise(given, "given", 0)
+        noise = run_noise(given, template, source, calc, forces.forces[0][:n], floor, cluster)
     derivatives = None if not names else property_derivatives(
         [values[n:] for values in forces.forces], plan, multiples, h, int(stencil), names, given_noise, estimate_error,
         reduced)
     return _assemble(forces, plan, multiples, h, int(stencil), noise, floor, positions, masses,
                      template.get_atomic_numbers(), estimate_error, derivatives, reduced)
-
-
-class _Cluster:
-    """Where the force calls of one run go: None (this process), or a client connected when first needed."""
-
-    def __init__(self, client: Any, stack: contextlib.ExitStack, n_workers: int | None, timeout: float) -> None:
-        self.client = client
-        self.stack = stack
-        self.n_workers = n_workers
-        self.timeout = timeout
-        self.opened: Any = None
-
-    def get(self) -> Any:
-        if self.opened is None:
-            self.opened = self.stack.enter_context(connect(self.client, n_workers=self.n_workers,
-                                                           timeout=self.timeout))
-        return self.opened
-
-
-def _probe(template: Atoms, source: CalculatorSource, calc: Any, reference: NDArray[np.float64], floor: float,
-           cluster: _Cluster) -> ForceNoise:
-    """force_noise="auto": the probe of `vibra.molecules.noise`, where the force calls ran."""
-    if is_deterministic_calculator(calc):
-        return ForceNoise(0.0, "analytic", 0)
-    advice = " (force_noise='auto' probes the calculator; pass force_noise=<number> or None to skip it)"
-    if cluster.client is None:
-        try:
-            return force_noise_task(template, source, reference, floor)
-        except Exception as error:
-            raise RuntimeError(f"calculator failed while measuring its force noise: {type(error).__name__}: "
-                               f"{error}{advice}") from error
-    results, failures = run_tasks(cluster.get(), force_noise_task, [(template, source, reference, floor)],
-                                  labels=["the force-noise probe"], name="vibra-noise")
-    if failures:
-        raise RuntimeError(f"calculator failed while measuring its force noise: {failures[0].describe()}{advice}")
-    found: ForceNoise = results[0]
-    return found
 
 
 def _check_reference(reference: NDArray[np.float64], tolerance: float | None) -> None:
@@ -410,82 +357,7 @@ def _check_reference(reference: NDArray[np.float64], tolerance: float | None) ->
         )
 
 
-@dataclass(frozen=True)
-class _Gathered:
-    forces: tuple[NDArray[np.float64], ...]   # one (n_atoms, 3) array per geometry of the plan
-    computed: int                              # force calls made in this run
-    cached: int                                # geometries read from the cache
-
-
-def _gather_forces(plan: tuple[Displacement, ...], template: Atoms, source: CalculatorSource,
-                   positions: NDArray[np.float64], h: float, store: ForceCache | None, tolerance: float | None,
-                   properties: tuple[str, ...], *, cluster: _Cluster, progress: ProgressOption) -> _Gathered:
-    """Forces (and the `properties` below them) at every geometry of `plan`: from the cache, in this
-    process, or on a cluster."""
-    n = len(template)
-    rows = property_rows(properties)
-    found: dict[int, NDArray[np.float64]] = {}
-    if store is not None:
-        for d in plan:
-            values = store.load(d)
-            if values is not None:
-                found[d.index] = values
-    if 0 in found:
-        _check_reference(found[0][:n], tolerance)
-    missing = [d for d in plan if d.index not in found]
-    n_cached = len(found)
-
-    def accept(d: Displacement, values: NDArray[np.float64]) -> str | None:
-        problem = force_problem(values, n, d.label, rows)
-        if problem is not None:
-            return problem
-        if store is not None:
-            store.store(d, values)
-        found[d.index] = values
-        if d.index == 0:
-            _check_reference(values[:n], tolerance)
-        return None
-
-    if missing and cluster.client is None:
-        callback = progress_callback(progress, len(missing))
-        for done, d in enumerate(missing, start=1):
-            try:
-                values = displaced_forces(template, source, displaced_positions(positions, d, h), properties)
-            except Exception as error:
-                raise RuntimeError(f"calculator failed at {d.label}: {type(error).__name__}: {error}"
-                                   + _kept(store, len(found))) from error
-            problem = accept(d, values)
-            if problem is not None:
-                raise RuntimeError(problem + _kept(store, len(found)))
-            if callback is not None:
-                callback(done, len(missing), d.label)
-    elif missing:
-        problems: list[str] = []
-
-        def on_result(i: int, values: NDArray[np.float64]) -> None:
-            problem = accept(missing[i], values)
-            if problem is not None:
-                problems.append(problem)
-
-        _, failures = run_tasks(
-            cluster.get(), displaced_forces,
-            [(template, source, displaced_positions(positions, d, h), properties) for d in missing],
-            labels=[d.label for d in missing], on_result=on_result, progress=progress,
-            name="vibra-fd")
-        problems.extend(f"calculator failed at {f.describe()}" for f in failures)
-        if problems:
-            raise RuntimeError(f"{len(problems)} of {len(plan)} force calls failed: " + "; ".join(problems)
-                               + _kept(store, len(found)))
-    return _Gathered(forces=tuple(found[d.index] for d in plan), computed=len(missing), cached=n_cached)
-
-
-def _kept(store: ForceCache | None, n_done: int) -> str:
-    if store is None:
-        return " (pass cache= to keep the finished force calls of a run)"
-    return f" ({n_done} finished force call(s) kept in the cache {str(store.folder)!r}; a rerun computes only the rest)"
-
-
-def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: list[int], h: float, stencil: int,
+def _assemble(gathered: GatheredForces, plan: tuple[Displacement, ...], multiples: list[int], h: float, stencil: int,
               noise: ForceNoise, floor: float, positions: NDArray[np.float64], masses: NDArray[np.float64],
               numbers: NDArray[np.int_], estimate_error: bool,
               derivatives: PropertyDerivatives | None = None,
@@ -510,10 +382,7 @@ def _assemble(gathered: _Gathered, plan: tuple[Displacement, ...], multiples: li
     else:
         truncation = asymmetry_matrix
         method = "asymmetry"
-    if noise.source == "given":
-        sigma = noise.value
-    else:  # measured noise never below rounding; a deterministic calculator: rounding alone
-        sigma = max(noise.value, floor) if noise.noisy else floor
+    sigma = noise.level(floor)  # measured noise never below rounding; a deterministic calculator: rounding alone
     roundoff = float(noise_gain * sigma / h)
     if reduced is not None:  # the operations' miss, on the rebuilt rows (vibra.molecules.displacement_symmetry)
         truncation = truncation + reduced.geometry_error(forces, plan, h)

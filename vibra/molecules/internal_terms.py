@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.molecules.coordinates import bond_angle
 
 __all__ = ["InternalTerms", "internal_terms", "PLANAR_TOLERANCE_DEG", "AXIS_ANGLE_MARGIN_DEG"]
@@ -33,7 +33,7 @@ AXIS_ANGLE_MARGIN_DEG = 30.0
 
 
 @dataclass(frozen=True, eq=False)
-class InternalTerms:
+class InternalTerms(Frozen):
     """Index lists of a molecule's internal coordinates (see the module docstring).
 
     Attributes
@@ -61,9 +61,6 @@ class InternalTerms:
     axes: tuple[tuple[int, ...], ...]
     out_of_plane: NDArray[np.intp]
     out_of_plane_centre_count: NDArray[np.intp]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
 
 def internal_terms(positions: NDArray[np.float64], bonds: NDArray[np.intp], *, linear_tolerance_deg: float,

@@ -47,13 +47,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core import validate as _validate
+from vibra.cluster import ClientOnDemand, run_tasks
 from vibra.molecules.displacements import CalculatorSource, force_problem, is_factory
 
 if TYPE_CHECKING:
     from ase import Atoms
 
-__all__ = ["measure_force_noise", "probe_force_noise", "force_noise_task", "ForceNoise", "NOISE_REPEATS",
-           "DETERMINISTIC_CALCULATORS", "is_deterministic_calculator", "rounding_noise", "ROUNDING_ULPS"]
+__all__ = ["measure_force_noise", "probe_force_noise", "force_noise_task", "probe_where_run", "run_noise", "ForceNoise",
+           "NOISE_REPEATS", "DETERMINISTIC_CALCULATORS", "is_deterministic_calculator", "rounding_noise",
+           "ROUNDING_ULPS"]
 
 #: Evaluations after perturbed starts: the default of `measure_force_noise`, and what the probe
 #: of `finite_difference_hessian(force_noise="auto")` spends on a noisy calculator.
@@ -105,6 +107,14 @@ class ForceNoise:
     def noisy(self) -> bool:
         """Whether the calculator showed noise above rounding (``source == "measured"``)."""
         return self.source == "measured"
+
+    def level(self, floor: float) -> float:
+        """The noise of one force component a finite difference's round-off uses, eV / Angstrom: a
+        given value as it is; else the measured spread, never below the rounding level `floor`,
+        or `floor` alone for a deterministic calculator."""
+        if self.source == "given":
+            return self.value
+        return max(self.value, floor) if self.noisy else floor
 
 
 def rounding_noise(largest_force: float) -> float:
@@ -298,3 +308,36 @@ def probe_force_noise(atoms: Atoms, calculator: Any = None, *, reference_forces:
         limit = rounding_noise(float(np.abs(reference).max()))
     found = force_noise_task(atoms, source, reference, limit, count, size, seed)
     return ForceNoise(found.value, found.source, found.n_force_calls + extra)
+
+
+def run_noise(force_noise: float | str | None, template: Atoms, source: CalculatorSource, calc: Any,
+              reference: NDArray[np.float64], floor: float, cluster: ClientOnDemand) -> ForceNoise:
+    """The `ForceNoise` of a finite-difference run from its checked ``force_noise``: None (rounding
+    only), ``"auto"`` (`probe_where_run`) or a number (given)."""
+    if force_noise is None:
+        return ForceNoise(0.0, "rounding", 0)
+    if isinstance(force_noise, str):
+        return probe_where_run(template, source, calc, reference, floor, cluster)
+    return ForceNoise(float(force_noise), "given", 0)
+
+
+def probe_where_run(template: Atoms, source: CalculatorSource, calc: Any, reference: NDArray[np.float64],
+                    floor: float, cluster: ClientOnDemand) -> ForceNoise:
+    """force_noise="auto" of a finite-difference run (molecules' and crystals'): the probe
+    (`force_noise_task`) where the run's force calls ran, at its reference geometry `template`
+    with the forces `reference` already computed there; a listed calculator is not called."""
+    if is_deterministic_calculator(calc):
+        return ForceNoise(0.0, "analytic", 0)
+    advice = " (force_noise='auto' probes the calculator; pass force_noise=<number> or None to skip it)"
+    if cluster.client is None:
+        try:
+            return force_noise_task(template, source, reference, floor)
+        except Exception as error:
+            raise RuntimeError(f"calculator failed while measuring its force noise: {type(error).__name__}: "
+                               f"{error}{advice}") from error
+    results, failures = run_tasks(cluster.get(), force_noise_task, [(template, source, reference, floor)],
+                                  labels=["the force-noise probe"], name="vibra-noise")
+    if failures:
+        raise RuntimeError(f"calculator failed while measuring its force noise: {failures[0].describe()}{advice}")
+    found: ForceNoise = results[0]
+    return found

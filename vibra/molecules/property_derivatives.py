@@ -14,7 +14,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.molecules.displacement_symmetry import Reduction
 from vibra.molecules.displacements import PROPERTY_ROWS, Displacement
 from vibra.molecules.noise import rounding_noise
@@ -27,7 +27,7 @@ PROPERTY_UNITS = {"dipole": "e Angstrom", "polarizability": "Angstrom^3"}
 
 
 @dataclass(frozen=True, eq=False)
-class PropertyDerivatives:
+class PropertyDerivatives(Frozen):
     """The dipole and polarisability derivatives of one finite-difference run, with error estimates.
 
     Attributes
@@ -65,9 +65,6 @@ class PropertyDerivatives:
     noise: tuple[tuple[str, float], ...]
     noise_source: tuple[tuple[str, str], ...]
     error_method: str
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
 
 def check_properties(properties: Any, noise: Any) -> tuple[tuple[str, ...], dict[str, float]]:

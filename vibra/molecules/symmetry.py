@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.molecules.character_tables import LINEAR_ORDER, CharacterTable, character_table, symmetry_number
 from vibra.system import Vibrating
 
@@ -67,7 +67,7 @@ _MAX_TRIPLE_ATOMS = 12                  # centroids of triples only for kinds wi
 
 
 @dataclass(frozen=True, eq=False)
-class PointGroup:
+class PointGroup(Frozen):
     """The point group of a molecule, its operations and character table.
 
     Attributes
@@ -101,9 +101,6 @@ class PointGroup:
     tolerance: float
     deviation: float
     table: CharacterTable
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def symmetry_number(self) -> int:

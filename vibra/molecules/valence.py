@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.molecules.checks import check_atoms
 from vibra.molecules.coordinates import (angle_bend, bond_angle, bond_stretch, dihedral, linear_bend_rows,
                                          linear_bend_vector, wrap_angle)
@@ -31,7 +31,7 @@ __all__ = ["ValenceModel", "valence_model"]
 
 
 @dataclass(frozen=True, eq=False)
-class ValenceModel:
+class ValenceModel(Frozen):
     """A harmonic valence force field V = 1/2 sum_t w_t (q_t - q_t0)^2 on n_atoms atoms.
 
     Attributes
@@ -86,9 +86,6 @@ class ValenceModel:
     out_of_plane: NDArray[np.intp] = field(default_factory=lambda: np.zeros((0, 4), dtype=np.intp))
     out_of_plane_k: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     out_of_plane_phi0: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def n_terms(self) -> int:

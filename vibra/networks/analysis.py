@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra._core.filesystem import atomic_write_text, check_target
 from vibra.modes import Modes
 
@@ -99,7 +99,7 @@ def cross_correlations(modes: Modes, normalize: bool = True, *, dim: int = 3) ->
 
 
 @dataclass(frozen=True, eq=False)
-class BFactorFit:
+class BFactorFit(Frozen):
     """Predicted B-factors on the experimental ones' axis.
 
     Attributes
@@ -121,9 +121,6 @@ class BFactorFit:
     scale: float
     correlation: float
     method: str
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         return (f"BFactorFit({self.predicted.shape[0]} sites, scale {self.scale:.4g} ({self.method}), "
@@ -226,7 +223,7 @@ def hinges(modes: Modes) -> list[int]:
 
 
 @dataclass(frozen=True, eq=False)
-class PerturbationResponse:
+class PerturbationResponse(Frozen):
     """Perturbation response scanning.
 
     Attributes
@@ -243,9 +240,6 @@ class PerturbationResponse:
     matrix: NDArray[np.float64]
     effectiveness: NDArray[np.float64]
     sensitivity: NDArray[np.float64]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         return (f"PerturbationResponse({self.matrix.shape[0]} sites; most effective site "
@@ -323,7 +317,7 @@ def superpose(target: ArrayLike, reference: ArrayLike) -> NDArray[np.float64]:
 
 
 @dataclass(frozen=True, eq=False)
-class DeformationOverlap:
+class DeformationOverlap(Frozen):
     """How the modes carry a conformational change.
 
     Attributes
@@ -339,9 +333,6 @@ class DeformationOverlap:
     overlap: NDArray[np.float64]
     cumulative: NDArray[np.float64]
     rmsd: float
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __repr__(self) -> str:
         best = int(np.argmax(self.overlap)) if self.overlap.size else -1

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.modes import Modes
 from vibra.system import System, Vibrating
 
@@ -58,7 +58,7 @@ Gamma = Union[float, ArrayLike, Callable[[NDArray[np.intp], NDArray[np.intp], ND
 
 # ---------------------------------------------------------------------- results
 @dataclass(frozen=True, eq=False)
-class Fluctuations:
+class Fluctuations(Frozen):
     """Thermal mean-square fluctuations of the sites of a network, and predicted B-factors.
 
     Attributes
@@ -85,9 +85,6 @@ class Fluctuations:
     n_rigid: int
     kT: float
     complete: bool
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def correlation(self, experimental: ArrayLike) -> float:
         """Pearson correlation of `b_factors` with measured B-factors (`b_factor_correlation`)."""

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from vibra._core.text import counted, plural
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra._core.validate import ArgumentError
 from vibra.networks.assemblies import (
     assembly_copies, assembly_transforms, mmcif_assemblies, mmcif_residue_chains, pdb_assemblies,
@@ -220,7 +220,7 @@ def _repeated_residues(text: str) -> list[str]:
 
 
 @dataclass(frozen=True, eq=False)
-class Structure:
+class Structure(Frozen):
     """Sites read from a structure file (first model, first alternate location).
 
     Attributes
@@ -243,9 +243,6 @@ class Structure:
     positions: NDArray[np.float64]
     b_factors: NDArray[np.float64]
     labels: tuple[str, ...]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def n_sites(self) -> int:

@@ -17,7 +17,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.response.direct import direct_response, state_space_response
@@ -83,9 +83,6 @@ class FrequencyResponse(Result):
     natural_frequencies: NDArray[np.float64] | None
     units: UnitSystem = DIMENSIONLESS
     gyroscopic: bool = False
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         modes = "" if self.n_modes is None else f"{self.n_modes} modes"

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, owned_arrays
+from vibra._core.frozen import Frozen, owned_arrays
 from vibra.generalized import GeneralizedSystem
 from vibra.response.frf import FrequencyResponse, frequency_response
 from vibra.response.matrices import velocity_matrix
@@ -28,7 +28,7 @@ from vibra.units import UnitSystem
 
 
 @dataclass(frozen=True, eq=False)
-class SystemMatrices:
+class SystemMatrices(Frozen):
     """K, M, C and G of a system over its free degrees of freedom, in its units.
 
     Attributes
@@ -52,9 +52,6 @@ class SystemMatrices:
     C: NDArray[np.float64] | None
     G: NDArray[np.float64] | None
     units: UnitSystem
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
 
 def system_matrices(system: System | GeneralizedSystem) -> SystemMatrices:

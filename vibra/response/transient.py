@@ -18,7 +18,6 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays
 from vibra._results import Result, stored
 from vibra.modes import Modes, normal_modes
 from vibra.response.damping import is_modal, modal_damping, modal_projection
@@ -61,9 +60,6 @@ class Transient(Result):
     velocity: NDArray[np.float64]
     n_modes: int
     method: str = "modal"
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         end = f" to t = {float(self.t[-1]):.6g}" if self.t.size else ""

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.spectra.common import nonnegative_float
 
@@ -47,9 +47,6 @@ class StickSpectrum(Result):
     unit: str
     kind: str
     level: str = ""
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         return self._size(), f"{span(self.wavenumbers, 'cm^-1')}", f"intensities in {self.unit}"
@@ -95,9 +92,6 @@ class BroadenedSpectrum(Result):
     unit: str
     kind: str
     level: str = ""
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         return (self._size(), f"{span(self.grid, 'cm^-1')}", f"{self.kind}", f"FWHM {self.width:.4g} cm^-1",

@@ -17,14 +17,14 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.spectra.scale_factors import FUNDAMENTAL_TO_ZPE, fundamental_scale_factor
 
 __all__ = ["ExperimentComparison", "compare_with_experiment"]
 
 
 @dataclass(frozen=True, eq=False)
-class ExperimentComparison:
+class ExperimentComparison(Frozen):
     """Computed (scaled) against observed fundamentals of one molecule.
 
     Attributes
@@ -62,9 +62,6 @@ class ExperimentComparison:
     observed_km_per_mol: NDArray[np.float64]
     frequency_source: str
     intensity_source: str
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def __len__(self) -> int:
         return len(self.names)

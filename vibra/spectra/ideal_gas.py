@@ -29,13 +29,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis, vibrational_analysis
 from vibra.molecules.checks import check_atoms
 from vibra.molecules.rigid_body import is_linear, principal_moments
-from vibra.spectra.thermochemistry import BOLTZMANN_EV_PER_K, check_finite, thermochemistry, warn_negative_entropy
+from vibra.spectra.thermochemistry import (BOLTZMANN_EV_PER_K, LowModes, check_finite, thermochemistry,
+                                          warn_negative_entropy)
 from vibra.system import System, Vibrating
 
 if TYPE_CHECKING:
@@ -77,9 +78,6 @@ class ThermoContribution(Result):
     gibbs: NDArray[np.float64]
     heat_capacity: NDArray[np.float64]
 
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
 
 def _part(temperatures: NDArray[np.float64], enthalpy: ArrayLike, entropy: ArrayLike,
           heat_capacity: ArrayLike) -> ThermoContribution:
@@ -89,7 +87,7 @@ def _part(temperatures: NDArray[np.float64], enthalpy: ArrayLike, entropy: Array
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class IdealGasThermochemistry(Result):
+class IdealGasThermochemistry(LowModes, Result):
     """Enthalpy, entropy, Gibbs energy and heat capacity of an ideal gas of one molecule (a
     `vibra._results.Result` over the temperatures, its parts sliced with it and stored as
     ``"translational.enthalpy"``, ...; `path` is the treatment of the low modes, ``"harmonic"``
@@ -162,14 +160,6 @@ class IdealGasThermochemistry(Result):
     enthalpy_error: NDArray[np.float64] | None = None
     entropy_error: NDArray[np.float64] | None = None
     gibbs_error: NDArray[np.float64] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
-    @property
-    def path(self) -> str:
-        """How the low modes were treated: ``"harmonic"`` (none), ``"grimme"`` or ``"truhlar"``."""
-        return self.low_frequency or "harmonic"
 
     def _repr_parts(self) -> tuple[str, ...]:
         return (f"{self._size()} {span(self.temperatures, 'K')}", f"{self.pressure:g} Pa", f"{self.shape}",

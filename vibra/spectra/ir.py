@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
@@ -84,9 +84,6 @@ class IRSpectrum(Result):
     model: str
     level: str = ""
     intensity_errors: NDArray[np.float64] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         return (self._size(), span(self.wavenumbers, "cm^-1"), f"intensities {span(self.intensities)} e^2/amu",

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.molecules import ISOTOPE_MASSES
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy
@@ -64,9 +64,6 @@ class IsotopeShifts(Result):
     shifted_wavenumbers: NDArray[np.float64]
     overlap: NDArray[np.float64]
     ambiguous: NDArray[np.bool_]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         return (self._size(), f"{self.sites.size} substituted", f"shifts {span(self.shifts, 'cm^-1')}",

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.spectra.broadening import StickSpectrum, stick_spectrum
@@ -68,9 +68,6 @@ class RamanSpectrum(Result):
     model: str = "bond polarisability"
     level: str = ""
     activity_errors: NDArray[np.float64] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def _repr_parts(self) -> tuple[str, ...]:
         return (self._size(), span(self.wavenumbers, "cm^-1"), f"activities {span(self.activities)} Angstrom^4/amu",
@@ -212,10 +209,10 @@ def raman_spectrum(
     system, modes, rigid = system_and_modes(system, modes)
     pairs = bond_pairs(bonds, system.n_sites)
     n_bonds = len(pairs)
-    a_par = _per_bond(polarizability_parallel, n_bonds, "polarizability_parallel")
-    a_perp = _per_bond(polarizability_perpendicular, n_bonds, "polarizability_perpendicular")
-    d_par = _per_bond(derivative_parallel, n_bonds, "derivative_parallel")
-    d_perp = _per_bond(derivative_perpendicular, n_bonds, "derivative_perpendicular")
+    a_par = _validate.per_entry(polarizability_parallel, n_bonds, "polarizability_parallel", "bond")
+    a_perp = _validate.per_entry(polarizability_perpendicular, n_bonds, "polarizability_perpendicular", "bond")
+    d_par = _validate.per_entry(derivative_parallel, n_bonds, "derivative_parallel", "bond")
+    d_perp = _validate.per_entry(derivative_perpendicular, n_bonds, "derivative_perpendicular", "bond")
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
     positions = _cartesian_positions(system)
     vector = positions[pairs[:, 1]] - positions[pairs[:, 0]]
@@ -264,15 +261,6 @@ def _anisotropy_squared(t: NDArray[np.float64]) -> NDArray[np.float64]:
     xy, yz, zx = t[:, 0, 1], t[:, 1, 2], t[:, 2, 0]
     return 0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2
                   + 6.0 * (xy**2 + yz**2 + zx**2))
-
-
-def _per_bond(value: ArrayLike | float, n_bonds: int, name: str) -> NDArray[np.float64]:
-    array = _validate.real_array(value, name, ndim=(0, 1))
-    if array.ndim == 0:
-        return np.full(n_bonds, float(array))
-    if array.shape[0] != n_bonds:
-        raise ValueError(f"{name} must have {n_bonds} entries (one per bond), got {array.shape[0]}")
-    return array
 
 
 

@@ -12,7 +12,7 @@ from scipy import constants
 
 from vibra.spectra.scale_factors import scale_factor as level_factor
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import span
 from vibra._results import Result, stored
 from vibra.modes import Modes
 from vibra.molecules import VibrationalAnalysis
@@ -36,8 +36,20 @@ LOW_FREQUENCY = (None, "grimme", "truhlar")
 GRIMME_BAV = 1.0e-44
 
 
+class LowModes:
+    """The `path` of a thermochemistry result (`Thermochemistry`, `vibra.spectra.ideal_gas.IdealGasThermochemistry`,
+    listed before `Result` among its bases): the treatment of its low modes, its `low_frequency` field."""
+
+    low_frequency: str | None
+
+    @property
+    def path(self) -> str:
+        """How the low modes were treated: ``"harmonic"`` (none), ``"grimme"`` or ``"truhlar"``."""
+        return self.low_frequency or "harmonic"
+
+
 @dataclass(frozen=True, eq=False, repr=False)
-class Thermochemistry(Result):
+class Thermochemistry(LowModes, Result):
     """Harmonic vibrational thermochemistry at several temperatures (a `vibra._results.Result` over
     the temperatures; `path` is the treatment of the low modes, ``"harmonic"`` when none).
 
@@ -107,14 +119,6 @@ class Thermochemistry(Result):
     internal_energy_error: NDArray[np.float64] | None = None
     entropy_error: NDArray[np.float64] | None = None
     helmholtz_energy_error: NDArray[np.float64] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
-
-    @property
-    def path(self) -> str:
-        """How the low modes were treated: ``"harmonic"`` (none), ``"grimme"`` or ``"truhlar"``."""
-        return self.low_frequency or "harmonic"
 
     def _repr_parts(self) -> tuple[str, ...]:
         return (f"{self._size()} {span(self.temperatures, 'K')}", f"{self.wavenumbers.size} modes",

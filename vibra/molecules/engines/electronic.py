@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 from vibra.cluster import ProgressOption
 from vibra.modes import Modes
 from vibra.molecules.checks import check_atoms, masses_or_default
@@ -30,7 +30,7 @@ HESSIAN_SOURCES = ("auto", "analytic", "finite difference")
 
 
 @dataclass(frozen=True, eq=False)
-class ElectronicStructure:
+class ElectronicStructure(Frozen):
     """What an engine gave for one molecule: its Hessian, and its dipole and polarisability
     derivatives with their finite-difference error estimates.
 
@@ -64,9 +64,6 @@ class ElectronicStructure:
     finite_difference: FiniteDifferenceHessian
     methods: tuple[tuple[str, str], ...]
     symbols: tuple[str, ...]
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def positions(self) -> NDArray[np.float64]:

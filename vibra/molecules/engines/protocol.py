@@ -36,7 +36,7 @@ from typing import Any, Collection, Mapping, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._core.frozen import freeze_arrays
+from vibra._core.frozen import Frozen
 
 __all__ = ["Engine", "EngineResult", "CAPABILITIES", "engine_methods"]
 
@@ -64,7 +64,7 @@ class Engine(Protocol):
 
 
 @dataclass(frozen=True, eq=False)
-class EngineResult:
+class EngineResult(Frozen):
     """What an engine computed at one geometry.
 
     Attributes
@@ -83,9 +83,6 @@ class EngineResult:
     forces: NDArray[np.float64]
     dipole: NDArray[np.float64] | None = None
     polarizability: NDArray[np.float64] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
 
 def engine_methods(engine: Any) -> dict[str, str]:

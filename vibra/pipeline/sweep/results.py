@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra._core.frozen import freeze_arrays, span
+from vibra._core.frozen import Frozen, span
 from vibra._core.filesystem import atomic_write_text
 from vibra._results import Result, stored
 
@@ -35,7 +35,7 @@ __all__ = ["SweepRow", "SweepTable"]
 
 
 @dataclass(frozen=True, eq=False)
-class SweepRow:
+class SweepRow(Frozen):
     """The result at one point.
 
     Attributes
@@ -70,9 +70,6 @@ class SweepRow:
     omega_error: float
     units: str = ""
     branch: NDArray[np.intp] | None = None
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     def as_json(self) -> dict[str, Any]:
         """The row as `to_dict` gives it (the older name)."""

@@ -46,7 +46,7 @@ import scipy.linalg as la
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra._core.frozen import freeze_arrays, owned_arrays
+from vibra._core.frozen import owned_arrays
 from vibra._results import ModesResult, Stored, stored
 from vibra.solvers.dispatch import check_solve_plan, plan_problem
 from vibra.solvers.problem import quadratic_problem
@@ -110,9 +110,6 @@ class QuadraticModes(ModesResult):
         "omega_error": stored(("n_modes",)),
         "state_vectors": stored((("n_dof", 2), ("n_modes", 2)), kind="complex")}
     PATH_FIELD: ClassVar[str] = "method"
-
-    def __post_init__(self) -> None:
-        freeze_arrays(self)
 
     @property
     def n_modes(self) -> int:
