@@ -16,10 +16,10 @@ warm-up, interleaved rounds, BLAS threads 1):
 
 Networks: periodic simple-cubic lattices (springs 1 to the nearest neighbours, 0.3 along the
 face diagonals, masses 2), whose truth is closed form: Bloch waves with a 3 x 3 dynamical matrix
-each, in 40-digit mpmath (`tests/test_accurate_bounds.py`, `lattice_omegas`; never vibra).
+each, in 40-digit mpmath (`tests/solvers/test_accurate_bounds.py`, `lattice_omegas`; never vibra).
 
 Ill-conditioned networks (random sites, 8 nearest neighbours, springs over 1e+-6, masses over
-1e+-3; `tests/test_accurate_bounds.network`, seed 1), where one-sided Jacobi runs: the bounds
+1e+-3; `tests/solvers/test_accurate_bounds.network`, seed 1), where one-sided Jacobi runs: the bounds
 with and without the singular-triplet step (`golub_kahan.refine_triplets`; with:
 ``accuracy="certified"``; without: "high" with `accurate.springs.HIGH_WORK` = 0), their cost, and the truth (mpmath.eigsy of B~^T B~ at 34 digits from the
 inputs) up to 300 dofs. Writes results/network_bounds.json.
@@ -42,8 +42,8 @@ from vibra import normal_modes
 from vibra.solvers.accurate import springs as accurate_springs
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_accurate_bounds import cubic_lattice, lattice_omegas, network, solve  # noqa: E402  (the tests' oracles)
-from test_solvers import mp_spring_omegas  # noqa: E402
+from solvers.test_accurate_bounds import cubic_lattice, lattice_omegas, network, solve  # noqa: E402  (the tests' oracles)
+from solvers.test_solvers import mp_spring_omegas  # noqa: E402
 
 PEER = "scipy eigvalsh (LAPACK syevr, values)"
 

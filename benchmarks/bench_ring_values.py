@@ -19,7 +19,7 @@ numba's threads: the machine's cores, 2 here):
   `eigvals_banded` (LAPACK sbevd) of the reordered K~ (half-width 2), formed outside the timing;
 - the bounds: largest and median of omega_error / omega; the true error where a truth exists:
   the closed form 2 |sin(pi j / n)| (uniform rings, 30-digit mpmath), and for disordered rings
-  40 + 2 spread digit mpmath Sturm counts (`tests/test_ring_bounds.ring_count`) on a sample of
+  40 + 2 spread digit mpmath Sturm counts (`tests/solvers/test_ring_bounds.ring_count`) on a sample of
   24 modes (the lowest, the loosest, random), which must hold each reported interval.
 
 Writes results/ring_values.json.
@@ -59,7 +59,7 @@ from vibra.solvers import common
 from vibra.solvers.common import ring_ordering
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_ring_bounds import disordered_ring, ring_count, sampled  # noqa: E402  (the tests' oracles)
+from solvers.test_ring_bounds import disordered_ring, ring_count, sampled  # noqa: E402  (the tests' oracles)
 
 PEER = "scipy eigvals_banded (LAPACK sbevd, reordered K~)"
 

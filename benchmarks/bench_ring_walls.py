@@ -19,7 +19,7 @@ numba's threads: the machine's cores, 2 here):
   spring-space Rayleigh-Ritz), run once in a subprocess with a time limit (`LIMIT_S`);
 - bounds: largest and median omega_error / omega; the truth: the closed form
   omega_j^2 = g + 4 sin^2(pi j / n) for the uniform ring on walls g (30-digit mpmath), and
-  mpmath Sturm counts (`tests/test_ring_walls.covered`, 40 + 2 spread digits) on 10 sampled
+  mpmath Sturm counts (`tests/solvers/test_ring_walls.covered`, 40 + 2 spread digits) on 10 sampled
   modes (the lowest 3, the loosest 3, 4 random) for disordered rings up to 32,000 sites.
 
 Writes results/ring_walls.json.
@@ -47,7 +47,7 @@ from vibra import normal_modes
 from vibra.solvers import common
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_ring_walls import covered, walled_ring  # noqa: E402  (the tests' oracles)
+from solvers.test_ring_walls import covered, walled_ring  # noqa: E402  (the tests' oracles)
 
 #: The previous path of a lowest-modes request runs once, in a subprocess stopped after this.
 LIMIT_S = 200
@@ -161,7 +161,7 @@ def run_chains(cases: list[tuple[int, float]], rounds: int) -> list[dict]:
     the path it replaces (`common.RING_VALUES_FROM` out of reach: the checked dense solve, or the Rayleigh
     path over 1,500 sites) and "fast" (the tridiagonal solver, LAPACK stemr: the strongest peer)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from test_walled_chain import chain_on_walls
+    from solvers.test_walled_chain import chain_on_walls
 
     rows = []
     for n, spread in cases:

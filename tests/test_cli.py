@@ -266,7 +266,7 @@ def test_report_bundled_scenes_end_to_end(tmp_path: Path) -> None:
                 assert picture.shape == (200, 320, 3), name  # the --window-size asked for
             else:
                 assert picture.shape[1] >= 600, name  # charts keep their legible default size
-            assert picture.std() > 5.0, name  # not blank (see test_render.py)
+            assert picture.std() > 5.0, name  # not blank (see tests/pipeline/test_render.py)
     assert (out / "co2_crosscheck.txt").is_file() and (out / "co2_mode5.gif").is_file()
     assert (out / "monatomic-fixed_mode0.gif").is_file()
     assert (out / "argon-fcc_mode.gif").is_file() and (out / "silicon-diamond_mode.gif").is_file()

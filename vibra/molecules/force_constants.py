@@ -27,7 +27,7 @@ which keeps them chemical where a diagonal force field could trade a stretch for
 Reference lengths are those of the prototype in ASE's g2 collection (MP2(full)/6-31G(d)
 geometries), the geometries `vibra.molecules.molecule` uses. docs/molecules.md gives the
 errors on the fit set and on 27 g2 molecules held out of the fit
-(tests/test_molecules_experiment.py).
+(tests/molecules/test_experiment.py).
 
 Kinds of atoms and pairs the table does not list get generic values: a stretch of
 `GENERIC_STRETCH` at the sum of the covalent radii (Badger's rule around it), the bends,

