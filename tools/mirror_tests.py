@@ -35,9 +35,10 @@ What the move would break, fixed in the same run:
   -> the new path; a bare ``test_x.py`` or ``test_x.name`` -> ``tests/<new path>``; ``from test_x import`` /
   ``import test_x`` (tests, benchmarks, scripts inside strings) -> ``from solvers.test_x import``
   (``tests/`` on sys.path). On later runs, a ``tests/test_x...`` reference to a file already moved
-  (one written since) is rewritten too;
-- ``tests/.../test_tests_layout.py`` gets the test that keeps the layout (no flat test file but the
-  loose modules' tests, every folder a package folder's mirror or a named other one).
+  (one written since) is rewritten too.
+
+``tests/project/test_tests_layout.py`` keeps the layout (no flat test file but the loose modules'
+tests, every folder a package folder's mirror or a named other one) and names this script.
 """
 
 from __future__ import annotations
@@ -92,43 +93,6 @@ NOT_PACKAGES = ("helpers", "data", "broken_scenes", "project")
 
 #: Not rewritten: history, and this file (its table names the old files).
 NO_REWRITE = {"CHANGELOG.md", "tools/mirror_tests.py"}
-
-LAYOUT_TEST = '''
-
-#: Folders under tests/ that mirror no package folder: shared helpers, data files, the broken scene
-#: files, and the tests of the repository around the package (docs, README, notebooks, layout).
-NOT_PACKAGES = ("helpers", "data", "broken_scenes", "project")
-
-
-def test_tests_mirror_the_package() -> None:
-    """Tests mirror vibra/ (issue 43, item 6): tests/crystals/test_bands.py tests vibra/crystals/bands.py.
-
-    A test file lies flat in tests/ only when it tests a loose module of vibra/ (tests/test_modes.py,
-    tests/test_cli_distributed.py: vibra/modes.py, vibra/cli.py); every folder is a package folder's
-    mirror or one of NOT_PACKAGES, and each folder of tests has an __init__.py (one base name may sit
-    in two folders) while tests/ has none (pytest keeps tests/ on sys.path: ``import helpers``).
-    ``python tools/mirror_tests.py`` moves a new flat file where it belongs."""
-    package = TESTS.parent / "vibra"
-    loose = {path.stem for path in package.glob("*.py")} - {"__init__", "__main__"}
-    flat = [path.name for path in sorted(TESTS.glob("test_*.py"))
-            if not any(path.stem[5:] == name or path.stem[5:].startswith(name + "_") for name in loose)]
-    assert not flat, f"flat in tests/ (run python tools/mirror_tests.py): {flat}"
-    assert not (TESTS / "__init__.py").exists(), "tests/ must stay off the packages: helpers import as `helpers`"
-    wrong = []
-    for folder in sorted(path for path in TESTS.rglob("*") if path.is_dir()):
-        parts = folder.relative_to(TESTS).parts
-        if "__pycache__" in parts or parts[0].startswith(".") or parts[0] in NOT_PACKAGES[:3]:
-            continue
-        name = "/".join(parts)
-        if parts[0] not in NOT_PACKAGES and not (package / name / "__init__.py").is_file():
-            wrong.append(f"tests/{name}/ mirrors no package folder (no vibra/{name}/)")
-        if list(folder.glob("test_*.py")) and not (folder / "__init__.py").is_file():
-            wrong.append(f"tests/{name}/ has test files and no __init__.py")
-    assert not wrong, "\\n".join(wrong)
-'''
-
-OLD_IMPORT_CHECK = 'name.split(".")[0].startswith(("test_", "conftest"))'
-NEW_IMPORT_CHECK = 'any(part.startswith(("test_", "conftest")) for part in name.split("."))'
 
 
 class Refused(Exception):
@@ -270,21 +234,6 @@ def stale_references(root: Path, package: Package, tests: Path) -> dict[str, str
     return stale
 
 
-def add_layout_test(tests: Path) -> str | None:
-    found = sorted(tests.rglob("test_tests_layout.py"))
-    if not found:
-        raise Refused("no tests/**/test_tests_layout.py to add the layout test to")
-    path = found[0]
-    text = path.read_text(encoding="utf-8")
-    new = text.replace(OLD_IMPORT_CHECK, NEW_IMPORT_CHECK)
-    if "def test_tests_mirror_the_package" not in new:
-        new = new.rstrip("\n") + "\n" + LAYOUT_TEST
-    if new == text:
-        return None
-    path.write_text(new, encoding="utf-8")
-    return path.as_posix()
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dry-run", action="store_true", help="print the mapping, change nothing")
@@ -353,7 +302,6 @@ def main(argv: list[str] | None = None) -> int:
         changed = rewrite_references(root, mapping, bare=True)
         stale = stale_references(root, package, tests)
         changed += rewrite_references(root, stale, bare=False)
-        layout = add_layout_test(tests)
     except Refused as refusal:
         print(refusal, file=sys.stderr)
         return 1
@@ -361,9 +309,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  references rewritten: {name}")
     if stale:
         print(f"  stale references to moved files rewritten: {sorted(stale)}")
-    if layout:
-        print(f"  layout test added or updated: {Path(layout).relative_to(root).as_posix()}")
-    if not (mapping or changed or layout):
+    if not (mapping or changed):
         print("nothing to do: tests/ already mirrors vibra/")
     return 0
 
