@@ -1173,3 +1173,21 @@ def test_a_killed_reports_work_folder_goes_with_the_next_report(tmp_path: Path,
     assert code == 0, err
     assert not (out / ".work").exists() and not stale.exists()
     complete_png(out / "c0_spectrum.png")
+
+
+@pytest.mark.parametrize("limit", [1000, 20_000])
+def test_deep_nesting_refused_alike_whatever_the_recursion_limit(limit: int, tmp_path: Path,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """A file nested 2,000 deep is refused with the same line whether or not the TOML parser would
+    recurse that deep (other libraries in a process raise the interpreter's limit: in the whole
+    suite this case once reached the parsed-depth check instead, with another message)."""
+    path = tmp_path / "scene.toml"
+    path.write_text("a = " + "[" * 2000 + "]" * 2000 + "\n", encoding="utf-8")
+    before = sys.getrecursionlimit()
+    sys.setrecursionlimit(limit)
+    try:
+        code, out, _ = run_cli(capsys, "validate", str(path))
+    finally:
+        sys.setrecursionlimit(before)
+    assert code == 1
+    assert one_line_failure(out) == f"FAIL {path}: lists or tables nested too deeply to parse; a scene nests at most 8 levels"

@@ -27,6 +27,7 @@ table, and every value is a number, a string, a boolean or a list of those.
 from __future__ import annotations
 
 import os
+import re
 import stat
 import sys
 from dataclasses import dataclass
@@ -203,6 +204,15 @@ MAX_SCENE_BYTES = 1 << 20
 #: Deepest nesting of lists and tables a scene may use (a matrix is 2 deep, ``compute.response`` 2).
 MAX_SCENE_DEPTH = 8
 
+#: Brackets and braces nested this deep in a file's text refuse it before the TOML parser runs:
+#: tomllib recurses per level, so whether a deeper file parses (and reaches the `MAX_SCENE_DEPTH`
+#: check, which names the key) or raises RecursionError would depend on the interpreter's
+#: recursion limit, which other libraries raise; at 100 levels every limit parses.
+MAX_TEXT_DEPTH = 100
+
+#: What holds no nesting in TOML text: strings (multi-line first) and comments.
+_NOT_NESTING = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:\\.|[^"\\\n])*"|\'[^\'\n]*\'|#[^\n]*')
+
 
 def read_scene_bytes(path: str | os.PathLike[str]) -> bytes:
     """The bytes of the scene file `path`, read only when it is a regular file of at most `MAX_SCENE_BYTES`.
@@ -257,6 +267,16 @@ def read_scene_bytes(path: str | os.PathLike[str]) -> bytes:
     return b"".join(chunks)
 
 
+def _text_depth(text: str) -> int:
+    """The deepest nesting of [ and { in TOML text, strings and comments left out (a table
+    header's brackets open and close on its line, so they add 1 at most)."""
+    depth = deepest = 0
+    for mark in re.findall(r"[\[\]{}]", _NOT_NESTING.sub("", text)):
+        depth = depth + 1 if mark in "[{" else max(depth - 1, 0)
+        deepest = max(deepest, depth)
+    return deepest
+
+
 def _depth(data: Any) -> tuple[int, str]:
     """Deepest nesting of lists and tables in `data` and the key path that reaches it (no recursion)."""
     deepest, where = 0, ""
@@ -286,6 +306,9 @@ def parse_scene_text(data: bytes, source: str) -> dict[str, Any]:
         text = data.decode("utf-8-sig")  # editors on some systems start UTF-8 files with a BOM
     except UnicodeDecodeError as error:
         raise SceneError(source, "", f"not UTF-8 text (byte {error.start}); save the file as UTF-8") from None
+    if _text_depth(text) > MAX_TEXT_DEPTH:
+        raise SceneError(source, "", f"lists or tables nested too deeply to parse; a scene nests at most "
+                         f"{MAX_SCENE_DEPTH} levels")
     try:
         parsed = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
