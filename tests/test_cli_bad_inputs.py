@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from helpers.phonopy_files import write_force_sets
 from vibra import cli
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -1037,24 +1038,10 @@ def test_a_long_sweep_says_its_size_and_time_first_even_quiet(tmp_path: Path, ca
 def phonopy_files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     """The text of phonopy's files for a small silicon model (structure yaml, FORCE_CONSTANTS,
     a displacement yaml and its FORCE_SETS with forces -Phi u)."""
-    from phonopy.file_IO import write_FORCE_SETS
-
     from vibra import crystals
 
     folder = tmp_path_factory.mktemp("phonopy-files")
-    crystal = crystals.diamond(5.43, 28.09, 10.0, units="ASE")
-    crystals.write_phonopy(crystal, folder / "structure.yaml", force_constants=False)
-    crystals.write_force_constants(crystal, folder / "FORCE_CONSTANTS")
-    phonon = crystal.to_phonopy()
-    fc = np.array(phonon.force_constants)
-    phonon.generate_displacements(distance=0.01)
-    dataset = phonon.dataset
-    for entry in dataset["first_atoms"]:
-        u = np.zeros((len(phonon.supercell), 3))
-        u[entry["number"]] = entry["displacement"]
-        entry["forces"] = -np.einsum("ijab,jb->ia", fc, u)
-    write_FORCE_SETS(dataset, filename=str(folder / "FORCE_SETS"))
-    phonon.save(str(folder / "phonopy_disp.yaml"), settings={"force_sets": False})
+    write_force_sets(crystals.diamond(5.43, 28.09, 10.0, units="ASE"), folder)
     return {name: (folder / name).read_text() for name in ("structure.yaml", "FORCE_CONSTANTS", "FORCE_SETS",
                                                            "phonopy_disp.yaml")}
 

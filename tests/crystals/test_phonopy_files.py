@@ -15,6 +15,7 @@ import phonopy
 import pytest
 from phonopy.file_IO import parse_FORCE_CONSTANTS
 
+from helpers.phonopy_files import write_force_sets
 from vibra import crystals
 
 Q = np.random.default_rng(31).random((40, 3))
@@ -88,23 +89,11 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """phonopy's own files for the silicon model: yaml with force constants, structure alone,
     FORCE_CONSTANTS, and a displacement yaml with its FORCE_SETS (forces -Phi u from phonopy's
     own force constants: exact for springs)."""
-    from phonopy.file_IO import write_FORCE_SETS
-
     folder = tmp_path_factory.mktemp("phonopy")
     crystal = silicon()
     out = {"yaml": crystals.write_phonopy(crystal, folder / "phonopy.yaml"),
-           "structure": crystals.write_phonopy(crystal, folder / "structure.yaml", force_constants=False),
-           "FORCE_CONSTANTS": crystals.write_force_constants(crystal, folder / "FORCE_CONSTANTS")}
-    phonon = crystal.to_phonopy()
-    fc = np.array(phonon.force_constants)
-    phonon.generate_displacements(distance=0.01)
-    dataset = phonon.dataset
-    for entry in dataset["first_atoms"]:
-        u = np.zeros((len(phonon.supercell), 3))
-        u[entry["number"]] = entry["displacement"]
-        entry["forces"] = -np.einsum("ijab,jb->ia", fc, u)
-    write_FORCE_SETS(dataset, filename=str(folder / "FORCE_SETS"))
-    phonon.save(str(folder / "phonopy_disp.yaml"), settings={"force_sets": False})
+           "structure": folder / "structure.yaml", "FORCE_CONSTANTS": folder / "FORCE_CONSTANTS"}
+    dataset = write_force_sets(crystal, folder)
     with_forces = crystal.to_phonopy()
     with_forces.dataset = dataset
     with_forces.save(str(folder / "phonopy_params.yaml"))
