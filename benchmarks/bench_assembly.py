@@ -31,6 +31,7 @@ import resource
 import subprocess
 import sys
 import time
+from typing import Any
 from pathlib import Path
 
 from _common import RESULTS, write_json  # noqa: E402  (pins BLAS threads before numpy)
@@ -52,15 +53,17 @@ def _system(dofs: int):  # type: ignore[no-untyped-def]
     return networks.anm(synthetic_assembly(dofs // 3), cutoff=CUTOFF)
 
 
-def _estimate(method: str, n: int, nnz: int, n_terms: int) -> float | None:
+def _estimate(method: str, K: Any, n_terms: int) -> float | None:
     from vibra.solvers.registry import estimate
+    from vibra.solvers.topology import separator_width
 
     name = {"iterative": "iterative", "iterative-high": "accurate-iterative", "factorisation": "sparse"}.get(method)
     if name is None:
         return None
     accuracy = "high" if method == "iterative-high" else "fast"
-    return estimate(name, n, k=MODES, vectors=True, nnz=nnz, width=n - 1, accuracy=accuracy,
-                    n_terms=n_terms if accuracy == "high" else 0).seconds
+    n = K.shape[0]
+    return estimate(name, n, k=MODES, vectors=True, nnz=int(K.nnz), width=n - 1, accuracy=accuracy,
+                    n_terms=n_terms if accuracy == "high" else 0, separator=separator_width(K.tocsr())).seconds
 
 
 def run_one(method: str, dofs: int) -> dict:
@@ -98,7 +101,7 @@ def run_one(method: str, dofs: int) -> dict:
     residual = np.linalg.norm(K @ vectors - vectors * values, axis=0) / norm
     return {"method": method, "dofs": n, "nnz": int(K.nnz), "seconds": seconds, "build_seconds": build_s,
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0,
-            "estimate_seconds": _estimate(method, n, int(K.nnz), int(system.spring_factor()[0].shape[0])),
+            "estimate_seconds": _estimate(method, K, int(system.spring_factor()[0].shape[0])),
             "max_relative_residual": float(residual.max()),
             "values": [float(v) for v in np.sort(values)], "load_average": os.getloadavg()[0]}
 

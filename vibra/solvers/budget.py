@@ -53,7 +53,15 @@ TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, writt
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 KRYLOV_RITZ_S = 1e-9          # per n k^2: the Rayleigh-Ritz step on a shift-invert basis
-SPARSE_FACTOR_S = 1.0e-8      # per n^2: a 3-D network's factor and its solves (a sparse Cholesky; RESULTS.md)
+# a 3-D network's shift-invert, by the widest breadth-first level w of K's graph (`topology.separator_width`,
+# nested dissection's top separator); fitted on 9 networks of 4,467-99,999 dofs (3 proteins, 3 synthetic
+# assemblies, 7CTH's assemblies 3 and 4, the corpus's random network), CHOLMOD, one BLAS thread, quiet:
+# estimate / actual 0.74-1.27 (benchmarks/RESULTS.md, "The factorisation's cost, by the separator")
+SPARSE_ENTRY_S = 4.5e-7       # per stored entry of K: the ordering, K~'s copies, the products
+SPARSE_FACTOR_S = 6e-11       # per w^3: the factor's dense fronts
+SPARSE_SOLVE_S = 9e-11        # per w^2 and Krylov column: the triangular solves (the factor holds 1-4 w^2 entries)
+SPARSE_FACTOR_ENTRIES = 4.0   # the factor's entries per w^2, at most (1.0-4.2 measured on those 9)
+SOLID_SEPARATOR = 3.5         # w / n^(2/3) where K's graph is not at hand (a 3-D solid; 2.4-6.5 measured)
 SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 JACOBI_FALLBACK_S = 4e-9      # per n_terms n^2: the checked path's fallback, gejsv of B~ and every bound again

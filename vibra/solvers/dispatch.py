@@ -20,7 +20,7 @@ from vibra.solvers.accurate.chain.lowest import spring_factor_of_chain
 from vibra.solvers.problem import Problem
 from vibra.solvers.registry import BY_NAME, choose, path_names
 from vibra.solvers.runners import Inputs
-from vibra.solvers.topology import classify
+from vibra.solvers.topology import classify, separator_width
 
 #: The solver names that `normal_modes(solver=...)`, `System.modes(solver=...)` and scene
 #: files accept; ``"auto"`` chooses one of the paths (`registry.PATHS`).
@@ -55,7 +55,8 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
              device: str = "cpu") -> Problem:
     """The `registry.Problem` of a request: sizes, K~'s band (a ring reordered where the band
     solver could use it), the springs' shape (`topology.classify`), and K~'s diagonal spread
-    where the springs or a few modes of a chain are given, or K~ is large and not banded; O(nnz),
+    where the springs or a few modes of a chain are given, or K~ is large and not banded, and the
+    widest breadth-first level of a large sparse K's graph (what its factor costs); O(nnz),
     nothing of K~ formed."""
     n = K.shape[0]
     diagonal = mass.ndim == 1
@@ -78,9 +79,10 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
             derived = spring_factor_of_chain(K)  # a chain given as K: its springs from K's entries
             if derived is not None and classify(derived[0]) == "chain":
                 topology = "chain-derived"
+    separator = separator_width(K) if sp.issparse(K) and diagonal and width > BAND_LIMIT and n > DENSE_LIMIT else 0
     return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
                    width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
-                   topology=topology, spread=spread, device=device)
+                   topology=topology, spread=spread, device=device, separator=separator)
 
 
 def plan(

@@ -29,7 +29,9 @@ class Problem:
     "chain-derived" for a chain given as K alone whose springs `lowest.spring_factor_of_chain`
     recovers: only bisection uses them);
     `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (where masses are
-    diagonal and the springs or a few modes of a chain are given; else 1).
+    diagonal and the springs or a few modes of a chain are given; else 1);
+    `separator` the widest breadth-first level of K's graph (`topology.separator_width`: what a
+    nested-dissection factor of a sparse K wider than a band costs), 0 where not measured.
     """
 
     n: int
@@ -50,6 +52,7 @@ class Problem:
     # (G only) or "damped" (C given); `definite`: K~ positive definite (its Cholesky factor exists)
     equation: str = "undamped"
     definite: bool = True
+    separator: int = 0
 
     @property
     def quadratic(self) -> bool:

@@ -34,7 +34,8 @@ from vibra.solvers.budget import (
     BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, CHECK_CALL_S, CHECK_FORM_S,
     CHECK_TERM_S, COMPANION_S, DENSE_VALUES_S, JACOBI_FALLBACK_S,
     DENSE_VECTORS_S, GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S,
-    RING_COUNTED_S, RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SPARSE_FACTOR_S, SUPERLU_SLOWER,
+    RING_COUNTED_S, RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SOLID_SEPARATOR, SPARSE_ENTRY_S,
+    SPARSE_FACTOR_ENTRIES, SPARSE_FACTOR_S, SPARSE_SOLVE_S, SUPERLU_SLOWER,
     TRIDIAGONAL_S, TRIDIAGONAL_VECTORS_S, TRIPLET_ROW, TRIPLET_UNIT_S, Estimate, refinement_seconds,
 )
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
@@ -167,17 +168,25 @@ def _ring_band_cost(p: Problem) -> Estimate:
 def _sparse_parts(p: Problem) -> tuple[float, float]:
     """Shift-invert: ARPACK's restarted basis for a narrow band (a chain, a ring reordered: a
     cheap factor), the block Krylov basis (up to max(10 k, 200) columns, `krylov.block_eigs`)
-    for any other; (columns + 2k + 3) n words + the factor (O(n) for a tridiagonal K~ (pttrf),
-    ~20 nnz (SuperLU fill) else); LANCZOS_S n columns per Lanczos run, + SPARSE_FACTOR_S n^2 for a
-    3-D network's factor (nested dissection; SUPERLU_SLOWER times that for SuperLU's LU where
-    neither PARDISO nor CHOLMOD loads)."""
+    for any other; (columns + 2k + 3) n words + the factor: O(n) for a tridiagonal K~ (pttrf),
+    ~20 nnz (SuperLU fill) for a band. LANCZOS_S n columns per Lanczos run. A 3-D network
+    (half-bandwidth over BAND_LIMIT) is costed by the top separator w of its nested-dissection
+    order (`Problem.separator`; SOLID_SEPARATOR n^(2/3) where its graph was not at hand): the
+    factor's SPARSE_FACTOR_ENTRIES w^2 entries and K's copy, SPARSE_FACTOR_S w^3 to factor,
+    SPARSE_SOLVE_S w^2 per Krylov column, SPARSE_ENTRY_S per stored entry (n^2 for a solid,
+    n^1.5 for a shell: a capsid); SUPERLU_SLOWER times the factor and its solves for SuperLU's
+    LU where neither PARDISO nor CHOLMOD loads."""
     n, k = p.n, p.k
     columns = max(2 * k + 1, 20) if p.width <= BAND_LIMIT else min(n, max(10 * k, 200))
-    memory = 8.0 * (columns + 2 * k + 3) * n + (8.0 * 4 * n if p.width <= 1 else 12.0 * 20 * max(p.nnz, n))
-    seconds = LANCZOS_S * n * columns * 10 + KRYLOV_RITZ_S * n * k * k
-    if p.width > 16:  # a 3-D network: its factor's cost grows as n^2
-        seconds += SPARSE_FACTOR_S * (float(n) * n) * (SUPERLU_SLOWER if sparse_backend(n) == "superlu" else 1.0)
-    return memory, seconds
+    basis = 8.0 * (columns + 2 * k + 3) * n
+    if p.width <= BAND_LIMIT:
+        memory = basis + (8.0 * 4 * n if p.width <= 1 else 12.0 * 20 * max(p.nnz, n))
+        return memory, LANCZOS_S * n * columns * 10 + KRYLOV_RITZ_S * n * k * k
+    w = float(p.separator) if p.separator else SOLID_SEPARATOR * float(n) ** (2.0 / 3.0)
+    lu = SUPERLU_SLOWER if sparse_backend(n) == "superlu" else 1.0
+    memory = basis + 12.0 * (SPARSE_FACTOR_ENTRIES * w * w * lu + max(p.nnz, n))
+    seconds = SPARSE_ENTRY_S * max(p.nnz, n) + lu * (SPARSE_FACTOR_S * w ** 3 + SPARSE_SOLVE_S * w * w * columns)
+    return memory, seconds + KRYLOV_RITZ_S * n * k * k
 
 
 def _sparse_cost(p: Problem) -> Estimate:
@@ -309,14 +318,15 @@ def _first_order_cost(name: str, rate: float) -> Callable[[Problem], Estimate]:
 
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0, nnz: int = 0,
-             accuracy: str = "high", topology: str | None = None) -> Estimate:
+             accuracy: str = "high", topology: str | None = None, separator: int = 0) -> Estimate:
     """Memory and time of the path named `path` computing `k` of `n` modes (with vectors or not) at
     `accuracy`, from sizes alone: its declaration's `estimate` on that request (`topology`: "network"
-    where `n_terms` springs are given, else "none")."""
+    where `n_terms` springs are given, else "none"; `separator`: `topology.separator_width` of K,
+    0 for a 3-D solid's)."""
     shape = topology if topology is not None else ("network" if n_terms else "none")
     problem = Problem(n=n, n_modes=None if k >= n else k, band=None, vectors=vectors, accuracy=accuracy,
                       diagonal_mass=True, width=width, ordering=None, sparse=True, nnz=nnz, n_terms=n_terms,
-                      topology=shape)
+                      topology=shape, separator=separator)
     return BY_NAME[path].estimate(problem)
 
 
@@ -495,7 +505,8 @@ PATHS: tuple[SolverPath, ...] = (
                "a few modes (or a band of a chain) of a large sparse K: shift-invert with an inertia-checked "
                "shift (a band holding over a quarter of the modes: the dense solve)", fallbacks=("dense",),
                serves=lambda p: p.n_modes is not None or p.band is not None, springs=True,
-               cost="the factor (O(n) for a chain, ~20 nnz words else) + ~2e-7 n k s of Krylov iteration"),
+               cost="the factor (O(n) for a chain, ~20 nnz words for a band); a 3-D network by its top separator w (K's widest "
+                    "breadth-first level): ~6e-11 w^3 s to factor, ~9e-11 w^2 s per Krylov column, ~4 w^2 words"),
     SolverPath("slepc", "slepc", lambda p: False, _slepc_cost, runners.slepc, "absolute ~ ε‖K̃‖, every residual checked",
                'only when asked, solver="slepc": the lowest n_modes of a large sparse K on SLEPc over MPI '
                "(Krylov-Schur, shift-and-invert by MUMPS) in a separate program, ranks from VIBRA_MPI_RANKS",
