@@ -207,7 +207,7 @@ CASES: list[Case] = [
      TypeError, r"hessian must be"),
     ("generalized M complex", lambda: System.generalized(np.eye(2) * 1j, K2), TypeError, r"M must be real"),
     ("from_springs masses True", lambda: System.from_springs([[0.0], [1.0]], True, [(0, 1)], 1.0), TypeError,
-     r"masses must be real numbers, got True"),
+     r"masses must be a real number, got bool"),  # one scalar: named as every scalar argument is (real_scalar)
     ("from_springs same position", lambda: System.from_springs([[0.0], [0.0]], [1.0, 1.0], [(0, 1)], 1.0),
      ValueError, r"springs\[0\] joins sites 0 and 1 at the same position"),
     ("with_masses complex", lambda: chain4().with_masses([1j, 1.0, 1.0, 1.0]), TypeError, r"masses must be real"),

@@ -620,7 +620,7 @@ def _bad_inputs():
         (lambda: mol.substitute_isotopes(h2o, {1: "18O"}, symbols=["O", "H", "H"]), ValueError,
          r"substitutions\[1\] is '18O' but atom 1 is 'H'"),
         (lambda: mol.substitute_isotopes(h2o, {1: -1.0}), ValueError, r"substitutions\[1\] is -1\.0; a mass must be positive"),
-        (lambda: mol.substitute_isotopes(h2o, {1: [2.0]}), TypeError, r"substitutions\[1\] must be a mass in amu"),
+        (lambda: mol.substitute_isotopes(h2o, {1: [2.0]}), TypeError, r"substitutions\[1\] must be a mass or an isotope name"),
         (lambda: mol.co2(dims=2), ValueError, r"dims is 2; expected 1 \(axial model\) or 3"),
         (lambda: mol.co2(bond_length=-1.0), ValueError, r"bond_length is -1\.0"),
         (lambda: mol.FiniteDifferenceHessian.omega_errors(

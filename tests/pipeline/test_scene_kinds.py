@@ -4,6 +4,8 @@ kind declared once per layer, every builder serving declared kinds, and what rea
 from __future__ import annotations
 
 import inspect
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -12,7 +14,8 @@ import vibra.pipeline.scene.kinds as scene_kinds
 from vibra.pipeline.plan import PLAN_KINDS, PlanKind, make_plan
 from vibra.pipeline.plan.steps import STEPS
 from vibra.pipeline.scene import BUILDERS, KINDS, SCENE_KINDS, SceneKind, load_scene
-from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, BUILDER_KINDS, lattice_builders, planar
+from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, lattice_builders, planar
+from vibra.pipeline.scene.kinds import BUILDER_KINDS
 
 ROOT = Path(__file__).resolve().parents[2]
 BUNDLED = sorted(path for folder in ("chains", "molecules", "networks", "crystals", "dynamics")
@@ -35,6 +38,38 @@ def test_every_builder_serves_declared_kinds() -> None:
         assert kinds and set(kinds) <= set(SCENE_KINDS), builder
     for kind in KINDS:  # and every kind has a builder
         assert any(kind in kinds for kinds in BUILDER_KINDS.values()), kind
+
+
+def test_builder_kinds_is_the_inverse_of_the_kinds_declarations() -> None:
+    """One table says which builder makes which kind: each kind's ``builders`` (and ``lattice``).
+    Truth: the rows `BUILDER_KINDS` held when it was written by hand (issue 43), and the inverse
+    computed here from the declarations."""
+    lattice = lattice_builders()
+    for kind in SCENE_KINDS.values():
+        assert set(kind.builders) <= set(BUILD_FUNCTIONS) - set(lattice), kind.name  # no misspelt builder
+        assert len(set(kind.builders)) == len(kind.builders), kind.name
+    for builder in BUILD_FUNCTIONS:
+        expected = tuple(name for name, kind in SCENE_KINDS.items()
+                         if builder in kind.builders or (kind.lattice and builder in lattice))
+        assert BUILDER_KINDS[builder] == expected, builder
+    seven = KINDS[:7]  # the kinds whose rows were written by hand (a kind added later is left out here)
+    assert {builder: tuple(kind for kind in kinds if kind in seven)
+            for builder, kinds in BUILDER_KINDS.items() if builder not in lattice} == {
+        "linear_chain": ("chain", "dynamics"), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
+        "springs": ("chain", "molecule", "dynamics"), "co2": ("molecule",), "h2o": ("molecule",),
+        "molecule": ("molecule",), "double_pendulum": ("generalized",), "charged_particle": ("generalized",),
+        "matrices": ("generalized",), "anm": ("network",), "gnm": ("network",), "oscillator": ("oscillator",),
+        "phonopy": ("crystal",), "fput": ("dynamics",)}
+
+
+def test_a_chain_scene_does_not_import_the_crystals() -> None:
+    """The kinds of a named builder, and a chain scene, are read without the lattice builders' module."""
+    code = ("import sys\nfrom vibra.pipeline.scene import Scene\nfrom vibra.pipeline.scene.kinds import BUILDER_KINDS\n"
+            "assert 'chain' in BUILDER_KINDS['linear_chain']\n"
+            "Scene.from_dict({'kind': 'chain', 'system': {'builder': 'linear_chain', 'n': 4}}, source='s.toml')\n"
+            "print('vibra.crystals.builders' in sys.modules)\n")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert result.stdout.strip() == "False"
 
 
 def test_the_lattice_builders_are_the_crystals_builders_module() -> None:

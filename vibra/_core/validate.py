@@ -458,8 +458,9 @@ def real_values(value: Any, name: str) -> NDArray[np.float64]:
 
 def per_entry(value: Any, n: int, name: str, each: str = "") -> NDArray[np.float64]:
     """(n,) floats from one real number (every entry) or a 1-D array of `n`; `each` says what one
-    entry belongs to in the message (``"site"``: "(one per site)")."""
-    array = real_array(value, name, ndim=(0, 1))
+    entry belongs to in the message (``"site"``: "(one per site)"). A bad number is named without
+    an index (`real_values`)."""
+    array = real_values(value, name)
     if array.ndim == 0:
         return np.full(n, float(array))
     if array.shape[0] != n:

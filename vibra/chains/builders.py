@@ -27,11 +27,7 @@ ENDS: tuple[str, ...] = ("free", "fixed", "periodic")
 
 # ---------------------------------------------------------------------- validation helpers
 def _per_site(value: ArrayLike, n: int, name: str) -> NDArray[np.float64]:
-    array = _validate.real_values(value, name)
-    if array.ndim == 0:
-        array = np.full(n, float(array))
-    elif array.shape[0] != n:
-        raise ValueError(f"{name} must have {n} entries (one per site), got {array.shape[0]}")
+    array = _validate.per_entry(value, n, name, "site")
     _validate.positive(array, name, "mass")
     return array
 

@@ -13,7 +13,7 @@ from vibra._core import validate as _validate
 from vibra.system import System
 from vibra.units import ASE
 
-__all__ = ["ISOTOPE_MASSES", "isotope_mass", "isotope_masses", "substitute_isotopes"]
+__all__ = ["ISOTOPE_MASSES", "isotope_mass", "isotope_masses", "substitute_isotopes", "substituted_masses"]
 
 # Isotope masses in amu: NIST "Atomic Weights and Isotopic Compositions" (AME2012/AME2016
 # values; the AME2020 evaluation moved them by at most 1.2e-9 relative, 3.4e-9 amu for 3H,
@@ -104,24 +104,61 @@ def substitute_isotopes(
         raise TypeError(f"substitutions must be a mapping index -> mass or label, got {type(substitutions).__name__}")
     if symbols is not None and len(symbols) != system.n_sites:
         raise ValueError(f"symbols must name {system.n_sites} atoms, got {len(symbols)}")
-    masses = np.array(system.masses)
-    for index, value in substitutions.items():
-        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
-            raise TypeError(f"substitutions key {index!r} must be an int atom index")
-        if not 0 <= index < system.n_sites:
-            raise ValueError(f"substitutions[{index}]: atom index out of range 0..{system.n_sites - 1}")
+    masses, _ = substituted_masses(system, substitutions, symbols=symbols, what="atom")
+    return system.with_masses(masses)
+
+
+def substituted_masses(
+    system: System,
+    substitutions: Mapping[int, float | str],
+    *,
+    symbols: Sequence[str] | None = None,
+    what: str = "site",
+) -> tuple[NDArray[np.float64], tuple[str, ...]]:
+    """The site masses of `system` after `substitutions`, and a label of each substitution.
+
+    The one reading of a substitution mapping (`substitute_isotopes`, `vibra.spectra.isotope_shifts`):
+    site index -> a mass in the system's mass unit, positive and finite, or an isotope label of
+    `ISOTOPE_MASSES`, which needs masses in amu (units ``"ASE"``); with `symbols`, a label must
+    name the atom's element. A label is the isotope's, or the mass (``f"{mass:g}"``); `what`
+    names an index in the messages (``"atom"``, ``"site"``).
+
+    Raises
+    ------
+    TypeError
+        A key not an int, a value neither a number nor a str.
+    ValueError
+        A key out of range, an unknown label or one outside ASE units, a mass not positive and
+        finite, a label of another element than `symbols` gives.
+    """
+    masses = np.array(system.masses, dtype=float)
+    labels = []
+    for site, value in substitutions.items():
+        if isinstance(site, bool) or not isinstance(site, (int, np.integer)):
+            raise TypeError(f"substitutions key {site!r} must be an int {what} index")
+        if not 0 <= site < system.n_sites:
+            raise ValueError(f"substitutions[{site}]: {what} index out of range 0..{system.n_sites - 1}")
         if isinstance(value, str):
-            mass = isotope_mass(value)
-            if symbols is not None and _isotope_element(value) != symbols[index]:
-                raise ValueError(f"substitutions[{index}] is {value!r} but atom {index} is {symbols[index]!r}")
-        elif isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool):
+            if value not in ISOTOPE_MASSES:
+                raise ValueError(f"substitutions[{site}] is {value!r}; known isotopes: {', '.join(ISOTOPE_MASSES)}")
+            if system.units.name != "ASE":
+                raise ValueError(
+                    f"substitutions[{site}] is the isotope name {value!r}, which needs masses in amu "
+                    f"(units 'ASE'); this system is in {system.units.name!r}: give the mass instead")
+            if symbols is not None and _isotope_element(value) != symbols[site]:
+                raise ValueError(f"substitutions[{site}] is {value!r} but atom {site} is {symbols[site]!r}")
+            mass, label = float(ISOTOPE_MASSES[value]), value
+        elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
             mass = float(value)
             if not (np.isfinite(mass) and mass > 0):
-                raise ValueError(f"substitutions[{index}] is {value!r}; a mass must be positive and finite (amu)")
+                raise ValueError(f"substitutions[{site}] is {value!r}; a mass must be positive and finite")
+            label = f"{mass:g}"
         else:
-            raise TypeError(f"substitutions[{index}] must be a mass in amu or an isotope label, got {type(value).__name__}")
-        masses[index] = mass
-    return system.with_masses(masses)
+            raise TypeError(
+                f"substitutions[{site}] must be a mass or an isotope name, got {type(value).__name__}")
+        masses[site] = mass
+        labels.append(label)
+    return masses, tuple(labels)
 
 
 def isotope_masses(

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from vibra._core import validate as _validate
 from vibra._core.frozen import span
 from vibra._results import Result, stored
-from vibra.molecules import ISOTOPE_MASSES
+from vibra.molecules.isotopes import ISOTOPE_MASSES, substituted_masses
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy
 from vibra.spectra.common import ZERO_RTOL, nonnegative_float, vibrational_mask
 from vibra.system import System, Vibrating
@@ -153,36 +153,9 @@ def isotope_shifts(
         raise ValueError("substitutions is empty; give at least one site -> new mass")
     zero_rtol = nonnegative_float(zero_rtol, "zero_rtol")
     _validate.choice(accuracy, "accuracy", ACCURACY_LEVELS)
-    masses = np.array(system.masses, dtype=float)
-    sites, labels, old, new = [], [], [], []
-    for site, value in substitutions.items():
-        if isinstance(site, bool) or not isinstance(site, (int, np.integer)):
-            raise TypeError(f"substitutions key {site!r} must be an int site index")
-        if not 0 <= site < system.n_sites:
-            raise ValueError(f"substitutions[{site}]: site {site} is out of range 0..{system.n_sites - 1}")
-        if isinstance(value, str):
-            if value not in ISOTOPE_MASSES:
-                raise ValueError(
-                    f"substitutions[{site}] is {value!r}; known isotopes: {', '.join(ISOTOPE_MASSES)}")
-            if system.units.name != "ASE":
-                raise ValueError(
-                    f"substitutions[{site}] is the isotope name {value!r}, which needs masses in amu "
-                    f"(units 'ASE'); this system is in {system.units.name!r}: give the mass instead")
-            mass = float(ISOTOPE_MASSES[value])
-            label = value
-        elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-            mass = float(value)
-            if not (np.isfinite(mass) and mass > 0):
-                raise ValueError(f"substitutions[{site}] is {value!r}; a mass must be positive and finite")
-            label = f"{mass:g}"
-        else:
-            raise TypeError(
-                f"substitutions[{site}] must be a mass or an isotope name, got {type(value).__name__}")
-        sites.append(int(site))
-        labels.append(label)
-        old.append(float(system.masses[site]))
-        new.append(mass)
-        masses[site] = mass
+    masses, labels = substituted_masses(system, substitutions)
+    sites = [int(site) for site in substitutions]
+    old, new = [float(system.masses[site]) for site in sites], [float(masses[site]) for site in sites]
     before = system.modes(accuracy=accuracy)
     after = system.with_masses(masses).modes(accuracy=accuracy)
     keep_before = vibrational_mask(before, zero_rtol, "isotope_shifts")

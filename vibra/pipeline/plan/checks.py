@@ -13,7 +13,7 @@ scene key that controls that step, so the command line prints one line, never a 
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -28,8 +28,8 @@ from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.budget import describe_bytes, describe_seconds
 from vibra._core.text import counted
 
-__all__ = ["check_modes_plan", "modes_summary", "step_error", "STEP_KEYS", "REFUSALS", "SPECTRUM_CHECK_LIMIT",
-           "solve_request", "solve_limits", "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
+__all__ = ["check_modes_plan", "modes_summary", "step_error", "refused_as", "STEP_KEYS", "REFUSALS",
+           "SPECTRUM_CHECK_LIMIT", "solve_request", "solve_limits", "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
 
 #: A response grid is checked against the system's frequencies up to this many dofs (a fast
 #: frequencies-only solve); larger systems are checked when the response step runs.
@@ -67,6 +67,18 @@ def step_error(scene: Scene, step: str, error: BaseException, *, keys: Mapping[s
     if len(text) > 300:
         text = text[:297] + "..."
     return SceneError(scene.source, key, f"the {step} step failed: {text}")
+
+
+def refused_as(step: str, check: Callable[[Scene, Any], None], *, keys: Mapping[str, str] | None = None
+               ) -> Callable[[Scene, Any, bool], None]:
+    """A `PlanKind.check` of a kind with its own steps: ``check(scene, system)``, whose refusal is
+    reported as a failure of `step` (at its scene key, `step_error`)."""
+    def checked(scene: Scene, system: Any, response: bool) -> None:
+        try:
+            check(scene, system)
+        except REFUSALS as error:
+            raise step_error(scene, step, error, keys=keys) from error
+    return checked
 
 
 def solve_limits(scene: Scene, system: Any) -> dict[str, float]:

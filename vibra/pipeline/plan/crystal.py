@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.pipeline.plan.checks import REFUSALS, step_error
+from vibra.pipeline.plan.checks import refused_as
 from vibra.pipeline.plan.model import Plan, PlanKind, Step, build_step
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, frames_that_fit, render_seconds
@@ -398,13 +398,7 @@ def crystal_plan(scene: Scene) -> Plan:
     return Plan(scene=scene, steps=(build_step(scene), *crystal_steps(scene)), n_modes=None, vectors=False)
 
 
-def _check(scene: Scene, crystal: Any, response: bool) -> None:
-    try:
-        check_crystal_plan(scene, crystal)
-    except REFUSALS as error:
-        raise step_error(scene, "build", error) from error
-
-
 #: The crystal scene kind: what it plans, checks, prints and runs.
-KIND = PlanKind("crystal", plan=crystal_plan, check=_check, summary=crystal_cost, build_note=crystal_cost,
+KIND = PlanKind("crystal", plan=crystal_plan, check=refused_as("build", check_crystal_plan), summary=crystal_cost,
+                build_note=crystal_cost,
                 steps=CRYSTAL_STEPS, step_keys=CRYSTAL_STEP_KEYS, renders=True)

@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 
 from vibra._core.validate import ArgumentError
-from vibra.pipeline.plan.checks import REFUSALS, step_error
+from vibra.pipeline.plan.checks import refused_as
 from vibra.pipeline.plan.model import Plan, PlanKind, Step, build_step
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.dynamics import THERMOSTATS
@@ -383,13 +383,8 @@ def dynamics_plan(scene: Scene) -> Plan:
     return Plan(scene=scene, steps=(build_step(scene), *dynamics_steps(scene)), n_modes=None, vectors=False)
 
 
-def _check(scene: Scene, system: Any, response: bool) -> None:
-    try:
-        check_dynamics_plan(scene, system)
-    except REFUSALS as error:
-        raise step_error(scene, "dynamics-run", error, keys=DYNAMICS_STEP_KEYS) from error
-
-
 #: The dynamics scene kind: what it plans, checks, prints and runs.
-KIND = PlanKind("dynamics", plan=dynamics_plan, check=_check, summary=dynamics_cost, build_note=dynamics_cost,
+KIND = PlanKind("dynamics", plan=dynamics_plan,
+                check=refused_as("dynamics-run", check_dynamics_plan, keys=DYNAMICS_STEP_KEYS),
+                summary=dynamics_cost, build_note=dynamics_cost,
                 steps=DYNAMICS_STEPS, step_keys=DYNAMICS_STEP_KEYS)

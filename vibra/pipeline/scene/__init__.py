@@ -34,10 +34,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, BUILDERS, builder_function
+from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, builder_function
 from vibra.pipeline.scene.dynamics import DynamicsSpec
 from vibra.pipeline.scene.files import scene_inputs
-from vibra.pipeline.scene.kinds import DEFAULT_UNITS, KINDS, SCENE_KINDS, SceneKind
+from vibra.pipeline.scene.kinds import BUILDERS, DEFAULT_UNITS, KINDS, SCENE_KINDS, SceneKind
 from vibra.pipeline.scene.schema import Reader, check_combinations, parse_compute, parse_draw, parse_system
 from vibra.pipeline.scene.specs import (
     SAFE_NAME, UNITS, units_name, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec, SceneError,
@@ -163,7 +163,7 @@ class Scene:
         if reader.pending:
             errors.append(reader.take())
         units = top["units"] or DEFAULT_UNITS[kind]
-        system = section(lambda: parse_system(reader, top["system"], kind))
+        system = section(lambda: parse_system(reader, top["system"], SCENE_KINDS[kind]))
         own = SCENE_KINDS[kind].tables
         if own is not None:  # a kind with its own [compute] and [draw] keys
             parse, check, field = own.parse, own.check, own.field

@@ -10,9 +10,12 @@ the parameters a scene does not set (`NOT_IN_SCENES`, each with the reason), and
 applies after the builder (`SCENE_ONLY`). A builder parameter in none of these tables stops
 the derivation with an error naming it, so a new builder argument cannot slip past the schema.
 
->>> sorted(BUILDERS["beaded_string"][1])
+Which scene kinds a builder makes is said by the kinds themselves (`SceneKind.builders` in
+`vibra.pipeline.scene.kinds`, which derives `BUILDER_KINDS` and `BUILDERS` from them).
+
+>>> sorted(builder_fields("beaded_string"))
 ['ends', 'frozen_dofs', 'frozen_sites', 'mass', 'n', 'spacing', 'tension']
->>> BUILDERS["beaded_string"][1]["ends"].default
+>>> builder_fields("beaded_string")["ends"].default
 'fixed'
 """
 
@@ -30,12 +33,13 @@ from vibra.pipeline.scene.values import (
 )
 
 __all__ = ["isotope_labels", "BUILD_FUNCTIONS", "LATTICE_MODULE", "LATTICE_CHECKS", "lattice_builders", "planar",
-           "BUILDER_KINDS", "BUILDERS", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
+           "is_lattice_builder", "BuilderMapping", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
            "SCENE_REQUIRED", "INFRARED_KEYS", "STRUCTURE_KEYS", "direction_vector", "builder_function", "builder_fields"]
 
 #: The module whose public functions (its ``__all__``) are the lattice builders of crystal scenes. A
 #: lattice builder's scene entry is its signature there: its parameters are checked by name
-#: (`LATTICE_CHECKS`), it makes ``kind = "crystal"`` scenes, and it is planar (a vacuum axis along z)
+#: (`LATTICE_CHECKS`), it makes the scenes of the kind declared with ``lattice=True`` (``"crystal"``,
+#: `vibra.pipeline.scene.kinds`), and it is planar (a vacuum axis along z)
 #: when it takes a ``vacuum``; so a new lattice builder touches that module only. The module is
 #: imported when a lattice builder is first looked up (a chain scene does not import the crystals).
 LATTICE_MODULE = "vibra.crystals.builders"
@@ -69,40 +73,41 @@ _FUNCTIONS_AFTER = {
 }
 
 
-class _BuilderMapping(Mapping[str, Any]):
-    """builder -> a value: from `fixed` for the named builders, from `lattice(builder)` for the lattice
-    builders; keys in the order of `BUILD_FUNCTIONS`. A named builder is looked up without importing
-    the crystals."""
+_NAMED_FUNCTIONS = {**_FUNCTIONS_BEFORE, **_FUNCTIONS_AFTER}
 
-    def __init__(self, fixed: Mapping[str, Any], lattice: Callable[[str], Any]) -> None:
-        self._fixed, self._lattice = fixed, lattice
+
+def is_lattice_builder(builder: str) -> bool:
+    """Whether `builder` is a lattice builder; a named builder is answered without importing the crystals."""
+    return builder not in _NAMED_FUNCTIONS and builder in lattice_builders()
+
+
+class BuilderMapping(Mapping[str, Any]):
+    """builder -> ``value(builder)`` for every builder of `BUILD_FUNCTIONS`, in its order. A named
+    builder is looked up without importing the crystals."""
+
+    def __init__(self, value: Callable[[str], Any]) -> None:
+        self._value = value
 
     def __getitem__(self, builder: str) -> Any:
-        if builder in self._fixed:
-            return self._fixed[builder]
-        if isinstance(builder, str) and builder not in _FUNCTIONS_BEFORE and builder not in _FUNCTIONS_AFTER \
-                and builder in lattice_builders():
-            return self._lattice(builder)
+        if builder in _NAMED_FUNCTIONS or (isinstance(builder, str) and is_lattice_builder(builder)):
+            return self._value(builder)
         raise KeyError(builder)
 
     def __iter__(self) -> Iterator[str]:
         return iter((*_FUNCTIONS_BEFORE, *lattice_builders(), *_FUNCTIONS_AFTER))
 
     def __len__(self) -> int:
-        return len(_FUNCTIONS_BEFORE) + len(lattice_builders()) + len(_FUNCTIONS_AFTER)
+        return len(_NAMED_FUNCTIONS) + len(lattice_builders())
+
+
+def _per_builder(fixed: Mapping[str, Any], lattice: Callable[[str], Any]) -> BuilderMapping:
+    """A table of the named builders' rows (`fixed`) and one row made by `lattice(builder)` for each lattice builder."""
+    return BuilderMapping(lambda builder: fixed[builder] if builder in _NAMED_FUNCTIONS else lattice(builder))
 
 
 #: scene builder -> (vibra module, function). The only way a scene names code.
-BUILD_FUNCTIONS: Mapping[str, tuple[str, str]] = _BuilderMapping(
-    {**_FUNCTIONS_BEFORE, **_FUNCTIONS_AFTER}, lambda builder: (LATTICE_MODULE, builder))
-
-#: builder -> the scene kinds it serves.
-BUILDER_KINDS: Mapping[str, tuple[str, ...]] = _BuilderMapping({
-    "linear_chain": ("chain", "dynamics"), "diatomic_chain": ("chain",), "beaded_string": ("chain",),
-    "springs": ("chain", "molecule", "dynamics"), "fput": ("dynamics",), "co2": ("molecule",), "h2o": ("molecule",), "molecule": ("molecule",),
-    "double_pendulum": ("generalized",), "charged_particle": ("generalized",), "matrices": ("generalized",), "oscillator": ("oscillator",),
-    "anm": ("network",), "gnm": ("network",), "phonopy": ("crystal",),
-}, lambda builder: ("crystal",))
+BUILD_FUNCTIONS: Mapping[str, tuple[str, str]] = BuilderMapping(
+    lambda builder: _NAMED_FUNCTIONS.get(builder, (LATTICE_MODULE, builder)))
 
 
 def planar(builder: str) -> bool:
@@ -218,7 +223,7 @@ def _lattice_checks(builder: str) -> Mapping[str, Check]:
 
 
 #: builder -> {parameter: value check}, for every builder parameter a scene may set.
-PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = _BuilderMapping({
+PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = _per_builder({
     "linear_chain": {"n": integer(2), "mass": MASS, "stiffness": scalar_or_list(positive), "spacing": positive,
                      "ends": ENDS},
     "diatomic_chain": {"n_cells": integer(1), "masses": list_of(positive, length=2),
@@ -245,7 +250,7 @@ PARAMETER_CHECKS: Mapping[str, Mapping[str, Check]] = _BuilderMapping({
 _UNITS = "the scene's top-level units"
 _NAME = "the scene's name"
 #: builder -> {parameter: why a scene does not set it}.
-NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = _BuilderMapping({
+NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = _per_builder({
     "linear_chain": {"units": _UNITS, "name": _NAME},
     "diatomic_chain": {"units": _UNITS, "name": _NAME},
     "beaded_string": {"units": _UNITS, "name": _NAME},
@@ -279,7 +284,7 @@ NOT_IN_SCENES: Mapping[str, Mapping[str, str]] = _BuilderMapping({
 }, lambda builder: {"units": _UNITS})
 
 #: builder -> keys a scene may set that are not builder parameters (the plan applies them).
-SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = _BuilderMapping({
+SCENE_ONLY: Mapping[str, Mapping[str, FieldSpec]] = _per_builder({
     "linear_chain": {"defect_site": field_spec(integer(0)), "defect_mass": field_spec(positive), **FROZEN},
     "diatomic_chain": dict(FROZEN),
     "beaded_string": dict(FROZEN),
@@ -348,21 +353,3 @@ def builder_fields(builder: str) -> Mapping[str, FieldSpec]:
     if unknown:
         raise RuntimeError(f"scene schema checks {unknown} for builder {builder!r}, which takes no such parameter")
     return MappingProxyType({**fields, **SCENE_ONLY[builder]})
-
-
-class _BuilderTable(Mapping[str, "tuple[tuple[str, ...], Mapping[str, FieldSpec]]"]):
-    """builder -> (scene kinds, parameter table); a builder's table is derived on first use."""
-
-    def __getitem__(self, builder: str) -> tuple[tuple[str, ...], Mapping[str, FieldSpec]]:
-        return BUILDER_KINDS[builder], builder_fields(builder)
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(BUILD_FUNCTIONS)
-
-    def __len__(self) -> int:
-        return len(BUILD_FUNCTIONS)
-
-
-#: builder name -> (scene kinds it serves, parameter table). The plan maps each name to one
-#: function in vibra (`BUILD_FUNCTIONS`); nothing read from a file is ever imported or run.
-BUILDERS: Mapping[str, tuple[tuple[str, ...], Mapping[str, FieldSpec]]] = _BuilderTable()

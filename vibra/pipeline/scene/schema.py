@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import difflib
 from types import MappingProxyType
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 from vibra.modes import SOLVERS
 from vibra.solvers.accuracy import DEFAULT as DEFAULT_ACCURACY, LEVELS as ACCURACY_LEVELS, uses_springs
@@ -19,7 +19,7 @@ from vibra._core.text import counted
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, all_modes_seconds, default_memory_limit, gib, memory_estimate, n_dof_bound, sites_and_dim,
 )
-from vibra.pipeline.scene.builders import BUILDER_KINDS, BUILDERS, builder_fields, planar
+from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, builder_fields, planar
 from vibra.pipeline.scene.files import check_phonopy_scene_files, scene_data_path
 from vibra.pipeline.scene.specs import (
     FREQUENCY_UNITS, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec,
@@ -28,6 +28,9 @@ from vibra.pipeline.scene.values import (
     FieldSpec, boolean, brief, element_symbol, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive,
     string, table,
 )
+
+if TYPE_CHECKING:  # (the kinds import this module: a kind's own tables are parsed here)
+    from vibra.pipeline.scene.kinds import SceneKind
 
 __all__ = ["Reader", "unknown_key", "parse_system", "parse_compute", "parse_draw", "check_combinations", "parse_crystal",
            "check_crystal"]
@@ -107,23 +110,24 @@ def unknown_key(key: str, allowed: Any) -> str:
     return f"unknown key{hint} (allowed here: {', '.join(sorted(allowed))})"
 
 
-def parse_system(reader: Reader, data: Any, kind: str) -> SystemSpec:
+def parse_system(reader: Reader, data: Any, scene_kind: SceneKind) -> SystemSpec:
+    """The ``[system]`` table of a scene of `scene_kind`: a builder that makes that kind, and its keys."""
+    kind = scene_kind.name
     if not isinstance(data, Mapping):
         reader.fail("system", f"expected a table, got {kind_name(data)}")
     def builders() -> str:  # (read only for a message: listing them imports the lattice builders)
-        return ", ".join(b for b, kinds in BUILDER_KINDS.items() if kind in kinds)
+        return ", ".join(b for b in BUILD_FUNCTIONS if scene_kind.makes(b))
 
     if "builder" not in data:
         reader.fail("system.builder", f"is required (for kind {kind!r}: {builders()})")
     builder = data["builder"]
     if not isinstance(builder, str):
         reader.fail("system.builder", f"expected a string, got {kind_name(builder)} ({brief(builder)})")
-    if builder not in BUILDERS:
-        close = difflib.get_close_matches(builder, list(BUILDERS), n=1, cutoff=0.6)
+    if builder not in BUILD_FUNCTIONS:
+        close = difflib.get_close_matches(builder, list(BUILD_FUNCTIONS), n=1, cutoff=0.6)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        reader.fail("system.builder", f"unknown builder {brief(builder)}{hint} (known: {', '.join(BUILDERS)})")
-    kinds = BUILDER_KINDS[builder]
-    if kind not in kinds:
+        reader.fail("system.builder", f"unknown builder {brief(builder)}{hint} (known: {', '.join(BUILD_FUNCTIONS)})")
+    if not scene_kind.makes(builder):
         reader.fail("system.builder", f"builder {builder!r} does not make a {kind!r} scene "
                     f"(for {kind!r}: {builders()})")
     params = {k: v for k, v in data.items() if k != "builder"}
