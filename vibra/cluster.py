@@ -33,10 +33,15 @@ import sys
 import time
 import uuid
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Sequence, TextIO, Union
+from types import ModuleType
+from typing import TYPE_CHECKING, Callable, Iterator, Sequence, TextIO, TypeVar, Union
 
-__all__ = ["EXTRA", "ClusterError", "TaskFailure", "TaskProgress", "ProgressOption", "require_distributed",
-           "check_client", "connect", "ClientOnDemand", "run_tasks", "default_workers", "progress_callback"]
+if TYPE_CHECKING:
+    from distributed import Client
+
+__all__ = ["EXTRA", "ClusterError", "TaskFailure", "TaskProgress", "ProgressOption", "ClientOption",
+           "require_distributed", "check_client", "connect", "ClientOnDemand", "run_tasks", "default_workers",
+           "progress_callback"]
 
 #: The optional extra that installs Dask.
 EXTRA = "vibra[distributed]"
@@ -45,6 +50,12 @@ EXTRA = "vibra[distributed]"
 #: ``"dask"`` (``dask.distributed.progress``: a widget in a notebook, a bar in a terminal), or
 #: a callable ``(done, total, label)`` called after each task.
 ProgressOption = Union[None, bool, str, Callable[[int, int, str], None]]
+
+#: What ``client=`` accepts: None (this process, serially), ``"local"`` (a local cluster), a
+#: scheduler address (``"tcp://host:8786"``), or a ``distributed.Client`` (`check_client`).
+ClientOption = Union[None, str, "Client"]
+
+T = TypeVar("T")
 
 
 class ClusterError(RuntimeError):
@@ -74,7 +85,7 @@ class TaskFailure:
         return f"{self.label}: {type(self.error).__name__}: {self.error}"
 
 
-def require_distributed() -> Any:
+def require_distributed() -> ModuleType:
     """The ``distributed`` module; ImportError naming the extra when Dask is not installed."""
     try:
         import distributed
@@ -85,7 +96,7 @@ def require_distributed() -> Any:
     return distributed
 
 
-def check_client(client: Any, name: str = "client") -> None:
+def check_client(client: object, name: str = "client") -> None:
     """Check the *form* of a ``client`` argument, without connecting or importing Dask.
 
     Raises
@@ -125,7 +136,7 @@ def default_workers() -> int:
 
 
 @contextlib.contextmanager
-def connect(client: Any, *, n_workers: int | None = None, timeout: float = 10.0) -> Iterator[Any]:
+def connect(client: ClientOption, *, n_workers: int | None = None, timeout: float = 10.0) -> Iterator[Client]:
     """A ``distributed.Client`` for `client` (see the module docstring), closed on exit if opened here.
 
     Parameters
@@ -178,11 +189,12 @@ class ClientOnDemand:
     """Where the tasks of one run go: `client` None (this process), or a client `connect`-ed when
     first needed (`get`) and closed with `stack`, so a run whose work is all cached connects to nothing."""
 
-    def __init__(self, client: Any, stack: contextlib.ExitStack, n_workers: int | None, timeout: float) -> None:
+    def __init__(self, client: ClientOption, stack: contextlib.ExitStack, n_workers: int | None,
+                 timeout: float) -> None:
         self.client, self.stack, self.n_workers, self.timeout = client, stack, n_workers, timeout
-        self.opened: Any = None
+        self.opened: Client | None = None
 
-    def get(self) -> Any:
+    def get(self) -> Client:
         if self.opened is None:
             self.opened = self.stack.enter_context(connect(self.client, n_workers=self.n_workers,
                                                            timeout=self.timeout))
@@ -217,10 +229,10 @@ def progress_callback(progress: ProgressOption, total: int, prefix: str = "") ->
                      "(done, total, label)")
 
 
-def run_tasks(client: Any, function: Callable[..., Any], arguments: Sequence[tuple[Any, ...]], *,
-              labels: Sequence[str], on_result: Callable[[int, Any], None] | None = None,
+def run_tasks(client: Client, function: Callable[..., T], arguments: Sequence[tuple[object, ...]], *,
+              labels: Sequence[str], on_result: Callable[[int, T], None] | None = None,
               progress: ProgressOption = None, retries: int = 0,
-              name: str = "vibra") -> tuple[list[Any], list[TaskFailure]]:
+              name: str = "vibra") -> tuple[list[T | None], list[TaskFailure]]:
     """Run ``function(*arguments[i])`` for every i on `client`'s cluster; collect in submission order.
 
     Parameters
@@ -257,7 +269,7 @@ def run_tasks(client: Any, function: Callable[..., Any], arguments: Sequence[tup
     futures = [client.submit(function, *args, key=f"{name}-{token}-{i}", pure=False, retries=retries)
                for i, args in enumerate(arguments)]
     index = {future.key: i for i, future in enumerate(futures)}
-    results: list[Any] = [None] * total
+    results: list[T | None] = [None] * total
     failures: list[TaskFailure] = []
     distributed = require_distributed()
     try:
@@ -270,9 +282,9 @@ def run_tasks(client: Any, function: Callable[..., Any], arguments: Sequence[tup
             if failed:
                 failures.append(TaskFailure(i, labels[i], future.exception()))
             else:
-                results[i] = future.result()
+                results[i] = value = future.result()
                 if on_result is not None:
-                    on_result(i, results[i])
+                    on_result(i, value)
             done += 1
             future.release()
             if callback is not None:

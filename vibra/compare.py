@@ -34,17 +34,25 @@ subspace) instead.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
 import scipy.linalg as la
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
 
 from vibra._core.frozen import Frozen
 
-__all__ = ["overlap", "mac", "cumulative_overlap", "subspace_overlap", "match_modes", "ModeMatch",
+if TYPE_CHECKING:
+    from vibra.modes import Modes
+    from vibra.solvers.structured.quadratic import QuadraticModes
+
+__all__ = ["overlap", "mac", "cumulative_overlap", "subspace_overlap", "match_modes", "ModeMatch", "ModeSet",
            "DEGENERATE", "AMBIGUOUS"]
+
+#: What the functions here compare: a `vibra.Modes`, a `QuadraticModes` (complex shapes), or an
+#: (n_dof, n_modes) array of vectors in columns (one vector: (n_dof,)).
+ModeSet = Union["Modes", "QuadraticModes", ArrayLike]
 
 #: Two neighbouring modes are one degenerate group where their frequencies agree to this
 #: relative tolerance (or within their bounds' sum).
@@ -86,7 +94,7 @@ def _normalised(vectors: NDArray[Any], name: str) -> NDArray[Any]:
     return vectors / norms
 
 
-def _pair(a: Any, b: Any, weighted: bool) -> tuple[NDArray[Any], NDArray[Any]]:
+def _pair(a: ModeSet, b: ModeSet, weighted: bool) -> tuple[NDArray[Any], NDArray[Any]]:
     va, ma = _columns(a, "a", weighted=weighted)
     vb, mb = _columns(b, "b", weighted=weighted)
     if va.shape[0] != vb.shape[0]:
@@ -99,7 +107,7 @@ def _pair(a: Any, b: Any, weighted: bool) -> tuple[NDArray[Any], NDArray[Any]]:
     return _normalised(va, "a"), _normalised(vb, "b")
 
 
-def overlap(a: Any, b: Any, *, weighted: bool = True) -> NDArray[np.float64]:
+def overlap(a: ModeSet, b: ModeSet, *, weighted: bool = True) -> NDArray[np.float64]:
     """|cos| of the angle between each mode of `a` (rows) and each of `b` (columns).
 
     Examples
@@ -114,7 +122,7 @@ def overlap(a: Any, b: Any, *, weighted: bool = True) -> NDArray[np.float64]:
     return np.abs(va.conj().T @ vb).real
 
 
-def mac(a: Any, b: Any) -> NDArray[np.float64]:
+def mac(a: ModeSet, b: ModeSet) -> NDArray[np.float64]:
     """The modal assurance criterion |u_a^H u_b|^2 / ((u_a^H u_a)(u_b^H u_b)) of the physical
     shapes (complex for `QuadraticModes`), rows a's modes, columns b's.
 
@@ -128,12 +136,12 @@ def mac(a: Any, b: Any) -> NDArray[np.float64]:
     return np.abs(va.conj().T @ vb) ** 2
 
 
-def cumulative_overlap(a: Any, b: Any, *, weighted: bool = True) -> NDArray[np.float64]:
+def cumulative_overlap(a: ModeSet, b: ModeSet, *, weighted: bool = True) -> NDArray[np.float64]:
     """Per mode of `a`: sqrt(sum over b's modes of the squared overlap), 1 when b's modes span it."""
     return np.sqrt(np.sum(overlap(a, b, weighted=weighted) ** 2, axis=1))
 
 
-def subspace_overlap(a: Any, b: Any, *, weighted: bool = True) -> float:
+def subspace_overlap(a: ModeSet, b: ModeSet, *, weighted: bool = True) -> float:
     """The root mean square inner product of the two sets (RMSIP): sqrt(sum overlap^2 / n_a),
     from the principal angles between the spans (independent of the basis within each span;
     equal to ProDy's ``calcSubspaceOverlap`` for orthonormal sets)."""
@@ -200,7 +208,7 @@ class ModeMatch(Frozen):
                 f"smallest group overlap {float(self.group_overlap.min(initial=1.0)):.3g})")
 
 
-def match_modes(a: Any, b: Any, *, weighted: bool = True, degenerate: float = DEGENERATE) -> ModeMatch:
+def match_modes(a: ModeSet, b: ModeSet, *, weighted: bool = True, degenerate: float = DEGENERATE) -> ModeMatch:
     """Pair the modes of `a` and `b` one to one (min(n_a, n_b) pairs), maximising the summed
     squared overlaps; degenerate groups (see the module) compared as subspaces.
 

@@ -44,6 +44,9 @@ from vibra.units import ASE
 
 if TYPE_CHECKING:
     from ase import Atoms
+    from ase.calculators.calculator import BaseCalculator
+
+    from vibra.molecules.valence import ValenceModel
 
 __all__ = ["CrossCheck", "CrossCheckRow", "crosscheck", "CO2_FUNDAMENTALS_CM1", "H2O_FUNDAMENTALS_CM1"]
 
@@ -317,9 +320,9 @@ def _run_phonopy(atoms: Any, calculator: Any, delta: float, box: float
 
 def crosscheck(
     atoms: Atoms,
-    calculator: Any = None,
+    calculator: BaseCalculator | None = None,
     *,
-    model: Any = None,
+    model: ValenceModel | None = None,
     delta: float = 0.01,
     nfree: Literal[2, 4] = 2,
     box: float = 20.0,
@@ -423,7 +426,7 @@ def crosscheck(
         if model is None:
             model = molecules.valence_model(work)
         system = molecules.from_atoms(work, model, name=label)
-        calc = molecules.ValenceForceField(model)
+        calc: BaseCalculator = molecules.ValenceForceField(model)
         estimate = molecules.finite_difference_hessian(work, calc, step=step, stencil=nfree,
                                                        force_noise=force_noise, symmetry=False)
         source = "analytic valence force field B^T W B"

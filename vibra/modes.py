@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar
+from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -26,6 +26,9 @@ from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.common import omega_and_error
 from vibra.units import DIMENSIONLESS, UnitSystem, unit_system
 from vibra._core.text import counted
+
+if TYPE_CHECKING:
+    from vibra.solvers.structured.quadratic import QuadraticModes
 
 __all__ = ["Modes", "normal_modes", "pencil_modes", "SOLVERS"]
 
@@ -99,7 +102,7 @@ class Modes(ModesResult):
     refined: NDArray[np.bool_] | None = None
     refinement: str | None = None
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
+    def __setstate__(self, state: dict[str, object]) -> None:
         """Unpickling: the fields, then read-only arrays again (pickle skips __post_init__)."""
         self.__dict__.update(state)
         freeze_arrays(self)
@@ -130,7 +133,7 @@ class Modes(ModesResult):
                          f"refined: {count}: {self.refinement}")
         return "\n".join(lines)
 
-    def overlap(self, other: Any, *, weighted: bool = True) -> NDArray[np.float64]:
+    def overlap(self, other: Modes | QuadraticModes | ArrayLike, *, weighted: bool = True) -> NDArray[np.float64]:
         """|cos| between each of these modes (rows) and each of `other`'s (columns), mass-weighted
         by default: `vibra.compare.overlap` (also `match_modes`, `subspace_overlap`, `mac` there).
 
@@ -321,7 +324,7 @@ def normal_modes(
     band: tuple[float, float] | None = None,
     solver: str = "auto",
     symmetrize: bool = False,
-    spring_factor: tuple[Any, ArrayLike] | None = None,
+    spring_factor: tuple[sp.spmatrix | ArrayLike, ArrayLike] | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
     max_memory: float | None = None,
     max_seconds: float | None = None,

@@ -22,7 +22,7 @@ then refer to the free degrees of freedom only, in the order of `free_dofs`.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, Protocol, Sequence, runtime_checkable
+from typing import TYPE_CHECKING, Callable, Protocol, Sequence, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,6 +35,9 @@ from vibra.generalized import FreeDofs, GeneralizedSystem
 from vibra.modes import Modes, normal_modes
 from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS, Accuracy, uses_springs
 from vibra.units import UnitSystem, unit_system
+
+if TYPE_CHECKING:
+    from vibra.solvers.structured.quadratic import QuadraticModes
 
 __all__ = ["System", "GeneralizedSystem", "Vibrating"]
 
@@ -53,11 +56,14 @@ class Vibrating(Protocol):
     @property
     def n_dof(self) -> int: ...
 
-    def hessian(self) -> Any: ...
+    def hessian(self) -> sp.csr_matrix: ...
 
-    def mass_matrix(self) -> Any: ...
+    def mass_matrix(self) -> NDArray[np.float64]: ...
 
-    def modes(self, n_modes: int | None = None, *args: Any, **kwargs: Any) -> Modes: ...
+    def modes(self, n_modes: int | None = None, *, accuracy: Accuracy = "high", vectors: bool = True,
+              band: tuple[float, float] | None = None, solver: str = "auto", device: str = "cpu",
+              max_memory: float | None = None, max_seconds: float | None = None,
+              progress: bool | Callable[[float, str], None] | None = None) -> Modes | QuadraticModes: ...
 
 _AXES = "xyz"
 

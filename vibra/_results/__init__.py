@@ -35,7 +35,7 @@ import os
 import types
 import typing
 from pathlib import Path
-from typing import Any, Callable, ClassVar, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Sequence, TypeVar
 
 import numpy as np
 
@@ -45,6 +45,12 @@ from vibra._results.files import (FORMAT_VERSION, MAX_JSON_DEPTH, MAX_LOAD_BYTES
                                   Stored, check_stored, check_version, read_result_file, sequence_lengths, short,
                                   stored)
 from vibra.units import UnitSystem, unit_system
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from vibra._results.display import View
+    from vibra.system import System
 
 __all__ = ["Result", "ModesResult", "layout", "axis_arrays", "FORMAT_VERSION", "MAX_LOAD_BYTES",
            "MAX_SCALARS_BYTES", "MAX_JSON_DEPTH", "Dim", "Stored", "stored", "check_stored"]
@@ -84,7 +90,7 @@ class Result(Frozen):
             return len(getattr(self, name))
         raise TypeError(f"a {type(self).__name__} has no axis to measure")
 
-    def __getitem__(self: R, index: Any) -> R:
+    def __getitem__(self: R, index: int | slice | ArrayLike) -> R:
         """The entries at `index` along `AXIS` (an int, a slice, an index array or a boolean mask),
         as a result of the same type: ``modes[6:]`` leaves out six rigid-body modes, ``modes[k]``
         keeps one mode, ``bands[:50]`` the first 50 q-points."""
@@ -238,7 +244,7 @@ class ModesResult(Result):
         values = np.asarray(getattr(self, first))
         return (self._size(), f"{first} {span(values)}" if values.size and np.isrealobj(values) else "")
 
-    def show(self, system: Any, indices: Any = None) -> Any:
+    def show(self, system: System, indices: Sequence[int] | None = None) -> View:
         """The interactive 3-D view of these modes on `system` (`vibra._results.display.system_view`):
         the report's viewer, a `View` that Jupyter shows as the cell's value (``_repr_html_``), offline
         (3Dmol.js, about 530 kB, inlined once per output), or `View.save` writes as a page.

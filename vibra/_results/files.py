@@ -22,7 +22,7 @@ import typing
 import zipfile
 import zlib
 from pathlib import Path
-from typing import Any, Callable, Literal, Union
+from typing import Any, Callable, Literal, Mapping, Union
 
 import numpy as np
 
@@ -189,13 +189,13 @@ def _match(pattern: tuple[Dim, ...], shape: tuple[int, ...], sizes: dict[str, tu
     return found
 
 
-def short(value: Any) -> str:
+def short(value: object) -> str:
     """repr(value), cut to 60 characters (for messages)."""
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def check_version(name: str, data: dict[str, Any], where: Callable[[str], str]) -> None:
+def check_version(name: str, data: Mapping[str, object], where: Callable[[str], str]) -> None:
     """The format version and the type (`name`) of a stored result, before anything else is read."""
     version = data.get("format")
     if isinstance(version, bool) or version != FORMAT_VERSION:

@@ -10,12 +10,18 @@ long-range field moved (the LO mode, approached along the path) is labelled ``LO
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from vibra.charts._style import new_figure
+
+if TYPE_CHECKING:
+    from vibra.crystals.bands import BandStructure
+    from vibra.crystals.dos import DensityOfStates
+    from vibra.crystals.irreps import GammaModes
+    from vibra.crystals.thermal import ThermalProperties
 
 __all__ = ["plot_bands_dos", "plot_thermal", "path_ticks", "gamma_labels", "FREQUENCY_LABELS", "LEVEL_RTOL"]
 
@@ -31,7 +37,7 @@ def _pretty(label: str) -> str:
     return f"{text}$_{{{index}}}$" if index else text
 
 
-def path_ticks(bands: Any) -> tuple[list[float], list[str]]:
+def path_ticks(bands: BandStructure) -> tuple[list[float], list[str]]:
     """Tick positions (path length) and labels of the special points; labels at one position joined by ``|``."""
     positions: list[float] = []
     labels: list[str] = []
@@ -57,7 +63,8 @@ def _in_unit(units: Any, omega: Any, unit: str) -> np.ndarray:
 LEVEL_RTOL = 1e-3
 
 
-def gamma_labels(bands: Any, gamma: Any, unit: str, *, polar: bool = True) -> list[tuple[float, float, str]]:
+def gamma_labels(bands: BandStructure, gamma: GammaModes, unit: str, *, polar: bool = True
+                 ) -> list[tuple[float, float, str]]:
     """(x, frequency in `unit`, label) of each optical level at each Gamma point of the path.
 
     A level of the bands at Gamma that matches a level of the analytic D(0) (`gamma`, a
@@ -94,8 +101,8 @@ def gamma_labels(bands: Any, gamma: Any, unit: str, *, polar: bool = True) -> li
     return marks
 
 
-def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str = "",
-                   gamma: Any | None = None, polar: bool = True) -> Figure:
+def plot_bands_dos(bands: BandStructure, dos: DensityOfStates | None, *, unit: str = "THz", title: str = "",
+                   gamma: GammaModes | None = None, polar: bool = True) -> Figure:
     """Bands along the path (left) and the DOS (right) on one frequency axis in `unit`.
 
     Parameters
@@ -162,7 +169,7 @@ def plot_bands_dos(bands: Any, dos: Any | None, *, unit: str = "THz", title: str
     return figure
 
 
-def plot_thermal(thermal: Any, *, title: str = "") -> Figure:
+def plot_thermal(thermal: ThermalProperties, *, title: str = "") -> Figure:
     """Free energy (kJ/mol), entropy and heat capacity (J/K/mol) against temperature, per mole of cells.
 
     Parameters

@@ -7,12 +7,17 @@ computed and returns the figure; save it with `vibra.charts.save_figure`.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
 from vibra.charts._style import new_figure
+
+if TYPE_CHECKING:
+    from vibra.dynamics.trajectory import Trajectory
+    from vibra.units import UnitSystem
 
 __all__ = ["plot_mode_energies", "plot_energies", "plot_position_histograms"]
 
@@ -27,7 +32,8 @@ def _energy_unit(units: Any) -> str:
     return name if name and getattr(units, "time_s", None) is not None else "energy units"
 
 
-def plot_mode_energies(t: Any, energies: Any, *, total: float, units: Any = None, title: str = "") -> Figure:
+def plot_mode_energies(t: ArrayLike, energies: ArrayLike, *, total: float, units: UnitSystem | None = None,
+                       title: str = "") -> Figure:
     """Energy of each normal mode against time, as a share of the total energy (left axis) and in the
     energy unit (right axis).
 
@@ -58,8 +64,8 @@ def plot_mode_energies(t: Any, energies: Any, *, total: float, units: Any = None
     return figure
 
 
-def plot_energies(run: Any, label: str | None, *, reference: Any = None, target_kinetic: float | None = None,
-                  title: str = "") -> Figure:
+def plot_energies(run: Trajectory, label: str | None, *, reference: ArrayLike | None = None,
+                  target_kinetic: float | None = None, title: str = "") -> Figure:
     """Kinetic, potential and conserved energy against time (top) and one thermostat variable (bottom).
 
     Parameters
@@ -104,8 +110,9 @@ def plot_energies(run: Any, label: str | None, *, reference: Any = None, target_
     return figure
 
 
-def plot_position_histograms(samples: Sequence[Any], labels: Sequence[str], sigma: float, distances: Sequence[float],
-                             *, bins: int = 60, units: Any = None, title: str = "") -> Figure:
+def plot_position_histograms(samples: Sequence[ArrayLike], labels: Sequence[str], sigma: float,
+                             distances: Sequence[float], *, bins: int = 60, units: UnitSystem | None = None,
+                             title: str = "") -> Figure:
     """Histogram of one coordinate's positions, one panel per run, against the Boltzmann Gaussian.
 
     Parameters

@@ -6,14 +6,31 @@ figure and a caption. Write a figure with `vibra.charts.save_figure`.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Protocol, Sequence
 
 import numpy as np
 
 from vibra._core.text import counted
 from vibra.charts._style import new_figure, plain_math
 
-__all__ = ["spectrum_figure", "shapes_figure"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from vibra.generalized import GeneralizedSystem
+    from vibra.modes import Modes
+
+__all__ = ["spectrum_figure", "shapes_figure", "SceneLike"]
+
+
+class SceneLike(Protocol):
+    """What these charts read of a scene (`vibra.pipeline.scene.Scene`, a stage above the charts,
+    which they do not import): its kind and its title."""
+
+    @property
+    def kind(self) -> str: ...
+
+    @property
+    def title(self) -> str: ...
 
 
 def _frequency_axis(scene: Any, modes: Any) -> tuple[Any, str]:
@@ -28,7 +45,7 @@ def _frequency_axis(scene: Any, modes: Any) -> tuple[Any, str]:
     return modes.omega_rad_per_s(), "angular frequency $\\omega$ (rad/s)"
 
 
-def spectrum_figure(scene: Any, modes: Any) -> tuple[Any, str]:
+def spectrum_figure(scene: SceneLike, modes: Modes) -> tuple[Figure, str]:
     """Stick spectrum of the modes: one unit stick per mode (degenerate modes stack).
 
     Returns the figure and its caption. The stick height counts modes (no intensity
@@ -96,7 +113,8 @@ def _stagger_labels(figure: Any, axes: Any, labels: Sequence[Any]) -> None:
         axes.set_ylim(low, high + (top - limit + 8) / pixels_per_unit)
 
 
-def shapes_figure(scene: Any, system: Any, modes: Any, indices: Sequence[int]) -> tuple[Any, str]:
+def shapes_figure(scene: SceneLike, system: GeneralizedSystem, modes: Modes, indices: Sequence[int]
+                  ) -> tuple[Figure, str]:
     """Bar chart of mode shapes in generalised coordinates (one panel per mode)."""
     n = len(indices)
     figure, axes = new_figure(1, n, figsize=(4.0 * n + 1.0, 4.5), squeeze=False)

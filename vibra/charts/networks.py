@@ -7,6 +7,7 @@ from typing import Any, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
 from vibra.charts._style import new_figure
 
@@ -29,7 +30,7 @@ def _residue_ticks(axes: Any, labels: Sequence[str], *, axis: str = "x") -> None
 _FIT_WORDS = {"sum": "ProDy's scale (ΣB / Σf)", "least_squares": "least-squares scale"}
 
 
-def b_factor_axis(experimental: Any, fitted: Any) -> str:
+def b_factor_axis(experimental: ArrayLike, fitted: ArrayLike) -> str:
     """``"linear"`` or ``"log"``: the axis on which both B-factor curves read, decided by the data.
 
     Linear when the data span less than a decade: the largest value of either curve is below
@@ -49,7 +50,7 @@ def b_factor_axis(experimental: Any, fitted: Any) -> str:
     return "linear" if bulk > 0 and float(values.max(initial=0.0)) < 10.0 * bulk else "log"
 
 
-def plot_b_factors(labels: Sequence[str], experimental: Any, fitted: Any, correlation: float, *,
+def plot_b_factors(labels: Sequence[str], experimental: ArrayLike, fitted: ArrayLike, correlation: float, *,
                    scale: float | None = None, method: str = "sum", title: str = "") -> Figure:
     """Fitted against crystallographic B-factors: per residue on one axis (left), one against the other (right).
 
@@ -121,7 +122,7 @@ def plot_b_factors(labels: Sequence[str], experimental: Any, fitted: Any, correl
     return figure
 
 
-def plot_cross_correlations(labels: Sequence[str], correlations: Any, *, n_modes: int | None = None,
+def plot_cross_correlations(labels: Sequence[str], correlations: ArrayLike, *, n_modes: int | None = None,
                             title: str = "") -> Figure:
     """The residue cross-correlation map C_ij in [-1, 1], on a diverging colour map with its colour bar.
 
@@ -156,7 +157,7 @@ def plot_cross_correlations(labels: Sequence[str], correlations: Any, *, n_modes
     return figure
 
 
-def plot_mode_profiles(labels: Sequence[str], shapes: Any, names: Sequence[str], *, title: str = "") -> Figure:
+def plot_mode_profiles(labels: Sequence[str], shapes: ArrayLike, names: Sequence[str], *, title: str = "") -> Figure:
     """Mode shapes along the sequence: each mode's amplitude per residue, one row per mode (a GNM's modes).
 
     Parameters

@@ -9,17 +9,21 @@ orbit over one period, the start marked and the sense of rotation arrowed.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
 from vibra.charts._style import new_figure
+
+if TYPE_CHECKING:
+    from vibra.solvers.structured.quadratic import QuadraticModes
 
 __all__ = ["mode_orbit", "rotation_sense", "plot_mode_orbits"]
 
 
-def mode_orbit(shape: Any, n_points: int = 181) -> np.ndarray:
+def mode_orbit(shape: ArrayLike, n_points: int = 181) -> np.ndarray:
     """(n_points, n_dof) points Re{x exp(i phi)} for phi over one period [0, 2 pi].
 
     >>> orbit = mode_orbit([1.0, 1.0j], n_points=5)
@@ -31,7 +35,7 @@ def mode_orbit(shape: Any, n_points: int = 181) -> np.ndarray:
     return np.real(np.exp(1j * phase)[:, None] * x[None, :])
 
 
-def rotation_sense(shape: Any) -> str:
+def rotation_sense(shape: ArrayLike) -> str:
     """``"counter-clockwise"``, ``"clockwise"`` or ``"linear"``: how Re{x exp(i omega t)} turns in the plane of its first two coordinates.
 
     The signed area swept, Im(conj(x_1) x_2), is negative for a counter-clockwise turn
@@ -48,7 +52,7 @@ def rotation_sense(shape: Any) -> str:
     return "counter-clockwise" if area < 0 else "clockwise"
 
 
-def plot_mode_orbits(modes: Any, *, coordinates: Sequence[str] = ("x", "y"), length_unit: str = "m",
+def plot_mode_orbits(modes: QuadraticModes, *, coordinates: Sequence[str] = ("x", "y"), length_unit: str = "m",
                      title: str = "") -> Figure:
     """One panel per mode: the orbit of the mode's first two coordinates over one period.
 

@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import textwrap
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["ColourBar", "annotate_render"]
 
@@ -45,7 +45,7 @@ class ColourBar:
     high: float = 1.0
 
 
-def annotate_render(image: Any, *, grid: Sequence[int] = (1, 1), titles: Sequence[str] = (),
+def annotate_render(image: ArrayLike, *, grid: Sequence[int] = (1, 1), titles: Sequence[str] = (),
                     note: str | None = None, colour_bar: ColourBar | None = None,
                     font_size: float = 12.0) -> NDArray[np.uint8]:
     """`image` (height, width, 3 or 4) with titles, a note and a colour bar set on it by matplotlib.

@@ -7,9 +7,12 @@ import none of them) and returns the figure and a caption; save it with
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vibra.charts._style import new_figure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["sweep_figure", "key_label"]
 
@@ -44,7 +47,7 @@ _LEGEND_BRANCHES = 10
 _LINE_STYLES = ("-", "--", ":", "-.")
 
 
-def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Any, str]:
+def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Figure, str]:
     """Frequencies against the first swept key: one curve per branch (`SweepTable.branch_lines`, modes
     connected by overlap, so crossing branches keep their colour), one line style per value of
     the other swept keys.

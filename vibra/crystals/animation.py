@@ -31,10 +31,10 @@ computes the frames from the view data with the same sums as the page's script.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra._results.display import MAX_MOTION, View
 from vibra.crystals.dynamical import phonons
@@ -42,9 +42,34 @@ from vibra.crystals.dynamical import phonons
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-#: A `vibra.crystals.BandStructure` (not imported here, not even for typing: `BandStructure.show`
-#: imports this module, and the two stay out of an import cycle).
-BandStructure = Any
+
+class BandsLike(Protocol):
+    """What the view reads of a `vibra.crystals.BandStructure` (for type checkers only:
+    `BandStructure.show` imports this module, and the two stay out of an import cycle, even
+    for type checking, as `CrystalLike` keeps the package's)."""
+
+    @property
+    def qpoints(self) -> NDArray[np.float64]: ...
+
+    @property
+    def distances(self) -> NDArray[np.float64]: ...
+
+    @property
+    def omega(self) -> NDArray[np.float64]: ...
+
+    @property
+    def segments(self) -> NDArray[np.int64]: ...
+
+    @property
+    def labels(self) -> tuple[tuple[int, str], ...]: ...
+
+    @property
+    def breaks(self) -> tuple[int, ...]: ...
+
+    def frequencies_thz(self) -> NDArray[np.float64]: ...
+
+    def wavenumbers_cm1(self) -> NDArray[np.float64]: ...
+
 
 __all__ = ["band_view", "bands_view", "frame_positions", "repeats", "FRAMES", "MAX_REPEATS", "MIN_REPEATS",
            "MAX_ATOMS", "MAX_VECTOR_NUMBERS", "UNITS"]
@@ -62,7 +87,7 @@ MAX_VECTOR_NUMBERS = 120_000
 UNITS = ("THz", "cm^-1")
 
 
-def repeats(crystal: Crystal, q: Any) -> NDArray[np.int64]:
+def repeats(crystal: Crystal, q: ArrayLike) -> NDArray[np.int64]:
     """(3,) cells along each lattice vector that show one wavelength of `q` (module docstring)."""
     reduced = np.abs(np.asarray(q, dtype=float) - np.rint(q))
     out = np.ones(3, dtype=np.int64)
@@ -88,7 +113,7 @@ def _label(text: str) -> str:
     return "Γ" if text.upper() in ("GAMMA", "G", "\\GAMMA") else text
 
 
-def band_view(crystal: Crystal, bands: BandStructure, *, unit: str = "THz",
+def band_view(crystal: Crystal, bands: BandsLike, *, unit: str = "THz",
               max_numbers: int = MAX_VECTOR_NUMBERS) -> dict[str, Any]:
     """The ``"crystal"`` view data of `bands` (computed from `crystal`): bands, patterns, supercells.
 
@@ -164,7 +189,7 @@ def band_view(crystal: Crystal, bands: BandStructure, *, unit: str = "THz",
             "points": points, "start": [start, n3 - 1], "note": note}
 
 
-def bands_view(crystal: Crystal, bands: BandStructure, *, unit: str = "THz") -> View:
+def bands_view(crystal: Crystal, bands: BandsLike, *, unit: str = "THz") -> View:
     """`band_view` as a `View` (what ``bands.show(crystal)`` returns in a notebook)."""
     return View(band_view(crystal, bands, unit=unit), title=f"bands of {crystal.name!r} with their modes")
 

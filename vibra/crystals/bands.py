@@ -33,6 +33,9 @@ from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, pho
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from vibra._results.display import View
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["BandStructure", "band_structure", "special_points", "ALIASES"]
@@ -142,7 +145,7 @@ class BandStructure(Result):
         """(n_q, n_branches) signed wavenumbers, in cm^-1."""
         return self.units.omega_to_cm1(self.omega)
 
-    def show(self, crystal: Crystal, *, unit: str = "THz") -> Any:
+    def show(self, crystal: Crystal, *, unit: str = "THz") -> View:
         """The interactive view of these bands (`vibra.crystals.animation.bands_view`): click a point
         (q, branch) to animate that branch's mode on a supercell; in Jupyter, the cell's value shows it
         (offline: 3Dmol.js, about 530 kB, is inlined once per output).
@@ -232,7 +235,7 @@ def _check_path(path: Any, points: Mapping[str, Any] | None, crystal: Crystal
 
 # ---------------------------------------------------------------------- bands
 def band_structure(crystal: Crystal, path: Sequence[Sequence[str]] | None = None, *, npoints: int = 200,
-                   points: Mapping[str, Any] | None = None) -> BandStructure:
+                   points: Mapping[str, ArrayLike] | None = None) -> BandStructure:
     """Phonon bands along `path` (SeeK-path's when None), branches connected, with group velocities.
 
     Parameters

@@ -9,7 +9,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +19,8 @@ from vibra.crystals.mesh import species_numbers
 from vibra.crystals.phonopy_io import to_ase_factors
 
 if TYPE_CHECKING:
+    from phonopy import Phonopy
+
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["BORN_MAX_BYTES", "read_born", "nac_from_phonopy"]
@@ -132,7 +134,16 @@ def read_born(path: str | Path, crystal: Crystal, *, symprec: float = 1e-5
     return (np.asarray(params["born"], dtype=float), np.asarray(params["dielectric"], dtype=float), factor)
 
 
-def nac_from_phonopy(phonon: Any) -> dict[str, Any]:
+class NacArguments(TypedDict):
+    """`nac_from_phonopy`'s answer: the keyword arguments of `non_analytic` it fills."""
+
+    born: NDArray[np.float64]          # (n_atoms, 3, 3) Z*, in e
+    dielectric: NDArray[np.float64]    # (3, 3) eps_inf
+    factor: float                      # phonopy's unit factor, in eV Angstrom
+    method: str                        # "gonze" or "wang"
+
+
+def nac_from_phonopy(phonon: Phonopy) -> NacArguments:
     """phonon.nac_params as `non_analytic`'s arguments: born, dielectric, factor and method.
 
     The charges and eps_inf are those set on phonon (phonopy averages them over the space

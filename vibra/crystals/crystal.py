@@ -23,7 +23,7 @@ from __future__ import annotations
 import functools
 import warnings
 from dataclasses import dataclass, replace
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -37,12 +37,16 @@ import vibra.crystals.mesh as mesh_module
 import vibra.crystals.phonopy_io as phonopy_io
 import vibra.crystals.supercell as supercell_modes
 from vibra.crystals.born import nac_from_phonopy
-from vibra.crystals.nac import NonAnalytic, non_analytic
+from vibra.crystals.nac import NonAnalytic, Parts, non_analytic
 import vibra.crystals.thermal as thermal
 from vibra.crystals.dos import DensityOfStates, dos as density_of_states
 from vibra.crystals.force_constants import (INDEX_SYMMETRY_RTOL, ForceConstants, ForceConstantsWarning, SpringModel,
                                             check_force_constants, index_asymmetry)
 from vibra.units import UnitSystem, unit_system
+
+if TYPE_CHECKING:
+    from ase import Atoms
+    from phonopy import Phonopy
 
 __all__ = ["Crystal", "check_cell"]
 
@@ -196,7 +200,7 @@ class Crystal(Frozen):
                    periodic=flags, name=name)  # type: ignore[arg-type]
 
     @classmethod
-    def from_ase(cls, atoms: Any, *, wrap: bool = False, left_handed: bool = False,
+    def from_ase(cls, atoms: Atoms, *, wrap: bool = False, left_handed: bool = False,
                  name: str | None = None) -> Crystal:
         """A crystal from an `ase.Atoms` with a cell: positions, masses and symbols, in ASE units.
 
@@ -248,7 +252,7 @@ class Crystal(Frozen):
         return float(abs(np.linalg.det(self.cell)))
 
     @functools.cached_property
-    def point_rotations(self) -> Any:
+    def point_rotations(self) -> NDArray[np.int32] | None:
         """The space group's rotations (spglib's), searched once per crystal (`vibra.crystals.mesh`)."""
         return mesh_module.point_rotations(self)
 
@@ -257,18 +261,18 @@ class Crystal(Frozen):
         """What D(q) is made of (`vibra.crystals.dynamical.assembly`), formed once per crystal."""
         return dynamical.assembly(self)
 
-    def __getstate__(self) -> dict[str, Any]:
+    def __getstate__(self) -> dict[str, object]:
         """The fields only: the caches (`assembly`, `point_rotations`, `nac_parts`: the Ewald
         moments grow as n_G n_atoms^2) are formed again where the crystal is used (a Dask worker),
         not shipped with it."""
         return {field: getattr(self, field) for field in self.__dataclass_fields__}
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
+    def __setstate__(self, state: dict[str, object]) -> None:
         for field, value in state.items():
             object.__setattr__(self, field, value)
 
     @functools.cached_property
-    def nac_parts(self) -> Any:
+    def nac_parts(self) -> Parts | None:
         """What D(q) with the correction is made of (`vibra.crystals.nac.parts`: the short-range
         crystal, the Ewald or phase-sum tables), formed once per crystal; None without `nac`."""
         from vibra.crystals.nac import parts
@@ -304,7 +308,8 @@ class Crystal(Frozen):
         return crystal
 
     def with_nac(self, born: ArrayLike, dielectric: ArrayLike, *, method: str = "gonze", factor: float | None = None,
-                 phonon: Any = None, supercell: Any = None, sum_rule: str = "impose") -> Crystal:
+                 phonon: Phonopy | None = None, supercell: ArrayLike | None = None, sum_rule: str = "impose"
+                 ) -> Crystal:
         """The same crystal with the non-analytic (LO-TO) correction of its Born charges and eps_inf.
 
         `born` (n_atoms, 3, 3) are the Born effective charges Z*_i (in e, phonopy's index order),
@@ -352,16 +357,17 @@ class Crystal(Frozen):
             raise ValueError(f"q must hold 3 fractional coordinates, got shape {point.shape}")
         return self.phonons(point[None, :], vectors=True, phase=phase)
 
-    def band_structure(self, path: Any = None, *, npoints: int = 200, points: Any = None) -> bands.BandStructure:
+    def band_structure(self, path: Sequence[Sequence[str]] | None = None, *, npoints: int = 200,
+                       points: Mapping[str, ArrayLike] | None = None) -> bands.BandStructure:
         """`BandStructure` along `path` (SeeK-path's when None): `vibra.crystals.bands.band_structure`."""
         return bands.band_structure(self, path, npoints=npoints, points=points)
 
-    def dos(self, mesh: Any, *, method: str = "tetrahedron", sigma: float | None = None, omega: ArrayLike | None = None,
-            projected: bool = False, symmetry: bool = True) -> DensityOfStates:
+    def dos(self, mesh: int | Sequence[int], *, method: str = "tetrahedron", sigma: float | None = None,
+            omega: ArrayLike | None = None, projected: bool = False, symmetry: bool = True) -> DensityOfStates:
         """Phonon DOS on a Gamma-centred mesh (tetrahedron or Gaussian): `vibra.crystals.dos.dos`."""
         return density_of_states(self, mesh, method=method, sigma=sigma, omega=omega, projected=projected, symmetry=symmetry)
 
-    def thermal_properties(self, temperatures: ArrayLike, *, mesh: Any, symmetry: bool = True
+    def thermal_properties(self, temperatures: ArrayLike, *, mesh: int | Sequence[int], symmetry: bool = True
                            ) -> thermal.ThermalProperties:
         """Free energy, entropy, heat capacity, zero-point energy: `vibra.crystals.thermal`."""
         return thermal.thermal_properties(self, temperatures, mesh=mesh, symmetry=symmetry)
@@ -370,16 +376,16 @@ class Crystal(Frozen):
         """Sound velocities along a Cartesian direction: `vibra.crystals.elastic.sound_velocities`."""
         return elastic.sound_velocities(self, direction, step=step)
 
-    def supercell_mode(self, q: ArrayLike, branch: int, supercell: Any) -> supercell_modes.SupercellMode:
+    def supercell_mode(self, q: ArrayLike, branch: int, supercell: ArrayLike) -> supercell_modes.SupercellMode:
         """One mode written out on a supercell: `vibra.crystals.supercell.supercell_mode`."""
         return supercell_modes.supercell_mode(self, q, branch, supercell)
 
-    def to_phonopy(self, supercell: Any = None) -> Any:
+    def to_phonopy(self, supercell: Sequence[int] | None = None) -> Phonopy:
         """A `phonopy.Phonopy` with these force constants: `vibra.crystals.phonopy_io.to_phonopy`."""
         return phonopy_io.to_phonopy(self, supercell=supercell)
 
     @classmethod
-    def from_phonopy(cls, phonon: Any, *, name: str = "phonopy", symmetrize: bool | str | None = False,
+    def from_phonopy(cls, phonon: Phonopy, *, name: str = "phonopy", symmetrize: bool | str | None = False,
                      periodic: Sequence[bool] = (True, True, True), nac: bool = True) -> Crystal:
         """The primitive cell and force constants of a `phonopy.Phonopy`, in ASE units (eV, Angstrom, amu).
 

@@ -23,7 +23,7 @@ it runs on the full mesh. Gaussian smearing: sum_{q, nu} w_q exp(-(omega - omega
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Sequence
 
 import numba
 import numpy as np
@@ -184,7 +184,7 @@ def _omega_points(values: NDArray[np.float64], omega: ArrayLike | None, margin: 
     return np.linspace(low - margin * span, high + margin * span, DEFAULT_POINTS)
 
 
-def dos(crystal: Crystal, mesh: Any, *, method: str = "tetrahedron", sigma: float | None = None,
+def dos(crystal: Crystal, mesh: int | Sequence[int], *, method: str = "tetrahedron", sigma: float | None = None,
         omega: ArrayLike | None = None, projected: bool = False, symmetry: bool = True) -> DensityOfStates:
     """Phonon density of states on a Gamma-centred `mesh` (module docstring).
 

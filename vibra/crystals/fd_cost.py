@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Sequence
 
 from vibra.solvers.budget import ResourceLimitError, describe_bytes, describe_seconds, memory_limit
 
@@ -123,7 +123,7 @@ def _largest_cells(n_unit: int, n_ops: int, symmetry: bool, steps: int, limit: f
     return low
 
 
-def check_memory(cost: ForceConstantsCost, *, supercell: Any, n_unit: int, n_ops: int, symmetry: bool,
+def check_memory(cost: ForceConstantsCost, *, supercell: Sequence[int], n_unit: int, n_ops: int, symmetry: bool,
                  steps: int, max_memory: float | None) -> None:
     """Raise `ResourceLimitError` if `cost` needs more memory than `max_memory` (None: the
     solvers' `MEMORY_LIMIT`, else the memory available; ``float("inf")``: no limit), naming the

@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
 from vibra._core.frozen import Frozen, short_repr
-from vibra.cluster import ClientOnDemand, ProgressOption, check_client
+from vibra.cluster import ClientOnDemand, ClientOption, ProgressOption, check_client
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.fd_cost import (FORCE_SECONDS, SYMMETRY_FIXED_SECONDS, SYMMETRY_SECONDS,  # noqa: F401 (their home)
                                     check_memory, force_constants_cost, symmetry_pays)
@@ -52,7 +52,8 @@ from vibra.crystals.force_constants import ForceConstants, SumRuleReport, averag
 from vibra.crystals.phonopy_io import MAX_SUPERCELL_ATOMS  # one limit: phonopy's full force constants, 72 n^2 bytes
 from vibra.crystals.mesh import species_numbers
 from vibra.crystals.reach import SupercellReach, check_range_from_sizes, supercell_reach, warn_range
-from vibra.molecules.displacements import ForceCache, calculator_of, calculator_source, gather_forces
+from vibra.molecules.displacements import (CalculatorOption, ForceCache, calculator_of, calculator_source,
+                                           gather_forces)
 from vibra.molecules.noise import is_deterministic_calculator, rounding_noise, run_noise
 
 if TYPE_CHECKING:
@@ -199,7 +200,7 @@ def _check_supercell(supercell: Any, periodic: tuple[bool, bool, bool], n_atoms:
 
 def finite_difference_force_constants(
     atoms: Atoms,
-    calculator: Any = None,
+    calculator: CalculatorOption | None = None,
     *,
     supercell: Sequence[int],
     delta: float = 0.01,
@@ -207,7 +208,7 @@ def finite_difference_force_constants(
     force_noise: float | str | None = "auto",
     symprec: float = 1e-5,
     symmetry: bool | str = "auto",
-    client: Any = None,
+    client: ClientOption = None,
     cache: str | os.PathLike[str] | None = None,
     calculator_key: str | None = None,
     progress: ProgressOption = None,
@@ -385,8 +386,9 @@ def finite_difference_force_constants(
         reach=reach, primitive_matrix=matrix)
 
 
-def from_ase(atoms: Atoms, calculator: Any = None, *, supercell: Sequence[int] | None = None, delta: float = 0.01,
-             client: Any = None, cache: str | os.PathLike[str] | None = None, calculator_key: str | None = None,
+def from_ase(atoms: Atoms, calculator: CalculatorOption | None = None, *, supercell: Sequence[int] | None = None,
+             delta: float = 0.01, client: ClientOption = None, cache: str | os.PathLike[str] | None = None,
+             calculator_key: str | None = None,
              progress: ProgressOption = None, wrap: bool = False, left_handed: bool = False,
              primitive: bool = False, name: str | None = None, max_memory: float | None = None) -> Crystal:
     """A `Crystal` from an `ase.Atoms`: the structure alone, or with force constants from a calculator.

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from vibra._core import validate as _validate
 from vibra._core.frozen import Frozen, short_repr, span
+from vibra.units import UnitSystem
 
 __all__ = ["CrystalLike", "ForceConstants", "ForceConstantsWarning", "INDEX_SYMMETRY_RTOL", "SpringModel", "SumRuleReport",
            "average_over_space_group", "check_force_constants", "impose_sum_rules", "index_asymmetry"]
@@ -26,14 +27,16 @@ class CrystalLike(Protocol):
     `Crystal` satisfies it. The lower modules (dynamical, bands, dos, mesh, thermal, elastic,
     factor, springs, phonopy_io) annotate with this protocol instead of importing the `Crystal`
     class, whose methods import them: so no module of the package imports one that imports it
-    back, not even for type checking.
+    back, not even for type checking. That is also why `nac`, `assembly` and `nac_parts` are
+    `Any` here: their types (`vibra.crystals.nac.NonAnalytic`, `vibra.crystals.dynamical.Assembly`,
+    `vibra.crystals.nac.Parts`) live in modules that import this one.
     """
 
-    cell: Any
-    positions: Any
-    masses: Any
+    cell: NDArray[np.float64]
+    positions: NDArray[np.float64]
+    masses: NDArray[np.float64]
     symbols: tuple[str, ...]
-    units: Any
+    units: UnitSystem
     periodic: tuple[bool, bool, bool]
     force_constants: ForceConstants | None
     springs: SpringModel | None
@@ -47,10 +50,10 @@ class CrystalLike(Protocol):
     def n_branches(self) -> int: ...
 
     @property
-    def fractional(self) -> Any: ...
+    def fractional(self) -> NDArray[np.float64]: ...
 
     @property
-    def reciprocal(self) -> Any: ...
+    def reciprocal(self) -> NDArray[np.float64]: ...
 
     @property
     def assembly(self) -> Any: ...
@@ -60,7 +63,8 @@ class CrystalLike(Protocol):
 
     def require_force_constants(self) -> ForceConstants: ...
 
-    def with_force_constants(self, force_constants: ForceConstants, springs: SpringModel | None = None) -> Any: ...
+    def with_force_constants(self, force_constants: ForceConstants, springs: SpringModel | None = None
+                             ) -> CrystalLike: ...
 
 
 #: Force constants whose index symmetry is broken by more than this fraction of their largest

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import warnings
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -146,7 +146,17 @@ def real_level_vectors(vectors: NDArray[np.complex128], levels: NDArray[np.int64
 
 
 
-def symmetry_operations(crystal: Crystal, symprec: float) -> dict[str, Any]:
+class SymmetryOperations(TypedDict):
+    """`symmetry_operations`' answer: spglib's operations of a primitive cell."""
+
+    rotations: NDArray[np.int32]           # (n_ops, 3, 3) fractional rotations
+    cartesian: NDArray[np.float64]         # (n_ops, 3, 3) the same in Cartesian form
+    grounds: NDArray[np.float64]           # (n_ops, 3 n_atoms, 3 n_atoms) their action on the Gamma displacements
+    point_group: str                       # its Hermann-Mauguin symbol
+    transformation: NDArray[np.float64]    # (3, 3) spglib's transformation matrix
+
+
+def symmetry_operations(crystal: Crystal, symprec: float) -> SymmetryOperations:
     """spglib's operations of the cell, in fractional and Cartesian form, with their action on the
     Gamma displacements; a cell that is not primitive is refused."""
     import spglib  # at the edge
@@ -173,7 +183,7 @@ def symmetry_operations(crystal: Crystal, symprec: float) -> dict[str, Any]:
             "point_group": str(dataset.pointgroup).strip(), "transformation": np.asarray(dataset.transformation_matrix)}
 
 
-def classify_levels(symmetry: dict[str, Any], vectors: NDArray[np.float64], levels: NDArray[np.int64]
+def classify_levels(symmetry: SymmetryOperations, vectors: NDArray[np.float64], levels: NDArray[np.int64]
               ) -> tuple[tuple[str, ...], NDArray[np.bool_], NDArray[np.bool_], str]:
     """Irrep labels and infrared / Raman activity of each mode from the characters of its level."""
     cartesian = symmetry["cartesian"]
@@ -196,7 +206,7 @@ def classify_levels(symmetry: dict[str, Any], vectors: NDArray[np.float64], leve
     return tuple(labels), ir, raman, symmetry["point_group"]
 
 
-def _ground_matrices(crystal: Crystal, cell: NDArray[np.float64], rotations: NDArray[np.int64],
+def _ground_matrices(crystal: Crystal, cell: NDArray[np.float64], rotations: NDArray[np.int32],
                      translations: NDArray[np.float64], cartesian: NDArray[np.float64], symprec: float
                      ) -> NDArray[np.float64]:
     """(n_ops, 3n, 3n) action of each operation on Gamma displacements: atom i -> j, u -> R u."""
@@ -217,7 +227,7 @@ def _ground_matrices(crystal: Crystal, cell: NDArray[np.float64], rotations: NDA
     return grounds
 
 
-def _character_table(point_group: str, rotations: NDArray[np.int64], transformation: NDArray[np.float64]
+def _character_table(point_group: str, rotations: NDArray[np.int32], transformation: NDArray[np.float64]
                      ) -> dict[str, NDArray[np.float64]] | None:
     """{irrep label: (n_ops,) character of each operation}, from phonopy's table for the point group
     (conventional rotations T r T^-1 matched against its mapping table); None when it has none."""

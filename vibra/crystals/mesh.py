@@ -14,10 +14,10 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra._core.frozen import Frozen, short_repr
 
@@ -70,7 +70,7 @@ def grid_index(address: NDArray[np.int64], size: NDArray[np.int64]) -> NDArray[n
     return (a[..., 0] + size[0] * (a[..., 1] + size[1] * a[..., 2])).astype(np.intp)
 
 
-def check_mesh(mesh: Any, crystal: Crystal) -> NDArray[np.int64]:
+def check_mesh(mesh: ArrayLike, crystal: Crystal) -> NDArray[np.int64]:
     """(3,) mesh sizes: positive integers (1 along a vacuum axis), at most MAX_MESH_POINTS in all."""
     raw = np.asarray(mesh)
     if raw.ndim == 0:
@@ -118,7 +118,7 @@ def point_rotations(crystal: Crystal) -> NDArray[np.int32] | None:
     return None if found is None else np.asarray(found["rotations"], dtype=np.int32)
 
 
-def mesh_points(crystal: Crystal, mesh: Any, *, symmetry: bool = True) -> Mesh:
+def mesh_points(crystal: Crystal, mesh: int | Sequence[int], *, symmetry: bool = True) -> Mesh:
     """The Gamma-centred `mesh` of `crystal`, reduced by symmetry with spglib unless ``symmetry=False``.
 
     The same mesh as spglib's ``get_ir_reciprocal_mesh`` (its ``get_stabilized_reciprocal_mesh``

@@ -44,6 +44,8 @@ from vibra.crystals.phonopy_io import fold_force_constants, to_ase_factors, to_p
 from vibra.units import ASE
 
 if TYPE_CHECKING:
+    from phonopy import Phonopy
+
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["NonAnalytic", "non_analytic", "nac_dynamical_matrices", "check_dielectric",
@@ -217,7 +219,7 @@ def _as_phonopy_crystal(crystal: Crystal) -> Any:
 
 # ---------------------------------------------------------------------- building
 def non_analytic(crystal: Crystal, born: ArrayLike, dielectric: ArrayLike, *, method: str = "gonze",
-                 factor: float | None = None, phonon: Any = None, supercell: ArrayLike | None = None,
+                 factor: float | None = None, phonon: Phonopy | None = None, supercell: ArrayLike | None = None,
                  sum_rule: str = "impose") -> NonAnalytic:
     """The non-analytic correction of a polar crystal (module docstring), as phonopy makes it.
 

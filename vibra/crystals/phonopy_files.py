@@ -426,7 +426,7 @@ def check_force_sets_file(path: str | os.PathLike[str], n_supercell: int | None 
 def read_phonopy(path: str | os.PathLike[str], *, force_constants: str | os.PathLike[str] | None = None,
                  force_sets: str | os.PathLike[str] | None = None, symmetrize: bool | str | None = "auto",
                  primitive: str | None = None, born: str | os.PathLike[str] | None = None, nac: str | None = None,
-                 name: str | None = None) -> Any:
+                 name: str | None = None) -> Crystal:
     """A `Crystal` from a phonopy yaml (and a ``FORCE_CONSTANTS`` or ``FORCE_SETS`` file).
 
     Every file is checked whole first (`check_phonopy_yaml`, `check_force_constants_file`,

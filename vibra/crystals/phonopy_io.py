@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,6 +32,8 @@ from vibra.crystals.force_constants import ForceConstants, impose_sum_rules
 from vibra.crystals.mesh import species_numbers
 
 if TYPE_CHECKING:
+    from phonopy import Phonopy
+
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
 __all__ = ["to_phonopy", "to_ase_factors", "phonopy_terms", "fold_force_constants", "SYMMETRIZE", "check_symmetrize", "symmetrized", "required_supercell", "MAX_SUPERCELL"]
@@ -127,7 +129,7 @@ def _species(crystal: Crystal) -> dict[str, Any]:
     return {"numbers": species_numbers(crystal)}
 
 
-def to_phonopy(crystal: Crystal, *, supercell: Sequence[int] | None = None) -> Any:
+def to_phonopy(crystal: Crystal, *, supercell: Sequence[int] | None = None) -> Phonopy:
     """A `phonopy.Phonopy` holding this crystal's force constants (full, on a diagonal supercell).
 
     Parameters
@@ -197,7 +199,7 @@ def check_symmetrize(symmetrize: bool | str | None) -> str | None:
                      "phonopy.load does) or True / 'projection' (both rules exactly, vibra's impose_sum_rules)")
 
 
-def symmetrized(phonon: Any, fc: NDArray[np.float64], how: str | None) -> NDArray[np.float64]:
+def symmetrized(phonon: Phonopy, fc: NDArray[np.float64], how: str | None) -> NDArray[np.float64]:
     """Supercell force constants `fc` of `phonon` with the sum rules imposed `how` (a new array; `phonon` untouched).
 
     ``"phonopy"``: phonopy's own ``symmetrize_force_constants`` (or its compact form), level 1:
@@ -223,7 +225,17 @@ def symmetrized(phonon: Any, fc: NDArray[np.float64], how: str | None) -> NDArra
     return projected
 
 
-def phonopy_terms(phonon: Any, *, symmetrize: bool | str | None = False) -> dict[str, Any]:
+class PhonopyTerms(TypedDict):
+    """What `phonopy_terms` reads from a `phonopy.Phonopy`, in ASE units (eV, Angstrom, amu)."""
+
+    cell: NDArray[np.float64]             # (3, 3) primitive cell, rows the lattice vectors
+    fractional: NDArray[np.float64]       # (n_atoms, 3) fractional positions, wrapped into [0, 1)
+    masses: NDArray[np.float64]           # (n_atoms,)
+    symbols: tuple[str, ...]
+    force_constants: ForceConstants
+
+
+def phonopy_terms(phonon: Phonopy, *, symmetrize: bool | str | None = False) -> PhonopyTerms:
     """The primitive cell and force-constant terms of a `phonopy.Phonopy`, in ASE units.
 
     With ``symmetrize="phonopy"`` phonopy's own symmetrisation is applied first (as
@@ -262,7 +274,7 @@ def phonopy_terms(phonon: Any, *, symmetrize: bool | str | None = False) -> dict
             "force_constants": terms}
 
 
-def fold_force_constants(phonon: Any, force_constants: ArrayLike) -> ForceConstants:
+def fold_force_constants(phonon: Phonopy, force_constants: ArrayLike) -> ForceConstants:
     """phonopy's supercell force constants as vibra's terms Phi(i 0; j R), in phonopy's units.
 
     `force_constants` are full (n_s, n_s, 3, 3) or compact (n_p, n_s, 3, 3) on ``phonon``'s

@@ -16,12 +16,15 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra.crystals.crystal import Crystal
+
+if TYPE_CHECKING:
+    from phonopy import Phonopy
 
 __all__ = ["EDGE_RTOL", "MAX_SUGGESTED", "SupercellRangeWarning", "SupercellReach", "check_range_from_sizes",
            "supercell_reach", "warn_range"]
@@ -127,7 +130,7 @@ def check_range_from_sizes(unit: Crystal, size: NDArray[np.int64]) -> None:
                          f"it needs at least {needed.tolist()} (more for a calculator that reaches further)")
 
 
-def supercell_reach(phonon: Any, force_constants: NDArray[np.float64], unit: Crystal,
+def supercell_reach(phonon: Phonopy, force_constants: NDArray[np.float64], unit: Crystal,
                     size: NDArray[np.int64]) -> SupercellReach:
     """Measure how far the supercell force constants reach its edge (see `SupercellReach`)."""
     primitive = phonon.primitive

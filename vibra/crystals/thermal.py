@@ -21,7 +21,7 @@ same constants (``phonopy.physical_units.set_physical_units``; the tests do).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -124,7 +124,7 @@ def energy_unit_joule(units: UnitSystem) -> float:
                      "build it with units='SI' or 'ASE'")
 
 
-def thermal_properties(crystal: Crystal, temperatures: ArrayLike, *, mesh: Any, symmetry: bool = True
+def thermal_properties(crystal: Crystal, temperatures: ArrayLike, *, mesh: int | Sequence[int], symmetry: bool = True
                        ) -> ThermalProperties:
     """Free energy, entropy, heat capacity and zero-point energy per unit cell (module docstring).
 

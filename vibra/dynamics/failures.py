@@ -6,7 +6,6 @@ that is not finite in words, the drift warning, and the hint of what usually cau
 from __future__ import annotations
 
 import warnings
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,13 +39,13 @@ class IntegrationError(RuntimeError):
         self.trajectory = trajectory
 
 
-def has_potential(force_function: Any) -> bool:
+def has_potential(force_function: object) -> bool:
     """Whether `Trajectory.potential` includes the forces' energy (otherwise it is NaN, documented)."""
     return force_function is None or isinstance(force_function, BondForces) or callable(
         getattr(force_function, "potential", None))
 
 
-def failure_hint(force_function: Any, kind: int, *, drift: bool = False) -> str:
+def failure_hint(force_function: object, kind: int, *, drift: bool = False) -> str:
     """What usually makes a run of this kind leave the finite numbers (or drift), and the way out."""
     if force_function is not None and not (isinstance(force_function, BondForces)
                                            and not (np.any(force_function.alpha) or np.any(force_function.beta))):

@@ -36,7 +36,7 @@ from vibra.dynamics.schemes import INTEGRATORS, SCHEMES, STABLE_OMEGA_DT, Scheme
 from vibra.dynamics.failures import (IntegrationError, check_drift, failure_hint, finite_state, first_bad,
                                      has_potential)
 from vibra.dynamics.stability import check_stable, gershgorin_omega
-from vibra.dynamics.thermostats import Isokinetic, NoseHoover
+from vibra.dynamics.thermostats import Isokinetic, NoseHoover, Thermostat
 from vibra.dynamics.trajectory import Trajectory
 from vibra.solvers import budget
 from vibra.system import System
@@ -68,7 +68,7 @@ def _force_function(forces: Any, n_dof: int, x0: NDArray[np.float64]) -> Callabl
     return forces
 
 
-def check_thermostat_scale(thermostat: Any, kT: float, n_dof: int, energy: str) -> None:
+def check_thermostat_scale(thermostat: Thermostat, kT: float, n_dof: int, energy: str) -> None:
     """Refuse a thermostat whose k_B T (or Nosé-Hoover masses Q) floating point cannot hold: an
     `ArgumentError` naming ``thermostat.temperature`` or ``thermostat.tau`` (what a scene checks
     before it runs, and `integrate` before it starts)."""

@@ -23,7 +23,7 @@ Derivatives are taken by sympy and evaluated at 30 digits, then rounded to float
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy
@@ -33,6 +33,9 @@ from vibra._core import validate as _validate
 from vibra.generalized import GeneralizedSystem
 from vibra.solvers.structured.pencil import check_mass_matrix
 from vibra.units import UnitSystem
+
+if TYPE_CHECKING:
+    from sympy.physics.mechanics import KanesMethod, LagrangesMethod
 
 __all__ = ["linearize", "EQUILIBRIUM_RTOL"]
 
@@ -45,15 +48,15 @@ _EVALF_DIGITS = 30
 
 
 def linearize(
-    T: Any = None,
-    V: Any = None,
-    q: Sequence[Any] | None = None,
-    qd: Sequence[Any] | None = None,
+    T: sympy.Expr | float | LagrangesMethod | KanesMethod | None = None,
+    V: sympy.Expr | float | None = None,
+    q: Sequence[sympy.Expr] | None = None,
+    qd: Sequence[sympy.Expr] | None = None,
     q0: ArrayLike | Mapping[Any, float] | None = None,
     values: Mapping[Any, float] | None = None,
     *,
-    lagrangian: Any = None,
-    dissipation: Any = None,
+    lagrangian: sympy.Expr | float | None = None,
+    dissipation: sympy.Expr | float | None = None,
     rtol: float = EQUILIBRIUM_RTOL,
     units: str | UnitSystem = "SI",
     name: str = "linearized",

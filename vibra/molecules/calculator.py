@@ -7,7 +7,7 @@ free of ASE.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
 
 from ase import Atoms
 from ase.calculators.calculator import Calculator, all_changes
@@ -38,8 +38,8 @@ class ValenceForceField(Calculator):  # type: ignore[misc]
         super().__init__(**kwargs)
         self.model = model
 
-    def calculate(self, atoms: Atoms | None = None, properties: Any = ("energy",),
-                  system_changes: Any = all_changes) -> None:
+    def calculate(self, atoms: Atoms | None = None, properties: Sequence[str] = ("energy",),
+                  system_changes: Sequence[str] = all_changes) -> None:
         super().calculate(atoms, properties, system_changes)
         positions = self.atoms.get_positions()
         if len(positions) != self.model.n_atoms:

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
+
+if TYPE_CHECKING:
+    from ase import Atoms
 
 __all__ = ["MIN_DISTANCE", "check_atoms", "nonnegative_scalar", "molecule_name", "masses_or_default"]
 
@@ -16,7 +19,7 @@ __all__ = ["MIN_DISTANCE", "check_atoms", "nonnegative_scalar", "molecule_name",
 MIN_DISTANCE = 0.1
 
 
-def check_atoms(atoms: Any, name: str = "atoms") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def check_atoms(atoms: object, name: str = "atoms") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Positions and masses of an ASE Atoms, after checking elements and overlaps."""
     from ase import Atoms as _Atoms
     from ase.data import chemical_symbols
@@ -51,7 +54,7 @@ def check_atoms(atoms: Any, name: str = "atoms") -> tuple[NDArray[np.float64], N
     return positions, masses
 
 
-def nonnegative_scalar(value: Any, name: str, unit: str) -> float:
+def nonnegative_scalar(value: object, name: str, unit: str) -> float:
     """A finite real number >= 0 (a tolerance), in `unit` (named in the message)."""
     number = _validate.real_scalar(value, name)
     if number < 0:
@@ -59,7 +62,7 @@ def nonnegative_scalar(value: Any, name: str, unit: str) -> float:
     return number
 
 
-def molecule_name(atoms: Any, name: str | None) -> str:
+def molecule_name(atoms: Atoms, name: str | None) -> str:
     if name is not None:
         return _validate.text(name, "name")
     return str(atoms.get_chemical_formula(mode="hill"))

@@ -56,20 +56,26 @@ import pickle
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Sequence, Union
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core.filesystem import atomic_write_bytes
-from vibra.cluster import ClientOnDemand, ProgressOption, progress_callback, run_tasks
+from vibra.cluster import ClientOnDemand, ClientOption, ProgressOption, progress_callback, run_tasks
 
 if TYPE_CHECKING:
     from ase import Atoms
+    from ase.calculators.calculator import BaseCalculator
 
 __all__ = ["Displacement", "displacement_plan", "displaced_positions", "displaced_forces", "force_problem",
-           "CalculatorSource", "ForceCache", "CacheWarning", "PROPERTY_ROWS", "property_rows", "GatheredForces",
-           "gather_forces", "calculator_of", "calculator_source"]
+           "CalculatorSource", "CalculatorOption", "ForceCache", "CacheWarning", "PROPERTY_ROWS", "property_rows",
+           "GatheredForces", "gather_forces", "calculator_of", "calculator_source"]
+
+#: What ``calculator=`` accepts (module docstring, "Calculators"): an ASE calculator instance
+#: (`is_calculator`: anything with ``get_forces`` or ``get_property``), or a factory of one (a
+#: class, or a callable with no arguments returning a new calculator).
+CalculatorOption = Union["BaseCalculator", Callable[[], "BaseCalculator"]]
 
 _AXES = "xyz"
 
@@ -169,7 +175,7 @@ class CalculatorSource:
         The calculator's settings for the cache key (overrides the pickled bytes).
     """
 
-    def __init__(self, calculator: Any, key: str | None = None) -> None:
+    def __init__(self, calculator: CalculatorOption, key: str | None = None) -> None:
         self.key = key
         self.factory: Any = calculator if is_factory(calculator) else None
         self.instance: Any = None if self.factory is not None else calculator
@@ -191,7 +197,7 @@ class CalculatorSource:
                 raise TypeError(f"calculator cannot be pickled ({self.pickle_error})") from None
         return self.blob
 
-    def make(self) -> Any:
+    def make(self) -> BaseCalculator:
         """The calculator for one force call: the factory's new one, the instance, or a fresh copy of it."""
         if self.factory is not None:
             made = self.factory()
@@ -232,7 +238,7 @@ class CalculatorSource:
             raise TypeError(f"{reason}; the cache needs calculator_key= naming its settings"
                             + (" (or pass a factory)" if self.factory is None else "")) from None
 
-    def __getstate__(self) -> dict[str, Any]:
+    def __getstate__(self) -> dict[str, object]:
         """What a worker gets: the factory, or the instance as a template it copies for each call."""
         self.require_picklable()
         state = dict(self.__dict__)
@@ -251,17 +257,17 @@ def _dumps(value: Any) -> bytes:
     return bytes(cloudpickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))
 
 
-def is_calculator(value: Any) -> bool:
+def is_calculator(value: object) -> bool:
     """Whether `value` is an ASE calculator instance (has get_forces or get_property)."""
     return not isinstance(value, type) and (hasattr(value, "get_forces") or hasattr(value, "get_property"))
 
 
-def is_factory(value: Any) -> bool:
+def is_factory(value: object) -> bool:
     """Whether `value` is a calculator factory: a class, or a callable that is not a calculator."""
     return isinstance(value, type) or (callable(value) and not is_calculator(value))
 
 
-def calculator_of(atoms: Atoms, calculator: Any) -> Any:
+def calculator_of(atoms: Atoms, calculator: CalculatorOption | None) -> CalculatorOption:
     """`calculator`, or ``atoms.calc`` when it is None: an ASE calculator or a factory of one (TypeError else)."""
     calc = calculator if calculator is not None else atoms.calc
     if calc is None:
@@ -271,7 +277,7 @@ def calculator_of(atoms: Atoms, calculator: Any) -> Any:
     return calc
 
 
-def calculator_source(calc: Any, calculator_key: str | None, client: Any) -> CalculatorSource:
+def calculator_source(calc: CalculatorOption, calculator_key: str | None, client: ClientOption) -> CalculatorSource:
     """The `CalculatorSource` of a finite-difference run: `calculator_key` checked, and a calculator
     that a `client` would have to pickle checked for that."""
     if calculator_key is not None and not isinstance(calculator_key, str):

@@ -6,18 +6,18 @@ from __future__ import annotations
 import contextlib
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
+from typing import TYPE_CHECKING, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
 from vibra._core.frozen import Frozen
-from vibra.cluster import ClientOnDemand, ProgressOption, check_client
+from vibra.cluster import ClientOnDemand, ClientOption, ProgressOption, check_client
 from vibra.modes import Modes
 from vibra.molecules.displacement_symmetry import Reduction, reduction
-from vibra.molecules.displacements import (Displacement, ForceCache, GatheredForces, calculator_of, calculator_source,
-                                           displaced_positions, displacement_plan, gather_forces)
+from vibra.molecules.displacements import (CalculatorOption, Displacement, ForceCache, GatheredForces, calculator_of,
+                                           calculator_source, displaced_positions, displacement_plan, gather_forces)
 from vibra.molecules.noise import ForceNoise, rounding_noise, run_noise
 from vibra.molecules.property_derivatives import (PropertyDerivatives, central_difference, check_properties,
                                                   property_derivatives)
@@ -166,14 +166,14 @@ def _weighted(error: NDArray[np.float64], masses: NDArray[np.float64], modes: Mo
 
 def finite_difference_hessian(
     atoms: Atoms,
-    calculator: Any = None,
+    calculator: CalculatorOption | None = None,
     *,
     step: float = 0.01,
     stencil: Literal[2, 4] = 2,
     estimate_error: bool = True,
     force_noise: float | Literal["auto"] | None = "auto",
     force_tolerance: float | None = None,
-    client: Any = None,
+    client: ClientOption = None,
     cache: str | os.PathLike[str] | None = None,
     calculator_key: str | None = None,
     progress: ProgressOption = None,
@@ -399,14 +399,14 @@ def _assemble(gathered: GatheredForces, plan: tuple[Displacement, ...], multiple
 
 def from_calculator(
     atoms: Atoms,
-    calculator: Any = None,
+    calculator: CalculatorOption | None = None,
     *,
     step: float = 0.01,
     stencil: Literal[2, 4] = 2,
     force_tolerance: float | None = 1e-3,
     masses: ArrayLike | None = None,
     name: str | None = None,
-    client: Any = None,
+    client: ClientOption = None,
     cache: str | os.PathLike[str] | None = None,
     calculator_key: str | None = None,
     progress: ProgressOption = None,

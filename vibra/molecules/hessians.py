@@ -18,6 +18,8 @@ from vibra.system import System
 
 if TYPE_CHECKING:
     from ase import Atoms
+    from ase.vibrations import VibrationsData
+    from phonopy import Phonopy
 
 __all__ = ["from_atoms", "from_hessian", "from_vibrations_data", "from_phonopy"]
 
@@ -177,7 +179,7 @@ def from_hessian(
     return system.with_symbols(atoms.get_chemical_symbols())
 
 
-def from_vibrations_data(data: Any, *, name: str | None = None) -> System:
+def from_vibrations_data(data: VibrationsData, *, name: str | None = None) -> System:
     """A molecule from ASE's `VibrationsData` (its Hessian, atoms and masses).
 
     Atoms left out of the data's ``indices`` are frozen.
@@ -207,7 +209,7 @@ def from_vibrations_data(data: Any, *, name: str | None = None) -> System:
     return system.with_symbols(atoms.get_chemical_symbols())
 
 
-def from_phonopy(phonon: Any, *, name: str = "molecule") -> System:
+def from_phonopy(phonon: Phonopy, *, name: str = "molecule") -> System:
     """A molecule from phonopy force constants (the molecule in a box as a 1x1x1 supercell).
 
     The Hessian is fc[i, j, a, b] -> K[3i + a, 3j + b] in eV / Angstrom^2 (phonopy's default

@@ -41,14 +41,14 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
 from vibra.cluster import ClientOnDemand, run_tasks
-from vibra.molecules.displacements import CalculatorSource, force_problem, is_factory
+from vibra.molecules.displacements import CalculatorOption, CalculatorSource, force_problem, is_factory
 
 if TYPE_CHECKING:
     from ase import Atoms
@@ -122,7 +122,7 @@ def rounding_noise(largest_force: float) -> float:
     return float(ROUNDING_ULPS * np.finfo(float).eps * largest_force)
 
 
-def is_deterministic_calculator(calculator: Any) -> bool:
+def is_deterministic_calculator(calculator: object) -> bool:
     """Whether `calculator` (an instance, a class or a ``functools.partial`` of a class) is listed
     in `DETERMINISTIC_CALCULATORS` (exact class, not a subclass)."""
     target = calculator
@@ -168,7 +168,7 @@ def _calculator(atoms: Atoms, calculator: Any) -> Any:
     return calc
 
 
-def measure_force_noise(atoms: Atoms, calculator: Any = None, *, repeats: int = NOISE_REPEATS,
+def measure_force_noise(atoms: Atoms, calculator: CalculatorOption | None = None, *, repeats: int = NOISE_REPEATS,
                         jitter: float = 0.01, seed: int = 0) -> float:
     """Noise of one force component of `calculator` at `atoms`, eV / Angstrom (1 + 2 repeats calls).
 
@@ -239,7 +239,8 @@ def force_noise_task(atoms: Atoms, source: CalculatorSource, reference_forces: N
     return ForceNoise(float(np.ptp(np.stack(samples), axis=0).max()), "measured", 2 * repeats)
 
 
-def probe_force_noise(atoms: Atoms, calculator: Any = None, *, reference_forces: Any = None,
+def probe_force_noise(atoms: Atoms, calculator: CalculatorOption | None = None, *,
+                      reference_forces: ArrayLike | None = None,
                       floor: float | None = None, repeats: int = NOISE_REPEATS, jitter: float = 0.01,
                       seed: int = 0) -> ForceNoise:
     """Whether `calculator` is noisy at `atoms`, and how much: 0, 2 (+ 1) or 2 repeats (+ 1) force calls.
@@ -310,7 +311,7 @@ def probe_force_noise(atoms: Atoms, calculator: Any = None, *, reference_forces:
     return ForceNoise(found.value, found.source, found.n_force_calls + extra)
 
 
-def run_noise(force_noise: float | str | None, template: Atoms, source: CalculatorSource, calc: Any,
+def run_noise(force_noise: float | str | None, template: Atoms, source: CalculatorSource, calc: CalculatorOption,
               reference: NDArray[np.float64], floor: float, cluster: ClientOnDemand) -> ForceNoise:
     """The `ForceNoise` of a finite-difference run from its checked ``force_noise``: None (rounding
     only), ``"auto"`` (`probe_where_run`) or a number (given)."""
@@ -321,7 +322,7 @@ def run_noise(force_noise: float | str | None, template: Atoms, source: Calculat
     return ForceNoise(float(force_noise), "given", 0)
 
 
-def probe_where_run(template: Atoms, source: CalculatorSource, calc: Any, reference: NDArray[np.float64],
+def probe_where_run(template: Atoms, source: CalculatorSource, calc: CalculatorOption, reference: NDArray[np.float64],
                     floor: float, cluster: ClientOnDemand) -> ForceNoise:
     """force_noise="auto" of a finite-difference run (molecules' and crystals'): the probe
     (`force_noise_task`) where the run's force calls ran, at its reference geometry `template`
@@ -339,5 +340,4 @@ def probe_where_run(template: Atoms, source: CalculatorSource, calc: Any, refere
                                   labels=["the force-noise probe"], name="vibra-noise")
     if failures:
         raise RuntimeError(f"calculator failed while measuring its force noise: {failures[0].describe()}{advice}")
-    found: ForceNoise = results[0]
-    return found
+    return cast(ForceNoise, results[0])  # no failure: the one task returned

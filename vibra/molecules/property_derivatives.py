@@ -67,7 +67,7 @@ class PropertyDerivatives(Frozen):
     error_method: str
 
 
-def check_properties(properties: Any, noise: Any) -> tuple[tuple[str, ...], dict[str, float]]:
+def check_properties(properties: object, noise: object) -> tuple[tuple[str, ...], dict[str, float]]:
     """The property names (validated, in order) and their given noise (validated) for a run."""
     if isinstance(properties, str) or not isinstance(properties, (list, tuple)):
         raise TypeError(f"properties must be a list or tuple of names among {sorted(PROPERTY_ROWS)}, "

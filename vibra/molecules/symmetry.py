@@ -45,7 +45,7 @@ frames that the labels depend on.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,6 +55,11 @@ from vibra._core import validate as _validate
 from vibra._core.frozen import Frozen
 from vibra.molecules.character_tables import LINEAR_ORDER, CharacterTable, character_table, symmetry_number
 from vibra.system import Vibrating
+
+if TYPE_CHECKING:
+    from ase import Atoms
+
+    from vibra.system import System
 
 __all__ = ["PointGroup", "point_group", "mode_species", "SYMMETRY_TOLERANCE", "symmetry_number"]
 
@@ -423,7 +428,7 @@ def _closure(generators: list[NDArray[np.float64]]) -> NDArray[np.float64]:
     return np.array(operations)
 
 
-def point_group(atoms_or_system: Any, tolerance: float = SYMMETRY_TOLERANCE) -> PointGroup:
+def point_group(atoms_or_system: Atoms | System, tolerance: float = SYMMETRY_TOLERANCE) -> PointGroup:
     """The point group of a molecule, from its geometry and the kinds of its atoms.
 
     An operation is a symmetry when it moves every atom to within `tolerance` of an atom of the

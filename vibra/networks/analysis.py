@@ -29,7 +29,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,6 +38,9 @@ from vibra._core import validate as _validate
 from vibra._core.frozen import Frozen
 from vibra._core.filesystem import atomic_write_text, check_target
 from vibra.modes import Modes
+
+if TYPE_CHECKING:
+    from vibra.networks.pdb import Structure
 
 __all__ = ["cross_correlations", "fit_bfactors", "BFactorFit", "BFACTOR_METHODS", "collectivity", "hinges", "perturbation_response",
            "PerturbationResponse", "write_nmd", "superpose", "deformation_overlap", "DeformationOverlap"]
@@ -266,7 +269,7 @@ def perturbation_response(modes: Modes, *, dim: int = 3) -> PerturbationResponse
     return PerturbationResponse(matrix, effectiveness, sensitivity)
 
 
-def write_nmd(path: str | os.PathLike[str], modes: Modes, structure: Any, *, title: str | None = None) -> Path:
+def write_nmd(path: str | os.PathLike[str], modes: Modes, structure: Structure, *, title: str | None = None) -> Path:
     """Write the nonzero `modes` of an ANM for VMD's NMWiz (``.nmd``, ProDy's ``writeNMD`` layout):
     names, residue names and numbers, chains, B-factors and coordinates from `structure` (a
     `vibra.networks.Structure` from `from_pdb`), then one line per mode: its index (from 1),

@@ -22,7 +22,6 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -125,7 +124,7 @@ def pdb_assemblies(text: str, file: str) -> dict[str, list[Transform]]:
     return {key: value for key, value in assemblies.items() if value}
 
 
-def _column(table: Mapping[str, Any], key: str) -> list[str]:
+def _column(table: Mapping[str, str | list[str]], key: str) -> list[str]:
     value = table.get(key)
     return [] if value is None else (value if isinstance(value, list) else [value])
 
@@ -169,7 +168,7 @@ def operator_ids(expression: str, file: str = "", known: Sequence[str] | None = 
     return products
 
 
-def mmcif_assemblies(table: Mapping[str, Any], file: str) -> dict[str, list[Transform]]:
+def mmcif_assemblies(table: Mapping[str, str | list[str]], file: str) -> dict[str, list[Transform]]:
     """The assemblies of an mmCIF dictionary (Biopython's ``MMCIF2Dict``): id -> transforms, in the
     order of the ``_pdbx_struct_assembly_gen`` rows and of each row's operator expression.
 
@@ -209,7 +208,7 @@ def mmcif_assemblies(table: Mapping[str, Any], file: str) -> dict[str, list[Tran
     return assemblies
 
 
-def mmcif_residue_chains(table: Mapping[str, Any]) -> dict[str, str]:
+def mmcif_residue_chains(table: Mapping[str, str | list[str]]) -> dict[str, str]:
     """Residue label (``"chain:RESNAMEnumber[icode]"``, the chain and number as Biopython reads them:
     auth_asym_id and auth_seq_id where given) -> label_asym_id, the chain an mmCIF assembly names."""
     site = "_atom_site."

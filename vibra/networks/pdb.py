@@ -63,7 +63,7 @@ _MMCIF_NUMBERS = ("Cartn_x", "Cartn_y", "Cartn_z", "B_iso_or_equiv", "occupancy"
 _MMCIF_INTEGERS = (("auth_seq_id", "label_seq_id"), ("pdbx_PDB_model_num",))
 
 
-def check_mmcif(file: Path) -> dict[str, Any]:
+def check_mmcif(file: Path) -> dict[str, str | list[str]]:
     """The mmCIF dictionary of `file` (Biopython's ``MMCIF2Dict``) after checking its atom records
     whole: a ``data_`` block, an ``_atom_site`` loop with every column `MMCIF_COLUMNS` names, as
     many values in each column (a cut file or a row that misses a field breaks this), and numbers

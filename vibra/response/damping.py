@@ -8,14 +8,12 @@ do not diagonalise.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra.response.matrices import as_operator
+from vibra.response.matrices import Matrix, as_operator
 
 
 def friction_damping(M: ArrayLike, eta: float) -> NDArray[np.float64] | sp.csr_matrix:
@@ -168,7 +166,7 @@ def rayleigh_coefficients(omega_1: float, omega_2: float, zeta_1: float, zeta_2:
 MODAL_DIAGONAL_RTOL = 1e-8
 
 
-def modal_projection(shapes: NDArray[np.float64], C: Any) -> NDArray[np.float64]:
+def modal_projection(shapes: NDArray[np.float64], C: Matrix | None) -> NDArray[np.float64]:
     """(n_modes, n_modes) Phi^T C Phi of a damping matrix C (dense, sparse) on the mode shapes Phi."""
     return np.asarray(shapes.T @ (as_operator(C, shapes.shape[0]) @ shapes), dtype=float)
 
@@ -180,8 +178,9 @@ def is_modal(projected: NDArray[np.float64]) -> bool:
     return not (off.size and float(np.max(np.abs(off))) > MODAL_DIAGONAL_RTOL * size)
 
 
-def modal_damping(shapes: NDArray[np.float64], omega: NDArray[np.float64], C: Any, damping_ratios: Any,
-                   remedy: str, projected: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+def modal_damping(shapes: NDArray[np.float64], omega: NDArray[np.float64], C: Matrix | None,
+                  damping_ratios: ArrayLike | None, remedy: str, projected: NDArray[np.float64] | None = None
+                  ) -> NDArray[np.float64]:
     """(n_modes,) modal damping c_k (q'' + c_k q' + omega_k^2 q = phi_k^T f), in 1 / time unit.
 
     2 zeta_k |omega_k| from `damping_ratios`, else diag(Phi^T C Phi) when C is diagonal in

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from scipy.linalg import lapack
 
 from vibra.response.matrices import (
-    as_operator, dense_matrix, diagonal_band, half_bandwidth, singular_frequency_error,
+    Matrix, as_operator, dense_matrix, diagonal_band, half_bandwidth, singular_frequency_error,
 )
 
 
@@ -41,7 +41,7 @@ def _singular(pivots: NDArray[Any], scale: float, n_dof: int) -> bool:
     return bool(np.min(np.abs(pivots)) <= 8.0 * n_dof * EPS * scale)
 
 
-def direct_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[np.float64],
+def direct_response(K: Matrix, mass: NDArray[np.float64], C: Matrix | None, omegas: NDArray[np.float64],
             force: NDArray[np.float64], *, gyroscopic: bool = False) -> tuple[NDArray[np.complex128], str]:
     """(n_freq, n_dof) response by one LU per frequency, and the solver that ran.
 
@@ -146,7 +146,7 @@ def _band_storage(matrix: Any, n_dof: int, width: int) -> NDArray[np.float64]:
     return band
 
 
-def state_space_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[np.float64],
+def state_space_response(K: Matrix, mass: NDArray[np.float64], C: Matrix | None, omegas: NDArray[np.float64],
                  force: NDArray[np.float64], *, gyroscopic: bool = False,
                  ) -> tuple[NDArray[np.complex128], NDArray[np.float64]]:
     """(n_freq, n_dof) response from the complex modes of the first-order form, and |Im s|.

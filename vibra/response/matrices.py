@@ -12,16 +12,18 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
 from vibra.solvers.structured.quadratic import SKEW_RTOL, check_gyroscopic
 from vibra.solvers.budget import Estimate
-from vibra.solvers.common import bandwidth
+from vibra.solvers.common import Matrix, MatrixLike, bandwidth
 
 
-def check_structure(K: Any, M: Any, C: Any, force: Any, *, complex_force: bool = False
-                    ) -> tuple[Any, NDArray[np.float64], Any, NDArray[Any]]:
+def check_structure(K: MatrixLike, M: MatrixLike, C: MatrixLike | None, force: ArrayLike, *,
+                    complex_force: bool = False
+                    ) -> tuple[Matrix, NDArray[np.float64], Matrix | None,
+                               NDArray[np.float64] | NDArray[np.complex128]]:
     """Validate (K, M, C, f) in argument order; return K, the mass argument, C or None, f.
 
     C must be symmetric positive semi-definite (an indefinite C has a mode with negative
@@ -48,7 +50,7 @@ def check_structure(K: Any, M: Any, C: Any, force: Any, *, complex_force: bool =
     return stiffness, mass, damping, loads
 
 
-def check_skew(G: Any, n_dof: int, name: str = "G") -> Any:
+def check_skew(G: MatrixLike | None, n_dof: int, name: str = "G") -> Matrix | None:
     """G as a skew-symmetric (n_dof, n_dof) matrix (dense or CSR), or None when G is None or zero.
 
     Skew within `vibra.solvers.structured.quadratic.SKEW_RTOL` * max|G|, as `System.generalized` checks it (a
@@ -90,7 +92,7 @@ def check_skew(G: Any, n_dof: int, name: str = "G") -> Any:
     return sparse_matrix
 
 
-def velocity_matrix(C: Any, G: Any) -> Any:
+def velocity_matrix(C: Matrix | None, G: Matrix | None) -> Matrix | None:
     """C + G, the matrix of the velocity term M u'' + (C + G) u' + K u (None when both are None).
 
     Sparse when either is sparse, dense otherwise.
@@ -104,7 +106,7 @@ def velocity_matrix(C: Any, G: Any) -> Any:
     return np.asarray(C, dtype=float) + np.asarray(G, dtype=float)
 
 
-def half_bandwidth(matrix: Any) -> int:
+def half_bandwidth(matrix: Matrix | None) -> int:
     """max |i - j| over the nonzeros of a dense/sparse matrix; 0 for a mass vector or None."""
     if matrix is None:
         return 0
@@ -119,7 +121,7 @@ def half_bandwidth(matrix: Any) -> int:
     return bandwidth(matrix)  # in row blocks: no n^2 index arrays
 
 
-def diagonal_band(matrix: Any, n_dof: int, offset: int) -> NDArray[np.float64]:
+def diagonal_band(matrix: Matrix | None, n_dof: int, offset: int) -> NDArray[np.float64]:
     """Diagonal `offset` (>= 0 above, < 0 below) of a dense/sparse matrix or mass vector."""
     length = n_dof - abs(offset)
     if matrix is None:
@@ -129,7 +131,7 @@ def diagonal_band(matrix: Any, n_dof: int, offset: int) -> NDArray[np.float64]:
     return np.asarray(matrix.diagonal(offset), dtype=float)
 
 
-def as_operator(matrix: Any, n_dof: int) -> Any:
+def as_operator(matrix: Matrix | None, n_dof: int) -> Matrix:
     """A matrix usable in products: sparse diagonal for a mass vector, zero for None."""
     if matrix is None:
         return sp.csr_matrix((n_dof, n_dof))
@@ -138,7 +140,7 @@ def as_operator(matrix: Any, n_dof: int) -> Any:
     return matrix
 
 
-def dense_matrix(matrix: Any, n_dof: int) -> NDArray[np.float64]:
+def dense_matrix(matrix: Matrix | None, n_dof: int) -> NDArray[np.float64]:
     """(n_dof, n_dof) dense copy of a dense/sparse matrix, a mass vector or None (zeros)."""
     if matrix is None:
         return np.zeros((n_dof, n_dof))
@@ -149,7 +151,8 @@ def dense_matrix(matrix: Any, n_dof: int) -> NDArray[np.float64]:
     return np.asarray(matrix, dtype=float)
 
 
-def mass_times(mass: NDArray[np.float64], x: NDArray[Any]) -> NDArray[Any]:
+def mass_times(mass: NDArray[np.float64], x: NDArray[np.float64] | NDArray[np.complex128]
+               ) -> NDArray[np.float64] | NDArray[np.complex128]:
     """M x for diagonal masses (a vector) or a dense M; x (n_dof,) or (n_dof, k)."""
     if mass.ndim == 1:
         return mass[:, None] * x if x.ndim == 2 else mass * x

@@ -12,11 +12,11 @@ import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra.modes import Modes, normal_modes
 from vibra.response.damping import modal_damping
-from vibra.response.matrices import as_operator, dense_matrix, mass_times, singular_frequency_error
+from vibra.response.matrices import Matrix, as_operator, dense_matrix, mass_times, singular_frequency_error
 
 
 def _m_norm_rows(mass: NDArray[np.float64], rows: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -57,8 +57,8 @@ def _static_flexible(K: Any, mass: NDArray[np.float64], rigid: NDArray[np.float6
     return solution[:n_dof]
 
 
-def modal_response(K: Any, mass: NDArray[np.float64], C: Any, omegas: NDArray[np.float64],
-           force: NDArray[np.float64], n_modes: int | None, damping_ratios: Any,
+def modal_response(K: Matrix, mass: NDArray[np.float64], C: Matrix | None, omegas: NDArray[np.float64],
+           force: NDArray[np.float64], n_modes: int | None, damping_ratios: ArrayLike | None,
            residual_correction: bool, modes: Modes | None,
            ) -> tuple[NDArray[np.complex128], NDArray[np.float64], int, NDArray[np.float64]]:
     """Modal superposition: (response, truncation error, modes used, their omega)."""

@@ -80,7 +80,8 @@ def _homogeneous_basis(
     return np.where(under, c_under, c_over), np.where(under, s_under, s_over)
 
 
-def receptance_denominator(w0: Any, gamma: Any, omega: Any) -> NDArray[np.complex128]:
+def receptance_denominator(w0: float | NDArray[np.float64], gamma: float | NDArray[np.float64],
+                           omega: float | NDArray[np.float64]) -> NDArray[np.complex128]:
     """w0^2 - w^2 + i gamma w, with w0^2 - w^2 written as (w0 - w)(w0 + w)."""
     return (w0 - omega) * (w0 + omega) + 1j * (gamma * omega)
 
@@ -417,7 +418,9 @@ class Oscillator:
 
 
 def oscillator_state(
-    t: NDArray[np.float64], w0: Any, gamma: Any, u0: Any, v0: Any, amplitude: Any, omega: float,
+    t: NDArray[np.float64], w0: float | NDArray[np.float64], gamma: float | NDArray[np.float64],
+    u0: float | NDArray[np.float64], v0: float | NDArray[np.float64], amplitude: complex | NDArray[np.complex128],
+    omega: float,
     *, derivative: bool,
 ) -> NDArray[np.float64]:
     """u(t) (or u'(t) with `derivative`) of the oscillator whose steady state is Re{amplitude e^{iwt}}.

@@ -34,7 +34,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
-from vibra.response.matrices import as_operator, dense_matrix
+from vibra.response.matrices import Matrix, as_operator, dense_matrix
 
 #: Largest state size 2 n_dof (+ the force states) for which the dense exponential runs;
 #: larger systems with diagonal masses go to the sparse one (expm_multiply).
@@ -44,7 +44,7 @@ DENSE_STATE_MAX = 400
 DENSE_MASS_MAX = 2000
 
 
-def state_space_motion(K: Any, mass: NDArray[np.float64], D: Any, times: NDArray[np.float64],
+def state_space_motion(K: Matrix, mass: NDArray[np.float64], D: Matrix | None, times: NDArray[np.float64],
                        force: NDArray[np.float64], omega: float, u0: NDArray[np.float64],
                        v0: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], str]:
     """u(t), u'(t) of M u'' + D u' + K u = f cos(omega t) (D = C + G or None), and the path.

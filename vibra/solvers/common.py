@@ -8,13 +8,13 @@ backward-stable (absolute-accuracy) path.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Union
 
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg  # noqa: F401  (sp.linalg.norm)
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from vibra._core import validate as _validate
@@ -22,6 +22,12 @@ from vibra.solvers.accuracy import LEVELS
 
 #: Machine epsilon of float64.
 EPS = float(np.finfo(float).eps)
+
+#: A matrix as a caller gives it: anything numpy reads as an array, or a scipy.sparse matrix.
+MatrixLike = Union[ArrayLike, sp.spmatrix]
+#: A matrix once checked (`vibra._core.validate.square_matrix`): dense float64 or CSR (for the
+#: response helpers also a mass vector, the diagonal of M).
+Matrix = Union[NDArray[np.float64], sp.csr_matrix]
 
 #: Largest n for which "auto" uses dense LAPACK when a sparse path could serve.
 DENSE_LIMIT = 1500
@@ -116,7 +122,7 @@ class SolveResult:
     shapes: NDArray[np.float64] | None = None  # physical shapes where the path formed them itself
 
 
-def check_spring_factor(factor: Any, n_dof: int) -> tuple[sp.csr_matrix, NDArray[np.float64]]:
+def check_spring_factor(factor: object, n_dof: int) -> tuple[sp.csr_matrix, NDArray[np.float64]]:
     """Validate a spring factor (B, w): B (n_terms, n_dof), w (n_terms,) > 0."""
     if not isinstance(factor, tuple) or len(factor) != 2:
         raise TypeError("spring_factor must be a tuple (B, w)")
@@ -141,7 +147,7 @@ def check_spring_factor(factor: Any, n_dof: int) -> tuple[sp.csr_matrix, NDArray
 FACTOR_RTOL = 1e-8
 
 
-def check_factor_matches(K: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64]], *, samples: int = 3) -> None:
+def check_factor_matches(K: Matrix, factor: tuple[sp.csr_matrix, NDArray[np.float64]], *, samples: int = 3) -> None:
     """Raise if B^T diag(w) B is not K, tested on a few random vectors (O(nnz) each).
 
     The accurate path solves the spring factor's problem, not K's: a factor from another
@@ -171,7 +177,7 @@ def check_factor_matches(K: Any, factor: tuple[sp.csr_matrix, NDArray[np.float64
             )
 
 
-def largest_entry(K: Any) -> float:
+def largest_entry(K: Matrix) -> float:
     """max |K_ij| without an n x n temporary."""
     if sp.issparse(K):
         return float(abs(K.data).max()) if K.nnz else 0.0
@@ -229,7 +235,7 @@ def _norm_estimate(Kt: NDArray[np.float64] | sp.csr_matrix, eigenvalues: NDArray
     return scale if scale > 0 else 1.0
 
 
-def norm_upper(Kt: Any) -> float:
+def norm_upper(Kt: Matrix) -> float:
     """An upper bound of ||K~||_2: the largest absolute row sum (K~ symmetric), O(nnz), no n x n temporary."""
     if sp.issparse(Kt):
         matrix = sp.csr_matrix(Kt)
@@ -240,7 +246,7 @@ def norm_upper(Kt: Any) -> float:
                default=0.0)
 
 
-def absolute_figures(Kt: Any, eigenvalues: NDArray[np.float64], vectors: NDArray[np.float64] | None,
+def absolute_figures(Kt: Matrix, eigenvalues: NDArray[np.float64], vectors: NDArray[np.float64] | None,
              solver: str, floor: float, norm: float | None = None) -> SolveResult:
     """Residual, orthogonality and error estimates of a standard (absolute-accuracy) path.
 
@@ -287,14 +293,14 @@ def selected(omega: NDArray[np.float64], *, n_modes: int | None, band: tuple[flo
     return select
 
 
-def tridiagonal_bands(Kt: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def tridiagonal_bands(Kt: Matrix) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(diagonal, superdiagonal) of a tridiagonal K~, dense or sparse."""
     if sp.issparse(Kt):
         return np.asarray(Kt.diagonal()), np.asarray(Kt.diagonal(1))
     return np.diag(Kt).copy(), np.diag(Kt, 1).copy()
 
 
-def bandwidth(Kt: Any) -> int:
+def bandwidth(Kt: Matrix) -> int:
     """Half-bandwidth max |i - j| over the stored nonzeros of K~ (0 for a diagonal)."""
     if sp.issparse(Kt):
         matrix = sp.csr_matrix(Kt)
@@ -319,7 +325,7 @@ def bandwidth(Kt: Any) -> int:
     return width
 
 
-def ring_ordering(K: Any) -> tuple[NDArray[np.intp], int] | None:
+def ring_ordering(K: Matrix) -> tuple[NDArray[np.intp], int] | None:
     """A bandwidth-reducing ordering of a periodic-banded sparse K and the width it gives.
 
     A ring (a periodic chain, any masses and springs) is tridiagonal plus two corner entries;

@@ -4,7 +4,7 @@ are vibrations (rigid-body and imaginary modes left out), bond lists and thresho
 from __future__ import annotations
 
 import warnings
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,7 +25,8 @@ __all__ = ["ZERO_RTOL", "system_and_modes", "cartesian_shapes", "vibrational_mas
 ZERO_RTOL = 1e-4
 
 
-def system_and_modes(system: Any, modes: Any) -> tuple[System, Modes, NDArray[np.bool_] | None]:
+def system_and_modes(system: System, modes: Modes | VibrationalAnalysis | None
+                     ) -> tuple[System, Modes, NDArray[np.bool_] | None]:
     """The system, its modes, and the rigid-body flags of a `VibrationalAnalysis` (or None)."""
     if not isinstance(system, Vibrating):
         raise TypeError(f"system must be a vibra.System, got {type(system).__name__}")
@@ -120,7 +121,7 @@ def bond_pairs(bonds: ArrayLike, n_sites: int) -> NDArray[np.intp]:
 
 
 
-def nonnegative_float(value: Any, name: str) -> float:
+def nonnegative_float(value: object, name: str) -> float:
     number = _validate.real_scalar(value, name)
     if not number >= 0:
         raise ValueError(f"{name} is {value!r}; it must be >= 0 and finite")

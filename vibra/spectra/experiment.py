@@ -12,13 +12,17 @@ degenerate set, as an observed band holds all of them.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core.frozen import Frozen
 from vibra.spectra.scale_factors import FUNDAMENTAL_TO_ZPE, fundamental_scale_factor
+
+if TYPE_CHECKING:
+    from vibra.molecules.experimental import ExperimentalFundamentals
+    from vibra.spectra.ir import IRSpectrum
 
 __all__ = ["ExperimentComparison", "compare_with_experiment"]
 
@@ -105,7 +109,7 @@ class ExperimentComparison(Frozen):
         return "\n".join(lines)
 
 
-def compare_with_experiment(ir: Any, species: Sequence[str], entry: Any, *,
+def compare_with_experiment(ir: IRSpectrum, species: Sequence[str], entry: ExperimentalFundamentals, *,
                             scale_factor: float | None = None) -> ExperimentComparison:
     """Set an IR spectrum's fundamentals beside the observed ones.
 

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra._core import validate as _validate
-from vibra.molecules.displacements import CalculatorSource, is_calculator, is_factory
+from vibra.molecules.displacements import CalculatorOption, CalculatorSource, is_calculator, is_factory
 from vibra.molecules.engines.protocol import EngineResult
 
 __all__ = ["AseEngine"]
@@ -42,7 +42,7 @@ class AseEngine:
         A noise that is negative or not finite, or of another property.
     """
 
-    def __init__(self, calculator: Any, *, level: str | None = None,
+    def __init__(self, calculator: CalculatorOption, *, level: str | None = None,
                  noise: Mapping[str, float] | None = None) -> None:
         if not is_calculator(calculator) and not is_factory(calculator):
             raise TypeError(f"calculator must be an ASE calculator or a factory returning one, got "

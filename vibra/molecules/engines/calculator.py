@@ -50,8 +50,8 @@ class EngineCalculator(Calculator):  # type: ignore[misc]
         self.implemented_properties = ["energy", "free_energy", "forces",
                                        *(name for name in ("dipole", "polarizability") if name in engine.capabilities)]
 
-    def calculate(self, atoms: Atoms | None = None, properties: Any = ("energy",),
-                  system_changes: Any = all_changes) -> None:
+    def calculate(self, atoms: Atoms | None = None, properties: Sequence[str] = ("energy",),
+                  system_changes: Sequence[str] = all_changes) -> None:
         super().calculate(atoms, properties, system_changes)
         wanted = tuple(dict.fromkeys([*self.properties, *(p for p in properties if p in ("dipole", "polarizability"))]))
         result = self.engine.compute(self.atoms.get_atomic_numbers(), self.atoms.get_positions(), wanted)

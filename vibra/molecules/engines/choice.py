@@ -26,10 +26,13 @@ from __future__ import annotations
 import difflib
 import functools
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from vibra.molecules.engines.protocol import Engine
 
 __all__ = ["ENGINES", "XTB_METHODS", "EngineChoice", "EngineChoiceError", "EngineMissingError",
            "check_engine_choice", "require_engine", "make_engine", "EngineCost", "engine_cost",
@@ -210,7 +213,7 @@ def check_engine_choice(engine: Any = None, method: Any = None, basis: Any = Non
     return EngineChoice("pyscf", name, _check_basis(basis))
 
 
-def make_engine(choice: EngineChoice) -> Any:
+def make_engine(choice: EngineChoice) -> Engine | None:
     """The `vibra.molecules.engines.Engine` of a choice (None for the force field)."""
     if choice.engine == "forcefield":
         return None

@@ -4,17 +4,18 @@ Dask, with its error estimates), plus the engine's analytic Hessian where it has
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence
+from typing import TYPE_CHECKING, Literal, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core.frozen import Frozen
-from vibra.cluster import ProgressOption
+from vibra.cluster import ClientOption, ProgressOption
 from vibra.modes import Modes
 from vibra.molecules.checks import check_atoms, masses_or_default
-from vibra.molecules.displacements import is_calculator, is_factory
+from vibra.molecules.displacements import CalculatorOption, is_calculator, is_factory
 from vibra.molecules.engines.protocol import Engine, engine_methods
 from vibra.molecules.finite_difference import FiniteDifferenceHessian, finite_difference_hessian
 from vibra.molecules.property_derivatives import check_properties
@@ -121,7 +122,7 @@ class ElectronicStructure(Frozen):
 
 def electronic_structure(
     atoms: Atoms,
-    engine: Any,
+    engine: Engine | CalculatorOption,
     *,
     hessian: Literal["auto", "analytic", "finite difference"] = "auto",
     properties: Sequence[str] | None = None,
@@ -129,8 +130,8 @@ def electronic_structure(
     stencil: Literal[2, 4] = 2,
     estimate_error: bool = True,
     force_tolerance: float | None = 1e-3,
-    client: Any = None,
-    cache: Any = None,
+    client: ClientOption = None,
+    cache: str | os.PathLike[str] | None = None,
     progress: ProgressOption = None,
     n_workers: int | None = None,
     symmetry: bool = True,

@@ -31,7 +31,7 @@ engine), so a new engine needs no new code path.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Collection, Mapping, Protocol, runtime_checkable
+from typing import Collection, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -85,7 +85,7 @@ class EngineResult(Frozen):
     polarizability: NDArray[np.float64] | None = None
 
 
-def engine_methods(engine: Any) -> dict[str, str]:
+def engine_methods(engine: object) -> dict[str, str]:
     """The engine's ``methods`` mapping (how each property is computed), or an empty dict."""
     methods = getattr(engine, "methods", None)
     return {str(k): str(v) for k, v in methods.items()} if isinstance(methods, Mapping) else {}

@@ -28,7 +28,8 @@ Coordinates go to PySCF in bohr and results come back through scipy's CODATA con
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Collection, Literal, Mapping
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, Collection, Literal, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +37,10 @@ from scipy import constants
 
 from vibra._core import validate as _validate
 from vibra.molecules.engines.protocol import EngineResult
+
+if TYPE_CHECKING:
+    from pyscf.gto import Mole
+    from pyscf.scf.hf import SCF
 
 __all__ = ["PySCFEngine", "HARTREE_EV", "BOHR_ANGSTROM", "require_pyscf"]
 
@@ -49,7 +54,7 @@ _BASIS_WORDS = {"pvdz": "pVDZ", "pvtz": "pVTZ", "pvqz": "pVQZ", "pcvdz": "pCVDZ"
                 "svp": "SVP", "tzvp": "TZVP", "tzvpp": "TZVPP", "qzvp": "QZVP", "qzvpp": "QZVPP"}
 
 
-def require_pyscf() -> Any:
+def require_pyscf() -> ModuleType:
     """The `pyscf` module, or an ImportError that names the extra to install."""
     try:
         import pyscf
@@ -207,7 +212,7 @@ class PySCFEngine:
         return blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * n) * (HARTREE_EV / BOHR_ANGSTROM**2)
 
     # ------------------------------------------------------------------ PySCF
-    def molecule(self, numbers: NDArray[np.int_], positions: NDArray[np.float64]) -> Any:
+    def molecule(self, numbers: NDArray[np.int_], positions: NDArray[np.float64]) -> Mole:
         """The PySCF ``Mole`` at `positions` (Angstrom, passed in bohr)."""
         from pyscf import gto
 
@@ -220,7 +225,7 @@ class PySCFEngine:
             raise ValueError(f"PySCF cannot build the molecule with basis {self.basis!r}, charge {self.charge}, "
                              f"spin {self.spin}: {type(error).__name__}: {error}") from error
 
-    def scf(self, numbers: NDArray[np.int_], positions: NDArray[np.float64]) -> Any:
+    def scf(self, numbers: NDArray[np.int_], positions: NDArray[np.float64]) -> SCF:
         """A converged PySCF mean-field object at one geometry (RuntimeError when it does not converge)."""
         mf = _converged(self._mean_field(self.molecule(numbers, positions)), None)
         if not mf.converged:
