@@ -3,9 +3,11 @@ fundamental scale factors (vibra.spectra.scale_factors), the comparison of compu
 observed values (vibra.spectra.experiment) and its chart (vibra.charts.experiment).
 
 Truth: the cited sources themselves (Shimanouchi's fundamentals; the NIST CCCBDB page of H2O for
-its intensities, values transcribed here independently of the module), the character tables
-vibra already has (every species is one of the molecule's point group), and the Alecu et al.
-ratio lambda_F / lambda_ZPE = 0.974.
+its intensities; Jennings and Robiette's nu4 band strength of CH4 in cm^-2 atm^-1, converted here
+with scipy's constants; Irikura et al.'s published fundamental factor for HF/6-31G(d) with its
+standard uncertainty: values transcribed here independently of the module), the character
+tables vibra already has (every species is one of the molecule's point group), and the Alecu et
+al. ratio lambda_F / lambda_ZPE = 0.974.
 """
 
 from __future__ import annotations
@@ -18,10 +20,17 @@ import pytest
 
 from tests.helpers.images import check_png
 from vibra.molecules import EXPERIMENTAL, experimental_fundamentals
+from vibra.molecules.experimental import CCCBDB_H2O_INTENSITIES, JENNINGS_ROBIETTE_1982_CH4_NU4
 from vibra.spectra import SCALE_FACTORS, ExperimentComparison, compare_with_experiment, fundamental_scale_factor
 
 #: The CCCBDB page "Experimental data for H2O" (Release 18), vibrational levels: km/mol.
 CCCBDB_H2O_KM_PER_MOL = {"nu1": 2.9, "nu2": 62.5, "nu3": 41.7}
+#: Jennings and Robiette, J. Mol. Spectrosc. 94, 369 (1982), abstract: the nu4 band strength of
+#: 12CH4, S = 127 +- 4 cm^-2 atm^-1 at 295.7 K.
+CH4_NU4_CM2_ATM, CH4_NU4_KELVIN = 127.0, 295.7
+#: Irikura, Johnson and Kacker (2005), abstract: the fundamental factor of HF/6-31G(d) and its
+#: standard uncertainty.
+HF_631GD_FUNDAMENTAL, HF_631GD_UNCERTAINTY = 0.8982, 0.0230
 
 
 def test_every_value_has_a_source() -> None:
@@ -34,7 +43,7 @@ def test_every_value_has_a_source() -> None:
             assert np.isfinite(fundamental.wavenumber_cm1) and fundamental.wavenumber_cm1 > 0
             if fundamental.intensity_km_per_mol is not None:
                 assert fundamental.intensity_km_per_mol > 0
-                assert entry.intensity_source and "CCCBDB" in entry.intensity_source, formula
+                assert entry.intensity_source in (CCCBDB_H2O_INTENSITIES, JENNINGS_ROBIETTE_1982_CH4_NU4), formula
         assert entry.has_intensities == (entry.intensity_source is not None), formula
 
 
@@ -42,6 +51,20 @@ def test_water_intensities_are_the_cccbdb_values() -> None:
     entry = EXPERIMENTAL["H2O"]
     assert {f.name: f.intensity_km_per_mol for f in entry.fundamentals} == CCCBDB_H2O_KM_PER_MOL
     assert "7732185" in str(entry.intensity_source)  # the page: H2O's CAS number
+
+
+def test_methane_nu4_intensity_is_jennings_robiettes_band_strength() -> None:
+    """S (cm^-2 atm^-1 at T) x the molar volume at 1 atm and T (cm^3/mol) is cm/mol; / 1e5 is
+    km/mol. Stored to 0.1 km/mol, the precision the source's +-4 (+-1.0 km/mol) allows."""
+    from scipy.constants import R, atm
+
+    entry = EXPERIMENTAL["CH4"]
+    km_per_mol = CH4_NU4_CM2_ATM * (R * CH4_NU4_KELVIN / atm * 1e6) / 1e5
+    assert {f.name: f.intensity_km_per_mol for f in entry.fundamentals} == {
+        "nu1": None, "nu2": None, "nu3": None, "nu4": round(km_per_mol, 1)}
+    assert entry.intensity_source == JENNINGS_ROBIETTE_1982_CH4_NU4
+    assert "Jennings" in entry.intensity_source and "127" in entry.intensity_source
+    assert EXPERIMENTAL["CO2"].intensity_source is None and not EXPERIMENTAL["CO2"].has_intensities
 
 
 @pytest.mark.parametrize("name", ["CO2", "H2O", "CH4"])
@@ -68,6 +91,15 @@ def test_fundamental_factors_are_the_ratio_of_the_zpe_factors() -> None:
     assert fundamental_scale_factor("GFN2-xTB") is None
     with pytest.raises(TypeError, match="level must be a str"):
         fundamental_scale_factor(0.9)  # type: ignore[arg-type]
+
+
+def test_fundamental_factor_rule_lands_within_the_published_uncertainty() -> None:
+    """0.974 x the ZPE factor of HF/6-31G(d) against the fundamental factor fitted directly to
+    observed fundamentals (Irikura, Johnson and Kacker 2005: 0.8982 +- 0.0230, a standard
+    uncertainty after the ISO Guide to the Expression of Uncertainty in Measurement). Tolerance:
+    that one standard uncertainty, the size the authors give the factor itself ("only two
+    significant digits"); the rule is 0.013 off."""
+    assert abs(fundamental_scale_factor("HF/6-31G(d)") - HF_631GD_FUNDAMENTAL) <= HF_631GD_UNCERTAINTY
 
 
 def _ir(wavenumbers: list[float], km_per_mol: list[float], level: str) -> object:

@@ -11,13 +11,25 @@ CO2's nu1 (Sigma_g+) is in Fermi resonance with 2 nu2; Shimanouchi's 1333 cm^-1 
 unperturbed value between the observed 1285 and 1388 cm^-1 doublet.
 
 Gas-phase IR intensities (integrated band intensities, km/mol), where a value could be
-sourced: H2O only, from the NIST CCCBDB page "Experimental data for H2O (Water)" (Release 18,
-October 2016, https://cccbdb.nist.gov/exp2x.asp?casno=7732185, "Vibrational levels"), which lists
-2.9 (nu1) and 62.5 (nu2) km/mol with the reference it codes 1992Cul/Lie:502, and 41.7 (nu3)
-km/mol; read from that page's stored copy (the public web-page corpus this project searches),
-not recalled. CO2 and CH4 intensities are left out (None): no copy of a source could be read
-here, and a value without a readable source is not written down. `intensity_source` names the
-source of an entry's intensities.
+sourced (each read in a stored copy of its source, the public web-page corpus this project
+searches, not recalled):
+
+- H2O, all three: the NIST CCCBDB page "Experimental data for H2O (Water)" (Release 18,
+  October 2016, https://cccbdb.nist.gov/exp2x.asp?casno=7732185, "Vibrational levels") lists
+  2.9 (nu1) and 62.5 (nu2) km/mol with the reference it codes 1992Cul/Lie:502, and 41.7 (nu3).
+- CH4, nu4 (T2) only: D. E. Jennings and A. G. Robiette, "Determination of the nu4 band strength
+  of 12CH4 from diode laser line strength measurements", J. Mol. Spectrosc. 94, 369-379 (1982),
+  whose abstract gives the integrated band strength S = 127 +- 4 cm^-2 atm^-1 at 295.7 K. In
+  km/mol that is S times the molar volume at 1 atm and that temperature, R T / p0 (R =
+  8.314462618 J mol^-1 K^-1, exact in the 2019 SI; p0 = 101325 Pa; 24264 cm^3/mol), then
+  cm -> km: 127 x 24264 cm^3/mol = 3.082e6 cm/mol = 30.8 +- 1.0 km/mol. The same abstract says
+  published nu4 band strengths spread from 103 to 168 cm^-2 atm^-1 at 300 K (25 to 41 km/mol),
+  most within 132-147: read 30.8 km/mol as good to about 10 %, not 3 %.
+
+CO2's intensities, and CH4's nu3, are left out (None): no copy of a source could be read here,
+and a value without a readable source is not written down. CH4's nu1 (A1) and nu2 (E) and CO2's
+nu1 (Sigma_g+) are IR-forbidden by symmetry; they stay None too (nothing was measured).
+`intensity_source` names the source of an entry's intensities.
 
 `experimental_fundamentals(symbols, masses)` finds the entry of a molecule from its symbols
 and masses (a hydrogen of mass near 2.014 amu counts as D), and `match_fundamentals` pairs
@@ -39,7 +51,7 @@ from numpy.typing import ArrayLike
 from vibra.molecules.isotopes import ISOTOPE_MASSES
 
 __all__ = ["Fundamental", "ExperimentalFundamentals", "EXPERIMENTAL", "SHIMANOUCHI_1972", "CCCBDB_H2O_INTENSITIES",
-           "experimental_fundamentals", "match_fundamentals"]
+           "JENNINGS_ROBIETTE_1982_CH4_NU4", "experimental_fundamentals", "match_fundamentals"]
 
 #: The source of every value in `EXPERIMENTAL`.
 SHIMANOUCHI_1972 = ("T. Shimanouchi, Tables of Molecular Vibrational Frequencies, Consolidated Vol. I, "
@@ -48,6 +60,9 @@ SHIMANOUCHI_1972 = ("T. Shimanouchi, Tables of Molecular Vibrational Frequencies
 CCCBDB_H2O_INTENSITIES = ("NIST CCCBDB, Release 18 (October 2016), Experimental data for H2O, vibrational levels "
                           "(https://cccbdb.nist.gov/exp2x.asp?casno=7732185): nu1 and nu2 intensities from its "
                           "reference 1992Cul/Lie:502, nu3 as listed there")
+#: The source of CH4's nu4 intensity, and its conversion to km/mol.
+JENNINGS_ROBIETTE_1982_CH4_NU4 = ("D. E. Jennings and A. G. Robiette, J. Mol. Spectrosc. 94, 369 (1982): nu4, "
+                                  "127 +- 4 cm^-2 atm^-1 at 295.7 K = 30.8 km/mol (published: 25-41)")
 
 
 @dataclass(frozen=True)
@@ -89,7 +104,7 @@ EXPERIMENTAL: dict[str, ExperimentalFundamentals] = {
                   intensity_source=CCCBDB_H2O_INTENSITIES),
     "D2O": _entry("D2O", ("nu1", "A1", 2671.0), ("nu2", "A1", 1178.0), ("nu3", "B2", 2788.0)),
     "CH4": _entry("CH4", ("nu1", "A1", 2917.0), ("nu2", "E", 1534.0), ("nu3", "T2", 3019.0),
-                  ("nu4", "T2", 1306.0)),
+                  ("nu4", "T2", 1306.0, 30.8), intensity_source=JENNINGS_ROBIETTE_1982_CH4_NU4),
 }
 
 # A hydrogen within this many amu of an isotope's mass is that isotope.
