@@ -215,3 +215,15 @@ def test_a_polar_gamma_point_keeps_the_lo_to_split_of_its_segment() -> None:
         residual = np.linalg.norm(matrix @ vector - value * vector) / np.abs(np.linalg.eigvalsh(matrix)).max()
         assert residual < 1e-4, (branch, residual)  # the patterns are kept to 5 decimals (module PATTERN_ATOL)
     assert bands.frequencies_thz()[0, -1] - bands.frequencies_thz()[0, -2] > 0.5  # LO above TO: the split is there
+
+
+def test_a_molecule_from_a_bare_hessian_is_drawn_with_its_bonds() -> None:
+    """A molecule whose Hessian came without bond terms (an engine's, here the valence model's
+    Hessian handed over as a matrix) is drawn with the bonds its covalent radii give: the same
+    pairs as the bond-stretch terms of the model it came from (water: O-H twice, no H-H)."""
+    water = molecules.h2o()
+    bare = vibra.System.from_hessian(water.positions, water.masses, water.hessian().toarray(), units=water.units,
+                                     name="water").with_symbols(water.symbols)
+    data = bare.modes().show(bare).data
+    assert sorted(map(tuple, data["bonds"])) == sorted(map(tuple, water.modes().show(water).data["bonds"]))
+    assert sorted(map(tuple, data["bonds"])) == [(0, 1), (0, 2)]

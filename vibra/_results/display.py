@@ -28,11 +28,16 @@ import os
 import secrets
 from importlib import resources
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from vibra._core.filesystem import atomic_write_text
+
+if TYPE_CHECKING:
+    from vibra._results import ModesResult
+    from vibra.system import System
 
 __all__ = ["View", "mode_view_data", "system_view", "viewer_html", "asset_bytes", "ASSET_PARTS", "THREEDMOL",
            "SCRIPT", "MAX_MOTION", "CHAIN_SPACING", "MAX_SITES", "MAX_NOTEBOOK_NUMBERS", "MAX_NOTEBOOK_MODES"]
@@ -76,9 +81,9 @@ def mode_label(modes: Any, k: int, *, wavenumbers: bool, suffix: str = "") -> st
     return f"mode {k}: ω = {float(modes.omega[k]):.4g}{suffix}"
 
 
-def mode_view_data(system: Any, modes: Any, indices: Sequence[int], *, kind: str, elements: Sequence[str],
-                   bonds: Sequence[tuple[int, int]], sites: Any = None, labels: Sequence[str] | None = None,
-                   note: str = "") -> dict[str, Any]:
+def mode_view_data(system: System, modes: ModesResult, indices: Sequence[int], *, kind: str,
+                   elements: Sequence[str], bonds: Sequence[tuple[int, int]], sites: ArrayLike | None = None,
+                   labels: Sequence[str] | None = None, note: str = "") -> dict[str, Any]:
     """The ``"modes"`` view data of the modes `indices` of `system` (module docstring).
 
     Parameters
@@ -148,13 +153,14 @@ def _kind_of(system: Any) -> str:
     return "molecule" if system.symbols is not None else "network"
 
 
-def system_view(system: Any, modes: Any, indices: Sequence[int] | None = None, *,
+def system_view(system: System, modes: ModesResult, indices: Sequence[int] | None = None, *,
                 max_numbers: int = MAX_NOTEBOOK_NUMBERS) -> View:
     """The `View` of `modes` on `system` (what ``modes.show(system)`` returns).
 
     The drawing follows the system: 1-D positions are a chain (sites evenly spaced, one element
     per distinct mass); a system with chemical symbols (`System.symbols`, set by the molecule
-    builders) a molecule, its bonds the two-site terms (bond stretches); any other a network,
+    builders) a molecule, its bonds the two-site terms (bond stretches), or where it has none (a
+    Hessian from an engine) the pairs closer than 1.25 times their covalent radii; any other a network,
     its sites joined where consecutive and no farther apart than 1.2 times the median step (a
     protein's C-alpha trace). Sites beyond `MAX_SITES` are shown as an evenly strided subset; the
     modes embedded are capped so that their displacements hold at most `max_numbers` numbers
@@ -207,7 +213,12 @@ def system_view(system: Any, modes: Any, indices: Sequence[int] | None = None, *
     elif kind == "molecule":
         elements = [system.symbols[i] for i in sites]
         where = {int(s): n for n, s in enumerate(sites)}
-        bonds = [(where[i], where[j]) for i, j in _spring_pairs(system) if i in where and j in where]
+        pairs = _spring_pairs(system)
+        if not pairs:  # a Hessian without bond terms (an engine's): bonds from covalent radii, as the report
+            from vibra._core.elements import bonds_from_distances
+
+            pairs = [(int(i), int(j)) for i, j in bonds_from_distances(positions, list(system.symbols))]
+        bonds = [(where[i], where[j]) for i, j in pairs if i in where and j in where]
     else:
         elements = [DEFAULT_ELEMENT] * len(sites)
         steps = np.linalg.norm(np.diff(positions[sites], axis=0), axis=1)

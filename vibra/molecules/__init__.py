@@ -56,7 +56,7 @@ from vibra.molecules.builders import (CO2_BEND, CO2_BOND_LENGTH, CO2_STRETCH, H2
                                       H2O_BOND_LENGTH, H2O_STRETCH, co2, co2_atoms, h2o, h2o_atoms)
 from vibra.molecules.character_tables import CharacterTable, character_table
 from vibra.molecules.checks import MIN_DISTANCE
-from vibra.molecules.elements import bonds_from_distances, symbols_from_masses
+from vibra._core.elements import bonds_from_distances, symbols_from_masses
 from vibra.molecules.finite_difference import FiniteDifferenceHessian, finite_difference_hessian, from_calculator
 from vibra.molecules.hessians import from_atoms, from_hessian, from_phonopy, from_vibrations_data
 from vibra.molecules.experimental import (EXPERIMENTAL, ExperimentalFundamentals, Fundamental,

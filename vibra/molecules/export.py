@@ -27,7 +27,7 @@ from vibra._core import validate as _validate
 from vibra._core.filesystem import atomic_write
 from vibra.modes import Modes
 from vibra.molecules.analysis import VibrationalAnalysis
-from vibra.molecules.elements import symbols_from_masses
+from vibra._core.elements import symbols_from_masses
 from vibra.molecules.isotopes import ISOTOPE_MASSES
 from vibra.system import System, Vibrating
 

@@ -19,7 +19,7 @@ from vibra._core.frozen import Frozen
 from vibra.molecules.checks import check_atoms
 from vibra.molecules.coordinates import (angle_bend, bond_angle, bond_stretch, dihedral, linear_bend_rows,
                                          linear_bend_vector, wrap_angle)
-from vibra.molecules.elements import BOND_SCALE, bonds_from_distances
+from vibra._core.elements import BOND_SCALE, bonds_from_distances
 from vibra.molecules.force_constants import (bend_constants, linear_bend_constants, out_of_plane_constants,
                                              stretch_constants, torsion_constants)
 from vibra.molecules.internal_terms import internal_terms

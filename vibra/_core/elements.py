@@ -1,7 +1,10 @@
 """Chemistry of sites given only masses and positions: element symbols and covalent bonds.
 
 Tables from ``ase.data`` (standard atomic masses, covalent radii of Cordero et al. 2008),
-imported inside the functions so that ``import vibra.molecules`` does not load ASE.
+imported inside the functions so that ``import vibra.molecules`` does not load ASE. Here, below
+the results, because two layers draw on it: the molecules (`vibra.molecules` exports both
+functions) and the 3-D view of a molecule whose Hessian came without bond terms (an engine's:
+`vibra._results.display.system_view`).
 """
 
 from __future__ import annotations
