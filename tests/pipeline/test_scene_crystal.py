@@ -54,7 +54,7 @@ def test_validate_prints_size_and_cost() -> None:
                          cwd=ROOT)
     assert run.returncode == 0, run.stdout + run.stderr
     line = next(text for text in run.stdout.splitlines() if "argon-fcc" in text)
-    assert "1 atom per cell, 3 branches" in line and "mesh 20x20x20 = 8000 q" in line and "Gflop" in line
+    assert "1 atom per cell, 3 branches" in line and "mesh 20x20x20 = 8000 q" in line and "D(q) solves ~" in line
 
 
 @pytest.mark.parametrize("changes, message", [
@@ -73,6 +73,21 @@ def test_validate_prints_size_and_cost() -> None:
 def test_bad_crystal_scene_names_the_key(changes: dict, message: str) -> None:
     with pytest.raises(SceneError, match=message):
         validate(Scene.from_dict(argon(**changes), source="x.toml"))
+
+
+def test_the_d_q_solves_are_refused_before_any_work_as_the_run_would_refuse_them(monkeypatch: pytest.MonkeyPatch
+                                                                                     ) -> None:
+    """issue 43: validate guards a crystal scene's D(q) solves with the solver registry's estimate
+    (`dynamical.solve_plan`), the same guard `phonons` runs; a limit the mesh's estimate passes
+    refuses the scene in one line naming the path and the cheaper request."""
+    from vibra.solvers import budget
+
+    monkeypatch.setattr(budget, "TIME_LIMIT_S", 1e-6)
+    with pytest.raises(SceneError, match=r"x\.toml: .*the hermitian-eigh path \(3 branches at 216 q-points, "
+                                         r"frequencies only\).*fewer wave vectors"):
+        validate(Scene.from_dict(argon(draw={"bands": False, "mode": False}), source="x.toml"))
+    monkeypatch.setattr(budget, "TIME_LIMIT_S", 600.0)
+    assert validate(Scene.from_dict(argon(), source="x.toml")).n_branches == 3
 
 
 def test_vibra_modes_refuses_a_crystal_in_one_line() -> None:

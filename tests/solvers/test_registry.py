@@ -211,6 +211,9 @@ def test_the_plan_names_the_path_that_runs_and_every_path_is_reached(monkeypatch
                                  solver="auto", spring_factor=network.spring_factor() if level != "fast" else None,
                                  accuracy=level).path)
     reached.update(quadratic_paths())
+    from vibra import crystals  # the crystals' D(q): tests/solvers/test_registry_paths.py runs it
+
+    reached.add(crystals.dynamical.solve_plan(crystals.simple_cubic(1.0, 1.0, 1.0), 8, vectors=False).path)
     missing = [path.name for path in registry.PATHS if path.name not in reached]
     assert not missing, f"registered but never planned: {missing}"
 

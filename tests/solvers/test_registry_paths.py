@@ -129,9 +129,35 @@ def fake_gpu(monkeypatch: pytest.MonkeyPatch) -> list[int]:
 #: against the dense solve in tests/solvers/test_slepc.py, which skips with its reason where MPI is missing.
 NAMED_ONLY = {"slepc"}
 
+#: The crystals' path: D(q) at a batch of wave vectors (`vibra.crystals.dynamical.phonons`).
+BLOCH = {"hermitian-eigh"}
+
 
 def test_every_registered_path_has_a_case() -> None:
-    assert set(CASES) | set(QUADRATIC) | NAMED_ONLY == set(registry.BY_NAME)
+    assert set(CASES) | set(QUADRATIC) | NAMED_ONLY | BLOCH == set(registry.BY_NAME)
+
+
+def test_a_crystal_solve_is_planned_guarded_and_reported_by_the_registry() -> None:
+    """issue 43 item 1: the crystals' stacked solves are a registry path like any other. The plan
+    of a batch of D(q) names it, with the declaration's own estimate; the result reports it (a
+    declared fallback where "high" re-solved near Gamma through the spring factor, or where a
+    polar crystal's correction ran); and the guard refuses before any work, naming cheaper requests."""
+    from vibra import crystals
+    from vibra.crystals.dynamical import phonons, solve_plan
+
+    silicon = crystals.diamond(5.43, [28.0855, 28.0855], 1.0, shells=2)
+    q = np.array([[0.0, 0.0, 0.0], [1e-4, 0.0, 0.0], [0.1, 0.2, 0.3], [0.5, 0.5, 0.5]])
+    for accuracy, vectors in (("fast", False), ("high", True)):
+        plan = solve_plan(silicon, len(q), vectors=vectors, accuracy=accuracy)
+        assert plan.path == "hermitian-eigh" and plan.cost == registry.BY_NAME[plan.path].estimate(plan.problem)
+        assert plan.problem.batch == len(q) and plan.problem.n == silicon.n_branches
+        result = phonons(silicon, q, vectors=vectors, accuracy=accuracy)
+        assert result.path in (plan.path, *registry.BY_NAME[plan.path].fallbacks)
+    assert phonons(silicon, q, accuracy="high").path == "hermitian-eigh + spring-svd"  # (Gamma: a zero mode)
+    with pytest.raises(ResourceLimitError, match=r"D\(q\) has 6 branches: the hermitian-eigh path \(6 branches at "
+                                                 r"1,000,000 q-points, with vectors\).*fewer wave vectors"):
+        phonons(silicon, np.zeros((1_000_000, 3)), vectors=True, max_seconds=1e-3)
+    assert phonons(silicon, q, max_seconds=float("inf")).omega.shape == (len(q), 6)
 
 
 @pytest.mark.parametrize("name", list(CASES))

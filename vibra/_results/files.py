@@ -109,7 +109,7 @@ class Layout(typing.NamedTuple):
     required: frozenset[str]
 
 
-def check_stored(layout: Layout, declared: dict[str, tuple[tuple[int, ...], np.dtype[Any]] | None],
+def check_stored(layout: Layout, declared: dict[str, tuple[tuple[int, ...], np.dtype[np.generic]] | None],
                  where: Callable[[str], str], lengths: dict[str, int] | None = None) -> None:
     """Check the arrays of a stored result from their shapes and dtypes alone (no value is read).
 
@@ -344,7 +344,7 @@ def read_result_file(layout: Layout, path: Path, limit: int) -> dict[str, Any]:
     return data
 
 
-def sequence_lengths(layout: Layout, data: dict[str, Any]) -> dict[str, int]:
+def sequence_lengths(layout: Layout, data: Mapping[str, object]) -> dict[str, int]:
     """The length of each sized sequence of `data` (`Layout.sized`) that is a list or tuple."""
     return {key: len(data[key]) for key in layout.sized if isinstance(data.get(key), (list, tuple))}
 

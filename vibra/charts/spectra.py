@@ -8,7 +8,7 @@ Raman shift increasing.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, Sequence
 
 import numpy as np
 from scipy import constants
@@ -21,7 +21,42 @@ if TYPE_CHECKING:
 
     from vibra.spectra import BroadenedSpectrum, StickSpectrum, Thermochemistry
 
-__all__ = ["plot_stick_spectrum", "plot_broadened_spectrum", "plot_thermo", "plot_molecule_spectra", "species_text"]
+__all__ = ["plot_stick_spectrum", "plot_broadened_spectrum", "plot_thermo", "plot_molecule_spectra", "species_text",
+           "MoleculeSpectraLike"]
+
+
+class MoleculeSpectraLike(Protocol):
+    """What `plot_molecule_spectra` reads of a molecule's spectra (`vibra.pipeline.plan.analysis.MoleculeSpectra`,
+    a stage above the charts, which they do not import): for IR and Raman alike the lines, their
+    broadened profile (each None where the model gives none), the species of each line and
+    where the intensities come from, in words; and how many rigid-body modes were left out."""
+
+    @property
+    def ir(self) -> StickSpectrum | None: ...
+
+    @property
+    def ir_profile(self) -> BroadenedSpectrum | None: ...
+
+    @property
+    def ir_species(self) -> Sequence[str]: ...
+
+    @property
+    def ir_model(self) -> str: ...
+
+    @property
+    def raman(self) -> StickSpectrum | None: ...
+
+    @property
+    def raman_profile(self) -> BroadenedSpectrum | None: ...
+
+    @property
+    def raman_species(self) -> Sequence[str]: ...
+
+    @property
+    def raman_model(self) -> str: ...
+
+    @property
+    def n_rigid(self) -> int: ...
 
 
 def _decreasing(kind: str, decreasing: bool | None) -> bool:
@@ -278,7 +313,7 @@ def _lift_overlapping(figure: Any, labels: list[Any]) -> None:
         placed.append(label.get_window_extent(renderer))
 
 
-def plot_molecule_spectra(spectra: Any, *, title: str = "") -> Figure:
+def plot_molecule_spectra(spectra: MoleculeSpectraLike, *, title: str = "") -> Figure:
     """IR (top) and Raman (bottom) spectra of a molecule: broadened lines, sticks beneath, species on the peaks.
 
     Parameters

@@ -7,14 +7,16 @@ import none of them) and returns the figure and a caption; save it with
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Protocol, Sequence
 
 from vibra.charts._style import new_figure
 
 if TYPE_CHECKING:
+    import numpy as np
     from matplotlib.figure import Figure
+    from numpy.typing import NDArray
 
-__all__ = ["sweep_figure", "key_label"]
+__all__ = ["sweep_figure", "key_label", "SweepTableLike"]
 
 #: Unit of a swept scene key, by its last name and the scene's unit system.
 _KEY_UNITS = {
@@ -47,7 +49,29 @@ _LEGEND_BRANCHES = 10
 _LINE_STYLES = ("-", "--", ":", "-.")
 
 
-def sweep_figure(table: Any, *, title: str | None = None) -> tuple[Figure, str]:
+class SweepTableLike(Protocol):
+    """What `sweep_figure` reads of a sweep (`vibra.pipeline.sweep.SweepTable`, a stage above the
+    charts, which they do not import): its name, swept keys, unit system and rows, and its
+    branches as lines (`SweepTable.branch_lines`: the other keys' values, x, and omega per branch,
+    in the table's units)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def keys(self) -> tuple[str, ...]: ...
+
+    @property
+    def units(self) -> str: ...
+
+    @property
+    def rows(self) -> Sequence[object]: ...
+
+    def branch_lines(self) -> Sequence[tuple[Sequence[tuple[str, object]], NDArray[np.float64],
+                                             NDArray[np.float64]]]: ...
+
+
+def sweep_figure(table: SweepTableLike, *, title: str | None = None) -> tuple[Figure, str]:
     """Frequencies against the first swept key: one curve per branch (`SweepTable.branch_lines`, modes
     connected by overlap, so crossing branches keep their colour), one line style per value of
     the other swept keys.

@@ -10,7 +10,8 @@ Modules, by role:
 - `crystal`: the `Crystal` type and its structure checks; `force_constants`: the terms Phi(i 0; j R)
 - `springs`: spring force constants between periodic images; `builders`: the textbook lattices
 - `dynamical`: D(q) for many q at once (its Hermitian part, q reduced into the first zone), its
-  stacked Hermitian solves, dD/dk and group velocities; `supercell`: one mode on a supercell
+  stacked Hermitian solves (the solver registry's `hermitian-eigh` path, planned and guarded),
+  dD/dk; `velocities`: group velocities; `supercell`: one mode on a supercell
 - `factor`: the spring factor A(q) (D = A^H A): frequencies as singular values, accurate near Gamma
 - `bands`: band structures along SeeK-path's or a given path, branches connected
 - `mesh`: Gamma-centred meshes reduced by symmetry (spglib); `dos`: tetrahedron and Gaussian DOS
@@ -28,7 +29,8 @@ from vibra.crystals.bands import BandStructure, band_structure
 from vibra.crystals.builders import bcc, diamond, fcc, honeycomb, rock_salt, simple_cubic, square
 from vibra.crystals.crystal import Crystal
 from vibra.crystals.dos import DensityOfStates, dos
-from vibra.crystals.dynamical import PHASES, Phonons, dynamical_matrices, group_velocities
+from vibra.crystals.dynamical import PHASES, Phonons, dynamical_matrices
+from vibra.crystals.velocities import group_velocities
 from vibra.crystals.supercell import SupercellMode, conventional_cube, supercell_mode
 from vibra.crystals.elastic import SoundVelocities, acoustic_slopes, sound_velocities
 from vibra.crystals.finite_difference import (FiniteDifferenceForceConstants, finite_difference_force_constants,

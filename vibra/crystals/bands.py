@@ -29,7 +29,8 @@ from scipy.optimize import linear_sum_assignment
 from vibra._core import validate as _validate
 from vibra._core.frozen import frequency_span
 from vibra._results import Result, stored
-from vibra.crystals.dynamical import derivative_matrices, eigenvalue_slopes, phonons
+from vibra.crystals.dynamical import derivative_matrices, phonons
+from vibra.crystals.velocities import eigenvalue_slopes
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:

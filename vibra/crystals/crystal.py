@@ -334,10 +334,12 @@ class Crystal(Frozen):
     # The work lives in the modules of this package (dynamical, bands, dos, thermal, elastic,
     # phonopy_io); these methods are the documented entry points.
     def phonons(self, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions",
-                accuracy: str = "high", q_direction: ArrayLike | None = None) -> dynamical.Phonons:
-        """`Phonons` at `qpoints` (fractional reciprocal coordinates): `vibra.crystals.dynamical.phonons`."""
+                accuracy: str = "high", q_direction: ArrayLike | None = None, max_seconds: float | None = None,
+                max_memory: float | None = None) -> dynamical.Phonons:
+        """`Phonons` at `qpoints` (fractional reciprocal coordinates): `vibra.crystals.dynamical.phonons`
+        (planned and guarded by the solver registry's ``hermitian-eigh`` path)."""
         return dynamical.phonons(self, qpoints, vectors=vectors, phase=phase, accuracy=accuracy,
-                                 q_direction=q_direction)
+                                 q_direction=q_direction, max_seconds=max_seconds, max_memory=max_memory)
 
     def frequencies(self, qpoints: ArrayLike, *, accuracy: str = "high", q_direction: ArrayLike | None = None
                     ) -> NDArray[np.float64]:

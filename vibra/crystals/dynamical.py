@@ -16,14 +16,15 @@ with d the fractional vector of the term. Two phase conventions:
 
 Batched: the phases of all terms at all q form one (n_q, n_terms) matrix P, and D for every q
 is P @ A with A the (n_terms, (3n)^2) scatter of the mass-weighted blocks: two real GEMMs, in
-chunks of q bounded in memory, then stacked Hermitian solves (`vibra.solvers.standard.hermitian`).
-No Python loop runs per q.
+chunks of q bounded in memory, then stacked Hermitian solves: the solver registry's
+``hermitian-eigh`` path, planned from sizes and guarded before any work (`solve_plan`), its runner
+`vibra.solvers.standard.hermitian.hermitian_stack`. No Python loop runs per q.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Iterator, cast
+from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -34,14 +35,18 @@ from vibra._results import Result, stored
 from vibra.crystals.factor import singular_frequencies
 from vibra.solvers.accuracy import HIGH_TARGET, check as check_accuracy, uses_springs
 from vibra.solvers.common import EPS, omega_and_error
-from vibra.solvers.standard.hermitian import hermitian_stack
+from vibra._core.text import counted
+from vibra.solvers.budget import guard
+from vibra.solvers.dispatch import SolvePlan, plan_problem
+from vibra.solvers.problem import bloch_problem
+from vibra.solvers.registry import BY_NAME
 from vibra.units import UnitSystem
 
 if TYPE_CHECKING:
     from vibra.crystals.force_constants import CrystalLike as Crystal  # the protocol: no import cycle
 
-__all__ = ["PHASES", "Phonons", "phonons", "dynamical_matrices", "derivative_matrices", "group_velocities",
-           "check_qpoints", "check_periodic_qpoints", "eigenvalue_slopes", "reduce_qpoints", "brillouin_qpoints",
+__all__ = ["PHASES", "Phonons", "phonons", "solve_plan", "dynamical_matrices", "derivative_matrices",
+           "check_qpoints", "check_periodic_qpoints", "reduce_qpoints", "brillouin_qpoints",
            "Assembly", "assembly", "lattice_phases"]
 
 #: The phase conventions of D(q) (module docstring).
@@ -69,10 +74,6 @@ NAC_DERIVATIVE_STEP = 1e-5
 #: kept per crystal, `Crystal.nac_parts`): 16 MiB ran 0-3 % faster on phonopy's NaCl and ZnO and
 #: held 4-6 MiB more at 2,000 q (bench_crystals --memory --real).
 POLAR_CHUNK = 1 << 18
-
-#: Two eigenvalues within this many of their error bounds are one degenerate level.
-DEGENERACY_BOUNDS = 1e4
-
 
 @dataclass(frozen=True, eq=False, repr=False)
 class Phonons(Result):
@@ -462,8 +463,31 @@ def unit_direction(direction: ArrayLike) -> NDArray[np.float64]:
 
 
 # ---------------------------------------------------------------------- solves
+def solve_plan(crystal: Crystal, n_q: int, *, vectors: bool, accuracy: str = "high",
+               max_seconds: float | None = None, max_memory: float | None = None, guarded: bool = True) -> SolvePlan:
+    """The solver registry's plan of `phonons` at `n_q` wave vectors (`problem.bloch_problem`: the
+    ``hermitian-eigh`` path and its estimate from sizes), guarded as every solve is
+    (`budget.guard`: `ResourceLimitError` over `max_seconds` / `max_memory`, naming cheaper
+    requests) unless `guarded` is False (a cost line: ``vibra validate``)."""
+    parts, n3 = crystal.assembly, crystal.n_branches
+    polar = crystal.nac
+    g_vectors = 0 if polar is None or polar.g_vectors is None else polar.g_vectors.shape[0]
+    # per q: the phases' GEMMs over the force constants, and a polar crystal's Ewald sum over its G vectors
+    # (~1e-9 s per G and entry of D measured on phonopy's NaCl, ZnO, SnO2 and MgO: half an entry's rate)
+    entries = 2 * parts.symmetric.size + parts.zero.size + g_vectors * n3 * n3 // 2
+    springs = crystal.springs is not None and uses_springs(accuracy)
+    plan = plan_problem(bloch_problem(n3, n_q, vectors=vectors, accuracy=accuracy, entries=entries, springs=springs),
+                        "auto")
+    if guarded:
+        guard(plan.cost, n_dof=n3, max_memory=max_memory, max_seconds=max_seconds,
+              alternatives=["fewer wave vectors (a coarser mesh, fewer points per segment)"] + (
+                  ["vectors=False"] if vectors else []), subject=f"D(q) has {counted(n3, 'branch')}")
+    return plan
+
+
 def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phase: str = "positions",
-            accuracy: str = "high", q_direction: ArrayLike | None = None) -> Phonons:
+            accuracy: str = "high", q_direction: ArrayLike | None = None, max_seconds: float | None = None,
+            max_memory: float | None = None) -> Phonons:
     """Frequencies (and eigenvectors) at every q of `qpoints`, solved as stacked Hermitian problems.
 
     Parameters
@@ -487,6 +511,8 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
         For a polar crystal, the direction (fractional) from which Gamma is approached: at q =
         Gamma it selects the LO-TO split of that direction (phonopy's nac_q_direction);
         without it Gamma has no correction.
+    max_seconds, max_memory : float, optional
+        Limits on the solve's estimate (`solve_plan`), as for `vibra.normal_modes`.
 
     Returns
     -------
@@ -497,12 +523,17 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     ValueError
         `qpoints` not (n_q, 3) or not finite, or with a component along a vacuum axis; an unknown
         `phase` or `accuracy` (or "certified"); a crystal without force constants.
+    ResourceLimitError
+        The estimate exceeds `max_seconds` or `max_memory` (before any work).
     """
     q = check_qpoints(qpoints)
     phase = _check_phase(phase)
     accuracy = check_accuracy(accuracy, offered=ACCURACY, by="phonons")
     crystal.require_force_constants()
     check_periodic_qpoints(crystal, q)
+    plan = solve_plan(crystal, q.shape[0], vectors=vectors, accuracy=accuracy, max_seconds=max_seconds,
+                      max_memory=max_memory)
+    solve = BY_NAME[plan.path].run
     parts = crystal.assembly
     n3 = crystal.n_branches
     values = np.empty((q.shape[0], n3))
@@ -521,7 +552,7 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
             matrices = _matrices(parts, reduced[part], phase)
         else:
             matrices = polar.dynamical_matrices(crystal, reduced[part], q_direction=q_direction, phase=phase)
-        values[part], chunk_basis, error[part] = hermitian_stack(matrices, vectors=vectors)
+        values[part], chunk_basis, error[part] = solve(plan.problem, matrices)
         error[part] += parts.error + parts.skew
         if polar is not None:  # the Ewald sum's rounding: each entry sums n_G terms
             error[part] += ((g_vectors + 16) * EPS * np.abs(matrices).sum(axis=-1).max(axis=-1))[:, None]
@@ -529,7 +560,7 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
             basis[part] = chunk_basis
     omega, omega_error = (x.reshape(values.shape) for x in omega_and_error(values.ravel(), error.ravel()))
     refined = None
-    path = "hermitian-eigh" if polar is None else f"hermitian-eigh + nac-{polar.method}"
+    path = plan.path if polar is None else f"{plan.path} + nac-{polar.method}"
     if uses_springs(accuracy) and crystal.springs is not None and polar is None:
         refined = (omega_error > HIGH_RTOL * np.abs(omega)).any(axis=1)
         if refined.any():
@@ -547,51 +578,3 @@ def phonons(crystal: Crystal, qpoints: ArrayLike, *, vectors: bool = False, phas
     return Phonons(qpoints=q, omega=omega, omega_error=omega_error, vectors=basis, masses=crystal.masses,
                    phase=phase, units=crystal.units, path=path, refined=refined,
                    non_hermitian=np.full(q.shape[0], parts.skew))
-
-
-def eigenvalue_slopes(derivative: NDArray[np.complex128], values: NDArray[np.float64],
-                      basis: NDArray[np.complex128], error: NDArray[np.float64]
-                      ) -> tuple[NDArray[np.float64], NDArray[np.complex128]]:
-    """(n_q, n) d lambda / dk from dD/dk, with degenerate levels resolved, and the basis that goes with it.
-
-    Within a degenerate level (eigenvalues within DEGENERACY_BOUNDS times their bounds) the
-    slopes are the eigenvalues of V_g^H dD V_g (first-order degenerate perturbation theory),
-    ascending, and the returned basis is rotated to diagonalise it: its columns are the
-    branches that leave the degeneracy with those slopes.
-    """
-    projected = np.einsum("qia,qij,qjb->qab", basis.conj(), derivative, basis, optimize=True)
-    slopes = np.einsum("qaa->qa", projected).real.copy()
-    rotated = basis.copy()
-    gap = np.diff(values, axis=1) <= DEGENERACY_BOUNDS * (error[:, 1:] + error[:, :-1])
-    n = values.shape[1]
-    for k in np.nonzero(gap.any(axis=1))[0]:
-        start = 0
-        while start < n:
-            stop = start + 1
-            while stop < n and gap[k, stop - 1]:
-                stop += 1
-            if stop - start > 1:
-                block = projected[k, start:stop, start:stop]
-                slopes[k, start:stop], turn = np.linalg.eigh(0.5 * (block + block.conj().T))
-                rotated[k, :, start:stop] = basis[k, :, start:stop] @ turn
-            start = stop
-    return slopes, rotated
-
-
-def group_velocities(crystal: Crystal, qpoints: ArrayLike, direction: ArrayLike) -> NDArray[np.float64]:
-    """(n_q, n_branches) group velocities d omega / dk along a Cartesian `direction`, in length / time unit.
-
-    Analytic: d omega / dk = (d lambda / dk) / (2 omega) with d lambda / dk from dD/dk
-    (`eigenvalue_slopes`); where |omega| is within its error bound (the acoustic branches at
-    Gamma) the velocity is reported as 0 (the slope there depends on the direction of approach:
-    see `vibra.crystals.elastic.sound_velocities`).
-    """
-    q = check_qpoints(qpoints)
-    n = unit_direction(direction)
-    result = phonons(crystal, q, vectors=True)
-    derivative = derivative_matrices(crystal, q, n)
-    values = np.sign(result.omega) * result.omega ** 2
-    error = 2.0 * np.abs(result.omega) * result.omega_error + result.omega_error ** 2
-    slopes, _ = eigenvalue_slopes(derivative, values, cast(NDArray[np.complex128], result.vectors), error)
-    zero = np.abs(result.omega) <= result.omega_error
-    return np.where(zero, 0.0, slopes / np.where(zero, 1.0, 2.0 * result.omega))

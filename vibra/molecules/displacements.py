@@ -56,7 +56,7 @@ import pickle
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Sequence, Union
+from typing import TYPE_CHECKING, Any, Callable, Protocol, Sequence, TypeVar, Union
 
 import numpy as np
 from numpy.typing import NDArray
@@ -67,6 +67,16 @@ from vibra.cluster import ClientOnDemand, ClientOption, ProgressOption, progress
 if TYPE_CHECKING:
     from ase import Atoms
     from ase.calculators.calculator import BaseCalculator
+
+    class _Labelled(Protocol):
+        """What `gather_forces` reads of a geometry itself: its label, in words (a molecule's
+        `Displacement`, a crystal's moved atom); the rest is read by the caller's `positions`."""
+
+        @property
+        def label(self) -> str: ...
+
+    #: One geometry of a finite-difference run, of the caller's kind.
+    _Geometry = TypeVar("_Geometry", bound=_Labelled)
 
 __all__ = ["Displacement", "displacement_plan", "displaced_positions", "displaced_forces", "force_problem",
            "CalculatorSource", "CalculatorOption", "ForceCache", "CacheWarning", "PROPERTY_ROWS", "property_rows",
@@ -401,8 +411,8 @@ class GatheredForces:
     cached: int                                # geometries read from the cache
 
 
-def gather_forces(geometries: Sequence[Any], template: Atoms, source: CalculatorSource,
-                  positions: Callable[[Any], NDArray[np.float64]], store: ForceCache | None,
+def gather_forces(geometries: Sequence[_Geometry], template: Atoms, source: CalculatorSource,
+                  positions: Callable[[_Geometry], NDArray[np.float64]], store: ForceCache | None,
                   cluster: ClientOnDemand, progress: ProgressOption, *, properties: tuple[str, ...] = (),
                   check_reference: Callable[[NDArray[np.float64]], None] | None = None,
                   name: str = "vibra-fd") -> GatheredForces:

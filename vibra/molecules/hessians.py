@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -73,7 +73,7 @@ def from_atoms(
     masses: ArrayLike | None = None,
     force_tolerance: float = 1e-4,
     name: str | None = None,
-    **guess: Any,
+    **guess: ArrayLike | None,
 ) -> System:
     """A molecule with a valence force field, K = B^T diag(w) B (analytic Hessian).
 

@@ -137,7 +137,7 @@ def molecule(
     isotopes: Sequence[str | None] | Mapping[int, str] | None = None,
     masses: ArrayLike | None = None,
     name: str | None = None,
-    **valence_model_options: Any,
+    **valence_model_options: ArrayLike | None,
 ) -> System:
     """A molecule by name (ASE's collection) or from `Atoms`, at its valence-force-field equilibrium.
 

@@ -63,6 +63,14 @@ SPARSE_SOLVE_S = 9e-11        # per w^2 and Krylov column: the triangular solves
 SPARSE_FACTOR_ENTRIES = 4.0   # the factor's entries per w^2, at most (1.0-4.2 measured on those 9)
 SOLID_SEPARATOR = 3.5         # w / n^(2/3) where K's graph is not at hand (a 3-D solid; 2.4-6.5 measured)
 SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
+# a crystal's D(q), per wave vector, n branches: numpy's stacked heevd (one BLAS thread, CPU time,
+# random Hermitian stacks of 6-192: estimate / actual 0.83-1.25 for values; vectors 1.8-3.1 times
+# values), and the two real GEMMs that assemble D(q) from its force-constant entries
+BLOCH_CUBE_S = 5e-10          # per n^3: the Householder reduction
+BLOCH_SQUARE_S = 4e-8         # per n^2: the tridiagonal values and the stack's per-matrix overheads
+BLOCH_Q_S = 3e-6              # per wave vector: numpy's loop over the stack
+BLOCH_VECTORS = 2.5           # the same with vectors, this many times
+BLOCH_ENTRY_S = 2e-9          # per stored force-constant entry and wave vector: the phases' GEMMs
 JACOBI_S = 5e-10              # per n^3: one-sided Jacobi SVD
 JACOBI_FALLBACK_S = 4e-9      # per n_terms n^2: the checked path's fallback, gejsv of B~ and every bound again
                               # in extended precision (3-3.7e-9 measured at 450-900 dofs)
@@ -274,11 +282,12 @@ def memory_limit(max_memory: float | None) -> tuple[str, float] | None:
 
 
 def guard(cost: Estimate, *, n_dof: int, max_memory: float | None, max_seconds: float | None,
-          alternatives: list[str]) -> None:
+          alternatives: list[str], subject: str | None = None) -> None:
     """Raise `ResourceLimitError` if `cost` exceeds the memory or time limit, naming the way out.
 
     `max_memory` / `max_seconds` None take `MEMORY_LIMIT` (or the available memory) and
-    `TIME_LIMIT_S`; ``float("inf")`` disables a limit.
+    `TIME_LIMIT_S`; ``float("inf")`` disables a limit. `subject` opens the message (default
+    "K has n_dof dofs").
     """
     source, room = memory_limit(max_memory) or ("", None)
     time_limit = max_seconds if max_seconds is not None else TIME_LIMIT_S
@@ -291,7 +300,7 @@ def guard(cost: Estimate, *, n_dof: int, max_memory: float | None, max_seconds: 
         return
     options = "; ".join(alternatives) if alternatives else "ask for fewer modes"
     raise ResourceLimitError(
-        f"K has {n_dof} dofs: the {cost.path} path ({cost.what}) would need about "
+        f"{subject or f'K has {n_dof} dofs'}: the {cost.path} path ({cost.what}) would need about "
         f"{describe_bytes(cost.memory)} of memory and ~{describe_seconds(cost.seconds)}, "
         f"{' and '.join(reasons)}. Cheaper requests: {options}; or pass max_memory= / "
         "max_seconds= (float('inf')) to run it anyway"

@@ -43,7 +43,7 @@ import functools
 import importlib
 import threading
 from types import ModuleType
-from typing import Any, Callable
+from typing import Any, Callable, Generic, ParamSpec, TypeVar, cast
 
 __all__ = ["Kernel", "jit", "intrinsic", "prange", "HOST_FMA", "bind", "threads", "compiled_pays",
            "COMPILED_FROM_S", "LOAD_SECONDS", "batches", "INTERRUPT_S", "SITE_SECONDS"]
@@ -97,6 +97,10 @@ def compiled_pays(counterpart_seconds: float) -> bool:
     return counterpart_seconds >= COMPILED_FROM_S
 
 
+#: A kernel's parameters and its result (`Kernel`): those of the Python function it compiles.
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
 _LOCK = threading.RLock()
 _BOUND: set[int] = set()  # the module namespaces already bound to numba's objects
 
@@ -108,37 +112,37 @@ def _numba() -> ModuleType:
 class _Lazy:
     """Something a kernel's module names that numba must see as its own object (`bind`)."""
 
-    def resolve(self) -> Any:
+    def resolve(self) -> object:
         raise NotImplementedError
 
 
-class Kernel(_Lazy):
+class Kernel(_Lazy, Generic[_P, _R]):
     """A function numba compiles on its first call (`jit`); calling it calls numba's dispatcher."""
 
-    def __init__(self, function: Callable[..., Any], options: dict[str, Any]) -> None:
+    def __init__(self, function: Callable[_P, _R], options: dict[str, object]) -> None:
         self.py_func = function
         self.options = options
         self._dispatcher: Any = None
         functools.update_wrapper(self, function)
 
-    def resolve(self) -> Any:
+    def resolve(self) -> Callable[_P, _R]:
         """numba's dispatcher of this function (created once; its module's names bound first)."""
         with _LOCK:
             if self._dispatcher is None:
                 self._dispatcher = _numba().njit(**self.options)(self.py_func)
                 bind(self.py_func.__globals__)
-            return self._dispatcher
+            return cast("Callable[_P, _R]", self._dispatcher)
 
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+    def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
         return self.resolve()(*args, **kwargs)
 
     def __repr__(self) -> str:
         return f"<compiled kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
 
 
-def jit(**options: Any) -> Callable[[Callable[..., Any]], Kernel]:
+def jit(**options: object) -> Callable[[Callable[_P, _R]], Kernel[_P, _R]]:
     """``numba.njit(**options)``, applied on the function's first call (a `Kernel`)."""
-    def wrap(function: Callable[..., Any]) -> Kernel:
+    def wrap(function: Callable[_P, _R]) -> Kernel[_P, _R]:
         return Kernel(function, dict(options))
     return wrap
 
@@ -146,7 +150,7 @@ def jit(**options: Any) -> Callable[[Callable[..., Any]], Kernel]:
 class _Intrinsic(_Lazy):
     """``numba.extending.intrinsic(function)``, made when a kernel that names it is bound."""
 
-    def __init__(self, function: Callable[..., Any]) -> None:
+    def __init__(self, function: Callable[..., object]) -> None:
         self.function = function
         self._made: Any = None
         functools.update_wrapper(self, function)
@@ -159,7 +163,7 @@ class _Intrinsic(_Lazy):
             return self._made
 
 
-def intrinsic(function: Callable[..., Any]) -> _Intrinsic:
+def intrinsic(function: Callable[..., object]) -> _Intrinsic:
     """``numba.extending.intrinsic``, lazily (the typing function imports numba and llvmlite itself)."""
     return _Intrinsic(function)
 
@@ -199,7 +203,7 @@ class _HostFMA(_Lazy):
 HOST_FMA = _HostFMA()
 
 
-def bind(namespace: dict[str, Any]) -> None:
+def bind(namespace: dict[str, object]) -> None:
     """Bind every `Kernel`, intrinsic, `prange` and `HOST_FMA` a module names (its globals) to
     numba's objects, the kernels' modules in turn (once per module)."""
     with _LOCK:

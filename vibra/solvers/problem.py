@@ -17,7 +17,7 @@ import vibra.solvers.common as common
 from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.common import DENSE_LIMIT
 
-__all__ = ["Problem", "quadratic_problem", "chain_problem"]
+__all__ = ["Problem", "quadratic_problem", "chain_problem", "bloch_problem"]
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,9 @@ class Problem:
     `spread` the ratio of K~'s largest to smallest nonzero diagonal entry (where masses are
     diagonal and the springs or a few modes of a chain are given; else 1);
     `separator` the widest breadth-first level of K's graph (`topology.separator_width`: what a
-    nested-dissection factor of a sparse K wider than a band costs), 0 where not measured.
+    nested-dissection factor of a sparse K wider than a band costs), 0 where not measured;
+    `batch` the number of matrices solved alike: a crystal's D(q) at `batch` wave vectors
+    (``equation="bloch"``, `bloch_problem`), 1 for every other request.
     """
 
     n: int
@@ -49,15 +51,17 @@ class Problem:
     spread: float = 1.0
     device: str = "cpu"
     # M q'' + (G + C) q' + K q = 0: "undamped" (no G, no C: the symmetric paths), "gyroscopic"
-    # (G only) or "damped" (C given); `definite`: K~ positive definite (its Cholesky factor exists)
+    # (G only) or "damped" (C given); "bloch": a crystal's Hermitian D(q), one per wave vector;
+    # `definite`: K~ positive definite (its Cholesky factor exists)
     equation: str = "undamped"
     definite: bool = True
     separator: int = 0
+    batch: int = 1
 
     @property
     def quadratic(self) -> bool:
         """G or C given: a quadratic eigenproblem (`structured.quadratic`)."""
-        return self.equation != "undamped"
+        return self.equation in ("gyroscopic", "damped")
 
     @property
     def springs(self) -> bool:
@@ -123,3 +127,13 @@ def chain_problem(n: int, *, accuracy: str, n_modes: int | None = None, vectors:
     return Problem(n=n, n_modes=n_modes, band=None, vectors=vectors, accuracy=accuracy, diagonal_mass=True, width=1,
                    ordering=None, sparse=True, nnz=3 * n, n_terms=max(n - 1, 0) if springs else 0,
                    topology="chain" if springs else "none")
+
+
+def bloch_problem(n_branches: int, n_q: int, *, vectors: bool, accuracy: str, entries: int, springs: bool) -> Problem:
+    """The `Problem` of a crystal's D(q) at `n_q` wave vectors: `n_q` complex Hermitian matrices of
+    `n_branches`, assembled from `entries` stored force-constant entries each (the scatter's
+    n_translations (3 n_atoms)^2, `vibra.crystals.dynamical.Assembly`), all eigenvalues (and
+    vectors), the spring factor known (`springs`) where "high" may re-solve a q-point through it."""
+    return Problem(n=n_branches, n_modes=None, band=None, vectors=vectors, accuracy=accuracy, diagonal_mass=True,
+                   width=n_branches, ordering=None, sparse=False, nnz=entries, n_terms=0,
+                   topology="network" if springs else "none", equation="bloch", batch=n_q)

@@ -43,6 +43,7 @@ from vibra.solvers.distributed.slepc import ranks as slepc_ranks, slepc_cost
 from vibra.solvers.accurate.gk_bisection import DSTEBZ_S, compiled_bisection_pays
 from vibra.solvers.problem import Problem, quadratic_problem
 from vibra.solvers.standard.cholmod import sparse_backend
+from vibra.solvers.standard.hermitian import BLOCH_EXTRAS, stack_cost
 from vibra.solvers.standard.iterative import ITERATIVE_FROM, MOST_MODES, iterative_cost
 
 __all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "estimate", "path_names", "quadratic_problem",
@@ -308,6 +309,13 @@ def _checked_cost(p: Problem) -> Estimate:
     return _made("accurate-checked", p, max(fast_memory, jacobi_memory), _refined(p, fast_seconds))
 
 
+def _bloch_cost(p: Problem) -> Estimate:
+    """`hermitian.stack_cost`: a crystal's D(q) at `p.batch` wave vectors, from `p.nnz` entries each."""
+    memory, seconds = stack_cost(p.n, p.batch, p.nnz, p.vectors)
+    return Estimate("hermitian-eigh", memory, seconds, f"{p.n} branches at {p.batch:,} q-point"
+                    f"{'s' if p.batch != 1 else ''}, {'with vectors' if p.vectors else 'frequencies only'}")
+
+
 def _first_order_cost(name: str, rate: float) -> Callable[[Problem], Estimate]:
     """The first-order form of 2n (`structured.first_order`): complex vectors of 2n, twice, ~200 n^2
     bytes; `rate` n^3 (two Hermitian solves of 2n, or one or two geev)."""
@@ -520,6 +528,12 @@ PATHS: tuple[SolverPath, ...] = (
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
                cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),
+    SolverPath("hermitian-eigh", "bloch", _anything, _bloch_cost, runners.hermitian, "absolute ~ n ε‖D(q)‖ per q; at "
+               "\"high\" a spring model's q-points near Γ relative, ε-level", "a crystal's D(q) at a batch of wave "
+               "vectors (`vibra.crystals`): stacked LAPACK heevd in chunks of ~1 MiB; at \"high\" a spring model's q-points "
+               "whose bound misses 1e-10 re-solved as the singular values of their spring factor; a polar crystal's "
+               "D(q) corrected first", weighted=False, cost="per q: ~5e-10 n^3 + 4e-8 n^2 s (2.5 times with vectors) + "
+               "2e-9 s per force-constant entry", fallbacks=tuple(f"hermitian-eigh + {how}" for how in BLOCH_EXTRAS)),
     SolverPath("skew-symmetric", "quadratic", _skew, _first_order_cost("skew-symmetric", SKEW_S),
                runners.skew_symmetric,
                "exactly real frequencies; absolute ~ ε‖A‖, small ones relative (from A⁻¹)",
@@ -548,10 +562,11 @@ def path_names() -> tuple[str, ...]:
 
 
 def choose(problem: Problem, solver: str) -> SolverPath:
-    """The path for `problem`, among those for its device and equation (the symmetric paths, or
-    the quadratic ones for G or C): ``solver="auto"`` takes the first that applies; a named
+    """The path for `problem`, among those for its device and equation (the symmetric paths, the
+    quadratic ones for G or C, the crystals' for D(q)): ``solver="auto"`` takes the first that applies; a named
     family its own (a quadratic method by its name). Raises ValueError when none of them applies."""
-    serving = [path for path in PATHS if path.device == problem.device and (path.family == "quadratic") == problem.quadratic]
+    serving = [path for path in PATHS if path.device == problem.device and (path.family == "quadratic") == problem.quadratic
+               and (path.family == "bloch") == (problem.equation == "bloch")]
     if problem.quadratic:
         for path in serving:
             if solver in ("auto", path.name) and path.applies(problem):

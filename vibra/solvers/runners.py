@@ -35,6 +35,7 @@ from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result
 from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
 from vibra.solvers.standard.iterative import lowest_modes
+from vibra.solvers.standard.hermitian import hermitian_stack
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
 from vibra.solvers.structured.equilibrated import pencil_result
 from vibra.solvers.accurate.chain.walled import walled_result
@@ -117,6 +118,14 @@ def hamiltonian(p: Problem, r: Reduced) -> Solved:
 
 def companion(p: Problem, r: Reduced) -> Solved:
     return companion_solve(r)
+
+
+def hermitian(p: Problem, matrices: NDArray[np.complex128]
+              ) -> tuple[NDArray[np.float64], NDArray[np.complex128] | None, NDArray[np.float64]]:
+    """A chunk of a crystal's D(q) (`problem.bloch_problem`): values, vectors where asked, bounds
+    (`hermitian_stack`). The crystals assemble the chunks and re-solve near Gamma themselves
+    (`vibra.crystals.dynamical.phonons`)."""
+    return hermitian_stack(matrices, vectors=p.vectors)
 
 
 # ------------------------------------------------------------------ accurate paths

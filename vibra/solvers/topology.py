@@ -21,11 +21,14 @@ not the bidiagonal forms).
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from vibra.solvers.common import MatrixLike
 
 __all__ = ["Topology", "classify", "KINDS", "separator_width"]
 
@@ -33,7 +36,7 @@ Topology = Literal["chain", "walled-chain", "ring", "walled-ring", "network", "n
 KINDS: tuple[str, ...] = ("chain", "walled-chain", "ring", "walled-ring", "network", "none")
 
 
-def classify(coupling: Any, *, diagonal_mass: bool = True) -> Topology:
+def classify(coupling: MatrixLike | None, *, diagonal_mass: bool = True) -> Topology:
     """The kind of spring pattern `coupling` (B, (n_terms, n_dof), any sparse or dense array) forms.
 
     Examples
@@ -113,7 +116,7 @@ def _one_cycle(first: np.ndarray, second: np.ndarray, n: int) -> bool:
     return bool(components == 1)
 
 
-def separator_width(pattern: Any) -> int:
+def separator_width(pattern: MatrixLike) -> int:
     """The widest level of a breadth-first level structure of `pattern`'s graph (a square sparse
     matrix with a symmetric pattern, as K is: an edge per stored off-diagonal entry) rooted at a pseudo-peripheral vertex: a bound
     from sizes on the top separator a nested-dissection order finds, which is what a sparse

@@ -38,12 +38,24 @@ numba itself is loaded on the first call, not with vibra (`vibra.solvers.compile
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers.compiled import HOST_FMA, batches, intrinsic, jit, prange, threads
+
+if TYPE_CHECKING:
+    from typing import ParamSpec, TypeVar
+
+    from numba.core.types import Type
+    from numba.core.typing.context import BaseContext
+    from numba.core.typing.templates import Signature
+
+    from vibra.solvers.compiled import Kernel
+
+    _P = ParamSpec("_P")
+    _R = TypeVar("_R")
 
 __all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor", "kernel_jit", "LANES", "FMA", "fma",
            "scalar_two_sum", "scalar_two_product", "scalar_mul", "scalar_reciprocal"]
@@ -53,7 +65,7 @@ _EPS = float(np.finfo(float).eps)
 _TINY = float(np.finfo(float).tiny)
 
 
-def kernel_jit(parallel: bool = False) -> Any:
+def kernel_jit(parallel: bool = False) -> Callable[[Callable[_P, _R]], Kernel[_P, _R]]:
     """The kernels' numba options: no fast-math (IEEE operations), cached on disk; compiled on
     first call (`vibra.solvers.compiled.jit`)."""
     return jit(cache=True, fastmath=False, nogil=True, error_model="numpy", parallel=parallel)
@@ -88,7 +100,7 @@ FMA = HOST_FMA
 
 
 @intrinsic
-def fma(typingctx: Any, a: Any, b: Any, c: Any) -> Any:
+def fma(typingctx: BaseContext, a: Type, b: Type, c: Type) -> tuple[Signature, Callable[..., object]]:
     """a b + c with one rounding (LLVM's llvm.fma: the FMA instruction; numba offers no fma)."""
     from llvmlite import ir as _ir
     from numba import types

@@ -13,13 +13,16 @@ factor of a chain on walls (a ring cut at one spring), whose values the counts c
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra.solvers.accurate.count_kernels import walled_factor
+
+if TYPE_CHECKING:
+    from vibra.solvers.common import MatrixLike
 
 __all__ = ["LADDER", "LEVELS", "SECTIONS", "SECTION_PASSES", "PASSES", "Counts", "stored_factor", "spring_width",
            "multisection", "certify_at_levels", "proven_multisection", "sorted_bounds", "cut_chain"]
@@ -47,7 +50,7 @@ PASSES = 16
 Counts = Callable[[NDArray[np.float64]], tuple[NDArray[np.intp], NDArray[np.bool_]]]
 
 
-def stored_factor(coupling: Any) -> tuple[sp.csr_matrix, NDArray[np.intp]]:
+def stored_factor(coupling: MatrixLike) -> tuple[sp.csr_matrix, NDArray[np.intp]]:
     """B as a float CSR copy, indices sorted, explicit zeros dropped, and its entries per row."""
     B = sp.csr_matrix(coupling, dtype=float, copy=True)
     B.sort_indices()

@@ -10,7 +10,7 @@ slower per operation; python-flint, gmpy2) are not vectorised over arrays or not
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Union
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +23,9 @@ __all__ = ["UNIT", "fast", "add", "mul", "div", "split_mp", "tree_sum", "lu", "l
 UNIT = 16 * 2.0**-104
 
 Pair = tuple[NDArray[np.float64], NDArray[np.float64]]
+#: One half of an operand: an array, or a float broadcast against the other operand's (``0.0``: an
+#: operand exact in double).
+Part = Union[NDArray[np.float64], float]
 
 
 def fast(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -30,19 +33,19 @@ def fast(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.flo
     return s, b - (s - a)
 
 
-def add(ah: Any, al: Any, bh: Any, bl: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def add(ah: Part, al: Part, bh: Part, bl: Part) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     s, e = two_sum(ah, bh)
     t, f = two_sum(al, bl)
     s, e = fast(s, e + t)
     return fast(s, e + f)
 
 
-def mul(ah: Any, al: Any, bh: Any, bl: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def mul(ah: Part, al: Part, bh: Part, bl: Part) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     p, e = two_product(ah, bh)
     return fast(p, e + (ah * bl + al * bh))
 
 
-def div(ah: Any, al: Any, bh: Any, bl: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def div(ah: Part, al: Part, bh: Part, bl: Part) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     q1 = ah / bh
     ph, pl = mul(bh, bl, q1, 0.0)
     rh, rl = add(ah, al, -ph, -pl)
@@ -54,7 +57,7 @@ def div(ah: Any, al: Any, bh: Any, bl: Any) -> tuple[NDArray[np.float64], NDArra
     return add(s, e, q3, 0.0)
 
 
-def split_mp(values: Any) -> Pair:
+def split_mp(values: object) -> Pair:
     """mpmath numbers (any shape of nested lists, or an mpmath matrix's rows) as (hi, lo) arrays."""
     import mpmath
 

@@ -287,7 +287,7 @@ class Refiner:
         self.K = K[self.order][:, self.order].tocsc()
         self.identity = sp.identity(B.shape[1], format="csc")
 
-    def refine(self, basis: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[Any]:
+    def refine(self, basis: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.longdouble]:
         """`basis` (columns for `values`, ascending), each cluster refined (see the class)."""
         n = self.K.shape[0]
         result = np.asarray(basis, dtype=np.longdouble).copy()

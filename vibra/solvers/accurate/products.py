@@ -11,7 +11,7 @@ results agree bit for bit. Also the triple-double product of `spring_ritz._error
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -19,6 +19,9 @@ from numpy.typing import NDArray
 
 from vibra.solvers.accurate.count_kernels import FMA, fma, kernel_jit
 from vibra.solvers.compiled import compiled_pays, jit
+
+if TYPE_CHECKING:
+    from vibra.solvers.common import MatrixLike
 
 __all__ = ["times", "transposed_times", "rayleigh_quotients", "triple_rows", "SCIPY_PRODUCT_S"]
 
@@ -54,7 +57,7 @@ def _rows(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArray[n
                 out[i, j] += a * V[c, j]
 
 
-def times(B: Any, V: NDArray[np.float64]) -> NDArray[np.float64]:
+def times(B: MatrixLike, V: NDArray[np.float64]) -> NDArray[np.float64]:
     """B @ V for a sparse B and a dense (n, k) block, in V's memory order (a dense B: BLAS)."""
     if not sp.issparse(B):
         return np.asarray(B) @ V
@@ -75,7 +78,7 @@ def times(B: Any, V: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def transposed_times(B: Any, E: NDArray[np.float64]) -> NDArray[np.float64]:
+def transposed_times(B: MatrixLike, E: NDArray[np.float64]) -> NDArray[np.float64]:
     """B^T @ E (B^T formed once in CSR: O(nnz))."""
     if not sp.issparse(B):
         return np.asarray(B).T @ E
@@ -135,7 +138,7 @@ def _rayleigh_columns(indptr: NDArray[np.int32], indices: NDArray[np.int32], dat
         out[j] = q + ((nh - ph) - pl + nl - q * dl) / dh
 
 
-def rayleigh_quotients(B: Any, V: NDArray[np.float64]) -> NDArray[np.float64]:
+def rayleigh_quotients(B: MatrixLike, V: NDArray[np.float64]) -> NDArray[np.float64]:
     """||B v||^2 / ||v||^2 for each column v of V, in double-double (every product exact, every
     sum compensated), rounded once: the Rayleigh quotients of B^T B for the vectors as stored,
     right to a few units of 1e-32 relative for a B whose rows have a few terms."""
@@ -146,7 +149,8 @@ def rayleigh_quotients(B: Any, V: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 @kernel_jit()
-def triple_rows(indptr: Any, indices: Any, data: Any, V: Any, parts: Any) -> None:  # pragma: no cover - compiled
+def triple_rows(indptr: NDArray[np.int64], indices: NDArray[np.int64], data: NDArray[np.float64],
+                V: NDArray[np.float64], parts: NDArray[np.float64]) -> None:  # pragma: no cover - compiled
     """parts[0] + parts[1] + parts[2] = B V row by row (`spring_ritz._error_free_product`):
     Dekker's two-product of every entry (split at 2^27 + 1; no FMA), the high parts summed by
     two-sum into parts[0], their errors and the products' low parts by two-sum into parts[1],

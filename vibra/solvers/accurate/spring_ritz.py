@@ -15,14 +15,14 @@ from typing import Any, Optional, Tuple
 
 import numpy as np
 import scipy.sparse as sp
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra.solvers.accurate.dd import (
     UNIT as DD_UNIT, add as dd_add, div as dd_div, lu as dd_lu, lu_solve as dd_lu_solve,
 )
 from vibra.solvers.accurate.dd import mul as dd_mul, split_mp, tree_sum
 from vibra.solvers.accuracy import HIGH_TARGET
-from vibra.solvers.common import EPS, SolveResult, sample_columns, small_pencil
+from vibra.solvers.common import EPS, Matrix, SolveResult, sample_columns, small_pencil
 from vibra.solvers.accurate.rounding import WORST_ENTRY, entry_deviation
 from vibra.solvers.compiled import compiled_pays
 
@@ -49,7 +49,7 @@ FORMING = WORST_ENTRY
 Deviation = Optional[Tuple[sp.csr_matrix, sp.csr_matrix]]
 
 
-def forming_deviation(weighted: Any, coupling: sp.csr_matrix, weights: NDArray[np.float64],
+def forming_deviation(weighted: Matrix, coupling: sp.csr_matrix, weights: NDArray[np.float64],
                       mass: NDArray[np.float64]) -> Deviation:
     """(D, S) of the stored B~ = W^1/2 B M^-1/2 (`vibra.solvers.accurate.rounding.entry_deviation`: each
     entry x = (1 + delta) sqrt(w) c / sqrt(m), delta to ~eps^2): D = x delta / (1 + delta), S
@@ -111,7 +111,7 @@ def residual_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArra
     return bounds
 
 
-def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: Any,
+def cluster_bounds(B: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], delta: ArrayLike,
                     terms: float, *, complete: bool, precise: bool = False, cheap_from: int | None = None,
                     floor: float = -np.inf, ceiling: float | None = None, deviation: Deviation = None,
                     split: bool = False) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -476,7 +476,7 @@ def _row_sums(slots: NDArray[np.intp], ph: NDArray[np.float64], pl: NDArray[np.f
     return tree_sum(*dd_mul(ph, pl, xh[slots], xl[slots]), axis=-1)
 
 
-def spring_figures(weighted: Any, values: NDArray[np.float64], basis: NDArray[np.float64], vectors: bool,
+def spring_figures(weighted: Matrix, values: NDArray[np.float64], basis: NDArray[np.float64], vectors: bool,
                    solver: str) -> SolveResult:
     """A result from spring-space values and (mass-weighted) vectors: residuals of K~ = B~^T B~ on a
     sample of columns, the orthogonality of the basis, and a Kato-Temple error per sampled mode."""

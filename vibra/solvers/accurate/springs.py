@@ -44,13 +44,13 @@ from vibra.solvers.accurate.spring_ritz import (
     spring_figures, zero_level,
 )
 from vibra.solvers.common import (
-    EPS, JACOBI_WORK, SolveResult, mass_power, selected, small_pencil, squared_range,
+    EPS, JACOBI_WORK, Matrix, SolveResult, mass_power, selected, small_pencil, squared_range,
 )
 from vibra.solvers.standard.lapack import DENSE_FLOOR
 
 
 
-def tightened(result: SolveResult, weighted: Any, deviation: Deviation,
+def tightened(result: SolveResult, weighted: Matrix, deviation: Deviation,
                factor: tuple[sp.csr_matrix, NDArray[np.float64]], mass: NDArray[np.float64], *,
                accuracy: str) -> SolveResult:
     """`result` with its loose bounds tightened as far as `accuracy` asks, no further.
@@ -135,14 +135,14 @@ def relative_account(result: SolveResult, how: str) -> SolveResult:
     return result
 
 
-def weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> Any:
+def weighted_factor(coupling: sp.csr_matrix, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> Matrix:
     left = sp.diags(np.sqrt(weights))
     if mass.ndim == 1:
         return sp.csr_matrix(left @ coupling @ sp.diags(1.0 / np.sqrt(mass)))
     return np.asarray((left @ coupling).toarray() @ mass_power(mass, -0.5))
 
 
-def spring_ritz_band(weighted: Any, standard: SolveResult, band: tuple[float, float], *, vectors: bool,
+def spring_ritz_band(weighted: Matrix, standard: SolveResult, band: tuple[float, float], *, vectors: bool,
                  deviation: Deviation = None) -> SolveResult:
     """Rayleigh-Ritz in spring space on every vector the sparse path found in `band`, per
     cluster (`cluster_bounds`): H = (B~V)^T (B~V) keeps small eigenvalues' relative accuracy;
@@ -162,7 +162,7 @@ def spring_ritz_band(weighted: Any, standard: SolveResult, band: tuple[float, fl
     return result
 
 
-def checked_ritz(weighted: Any, basis: NDArray[np.float64], k: int, *, vectors: bool,
+def checked_ritz(weighted: Matrix, basis: NDArray[np.float64], k: int, *, vectors: bool,
                   deviation: Deviation | Callable[[], Deviation] = None, form: ChainForm | None = None,
                   precise: bool = False) -> SolveResult:
     """Spring-space Rayleigh-Ritz on k + 1 shift-invert vectors; the lowest k kept, each with the
@@ -282,7 +282,7 @@ def _counted(B: sp.csr_matrix, form: ChainForm, values: NDArray[np.float64], bas
                        float(np.abs(deviation[:k, :k]).max(initial=0.0)), "accurate-ritz")
 
 
-def spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviation: Deviation = None,
+def spring_rayleigh(weighted: Matrix, ring: SolveResult, *, vectors: bool, deviation: Deviation = None,
                     name: str = "accurate-rayleigh") -> SolveResult:
     """All modes of a long ring: spring-space Rayleigh-Ritz per cluster of the banded solver's
     vectors (Rayleigh quotients ||B~ v||^2 for single modes), each bounded from its residual
@@ -296,7 +296,7 @@ def spring_rayleigh(weighted: Any, ring: SolveResult, *, vectors: bool, deviatio
     return result
 
 
-def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None
+def _accurate_jacobi(weighted: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None
                      ) -> SolveResult:
     """One-sided Jacobi SVD (LAPACK gejsv) of the dense B~: relative accuracy for scaled B."""
     dense = weighted.toarray() if sp.issparse(weighted) else np.asarray(weighted)
@@ -325,7 +325,7 @@ def _accurate_jacobi(weighted: Any, *, n_modes: int | None, vectors: bool, band:
 
 
 
-def checked_dense(weighted: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
                   jacobi: bool = True, deviation: Deviation = None) -> SolveResult:
     """The fast dense solve, checked mode by mode; refinement only for the modes that need it.
 

@@ -34,7 +34,7 @@ import shutil
 import subprocess
 import tempfile
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, TypedDict
 
 import numpy as np
 import scipy.sparse as sp
@@ -175,14 +175,30 @@ def _save(folder: Path, name: str, array: NDArray[Any]) -> None:
     atomic_write(folder / name, write)
 
 
-def write_inputs(folder: Path, Kt: sp.csr_matrix, *, n_modes: int, n_ranks: int) -> dict[str, Any]:
+class SlepcRequest(TypedDict):
+    """The request `write_inputs` hands the worker (``request.json``): K~'s size, how many modes, over
+    how many ranks, SLEPc's settings (tolerance, iterations, subspace size, the shift sigma, in the
+    units of omega^2) and K~'s norm and Gershgorin lower bound (units of omega^2)."""
+
+    n: int
+    n_modes: int
+    ranks: int
+    tolerance: float
+    max_it: int
+    ncv: int
+    sigma: float
+    norm: float
+    gershgorin_lower: float
+
+
+def write_inputs(folder: Path, Kt: sp.csr_matrix, *, n_modes: int, n_ranks: int) -> SlepcRequest:
     """K~'s CSR arrays and the request into `folder`, each file atomically (the request last: its
     presence means the rest is complete); returns the request."""
     n = Kt.shape[0]
     norm = norm_upper(Kt)  # ||K~||_inf >= ||K~||_2
     absolute = abs(Kt)
     radius = np.asarray(absolute.sum(axis=1)).ravel() - np.abs(Kt.diagonal())
-    request = {
+    request: SlepcRequest = {
         "n": n, "n_modes": n_modes, "ranks": n_ranks, "tolerance": TOLERANCE, "max_it": 1000,
         "ncv": max(2 * n_modes + 1, n_modes + 32),
         "sigma": -SHIFT * norm, "norm": norm,
@@ -195,7 +211,7 @@ def write_inputs(folder: Path, Kt: sp.csr_matrix, *, n_modes: int, n_ranks: int)
     return request
 
 
-def slepc_path(Kt: Any, *, n_modes: int, vectors: bool, n_ranks: int | None = None,
+def slepc_path(Kt: sp.spmatrix, *, n_modes: int, vectors: bool, n_ranks: int | None = None,
                on_folder: Callable[[Path], None] | None = None,
                on_account: Callable[[dict[str, Any]], None] | None = None) -> SolveResult:
     """The lowest `n_modes` eigenpairs of the sparse K~ by SLEPc over `n_ranks` MPI processes.

@@ -75,7 +75,7 @@ class CholmodCholesky:
     True
     """
 
-    def __init__(self, matrix: Any, order: NDArray[np.intp] | None) -> None:
+    def __init__(self, matrix: sp.spmatrix, order: NDArray[np.intp] | None) -> None:
         from cvxopt import cholmod, matrix as dense, spmatrix
 
         self.n = matrix.shape[0]
@@ -107,7 +107,7 @@ class CholmodCholesky:
         return np.asarray(rhs).reshape(x.shape)
 
 
-def factor_entries(matrix: Any, order: NDArray[np.intp] | None) -> int:
+def factor_entries(matrix: sp.spmatrix, order: NDArray[np.intp] | None) -> int:
     """Nonzeros in the Cholesky factor L of A[order][:, order] (symmetric pattern), from its
     elimination tree: row i of L holds the nodes met walking up the tree from each j < i with
     a_ij != 0 (Liu's row subtrees), O(nnz(L)) steps, no factorisation.

@@ -22,12 +22,13 @@ Residuals and the orthogonality figure are computed on the GPU.
 
 from __future__ import annotations
 
+from types import ModuleType
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from vibra.solvers.common import SAMPLE, SolveResult, mass_weighted
+from vibra.solvers.common import SAMPLE, Matrix, SolveResult, mass_weighted
 from vibra.solvers.common import sample_columns, selected
 
 __all__ = [
@@ -68,7 +69,7 @@ class GPUUnavailableError(ImportError, RuntimeError):
 
 
 # ---------------------------------------------------------------------- device selection
-def check_device(device: Any) -> Literal["cpu", "gpu"]:
+def check_device(device: object) -> Literal["cpu", "gpu"]:
     """Validate ``device=``: "cpu", "gpu" (or its alias "cuda"), returned as "cpu" or "gpu".
 
     Raises
@@ -100,7 +101,7 @@ def _import_cupy() -> Any:
     return cupy
 
 
-def require_gpu() -> Any:
+def require_gpu() -> ModuleType:
     """The CuPy module, once it is known to see a CUDA device; else GPUUnavailableError."""
     cupy = _import_cupy()
     try:
@@ -328,7 +329,7 @@ def _solve_on_device(cupy: Any, matrix: NDArray[np.float64], vectors: bool
     return values, basis, (columns, residuals, orthogonality)
 
 
-def solve_gpu(K: Any, mass: NDArray[np.float64], *, n_modes: int | None, vectors: bool,
+def solve_gpu(K: Matrix, mass: NDArray[np.float64], *, n_modes: int | None, vectors: bool,
               band: tuple[float, float] | None) -> SolveResult:
     """`vibra.solvers.solve` for ``device="gpu"``: weight K by the masses, solve all modes on the
     GPU, keep the lowest `n_modes` or those with omega in `band` (signed, rad per time unit).

@@ -12,7 +12,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.common import SolveResult, absolute_figures, norm_upper, squared_range, tridiagonal_bands
+from vibra.solvers.common import Matrix, SolveResult, absolute_figures, norm_upper, squared_range, tridiagonal_bands
 
 #: Added to n in the dense path's eigenvalue bound (n + DENSE_FLOOR) eps ||K~||: forming K~
 #: (k_i + k_j, then two scalings by 1/sqrt(m)) costs ~4 eps relative per entry, and syevr's own
@@ -21,7 +21,7 @@ from vibra.solvers.common import SolveResult, absolute_figures, norm_upper, squa
 DENSE_FLOOR = 32
 
 
-def dense_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+def dense_path(Kt: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
                overwrite: bool = False) -> SolveResult:
     """Dense LAPACK eigh (syevr) on K~, a subset by index or value when asked.
 
@@ -71,7 +71,8 @@ def _all_then_selected(dense: NDArray[np.float64], vectors: bool, n_modes: int |
     return values[keep], (basis[:, keep] if vectors else None)
 
 
-def tridiagonal_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None) -> SolveResult:
+def tridiagonal_path(Kt: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None
+                     ) -> SolveResult:
     """LAPACK stemr / stebz on the diagonals of a tridiagonal K~."""
     d, e = tridiagonal_bands(Kt)
     n = d.shape[0]
@@ -88,7 +89,7 @@ def tridiagonal_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple
     return absolute_figures(sp.csr_matrix(Kt), np.asarray(values), basis, "tridiagonal", floor=float(n))
 
 
-def banded_path(Kt: Any, width: int, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+def banded_path(Kt: Matrix, width: int, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
                 ordering: NDArray[np.intp] | None = None) -> SolveResult:
     """LAPACK sbevd / sbevx on the lower band storage of K~ (half-bandwidth `width`).
 

@@ -98,7 +98,7 @@ class PardisoCholesky:
     True
     """
 
-    def __init__(self, matrix: Any) -> None:
+    def __init__(self, matrix: sp.spmatrix) -> None:
         import pypardiso
 
         self.n = matrix.shape[0]

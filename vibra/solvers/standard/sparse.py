@@ -9,8 +9,6 @@ and the Ritz vectors get one Rayleigh-Ritz step in K~. A band inside the spectru
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
@@ -18,7 +16,7 @@ import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 from vibra.solvers.common import (
-    DENSE_ALL_LIMIT, EPS, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
+    DENSE_ALL_LIMIT, EPS, Matrix, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
     tridiagonal_bands,
 )
 from vibra.solvers.standard.krylov import block_eigs
@@ -337,7 +335,7 @@ def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator
     return _ascending(values, basis)
 
 
-def sparse_path(Kt: Any, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
+def sparse_path(Kt: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
                 spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None = None) -> SolveResult:
     """The lowest `n_modes` (or those in `band`) of a sparse K~ by shift-invert block Krylov.
 

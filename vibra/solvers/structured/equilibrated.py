@@ -12,7 +12,7 @@ import scipy.linalg as la
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
-from vibra.solvers.common import SolveResult, selected
+from vibra.solvers.common import Matrix, SolveResult, selected
 
 __all__ = ["check_mass_matrix", "scaled_condition", "equilibrated_cholesky", "pencil_result"]
 
@@ -120,7 +120,7 @@ def equilibrated_cholesky(matrix: NDArray[np.float64]) -> tuple[NDArray[np.float
     return scale, lower, condition
 
 
-def pencil_result(K_matrix: Any, mass: NDArray[np.float64], *, n_modes: int | None, vectors: bool,
+def pencil_result(K_matrix: Matrix, mass: NDArray[np.float64], *, n_modes: int | None, vectors: bool,
                   band: tuple[float, float] | None, jacobi: bool = True) -> SolveResult:
     """The pencil solved (see the module) as a solver path's raw result, K and M checked by
     the caller: ``pencil-jacobi`` where K is positive definite (and `jacobi`), else

@@ -9,7 +9,7 @@ from LAPACK dlasq1 (dqds) to high relative accuracy, its vectors from dbdsqr (se
 from __future__ import annotations
 
 import importlib
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, TypeVar
 
 import numpy as np
 import scipy.linalg as la
@@ -25,6 +25,11 @@ from vibra.solvers.accurate.rounding import (
     UNIT, Scalings, centred, entry_deviation, kato_temple, rayleigh_refinement, scaling_logs,
 )
 
+if TYPE_CHECKING:
+    from vibra.solvers.common import Matrix, MatrixLike
+
+    #: A relative bound, per value or one for all (`compose` gives the kind it is given).
+    _Bound = TypeVar("_Bound", float, NDArray[np.float64])
 
 Segment = tuple[int, int, NDArray[np.float64], NDArray[np.float64], int, bool]
 
@@ -129,7 +134,7 @@ def solving_bound(size: int) -> float:
     return (8.0 + 0.25 * size) * EPS
 
 
-def compose(solving: Any, forming: Any) -> Any:
+def compose(solving: _Bound, forming: _Bound) -> _Bound:
     """The relative bound of two relative errors in a row: s + f + s f, rounded up (not (1+s)(1+f) - 1,
     which rounds the small ones away)."""
     return (solving + forming + solving * forming) * (1 + 4 * UNIT)
@@ -151,8 +156,8 @@ def worst_forming(d: NDArray[np.float64], e: NDArray[np.float64]) -> float:
     return 2.0 * EPS if uniform else 5.0 * (2 * size - 1) * EPS
 
 
-def segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], coupling: Any, weights: NDArray[np.float64],
-                     mass: NDArray[np.float64], *, weight_slack: NDArray[np.float64] | None = None
+def segment_scalings(weighted: sp.csr_matrix, segments: list[Segment], coupling: MatrixLike,
+                     weights: NDArray[np.float64], mass: NDArray[np.float64], *, weight_slack: NDArray[np.float64] | None = None
                      ) -> list[Scalings]:
     """Each segment's forming error as diagonal scalings, from every entry's actual rounding.
 
@@ -399,7 +404,7 @@ def _chain_values(segments: list[Segment], scalings: list[Scalings]
     return omega[order], bound[order]
 
 
-def bidiagonal_path(Kt: Any, weighted: sp.csr_matrix, segments: Any, *, n_modes: int | None, vectors: bool,
+def bidiagonal_path(Kt: Matrix, weighted: sp.csr_matrix, segments: list[Segment], *, n_modes: int | None, vectors: bool,
                    band: tuple[float, float] | None, on_stage: Callable[[float, str], None] | None = None,
                    factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None = None,
                    mass: NDArray[np.float64] | None = None) -> SolveResult:

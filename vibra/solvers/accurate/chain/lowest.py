@@ -15,8 +15,6 @@ iteration on TGK (LAPACK dstein); their accuracy is the residual's.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
@@ -25,14 +23,14 @@ from vibra.solvers.accurate.chain.bidiagonal import (
     Segment, certify_modes, chunk, compose, inverse_iteration, neighbour_bounds, chain_bidiagonals,
     segment_scalings, solving_bound, worst_forming,
 )
-from vibra.solvers.common import EPS, SolveResult, absolute_figures
+from vibra.solvers.common import EPS, Matrix, MatrixLike, SolveResult, absolute_figures
 from vibra.solvers.accurate.gk_bisection import golub_kahan_lowest
 from vibra.solvers.accurate.rounding import UNIT, Scalings
 
 __all__ = ["lowest_chain_path", "chain_segments", "certified_lowest", "spring_factor_of_chain", "lowest_chain_modes"]
 
 
-def chain_segments(weighted: Any) -> list[Segment] | None:
+def chain_segments(weighted: Matrix) -> list[Segment] | None:
     """The chain segments of a spring factor B~ (`chain_bidiagonals`), None if not a chain."""
     return chain_bidiagonals(sp.csr_matrix(weighted))
 
@@ -82,7 +80,7 @@ def certified_lowest(d: NDArray[np.float64], e: NDArray[np.float64], skip: int, 
     return sigma, relative, u, v
 
 
-def lowest_chain_path(Kt: Any, segments: list[Segment], n_modes: int, *, vectors: bool,
+def lowest_chain_path(Kt: Matrix, segments: list[Segment], n_modes: int, *, vectors: bool,
                       scalings: list[Scalings] | None = None) -> SolveResult:
     """accurate-bisection: the lowest `n_modes` frequencies of a chain by Golub-Kahan bisection.
 
@@ -159,7 +157,7 @@ def _exact_row_sums(K: sp.csr_matrix) -> tuple[NDArray[np.float64], NDArray[np.f
     return total + (err + err2), np.abs(diagonal) * EPS * (n > 0)
 
 
-def _anchor_slack(K: Any, coupling: sp.csr_matrix, weights: NDArray[np.float64]) -> NDArray[np.float64]:
+def _anchor_slack(K: Matrix, coupling: sp.csr_matrix, weights: NDArray[np.float64]) -> NDArray[np.float64]:
     """Relative uncertainty of each weight of `spring_factor_of_chain(K)`: springs are exact; an
     anchor, K's row sum (compensated, ~2 u), also carries the rounding of assembling K[i, i] from
     the springs it sums (2 u |K[i, i]|), as the anchors that code drops for lying within it."""
@@ -172,7 +170,7 @@ def _anchor_slack(K: Any, coupling: sp.csr_matrix, weights: NDArray[np.float64])
     return slack
 
 
-def spring_factor_of_chain(K: Any) -> tuple[sp.csr_matrix, NDArray[np.float64]] | None:
+def spring_factor_of_chain(K: MatrixLike) -> tuple[sp.csr_matrix, NDArray[np.float64]] | None:
     """The spring factor (B, w) of a chain's stiffness K (tridiagonal), or None if K is not one.
 
     Springs are -K[i, i+1] (all must be >= 0); each dof's anchor is its row sum, computed
@@ -209,7 +207,7 @@ def spring_factor_of_chain(K: Any) -> tuple[sp.csr_matrix, NDArray[np.float64]] 
     return coupling, np.r_[springs[keep], anchors[anchored]]
 
 
-def lowest_chain_modes(Kt: Any, K: Any, mass: NDArray[np.float64],
+def lowest_chain_modes(Kt: Matrix, K: Matrix, mass: NDArray[np.float64],
                        spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, *, n_modes: int,
                        vectors: bool, scale: float = 1.0) -> SolveResult | None:
     """`lowest_chain_path` for a request as `dispatch.solve` holds it, or None if K is not a chain.

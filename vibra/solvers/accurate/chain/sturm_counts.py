@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibra.solvers.accurate.count_kernels import chain_counts
-from vibra.solvers.common import SolveResult
+from vibra.solvers.common import MatrixLike, SolveResult
 from vibra.solvers.accurate.counting import LEVELS, spring_width, stored_factor
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, div as _div, mul as _mul
 from vibra.solvers.accurate.golub_kahan import WANTED
@@ -53,7 +53,7 @@ class ChainForm:
         return chain_counts(x, self.site, self.m, self.compliance, self.squares)
 
 
-def chain_form(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> ChainForm | None:
+def chain_form(coupling: MatrixLike, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> ChainForm | None:
     """The spring form of a system whose springs join dofs c and c + 1 only, with at most one
     spring to a wall at each end of each chain (`bidiagonal.chain_bidiagonals`' structure), from
     the inputs themselves; None for any other system."""
@@ -178,7 +178,7 @@ def certify_chain_values(form: ChainForm, values: NDArray[np.float64], error: ND
     return error, certified
 
 
-def chain_counted(result: SolveResult, coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64],
+def chain_counted(result: SolveResult, coupling: MatrixLike, weights: NDArray[np.float64], mass: NDArray[np.float64],
                   band: tuple[float, float] | None) -> SolveResult:
     """A chain's result (``accurate-bidiagonal``, the lowest modes) with the bounds its triplets
     left above WANTED (values in a cluster) certified by `certify_chain_values`; as it is with a

@@ -27,14 +27,13 @@ O(n^3).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._core.lapack import bidiagonal_singular_values
-from vibra.solvers.common import SolveResult
+from vibra.solvers.common import Matrix, MatrixLike, SolveResult
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul
 from vibra.solvers.accurate.golub_kahan import singular_vectors
 from vibra.solvers.accurate.gk_bisection import golub_kahan_lowest
@@ -64,7 +63,7 @@ class WalledChain:
         return int(self.m.shape[0])
 
 
-def walled_chain(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> WalledChain | None:
+def walled_chain(coupling: MatrixLike, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> WalledChain | None:
     """The chain, if B's rows are one spring per neighbouring pair (i, i + 1), i = 0..n-2, and
     at least one spring to a wall (one entry); None otherwise (a chain without walls between its
     ends is a chain for `bidiagonal`; a cycle a ring; parallel springs, a branch: neither)."""
@@ -112,7 +111,7 @@ def inner_walls(site: NDArray[np.intp], n: int) -> bool:
     return bool(per_site[1:-1].any() or per_site[0] > 1 or per_site[-1] > 1)
 
 
-def has_inner_walls(coupling: Any) -> bool:
+def has_inner_walls(coupling: MatrixLike) -> bool:
     """`inner_walls` from B's rows with one entry (O(nnz), no values): for the cost estimate."""
     B = sp.csr_matrix(coupling)
     single = np.flatnonzero(np.diff(B.indptr) == 1)
@@ -175,7 +174,7 @@ def walled_values(chain: WalledChain, count: int | None = None) -> WalledValues:
     return WalledValues(values, sorted_bounds(values, bound[order], order), certified[order], spent)
 
 
-def walled_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], weighted: Any,
+def walled_result(coupling: MatrixLike, weights: NDArray[np.float64], mass: NDArray[np.float64], weighted: Matrix,
                   n_modes: int | None, vectors: bool) -> SolveResult | None:
     """``accurate-walled``: the chain's frequencies (the lowest n_modes when given), with the
     lowest modes' vectors when asked; None where it does not apply (the caller goes on)."""

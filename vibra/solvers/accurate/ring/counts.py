@@ -33,7 +33,7 @@ because no library offers inertia counts of a cyclic tridiagonal in extended pre
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -43,6 +43,9 @@ from scipy.sparse.csgraph import depth_first_order
 from vibra.solvers.accurate.counting import LADDER, SECTION_PASSES, multisection, spring_width, stored_factor
 from vibra.solvers.accurate.dd import UNIT as _UNIT_DD, add as _add, div as _div, mul as _mul, split_mp
 from vibra.solvers.accurate.rounding import dekker_split, split_product
+
+if TYPE_CHECKING:
+    from vibra.solvers.common import MatrixLike
 
 __all__ = ["RingPencil", "ring_pencil", "count_below", "count_below_springs", "count_below_mp", "mp_rho", "certify", "RHO_UNIT",
            "MP_WORK"]
@@ -103,7 +106,7 @@ class RingPencil:
             self.exact["a"], self.exact["b"] = split_mp(diagonal), split_mp(off)
 
 
-def ring_pencil(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> RingPencil | None:
+def ring_pencil(coupling: MatrixLike, weights: NDArray[np.float64], mass: NDArray[np.float64]) -> RingPencil | None:
     """The ring's pencil from its spring factor (B, w) and diagonal masses, or None when the
     springs do not close one cycle through all dofs (n >= 3; a row of B with one entry, a
     spring to a wall, is allowed)."""

@@ -30,7 +30,7 @@ would take too long.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from vibra._core.lapack import bidiagonal_singular_values
 from vibra.solvers.accurate.count_kernels import NEAR, pivot_roots, spring_counts
-from vibra.solvers.common import SolveResult
+from vibra.solvers.common import Matrix, MatrixLike, SolveResult
 from vibra.solvers.accurate.counting import (
     LEVELS, certify_at_levels, cut_chain, proven_multisection, sorted_bounds, spring_width,
 )
@@ -218,7 +218,7 @@ def ring_values(pencil: RingPencil, count: int | None = None, *, tighten: Tighte
     return RingValues(values, bound, certified[order] & np.isfinite(bound), int(evaluations.sum()), spent, tightened)
 
 
-def ring_result(coupling: Any, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None,
+def ring_result(coupling: MatrixLike, weights: NDArray[np.float64], mass: NDArray[np.float64], n_modes: int | None,
                 *, tighten: Tighten | None = None, lowest: bool = False, aim: float = MP_WANTED
                 ) -> SolveResult | None:
     """``accurate-ring``: a ring's frequencies by `ring_values` (the lowest n_modes of them
@@ -414,7 +414,7 @@ def _model_root(y: NDArray[np.float64], values: NDArray[np.float64], first: NDAr
     return guess
 
 
-def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64], aim: float = MP_WANTED) -> Tighten:
+def pair_step(weighted: Matrix, deviation: Deviation, mass: NDArray[np.float64], aim: float = MP_WANTED) -> Tighten:
     """`ring_values`' `tighten` step: each cluster of values whose count bound stays over
     `aim` relative (`MP_WANTED`, "certified"; accuracy="high" passes 1e-10, which the
     counts' own bounds, ~sqrt(n) 1e-15, meet: the step then costs nothing)
@@ -465,7 +465,7 @@ def pair_step(weighted: Any, deviation: Deviation, mass: NDArray[np.float64], ai
     return tighten
 
 
-def ring_vectors(weighted: Any, mass: NDArray[np.float64], ring: SolveResult) -> SolveResult:
+def ring_vectors(weighted: Matrix, mass: NDArray[np.float64], ring: SolveResult) -> SolveResult:
     """`ring` (the lowest modes, certified) with each mode's singular vector of B~ (Golub-Kahan
     inverse iteration), their residuals and orthogonality; the bounds stay the counts'."""
     B = sp.csr_matrix(weighted)
