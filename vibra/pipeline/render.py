@@ -20,15 +20,21 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra._core.filesystem import atomic_write
 from vibra.pipeline.render_geometry import (MAX_CHAIN_SITES, MAX_NETWORK_ARROWS, arrow_start, chain_sites,
                                             displacements3, molecule_bonds, molecule_symbols, network_arrow_step,
                                             positions3, view_direction)
+
+if TYPE_CHECKING:
+    from vibra.crystals.supercell import SupercellMode
+    from vibra.modes import Modes
+    from vibra.pipeline.scene import Scene
+    from vibra.system import System
 
 __all__ = ["SceneRenderer", "MoleculeStructure", "write_png", "write_gif", "molecule_symbols", "molecule_bonds",
            "chain_sites", "MAX_CHAIN_SITES", "MAX_NETWORK_ARROWS", "network_arrow_step", "view_direction"]
@@ -86,14 +92,14 @@ def write_gif(frames: Sequence[NDArray[np.uint8]], path: str | os.PathLike[str],
 
 
 # ---------------------------------------------------------------------- labels and arrows
-def _default_structure(scene: Any, system: Any) -> MoleculeStructure:
+def _default_structure(scene: Scene, system: System) -> MoleculeStructure:
     """Elements and bonds for a caller that passed none (`vibra.pipeline.plan` always passes them)."""
     params = scene.system.parameters
     symbols = molecule_symbols(system, params.get("symbols"))
     return MoleculeStructure(tuple(symbols), tuple(molecule_bonds(system, symbols, params.get("springs"))))
 
 
-def _frequency_text(scene: Any, modes: Any, k: int) -> str:
+def _frequency_text(scene: Scene, modes: Modes, k: int) -> str:
     """Mode k's frequency with its unit, in Unicode (cm⁻¹ for a molecule, ω in rad/s or √(k/m) otherwise)."""
     from vibra.units import omega_unit_text
 
@@ -193,11 +199,11 @@ class SceneRenderer:
         return np.asarray(image, dtype=np.uint8)
 
     # ------------------------------------------------------------------ public
-    def render_modes(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+    def render_modes(self, scene: Scene, system: System, modes: Modes, indices: Sequence[int],
                      out_dir: Path, *, structure: MoleculeStructure | None = None,
                      hints: Mapping[int, str] | None = None,
                      names: Mapping[int, str] | None = None,
-                     sites: Any = None) -> list[tuple[str, str]]:
+                     sites: ArrayLike | None = None) -> list[tuple[str, str]]:
         """Render the modes `indices`; returns (file name, caption) per image written.
 
         `structure` gives a molecule's elements and bonds (`vibra.pipeline.plan` passes the ones it
@@ -221,7 +227,7 @@ class SceneRenderer:
                                          structure or _default_structure(scene, system), hints or {}, names)
         return [self._chain_image(scene, system, modes, indices, out_dir, names)]
 
-    def render_gif(self, scene: Any, system: Any, modes: Any, index: int, out_dir: Path,
+    def render_gif(self, scene: Scene, system: System, modes: Modes, index: int, out_dir: Path,
                    work_dir: Path, *, structure: MoleculeStructure | None = None,
                    names: Mapping[int, str] | None = None) -> tuple[str, str]:
         """Animated GIF of mode `index` over one period; returns (file name, caption); `names` as
@@ -248,7 +254,7 @@ class SceneRenderer:
                       "displacements exaggerated")
 
     # ------------------------------------------------------------------ crystals
-    def render_supercell_mode(self, scene: Any, mode: Any, out_dir: Path, *, frames: int,
+    def render_supercell_mode(self, scene: Scene, mode: SupercellMode, out_dir: Path, *, frames: int,
                               frequency: str) -> tuple[str, str]:
         """Animated GIF of a crystal's mode on a supercell (a `vibra.crystals.SupercellMode`), one period.
 
@@ -300,7 +306,7 @@ class SceneRenderer:
                       f"{frames} frames (displacements exaggerated: largest 0.25 of the nearest distance)")
 
     # ------------------------------------------------------------------ molecules
-    def _molecule_images(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+    def _molecule_images(self, scene: Scene, system: System, modes: Modes, indices: Sequence[int],
                          out_dir: Path, structure: MoleculeStructure,
                          hints: Mapping[int, str], names: Mapping[int, str] | None) -> list[tuple[str, str]]:
         from vibra.charts.renders import annotate_render
@@ -348,7 +354,7 @@ class SceneRenderer:
                            "hides no atom"))
         return images
 
-    def _draw_molecule(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
+    def _draw_molecule(self, plotter: Any, scene: Scene, system: System, modes: Modes, k: int,
                        structure: MoleculeStructure, view: tuple[Any, Any], *, phase: float | None = None,
                        arrows: bool = True, hint: str | None = None,
                        names: Mapping[int, str] | None = None) -> tuple[str, NDArray[np.float64]]:
@@ -411,7 +417,7 @@ class SceneRenderer:
         plotter.renderer.ResetCameraClippingRange()
 
     # ------------------------------------------------------------------ networks
-    def _network_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+    def _network_image(self, scene: Scene, system: System, modes: Modes, indices: Sequence[int],
                        out_dir: Path, names: Mapping[int, str] | None = None) -> tuple[str, str]:
         """The C-alpha trace as a tube, one panel per mode, arrows on every k-th site (k from the size)."""
         pv = self._pv
@@ -464,7 +470,7 @@ class SceneRenderer:
         plotter.reset_camera()
         plotter.camera.zoom(zoom if rows == 1 else 0.98)  # the tallest structure part stays in view
 
-    def _scalar_network_image(self, scene: Any, positions: Any, modes: Any, indices: Sequence[int], out_dir: Path,
+    def _scalar_network_image(self, scene: Scene, positions: Any, modes: Modes, indices: Sequence[int], out_dir: Path,
                               names: Mapping[int, str] | None) -> tuple[str, str]:
         """A GNM's modes: the C-alpha trace as a tube coloured by each residue's signed amplitude
         u_i / max |u| on a diverging map (the two signs move in opposition), one panel per mode."""
@@ -497,10 +503,10 @@ class SceneRenderer:
                       "blue move in opposition, white residues are the hinges")
 
     # ------------------------------------------------------------------ chains
-    def _chain_sites(self, system: Any) -> NDArray[np.intp]:
+    def _chain_sites(self, system: System) -> NDArray[np.intp]:
         return chain_sites(system.masses)
 
-    def _chain_image(self, scene: Any, system: Any, modes: Any, indices: Sequence[int],
+    def _chain_image(self, scene: Scene, system: System, modes: Modes, indices: Sequence[int],
                      out_dir: Path, names: Mapping[int, str] | None = None) -> tuple[str, str]:
         from vibra.charts.renders import annotate_render
 
@@ -525,7 +531,7 @@ class SceneRenderer:
         return name, (f"{scene.title}: {listed}; one row per mode, arrows {direction}, "
                       f"sphere volume proportional to mass{note}")
 
-    def _draw_chain(self, plotter: Any, scene: Any, system: Any, modes: Any, k: int,
+    def _draw_chain(self, plotter: Any, scene: Scene, system: System, modes: Modes, k: int,
                     *, phase: float | None = None, names: Mapping[int, str] | None = None) -> str:
         """One row of masses for mode k in the current subplot (displaced when `phase` is given); its title."""
         pv = self._pv

@@ -7,10 +7,13 @@ that no bond hides it, from which direction a molecule shows every atom, how man
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+if TYPE_CHECKING:
+    from vibra.system import System
 
 __all__ = ["MAX_CHAIN_SITES", "chain_sites", "positions3", "displacements3", "molecule_symbols", "molecule_bonds",
            "arrow_start", "view_direction", "MAX_NETWORK_ARROWS", "network_arrow_step"]
@@ -36,14 +39,14 @@ def chain_sites(masses: ArrayLike) -> NDArray[np.intp]:
     return np.arange(0, n_sites, stride, dtype=np.intp)
 
 
-def positions3(system: Any) -> NDArray[np.float64]:
+def positions3(system: System) -> NDArray[np.float64]:
     positions = np.asarray(system.positions, dtype=float)
     out = np.zeros((positions.shape[0], 3))
     out[:, : positions.shape[1]] = positions
     return out
 
 
-def displacements3(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
+def displacements3(system: System, shape: NDArray[np.float64]) -> NDArray[np.float64]:
     """(n_sites, 3) displacement of every site (zeros at frozen dofs and unused axes)."""
     full = np.asarray(system.expand(shape)).reshape(system.n_sites, system.dim)
     out = np.zeros((system.n_sites, 3))
@@ -51,14 +54,14 @@ def displacements3(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float6
     return out
 
 
-def molecule_symbols(system: Any, symbols: Sequence[str] | None = None) -> list[str]:
+def molecule_symbols(system: System, symbols: Sequence[str] | None = None) -> list[str]:
     """Chemical symbols of the sites: `symbols` if given, else `vibra.molecules.symbols_from_masses`."""
     from vibra.molecules import symbols_from_masses
 
     return list(symbols) if symbols is not None else list(symbols_from_masses(system.masses))
 
 
-def molecule_bonds(system: Any, symbols: Sequence[str] | None = None,
+def molecule_bonds(system: System, symbols: Sequence[str] | None = None,
                    springs: Sequence[Sequence[int]] | None = None) -> list[tuple[int, int]]:
     """Bonds of a molecule: the given springs, else `vibra.molecules.bonds_from_distances`."""
     from vibra.molecules import bonds_from_distances

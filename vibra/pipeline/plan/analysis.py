@@ -12,12 +12,18 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vibra.continuum import DispersionCurves
+
+if TYPE_CHECKING:
+    from vibra.modes import Modes
+    from vibra.molecules.symmetry import PointGroup
+    from vibra.networks import Structure
+    from vibra.system import System
 
 __all__ = ["MoleculeSymmetry", "molecule_symmetry", "MoleculeSpectra", "molecule_spectra", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion"]
 
@@ -56,7 +62,7 @@ class MoleculeSymmetry:
     numbers: tuple[int, ...] = ()
 
 
-def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
+def molecule_symmetry(system: System, modes: Modes) -> MoleculeSymmetry | None:
     """Species, symmetry-based IR/Raman activity and observed fundamentals of `modes` of a 3-D molecule.
 
     The vibrational analysis (`vibra.molecules.vibrational_analysis`, rigid motions projected
@@ -104,7 +110,7 @@ def molecule_symmetry(system: Any, modes: Any) -> MoleculeSymmetry | None:
                             numbers=numbers)
 
 
-def _site_displacements(system: Any, shape: NDArray[np.float64]) -> NDArray[np.float64]:
+def _site_displacements(system: System, shape: NDArray[np.float64]) -> NDArray[np.float64]:
     """(n_sites, 3) displacement of every site (zeros at frozen dofs and unused axes)."""
     full = np.asarray(system.expand(shape)).reshape(system.n_sites, system.dim)
     out = np.zeros((system.n_sites, 3))
@@ -112,7 +118,7 @@ def _site_displacements(system: Any, shape: NDArray[np.float64]) -> NDArray[np.f
     return out
 
 
-def _lifted_species(system: Any, modes: Any) -> tuple[Any, list[str]] | None:
+def _lifted_species(system: System, modes: Modes) -> tuple[PointGroup, list[str]] | None:
     """Point group and species of the modes of a 1-D or 2-D molecule (the axial CO2), set in 3-D space.
 
     The sites are placed in 3-D (missing axes zero) and each mode's shape padded likewise, so
@@ -146,7 +152,7 @@ def _activity_text(symmetry: MoleculeSymmetry, k: int) -> str | None:
     return f"{label} ({symmetry.group}): {ir}, {raman} by symmetry"
 
 
-def symmetry_hints(system: Any, modes: Any, indices: Sequence[int], symbols: Sequence[str],
+def symmetry_hints(system: System, modes: Modes, indices: Sequence[int], symbols: Sequence[str],
                    bonds: Sequence[tuple[int, int]], symmetry: MoleculeSymmetry | None = None) -> dict[int, str]:
     """Symmetry and IR-activity text of the modes `indices` of a molecule, for captions.
 
@@ -181,7 +187,7 @@ def symmetry_hints(system: Any, modes: Any, indices: Sequence[int], symbols: Seq
     return hints
 
 
-def chain_dispersion(parameters: Any, modes: Any = None, *, n_q: int = 400) -> DispersionCurves:
+def chain_dispersion(parameters: Mapping[str, Any], modes: Modes | None = None, *, n_q: int = 400) -> DispersionCurves:
     """`vibra.continuum.dispersion_curves` for a ``linear_chain`` / ``diatomic_chain`` scene's parameters.
 
     Parameters
@@ -237,7 +243,7 @@ class NetworkFluctuations:
     cross_correlations: Any = None
 
 
-def network_fluctuations(structure: Any, system: Any, modes: Any, *, fit: str = "sum") -> NetworkFluctuations:
+def network_fluctuations(structure: Structure, system: System, modes: Modes, *, fit: str = "sum") -> NetworkFluctuations:
     """B-factors predicted from `modes` of an elastic network, against those of its `structure`,
     fitted onto them by `vibra.networks.fit_bfactors` (`fit`: its ``method``, ProDy's ratio of
     the sums by default, or ``"least_squares"``), and the residue cross-correlations of the
@@ -298,7 +304,7 @@ def _line_species(positions: NDArray[np.float64], wavenumbers: NDArray[np.float6
     return tuple(out)
 
 
-def molecule_spectra(system: Any, modes: Any, symbols: Sequence[str], bonds: Sequence[tuple[int, int]],
+def molecule_spectra(system: System, modes: Modes, symbols: Sequence[str], bonds: Sequence[tuple[int, int]],
                      symmetry: MoleculeSymmetry | None = None, *, merge_cm1: float = 0.5) -> MoleculeSpectra:
     """IR and Raman spectra of a molecule scene's modes, from the models `vibra.spectra` has for it.
 

@@ -6,7 +6,7 @@ inside vibra; nothing from a scene file is imported or executed.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
 
@@ -16,6 +16,17 @@ from vibra.molecules import molecule_names
 from vibra.pipeline.scene import Scene, SceneError, builder_function
 from vibra.pipeline.scene.builders import lattice_builders
 from vibra.pipeline.scene.files import check_phonopy_scene_files, read_scene_data, scene_data_path
+
+if TYPE_CHECKING:
+    from vibra.crystals import Crystal
+    from vibra.generalized import GeneralizedSystem
+    from vibra.networks import Structure
+    from vibra.response.oscillator import Oscillator
+    from vibra.system import System
+
+#: What a scene's builder makes (`build_system`): a `System` (chains, molecules, networks, a
+#: dynamics run's chain), a `GeneralizedSystem`, a `Crystal`, or an oscillator scene's `Oscillator`s.
+BuiltSystem = Union["System", "GeneralizedSystem", "Crystal", "tuple[Oscillator, ...]"]
 
 __all__ = ["build_system", "network_structure", "check_xyz_text", "scene_key", "ARGUMENT_KEYS"]
 
@@ -89,7 +100,7 @@ def check_xyz_text(text: str, source: str, name: str) -> int:
     return count
 
 
-def build_system(scene: Scene) -> Any:
+def build_system(scene: Scene) -> BuiltSystem:
     """The `System` (for an oscillator scene the `Oscillator`s, for a crystal scene the `Crystal`) a scene describes.
 
     The builder validates its arguments as it would in any library call; what it refuses is
@@ -114,7 +125,7 @@ def build_system(scene: Scene) -> Any:
         raise SceneError(scene.source, key, message) from error
 
 
-def network_structure(scene: Scene) -> Any:
+def network_structure(scene: Scene) -> Structure:
     """The sites and B-factors (`vibra.networks.Structure`) of a network scene's ``system.pdb``, as
     its keys ``selection``, ``chains``, ``residues``, ``model`` and ``altloc`` choose them
     (`vibra.networks.from_pdb`'s arguments of the same names; C-alpha atoms by default).
@@ -172,7 +183,7 @@ def _molecule(scene: Scene, make: Any, p: dict[str, Any]) -> Any:
     return make(source, isotopes=p["isotopes"], masses=masses, name=scene.name, **options)
 
 
-def _build(scene: Scene) -> Any:
+def _build(scene: Scene) -> BuiltSystem:
     p = dict(scene.system.parameters)
     builder = scene.system.builder
     frozen_sites = p.pop("frozen_sites", None)

@@ -13,7 +13,7 @@ scene key that controls that step, so the command line prints one line, never a 
 
 from __future__ import annotations
 
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Callable, Mapping, TypeVar
 
 import numpy as np
 
@@ -27,6 +27,17 @@ from vibra.generalized import GeneralizedSystem
 from vibra.solvers.accuracy import uses_springs
 from vibra.solvers.budget import describe_bytes, describe_seconds
 from vibra._core.text import counted
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
+    from numpy.typing import NDArray
+
+    from vibra.modes import Modes
+    from vibra.solvers.dispatch import SolvePlan
+    from vibra.solvers.structured.quadratic import QuadraticModes
+    from vibra.system import System
+
+_Built = TypeVar("_Built")
 
 __all__ = ["check_modes_plan", "modes_summary", "step_error", "refused_as", "STEP_KEYS", "REFUSALS",
            "SPECTRUM_CHECK_LIMIT", "solve_request", "solve_limits", "DRY_RESPONSE_LIMIT", "response_request", "empty_band"]
@@ -69,11 +80,11 @@ def step_error(scene: Scene, step: str, error: BaseException, *, keys: Mapping[s
     return SceneError(scene.source, key, f"the {step} step failed: {text}")
 
 
-def refused_as(step: str, check: Callable[[Scene, Any], None], *, keys: Mapping[str, str] | None = None
-               ) -> Callable[[Scene, Any, bool], None]:
+def refused_as(step: str, check: Callable[[Scene, _Built], None], *, keys: Mapping[str, str] | None = None
+               ) -> Callable[[Scene, _Built, bool], None]:
     """A `PlanKind.check` of a kind with its own steps: ``check(scene, system)``, whose refusal is
     reported as a failure of `step` (at its scene key, `step_error`)."""
-    def checked(scene: Scene, system: Any, response: bool) -> None:
+    def checked(scene: Scene, system: _Built, response: bool) -> None:
         try:
             check(scene, system)
         except REFUSALS as error:
@@ -81,7 +92,7 @@ def refused_as(step: str, check: Callable[[Scene, Any], None], *, keys: Mapping[
     return checked
 
 
-def solve_limits(scene: Scene, system: Any) -> dict[str, float]:
+def solve_limits(scene: Scene, system: object) -> dict[str, float]:
     """The resource limits a scene raised (``compute.memory_limit_gib``, ``compute.time_limit_s``), as
     the ``max_memory`` / ``max_seconds`` of its solve (a `GeneralizedSystem` takes the defaults)."""
     compute = scene.compute
@@ -94,7 +105,7 @@ def solve_limits(scene: Scene, system: Any) -> dict[str, float]:
     return limits
 
 
-def _solve_plan(scene: Scene, system: Any) -> None:
+def _solve_plan(scene: Scene, system: System | GeneralizedSystem) -> None:
     """The scene's solve, planned by the solver registry (`vibra.solvers.plan`: its path and its cost
     from sizes, nothing solved or allocated) with the plan's modes and shapes, and guarded with the
     scene's limits (`solve_limits`), as the modes step will run it: validate refuses what the solve
@@ -120,7 +131,9 @@ def _solve_plan(scene: Scene, system: Any) -> None:
                              max_memory=limits.get("max_memory"), max_seconds=limits.get("max_seconds"))
 
 
-def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
+def response_request(scene: Scene, system: System | GeneralizedSystem) -> tuple[
+        sp.csr_matrix, NDArray[np.float64], NDArray[np.float64] | sp.csr_matrix, NDArray[np.float64] | None,
+        NDArray[np.float64], NDArray[np.float64], str, int | None]:
     """The arguments of `vibra.response.frequency_response` for the scene's ``[compute.response]``.
 
     Returns ``(K, M, C, G, omegas, force, method, n_modes)``: a unit force at ``force_site``,
@@ -142,7 +155,7 @@ def response_request(scene: Scene, system: Any) -> tuple[Any, ...]:
     return K, M, C, parts.G, omegas, force, r.method, r.n_modes
 
 
-def empty_band(scene: Scene, modes: Any) -> SceneError | None:
+def empty_band(scene: Scene, modes: Modes | QuadraticModes) -> SceneError | None:
     """The error for a ``compute.band`` that holds no mode (None when it holds some or there is no band)."""
     band = scene.compute.band
     if band is None or modes.n_modes:
@@ -151,7 +164,7 @@ def empty_band(scene: Scene, modes: Any) -> SceneError | None:
                       f"{modes.units.omega}; nothing to list or draw")
 
 
-def _dry_run(scene: Scene, system: Any, response: bool) -> None:
+def _dry_run(scene: Scene, system: System | GeneralizedSystem, response: bool) -> None:
     """Run the cheap steps of a small system as the plan will (frequencies only, the response grid)."""
     compute = scene.compute
     r = compute.response
@@ -189,7 +202,7 @@ def _dry_run(scene: Scene, system: Any, response: bool) -> None:
             raise step_error(scene, "response", failure) from failure
 
 
-def _symbols(scene: Scene, system: Any) -> None:
+def _symbols(scene: Scene, system: System | GeneralizedSystem) -> None:
     """Elements the structure step needs (point charges of 3-D molecules that draw their modes)."""
     symbols = scene.system.parameters.get("symbols")
     if symbols is None or scene.kind != "molecule" or not (scene.draw.modes or scene.draw.gif) or system.dim != 3:
@@ -202,7 +215,7 @@ def _symbols(scene: Scene, system: Any) -> None:
                              f"of drawn modes do not know; known: {', '.join(PAULING_ELECTRONEGATIVITY)}")
 
 
-def check_modes_plan(scene: Scene, system: Any, response: bool = True) -> None:
+def check_modes_plan(scene: Scene, system: System | GeneralizedSystem, response: bool = True) -> None:
     """Check, on the built `system` of a modes scene (`modes_plan`), what the plan's later steps would
     refuse (cheap checks only).
 
@@ -222,7 +235,7 @@ def check_modes_plan(scene: Scene, system: Any, response: bool = True) -> None:
     check_engine_plan(scene, system)  # an engine's cost estimate against the limits, before any SCF
 
 
-def modes_summary(scene: Scene, system: Any) -> str:
+def modes_summary(scene: Scene, system: System | GeneralizedSystem) -> str:
     """What ``vibra validate`` prints of an accepted modes scene: its size, and the solver path the
     report's modes solve would take with its estimated time and memory (`vibra.solvers.plan`:
     from sizes, nothing solved or allocated).
@@ -255,7 +268,8 @@ def modes_summary(scene: Scene, system: Any) -> str:
             f"and {describe_bytes(cost.memory)}")
 
 
-def solve_request(system: Any, *, n_modes: Any, vectors: bool, band: Any, solver: str, accuracy: str) -> Any | None:
+def solve_request(system: System | GeneralizedSystem, *, n_modes: int | None, vectors: bool,
+                  band: tuple[float, float] | None, solver: str, accuracy: str) -> SolvePlan | None:
     """The solver registry's plan of `system.modes(...)` with these arguments (its path and its cost,
     estimated from sizes before any work), or None for a system or a request it would refuse:
     what ``vibra validate`` prints and what a sweep multiplies by its points."""

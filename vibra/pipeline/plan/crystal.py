@@ -22,7 +22,7 @@ cost line it prints. `KIND` declares all of it for the crystal scene kind (`vibr
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +33,9 @@ from vibra.pipeline.scene import Scene, SceneError
 from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, frames_that_fit, render_seconds
 from vibra.solvers.budget import describe_seconds
 from vibra._core.text import counted
+
+if TYPE_CHECKING:
+    from vibra.crystals import Crystal
 
 __all__ = ["check_crystal_plan", "crystal_cost", "light_direction", "CRYSTAL_STEPS", "CRYSTAL_STEP_KEYS",
            "DEFAULT_LIGHT_DIRECTION", "polar_crystal", "crystal_steps", "crystal_plan", "KIND"]
@@ -47,7 +50,7 @@ CRYSTAL_STEP_KEYS = {"crystal-bands": "compute", "chart-bands": "draw.bands", "c
 DEFAULT_LIGHT_DIRECTION = (1.0, 0.0, 0.0)
 
 
-def _known_points(scene: Scene, crystal: Any) -> dict[str, Any]:
+def _known_points(scene: Scene, crystal: Crystal) -> dict[str, Any]:
     from vibra.crystals.bands import special_points
 
     try:
@@ -68,7 +71,7 @@ def _label(scene: Scene, table: dict[str, Any], label: str, key: str) -> str:
     return name
 
 
-def mode_wave_vector(scene: Scene, crystal: Any) -> Any:
+def mode_wave_vector(scene: Scene, crystal: Crystal) -> NDArray[np.float64]:
     """(3,) fractional q of ``draw.mode_q`` (a special-point label or 3 numbers)."""
     spec = scene.crystal
     assert spec is not None
@@ -78,7 +81,7 @@ def mode_wave_vector(scene: Scene, crystal: Any) -> Any:
     return np.asarray(spec.mode_q, dtype=float)
 
 
-def mode_supercell(crystal: Any, supercell: Any) -> NDArray[np.int64]:
+def mode_supercell(crystal: Crystal, supercell: Sequence[int]) -> NDArray[np.int64]:
     """(3, 3) supercell matrix of the mode render for ``draw.supercell`` = (n1, n2, n3).
 
     For a cubic lattice (simple, face- or body-centred: sc, bcc, fcc, diamond, rock salt) the
@@ -97,7 +100,7 @@ def mode_supercell(crystal: Any, supercell: Any) -> NDArray[np.int64]:
     return edge * cube
 
 
-def check_crystal_plan(scene: Scene, crystal: Any) -> None:
+def check_crystal_plan(scene: Scene, crystal: Crystal) -> None:
     """What the crystal steps would refuse, checked on the built crystal (no bands computed).
 
     Raises
@@ -106,6 +109,9 @@ def check_crystal_plan(scene: Scene, crystal: Any) -> None:
         A path label that is not a special point of the crystal (``compute.path[r][k]``), the
         same for ``draw.mode_q``, a branch beyond the crystal's, a supercell or mesh that is not
         1 along a vacuum axis.
+    ResourceLimitError
+        The D(q) solves of the bands or the mesh estimated over the limits their run is guarded
+        with (`vibra.crystals.dynamical.solve_plan`: the default ones).
     """
     spec = scene.crystal
     assert spec is not None
@@ -128,6 +134,12 @@ def check_crystal_plan(scene: Scene, crystal: Any) -> None:
                              f"to render, more than {DEFAULT_TIME_LIMIT_S:g} s; {frames_that_fit(atoms, DEFAULT_TIME_LIMIT_S)} "
                              "frames fit, or take a smaller supercell")
     _check_infrared(scene, crystal)
+    from vibra.crystals.dynamical import solve_plan  # the run's own guard, before it (ResourceLimitError)
+
+    if spec.bands:
+        solve_plan(crystal, spec.npoints, vectors=True)
+    if spec.bands or spec.thermal:
+        solve_plan(crystal, int(np.prod(spec.mesh)), vectors=False)
     for axis in range(3):
         if not crystal.periodic[axis]:
             if spec.mode and spec.supercell[axis] != 1:
@@ -138,7 +150,7 @@ def check_crystal_plan(scene: Scene, crystal: Any) -> None:
                                  "axis of this crystal and takes 1 point")
 
 
-def _check_infrared(scene: Scene, crystal: Any) -> None:
+def _check_infrared(scene: Scene, crystal: Crystal) -> None:
     """The infrared keys need Born charges; a polar crystal needs a stable, primitive cell at Gamma."""
     params = scene.system.parameters
     if not polar_crystal(scene):
@@ -166,12 +178,12 @@ def light_direction(scene: Scene) -> NDArray[np.float64]:
     return direction / np.linalg.norm(direction)
 
 
-def _mode_atoms(crystal: Any, supercell: Any) -> int:
+def _mode_atoms(crystal: Crystal, supercell: Sequence[int]) -> int:
     """Atoms drawn in a crystal's mode animation on `supercell` (`mode_supercell`'s cells)."""
     return abs(round(float(np.linalg.det(mode_supercell(crystal, supercell))))) * crystal.n_atoms
 
 
-def crystal_cost(scene: Scene, crystal: Any) -> str:
+def crystal_cost(scene: Scene, crystal: Crystal) -> str:
     """The size of a crystal scene and the work it asks for, in one line (``vibra validate``)."""
     spec = scene.crystal
     assert spec is not None
@@ -179,14 +191,12 @@ def crystal_cost(scene: Scene, crystal: Any) -> str:
     n3 = crystal.n_branches
     parts = [f"{counted(crystal.n_atoms, 'atom')} per cell, {counted(n3, 'branch')}, "
              f"{counted(fc.n_terms, 'force-constant term')}"]
-    work = 0
     if spec.bands:
         parts.append(f"bands {spec.npoints} q")
-        work += spec.npoints
+    n_mesh = 0
     if spec.bands or spec.thermal:
         n_mesh = int(np.prod(spec.mesh))
         parts.append(f"mesh {'x'.join(str(n) for n in spec.mesh)} = {n_mesh} q (fewer by symmetry)")
-        work += n_mesh
     if spec.mode:
         atoms = _mode_atoms(crystal, spec.supercell)
         parts.append(f"mode on {atoms} atoms x {spec.frames} frames (~{describe_seconds(render_seconds(atoms, spec.frames))} "
@@ -196,14 +206,17 @@ def crystal_cost(scene: Scene, crystal: Any) -> str:
         from vibra.charts.infrared import GRID_POINTS
 
         parts.append(f"infrared: Gamma modes, eps(omega) on {GRID_POINTS} wavenumbers")
-        work += 1
         infrared = GRID_POINTS * n3 * 9 * 2 * 8  # eps(omega) and the reflectivity: complex (3 x 3) sums per mode
-    # each q: D(q) from the terms (n_terms (3n)^2) and one Hermitian solve (~10 (3n)^3 flops); a
-    # Gonze-Lee correction adds its Ewald sum over the G-vectors (as vibra.crystals.nac sizes it)
-    nac = getattr(crystal, "nac", None)
-    ewald = 0 if nac is None or nac.g_vectors is None else 4 * len(nac.g_vectors) * n3 + 2 * n3 * n3
-    flops = work * (fc.n_terms * n3 * n3 + 10 * n3 ** 3 + ewald) + infrared
-    parts.append(f"about {flops / 1e9:.2g} Gflop of D(q) solves" + (" and eps(omega)" if infrared else ""))
+    from vibra.crystals.dynamical import solve_plan
+
+    # the solves costed once, by the solver registry's hermitian-eigh path (`dynamical.solve_plan`:
+    # the bands with vectors, to connect their branches; the mesh's frequencies, all of its q-points)
+    seconds = 0.0
+    for n_q, vectors in ((spec.npoints if spec.bands else 0, True), (n_mesh, False), (1 if infrared else 0, True)):
+        if n_q:
+            seconds += solve_plan(crystal, n_q, vectors=vectors, guarded=False).cost.seconds
+    parts.append(f"D(q) solves ~{describe_seconds(seconds)} (the hermitian-eigh path's estimate)"
+                 + (" and eps(omega)" if infrared else ""))
     return "; ".join(parts)
 
 

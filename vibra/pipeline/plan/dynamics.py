@@ -22,7 +22,7 @@ step from omega_max, the initial state's length, a rigid mode under the histogra
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -35,6 +35,13 @@ from vibra.pipeline.scene.limits import DEFAULT_TIME_LIMIT_S, dynamics_estimate
 from vibra.solvers.budget import ResourceLimitError, describe_bytes, describe_seconds
 from vibra.sources import cite
 from vibra._core.text import counted
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from vibra.dynamics import BondForces, Trajectory
+    from vibra.modes import Modes
+    from vibra.system import System
 
 __all__ = ["check_dynamics_plan", "dynamics_cost", "DynamicsRuns", "DYNAMICS_STEPS", "DYNAMICS_STEP_KEYS",
            "anharmonic_forces", "initial_state", "dynamics_steps", "dynamics_plan", "KIND"]
@@ -66,12 +73,12 @@ class DynamicsRuns:
     """
 
     labels: tuple[str, ...]
-    runs: tuple[Any, ...]
-    modes: Any
+    runs: tuple[Trajectory, ...]
+    modes: Modes | None
     kT: float
 
 
-def anharmonic_forces(scene: Scene) -> Any:
+def anharmonic_forces(scene: Scene) -> BondForces | None:
     """The anharmonic `vibra.dynamics.BondForces` of an FPUT scene (None for a harmonic system)."""
     if scene.system.builder != "fput":
         return None
@@ -91,7 +98,8 @@ def _wanted_modes(scene: Scene) -> int:
     return max(spec.n_modes_drawn if spec.mode_energies else 0, spec.mode or 0)
 
 
-def initial_state(scene: Scene, system: Any, modes: Any) -> tuple[Any, Any]:
+def initial_state(scene: Scene, system: System, modes: Modes | None
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(x0, v0) of the scene: its lists, or ``compute.energy`` put into ``compute.mode`` as a displacement
     x0 = q d_k with omega_k^2 q^2 / 2 = energy (shapes are M-orthonormal), v0 = 0.
 
@@ -115,7 +123,7 @@ def initial_state(scene: Scene, system: Any, modes: Any) -> tuple[Any, Any]:
     return amplitude * np.asarray(modes.shapes[:, spec.mode - 1]), np.zeros(n_dof)
 
 
-def check_dynamics_plan(scene: Scene, system: Any) -> None:
+def check_dynamics_plan(scene: Scene, system: System) -> None:
     """What the dynamics steps would refuse, checked on the built system (nothing integrated).
 
     Raises
@@ -173,7 +181,7 @@ def _thermostat_error(scene: Scene, error: ArgumentError) -> SceneError:
     return SceneError(scene.source, key, str(error).split(": ", 1)[1])
 
 
-def dynamics_cost(scene: Scene, system: Any) -> str:
+def dynamics_cost(scene: Scene, system: System) -> str:
     """The size of a dynamics scene and the work it asks for, in one line (``vibra validate``)."""
     spec = scene.dynamics
     assert spec is not None
@@ -198,7 +206,7 @@ def _thermostat(scene: Scene, chain: int) -> tuple[Any, str]:
     return None, "no thermostat"
 
 
-def _table_modes(system: Any) -> Any:
+def _table_modes(system: System) -> Modes | None:
     """The lowest `TABLE_MODES` normal modes (no shapes) for the report's table, or None when the solver
     registry estimates them beyond `TABLE_LIMITS` (the table is left out rather than the run slowed)."""
     try:
@@ -250,7 +258,7 @@ def _step_run(plan: Plan, context: Any, renderer: Any) -> tuple[str | None, str 
     return how, f"largest relative change of the {what}: {values}"
 
 
-def mode_energy_lines(runs: DynamicsRuns) -> tuple[Any, Any]:
+def mode_energy_lines(runs: DynamicsRuns) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(t, (n_records, n_modes) energies) of the first run in each computed mode (`Trajectory.mode_energies`)."""
     run = runs.runs[0]
     return run.t, run.mode_energies(runs.modes)
@@ -284,7 +292,7 @@ def _step_chart_mode_energies(plan: Plan, context: Any, renderer: Any) -> tuple[
     return None, recurrence.lstrip("; ") or None
 
 
-def isokinetic_closed_form(run: Any, system: Any, kT: float) -> Any:
+def isokinetic_closed_form(run: Trajectory, system: System, kT: float) -> NDArray[np.float64]:
     """(n_records,) the seed's friction mu = -(K x).v / (n_dof k_B T) of a harmonic system under the
     isokinetic constraint (Kneller, Mécanique analytique, §4.2 example 10: -K (r.r') / (3 k_B T) in 3-D), in 1 / time unit."""
     K = system.hessian().tocsr()
@@ -317,7 +325,8 @@ def _step_chart_energies(plan: Plan, context: Any, renderer: Any) -> tuple[str |
     return None, None
 
 
-def position_histograms(runs: DynamicsRuns, system: Any, dof: int) -> tuple[tuple[Any, ...], float, tuple[float, ...]]:
+def position_histograms(runs: DynamicsRuns, system: System, dof: int
+                        ) -> tuple[tuple[NDArray[np.float64], ...], float, tuple[float, ...]]:
     """The samples of dof `dof` of each run (the initial state left out), the Boltzmann standard
     deviation sqrt(k_B T (K^-1)_ii) in the length unit, and each run's Kolmogorov-Smirnov distance
     to that Gaussian (`scipy.stats.kstest`; successive records are correlated, so read D, not a p-value)."""

@@ -17,13 +17,22 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
 from vibra.molecules.engines.choice import (EngineChoice, EngineChoiceError, EngineMissingError, cheaper_choices,
                                             check_engine_choice, engine_cost, make_engine, require_engine)
 from vibra.pipeline.scene import Scene, SceneError
+
+if TYPE_CHECKING:
+    from vibra.generalized import GeneralizedSystem
+    from vibra.modes import Modes
+    from vibra.molecules.engines.electronic import ElectronicStructure
+    from vibra.pipeline.plan.analysis import MoleculeSpectra, MoleculeSymmetry
+    from vibra.pipeline.plan.build import BuiltSystem
+    from vibra.spectra.experiment import ExperimentComparison
+    from vibra.system import System
 
 __all__ = ["scene_engine", "engine_missing", "check_engine_plan", "engine_summary", "electronic_run",
            "electronic_spectra", "electronic_hints", "experiment_comparison", "engine_system", "ENGINE_KEYS", "OPTIMISER_FMAX", "OPTIMISER_STEPS",
@@ -72,7 +81,7 @@ def engine_missing(scene: Scene) -> EngineMissingError | None:
     return None
 
 
-def _numbers(system: Any) -> list[int]:
+def _numbers(system: System | GeneralizedSystem) -> list[int]:
     from ase.data import atomic_numbers
 
     from vibra.pipeline.scene.values import element_symbol
@@ -86,7 +95,7 @@ def _key(scene: Scene) -> str:
         "method") is not None else "system.engine"
 
 
-def check_engine_plan(scene: Scene, system: Any) -> None:
+def check_engine_plan(scene: Scene, system: System | GeneralizedSystem) -> None:
     """Refuse an engine scene whose estimate exceeds its time or memory limit, before any SCF."""
     choice = scene_engine(scene)
     if choice is None:
@@ -117,7 +126,7 @@ def check_engine_plan(scene: Scene, system: Any) -> None:
                          f"{' and '.join(over)}: {cost.detail}{advice}, or raise the limit")
 
 
-def engine_summary(scene: Scene, system: Any) -> str | None:
+def engine_summary(scene: Scene, system: System | GeneralizedSystem) -> str | None:
     """What ``vibra validate`` prints of an engine scene: its level and cost estimate (None without one)."""
     choice = scene_engine(scene)
     if choice is None:
@@ -129,7 +138,7 @@ def engine_summary(scene: Scene, system: Any) -> str | None:
             f"({cost.calculations} engine calculations and one Hessian, estimated from sizes)")
 
 
-def electronic_run(scene: Scene, system: Any) -> Any:
+def electronic_run(scene: Scene, system: System) -> ElectronicStructure:
     """Optimise the molecule with the scene's engine, then its `ElectronicStructure`.
 
     Raises
@@ -163,7 +172,7 @@ def _species(analysis: Any, indices: Any) -> list[str]:
     return [labels.get(int(k), "") for k in indices]
 
 
-def electronic_spectra(electronic: Any, *, line_width: float, merge_cm1: float = 0.5) -> Any:
+def electronic_spectra(electronic: ElectronicStructure, *, line_width: float, merge_cm1: float = 0.5) -> MoleculeSpectra:
     """The `MoleculeSpectra` of an engine's results: IR from dipole derivatives, Raman from
     polarisability derivatives where the engine gives them, species on each line."""
     from vibra import spectra
@@ -201,7 +210,8 @@ def _line_species(positions: Any, wavenumbers: Any, species: list[str], merge_cm
     return tuple(out)
 
 
-def electronic_hints(electronic: Any, system: Any, modes: Any, indices: Any, symmetry: Any) -> dict[int, str]:
+def electronic_hints(electronic: ElectronicStructure, system: System, modes: Modes, indices: Sequence[int],
+                     symmetry: MoleculeSymmetry | None) -> dict[int, str]:
     """Per drawn mode: its species and activity by symmetry (`symmetry_hints` without point
     charges) and the engine's IR intensity (km/mol, and relative to the strongest line)."""
     from vibra import spectra
@@ -224,7 +234,7 @@ def electronic_hints(electronic: Any, system: Any, modes: Any, indices: Any, sym
     return hints
 
 
-def experiment_comparison(electronic: Any) -> Any:
+def experiment_comparison(electronic: ElectronicStructure) -> ExperimentComparison | None:
     """`vibra.spectra.compare_with_experiment` of an engine's IR spectrum against the molecule's
     observed fundamentals; None when the molecule has none bundled."""
     from vibra import spectra
@@ -272,7 +282,7 @@ def _projected_system(electronic: Any, masses: Any, name: str) -> Any:
     return system.with_symbols(list(electronic.symbols))
 
 
-def engine_system(scene: Scene, system: Any) -> Any:
+def engine_system(scene: Scene, system: BuiltSystem) -> BuiltSystem:
     """The system whose modes a scene asks for: `system` itself, or for an engine scene the
     molecule with the engine's Hessian (`electronic_run`, projected as the report's plan does).
 

@@ -13,10 +13,10 @@ branching on its name (docs/architecture.md, "Scene kinds and builders").
 from __future__ import annotations
 
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from vibra._core.text import counted
-from vibra.pipeline.plan.build import build_system
+from vibra.pipeline.plan.build import BuiltSystem, build_system
 from vibra.pipeline.plan.checks import REFUSALS, check_modes_plan, modes_summary, step_error
 from vibra.pipeline.plan.crystal import KIND as CRYSTAL
 from vibra.pipeline.plan.dynamics import KIND as DYNAMICS
@@ -24,22 +24,27 @@ from vibra.pipeline.plan.electronic import ELECTRONIC_STEPS, engine_missing
 from vibra.pipeline.plan.model import Plan, PlanKind, modes_plan
 from vibra.pipeline.scene import SCENE_KINDS, Scene, SceneError
 
+if TYPE_CHECKING:
+    from vibra.generalized import GeneralizedSystem
+    from vibra.response.oscillator import Oscillator
+    from vibra.system import System
+
 __all__ = ["PLAN_KINDS", "plan_kind", "make_plan", "check_plan", "validate", "cost_summary", "build_note"]
 
 
-def _dofs(scene: Scene, system: Any) -> str:
+def _dofs(scene: Scene, system: System | GeneralizedSystem) -> str:
     return counted(system.n_dof, "degree of freedom")
 
 
-def _no_check(scene: Scene, system: Any, response: bool) -> None:
+def _no_check(scene: Scene, system: object, response: bool) -> None:
     """(an oscillator's closed forms refuse nothing that the scene schema let through)"""
 
 
-def _oscillators(scene: Scene, system: Any) -> str:
+def _oscillators(scene: Scene, system: tuple[Oscillator, ...]) -> str:
     return f"{counted(len(system), 'oscillator')}, closed forms"
 
 
-def _no_note(scene: Scene, system: Any) -> None:
+def _no_note(scene: Scene, system: object) -> None:
     return None
 
 
@@ -71,7 +76,7 @@ def make_plan(scene: Scene) -> Plan:
     return plan_kind(scene).plan(scene)
 
 
-def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
+def check_plan(scene: Scene, system: BuiltSystem, *, response: bool = True) -> None:
     """Check, on the built `system`, what the plan's later steps would refuse (cheap checks only).
 
     Raises
@@ -85,7 +90,7 @@ def check_plan(scene: Scene, system: Any, *, response: bool = True) -> None:
     plan_kind(scene).check(scene, system, response)
 
 
-def validate(scene: Scene) -> Any:
+def validate(scene: Scene) -> BuiltSystem:
     """What ``vibra validate`` runs on a scene: build its system and `check_plan`; return the system.
 
     Raises
@@ -104,12 +109,12 @@ def validate(scene: Scene) -> Any:
     return system
 
 
-def cost_summary(scene: Scene, system: Any) -> str:
+def cost_summary(scene: Scene, system: BuiltSystem) -> str:
     """What ``vibra validate`` prints of an accepted scene: its size and cost (`PlanKind.summary`)."""
     return plan_kind(scene).summary(scene, system)
 
 
-def build_note(scene: Scene, system: Any) -> str | None:
+def build_note(scene: Scene, system: BuiltSystem) -> str | None:
     """The build step's figure in the report (`PlanKind.build_note`)."""
     return plan_kind(scene).build_note(scene, system)
 

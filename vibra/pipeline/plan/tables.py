@@ -17,11 +17,19 @@ Rigid-body modes (translations, rotations) are set apart on one line, as 0.
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from vibra.solvers.structured.quadratic import QuadraticModes
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from vibra.modes import Modes
+    from vibra.pipeline.plan.analysis import MoleculeSymmetry
+    from vibra.pipeline.scene import Scene
+    from vibra.units import UnitSystem
 
 __all__ = ["frequency_lines", "mode_names", "omega_unit_text", "species_text", "RIGID_RTOL"]
 
@@ -31,7 +39,7 @@ RIGID_RTOL = 1e-6
 _Column = tuple[str, str, Callable[[int], str]]
 
 
-def omega_unit_text(scene: Any, units: Any, *, ascii: bool = False) -> str:
+def omega_unit_text(scene: Scene, units: UnitSystem, *, ascii: bool = False) -> str:
     """omega's unit in a table (`vibra.units.omega_unit_text`; an elastic network's is sqrt(gamma/m))."""
     from vibra.units import omega_unit_text as text
 
@@ -62,7 +70,7 @@ def _text_table(rows: list[int], columns: list[_Column]) -> list[str]:
     return lines
 
 
-def _rigid(modes: Any, symmetry: Any) -> Any:
+def _rigid(modes: Modes | QuadraticModes, symmetry: MoleculeSymmetry | None) -> NDArray[np.bool_]:
     if modes.n_modes < 2:
         return np.zeros(modes.n_modes, dtype=bool)
     rigid = np.asarray(modes.zero_modes(RIGID_RTOL), dtype=bool)
@@ -71,11 +79,11 @@ def _rigid(modes: Any, symmetry: Any) -> Any:
     return rigid
 
 
-def _is_molecule(scene: Any, modes: Any) -> bool:
+def _is_molecule(scene: Scene, modes: Modes | QuadraticModes) -> bool:
     return bool(scene.kind == "molecule" and modes.units.time_s is not None)
 
 
-def _numbers(scene: Any, modes: Any, symmetry: Any) -> tuple[int, ...]:
+def _numbers(scene: Scene, modes: Modes | QuadraticModes, symmetry: MoleculeSymmetry | None) -> tuple[int, ...]:
     """Per mode its number (0 for a rigid mode): Herzberg's for a molecule, from the lowest otherwise."""
     rigid = _rigid(modes, symmetry)
     if _is_molecule(scene, modes):
@@ -92,7 +100,7 @@ def _numbers(scene: Any, modes: Any, symmetry: Any) -> tuple[int, ...]:
     return tuple(numbers)
 
 
-def mode_names(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool = False,
+def mode_names(scene: Scene, modes: Modes | QuadraticModes, symmetry: MoleculeSymmetry | None = None, *, ascii: bool = False,
                species: bool = False) -> dict[int, str]:
     """The name of each non-rigid mode by its index in `modes`: ``"ν2"`` (molecules), ``"mode 1"`` (others).
 
@@ -114,7 +122,7 @@ def mode_names(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool = Fa
     return names
 
 
-def numbering_note(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool = False) -> str:
+def numbering_note(scene: Scene, modes: Modes | QuadraticModes, symmetry: MoleculeSymmetry | None = None, *, ascii: bool = False) -> str:
     """One line saying how `mode_names` numbers this scene's modes."""
     if not _is_molecule(scene, modes):
         return "modes numbered from the lowest non-rigid one (mode 1)"
@@ -131,7 +139,8 @@ def numbering_note(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool 
             "a degenerate set once")
 
 
-def frequency_lines(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool = False) -> tuple[str, ...]:
+def frequency_lines(scene: Scene, modes: Modes | QuadraticModes, symmetry: MoleculeSymmetry | None = None, *,
+                    ascii: bool = False) -> tuple[str, ...]:
     """A text table of the modes, named as `mode_names` names them, with spectroscopic units, rigid modes apart.
 
     Parameters
@@ -196,7 +205,7 @@ def frequency_lines(scene: Any, modes: Any, symmetry: Any = None, *, ascii: bool
     return tuple(lines)
 
 
-def _quadratic_lines(scene: Any, modes: Any, *, ascii: bool) -> tuple[str, ...]:
+def _quadratic_lines(scene: Scene, modes: QuadraticModes, *, ascii: bool) -> tuple[str, ...]:
     """The table of a gyroscopic or damped system: natural frequency, Hz, damping ratio, growth."""
     units = modes.units
     natural = np.asarray(modes.natural_frequency)

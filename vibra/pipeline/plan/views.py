@@ -15,7 +15,7 @@ sites has no view (the page says so) to keep the page small.
 from __future__ import annotations
 
 import json
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Protocol, Sequence
 
 import numpy as np
 
@@ -23,6 +23,18 @@ from vibra._core.filesystem import atomic_write_text
 from vibra._results.display import CHAIN_SPACING, MAX_MOTION, MAX_SITES, mode_label, mode_view_data
 from vibra.pipeline.plan.tables import mode_names
 from vibra.pipeline.render import chain_sites
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from vibra.crystals import Crystal
+    from vibra.crystals.bands import BandStructure
+    from vibra.modes import Modes
+    from vibra.pipeline.plan.analysis import MoleculeSymmetry
+    from vibra.pipeline.plan.model import Plan
+    from vibra.pipeline.render import MoleculeStructure
+    from vibra.pipeline.scene import Scene
+    from vibra.system import System
 
 __all__ = ["mode_view", "write_band_view", "MAX_SITES", "MAX_MOTION", "CHAIN_SPACING"]
 
@@ -32,7 +44,16 @@ __all__ = ["mode_view", "write_band_view", "MAX_SITES", "MAX_MOTION", "CHAIN_SPA
 CHAIN_ELEMENTS = ("C", "O", "N", "S", "P", "Fe", "Cl", "Br")
 
 
-def _mode_label(scene: Any, modes: Any, k: int, symmetry: Any = None) -> str:
+class BandViewContext(Protocol):
+    """What `write_band_view` reads and records of a plan's execution state (`vibra.pipeline.plan.steps`)."""
+
+    system: Crystal
+    out_dir: Path
+    outputs: list[str]
+    captions: list[str]
+
+
+def _mode_label(scene: Scene, modes: Modes, k: int, symmetry: MoleculeSymmetry | None = None) -> str:
     """'ν2: 1595.0 cm⁻¹, A1 (C2v)' (molecules), 'mode 1: ... Hz' (SI), 'mode 1: ω = ...' otherwise."""
     species = symmetry.species[k] if scene.kind == "molecule" and symmetry is not None and symmetry.species[k] else ""
     label = mode_label(modes, k, wavenumbers=scene.kind == "molecule", suffix=f", {species} ({symmetry.group})"
@@ -41,8 +62,8 @@ def _mode_label(scene: Any, modes: Any, k: int, symmetry: Any = None) -> str:
     return label.replace(f"mode {k}:", f"{name}:", 1) if name else label
 
 
-def mode_view(scene: Any, system: Any, modes: Any, indices: Sequence[int], *,
-              structure: Any = None, symmetry: Any = None) -> dict[str, Any] | None:
+def mode_view(scene: Scene, system: System, modes: Modes, indices: Sequence[int], *,
+              structure: MoleculeStructure | None = None, symmetry: MoleculeSymmetry | None = None) -> dict[str, Any] | None:
     """The interactive view of the drawn modes `indices` of a chain, molecule or network scene.
 
     Parameters
@@ -103,7 +124,7 @@ def mode_view(scene: Any, system: Any, modes: Any, indices: Sequence[int], *,
                           labels=labels, note=note)
 
 
-def write_band_view(plan: Any, context: Any, bands: Any, *, unit: str) -> None:
+def write_band_view(plan: Plan, context: BandViewContext, bands: BandStructure, *, unit: str) -> None:
     """Write a crystal scene's ``<scene>_view.json``: `vibra.crystals.animation.band_view` of its bands
     (the page draws the bands; a clicked point animates that branch's mode on a supercell)."""
     from vibra.crystals.animation import band_view

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from vibra._core.filesystem import TargetRefused, check_target, protected_inputs
-from vibra.cluster import check_client, connect, run_tasks
+from vibra.cluster import ClientOption, check_client, connect, run_tasks
 from vibra.pipeline.report.folder import (
     MANIFESTS, FolderLock, check_out_dir, clean_stale, code_hash, output_is_sound, work_folder, write_manifest,
 )
@@ -227,7 +227,7 @@ def _worker(path: str, out_dir: str, force: bool, window_size: Sequence[int] | N
 # ---------------------------------------------------------------------- batch
 def report(paths: Sequence[str | os.PathLike[str]], out_dir: str | os.PathLike[str] = "plots", *,
            jobs: int = 1, force: bool = False, window_size: Sequence[int] | None = None,
-           progress: bool = True, wait: float = 60.0, scheduler: Any = None, timeout: float = 10.0) -> BatchResult:
+           progress: bool = True, wait: float = 60.0, scheduler: ClientOption = None, timeout: float = 10.0) -> BatchResult:
     """Render every scene in `paths` (files or folders of ``*.toml``) into `out_dir`.
 
     Parameters

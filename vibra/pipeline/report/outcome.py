@@ -6,7 +6,7 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from vibra._core.text import counted
 __all__ = ["SceneOutcome", "BatchResult", "ProgressBar"]
@@ -167,7 +167,7 @@ class BatchResult:
 class ProgressBar:
     """A small text progress bar on a stream (stderr by default); a line per scene off a tty."""
 
-    def __init__(self, total: int, *, stream: Any = None, enabled: bool = True) -> None:
+    def __init__(self, total: int, *, stream: TextIO | None = None, enabled: bool = True) -> None:
         self.total = total
         self.done = 0
         self.stream = stream if stream is not None else sys.stderr

@@ -25,10 +25,10 @@ import functools
 import importlib
 import inspect
 from types import MappingProxyType
-from typing import Any, Callable, Iterator, Mapping
+from typing import Any, Callable, Iterator, Mapping, TypeVar
 
 from vibra.pipeline.scene.values import (
-    Check, FieldSpec, boolean, brief, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
+    Check, Fail, FieldSpec, boolean, brief, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
     scalar_or_list, string,
 )
 
@@ -81,14 +81,17 @@ def is_lattice_builder(builder: str) -> bool:
     return builder not in _NAMED_FUNCTIONS and builder in lattice_builders()
 
 
-class BuilderMapping(Mapping[str, Any]):
+_Row = TypeVar("_Row")
+
+
+class BuilderMapping(Mapping[str, _Row]):
     """builder -> ``value(builder)`` for every builder of `BUILD_FUNCTIONS`, in its order. A named
     builder is looked up without importing the crystals."""
 
-    def __init__(self, value: Callable[[str], Any]) -> None:
+    def __init__(self, value: Callable[[str], _Row]) -> None:
         self._value = value
 
-    def __getitem__(self, builder: str) -> Any:
+    def __getitem__(self, builder: str) -> _Row:
         if builder in _NAMED_FUNCTIONS or (isinstance(builder, str) and is_lattice_builder(builder)):
             return self._value(builder)
         raise KeyError(builder)
@@ -100,7 +103,7 @@ class BuilderMapping(Mapping[str, Any]):
         return len(_NAMED_FUNCTIONS) + len(lattice_builders())
 
 
-def _per_builder(fixed: Mapping[str, Any], lattice: Callable[[str], Any]) -> BuilderMapping:
+def _per_builder(fixed: Mapping[str, _Row], lattice: Callable[[str], _Row]) -> BuilderMapping[_Row]:
     """A table of the named builders' rows (`fixed`) and one row made by `lattice(builder)` for each lattice builder."""
     return BuilderMapping(lambda builder: fixed[builder] if builder in _NAMED_FUNCTIONS else lattice(builder))
 
@@ -121,7 +124,7 @@ _SITES = list_of(integer(0), min_length=0)
 FROZEN = {"frozen_sites": field_spec(_SITES), "frozen_dofs": field_spec(_SITES)}
 
 
-def isotope_labels(value: Any, fail: Callable[[str], Any]) -> tuple[str | None, ...]:
+def isotope_labels(value: Any, fail: Fail) -> tuple[str | None, ...]:
     """One isotope label per atom (``"D"``, ``"T"``, ``"13C"``, ``"18O"``), ``""`` keeping an atom's mass.
 
     TOML has no null, so ``isotopes = ["", "D", "D"]`` is heavy water; the labels themselves
@@ -134,14 +137,14 @@ def isotope_labels(value: Any, fail: Callable[[str], Any]) -> tuple[str | None, 
 ISOTOPES = isotope_labels
 
 
-def symmetrize_option(value: Any, fail: Callable[[str], Any]) -> Any:
+def symmetrize_option(value: Any, fail: Fail) -> bool | str:
     """A phonopy scene's ``symmetrize``: true, false, "auto", "phonopy" or "projection" (`read_phonopy`)."""
     if isinstance(value, bool):
         return value
     return one_of("auto", "phonopy", "projection")(value, fail)
 
 
-def direction_vector(value: Any, fail: Callable[[str], Any]) -> tuple[float, float, float]:
+def direction_vector(value: Any, fail: Fail) -> tuple[float, float, float]:
     """A polar crystal's ``infrared_direction``: 3 Cartesian components, not all zero (any length)."""
     direction = list_of(number, length=3)(value, fail)
     if not any(direction):
@@ -150,7 +153,7 @@ def direction_vector(value: Any, fail: Callable[[str], Any]) -> tuple[float, flo
     return direction
 
 
-def chain_ids(value: Any, fail: Callable[[str], Any]) -> tuple[str, ...]:
+def chain_ids(value: Any, fail: Fail) -> tuple[str, ...]:
     """A network scene's ``chains``: ``"A"``, ``"AB"`` (one character per chain) or ``["A", "B"]``."""
     if isinstance(value, str):
         if not value.strip() or value != value.strip():
@@ -164,7 +167,7 @@ def chain_ids(value: Any, fail: Callable[[str], Any]) -> tuple[str, ...]:
     return ids
 
 
-def residue_range(value: Any, fail: Callable[[str], Any]) -> tuple[int, int]:
+def residue_range(value: Any, fail: Fail) -> tuple[int, int]:
     """A network scene's ``residues``: ``[first, last]`` residue numbers, both kept (first <= last)."""
     first, last = list_of(integer(-9999), length=2)(value, fail)
     if first > last:
@@ -172,7 +175,7 @@ def residue_range(value: Any, fail: Callable[[str], Any]) -> tuple[int, int]:
     return first, last
 
 
-def atom_selection(value: Any, fail: Callable[[str], Any]) -> Any:
+def atom_selection(value: Any, fail: Fail) -> str | tuple[str, ...]:
     """A network scene's ``selection``: "CA", "protein", "all", or a list of atom names (`from_pdb`)."""
     if isinstance(value, list):
         names = list_of(string)(value, fail)
@@ -186,7 +189,7 @@ def atom_selection(value: Any, fail: Callable[[str], Any]) -> Any:
     return value
 
 
-def altloc_code(value: Any, fail: Callable[[str], Any]) -> str:
+def altloc_code(value: Any, fail: Fail) -> str:
     """A network scene's ``altloc``: one alternate-location character (``"B"``)."""
     code = string(value, fail)
     if len(code) != 1 or not code.strip():

@@ -19,7 +19,7 @@ time step from omega_max, the lengths of ``x0`` / ``v0`` after freezing) is chec
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, MAX_DYNAMICS_STEPS, default_memory_limit, dynamics_estimate, gib, n_dof_bound,
@@ -29,6 +29,10 @@ from vibra.pipeline.scene.specs import DrawSpec
 from vibra.pipeline.scene.values import (
     boolean, field_spec, integer, list_of, number, one_of, positive, scalar_or_list,
 )
+
+if TYPE_CHECKING:  # (the scene and its kinds import this module)
+    from vibra.pipeline.scene import Scene
+    from vibra.pipeline.scene.schema import Reader
 
 __all__ = ["DynamicsSpec", "THERMOSTATS", "parse_dynamics", "check_dynamics"]
 
@@ -106,7 +110,7 @@ class DynamicsSpec:
         return len(self.chains)
 
 
-def parse_dynamics(reader: Any, compute: Any, draw: Any) -> tuple[DrawSpec, DynamicsSpec]:
+def parse_dynamics(reader: Reader, compute: Any, draw: Any) -> tuple[DrawSpec, DynamicsSpec]:
     """The ``[compute]`` and ``[draw]`` tables of a dynamics scene."""
     from vibra.dynamics import INTEGRATORS
 
@@ -184,7 +188,7 @@ def parse_dynamics(reader: Any, compute: Any, draw: Any) -> tuple[DrawSpec, Dyna
     return DrawSpec(window_size=d["window_size"]), spec
 
 
-def check_dynamics(reader: Any, scene: Any) -> None:
+def check_dynamics(reader: Reader, scene: Scene) -> None:
     """What a dynamics scene's keys must agree on before anything is built: the initial state's
     length, the mode numbers, anharmonic forces with the histogram, and the memory and time of
     the runs (`vibra.pipeline.scene.limits.dynamics_estimate`)."""

@@ -13,9 +13,13 @@ import functools
 import os
 import stat
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Mapping
 
 from vibra.pipeline.scene.specs import SceneError
+
+if TYPE_CHECKING:
+    from vibra.crystals.phonopy_files import PhonopyYamlSummary
+    from vibra.pipeline.scene import Scene
 
 __all__ = ["MAX_DATA_BYTES", "DATA_FILE_KEYS", "scene_data_path", "read_scene_data", "scene_inputs"]
 
@@ -84,7 +88,7 @@ def read_scene_data(source: str, key: str, name: str) -> str:
         raise SceneError(source, key, f"{name!r} is not UTF-8 text") from None
 
 
-def scene_inputs(scene: Any) -> tuple[Path, ...]:
+def scene_inputs(scene: Scene) -> tuple[Path, ...]:
     """The files a scene's run reads: the scene file and every data file it names (`DATA_FILE_KEYS`).
 
     Missing or refused files are left out (the build reports them at their key).
@@ -101,13 +105,13 @@ def scene_inputs(scene: Any) -> tuple[Path, ...]:
 
 
 @functools.lru_cache(maxsize=32)
-def _yaml_summary(path: str, mtime_ns: int, size: int) -> Any:
+def _yaml_summary(path: str, mtime_ns: int, size: int) -> PhonopyYamlSummary:
     from vibra.crystals.phonopy_files import check_phonopy_yaml
 
     return check_phonopy_yaml(path)
 
 
-def phonopy_yaml_summary(source: str, name: str, key: str = "system.file") -> Any:
+def phonopy_yaml_summary(source: str, name: str, key: str = "system.file") -> PhonopyYamlSummary:
     """`vibra.crystals.phonopy_files.check_phonopy_yaml` of the phonopy yaml `name` beside the scene
     `source`, read once per version of the file (a scene is loaded, validated and planned: one
     parse); a refusal names `key`.
@@ -125,7 +129,7 @@ def phonopy_yaml_summary(source: str, name: str, key: str = "system.file") -> An
         raise SceneError(source, key, f"{name!r}: {str(error).removeprefix(f'{path}: ')}") from None
 
 
-def check_phonopy_scene_files(source: str, params: Any) -> dict[str, Path | None]:
+def check_phonopy_scene_files(source: str, params: Mapping[str, Any]) -> dict[str, Path | None]:
     """A phonopy crystal scene's files (``system.file``, ``system.force_constants_file``,
     ``system.force_sets_file``, ``system.born_file``), each inside the scene's folder and whole (`vibra.crystals`'s
     checks), each refusal at its own key; returns key -> resolved path (None where not given).

@@ -20,11 +20,15 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from vibra.solvers.accuracy import TIME_LIMIT_S
 from vibra.solvers.dispatch import plan_problem
 from vibra.solvers.problem import chain_problem
+
+if TYPE_CHECKING:
+    from vibra.pipeline.scene.dynamics import DynamicsSpec
+    from vibra.pipeline.scene.specs import ComputeSpec, DrawSpec
 
 __all__ = ["MAX_DYNAMICS_STEPS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF", "DEFAULT_TIME_LIMIT_S", "render_seconds", "frames_that_fit",
            "RENDER_SECONDS_PER_ATOM_FRAME", "RENDER_SECONDS_FIXED", "sites_and_dim", "n_dof_bound",
@@ -94,7 +98,7 @@ class DynamicsEstimate:
     records: int
 
 
-def dynamics_estimate(n_dof: int, spec: Any) -> DynamicsEstimate:
+def dynamics_estimate(n_dof: int, spec: DynamicsSpec) -> DynamicsEstimate:
     """What the runs of a dynamics scene (`vibra.pipeline.scene.dynamics.DynamicsSpec`) cost, from sizes:
     the time of each run is `vibra.dynamics.cost.integration_seconds`, the estimate `integrate`
     checks against its ``max_seconds`` too, plus loading the compiled kernels once
@@ -160,7 +164,7 @@ def n_dof_bound(builder: str, parameters: Mapping[str, Any]) -> int | None:
     return None if geometry is None else geometry[0] * geometry[1]
 
 
-def all_modes_seconds(builder: str, parameters: Mapping[str, Any], compute: Any) -> float:
+def all_modes_seconds(builder: str, parameters: Mapping[str, Any], compute: ComputeSpec) -> float:
     """Estimated seconds of the scene's solve when it asks for all modes (0 for a partial request),
     before the system is built: the solver registry's plan of all frequencies of a chain of that
     many dofs at the scene's accuracy (`vibra.solvers.problem.chain_problem`: O(N^2), the cheapest
@@ -172,7 +176,7 @@ def all_modes_seconds(builder: str, parameters: Mapping[str, Any], compute: Any)
     return plan_problem(chain_problem(n_dof, accuracy=compute.accuracy), "auto").cost.seconds
 
 
-def memory_estimate(builder: str, parameters: Mapping[str, Any], compute: Any, draw: Any) -> MemoryEstimate | None:
+def memory_estimate(builder: str, parameters: Mapping[str, Any], compute: ComputeSpec, draw: DrawSpec) -> MemoryEstimate | None:
     """Estimate the memory of a scene's plan from its parameters (None: not size-driven).
 
     Parameters

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import difflib
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Collection, Mapping, NoReturn
 
 from vibra.modes import SOLVERS
 from vibra.solvers.accuracy import DEFAULT as DEFAULT_ACCURACY, LEVELS as ACCURACY_LEVELS, uses_springs
@@ -25,11 +25,12 @@ from vibra.pipeline.scene.specs import (
     FREQUENCY_UNITS, ComputeSpec, ContinuumSpec, CrystalSpec, DrawSpec, ResponseSpec, SceneError, SystemSpec,
 )
 from vibra.pipeline.scene.values import (
-    FieldSpec, boolean, brief, element_symbol, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive,
+    Fail, FieldSpec, boolean, brief, element_symbol, field_spec, integer, kind_name, list_of, nonnegative, number, one_of, positive,
     string, table,
 )
 
 if TYPE_CHECKING:  # (the kinds import this module: a kind's own tables are parsed here)
+    from vibra.pipeline.scene import Scene
     from vibra.pipeline.scene.kinds import SceneKind
 
 __all__ = ["Reader", "unknown_key", "parse_system", "parse_compute", "parse_draw", "check_combinations", "parse_crystal",
@@ -52,7 +53,7 @@ class Reader:
         self.source = source
         self.pending: list[SceneError] = []
 
-    def fail(self, key: str, message: str) -> Any:
+    def fail(self, key: str, message: str) -> NoReturn:
         if self.pending:
             raise self.take()
         raise SceneError(self.source, key, message)
@@ -67,8 +68,8 @@ class Reader:
         self.pending = []
         return error
 
-    def _failer(self, key: str) -> Callable[[str], Any]:
-        def fail(message: str) -> Any:
+    def _failer(self, key: str) -> Fail:
+        def fail(message: str) -> NoReturn:
             raise SceneError(self.source, key, message)
         return fail
 
@@ -103,7 +104,7 @@ class Reader:
         return out
 
 
-def unknown_key(key: str, allowed: Any) -> str:
+def unknown_key(key: str, allowed: Collection[str]) -> str:
     """The problem of an unknown key: the closest allowed key suggested, then all of them."""
     close = difflib.get_close_matches(key, list(allowed), n=1, cutoff=0.6)
     hint = f"; did you mean {close[0]!r}?" if close else ""
@@ -137,7 +138,7 @@ def parse_system(reader: Reader, data: Any, scene_kind: SceneKind) -> SystemSpec
     return SystemSpec(builder=builder, parameters=MappingProxyType(values))
 
 
-def _band(value: Any, fail: Callable[[str], Any]) -> tuple[float, float]:
+def _band(value: Any, fail: Fail) -> tuple[float, float]:
     low, high = list_of(number, length=2)(value, fail)
     if not low < high:
         fail(f"must be [low, high] with low < high, got {brief(value)}")
@@ -222,7 +223,7 @@ def parse_draw(reader: Reader, data: Any) -> DrawSpec:
     return DrawSpec(**values)
 
 
-def check_combinations(reader: Reader, scene: Any) -> None:
+def check_combinations(reader: Reader, scene: Scene) -> None:
     """Combinations that are individually valid but impossible together."""
     kind, compute, draw = scene.kind, scene.compute, scene.draw
     params = scene.system.parameters
@@ -294,7 +295,7 @@ def check_combinations(reader: Reader, scene: Any) -> None:
             reader.fail("system.coordinates", f"needs {len(params['M'])} names, got {len(params['coordinates'])}")
 
 
-def _check_gyroscopic(reader: Reader, compute: Any, draw: Any) -> None:
+def _check_gyroscopic(reader: Reader, compute: ComputeSpec, draw: DrawSpec) -> None:
     """A gyroscopic scene (M q'' + G q' + K q = 0) solves all its complex modes and draws their orbits
     (and its forced response, `vibra.response` taking G: K - w^2 M + i w (C + G))."""
     for key in ("n_modes", "band"):
@@ -307,7 +308,7 @@ def _check_gyroscopic(reader: Reader, compute: Any, draw: Any) -> None:
                         "response (draw.response) and lists its frequencies in the table")
 
 
-def _check_memory(reader: Reader, scene: Any) -> None:
+def _check_memory(reader: Reader, scene: Scene) -> None:
     """Refuse a scene whose memory or time estimate (`limits`) exceeds its limit, before any work."""
     compute = scene.compute
     estimate = memory_estimate(scene.system.builder, scene.system.parameters, compute, scene.draw)
@@ -329,7 +330,7 @@ def _check_memory(reader: Reader, scene: Any) -> None:
                     "compute.n_modes or compute.band (a partial solver), or raise compute.time_limit_s")
 
 
-def _check_frozen(reader: Reader, scene: Any) -> int | None:
+def _check_frozen(reader: Reader, scene: Scene) -> int | None:
     """Check frozen_sites / frozen_dofs against the system's size; return the free dof count.
 
     None when the count does not follow from the parameters alone.
@@ -432,7 +433,7 @@ def _check_engine(reader: Reader, params: Mapping[str, Any]) -> None:
 
 
 # ---------------------------------------------------------------------- crystal scenes
-def _path_runs(value: Any, fail: Callable[[str], Any]) -> tuple[tuple[str, ...], ...]:
+def _path_runs(value: Any, fail: Fail) -> tuple[tuple[str, ...], ...]:
     """``["GAMMA", "X", "L"]`` (one run) or ``[["GAMMA", "X"], ["L", "GAMMA"]]`` (runs with breaks)."""
     if not isinstance(value, list) or not value:
         fail(f"expected a list of point labels or a list of runs of them, got {kind_name(value)} ({brief(value)})")
@@ -444,7 +445,7 @@ def _path_runs(value: Any, fail: Callable[[str], Any]) -> tuple[tuple[str, ...],
     return tuple(out)
 
 
-def _wave_vector(value: Any, fail: Callable[[str], Any]) -> Any:
+def _wave_vector(value: Any, fail: Fail) -> str | tuple[float, ...]:
     """A special-point label (``"X"``) or 3 fractional coordinates."""
     if isinstance(value, str):
         return value
@@ -483,7 +484,7 @@ def parse_crystal(reader: Reader, compute: Any, draw: Any) -> tuple[DrawSpec, Cr
     return DrawSpec(window_size=d["window_size"]), spec
 
 
-def check_crystal(reader: Reader, scene: Any) -> None:
+def check_crystal(reader: Reader, scene: Scene) -> None:
     """What a crystal scene's keys must agree on before anything is built."""
     spec, builder, params = scene.crystal, scene.system.builder, scene.system.parameters
     if not (spec.bands or spec.thermal or spec.mode):

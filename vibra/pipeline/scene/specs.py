@@ -6,7 +6,7 @@ import re
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
-from vibra.pipeline.scene.values import brief
+from vibra.pipeline.scene.values import Fail, brief
 from vibra.units import UNIT_NAMES, UNITS_EXPECTED, unit_system
 
 __all__ = ["SceneError", "UNITS", "units_name", "SAFE_NAME", "SystemSpec", "ResponseSpec",
@@ -20,7 +20,7 @@ UNITS = UNIT_NAMES  # a scene's units key is read by `units_name`, through `vibr
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
 
-def units_name(value: Any, fail: Callable[[str], Any]) -> str:
+def units_name(value: Any, fail: Fail) -> str:
     """A scene's ``units`` as `vibra.units.unit_system` reads it (any capitalisation), in vibra's spelling.
 
     >>> units_name("si", print), units_name("Dimensionless", print)
@@ -82,7 +82,8 @@ class SceneError(ValueError):
         combined.args = ("\n".join(str(single) for single in singles),)
         return combined
 
-    def __reduce__(self) -> tuple[Any, ...]:  # pickles with every problem (a Dask worker's error)
+    # pickles with every problem (a Dask worker's error)
+    def __reduce__(self) -> tuple[Callable[..., SceneError], tuple[tuple[tuple[str, str, str], ...]]]:
         return (_rebuild_scene_error, (tuple((e.source, e.key, e.problem) for e in self.errors),))
 
 

@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, NoReturn
 
 from vibra._core.text import counted
 
-__all__ = ["brief", "Check", "FieldSpec", "field_spec", "kind_name", "number", "positive", "nonnegative", "integer",
+__all__ = ["brief", "Check", "Fail", "FieldSpec", "field_spec", "kind_name", "number", "positive", "nonnegative", "integer",
            "boolean", "string", "one_of", "list_of", "scalar_or_list", "index_pairs", "matrix", "coordinates",
            "table", "HYDROGEN_ISOTOPES", "element_symbol"]
 
@@ -24,10 +24,13 @@ def element_symbol(symbol: str) -> str:
     """The element of a scene's chemical symbol: ``"D"`` and ``"T"`` are ``"H"``, others unchanged."""
     return HYDROGEN_ISOTOPES.get(symbol, symbol)
 
-Check = Callable[[Any, Callable[[str], Any]], Any]
+#: How a check refuses a value: ``fail(message)`` raises a `SceneError` at the key, and never returns.
+Fail = Callable[[str], NoReturn]
+#: A value check: (the TOML value, which is any value before it is checked, fail) -> the normalised value.
+Check = Callable[[Any, Fail], Any]
 
 
-def brief(value: Any, limit: int = 60) -> str:
+def brief(value: object, limit: int = 60) -> str:
     """``repr(value)`` cut to `limit` characters (``...`` marks the cut): messages stay one short line."""
     text = repr(value) if not isinstance(value, (list, dict)) or len(value) < 64 else \
         f"{type(value).__name__} of {len(value)} entries"
@@ -35,13 +38,13 @@ def brief(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def kind_name(value: Any) -> str:
+def kind_name(value: object) -> str:
     names = {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
              list: "a list", dict: "a table"}
     return names.get(type(value), type(value).__name__)
 
 
-def number(value: Any, fail: Callable[[str], Any]) -> float:
+def number(value: Any, fail: Fail) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         fail(f"expected a number, got {kind_name(value)} ({brief(value)})")
     if not math.isfinite(value):
@@ -49,14 +52,14 @@ def number(value: Any, fail: Callable[[str], Any]) -> float:
     return float(value)
 
 
-def positive(value: Any, fail: Callable[[str], Any]) -> float:
+def positive(value: Any, fail: Fail) -> float:
     checked = number(value, fail)
     if checked <= 0:
         fail(f"must be positive, got {brief(value)}")
     return checked
 
 
-def nonnegative(value: Any, fail: Callable[[str], Any]) -> float:
+def nonnegative(value: Any, fail: Fail) -> float:
     checked = number(value, fail)
     if checked < 0:
         fail(f"must be >= 0, got {brief(value)}")
@@ -64,7 +67,7 @@ def nonnegative(value: Any, fail: Callable[[str], Any]) -> float:
 
 
 def integer(low: int, high: int | None = None) -> Check:
-    def check(value: Any, fail: Callable[[str], Any]) -> int:
+    def check(value: Any, fail: Fail) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
             fail(f"expected an integer, got {kind_name(value)} ({brief(value)})")
         if value < low or (high is not None and value > high):
@@ -74,20 +77,20 @@ def integer(low: int, high: int | None = None) -> Check:
     return check
 
 
-def boolean(value: Any, fail: Callable[[str], Any]) -> bool:
+def boolean(value: Any, fail: Fail) -> bool:
     if not isinstance(value, bool):
         fail(f"expected true or false, got {kind_name(value)} ({brief(value)})")
     return bool(value)
 
 
-def string(value: Any, fail: Callable[[str], Any]) -> str:
+def string(value: Any, fail: Fail) -> str:
     if not isinstance(value, str):
         fail(f"expected a string, got {kind_name(value)} ({brief(value)})")
     return str(value)
 
 
-def one_of(*allowed: Any) -> Check:
-    def check(value: Any, fail: Callable[[str], Any]) -> Any:
+def one_of(*allowed: object) -> Check:
+    def check(value: Any, fail: Fail) -> Any:
         if value not in allowed or isinstance(value, bool) != isinstance(allowed[0], bool):
             options = ", ".join(repr(a) for a in allowed)
             fail(f"is {brief(value)}; expected one of {options}")
@@ -96,7 +99,7 @@ def one_of(*allowed: Any) -> Check:
 
 
 def list_of(item: Check, *, length: int | None = None, min_length: int = 1) -> Check:
-    def check(value: Any, fail: Callable[[str], Any]) -> tuple[Any, ...]:
+    def check(value: Any, fail: Fail) -> tuple[Any, ...]:
         if not isinstance(value, list):
             fail(f"expected a list, got {kind_name(value)} ({brief(value)})")
         if length is not None and len(value) != length:
@@ -110,8 +113,8 @@ def list_of(item: Check, *, length: int | None = None, min_length: int = 1) -> C
     return check
 
 
-def _prefixed(fail: Callable[[str], Any], prefix: str) -> Callable[[str], Any]:
-    def prefixed(message: str) -> Any:
+def _prefixed(fail: Fail, prefix: str) -> Fail:
+    def prefixed(message: str) -> NoReturn:
         return fail(prefix + message)
     return prefixed
 
@@ -119,23 +122,23 @@ def _prefixed(fail: Callable[[str], Any], prefix: str) -> Callable[[str], Any]:
 def scalar_or_list(item: Check) -> Check:
     listed = list_of(item)
 
-    def check(value: Any, fail: Callable[[str], Any]) -> Any:
+    def check(value: Any, fail: Fail) -> Any:
         return listed(value, fail) if isinstance(value, list) else item(value, fail)
     return check
 
 
-def index_pairs(value: Any, fail: Callable[[str], Any]) -> tuple[tuple[int, int], ...]:
+def index_pairs(value: Any, fail: Fail) -> tuple[tuple[int, int], ...]:
     return list_of(list_of(integer(0), length=2), min_length=0)(value, fail)
 
 
-def matrix(value: Any, fail: Callable[[str], Any]) -> tuple[tuple[float, ...], ...]:
+def matrix(value: Any, fail: Fail) -> tuple[tuple[float, ...], ...]:
     rows = list_of(list_of(number))(value, fail)
     if any(len(row) != len(rows) for row in rows):
         fail(f"must be a square matrix (a list of {len(rows)} rows of {len(rows)} numbers)")
     return rows
 
 
-def coordinates(value: Any, fail: Callable[[str], Any]) -> tuple[Any, ...]:
+def coordinates(value: Any, fail: Fail) -> tuple[float, ...] | tuple[tuple[float, ...], ...]:
     if not isinstance(value, list) or not value:
         fail(f"expected a non-empty list of coordinates, got {kind_name(value)}")
     if all(not isinstance(v, list) for v in value):
@@ -151,16 +154,16 @@ class FieldSpec:
     """One key of a table: its check, its default, and whether a scene must give it."""
 
     check: Check
-    default: Any = None
+    default: object = None
     required: bool = False
 
 
-def field_spec(check: Check, default: Any = None, *, required: bool = False) -> FieldSpec:
+def field_spec(check: Check, default: object = None, *, required: bool = False) -> FieldSpec:
     return FieldSpec(check, default, required)
 
 
 
-def table(value: Any, fail: Callable[[str], Any]) -> Any:
+def table(value: Any, fail: Fail) -> dict[str, object]:
     """A ``[section]`` table, checked later against its own fields."""
     if not isinstance(value, dict):
         fail(f"expected a table ([section]), got {kind_name(value)} ({brief(value)})")

@@ -51,11 +51,11 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from typing import Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence, Union
 
 import numpy as np
 
-from vibra.cluster import ProgressOption, check_client, connect, progress_callback, run_tasks
+from vibra.cluster import ClientOption, ProgressOption, check_client, connect, progress_callback, run_tasks
 from vibra.pipeline.plan import build_system
 from vibra.pipeline.scene import Scene, SceneError
 from vibra.solvers.accuracy import Accuracy, check as check_accuracy
@@ -71,6 +71,15 @@ from vibra.pipeline.sweep.points import (
     DEFAULT_MAX_POINTS, Axis, Ensemble, Grid, GridPoints, ValueRange, ensemble, grid, member_rng,
     parse_vary, vary,
 )
+
+if TYPE_CHECKING:
+    from vibra.generalized import GeneralizedSystem
+    from vibra.modes import Modes
+    from vibra.solvers.structured.quadratic import QuadraticModes
+    from vibra.system import System
+
+#: What a sweep solves: a scene file, a parsed scene table, a `Scene`, or a builder returning a `System`.
+SweepTarget = Union[str, "os.PathLike[str]", Mapping[str, object], Scene, Callable[..., "System | GeneralizedSystem"]]
 
 __all__ = ["Axis", "vary", "parse_vary", "Grid", "grid", "Ensemble", "ensemble", "member_rng", "SweepRow",
            "SweepTable", "sweep", "ValueRange", "GridPoints", "DEFAULT_MAX_POINTS",
@@ -136,8 +145,9 @@ def _chunk_task(arguments: Sequence[tuple[Any, ...]], labels: Sequence[str]) -> 
 
 
 # ---------------------------------------------------------------------- the sweep
-def sweep(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
-          derive: Callable[[Any, Any], Mapping[str, float]] | None = None, client: Any = None,
+def sweep(target: SweepTarget, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
+          derive: Callable[[System | GeneralizedSystem, Modes | QuadraticModes], Mapping[str, float]] | None = None,
+          client: ClientOption = None,
           progress: ProgressOption = None, n_workers: int | None = None, timeout: float = 10.0,
           n_modes: int | None = None, band: tuple[float, float] | None = None,
           accuracy: Accuracy = "high", solver: str = "auto", name: str | None = None,
@@ -356,7 +366,7 @@ def _first_plan(target: Any, points: Grid | Ensemble, options: dict[str, Any], n
     return None if planned is None else (system, planned)
 
 
-def estimate_seconds(target: Any, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
+def estimate_seconds(target: SweepTarget, points: Grid | Ensemble | Axis | Mapping[str, Sequence[float]], *,
                      n_modes: int | None = None, band: tuple[float, float] | None = None,
                      accuracy: Accuracy = "high", solver: str = "auto") -> tuple[float, str] | None:
     """(seconds per point, what) of a sweep, estimated from the first point's sizes before any

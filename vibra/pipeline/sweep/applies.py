@@ -22,12 +22,20 @@ rows still all came out the same warns (`SweepWarning`).
 from __future__ import annotations
 
 import warnings
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from vibra.pipeline.scene import SCENE_KINDS, Scene, SceneError
 from vibra.pipeline.sweep.tables import split_key
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from vibra.generalized import GeneralizedSystem
+    from vibra.pipeline.sweep.results import SweepRow
+    from vibra.system import System
+    from vibra.units import UnitSystem
 
 __all__ = ["SOLVE_KEYS", "RESPONSE_TABLE", "TRAJECTORY_ONLY", "NOT_SWEPT", "check_swept_keys", "response_summary",
            "response_columns", "SweepWarning", "warn_if_constant"]
@@ -77,13 +85,13 @@ def _trajectory_only(base: str, scene: Scene) -> bool:
     return base.startswith("compute.")
 
 
-def response_columns(units: Any) -> tuple[str, str]:
+def response_columns(units: UnitSystem) -> tuple[str, str]:
     """The names of the two response columns, with their units (a `vibra.units.UnitSystem`):
     ``("peak_receptance (m/N)", "peak_omega (rad/s)")`` for an SI scene."""
     return f"peak_receptance ({units.receptance})", f"peak_omega ({units.omega})"
 
 
-def response_summary(scene: Scene, system: Any) -> tuple[tuple[str, float], ...]:
+def response_summary(scene: Scene, system: System | GeneralizedSystem) -> tuple[tuple[str, float], ...]:
     """The peak of the scene's forced response, as a sweep row's derived columns; () without
     ``[compute.response]``.
 
@@ -110,7 +118,7 @@ class SweepWarning(UserWarning):
     """A sweep whose points all gave the same table row: the swept keys change nothing it computes."""
 
 
-def warn_if_constant(rows: Sequence[tuple[Any, Any]], keys: Sequence[str], name: str) -> None:
+def warn_if_constant(rows: Sequence[tuple[SweepRow, NDArray[np.float64] | None]], keys: Sequence[str], name: str) -> None:
     """Warn when every point gave the same frequencies and derived values, bit for bit (a builder's
     keyword that its system ignores, a key whose values round to the same system)."""
     if len(rows) < 2:

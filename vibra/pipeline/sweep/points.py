@@ -9,7 +9,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Literal, Mapping, Sequence
+from typing import Any, Callable, Iterator, Literal, Mapping, Sequence, SupportsIndex
 
 import numpy as np
 
@@ -39,7 +39,7 @@ class ValueRange(Sequence[float]):
     def __len__(self) -> int:
         return self.n
 
-    def __getitem__(self, index: Any) -> Any:
+    def __getitem__(self, index: SupportsIndex | slice) -> float | tuple[float, ...]:  # type: ignore[override]
         if isinstance(index, slice):
             return tuple(self[i] for i in range(*index.indices(self.n)))
         i = int(index)
@@ -68,17 +68,18 @@ class ValueRange(Sequence[float]):
         return f"ValueRange({self.start!r}, {self.stop!r}, {self.n}, {self.spacing!r})"
 
 
-class GridPoints(Sequence[tuple[Any, ...]]):
+class GridPoints(Sequence[tuple[object, ...]]):
     """The Cartesian product of value sequences, the first varying slowest; point i computed when read."""
 
-    def __init__(self, axes: Sequence[Sequence[Any]]) -> None:
+    def __init__(self, axes: Sequence[Sequence[object]]) -> None:
         self.axes = tuple(axes)
         self._size = math.prod(len(a) for a in self.axes)
 
     def __len__(self) -> int:
         return self._size
 
-    def __getitem__(self, index: Any) -> Any:
+    def __getitem__(self, index: SupportsIndex | slice  # type: ignore[override]
+                    ) -> tuple[object, ...] | tuple[tuple[object, ...], ...]:
         if isinstance(index, slice):
             return tuple(self[i] for i in range(*index.indices(self._size)))
         i = int(index)
@@ -92,7 +93,7 @@ class GridPoints(Sequence[tuple[Any, ...]]):
             values.append(axis[digit])
         return tuple(reversed(values))
 
-    def __iter__(self) -> Any:
+    def __iter__(self) -> Iterator[tuple[object, ...]]:
         return itertools.product(*self.axes)
 
     def __eq__(self, other: object) -> bool:
@@ -258,10 +259,10 @@ class Ensemble:
 
     seed: int
     n: int
-    draw: Callable[[np.random.Generator], Mapping[str, Any]] | None = None
+    draw: Callable[[np.random.Generator], Mapping[str, object]] | None = None
 
 
-def ensemble(seed: int, n: int, draw: Callable[[np.random.Generator], Mapping[str, Any]] | None = None) -> Ensemble:
+def ensemble(seed: int, n: int, draw: Callable[[np.random.Generator], Mapping[str, object]] | None = None) -> Ensemble:
     """An `Ensemble` of `n` members from `seed` (a non-negative integer)."""
     for name, value in (("seed", seed), ("n", n)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):

@@ -184,7 +184,7 @@ class SweepTable(Result):
             out.append(float(values[key]))
         return np.array(out)
 
-    def branch_lines(self) -> list[tuple[tuple[tuple[str, Any], ...], NDArray[np.float64], NDArray[np.float64]]]:
+    def branch_lines(self) -> list[tuple[tuple[tuple[str, object], ...], NDArray[np.float64], NDArray[np.float64]]]:
         """The branches of each line of the grid, for drawing them as curves.
 
         Returns

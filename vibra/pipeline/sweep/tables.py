@@ -114,7 +114,7 @@ def _default_list(table: Mapping[str, Any], parts: tuple[str, ...], key: str, so
     return [list(v) if isinstance(v, tuple) else v for v in default] if isinstance(default, tuple) else default
 
 
-def scene_at(data: Mapping[str, Any], source: str, values: Mapping[str, Any]) -> tuple[Scene, dict[str, Any]]:
+def scene_at(data: Mapping[str, Any], source: str, values: Mapping[str, object]) -> tuple[Scene, dict[str, Any]]:
     """The validated scene with `values` set, and the table it was built from.
 
     Raises
@@ -141,7 +141,7 @@ def scene_at(data: Mapping[str, Any], source: str, values: Mapping[str, Any]) ->
         return Scene.from_dict(table, source=source), table
 
 
-def scene_table(target: Any) -> tuple[dict[str, Any], str]:
+def scene_table(target: object) -> tuple[dict[str, Any], str]:
     """The raw scene table and its source name, from a path, a mapping or a `Scene`."""
     if isinstance(target, Scene):
         data = strip_none(target.dump())

@@ -24,10 +24,10 @@ present all along a line (a symmetric molecule's E or Pi pairs) and rigid modes 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Hashable
+from typing import Hashable
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibra.compare import DEGENERATE, match_modes
 
@@ -49,7 +49,7 @@ class _Point:
 RIGID = 1e-6
 
 
-def degenerate_pairs(omega: Any, omega_error: Any = None) -> int:
+def degenerate_pairs(omega: ArrayLike, omega_error: ArrayLike | None = None) -> int:
     """How many neighbouring vibrating frequencies agree within `DEGENERATE` (relative) or their error
     bounds (rigid modes, |omega| <= `RIGID` max|omega|, left out).
 
@@ -82,7 +82,7 @@ class BranchTracker:
         self._reference: dict[Hashable, tuple[_Point, NDArray[np.intp]]] = {}
         self._next: dict[Hashable, int] = {}
 
-    def add(self, line: Hashable, omega: Any, vectors: Any, omega_error: Any = None) -> NDArray[np.intp]:
+    def add(self, line: Hashable, omega: ArrayLike, vectors: ArrayLike, omega_error: ArrayLike | None = None) -> NDArray[np.intp]:
         """(n_modes,) the branch of each mode of this point (mode k: the k-th column of `vectors`).
 
         Parameters
