@@ -34,7 +34,7 @@ subspace) instead.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Union
+from typing import Any, Protocol, Union
 
 import numpy as np
 import scipy.linalg as la
@@ -43,16 +43,20 @@ from scipy.optimize import linear_sum_assignment
 
 from vibra._core.frozen import Frozen
 
-if TYPE_CHECKING:
-    from vibra.modes import Modes
-    from vibra.solvers.structured.quadratic import QuadraticModes
-
 __all__ = ["overlap", "mac", "cumulative_overlap", "subspace_overlap", "match_modes", "ModeMatch", "ModeSet",
            "DEGENERATE", "AMBIGUOUS"]
 
+class ShapesLike(Protocol):
+    """What is read of a `vibra.Modes` or a `QuadraticModes` (a protocol: `vibra.modes` imports
+    this module, so naming its classes would close an import cycle, even for type checkers)."""
+
+    @property
+    def shapes(self) -> NDArray[Any] | None: ...
+
+
 #: What the functions here compare: a `vibra.Modes`, a `QuadraticModes` (complex shapes), or an
 #: (n_dof, n_modes) array of vectors in columns (one vector: (n_dof,)).
-ModeSet = Union["Modes", "QuadraticModes", ArrayLike]
+ModeSet = Union[ShapesLike, ArrayLike]
 
 #: Two neighbouring modes are one degenerate group where their frequencies agree to this
 #: relative tolerance (or within their bounds' sum).

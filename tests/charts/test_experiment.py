@@ -9,7 +9,6 @@ the requirement that nothing a reader must read overlaps.
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
@@ -17,19 +16,7 @@ import pytest
 
 from vibra.molecules import EXPERIMENTAL
 from vibra.spectra import compare_with_experiment
-from vibra.spectra.ir import KM_PER_MOL_PER_E2_AMU
-
-
-@dataclasses.dataclass
-class Lines:
-    """A stand-in IR spectrum: what `compare_with_experiment` reads (wavenumbers in cm^-1)."""
-
-    wavenumbers: np.ndarray
-    intensities: np.ndarray
-    level: str
-
-    def intensities_km_per_mol(self) -> np.ndarray:
-        return self.intensities * KM_PER_MOL_PER_E2_AMU
+from tests.helpers.ir_lines import ir_lines
 
 
 def _comparison(formula: str) -> Any:
@@ -39,7 +26,7 @@ def _comparison(formula: str) -> Any:
              "CO2": ([751, 751, 1518, 2590], [69.5, 69.5, 0, 988.9], ["Pi_u", "Pi_u", "Sigma_g+", "Sigma_u+"]),
              "H2O": ([1826, 4056, 4174], [110.1, 18.3, 59.7], ["A1", "A1", "B2"])}[formula]
     wavenumbers, km_per_mol, species = lines
-    spectrum = Lines(np.array(wavenumbers, float), np.array(km_per_mol, float) / KM_PER_MOL_PER_E2_AMU, "RHF/6-31G*")
+    spectrum = ir_lines(wavenumbers, km_per_mol, "RHF/6-31G*")
     return compare_with_experiment(spectrum, species, EXPERIMENTAL[formula])
 
 

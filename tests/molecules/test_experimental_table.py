@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from tests.helpers.images import check_png
+from tests.helpers.ir_lines import ir_lines
 from vibra.molecules import EXPERIMENTAL, experimental_fundamentals
 from vibra.molecules.experimental import CCCBDB_H2O_INTENSITIES, JENNINGS_ROBIETTE_1982_CH4_NU4
 from vibra.spectra import SCALE_FACTORS, ExperimentComparison, compare_with_experiment, fundamental_scale_factor
@@ -102,25 +103,11 @@ def test_fundamental_factor_rule_lands_within_the_published_uncertainty() -> Non
     assert abs(fundamental_scale_factor("HF/6-31G(d)") - HF_631GD_FUNDAMENTAL) <= HF_631GD_UNCERTAINTY
 
 
-def _ir(wavenumbers: list[float], km_per_mol: list[float], level: str) -> object:
-    """A stand-in IR spectrum: the attributes compare_with_experiment reads."""
-    from vibra.spectra.ir import KM_PER_MOL_PER_E2_AMU
-
-    @dataclasses.dataclass
-    class Lines:
-        wavenumbers: np.ndarray
-        intensities: np.ndarray
-        level: str
-
-        def intensities_km_per_mol(self) -> np.ndarray:
-            return self.intensities * KM_PER_MOL_PER_E2_AMU
-
-    return Lines(np.array(wavenumbers), np.array(km_per_mol) / KM_PER_MOL_PER_E2_AMU, level)
 
 
 def test_comparison_scales_pairs_and_sums_degenerate_sets() -> None:
     entry = EXPERIMENTAL["CO2"]
-    ir = _ir([700.0, 700.0, 1400.0, 2400.0], [20.0, 20.0, 0.0, 500.0], "B3LYP/6-31G(d)")
+    ir = ir_lines([700.0, 700.0, 1400.0, 2400.0], [20.0, 20.0, 0.0, 500.0], "B3LYP/6-31G(d)")
     comparison = compare_with_experiment(ir, ["Pi_u", "Pi_u", "Sigma_g+", "Sigma_u+"], entry)
     assert comparison.names == ("nu1", "nu2", "nu3")
     assert comparison.scale_factor == 0.952
@@ -130,14 +117,14 @@ def test_comparison_scales_pairs_and_sums_degenerate_sets() -> None:
     expected = 100 * (0.952 * 2400.0 - 2349.0) / 2349.0
     assert comparison.deviation_percent()[2] == pytest.approx(expected)
     assert "nu3" in comparison.table() and "Shimanouchi" in comparison.table()
-    unscaled = compare_with_experiment(_ir([1600.0, 3650.0, 3750.0], [60, 3, 40], "GFN2-xTB"), ["A1", "A1", "B2"],
+    unscaled = compare_with_experiment(ir_lines([1600.0, 3650.0, 3750.0], [60, 3, 40], "GFN2-xTB"), ["A1", "A1", "B2"],
                                        EXPERIMENTAL["H2O"])
     assert unscaled.scale_factor == 1.0 and "unscaled" in unscaled.scale_source
     assert np.allclose(unscaled.intensity_ratio(), [3 / 2.9, 60 / 62.5, 40 / 41.7])
 
 
 def test_comparison_is_frozen() -> None:
-    comparison = compare_with_experiment(_ir([1600.0, 3650.0, 3750.0], [60, 3, 40], ""), ["A1", "A1", "B2"],
+    comparison = compare_with_experiment(ir_lines([1600.0, 3650.0, 3750.0], [60, 3, 40], ""), ["A1", "A1", "B2"],
                                          EXPERIMENTAL["H2O"])
     with pytest.raises(dataclasses.FrozenInstanceError):
         comparison.level = "x"  # type: ignore[misc]
@@ -146,7 +133,7 @@ def test_comparison_is_frozen() -> None:
 
 
 def test_comparison_bad_input_is_named() -> None:
-    ir = _ir([1600.0, 3650.0, 3750.0], [60, 3, 40], "")
+    ir = ir_lines([1600.0, 3650.0, 3750.0], [60, 3, 40], "")
     with pytest.raises(ValueError, match=r"species has 2 labels; expected one per line of ir \(3\)"):
         compare_with_experiment(ir, ["A1", "A1"], EXPERIMENTAL["H2O"])
     with pytest.raises(TypeError, match="entry must be a vibra.molecules.ExperimentalFundamentals"):
@@ -163,7 +150,7 @@ def test_chart_renders(tmp_path: Path) -> None:
     from vibra.charts import save_figure
     from vibra.charts.experiment import plot_experiment_comparison
 
-    comparison = compare_with_experiment(_ir([1700.0, 3800.0, 3900.0], [70, 8, 60], "B3LYP/6-31G(d)"),
+    comparison = compare_with_experiment(ir_lines([1700.0, 3800.0, 3900.0], [70, 8, 60], "B3LYP/6-31G(d)"),
                                          ["A1", "A1", "B2"], EXPERIMENTAL["H2O"])
     figure = plot_experiment_comparison(comparison, title="water")
     assert "computed against observed" in figure._suptitle.get_text()

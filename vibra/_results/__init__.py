@@ -50,7 +50,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from vibra._results.display import View
-    from vibra.system import System
+# (a `vibra.System` is typed Any here: vibra.system imports this package)
 
 __all__ = ["Result", "ModesResult", "layout", "axis_arrays", "FORMAT_VERSION", "MAX_LOAD_BYTES",
            "MAX_SCALARS_BYTES", "MAX_JSON_DEPTH", "Dim", "Stored", "stored", "check_stored"]
@@ -244,7 +244,7 @@ class ModesResult(Result):
         values = np.asarray(getattr(self, first))
         return (self._size(), f"{first} {span(values)}" if values.size and np.isrealobj(values) else "")
 
-    def show(self, system: System, indices: Sequence[int] | None = None) -> View:
+    def show(self, system: Any, indices: Sequence[int] | None = None) -> View:
         """The interactive 3-D view of these modes on `system` (`vibra._results.display.system_view`):
         the report's viewer, a `View` that Jupyter shows as the cell's value (``_repr_html_``), offline
         (3Dmol.js, about 530 kB, inlined once per output), or `View.save` writes as a page.

@@ -28,16 +28,14 @@ import os
 import secrets
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from vibra._core.filesystem import atomic_write_text
 
-if TYPE_CHECKING:
-    from vibra._results import ModesResult
-    from vibra.system import System
+# (a `vibra.System` is typed Any here: vibra.system imports this package)
 
 __all__ = ["View", "mode_view_data", "system_view", "viewer_html", "asset_bytes", "ASSET_PARTS", "THREEDMOL",
            "SCRIPT", "MAX_MOTION", "CHAIN_SPACING", "MAX_SITES", "MAX_NOTEBOOK_NUMBERS", "MAX_NOTEBOOK_MODES"]
@@ -81,7 +79,7 @@ def mode_label(modes: Any, k: int, *, wavenumbers: bool, suffix: str = "") -> st
     return f"mode {k}: ω = {float(modes.omega[k]):.4g}{suffix}"
 
 
-def mode_view_data(system: System, modes: ModesResult, indices: Sequence[int], *, kind: str,
+def mode_view_data(system: Any, modes: Any, indices: Sequence[int], *, kind: str,
                    elements: Sequence[str], bonds: Sequence[tuple[int, int]], sites: ArrayLike | None = None,
                    labels: Sequence[str] | None = None, note: str = "") -> dict[str, Any]:
     """The ``"modes"`` view data of the modes `indices` of `system` (module docstring).
@@ -90,7 +88,7 @@ def mode_view_data(system: System, modes: ModesResult, indices: Sequence[int], *
     ----------
     system : System
         Positions (in its length unit), `expand` (frozen dofs as zeros), ``dim``.
-    modes : ModesResult
+    modes : ModesResult (`vibra._results`; Any here: the package imports this module)
         With real shapes.
     indices : sequence of int
         The modes drawn.
@@ -153,7 +151,7 @@ def _kind_of(system: Any) -> str:
     return "molecule" if system.symbols is not None else "network"
 
 
-def system_view(system: System, modes: ModesResult, indices: Sequence[int] | None = None, *,
+def system_view(system: Any, modes: Any, indices: Sequence[int] | None = None, *,
                 max_numbers: int = MAX_NOTEBOOK_NUMBERS) -> View:
     """The `View` of `modes` on `system` (what ``modes.show(system)`` returns).
 

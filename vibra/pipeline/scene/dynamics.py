@@ -30,8 +30,7 @@ from vibra.pipeline.scene.values import (
     boolean, field_spec, integer, list_of, number, one_of, positive, scalar_or_list,
 )
 
-if TYPE_CHECKING:  # (the scene and its kinds import this module)
-    from vibra.pipeline.scene import Scene
+if TYPE_CHECKING:  # (a `Scene` is typed Any here: the scene package imports this module)
     from vibra.pipeline.scene.schema import Reader
 
 __all__ = ["DynamicsSpec", "THERMOSTATS", "parse_dynamics", "check_dynamics"]
@@ -188,7 +187,7 @@ def parse_dynamics(reader: Reader, compute: Any, draw: Any) -> tuple[DrawSpec, D
     return DrawSpec(window_size=d["window_size"]), spec
 
 
-def check_dynamics(reader: Reader, scene: Scene) -> None:
+def check_dynamics(reader: Reader, scene: Any) -> None:
     """What a dynamics scene's keys must agree on before anything is built: the initial state's
     length, the mode numbers, anharmonic forces with the histogram, and the memory and time of
     the runs (`vibra.pipeline.scene.limits.dynamics_estimate`)."""

@@ -19,7 +19,7 @@ from vibra.pipeline.scene.specs import SceneError
 
 if TYPE_CHECKING:
     from vibra.crystals.phonopy_files import PhonopyYamlSummary
-    from vibra.pipeline.scene import Scene
+# (a `Scene` is typed Any here: the scene package imports this module)
 
 __all__ = ["MAX_DATA_BYTES", "DATA_FILE_KEYS", "scene_data_path", "read_scene_data", "scene_inputs"]
 
@@ -88,7 +88,7 @@ def read_scene_data(source: str, key: str, name: str) -> str:
         raise SceneError(source, key, f"{name!r} is not UTF-8 text") from None
 
 
-def scene_inputs(scene: Scene) -> tuple[Path, ...]:
+def scene_inputs(scene: Any) -> tuple[Path, ...]:
     """The files a scene's run reads: the scene file and every data file it names (`DATA_FILE_KEYS`).
 
     Missing or refused files are left out (the build reports them at their key).

@@ -27,8 +27,8 @@ from vibra.solvers.dispatch import plan_problem
 from vibra.solvers.problem import chain_problem
 
 if TYPE_CHECKING:
-    from vibra.pipeline.scene.dynamics import DynamicsSpec
     from vibra.pipeline.scene.specs import ComputeSpec, DrawSpec
+# (a `DynamicsSpec` is typed Any here: vibra.pipeline.scene.dynamics imports this module)
 
 __all__ = ["MAX_DYNAMICS_STEPS", "DynamicsEstimate", "dynamics_estimate", "BYTES_PER_DOF", "DEFAULT_TIME_LIMIT_S", "render_seconds", "frames_that_fit",
            "RENDER_SECONDS_PER_ATOM_FRAME", "RENDER_SECONDS_FIXED", "sites_and_dim", "n_dof_bound",
@@ -98,7 +98,7 @@ class DynamicsEstimate:
     records: int
 
 
-def dynamics_estimate(n_dof: int, spec: DynamicsSpec) -> DynamicsEstimate:
+def dynamics_estimate(n_dof: int, spec: Any) -> DynamicsEstimate:
     """What the runs of a dynamics scene (`vibra.pipeline.scene.dynamics.DynamicsSpec`) cost, from sizes:
     the time of each run is `vibra.dynamics.cost.integration_seconds`, the estimate `integrate`
     checks against its ``max_seconds`` too, plus loading the compiled kernels once

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import difflib
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, Collection, Mapping, NoReturn
+from typing import Any, Collection, Mapping, NoReturn
 
 from vibra.modes import SOLVERS
 from vibra.solvers.accuracy import DEFAULT as DEFAULT_ACCURACY, LEVELS as ACCURACY_LEVELS, uses_springs
@@ -29,9 +29,8 @@ from vibra.pipeline.scene.values import (
     string, table,
 )
 
-if TYPE_CHECKING:  # (the kinds import this module: a kind's own tables are parsed here)
-    from vibra.pipeline.scene import Scene
-    from vibra.pipeline.scene.kinds import SceneKind
+# A `Scene` and a `SceneKind` are typed Any here: the scene package and its kinds import this module
+# (naming them would close an import cycle, even for type checkers).
 
 __all__ = ["Reader", "unknown_key", "parse_system", "parse_compute", "parse_draw", "check_combinations", "parse_crystal",
            "check_crystal"]
@@ -111,7 +110,7 @@ def unknown_key(key: str, allowed: Collection[str]) -> str:
     return f"unknown key{hint} (allowed here: {', '.join(sorted(allowed))})"
 
 
-def parse_system(reader: Reader, data: Any, scene_kind: SceneKind) -> SystemSpec:
+def parse_system(reader: Reader, data: Any, scene_kind: Any) -> SystemSpec:
     """The ``[system]`` table of a scene of `scene_kind`: a builder that makes that kind, and its keys."""
     kind = scene_kind.name
     if not isinstance(data, Mapping):
@@ -223,7 +222,7 @@ def parse_draw(reader: Reader, data: Any) -> DrawSpec:
     return DrawSpec(**values)
 
 
-def check_combinations(reader: Reader, scene: Scene) -> None:
+def check_combinations(reader: Reader, scene: Any) -> None:
     """Combinations that are individually valid but impossible together."""
     kind, compute, draw = scene.kind, scene.compute, scene.draw
     params = scene.system.parameters
@@ -308,7 +307,7 @@ def _check_gyroscopic(reader: Reader, compute: ComputeSpec, draw: DrawSpec) -> N
                         "response (draw.response) and lists its frequencies in the table")
 
 
-def _check_memory(reader: Reader, scene: Scene) -> None:
+def _check_memory(reader: Reader, scene: Any) -> None:
     """Refuse a scene whose memory or time estimate (`limits`) exceeds its limit, before any work."""
     compute = scene.compute
     estimate = memory_estimate(scene.system.builder, scene.system.parameters, compute, scene.draw)
@@ -330,7 +329,7 @@ def _check_memory(reader: Reader, scene: Scene) -> None:
                     "compute.n_modes or compute.band (a partial solver), or raise compute.time_limit_s")
 
 
-def _check_frozen(reader: Reader, scene: Scene) -> int | None:
+def _check_frozen(reader: Reader, scene: Any) -> int | None:
     """Check frozen_sites / frozen_dofs against the system's size; return the free dof count.
 
     None when the count does not follow from the parameters alone.
@@ -484,7 +483,7 @@ def parse_crystal(reader: Reader, compute: Any, draw: Any) -> tuple[DrawSpec, Cr
     return DrawSpec(window_size=d["window_size"]), spec
 
 
-def check_crystal(reader: Reader, scene: Scene) -> None:
+def check_crystal(reader: Reader, scene: Any) -> None:
     """What a crystal scene's keys must agree on before anything is built."""
     spec, builder, params = scene.crystal, scene.system.builder, scene.system.parameters
     if not (spec.bands or spec.thermal or spec.mode):
