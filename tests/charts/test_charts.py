@@ -24,12 +24,12 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _spectra(name: str):  # noqa: ANN202
-    from vibra.pipeline.plan.steps import _molecule_structure
+    from vibra.pipeline.plan.analysis import molecule_structure
 
     scene = load_scene(ROOT / "molecules" / f"{name}.toml")
     system = build_system(scene)
     modes = system.modes()
-    structure = _molecule_structure(scene, system)
+    structure = molecule_structure(scene, system)
     symmetry = molecule_symmetry(system, modes)
     return molecule_spectra(system, modes, structure.symbols, structure.bonds, symmetry), symmetry
 

@@ -13,6 +13,8 @@ computed, by which solver, its accuracy figure and its wall time.
 - `vibra.pipeline.plan.build`: `build_system` (builders from the fixed table `BUILD_FUNCTIONS`;
   nothing from a scene file is imported or executed).
 - `vibra.pipeline.plan.analysis`: what drawings need computed (symmetry and IR hints, dispersion).
+- `vibra.pipeline.plan.chartsteps`: the modes plan's charts, one `ChartStep` each (when a scene
+  wants it, what it draws, the function that draws it).
 - `vibra.pipeline.plan.checks`: `check_modes_plan` (what validate checks on a modes scene's built
   system) and `step_error` (a failing step -> a `SceneError` at the scene key that controls it).
 - `vibra.pipeline.plan.steps`: `execute` and the step functions.

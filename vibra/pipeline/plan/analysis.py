@@ -7,6 +7,7 @@
 - `chain_dispersion`: `vibra.continuum.dispersion_curves` for a chain scene's parameters (its
   finite chain's modes placed on the branches), for the dispersion chart.
 - `network_fluctuations`: predicted against crystallographic B-factors of a network scene.
+- `molecule_structure`: elements and bonds of a molecule scene, for its renders and spectra.
 """
 
 from __future__ import annotations
@@ -23,9 +24,12 @@ if TYPE_CHECKING:
     from vibra.modes import Modes
     from vibra.molecules.symmetry import PointGroup
     from vibra.networks import Structure
+    from vibra.pipeline.render import MoleculeStructure
+    from vibra.pipeline.scene import Scene
     from vibra.system import System
 
-__all__ = ["MoleculeSymmetry", "molecule_symmetry", "MoleculeSpectra", "molecule_spectra", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion"]
+__all__ = ["MoleculeSymmetry", "molecule_symmetry", "MoleculeSpectra", "molecule_spectra", "symmetry_hints", "NetworkFluctuations", "network_fluctuations", "DispersionCurves", "chain_dispersion",
+           "molecule_structure"]
 
 #: A mode whose point-charge IR intensity is below this fraction of the strongest is IR-inactive.
 IR_INACTIVE_FRACTION = 1e-8
@@ -344,3 +348,25 @@ def molecule_spectra(system: System, modes: Modes, symbols: Sequence[str], bonds
     return MoleculeSpectra(ir=ir, ir_profile=ir_profile, ir_species=ir_species, ir_model=ir_model, raman=raman,
                            raman_profile=raman_profile, raman_species=raman_species, raman_model=raman_model,
                            n_rigid=n_rigid)
+
+
+def molecule_structure(scene: Scene, system: System) -> MoleculeStructure:
+    """Elements and bonds of a molecule scene: the scene's symbols and springs, else guessed.
+
+    Without symbols, each site is the element of nearest standard mass; without springs,
+    bonds join atoms closer than 1.25 x the sum of their covalent radii.
+    """
+    from vibra.molecules import bonds_from_distances, symbols_from_masses
+    from vibra.pipeline.render import MoleculeStructure
+    from vibra.pipeline.scene.values import element_symbol
+
+    params = scene.system.parameters
+    symbols = params.get("symbols") or system.symbols
+    if symbols is not None:
+        symbols = [element_symbol(s) for s in symbols]  # D and T are drawn as hydrogen
+    else:
+        symbols = symbols_from_masses(system.masses)
+    bonds = params.get("springs")
+    if bonds is None:
+        bonds = bonds_from_distances(system.positions, symbols)
+    return MoleculeStructure(tuple(symbols), tuple((int(i), int(j)) for i, j in bonds))

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Callable, Mapping, TypeVar
 import numpy as np
 
 from vibra.pipeline.plan.analysis import chain_dispersion
+from vibra.pipeline.plan.chartsteps import CHART_STEP_KEYS
 from vibra.pipeline.plan.electronic import check_engine_plan, engine_summary
 from vibra.pipeline.plan.model import modes_plan
 from vibra.pipeline.scene import Scene, SceneError
@@ -53,10 +54,8 @@ DRY_RESPONSE_LIMIT = 200_000
 STEP_KEYS = {
     "build": "system", "modes": "compute", "crosscheck": "compute.crosscheck", "response": "compute.response",
     "continuum": "compute.continuum", "dispersion": "draw.dispersion", "structure": "system",
-    "render-modes": "draw.modes", "render-gif": "draw.gif", "chart-spectrum": "draw.spectrum",
-    "chart-dispersion": "draw.dispersion", "chart-response": "draw.response",
-    "chart-convergence": "draw.convergence", "electronic": "system.engine", "engine-missing": "system.engine",
-    "chart-experiment": "draw.spectrum",
+    "render-modes": "draw.modes", "render-gif": "draw.gif", "electronic": "system.engine",
+    "engine-missing": "system.engine", **CHART_STEP_KEYS,
 }
 
 #: What a library function raises when it refuses a request or a solve fails (`LinAlgError` is

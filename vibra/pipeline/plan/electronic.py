@@ -11,8 +11,8 @@
   level, naming the estimate, the limit and the levels that would fit.
 - The steps: ``electronic`` (optimise the geometry with the engine, then
   `vibra.molecules.engines.electronic_structure`: the Hessian the modes come from, the dipole and
-  polarisability derivatives), ``chart-experiment`` (computed against observed fundamentals,
-  where the molecule has observed values) and ``engine-missing``.
+  polarisability derivatives) and ``engine-missing``; its chart, ``chart-experiment`` (computed
+  against observed fundamentals, from `experiment_comparison`), is in `vibra.pipeline.plan.chartsteps`.
 """
 
 from __future__ import annotations
@@ -319,22 +319,5 @@ def _step_engine_missing(plan: Any, context: Any, renderer: Any) -> tuple[str | 
     return None, "not computed: the engine's package is missing"
 
 
-def _step_chart_experiment(plan: Any, context: Any, renderer: Any) -> tuple[str | None, str | None]:
-    """The computed (scaled) against observed chart, where the molecule has observed values."""
-    from vibra.charts.experiment import plot_experiment_comparison
-
-    comparison = experiment_comparison(context.electronic)
-    if comparison is None:
-        return None, "no observed fundamentals bundled for this molecule"
-    figure = plot_experiment_comparison(comparison, title=plan.scene.title)
-    intensities = " and IR intensities" if comparison.intensity_source else ""
-    context.save_chart(figure, "experiment",
-                       f"{plan.scene.title}: {comparison.level} fundamentals, harmonic x {comparison.scale_factor:g}, "
-                       f"against the observed gas-phase fundamentals{intensities}: computed up, observed down, "
-                       f"deviations in the table (largest {comparison.largest_deviation_percent():.1f} %)")
-    return None, f"largest deviation {comparison.largest_deviation_percent():.1f} % (scale {comparison.scale_factor:g})"
-
-
 #: step name -> the function that runs it.
-ELECTRONIC_STEPS = {"electronic": _step_electronic, "engine-missing": _step_engine_missing,
-                    "chart-experiment": _step_chart_experiment}
+ELECTRONIC_STEPS = {"electronic": _step_electronic, "engine-missing": _step_engine_missing}

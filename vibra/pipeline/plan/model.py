@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
+from vibra.pipeline.plan.chartsteps import chart_steps
 from vibra.pipeline.scene import Scene
 from vibra._core.text import counted
 
@@ -193,22 +194,7 @@ def modes_plan(scene: Scene) -> Plan:
         steps.append(Step("render-modes", f"render {draw.n_draw} mode shapes off-screen (pyvista)"))
     if draw.gif:
         steps.append(Step("render-gif", "animated GIF of the lowest drawn mode (pyvista)"))
-    if draw.spectrum:
-        steps.append(Step("chart-spectrum", "IR and Raman spectra (model intensities, Lorentzian lines)"
-                          if scene.kind == "molecule" else "stick spectrum of the frequencies"))
-    if draw.spectrum and engine is not None:
-        steps.append(Step("chart-experiment", "computed (scaled) against observed fundamentals and IR intensities, "
-                          "where the molecule has observed values bundled"))
-    if draw.dispersion:
-        steps.append(Step("chart-dispersion", "dispersion relation with the chain's modes"))
-    if draw.response:
-        steps.append(Step("chart-response", "response amplitude and phase against frequency"))
-    if draw.bfactors:
-        steps.append(Step("chart-bfactors", "fitted against crystallographic B-factors per residue, on one axis"))
-    if scene.kind == "network":
-        steps.append(Step("chart-correlations", "residue cross-correlation map of the computed modes"))
-    if draw.convergence:
-        steps.append(Step("chart-convergence", "error of the chain's modes against N (log-log)"))
+    steps.extend(Step(name, what) for name, what in chart_steps(scene))  # its charts, declared in chartsteps
     return Plan(scene=scene, steps=tuple(steps), n_modes=n_modes, vectors=vectors)
 
 

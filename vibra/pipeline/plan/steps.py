@@ -18,10 +18,11 @@ from typing import Any, Callable
 import numpy as np
 
 from vibra._core.filesystem import atomic_write_text
-from vibra.pipeline.plan.analysis import (LINE_WIDTH_CM1, chain_dispersion, molecule_spectra, molecule_symmetry,
+from vibra.pipeline.plan.analysis import (chain_dispersion, molecule_structure, molecule_symmetry,
                                           network_fluctuations, symmetry_hints)
 from vibra.pipeline.plan.build import build_system, network_structure
-from vibra.pipeline.plan.electronic import electronic_hints, electronic_spectra
+from vibra.pipeline.plan.chartsteps import CHART_STEPS, ChartStep
+from vibra.pipeline.plan.electronic import electronic_hints
 from vibra.pipeline.plan.checks import REFUSALS, empty_band, response_request, solve_limits, step_error
 from vibra.pipeline.plan.kinds import PLAN_KINDS, build_note, check_plan, plan_kind
 from vibra.pipeline.plan.model import Plan, PlanResult, StepRecord
@@ -304,30 +305,9 @@ def _gnm_profiles(plan: Plan, context: _Context, labels: Any, indices: list[int]
                 "largest |u| of 1 (red and blue move in opposition; a sign change is a hinge)")
 
 
-def _molecule_structure(scene: Scene, system: Any) -> Any:
-    """Elements and bonds of a molecule scene: the scene's symbols and springs, else guessed.
-
-    Without symbols, each site is the element of nearest standard mass; without springs,
-    bonds join atoms closer than 1.25 x the sum of their covalent radii.
-    """
-    from vibra.molecules import bonds_from_distances, symbols_from_masses
-    from vibra.pipeline.render import MoleculeStructure
-
-    params = scene.system.parameters
-    symbols = params.get("symbols") or system.symbols
-    if symbols is not None:
-        symbols = [element_symbol(s) for s in symbols]  # D and T are drawn as hydrogen
-    else:
-        symbols = symbols_from_masses(system.masses)
-    bonds = params.get("springs")
-    if bonds is None:
-        bonds = bonds_from_distances(system.positions, symbols)
-    return MoleculeStructure(tuple(symbols), tuple((int(i), int(j)) for i, j in bonds))
-
-
 def _step_structure(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     """Elements, bonds, and each drawn mode's symmetry / IR-activity text (molecules)."""
-    context.structure = _molecule_structure(plan.scene, context.system)
+    context.structure = molecule_structure(plan.scene, context.system)
     structure = context.structure
     if context.electronic is not None:  # the engine's own IR intensities, not point charges
         context.hints = electronic_hints(context.electronic, context.system, context.modes,
@@ -354,43 +334,6 @@ def _step_fluctuations(plan: Plan, context: _Context, renderer: Any) -> tuple[st
         f"B-factor correlation r = {context.network.correlation:.3f} over {counted(len(context.network.labels), 'residue')}"
 
 
-def _step_chart_bfactors(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.charts.networks import b_factor_axis, plot_b_factors
-
-    network = context.network
-    fit = network.fit
-    if fit is None:  # the file's B column is flat: nothing to fit, the raw prediction is drawn
-        fitted, correlation, scale, method = network.predicted, network.correlation, None, "sum"
-        how = "unscaled (kT/gamma = 1: the file's B-factors are all equal, nothing to fit)"
-    else:
-        fitted, correlation, scale, method = fit.predicted, fit.correlation, fit.scale, fit.method
-        how = ("scaled as ProDy's calcTempFactors does, to the crystallographic sum" if method == "sum"
-               else "scaled by least squares onto the crystallographic values") + f" (x {fit.scale:.3g})"
-    figure = plot_b_factors(network.labels, network.experimental, fitted, correlation, scale=scale,
-                            method=method, title=plan.scene.title)
-    axis = b_factor_axis(network.experimental, fitted)
-    n_rigid = int(np.sum(context.modes.zero_modes(1e-6)))
-    used = (f"all {network.n_modes - n_rigid}" if network.n_modes == context.system.n_dof else
-            f"the {network.n_modes - n_rigid} lowest") + f" non-rigid modes ({counted(n_rigid, 'rigid-body mode')} left out)"
-    _save_chart(context, figure, "bfactors",
-                f"{plan.scene.title}: B-factors per residue, crystallographic and predicted from {used}, "
-                f"{how}, on one {axis} axis; "
-                f"Pearson correlation r = {correlation:.3f}")
-    return None, None
-
-
-def _step_chart_correlations(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.charts.networks import plot_cross_correlations
-
-    network = context.network
-    figure = plot_cross_correlations(network.labels, network.cross_correlations, n_modes=network.n_modes,
-                                     title=plan.scene.title)
-    _save_chart(context, figure, "correlations",
-                f"{plan.scene.title}: residue cross-correlations C_ij from the {network.n_modes} lowest modes "
-                "(rigid ones left out): red moves together, blue in opposition")
-    return None, None
-
-
 def _step_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
     context.dispersion = chain_dispersion(plan.scene.system.parameters, context.modes)
     return None, None
@@ -406,71 +349,11 @@ def _step_render_gif(plan: Plan, context: _Context, renderer: Any) -> tuple[str 
     return None, None
 
 
-def _step_chart_spectrum(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.charts.modes import spectrum_figure
-
-    if plan.scene.kind == "molecule" and context.modes.shapes is not None:
-        from vibra.charts.spectra import plot_molecule_spectra
-
-        structure = context.structure or _molecule_structure(plan.scene, context.system)
-        if context.electronic is not None:  # an engine's dipole and polarisability derivatives
-            spectra = electronic_spectra(context.electronic, line_width=LINE_WIDTH_CM1)
-        else:
-            spectra = molecule_spectra(context.system, context.modes, structure.symbols, structure.bonds,
-                                       context.symmetry)
-        figure = plot_molecule_spectra(spectra, title=plan.scene.title)
-        _save_chart(context, figure, "spectrum",
-                    f"{plan.scene.title}: IR and Raman spectra, Lorentzian lines (FWHM {LINE_WIDTH_CM1:g} cm^-1) "
-                    f"with the lines beneath, species on the peaks; {spectra.ir_model}; {spectra.raman_model}")
-        return None, None
-    figure, caption = spectrum_figure(plan.scene, context.modes)
-    _save_chart(context, figure, "spectrum", caption)
-    return None, None
-
-
-def _step_chart_dispersion(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.charts import chains as chain_charts
-
-    figure = chain_charts.plot_dispersion(context.dispersion, title=f"{plan.scene.title}: dispersion")
-    _save_chart(context, figure, "dispersion",
-                f"{plan.scene.title}: dispersion relation omega(q) over the Brillouin zone, with the "
-                f"{context.modes.n_modes} modes of the finite chain on top")
-    return None, None
-
-
-def _step_chart_response(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.charts import response as response_charts
-
-    if plan.scene.kind == "oscillator":
-        oscillators = context.system
-        figure = response_charts.plot_oscillator_response(list(oscillators), context.response,
-                                                          units=plan.scene.units)
-        gammas = ", ".join(f"{o.gamma:g}" for o in oscillators)
-        caption = (f"{plan.scene.title}: amplitude and phase against omega ({cite('003')}, eqs. 120-123) "
-                   f"for gamma = {gammas}, omega0 = {oscillators[0].w0:g}")
-    else:
-        r = plan.scene.compute.response
-        assert r is not None
-        natural = None if context.modes is None else np.asarray(context.modes.omega)
-        figure = response_charts.plot_frf(context.response, r.force_site, natural_frequencies=natural,
-                                          title=f"{plan.scene.title}: response of dof {r.force_site}")
-        caption = (f"{plan.scene.title}: receptance at the driven dof {r.force_site} for a unit force "
-                   f"({context.response.solver} solver, C = {r.alpha:g} M + {r.beta:g} K)"
-                   + (", resonances marked" if natural is not None else ""))
-    _save_chart(context, figure, "response", caption)
-    return None, None
-
-
-def _step_chart_convergence(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
-    from vibra.charts import chains as chain_charts
-
-    figure = chain_charts.plot_convergence(context.continuum)
-    c = plan.scene.compute.continuum
-    assert c is not None  # make_plan adds this step only with a continuum table
-    _save_chart(context, figure, "convergence",
-                f"Relative error of modes {list(c.modes)} of a {c.ends}-end chain against the wave equation, "
-                f"versus N at fixed length ({cite('003')}, eqs. 162-165)")
-    return None, None
+def _chart_step(chart: ChartStep) -> Callable[[Plan, _Context, Any], tuple[str | None, str | None]]:
+    """The step function of a chart of `vibra.pipeline.plan.chartsteps`: it draws, no solver runs."""
+    def run(plan: Plan, context: _Context, renderer: Any) -> tuple[str | None, str | None]:
+        return None, chart.run(plan.scene, context)
+    return run
 
 
 #: step name -> the function that runs it.
@@ -483,14 +366,9 @@ STEPS: dict[str, Callable[[Plan, _Context, Any], tuple[str | None, str | None]]]
     "dispersion": _step_dispersion,
     "symmetry": _step_symmetry,
     "fluctuations": _step_fluctuations,
-    "chart-bfactors": _step_chart_bfactors,
-    "chart-correlations": _step_chart_correlations,
     "structure": _step_structure,
     "render-modes": _step_render_modes,
     "render-gif": _step_render_gif,
-    "chart-spectrum": _step_chart_spectrum,
-    "chart-dispersion": _step_chart_dispersion,
-    "chart-response": _step_chart_response,
-    "chart-convergence": _step_chart_convergence,
+    **{chart.step: _chart_step(chart) for chart in CHART_STEPS},  # the modes plan's charts
     **{name: run for kind in PLAN_KINDS.values() for name, run in kind.steps.items()},  # each kind's own steps
 }

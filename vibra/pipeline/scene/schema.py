@@ -10,6 +10,7 @@ and the solver names from `vibra.modes.SOLVERS`.
 from __future__ import annotations
 
 import difflib
+from dataclasses import fields as dataclass_fields
 from types import MappingProxyType
 from typing import Any, Collection, Mapping, NoReturn
 
@@ -207,18 +208,20 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
                        memory_limit_gib=values["memory_limit_gib"], time_limit_s=values["time_limit_s"])
 
 
+#: The ``[draw]`` keys that are not charts, with their checkers (a chart's key is a boolean: `DrawSpec.chart_keys`).
+_DRAW_FIELDS = {
+    "modes": field_spec(boolean, False),
+    "n_draw": field_spec(integer(1, 24), 6),
+    "gif": field_spec(boolean, False),
+    "window_size": field_spec(list_of(integer(64, 4096), length=2), (1024, 640)),
+}
+
+
 def parse_draw(reader: Reader, data: Any) -> DrawSpec:
-    values = reader.table(data, "draw", {
-        "modes": field_spec(boolean, False),
-        "n_draw": field_spec(integer(1, 24), 6),
-        "spectrum": field_spec(boolean, False),
-        "dispersion": field_spec(boolean, False),
-        "response": field_spec(boolean, False),
-        "convergence": field_spec(boolean, False),
-        "gif": field_spec(boolean, False),
-        "bfactors": field_spec(boolean, False),
-        "window_size": field_spec(list_of(integer(64, 4096), length=2), (1024, 640)),
-    })
+    charts = DrawSpec.chart_keys()
+    keys = [f.name for f in dataclass_fields(DrawSpec)]  # the fields' order: where errors list them
+    values = reader.table(data, "draw", {key: field_spec(boolean, False) if key in charts else _DRAW_FIELDS[key]
+                                         for key in keys})
     return DrawSpec(**values)
 
 
@@ -253,9 +256,9 @@ def check_combinations(reader: Reader, scene: Any) -> None:
             if getattr(draw, key):
                 reader.fail(f"draw.{key}", "a network scene draws its slowest modes on the C-alpha trace "
                             "(draw.modes), the B-factors (draw.bfactors) and the spectrum")
-    if draw.bfactors and kind != "network":
-        reader.fail("draw.bfactors", f"compares predicted and crystallographic B-factors of a network scene, "
-                    f"not of a {kind!r} scene")
+    for key, chart in DrawSpec.chart_keys().items():  # the kinds each chart applies to, from its DrawSpec field
+        if getattr(draw, key) and chart.kinds is not None and kind not in chart.kinds:
+            reader.fail(f"draw.{key}", f"{chart.purpose}, not of a {kind!r} scene")
     if scene.system.builder == "charged_particle":
         _check_gyroscopic(reader, compute, draw)
     if kind == "oscillator":

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from typing import Any, Callable, Mapping, Sequence
 
 from vibra.pipeline.scene.values import Fail, brief
 from vibra.units import UNIT_NAMES, UNITS_EXPECTED, unit_system
 
 __all__ = ["SceneError", "UNITS", "units_name", "SAFE_NAME", "SystemSpec", "ResponseSpec",
-           "ContinuumSpec", "ComputeSpec", "DrawSpec", "CrystalSpec", "FREQUENCY_UNITS"]
+           "ContinuumSpec", "ComputeSpec", "ChartKey", "chart_key", "DrawSpec", "CrystalSpec", "FREQUENCY_UNITS"]
 
 #: How a crystal scene labels its frequency axis (``draw.frequency_unit``).
 FREQUENCY_UNITS = ("THz", "cm^-1")
@@ -200,6 +200,30 @@ class ComputeSpec:
 
 
 @dataclass(frozen=True)
+class ChartKey:
+    """What the scene schema knows of a ``[draw]`` key that asks for a chart (`chart_key`).
+
+    Attributes
+    ----------
+    kinds : tuple of str or None
+        The scene kinds it applies to (None: every kind on the modes plan that does not refuse it).
+    purpose : str
+        What the chart shows, as the refusal for another kind begins ("compares ... of a network
+        scene"; the refusal ends "not of a 'chain' scene").
+    """
+
+    kinds: tuple[str, ...] | None = None
+    purpose: str = ""
+
+
+def chart_key(*, kinds: tuple[str, ...] | None = None, purpose: str = "") -> Any:
+    """A `DrawSpec` field that asks for a chart: a boolean ``[draw]`` key, False by default, whose
+    `ChartKey` the scene schema reads (`parse_draw` its checker, `check_combinations` its kinds).
+    The chart it asks for is declared in `vibra.pipeline.plan.chartsteps` under the same name."""
+    return field(default=False, metadata={"chart": ChartKey(kinds, purpose)})
+
+
+@dataclass(frozen=True)
 class DrawSpec:
     """What a scene draws (``[draw]``).
 
@@ -227,13 +251,19 @@ class DrawSpec:
 
     modes: bool = False
     n_draw: int = 6
-    spectrum: bool = False
-    dispersion: bool = False
-    response: bool = False
-    convergence: bool = False
+    spectrum: bool = chart_key()
+    dispersion: bool = chart_key()
+    response: bool = chart_key()
+    convergence: bool = chart_key()
     gif: bool = False
-    bfactors: bool = False
+    bfactors: bool = chart_key(kinds=("network",), purpose="compares predicted and crystallographic B-factors of a "
+                               "network scene")
     window_size: tuple[int, int] = (1024, 640)
+
+    @classmethod
+    def chart_keys(cls) -> dict[str, ChartKey]:
+        """The keys that ask for a chart (`chart_key`), in field order."""
+        return {f.name: f.metadata["chart"] for f in fields(cls) if "chart" in f.metadata}
 
     @property
     def needs_shapes(self) -> bool:
