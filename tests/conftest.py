@@ -8,6 +8,12 @@ import numpy as np
 import pytest
 from hypothesis import settings
 
+# The suite runs the compiled kernels through numba, in this process and in every interpreter it
+# starts: no ahead-of-time copy is used or built in the background (vibra.solvers.aot), so no test
+# depends on whether a copy from an earlier run sits in the user's cache. tests/solvers/test_aot.py
+# builds one in a temporary folder and checks it against numba, bit for bit.
+os.environ["VIBRA_AOT"] = "0"
+
 settings.register_profile("ci", max_examples=60, deadline=None, derandomize=True)
 settings.register_profile("dev", max_examples=30, deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")

@@ -41,11 +41,12 @@ from __future__ import annotations
 
 import functools
 import importlib
+import sys
 import threading
 from types import ModuleType
 from typing import Any, Callable, Generic, ParamSpec, TypeVar, cast
 
-__all__ = ["Kernel", "jit", "intrinsic", "prange", "HOST_FMA", "bind", "threads", "compiled_pays",
+__all__ = ["Kernel", "AOT_KERNELS", "jit", "intrinsic", "prange", "HOST_FMA", "bind", "threads", "compiled_pays",
            "COMPILED_FROM_S", "LOAD_SECONDS", "batches", "INTERRUPT_S", "SITE_SECONDS"]
 
 #: Seconds a process spends the first time it runs a compiled kernel: importing numba and loading
@@ -121,9 +122,15 @@ class Kernel(_Lazy, Generic[_P, _R]):
 
     def __init__(self, function: Callable[_P, _R], options: dict[str, object]) -> None:
         self.py_func = function
+        self.aot = bool(options.pop("aot", False))
+        self.work = cast("Callable[..., float] | None", options.pop("work", None))
+        self.parallel = bool(options.get("parallel", False))
         self.options = options
         self._dispatcher: Any = None
+        self._exports: list[tuple[Any, Callable[..., Any]]] | None = None
         functools.update_wrapper(self, function)
+        if self.aot:
+            AOT_KERNELS.append(self)
 
     def resolve(self) -> Callable[_P, _R]:
         """numba's dispatcher of this function (created once; its module's names bound first)."""
@@ -133,15 +140,49 @@ class Kernel(_Lazy, Generic[_P, _R]):
                 bind(self.py_func.__globals__)
             return cast("Callable[_P, _R]", self._dispatcher)
 
+    def ahead_of_time(self, args: tuple[Any, ...]) -> Callable[..., Any] | None:
+        """This kernel's ahead-of-time export for exactly these argument types (`vibra.solvers.aot`),
+        or None (none built, or other types); a missing copy starts its build in the background."""
+        from vibra.solvers import aot
+
+        if self._exports is None:
+            module, exports = aot.load()
+            name = f"{self.py_func.__module__}.{self.py_func.__name__}"
+            self._exports = [] if module is None else [
+                (export["args"], getattr(module, export["symbol"])) for export in exports.get(name, ())]
+            if module is None:
+                aot.start_background_build()
+        for spec, function in self._exports:
+            if aot.matches(spec, args):
+                return function
+        return None
+
     def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
+        if self.aot and not kwargs and self._dispatcher is None:
+            function = self.ahead_of_time(args)
+            # a parallel kernel runs its (serial) copy only where loading numba to spread the work
+            # over threads would cost more than the whole serial run
+            if function is not None and (not self.parallel or (
+                    "numba" not in sys.modules and self.work is not None and self.work(*args) < LOAD_SECONDS)):
+                return cast("_R", function(*args))
         return self.resolve()(*args, **kwargs)
 
     def __repr__(self) -> str:
         return f"<compiled kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
 
 
+#: Every kernel declared ``aot=True``, in the order their modules were imported (`vibra.solvers.aot.build`
+#: exports them; a module's names may since have been bound to numba's dispatchers).
+AOT_KERNELS: list[Kernel[Any, Any]] = []
+
+
 def jit(**options: object) -> Callable[[Callable[_P, _R]], Kernel[_P, _R]]:
-    """``numba.njit(**options)``, applied on the function's first call (a `Kernel`)."""
+    """``numba.njit(**options)``, applied on the function's first call (a `Kernel`).
+
+    Two options are vibra's, not numba's: ``aot=True`` compiles the kernel ahead of time too
+    (`vibra.solvers.aot`: a call with the argument types of its exports runs that copy and loads no
+    numba), and, for a parallel one, ``work=f``: ``f(*args)``, its serial run's seconds estimated
+    from sizes; the serial copy runs where that is under `LOAD_SECONDS` and numba is not loaded."""
     def wrap(function: Callable[_P, _R]) -> Kernel[_P, _R]:
         return Kernel(function, dict(options))
     return wrap

@@ -57,7 +57,7 @@ if TYPE_CHECKING:
     _P = ParamSpec("_P")
     _R = TypeVar("_R")
 
-__all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor", "kernel_jit", "LANES", "FMA", "fma",
+__all__ = ["pivot_roots", "spring_counts", "chain_counts", "walled_factor", "kernel_jit", "values_by_sites", "LANES", "FMA", "fma",
            "scalar_two_sum", "scalar_two_product", "scalar_mul", "scalar_reciprocal"]
 
 _SPLIT = 134217729.0  # 2^27 + 1 (Dekker)
@@ -65,10 +65,18 @@ _EPS = float(np.finfo(float).eps)
 _TINY = float(np.finfo(float).tiny)
 
 
-def kernel_jit(parallel: bool = False) -> Callable[[Callable[_P, _R]], Kernel[_P, _R]]:
+def kernel_jit(parallel: bool = False, aot: bool = False,
+               work: Callable[..., float] | None = None) -> Callable[[Callable[_P, _R]], Kernel[_P, _R]]:
     """The kernels' numba options: no fast-math (IEEE operations), cached on disk; compiled on
-    first call (`vibra.solvers.compiled.jit`)."""
-    return jit(cache=True, fastmath=False, nogil=True, error_model="numpy", parallel=parallel)
+    first call (`vibra.solvers.compiled.jit`; `aot` and `work` as there)."""
+    return jit(cache=True, fastmath=False, nogil=True, error_model="numpy", parallel=parallel, aot=aot, work=work)
+
+
+def values_by_sites(x: NDArray[np.float64], *rest: object) -> float:
+    """A parallel count kernel's serial seconds, estimated from sizes (`COUNT_S` per value and site):
+    `x` the values, the first array of `rest` the sites' masses."""
+    sites = next(a.shape[0] for a in rest if isinstance(a, np.ndarray) and a.dtype == np.float64)
+    return COUNT_S * x.shape[0] * sites
 
 
 # --- double-double, scalar: the operations of `vibra.solvers.accurate.dd` and `vibra.solvers.accurate.rounding` ---
@@ -527,7 +535,7 @@ def _chain_block(x: NDArray[np.float64], start: int, site: NDArray[np.bool_], m:
         negative[start + p], certain[start + p] = int(s[3, p]), s[4, p] == 0.0
 
 
-@kernel_jit(parallel=True)
+@kernel_jit(parallel=True, aot=True, work=values_by_sites)
 def _chain_counts(x: NDArray[np.float64], site: NDArray[np.bool_], m: NDArray[np.float64],
                   compliance_h: NDArray[np.float64], compliance_l: NDArray[np.float64], square_h: NDArray[np.float64],
                   square_l: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:

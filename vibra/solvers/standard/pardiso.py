@@ -47,12 +47,16 @@ def pardiso_available() -> bool:
     global _AVAILABLE
     if _AVAILABLE is None:
         try:
-            import pypardiso
-
-            if "PYPARDISO_MKL_RT" not in os.environ:  # the mkl wheel's place: no recursive search
-                found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.so*")), key=len)
+            # importing pypardiso already makes a solver (its scipy aliases), which searches all of
+            # sys.prefix for mkl_rt (1.2 s of a first call in this venv) unless PYPARDISO_MKL_RT names
+            # it: the mkl wheel's place is named first
+            if "PYPARDISO_MKL_RT" not in os.environ:
+                found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.*"))  # Linux, macOS
+                               + glob.glob(os.path.join(sys.prefix, "Library", "bin", "mkl_rt*.dll")), key=len)
                 if found:
                     os.environ["PYPARDISO_MKL_RT"] = found[0]
+            import pypardiso
+
             solver = pypardiso.PyPardisoSolver(mtype=2)  # loads mkl_rt, or raises ImportError
             # pypardiso searches sys.prefix for mkl_rt on every construction (slow in a large
             # environment) unless PYPARDISO_MKL_RT names it: name the one it found

@@ -393,7 +393,7 @@ def _enough(result: NDArray[np.float64], gaps: NDArray[np.float64], first_mode: 
     return True
 
 
-@_jit
+@jit(cache=True, fastmath=False, nogil=True, error_model="numpy", aot=True)  # compiled ahead of time too
 def _figures(d: NDArray[np.float64], e: NDArray[np.float64], sigma: NDArray[np.float64],
              start: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64],
              rows: NDArray[np.float64], columns: NDArray[np.float64], gaps: NDArray[np.float64],

@@ -32,7 +32,7 @@ from vibra.solvers.accurate.dd import UNIT, add, mul
 from vibra.solvers.accurate.rounding import two_product
 from vibra.solvers.accurate.ring.counts import RHO_UNIT, RingPencil
 from vibra.solvers.accurate.count_kernels import (
-    LANES, kernel_jit, scalar_mul, scalar_reciprocal, scalar_two_product, scalar_two_sum,
+    LANES, kernel_jit, values_by_sites, scalar_mul, scalar_reciprocal, scalar_two_product, scalar_two_sum,
 )
 from vibra.solvers.compiled import prange
 
@@ -109,7 +109,7 @@ def _pencil_block(x: NDArray[np.float64], start: int, m: NDArray[np.float64], a_
         count[start + p] = int(s[_NEG, p]) + (1 if lh < 0 else 0)
 
 
-@kernel_jit(parallel=True)
+@kernel_jit(parallel=True, aot=True, work=values_by_sites)
 def _counts(x: NDArray[np.float64], m: NDArray[np.float64], a_h: NDArray[np.float64], a_l: NDArray[np.float64],
             b_h: NDArray[np.float64], b_l: NDArray[np.float64], square_h: NDArray[np.float64],
             square_l: NDArray[np.float64], u: float) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
