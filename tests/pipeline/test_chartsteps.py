@@ -29,26 +29,36 @@ def test_every_chart_key_has_its_chart_and_every_chart_is_run() -> None:
         assert chart.step in STEPS and STEP_KEYS[chart.step] == CHART_STEP_KEYS[chart.step]
 
 
-@pytest.mark.parametrize("scene_file", ["networks/ubiquitin/ubiquitin-anm.toml", "chains/continuum-limit.toml",
-                                        "chains/forced-damped.toml", "chains/diatomic.toml", "molecules/h2o.toml",
-                                        "molecules/h2o-hf.toml"])
+#: Each bundled scene's steps as the plan built them before the charts were declared in one table
+#: (main at 5538503, the same for every variant of the bundled scenes' [draw] keys): a regression guard.
+PLANS = {
+    "networks/ubiquitin/ubiquitin-anm.toml": ("build", "modes", "fluctuations", "render-modes", "chart-spectrum",
+                                              "chart-bfactors", "chart-correlations"),
+    "chains/continuum-limit.toml": ("build", "modes", "continuum", "render-modes", "chart-convergence"),
+    "chains/forced-damped.toml": ("build", "modes", "response", "chart-spectrum", "chart-response"),
+    "chains/diatomic.toml": ("build", "modes", "dispersion", "render-modes", "chart-spectrum", "chart-dispersion"),
+    "molecules/h2o.toml": ("build", "modes", "symmetry", "structure", "render-modes", "chart-spectrum"),
+    "molecules/h2o-hf.toml": ("build", "electronic", "modes", "symmetry", "structure", "render-modes", "chart-spectrum",
+                              "chart-experiment"),
+}
+
+
+@pytest.mark.parametrize("scene_file", sorted(PLANS))
 def test_the_plan_draws_the_charts_asked_in_the_tables_order(scene_file: str) -> None:
     scene = load_scene(ROOT / scene_file)
     names = modes_plan(scene).step_names
-    charts = [name for name in names if name.startswith("chart-")]
-    assert charts == [name for name, _ in chart_steps(scene)]
-    assert charts and names[-len(charts):] == tuple(charts)  # the charts come last
-    order = [chart.step for chart in CHART_STEPS]
-    assert charts == sorted(charts, key=order.index)
+    if scene_file == "molecules/h2o-hf.toml" and names == ("build", "engine-missing"):
+        pytest.skip("PySCF is not installed: the scene plans engine-missing alone")
+    assert names == PLANS[scene_file]
+    assert [name for name in names if name.startswith("chart-")] == [name for name, _ in chart_steps(scene)]
 
 
 def test_a_chart_key_of_another_kind_is_refused_by_its_declared_purpose() -> None:
     restricted = {key: chart for key, chart in DrawSpec.chart_keys().items() if chart.kinds is not None}
-    assert restricted, "no chart names its kinds: this test checks nothing"
-    for key, chart in restricted.items():
-        data = {"kind": "chain", "system": {"builder": "linear_chain", "n": 5}, "draw": {key: True}}
-        assert "chain" not in chart.kinds
-        with pytest.raises(SceneError) as error:
-            Scene.from_dict(data, source="probe.toml")
-        assert error.value.key == f"draw.{key}"
-        assert error.value.problem == f"{chart.purpose}, not of a 'chain' scene"
+    assert set(restricted) == {"bfactors"}
+    data = {"kind": "chain", "system": {"builder": "linear_chain", "n": 5}, "draw": {"bfactors": True}}
+    with pytest.raises(SceneError) as error:
+        Scene.from_dict(data, source="probe.toml")
+    assert error.value.key == "draw.bfactors"  # the refusal's words as they were before the table
+    assert error.value.problem == ("compares predicted and crystallographic B-factors of a network scene, "
+                                   "not of a 'chain' scene")

@@ -5,10 +5,10 @@ loading numba. No clock: what runs is read from `sys.modules`."""
 
 from __future__ import annotations
 
-import importlib
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -51,32 +51,59 @@ print(" ".join(loaded))
 
 
 def _declared() -> set[str]:
-    """The kernels the sources declare ``aot=True`` (read as text: the modules' names may be bound
-    to numba's dispatchers by earlier tests)."""
+    """The kernels declared ``aot=True`` anywhere in vibra (read as text: a module's names may be
+    bound to numba's dispatchers by earlier tests, and a module missing from `aot.KERNEL_MODULES`
+    would not be imported by the build)."""
     found = set()
-    for name in aot.KERNEL_MODULES:
-        text = Path(importlib.import_module(name).__file__ or "").read_text(encoding="utf-8")
-        found |= {f"{name}.{function}" for function in re.findall(r"aot=True[^\n]*\n(?:@[^\n]*\n)*def (\w+)", text)}
+    package = ROOT / "vibra"
+    for path in package.rglob("*.py"):
+        name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        text = path.read_text(encoding="utf-8")
+        found |= {f"{name}.{function}" for function in re.findall(r"\baot=True\b[^\n]*\n(?:@[^\n]*\n)*def (\w+)", text)}
     return found
 
 
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A cache folder holding a copy built by ``python -m vibra.solvers.aot``."""
+    """A cache folder holding a copy built by ``python -m vibra.solvers.aot_build``, run twice (the
+    second replaces the first: a rebuild must work where a copy exists)."""
     folder = tmp_path_factory.mktemp("vibra-cache")
     env = dict(os.environ, VIBRA_CACHE_DIR=str(folder), VIBRA_AOT="1")
-    subprocess.run([sys.executable, "-m", "vibra.solvers.aot"], check=True, cwd=ROOT, env=env, capture_output=True)
+    for _ in range(2):
+        subprocess.run([sys.executable, "-m", "vibra.solvers.aot_build"], check=True, cwd=ROOT, env=env,
+                       capture_output=True)
     return folder
 
 
 def test_the_build_exports_every_declared_kernel_with_its_argument_types(cache: Path) -> None:
-    (built,) = (cache / "aot").iterdir()  # one key, no scratch folder or lock left behind
+    (built,) = (cache / "aot").iterdir()  # one key, no scratch folder, old copy or lock left behind
     manifest = json.loads((built / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["key"] == built.name
-    assert set(manifest["kernels"]) == _declared() and len(_declared()) >= 3
+    assert set(manifest["kernels"]) == _declared() and len(_declared()) == 3
     for exports in manifest["kernels"].values():
         for export in exports:
-            assert export["args"] and all(arg[0] in ("array", "float", "int", "bool") for arg in export["args"])
+            assert export["args"] and all(arg[0] in ("array", "float64", "int64", "bool") for arg in export["args"])
+    assert oct(built.stat().st_mode & 0o055) == oct(0o055 & ~_umask())  # readable by a shared cache's other users
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def test_a_damaged_copy_is_not_loaded(cache: Path, tmp_path: Path) -> None:
+    """A truncated module would crash the process that imports it: its checksum keeps it out."""
+    (built,) = (cache / "aot").iterdir()
+    damaged = tmp_path / "aot" / built.name
+    shutil.copytree(built, damaged)
+    library = next(damaged.glob("vibra_kernels*"))
+    library.write_bytes(library.read_bytes()[: 4096])
+    code = ("import sys\nfrom vibra.solvers import aot\nmodule, exports = aot.load()\n"
+            "print(module is None, exports == {}, 'vibra_kernels' in sys.modules)")
+    env = dict(os.environ, VIBRA_CACHE_DIR=str(tmp_path), VIBRA_AOT="1")
+    done = subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT, env=env, capture_output=True, text=True)
+    assert done.stdout.split() == ["True", "True", "False"]
 
 
 def test_the_copies_give_numbas_bits_and_small_solves_load_no_numba(cache: Path, tmp_path: Path) -> None:
@@ -98,17 +125,22 @@ def test_the_copies_give_numbas_bits_and_small_solves_load_no_numba(cache: Path,
 
 def test_an_export_runs_only_on_its_exact_argument_types() -> None:
     """An export reads what it is given as the types it was built for: anything else goes to numba."""
-    spec = [["array", "<f8", 1, "C"], ["array", "|b1", 1, "C"], ["float"], ["int"], ["bool"]]
+    spec = [["array", "<f8", 1, "C", False], ["array", "|b1", 1, "C", False], ["float64"], ["int64"], ["bool"]]
     x, flags = np.ones(4), np.ones(4, dtype=bool)
+    frozen = x.copy()
+    frozen.flags.writeable = False
     assert aot.matches(spec, (x, flags, 1.0, 3, True))
     assert aot.matches(spec, (x, flags, np.float64(1.0), np.int64(3), np.bool_(True)))
     for bad in ((x.astype(np.int64), flags, 1.0, 3, True),     # int64 read as float64 would be garbage
                 (np.ones((4, 2))[:, 0], flags, 1.0, 3, True),  # not contiguous
-                (x.astype(np.float32), flags, 1.0, 3, True),
-                (x, flags, np.float32(1.0), 3, True),
-                (x, flags, 1.0, 3.0, True), (x, flags, 1.0, True, True), (x, flags, 1.0, 3, 1),
-                (x, flags, 1.0, 3)):
+                (x.astype(np.float32), flags, 1.0, 3, True), (frozen, flags, 1.0, 3, True),
+                (x, flags, np.float32(1.0), 3, True), (x, flags, np.longdouble(1.0), 3, True),
+                (x, flags, 1.0, np.int32(3), True), (x, flags, 1.0, 3.0, True), (x, flags, 1.0, True, True),
+                (x, flags, 1.0, 3, 1), (x, flags, 1.0, 3)):
         assert not aot.matches(spec, bad)
+    fortran = [["array", "<f8", 2, "F", False]]
+    assert aot.matches(fortran, (np.asfortranarray(np.ones((3, 2))),))
+    assert not aot.matches(fortran, (np.ones((3, 2)),))
 
 
 def test_a_missing_copy_is_built_once_in_the_background(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -125,8 +157,8 @@ def test_a_missing_copy_is_built_once_in_the_background(tmp_path: Path, monkeypa
     monkeypatch.setattr(aot, "_STATE", {})
     aot.start_background_build()
     aot.start_background_build()  # once per process
-    assert len(started) == 1 and started[0][1:4] == ["-m", "vibra.solvers.aot", "--lock"]
-    lock = Path(started[0][4])
+    assert len(started) == 1 and started[0][1:5] == ["-m", "vibra.solvers.aot_build", "--background", "--lock"]
+    lock = Path(started[0][5])
     assert lock.exists()
     monkeypatch.setattr(aot, "_STATE", {})  # another process, while that build runs: none
     aot.start_background_build()
@@ -136,7 +168,38 @@ def test_a_missing_copy_is_built_once_in_the_background(tmp_path: Path, monkeypa
     monkeypatch.setattr(aot, "_STATE", {})
     aot.start_background_build()
     assert len(started) == 2
+    lock.unlink()
+    failed = lock.with_name(lock.name.replace(".lock", ".failed"))
+    failed.write_text("no C compiler")  # a build that failed: no process retries it
     monkeypatch.setattr(aot, "_STATE", {})
-    monkeypatch.setenv("VIBRA_AOT", "0")  # off: neither built nor used
     aot.start_background_build()
-    assert len(started) == 2 and aot.load() == (None, {})
+    assert len(started) == 2
+    failed.unlink()
+    monkeypatch.setenv("VIBRA_AOT", "0")  # off: neither built nor used
+    monkeypatch.setattr(aot, "_STATE", {})
+    aot.start_background_build()
+    assert len(started) == 2
+    monkeypatch.setenv("HOME", "")  # no home folder known: no cache in the working folder
+    monkeypatch.delenv("VIBRA_CACHE_DIR")
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.setattr(os.path, "expanduser", lambda path: path)
+    assert aot.cache_dir() is None
+
+
+def test_a_failed_background_build_leaves_its_note_and_removes_its_lock(tmp_path: Path,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    from vibra.solvers import aot_build
+
+    def broken(*args: object, **kwargs: object) -> Path:
+        raise RuntimeError("no C compiler here")
+
+    monkeypatch.setenv("VIBRA_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("VIBRA_AOT", "1")
+    monkeypatch.setattr(aot, "_STATE", {})
+    monkeypatch.setattr(aot_build, "build", broken)
+    monkeypatch.setattr(os, "nice", lambda increment: 0)
+    lock = tmp_path / "lock"
+    lock.write_text("")
+    assert aot_build.main(["--background", "--lock", str(lock)]) == 1
+    failed = aot.folder().with_name(aot.key() + ".failed")
+    assert "no C compiler here" in failed.read_text(encoding="utf-8") and not lock.exists()

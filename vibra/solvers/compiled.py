@@ -4,7 +4,9 @@ One mechanism for every kernel module (`accurate/count_kernels.py`, `accurate/ri
 `accurate/gk_bisection.py`, `accurate/chain/triplets.py`, `accurate/products.py`,
 `standard/cholmod.py`): each decorates its loops with `jit` (numba.njit's options) instead of
 numba's own decorator and takes `prange`, `intrinsic` and `HOST_FMA` from here. A decorated
-function is a `Kernel`, a plain Python object, until it is first called; then numba is imported,
+function is a `Kernel`, a plain Python object, until it is first called; a kernel declared
+``aot=True`` then runs its ahead-of-time copy where one is built and matches the arguments
+(`vibra.solvers.aot`: no numba loaded); otherwise numba is imported,
 the kernel and every kernel, `prange`, intrinsic and `HOST_FMA` its module names are handed to
 numba, and the module's names are bound to numba's dispatchers (`bind`), so that later calls go
 straight to numba. What runs is numba's compiled code and on-disk cache (``cache=True``),
@@ -28,7 +30,8 @@ share with the kernel's (the same bits, or the same accuracy bound):
 
 The other kernels have no counterpart that costs less than loading numba (a ring's roots and
 counts, a chain's Sturm counts, the double-double Rayleigh quotients, a sparse factor's fill):
-their paths load numba on their first call.
+their paths load numba on their first call, except where the kernel is declared ``aot=True``
+(a chain's Sturm counts and triplet figures, a ring's pencil counts) and its copy is built.
 
 **Ctrl-C between calls** (issue 44). A compiled loop never returns to the interpreter, which
 sees a SIGINT only when it does; so a kernel over many independent values (a chain's bisection,
@@ -171,7 +174,7 @@ class Kernel(_Lazy, Generic[_P, _R]):
         return f"<compiled kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
 
 
-#: Every kernel declared ``aot=True``, in the order their modules were imported (`vibra.solvers.aot.build`
+#: Every kernel declared ``aot=True``, in the order their modules were imported (`vibra.solvers.aot_build.build`
 #: exports them; a module's names may since have been bound to numba's dispatchers).
 AOT_KERNELS: list[Kernel[Any, Any]] = []
 

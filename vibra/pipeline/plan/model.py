@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
 from vibra.pipeline.plan.chartsteps import chart_steps
+from vibra.pipeline.plan.electronic import engine_missing, scene_engine
 from vibra.pipeline.scene import Scene
 from vibra._core.text import counted
 
@@ -204,8 +205,6 @@ def _engine_steps(scene: Scene) -> tuple[Step, ...] | None:
     None for the bundled force field."""
     if scene.kind != "molecule":
         return None
-    from vibra.pipeline.plan.electronic import engine_missing, scene_engine
-
     choice = scene_engine(scene)
     if choice is None:
         return None

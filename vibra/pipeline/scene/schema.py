@@ -208,20 +208,21 @@ def parse_compute(reader: Reader, data: Any, kind: str) -> ComputeSpec:
                        memory_limit_gib=values["memory_limit_gib"], time_limit_s=values["time_limit_s"])
 
 
-#: The ``[draw]`` keys that are not charts, with their checkers (a chart's key is a boolean: `DrawSpec.chart_keys`).
-_DRAW_FIELDS = {
-    "modes": field_spec(boolean, False),
-    "n_draw": field_spec(integer(1, 24), 6),
-    "gif": field_spec(boolean, False),
-    "window_size": field_spec(list_of(integer(64, 4096), length=2), (1024, 640)),
-}
+#: The checkers of the ``[draw]`` keys that are not charts (a chart's key is a boolean:
+#: `DrawSpec.chart_keys`); the defaults are `DrawSpec`'s own.
+_DRAW_CHECKS = {"modes": boolean, "n_draw": integer(1, 24), "gif": boolean,
+                "window_size": list_of(integer(64, 4096), length=2)}
 
 
 def parse_draw(reader: Reader, data: Any) -> DrawSpec:
     charts = DrawSpec.chart_keys()
-    keys = [f.name for f in dataclass_fields(DrawSpec)]  # the fields' order: where errors list them
-    values = reader.table(data, "draw", {key: field_spec(boolean, False) if key in charts else _DRAW_FIELDS[key]
-                                         for key in keys})
+    fields = {}
+    for spec in dataclass_fields(DrawSpec):  # in the fields' order: where errors list them
+        check = boolean if spec.name in charts else _DRAW_CHECKS.get(spec.name)
+        if check is None:
+            raise TypeError(f"DrawSpec.{spec.name} has no checker: make it a chart_key, or add it to _DRAW_CHECKS")
+        fields[spec.name] = field_spec(check, spec.default)
+    values = reader.table(data, "draw", fields)
     return DrawSpec(**values)
 
 

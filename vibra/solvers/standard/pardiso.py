@@ -16,6 +16,7 @@ step in K~ does not see.
 
 from __future__ import annotations
 
+import ctypes
 import glob
 import os
 import sys
@@ -53,8 +54,13 @@ def pardiso_available() -> bool:
             if "PYPARDISO_MKL_RT" not in os.environ:
                 found = sorted(glob.glob(os.path.join(sys.prefix, "lib", "libmkl_rt.*"))  # Linux, macOS
                                + glob.glob(os.path.join(sys.prefix, "Library", "bin", "mkl_rt*.dll")), key=len)
-                if found:
-                    os.environ["PYPARDISO_MKL_RT"] = found[0]
+                for path in found:  # the first that loads (else pypardiso's own search)
+                    try:
+                        ctypes.CDLL(path)
+                    except OSError:
+                        continue
+                    os.environ["PYPARDISO_MKL_RT"] = path
+                    break
             import pypardiso
 
             solver = pypardiso.PyPardisoSolver(mtype=2)  # loads mkl_rt, or raises ImportError
