@@ -34,7 +34,8 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from vibra.solvers import aot, compiled
+import vibra.solvers.aot as aot
+import vibra.solvers.compiled as compiled
 
 __all__ = ["build", "exercise", "main"]
 

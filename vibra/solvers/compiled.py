@@ -146,17 +146,17 @@ class Kernel(_Lazy, Generic[_P, _R]):
     def ahead_of_time(self, args: tuple[Any, ...]) -> Callable[..., Any] | None:
         """This kernel's ahead-of-time export for exactly these argument types (`vibra.solvers.aot`),
         or None (none built, or other types); a missing copy starts its build in the background."""
-        from vibra.solvers import aot
+        from vibra.solvers.aot import load, matches, start_background_build
 
         if self._exports is None:
-            module, exports = aot.load()
+            module, exports = load()
             name = f"{self.py_func.__module__}.{self.py_func.__name__}"
             self._exports = [] if module is None else [
                 (export["args"], getattr(module, export["symbol"])) for export in exports.get(name, ())]
             if module is None:
-                aot.start_background_build()
+                start_background_build()
         for spec, function in self._exports:
-            if aot.matches(spec, args):
+            if matches(spec, args):
                 return function
         return None
 
