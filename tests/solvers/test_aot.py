@@ -23,8 +23,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ahead-of-time kernels are built on Linux only")
 
-#: The corpus's inputs whose first call loaded numba before (chain-1e4, chain-all-5000, ring-2000), then
-#: two larger ones; each solve's arrays are saved, and whether numba was loaded after it.
+#: A compiled spring-space product in both memory orders, the corpus's inputs whose first call loaded
+#: numba before (chain-1e4, chain-all-5000, ring-2000), then two larger ones; each result's arrays are
+#: saved, and whether numba was loaded after it.
 SOLVES = """
 import sys, numpy as np
 from vibra import System
@@ -37,6 +38,14 @@ def chain(n, spread, ring=False):
     return System.from_springs(np.arange(n, dtype=float), 10.0 ** rng.uniform(-span, span, n), bonds,
                                10.0 ** rng.uniform(-span, span, len(bonds)))
 arrays, loaded = {}, []
+import scipy.sparse as sp
+from vibra.solvers.accurate import products
+rng = np.random.default_rng(2)  # 40 entries a row, 1.6e6 entries x 20 columns: over the compiled loops' threshold
+B = sp.csr_matrix((rng.standard_normal(1_600_000), rng.integers(0, 40_000, 1_600_000), np.arange(0, 1_600_001, 40)),
+                  shape=(40_000, 40_000))
+V = rng.standard_normal((40_000, 20))
+arrays["rows"], arrays["columns"] = products.times(B, V), products.times(B, np.asfortranarray(V))
+loaded.append("products" + ("+numba" if "numba" in sys.modules else ""))
 for i, (system, k, vectors) in enumerate(((chain(10_000, 1.0), 20, True), (chain(5_000, 10.0), None, False),
                                           (chain(2_000, 1.0, True), None, False), (chain(3_000, 100.0, True), None, False),
                                           (chain(20_000, 3.0), 15, True))):
@@ -79,7 +88,7 @@ def test_the_build_exports_every_declared_kernel_with_its_argument_types(cache: 
     (built,) = (cache / "aot").iterdir()  # one key, no scratch folder, old copy or lock left behind
     manifest = json.loads((built / "manifest.json").read_text(encoding="utf-8"))
     assert manifest["key"] == built.name
-    assert set(manifest["kernels"]) == _declared() and len(_declared()) == 3
+    assert set(manifest["kernels"]) == _declared() and len(_declared()) == 5
     for exports in manifest["kernels"].values():
         for export in exports:
             assert export["args"] and all(arg[0] in ("array", "float64", "int64", "bool") for arg in export["args"])
@@ -115,8 +124,8 @@ def test_the_copies_give_numbas_bits_and_small_solves_load_no_numba(cache: Path,
                               capture_output=True, text=True)
         runs[setting] = (done.stdout.split(), np.load(out))
     (paths, copies), (numba_paths, numba) = runs["1"], runs["0"]
-    # the three small inputs ran the copies: no numba in the process after them
-    assert paths[:3] == ["accurate-ritz", "accurate-bidiagonal", "accurate-ring"]
+    # the products and the three small inputs ran the copies: no numba in the process after them
+    assert paths[:4] == ["products", "accurate-ritz", "accurate-bidiagonal", "accurate-ring"]
     assert all(path.endswith("+numba") for path in numba_paths)  # without copies each loads numba
     assert sorted(copies.files) == sorted(numba.files)
     for name in copies.files:

@@ -50,6 +50,7 @@ KERNEL_MODULES = (
     "vibra.solvers.accurate.count_kernels",
     "vibra.solvers.accurate.ring.pencil_counts",
     "vibra.solvers.accurate.chain.triplets",
+    "vibra.solvers.accurate.products",
 )
 
 #: The extension module's name (its file: ``<MODULE_NAME><the interpreter's suffix>``).

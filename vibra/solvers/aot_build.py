@@ -2,8 +2,8 @@
 
 `build` imports the modules that declare kernels ``aot=True`` (`aot.KERNEL_MODULES`), runs each
 declared kernel through numba on small inputs of the types real calls pass (`exercise`: the
-spring form's counts of a chain, a ring's pencil counts, a chain's triplet figures, through the
-functions the solvers call), and compiles, with `numba.pycc`, every signature numba compiled for
+spring form's counts of a chain, a ring's pencil counts, a chain's triplet figures, the
+spring-space products in both memory orders, through the functions the solvers call), and compiles, with `numba.pycc`, every signature numba compiled for
 them, each under its own name with its argument types in ``manifest.json``. The options are the
 kernels' own (numpy's error model, no fast-math: `Flags` patched for the export, which numba's
 compiler builds with its defaults) and the CPU numba's JIT targets (the host's name and
@@ -59,6 +59,15 @@ def exercise() -> None:
     assert form is not None and pencil is not None
     form.counts(x)
     PencilCounts(pencil).counts(x)
+    from vibra.solvers.accurate.products import SCIPY_PRODUCT_S, times
+
+    # B~ V by the compiled loops (a product estimated over `compiled.COMPILED_FROM_S`), both memory orders
+    rows = int(np.ceil(compiled.COMPILED_FROM_S / (SCIPY_PRODUCT_S * 8 * 4))) + 1
+    B = sp.csr_matrix((np.ones(8 * rows), ((np.arange(rows)[:, None] + np.arange(8)) % rows).ravel(),
+                       np.arange(0, 8 * rows + 1, 8)), shape=(rows, rows))  # 8 entries a row
+    V = np.ones((rows, 8))  # (twice the columns the estimate needs: over the threshold whatever the rounding)
+    times(B, V)
+    times(B, np.asfortranarray(V))
     s = 6
     triplet_figures(np.full(s, 2.0), np.full(s - 1, 0.5), np.array([0.3, 1.1]), np.ones(2 * s), np.zeros(s),
                     np.zeros(s), np.zeros(s), np.zeros(s))

@@ -31,7 +31,7 @@ __all__ = ["times", "transposed_times", "rayleigh_quotients", "triple_rows", "SC
 SCIPY_PRODUCT_S = 1e-8
 
 
-@jit(cache=True, nogil=True)
+@jit(cache=True, nogil=True, error_model="numpy", fastmath=False, aot=True)  # no division: the same code
 def _columns(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArray[np.float64],
              V: NDArray[np.float64], out: NDArray[np.float64]) -> None:  # pragma: no cover (compiled)
     rows, k = out.shape
@@ -43,7 +43,7 @@ def _columns(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArra
             out[i, j] = total
 
 
-@jit(cache=True, nogil=True)
+@jit(cache=True, nogil=True, error_model="numpy", fastmath=False, aot=True)  # no division: the same code
 def _rows(indptr: NDArray[np.int32], indices: NDArray[np.int32], data: NDArray[np.float64],
           V: NDArray[np.float64], out: NDArray[np.float64]) -> None:  # pragma: no cover (compiled)
     rows, k = out.shape
