@@ -44,33 +44,32 @@ def exercise() -> None:
     """Each ``aot=True`` kernel run once through numba, with the argument types its callers pass."""
     from vibra.solvers.accurate.chain.sturm_counts import chain_form
     from vibra.solvers.accurate.chain.triplets import triplet_figures
+    from vibra.solvers.accurate.products import SCIPY_PRODUCT_S, times
     from vibra.solvers.accurate.ring.counts import ring_pencil
     from vibra.solvers.accurate.ring.pencil_counts import PencilCounts
 
-    n = 12
-    rows = np.repeat(np.arange(n), 2)
-    chain = sp.csr_matrix((np.tile([-1.0, 1.0], n - 1), (rows[: 2 * (n - 1)], np.c_[np.arange(n - 1), np.arange(1, n)].ravel())),
-                          shape=(n - 1, n))
-    ring = sp.csr_matrix((np.tile([-1.0, 1.0], n), (rows, np.c_[np.arange(n), (np.arange(n) + 1) % n].ravel())),
-                         shape=(n, n))
-    x = np.linspace(0.05, 3.9, 16)
-    form = chain_form(chain, np.ones(n - 1), np.ones(n))
-    pencil = ring_pencil(ring, np.ones(n), np.ones(n))
+    def springs(n: int, closed: bool, per_row: int = 2) -> sp.csr_matrix:
+        """n sites joined i to i + 1 (closed: and n - 1 to 0), `per_row` entries a row (+-1 for springs)."""
+        m = n if closed else n - 1
+        values = np.tile([-1.0, 1.0], m) if per_row == 2 else np.ones(per_row * m)
+        columns = (np.arange(m)[:, None] + np.arange(per_row)) % n
+        return sp.csr_matrix((values, columns.ravel(), np.arange(0, per_row * m + 1, per_row)), shape=(m, n))
+
+    n, x = 12, np.linspace(0.05, 3.9, 16)
+    form = chain_form(springs(n, closed=False), np.ones(n - 1), np.ones(n))  # a chain's spring-form counts
+    pencil = ring_pencil(springs(n, closed=True), np.ones(n), np.ones(n))    # a ring's pencil counts
     assert form is not None and pencil is not None
     form.counts(x)
     PencilCounts(pencil).counts(x)
-    from vibra.solvers.accurate.products import SCIPY_PRODUCT_S, times
-
-    # B~ V by the compiled loops (a product estimated over `compiled.COMPILED_FROM_S`), both memory orders
-    rows = int(np.ceil(compiled.COMPILED_FROM_S / (SCIPY_PRODUCT_S * 8 * 4))) + 1
-    B = sp.csr_matrix((np.ones(8 * rows), ((np.arange(rows)[:, None] + np.arange(8)) % rows).ravel(),
-                       np.arange(0, 8 * rows + 1, 8)), shape=(rows, rows))  # 8 entries a row
-    V = np.ones((rows, 8))  # (twice the columns the estimate needs: over the threshold whatever the rounding)
-    times(B, V)
-    times(B, np.asfortranarray(V))
-    s = 6
+    s = 6  # a chain's triplet figures
     triplet_figures(np.full(s, 2.0), np.full(s - 1, 0.5), np.array([0.3, 1.1]), np.ones(2 * s), np.zeros(s),
                     np.zeros(s), np.zeros(s), np.zeros(s))
+    # B~ V by the compiled loops, both memory orders: 8 entries a row x 8 columns, twice the work from
+    # which `products.times` takes them (`compiled.COMPILED_FROM_S`), whatever the rounding
+    rows = int(np.ceil(compiled.COMPILED_FROM_S / (SCIPY_PRODUCT_S * 8 * 4))) + 1
+    B, V = springs(rows, closed=True, per_row=8), np.ones((rows, 8))
+    times(B, V)
+    times(B, np.asfortranarray(V))
 
 
 def _argument(t: Any) -> list[Any]:
