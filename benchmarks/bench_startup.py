@@ -50,6 +50,12 @@ IMPORT_BUDGET_S = 0.3
 
 FLOOR = "import numpy, scipy.sparse, scipy.linalg"
 
+#: Scenes ``vibra validate`` refuses (a misspelt key), timed as fresh processes against ``python -c pass``:
+#: issue 45 asks each within 0.3 s of the interpreter's own start-up. The warm-up round fills the
+#: cache of the builders' signatures (`vibra._core.cache`) that a refusal reads.
+REFUSED = {"chain": ROOT / "tests" / "broken_scenes" / "typo-key.toml",
+           "crystal": HERE / "results" / "refused-crystal.toml"}
+
 #: The child that times a first call and the warm ones: argv = kind, accuracy, calls.
 SOLVE = r"""
 import json, sys, time
@@ -99,11 +105,15 @@ def _environment(checkout: Path | None) -> dict[str, str]:
     return env
 
 
-def _wall(command: list[str], env: dict[str, str], cwd: Path) -> Callable[[], float]:
-    """A fresh process running `command` in `cwd`: its wall time, start to exit."""
+def _wall(command: list[str], env: dict[str, str], cwd: Path, *, refused: bool = False) -> Callable[[], float]:
+    """A fresh process running `command` in `cwd`: its wall time, start to exit (`refused`: it must
+    exit with status 1, as ``vibra validate`` on a broken scene does)."""
     def run() -> float:
         start = time.perf_counter()
-        subprocess.run(command, env=env, cwd=cwd, check=True, stdout=subprocess.DEVNULL)
+        done = subprocess.run(command, env=env, cwd=cwd, check=not refused, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
+        if refused and done.returncode != 1:
+            raise RuntimeError(f"{command} exited with {done.returncode}, not 1 (a refused scene)")
         return time.perf_counter() - start
     return run
 
@@ -125,12 +135,14 @@ def methods(checkout: Path | None) -> dict[str, Callable[[], Any]]:
     env = _environment(checkout)
     cwd = ROOT if checkout is None else checkout
     vibra = shutil.which("vibra", path=str(Path(sys.executable).parent)) if checkout is None else None
-    help_command = [vibra, "--help"] if vibra else \
-        [sys.executable, "-c", "import sys; from vibra.cli import main; sys.exit(main())", "--help"]
+    command = [vibra] if vibra else [sys.executable, "-c", "import sys; from vibra.cli import main; sys.exit(main())"]
     return {
+        "python -c pass": _wall([sys.executable, "-c", "pass"], env, cwd),
         "import numpy, scipy": _wall([sys.executable, "-c", FLOOR], env, cwd),
         "import vibra": _wall([sys.executable, "-c", "import vibra"], env, cwd),
-        "vibra --help": _wall(help_command, env, cwd),
+        "vibra --help": _wall([*command, "--help"], env, cwd),
+        **{f"refused scene: {name}": _wall([*command, "validate", str(path)], env, cwd, refused=True)
+           for name, path in REFUSED.items()},
         "chain 2,000, high": _child(SOLVE, ["chain", "high", "10"], env, cwd),
         "network 1,500, high": _child(SOLVE, ["network", "high", "5"], env, cwd),
         "network 1,500, fast": _child(SOLVE, ["network", "fast", "5"], env, cwd),
@@ -172,7 +184,10 @@ def main() -> None:
     for name in methods(None):  # interleaved: each measurement of both checkouts side by side
         for label, checkout in checkouts.items():
             plan[f"{label} | {name}"] = methods(checkout)[name]
+    REFUSED["crystal"].write_text((ROOT / "crystals" / "argon-fcc.toml").read_text().replace(
+        "[system]", "[system]\nmisspelt_key = 1", 1))  # a crystal scene refused for a misspelt key
     timings = collect(plan, ROUNDS)
+    REFUSED["crystal"].unlink()
 
     payload: dict[str, Any] = {"checkouts": {k: str(v or ROOT) for k, v in checkouts.items()},
                                "import_budget_s": IMPORT_BUDGET_S, "figures": {}, "ratios": {}}
@@ -199,6 +214,9 @@ def main() -> None:
         floor = f"{label} | import numpy, scipy"
         report(f"{label}: import vibra / import numpy, scipy", f"{label} | import vibra", floor)
         report(f"{label}: vibra --help / import numpy, scipy", f"{label} | vibra --help", floor)
+        for name in REFUSED:
+            report(f"{label}: refused scene: {name} / python -c pass", f"{label} | refused scene: {name}",
+                   f"{label} | python -c pass")
         for case in ("chain 2,000, high", "network 1,500, high", "network 1,500, fast"):
             report(f"{label}: {case}: first / warm", f"{label} | {case}: first", f"{label} | {case}: warm")
     if "old" in checkouts:
@@ -210,6 +228,11 @@ def main() -> None:
     if budget is not None:
         verdict = "within" if budget <= IMPORT_BUDGET_S else "OVER"
         print(f"import vibra costs {budget:+.3f} s over numpy and scipy: {verdict} the {IMPORT_BUDGET_S} s budget")
+    for name in REFUSED:
+        over = payload["ratios"].get(f"new: refused scene: {name} / python -c pass", {}).get("difference_s")
+        if over is not None:
+            verdict = "within" if over <= IMPORT_BUDGET_S else "OVER"
+            print(f"a refused {name} scene costs {over:+.3f} s over the interpreter: {verdict} the {IMPORT_BUDGET_S} s budget")
     print(f"wrote {write_json('startup', payload, rounds=ROUNDS)}")
 
 

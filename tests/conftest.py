@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
+import tempfile
 
 import numpy as np
 import pytest
@@ -13,6 +16,11 @@ from hypothesis import settings
 # depends on whether a copy from an earlier run sits in the user's cache. tests/solvers/test_aot.py
 # builds one in a temporary folder and checks it against numba, bit for bit.
 os.environ["VIBRA_AOT"] = "0"
+# What vibra derives from its own sources and keeps between processes (vibra._core.cache: the scene
+# schema's builder signatures) goes to a folder of this run, shared by the interpreters it starts:
+# no test reads a cache an earlier version of the sources left, none writes to the user's.
+os.environ["VIBRA_CACHE_DIR"] = tempfile.mkdtemp(prefix="vibra-test-cache-")
+atexit.register(shutil.rmtree, os.environ["VIBRA_CACHE_DIR"], ignore_errors=True)
 
 settings.register_profile("ci", max_examples=60, deadline=None, derandomize=True)
 settings.register_profile("dev", max_examples=30, deadline=None)

@@ -15,7 +15,6 @@ from typing import Sequence
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 
 from vibra._core import validate as _validate
 
@@ -192,6 +191,8 @@ def _nearest_unjoined(positions: NDArray[np.float64], pairs: NDArray[np.intp], s
     ones = np.ones(2 * len(pairs))
     adjacency = sp.csr_matrix((ones, (pairs.ravel(), pairs[:, ::-1].ravel())), shape=(n_sites, n_sites))
     adjacency.sum_duplicates()  # each site's distinct partners, sorted
+    from scipy.spatial import cKDTree   # here: scipy.spatial costs ~0.15 s to import, a chain never needs it
+
     tree = cKDTree(positions)
     distance = np.full(len(sites), np.inf)
     for k, site in enumerate(sites):

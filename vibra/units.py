@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import constants
 
 from vibra._core import validate as _validate
+from vibra._core.unit_names import UNIT_NAMES, UNITS_EXPECTED, canonical_unit_name
 
 __all__ = ["UnitSystem", "SI", "ASE", "DIMENSIONLESS", "UNIT_NAMES", "UNITS_EXPECTED", "unit_system", "omega_unit_text"]
 
@@ -147,11 +148,7 @@ SI = UnitSystem("SI", mass="kg", length="m", energy="J", time_s=1.0)
 ASE = UnitSystem("ASE", mass="amu", length="Angstrom", energy="eV", time_s=_ase_time_s())
 DIMENSIONLESS = UnitSystem("dimensionless", mass="1", length="1", energy="1", time_s=None)
 
-_BY_NAME = {"si": SI, "ase": ASE, "dimensionless": DIMENSIONLESS}
-#: The unit systems' names as vibra writes them; `unit_system` reads each in any capitalisation.
-UNIT_NAMES = ("SI", "ASE", "dimensionless")
-#: What `unit_system` (and a scene's ``units`` key, which goes through it) accepts, for messages.
-UNITS_EXPECTED = f"expected one of {', '.join(repr(name) for name in UNIT_NAMES)} (in any capitalisation)"
+_BY_NAME = {system.name: system for system in (SI, ASE, DIMENSIONLESS)}
 
 
 def unit_system(units: str | UnitSystem) -> UnitSystem:
@@ -171,10 +168,7 @@ def unit_system(units: str | UnitSystem) -> UnitSystem:
         return units
     if not isinstance(units, str):
         raise TypeError(f"units must be a str or UnitSystem, got {type(units).__name__}")
-    try:
-        return _BY_NAME[units.lower()]
-    except KeyError:
-        raise ValueError(f"units is {units!r}; {UNITS_EXPECTED}") from None
+    return _BY_NAME[canonical_unit_name(units)]
 
 
 def omega_unit_text(units: UnitSystem, *, stiffness: str = "k", ascii: bool = False) -> str:

@@ -10,7 +10,6 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 
@@ -293,6 +292,8 @@ def positive_semidefinite(matrix: Any, name: str, *, rtol: float = 1e-10) -> Non
     n = matrix.shape[0]
     shift = rtol * scale
     if is_sparse and n > 2000:
+        import scipy.sparse.linalg as sla   # here: scipy's sparse linear algebra costs 60 ms to import
+
         # LDL^T of C + shift I without pivoting: all pivots > 0 exactly when it is positive
         # definite (Sylvester's inertia), i.e. when C has no eigenvalue below -shift.
         shifted = (sp.csc_matrix(matrix) + shift * sp.identity(n, format="csc")).tocsc()

@@ -134,22 +134,25 @@ Examples
 
 from __future__ import annotations
 
-from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS
-from vibra.solvers.budget import Estimate, Progress, ResourceLimitError, guard
-from vibra.solvers.common import SolveResult, mass_weighted, physical_shapes
-from vibra.solvers.dispatch import SOLVER_NAMES, SolvePlan, alternatives, check_solve_plan, plan, solve
-from vibra.solvers.registry import estimate
+from importlib import import_module as _import_module
+from typing import TYPE_CHECKING
+from typing import Any as _Any
 
-# Importable from vibra.solvers as before, though not part of its API (`__all__`), so that no
-# ``from vibra.solvers import X`` breaks: constants and helpers of its modules, the former names.
-from vibra.solvers import budget
-from vibra.solvers.accurate.chain.bidiagonal import Segment
-from vibra.solvers.budget import available_memory
-from vibra.solvers.common import (
-    BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, check_factor_matches,
-    check_spring_factor, largest_entry,
-)
-from vibra.solvers.dispatch import SOLVER_PATHS
+if TYPE_CHECKING:  # bound on first access (`__getattr__`): a reader of `accuracy` alone imports no scipy
+    from vibra.solvers.accuracy import LEVELS as ACCURACY_LEVELS
+    from vibra.solvers.budget import Estimate, Progress, ResourceLimitError, available_memory, guard
+    from vibra.solvers.common import (
+        BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
+        check_factor_matches, check_spring_factor, largest_entry, mass_weighted, physical_shapes,
+    )
+    from vibra.solvers.dispatch import (
+        SOLVER_NAMES, SOLVER_PATHS, SolvePlan, alternatives, check_solve_plan, plan, solve,
+    )
+    from vibra.solvers.accurate.chain.bidiagonal import Segment
+    from vibra.solvers.registry import estimate
+
+    Plan = SolvePlan
+    check_plan = check_solve_plan
 
 __all__ = [
     "solve", "plan", "SolvePlan", "check_solve_plan", "alternatives", "SolveResult", "ResourceLimitError",
@@ -157,9 +160,34 @@ __all__ = [
     "mass_weighted",
 ]
 
-Plan = SolvePlan  #: the former name of `SolvePlan`
-check_plan = check_solve_plan  #: the former name of `check_solve_plan`
+#: Where each name is defined: (module under vibra.solvers, its name there). Besides `__all__`, the
+#: names kept importable from vibra.solvers as before, though not part of its API, so that no
+#: ``from vibra.solvers import X`` breaks: constants and helpers of its modules, the former names
+#: (``Plan`` for `SolvePlan`, ``check_plan`` for `check_solve_plan`).
+_HOMES: dict[str, tuple[str, str]] = {
+    "ACCURACY_LEVELS": ("accuracy", "LEVELS"),
+    **{name: ("budget", name) for name in ("Estimate", "Progress", "ResourceLimitError", "guard", "available_memory")},
+    **{name: ("common", name) for name in (
+        "SolveResult", "mass_weighted", "physical_shapes", "BAND_LIMIT", "BDSQR_LIMIT", "DENSE_ALL_LIMIT",
+        "DENSE_LIMIT", "EPS", "FACTOR_RTOL", "SAMPLE", "check_factor_matches", "check_spring_factor",
+        "largest_entry")},
+    **{name: ("dispatch", name) for name in (
+        "SOLVER_NAMES", "SOLVER_PATHS", "SolvePlan", "alternatives", "check_solve_plan", "plan", "solve")},
+    "Plan": ("dispatch", "SolvePlan"),
+    "check_plan": ("dispatch", "check_solve_plan"),
+    "estimate": ("registry", "estimate"),
+    "Segment": ("accurate.chain.bidiagonal", "Segment"),
+}
 
-# (the names kept importable above, used once here so that no linter takes them for unused imports)
-_IMPORTABLE = (budget, Segment, available_memory, BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS,
-               FACTOR_RTOL, SAMPLE, check_factor_matches, check_spring_factor, largest_entry, SOLVER_PATHS)
+
+def __getattr__(name: str) -> _Any:
+    if name in _HOMES:
+        module, attribute = _HOMES[name]
+        value = getattr(_import_module(f"vibra.solvers.{module}"), attribute)
+        globals()[name] = value  # bound once: later accesses are plain attribute reads
+        return value
+    raise AttributeError(f"module 'vibra.solvers' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_HOMES})

@@ -41,6 +41,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any, Sequence
 
+from vibra._core.cache import cache_dir
+
 __all__ = ["enabled", "cache_dir", "key", "folder", "library_name", "sha256", "load", "matches", "start_background_build",
            "mark_building", "KERNEL_MODULES", "MODULE_NAME", "STALE_LOCK_S"]
 
@@ -69,16 +71,6 @@ def enabled() -> bool:
     cache folder (`cache_dir`), and not inside a build (whose own kernels must run through numba)."""
     return (sys.platform.startswith("linux") and os.environ.get("VIBRA_AOT", "1") != "0"
             and not _STATE.get("building") and cache_dir() is not None)
-
-
-def cache_dir() -> Path | None:
-    """``$VIBRA_CACHE_DIR``, else ``$XDG_CACHE_HOME/vibra``, else ``~/.cache/vibra``; None where
-    that is not an absolute path (no home folder known: no cache rather than one in the working folder)."""
-    if os.environ.get("VIBRA_CACHE_DIR"):
-        path = Path(os.environ["VIBRA_CACHE_DIR"])
-    else:
-        path = Path(os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")) / "vibra"
-    return path if path.is_absolute() else None
 
 
 def _cpu() -> str:

@@ -17,14 +17,12 @@ from vibra.solvers.common import (
     BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
 from vibra.solvers.accurate.chain.lowest import spring_factor_of_chain
+from vibra.solvers.names import SOLVER_NAMES
 from vibra.solvers.problem import Problem
 from vibra.solvers.registry import BY_NAME, choose, path_names
 from vibra.solvers.runners import Inputs
 from vibra.solvers.topology import classify, separator_width
 
-#: The solver names that `normal_modes(solver=...)`, `System.modes(solver=...)` and scene
-#: files accept; ``"auto"`` chooses one of the paths (`registry.PATHS`).
-SOLVER_NAMES = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil", "slepc")
 
 #: Every path a result can report in `Modes.solver` (the registry's, and their fallbacks).
 SOLVER_PATHS = path_names()

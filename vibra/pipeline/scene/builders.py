@@ -27,6 +27,7 @@ import inspect
 from types import MappingProxyType
 from typing import Any, Callable, Iterator, Mapping, TypeVar
 
+from vibra._core.cache import remembered
 from vibra.pipeline.scene.values import (
     Check, Fail, FieldSpec, boolean, brief, coordinates, field_spec, index_pairs, integer, list_of, matrix, nonnegative, number, one_of, positive,
     scalar_or_list, string,
@@ -34,7 +35,7 @@ from vibra.pipeline.scene.values import (
 
 __all__ = ["isotope_labels", "BUILD_FUNCTIONS", "LATTICE_MODULE", "LATTICE_CHECKS", "lattice_builders", "planar",
            "is_lattice_builder", "BuilderMapping", "PARAMETER_CHECKS", "NOT_IN_SCENES", "SCENE_ONLY",
-           "SCENE_REQUIRED", "INFRARED_KEYS", "STRUCTURE_KEYS", "direction_vector", "builder_function", "builder_fields"]
+           "SCENE_REQUIRED", "INFRARED_KEYS", "STRUCTURE_KEYS", "direction_vector", "builder_function", "builder_signature", "builder_fields"]
 
 #: The module whose public functions (its ``__all__``) are the lattice builders of crystal scenes. A
 #: lattice builder's scene entry is its signature there: its parameters are checked by name
@@ -47,8 +48,9 @@ LATTICE_MODULE = "vibra.crystals.builders"
 
 @functools.cache
 def lattice_builders() -> tuple[str, ...]:
-    """The lattice builders, in the order of `vibra.crystals.builders.__all__`."""
-    return tuple(importlib.import_module(LATTICE_MODULE).__all__)
+    """The lattice builders, in the order of `vibra.crystals.builders.__all__` (read once per version of
+    vibra's sources: `vibra._core.cache.remembered`)."""
+    return tuple(remembered("scene lattice builders", lambda: list(importlib.import_module(LATTICE_MODULE).__all__)))
 
 
 #: scene builder -> (vibra module, function), before and after the lattice builders.
@@ -221,7 +223,7 @@ LATTICE_CHECKS: Mapping[str, Check] = MappingProxyType({
 
 
 def _lattice_checks(builder: str) -> Mapping[str, Check]:
-    parameters = inspect.signature(builder_function(builder)).parameters
+    parameters = builder_signature(builder)["names"]
     return MappingProxyType({name: check for name, check in LATTICE_CHECKS.items() if name in parameters})
 
 
@@ -325,8 +327,24 @@ def builder_function(builder: str) -> Callable[..., Any]:
     return target
 
 
-def _default(value: Any) -> Any:
-    return tuple(value) if isinstance(value, list) else value
+def _signature(builder: str) -> dict[str, Any]:
+    """What the schema reads of `builder`'s signature: the names of its parameters, and for each one a
+    scene may set (not variadic, not in `NOT_IN_SCENES`) [name, required, default] (required: no default)."""
+    skipped = NOT_IN_SCENES[builder]
+    parameters = inspect.signature(builder_function(builder)).parameters
+    variadic = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    return {"names": list(parameters),
+            "scene": [[name, parameter.default is inspect.Parameter.empty,
+                       None if parameter.default is inspect.Parameter.empty else parameter.default]
+                      for name, parameter in parameters.items() if name not in skipped and parameter.kind not in variadic]}
+
+
+def builder_signature(builder: str) -> Mapping[str, Any]:
+    """`builder`'s signature as the schema reads it (`_signature`), read once per version of vibra's
+    sources and then from the cache (`vibra._core.cache.remembered`): reading it imports the builder's
+    module (numpy, scipy, the builders: 0.4 s for a chain, 1 s for a crystal), which a scene refused
+    for a misspelt key should not wait for. Lists read back as tuples (a default of [1, 2] as (1, 2))."""
+    return remembered(f"scene builder signature {builder}", lambda: _signature(builder))
 
 
 @functools.cache
@@ -339,18 +357,14 @@ def builder_fields(builder: str) -> Mapping[str, FieldSpec]:
         A builder parameter is in neither `PARAMETER_CHECKS` nor `NOT_IN_SCENES`, or a
         checked name is not a parameter of the builder (the tables drifted from the code).
     """
-    checks, skipped = PARAMETER_CHECKS[builder], NOT_IN_SCENES[builder]
-    parameters = inspect.signature(builder_function(builder)).parameters
+    checks = PARAMETER_CHECKS[builder]
     fields: dict[str, FieldSpec] = {}
-    for name, parameter in parameters.items():
-        if name in skipped or parameter.kind in (parameter.VAR_POSITIONAL, parameter.VAR_KEYWORD):
-            continue
+    for name, no_default, default in builder_signature(builder)["scene"]:
         if name not in checks:
             table = "LATTICE_CHECKS" if builder in lattice_builders() else "PARAMETER_CHECKS or NOT_IN_SCENES"
             raise RuntimeError(f"builder {builder!r} has a parameter {name!r} that the scene schema does not know; "
                                f"add it to {table} in vibra/pipeline/scene/builders.py")
-        no_default = parameter.default is inspect.Parameter.empty
-        fields[name] = field_spec(checks[name], None if no_default else _default(parameter.default),
+        fields[name] = field_spec(checks[name], None if no_default else default,
                                   required=no_default or name in SCENE_REQUIRED.get(builder, ()))
     unknown = sorted(set(checks) - set(fields))
     if unknown:

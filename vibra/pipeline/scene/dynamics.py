@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 from vibra.pipeline.scene.limits import (
     DEFAULT_TIME_LIMIT_S, MAX_DYNAMICS_STEPS, default_memory_limit, dynamics_estimate, gib, n_dof_bound,
 )
+from vibra._core.cache import remembered
 from vibra._core.text import counted
 from vibra.pipeline.scene.specs import DrawSpec
 from vibra.pipeline.scene.values import (
@@ -109,15 +110,24 @@ class DynamicsSpec:
         return len(self.chains)
 
 
+def _integrators() -> tuple[str, ...]:
+    """`vibra.dynamics.INTEGRATORS`, read once per version of vibra's sources (`vibra._core.cache.remembered`):
+    importing vibra.dynamics loads numba (1 s), which a scene refused for a misspelt key should not wait for."""
+    def derive() -> list[str]:
+        from vibra.dynamics import INTEGRATORS
+
+        return list(INTEGRATORS)
+
+    return tuple(remembered("dynamics integrators", derive))
+
+
 def parse_dynamics(reader: Reader, compute: Any, draw: Any) -> tuple[DrawSpec, DynamicsSpec]:
     """The ``[compute]`` and ``[draw]`` tables of a dynamics scene."""
-    from vibra.dynamics import INTEGRATORS
-
     c = reader.table(compute, "compute", {
         "dt": field_spec(positive, required=True),
         "n_steps": field_spec(integer(1, MAX_DYNAMICS_STEPS), required=True),
         "record_every": field_spec(integer(1)),
-        "integrator": field_spec(one_of(*INTEGRATORS), "verlet"),
+        "integrator": field_spec(one_of(*_integrators()), "verlet"),
         "thermostat": field_spec(one_of(*THERMOSTATS), "none"),
         "temperature": field_spec(positive),
         "tau": field_spec(positive),

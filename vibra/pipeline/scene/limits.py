@@ -23,8 +23,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping
 
 from vibra.solvers.accuracy import TIME_LIMIT_S
-from vibra.solvers.dispatch import plan_problem
-from vibra.solvers.problem import chain_problem
 
 if TYPE_CHECKING:
     from vibra.pipeline.scene.specs import ComputeSpec, DrawSpec
@@ -173,6 +171,9 @@ def all_modes_seconds(builder: str, parameters: Mapping[str, Any], compute: Comp
     n_dof = n_dof_bound(builder, parameters)
     if n_dof is None or compute.n_modes is not None or compute.band is not None:
         return 0.0
+    from vibra.solvers.dispatch import plan_problem   # here: a refused scene is reported without the solvers
+    from vibra.solvers.problem import chain_problem
+
     return plan_problem(chain_problem(n_dof, accuracy=compute.accuracy), "auto").cost.seconds
 
 

@@ -4,7 +4,7 @@
 closest valid key suggested); `parse_system`, `parse_compute` and `parse_draw` read the three
 sections; `check_combinations` checks what is valid alone but impossible together. The
 ``[system]`` keys come from `vibra.pipeline.scene.builders` (derived from the builders' signatures)
-and the solver names from `vibra.modes.SOLVERS`.
+and the solver names from `vibra.solvers.names.SOLVER_NAMES`.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import fields as dataclass_fields
 from types import MappingProxyType
 from typing import Any, Collection, Mapping, NoReturn
 
-from vibra.modes import SOLVERS
+from vibra.solvers.names import SOLVER_NAMES as SOLVERS
 from vibra.solvers.accuracy import DEFAULT as DEFAULT_ACCURACY, LEVELS as ACCURACY_LEVELS, uses_springs
 from vibra._core.text import counted
 from vibra.pipeline.scene.limits import (

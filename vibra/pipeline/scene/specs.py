@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any, Callable, Mapping, Sequence
 
 from vibra.pipeline.scene.values import Fail, brief
-from vibra.units import UNIT_NAMES, UNITS_EXPECTED, unit_system
+from vibra._core.unit_names import UNIT_NAMES, UNITS_EXPECTED, canonical_unit_name
 
 __all__ = ["SceneError", "UNITS", "units_name", "SAFE_NAME", "SystemSpec", "ResponseSpec",
            "ContinuumSpec", "ComputeSpec", "ChartKey", "chart_key", "DrawSpec", "CrystalSpec", "FREQUENCY_UNITS"]
@@ -15,7 +15,7 @@ __all__ = ["SceneError", "UNITS", "units_name", "SAFE_NAME", "SystemSpec", "Resp
 #: How a crystal scene labels its frequency axis (``draw.frequency_unit``).
 FREQUENCY_UNITS = ("THz", "cm^-1")
 
-UNITS = UNIT_NAMES  # a scene's units key is read by `units_name`, through `vibra.units.unit_system`
+UNITS = UNIT_NAMES  # a scene's units key is read by `units_name`, as `vibra.units.unit_system` reads it
 #: A scene name: letters, digits and ``_ . -`` (output files are ``<name>_<what>.png``).
 SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 
@@ -27,7 +27,7 @@ def units_name(value: Any, fail: Fail) -> str:
     ('SI', 'dimensionless')
     """
     try:
-        return unit_system(value).name if isinstance(value, str) else fail(f"is {brief(value)}; {UNITS_EXPECTED}")
+        return canonical_unit_name(value) if isinstance(value, str) else fail(f"is {brief(value)}; {UNITS_EXPECTED}")
     except ValueError:
         return fail(f"is {brief(value)}; {UNITS_EXPECTED}")
 
