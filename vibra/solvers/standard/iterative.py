@@ -14,8 +14,8 @@ memory and n^2 in work on a 3-D network; this path grows like its matrix, O(nnz)
   pyamg's own cycle works one column at a time, ~20 times slower on a block of 20), in single
   precision;
 - LOBPCG (`block_lobpcg`, written here: scipy's `lobpcg` stops only when every column of its
-  block has converged, and the block's edge converges slowest) on a block twice as wide as the
-  k - 3 modes wanted (`block_columns`), stopped when those have a residual of `TOLERANCE`
+  block has converged, and the block's edge converges slowest) on a block `WIDTH` (4) times as wide
+  as the k - 3 modes wanted (`block_columns`), stopped when those have a residual of `TOLERANCE`
   ||K~||_inf, after which one Rayleigh-Ritz step on [translations,
   block] gives the returned pairs; every returned pair's residual is measured and a pair over
   `ACCEPTED` ||K~||_inf (the level's promise, "fast") refuses the result (RuntimeError naming
@@ -52,11 +52,17 @@ TOLERANCE = 1e-9
 #: promise on this path: an eigenvalue within that of a true one, Weyl; issue 47).
 ACCEPTED = 1e-8
 
-#: Columns beyond the wanted modes in LOBPCG's block, at least: the block is twice the wanted
-#: columns wide (`block_columns`). The (b+1)-th value bounds the gap the wanted ones converge with,
-#: and the low spectrum of a large assembly is a tight cluster: on a 3e4-dof assembly, 20 modes,
-#: 239 iterations with 4 extra columns, 69 with 12, 36 with 20 (77, 32 and 22 s; RESULTS.md).
+#: Columns beyond the wanted modes in LOBPCG's block, at least: the block is `WIDTH` times the wanted
+#: columns wide (`block_columns`).
 EXTRA = 4
+
+#: LOBPCG's block width over the wanted columns. The (b+1)-th value bounds the gap the wanted ones
+#: converge with, and the low spectrum of a large assembly is a tight cluster that grows denser
+#: with n (one soft mode per copy of the protein: ~440 within 7 % of each other at 10^5 dofs):
+#: 20 modes of the synthetic assembly (RESULTS.md, "Iterative path"), iterations and seconds at
+#: 3e4 / 1e5 dofs with 2x: 47 / 164 (18 / 228 s); 3x: 24 / 57 (17 / 149 s); 4x: 22 / 43 (18 / 115 s).
+#: Even the exact preconditioner (K~ + sigma)^-1 takes 106 iterations at 1e5 dofs with 2x.
+WIDTH = 4
 
 #: LOBPCG iterations at most (measured: 31 at 3e3 dofs, 59 at 1e4, 359 at 3e4 on a protein assembly).
 MAX_ITERATIONS = 1000
@@ -122,10 +128,10 @@ def rigid_body_modes(positions: NDArray[np.float64], mass: NDArray[np.float64] |
 
 
 def block_columns(k: int, rigid: int) -> int:
-    """LOBPCG's block width for the k lowest modes, `rigid` of them known and projected out: twice
-    the k - rigid columns wanted, `EXTRA` more at least."""
+    """LOBPCG's block width for the k lowest modes, `rigid` of them known and projected out: `WIDTH`
+    times the k - rigid columns wanted, `EXTRA` more at least."""
     wanted = max(k - rigid, 0)
-    return wanted + max(EXTRA, wanted)
+    return wanted + max(EXTRA, (WIDTH - 1) * wanted)
 
 
 class BlockMultigrid:
@@ -308,7 +314,7 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     Kt : (n, n) sparse matrix
         K~ = M^-1/2 K M^-1/2, in omega^2 units.
     n_modes : int
-        Modes wanted (rigid-body ones included), 1 <= n_modes <= n / 10 - 4 - extra.
+        Modes wanted (rigid-body ones included), 1 <= n_modes <= n / (5 `WIDTH`) - extra.
     mass : (n,) ndarray, optional
         The dofs' masses, for the translations M^1/2 t (`translations`); 1 where not given.
     rigid : (n, r) ndarray, optional
@@ -322,14 +328,14 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     Raises
     ------
     ValueError
-        n_modes not an integer from 1 to n / 10 - 4 - extra.
+        n_modes not an integer from 1 to n / (5 `WIDTH`) - extra.
     RuntimeError
         A returned pair's residual over `ACCEPTED` ||K~||_inf (LOBPCG did not converge).
     """
     Kt = sp.csr_matrix(Kt)
     n = Kt.shape[0]
     wanted = n_modes + extra
-    most = n // 10 - EXTRA - extra
+    most = n // (5 * WIDTH) - extra  # the block (`WIDTH` x the modes) within n / 5
     if not isinstance(n_modes, (int, np.integer)) or not 1 <= n_modes <= most:
         raise ValueError(f"n_modes is {n_modes!r}; expected an integer from 1 to {most} for a {n}-dof K~ "
                          "(LOBPCG's block stays under n / 5; the dense solver serves more)")
