@@ -111,9 +111,9 @@ def _wall(command: list[str], env: dict[str, str], cwd: Path, *, refused: bool =
     def run() -> float:
         start = time.perf_counter()
         done = subprocess.run(command, env=env, cwd=cwd, check=not refused, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL)
+                              stderr=subprocess.PIPE if refused else None, text=True)
         if refused and done.returncode != 1:
-            raise RuntimeError(f"{command} exited with {done.returncode}, not 1 (a refused scene)")
+            raise RuntimeError(f"{command} exited with {done.returncode}, not 1 (a refused scene): {done.stderr}")
         return time.perf_counter() - start
     return run
 
@@ -186,8 +186,10 @@ def main() -> None:
             plan[f"{label} | {name}"] = methods(checkout)[name]
     REFUSED["crystal"].write_text((ROOT / "crystals" / "argon-fcc.toml").read_text().replace(
         "[system]", "[system]\nmisspelt_key = 1", 1))  # a crystal scene refused for a misspelt key
-    timings = collect(plan, ROUNDS)
-    REFUSED["crystal"].unlink()
+    try:
+        timings = collect(plan, ROUNDS)
+    finally:
+        REFUSED["crystal"].unlink()
 
     payload: dict[str, Any] = {"checkouts": {k: str(v or ROOT) for k, v in checkouts.items()},
                                "import_budget_s": IMPORT_BUDGET_S, "figures": {}, "ratios": {}}

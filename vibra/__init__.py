@@ -22,6 +22,8 @@ from importlib import import_module as _import_module
 from typing import TYPE_CHECKING
 from typing import Any as _Any
 
+import vibra._core as _core  # noqa: F401  (stdlib only: it notes when this process imported vibra)
+
 if TYPE_CHECKING:  # bound on first access (`__getattr__`): ``import vibra`` itself imports no numpy
     from vibra.generalized import GeneralizedSystem
     from vibra.modes import Modes, normal_modes

@@ -110,6 +110,8 @@ def test_no_home_folder_no_cache(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_the_key_follows_every_source_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The key is the sources' bytes: an edit that keeps the size and the time (``cp -p``, ``rsync -a``,
+    a container layer) changes it; a touch, or a file that is not a source, does not."""
     package = tmp_path / "package"
     (package / "sub").mkdir(parents=True)
     (package / "a.py").write_text("x = 1\n")
@@ -118,10 +120,56 @@ def test_the_key_follows_every_source_file(tmp_path: Path, monkeypatch: pytest.M
     monkeypatch.setattr(cache, "_PACKAGE", package)
     first = cache.source_key()
     (package / "data.txt").write_text("still not a source")
+    os.utime(package / "a.py", ns=(0, 10**18))  # a touch
     assert cache.source_key() == first
-    os.utime(package / "sub" / "b.py", ns=(0, 10**18))  # an edit that keeps the size: its time
+    times = os.stat(package / "sub" / "b.py").st_mtime_ns
+    (package / "sub" / "b.py").write_text("y = 3\n")  # the same size ...
+    os.utime(package / "sub" / "b.py", ns=(times, times))  # ... and the same time
     second = cache.source_key()
-    (package / "sub" / "b.py").write_text("y = 22\n")  # the size
-    third = cache.source_key()
     (package / "c.py").write_text("")  # a new file
-    assert len({first, second, third, cache.source_key()}) == 4
+    assert len({first, second, cache.source_key()}) == 3
+
+
+def test_no_source_files_no_cache(folder: Path, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """A zipped or compiled install (no ``.py`` file found): no key, nothing stored, the value derived."""
+    empty = tmp_path / "compiled"
+    empty.mkdir()
+    monkeypatch.setattr(cache, "_PACKAGE", empty)
+    assert cache.source_key() == ""
+    assert cache.remembered("value", lambda: 3) == 3 and not (folder / "derived").exists()
+
+
+def test_a_source_edited_after_the_import_is_not_stored(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A process that imported vibra before a source file changed may derive from the modules as they
+    were: it neither stores under the new sources' key nor reads it."""
+    import vibra._core
+
+    cache.remembered("before", lambda: 1)  # sources older than the import: stored
+    cache.forget_in_process()
+    monkeypatch.setattr(vibra._core, "IMPORTED_AT", 0.0)  # as if every source changed after this process imported vibra
+    calls = []
+    assert cache.remembered("before", lambda: calls.append(1) or 2) == 2 and calls == [1]  # not read
+    assert cache.remembered("after", lambda: 3) == 3
+    (stored,) = (folder / "derived").glob("*.json")
+    assert json.loads(stored.read_text()) == {"before": 1}  # nor stored
+
+
+def test_the_other_keys_files_go(folder: Path) -> None:
+    old = folder / "derived" / "0123456789abcdef01234567.json"  # an earlier version's
+    old.parent.mkdir(parents=True)
+    old.write_text('{"value": 1}')
+    assert cache.remembered("value", lambda: 2) == 2
+    assert [path.name for path in (folder / "derived").iterdir()] == [f"{cache.source_key()}.json"]
+
+
+def test_types_are_kept_or_nothing_is_stored(folder: Path) -> None:
+    """A value whose types JSON would change (an int subclass, a float-valued enum) is not stored."""
+    import enum
+
+    class Level(enum.IntEnum):
+        LOW = 1
+
+    assert cache.remembered("enum", lambda: [Level.LOW]) == (Level.LOW,)
+    assert cache.remembered("float", lambda: [1.0, 2]) == (1.0, 2)
+    (stored,) = (folder / "derived").glob("*.json")
+    assert json.loads(stored.read_text()) == {"float": [1.0, 2]}

@@ -8,6 +8,7 @@ start-up it saves is a benchmark's figure, `benchmarks/bench_startup.py`, not a 
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import subprocess
@@ -16,29 +17,38 @@ from pathlib import Path
 
 import pytest
 
-from vibra._core.cache import _tuples
-from vibra.pipeline.scene import builders
-from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, builder_fields
+from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, NOT_IN_SCENES, builder_function
 
 ROOT = Path(__file__).parents[2]
 
-#: Every builder's signature as the schema reads it (`builder_signature`: derived, or from the cache file).
-_PRINT_SIGNATURES = ("from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, builder_signature; "
-                     "print(repr({b: dict(builder_signature(b)) for b in BUILD_FUNCTIONS}))")
+#: Every builder's scene keys as the schema reads them: default (repr) and required.
+_PRINT_FIELDS = ("import json; from vibra.pipeline.scene.builders import BUILD_FUNCTIONS, builder_fields; "
+                 "print(json.dumps({b: {name: [repr(f.default), f.required] for name, f in builder_fields(b).items()} "
+                 "for b in BUILD_FUNCTIONS}))")
 
 
 def test_every_builder_reads_back_as_its_signature_says(tmp_path: Path) -> None:
-    runs = [subprocess.run([sys.executable, "-c", _PRINT_SIGNATURES], capture_output=True, text=True, timeout=300,
+    """The truth is `inspect.signature` of each builder in this process; the first interpreter derives the
+    fields and writes the cache, the second reads them from the file."""
+    runs = [subprocess.run([sys.executable, "-c", _PRINT_FIELDS], capture_output=True, text=True, timeout=300,
                            check=False, cwd=ROOT, env=dict(os.environ, VIBRA_CACHE_DIR=str(tmp_path)))
-            for _ in range(2)]  # the first derives and writes, the second reads the file
+            for _ in range(2)]
     assert all(run.returncode == 0 for run in runs), runs[0].stderr + runs[1].stderr
     (stored,) = (tmp_path / "derived").glob("*.json")
     assert {f"scene builder signature {b}" for b in BUILD_FUNCTIONS} <= set(json.loads(stored.read_text()))
-    # inspect.signature in this process, lists as tuples (as `builder_fields` has always read a default)
-    here = {b: {key: _tuples(value) for key, value in builders._signature(b).items()} for b in BUILD_FUNCTIONS}
-    assert runs[0].stdout.strip() == runs[1].stdout.strip() == repr(here)
-    assert ("masses", False, (1.0, 2.0)) in here["diatomic_chain"]["scene"]  # a tuple default stays a tuple
-    assert builder_fields("diatomic_chain")["masses"].default == (1.0, 2.0)
+    assert runs[0].stdout == runs[1].stdout
+    fields = json.loads(runs[1].stdout)
+    variadic = (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    for builder in BUILD_FUNCTIONS:
+        for name, parameter in inspect.signature(builder_function(builder)).parameters.items():
+            if name in NOT_IN_SCENES[builder] or parameter.kind in variadic:
+                assert name not in fields[builder]
+                continue
+            empty = parameter.default is inspect.Parameter.empty
+            default = None if empty else parameter.default
+            assert fields[builder][name][0] == repr(tuple(default) if isinstance(default, list) else default), (builder, name)
+            assert fields[builder][name][1] or not empty, (builder, name)
+    assert fields["diatomic_chain"]["masses"] == ["(1.0, 2.0)", False]  # a tuple default stays a tuple
 
 
 @pytest.mark.parametrize("scene, key", [("chains/monatomic-free.toml", "system"), ("crystals/argon-fcc.toml", "system"),

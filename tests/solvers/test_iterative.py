@@ -150,6 +150,26 @@ def test_not_for_chains_or_many_modes():
     assert not BY_NAME["iterative"].applies(_problem(1_000_000, 160, 500))  # over MOST_MODES
 
 
+@pytest.mark.parametrize("n", [1_800, 30_000, 1_000_000])
+def test_the_registry_admits_what_the_path_serves(n, monkeypatch):
+    """One limit (`most_modes`): the registry's gate and `lowest_modes`' own check agree at every size,
+    for "fast" (k modes) and "high" (k + 1 columns), the threshold lowered as the tests below do."""
+    monkeypatch.setattr(registry, "ITERATIVE_FROM", 0)
+    for accuracy, name, extra in (("fast", "iterative", 0), ("high", "accurate-iterative", 1)):
+        most = iterative.most_modes(n, extra)
+        assert 1 <= most <= iterative.MOST_MODES
+        assert BY_NAME[name].applies(_problem(n, 160, most, accuracy))
+        assert not BY_NAME[name].applies(_problem(n, 160, most + 1, accuracy))
+        # the block, WIDTH times the modes, stays within n / 5
+        assert iterative.block_columns(most + extra, 3) <= n / 5
+
+
+def test_too_small_a_matrix_is_named():
+    K = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(12, 12), format="csr")
+    with pytest.raises(ValueError, match=r"K~ has 12 dofs; the iterative path needs 20 at least .*dense solver"):
+        lowest_modes(K, 1)
+
+
 def test_cost_monotone():
     base_memory, base_seconds = iterative_cost(100_000, 10_000_000, 20)
     for n, nnz, k in ((200_000, 10_000_000, 20), (100_000, 20_000_000, 20), (100_000, 10_000_000, 40)):

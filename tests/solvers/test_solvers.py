@@ -449,3 +449,19 @@ def test_progress_names_the_stages_of_a_chain_with_vectors() -> None:
     messages = [message for _, message in calls]
     assert any(message.startswith("frequencies done") for message in messages)
     assert [fraction for fraction, _ in calls] == sorted(fraction for fraction, _ in calls)
+
+
+def test_the_package_binds_its_names_and_modules_on_first_access() -> None:
+    """`vibra.solvers` imports nothing until a name is read: its API, the former names and its
+    submodules (``vibra.solvers.budget.TIME_LIMIT_S = 60`` as the docs set it) all resolve, in a fresh
+    interpreter where no other import has loaded them first."""
+    import subprocess
+    import sys
+
+    code = ("import sys, vibra.solvers as s; light = 'numpy' not in sys.modules; "
+            "print(light, s.budget.__name__, s.accuracy.TIME_LIMIT_S, s.SOLVER_NAMES[0], s.Plan is s.SolvePlan, "
+            "'registry' in dir(s))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert run.stdout.split() == ["True", "vibra.solvers.budget", "600.0", "auto", "True", "True"]
+    with pytest.raises(AttributeError, match="has no attribute 'nothing'"):
+        solvers.nothing  # noqa: B018

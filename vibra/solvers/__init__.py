@@ -180,14 +180,22 @@ _HOMES: dict[str, tuple[str, str]] = {
 }
 
 
+def _submodules() -> set[str]:
+    from pkgutil import iter_modules
+
+    return {module.name for module in iter_modules(__path__)}
+
+
 def __getattr__(name: str) -> _Any:
     if name in _HOMES:
         module, attribute = _HOMES[name]
         value = getattr(_import_module(f"vibra.solvers.{module}"), attribute)
         globals()[name] = value  # bound once: later accesses are plain attribute reads
         return value
+    if not name.startswith("__") and name in _submodules():  # vibra.solvers.budget after ``import vibra.solvers``
+        return _import_module(f"vibra.solvers.{name}")
     raise AttributeError(f"module 'vibra.solvers' has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_HOMES})
+    return sorted({*globals(), *_HOMES, *_submodules()})

@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import errno
 import fcntl
-import functools
-import hashlib
 import json
 import os
 import shutil
@@ -35,6 +33,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Iterable
 
+from vibra._core.cache import source_hash
 from vibra._core.filesystem import (
     OWN_MARK, TargetRefused, atomic_write_text, check_out_folder, check_target, claim_out_folder, describe_kind,
     pid_alive, temporary_owner,
@@ -163,17 +162,10 @@ def output_is_sound(path: Path) -> bool:
     return True
 
 
-@functools.cache
 def code_hash() -> str:
-    """SHA-256 of the bytes of every ``.py`` file of the vibra package (computed once per process)."""
-    package = Path(__file__).resolve().parents[2]  # vibra/ (this file: vibra/pipeline/report/folder.py)
-    digest = hashlib.sha256()
-    for file in sorted(package.rglob("*.py")):
-        digest.update(file.relative_to(package).as_posix().encode())
-        digest.update(b"\0")
-        digest.update(file.read_bytes())
-        digest.update(b"\0")
-    return digest.hexdigest()
+    """SHA-256 of the bytes of every ``.py`` file of the vibra package (computed once per process):
+    `vibra._core.cache.source_hash`, the key of the derived values' cache too."""
+    return source_hash()
 
 
 class FolderLock:

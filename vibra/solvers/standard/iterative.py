@@ -41,7 +41,7 @@ from vibra.solvers.budget import (
 from vibra.solvers.common import SolveResult, absolute_figures
 from vibra.solvers.standard.ordering import site_block
 
-__all__ = ["ACCEPTED", "MOST_MODES", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
+__all__ = ["ACCEPTED", "MOST_MODES", "WIDTH", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
            "translations"]
 
 #: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a decade under `ACCEPTED`,
@@ -67,8 +67,9 @@ WIDTH = 4
 #: LOBPCG iterations at most (measured: 31 at 3e3 dofs, 59 at 1e4, 359 at 3e4 on a protein assembly).
 MAX_ITERATIONS = 1000
 
-#: Modes this path serves at most: LOBPCG's Rayleigh-Ritz costs n (3b)^2 per iteration, which
-#: passes the products' O(nnz b) beyond ~100 columns.
+#: Modes this path serves at most (`most_modes`): LOBPCG's Rayleigh-Ritz costs n (3b)^2 per
+#: iteration, b = `WIDTH` k, which passes the products' O(nnz b) from b ~ 1.2 nnz / n (~200 columns,
+#: ~50 modes, on a protein assembly; the cost model prices both).
 MOST_MODES = 100
 
 #: Dofs from which "auto" may take this path (its estimate against the factorisation's decides
@@ -125,6 +126,12 @@ def rigid_body_modes(positions: NDArray[np.float64], mass: NDArray[np.float64] |
     if mass is not None:
         flat = flat * np.sqrt(np.asarray(mass, dtype=float))[:, None]
     return np.asarray(np.linalg.qr(flat)[0])
+
+
+def most_modes(n: int, extra: int = 0) -> int:
+    """The most modes `lowest_modes` serves on an n-dof K~ with `extra` columns more: `MOST_MODES`,
+    and LOBPCG's block (`WIDTH` times the modes) within n / 5. Below 1: too small a K~."""
+    return min(MOST_MODES, n // (5 * WIDTH) - extra)
 
 
 def block_columns(k: int, rigid: int) -> int:
@@ -314,7 +321,7 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     Kt : (n, n) sparse matrix
         K~ = M^-1/2 K M^-1/2, in omega^2 units.
     n_modes : int
-        Modes wanted (rigid-body ones included), 1 <= n_modes <= n / (5 `WIDTH`) - extra.
+        Modes wanted (rigid-body ones included), 1 <= n_modes <= `most_modes`(n, extra).
     mass : (n,) ndarray, optional
         The dofs' masses, for the translations M^1/2 t (`translations`); 1 where not given.
     rigid : (n, r) ndarray, optional
@@ -328,17 +335,21 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     Raises
     ------
     ValueError
-        n_modes not an integer from 1 to n / (5 `WIDTH`) - extra.
+        n_modes not an integer from 1 to `most_modes`(n, extra), or K~ too small for one.
     RuntimeError
         A returned pair's residual over `ACCEPTED` ||K~||_inf (LOBPCG did not converge).
     """
     Kt = sp.csr_matrix(Kt)
     n = Kt.shape[0]
     wanted = n_modes + extra
-    most = n // (5 * WIDTH) - extra  # the block (`WIDTH` x the modes) within n / 5
+    most = most_modes(n, extra)
+    if most < 1:
+        raise ValueError(f"K~ has {n} dofs; the iterative path needs {5 * WIDTH * (1 + extra)} at least (LOBPCG's "
+                         f"block, {WIDTH} times the modes, within n / 5); the dense solver serves this one")
     if not isinstance(n_modes, (int, np.integer)) or not 1 <= n_modes <= most:
         raise ValueError(f"n_modes is {n_modes!r}; expected an integer from 1 to {most} for a {n}-dof K~ "
-                         "(LOBPCG's block stays under n / 5; the dense solver serves more)")
+                         f"(LOBPCG's block stays under n / 5, {MOST_MODES} modes at most; the dense or the "
+                         "sparse solver serves more)")
     norm = float(abs(Kt).sum(axis=1).max())
     kernel = translations(n, mass, Kt) if rigid is None else np.linalg.qr(np.asarray(rigid, dtype=float))[0]
     kernel = kernel[:, :min(kernel.shape[1], wanted)]
