@@ -157,9 +157,10 @@ def test_the_registry_admits_what_the_path_serves(n, monkeypatch):
     monkeypatch.setattr(registry, "ITERATIVE_FROM", 0)
     for accuracy, name, extra in (("fast", "iterative", 0), ("high", "accurate-iterative", 1)):
         most = iterative.most_modes(n, extra)
-        assert 1 <= most <= iterative.MOST_MODES
         assert BY_NAME[name].applies(_problem(n, 160, most, accuracy))
         assert not BY_NAME[name].applies(_problem(n, 160, most + 1, accuracy))
+        with pytest.raises(ValueError, match=rf"n_modes is {most + 1}; expected an integer from 1 to {most} "):
+            lowest_modes(sp.identity(n, format="csr"), most + 1, extra=extra)  # refused before any work
         # the block, WIDTH times the modes, stays within n / 5
         assert iterative.block_columns(most + extra, 3) <= n / 5
 
