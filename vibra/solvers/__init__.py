@@ -145,9 +145,8 @@ if TYPE_CHECKING:  # bound on first access (`__getattr__`): a reader of `accurac
         BAND_LIMIT, BDSQR_LIMIT, DENSE_ALL_LIMIT, DENSE_LIMIT, EPS, FACTOR_RTOL, SAMPLE, SolveResult,
         check_factor_matches, check_spring_factor, largest_entry, mass_weighted, physical_shapes,
     )
-    from vibra.solvers.dispatch import (
-        SOLVER_NAMES, SOLVER_PATHS, SolvePlan, alternatives, check_solve_plan, plan, solve,
-    )
+    from vibra.solvers.dispatch import SOLVER_PATHS, SolvePlan, alternatives, check_solve_plan, plan, solve
+    from vibra.solvers.names import SOLVER_NAMES
     from vibra.solvers.accurate.chain.bidiagonal import Segment
     from vibra.solvers.registry import estimate
 
@@ -171,8 +170,9 @@ _HOMES: dict[str, tuple[str, str]] = {
         "SolveResult", "mass_weighted", "physical_shapes", "BAND_LIMIT", "BDSQR_LIMIT", "DENSE_ALL_LIMIT",
         "DENSE_LIMIT", "EPS", "FACTOR_RTOL", "SAMPLE", "check_factor_matches", "check_spring_factor",
         "largest_entry")},
+    "SOLVER_NAMES": ("names", "SOLVER_NAMES"),  # (its light home: reading it imports no numpy)
     **{name: ("dispatch", name) for name in (
-        "SOLVER_NAMES", "SOLVER_PATHS", "SolvePlan", "alternatives", "check_solve_plan", "plan", "solve")},
+        "SOLVER_PATHS", "SolvePlan", "alternatives", "check_solve_plan", "plan", "solve")},
     "Plan": ("dispatch", "SolvePlan"),
     "check_plan": ("dispatch", "check_solve_plan"),
     "estimate": ("registry", "estimate"),
