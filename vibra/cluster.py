@@ -36,6 +36,8 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import TYPE_CHECKING, Callable, Iterator, Sequence, TextIO, TypeVar, Union
 
+from vibra._core.cores import available_cores
+
 if TYPE_CHECKING:
     from distributed import Client
 
@@ -129,10 +131,7 @@ def _is_address(text: str) -> bool:
 
 def default_workers() -> int:
     """Worker processes of a local cluster: the cores this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)
+    return available_cores()
 
 
 @contextlib.contextmanager

@@ -110,6 +110,38 @@ def test_bad_mode_count(small, n_modes):
         lowest_modes(Kt, n_modes, mass=mass)
 
 
+@pytest.mark.parametrize("accuracy", ["fast", "high"])
+def test_solver_iterative_names_the_path(small, accuracy):
+    """`solver="iterative"` reaches the path from `System.modes` at a size where "auto" takes the
+    dense solve (2,400 dofs): the path named in the result, the values LAPACK's within the path's
+    promise (a named family gives its own accuracy, as solver="sparse" does), the vectors M-orthonormal."""
+    Kt, mass, positions, values, _ = small
+    system = networks.anm(positions, cutoff=8.5, masses=mass[::3])
+    modes = system.modes(n_modes=12, solver="iterative", accuracy=accuracy)
+    assert modes.path == "iterative"
+    assert np.all(np.abs(np.sign(modes.omega) * modes.omega ** 2 - values[:12]) <= (ACCEPTED + 1e-12) * _norm(Kt))
+    assert system.modes(n_modes=12).path != "iterative"  # (what "auto" picks here: the dense solve)
+
+
+@pytest.mark.parametrize("request_, expected", [
+    ({}, r"give n_modes from 1 to 100 \(K has 2400 dofs"),
+    ({"n_modes": 101}, r"give n_modes from 1 to 100 \(K has 2400 dofs"),
+    ({"band": (0.0, 1.0)}, r"give n_modes from 1 to 100"),
+])
+def test_solver_iterative_refuses_what_it_cannot_serve(small, request_, expected):
+    _, mass, positions, _, _ = small
+    system = networks.anm(positions, cutoff=8.5, masses=mass[::3])
+    with pytest.raises(ValueError, match=r"solver='iterative' computes the lowest modes .*" + expected):
+        system.modes(solver="iterative", **request_)
+
+
+def test_solver_iterative_refuses_a_tiny_system():
+    from vibra import normal_modes
+
+    with pytest.raises(ValueError, match=r"give a K of 20 dofs or more \(K has 2 dofs"):
+        normal_modes(np.array([[1.0, -1.0], [-1.0, 1.0]]), [1.0, 1.0], n_modes=1, solver="iterative")
+
+
 def test_translations_need_sites_of_three():
     K = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(10, 10), format="csr")
     assert translations(10, None, K).shape == (10, 0)

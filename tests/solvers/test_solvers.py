@@ -24,11 +24,12 @@ def test_solver_names_are_what_normal_modes_accepts() -> None:
     from vibra.modes import SOLVERS
 
     assert solvers.SOLVER_NAMES == SOLVERS == ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil",
-                                               "slepc")
+                                               "slepc", "iterative")
     assert all(isinstance(name, str) for name in solvers.SOLVER_PATHS)
     K = np.array([[1.0, -1.0], [-1.0, 1.0]])
-    # (accurate needs a spring factor; slepc, a few modes of a large K over MPI, has tests/solvers/test_slepc.py)
-    for name in (n for n in solvers.SOLVER_NAMES if n not in ("accurate", "slepc")):
+    # (accurate needs a spring factor; slepc, a few modes of a large K over MPI, has tests/solvers/test_slepc.py;
+    # iterative, a few modes of a K of 20 dofs or more, has tests/solvers/test_iterative.py)
+    for name in (n for n in solvers.SOLVER_NAMES if n not in ("accurate", "slepc", "iterative")):
         kwargs = {"n_modes": 1} if name == "sparse" else {}
         assert normal_modes(K, [1.0, 1.0], solver=name, **kwargs).solver in solvers.SOLVER_PATHS
 

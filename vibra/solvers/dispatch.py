@@ -21,6 +21,7 @@ from vibra.solvers.names import SOLVER_NAMES
 from vibra.solvers.problem import Problem
 from vibra.solvers.registry import BY_NAME, choose, path_names
 from vibra.solvers.runners import Inputs
+from vibra.solvers.standard.iterative import WIDTH, most_modes
 from vibra.solvers.topology import classify, separator_width
 
 
@@ -141,6 +142,11 @@ def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDAr
     if solver == "slepc" and (n_modes is None or band is not None or mass.ndim != 1 or n_modes >= K.shape[0] - 1):
         raise ValueError("solver='slepc' computes the lowest modes of a large K with diagonal masses: give n_modes "
                          f"below n_dof - 1 = {K.shape[0] - 1}")
+    most = most_modes(K.shape[0])
+    if solver == "iterative" and (n_modes is None or band is not None or mass.ndim != 1 or not 1 <= n_modes <= most):
+        served = f"n_modes from 1 to {most}" if most >= 1 else f"a K of {5 * WIDTH} dofs or more"
+        raise ValueError(f"solver='iterative' computes the lowest modes of a large sparse K with diagonal masses: give "
+                         f"{served} (K has {K.shape[0]} dofs; LOBPCG's block, {WIDTH} times the modes, stays under n / 5)")
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
 

@@ -14,4 +14,5 @@ __all__ = ["SOLVER_NAMES"]
 
 #: The solver names that `normal_modes(solver=...)`, `System.modes(solver=...)` and scene
 #: files accept; ``"auto"`` chooses one of the paths (`vibra.solvers.registry.PATHS`).
-SOLVER_NAMES: tuple[str, ...] = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil", "slepc")
+SOLVER_NAMES: tuple[str, ...] = ("auto", "dense", "tridiagonal", "banded", "sparse", "accurate", "pencil", "slepc",
+                                   "iterative")

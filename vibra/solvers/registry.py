@@ -523,7 +523,7 @@ PATHS: tuple[SolverPath, ...] = (
     SolverPath("iterative", "iterative", _iterative, _iterative_cost, runners.iterative, "absolute ~ 1e-8 ‖K̃‖",
                "a few of the lowest modes of a large 3-D network where its estimate is under the "
                "factorisation's: LOBPCG, smoothed-aggregation multigrid, translations deflated, every "
-               "residual checked", rival="sparse",
+               "residual checked", rival="sparse", serves=lambda p: p.partial and p.band is None and p.diagonal_mass and p.n_modes <= most_modes(p.n),  # type: ignore[operator]
                cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.8e-10 s per entry and column); ~28 nnz + 512 n k bytes"),
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",

@@ -28,6 +28,7 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from vibra._core.cores import available_cores
 from vibra._core.filesystem import TargetRefused, check_target, protected_inputs
 from vibra.cluster import ClientOption, check_client, connect, run_tasks
 from vibra.pipeline.report.folder import (
@@ -37,17 +38,6 @@ from vibra.pipeline.report.outcome import BatchResult, ProgressBar, SceneOutcome
 from vibra.pipeline.report.pages import merged_outcomes, write_index, write_summary
 
 __all__ = ["run_scene", "report", "available_cores", "missing_paths"]
-
-
-def available_cores() -> int:
-    """CPU cores this process may run on (its affinity mask; the CPU count where there is none)."""
-    counter = getattr(os, "process_cpu_count", None)  # Python 3.13
-    if counter is not None:
-        return max(1, int(counter() or 1))
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):
-        return max(1, os.cpu_count() or 1)
 
 
 def missing_paths(paths: Sequence[str | os.PathLike[str]]) -> list[str]:

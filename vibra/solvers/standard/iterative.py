@@ -13,6 +13,9 @@ memory and n^2 in work on a 3-D network; this path grows like its matrix, O(nnz)
   translations as its near-null space, applied to the whole block at once (`BlockMultigrid`:
   pyamg's own cycle works one column at a time, ~20 times slower on a block of 20), in single
   precision;
+- the products of K~ and of the cycle's levels with a block run on every core
+  (`vibra.solvers.standard.rows.products`): a compiled loop over the 3 x 3 site blocks of a 3-D
+  network, scipy's product on slabs of rows otherwise;
 - LOBPCG (`block_lobpcg`, written here: scipy's `lobpcg` stops only when every column of its
   block has converged, and the block's edge converges slowest) on a block `WIDTH` (4) times as wide
   as the k - 3 modes wanted (`block_columns`), stopped when those have a residual of `TOLERANCE`
@@ -37,9 +40,11 @@ from numpy.typing import NDArray
 
 from vibra.solvers.budget import (
     ITERATIVE_GROWTH, ITERATIVE_PRODUCT_S, ITERATIVE_PRODUCTS, ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS,
+    ITERATIVE_THREAD_GAIN, ITERATIVE_THREADS_MEASURED,
 )
 from vibra.solvers.common import SolveResult, absolute_figures
 from vibra.solvers.standard.ordering import site_block
+from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, product_threads, products
 
 __all__ = ["ACCEPTED", "MOST_MODES", "WIDTH", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
            "translations"]
@@ -93,6 +98,9 @@ CHEBYSHEV_RATIO = 30.0
 
 #: The multigrid cycle's arithmetic (`BlockMultigrid`): single precision, half the memory traffic.
 PRECISION = np.float32
+
+#: A sparse matrix's product with a block (`vibra.solvers.standard.rows.products`).
+Product = SiteBlocks | RowSlabs
 
 #: The coarsest level's size at most (a dense pseudo-inverse).
 MAX_COARSE = 500
@@ -161,14 +169,15 @@ class BlockMultigrid:
         hierarchy = pyamg.smoothed_aggregation_solver(fine, B=near_null if near_null.shape[1] else None,
                                                       strength=("symmetric", {"theta": STRENGTH}),
                                                       max_coarse=MAX_COARSE, keep=False)
-        self.levels: list[tuple[sp.csr_matrix, NDArray[np.float64], float, sp.csr_matrix]] = []
+        self.levels: list[tuple[Product, NDArray[np.float64], float, Product, Product]] = []
         for index, level in enumerate(hierarchy.levels[:-1]):
             size = blocks if index == 0 else int(getattr(level.A, "blocksize", (1, 1))[0])
             matrix = A if index == 0 else sp.csr_matrix(level.A)
             inverse = _block_inverse(matrix, size)
             radius = _spectral_radius(matrix, inverse)
-            self.levels.append((matrix.astype(PRECISION), inverse.astype(PRECISION), radius,
-                                sp.csr_matrix(level.P, dtype=PRECISION)))
+            prolongator = level.P.astype(PRECISION)
+            self.levels.append((products(matrix.astype(PRECISION)), inverse.astype(PRECISION), radius,
+                                products(prolongator), products(prolongator.T)))
         del hierarchy.levels[:-1]
         coarse = np.asarray(hierarchy.levels[-1].A.toarray())
         self._coarse = la.pinvh(0.5 * (coarse + coarse.T)).astype(PRECISION)
@@ -183,16 +192,16 @@ class BlockMultigrid:
     def _cycle(self, index: int, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
         if index == len(self.levels):
             return np.asarray(self._coarse @ rhs)
-        matrix, inverse, radius, P = self.levels[index]
+        matrix, inverse, radius, P, R = self.levels[index]
         x = _smooth(matrix, inverse, radius, rhs)
         residual = rhs - matrix @ x
-        x += P @ self._cycle(index + 1, np.asarray(P.T @ residual))
+        x += P @ self._cycle(index + 1, R @ residual)
         residual = rhs - matrix @ x
         x += _smooth(matrix, inverse, radius, residual)
         return x
 
 
-def _smooth(matrix: sp.csr_matrix, inverse: NDArray[np.float64], radius: float, rhs: NDArray[np.float64]
+def _smooth(matrix: Product, inverse: NDArray[np.float64], radius: float, rhs: NDArray[np.float64]
             ) -> NDArray[np.float64]:
     """`DEGREE` steps of Chebyshev iteration on A x = rhs from 0, preconditioned by the block diagonal D,
     aimed at D^-1 A's eigenvalues in [radius / `CHEBYSHEV_RATIO`, radius] (a fixed polynomial: symmetric)."""
@@ -234,7 +243,7 @@ def _apply_block(inverse: NDArray[np.float64], X: NDArray[np.float64]) -> NDArra
     return np.einsum("sij,sjc->sic", inverse, X.reshape(-1, b, columns)).reshape(-1, columns)
 
 
-def _spectral_radius(matrix: sp.csr_matrix, inverse: NDArray[np.float64]) -> float:
+def _spectral_radius(matrix: sp.csr_matrix | Product, inverse: NDArray[np.float64]) -> float:
     """rho(D^-1 A) from 15 power steps, raised by 10% (a lower bound from below otherwise)."""
     x = np.random.default_rng(0).standard_normal((matrix.shape[0], 1))
     value = 1.0
@@ -245,7 +254,7 @@ def _spectral_radius(matrix: sp.csr_matrix, inverse: NDArray[np.float64]) -> flo
     return 1.1 * value
 
 
-def block_lobpcg(A: sp.csr_matrix, preconditioner: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+def block_lobpcg(A: sp.csr_matrix | Product, preconditioner: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                  constraints: NDArray[np.float64], start: NDArray[np.float64], wanted: int, tolerance: float,
                  max_iterations: int) -> tuple[NDArray[np.float64], int]:
     """The lowest Ritz vectors of the symmetric A, orthogonal to `constraints`, by LOBPCG (Knyazev 2001).
@@ -360,14 +369,15 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     stage(0.2, f"multigrid preconditioner of {preconditioner.depth} levels built")
     columns = block_columns(wanted, kernel.shape[1])
     start = np.random.default_rng(0).standard_normal((n, columns))
-    block, iterations = block_lobpcg(Kt, preconditioner, kernel, start, wanted - kernel.shape[1],
+    product_of = products(Kt)
+    block, iterations = block_lobpcg(product_of, preconditioner, kernel, start, wanted - kernel.shape[1],
                                      TOLERANCE * norm, max_iterations)
     del start
     stage(0.9, f"LOBPCG: {iterations} iterations of {columns} columns")
     basis = np.column_stack([kernel, block]) if kernel.shape[1] else block
     del block
     basis = np.linalg.qr(basis)[0]
-    product = Kt @ basis
+    product = product_of @ basis
     values, rotation = np.linalg.eigh(basis.T @ product)
     keep = rotation[:, :wanted]
     vectors, product = basis @ keep, product @ keep
@@ -396,11 +406,14 @@ def iterative_cost(n: int, nnz: int, k: int) -> tuple[float, float]:
     temporaries (~4 n b), b = `block_columns`(k, 3). Time: the setup (`ITERATIVE_SETUP_S` per
     stored entry) and `ITERATIVE_STEPS` (n / 10^4)^`ITERATIVE_GROWTH` iterations (the count grows with
     n: the low spectrum of a large assembly is a tight cluster), each `ITERATIVE_PRODUCTS` sparse products on b
-    columns (`ITERATIVE_PRODUCT_S` per entry and column) and the Rayleigh-Ritz of 3 b columns
-    (`ITERATIVE_RITZ_S` per n b^2).
+    columns (`ITERATIVE_PRODUCT_S` per entry and column, on one thread; `rows.product_threads` threads
+    gain `ITERATIVE_THREAD_GAIN` each beyond the first, up to `ITERATIVE_THREADS_MEASURED`) and the
+    Rayleigh-Ritz of 3 b columns (`ITERATIVE_RITZ_S` per n b^2, as BLAS runs it).
     """
     b = block_columns(k, 3)
     memory = 28.0 * nnz + 8.0 * 16 * n * b
-    per_step = ITERATIVE_PRODUCTS * ITERATIVE_PRODUCT_S * float(nnz) * b + ITERATIVE_RITZ_S * float(n) * b * b
+    speedup = 1.0 + ITERATIVE_THREAD_GAIN * (min(product_threads(), ITERATIVE_THREADS_MEASURED) - 1)
+    per_step = (ITERATIVE_PRODUCTS * ITERATIVE_PRODUCT_S * float(nnz) * b / speedup
+                + ITERATIVE_RITZ_S * float(n) * b * b)
     steps = ITERATIVE_STEPS * (n / 1e4) ** ITERATIVE_GROWTH
     return memory, ITERATIVE_SETUP_S * nnz + steps * per_step
