@@ -66,6 +66,13 @@ def _estimate(method: str, K: Any, n_terms: int) -> float | None:
                     n_terms=n_terms if accuracy == "high" else 0, separator=separator_width(K.tocsr())).seconds
 
 
+def _product_threads() -> int:
+    """Threads the iterative path's products ran on (`vibra.solvers.standard.rows`; BLAS stays pinned)."""
+    from vibra.solvers.standard.rows import product_threads
+
+    return product_threads()
+
+
 def run_one(method: str, dofs: int) -> dict:
     """One method on one size, in this process: its figures."""
     from vibra import normal_modes
@@ -102,7 +109,7 @@ def run_one(method: str, dofs: int) -> dict:
     return {"method": method, "dofs": n, "nnz": int(K.nnz), "seconds": seconds, "build_seconds": build_s,
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0,
             "estimate_seconds": _estimate(method, K, int(system.spring_factor()[0].shape[0])),
-            "max_relative_residual": float(residual.max()),
+            "max_relative_residual": float(residual.max()), "product_threads": _product_threads(),
             "values": [float(v) for v in np.sort(values)], "load_average": os.getloadavg()[0]}
 
 

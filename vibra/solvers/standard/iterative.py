@@ -30,6 +30,7 @@ request. The cost model is `iterative_cost` (seconds and bytes from n, nnz and k
 
 from __future__ import annotations
 
+import functools
 from typing import Callable
 
 import numpy as np
@@ -102,6 +103,9 @@ PRECISION = np.float32
 #: A sparse matrix's product with a block (`vibra.solvers.standard.rows.products`).
 Product = SiteBlocks | RowSlabs
 
+#: A block-Jacobi step X -> D^-1 X (`_jacobi`).
+Jacobi = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+
 #: The coarsest level's size at most (a dense pseudo-inverse).
 MAX_COARSE = 500
 
@@ -169,14 +173,14 @@ class BlockMultigrid:
         hierarchy = pyamg.smoothed_aggregation_solver(fine, B=near_null if near_null.shape[1] else None,
                                                       strength=("symmetric", {"theta": STRENGTH}),
                                                       max_coarse=MAX_COARSE, keep=False)
-        self.levels: list[tuple[Product, NDArray[np.float64], float, Product, Product]] = []
+        self.levels: list[tuple[Product, Jacobi, float, Product, Product]] = []
         for index, level in enumerate(hierarchy.levels[:-1]):
             size = blocks if index == 0 else int(getattr(level.A, "blocksize", (1, 1))[0])
             matrix = A if index == 0 else sp.csr_matrix(level.A)
             inverse = _block_inverse(matrix, size)
-            radius = _spectral_radius(matrix, inverse)
+            radius = _spectral_radius(matrix, _jacobi(inverse))
             prolongator = level.P.astype(PRECISION)
-            self.levels.append((products(matrix.astype(PRECISION)), inverse.astype(PRECISION), radius,
+            self.levels.append((products(matrix.astype(PRECISION)), _jacobi(inverse.astype(PRECISION)), radius,
                                 products(prolongator), products(prolongator.T)))
         del hierarchy.levels[:-1]
         coarse = np.asarray(hierarchy.levels[-1].A.toarray())
@@ -192,16 +196,16 @@ class BlockMultigrid:
     def _cycle(self, index: int, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
         if index == len(self.levels):
             return np.asarray(self._coarse @ rhs)
-        matrix, inverse, radius, P, R = self.levels[index]
-        x = _smooth(matrix, inverse, radius, rhs)
+        matrix, jacobi, radius, P, R = self.levels[index]
+        x = _smooth(matrix, jacobi, radius, rhs)
         residual = rhs - matrix @ x
         x += P @ self._cycle(index + 1, R @ residual)
         residual = rhs - matrix @ x
-        x += _smooth(matrix, inverse, radius, residual)
+        x += _smooth(matrix, jacobi, radius, residual)
         return x
 
 
-def _smooth(matrix: Product, inverse: NDArray[np.float64], radius: float, rhs: NDArray[np.float64]
+def _smooth(matrix: Product, jacobi: Jacobi, radius: float, rhs: NDArray[np.float64]
             ) -> NDArray[np.float64]:
     """`DEGREE` steps of Chebyshev iteration on A x = rhs from 0, preconditioned by the block diagonal D,
     aimed at D^-1 A's eigenvalues in [radius / `CHEBYSHEV_RATIO`, radius] (a fixed polynomial: symmetric)."""
@@ -209,13 +213,13 @@ def _smooth(matrix: Product, inverse: NDArray[np.float64], radius: float, rhs: N
     centre, half = 0.5 * (upper + lower), 0.5 * (upper - lower)
     sigma = centre / half
     rho = 1.0 / sigma
-    step = _apply_block(inverse, rhs) / centre
+    step = jacobi(rhs) / centre
     x = step.copy()
     residual = rhs
     for _ in range(DEGREE - 1):
         residual = residual - matrix @ step
         following = 1.0 / (2.0 * sigma - rho)
-        step = following * rho * step + (2.0 * following / half) * _apply_block(inverse, residual)
+        step = following * rho * step + (2.0 * following / half) * jacobi(residual)
         x += step
         rho = following
     return x
@@ -234,6 +238,16 @@ def _block_inverse(matrix: sp.csr_matrix, blocks: int) -> NDArray[np.float64]:
     return np.linalg.pinv(diagonal.data[own][np.argsort(rows[own])], hermitian=True)  # (a coarse block may be singular)
 
 
+def _jacobi(inverse: NDArray[np.float64]) -> Jacobi:
+    """X -> D^-1 X for D^-1 given as its (n / b, b, b) diagonal blocks: 3 x 3 blocks by the compiled
+    site-block product (`rows.SiteBlocks`, block row s holding block s alone), others by numpy."""
+    if inverse.shape[1] == 3:
+        sites = inverse.shape[0]
+        diagonal = SiteBlocks(sp.bsr_matrix((inverse, np.arange(sites), np.arange(sites + 1)), shape=(3 * sites, 3 * sites)))
+        return diagonal.__matmul__
+    return functools.partial(_apply_block, inverse)
+
+
 def _apply_block(inverse: NDArray[np.float64], X: NDArray[np.float64]) -> NDArray[np.float64]:
     """D^-1 X, D^-1 given as its (n / b, b, b) diagonal blocks."""
     b = inverse.shape[1]
@@ -243,12 +257,12 @@ def _apply_block(inverse: NDArray[np.float64], X: NDArray[np.float64]) -> NDArra
     return np.einsum("sij,sjc->sic", inverse, X.reshape(-1, b, columns)).reshape(-1, columns)
 
 
-def _spectral_radius(matrix: sp.csr_matrix | Product, inverse: NDArray[np.float64]) -> float:
+def _spectral_radius(matrix: sp.csr_matrix | Product, jacobi: Jacobi) -> float:
     """rho(D^-1 A) from 15 power steps, raised by 10% (a lower bound from below otherwise)."""
     x = np.random.default_rng(0).standard_normal((matrix.shape[0], 1))
     value = 1.0
     for _ in range(15):
-        y = _apply_block(inverse, matrix @ x)
+        y = jacobi(matrix @ x)
         value = float(np.linalg.norm(y) / np.linalg.norm(x))
         x = y / np.linalg.norm(y)
     return 1.1 * value
@@ -401,7 +415,8 @@ def iterative_cost(n: int, nnz: int, k: int) -> tuple[float, float]:
     """(bytes, seconds) of `lowest_modes` for the k lowest modes of an n-dof K~ with nnz stored entries.
 
     Memory: the shifted copy and its block form for pyamg (~2 x 12 nnz bytes), the hierarchy's
-    prolongator and coarse matrices (~4 nnz bytes at the operator complexity ~1.0 measured), LOBPCG's
+    prolongator and coarse matrices (~4 nnz bytes at the operator complexity ~1.0 measured), K~'s
+    3 x 3 blocks for the compiled products (~5 nnz bytes more than the CSR copies they replace), LOBPCG's
     blocks (X, AX, P, AP, R, AR and their Gram products: ~12 n b doubles) and the cycle's
     temporaries (~4 n b), b = `block_columns`(k, 3). Time: the setup (`ITERATIVE_SETUP_S` per
     stored entry) and `ITERATIVE_STEPS` (n / 10^4)^`ITERATIVE_GROWTH` iterations (the count grows with
@@ -411,7 +426,7 @@ def iterative_cost(n: int, nnz: int, k: int) -> tuple[float, float]:
     Rayleigh-Ritz of 3 b columns (`ITERATIVE_RITZ_S` per n b^2, as BLAS runs it).
     """
     b = block_columns(k, 3)
-    memory = 28.0 * nnz + 8.0 * 16 * n * b
+    memory = 33.0 * nnz + 8.0 * 16 * n * b
     speedup = 1.0 + ITERATIVE_THREAD_GAIN * (min(product_threads(), ITERATIVE_THREADS_MEASURED) - 1)
     per_step = (ITERATIVE_PRODUCTS * ITERATIVE_PRODUCT_S * float(nnz) * b / speedup
                 + ITERATIVE_RITZ_S * float(n) * b * b)

@@ -41,6 +41,7 @@ MIN_WORK = 2_000_000
 
 _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 _LOCK = threading.Lock()
+_KERNEL_LOCK = threading.Lock()
 
 
 def product_threads() -> int:
@@ -127,7 +128,8 @@ class SiteBlocks:
         block = np.ascontiguousarray((X[:, None] if vector else X).astype(dtype, copy=False))
         blocks = self.blocks if self.blocks.dtype == dtype else self.blocks.astype(dtype)
         out = np.empty((self.shape[0], block.shape[1]), dtype=dtype)
-        _site_block_product(self.indptr, self.indices, blocks, block, out)
+        with _KERNEL_LOCK:  # (one product at a time: numba's workqueue layer aborts on concurrent parallel calls)
+            _site_block_product(self.indptr, self.indices, blocks, block, out)
         return out[:, 0] if vector else out
 
 
