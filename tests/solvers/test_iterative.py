@@ -286,3 +286,21 @@ def test_block_lobpcg_keeps_out_of_its_constraints():
     values = np.einsum("ij,ij->j", X, Kt @ X)
     assert np.abs(Y.T @ X).max() <= 1e-12
     assert np.allclose(values[:8], dense[3:11], rtol=0, atol=1e-9 * norm)
+
+
+def test_a_network_tied_to_fixed_points_is_not_deflated(small):
+    """Springs from a few sites to fixed points (a restrained atom, a wall) take the translations
+    out of K~'s kernel: projecting them out as a free network's would return wrong modes, or none
+    (LOBPCG converges to the constrained problem's pairs, whose residuals against K~ stay large).
+    The path deflates only what K~ annihilates; the values are LAPACK's within the promise."""
+    Kt, mass, _, _, _ = small
+    n = Kt.shape[0]
+    tied = np.zeros(n)
+    tied[:30] = 0.05 * _norm(Kt)  # ten sites, three axes each, on springs to fixed points
+    K_tied = sp.csr_matrix(Kt + sp.diags(tied / mass))
+    values = la.eigh(K_tied.toarray(), eigvals_only=True)
+    assert values[0] > 1e-8 * _norm(K_tied)  # no zero mode left
+    assert iterative.annihilated(K_tied, translations(n, mass, K_tied), _norm(K_tied)).shape[1] == 0
+    assert iterative.annihilated(Kt, translations(n, mass, Kt), _norm(Kt)).shape[1] == 3
+    result = lowest_modes(K_tied, 12, mass=mass)
+    assert np.all(np.abs(result.eigenvalues - values[:12]) <= (ACCEPTED + 1e-12) * _norm(K_tied))

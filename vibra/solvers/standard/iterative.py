@@ -4,8 +4,9 @@ The factorisation of the sparse path (`vibra.solvers.standard.sparse`) grows lik
 memory and n^2 in work on a 3-D network; this path grows like its matrix, O(nnz) per step:
 
 - the rigid-body translations (a network's dofs in sites of three, `ordering.site_block`, each
-  axis moved as one, mass-weighted: M^1/2 t) are in K~'s kernel exactly and are projected out
-  of the iteration (LOBPCG's constraints), then returned as modes of value 0 to rounding,
+  axis moved as one, mass-weighted: M^1/2 t) are in a free network's kernel exactly and are
+  projected out of the iteration (LOBPCG's constraints; `annihilated` keeps only what K~
+  annihilates: a network tied to fixed points iterates on them), then returned as modes of value 0 to rounding,
   as the factorisation path returns them; the rotations (which need the coordinates, which K~
   does not carry) are found by the iteration like any other mode;
 - the preconditioner is smoothed-aggregation algebraic multigrid (pyamg) of K~ + sigma I
@@ -47,7 +48,7 @@ from vibra.solvers.common import SolveResult, absolute_figures
 from vibra.solvers.standard.ordering import site_block
 from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, product_threads, products
 
-__all__ = ["ACCEPTED", "MOST_MODES", "WIDTH", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
+__all__ = ["ACCEPTED", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
            "translations"]
 
 #: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a decade under `ACCEPTED`,
@@ -138,6 +139,21 @@ def rigid_body_modes(positions: NDArray[np.float64], mass: NDArray[np.float64] |
     if mass is not None:
         flat = flat * np.sqrt(np.asarray(mass, dtype=float))[:, None]
     return np.asarray(np.linalg.qr(flat)[0])
+
+
+#: A direction v of the rigid-body basis is in K~'s kernel where ||K~ v|| <= KERNEL ||K~||_inf (v
+#: of unit norm): a pair-spring network's translations give ~eps times the row's entries (1e-14).
+KERNEL = 1e-10
+
+
+def annihilated(Kt: sp.spmatrix, basis: NDArray[np.float64], norm: float) -> NDArray[np.float64]:
+    """The part of span(`basis`) (orthonormal columns) that K~ annihilates, ||K~ v|| <= `KERNEL` `norm`:
+    the whole basis for a free network; less where it is tied to fixed points (springs to a wall, a
+    restrained atom), whose translations are then iterated on like any mode, not projected out."""
+    if basis.shape[1] == 0:
+        return basis
+    _, values, right = np.linalg.svd(np.asarray(Kt @ basis), full_matrices=False)
+    return basis @ right[values <= KERNEL * norm].T
 
 
 def most_modes(n: int, extra: int = 0) -> int:
@@ -374,11 +390,12 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
                          f"(LOBPCG's block stays under n / 5, {MOST_MODES} modes at most; the dense or the "
                          "sparse solver serves more)")
     norm = float(abs(Kt).sum(axis=1).max())
-    kernel = translations(n, mass, Kt) if rigid is None else np.linalg.qr(np.asarray(rigid, dtype=float))[0]
+    smooth = translations(n, mass, Kt) if rigid is None else np.linalg.qr(np.asarray(rigid, dtype=float))[0]
+    kernel = annihilated(Kt, smooth, norm)
     kernel = kernel[:, :min(kernel.shape[1], wanted)]
     stage = on_stage or (lambda fraction, message: None)
     shifted = (Kt + SHIFT * norm * sp.identity(n, format="csr")).tocsr()
-    preconditioner = BlockMultigrid(shifted, kernel if kernel.shape[1] else np.zeros((n, 0)))
+    preconditioner = BlockMultigrid(shifted, smooth if smooth.shape[1] else np.zeros((n, 0)))
     del shifted
     stage(0.2, f"multigrid preconditioner of {preconditioner.depth} levels built")
     columns = block_columns(wanted, kernel.shape[1])
