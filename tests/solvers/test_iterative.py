@@ -121,25 +121,41 @@ def test_solver_iterative_names_the_path(small, accuracy):
     assert modes.path == "iterative"
     assert np.all(np.abs(np.sign(modes.omega) * modes.omega ** 2 - values[:12]) <= (ACCEPTED + 1e-12) * _norm(Kt))
     assert system.modes(n_modes=12).path != "iterative"  # (what "auto" picks here: the dense solve)
-
-
 @pytest.mark.parametrize("request_, expected", [
-    ({}, r"give n_modes from 1 to 100 \(K has 2400 dofs"),
-    ({"n_modes": 101}, r"give n_modes from 1 to 100 \(K has 2400 dofs"),
-    ({"band": (0.0, 1.0)}, r"give n_modes from 1 to 100"),
+    ({}, r": n_modes is None; give n_modes from 1 to 100 \(K has 2400 dofs"),
+    ({"n_modes": 101}, r": n_modes is 101; give n_modes from 1 to 100 \(K has 2400 dofs"),
+    ({"band": (0.0, 1.0)}, r"; band=\(0.0, 1.0\) asks for a frequency window: use solver='sparse'"),
 ])
 def test_solver_iterative_refuses_what_it_cannot_serve(small, request_, expected):
     _, mass, positions, _, _ = small
     system = networks.anm(positions, cutoff=8.5, masses=mass[::3])
-    with pytest.raises(ValueError, match=r"solver='iterative' computes the lowest modes .*" + expected):
+    with pytest.raises(ValueError, match=r"solver='iterative' computes the lowest n_modes of a large sparse K" + expected):
         system.modes(solver="iterative", **request_)
 
 
-def test_solver_iterative_refuses_a_tiny_system():
+def test_solver_iterative_refuses_a_tiny_system_and_full_masses():
     from vibra import normal_modes
 
-    with pytest.raises(ValueError, match=r"give a K of 20 dofs or more \(K has 2 dofs"):
-        normal_modes(np.array([[1.0, -1.0], [-1.0, 1.0]]), [1.0, 1.0], n_modes=1, solver="iterative")
+    K = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    with pytest.raises(ValueError, match=r"K has 2 dofs, and it needs 20 at least .*use solver='dense'"):
+        normal_modes(K, [1.0, 1.0], n_modes=1, solver="iterative")
+    with pytest.raises(ValueError, match=r"with diagonal masses; M is a full matrix: use solver='pencil'"):
+        normal_modes(np.kron(np.eye(15), K), np.eye(30) + 0.1, n_modes=1, solver="iterative")
+
+
+@pytest.mark.parametrize("n_modes", [1, 2, 3, 4])
+@pytest.mark.parametrize("accuracy", ["fast", "high"])
+def test_solver_iterative_with_no_more_modes_than_the_translations(small, n_modes, accuracy):
+    """n_modes 1 to 3 of a free 3-D network are all zero modes the path knows (the translations it
+    deflates): nothing is left to iterate on, and the path returns them (it raised on an empty
+    reduction before); the rotations make LAPACK's lowest six values zero too."""
+    Kt, mass, positions, values, _ = small
+    system = networks.anm(positions, cutoff=8.5, masses=mass[::3])
+    modes = system.modes(n_modes=n_modes, solver="iterative", accuracy=accuracy)
+    assert modes.path == "iterative" and modes.omega.shape == (n_modes,)
+    assert np.all(modes.omega ** 2 <= (ACCEPTED + 1e-12) * _norm(Kt))
+    result = lowest_modes(Kt, n_modes, mass=mass)
+    assert np.all(np.abs(result.eigenvalues - values[:n_modes]) <= (ACCEPTED + 1e-12) * _norm(Kt))
 
 
 def test_translations_need_sites_of_three():

@@ -137,3 +137,37 @@ def test_products_takes_site_blocks_only_where_the_matrix_has_them() -> None:
     assert all(isinstance(products(m), RowSlabs) for m in (chain, scattered, odd))
     X = np.ones((300, 2))
     assert np.array_equal(products(scattered) @ X, scattered @ X)
+
+
+def test_site_blocks_refuse_a_block_of_the_wrong_height() -> None:
+    operator = products(_anm(50, seed=8))
+    with pytest.raises(ValueError, match=r"X has shape \(147, 2\); expected \(150,\) or \(150, columns\) for a 150 x 150"):
+        operator @ np.ones((147, 2))
+
+
+def test_products_without_the_compiled_loop() -> None:
+    """Where loading numba would cost more than the work (`compiled_pays`), scipy's product serves."""
+    K = _anm(50, seed=9)
+    assert isinstance(products(K, compiled=False), RowSlabs)
+    assert np.array_equal(products(K, compiled=False) @ np.ones((150, 3)), K @ np.ones((150, 3)))
+
+
+def _site_block_child(queue) -> None:  # pragma: no cover - runs in the forked child
+    K = _anm(100, seed=10)
+    X = np.random.default_rng(11).standard_normal((300, 4))
+    queue.put(bool(_within_rounding(products(K) @ X, K, X)))
+
+
+@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+def test_a_child_forked_after_the_compiled_loop_ran_gets_its_product() -> None:
+    """GNU OpenMP (numba's threading layer where libgomp is found) aborts a forked child that uses
+    it after its parent did: the child must take scipy's product instead, and finish."""
+    K = _anm(100, seed=10)
+    products(K) @ np.ones((300, 4))  # the parent runs the compiled loop (and numba's threads) first
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=_site_block_child, args=(queue,))
+    child.start()
+    child.join(timeout=120)
+    assert child.exitcode == 0, f"the forked child ended with {child.exitcode}"
+    assert queue.get(timeout=5) is True

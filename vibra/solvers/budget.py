@@ -347,10 +347,8 @@ class Progress:
 
 # ---- the iterative path (`vibra.solvers.standard.iterative.iterative_cost`; benchmarks/RESULTS.md, "Iterative path")
 ITERATIVE_SETUP_S = 3e-7      # per stored entry of K~: the multigrid hierarchy (pyamg; 0.31 s at 1.6e6, 1.1 s at 5e6, quiet)
-ITERATIVE_PRODUCT_S = 1.8e-10  # per stored entry and column of one sparse product with a block, one thread (`rows.products`: the compiled 3x3 site-block loop; the cycle in single precision)
+ITERATIVE_PRODUCT_S = 1.3e-10  # per stored entry and column of one sparse product with a block (`rows.products`: the compiled 3x3 site-block loop, the cycle in single precision), on the 2 cores measured (3e4 dofs: 19.6 s end to end on one thread, 15.7 s on two)
 ITERATIVE_PRODUCTS = 9.0      # products per iteration: K~ once, the V-cycle's Chebyshev smoothing and residuals 8 times
-ITERATIVE_THREAD_GAIN = 0.4   # the products' speed-up per thread beyond the first (3e4 dofs, ninth session: 19.6 s on one thread, 15.7 s on two; est 17.7 / 14.9)...
-ITERATIVE_THREADS_MEASURED = 2  # ... counted up to this many threads only (not measured beyond: memory-bound products gain less per thread)
 ITERATIVE_RITZ_S = 1.4e-9     # per n b^2: LOBPCG's Rayleigh-Ritz on 3 b columns and its orthonormal bases, per iteration (the other 0.65 s)
 ITERATIVE_STEPS = 13.0        # LOBPCG iterations at 10^4 dofs (13 measured on the synthetic assembly, block 4 k)...
 ITERATIVE_GROWTH = 0.52       # ... growing as n^0.52 (13 at 1e4, 22 at 3e4, 43 at 1e5; a log fit; RESULTS.md)

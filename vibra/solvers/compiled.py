@@ -2,7 +2,7 @@
 
 One mechanism for every kernel module (`accurate/count_kernels.py`, `accurate/ring/pencil_counts.py`,
 `accurate/gk_bisection.py`, `accurate/chain/triplets.py`, `accurate/products.py`,
-`standard/cholmod.py`): each decorates its loops with `jit` (numba.njit's options) instead of
+`standard/cholmod.py`, `standard/rows.py`): each decorates its loops with `jit` (numba.njit's options) instead of
 numba's own decorator and takes `prange`, `intrinsic` and `HOST_FMA` from here. A decorated
 function is a `Kernel`, a plain Python object, until it is first called; a kernel declared
 ``aot=True`` then runs its ahead-of-time copy where one is built and matches the arguments
@@ -27,6 +27,9 @@ share with the kernel's (the same bits, or the same accuracy bound):
   (`products.SCIPY_PRODUCT_S`), the same bits;
 - B~ V in extended precision (`spring_ritz._error_free_product`): its numpy loop in long double
   (`spring_ritz.NUMPY_PRODUCT_S`), each entry within one unit as the kernel's.
+- a 3-D network's products with a block on the iterative path (`rows.products`, its estimate
+  `iterative.iterative_cost`): scipy's product on row slabs (`rows.RowSlabs`), each entry within
+  the dot product's rounding bound of the kernel's.
 
 The other kernels have no counterpart that costs less than loading numba (a ring's roots and
 counts, a chain's Sturm counts, the double-double Rayleigh quotients, a sparse factor's fill):

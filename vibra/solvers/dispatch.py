@@ -142,13 +142,26 @@ def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDAr
     if solver == "slepc" and (n_modes is None or band is not None or mass.ndim != 1 or n_modes >= K.shape[0] - 1):
         raise ValueError("solver='slepc' computes the lowest modes of a large K with diagonal masses: give n_modes "
                          f"below n_dof - 1 = {K.shape[0] - 1}")
-    most = most_modes(K.shape[0])
-    if solver == "iterative" and (n_modes is None or band is not None or mass.ndim != 1 or not 1 <= n_modes <= most):
-        served = f"n_modes from 1 to {most}" if most >= 1 else f"a K of {5 * WIDTH} dofs or more"
-        raise ValueError(f"solver='iterative' computes the lowest modes of a large sparse K with diagonal masses: give "
-                         f"{served} (K has {K.shape[0]} dofs; LOBPCG's block, {WIDTH} times the modes, stays under n / 5)")
+    if solver == "iterative":
+        _check_iterative(K.shape[0], mass, n_modes, band)
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
+
+
+def _check_iterative(n: int, mass: NDArray[np.float64], n_modes: int | None, band: tuple[float, float] | None) -> None:
+    """solver='iterative' (LOBPCG): the lowest n_modes of a K with diagonal masses; one message per cause."""
+    what = "solver='iterative' computes the lowest n_modes of a large sparse K"
+    if mass.ndim != 1:
+        raise ValueError(f"{what} with diagonal masses; M is a full matrix: use solver='pencil' or 'auto'")
+    if band is not None:
+        raise ValueError(f"{what}; band={band!r} asks for a frequency window: use solver='sparse' or 'auto' for a band")
+    most = most_modes(n)
+    if most < 1:
+        raise ValueError(f"{what}: K has {n} dofs, and it needs {5 * WIDTH} at least (LOBPCG's block, {WIDTH} times "
+                         "the modes, stays under n / 5); use solver='dense' or 'auto'")
+    if n_modes is None or not 1 <= n_modes <= most:
+        raise ValueError(f"{what}: n_modes is {n_modes!r}; give n_modes from 1 to {most} (K has {n} dofs; LOBPCG's "
+                         f"block, {WIDTH} times the modes, stays under n / 5)")
 
 
 def _diagonal_spread(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64]) -> float:

@@ -524,7 +524,7 @@ PATHS: tuple[SolverPath, ...] = (
                "a few of the lowest modes of a large 3-D network where its estimate is under the "
                "factorisation's: LOBPCG, smoothed-aggregation multigrid, translations deflated, every "
                "residual checked", rival="sparse", serves=lambda p: p.partial and p.band is None and p.diagonal_mass and p.n_modes <= most_modes(p.n),  # type: ignore[operator]
-               cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.8e-10 s per entry and column); ~33 nnz + 512 n k bytes"),
+               cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); ~33 nnz + 512 n k bytes"),
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
                cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),

@@ -42,11 +42,11 @@ from numpy.typing import NDArray
 
 from vibra.solvers.budget import (
     ITERATIVE_GROWTH, ITERATIVE_PRODUCT_S, ITERATIVE_PRODUCTS, ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS,
-    ITERATIVE_THREAD_GAIN, ITERATIVE_THREADS_MEASURED,
 )
+from vibra.solvers.compiled import compiled_pays
 from vibra.solvers.common import SolveResult, absolute_figures
 from vibra.solvers.standard.ordering import site_block
-from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, product_threads, products
+from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, products
 
 __all__ = ["ACCEPTED", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
            "translations"]
@@ -181,7 +181,7 @@ class BlockMultigrid:
     stay in double, and the products, memory-bound, take about half the time.
     """
 
-    def __init__(self, A: sp.csr_matrix, near_null: NDArray[np.float64]) -> None:
+    def __init__(self, A: sp.csr_matrix, near_null: NDArray[np.float64], *, compiled: bool = True) -> None:
         import pyamg
 
         blocks = 3 if A.shape[0] % 3 == 0 and site_block(A) == 3 else 1
@@ -194,10 +194,11 @@ class BlockMultigrid:
             size = blocks if index == 0 else int(getattr(level.A, "blocksize", (1, 1))[0])
             matrix = A if index == 0 else sp.csr_matrix(level.A)
             inverse = _block_inverse(matrix, size)
-            radius = _spectral_radius(matrix, _jacobi(inverse))
+            radius = _spectral_radius(matrix, _jacobi(inverse, compiled))
             prolongator = level.P.astype(PRECISION)
-            self.levels.append((products(matrix.astype(PRECISION)), _jacobi(inverse.astype(PRECISION)), radius,
-                                products(prolongator), products(prolongator.T)))
+            self.levels.append((products(matrix.astype(PRECISION), compiled=compiled),
+                                _jacobi(inverse.astype(PRECISION), compiled), radius,
+                                products(prolongator, compiled=compiled), products(prolongator.T, compiled=compiled)))
         del hierarchy.levels[:-1]
         coarse = np.asarray(hierarchy.levels[-1].A.toarray())
         self._coarse = la.pinvh(0.5 * (coarse + coarse.T)).astype(PRECISION)
@@ -254,10 +255,10 @@ def _block_inverse(matrix: sp.csr_matrix, blocks: int) -> NDArray[np.float64]:
     return np.linalg.pinv(diagonal.data[own][np.argsort(rows[own])], hermitian=True)  # (a coarse block may be singular)
 
 
-def _jacobi(inverse: NDArray[np.float64]) -> Jacobi:
+def _jacobi(inverse: NDArray[np.float64], compiled: bool = True) -> Jacobi:
     """X -> D^-1 X for D^-1 given as its (n / b, b, b) diagonal blocks: 3 x 3 blocks by the compiled
-    site-block product (`rows.SiteBlocks`, block row s holding block s alone), others by numpy."""
-    if inverse.shape[1] == 3:
+    site-block product (`rows.SiteBlocks`, block row s holding block s alone) where `compiled`, others by numpy."""
+    if inverse.shape[1] == 3 and compiled:
         sites = inverse.shape[0]
         diagonal = SiteBlocks(sp.bsr_matrix((inverse, np.arange(sites), np.arange(sites + 1)), shape=(3 * sites, 3 * sites)))
         return diagonal.__matmul__
@@ -314,7 +315,7 @@ def block_lobpcg(A: sp.csr_matrix | Product, preconditioner: Callable[[NDArray[n
     for iterations in range(1, max_iterations + 1):
         R = AX - X * values
         norms = np.sqrt(np.einsum("ij,ij->j", R, R))
-        if norms[:wanted].max() <= tolerance:
+        if wanted <= 0 or norms[:wanted].max() <= tolerance:  # (none wanted: every mode asked for was known)
             break
         active = norms > tolerance
         W = outside(np.asarray(preconditioner(R[:, active])), constraints)
@@ -395,12 +396,13 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     kernel = kernel[:, :min(kernel.shape[1], wanted)]
     stage = on_stage or (lambda fraction, message: None)
     shifted = (Kt + SHIFT * norm * sp.identity(n, format="csr")).tocsr()
-    preconditioner = BlockMultigrid(shifted, smooth if smooth.shape[1] else np.zeros((n, 0)))
+    compiled = compiled_pays(iterative_cost(n, Kt.nnz, wanted)[1])  # (loading numba pays from ~0.1 s of work)
+    preconditioner = BlockMultigrid(shifted, smooth if smooth.shape[1] else np.zeros((n, 0)), compiled=compiled)
     del shifted
     stage(0.2, f"multigrid preconditioner of {preconditioner.depth} levels built")
     columns = block_columns(wanted, kernel.shape[1])
     start = np.random.default_rng(0).standard_normal((n, columns))
-    product_of = products(Kt)
+    product_of = products(Kt, compiled=compiled)
     block, iterations = block_lobpcg(product_of, preconditioner, kernel, start, wanted - kernel.shape[1],
                                      TOLERANCE * norm, max_iterations)
     del start
@@ -438,14 +440,12 @@ def iterative_cost(n: int, nnz: int, k: int) -> tuple[float, float]:
     temporaries (~4 n b), b = `block_columns`(k, 3). Time: the setup (`ITERATIVE_SETUP_S` per
     stored entry) and `ITERATIVE_STEPS` (n / 10^4)^`ITERATIVE_GROWTH` iterations (the count grows with
     n: the low spectrum of a large assembly is a tight cluster), each `ITERATIVE_PRODUCTS` sparse products on b
-    columns (`ITERATIVE_PRODUCT_S` per entry and column, on one thread; `rows.product_threads` threads
-    gain `ITERATIVE_THREAD_GAIN` each beyond the first, up to `ITERATIVE_THREADS_MEASURED`) and the
-    Rayleigh-Ritz of 3 b columns (`ITERATIVE_RITZ_S` per n b^2, as BLAS runs it).
+    columns (`ITERATIVE_PRODUCT_S` per entry and column, as measured on two cores: from sizes only,
+    not the machine's core count, so that the plan's choice between this path and the factorisation
+    is the same everywhere) and the Rayleigh-Ritz of 3 b columns (`ITERATIVE_RITZ_S` per n b^2).
     """
     b = block_columns(k, 3)
     memory = 33.0 * nnz + 8.0 * 16 * n * b
-    speedup = 1.0 + ITERATIVE_THREAD_GAIN * (min(product_threads(), ITERATIVE_THREADS_MEASURED) - 1)
-    per_step = (ITERATIVE_PRODUCTS * ITERATIVE_PRODUCT_S * float(nnz) * b / speedup
-                + ITERATIVE_RITZ_S * float(n) * b * b)
+    per_step = ITERATIVE_PRODUCTS * ITERATIVE_PRODUCT_S * float(nnz) * b + ITERATIVE_RITZ_S * float(n) * b * b
     steps = ITERATIVE_STEPS * (n / 1e4) ** ITERATIVE_GROWTH
     return memory, ITERATIVE_SETUP_S * nnz + steps * per_step

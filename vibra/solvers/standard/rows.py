@@ -20,6 +20,7 @@ the compiled loop runs on numba's threads (``NUMBA_NUM_THREADS``), as vibra's ot
 from __future__ import annotations
 
 import os
+import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
@@ -43,6 +44,18 @@ _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 _LOCK = threading.Lock()
 _KERNEL_LOCK = threading.Lock()
 
+#: Whether this process was forked from one that had loaded numba (`_forked`).
+_FORKED_WITH_NUMBA = False
+
+
+def _forked() -> None:
+    global _FORKED_WITH_NUMBA
+    _FORKED_WITH_NUMBA = _FORKED_WITH_NUMBA or "numba" in sys.modules
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forked)
+
 
 def product_threads() -> int:
     """The threads `RowSlabs` splits a product over: `THREADS`, or the cores this process may use."""
@@ -50,8 +63,8 @@ def product_threads() -> int:
 
 
 def _pool(threads: int) -> ThreadPoolExecutor:
-    """A pool of `threads` threads for this process (a forked child makes its own: the parent's
-    threads do not exist there)."""
+    """A pool of `threads` threads for this process, one per count (`product_threads`; a forked
+    child makes its own: the parent's threads do not exist there)."""
     key = (os.getpid(), threads)
     with _LOCK:
         pool = _POOLS.get(key)
@@ -102,7 +115,7 @@ class RowSlabs:
         def fill(start: int, stop: int, slab: sp.csr_matrix) -> None:
             out[start:stop] = slab @ X
 
-        pool = _pool(len(self._slabs))
+        pool = _pool(product_threads())
         for future in [pool.submit(fill, *item) for item in self._slabs]:
             future.result()
         return out
@@ -120,9 +133,20 @@ class SiteBlocks:
         self.indices = np.ascontiguousarray(matrix.indices, dtype=np.int64)
         self.blocks = np.ascontiguousarray(matrix.data)
         self.nnz = int(matrix.nnz)
+        self._slabs: RowSlabs | None = None
 
     def __matmul__(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
         X = np.asarray(X)
+        if X.ndim not in (1, 2) or X.shape[0] != self.shape[1]:
+            raise ValueError(f"X has shape {X.shape}; expected ({self.shape[1]},) or ({self.shape[1]}, columns) "
+                             f"for a {self.shape[0]} x {self.shape[1]} matrix")
+        if _FORKED_WITH_NUMBA:
+            # a child forked from a process that had loaded numba: GNU OpenMP (numba's threading layer
+            # where libgomp is found) aborts a child that uses it after its parent did, so the child
+            # takes scipy's product (the same numbers within rounding)
+            if self._slabs is None:
+                self._slabs = RowSlabs(sp.bsr_matrix((self.blocks, self.indices, self.indptr), shape=self.shape).tocsr())
+            return self._slabs @ X
         vector = X.ndim == 1
         dtype = np.result_type(self.dtype, X.dtype)
         block = np.ascontiguousarray((X[:, None] if vector else X).astype(dtype, copy=False))
@@ -133,15 +157,22 @@ class SiteBlocks:
         return out[:, 0] if vector else out
 
 
-def products(matrix: sp.spmatrix) -> SiteBlocks | RowSlabs:
+def products(matrix: sp.spmatrix, *, compiled: bool = True) -> SiteBlocks | RowSlabs:
     """The product operator for `matrix`: `SiteBlocks` where its rows and columns come in groups of
     three coupled blockwise (the 3 x 3 blocks hold at most 1.5 times its stored entries, the rule of
-    `ordering.site_block`: a spring along an axis leaves zeros in its block), `RowSlabs` otherwise."""
-    if matrix.shape[0] % 3 == 0 and matrix.shape[1] % 3 == 0 and matrix.shape[0] >= 6:
-        blocked = sp.bsr_matrix(matrix, blocksize=(3, 3))
-        if blocked.data.size <= 1.5 * max(sp.csr_matrix(matrix).nnz, 1):
-            return SiteBlocks(blocked)
+    `ordering.site_block`: a spring along an axis leaves zeros in its block) and `compiled` (the
+    caller's `vibra.solvers.compiled.compiled_pays`: loading numba costs ~0.5 s), `RowSlabs` otherwise."""
+    if compiled and matrix.shape[0] % 3 == 0 and matrix.shape[1] % 3 == 0 and matrix.shape[0] >= 6:
+        if _blocks_of_three(matrix) * 9 <= 1.5 * max(matrix.nnz, 1):
+            return SiteBlocks(sp.bsr_matrix(matrix, blocksize=(3, 3)))
     return RowSlabs(matrix)
+
+
+def _blocks_of_three(matrix: sp.spmatrix) -> int:
+    """How many 3 x 3 blocks hold `matrix`'s stored entries, counted from its pattern (~16 bytes per
+    entry for the count, whatever the blocks would fill: a scattered matrix's blocks are 9 times its entries)."""
+    coo = matrix.tocoo()
+    return int(np.unique((coo.row // 3).astype(np.int64) * (matrix.shape[1] // 3) + coo.col // 3).size)
 
 
 @jit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=False)
