@@ -195,7 +195,14 @@ def test_a_gamma_point_inside_a_segment_takes_the_segments_direction() -> None:
     middle = int(np.argmin(np.abs(bands.qpoints).max(axis=1)))
     assert np.allclose(bands.qpoints[middle], 0.0)
     along = crystal.frequencies([[0.0, 0.0, 0.0]], q_direction=[1.0, 0.0, 1.0])[0]
-    assert np.allclose(np.sort(bands.omega[middle]), np.sort(along), rtol=1e-10, atol=1e-8 * along.max())
+    ours, theirs = np.sort(bands.omega[middle]), np.sort(along)
+    # the three acoustic modes at Gamma are zero: each side's omega is the signed square root of
+    # omega^2's rounding (~n eps ||D||), so |omega| <= sqrt(100 n eps) omega_max on any LAPACK build and
+    # thread count (1e-8 omega_max, as before, is below that: two builds gave -2.4e-9 and +3.5e-9 there);
+    # the optical ones agree to 1e-10 relative
+    zero = np.sqrt(100 * len(along) * np.finfo(float).eps) * along.max()
+    assert np.all(np.abs(ours[:3]) <= zero) and np.all(np.abs(theirs[:3]) <= zero)
+    assert np.allclose(ours[3:], theirs[3:], rtol=1e-10, atol=0.0)
     assert np.sort(bands.omega[middle])[-1] > 1.4 * np.sort(bands.omega[middle])[-2]   # the LO above the TO
 
 
