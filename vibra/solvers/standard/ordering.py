@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-__all__ = ["DISSECTION_MIN", "nested_dissection", "site_block"]
+__all__ = ["DISSECTION_MIN", "blocked", "nested_dissection", "site_block"]
 
 #: Below this many dofs the minimum-degree ordering is as good and costs nothing extra.
 DISSECTION_MIN = 3000
@@ -33,14 +33,22 @@ def site_block(pattern: sp.csr_matrix) -> int:
     mostly full; a spring along an axis leaves zeros in its block, hence the margin).
     """
     n = pattern.shape[0]
-    coo = pattern.tocoo()
     for b in (3, 2):
         if n % b or n < 2 * b:
             continue
-        blocks = sp.csr_matrix((np.ones(coo.nnz), (coo.row // b, coo.col // b)), shape=(n // b, n // b))
-        if blocks.nnz * b * b <= 1.5 * pattern.nnz:
+        if blocked(pattern, b):
             return b
     return 1
+
+
+def blocked(pattern: sp.spmatrix, b: int) -> bool:
+    """Whether `pattern`'s stored entries (any shape, both sides multiples of b) sit in b x b blocks
+    that hold at most 1.5 times as many entries as it stores: the one rule for `site_block` and for
+    the site-block products (`rows.products`), counted from the pattern whatever the blocks would fill."""
+    coo = pattern.tocoo()
+    blocks = sp.csr_matrix((np.ones(coo.nnz), (coo.row // b, coo.col // b)),
+                           shape=(pattern.shape[0] // b, pattern.shape[1] // b))
+    return bool(blocks.nnz * b * b <= 1.5 * max(coo.nnz, 1))
 
 
 def nested_dissection(Kt: sp.csr_matrix) -> NDArray[np.intp] | None:

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from vibra._core.cores import available_cores
 from vibra.solvers.compiled import jit, prange
+from vibra.solvers.standard.ordering import blocked
 
 __all__ = ["MIN_WORK", "THREADS", "RowSlabs", "SiteBlocks", "product_threads", "products"]
 
@@ -159,20 +160,13 @@ class SiteBlocks:
 
 def products(matrix: sp.spmatrix, *, compiled: bool = True) -> SiteBlocks | RowSlabs:
     """The product operator for `matrix`: `SiteBlocks` where its rows and columns come in groups of
-    three coupled blockwise (the 3 x 3 blocks hold at most 1.5 times its stored entries, the rule of
-    `ordering.site_block`: a spring along an axis leaves zeros in its block) and `compiled` (the
+    three coupled blockwise (`ordering.blocked`, the rule `ordering.site_block` applies: the 3 x 3
+    blocks hold at most 1.5 times its stored entries; a spring along an axis leaves zeros in its block) and `compiled` (the
     caller's `vibra.solvers.compiled.compiled_pays`: loading numba costs ~0.5 s), `RowSlabs` otherwise."""
     if compiled and matrix.shape[0] % 3 == 0 and matrix.shape[1] % 3 == 0 and matrix.shape[0] >= 6:
-        if _blocks_of_three(matrix) * 9 <= 1.5 * max(matrix.nnz, 1):
+        if blocked(matrix, 3):
             return SiteBlocks(sp.bsr_matrix(matrix, blocksize=(3, 3)))
     return RowSlabs(matrix)
-
-
-def _blocks_of_three(matrix: sp.spmatrix) -> int:
-    """How many 3 x 3 blocks hold `matrix`'s stored entries, counted from its pattern (~16 bytes per
-    entry for the count, whatever the blocks would fill: a scattered matrix's blocks are 9 times its entries)."""
-    coo = matrix.tocoo()
-    return int(np.unique((coo.row // 3).astype(np.int64) * (matrix.shape[1] // 3) + coo.col // 3).size)
 
 
 @jit(cache=True, parallel=True, nogil=True, error_model="numpy", fastmath=False)
