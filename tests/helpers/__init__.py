@@ -8,4 +8,5 @@ another test module. ``tests/`` is on sys.path under pytest's default import mod
 - `helpers.images`: checks that a PNG was written, has its size and is not blank;
 - `helpers.package`: facts about the package (its bundled scene folders, its heavy imports);
 - `helpers.browser`: the Chromium the browser tests drive, and canvas pixels.
+- `helpers.forked`: a function run in a forked child, its exit status and what it returned.
 """

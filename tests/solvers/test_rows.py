@@ -10,11 +10,10 @@
 
 from __future__ import annotations
 
-import multiprocessing
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from helpers.forked import NEEDS_FORK, in_forked_child
 
 from vibra.solvers.standard import rows
 from vibra import networks
@@ -76,19 +75,15 @@ def _child(queue) -> None:  # pragma: no cover - runs in the forked child
     queue.put(bool(np.array_equal(RowSlabs(matrix, threads=2) @ X, matrix @ X)))
 
 
-@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+@NEEDS_FORK
 def test_a_forked_child_gets_its_own_threads(monkeypatch) -> None:
     """A pool's threads do not survive fork: the child must not wait on the parent's (it would hang)."""
     monkeypatch.setattr(rows, "MIN_WORK", 0)
     matrix = _matrix(300, 300, 0.1, seed=3)
     RowSlabs(matrix, threads=2) @ np.ones((300, 5))  # the parent's pool, started
-    context = multiprocessing.get_context("fork")
-    queue = context.Queue()
-    child = context.Process(target=_child, args=(queue,))
-    child.start()
-    child.join(timeout=120)
-    assert child.exitcode == 0, "the forked child did not finish its product"
-    assert queue.get(timeout=5) is True
+    status, equal = in_forked_child(_child)
+    assert status == 0, "the forked child did not finish its product"
+    assert equal is True
 
 
 def _anm(n_sites: int, seed: int) -> sp.csr_matrix:
@@ -158,16 +153,12 @@ def _site_block_child(queue) -> None:  # pragma: no cover - runs in the forked c
     queue.put(bool(_within_rounding(products(K) @ X, K, X)))
 
 
-@pytest.mark.skipif("fork" not in multiprocessing.get_all_start_methods(), reason="needs the fork start method")
+@NEEDS_FORK
 def test_a_child_forked_after_the_compiled_loop_ran_gets_its_product() -> None:
     """GNU OpenMP (numba's threading layer where libgomp is found) aborts a forked child that uses
     it after its parent did: the child must take scipy's product instead, and finish."""
     K = _anm(100, seed=10)
     products(K) @ np.ones((300, 4))  # the parent runs the compiled loop (and numba's threads) first
-    context = multiprocessing.get_context("fork")
-    queue = context.Queue()
-    child = context.Process(target=_site_block_child, args=(queue,))
-    child.start()
-    child.join(timeout=120)
-    assert child.exitcode == 0, f"the forked child ended with {child.exitcode}"
-    assert queue.get(timeout=5) is True
+    status, within = in_forked_child(_site_block_child)
+    assert status == 0, f"the forked child ended with {status}"
+    assert within is True

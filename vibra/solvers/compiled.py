@@ -36,6 +36,14 @@ counts, a chain's Sturm counts, the double-double Rayleigh quotients, a sparse f
 their paths load numba on their first call, except where the kernel is declared ``aot=True``
 (a chain's Sturm counts and triplet figures, a ring's pencil counts) and its copy is built.
 
+**A child forked after numba loaded** (`forked_with_numba`). GNU OpenMP, numba's threading layer
+where libgomp is found, terminates a process forked from one that ran a parallel region as soon as
+the child starts one (``multiprocessing``'s default start method on Linux forks). In such a child
+every parallel kernel is recompiled without threads on its first call, outside the on-disk cache
+(whose index does not tell a serial build from a parallel one), and its module's name rebound to it
+(`Kernel.serial_after_fork`): the same loop, one thread, a compile of a second or so per kernel and
+child instead of a terminated child; a kernel built ahead of time runs its (serial) copy there.
+
 **Ctrl-C between calls** (issue 44). A compiled loop never returns to the interpreter, which
 sees a SIGINT only when it does; so a kernel over many independent values (a chain's bisection,
 its certificates, a ring's roots) is called on `batches` of them, each estimated (from sizes) to
@@ -47,13 +55,14 @@ from __future__ import annotations
 
 import functools
 import importlib
+import os
 import sys
 import threading
 from types import ModuleType
 from typing import Any, Callable, Generic, ParamSpec, TypeVar, cast
 
 __all__ = ["Kernel", "AOT_KERNELS", "jit", "intrinsic", "prange", "HOST_FMA", "bind", "threads", "compiled_pays",
-           "COMPILED_FROM_S", "LOAD_SECONDS", "batches", "INTERRUPT_S", "SITE_SECONDS"]
+           "COMPILED_FROM_S", "LOAD_SECONDS", "batches", "INTERRUPT_S", "SITE_SECONDS", "forked_with_numba"]
 
 #: Seconds a process spends the first time it runs a compiled kernel: importing numba and loading
 #: its typing context and the kernel's on-disk cache. 0.44-0.59 s measured on the 2 shared cores
@@ -137,6 +146,23 @@ class Kernel(_Lazy, Generic[_P, _R]):
         functools.update_wrapper(self, function)
         if self.aot:
             AOT_KERNELS.append(self)
+        if self.parallel:
+            _PARALLEL.append(self)
+            if _FORKED_WITH_NUMBA:  # (a module first imported in such a child)
+                self.serial_after_fork()
+
+    def serial_after_fork(self) -> None:
+        """In a child forked from a process that had loaded numba: compile this kernel without
+        threads and without the on-disk cache on its next call, and bind its module's name back to
+        this kernel in place of the parallel dispatcher (see the module's docstring)."""
+        parallel, self._dispatcher = self._dispatcher, None
+        self.parallel = False
+        self.options = {**self.options, "parallel": False, "cache": False}
+        if parallel is not None:
+            namespace = self.py_func.__globals__
+            for name, value in list(namespace.items()):
+                if value is parallel:
+                    namespace[name] = self
 
     def resolve(self) -> Callable[_P, _R]:
         """numba's dispatcher of this function (created once; its module's names bound first)."""
@@ -180,6 +206,30 @@ class Kernel(_Lazy, Generic[_P, _R]):
 #: Every kernel declared ``aot=True``, in the order their modules were imported (`vibra.solvers.aot_build.build`
 #: exports them; a module's names may since have been bound to numba's dispatchers).
 AOT_KERNELS: list[Kernel[Any, Any]] = []
+
+#: Every kernel declared ``parallel=True`` (`forked_with_numba`).
+_PARALLEL: list[Kernel[Any, Any]] = []
+
+#: Whether this process was forked from one that had loaded numba (`forked_with_numba`).
+_FORKED_WITH_NUMBA = False
+
+
+def forked_with_numba() -> bool:
+    """Whether this process was forked from one that had loaded numba: its parallel kernels then run
+    serial copies (`Kernel.serial_after_fork`; GNU OpenMP terminates such a child's parallel regions)."""
+    return _FORKED_WITH_NUMBA
+
+
+def _after_fork_in_child() -> None:
+    global _FORKED_WITH_NUMBA
+    if "numba" in sys.modules and not _FORKED_WITH_NUMBA:
+        _FORKED_WITH_NUMBA = True
+        for kernel in _PARALLEL:
+            kernel.serial_after_fork()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
 def jit(**options: object) -> Callable[[Callable[_P, _R]], Kernel[_P, _R]]:

@@ -20,7 +20,6 @@ the compiled loop runs on numba's threads (``NUMBA_NUM_THREADS``), as vibra's ot
 from __future__ import annotations
 
 import os
-import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
@@ -29,7 +28,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibra._core.cores import available_cores
-from vibra.solvers.compiled import jit, prange
+from vibra.solvers.compiled import forked_with_numba, jit, prange
 from vibra.solvers.standard.ordering import blocked
 
 __all__ = ["MIN_WORK", "THREADS", "RowSlabs", "SiteBlocks", "product_threads", "products"]
@@ -44,19 +43,6 @@ MIN_WORK = 2_000_000
 _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 _LOCK = threading.Lock()
 _KERNEL_LOCK = threading.Lock()
-
-#: Whether this process was forked from one that had loaded numba (`_forked`).
-_FORKED_WITH_NUMBA = False
-
-
-def _forked() -> None:
-    global _FORKED_WITH_NUMBA
-    _FORKED_WITH_NUMBA = _FORKED_WITH_NUMBA or "numba" in sys.modules
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forked)
-
 
 def product_threads() -> int:
     """The threads `RowSlabs` splits a product over: `THREADS`, or the cores this process may use."""
@@ -141,10 +127,9 @@ class SiteBlocks:
         if X.ndim not in (1, 2) or X.shape[0] != self.shape[1]:
             raise ValueError(f"X has shape {X.shape}; expected ({self.shape[1]},) or ({self.shape[1]}, columns) "
                              f"for a {self.shape[0]} x {self.shape[1]} matrix")
-        if _FORKED_WITH_NUMBA:
-            # a child forked from a process that had loaded numba: GNU OpenMP (numba's threading layer
-            # where libgomp is found) aborts a child that uses it after its parent did, so the child
-            # takes scipy's product (the same numbers within rounding)
+        if forked_with_numba():
+            # a child forked from a process that had loaded numba (`compiled.forked_with_numba`): scipy's
+            # product (the same numbers within rounding) rather than compiling a serial copy of the kernel
             if self._slabs is None:
                 self._slabs = RowSlabs(sp.bsr_matrix((self.blocks, self.indices, self.indptr), shape=self.shape).tocsr())
             return self._slabs @ X
