@@ -5,8 +5,12 @@ ubiquitin packed face to face (`assembly_builder.synthetic_assembly`): n_sites =
 Methods, each in its own subprocess (so that its peak resident memory, ru_maxrss, is its own),
 on the same K~ (masses 1):
 
-- ``iterative``: `vibra.solvers.standard.iterative.lowest_modes` ("fast": residuals <= 1e-8 ||K~||);
-- ``iterative-high``: `normal_modes(..., accuracy="high")` on the accurate-iterative path forced by
+- ``iterative``: `vibra.solvers.standard.iterative.lowest_modes` ("fast": residuals <= 1e-8 ||K~||)
+  with the sites' coordinates, as `System.modes` passes them (the rigid-block multigrid, the six
+  rigid-body modes projected out);
+- ``iterative-translations``: the same on K~ alone (the translations deflated, translations as the
+  multigrid's near-null space: what `normal_modes(K, M)` without `positions` runs);
+- ``iterative-high``: `normal_modes(..., accuracy="high", positions=...)` on the accurate-iterative path forced by
   the registry's rule (the factorisation's rate raised; relative bounds from spring-space Ritz);
 - ``factorisation``: vibra's sparse path (`sparse_path`: CHOLMOD / PARDISO shift-invert, the path
   the plan picks at these sizes today);
@@ -43,7 +47,7 @@ MODES = 20
 CUTOFF = 15.0
 #: eigsh (SuperLU, minimum-degree order) above this many dofs: skipped (its fill grows past the machine).
 EIGSH_MOST = 30_000
-METHODS = ("iterative", "iterative-high", "factorisation", "eigsh")
+METHODS = ("iterative", "iterative-translations", "iterative-high", "factorisation", "eigsh")
 
 
 def _system(dofs: int):  # type: ignore[no-untyped-def]
@@ -57,13 +61,15 @@ def _estimate(method: str, K: Any, n_terms: int) -> float | None:
     from vibra.solvers.registry import estimate
     from vibra.solvers.topology import separator_width
 
-    name = {"iterative": "iterative", "iterative-high": "accurate-iterative", "factorisation": "sparse"}.get(method)
+    name = {"iterative": "iterative", "iterative-translations": "iterative", "iterative-high": "accurate-iterative",
+            "factorisation": "sparse"}.get(method)
     if name is None:
         return None
     accuracy = "high" if method == "iterative-high" else "fast"
     n = K.shape[0]
     return estimate(name, n, k=MODES, vectors=True, nnz=int(K.nnz), width=n - 1, accuracy=accuracy,
-                    n_terms=n_terms if accuracy == "high" else 0, separator=separator_width(K.tocsr())).seconds
+                    n_terms=n_terms if accuracy == "high" else 0, separator=separator_width(K.tocsr()),
+                    coordinates=method != "iterative-translations").seconds
 
 
 def _product_threads() -> int:
@@ -89,14 +95,17 @@ def run_one(method: str, dofs: int) -> dict:
     build_s = time.perf_counter() - built
     n = K.shape[0]
     norm = float(abs(K).sum(axis=1).max())
+    stages: list[str] = []  # (the path's progress messages: LOBPCG's iteration count)
     start = time.perf_counter()
-    if method == "iterative":
-        result = lowest_modes(K, MODES)
+    if method in ("iterative", "iterative-translations"):
+        result = lowest_modes(K, MODES, positions=system.positions if method == "iterative" else None,
+                              on_stage=lambda fraction, message: stages.append(message))
         values, vectors = result.eigenvalues, result.vectors
     elif method == "iterative-high":
         registry.SPARSE_FACTOR_S = 1.0  # (the plan weighs the two: the factorisation's estimate made the larger)
         modes = normal_modes(K, system.mass_matrix(), n_modes=MODES, spring_factor=system.spring_factor(),
-                             accuracy="high", max_seconds=float("inf"), max_memory=float("inf"))
+                             positions=system.positions, accuracy="high", max_seconds=float("inf"), max_memory=float("inf"),
+                             progress=lambda fraction, message: stages.append(message))
         assert modes.path == "accurate-iterative", modes.path
         values, vectors = modes.omega ** 2 * np.sign(modes.omega), modes.vectors
     elif method == "factorisation":
@@ -106,10 +115,12 @@ def run_one(method: str, dofs: int) -> dict:
         values, vectors = sla.eigsh(K.tocsc(), k=MODES, sigma=-1e-4 * norm, which="LM", tol=0.0)
     seconds = time.perf_counter() - start
     residual = np.linalg.norm(K @ vectors - vectors * values, axis=0) / norm
+    iterations = [int(m.split()[1]) for m in stages if m.startswith("LOBPCG:")]
     return {"method": method, "dofs": n, "nnz": int(K.nnz), "seconds": seconds, "build_seconds": build_s,
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0,
             "estimate_seconds": _estimate(method, K, int(system.spring_factor()[0].shape[0])),
             "max_relative_residual": float(residual.max()), "product_threads": _product_threads(),
+            "iterations": iterations[0] if iterations else None,
             "values": [float(v) for v in np.sort(values)], "load_average": os.getloadavg()[0]}
 
 

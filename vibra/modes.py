@@ -325,6 +325,7 @@ def normal_modes(
     solver: str = "auto",
     symmetrize: bool = False,
     spring_factor: tuple[sp.spmatrix | ArrayLike, ArrayLike] | None = None,
+    positions: ArrayLike | None = None,
     units: str | UnitSystem = DIMENSIONLESS,
     max_memory: float | None = None,
     max_seconds: float | None = None,
@@ -360,6 +361,12 @@ def normal_modes(
     spring_factor : (B, w), optional
         B (n_terms, n_dof) sparse or dense and w (n_terms,) > 0 with K = B^T diag(w) B:
         enables the accurate path (frequencies as singular values of W^1/2 B M^-1/2).
+    positions : (n_dof / 3, 3) array_like, optional
+        The sites' coordinates where K is a 3-D network's, three dofs per site (site-major).
+        The iterative paths ("iterative", "accurate-iterative": the lowest modes of a network of
+        over ~10^4 dofs) use them: the rotations are projected out exactly, and the rigid motions
+        of compact groups of sites are the multigrid's first coarse level (about half the
+        iterations on a protein assembly). Other paths ignore them. `System.modes` passes them.
     units : str or UnitSystem
         Unit system of K and M, carried by the result.
     max_memory : float, optional
@@ -441,6 +448,7 @@ def normal_modes(
     factor = None
     if spring_factor is not None:
         factor = solvers.check_spring_factor(spring_factor, n_dof)
+    sites = None if positions is None else _positions(positions, n_dof)
     if solver == "accurate" and (factor is None or not uses_springs(accuracy)):
         raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B"
                          + (' and accuracy "high" or "certified"' if factor is not None else ""))
@@ -456,7 +464,7 @@ def normal_modes(
         factor = None  # "fast" and the GPU: the standard paths, absolute accuracy
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                           spring_factor=factor, accuracy=accuracy, device=device)
+                           spring_factor=factor, accuracy=accuracy, device=device, positions=sites)
     solvers.check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                              max_seconds=max_seconds)
 
@@ -469,7 +477,7 @@ def normal_modes(
         solvers.check_factor_matches(K_matrix, factor)
 
     result = solvers.solve(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band,
-                           solver=solver, spring_factor=factor, progress=progress, request=request)
+                           solver=solver, spring_factor=factor, progress=progress, request=request, positions=sites)
     return _modes_from(result, K_matrix, mass, unit)
 
 
@@ -494,6 +502,15 @@ def _modes_from(result: solvers.SolveResult, K_matrix: Any, mass: NDArray[np.flo
             residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
             units=unit, refined=result.refined, refinement=result.refinement,
         )
+
+
+def _positions(positions: Any, n_dof: int) -> NDArray[np.float64]:
+    """`positions` as an (n_dof / 3, 3) array of finite floats; raise naming it otherwise."""
+    array = _validate.real_array(positions, "positions", ndim=2)
+    if n_dof % 3 or array.shape != (n_dof // 3, 3):
+        raise ValueError(f"positions must have shape (n_dof / 3, 3), one row per site of K's {n_dof} dofs "
+                         f"(three per site, site-major), got shape {array.shape}")
+    return array
 
 
 def _band(band: Any) -> tuple[float, float]:

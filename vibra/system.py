@@ -501,6 +501,11 @@ class System(FreeDofs):
         """
         return np.repeat(np.asarray(self.masses), self.dim)[self.free_dofs]
 
+    def solver_positions(self) -> NDArray[np.float64] | None:
+        """The sites' positions as `vibra.normal_modes` takes them (``positions=``: the iterative path's
+        rigid blocks and exact rotations) for a 3-D system whose dofs are all free, else None."""
+        return self.positions if self.dim == 3 and self.free_dofs.size == self.positions.size else None
+
     def modes(
         self,
         n_modes: int | None = None,
@@ -548,7 +553,8 @@ class System(FreeDofs):
         factor = self.spring_factor() if uses_springs(accuracy) and not on_gpu else None
         return normal_modes(
             self.hessian(), self.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
-            solver=solver, spring_factor=factor, units=self.units, device=device,
+            solver=solver, spring_factor=factor, positions=self.solver_positions(),
+            units=self.units, device=device,
             max_memory=max_memory, max_seconds=max_seconds, progress=progress,
             accuracy=accuracy,
         )

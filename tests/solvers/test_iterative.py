@@ -320,3 +320,141 @@ def test_a_network_tied_to_fixed_points_is_not_deflated(small):
     assert iterative.annihilated(Kt, translations(n, mass, Kt), _norm(Kt)).shape[1] == 3
     result = lowest_modes(K_tied, 12, mass=mass)
     assert np.all(np.abs(result.eigenvalues - values[:12]) <= (ACCEPTED + 1e-12) * _norm(K_tied))
+
+
+# ------------------------------------------------------------------ the coordinates: rigid blocks and rotations
+def test_rigid_groups_of_a_cubic_lattice_are_its_cubes():
+    """Recursive bisection of a 4 x 4 x 4 cubic lattice into groups of 8 at most: the eight 2 x 2 x 2
+    cubes (each halving splits the widest extent at its median), every site in exactly one."""
+    axis = np.arange(4.0)
+    lattice = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
+    groups = iterative.rigid_groups(lattice, size=8)
+    assert groups.shape == (64, 8)
+    assert np.all(groups.sum(axis=1) == 1)
+    cubes = {tuple(sorted(map(tuple, (lattice[groups[:, g].nonzero()[0]] // 2).astype(int)))) for g in range(8)}
+    assert cubes == {tuple([corner] * 8) for corner in
+                     {tuple(c) for c in (lattice // 2).astype(int)}}
+
+
+@pytest.mark.parametrize("n_sites, size", [(1, 32), (33, 32), (1_000, 32), (1_001, 16)])
+def test_rigid_groups_sizes(n_sites, size):
+    """Groups of size / 2 to size sites (all the sites where there are fewer), a partition."""
+    positions = np.random.default_rng(n_sites).uniform(0.0, 30.0, (n_sites, 3))
+    counts = np.asarray(iterative.rigid_groups(positions, size=size).sum(axis=0)).ravel()
+    assert counts.sum() == n_sites
+    assert counts.max() <= size and (counts.min() >= size // 2 or counts.size == 1)
+
+
+def test_positions_give_the_same_modes_and_exact_rotations(small):
+    """With the coordinates: LAPACK's values within the promise, and all six rigid-body modes (closed
+    form: the translations and the rotations about the centroid, mass-weighted) in the returned zero
+    space to rounding: they are projected out, not iterated on."""
+    Kt, mass, positions, values, vectors = small
+    k = 20
+    result = lowest_modes(Kt, k, mass=mass, positions=positions)
+    norm = _norm(Kt)
+    assert np.all(np.abs(result.eigenvalues - values[:k]) <= (ACCEPTED + 1e-12) * norm)
+    R = rigid_body_modes(positions, mass)
+    zero = result.vectors[:, :6]
+    assert la.norm(R - zero @ (zero.T @ R), 2) <= 1e-12
+    residual = Kt @ result.vectors - result.vectors * result.eigenvalues
+    assert np.all(np.linalg.norm(residual, axis=0) <= ACCEPTED * norm)
+    gap = values[k] - result.eigenvalues[k - 1]
+    sine = np.sqrt(max(0.0, 1.0 - float(la.svdvals(vectors[:, :k].T @ result.vectors).min()) ** 2))
+    assert sine <= 2.0 * np.linalg.norm(residual) / gap
+
+
+def test_the_first_coarse_level_holds_every_rigid_motion(small):
+    """The groups' rigid motions as the first prolongator, unsmoothed: its span holds the whole
+    network's six rigid-body modes (a rigid motion of the whole is one of every group), to the
+    cycle's single precision; one coarse column per group and rigid motion."""
+    Kt, mass, positions, _, _ = small
+    A = (Kt + iterative.SHIFT * _norm(Kt) * sp.identity(Kt.shape[0])).tocsr()
+    groups = iterative.rigid_groups(positions)
+    R = rigid_body_modes(positions, mass)
+    P = iterative.BlockMultigrid(A, R, groups=groups).levels[0][3]
+    dense = (P @ np.eye(P.shape[1], dtype=iterative.PRECISION)).astype(float)
+    assert dense.shape == (Kt.shape[0], 6 * groups.shape[1])
+    inside = dense @ np.linalg.lstsq(dense, R, rcond=None)[0]
+    assert np.abs(R - inside).max() <= 1e-5
+
+
+@pytest.mark.parametrize("precision, bound", [(np.float64, 1e-10), (np.float32, 1e-5)])
+def test_rigid_block_multigrid_symmetric(small, monkeypatch, precision, bound):
+    """As `test_block_multigrid_symmetric`, with the rigid-block first level."""
+    monkeypatch.setattr(iterative, "PRECISION", precision)
+    Kt, mass, positions, _, _ = small
+    A = (Kt + iterative.SHIFT * _norm(Kt) * sp.identity(Kt.shape[0])).tocsr()
+    P = iterative.BlockMultigrid(A, rigid_body_modes(positions, mass), groups=iterative.rigid_groups(positions))
+    x, y = np.random.default_rng(2).standard_normal((2, Kt.shape[0]))
+    assert abs(x @ P(y) - y @ P(x)) <= bound * abs(x @ P(x))
+
+
+def test_a_singular_coarse_level_takes_the_pseudo_inverse():
+    """Groups whose rigid motions are dependent (collinear sites: no rotation about their line) give
+    a singular Galerkin matrix; Cholesky fails and the pseudo-inverse serves: A A+ A = A."""
+    rng = np.random.default_rng(3)
+    basis = rng.standard_normal((40, 30))
+    coarse = basis @ basis.T  # rank 30 of 40
+    inverse = iterative._coarse_inverse(coarse)
+    assert np.abs(coarse @ inverse @ coarse - coarse).max() <= 1e-10 * np.abs(coarse).max()
+    definite = coarse + np.eye(40)
+    assert np.allclose(iterative._coarse_inverse(definite) @ definite, np.eye(40), atol=1e-10)
+
+
+def test_a_tied_network_with_positions(small):
+    """Tied to fixed points, the coordinates' rigid modes are not in K~'s kernel and none is deflated."""
+    Kt, mass, positions, _, _ = small
+    n = Kt.shape[0]
+    tied = np.zeros(n)
+    tied[:30] = 0.05 * _norm(Kt)
+    K_tied = sp.csr_matrix(Kt + sp.diags(tied / mass))
+    values = la.eigh(K_tied.toarray(), eigvals_only=True)
+    result = lowest_modes(K_tied, 12, mass=mass, positions=positions)
+    assert np.all(np.abs(result.eigenvalues - values[:12]) <= (ACCEPTED + 1e-12) * _norm(K_tied))
+
+
+@pytest.mark.parametrize("bad, message", [
+    (np.zeros((10, 3)), r"positions has shape \(10, 3\); expected \(800, 3\)"),
+    (np.zeros((800, 2)), r"positions has shape \(800, 2\); expected \(800, 3\)"),
+])
+def test_positions_of_the_wrong_shape(small, bad, message):
+    Kt, mass, _, _, _ = small
+    with pytest.raises(ValueError, match=message):
+        lowest_modes(Kt, 10, mass=mass, positions=bad)
+
+
+def test_system_modes_passes_its_positions(small, monkeypatch):
+    """`System.modes` of a 3-D network hands its coordinates to the iterative path (which then
+    projects all six rigid-body modes out); `normal_modes` checks them, naming the argument."""
+    import vibra
+    from vibra.solvers import runners
+
+    seen = {}
+    real = runners.lowest_modes
+
+    def spy(*args, **kwargs):
+        seen["positions"] = kwargs.get("positions")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(runners, "lowest_modes", spy)
+    rng = np.random.default_rng(0)
+    positions = rng.uniform(0.0, (800 / 0.05) ** (1.0 / 3.0), size=(800, 3))
+    system = networks.anm(positions, cutoff=8.5)
+    modes = system.modes(12, accuracy="fast", solver="iterative")
+    assert modes.solver == "iterative" and np.array_equal(seen["positions"], system.positions)
+    K, M = system.hessian(), system.mass_matrix()
+    for bad in (positions[:-1], positions[:, :2], np.full_like(positions, np.nan)):
+        with pytest.raises(ValueError, match="positions"):
+            vibra.normal_modes(K, M, n_modes=12, solver="iterative", accuracy="fast", positions=bad)
+    plain = vibra.normal_modes(K, M, n_modes=12, solver="iterative", accuracy="fast")
+    assert seen["positions"] is None
+    assert np.allclose(plain.omega[6:], modes.omega[6:], rtol=0, atol=1e-6 * modes.omega[-1])
+
+
+def test_coordinates_lower_the_estimate():
+    """Fewer iterations and a narrower block (six known modes) where the coordinates are given."""
+    for n, per_row in ((30_000, 165), (1_000_000, 165)):
+        plain = iterative_cost(n, n * per_row, 20)
+        given = iterative_cost(n, n * per_row, 20, coordinates=True)
+        assert given[1] < plain[1] and given[0] < plain[0]

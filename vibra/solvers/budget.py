@@ -352,3 +352,6 @@ ITERATIVE_PRODUCTS = 9.0      # products per iteration: K~ once, the V-cycle's C
 ITERATIVE_RITZ_S = 1.4e-9     # per n b^2: LOBPCG's Rayleigh-Ritz on 3 b columns and its orthonormal bases, per iteration (the other 0.65 s)
 ITERATIVE_STEPS = 13.0        # LOBPCG iterations at 10^4 dofs (13 measured on the synthetic assembly, block 4 k)...
 ITERATIVE_GROWTH = 0.52       # ... growing as n^0.52 (13 at 1e4, 22 at 3e4, 43 at 1e5; a log fit; RESULTS.md)
+ITERATIVE_RIGID_STEPS = 10.4  # the same where the coordinates give rigid blocks and the rotations (11 at 1e4, 14 at 3e4,
+ITERATIVE_RIGID_GROWTH = 0.38  # 26 at 1e5: the log fit, RESULTS.md "Rigid blocks from the coordinates"), ...
+ITERATIVE_RIGID_PRODUCTS = 12.5  # ... each 9 products and the rigid-block level's cycle, ~3.5 more (fitted: 0.19, 0.6, 2.0 s per iteration at 1e4, 3e4, 1e5)

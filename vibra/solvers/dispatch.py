@@ -51,7 +51,7 @@ class SolvePlan:
 def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *, n_modes: int | None,
              vectors: bool, band: tuple[float, float] | None, solver: str,
              spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, accuracy: str = "high",
-             device: str = "cpu") -> Problem:
+             device: str = "cpu", positions: NDArray[np.float64] | None = None) -> Problem:
     """The `registry.Problem` of a request: sizes, K~'s band (a ring reordered where the band
     solver could use it), the springs' shape (`topology.classify`), and K~'s diagonal spread
     where the springs or a few modes of a chain are given, or K~ is large and not banded, and the
@@ -81,7 +81,8 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
     separator = separator_width(K) if sp.issparse(K) and diagonal and width > BAND_LIMIT and n > DENSE_LIMIT else 0
     return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
                    width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
-                   topology=topology, spread=spread, device=device, separator=separator)
+                   topology=topology, spread=spread, device=device, separator=separator,
+                   coordinates=positions is not None)
 
 
 def plan(
@@ -95,6 +96,7 @@ def plan(
     spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None,
     accuracy: str = "high",
     device: str = "cpu",
+    positions: NDArray[np.float64] | None = None,
 ) -> SolvePlan:
     """Choose the path for this request (`registry.choose`; "auto" picks one) and estimate its
     cost; nothing allocated.
@@ -103,11 +105,12 @@ def plan(
     sparse K and one pass over a dense one (its bandwidth); K~ is not formed. `accuracy` is
     "high" or "certified" where a spring factor is given (the caller drops the factor for
     "fast"): "certified" runs the bound-tightening steps in full (a chain's Ritz values
-    bracketed by Sturm counts from 8 eps).
+    bracketed by Sturm counts from 8 eps). `positions` ((n / 3, 3), the sites' coordinates, checked
+    by the caller) are priced in by the iterative paths' estimate, which they speed up.
     """
     _check_named(solver, K, mass, n_modes=n_modes, band=band, spring_factor=spring_factor)
     problem = describe(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                       spring_factor=spring_factor, accuracy=accuracy, device=device)
+                       spring_factor=spring_factor, accuracy=accuracy, device=device, positions=positions)
     return plan_problem(problem, solver)
 
 
@@ -233,13 +236,15 @@ def solve(
     progress: bool | ProgressCallback | None = None,
     request: SolvePlan | None = None,
     accuracy: str = "high",
+    positions: NDArray[np.float64] | None = None,
 ) -> SolveResult:
     """Run the path the registry chose for this request (`plan`) on K~ and return a `SolveResult`.
 
     The request is planned and guarded first (`plan`, `vibra.solvers.budget.guard`): one
     whose estimated memory or time exceeds `max_memory` / `max_seconds` (defaults: the
     module-level limits of `vibra.solvers.budget`) raises `ResourceLimitError` before
-    anything is allocated. `progress` reports long solves (see `budget.Progress`).
+    anything is allocated. `progress` reports long solves (see `budget.Progress`). `positions`
+    ((n / 3, 3) or None) go to the iterative paths (`iterative.lowest_modes`); the others ignore them.
 
     Examples
     --------
@@ -252,7 +257,7 @@ def solve(
     """
     if request is None:
         request = plan(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                       spring_factor=spring_factor, accuracy=accuracy)
+                       spring_factor=spring_factor, accuracy=accuracy, positions=positions)
         check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                          max_seconds=max_seconds)
     problem = request.problem
@@ -281,7 +286,7 @@ def solve(
             band = (band[0] * 2.0 ** (-exponent // 2), band[1] * 2.0 ** (-exponent // 2))
         if factor is not None:
             factor = (factor[0], factor[1] * scale)
-    result = path.run(problem, Inputs(Kt, K, mass, factor, band, scale, report.step))
+    result = path.run(problem, Inputs(Kt, K, mass, factor, band, scale, report.step, positions))
     result.solver = path.reported(result)  # (the name the registry declares, or its declared fallback)
     if exponent:
         result.eigenvalues = result.eigenvalues * 2.0**exponent

@@ -33,7 +33,9 @@ class Problem:
     `separator` the widest breadth-first level of K's graph (`topology.separator_width`: what a
     nested-dissection factor of a sparse K wider than a band costs), 0 where not measured;
     `batch` the number of matrices solved alike: a crystal's D(q) at `batch` wave vectors
-    (``equation="bloch"``, `bloch_problem`), 1 for every other request.
+    (``equation="bloch"``, `bloch_problem`), 1 for every other request;
+    `coordinates` whether the sites' positions came with K (three dofs per site): the iterative
+    path's preconditioner and exact rotations use them (`iterative.lowest_modes`).
     """
 
     n: int
@@ -57,6 +59,7 @@ class Problem:
     definite: bool = True
     separator: int = 0
     batch: int = 1
+    coordinates: bool = False
 
     @property
     def quadratic(self) -> bool:

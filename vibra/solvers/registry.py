@@ -209,13 +209,13 @@ def _ritz_cost(p: Problem) -> Estimate:
 def _iterative_cost(p: Problem) -> Estimate:
     """LOBPCG with the multigrid preconditioner (`iterative.iterative_cost`: O(nnz) bytes and
     O(nnz k) seconds per iteration, no factor)."""
-    return _made("iterative", p, *iterative_cost(p.n, p.nnz, p.k))
+    return _made("iterative", p, *iterative_cost(p.n, p.nnz, p.k, coordinates=p.coordinates))
 
 
 def _accurate_iterative_cost(p: Problem) -> Estimate:
     """The iterative path's (one more mode: the gap), + the spring-space Rayleigh-Ritz (O(nnz k): "high"
     end to end measured 1.49, 1.33, 1.17 times "fast" at 1e4, 3e4, 1e5 dofs) and "certified"'s refinement."""
-    memory, seconds = iterative_cost(p.n, p.nnz, p.k + 1)
+    memory, seconds = iterative_cost(p.n, p.nnz, p.k + 1, coordinates=p.coordinates)
     return _made("accurate-iterative", p, memory, _refined(p, 1.4 * seconds))
 
 
@@ -326,15 +326,15 @@ def _first_order_cost(name: str, rate: float) -> Callable[[Problem], Estimate]:
 
 
 def estimate(path: str, n: int, *, k: int, vectors: bool, width: int = 1, n_terms: int = 0, nnz: int = 0,
-             accuracy: str = "high", topology: str | None = None, separator: int = 0) -> Estimate:
+             accuracy: str = "high", topology: str | None = None, separator: int = 0, coordinates: bool = False) -> Estimate:
     """Memory and time of the path named `path` computing `k` of `n` modes (with vectors or not) at
     `accuracy`, from sizes alone: its declaration's `estimate` on that request (`topology`: "network"
     where `n_terms` springs are given, else "none"; `separator`: `topology.separator_width` of K,
-    0 for a 3-D solid's)."""
+    0 for a 3-D solid's; `coordinates`: the sites' positions given)."""
     shape = topology if topology is not None else ("network" if n_terms else "none")
     problem = Problem(n=n, n_modes=None if k >= n else k, band=None, vectors=vectors, accuracy=accuracy,
                       diagonal_mass=True, width=width, ordering=None, sparse=True, nnz=nnz, n_terms=n_terms,
-                      topology=shape, separator=separator)
+                      topology=shape, separator=separator, coordinates=coordinates)
     return BY_NAME[path].estimate(problem)
 
 
@@ -522,9 +522,9 @@ PATHS: tuple[SolverPath, ...] = (
                cost="~1.5 s start + two factors (~1.2e-8 n^2 s each for a 3-D network) + ~2e-7 n^(4/3) s a shifted solve"),
     SolverPath("iterative", "iterative", _iterative, _iterative_cost, runners.iterative, "absolute ~ 1e-8 ‖K̃‖",
                "a few of the lowest modes of a large 3-D network where its estimate is under the "
-               "factorisation's: LOBPCG, smoothed-aggregation multigrid, translations deflated, every "
+               "factorisation's: LOBPCG, smoothed-aggregation multigrid (its first level the rigid motions of groups of sites where the coordinates are given), the known rigid-body modes deflated, every "
                "residual checked", rival="sparse", serves=lambda p: p.partial and p.band is None and p.diagonal_mass and p.n_modes <= most_modes(p.n),  # type: ignore[operator]
-               cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); ~33 nnz + 512 n k bytes"),
+               cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); with the coordinates ~10.4 (n / 1e4)^0.38 iterations of 12.5 products; ~33 nnz + 512 n k bytes"),
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
                cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),

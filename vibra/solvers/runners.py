@@ -51,7 +51,8 @@ __all__ = ["Inputs"]
 class Inputs:
     """What a runner works on: K~ as solved (scaled by `scale`, an even power of 2), K and the
     masses as given, the spring factor (B, w) with w scaled alike (None on standard paths), the
-    band scaled alike, and the progress callback."""
+    band scaled alike, the progress callback, and the sites' positions where given (the iterative
+    paths' preconditioner)."""
 
     Kt: Any
     K: Any
@@ -60,6 +61,7 @@ class Inputs:
     band: tuple[float, float] | None
     scale: float
     on_stage: Callable[[float, str], None] | None
+    positions: NDArray[np.float64] | None = None
 
 
 # ------------------------------------------------------------------ standard paths
@@ -80,7 +82,8 @@ def sparse(p: Problem, x: Inputs) -> SolveResult:
 
 
 def iterative(p: Problem, x: Inputs) -> SolveResult:
-    result = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, on_stage=x.on_stage)  # type: ignore[arg-type]
+    result = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, positions=x.positions,  # type: ignore[arg-type]
+                          on_stage=x.on_stage)
     if not p.vectors:
         result.vectors = None
     return result
@@ -222,7 +225,8 @@ def accurate_ritz(p: Problem, x: Inputs) -> SolveResult:
 
 def accurate_iterative(p: Problem, x: Inputs) -> SolveResult:
     """The iterative path's k + 1 lowest vectors (the last bounds the gap), then as `accurate_ritz`."""
-    basis = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, extra=1, on_stage=x.on_stage).vectors  # type: ignore[arg-type]
+    basis = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, positions=x.positions, extra=1,  # type: ignore[arg-type]
+                         on_stage=x.on_stage).vectors
     assert basis is not None
     return _spring_ritz(p, x, basis, "LOBPCG")
 

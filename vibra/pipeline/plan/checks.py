@@ -120,7 +120,7 @@ def _solve_plan(scene: Scene, system: System | GeneralizedSystem) -> None:
     try:
         request = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=plan.n_modes, vectors=plan.vectors,
                                band=compute.band, solver=compute.solver, spring_factor=factor,
-                               accuracy=compute.accuracy)
+                               accuracy=compute.accuracy, positions=_positions(system))
     except ValueError as error:
         if compute.solver == "auto":
             raise
@@ -275,6 +275,12 @@ def solve_request(system: System | GeneralizedSystem, *, n_modes: int | None, ve
     try:
         factor = system.spring_factor() if uses_springs(accuracy) else None
         return solvers.plan(system.hessian(), system.mass_matrix(), n_modes=n_modes, vectors=vectors, band=band,
-                            solver=solver, spring_factor=factor, accuracy=accuracy)
+                            solver=solver, spring_factor=factor, accuracy=accuracy, positions=_positions(system))
     except (ValueError, TypeError, AttributeError, NotImplementedError):
         return None
+
+
+def _positions(system: System | GeneralizedSystem) -> NDArray[np.float64] | None:
+    """What `System.modes` passes as `positions` (`System.solver_positions`); None for a generalised system."""
+    chosen = getattr(system, "solver_positions", None)
+    return chosen() if callable(chosen) else None

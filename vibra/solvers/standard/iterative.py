@@ -41,14 +41,15 @@ import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 from vibra.solvers.budget import (
-    ITERATIVE_GROWTH, ITERATIVE_PRODUCT_S, ITERATIVE_PRODUCTS, ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS,
+    ITERATIVE_GROWTH, ITERATIVE_PRODUCT_S, ITERATIVE_PRODUCTS, ITERATIVE_RIGID_GROWTH, ITERATIVE_RIGID_PRODUCTS, ITERATIVE_RIGID_STEPS,
+    ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS,
 )
 from vibra.solvers.compiled import compiled_pays
 from vibra.solvers.common import SolveResult, absolute_figures
 from vibra.solvers.standard.ordering import site_block
 from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, products
 
-__all__ = ["ACCEPTED", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes",
+__all__ = ["ACCEPTED", "GROUP", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes", "rigid_groups",
            "translations"]
 
 #: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a decade under `ACCEPTED`,
@@ -107,7 +108,13 @@ Product = SiteBlocks | RowSlabs
 #: A block-Jacobi step X -> D^-1 X (`_jacobi`).
 Jacobi = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
-#: The coarsest level's size at most (a dense pseudo-inverse).
+#: Sites per rigid block at most (`rigid_groups`, where the coordinates are given): recursive bisection
+#: gives blocks of GROUP / 2 to GROUP sites. 20 modes of the synthetic assembly (RESULTS.md), iterations
+#: and seconds at 3e4 / 1e5 dofs: 16 sites 12 / 27 (15 / 102 s, a larger coarse level to set up);
+#: 32 sites 14 / 26 (11 / 84 s); 64 sites 14 at 3e4; translations only (no coordinates) 22 / 43 (21 / 120 s).
+GROUP = 32
+
+#: The coarsest level's size at most (a dense inverse).
 MAX_COARSE = 500
 
 
@@ -139,6 +146,34 @@ def rigid_body_modes(positions: NDArray[np.float64], mass: NDArray[np.float64] |
     if mass is not None:
         flat = flat * np.sqrt(np.asarray(mass, dtype=float))[:, None]
     return np.asarray(np.linalg.qr(flat)[0])
+
+
+def rigid_groups(positions: NDArray[np.float64], size: int = GROUP) -> sp.csr_matrix:
+    """(n_sites, n_groups) 0/1 matrix of compact groups of `size` / 2 to `size` sites (fewer where there
+    are fewer sites): recursive coordinate bisection, each group halved at its median across its
+    widest extent until none has more than `size` (O(n log n), numpy; a group's rigid motions are the
+    rigid-block coarse space of `BlockMultigrid`, the blocks of Tama et al.'s RTB)."""
+    positions = np.asarray(positions, dtype=float)
+    n_sites = positions.shape[0]
+    label = np.zeros(n_sites, dtype=np.intp)
+    groups = 1
+    sites = np.arange(n_sites)
+    while True:
+        counts = np.bincount(label, minlength=groups)
+        split = counts > size
+        if not split.any():
+            return sp.csr_matrix((np.ones(n_sites), (sites, label)), shape=(n_sites, groups))
+        low = np.full((groups, 3), np.inf)
+        high = np.full((groups, 3), -np.inf)
+        np.minimum.at(low, label, positions)
+        np.maximum.at(high, label, positions)
+        along = positions[sites, np.argmax(high - low, axis=1)[label]]
+        order = np.lexsort((along, label))
+        rank = np.empty(n_sites, dtype=np.intp)
+        rank[order] = sites - np.repeat(np.cumsum(counts) - counts, counts)
+        upper = split[label] & (rank >= (counts[label] + 1) // 2)
+        label = np.where(upper, (groups + np.cumsum(split) - 1)[label], label)
+        groups += int(split.sum())
 
 
 #: A direction v of the rigid-body basis is in K~'s kernel where ||K~ v|| <= KERNEL ||K~||_inf (v
@@ -181,14 +216,19 @@ class BlockMultigrid:
     stay in double, and the products, memory-bound, take about half the time.
     """
 
-    def __init__(self, A: sp.csr_matrix, near_null: NDArray[np.float64], *, compiled: bool = True) -> None:
+    def __init__(self, A: sp.csr_matrix, near_null: NDArray[np.float64], *, groups: sp.csr_matrix | None = None,
+                 compiled: bool = True) -> None:
         import pyamg
 
         blocks = 3 if A.shape[0] % 3 == 0 and site_block(A) == 3 else 1
         fine = A.tobsr(blocksize=(blocks, blocks)) if blocks > 1 else A
+        strength = ("symmetric", {"theta": STRENGTH})
+        options: dict = {"strength": strength}
+        if groups is not None:  # the first level: the given groups' rigid motions, unsmoothed (Tama's blocks)
+            options = {"aggregate": [("predefined", {"AggOp": groups}), "standard"], "strength": [None, strength],
+                       "smooth": [None, ("jacobi", {"omega": 4.0 / 3.0})], "improve_candidates": None}
         hierarchy = pyamg.smoothed_aggregation_solver(fine, B=near_null if near_null.shape[1] else None,
-                                                      strength=("symmetric", {"theta": STRENGTH}),
-                                                      max_coarse=MAX_COARSE, keep=False)
+                                                      max_coarse=MAX_COARSE, keep=False, **options)
         self.levels: list[tuple[Product, Jacobi, float, Product, Product]] = []
         for index, level in enumerate(hierarchy.levels[:-1]):
             size = blocks if index == 0 else int(getattr(level.A, "blocksize", (1, 1))[0])
@@ -200,8 +240,7 @@ class BlockMultigrid:
                                 _jacobi(inverse.astype(PRECISION), compiled), radius,
                                 products(prolongator, compiled=compiled), products(prolongator.T, compiled=compiled)))
         del hierarchy.levels[:-1]
-        coarse = np.asarray(hierarchy.levels[-1].A.toarray())
-        self._coarse = la.pinvh(0.5 * (coarse + coarse.T)).astype(PRECISION)
+        self._coarse = _coarse_inverse(np.asarray(hierarchy.levels[-1].A.toarray())).astype(PRECISION)
         self.depth = len(self.levels) + 1
 
     def __call__(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -220,6 +259,19 @@ class BlockMultigrid:
         residual = rhs - matrix @ x
         x += _smooth(matrix, jacobi, radius, residual)
         return x
+
+
+def _coarse_inverse(coarse: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The coarsest level's inverse: by Cholesky (A = K~ + sigma I is definite, and so is its Galerkin
+    product with a prolongator of full rank), the pseudo-inverse where rounding made it singular.
+    (scipy's `pinvh` by eigh took 2.0 s at 1,104 dofs against Cholesky's 0.03 s.)"""
+    coarse = 0.5 * (coarse + coarse.T)
+    try:
+        return np.asarray(la.cho_solve(la.cho_factor(coarse), np.eye(coarse.shape[0])))
+    except la.LinAlgError:
+        values, vectors = la.eigh(coarse, driver="evd")
+        kept = values > coarse.shape[0] * np.finfo(float).eps * max(abs(values).max(), 1e-300)
+        return np.asarray((vectors[:, kept] / values[kept]) @ vectors[:, kept].T)
 
 
 def _smooth(matrix: Product, jacobi: Jacobi, radius: float, rhs: NDArray[np.float64]
@@ -351,8 +403,8 @@ def _orthonormal(V: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | None = None,
-                 rigid: NDArray[np.float64] | None = None, extra: int = 0,
-                 max_iterations: int = MAX_ITERATIONS, on_stage: Callable[[float, str], None] | None = None
+                 rigid: NDArray[np.float64] | None = None, positions: NDArray[np.float64] | None = None,
+                 extra: int = 0, max_iterations: int = MAX_ITERATIONS, on_stage: Callable[[float, str], None] | None = None
                  ) -> SolveResult:
     """The `n_modes` lowest eigenpairs of the sparse symmetric positive semidefinite K~, ascending.
 
@@ -366,7 +418,12 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
         The dofs' masses, for the translations M^1/2 t (`translations`); 1 where not given.
     rigid : (n, r) ndarray, optional
         A known basis of K~'s kernel (mass-weighted rigid-body modes), projected out of the
-        iteration; by default the translations.
+        iteration; by default the translations, or all six rigid-body modes where `positions` are given.
+    positions : (n / 3, 3) ndarray, optional
+        The sites' coordinates (dofs site-major, three per site). They give the rotations (then
+        projected out like the translations) and the multigrid's first coarse level: the rigid
+        motions of compact groups of sites (`rigid_groups`), which halves the iterations on a
+        protein assembly (RESULTS.md).
     extra : int
         Columns to return beyond `n_modes` (Rayleigh-Ritz on them bounds the gap; "high").
     max_iterations : int
@@ -390,6 +447,15 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
         raise ValueError(f"n_modes is {n_modes!r}; expected an integer from 1 to {most} for a {n}-dof K~ "
                          f"(LOBPCG's block stays under n / 5, {MOST_MODES} modes at most; the dense or the "
                          "sparse solver serves more)")
+    groups = None
+    if positions is not None:
+        positions = np.asarray(positions, dtype=float)
+        if positions.shape != (n // 3, 3) or n % 3:
+            raise ValueError(f"positions has shape {positions.shape}; expected ({n // 3}, 3), one row per site of "
+                             f"the {n}-dof K~ (dofs site-major, three per site)")
+        groups = rigid_groups(positions)
+        if rigid is None:
+            rigid = rigid_body_modes(positions, mass)
     norm = float(abs(Kt).sum(axis=1).max())
     smooth = translations(n, mass, Kt) if rigid is None else np.linalg.qr(np.asarray(rigid, dtype=float))[0]
     kernel = annihilated(Kt, smooth, norm)
@@ -397,7 +463,8 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     stage = on_stage or (lambda fraction, message: None)
     shifted = (Kt + SHIFT * norm * sp.identity(n, format="csr")).tocsr()
     compiled = compiled_pays(iterative_cost(n, Kt.nnz, wanted)[1])  # (loading numba pays from ~0.1 s of work)
-    preconditioner = BlockMultigrid(shifted, smooth if smooth.shape[1] else np.zeros((n, 0)), compiled=compiled)
+    preconditioner = BlockMultigrid(shifted, smooth if smooth.shape[1] else np.zeros((n, 0)), groups=groups,
+                                    compiled=compiled)
     del shifted
     stage(0.2, f"multigrid preconditioner of {preconditioner.depth} levels built")
     columns = block_columns(wanted, kernel.shape[1])
@@ -430,7 +497,7 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     return result
 
 
-def iterative_cost(n: int, nnz: int, k: int) -> tuple[float, float]:
+def iterative_cost(n: int, nnz: int, k: int, *, coordinates: bool = False) -> tuple[float, float]:
     """(bytes, seconds) of `lowest_modes` for the k lowest modes of an n-dof K~ with nnz stored entries.
 
     Memory: the shifted copy and its block form for pyamg (~2 x 12 nnz bytes), the hierarchy's
@@ -443,9 +510,14 @@ def iterative_cost(n: int, nnz: int, k: int) -> tuple[float, float]:
     columns (`ITERATIVE_PRODUCT_S` per entry and column, as measured on two cores: from sizes only,
     not the machine's core count, so that the plan's choice between this path and the factorisation
     is the same everywhere) and the Rayleigh-Ritz of 3 b columns (`ITERATIVE_RITZ_S` per n b^2).
+    With `coordinates` (the sites' positions given): the six rigid-body modes known, b =
+    `block_columns`(k, 6), and `ITERATIVE_RIGID_STEPS` (n / 10^4)^`ITERATIVE_RIGID_GROWTH` iterations of
+    `ITERATIVE_RIGID_PRODUCTS` products (the rigid-block level's cycle added).
     """
-    b = block_columns(k, 3)
+    b = block_columns(k, 6 if coordinates else 3)
     memory = 33.0 * nnz + 8.0 * 16 * n * b
-    per_step = ITERATIVE_PRODUCTS * ITERATIVE_PRODUCT_S * float(nnz) * b + ITERATIVE_RITZ_S * float(n) * b * b
-    steps = ITERATIVE_STEPS * (n / 1e4) ** ITERATIVE_GROWTH
+    sweeps = ITERATIVE_RIGID_PRODUCTS if coordinates else ITERATIVE_PRODUCTS
+    per_step = sweeps * ITERATIVE_PRODUCT_S * float(nnz) * b + ITERATIVE_RITZ_S * float(n) * b * b
+    steps = (ITERATIVE_RIGID_STEPS * (n / 1e4) ** ITERATIVE_RIGID_GROWTH if coordinates
+             else ITERATIVE_STEPS * (n / 1e4) ** ITERATIVE_GROWTH)
     return memory, ITERATIVE_SETUP_S * nnz + steps * per_step
