@@ -402,6 +402,33 @@ def test_a_singular_coarse_level_takes_the_pseudo_inverse():
     assert np.allclose(iterative._coarse_inverse(definite) @ definite, np.eye(40), atol=1e-10)
 
 
+def test_groups_of_collinear_sites():
+    """Rods of collinear sites as the groups: no rotation about a rod's own line, so the first
+    prolongator has dependent columns (pyamg zeroes them) and the coarsest Galerkin matrix is
+    singular, where the pseudo-inverse serves. The cycle stays finite and symmetric, and LOBPCG
+    preconditioned by it finds LAPACK's values."""
+    grid = [(x, y) for x in range(6) for y in range(6)]  # 36 rods of 12 sites along z: one 3-D network
+    positions = np.array([[4.0 * x, 4.0 * y, 3.0 * z] for x, y in grid for z in range(12)])
+    Kt = sp.csr_matrix(networks.anm(positions, cutoff=8.5).hessian())
+    n, norm = Kt.shape[0], _norm(Kt)
+    groups = sp.csr_matrix((np.ones(len(positions)), (np.arange(len(positions)), np.repeat(np.arange(36), 12))))
+    A = (Kt + iterative.SHIFT * norm * sp.identity(n)).tocsr()
+    R = rigid_body_modes(positions)
+    P = iterative.BlockMultigrid(A, R, groups=groups)
+    prolongator = (P.levels[0][3] @ np.eye(6 * 36, dtype=iterative.PRECISION)).astype(float)
+    assert np.linalg.matrix_rank(prolongator) < 6 * 36  # (a rod's rotation about itself is no motion)
+    x, y = np.random.default_rng(7).standard_normal((2, n))
+    assert np.isfinite(P(y)).all()
+    assert abs(x @ P(y) - y @ P(x)) <= 1e-5 * abs(x @ P(x))
+    dense = la.eigh(Kt.toarray(), eigvals_only=True)
+    kernel = iterative.annihilated(Kt, R, norm)
+    assert kernel.shape[1] == 6
+    start = np.random.default_rng(8).standard_normal((n, 32))
+    X, _ = iterative.block_lobpcg(Kt, P, kernel, start, 8, 1e-10 * norm, 300)
+    values = np.sort(np.einsum("ij,ij->j", X, Kt @ X))
+    assert np.allclose(values[:8], dense[6:14], rtol=0, atol=1e-9 * norm)
+
+
 def test_a_tied_network_with_positions(small):
     """Tied to fixed points, the coordinates' rigid modes are not in K~'s kernel and none is deflated."""
     Kt, mass, positions, _, _ = small
@@ -410,6 +437,7 @@ def test_a_tied_network_with_positions(small):
     tied[:30] = 0.05 * _norm(Kt)
     K_tied = sp.csr_matrix(Kt + sp.diags(tied / mass))
     values = la.eigh(K_tied.toarray(), eigvals_only=True)
+    assert iterative.annihilated(K_tied, rigid_body_modes(positions, mass), _norm(K_tied)).shape[1] == 0
     result = lowest_modes(K_tied, 12, mass=mass, positions=positions)
     assert np.all(np.abs(result.eigenvalues - values[:12]) <= (ACCEPTED + 1e-12) * _norm(K_tied))
 
@@ -458,3 +486,20 @@ def test_coordinates_lower_the_estimate():
         plain = iterative_cost(n, n * per_row, 20)
         given = iterative_cost(n, n * per_row, 20, coordinates=True)
         assert given[1] < plain[1] and given[0] < plain[0]
+
+
+def test_a_plan_and_its_solve_take_the_same_positions():
+    """The estimate prices the coordinates (`Problem.coordinates`): a request planned without them is
+    not run with them, nor the reverse."""
+    from vibra.solvers import dispatch
+
+    positions = np.random.default_rng(0).uniform(0.0, 25.0, size=(300, 3))
+    system = networks.anm(positions, cutoff=8.5)
+    K, M = system.hessian(), system.mass_matrix()
+    common = dict(n_modes=12, vectors=True, band=None, solver="iterative", spring_factor=None, accuracy="fast")
+    for planned, solved, message in ((None, positions, "planned without positions and is solved with them"),
+                                     (positions, None, "planned with positions and is solved without them")):
+        request = dispatch.plan(K, M, positions=planned, **common)
+        assert request.problem.coordinates == (planned is not None)
+        with pytest.raises(ValueError, match=message):
+            dispatch.solve(K, M, request=request, positions=solved, **common)

@@ -143,6 +143,7 @@ class Kernel(_Lazy, Generic[_P, _R]):
         self.options = options
         self._dispatcher: Any = None
         self._exports: list[tuple[Any, Callable[..., Any]]] | None = None
+        self._rebind: list[tuple[dict[str, object], str]] = []  # (the names a forked child points back here)
         functools.update_wrapper(self, function)
         if self.aot:
             AOT_KERNELS.append(self)
@@ -153,16 +154,19 @@ class Kernel(_Lazy, Generic[_P, _R]):
 
     def serial_after_fork(self) -> None:
         """In a child forked from a process that had loaded numba: compile this kernel without
-        threads and without the on-disk cache on its next call, and bind its module's name back to
-        this kernel in place of the parallel dispatcher (see the module's docstring)."""
+        threads and without the on-disk cache on its next call. The names bound to its parallel
+        dispatcher (in the kernel modules loaded) point back to this kernel until then, and to the
+        serial dispatcher once it is made (`resolve`)."""
         parallel, self._dispatcher = self._dispatcher, None
         self.parallel = False
         self.options = {**self.options, "parallel": False, "cache": False}
         if parallel is not None:
-            namespace = self.py_func.__globals__
-            for name, value in list(namespace.items()):
-                if value is parallel:
-                    namespace[name] = self
+            modules = [vars(m) for name, m in list(sys.modules.items()) if name.startswith("vibra.") and hasattr(m, "__dict__")]
+            for namespace in modules:
+                for name, value in list(namespace.items()):
+                    if value is parallel:
+                        namespace[name] = self
+                        self._rebind.append((namespace, name))
 
     def resolve(self) -> Callable[_P, _R]:
         """numba's dispatcher of this function (created once; its module's names bound first)."""
@@ -170,6 +174,9 @@ class Kernel(_Lazy, Generic[_P, _R]):
             if self._dispatcher is None:
                 self._dispatcher = _numba().njit(**self.options)(self.py_func)
                 bind(self.py_func.__globals__)
+                for namespace, name in self._rebind:  # (a forked child's serial copy: `serial_after_fork`)
+                    namespace[name] = self._dispatcher
+                self._rebind = []
             return cast("Callable[_P, _R]", self._dispatcher)
 
     def ahead_of_time(self, args: tuple[Any, ...]) -> Callable[..., Any] | None:
@@ -221,7 +228,8 @@ def forked_with_numba() -> bool:
 
 
 def _after_fork_in_child() -> None:
-    global _FORKED_WITH_NUMBA
+    global _FORKED_WITH_NUMBA, _LOCK
+    _LOCK = threading.RLock()  # (a parent thread may have held it at the fork)
     if "numba" in sys.modules and not _FORKED_WITH_NUMBA:
         _FORKED_WITH_NUMBA = True
         for kernel in _PARALLEL:

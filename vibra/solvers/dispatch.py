@@ -262,6 +262,9 @@ def solve(
                          max_seconds=max_seconds)
     problem = request.problem
     assert problem is not None
+    if problem.coordinates != (positions is not None):
+        raise ValueError(f"request was planned {'with' if problem.coordinates else 'without'} positions and is solved "
+                         f"{'with' if positions is not None else 'without'} them; plan and solve with the same positions")
     path = BY_NAME[request.path]
     report = Progress(progress, request.cost)
     if not path.weighted:  # (K and M as given: no K~ formed)
