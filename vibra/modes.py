@@ -448,7 +448,7 @@ def normal_modes(
     factor = None
     if spring_factor is not None:
         factor = solvers.check_spring_factor(spring_factor, n_dof)
-    sites = None if positions is None else _positions(positions, n_dof)
+    sites = None if positions is None else _validate.site_positions(positions, n_dof)
     if solver == "accurate" and (factor is None or not uses_springs(accuracy)):
         raise ValueError("solver='accurate' needs spring_factor=(B, w) with K = B^T diag(w) B"
                          + (' and accuracy "high" or "certified"' if factor is not None else ""))
@@ -502,15 +502,6 @@ def _modes_from(result: solvers.SolveResult, K_matrix: Any, mass: NDArray[np.flo
             residual=result.residual, orthogonality=result.orthogonality, solver=result.solver,
             units=unit, refined=result.refined, refinement=result.refinement,
         )
-
-
-def _positions(positions: Any, n_dof: int) -> NDArray[np.float64]:
-    """`positions` as an (n_dof / 3, 3) array of finite floats; raise naming it otherwise."""
-    array = _validate.real_array(positions, "positions", ndim=2)
-    if n_dof % 3 or array.shape != (n_dof // 3, 3):
-        raise ValueError(f"positions must have shape (n_dof / 3, 3), one row per site of K's {n_dof} dofs "
-                         f"(three per site, site-major), got shape {array.shape}")
-    return array
 
 
 def _band(band: Any) -> tuple[float, float]:

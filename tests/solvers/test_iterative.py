@@ -443,8 +443,9 @@ def test_a_tied_network_with_positions(small):
 
 
 @pytest.mark.parametrize("bad, message", [
-    (np.zeros((10, 3)), r"positions has shape \(10, 3\); expected \(800, 3\)"),
-    (np.zeros((800, 2)), r"positions has shape \(800, 2\); expected \(800, 3\)"),
+    (np.zeros((10, 3)), r"positions must have shape \(n_dof / 3, 3\), .* 2400 dofs .*got shape \(10, 3\)"),
+    (np.zeros((800, 2)), r"positions must have shape \(n_dof / 3, 3\), .*got shape \(800, 2\)"),
+    (np.full((800, 3), np.nan), r"positions"),
 ])
 def test_positions_of_the_wrong_shape(small, bad, message):
     Kt, mass, _, _, _ = small

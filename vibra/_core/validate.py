@@ -351,6 +351,16 @@ def symmetric(
     return matrix
 
 
+def site_positions(value: Any, n_dof: int, name: str = "positions") -> NDArray[np.float64]:
+    """`value` as the (n_dof / 3, 3) finite coordinates of the sites of an n_dof-dof 3-D system (three
+    dofs per site, site-major); raise naming `name` otherwise."""
+    array = real_array(value, name, ndim=2)
+    if n_dof % 3 or array.shape != (n_dof // 3, 3):
+        raise ValueError(f"{name} must have shape (n_dof / 3, 3), one row per site of the {n_dof} dofs "
+                         f"(three per site, site-major), got shape {array.shape}")
+    return array
+
+
 def mass_argument(value: Any, n_dof: int, name: str = "M") -> NDArray[np.float64]:
     """Masses as an (n_dof,) positive vector or an (n_dof, n_dof) SPD matrix."""
     if sp.issparse(value):

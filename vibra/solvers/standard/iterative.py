@@ -44,6 +44,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
+from vibra._core import validate as _validate
 from vibra.solvers.budget import (
     ITERATIVE_GROWTH, ITERATIVE_PRODUCT_S, ITERATIVE_PRODUCTS, ITERATIVE_RIGID_GROWTH, ITERATIVE_RIGID_PRODUCTS, ITERATIVE_RIGID_STEPS,
     ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS,
@@ -458,12 +459,7 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
                          "sparse solver serves more)")
     groups = None
     if positions is not None:
-        positions = np.asarray(positions, dtype=float)
-        if positions.shape != (n // 3, 3) or n % 3:
-            raise ValueError(f"positions has shape {positions.shape}; expected ({n // 3}, 3), one row per site of "
-                             f"the {n}-dof K~ (dofs site-major, three per site)")
-        if not np.isfinite(positions).all():
-            raise ValueError("positions holds a NaN or an infinity; every coordinate must be finite")
+        positions = _validate.site_positions(positions, n)
         groups = rigid_groups(positions)
         if rigid is None:
             rigid = rigid_body_modes(positions, mass)
