@@ -52,14 +52,15 @@ from vibra.solvers.budget import (
 from vibra.solvers.compiled import compiled_pays
 from vibra.solvers.common import SolveResult, absolute_figures
 from vibra.solvers.standard.ordering import site_block
-from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, products
+from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, Unshifted, products
 
-__all__ = ["ACCEPTED", "GROUP", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes", "rigid_groups",
+__all__ = ["ACCEPTED", "GROUP", "shifted_blocks", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes", "rigid_groups",
            "translations"]
 
-#: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a decade under `ACCEPTED`,
-#: so that the final Rayleigh-Ritz step's rounding and LOBPCG's own (its Gram matrices) stay inside it.
-TOLERANCE = 1e-9
+#: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a third of `ACCEPTED`, so that the
+#: final Rayleigh-Ritz step's rounding and LOBPCG's own (its Gram matrices, ~1e-12) stay well inside it
+#: (the final residuals measured never above LOBPCG's own; 1e-9 before, two iterations more of 26 at 10^5 dofs).
+TOLERANCE = 3e-9
 
 #: The largest residual ||K~ v - lambda v|| / ||K~||_inf a returned pair may have (the "fast"
 #: promise on this path: an eigenvalue within that of a true one, Weyl; issue 47).
@@ -76,6 +77,14 @@ EXTRA = 4
 #: 3e4 / 1e5 dofs with 2x: 47 / 164 (18 / 228 s); 3x: 24 / 57 (17 / 149 s); 4x: 22 / 43 (18 / 115 s).
 #: Even the exact preconditioner (K~ + sigma)^-1 takes 106 iterations at 1e5 dofs with 2x.
 WIDTH = 4
+
+#: `_outside`'s second Gram-Schmidt pass: for the columns whose norm fell under this fraction in the first
+#: (Kahan's and Parlett's 1 / sqrt 2).
+REORTHOGONALISE = 0.7071
+
+#: `_orthonormal`'s second SVQB pass: where the Gram matrix's condition passed this (one pass leaves
+#: ~eps x condition of non-orthogonality: 2e-12 here, under LOBPCG's `TOLERANCE` by three decades).
+SVQB_CONDITION = 1e4
 
 #: LOBPCG iterations at most (measured: 31 at 3e3 dofs, 59 at 1e4, 359 at 3e4 on a protein assembly).
 MAX_ITERATIONS = 1000
@@ -226,12 +235,15 @@ class BlockMultigrid:
     stay in double, and the products, memory-bound, take about half the time.
     """
 
-    def __init__(self, A: sp.csr_matrix, near_null: NDArray[np.float64], *, groups: sp.csr_matrix | None = None,
-                 compiled: bool = True) -> None:
+    def __init__(self, A: sp.csr_matrix | sp.bsr_matrix, near_null: NDArray[np.float64], *,
+                 groups: sp.csr_matrix | None = None, compiled: bool = True) -> None:
         import pyamg
 
-        blocks = 3 if A.shape[0] % 3 == 0 and site_block(A) == 3 else 1
-        fine = A.tobsr(blocksize=(blocks, blocks)) if blocks > 1 else A
+        if isinstance(A, sp.bsr_matrix):  # (`shifted_blocks`: the 3 x 3 blocks taken as they are, not copied)
+            blocks, fine = A.blocksize[0], A
+        else:
+            blocks = 3 if A.shape[0] % 3 == 0 and site_block(A) == 3 else 1
+            fine = A.tobsr(blocksize=(blocks, blocks)) if blocks > 1 else A
         strength = ("symmetric", {"theta": STRENGTH})
         options: dict = {"strength": strength}
         if groups is not None:  # the first level: the given groups' rigid motions, unsmoothed (Tama's blocks)
@@ -242,12 +254,11 @@ class BlockMultigrid:
         self.levels: list[tuple[Product, Jacobi, float, Product, Product]] = []
         for index, level in enumerate(hierarchy.levels[:-1]):
             size = blocks if index == 0 else int(getattr(level.A, "blocksize", (1, 1))[0])
-            matrix = A if index == 0 else sp.csr_matrix(level.A)
-            inverse = _block_inverse(matrix, size)
-            radius = _spectral_radius(matrix, _jacobi(inverse, compiled))
+            matrix = fine if index == 0 else sp.csr_matrix(level.A)
+            inverse = _block_inverse(matrix, size).astype(PRECISION)
+            single, jacobi = products(matrix.astype(PRECISION), compiled=compiled), _jacobi(inverse, compiled)
             prolongator = level.P.astype(PRECISION)
-            self.levels.append((products(matrix.astype(PRECISION), compiled=compiled),
-                                _jacobi(inverse.astype(PRECISION), compiled), radius,
+            self.levels.append((single, jacobi, _spectral_radius(single, jacobi),
                                 products(prolongator, compiled=compiled), products(prolongator.T, compiled=compiled)))
         del hierarchy.levels[:-1]
         self._coarse = _coarse_inverse(np.asarray(hierarchy.levels[-1].A.toarray())).astype(PRECISION)
@@ -269,6 +280,22 @@ class BlockMultigrid:
         residual = rhs - matrix @ x
         x += _smooth(matrix, jacobi, radius, residual)
         return x
+
+
+def shifted_blocks(Kt: sp.csr_matrix, shift: float) -> sp.csr_matrix | sp.bsr_matrix:
+    """K~ + shift I: in 3 x 3 blocks (`scipy.sparse.bsr_matrix`) where K~'s dofs come in sites of three
+    (`ordering.site_block`), the shift added to the diagonal blocks in place (no CSR copy of the sum beside
+    K~ and the blocks: 2 GB at 10^6 dofs), CSR otherwise. Its product gives K~'s too (`rows.Unshifted`)."""
+    n = Kt.shape[0]
+    if n % 3 == 0 and n >= 6 and site_block(Kt) == 3:
+        tiled = Kt.tobsr(blocksize=(3, 3))  # (a new array of blocks: K~'s own entries untouched)
+        tiled.sort_indices()
+        rows = np.repeat(np.arange(n // 3), np.diff(tiled.indptr))
+        own = np.flatnonzero(rows == tiled.indices)
+        if own.size == n // 3:  # (every site has its own block: a site without one takes the CSR sum)
+            tiled.data[own] += shift * np.eye(3)
+            return tiled
+    return (Kt + shift * sp.identity(n, format="csr")).tocsr()
 
 
 def _coarse_inverse(coarse: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -304,17 +331,21 @@ def _smooth(matrix: Product, jacobi: Jacobi, radius: float, rhs: NDArray[np.floa
     return x
 
 
-def _block_inverse(matrix: sp.csr_matrix, blocks: int) -> NDArray[np.float64]:
-    """(n / b, b, b) inverses of A's b x b diagonal blocks (b = `blocks`; 1: the diagonal's)."""
+def _block_inverse(matrix: sp.csr_matrix | sp.bsr_matrix, blocks: int) -> NDArray[np.float64]:
+    """(n / b, b, b) inverses of A's b x b diagonal blocks (b = `blocks`; 1: the diagonal's); A in b x b
+    blocks already (`scipy.sparse.bsr_matrix`) is read as it is."""
     n = matrix.shape[0]
     if blocks == 1 or n % blocks:
         diagonal = matrix.diagonal()
         return np.where(diagonal != 0, 1.0 / np.where(diagonal != 0, diagonal, 1.0), 0.0).reshape(-1, 1, 1)
-    diagonal = sp.bsr_matrix(matrix, blocksize=(blocks, blocks))
+    tiled = matrix if isinstance(matrix, sp.bsr_matrix) and matrix.blocksize == (blocks, blocks) \
+        else sp.bsr_matrix(matrix, blocksize=(blocks, blocks))
     sites = np.arange(n // blocks)
-    rows = np.repeat(sites, np.diff(diagonal.indptr))
-    own = rows == diagonal.indices
-    return np.linalg.pinv(diagonal.data[own][np.argsort(rows[own])], hermitian=True)  # (a coarse block may be singular)
+    rows = np.repeat(sites, np.diff(tiled.indptr))
+    own = np.flatnonzero(rows == tiled.indices)
+    diagonal = np.zeros((n // blocks, blocks, blocks))
+    diagonal[rows[own]] = tiled.data[own]  # (a site with no block of its own keeps a zero one)
+    return np.linalg.pinv(diagonal, hermitian=True)  # (a coarse block may be singular)
 
 
 def _jacobi(inverse: NDArray[np.float64], compiled: bool = True) -> Jacobi:
@@ -337,8 +368,8 @@ def _apply_block(inverse: NDArray[np.float64], X: NDArray[np.float64]) -> NDArra
 
 
 def _spectral_radius(matrix: sp.csr_matrix | Product, jacobi: Jacobi) -> float:
-    """rho(D^-1 A) from 15 power steps, raised by 10% (a lower bound from below otherwise)."""
-    x = np.random.default_rng(0).standard_normal((matrix.shape[0], 1))
+    """rho(D^-1 A) from 15 power steps, raised by 10% (a lower bound from below otherwise), in A's own precision."""
+    x = np.random.default_rng(0).standard_normal((matrix.shape[0], 1)).astype(matrix.dtype)
     value = 1.0
     for _ in range(15):
         y = jacobi(matrix @ x)
@@ -347,7 +378,7 @@ def _spectral_radius(matrix: sp.csr_matrix | Product, jacobi: Jacobi) -> float:
     return 1.1 * value
 
 
-def block_lobpcg(A: sp.csr_matrix | Product, preconditioner: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+def block_lobpcg(A: sp.csr_matrix | Product | Unshifted, preconditioner: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                  constraints: NDArray[np.float64], start: NDArray[np.float64], wanted: int, tolerance: float,
                  max_iterations: int) -> tuple[NDArray[np.float64], int]:
     """The lowest Ritz vectors of the symmetric A, orthogonal to `constraints`, by LOBPCG (Knyazev 2001).
@@ -357,18 +388,13 @@ def block_lobpcg(A: sp.csr_matrix | Product, preconditioner: Callable[[NDArray[n
     (scipy's `lobpcg` waits for every column, and the block's last ones, at the edge of a cluster,
     converge slowest: on a 3e4-dof assembly 400 iterations against 33). Converged columns get no new
     search direction (soft locking) but stay in every Rayleigh-Ritz. The basis [X, W, P] is made
-    orthonormal each step, W and P against X by two Gram-Schmidt passes and then together by
-    `_orthonormal` (dependent directions dropped), as in the robust variant of Duersch, Shao, Yang and
-    Gu (SIAM J. Sci. Comput. 40, 2018). Returns the block's Ritz vectors, ascending, and the
-    iterations taken (`max_iterations` at most: the caller judges the residuals).
+    orthonormal each step, W and P against X by Gram-Schmidt (`_outside`: a second pass where a column
+    lost most of its norm) and then together by `_orthonormal` (dependent directions dropped), as in the
+    robust variant of Duersch, Shao, Yang and Gu (SIAM J. Sci. Comput. 40, 2018); X's own block of the
+    Rayleigh-Ritz matrix is its Ritz values. Returns the block's Ritz vectors, ascending, and the
+    iterations taken (`max_iterations` at most: the caller judges the residuals). `start` is overwritten.
     """
-    def outside(V: NDArray[np.float64], basis: NDArray[np.float64]) -> NDArray[np.float64]:
-        for _ in range(2):
-            if basis.shape[1]:
-                V = V - basis @ (basis.T @ V)
-        return V
-
-    X = _orthonormal(outside(start, constraints))
+    X = _orthonormal(_outside(start, constraints))
     AX = np.asarray(A @ X)
     values, rotation = np.linalg.eigh(_symmetric(X.T @ AX))
     X, AX = X @ rotation, AX @ rotation
@@ -380,17 +406,27 @@ def block_lobpcg(A: sp.csr_matrix | Product, preconditioner: Callable[[NDArray[n
         if wanted <= 0 or norms[:wanted].max() <= tolerance:  # (none wanted: every mode asked for was known)
             break
         active = norms > tolerance
-        W = outside(np.asarray(preconditioner(R[:, active])), constraints)
-        Q = _orthonormal(outside(np.column_stack([W, P[:, active] if P.shape[1] else P]), X))
+        W = _outside(np.asarray(preconditioner(R[:, active])), constraints)
+        del R  # (n x b blocks alive at once kept few: at 10^6 dofs each is 0.45 GB)
+        V = np.column_stack([W, P[:, active]]) if P.shape[1] else W
+        del W
+        Q = _orthonormal(_outside(V, X))
+        del V
         if Q.shape[1] == 0:
             break
         AQ = np.asarray(A @ Q)
-        S_A = np.block([[X.T @ AX, X.T @ AQ], [AQ.T @ X, Q.T @ AQ]])
+        XAQ = X.T @ AQ
+        S_A = np.block([[np.diag(values), XAQ], [XAQ.T, Q.T @ AQ]])  # (X's own block: its Ritz values)
         values, rotation = np.linalg.eigh(_symmetric(S_A))
         width = X.shape[1]
         values, top, bottom = values[:width], rotation[:width, :width], rotation[width:, :width]
         P = Q @ bottom
-        X, AX = X @ top + P, AX @ top + AQ @ bottom
+        del Q
+        X = X @ top
+        X += P
+        AX = AX @ top
+        AX += AQ @ bottom
+        del AQ
     return X, iterations
 
 
@@ -398,17 +434,37 @@ def _symmetric(G: NDArray[np.float64]) -> NDArray[np.float64]:
     return 0.5 * (G + G.T)
 
 
+def _outside(V: NDArray[np.float64], basis: NDArray[np.float64]) -> NDArray[np.float64]:
+    """V's columns with their components along the orthonormal `basis` removed, in place (V is overwritten):
+    one Gram-Schmidt pass, and a second for the columns that lost more than `REORTHOGONALISE` of their norm
+    in it (Daniel, Gragg, Kaufman and Stewart 1976: "twice is enough"; a column that kept most of its norm
+    is orthogonal to rounding after one)."""
+    if basis.shape[1] == 0 or V.shape[1] == 0:
+        return V
+    before = np.einsum("ij,ij->j", V, V)
+    V -= basis @ (basis.T @ V)
+    lost = np.flatnonzero(np.einsum("ij,ij->j", V, V) < REORTHOGONALISE ** 2 * before)
+    if lost.size:
+        V[:, lost] -= basis @ (basis.T @ V[:, lost])
+    return V
+
+
 def _orthonormal(V: NDArray[np.float64]) -> NDArray[np.float64]:
-    """An orthonormal basis of V's columns by SVQB twice (Stathopoulos and Wu 2002): the Gram matrix's
-    eigenvectors scaled by its eigenvalues' inverse square roots, directions under 1e-13 of the largest dropped."""
+    """An orthonormal basis of V's columns by SVQB (Stathopoulos and Wu 2002): the Gram matrix's
+    eigenvectors scaled by its eigenvalues' inverse square roots, directions under 1e-13 of the largest dropped;
+    a second pass where the Gram matrix's condition passed `SVQB_CONDITION` (one pass leaves an error of
+    ~eps times that condition)."""
     for _ in range(2):
         if V.shape[1] == 0:
             return V
         scale = np.sqrt(np.einsum("ij,ij->j", V, V))
-        V = V[:, scale > 0] / scale[scale > 0]
+        V = V[:, scale > 0] if (scale == 0).any() else V
+        V /= scale[scale > 0]  # (in place: V is the caller's scratch, `_outside`'s result)
         gram_values, gram_vectors = np.linalg.eigh(_symmetric(V.T @ V))
         keep = gram_values > 1e-13 * gram_values[-1]
         V = V @ (gram_vectors[:, keep] / np.sqrt(gram_values[keep]))
+        if gram_values[keep][0] >= gram_values[-1] / SVQB_CONDITION:
+            break
     return V
 
 
@@ -468,15 +524,18 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     kernel = annihilated(Kt, smooth, norm)
     kernel = kernel[:, :min(kernel.shape[1], wanted)]
     stage = on_stage or (lambda fraction, message: None)
-    shifted = (Kt + SHIFT * norm * sp.identity(n, format="csr")).tocsr()
     compiled = compiled_pays(iterative_cost(n, Kt.nnz, wanted, coordinates=groups is not None)[1])  # (numba pays from ~0.1 s)
+    shift = SHIFT * norm
+    shifted = shifted_blocks(Kt, shift)
     preconditioner = BlockMultigrid(shifted, smooth if smooth.shape[1] else np.zeros((n, 0)), groups=groups,
                                     compiled=compiled)
-    del shifted
     stage(0.2, f"multigrid preconditioner of {preconditioner.depth} levels built")
     columns = block_columns(wanted, kernel.shape[1])
     start = np.random.default_rng(0).standard_normal((n, columns))
-    product_of = products(Kt, compiled=compiled)
+    # K~ X as (K~ + sigma I) X - sigma X on the shifted blocks where they are kept: one copy of K~'s entries, not two
+    product_of = Unshifted(products(shifted), shift) if compiled and isinstance(shifted, sp.bsr_matrix) \
+        else products(Kt, compiled=compiled)
+    del shifted
     block, iterations = block_lobpcg(product_of, preconditioner, kernel, start, wanted - kernel.shape[1],
                                      TOLERANCE * norm, max_iterations)
     del start
@@ -507,11 +566,11 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
 def iterative_cost(n: int, nnz: int, k: int, *, coordinates: bool = False) -> tuple[float, float]:
     """(bytes, seconds) of `lowest_modes` for the k lowest modes of an n-dof K~ with nnz stored entries.
 
-    Memory: the shifted copy and its block form for pyamg (~2 x 12 nnz bytes), the hierarchy's
-    prolongator and coarse matrices (~4 nnz bytes at the operator complexity ~1.0 measured), K~'s
-    3 x 3 blocks for the compiled products (~5 nnz bytes more than the CSR copies they replace), LOBPCG's
-    blocks (X, AX, P, AP, R, AR and their Gram products: ~12 n b doubles) and the cycle's
-    temporaries (~4 n b), b = `block_columns`(k, 3). Time: the setup (`ITERATIVE_SETUP_S` per
+    Memory (33 nnz + 128 n b bytes, kept from before `shifted_blocks`, now an upper bound: 13.0 GB
+    against 11.1 GB measured at 10^6 dofs, the network included): K~ + sigma I in 3 x 3 blocks
+    (~8 nnz bytes, LOBPCG's products too), its single-precision copy (~4), pyamg's setup and the
+    hierarchy (~4 at the operator complexity ~1.0 measured), LOBPCG's blocks (X, AX, P, R, W, [W, P],
+    Q, AQ: ~8 n b doubles at once) and the cycle's temporaries (~4 n b), b = `block_columns`(k, 3). Time: the setup (`ITERATIVE_SETUP_S` per
     stored entry) and `ITERATIVE_STEPS` (n / 10^4)^`ITERATIVE_GROWTH` iterations (the count grows with
     n: the low spectrum of a large assembly is a tight cluster), each `ITERATIVE_PRODUCTS` sparse products on b
     columns (`ITERATIVE_PRODUCT_S` per entry and column, as measured on two cores: from sizes only,

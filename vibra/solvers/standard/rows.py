@@ -31,7 +31,7 @@ from vibra._core.cores import available_cores
 from vibra.solvers.compiled import forked_with_numba, jit, prange
 from vibra.solvers.standard.ordering import blocked
 
-__all__ = ["MIN_WORK", "THREADS", "RowSlabs", "SiteBlocks", "product_threads", "products"]
+__all__ = ["MIN_WORK", "THREADS", "RowSlabs", "SiteBlocks", "Unshifted", "product_threads", "products"]
 
 #: Threads for the products (None: the cores this process may use).
 THREADS: int | None = None
@@ -143,13 +143,29 @@ class SiteBlocks:
         return out[:, 0] if vector else out
 
 
+class Unshifted:
+    """X -> A X - shift X: K~'s product from the product of A = K~ + shift I (`iterative.shifted_blocks`),
+    so that the iterative path keeps one copy of K~'s entries for its multigrid and its products; the
+    rounding that of K~'s own product (shift ~1e-4 ||K~||)."""
+
+    def __init__(self, product: SiteBlocks | RowSlabs, shift: float) -> None:
+        self.product, self.shift = product, float(shift)
+        self.shape, self.dtype, self.nnz = product.shape, product.dtype, product.nnz
+
+    def __matmul__(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = self.product @ X
+        out -= self.shift * np.asarray(X)
+        return out
+
+
 def products(matrix: sp.spmatrix, *, compiled: bool = True) -> SiteBlocks | RowSlabs:
     """The product operator for `matrix`: `SiteBlocks` where its rows and columns come in groups of
     three coupled blockwise (`ordering.blocked`, the rule `ordering.site_block` applies: the 3 x 3
     blocks hold at most 1.5 times its stored entries; a spring along an axis leaves zeros in its block) and `compiled` (the
-    caller's `vibra.solvers.compiled.compiled_pays`: loading numba costs ~0.5 s), `RowSlabs` otherwise."""
+    caller's `vibra.solvers.compiled.compiled_pays`: loading numba costs ~0.5 s), `RowSlabs` otherwise. A matrix
+    already in 3 x 3 blocks (`scipy.sparse.bsr_matrix`) is taken as it is, its arrays shared, not copied."""
     if compiled and matrix.shape[0] % 3 == 0 and matrix.shape[1] % 3 == 0 and matrix.shape[0] >= 6:
-        if blocked(matrix, 3):
+        if isinstance(matrix, sp.bsr_matrix) and matrix.blocksize == (3, 3) or blocked(matrix, 3):
             return SiteBlocks(sp.bsr_matrix(matrix, blocksize=(3, 3)))
     return RowSlabs(matrix)
 

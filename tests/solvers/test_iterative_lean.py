@@ -1,0 +1,143 @@
+"""The iterative path's lean parts (`vibra.solvers.standard.iterative`, issue 47: 10^6 dofs in 12 GB).
+
+One copy of K~'s entries serves the preconditioner's finest level and LOBPCG's products
+(`shifted_blocks`, `Unshifted`); the 3 x 3 block count reads slabs of rows (`ordering.blocked`);
+LOBPCG's second Gram-Schmidt and SVQB passes run only where the first lost accuracy (`_outside`,
+`_orthonormal`). Truth from outside them: scipy's own sum K~ + sigma I and product, the block count
+of a COO-to-CSR conversion of the block indices (scipy's duplicate summing), and the definitions
+(B^T V = 0, V^T V = I) to a bound stated per test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from vibra import networks
+from vibra.solvers.standard import iterative, ordering
+from vibra.solvers.standard.rows import SiteBlocks, Unshifted, products
+
+EPS = np.finfo(float).eps
+
+
+def _anm(n_sites: int, seed: int = 0) -> sp.csr_matrix:
+    rng = np.random.default_rng(seed)
+    positions = rng.uniform(0.0, (n_sites / 0.05) ** (1 / 3), size=(n_sites, 3))
+    return sp.csr_matrix(networks.anm(positions, cutoff=8.5).hessian())
+
+
+def _blocks_by_scipy(pattern: sp.spmatrix, b: int) -> bool:
+    """The rule as a whole-matrix count: scipy sums duplicate block indices into one entry each."""
+    coo = sp.coo_matrix(pattern)
+    tiles = sp.csr_matrix((np.ones(coo.nnz), (coo.row // b, coo.col // b)),
+                          shape=(pattern.shape[0] // b, pattern.shape[1] // b))
+    return bool(tiles.nnz * b * b <= 1.5 * max(coo.nnz, 1))
+
+
+@pytest.mark.parametrize("slab", [1, 7, 1 << 22])
+def test_blocked_counts_as_the_whole_matrix(monkeypatch, slab):
+    """Slabs of any size (one block row at least) give the whole matrix's verdict, on random
+    patterns of every density, on block patterns (kron with a full 3 x 3) and on rows whose column
+    indices are not sorted (a user's CSR need not be canonical)."""
+    monkeypatch.setattr(ordering, "SLAB", slab)
+    rng = np.random.default_rng(11)
+    for trial in range(60):
+        n, m = 6 * int(rng.integers(1, 12)), 6 * int(rng.integers(1, 12))
+        pattern = sp.random(n, m, density=float(rng.uniform(0.0, 1.0)), random_state=trial, format="csr")
+        if trial % 3 == 0:
+            pattern = sp.kron(sp.random(n // 3, m // 3, density=0.3, random_state=trial), np.ones((3, 3))).tocsr()
+        if trial % 4 == 0:  # each row's entries reversed: unsorted indices
+            for row in range(n):
+                part = slice(pattern.indptr[row], pattern.indptr[row + 1])
+                pattern.indices[part], pattern.data[part] = pattern.indices[part][::-1], pattern.data[part][::-1]
+            pattern.has_sorted_indices = False
+        for b in (1, 2, 3):
+            assert ordering.blocked(pattern, b) == _blocks_by_scipy(pattern, b), (trial, b)
+
+
+def test_shifted_blocks_is_the_sum_in_site_blocks():
+    """K~ + sigma I in 3 x 3 blocks, equal entry for entry to scipy's own sum; K~ left as it was."""
+    Kt = _anm(300)
+    before = Kt.copy()
+    shift = 1e-4 * float(abs(Kt).sum(axis=1).max())
+    tiled = iterative.shifted_blocks(Kt, shift)
+    assert isinstance(tiled, sp.bsr_matrix) and tiled.blocksize == (3, 3)
+    assert abs(tiled - (Kt + shift * sp.identity(Kt.shape[0]))).max() == 0.0
+    assert abs(Kt - before).max() == 0.0 and Kt.nnz == before.nnz
+
+
+def test_shifted_blocks_without_a_sites_own_block_or_sites():
+    """A site with no spring has no diagonal block to shift: the CSR sum serves (its dof must be
+    shifted all the same); a matrix not in sites of three is summed in CSR."""
+    Kt = _anm(60).tolil()
+    Kt[:3, :] = 0.0
+    Kt[:, :3] = 0.0
+    Kt = sp.csr_matrix(Kt)
+    Kt.eliminate_zeros()
+    shifted = iterative.shifted_blocks(Kt, 0.5)
+    assert isinstance(shifted, sp.csr_matrix)
+    assert np.allclose(shifted.diagonal()[:3], 0.5)
+    assert abs(shifted - (Kt + 0.5 * sp.identity(Kt.shape[0]))).max() == 0.0
+    chain = sp.diags([-np.ones(9), 2 * np.ones(10), -np.ones(9)], [-1, 0, 1], format="csr")
+    assert isinstance(iterative.shifted_blocks(chain, 0.25), sp.csr_matrix)
+
+
+def test_unshifted_product_is_the_matrix_product():
+    """(K~ + sigma I) X - sigma X against scipy's K~ X: the difference is rounding of the shifted
+    sum, at most a few eps (||K~||_inf + sigma) per entry's row sum (bound 8 eps ||K~||_inf ||X||_max)."""
+    Kt = _anm(400, seed=2)
+    norm = float(abs(Kt).sum(axis=1).max())
+    shift = 1e-4 * norm
+    product = Unshifted(products(iterative.shifted_blocks(Kt, shift)), shift)
+    assert isinstance(product.product, SiteBlocks) and product.shape == Kt.shape and product.nnz > Kt.nnz // 2
+    X = np.random.default_rng(0).standard_normal((Kt.shape[0], 5))
+    assert np.abs(product @ X - Kt @ X).max() <= 8 * EPS * norm * np.abs(X).max()
+
+
+def test_outside_removes_the_basis_with_one_pass_or_two():
+    """V's columns leave the orthonormal basis B to B^T V <= 10 eps ||V||, both for columns far from
+    span(B) (one pass) and for columns 1e-10 from it (the second pass, without which B^T V stays ~1e-7
+    of what is left: cancellation), and V is overwritten in place."""
+    rng = np.random.default_rng(4)
+    n = 2_000
+    B = np.linalg.qr(rng.standard_normal((n, 6)))[0]
+    far = rng.standard_normal((n, 3))
+    near = B @ rng.standard_normal((6, 3)) + 1e-10 * rng.standard_normal((n, 3))
+    V = np.column_stack([far, near])
+    norms = np.linalg.norm(V, axis=0)
+    out = iterative._outside(V, B)
+    assert out is V
+    left = np.linalg.norm(out, axis=0)
+    assert np.all(np.abs(B.T @ out) <= 10 * EPS * left)
+    assert np.all(left[3:] < 1e-8 * norms[3:])  # (the near columns were mostly in span(B))
+
+
+@pytest.mark.parametrize("condition", [1e1, 1e6, 1e12])
+def test_orthonormal_to_rounding_whatever_the_condition(condition):
+    """SVQB once where V's Gram condition is under `SVQB_CONDITION`, twice above: the result is
+    orthonormal to 1e-13 either way, and spans V (the projection of V on it returns V to 1e-9 of
+    its norm where no direction was dropped)."""
+    rng = np.random.default_rng(5)
+    n, m = 3_000, 12
+    left = np.linalg.qr(rng.standard_normal((n, m)))[0]
+    right = np.linalg.qr(rng.standard_normal((m, m)))[0]
+    V = (left * np.geomspace(1.0, 1.0 / np.sqrt(condition), m)) @ right
+    original = V.copy()
+    Q = iterative._orthonormal(V)
+    assert Q.shape == (n, m)
+    assert np.abs(Q.T @ Q - np.eye(m)).max() <= 1e-13
+    assert np.linalg.norm(original - Q @ (Q.T @ original)) <= 1e-9 * np.linalg.norm(original)
+
+
+def test_block_inverse_reads_blocks_as_they_are():
+    """The 3 x 3 diagonal blocks' inverses from a BSR matrix equal those from its CSR form, and a
+    missing diagonal block gives a zero inverse (pinv of zero)."""
+    Kt = _anm(200, seed=6)
+    shifted = iterative.shifted_blocks(Kt, 1.0)
+    from_blocks = iterative._block_inverse(shifted, 3)
+    from_rows = iterative._block_inverse(sp.csr_matrix(shifted), 3)
+    assert np.allclose(from_blocks, from_rows, rtol=1e-12, atol=0.0)
+    empty = sp.bsr_matrix((np.ones((1, 3, 3)), np.array([1]), np.array([0, 1, 1])), shape=(6, 6))
+    inverse = iterative._block_inverse(empty, 3)
+    assert np.all(inverse == 0.0)
