@@ -68,15 +68,16 @@ def test_shifted_blocks_is_the_sum_in_site_blocks():
 
 
 def test_shifted_blocks_without_a_sites_own_block_or_sites():
-    """A site with no spring has no diagonal block to shift: the CSR sum serves (its dof must be
-    shifted all the same); a matrix not in sites of three is summed in CSR."""
+    """A site with no spring has no diagonal block to shift: the sum is made in CSR (its dofs must be
+    shifted all the same) and returned in blocks, so that the rest of the path stays on one copy; a
+    matrix not in sites of three is summed in CSR."""
     Kt = _anm(60).tolil()
     Kt[:3, :] = 0.0
     Kt[:, :3] = 0.0
     Kt = sp.csr_matrix(Kt)
     Kt.eliminate_zeros()
     shifted = iterative.shifted_blocks(Kt, 0.5)
-    assert isinstance(shifted, sp.csr_matrix)
+    assert isinstance(shifted, sp.bsr_matrix) and shifted.blocksize == (3, 3)
     assert np.allclose(shifted.diagonal()[:3], 0.5)
     assert abs(shifted - (Kt + 0.5 * sp.identity(Kt.shape[0]))).max() == 0.0
     chain = sp.diags([-np.ones(9), 2 * np.ones(10), -np.ones(9)], [-1, 0, 1], format="csr")
@@ -141,3 +142,68 @@ def test_block_inverse_reads_blocks_as_they_are():
     empty = sp.bsr_matrix((np.ones((1, 3, 3)), np.array([1]), np.array([0, 1, 1])), shape=(6, 6))
     inverse = iterative._block_inverse(empty, 3)
     assert np.all(inverse == 0.0)
+
+
+def test_shifted_blocks_in_double_and_never_in_place():
+    """An integer or single-precision K~ is shifted in a double-precision copy (in single, the shift
+    would perturb the operator by ~1e-8 ||K~||, the accepted residual), and a K~ given in 3 x 3 blocks
+    already is left as it was (scipy's tobsr returns the same object there)."""
+    Kt = _anm(100, seed=7)
+    exact = Kt + 0.5 * sp.identity(Kt.shape[0])
+    as_single = iterative.shifted_blocks(Kt.astype(np.float32), 0.5)
+    assert as_single.dtype == np.float64
+    assert abs(as_single - (Kt.astype(np.float32).astype(np.float64) + 0.5 * sp.identity(Kt.shape[0]))).max() == 0.0
+    integer = sp.csr_matrix(np.rint(Kt.toarray()).astype(np.int64))
+    assert abs(iterative.shifted_blocks(integer, 0.5) - (integer + 0.5 * sp.identity(Kt.shape[0]))).max() == 0.0
+    blocks = Kt.tobsr(blocksize=(3, 3))
+    before = blocks.data.copy()
+    shifted = iterative.shifted_blocks(blocks, 0.5)
+    assert np.array_equal(blocks.data, before) and abs(shifted - exact).max() <= 1e-12 * abs(exact).max()
+
+
+def test_block_lobpcg_in_double_with_a_single_precision_preconditioner():
+    """A preconditioner that answers in single precision (as `BlockMultigrid` computes) does not pull
+    the iteration into single: the block stays orthonormal to 1e-12 and outside its constraints, and
+    the wanted values are LAPACK's to the tolerance."""
+    rng = np.random.default_rng(8)
+    n = 300
+    diagonal = np.concatenate([np.zeros(2), np.arange(1.0, 9.0), np.linspace(20.0, 60.0, n - 10)])
+    basis = np.linalg.qr(rng.standard_normal((n, n)))[0]
+    A = sp.csr_matrix((basis * diagonal) @ basis.T)
+    norm = float(abs(A).sum(axis=1).max())
+    solve = np.linalg.inv(A.toarray() + 0.5 * np.eye(n)).astype(np.float32)
+    start = rng.standard_normal((n, 12)).astype(np.float32)
+    X, iterations = iterative.block_lobpcg(A, lambda R: solve @ R.astype(np.float32), basis[:, :2], start, 6,
+                                           1e-9 * norm, 300)
+    values = np.einsum("ij,ij->j", X, A @ X)
+    assert X.dtype == np.float64 and iterations < 300
+    assert np.abs(X.T @ X - np.eye(X.shape[1])).max() <= 1e-12
+    assert np.abs(basis[:, :2].T @ X).max() <= 1e-12
+    assert np.allclose(values[:6], diagonal[2:8], rtol=0, atol=1e-8 * norm)
+
+
+def test_orthonormal_drops_a_column_of_nothing():
+    """A zero column, or one of not-a-number (a preconditioner's overflow), is dropped, not spread."""
+    rng = np.random.default_rng(9)
+    V = rng.standard_normal((500, 5))
+    V[:, 1] = 0.0
+    V[:, 3] = np.nan
+    Q = iterative._orthonormal(V)
+    assert Q.shape == (500, 3) and np.isfinite(Q).all()
+    assert np.abs(Q.T @ Q - np.eye(3)).max() <= 1e-13
+    V = rng.standard_normal((500, 4))
+    V[:, 2] = np.nan  # (alone: no zero column beside it)
+    assert iterative._orthonormal(V).shape == (500, 3)
+
+
+def test_blocked_with_a_partial_last_block_column(monkeypatch):
+    """Columns not a multiple of b: the last, partial, block column is a block of its own (two rows'
+    entries in different block columns never share a block)."""
+    monkeypatch.setattr(ordering, "SLAB", 5)
+    rng = np.random.default_rng(10)
+    for trial in range(40):
+        n, m = 3 * int(rng.integers(1, 8)), int(rng.integers(1, 25))
+        pattern = sp.random(n, m, density=float(rng.uniform(0.05, 1.0)), random_state=trial, format="csr")
+        coo = pattern.tocoo()
+        tiles = sp.csr_matrix((np.ones(coo.nnz), (coo.row // 3, coo.col // 3)), shape=(n // 3, -(-m // 3)))
+        assert ordering.blocked(pattern, 3) == bool(tiles.nnz * 9 <= 1.5 * max(coo.nnz, 1)), trial

@@ -78,8 +78,8 @@ EXTRA = 4
 #: Even the exact preconditioner (K~ + sigma)^-1 takes 106 iterations at 1e5 dofs with 2x.
 WIDTH = 4
 
-#: `_outside`'s second Gram-Schmidt pass: for the columns whose norm fell under this fraction in the first
-#: (Kahan's and Parlett's 1 / sqrt 2).
+#: `_outside`'s second Gram-Schmidt pass: for the columns that kept less than this fraction of their norm
+#: in the first (Kahan's and Parlett's 1 / sqrt 2).
 REORTHOGONALISE = 0.7071
 
 #: `_orthonormal`'s second SVQB pass: where the Gram matrix's condition passed this (one pass leaves
@@ -284,17 +284,20 @@ class BlockMultigrid:
 
 def shifted_blocks(Kt: sp.csr_matrix, shift: float) -> sp.csr_matrix | sp.bsr_matrix:
     """K~ + shift I: in 3 x 3 blocks (`scipy.sparse.bsr_matrix`) where K~'s dofs come in sites of three
-    (`ordering.site_block`), the shift added to the diagonal blocks in place (no CSR copy of the sum beside
-    K~ and the blocks: 2 GB at 10^6 dofs), CSR otherwise. Its product gives K~'s too (`rows.Unshifted`)."""
+    (`ordering.site_block`), the shift added to the diagonal blocks of a double-precision copy in place (no
+    CSR copy of the sum beside K~ and the blocks: 2 GB at 10^6 dofs), CSR otherwise. Its product gives K~'s
+    too (`rows.Unshifted`)."""
     n = Kt.shape[0]
     if n % 3 == 0 and n >= 6 and site_block(Kt) == 3:
-        tiled = Kt.tobsr(blocksize=(3, 3))  # (a new array of blocks: K~'s own entries untouched)
+        tiled = Kt.astype(np.result_type(Kt.dtype, np.float64), copy=False).tobsr(blocksize=(3, 3), copy=True)  # (K~ untouched)
         tiled.sort_indices()
         rows = np.repeat(np.arange(n // 3), np.diff(tiled.indptr))
         own = np.flatnonzero(rows == tiled.indices)
-        if own.size == n // 3:  # (every site has its own block: a site without one takes the CSR sum)
+        if own.size == n // 3:
             tiled.data[own] += shift * np.eye(3)
             return tiled
+        # a site without a block of its own (no spring: an isolated site) takes the CSR sum, in blocks all the same
+        return (Kt + shift * sp.identity(n, format="csr")).tobsr(blocksize=(3, 3))
     return (Kt + shift * sp.identity(n, format="csr")).tocsr()
 
 
@@ -389,12 +392,13 @@ def block_lobpcg(A: sp.csr_matrix | Product | Unshifted, preconditioner: Callabl
     converge slowest: on a 3e4-dof assembly 400 iterations against 33). Converged columns get no new
     search direction (soft locking) but stay in every Rayleigh-Ritz. The basis [X, W, P] is made
     orthonormal each step, W and P against X by Gram-Schmidt (`_outside`: a second pass where a column
-    lost most of its norm) and then together by `_orthonormal` (dependent directions dropped), as in the
+    kept less than 1 / sqrt 2 of its norm) and then together by `_orthonormal` (dependent directions dropped), as in the
     robust variant of Duersch, Shao, Yang and Gu (SIAM J. Sci. Comput. 40, 2018); X's own block of the
     Rayleigh-Ritz matrix is its Ritz values. Returns the block's Ritz vectors, ascending, and the
-    iterations taken (`max_iterations` at most: the caller judges the residuals). `start` is overwritten.
+    iterations taken (`max_iterations` at most: the caller judges the residuals). The iteration runs in
+    double precision whatever `start`'s and the preconditioner's (a single-precision cycle's output is cast).
     """
-    X = _orthonormal(_outside(start, constraints))
+    X = _orthonormal(_outside(np.array(start, dtype=np.float64), constraints))  # (its own double copy)
     AX = np.asarray(A @ X)
     values, rotation = np.linalg.eigh(_symmetric(X.T @ AX))
     X, AX = X @ rotation, AX @ rotation
@@ -406,7 +410,7 @@ def block_lobpcg(A: sp.csr_matrix | Product | Unshifted, preconditioner: Callabl
         if wanted <= 0 or norms[:wanted].max() <= tolerance:  # (none wanted: every mode asked for was known)
             break
         active = norms > tolerance
-        W = _outside(np.asarray(preconditioner(R[:, active])), constraints)
+        W = _outside(np.asarray(preconditioner(R[:, active]), dtype=np.float64), constraints)  # (double: in place below)
         del R  # (n x b blocks alive at once kept few: at 10^6 dofs each is 0.45 GB)
         V = np.column_stack([W, P[:, active]]) if P.shape[1] else W
         del W
@@ -436,8 +440,8 @@ def _symmetric(G: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _outside(V: NDArray[np.float64], basis: NDArray[np.float64]) -> NDArray[np.float64]:
     """V's columns with their components along the orthonormal `basis` removed, in place (V is overwritten):
-    one Gram-Schmidt pass, and a second for the columns that lost more than `REORTHOGONALISE` of their norm
-    in it (Daniel, Gragg, Kaufman and Stewart 1976: "twice is enough"; a column that kept most of its norm
+    one Gram-Schmidt pass, and a second for the columns that kept less than `REORTHOGONALISE` (1 / sqrt 2) of
+    their norm in it (Daniel, Gragg, Kaufman and Stewart 1976: "twice is enough"; a column that kept more
     is orthogonal to rounding after one)."""
     if basis.shape[1] == 0 or V.shape[1] == 0:
         return V
@@ -458,8 +462,9 @@ def _orthonormal(V: NDArray[np.float64]) -> NDArray[np.float64]:
         if V.shape[1] == 0:
             return V
         scale = np.sqrt(np.einsum("ij,ij->j", V, V))
-        V = V[:, scale > 0] if (scale == 0).any() else V
-        V /= scale[scale > 0]  # (in place: V is the caller's scratch, `_outside`'s result)
+        good = scale > 0  # (a zero or not-a-number column is dropped)
+        V = V if good.all() else V[:, good]
+        V /= scale[good]  # (in place: V is the caller's scratch, `_outside`'s result)
         gram_values, gram_vectors = np.linalg.eigh(_symmetric(V.T @ V))
         keep = gram_values > 1e-13 * gram_values[-1]
         V = V @ (gram_vectors[:, keep] / np.sqrt(gram_values[keep]))

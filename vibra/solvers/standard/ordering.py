@@ -51,7 +51,7 @@ def blocked(pattern: sp.spmatrix, b: int) -> bool:
     The blocks are counted on slabs of `SLAB` entries at most (whole block rows), so that the count's
     memory stays small beside the matrix (a 10^6-dof network stores 1.8e8 entries)."""
     csr = pattern if isinstance(pattern, sp.csr_matrix) else sp.csr_matrix(pattern)
-    indptr, width = csr.indptr, csr.shape[1] // b
+    indptr, width = csr.indptr, -(-csr.shape[1] // b)  # (block columns, a partial last one counted)
     ends = indptr[::b] if csr.shape[0] % b == 0 else np.append(indptr[::b], indptr[-1])
     count, row = 0, 0
     while row < len(ends) - 1:

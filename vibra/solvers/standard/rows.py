@@ -145,8 +145,8 @@ class SiteBlocks:
 
 class Unshifted:
     """X -> A X - shift X: K~'s product from the product of A = K~ + shift I (`iterative.shifted_blocks`),
-    so that the iterative path keeps one copy of K~'s entries for its multigrid and its products; the
-    rounding that of K~'s own product (shift ~1e-4 ||K~||)."""
+    so that the iterative path keeps one copy of K~'s entries for its multigrid and its products; in double
+    precision (`shifted_blocks` makes A so) the rounding is that of K~'s own product (shift ~1e-4 ||K~||)."""
 
     def __init__(self, product: SiteBlocks | RowSlabs, shift: float) -> None:
         self.product, self.shift = product, float(shift)
