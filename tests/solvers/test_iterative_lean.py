@@ -207,3 +207,27 @@ def test_blocked_with_a_partial_last_block_column(monkeypatch):
         coo = pattern.tocoo()
         tiles = sp.csr_matrix((np.ones(coo.nnz), (coo.row // 3, coo.col // 3)), shape=(n // 3, -(-m // 3)))
         assert ordering.blocked(pattern, 3) == bool(tiles.nnz * 9 <= 1.5 * max(coo.nnz, 1)), trial
+
+
+def test_high_stops_lobpcg_tighter_than_fast(monkeypatch):
+    """"High" hands LOBPCG's vectors to the spring-space Rayleigh-Ritz, whose bounds go as the residual
+    squared: `runners.accurate_iterative` asks `RITZ_TOLERANCE` (under "fast"'s `TOLERANCE`), and the
+    iterative path itself reaches the residual it is asked for (measured here, not taken from it)."""
+    from vibra.solvers import registry, runners
+
+    assert iterative.RITZ_TOLERANCE < iterative.TOLERANCE
+    asked: list[float] = []
+    real = runners.lowest_modes
+    monkeypatch.setattr(runners, "lowest_modes", lambda *a, **k: asked.append(k.get("tolerance")) or real(*a, **k))
+    monkeypatch.setattr(registry, "SPARSE_FACTOR_S", 1.0)  # (the factorisation priced out: the plan takes the iteration)
+    rng = np.random.default_rng(12)
+    positions = rng.uniform(0.0, (4_000 / 0.05) ** (1 / 3), size=(4_000, 3))
+    system = networks.anm(positions, cutoff=8.5)
+    modes = system.modes(8, accuracy="high", max_seconds=float("inf"), max_memory=float("inf"))
+    assert asked == [iterative.RITZ_TOLERANCE] and modes.path == "accurate-iterative"
+    Kt = _anm(1_000, seed=13)
+    norm = float(abs(Kt).sum(axis=1).max())
+    for tolerance in (iterative.TOLERANCE, iterative.RITZ_TOLERANCE):
+        result = iterative.lowest_modes(Kt, 10, tolerance=tolerance)
+        residuals = np.linalg.norm(Kt @ result.vectors - result.vectors * result.eigenvalues, axis=0)
+        assert residuals.max() <= tolerance * norm

@@ -34,7 +34,7 @@ from vibra.solvers.accurate.ring.counted import ring_band_counted, ring_counted
 from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result, ring_vectors
 from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
-from vibra.solvers.standard.iterative import lowest_modes
+from vibra.solvers.standard.iterative import RITZ_TOLERANCE, lowest_modes
 from vibra.solvers.standard.hermitian import hermitian_stack
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
 from vibra.solvers.structured.equilibrated import pencil_result
@@ -226,7 +226,7 @@ def accurate_ritz(p: Problem, x: Inputs) -> SolveResult:
 def accurate_iterative(p: Problem, x: Inputs) -> SolveResult:
     """The iterative path's k + 1 lowest vectors (the last bounds the gap), then as `accurate_ritz`."""
     basis = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, positions=x.positions, extra=1,  # type: ignore[arg-type]
-                         on_stage=x.on_stage).vectors
+                         tolerance=RITZ_TOLERANCE, on_stage=x.on_stage).vectors
     assert basis is not None
     return _spring_ritz(p, x, basis, "LOBPCG")
 

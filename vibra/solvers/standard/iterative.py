@@ -54,13 +54,17 @@ from vibra.solvers.common import SolveResult, absolute_figures
 from vibra.solvers.standard.ordering import site_block
 from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, Unshifted, products
 
-__all__ = ["ACCEPTED", "GROUP", "shifted_blocks", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes", "rigid_groups",
+__all__ = ["ACCEPTED", "GROUP", "RITZ_TOLERANCE", "shifted_blocks", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes", "rigid_groups",
            "translations"]
 
 #: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a third of `ACCEPTED`, so that the
 #: final Rayleigh-Ritz step's rounding and LOBPCG's own (its Gram matrices, ~1e-12) stay well inside it
 #: (the final residuals measured never above LOBPCG's own; 1e-9 before, two iterations more of 26 at 10^5 dofs).
 TOLERANCE = 3e-9
+
+#: `TOLERANCE` for the vectors of "high"'s spring-space Rayleigh-Ritz (bounds ~ residual^2 / gap: on the synthetic
+#: assembly at 3e4 dofs 3e-9 left relative bounds up to 9.8e-8, 1e-9 leaves 1.9e-8).
+RITZ_TOLERANCE = 1e-9
 
 #: The largest residual ||K~ v - lambda v|| / ||K~||_inf a returned pair may have (the "fast"
 #: promise on this path: an eigenvalue within that of a true one, Weyl; issue 47).
@@ -475,7 +479,7 @@ def _orthonormal(V: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | None = None,
                  rigid: NDArray[np.float64] | None = None, positions: NDArray[np.float64] | None = None,
-                 extra: int = 0, max_iterations: int = MAX_ITERATIONS, on_stage: Callable[[float, str], None] | None = None
+                 extra: int = 0, tolerance: float = TOLERANCE, max_iterations: int = MAX_ITERATIONS, on_stage: Callable[[float, str], None] | None = None
                  ) -> SolveResult:
     """The `n_modes` lowest eigenpairs of the sparse symmetric positive semidefinite K~, ascending.
 
@@ -497,6 +501,8 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
         protein assembly (RESULTS.md).
     extra : int
         Columns to return beyond `n_modes` (Rayleigh-Ritz on them bounds the gap; "high").
+    tolerance : float
+        LOBPCG's stopping residual over ||K~||_inf (`TOLERANCE`; "high" asks `RITZ_TOLERANCE`).
     max_iterations : int
         LOBPCG's iterations at most.
 
@@ -542,7 +548,7 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
         else products(Kt, compiled=compiled)
     del shifted
     block, iterations = block_lobpcg(product_of, preconditioner, kernel, start, wanted - kernel.shape[1],
-                                     TOLERANCE * norm, max_iterations)
+                                     tolerance * norm, max_iterations)
     del start
     stage(0.9, f"LOBPCG: {iterations} iterations of {columns} columns")
     basis = np.column_stack([kernel, block]) if kernel.shape[1] else block
