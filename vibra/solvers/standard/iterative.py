@@ -57,9 +57,8 @@ from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, Unshifted, product
 __all__ = ["ACCEPTED", "GROUP", "RITZ_TOLERANCE", "shifted_blocks", "KERNEL", "MOST_MODES", "WIDTH", "annihilated", "most_modes", "TOLERANCE", "BlockMultigrid", "block_columns", "iterative_cost", "lowest_modes", "rigid_body_modes", "rigid_groups",
            "translations"]
 
-#: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a third of `ACCEPTED`, so that the
-#: final Rayleigh-Ritz step's rounding and LOBPCG's own (its Gram matrices, ~1e-12) stay well inside it
-#: (the final residuals measured never above LOBPCG's own; 1e-9 before, two iterations more of 26 at 10^5 dofs).
+#: Residual ||K~ v - lambda v|| / ||K~||_inf at which LOBPCG stops: a third of `ACCEPTED` (the final residuals
+#: measured never above LOBPCG's own; 1e-9 before, two iterations more of 26 at 10^5 dofs).
 TOLERANCE = 3e-9
 
 #: `TOLERANCE` for the vectors of "high"'s spring-space Rayleigh-Ritz (bounds ~ residual^2 / gap: on the synthetic
@@ -82,12 +81,10 @@ EXTRA = 4
 #: Even the exact preconditioner (K~ + sigma)^-1 takes 106 iterations at 1e5 dofs with 2x.
 WIDTH = 4
 
-#: `_outside`'s second Gram-Schmidt pass: for the columns that kept less than this fraction of their norm
-#: in the first (Kahan's and Parlett's 1 / sqrt 2).
+#: `_outside`'s second Gram-Schmidt pass: for columns that kept under this fraction of their norm (1 / sqrt 2).
 REORTHOGONALISE = 0.7071
 
-#: `_orthonormal`'s second SVQB pass: where the Gram matrix's condition passed this (one pass leaves
-#: ~eps x condition of non-orthogonality: 2e-12 here, under LOBPCG's `TOLERANCE` by three decades).
+#: `_orthonormal`'s second SVQB pass: past this Gram condition (one pass leaves ~eps x it: 2e-12 here).
 SVQB_CONDITION = 1e4
 
 #: LOBPCG iterations at most (measured: 31 at 3e3 dofs, 59 at 1e4, 359 at 3e4 on a protein assembly).
@@ -294,9 +291,7 @@ def shifted_blocks(Kt: sp.csr_matrix, shift: float) -> sp.csr_matrix | sp.bsr_ma
     n = Kt.shape[0]
     if n % 3 == 0 and n >= 6 and site_block(Kt) == 3:
         tiled = Kt.astype(np.result_type(Kt.dtype, np.float64), copy=False).tobsr(blocksize=(3, 3), copy=True)  # (K~ untouched)
-        tiled.sort_indices()
-        rows = np.repeat(np.arange(n // 3), np.diff(tiled.indptr))
-        own = np.flatnonzero(rows == tiled.indices)
+        own = _own_blocks(tiled)[1]
         if own.size == n // 3:
             tiled.data[own] += shift * np.eye(3)
             return tiled
@@ -347,12 +342,17 @@ def _block_inverse(matrix: sp.csr_matrix | sp.bsr_matrix, blocks: int) -> NDArra
         return np.where(diagonal != 0, 1.0 / np.where(diagonal != 0, diagonal, 1.0), 0.0).reshape(-1, 1, 1)
     tiled = matrix if isinstance(matrix, sp.bsr_matrix) and matrix.blocksize == (blocks, blocks) \
         else sp.bsr_matrix(matrix, blocksize=(blocks, blocks))
-    sites = np.arange(n // blocks)
-    rows = np.repeat(sites, np.diff(tiled.indptr))
-    own = np.flatnonzero(rows == tiled.indices)
+    sites, own = _own_blocks(tiled)
     diagonal = np.zeros((n // blocks, blocks, blocks))
-    diagonal[rows[own]] = tiled.data[own]  # (a site with no block of its own keeps a zero one)
+    diagonal[sites] = tiled.data[own]  # (a site with no block of its own keeps a zero one)
     return np.linalg.pinv(diagonal, hermitian=True)  # (a coarse block may be singular)
+
+
+def _own_blocks(tiled: sp.bsr_matrix) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The block rows that store their diagonal block, and where in `tiled.data` it is."""
+    rows = np.repeat(np.arange(tiled.shape[0] // tiled.blocksize[0]), np.diff(tiled.indptr))
+    own = np.flatnonzero(rows == tiled.indices)
+    return rows[own], own
 
 
 def _jacobi(inverse: NDArray[np.float64], compiled: bool = True) -> Jacobi:
