@@ -11,7 +11,8 @@ on the same K~ (masses 1):
 - ``iterative-translations``: the same on K~ alone (the translations deflated, translations as the
   multigrid's near-null space: what `normal_modes(K, M)` without `positions` runs);
 - ``iterative-high``: `normal_modes(..., accuracy="high", positions=...)` on the accurate-iterative path forced by
-  the registry's rule (the factorisation's rate raised; relative bounds from spring-space Ritz);
+  the registry's rule (the factorisation's rate raised; relative bounds from spring-space Ritz: the
+  row records the largest relative bound on omega^2 of a moving mode and how many exceed 1e-10);
 - ``factorisation``: vibra's sparse path (`sparse_path`: CHOLMOD / PARDISO shift-invert, the path
   the plan picks at these sizes today);
 - ``eigsh``: the strongest peer named, scipy's ``eigsh(K~, k, sigma=-1e-4 ||K~||, which="LM")``
@@ -96,6 +97,7 @@ def run_one(method: str, dofs: int) -> dict:
     n = K.shape[0]
     norm = float(abs(K).sum(axis=1).max())
     stages: list[str] = []  # (the path's progress messages: LOBPCG's iteration count)
+    bounds: dict = {}  # ("high": the largest relative bound on omega^2 of a moving mode, the count over 1e-10)
     start = time.perf_counter()
     if method in ("iterative", "iterative-translations"):
         result = lowest_modes(K, MODES, positions=system.positions if method == "iterative" else None,
@@ -108,6 +110,10 @@ def run_one(method: str, dofs: int) -> dict:
                              progress=lambda fraction, message: stages.append(message))
         assert modes.path == "accurate-iterative", modes.path
         values, vectors = modes.omega ** 2 * np.sign(modes.omega), modes.vectors
+        moving = modes.omega ** 2 > 1e-6 * norm  # (the six rigid-body modes: zero, within absolute bounds)
+        relative = (2 * np.abs(modes.omega) * modes.omega_error + modes.omega_error ** 2)[moving] / values[moving]
+        bounds = {"max_relative_bound": float(relative.max()), "moving_modes": int(moving.sum()),
+                  "bounds_over_target": int(np.count_nonzero(relative > 1e-10))}
     elif method == "factorisation":
         result = sparse_path(K, n_modes=MODES, vectors=True, band=None)
         values, vectors = result.eigenvalues, result.vectors
@@ -121,7 +127,7 @@ def run_one(method: str, dofs: int) -> dict:
             "estimate_seconds": _estimate(method, K, int(system.spring_factor()[0].shape[0])),
             "max_relative_residual": float(residual.max()), "product_threads": _product_threads(),
             "iterations": iterations[0] if iterations else None,
-            "values": [float(v) for v in np.sort(values)], "load_average": os.getloadavg()[0]}
+            "values": [float(v) for v in np.sort(values)], "load_average": os.getloadavg()[0], **bounds}
 
 
 def _measured(method: str, dofs: int, budget: float) -> dict:

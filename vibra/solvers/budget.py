@@ -354,4 +354,4 @@ ITERATIVE_STEPS = 13.0        # LOBPCG iterations at 10^4 dofs (13 measured on t
 ITERATIVE_GROWTH = 0.52       # ... growing as n^0.52 (13 at 1e4, 22 at 3e4, 43 at 1e5; a log fit; RESULTS.md)
 ITERATIVE_RIGID_STEPS = 10.4  # the same where the coordinates give rigid blocks and the rotations (11 at 1e4, 14 at 3e4,
 ITERATIVE_RIGID_GROWTH = 0.38  # 26 at 1e5: the log fit, RESULTS.md "Rigid blocks from the coordinates"), ...
-ITERATIVE_RIGID_PRODUCTS = 12.5  # ... each 9 products and the rigid-block level's cycle, ~3.5 more (fitted: 0.19, 0.6, 2.0 s per iteration at 1e4, 3e4, 1e5)
+ITERATIVE_RIGID_PRODUCTS = 10.0  # ... each 9 products and the rigid-block level's cycle (refitted after the leaner dense steps: 12.5 priced 20.4 s per iteration at 1e6 dofs against ~14 measured; RESULTS.md "'High' on the iterative path")

@@ -213,8 +213,9 @@ def _iterative_cost(p: Problem) -> Estimate:
 
 
 def _accurate_iterative_cost(p: Problem) -> Estimate:
-    """The iterative path's (one more mode: the gap), + the spring-space Rayleigh-Ritz (O(nnz k): "high"
-    end to end measured 1.49, 1.33, 1.17 times "fast" at 1e4, 3e4, 1e5 dofs) and "certified"'s refinement."""
+    """The iterative path's (one more mode: the gap), LOBPCG to `RITZ_TOLERANCE` and the spring-space Rayleigh-Ritz
+    (O(nnz k): "high" end to end measured 1.57, 1.58, 1.35-1.51, 1.44 times "fast" at 1e4, 3e4, 1e5, 1e6 dofs), and
+    "certified"'s refinement."""
     memory, seconds = iterative_cost(p.n, p.nnz, p.k + 1, coordinates=p.coordinates)
     return _made("accurate-iterative", p, memory, _refined(p, 1.4 * seconds))
 
@@ -524,7 +525,7 @@ PATHS: tuple[SolverPath, ...] = (
                "a few of the lowest modes of a large 3-D network where its estimate is under the "
                "factorisation's: LOBPCG, smoothed-aggregation multigrid (its first level the rigid motions of groups of sites where the coordinates are given), the known rigid-body modes deflated, every "
                "residual checked", rival="sparse", serves=lambda p: p.partial and p.band is None and p.diagonal_mass and p.n_modes <= most_modes(p.n),  # type: ignore[operator]
-               cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); with the coordinates ~10.4 (n / 1e4)^0.38 iterations of 12.5 products; ~33 nnz + 512 n k bytes"),
+               cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); with the coordinates ~10.4 (n / 1e4)^0.38 iterations of 10 products; ~33 nnz + 512 n k bytes"),
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
                cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),

@@ -11,6 +11,7 @@ accuracy level asks, no further).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -291,7 +292,9 @@ def _springs(x: Inputs, lazy: bool = False) -> tuple[sp.csr_matrix, NDArray[np.f
     coupling, weights = _factor(x)
     weighted = weighted_factor(coupling, weights, x.mass)
     if lazy:
-        return coupling, weights, weighted, lambda: forming_deviation(weighted, coupling, weights, x.mass)
+        # (cached: `checked_ritz` and `_finished` may each ask for it; formed once)
+        return coupling, weights, weighted, functools.cache(lambda: forming_deviation(weighted, coupling, weights,
+                                                                                      x.mass))
     return coupling, weights, weighted, forming_deviation(weighted, coupling, weights, x.mass)
 
 
