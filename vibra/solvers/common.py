@@ -205,12 +205,14 @@ def mass_power(mass: NDArray[np.float64], power: float) -> NDArray[np.float64]:
     return (basis * values**power) @ basis.T
 
 
-def mass_weighted(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64]
+def mass_weighted(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *, share: bool = False
                   ) -> NDArray[np.float64] | sp.csr_matrix:
-    """K~ = M^-1/2 K M^-1/2 (eq. 139): sparse stays sparse for diagonal M."""
+    """K~ = M^-1/2 K M^-1/2 (eq. 139): sparse stays sparse for diagonal M; always a new matrix, except with
+    `share` (the solvers' own call, which only read K~): a sparse K that is already its own K~ is returned
+    as it is, its arrays shared (`_already_weighted`)."""
     if mass.ndim == 1:
         scale = 1.0 / np.sqrt(mass)
-        if sp.issparse(K) and _already_weighted(K, mass):  # unit masses: K~ is K (no second copy of its entries)
+        if share and sp.issparse(K) and _already_weighted(K, mass):  # unit masses: no second copy of K's entries
             return sp.csr_matrix(K)
         if sp.issparse(K):  # (s_i K_ij) s_j on the stored entries, as diag(s) K diag(s) rounds them
             weighted = sp.csr_matrix(K, copy=True)
@@ -230,8 +232,9 @@ def mass_weighted(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float
 
 def _already_weighted(K: sp.spmatrix, mass: NDArray[np.float64]) -> bool:
     """Whether the sparse K is its own K~ as `mass_weighted` would store it: unit masses, CSR of
-    doubles with sorted indices, no duplicate and no stored zero. The paths read K~ and never write
-    it (a test checks the caller's K after each of them), so it is shared, not copied."""
+    doubles with sorted indices, no duplicate and no stored zero. The solver paths read K~ and never
+    write it (tests/solvers/test_iterative_lean.py runs the sparse and iterative paths on a K whose
+    arrays are read-only), so `solve` shares it rather than copy it (2.1 GB at 10^6 dofs)."""
     return (K.format == "csr" and K.dtype == np.float64 and bool(np.all(mass == 1.0))
             and bool(K.has_canonical_format) and bool(np.all(K.data != 0.0)))
 

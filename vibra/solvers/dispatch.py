@@ -272,7 +272,7 @@ def solve(
         result.solver = path.reported(result)
         report.done()
         return result
-    Kt = mass_weighted(K, mass)
+    Kt = mass_weighted(K, mass, share=True)  # (K itself for unit masses: the paths only read K~)
     report.step(0.05, "mass-weighted K~ formed")
     # Far from 1, K~'s scale trips LAPACK's bisection and ARPACK (omega^2 ~ 1e-300 or 1e+300):
     # scale by an even power of 2 (exact in floating point) and scale the results back.

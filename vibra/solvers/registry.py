@@ -213,9 +213,8 @@ def _iterative_cost(p: Problem) -> Estimate:
 
 
 def _accurate_iterative_cost(p: Problem) -> Estimate:
-    """The iterative path's (one more mode: the gap), LOBPCG to `RITZ_TOLERANCE` and the spring-space Rayleigh-Ritz
-    (O(nnz k): "high" end to end measured 1.57, 1.58, 1.35-1.51, 1.44 times "fast" at 1e4, 3e4, 1e5, 1e6 dofs), and
-    "certified"'s refinement."""
+    """The iterative path's (one more mode, to `RITZ_TOLERANCE`), the spring-space Ritz (O(nnz k); "high" measured 1.4
+    to 1.6 times "fast" from 1e4 to 1e6 dofs, RESULTS.md "'High' on the iterative path"), "certified"'s refinement."""
     memory, seconds = iterative_cost(p.n, p.nnz, p.k + 1, coordinates=p.coordinates)
     return _made("accurate-iterative", p, memory, _refined(p, 1.4 * seconds))
 

@@ -72,10 +72,12 @@ ACCEPTED = 1e-8
 #: columns wide (`block_columns`).
 EXTRA = 4
 
-#: LOBPCG's block width over the wanted columns: the (b+1)-th value bounds the gap they converge with, and an
-#: assembly's low spectrum is a cluster denser with n (~440 modes within 7 % at 10^5 dofs). 20 modes (RESULTS.md,
-#: "Iterative path"), iterations (seconds) at 3e4 / 1e5 dofs: 2x 47 / 164 (18 / 228 s); 3x 24 / 57 (17 / 149 s);
-#: 4x 22 / 43 (18 / 115 s). Even the exact preconditioner (K~ + sigma)^-1 takes 106 iterations at 1e5 with 2x.
+#: LOBPCG's block width over the wanted columns. The (b+1)-th value bounds the gap the wanted ones
+#: converge with, and the low spectrum of a large assembly is a tight cluster that grows denser
+#: with n (one soft mode per copy of the protein: ~440 within 7 % of each other at 10^5 dofs):
+#: 20 modes of the synthetic assembly (RESULTS.md, "Iterative path"), iterations and seconds at
+#: 3e4 / 1e5 dofs with 2x: 47 / 164 (18 / 228 s); 3x: 24 / 57 (17 / 149 s); 4x: 22 / 43 (18 / 115 s).
+#: Even the exact preconditioner (K~ + sigma)^-1 takes 106 iterations at 1e5 dofs with 2x.
 WIDTH = 4
 
 #: `_outside`'s second Gram-Schmidt pass: for columns that kept under this fraction of their norm (1 / sqrt 2).
@@ -87,8 +89,9 @@ SVQB_CONDITION = 1e4
 #: LOBPCG iterations at most (measured: 31 at 3e3 dofs, 59 at 1e4, 359 at 3e4 on a protein assembly).
 MAX_ITERATIONS = 1000
 
-#: Modes this path serves at most (`most_modes`): LOBPCG's Rayleigh-Ritz, n (3b)^2 per iteration (b = `WIDTH` k),
-#: passes the products' O(nnz b) from b ~ 1.2 nnz / n (~50 modes on a protein assembly; the cost model prices both).
+#: Modes this path serves at most (`most_modes`): LOBPCG's Rayleigh-Ritz costs n (3b)^2 per
+#: iteration, b = `WIDTH` k, which passes the products' O(nnz b) from b ~ 1.2 nnz / n (~200 columns,
+#: ~50 modes, on a protein assembly; the cost model prices both).
 MOST_MODES = 100
 
 #: Dofs from which "auto" may take this path (its estimate against the factorisation's decides
@@ -118,9 +121,10 @@ Product = SiteBlocks | RowSlabs
 #: A block-Jacobi step X -> D^-1 X (`_jacobi`).
 Jacobi = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
-#: Sites per rigid block at most (`rigid_groups`): recursive bisection gives GROUP / 2 to GROUP sites. 20 modes of
-#: the assembly (RESULTS.md), iterations (seconds) at 3e4 / 1e5 dofs: 16 sites 12 / 27 (15 / 102 s, a larger coarse
-#: level to set up); 32 sites 14 / 26 (11 / 84 s); 64 sites 14 at 3e4; translations only 22 / 43 (21 / 120 s).
+#: Sites per rigid block at most (`rigid_groups`, where the coordinates are given): recursive bisection
+#: gives blocks of GROUP / 2 to GROUP sites. 20 modes of the synthetic assembly (RESULTS.md), iterations
+#: and seconds at 3e4 / 1e5 dofs: 16 sites 12 / 27 (15 / 102 s, a larger coarse level to set up);
+#: 32 sites 14 / 26 (11 / 84 s); 64 sites 14 at 3e4; translations only (no coordinates) 22 / 43 (21 / 120 s).
 GROUP = 32
 
 #: The coarsest level's size at most, in pyamg's block rows (a dense inverse: up to 6 x 500 dofs, 72 MB, with
@@ -380,13 +384,12 @@ def _spectral_radius(matrix: sp.csr_matrix | Product, jacobi: Jacobi) -> float:
 
 
 def block_lobpcg(A: sp.csr_matrix | Product | Unshifted, preconditioner: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-                 constraints: NDArray[np.float64], start: NDArray[np.float64], wanted: int,
-                 tolerance: float | NDArray[np.float64], max_iterations: int) -> tuple[NDArray[np.float64], int]:
+                 constraints: NDArray[np.float64], start: NDArray[np.float64], wanted: int, tolerance: float,
+                 max_iterations: int) -> tuple[NDArray[np.float64], int]:
     """The lowest Ritz vectors of the symmetric A, orthogonal to `constraints`, by LOBPCG (Knyazev 2001).
 
     The block (`start`'s columns) is wider than the `wanted` lowest columns; the iteration stops as
-    soon as those have residuals ||A x - theta x|| <= `tolerance` (one per wanted column, or one for all; the
-    block's other columns take the smallest), whatever the rest of the block
+    soon as those have residuals ||A x - theta x|| <= `tolerance`, whatever the rest of the block
     (scipy's `lobpcg` waits for every column, and the block's last ones, at the edge of a cluster,
     converge slowest: on a 3e4-dof assembly 400 iterations against 33). Converged columns get no new
     search direction (soft locking) but stay in every Rayleigh-Ritz. The basis [X, W, P] is made
@@ -402,15 +405,13 @@ def block_lobpcg(A: sp.csr_matrix | Product | Unshifted, preconditioner: Callabl
     values, rotation = np.linalg.eigh(_symmetric(X.T @ AX))
     X, AX = X @ rotation, AX @ rotation
     P = np.zeros((X.shape[0], 0))
-    limit = np.full(X.shape[1], np.min(tolerance, initial=np.inf))
-    limit[:wanted] = tolerance
     iterations = 0
     for iterations in range(1, max_iterations + 1):
         R = AX - X * values
         norms = np.sqrt(np.einsum("ij,ij->j", R, R))
-        if wanted <= 0 or np.all(norms[:wanted] <= limit[:wanted]):  # (none wanted: every mode asked for was known)
+        if wanted <= 0 or norms[:wanted].max() <= tolerance:  # (none wanted: every mode asked for was known)
             break
-        active = norms > limit
+        active = norms > tolerance
         W = _outside(np.asarray(preconditioner(R[:, active]), dtype=np.float64), constraints)  # (double: in place below)
         del R  # (n x b blocks alive at once kept few: at 10^6 dofs each is 0.45 GB)
         V = np.column_stack([W, P[:, active]]) if P.shape[1] else W
@@ -497,8 +498,9 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
         motions of compact groups of sites (`rigid_groups`), which cuts the iterations by ~40 % on a
         protein assembly (RESULTS.md).
     extra : int
-        Columns to return beyond `n_modes` (Rayleigh-Ritz on them bounds the gap; "high"): LOBPCG stops them
-        at `TOLERANCE` (a gap needs no more) where `tolerance` asks less.
+        Columns to return beyond `n_modes` (Rayleigh-Ritz on them bounds the gap; "high"). They stop at `tolerance`
+        too: a looser gap column would pass its residual to a mode it is (near-)degenerate with, in the final
+        Rayleigh-Ritz and in the spring-space bound of that mode's cluster (a symmetric assembly's pairs).
     tolerance : float
         LOBPCG's stopping residual over ||K~||_inf (`TOLERANCE`; "high" asks `RITZ_TOLERANCE`).
     max_iterations : int
@@ -545,10 +547,8 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     product_of = Unshifted(products(shifted), shift) if compiled and isinstance(shifted, sp.bsr_matrix) \
         else products(Kt, compiled=compiled)
     del shifted
-    strict = max(n_modes - kernel.shape[1], 0)  # (the block's columns for the modes asked for; then the extra ones)
-    limits = np.r_[np.full(strict, tolerance), np.full(wanted - kernel.shape[1] - strict, max(tolerance, TOLERANCE))]
     block, iterations = block_lobpcg(product_of, preconditioner, kernel, start, wanted - kernel.shape[1],
-                                     limits * norm, max_iterations)
+                                     tolerance * norm, max_iterations)
     del start
     stage(0.9, f"LOBPCG: {iterations} iterations of {columns} columns")
     basis = np.column_stack([kernel, block]) if kernel.shape[1] else block
