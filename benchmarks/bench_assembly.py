@@ -13,6 +13,9 @@ on the same K~ (masses 1):
 - ``iterative-high``: `normal_modes(..., accuracy="high", positions=...)` on the accurate-iterative path forced by
   the registry's rule (the factorisation's rate raised; relative bounds from spring-space Ritz: the
   row records the largest relative bound on omega^2 of a moving mode and how many exceed 1e-10);
+- ``iterative-gpu`` (only where CuPy sees a GPU; not in the default methods): ``iterative`` with LOBPCG and
+  the multigrid cycle on the GPU (`lowest_modes(..., device="gpu")`, the registry's `iterative-gpu`); the
+  row adds the GPU's peak memory (its free memory sampled every 20 ms) and the device's name;
 - ``factorisation``: vibra's sparse path (`sparse_path`: CHOLMOD / PARDISO shift-invert, the path
   the plan picks at these sizes today);
 - ``eigsh``: the strongest peer named, scipy's ``eigsh(K~, k, sigma=-1e-4 ||K~||, which="LM")``
@@ -63,7 +66,7 @@ def _estimate(method: str, K: Any, n_terms: int) -> float | None:
     from vibra.solvers.topology import separator_width
 
     name = {"iterative": "iterative", "iterative-translations": "iterative", "iterative-high": "accurate-iterative",
-            "factorisation": "sparse"}.get(method)
+            "factorisation": "sparse", "iterative-gpu": "iterative-gpu"}.get(method)
     if name is None:
         return None
     accuracy = "high" if method == "iterative-high" else "fast"
@@ -103,6 +106,12 @@ def run_one(method: str, dofs: int) -> dict:
         result = lowest_modes(K, MODES, positions=system.positions if method == "iterative" else None,
                               on_stage=lambda fraction, message: stages.append(message))
         values, vectors = result.eigenvalues, result.vectors
+    elif method == "iterative-gpu":
+        with _gpu_peak() as device:
+            began = time.perf_counter()
+            result = lowest_modes(K, MODES, positions=system.positions, device="gpu",
+                                  on_stage=lambda fraction, message: stages.append(f"{message} @{time.perf_counter() - began:.2f}"))
+        values, vectors, bounds = result.eigenvalues, result.vectors, device
     elif method == "iterative-high":
         registry.SPARSE_FACTOR_S = 1.0  # (the plan weighs the two: the factorisation's estimate made the larger)
         modes = normal_modes(K, system.mass_matrix(), n_modes=MODES, spring_factor=system.spring_factor(),
@@ -122,12 +131,43 @@ def run_one(method: str, dofs: int) -> dict:
     seconds = time.perf_counter() - start
     residual = np.linalg.norm(K @ vectors - vectors * values, axis=0) / norm
     iterations = [int(m.split()[1]) for m in stages if m.startswith("LOBPCG:")]
+    if method == "iterative-gpu":  # (the path's own stages, with their times: the setup on the host, LOBPCG on the GPU)
+        bounds["stages"] = stages
     return {"method": method, "dofs": n, "nnz": int(K.nnz), "seconds": seconds, "build_seconds": build_s,
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0,
             "estimate_seconds": _estimate(method, K, int(system.spring_factor()[0].shape[0])),
             "max_relative_residual": float(residual.max()), "product_threads": _product_threads(),
             "iterations": iterations[0] if iterations else None,
             "values": [float(v) for v in np.sort(values)], "load_average": os.getloadavg()[0], **bounds}
+
+
+class _gpu_peak:
+    """The GPU's peak memory in use over a block (its free memory sampled every 20 ms by a thread), in a dict
+    filled on exit: gpu_peak_bytes (above the use at entry) and the device's name."""
+
+    def __enter__(self) -> dict:
+        import threading
+
+        import cupy
+
+        self.cupy, self.figures, self.done = cupy, {}, threading.Event()
+        free, total = cupy.cuda.runtime.memGetInfo()
+        self.lowest, self.entry = free, free
+        name = cupy.cuda.runtime.getDeviceProperties(0)["name"]
+        self.figures["gpu"] = name.decode() if isinstance(name, bytes) else str(name)
+        self.figures["gpu_total_bytes"] = int(total)
+        self.thread = threading.Thread(target=self._watch, daemon=True)
+        self.thread.start()
+        return self.figures
+
+    def _watch(self) -> None:
+        while not self.done.wait(0.02):
+            self.lowest = min(self.lowest, self.cupy.cuda.runtime.memGetInfo()[0])
+
+    def __exit__(self, *exc: object) -> None:
+        self.done.set()
+        self.thread.join()
+        self.figures["gpu_peak_bytes"] = int(self.entry - self.lowest)
 
 
 def _measured(method: str, dofs: int, budget: float) -> dict:

@@ -390,12 +390,14 @@ def normal_modes(
         error or 1e-13 relative), at the cost it takes, estimated up front. Without a spring
         factor all three run the standard paths.
     device : {"cpu", "gpu"}
-        "gpu" ("cuda" is the same) solves all modes densely on an NVIDIA GPU through CuPy
-        (``pip install "vibra[gpu]"``), then keeps `n_modes` or `band`; only with solver
-        "auto" or "dense"; planned and guarded (`max_memory`, `max_seconds`) like any path, the
-        spring factor unused. Its memory (K~ and cuSOLVER's workspace, about 5 n^2 doubles) is
-        checked against the GPU's free memory before anything is allocated. Without CuPy or a
-        GPU it raises `vibra.solvers.standard.gpu.GPUUnavailableError`; it never falls back to the CPU.
+        "gpu" ("cuda" is the same) solves on an NVIDIA GPU through CuPy (``pip install "vibra[gpu]"``):
+        all modes densely (then keeps `n_modes` or `band`; solver "dense"), or the lowest `n_modes`
+        of a large 3-D network by the iterative path, LOBPCG and its multigrid cycle on the GPU
+        (solver "iterative"); "auto" takes the one with the smaller estimate. Planned and guarded
+        (`max_memory`, `max_seconds`) like any path, absolute accuracy whatever `accuracy` says (the
+        spring factor unused). The GPU memory each needs is checked against the free memory before
+        anything is allocated on it. Without CuPy or a GPU it raises
+        `vibra.solvers.standard.gpu.GPUUnavailableError`; it never falls back to the CPU.
 
     Returns
     -------
@@ -409,7 +411,7 @@ def normal_modes(
     vibra.solvers.standard.gpu.GPUUnavailableError
         device="gpu" without CuPy or without a usable GPU (the message names the extra).
     ValueError
-        An unknown device, or device="gpu" with a solver other than "auto" or "dense", or a
+        An unknown device, or device="gpu" with a solver other than "auto", "dense" or "iterative", or a
         GPU solve that would not fit in the GPU's free memory (with the figures);
         K not square, not symmetric (beyond 1e-10 * max|K|) or not finite; M of the wrong
         shape, non-positive, subnormal, non-finite or not positive definite; max|K| / min(M)
@@ -458,8 +460,9 @@ def normal_modes(
     if not (progress is None or isinstance(progress, (bool, np.bool_)) or callable(progress)):
         raise TypeError(f"progress must be None, a bool or a callable(fraction, message), got {progress!r}")
     device = gpu.check_device(device)
-    if device == "gpu" and solver not in ("auto", "dense"):
-        raise ValueError(f"device='gpu' runs the dense path only; solver is {solver!r} (use 'auto' or 'dense')")
+    if device == "gpu" and solver not in ("auto", "dense", "iterative"):
+        raise ValueError(f"device='gpu' runs the dense and the iterative paths only; solver is {solver!r} "
+                         "(use 'auto', 'dense' or 'iterative')")
     if not uses_springs(accuracy) or device == "gpu":
         factor = None  # "fast" and the GPU: the standard paths, absolute accuracy
 

@@ -255,9 +255,9 @@ def test_normal_modes_rejects_an_unknown_device() -> None:
         vibra.normal_modes(K, [1.0, 1.0], device=1)
 
 
-def test_normal_modes_on_the_gpu_runs_the_dense_path_only() -> None:
+def test_normal_modes_on_the_gpu_runs_the_dense_and_iterative_paths_only() -> None:
     K = np.array([[1.0, -1.0], [-1.0, 1.0]])
-    with pytest.raises(ValueError, match=r"device='gpu' runs the dense path only; solver is 'tridiagonal'"):
+    with pytest.raises(ValueError, match=r"device='gpu' runs the dense and the iterative paths only; solver is 'tridiagonal'"):
         vibra.normal_modes(K, [1.0, 1.0], device="gpu", solver="tridiagonal")
 
 

@@ -24,7 +24,7 @@ from vibra.solvers.common import mass_weighted
 from vibra.solvers.problem import Problem
 from vibra.solvers import registry
 from vibra.solvers.registry import BY_NAME, choose, estimate
-from vibra.solvers.standard import iterative
+from vibra.solvers.standard import iterative, lobpcg
 from vibra.solvers.standard.iterative import ACCEPTED, iterative_cost, lowest_modes, rigid_body_modes, translations
 from vibra.solvers.standard.sparse import sparse_path
 
@@ -279,7 +279,7 @@ def test_block_lobpcg_stops_on_the_wanted_columns_only():
     norm = _norm(A)
     solve = np.linalg.inv(A.toarray() + 0.5 * np.eye(n))
     start = rng.standard_normal((n, 14))
-    X, iterations = iterative.block_lobpcg(A, lambda R: solve @ R, np.zeros((n, 0)), start, 10, 1e-10 * norm, 200)
+    X, iterations = lobpcg.block_lobpcg(A, lambda R: solve @ R, np.zeros((n, 0)), start, 10, 1e-10 * norm, 200)
     values = np.einsum("ij,ij->j", X, A @ X)
     residuals = np.linalg.norm(A @ X - X * values, axis=0)
     assert iterations < 200
@@ -298,7 +298,7 @@ def test_block_lobpcg_keeps_out_of_its_constraints():
     dense = la.eigh(Kt.toarray())[0]
     shifted_inverse = np.linalg.inv(Kt.toarray() + 1e-3 * norm * np.eye(n))
     start = np.random.default_rng(5).standard_normal((n, 16))
-    X, _ = iterative.block_lobpcg(Kt, lambda R: shifted_inverse @ R, Y, start, 8, 1e-10 * norm, 300)
+    X, _ = lobpcg.block_lobpcg(Kt, lambda R: shifted_inverse @ R, Y, start, 8, 1e-10 * norm, 300)
     values = np.einsum("ij,ij->j", X, Kt @ X)
     assert np.abs(Y.T @ X).max() <= 1e-12
     assert np.allclose(values[:8], dense[3:11], rtol=0, atol=1e-9 * norm)
@@ -424,7 +424,7 @@ def test_groups_of_collinear_sites():
     kernel = iterative.annihilated(Kt, R, norm)
     assert kernel.shape[1] == 6
     start = np.random.default_rng(8).standard_normal((n, 32))
-    X, _ = iterative.block_lobpcg(Kt, P, kernel, start, 8, 1e-10 * norm, 300)
+    X, _ = lobpcg.block_lobpcg(Kt, P, kernel, start, 8, 1e-10 * norm, 300)
     values = np.sort(np.einsum("ij,ij->j", X, Kt @ X))
     assert np.allclose(values[:8], dense[6:14], rtol=0, atol=1e-9 * norm)
 

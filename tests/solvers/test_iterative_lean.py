@@ -16,7 +16,7 @@ import scipy.sparse as sp
 
 from vibra import networks
 from vibra.system import System
-from vibra.solvers.standard import iterative, ordering
+from vibra.solvers.standard import iterative, lobpcg, ordering
 from vibra.solvers.standard.rows import SiteBlocks, Unshifted, products
 
 EPS = np.finfo(float).eps
@@ -108,7 +108,7 @@ def test_outside_removes_the_basis_with_one_pass_or_two():
     near = B @ rng.standard_normal((6, 3)) + 1e-10 * rng.standard_normal((n, 3))
     V = np.column_stack([far, near])
     norms = np.linalg.norm(V, axis=0)
-    out = iterative._outside(V, B)
+    out = lobpcg._outside(V, B)
     assert out is V
     left = np.linalg.norm(out, axis=0)
     assert np.all(np.abs(B.T @ out) <= 10 * EPS * left)
@@ -126,7 +126,7 @@ def test_orthonormal_to_rounding_whatever_the_condition(condition):
     right = np.linalg.qr(rng.standard_normal((m, m)))[0]
     V = (left * np.geomspace(1.0, 1.0 / np.sqrt(condition), m)) @ right
     original = V.copy()
-    Q = iterative._orthonormal(V)
+    Q = lobpcg._orthonormal(V)
     assert Q.shape == (n, m)
     assert np.abs(Q.T @ Q - np.eye(m)).max() <= 1e-13
     assert np.linalg.norm(original - Q @ (Q.T @ original)) <= 1e-9 * np.linalg.norm(original)
@@ -174,7 +174,7 @@ def test_block_lobpcg_in_double_with_a_single_precision_preconditioner():
     norm = float(abs(A).sum(axis=1).max())
     solve = np.linalg.inv(A.toarray() + 0.5 * np.eye(n)).astype(np.float32)
     start = rng.standard_normal((n, 12)).astype(np.float32)
-    X, iterations = iterative.block_lobpcg(A, lambda R: solve @ R.astype(np.float32), basis[:, :2], start, 6,
+    X, iterations = lobpcg.block_lobpcg(A, lambda R: solve @ R.astype(np.float32), basis[:, :2], start, 6,
                                            1e-9 * norm, 300)
     values = np.einsum("ij,ij->j", X, A @ X)
     assert X.dtype == np.float64 and iterations < 300
@@ -189,12 +189,12 @@ def test_orthonormal_drops_a_column_of_nothing():
     V = rng.standard_normal((500, 5))
     V[:, 1] = 0.0
     V[:, 3] = np.nan
-    Q = iterative._orthonormal(V)
+    Q = lobpcg._orthonormal(V)
     assert Q.shape == (500, 3) and np.isfinite(Q).all()
     assert np.abs(Q.T @ Q - np.eye(3)).max() <= 1e-13
     V = rng.standard_normal((500, 4))
     V[:, 2] = np.nan  # (alone: no zero column beside it)
-    assert iterative._orthonormal(V).shape == (500, 3)
+    assert lobpcg._orthonormal(V).shape == (500, 3)
 
 
 def test_blocked_with_a_partial_last_block_column(monkeypatch):

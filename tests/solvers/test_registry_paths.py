@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 
+from helpers import fake_cupy
 from vibra import System, normal_modes, solvers
 from vibra.solvers import registry, runners
 from vibra.solvers.budget import ResourceLimitError
@@ -89,6 +90,8 @@ CASES: dict[str, tuple[Callable[[], System], dict[str, Any]]] = {
     # passes the iterative path's (which the plan weighs, `registry._cheaper_rival`)
     "iterative": (lambda: network(600), dict(n_modes=8, accuracy="fast", factor_rate=1.0)),
     "accurate-iterative": (lambda: network(600), dict(n_modes=8, factor_rate=1.0)),
+    # on the GPU (CuPy's numpy stand-in, `helpers.fake_cupy`), the dense GPU solve's rate raised likewise
+    "iterative-gpu": (lambda: network(600), dict(n_modes=8, accuracy="fast", device="gpu", gpu_rate=1.0)),
 }
 
 #: The quadratic paths: (K, G or C) with M = I, from `tests/solvers/test_registry.py`'s cases.
@@ -169,6 +172,10 @@ def test_each_path_is_planned_solved_and_reported_as_declared(name: str, lowered
     if "factor_rate" in request:  # (read by the sparse paths' cost function only)
         monkeypatch.setattr(registry, "SPARSE_FACTOR_S", request["factor_rate"])
         monkeypatch.setattr(registry, "ITERATIVE_FROM", 0)  # (a 1,800-dof network: the path's gate lowered)
+    if "gpu_rate" in request:  # (the dense GPU solve's rate, read by its cost function only)
+        monkeypatch.setattr(registry, "GPU_VECTORS_S", request["gpu_rate"])
+        monkeypatch.setattr(registry, "ITERATIVE_FROM", 0)
+        fake_cupy.install(monkeypatch)
     system = build()
     accuracy = request.get("accuracy", "high")
     device = request.get("device", "cpu")

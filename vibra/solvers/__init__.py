@@ -80,9 +80,12 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``standard/cholmod.py``             the default sparse Cholesky (SuiteSparse CHOLMOD, through cvxopt)
 ``standard/pardiso.py``             the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
 ``standard/krylov.py``              block Krylov iteration (block Arnoldi, full reorthogonalisation)
-``standard/gpu.py``                 ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd)
-``standard/iterative.py``           iterative, accurate-iterative: LOBPCG with a multigrid
-                                    preconditioner (pyamg) for the lowest modes of large networks
+``standard/gpu.py``                 ``device="gpu"``: dense all-modes solve with CuPy (cuSOLVER syevd);
+                                    the iterative path's GPU memory and CSR upload
+``standard/iterative.py``           iterative, accurate-iterative, iterative-gpu: LOBPCG with a
+                                    multigrid preconditioner (pyamg) for the lowest modes of large
+                                    networks
+``standard/lobpcg.py``              block LOBPCG on numpy or CuPy arrays (the iterative path's)
 ``distributed/slepc.py``            ``solver="slepc"``: SLEPc over MPI (a worker run by Debian's
                                     python3, ``distributed/slepc_worker.py``)
 ``accurate/springs.py``             the accurate paths of any spring system: -checked, -ritz,

@@ -97,6 +97,9 @@ TRIPLET_ROW = 28.0            # work units per row of the Golub-Kahan matrix and
 DD_RAYLEIGH_S = 3e-8
 HIGH_LOOSE = 1                # modes "high" is estimated to refine by triplets (bounds over 1e-10: rare)
 CERTIFY_BYTES = 8.0 * 160     # per site: the certificate kernel's work space (8 values side by side)
+# the iterative path on the GPU (device="gpu"): the setup as above on the host, LOBPCG's products and blocks on the GPU
+GPU_ITERATIVE_PRODUCT_S = 2e-12  # per stored entry and column of one cuSPARSE product (provisional, before a measurement on an H200)
+GPU_ITERATIVE_RITZ_S = 2e-11     # per n b^2: the blocks' cuBLAS products, the small Rayleigh-Ritz on the host (provisional)
 # per n^3 of the quadratic paths' first-order form of 2n (measured 1.0-1.6e-9 and 2.1-3.2e-9 (2n)^3 s
 # at n = 100..400): two Hermitian solves (skew-symmetric), one geev (hamiltonian), two (companion)
 SKEW_S = 2e-8

@@ -12,14 +12,11 @@ smaller (the only choice by cost); a named family (``solver="sparse"``) takes it
 `dispatch.solve`, `quadratic_modes`, ``vibra validate``, the budget guard and the README's table
 all read this registry; nothing else branches on path names.
 
-A path may name `fallbacks`: what it reports instead when a check on its own result (never the
-clock) hands the modes to a stronger method: ``accurate-checked`` becomes ``accurate-jacobi``
-when a requested bound still misses 1e-10 after spring-space Rayleigh-Ritz.
+A path may name `fallbacks`: what it reports when a check on its own result (never the clock) hands the modes on
+(``accurate-checked`` becomes ``accurate-jacobi`` when a bound still misses 1e-10 after spring-space Rayleigh-Ritz).
 
-Costs (n dofs, k modes wanted, b half-bandwidth; the rates of `budget`, measured on one ~3 GHz
-core with OpenBLAS and rounded so that estimates err on the high side by a small factor):
-memory beyond the input, then time, in each path's cost function below. A `band` request is
-estimated as `common.BAND_MODES_ESTIMATE` (64) modes (its count is unknown before the solve).
+Costs (n dofs, k modes, b half-bandwidth; `budget`'s rates, measured on one ~3 GHz core with OpenBLAS, rounded
+up): memory beyond the input, then time, in each path's cost function; a `band` is priced as 64 modes.
 """
 
 from __future__ import annotations
@@ -57,11 +54,10 @@ class SolverPath:
     """One solver path, declared once: its name (what `Modes.path` reports), the `solver=`
     family that selects it, when it applies, what it costs, how it runs, and its table entry.
 
-    `run(problem, inputs)` is a function of `runners` (a direct reference): `runners.Inputs`
-    for the symmetric paths, `structured.first_order.Reduced` for the quadratic ones.
-    `weighted`: it runs on K~ = M^-1/2 K M^-1/2 (`dispatch.solve` forms it; False: K and M as
-    given); `springs`: it takes the spring factor (B, w) where one is given. `device`: where it
-    runs. `serves`: when a named family (solver="...") may take it (default `applies`).
+    `run(problem, inputs)` is a function of `runners`: `runners.Inputs` for the symmetric paths, `structured.first_order.Reduced`
+    for the quadratic ones. `weighted`: it runs on K~ = M^-1/2 K M^-1/2 (`dispatch.solve` forms it; False: K and M as given);
+    `springs`: it takes the spring factor (B, w) where one is given. `device`: where it runs. `serves`: when a named family
+    (solver="...") may take it (default `applies`).
     `rival`: the name of a path declared before it that serves the same requests another way;
     where both apply, ``solver="auto"`` takes the one with the smaller estimated time (`choose`).
     """
@@ -195,8 +191,7 @@ def _sparse_cost(p: Problem) -> Estimate:
 
 
 def _slepc_cost(p: Problem) -> Estimate:
-    """`distributed.slepc.slepc_cost` (start-up, the hand-off files, MUMPS's factor, the shifted
-    solves) on the ranks the environment names (``VIBRA_MPI_RANKS``)."""
+    """`distributed.slepc.slepc_cost` (start-up, hand-off files, MUMPS's factor, shifted solves) on ``VIBRA_MPI_RANKS`` ranks."""
     return _made("slepc", p, *slepc_cost(p.n, p.nnz, p.k, slepc_ranks()))
 
 
@@ -206,15 +201,14 @@ def _ritz_cost(p: Problem) -> Estimate:
     return _made("accurate-ritz", p, memory, _refined(p, seconds, chain=p.topology == "chain"))
 
 
-def _iterative_cost(p: Problem) -> Estimate:
-    """LOBPCG with the multigrid preconditioner (`iterative.iterative_cost`: O(nnz) bytes and
-    O(nnz k) seconds per iteration, no factor)."""
-    return _made("iterative", p, *iterative_cost(p.n, p.nnz, p.k, coordinates=p.coordinates))
+def _iterative_cost(name: str, device: str) -> Callable[[Problem], Estimate]:
+    """LOBPCG with the multigrid preconditioner on `device` (`iterative.iterative_cost`: O(nnz) bytes, O(nnz k) s an iteration)."""
+    return lambda p: _made(name, p, *iterative_cost(p.n, p.nnz, p.k, coordinates=p.coordinates, device=device))
 
 
 def _accurate_iterative_cost(p: Problem) -> Estimate:
-    """The iterative path's (one more mode, to `RITZ_TOLERANCE`), the spring-space Ritz (O(nnz k); "high" measured 1.4
-    to 1.6 times "fast" from 1e4 to 1e6 dofs, RESULTS.md "'High' on the iterative path"), "certified"'s refinement."""
+    """The iterative path's (a mode more, to `RITZ_TOLERANCE`), spring-space Ritz (O(nnz k); "high" 1.4 to 1.9 times "fast",
+    RESULTS.md "'High' on the iterative path"), "certified"'s refinement."""
     memory, seconds = iterative_cost(p.n, p.nnz, p.k + 1, coordinates=p.coordinates)
     return _made("accurate-iterative", p, memory, _refined(p, 1.4 * seconds))
 
@@ -366,11 +360,13 @@ def _sparse(p: Problem) -> bool:
 
 
 def _iterative(p: Problem) -> bool:
-    # a few of the lowest modes of a large 3-D network (a chain's or a ring's band is narrow),
-    # whose springs and masses do not spread over decades (`Problem.loose`: there LOBPCG's
-    # preconditioned residuals stall short of 1e-8; the factorisation serves)
-    return (_sparse(p) and p.band is None and p.n_modes is not None and p.n_modes <= most_modes(p.n)
-            and p.width > BAND_LIMIT and p.diagonal_mass and p.n >= ITERATIVE_FROM and not p.loose)
+    # a few of the lowest modes of a large 3-D network (a chain's or a ring's band is narrow), whose springs and masses
+    # do not spread over decades (`Problem.loose`: there LOBPCG's residuals stall short of 1e-8; the factorisation serves)
+    return _sparse(p) and _serves_iterative(p) and p.width > BAND_LIMIT and p.n >= ITERATIVE_FROM and not p.loose
+
+
+def _serves_iterative(p: Problem) -> bool:  # (solver="iterative": the lowest n_modes of a diagonal-mass problem)
+    return p.partial and p.band is None and p.diagonal_mass and p.n_modes <= most_modes(p.n)  # type: ignore[operator]
 
 
 def _pencil(p: Problem) -> bool:
@@ -444,6 +440,10 @@ PATHS: tuple[SolverPath, ...] = (
     SolverPath("gpu", "dense", _anything, _gpu_cost, runners.gpu, "absolute ~ n ε‖K̃‖",
                'only when asked, device="gpu": all modes densely on an NVIDIA GPU (CuPy)', device="gpu",
                weighted=False, cost="n^3 on the GPU; ~5 n^2 doubles of its memory, checked first"),
+    SolverPath("iterative-gpu", "iterative", _iterative, _iterative_cost("iterative-gpu", "gpu"), runners.iterative_gpu, "absolute ~ 1e-8 ‖K̃‖",
+               'device="gpu", where the iterative path applies and its estimate is under the dense GPU solve\'s: its LOBPCG '
+               "and multigrid cycle on the GPU (CuPy, cuSPARSE), the hierarchy built on the host", device="gpu", rival="gpu",
+               serves=_serves_iterative, cost="the iterative path's setup on the host, + its iterations at ~2e-12 s per entry and column"),
     SolverPath("accurate-bisection", "accurate", _bisection, _bisection_cost, runners.accurate_bisection,
                "relative, each bound a certificate",
                'the lowest modes of a chain whose K~ diagonal spreads over 1e4: bisection on the bidiagonal '
@@ -520,10 +520,10 @@ PATHS: tuple[SolverPath, ...] = (
                "(Krylov-Schur, shift-and-invert by MUMPS) in a separate program, ranks from VIBRA_MPI_RANKS",
                serves=lambda p: p.partial and p.band is None and p.diagonal_mass and p.n_modes < p.n - 1,  # type: ignore[operator]
                cost="~1.5 s start + two factors (~1.2e-8 n^2 s each for a 3-D network) + ~2e-7 n^(4/3) s a shifted solve"),
-    SolverPath("iterative", "iterative", _iterative, _iterative_cost, runners.iterative, "absolute ~ 1e-8 ‖K̃‖",
+    SolverPath("iterative", "iterative", _iterative, _iterative_cost("iterative", "cpu"), runners.iterative, "absolute ~ 1e-8 ‖K̃‖",
                "a few of the lowest modes of a large 3-D network where its estimate is under the "
                "factorisation's: LOBPCG, smoothed-aggregation multigrid (its first level the rigid motions of groups of sites where the coordinates are given), the known rigid-body modes deflated, every "
-               "residual checked", rival="sparse", serves=lambda p: p.partial and p.band is None and p.diagonal_mass and p.n_modes <= most_modes(p.n),  # type: ignore[operator]
+               "residual checked", rival="sparse", serves=_serves_iterative,
                cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); with the coordinates ~10.4 (n / 1e4)^0.38 iterations of 10 products; ~33 nnz + 512 n k bytes"),
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
                "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",

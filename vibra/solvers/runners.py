@@ -84,10 +84,14 @@ def sparse(p: Problem, x: Inputs) -> SolveResult:
 
 def iterative(p: Problem, x: Inputs) -> SolveResult:
     result = lowest_modes(x.Kt, int(p.n_modes), mass=x.mass, positions=x.positions,  # type: ignore[arg-type]
-                          on_stage=x.on_stage)
+                          on_stage=x.on_stage, device=p.device)
     if not p.vectors:
         result.vectors = None
     return result
+
+
+def iterative_gpu(p: Problem, x: Inputs) -> SolveResult:
+    return iterative(p, x)  # (`p.device` is "gpu": LOBPCG and its multigrid cycle run there)
 
 
 def pencil_jacobi(p: Problem, x: Inputs) -> SolveResult:

@@ -1,4 +1,6 @@
-"""The optional GPU path: all modes of a dense K~ with cuSOLVER through CuPy (`device="gpu"`).
+"""The optional GPU paths (`device="gpu"`): all modes of a dense K~ with cuSOLVER through CuPy; and, for the
+iterative path on the GPU (`iterative.lowest_modes(device="gpu")`, the registry's `iterative-gpu`), its memory
+check (`iterative_gpu_memory`) and its CSR upload (`device_csr`).
 
 Install with ``pip install "vibra[gpu]"`` (CuPy for the CUDA of the machine). ``import vibra``
 never imports CuPy: it is imported by the functions here, when a GPU solve is asked for.
@@ -37,9 +39,12 @@ __all__ = [
     "GPUUnavailableError",
     "check_device",
     "check_gpu_memory",
+    "check_iterative_memory",
     "dense_eigh_gpu",
+    "device_csr",
     "estimate_gpu_memory",
     "gpu_available",
+    "iterative_gpu_memory",
     "solve_gpu",
 ]
 
@@ -225,6 +230,44 @@ def check_gpu_memory(n: int, *, vectors: bool, free: int | None = None) -> int:
             f"{hint}, or use a GPU with more memory"
         )
     return needed
+
+
+def iterative_gpu_memory(n: int, nnz: int, columns: int) -> int:
+    """Peak device memory of the iterative path on the GPU (`iterative.lowest_modes`, ``device="gpu"``), in
+    bytes: K~ in double CSR (12 nnz + 4 n), the multigrid's levels in single precision (the fine level's
+    8 nnz bytes, a third more for the coarse levels, the prolongators and block-Jacobi inverses, ~200 n),
+    and LOBPCG's blocks (X, AX, P, R, W, [W, P], Q, AQ and the cycle's temporaries: 16 n b doubles,
+    b = `columns`), as `iterative.iterative_cost` counts them on the host."""
+    return int(12 * nnz + 4 * n + 1.34 * 8 * nnz + 200 * n + 8 * 16 * n * columns)
+
+
+def check_iterative_memory(n: int, nnz: int, columns: int, *, free: int | None = None) -> int:
+    """Raise ValueError with the figures when the iterative path's blocks and matrices would not fit on the
+    GPU (`iterative_gpu_memory`); else the need, in bytes."""
+    needed = iterative_gpu_memory(n, nnz, columns)
+    if free is None:
+        free = _free_gpu_memory(require_gpu())
+    if needed + GPU_RESERVE > free:
+        raise ValueError(
+            f"device='gpu': the lowest modes of {n} dofs by the iterative path need {_gib(needed + GPU_RESERVE)} "
+            f"on the GPU (K~ of {nnz} entries, its multigrid, LOBPCG's block of {columns} columns), but "
+            f"{_gib(free)} is free; ask for fewer modes, or use device='cpu'"
+        )
+    return needed
+
+
+def device_csr(matrix: Any) -> Any:
+    """A scipy sparse matrix as CuPy's CSR on the GPU (`cupyx.scipy.sparse`: cuSPARSE products). Uploaded in
+    canonical form (sorted, no duplicates; a copy where the given one is not, never changed in place): CuPy
+    sums duplicates before every product of a matrix not known to be canonical."""
+    import scipy.sparse as sp
+    from cupyx.scipy import sparse as device_sparse  # type: ignore[import-not-found, unused-ignore]
+
+    host = sp.csr_matrix(matrix)
+    if not host.has_canonical_format:
+        host = host.copy()
+        host.sum_duplicates()
+    return device_sparse.csr_matrix(host)
 
 
 # ---------------------------------------------------------------------- solve

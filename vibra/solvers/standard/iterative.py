@@ -35,6 +35,7 @@ cost model is `iterative_cost` (seconds and bytes from n, nnz, k and whether the
 from __future__ import annotations
 
 import functools
+from types import ModuleType
 from typing import Callable
 
 import numpy as np
@@ -46,10 +47,12 @@ from numpy.typing import NDArray
 from vibra._core import validate as _validate
 from vibra.solvers.budget import (
     ITERATIVE_GROWTH, ITERATIVE_PRODUCT_S, ITERATIVE_PRODUCTS, ITERATIVE_RIGID_GROWTH, ITERATIVE_RIGID_PRODUCTS, ITERATIVE_RIGID_STEPS,
-    ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS,
+    ITERATIVE_RITZ_S, ITERATIVE_SETUP_S, ITERATIVE_STEPS, GPU_ITERATIVE_PRODUCT_S, GPU_ITERATIVE_RITZ_S,
 )
 from vibra.solvers.compiled import compiled_pays
 from vibra.solvers.common import SolveResult, absolute_figures
+from vibra.solvers.standard.gpu import check_iterative_memory, device_csr, require_gpu
+from vibra.solvers.standard.lobpcg import block_lobpcg, host
 from vibra.solvers.standard.ordering import site_block
 from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, Unshifted, products
 
@@ -79,12 +82,6 @@ EXTRA = 4
 #: 3e4 / 1e5 dofs with 2x: 47 / 164 (18 / 228 s); 3x: 24 / 57 (17 / 149 s); 4x: 22 / 43 (18 / 115 s).
 #: Even the exact preconditioner (K~ + sigma)^-1 takes 106 iterations at 1e5 dofs with 2x.
 WIDTH = 4
-
-#: `_outside`'s second Gram-Schmidt pass: for columns that kept under this fraction of their norm (1 / sqrt 2).
-REORTHOGONALISE = 0.7071
-
-#: `_orthonormal`'s second SVQB pass: past this Gram condition (one pass leaves ~eps x it: 2e-12 here).
-SVQB_CONDITION = 1e4
 
 #: LOBPCG iterations at most (measured: 31 at 3e3 dofs, 59 at 1e4, 359 at 3e4 on a protein assembly).
 MAX_ITERATIONS = 1000
@@ -235,7 +232,7 @@ class BlockMultigrid:
     """
 
     def __init__(self, A: sp.csr_matrix | sp.bsr_matrix, near_null: NDArray[np.float64], *,
-                 groups: sp.csr_matrix | None = None, compiled: bool = True) -> None:
+                 groups: sp.csr_matrix | None = None, compiled: bool = True, xp: ModuleType = np) -> None:
         import pyamg
 
         if isinstance(A, sp.bsr_matrix):  # (`shifted_blocks`: the 3 x 3 blocks taken as they are, not copied)
@@ -255,23 +252,27 @@ class BlockMultigrid:
             size = blocks if index == 0 else int(getattr(level.A, "blocksize", (1, 1))[0])
             matrix = fine if index == 0 else sp.csr_matrix(level.A)
             inverse = _block_inverse(matrix, size).astype(PRECISION)
-            single, jacobi = products(matrix.astype(PRECISION), compiled=compiled), _jacobi(inverse, compiled)
             prolongator = level.P.astype(PRECISION)
-            self.levels.append((single, jacobi, _spectral_radius(single, jacobi),
-                                products(prolongator, compiled=compiled), products(prolongator.T, compiled=compiled)))
+            if xp is np:
+                single, jacobi = products(matrix.astype(PRECISION), compiled=compiled), _jacobi(inverse, compiled)
+                P, R = products(prolongator, compiled=compiled), products(prolongator.T, compiled=compiled)
+            else:  # on the GPU: cuSPARSE products, D^-1 as a block-diagonal sparse matrix
+                single, P, R = (device_csr(part) for part in (matrix.astype(PRECISION), prolongator, prolongator.T))
+                jacobi = device_csr(_block_diagonal(inverse)).__matmul__
+            self.levels.append((single, jacobi, _spectral_radius(single, jacobi, xp), P, R))
         del hierarchy.levels[:-1]
-        self._coarse = _coarse_inverse(np.asarray(hierarchy.levels[-1].A.toarray())).astype(PRECISION)
+        self._coarse = xp.asarray(_coarse_inverse(np.asarray(hierarchy.levels[-1].A.toarray())).astype(PRECISION))
         self.depth = len(self.levels) + 1
 
     def __call__(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        X = np.asarray(X)
+        X = X if hasattr(X, "reshape") else np.asarray(X)
         single = X.ndim == 1
         out = self._cycle(0, X.reshape(X.shape[0], -1).astype(PRECISION)).astype(np.float64)
         return out.ravel() if single else out
 
     def _cycle(self, index: int, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
         if index == len(self.levels):
-            return np.asarray(self._coarse @ rhs)
+            return self._coarse @ rhs
         matrix, jacobi, radius, P, R = self.levels[index]
         x = _smooth(matrix, jacobi, radius, rhs)
         residual = rhs - matrix @ x
@@ -372,113 +373,27 @@ def _apply_block(inverse: NDArray[np.float64], X: NDArray[np.float64]) -> NDArra
     return np.einsum("sij,sjc->sic", inverse, X.reshape(-1, b, columns)).reshape(-1, columns)
 
 
-def _spectral_radius(matrix: sp.csr_matrix | Product, jacobi: Jacobi) -> float:
+def _spectral_radius(matrix: sp.csr_matrix | Product, jacobi: Jacobi, xp: ModuleType = np) -> float:
     """rho(D^-1 A) from 15 power steps, raised by 10% (a lower bound from below otherwise), in A's own precision."""
-    x = np.random.default_rng(0).standard_normal((matrix.shape[0], 1)).astype(matrix.dtype)
+    x = xp.asarray(np.random.default_rng(0).standard_normal((matrix.shape[0], 1)).astype(matrix.dtype))
     value = 1.0
     for _ in range(15):
         y = jacobi(matrix @ x)
-        value = float(np.linalg.norm(y) / np.linalg.norm(x))
-        x = y / np.linalg.norm(y)
+        value = float(xp.linalg.norm(y) / xp.linalg.norm(x))
+        x = y / xp.linalg.norm(y)
     return 1.1 * value
 
 
-def block_lobpcg(A: sp.csr_matrix | Product | Unshifted, preconditioner: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-                 constraints: NDArray[np.float64], start: NDArray[np.float64], wanted: int, tolerance: float,
-                 max_iterations: int) -> tuple[NDArray[np.float64], int]:
-    """The lowest Ritz vectors of the symmetric A, orthogonal to `constraints`, by LOBPCG (Knyazev 2001).
-
-    The block (`start`'s columns) is wider than the `wanted` lowest columns; the iteration stops as
-    soon as those have residuals ||A x - theta x|| <= `tolerance`, whatever the rest of the block
-    (scipy's `lobpcg` waits for every column, and the block's last ones, at the edge of a cluster,
-    converge slowest: on a 3e4-dof assembly 400 iterations against 33). Converged columns get no new
-    search direction (soft locking) but stay in every Rayleigh-Ritz. The basis [X, W, P] is made
-    orthonormal each step, W and P against X by Gram-Schmidt (`_outside`: a second pass where a column
-    kept less than 1 / sqrt 2 of its norm) and then together by `_orthonormal` (dependent directions dropped), as in the
-    robust variant of Duersch, Shao, Yang and Gu (SIAM J. Sci. Comput. 40, 2018); X's own block of the
-    Rayleigh-Ritz matrix is its Ritz values. Returns the block's Ritz vectors, ascending, and the
-    iterations taken (`max_iterations` at most: the caller judges the residuals). The iteration runs in
-    double precision whatever `start`'s and the preconditioner's (a single-precision cycle's output is cast).
-    """
-    X = _orthonormal(_outside(np.array(start, dtype=np.float64), constraints))  # (its own double copy)
-    AX = np.asarray(A @ X)
-    values, rotation = np.linalg.eigh(_symmetric(X.T @ AX))
-    X, AX = X @ rotation, AX @ rotation
-    P = np.zeros((X.shape[0], 0))
-    iterations = 0
-    for iterations in range(1, max_iterations + 1):
-        R = AX - X * values
-        norms = np.sqrt(np.einsum("ij,ij->j", R, R))
-        if wanted <= 0 or norms[:wanted].max() <= tolerance:  # (none wanted: every mode asked for was known)
-            break
-        active = norms > tolerance
-        W = _outside(np.asarray(preconditioner(R[:, active]), dtype=np.float64), constraints)  # (double: in place below)
-        del R  # (n x b blocks alive at once kept few: at 10^6 dofs each is 0.45 GB)
-        V = np.column_stack([W, P[:, active]]) if P.shape[1] else W
-        del W
-        Q = _orthonormal(_outside(V, X))
-        del V
-        if Q.shape[1] == 0:
-            break
-        AQ = np.asarray(A @ Q)
-        XAQ = X.T @ AQ
-        S_A = np.block([[np.diag(values), XAQ], [XAQ.T, Q.T @ AQ]])  # (X's own block: its Ritz values)
-        values, rotation = np.linalg.eigh(_symmetric(S_A))
-        width = X.shape[1]
-        values, top, bottom = values[:width], rotation[:width, :width], rotation[width:, :width]
-        P = Q @ bottom
-        del Q
-        X = X @ top
-        X += P
-        AX = AX @ top
-        AX += AQ @ bottom
-        del AQ
-    return X, iterations
-
-
-def _symmetric(G: NDArray[np.float64]) -> NDArray[np.float64]:
-    return 0.5 * (G + G.T)
-
-
-def _outside(V: NDArray[np.float64], basis: NDArray[np.float64]) -> NDArray[np.float64]:
-    """V's columns with their components along the orthonormal `basis` removed, in place (V is overwritten):
-    one Gram-Schmidt pass, and a second for the columns that kept less than `REORTHOGONALISE` (1 / sqrt 2) of
-    their norm in it (Daniel, Gragg, Kaufman and Stewart 1976: "twice is enough"; a column that kept more
-    is orthogonal to rounding after one)."""
-    if basis.shape[1] == 0 or V.shape[1] == 0:
-        return V
-    before = np.einsum("ij,ij->j", V, V)
-    V -= basis @ (basis.T @ V)
-    lost = np.flatnonzero(np.einsum("ij,ij->j", V, V) < REORTHOGONALISE ** 2 * before)
-    if lost.size:
-        V[:, lost] -= basis @ (basis.T @ V[:, lost])
-    return V
-
-
-def _orthonormal(V: NDArray[np.float64]) -> NDArray[np.float64]:
-    """An orthonormal basis of V's columns by SVQB (Stathopoulos and Wu 2002): the Gram matrix's
-    eigenvectors scaled by its eigenvalues' inverse square roots, directions under 1e-13 of the largest dropped;
-    a second pass where the Gram matrix's condition passed `SVQB_CONDITION` (one pass leaves an error of
-    ~eps times that condition)."""
-    for _ in range(2):
-        if V.shape[1] == 0:
-            return V
-        scale = np.sqrt(np.einsum("ij,ij->j", V, V))
-        good = scale > 0  # (a zero or not-a-number column is dropped)
-        V = V if good.all() else V[:, good]
-        V /= scale[good]  # (in place: V is the caller's scratch, `_outside`'s result)
-        gram_values, gram_vectors = np.linalg.eigh(_symmetric(V.T @ V))
-        keep = gram_values > 1e-13 * gram_values[-1]
-        V = V @ (gram_vectors[:, keep] / np.sqrt(gram_values[keep]))
-        if gram_values[keep][0] >= gram_values[-1] / SVQB_CONDITION:
-            break
-    return V
+def _block_diagonal(inverse: NDArray[np.float64]) -> sp.csr_matrix:
+    """The block-diagonal matrix of (n / b, b, b) blocks, as CSR."""
+    sites, b = inverse.shape[0], inverse.shape[1]
+    return sp.bsr_matrix((inverse, np.arange(sites), np.arange(sites + 1)), shape=(b * sites, b * sites)).tocsr()
 
 
 def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | None = None,
                  rigid: NDArray[np.float64] | None = None, positions: NDArray[np.float64] | None = None,
-                 extra: int = 0, tolerance: float = TOLERANCE, max_iterations: int = MAX_ITERATIONS, on_stage: Callable[[float, str], None] | None = None
-                 ) -> SolveResult:
+                 extra: int = 0, tolerance: float = TOLERANCE, max_iterations: int = MAX_ITERATIONS, on_stage: Callable[[float, str], None] | None = None,
+                 device: str = "cpu") -> SolveResult:
     """The `n_modes` lowest eigenpairs of the sparse symmetric positive semidefinite K~, ascending.
 
     Parameters
@@ -505,6 +420,11 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
         LOBPCG's stopping residual over ||K~||_inf (`TOLERANCE`; "high" asks `RITZ_TOLERANCE`).
     max_iterations : int
         LOBPCG's iterations at most.
+    device : {"cpu", "gpu"}
+        Where LOBPCG and the multigrid cycle run: "gpu" on CuPy (cuSPARSE products, cuBLAS blocks; its
+        memory, `gpu.iterative_gpu_memory`, checked first). The hierarchy is built by pyamg on the CPU
+        either way, the small Rayleigh-Ritz matrices are solved on the host, and the returned pairs'
+        residuals are measured again on the host with K~ itself.
 
     Raises
     ------
@@ -535,34 +455,31 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     kernel = annihilated(Kt, smooth, norm)
     kernel = kernel[:, :min(kernel.shape[1], wanted)]
     stage = on_stage or (lambda fraction, message: None)
+    xp = np if device == "cpu" else require_gpu()
+    if xp is not np:  # (before the setup's minutes: the figures of a solve that cannot fit)
+        check_iterative_memory(n, Kt.nnz, block_columns(wanted, kernel.shape[1]))
     compiled = compiled_pays(iterative_cost(n, Kt.nnz, wanted, coordinates=groups is not None)[1])  # (numba pays from ~0.1 s)
     shift = SHIFT * norm
     shifted = shifted_blocks(Kt, shift)
     preconditioner = BlockMultigrid(shifted, smooth if smooth.shape[1] else np.zeros((n, 0)), groups=groups,
-                                    compiled=compiled)
+                                    compiled=compiled, xp=xp)
     stage(0.2, f"multigrid preconditioner of {preconditioner.depth} levels built")
     columns = block_columns(wanted, kernel.shape[1])
-    start = np.random.default_rng(0).standard_normal((n, columns))
     # K~ X as (K~ + sigma I) X - sigma X on the shifted blocks where they are kept: one copy of K~'s entries, not two
-    product_of = Unshifted(products(shifted), shift) if compiled and isinstance(shifted, sp.bsr_matrix) \
-        else products(Kt, compiled=compiled)
+    if xp is np:
+        product_of = Unshifted(products(shifted), shift) if compiled and isinstance(shifted, sp.bsr_matrix) \
+            else products(Kt, compiled=compiled)
+    else:
+        product_of = device_csr(Kt.astype(np.float64, copy=False))
     del shifted
-    block, iterations = block_lobpcg(product_of, preconditioner, kernel, start, wanted - kernel.shape[1],
-                                     tolerance * norm, max_iterations)
-    del start
-    stage(0.9, f"LOBPCG: {iterations} iterations of {columns} columns")
-    basis = np.column_stack([kernel, block]) if kernel.shape[1] else block
-    del block
-    basis = np.linalg.qr(basis)[0]
-    product = product_of @ basis
-    values, rotation = np.linalg.eigh(basis.T @ product)
-    keep = rotation[:, :wanted]
-    vectors, product = basis @ keep, product @ keep
-    values = values[:wanted]
-    del basis
-    product -= vectors * values
-    residuals = np.sqrt(np.einsum("ij,ij->j", product, product))
-    del product
+    try:
+        values, vectors, residuals, iterations = _lobpcg_pairs(product_of, preconditioner, kernel, columns, wanted,
+                                                               tolerance * norm, max_iterations, xp)
+    finally:
+        del product_of, preconditioner
+        if xp is not np:
+            xp.get_default_memory_pool().free_all_blocks()
+    stage(0.9, f"LOBPCG: {iterations} iterations of {columns} columns" + (" on the GPU" if xp is not np else ""))
     worst = int(np.argmax(residuals[:n_modes]))
     if residuals[worst] > ACCEPTED * norm:
         raise RuntimeError(
@@ -574,7 +491,31 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     return result
 
 
-def iterative_cost(n: int, nnz: int, k: int, *, coordinates: bool = False) -> tuple[float, float]:
+def _lobpcg_pairs(A: Product | Unshifted, preconditioner: BlockMultigrid, kernel: NDArray[np.float64], columns: int,
+                  wanted: int, tolerance: float, max_iterations: int, xp: ModuleType
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]:
+    """LOBPCG from a random block of `columns` in `xp` (numpy or CuPy), then one Rayleigh-Ritz step on [kernel,
+    block]: the `wanted` lowest values, their vectors and residual norms (on the host) and LOBPCG's iterations."""
+    constraints = xp.asarray(kernel)
+    start = xp.asarray(np.random.default_rng(0).standard_normal((kernel.shape[0], columns)))
+    block, iterations = block_lobpcg(A, preconditioner, constraints, start, wanted - kernel.shape[1],
+                                     tolerance, max_iterations, xp=xp)
+    del start
+    basis = xp.concatenate([constraints, block], axis=1) if kernel.shape[1] else block
+    del block, constraints
+    basis = xp.linalg.qr(basis)[0]
+    product = xp.asarray(A @ basis)
+    values, rotation = np.linalg.eigh(host(basis.T @ product))
+    keep = xp.asarray(rotation[:, :wanted])
+    vectors, product = basis @ keep, product @ keep
+    values = values[:wanted]
+    del basis
+    product -= vectors * xp.asarray(values)
+    residuals = host(xp.sqrt(xp.einsum("ij,ij->j", product, product)))
+    return values, host(vectors), residuals, iterations
+
+
+def iterative_cost(n: int, nnz: int, k: int, *, coordinates: bool = False, device: str = "cpu") -> tuple[float, float]:
     """(bytes, seconds) of `lowest_modes` for the k lowest modes of an n-dof K~ with nnz stored entries.
 
     Memory (33 nnz + 128 n b bytes, kept from before `shifted_blocks`, now an upper bound: 13.0 GB
@@ -589,12 +530,17 @@ def iterative_cost(n: int, nnz: int, k: int, *, coordinates: bool = False) -> tu
     is the same everywhere) and the Rayleigh-Ritz of 3 b columns (`ITERATIVE_RITZ_S` per n b^2).
     With `coordinates` (the sites' positions given): the six rigid-body modes known, b =
     `block_columns`(k, 6), and `ITERATIVE_RIGID_STEPS` (n / 10^4)^`ITERATIVE_RIGID_GROWTH` iterations of
-    `ITERATIVE_RIGID_PRODUCTS` products (the rigid-block level's cycle added).
+    `ITERATIVE_RIGID_PRODUCTS` products (the rigid-block level's cycle added). On the GPU (`device`): the
+    same setup and iterations, each product at `GPU_ITERATIVE_PRODUCT_S` and the blocks' work at
+    `GPU_ITERATIVE_RITZ_S`; the host keeps the setup's memory and the returned vectors (the GPU's own,
+    `gpu.iterative_gpu_memory`, is checked on the device).
     """
     b = block_columns(k, 6 if coordinates else 3)
-    memory = 33.0 * nnz + 8.0 * 16 * n * b
+    on_gpu = device == "gpu"
+    memory = 33.0 * nnz + 8.0 * (2 if on_gpu else 16) * n * b
     sweeps = ITERATIVE_RIGID_PRODUCTS if coordinates else ITERATIVE_PRODUCTS
-    per_step = sweeps * ITERATIVE_PRODUCT_S * float(nnz) * b + ITERATIVE_RITZ_S * float(n) * b * b
+    product_s, ritz_s = (GPU_ITERATIVE_PRODUCT_S, GPU_ITERATIVE_RITZ_S) if on_gpu else (ITERATIVE_PRODUCT_S, ITERATIVE_RITZ_S)
+    per_step = sweeps * product_s * float(nnz) * b + ritz_s * float(n) * b * b
     steps = (ITERATIVE_RIGID_STEPS * (n / 1e4) ** ITERATIVE_RIGID_GROWTH if coordinates
              else ITERATIVE_STEPS * (n / 1e4) ** ITERATIVE_GROWTH)
     return memory, ITERATIVE_SETUP_S * nnz + steps * per_step
