@@ -57,20 +57,22 @@ def _within_weyl(values: np.ndarray, error: np.ndarray, truth: np.ndarray, norm:
 
 # ---------------------------------------------------------------------- the stand-in itself
 def test_the_stand_in_refuses_what_cupy_refuses(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Mixing a host and a device array, or numpy's own functions on a device array, raise: so a slip in the
-    path's plumbing fails these tests as it would fail on a GPU."""
+    """Mixing a host and a device array, any implicit conversion to the host (numpy's functions, np.asarray, a
+    scipy sparse product, host indexing), or a sparse product of two types, raise: so a slip in the path's
+    plumbing fails these tests as it would fail on a GPU; `.get()` and `lobpcg.host` bring arrays back."""
     cupy = fake_cupy.install(monkeypatch)
     device = cupy.asarray(np.ones((4, 2)))
-    with pytest.raises(TypeError, match="host array"):
-        device * np.ones((4, 2))
-    with pytest.raises(TypeError, match="host array"):
-        np.ones((2, 4)) @ device
-    with pytest.raises(TypeError, match="numpy's"):
-        np.linalg.eigh(device.T @ device)
-    with pytest.raises(TypeError, match="host array"):
-        gpu.device_csr(sp.identity(4)) @ np.ones((4, 2))
-    assert isinstance(lobpcg.host(device.T @ device), np.ndarray) and not isinstance(
-        lobpcg.host(device), fake_cupy.DeviceArray)
+    slips = [lambda: device * np.ones((4, 2)), lambda: np.ones((2, 4)) @ device, lambda: np.asarray(device),
+             lambda: np.linalg.eigh(device.T @ device), lambda: sp.identity(4, format="csr") @ device,
+             lambda: np.ones(4)[cupy.asarray(np.array([0, 1]))], lambda: cupy.sqrt(np.ones(3)),
+             lambda: gpu.device_csr(sp.identity(4)) @ np.ones((4, 2)),
+             lambda: gpu.device_csr(sp.identity(4)) @ device.astype(np.float32)]
+    for slip in slips:
+        with pytest.raises(TypeError, match="fake Cu[Pp]y|fake cupyx"):
+            slip()
+    product = gpu.device_csr(sp.identity(4)) @ device
+    assert product.flags.f_contiguous and fake_cupy.PRODUCTS == {"float64": 1}
+    assert isinstance(lobpcg.host(device.T @ device), np.ndarray) and lobpcg.host(device).shape == (4, 2)
 
 
 # ---------------------------------------------------------------------- the plumbing, with the stand-in
@@ -81,7 +83,14 @@ def test_lowest_modes_on_the_stand_in_device_match_lapack(monkeypatch: pytest.Mo
     norm = float(abs(K).sum(axis=1).max())
     on_cpu = lowest_modes(K, 20, positions=positions)
     fake_cupy.install(monkeypatch)
+
+    def on_the_host(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("a host product was built for the GPU path")
+
+    monkeypatch.setattr(iterative, "products", on_the_host)  # (the CPU path's products: none on the GPU's)
     on_device = lowest_modes(K, 20, positions=positions, device="gpu")
+    # K~'s products in double and the cycle's in single precision, all on the "device"
+    assert fake_cupy.PRODUCTS["float64"] >= 10 and fake_cupy.PRODUCTS["float32"] >= 10 * 5
     for result in (on_cpu, on_device):
         _within_weyl(result.eigenvalues, result.error, truth, norm)
         residuals = np.linalg.norm(K @ result.vectors - result.vectors * result.eigenvalues, axis=0)
@@ -102,13 +111,34 @@ def test_the_device_memory_is_checked_before_the_setup(monkeypatch: pytest.Monke
         lowest_modes(K, 20, positions=positions, device="gpu")
 
 
-def test_iterative_gpu_memory_by_hand() -> None:
-    """K~ in double CSR, the single-precision hierarchy and 16 n b doubles of blocks."""
-    n, nnz, b = 3 * 10**6, 2 * 10**8, 56
-    expected = 12 * nnz + 4 * n + 1.34 * 8 * nnz + 200 * n + 128 * n * b
-    assert gpu.iterative_gpu_memory(n, nnz, b) == int(expected)
+def test_the_estimate_covers_what_the_stand_in_device_holds(monkeypatch: pytest.MonkeyPatch, small) -> None:
+    """`iterative_gpu_memory` against the bytes of every array alive on the stand-in device at its peak during
+    a solve (each upload and result counted while it lives): the estimate is an upper bound, within 3x."""
+    import gc
+    import weakref
+
+    K, positions, _ = small
+    fake_cupy.install(monkeypatch)
+    alive: dict[int, int] = {}
+    peak = [0]
+    original = fake_cupy.DeviceArray.__init__
+
+    def counted(self, data):  # type: ignore[no-untyped-def]
+        original(self, data)
+        if data.base is None:  # (views share their base's bytes)
+            key = id(self)
+            alive[key] = data.nbytes
+            weakref.finalize(self, alive.pop, key, None)
+            peak[0] = max(peak[0], sum(alive.values()))
+
+    monkeypatch.setattr(fake_cupy.DeviceArray, "__init__", counted)
+    lowest_modes(K, 20, positions=positions, device="gpu")
+    gc.collect()
+    columns = iterative.block_columns(20, 6)
+    blocks = gpu.iterative_gpu_memory(K.shape[0], K.nnz, columns) - gpu.iterative_gpu_memory(K.shape[0], K.nnz, 0)
+    assert peak[0] <= blocks <= 3 * peak[0], (peak[0], blocks)
     with pytest.raises(ValueError, match="GiB is free"):
-        gpu.check_iterative_memory(n, nnz, b, free=int(expected))
+        gpu.check_iterative_memory(K.shape[0], K.nnz, columns, free=gpu.iterative_gpu_memory(K.shape[0], K.nnz, columns))
 
 
 def test_normal_modes_on_the_gpu_plans_the_iterative_path(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -166,14 +196,46 @@ def test_normal_modes_on_the_gpu_of_an_assembly_match_shift_invert() -> None:
     assert (gap <= 2 * modes.omega_error * np.abs(modes.omega) + reference + 100 * EPS * norm).all()
 
 
-def test_device_csr_uploads_a_canonical_copy_and_leaves_the_input(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_device_csr_leaves_the_input_and_refuses_what_old_cupy_would_wrap(monkeypatch: pytest.MonkeyPatch) -> None:
     """A CSR matrix with duplicate, unsorted entries (a user's K~ may be one, and is shared with the caller) goes up
-    summed and sorted; the caller's arrays are unchanged, and the product is the matrix's."""
+    unchanged in the caller's arrays, its product the matrix's; a matrix of 2^31 entries is refused with CuPy
+    before 14.1 (its 32-bit indices would wrap), with the figures, before any upload."""
     cupy = fake_cupy.install(monkeypatch)
     matrix = sp.csr_matrix((np.array([1.0, 2.0, 3.0]), np.array([1, 0, 1]), np.array([0, 3, 3])), shape=(2, 2))
     before = [matrix.data.copy(), matrix.indices.copy(), matrix.indptr.copy()]
     uploaded = gpu.device_csr(matrix)
-    assert uploaded.nnz == 2 and uploaded._matrix.has_canonical_format
     for array, kept in zip((matrix.data, matrix.indices, matrix.indptr), before):
         np.testing.assert_array_equal(array, kept)
     np.testing.assert_array_equal((uploaded @ cupy.asarray(np.eye(2))).get(), [[2.0, 4.0], [0.0, 0.0]])
+    gpu.check_iterative_memory(3, 2**31, 1, free=2**40)  # (given free memory: CuPy's version not asked)
+    monkeypatch.setattr(cupy, "__version__", "14.0.1")
+    with pytest.raises(ValueError, match=r"2147483648 stored entries, and CuPy 14\.0\.1 .* 32-bit"):
+        gpu.check_iterative_memory(3 * 10**7, 2**31, 56)
+    monkeypatch.setattr(cupy, "__version__", "14.1.0")
+    with pytest.raises(ValueError, match="GiB is free"):  # (the index check passes; the memory one decides)
+        gpu.check_iterative_memory(3 * 10**7, 2**31, 56)
+
+
+def test_without_cupy_the_iterative_request_names_the_extra(monkeypatch: pytest.MonkeyPatch, small) -> None:
+    """No CuPy: `GPUUnavailableError` naming the extra, before any setup; never the CPU instead."""
+    K, positions, _ = small
+    monkeypatch.setitem(sys.modules, "cupy", None)
+
+    def no_setup(*args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("the multigrid setup ran without a GPU")
+
+    monkeypatch.setattr(iterative, "BlockMultigrid", no_setup)
+    with pytest.raises(gpu.GPUUnavailableError, match=r'pip install "vibra\[gpu\]"'):
+        lowest_modes(K, 20, positions=positions, device="gpu")
+    with pytest.raises(gpu.GPUUnavailableError, match=r'pip install "vibra\[gpu\]"'):
+        vibra.normal_modes(K, np.ones(K.shape[0]), n_modes=20, device="gpu", solver="iterative")
+
+
+def test_a_refused_gpu_request_offers_the_cpu_with_its_estimate() -> None:
+    """A GPU request over the limits (here all modes densely, in no time at all) names device="cpu" and the
+    CPU's path with its estimate among the cheaper requests, before anything touches a GPU."""
+    from vibra.solvers import ResourceLimitError
+
+    chain = vibra.System.from_springs(np.arange(40.0), 1.0, [[i, i + 1] for i in range(39)], 1.0)
+    with pytest.raises(ResourceLimitError, match=r'device="cpu" \(\w[\w-]*: ~.*s\)'):
+        vibra.normal_modes(chain.hessian(), chain.mass_matrix(), device="gpu", max_seconds=1e-12)

@@ -192,6 +192,10 @@ def alternatives(request: SolvePlan, *, n: int, n_modes: int | None, vectors: bo
                 "solves (n_modes=, band=)"]
     path = BY_NAME[request.path]
     options = []
+    if problem.device == "gpu":  # (the CPU's plan for the same request, e.g. where the GPU's paths do not apply)
+        on_cpu = replace(problem, device="cpu")
+        cpu = choose(on_cpu, "auto")
+        options.append(f'device="cpu" ({cpu.name}: ~{_short(cpu.estimate(on_cpu))})')
     if request.fast is not None and request.fast.seconds < request.cost.seconds:
         options.append(f'accuracy="fast" (normal_modes: no spring_factor; {request.fast.path}, absolute accuracy: '
                        f'~{_short(request.fast)})')

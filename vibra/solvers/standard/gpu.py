@@ -236,8 +236,10 @@ def iterative_gpu_memory(n: int, nnz: int, columns: int) -> int:
     """Peak device memory of the iterative path on the GPU (`iterative.lowest_modes`, ``device="gpu"``), in
     bytes: K~ in double CSR (12 nnz + 4 n), the multigrid's levels in single precision (the fine level's
     8 nnz bytes, a third more for the coarse levels, the prolongators and block-Jacobi inverses, ~200 n),
-    and LOBPCG's blocks (X, AX, P, R, W, [W, P], Q, AQ and the cycle's temporaries: 16 n b doubles,
-    b = `columns`), as `iterative.iterative_cost` counts them on the host."""
+    and LOBPCG's blocks (X, AX, P, R, W, [W, P], Q, AQ, the cycle's temporaries and the Fortran-ordered copy
+    CuPy makes of each block a sparse product takes: 16 n b doubles, b = `columns`; 10.3-10.7 n b counted on
+    the numpy stand-in at 3,000-10^4 dofs, where that copy is not made: one block more), as
+    `iterative.iterative_cost` counts them on the host."""
     return int(12 * nnz + 4 * n + 1.34 * 8 * nnz + 200 * n + 8 * 16 * n * columns)
 
 
@@ -246,7 +248,9 @@ def check_iterative_memory(n: int, nnz: int, columns: int, *, free: int | None =
     GPU (`iterative_gpu_memory`); else the need, in bytes."""
     needed = iterative_gpu_memory(n, nnz, columns)
     if free is None:
-        free = _free_gpu_memory(require_gpu())
+        cupy = require_gpu()
+        _check_indices(cupy, nnz)
+        free = _free_gpu_memory(cupy)
     if needed + GPU_RESERVE > free:
         raise ValueError(
             f"device='gpu': the lowest modes of {n} dofs by the iterative path need {_gib(needed + GPU_RESERVE)} "
@@ -257,17 +261,27 @@ def check_iterative_memory(n: int, nnz: int, columns: int, *, free: int | None =
 
 
 def device_csr(matrix: Any) -> Any:
-    """A scipy sparse matrix as CuPy's CSR on the GPU (`cupyx.scipy.sparse`: cuSPARSE products). Uploaded in
-    canonical form (sorted, no duplicates; a copy where the given one is not, never changed in place): CuPy
-    sums duplicates before every product of a matrix not known to be canonical."""
+    """A scipy sparse matrix as CuPy's CSR on the GPU (`cupyx.scipy.sparse`: cuSPARSE products; CuPy works out
+    once, on the device, whether it is canonical). CuPy before 14.1 uploads the index arrays as 32-bit
+    integers: a matrix of 2^31 entries or more is refused there (`check_iterative_memory` says so first)."""
     import scipy.sparse as sp
     from cupyx.scipy import sparse as device_sparse  # type: ignore[import-not-found, unused-ignore]
 
     host = sp.csr_matrix(matrix)
-    if not host.has_canonical_format:
-        host = host.copy()
-        host.sum_duplicates()
+    _check_indices(require_gpu(), host.nnz)
     return device_sparse.csr_matrix(host)
+
+
+def _check_indices(cupy: Any, nnz: int) -> None:
+    """ValueError where CuPy would wrap K~'s 64-bit row pointers into 32 bits (before CuPy 14.1)."""
+    try:
+        version = tuple(int(part) for part in str(cupy.__version__).split(".")[:2])
+    except ValueError:  # (a development build: its indices are taken as they come)
+        return
+    if nnz >= 2**31 and version < (14, 1):
+        raise ValueError(f"device='gpu': K~ has {nnz} stored entries, and CuPy {cupy.__version__} indexes a sparse "
+                         "matrix with 32-bit integers (2^31 entries at most) before version 14.1; upgrade CuPy "
+                         "(pip install -U cupy-cuda13x) or use device='cpu'")
 
 
 # ---------------------------------------------------------------------- solve

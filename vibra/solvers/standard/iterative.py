@@ -20,7 +20,7 @@ memory and n^2 in work on a 3-D network; this path grows like its matrix, O(nnz)
 - the products of K~ and of the cycle's levels with a block run on every core
   (`vibra.solvers.standard.rows.products`): a compiled loop over the 3 x 3 site blocks of a 3-D
   network, scipy's product on slabs of rows otherwise;
-- LOBPCG (`block_lobpcg`, written here: scipy's `lobpcg` stops only when every column of its
+- LOBPCG (`lobpcg.block_lobpcg`, written for this path: scipy's `lobpcg` stops only when every column of its
   block has converged, and the block's edge converges slowest) on a block `WIDTH` (4) times as wide
   as the k - r modes wanted (`block_columns`, r the known rigid-body modes), stopped when those have
   a residual of `TOLERANCE` ||K~||_inf, after which one Rayleigh-Ritz step on [known modes,
@@ -51,7 +51,7 @@ from vibra.solvers.budget import (
 )
 from vibra.solvers.compiled import compiled_pays
 from vibra.solvers.common import SolveResult, absolute_figures
-from vibra.solvers.standard.gpu import check_iterative_memory, device_csr, require_gpu
+from vibra.solvers.standard.gpu import check_device, check_iterative_memory, device_csr, require_gpu
 from vibra.solvers.standard.lobpcg import block_lobpcg, host
 from vibra.solvers.standard.ordering import site_block
 from vibra.solvers.standard.rows import RowSlabs, SiteBlocks, Unshifted, products
@@ -262,10 +262,11 @@ class BlockMultigrid:
             self.levels.append((single, jacobi, _spectral_radius(single, jacobi, xp), P, R))
         del hierarchy.levels[:-1]
         self._coarse = xp.asarray(_coarse_inverse(np.asarray(hierarchy.levels[-1].A.toarray())).astype(PRECISION))
+        self.xp = xp
         self.depth = len(self.levels) + 1
 
     def __call__(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        X = X if hasattr(X, "reshape") else np.asarray(X)
+        X = self.xp.asarray(X)
         single = X.ndim == 1
         out = self._cycle(0, X.reshape(X.shape[0], -1).astype(PRECISION)).astype(np.float64)
         return out.ravel() if single else out
@@ -455,7 +456,7 @@ def lowest_modes(Kt: sp.spmatrix, n_modes: int, *, mass: NDArray[np.float64] | N
     kernel = annihilated(Kt, smooth, norm)
     kernel = kernel[:, :min(kernel.shape[1], wanted)]
     stage = on_stage or (lambda fraction, message: None)
-    xp = np if device == "cpu" else require_gpu()
+    xp = np if check_device(device) == "cpu" else require_gpu()
     if xp is not np:  # (before the setup's minutes: the figures of a solve that cannot fit)
         check_iterative_memory(n, Kt.nnz, block_columns(wanted, kernel.shape[1]))
     compiled = compiled_pays(iterative_cost(n, Kt.nnz, wanted, coordinates=groups is not None)[1])  # (numba pays from ~0.1 s)

@@ -3,8 +3,9 @@
 The functions take the array module `xp` (numpy by default, CuPy for ``device="gpu"``): the n-row blocks
 live in it, and every product with them runs there; the small matrices of the Rayleigh-Ritz steps (the
 block's width, 3 b at most) are brought to the host and solved by LAPACK, where they are cheapest and
-their rounding is the CPU path's. A block's transfer is never made: only b x b and 3 b x 3 b matrices,
-b-vectors of norms, and the indices of columns cross.
+their rounding is the CPU path's. Inside the iteration no n-row block crosses: only b x b and 3 b x 3 b
+matrices, b-vectors of norms and the indices of columns (the caller uploads the start block and the
+constraints once, and brings the returned vectors back once).
 """
 
 from __future__ import annotations
