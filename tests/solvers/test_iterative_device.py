@@ -239,3 +239,14 @@ def test_a_refused_gpu_request_offers_the_cpu_with_its_estimate() -> None:
     chain = vibra.System.from_springs(np.arange(40.0), 1.0, [[i, i + 1] for i in range(39)], 1.0)
     with pytest.raises(ResourceLimitError, match=r'device="cpu" \(\w[\w-]*: ~.*s\)'):
         vibra.normal_modes(chain.hessian(), chain.mass_matrix(), device="gpu", max_seconds=1e-12)
+
+
+@pytest.mark.parametrize(("mass", "band"), [(np.eye(6) + 0.1 * (np.eye(6, k=1) + np.eye(6, k=-1)), None),
+                                           (np.ones(6), (0.0, 1.0))])
+def test_iterative_on_the_gpu_refuses_a_band_or_a_full_mass_with_the_gpus_way_out(mass, band) -> None:
+    """solver="iterative" with a band or a full M on the GPU names what the GPU serves (its dense path) or the
+    CPU, never a CPU-only solver the GPU request would refuse next."""
+    K = sp.identity(6, format="csr")
+    with pytest.raises(ValueError, match=r"use solver='dense' or 'auto' \(device='gpu'.*device='cpu'") as refused:
+        vibra.normal_modes(K, mass, n_modes=None if band else 2, band=band, device="gpu", solver="iterative")
+    assert "pencil" not in str(refused.value) and "'sparse'" not in str(refused.value)

@@ -108,7 +108,7 @@ def plan(
     bracketed by Sturm counts from 8 eps). `positions` ((n / 3, 3), the sites' coordinates, checked
     by the caller) are priced in by the iterative paths' estimate, which they speed up.
     """
-    _check_named(solver, K, mass, n_modes=n_modes, band=band, spring_factor=spring_factor)
+    _check_named(solver, K, mass, n_modes=n_modes, band=band, spring_factor=spring_factor, device=device)
     problem = describe(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
                        spring_factor=spring_factor, accuracy=accuracy, device=device, positions=positions)
     return plan_problem(problem, solver)
@@ -134,7 +134,7 @@ def plan_problem(problem: Problem, solver: str) -> SolvePlan:
 
 def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *,
                  n_modes: int | None, band: tuple[float, float] | None,
-                 spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None) -> None:
+                 spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, device: str = "cpu") -> None:
     """A named solver family that cannot serve the request: ValueError naming what it needs."""
     if solver == "tridiagonal" and not (mass.ndim == 1 and bandwidth(K) <= 1):
         raise ValueError("solver='tridiagonal' needs a tridiagonal K and diagonal masses")
@@ -146,18 +146,23 @@ def _check_named(solver: str, K: NDArray[np.float64] | sp.csr_matrix, mass: NDAr
         raise ValueError("solver='slepc' computes the lowest modes of a large K with diagonal masses: give n_modes "
                          f"below n_dof - 1 = {K.shape[0] - 1}")
     if solver == "iterative":
-        _check_iterative(K.shape[0], mass, n_modes, band)
+        _check_iterative(K.shape[0], mass, n_modes, band, device)
     if solver == "accurate" and spring_factor is None:
         raise ValueError("solver='accurate' needs the spring factor (B, w) of K")
 
 
-def _check_iterative(n: int, mass: NDArray[np.float64], n_modes: int | None, band: tuple[float, float] | None) -> None:
-    """solver='iterative' (LOBPCG): the lowest n_modes of a K with diagonal masses; one message per cause."""
+def _check_iterative(n: int, mass: NDArray[np.float64], n_modes: int | None, band: tuple[float, float] | None,
+                     device: str = "cpu") -> None:
+    """solver='iterative' (LOBPCG): the lowest n_modes of a K with diagonal masses; one message per cause (the
+    way out on the GPU its dense path, which serves both)."""
     what = "solver='iterative' computes the lowest n_modes of a large sparse K"
+    on_gpu = "use solver='dense' or 'auto' (device='gpu': all modes densely, then kept), or device='cpu'"
     if mass.ndim != 1:
-        raise ValueError(f"{what} with diagonal masses; M is a full matrix: use solver='pencil' or 'auto'")
+        raise ValueError(f"{what} with diagonal masses; M is a full matrix: "
+                         + (on_gpu if device == "gpu" else "use solver='pencil' or 'auto'"))
     if band is not None:
-        raise ValueError(f"{what}; band={band!r} asks for a frequency window: use solver='sparse' or 'auto' for a band")
+        raise ValueError(f"{what}; band={band!r} asks for a frequency window: "
+                         + (on_gpu if device == "gpu" else "use solver='sparse' or 'auto' for a band"))
     most = most_modes(n)
     if most < 1:
         raise ValueError(f"{what}: K has {n} dofs, and it needs {5 * WIDTH} at least (LOBPCG's block, {WIDTH} times "
