@@ -9,5 +9,6 @@ another test module. ``tests/`` is on sys.path under pytest's default import mod
 - `helpers.package`: facts about the package (its bundled scene folders, its heavy imports);
 - `helpers.browser`: the Chromium the browser tests drive, and canvas pixels.
 - `helpers.forked`: a function run in a forked child, its exit status and what it returned.
+- `helpers.assemblies`: the iterative path's benchmark assembly (copies of ubiquitin, ANM);
 - `helpers.fake_cupy`: a numpy stand-in for CuPy on which a host/device slip raises as on a GPU.
 """

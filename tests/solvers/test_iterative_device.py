@@ -11,7 +11,6 @@ residual of a true eigenvalue, so within its reported error plus the reference's
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,30 +20,19 @@ import scipy.sparse.linalg as sla
 
 import vibra
 from helpers import fake_cupy
-from vibra import networks
+from helpers.assemblies import synthetic_assembly
 from vibra.solvers.standard import gpu, iterative, lobpcg
 from vibra.solvers.standard.iterative import lowest_modes
 
 GPU_READY, GPU_REASON = gpu.gpu_available()
 needs_gpu = pytest.mark.skipif(not GPU_READY, reason=f"no GPU for the GPU path here: {GPU_REASON}")
 EPS = float(np.finfo(float).eps)
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _assembly(n_sites: int):  # type: ignore[no-untyped-def]
-    """The benchmark's synthetic assembly (copies of ubiquitin packed face to face), ANM at 15 Å."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        from assembly_builder import synthetic_assembly
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
-    return networks.anm(synthetic_assembly(n_sites), cutoff=15.0)
 
 
 @pytest.fixture(scope="module")
 def small() -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
     """K~ of a 1,000-site assembly (3,000 dofs, masses 1), its sites and LAPACK's eigenvalues."""
-    system = _assembly(1000)
+    system = synthetic_assembly(1000)
     K = sp.csr_matrix(system.hessian())
     return K, np.asarray(system.positions), la.eigh(K.toarray(), eigvals_only=True, driver="evd")
 
@@ -145,7 +133,7 @@ def test_normal_modes_on_the_gpu_plans_the_iterative_path(monkeypatch: pytest.Mo
     """device="gpu" with n_modes on a 10^4-dof assembly: the plan takes `iterative-gpu` (its estimate under the
     dense GPU solve's) and `Modes.path` says so; solver="dense" still takes the dense path; the values match
     the CPU's iterative path within both reported errors."""
-    system = _assembly(3334)
+    system = synthetic_assembly(3334)
     on_cpu = system.modes(n_modes=20, accuracy="fast")
     fake_cupy.install(monkeypatch)
     K, M = system.hessian(), system.mass_matrix()
@@ -183,7 +171,7 @@ def test_lowest_modes_on_the_gpu_match_lapack(small) -> None:
 def test_normal_modes_on_the_gpu_of_an_assembly_match_shift_invert() -> None:
     """10^4 dofs on the GPU against scipy's shift-invert eigsh (tol 0): the plan's `iterative-gpu`, every value
     within its error plus eigsh's own residual (Weyl)."""
-    system = _assembly(3334)
+    system = synthetic_assembly(3334)
     K = sp.csc_matrix(system.hessian())
     norm = float(abs(K).sum(axis=1).max())
     values, vectors = sla.eigsh(K, k=20, sigma=-1e-4 * norm, which="LM", tol=0)

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from helpers.assemblies import synthetic_assembly
 from vibra import networks
-from vibra.system import System
 from vibra.solvers.standard import iterative, lobpcg, ordering
 from vibra.solvers.standard.rows import SiteBlocks, Unshifted, products
 
@@ -234,20 +234,6 @@ def test_high_stops_lobpcg_tighter_than_fast(monkeypatch):
         assert residuals.max() <= tolerance * norm
 
 
-def _assembly(n_sites: int) -> System:
-    """The benchmark's synthetic assembly (benchmarks/assembly_builder.py: copies of ubiquitin packed face
-    to face), ANM at 15 Å: its low spectrum is the tight cluster of one soft mode per copy."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "assembly_builder.py"
-    spec = importlib.util.spec_from_file_location("assembly_builder", path)
-    assert spec is not None and spec.loader is not None
-    builder = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(builder)
-    return networks.anm(builder.synthetic_assembly(n_sites), cutoff=15.0)
-
-
 def test_high_bounds_meet_their_target_against_shift_invert(monkeypatch):
     """"High" on the iterative path keeps its promise on an assembly's cluster (9,000 dofs: with LOBPCG
     stopped at 1e-9, 13 of the 14 moving modes missed 1e-10, up to 3.2e-8; bounds ~ residual^2 / gap):
@@ -260,7 +246,7 @@ def test_high_bounds_meet_their_target_against_shift_invert(monkeypatch):
 
     monkeypatch.setattr(registry, "SPARSE_FACTOR_S", 1.0)  # (the plan takes the iteration)
     monkeypatch.setattr(registry, "ITERATIVE_FROM", 0)
-    system = _assembly(3_000)
+    system = synthetic_assembly(3_000)
     modes = system.modes(20, accuracy="high", max_seconds=float("inf"), max_memory=float("inf"))
     assert modes.path == "accurate-iterative" and "above" not in (modes.refinement or "")
     K = sp.csr_matrix(system.hessian())
