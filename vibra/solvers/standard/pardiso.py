@@ -4,7 +4,7 @@ On 3-D networks PARDISO's supernodal Cholesky (its own METIS ordering) factorise
 3 to 4 times faster than SuperLU's LU in nested-dissection order (30,000-dof lattice: 4.4 s
 against 15 s; the 16,716-residue ANM: 2.2 s against 7.9 s, one run each on the shared 2-core
 machine), in about half the memory. It is used, when installed, for matrices of at least
-`vibra.solvers.standard.ordering.DISSECTION_MIN` dofs; without it everything runs on SuperLU.
+`vibra.solvers.standard.ordering.CHOLESKY_FROM` dofs; without it (and CHOLMOD) everything runs on SuperLU.
 
 The factorisation is asked as positive definite (PARDISO matrix type 2): it succeeds exactly
 when K~ - sigma I is (PARDISO reports a non-positive pivot as error -4), which is the

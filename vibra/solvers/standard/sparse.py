@@ -32,11 +32,12 @@ class ShiftedInverse:
     Tridiagonal K~: LAPACK pttrf (LDL^T, O(N)), which succeeds exactly when K~ - sigma I is
     positive definite. Otherwise SuperLU in symmetric mode without pivoting, whose pivots
     give the inertia (Sylvester): no negative pivot means sigma is below every eigenvalue.
-    Large K~ (`ordering.DISSECTION_MIN` dofs and up) are factorised by a sparse Cholesky, whose success
+    Larger K~ (`ordering.CHOLESKY_FROM` dofs and up) are factorised by a sparse Cholesky, whose success
     is the inertia: MKL PARDISO's where `pypardiso` is installed (``vibra[pardiso]``,
     `vibra.solvers.standard.pardiso`), else CHOLMOD's (cvxopt, `vibra.solvers.standard.cholmod`)
-    in nested-dissection order (`vibra.solvers.standard.ordering`); SuperLU, in that order too,
-    where neither loads or the shift is not below the spectrum.
+    in nested-dissection order (`vibra.solvers.standard.ordering`; its own AMD order below
+    `ordering.DISSECTION_MIN` dofs); SuperLU, in that order too, where neither loads or the shift is
+    not below the spectrum.
     """
 
     def __init__(self, Kt: sp.csr_matrix, sigma: float, *, need_inertia: bool = True) -> None:
