@@ -13,7 +13,10 @@ Warm: best of 3 interleaved rounds after a warm-up, one process. First call: a f
 protein and side, timing the first solve after the model is built (imports and the Hessian not
 timed): what a notebook cell or a script pays once. The plan's path and its estimate (from sizes)
 are recorded beside the actual time. Results: results/proteins.json. Run:
-    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_proteins.py [--quick] [--no-first-call]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/bench_proteins.py [--quick] [--no-first-call] [--floor]
+
+``--floor``: below 1,000 C-alpha, where the time goes and what a 5x speed-up over ProDy would leave a
+solve (`floor`; results/proteins_floor.json).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
+import time  # noqa: E402
 import sys  # noqa: E402
 import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -124,7 +128,9 @@ def case(name: str, path: Path, n_atoms: int, *, rounds: int, fresh: bool) -> di
     model.calcModes(n_modes=N_MODES)
     theirs = np.asarray(model.getEigvals())
     ours = np.asarray(modes.omega_squared)
-    ours = ours[ours > 1e-6][:theirs.size]  # ProDy's ZERO: a network with more than 6 zero modes (1r19) keeps fewer
+    ours = ours[ours > 1e-6]  # (a network with more than 6 zero modes, 1r19's 8, leaves fewer than 20 of 26 non-zero)
+    common = min(ours.size, theirs.size)
+    ours, theirs = ours[:common], theirs[:common]
     record: dict[str, Any] = {
         "protein": name, "c_alpha": n_atoms, "dofs": 3 * n_atoms, "path": modes.path, "planned": plan.path,
         "estimate_s": float(plan.cost.seconds), "vibra_s": timings["vibra"].min, "prody_s": timings["prody"].min,
@@ -143,13 +149,66 @@ def case(name: str, path: Path, n_atoms: int, *, rounds: int, fresh: bool) -> di
     return record
 
 
+def floor(name: str, path: Path, n_atoms: int, *, rounds: int) -> dict[str, Any]:
+    """Where the time of the lowest 20 modes goes below ~1,000 residues, and what a 5x speed-up over ProDy leaves.
+
+    Timed, interleaved in one process: ProDy's `calcModes(20)`; the LAPACK call it makes
+    (`scipy.linalg.eigh(H, subset_by_index=(0, 25))`, dsyevr); vibra's `System.modes(26)` at "fast" and
+    "high"; vibra's fixed cost of a call (`normal_modes` of a 2-dof spring, default accuracy: validation,
+    plan, result; best of 50 calls in a row); and two yardsticks of the least work any dense eigensolver does on H, one Cholesky
+    factor of H + sigma I (a shift-invert's setup) and one product of H with an n x 26 block (a Krylov or
+    LOBPCG step's). `budget_s` = ProDy / 5 - the fixed cost: the time a solve may take for the 5x target.
+    """
+    import scipy.linalg as sl
+
+    from vibra import normal_modes
+
+    coords = _coords(path)
+    system = networks.anm(coords)
+    model = _prody_model(coords)
+    H = np.asarray(model.getHessian())
+    shifted = H + 1e-6 * float(np.abs(H).sum(axis=1).max()) * np.eye(H.shape[0])
+    block = np.random.default_rng(0).standard_normal((H.shape[0], N_MODES + 6))
+    spring, unit = np.array([[1.0, -1.0], [-1.0, 1.0]]), np.eye(2)
+    timings = interleaved({
+        "prody": lambda: model.calcModes(n_modes=N_MODES),
+        "lapack_subset": lambda: sl.eigh(H, subset_by_index=(0, N_MODES + 5), check_finite=False),
+        "vibra_fast": lambda: system.modes(N_MODES + 6, accuracy="fast"),
+        "vibra_high": lambda: system.modes(N_MODES + 6),
+        "cholesky": lambda: sl.cho_factor(shifted, check_finite=False),
+        "block_product": lambda: H @ block}, rounds)
+    record: dict[str, Any] = {"protein": name, "c_alpha": n_atoms, "dofs": 3 * n_atoms,
+                              **{f"{key}_s": value.min for key, value in timings.items()}}
+    # the fixed cost at its least: 50 calls in a row, no collection between, code and data hot (1.2-1.4 ms interleaved)
+    seconds = []
+    for _ in range(50):
+        start = time.perf_counter()
+        normal_modes(spring, unit)
+        seconds.append(time.perf_counter() - start)
+    record["vibra_fixed_s"] = min(seconds)
+    record["budget_s"] = record["prody_s"] / 5 - record["vibra_fixed_s"]
+    record["budget_in_choleskies"] = record["budget_s"] / record["cholesky_s"]
+    record["budget_in_block_products"] = record["budget_s"] / record["block_product_s"]
+    print(f"{name}: {3 * n_atoms} dofs; ProDy {record['prody_s'] * 1e3:.2f} ms (LAPACK {record['lapack_subset_s'] * 1e3:.2f}); "
+          f"vibra fast {record['vibra_fast_s'] * 1e3:.2f}, high {record['vibra_high_s'] * 1e3:.2f}, fixed "
+          f"{record['vibra_fixed_s'] * 1e3:.2f} ms; 5x leaves {record['budget_s'] * 1e3:.2f} ms = "
+          f"{record['budget_in_choleskies']:.2f} Cholesky or {record['budget_in_block_products']:.1f} block products", flush=True)
+    return record
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="proteins under 1,000 C-alpha, one round")
     parser.add_argument("--no-first-call", action="store_true", help="skip the fresh-process column")
     parser.add_argument("--only", nargs="*", help="protein names (file stems) to run")
+    parser.add_argument("--floor", action="store_true", help="below 1,000 C-alpha: where the time goes (`floor`)")
     args = parser.parse_args()
     rounds = 1 if args.quick else 3
+    if args.floor:
+        rows = [floor(name, path, n_atoms, rounds=max(rounds, 7)) for name, path, n_atoms in proteins()
+                if n_atoms < 1000 and not (args.only and name not in args.only)]
+        print(f"wrote {write_json('proteins_floor', {'n_modes': N_MODES, 'cases': rows}, max(rounds, 7))}")
+        return
     records = []
     for name, path, n_atoms in proteins():
         if args.quick and n_atoms >= 1000 or args.only and name not in args.only or n_atoms > DENSE_PEER_MAX:
