@@ -220,7 +220,7 @@ def checked_ritz(weighted: Matrix, basis: NDArray[np.float64], k: int, *, vector
     # modes: ~8e-9, where the extended-precision pass gained nothing); where every
     # missed mode sits above TARGET by that floor, the pass is left out (a value, not the clock)
     # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
-    floor = (EPS * norm / np.maximum(theta, np.finfo(float).tiny)) ** 2
+    floor = np.square(np.minimum(EPS * norm / np.maximum(theta, np.finfo(float).tiny), 1e150))  # (zero modes: huge, finite)
     if np.any((missed & (floor <= TARGET))[:k]):  # (the (k+1)-th column only bounds the k-th's gap)
         theta, ritz, error = cluster_bounds(B, values, basis, 2 * residuals, terms, complete=False, precise=True,
                                             deviation=exact())

@@ -177,8 +177,29 @@ TOLERANCE = 1e-13
 BLOCK_FILL = 400
 
 
-def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse | None = None
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+#: |lambda| / ||K~||_inf at or under which a pair counts as a zero mode (a free system's rigid motions).
+ZERO = 1e-8
+
+#: Least distance of a closer shift below the lowest eigenvalue, relative to ||K~||_inf
+#: (`_closer_shift`): F's largest value then exceeds the others' by at most ~1e6, where zero modes
+#: at a shift of -1e4 eps ||K~|| exceed them by ~1e12 and must be deflated.
+CLOSEST = 1e-6
+
+#: ARPACK's implicit restarts before the shift is questioned (`shift_invert`): the lowest 6 to 26 modes
+#: of chains of 10^5-10^6 sites and a 300 x 300 mesh take 2-4 (30-112 solves); a chain of 10^4 sites on
+#: unit on-site springs, whose values bunch within 7e-6 of 1, took 50 s at a shift near zero.
+ARPACK_RESTARTS = 30
+
+#: Factorisations one closer shift may take (`_closer_shift`'s bisection on the inertia).
+BISECTIONS = 24
+
+#: Closer shifts tried at most, one after another (each probe nearer: the estimate of the lowest
+#: value sharpens as in Rayleigh-quotient iteration).
+RESHIFTS = 3
+
+
+def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse | None = None, *,
+                 reshift: int = RESHIFTS) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The k lowest eigenpairs of K~, sigma below the spectrum, by shift-invert Krylov, ascending.
 
     Zero modes (a free system) dominate (K~ - sigma I)^-1 by ||K~|| / |sigma| ~ 1e12 and would
@@ -188,45 +209,123 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     error lies in the near-null space). An expensive factor (3-D networks: `fill` >=
     `BLOCK_FILL`) runs `vibra.solvers.standard.krylov.block_eigs` in blocks of `BLOCK_LOWEST` columns
     (widened where a multiple value shows); a cheap one, ARPACK (`_shift_invert_arpack`).
+
+    A zero mode is a pair with |lambda| <= `ZERO` ||K~||; k of them asked and found (a network of
+    many parts, isolated sites) are the answer. Where the probe shows the wanted values bunched far
+    above sigma (`_closer_shift`: on-site springs, an indefinite K~) the run starts again from a
+    shift just below them, at the cost of one more factorisation, `reshift` times at most. With a
+    cheap factor ARPACK's own pairs say whether they are bunched (single-vector Lanczos far from a
+    multiple value can return it with a copy short), or, where it has not converged in
+    `ARPACK_RESTARTS` restarts, three block steps of F.
     """
     if factor is None:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
     if factor.fill < BLOCK_FILL:
-        return _shift_invert_arpack(Kt, k, sigma, factor)
+        if not reshift or k < 2:
+            return _shift_invert_arpack(Kt, k, sigma, factor)
+        try:
+            values, basis = _shift_invert_arpack(Kt, k, sigma, factor, restarts=ARPACK_RESTARTS)
+        except sla.ArpackNoConvergence:  # three block steps of F: are the lowest values bunched far from sigma?
+            values, basis = None, None
+            mu, Y = block_eigs(factor.solve, Kt.shape[0], BLOCK_PROBE, block=BLOCK_PROBE, max_dim=3 * BLOCK_PROBE)[:2]
+        closer = _closer_shift(Kt, sigma + 1.0 / mu, Y, sigma) if values is None else _closer_shift(Kt, values, basis, sigma)
+        if closer is not None:  # (bunched values: a multiple one may have lost a copy)
+            return shift_invert(Kt, k, *closer, reshift=reshift - 1)
+        return _shift_invert_arpack(Kt, k, sigma, factor) if values is None else (values, basis)
     n = Kt.shape[0]
     scale = float(abs(Kt).sum(axis=1).max())
-    threshold = 1.0 / (1e-8 * scale - sigma)  # 1 / (lambda - sigma) of a zero mode (lambda <= 1e-8 ||K~||) is above
+    probe = min(k, PROBE)
+
+    def is_zero(mu: NDArray[np.float64]) -> NDArray[np.bool_]:  # |lambda| <= 1e-8 ||K~||: a zero mode
+        return np.abs(sigma + 1.0 / mu) <= ZERO * scale
 
     def found(mu: NDArray[np.float64], residual: NDArray[np.float64]) -> bool:
         # every zero mode converged, and the largest other one to 1e-3: the spectrum below
-        # them is really seen (a first crude Ritz value may look non-zero)
-        zero = mu >= threshold
+        # them is really seen (a first crude Ritz value may look non-zero); or all the probe's
+        # pairs zero modes, converged (the probe then doubles: a network of many parts)
+        zero = is_zero(mu)
         other = np.flatnonzero(~zero)
-        return bool(other.size and residual[other[0]] <= 1e-3 * mu[other[0]]
-                    and np.all(residual[zero] <= TOLERANCE * mu[zero]))
+        converged = bool(np.all(residual[zero] <= TOLERANCE * mu[zero]))
+        if not other.size:
+            return converged and mu.shape[0] >= min(probe, n - Z.shape[1])
+        return bool(residual[other[0]] <= 1e-3 * mu[other[0]]) and converged
 
-    probe = min(k, PROBE)
+    Z, zero_values = np.zeros((n, 0)), np.zeros(0)  # zero modes of earlier probes, all of whose pairs were zero
     while True:
-        mu, basis, _, done = block_eigs(factor.solve, n, probe, block=BLOCK_PROBE, enough=found)
+        mu, basis, _, done = block_eigs(factor.solve, n, probe, block=BLOCK_PROBE, enough=found,
+                                        deflate=Z if Z.shape[1] else None)
         values = sigma + 1.0 / mu
-        zero = mu >= threshold
-        if not zero.all() or probe == k:
+        zero = is_zero(mu)
+        if not zero.all() or Z.shape[1] + probe >= k:
             break
-        probe = min(2 * probe, k)
-    order = np.argsort(values)
-    if zero.all():
-        return values[order], basis[:, order]
+        Z, zero_values = np.column_stack([Z, basis]), np.r_[zero_values, values]
+        probe = min(2 * probe, k - Z.shape[1])
+    if zero.all():  # k zero modes (a network of many parts)
+        return _ascending(np.r_[zero_values, values][:k], np.column_stack([Z, basis])[:, :k])
+    if reshift and not Z.shape[1]:
+        closer = _closer_shift(Kt, values, basis, sigma)
+        if closer is not None:
+            return shift_invert(Kt, k, *closer, reshift=reshift - 1)
     # one more sweep of F on the zero modes: their error shrinks by mu_other / mu_zero ~ 1e-9
-    Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, zero])[0]))[0] if zero.any() else basis[:, :0]
+    zero_values = np.r_[zero_values, values[zero]]
+    Z = np.column_stack([Z, basis[:, zero]])
+    Z = np.linalg.qr(factor.solve(np.linalg.qr(Z)[0]))[0] if Z.shape[1] else Z
     mu, rest, _, done = block_eigs(factor.solve, n, k - Z.shape[1], tol=TOLERANCE, block=BLOCK_LOWEST,
                                    deflate=Z if Z.shape[1] else None, start=basis[:, ~zero], widen=True)
     if not done:
         raise RuntimeError(f"shift-invert block Krylov did not converge for the {k} lowest modes of a "
                            f"{n}-dof system; ask for fewer modes or use solver='dense'")
-    values = np.r_[values[zero], sigma + 1.0 / mu]
+    values = np.r_[zero_values, sigma + 1.0 / mu]
     basis = np.column_stack([Z, rest])
     order = np.argsort(values)
     return values[order], basis[:, order]
+
+
+def _closer_shift(Kt: sp.csr_matrix, values: NDArray[np.float64], basis: NDArray[np.float64], sigma: float
+                  ) -> tuple[float, ShiftedInverse] | None:
+    """A shift just below the lowest eigenvalue, and its factorisation, where a probe's Ritz pairs
+    (`values`, `basis`; zero modes included) lie bunched far above `sigma`: their spread smaller
+    than their distance from it. Then the wanted values of F = (K~ - sigma I)^-1 lie within a few
+    per cent of each other and no Krylov iteration converges in reasonable time: on-site springs
+    (K + c M: a network's rigid motions become a six-fold value c, a chain's lowest values bunch
+    within (pi k / n)^2 of c) or an indefinite K~, whose shift went below Gershgorin's bound.
+
+    The lowest value a is sigma + 1 / mu for a Ritz value mu of F (or ARPACK's Rayleigh quotient of
+    K~), and mu <= 1 / (lambda_1 - sigma), so lambda_1 <= a; some eigenvalue lies within
+    r = ||K~ v - a v|| of a (v its unit vector; Krylov and Bogoliubov): the first shift tried is
+    a - 2 r. The factorisation's inertia then says whether a shift lies below the whole
+    spectrum (a probe can miss a lower value), and the interval between the highest shift found
+    below and a is halved until it is narrower than a tenth of the spread, or `CLOSEST` ||K~||_inf
+    if more (nearer, lambda_1 would dominate F as zero modes do): one factorisation where the probe
+    has converged (a 3-D network's block iteration), tens of cheap ones where it has not (three
+    steps on a long chain's O(n) factor), `BISECTIONS` at most. None where the values are not
+    bunched (a free network: its zero modes at sigma's own distance).
+    """
+    if values.shape[0] < 2:
+        return None
+    lowest = int(np.argmin(values))
+    low = float(values[lowest])
+    distance, spread = low - sigma, float(values.max()) - low
+    if spread >= distance:
+        return None
+    width = max(0.1 * spread, CLOSEST * float(abs(Kt).sum(axis=1).max()))
+    if width >= distance:
+        return None
+    v = basis[:, lowest] / np.linalg.norm(basis[:, lowest])
+    below, above, factor = sigma, low, None  # sigma lies below the spectrum, and low is not below lambda_1
+    shift = low - max(2.0 * float(np.linalg.norm(Kt @ v - low * v)), width)
+    for _ in range(BISECTIONS):
+        if not below < shift < above:
+            shift = 0.5 * (below + above)
+        trial = ShiftedInverse(Kt, shift)
+        if trial.below_spectrum:
+            below, factor = shift, trial
+        else:
+            above = shift
+        if factor is not None and above - below <= width:
+            break
+        shift = 0.5 * (below + above)
+    return None if factor is None else (below, factor)
 
 
 #: Block width of the lowest-mode iteration. A block of b columns needs ~70 + 18 (b - 1)
@@ -242,8 +341,8 @@ BLOCK_LOWEST = 2
 BLOCK_PROBE = 4
 
 
-def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
-                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse,
+                         restarts: int | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """`shift_invert` by ARPACK (one vector at a time, restarted): every pair a run returns
     converged to `KEPT_RESIDUAL` is kept and deflated from the next run, which asks the rest.
 
@@ -271,7 +370,8 @@ def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
             operator = sla.LinearOperator(Kt.shape, matvec=deflated, dtype=float)
         else:
             operator = inverse
-        values, basis = _arpack(Kt, ask, sigma, operator, deflate=kept if kept.shape[1] else None, start=start)
+        values, basis = _arpack(Kt, ask, sigma, operator, deflate=kept if kept.shape[1] else None, start=start,
+                                restarts=restarts)
         if kept.shape[1]:  # a Rayleigh-Ritz step off the kept pairs
             basis = basis - kept @ (kept.T @ basis)
             product = Kt @ basis
@@ -323,8 +423,8 @@ MAX_RUNS = 4
 
 
 def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator,
-            deflate: NDArray[np.float64] | None = None, start: NDArray[np.float64] | None = None
-            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+            deflate: NDArray[np.float64] | None = None, start: NDArray[np.float64] | None = None,
+            restarts: int | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The k eigenpairs of K~ nearest sigma (ARPACK shift-invert), ascending; the start vector
     (seeded where not given: reproducible runs) is kept off `deflate`."""
     if start is None:
@@ -332,7 +432,7 @@ def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator
     if deflate is not None:
         start = start - deflate @ (deflate.T @ start)
     values, basis = sla.eigsh(Kt, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=0.0,
-                              ncv=min(Kt.shape[0], max(2 * k + 1, 20)), v0=start)
+                              ncv=min(Kt.shape[0], max(2 * k + 1, 20)), v0=start, maxiter=restarts)
     return _ascending(values, basis)
 
 
