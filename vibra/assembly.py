@@ -47,6 +47,22 @@ def stack_terms(rows: list[sp.coo_matrix], weights: list[NDArray[np.float64]], n
     return b, np.concatenate(weights)
 
 
+def hessian(coupling: sp.spmatrix, weights: NDArray[np.float64], extra: sp.spmatrix | None,
+            free: NDArray[np.intp] | None) -> sp.csr_matrix:
+    """K = B^T diag(w) B (+ the user's Hessian blocks `extra`) over the `free` dofs (all where None),
+    CSR in canonical form, its arrays read-only (`vibra.System` keeps it)."""
+    b = coupling
+    K = (b.T @ sp.diags(weights) @ b).tocsr() if b.shape[0] else sp.csr_matrix((b.shape[1], b.shape[1]))
+    if extra is not None:
+        K = (K + extra).tocsr()
+    if free is not None:
+        K = K[free][:, free].tocsr()
+    K.sum_duplicates()
+    for part in (K.data, K.indices, K.indptr):
+        part.flags.writeable = False
+    return K
+
+
 def hessian_blocks(blocks: Sequence[tuple[ArrayLike, ArrayLike]], n_sites: int, dim: int) -> sp.csr_matrix:
     """Sum user Hessian blocks into one sparse (n_sites * dim)^2 matrix."""
     rows: list[NDArray[np.intp]] = []
