@@ -17,6 +17,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from vibra._core import validate as _validate
+from vibra._core.frozen import read_only
 
 
 def pair_rows(pairs: NDArray[np.intp], unit: NDArray[np.float64], n_sites: int, dim: int) -> sp.coo_matrix:
@@ -58,9 +59,7 @@ def hessian(coupling: sp.spmatrix, weights: NDArray[np.float64], extra: sp.spmat
     if free is not None:
         K = K[free][:, free].tocsr()
     K.sum_duplicates()
-    for part in (K.data, K.indices, K.indptr):
-        part.flags.writeable = False
-    return K
+    return read_only(K)
 
 
 def hessian_blocks(blocks: Sequence[tuple[ArrayLike, ArrayLike]], n_sites: int, dim: int) -> sp.csr_matrix:

@@ -41,11 +41,15 @@ def freeze_arrays(obj: object) -> None:
             value.flags.writeable = False
             object.__setattr__(obj, field.name, value)
         elif sp.issparse(value):
-            value = value.copy()
-            for part in ("data", "indices", "indptr"):
-                if hasattr(value, part):
-                    getattr(value, part).flags.writeable = False
-            object.__setattr__(obj, field.name, value)
+            object.__setattr__(obj, field.name, read_only(value.copy()))
+
+
+def read_only(matrix: sp.spmatrix) -> sp.spmatrix:
+    """`matrix` with its stored arrays (data, and indices and indptr where it has them) made read-only, in place."""
+    for part in ("data", "indices", "indptr"):
+        if hasattr(matrix, part):
+            getattr(matrix, part).flags.writeable = False
+    return matrix
 
 
 class Frozen:
