@@ -11,6 +11,7 @@ sphere and in a ball.
 
 from __future__ import annotations
 
+import collections
 import itertools
 
 import numpy as np
@@ -19,7 +20,7 @@ import scipy.sparse as sp
 
 from vibra import networks
 from vibra.solvers import registry
-from vibra.solvers.topology import separator_width
+from vibra.solvers.topology import _levels, separator_width
 
 
 def grid(shape: tuple[int, ...]) -> sp.csr_matrix:
@@ -46,6 +47,33 @@ def widest_diagonal(shape: tuple[int, ...]) -> int:
 def test_a_grid_s_widest_level_is_its_widest_diagonal(shape: tuple[int, ...]) -> None:
     # (a corner is pseudo-peripheral: the search starts inside and finds the far corner)
     assert separator_width(grid(shape)) == widest_diagonal(shape)
+
+
+def _hop_levels(A: sp.csr_matrix, root: int) -> list[set[int]]:
+    """The vertices by hop distance from `root`, by a plain queue over the stored entries (explicit zeros too)."""
+    distance = {root: 0}
+    queue = collections.deque([root])
+    while queue:
+        vertex = queue.popleft()
+        for other in A.indices[A.indptr[vertex]:A.indptr[vertex + 1]]:
+            if int(other) not in distance:
+                distance[int(other)] = distance[vertex] + 1
+                queue.append(int(other))
+    return [{v for v, d in distance.items() if d == level} for level in range(max(distance.values()) + 1)]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_levels_are_the_hop_distances(seed: int) -> None:
+    """`_levels` reads the levels off scipy's breadth-first order: the same sets as a plain queue's hop
+    distances, on random symmetric patterns of several components, with explicit zeros stored."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(20, 400))
+    A = sp.random(n, n, density=float(rng.uniform(0.002, 0.03)), random_state=seed, format="csr")
+    A = (A + A.T).tocsr()
+    A.data[::4] = 0.0  # stored zeros are still edges (K's pattern)
+    root = int(rng.integers(n))
+    graph = sp.csr_matrix((np.ones(A.indices.shape[0]), A.indices, A.indptr), shape=A.shape)
+    assert [set(level.tolist()) for level in _levels(graph, root)] == _hop_levels(A, root)
 
 
 def test_a_path_and_a_cycle() -> None:

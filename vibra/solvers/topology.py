@@ -125,19 +125,24 @@ def separator_width(pattern: MatrixLike) -> int:
     first vertex (George and Liu's pseudo-peripheral search), O(nnz) each; the other components
     counted by size (width (n_c / n_max)^(2/3) each, so that the cube sums as their factors do),
     returned as the one width whose cube is the sum."""
-    graph = pattern if sp.isspmatrix_csr(pattern) else sp.csr_matrix(pattern)
-    n = graph.shape[0]
+    given = pattern if sp.isspmatrix_csr(pattern) else sp.csr_matrix(pattern)
+    n = given.shape[0]
     if n == 0:
         return 0
-    count, labels = sp.csgraph.connected_components(graph, directed=False)
-    sizes = np.bincount(labels, minlength=count)
-    largest = int(np.argmax(sizes))
-    root = int(np.flatnonzero(labels == largest)[0])
-    levels = _levels(graph.indptr, graph.indices, root, n)
-    for _ in range(2):  # a far vertex of least degree, then its levels (at most two sweeps)
-        last = levels[-1]
+    # every stored entry an edge (an explicit zero too), whatever scipy's graph routines make of zeros
+    graph = sp.csr_matrix((np.ones(given.indices.shape[0]), given.indices, given.indptr), shape=given.shape)
+    levels = _levels(graph, 0)
+    if sum(level.shape[0] for level in levels) == n:  # connected (most networks): no component search
+        sizes, largest = np.array([n]), 0
+    else:
+        count, labels = sp.csgraph.connected_components(graph, directed=False)
+        sizes = np.bincount(labels, minlength=count)
+        largest = int(np.argmax(sizes))
+        levels = _levels(graph, int(np.flatnonzero(labels == largest)[0]))
+    for _ in range(2):  # a far vertex of least degree (the first such by index), then its levels (at most two sweeps)
+        last = np.sort(levels[-1])
         degree = np.diff(graph.indptr)[last]
-        again = _levels(graph.indptr, graph.indices, int(last[np.argmin(degree)]), n)
+        again = _levels(graph, int(last[np.argmin(degree)]))
         if len(again) <= len(levels):
             break
         levels = again
@@ -146,18 +151,15 @@ def separator_width(pattern: MatrixLike) -> int:
     return int(round(width * share ** (1.0 / 3.0)))
 
 
-def _levels(indptr: NDArray[np.integer], indices: NDArray[np.integer], root: int, n: int) -> list[NDArray[np.intp]]:
-    """The breadth-first levels from `root`: one gather of the frontier's rows per level."""
-    seen = np.zeros(n, dtype=bool)
-    seen[root] = True
-    frontier = np.array([root], dtype=np.intp)
-    levels = []
-    while frontier.shape[0]:
-        levels.append(frontier)
-        starts, stops = indptr[frontier], indptr[frontier + 1]
-        lengths = stops - starts
-        flat = np.repeat(starts - np.r_[0, np.cumsum(lengths)[:-1]], lengths) + np.arange(int(lengths.sum()))
-        reached = indices[flat]
-        frontier = np.unique(reached[~seen[reached]])  # (the seen ones dropped before the sort)
-        seen[frontier] = True
-    return levels
+def _levels(graph: sp.csr_matrix, root: int) -> list[NDArray[np.intp]]:
+    """The breadth-first levels from `root` (its component only): scipy's compiled search, then the
+    levels read off its order, in which the parents' positions never decrease: level L + 1 is the
+    run of vertices whose parent lies in level L (one binary search per level)."""
+    order, parent = sp.csgraph.breadth_first_order(graph, root, directed=True, return_predecessors=True)
+    position = np.empty(graph.shape[0], dtype=np.intp)
+    position[order] = np.arange(order.shape[0])
+    parents = position[parent[order[1:]]]
+    ends = [1]
+    while ends[-1] < order.shape[0]:
+        ends.append(1 + int(np.searchsorted(parents, ends[-1], side="left")))
+    return [order[start:stop].astype(np.intp) for start, stop in zip([0] + ends[:-1], ends)]
