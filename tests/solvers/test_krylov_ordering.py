@@ -263,6 +263,22 @@ def test_pardiso_cholesky_solves_and_refuses_indefinite() -> None:
 
 
 @needs_pardiso
+@pytest.mark.parametrize("n_sites", [400, 1000])
+def test_pardiso_orders_by_minimum_degree_below_dissection_min(n_sites: int) -> None:
+    """PARDISO's ordering (iparm(2)) by size: minimum degree (0) below `ordering.DISSECTION_MIN` dofs, its default nested
+    dissection from there (1,200 and 3,000 dofs here), the solves checked against SuperLU's on the same matrix."""
+    K = sp.csr_matrix(_lattice(n_sites).hessian())
+    A = (K + 1e-3 * sp.identity(K.shape[0])).tocsr()
+    factor = pardiso.PardisoCholesky(A)
+    assert (factor._solver.iparm[1] == 0) == (K.shape[0] < ordering.DISSECTION_MIN)
+    assert factor.factor_entries > K.nnz // 2  # (PARDISO reported its factor: iparm(18) asked)
+    B = np.random.default_rng(6).standard_normal((K.shape[0], 3))
+    reference = sla.splu(A.tocsc()).solve(B)
+    assert np.linalg.norm(factor.solve(B) - reference) <= 1e-9 * np.linalg.norm(reference)
+    factor.close()
+
+
+@needs_pardiso
 def test_pardiso_indefinite_shift_falls_back_to_superlu_inertia(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(pardiso, "BACKEND", "auto")
     K = sp.csr_matrix(_lattice(1100).hessian())

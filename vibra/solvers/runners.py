@@ -33,7 +33,7 @@ from vibra.solvers.accurate.chain.lowest import lowest_chain_modes
 from vibra.solvers.accurate.chain.sturm_counts import chain_counted, chain_form
 from vibra.solvers.accurate.ring.counted import ring_band_counted, ring_counted
 from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result, ring_vectors
-from vibra.solvers.standard.sparse import lowest_shift, semidefinite_rounding, shift_invert, sparse_path
+from vibra.solvers.standard.sparse import lowest_pairs, semidefinite_rounding, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
 from vibra.solvers.standard.iterative import RITZ_TOLERANCE, lowest_modes
 from vibra.solvers.standard.hermitian import hermitian_stack
@@ -217,8 +217,7 @@ def accurate_ritz(p: Problem, x: Inputs) -> SolveResult:
     if x.band is None:
         matrix = sp.csr_matrix(x.Kt)
         rounding = semidefinite_rounding(x.factor, float(abs(matrix).sum(axis=1).max()))
-        sigma, shifted = lowest_shift(matrix, rounding=rounding)
-        _, basis = shift_invert(matrix, min(int(p.n_modes) + 1, p.n - 2), sigma, shifted)  # type: ignore[arg-type]
+        _, basis, _ = lowest_pairs(matrix, min(int(p.n_modes) + 1, p.n - 2), rounding=rounding)  # type: ignore[arg-type]
         return _spring_ritz(p, x, basis, "shift-invert")  # (one more vector than asked: the gap)
     coupling, weights, weighted, deviation = _springs(x, lazy=True)
     standard = sparse_path(x.Kt, n_modes=None, vectors=True, band=x.band)
