@@ -50,6 +50,8 @@ def test_weighed_is_a_few_modes_of_a_sparse_network_in_its_band_of_sizes() -> No
     assert not _network_problem(1200, topology="walled-ring").weighed  # (a ring's K wraps round: wide, but 1-D)
     assert _network_problem(1200, topology="none", n_terms=0).weighed  # ("fast": the springs' shape not asked)
     assert not _network_problem(1200, accuracy="certified").weighed  # (its refinement dominates: the dense path kept)
+    assert _network_problem(1200, n_modes=common.WEIGHED_MODES).weighed
+    assert not _network_problem(1200, n_modes=common.WEIGHED_MODES + 1).weighed  # (many modes: the dense solve)
 
 
 @pytest.mark.parametrize("accuracy, rivals", [("fast", ("sparse", "dense")), ("high", ("accurate-ritz", "accurate-checked"))])

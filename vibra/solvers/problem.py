@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 import vibra.solvers.common as common
 from vibra.solvers.accuracy import uses_springs
-from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, WEIGHED_FROM
+from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, WEIGHED_FROM, WEIGHED_MODES
 
 __all__ = ["Problem", "quadratic_problem", "chain_problem", "bloch_problem"]
 
@@ -84,13 +84,13 @@ class Problem:
     @property
     def weighed(self) -> bool:
         """A few modes of a sparse 3-D network (wider than a band, diagonal masses; springs of no 1-D shape, which has
-        its own paths) of `WEIGHED_FROM` to DENSE_LIMIT dofs, "fast" or "high": the shift-invert paths serve it beside
+        its own paths) of `WEIGHED_FROM` to DENSE_LIMIT dofs, at most `WEIGHED_MODES` of them, "fast" or "high": the shift-invert paths serve it beside
         the dense ones, and "auto" weighs them by estimate ("certified", whose refinement dominates either, keeps the
         dense path: network-1500 took 463 s there in one run and 560 s on the shift-invert path in another, both
         estimated ~3 min; not weighed until measured side by side)."""
         return (self.sparse and self.diagonal_mass and self.width > BAND_LIMIT and self.band is None
                 and self.topology in ("network", "none") and self.accuracy != "certified"
-                and self.n_modes is not None and self.n_modes < self.n - 1 and WEIGHED_FROM <= self.n <= DENSE_LIMIT)
+                and self.n_modes is not None and self.n_modes <= WEIGHED_MODES and WEIGHED_FROM <= self.n <= DENSE_LIMIT)
 
     @property
     def tridiagonal(self) -> bool:
