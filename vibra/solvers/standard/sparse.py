@@ -162,8 +162,8 @@ def lowest_pairs(Kt: sp.csr_matrix, k: int, *, rounding: float | None = None
 
     The `decoupled` dofs are set apart first, each an exact pair (K~_ii, e_i), and the rest is solved without them: a
     Krylov iteration sees the copies of a value repeated on decoupled dofs only through rounding (eleven isolated sites
-    are a 33-fold zero beside a protein's six rigid motions; with on-site springs c, a 15-fold value c of which the
-    iteration returned two thirds, RESULTS.md "Decoupled dofs set apart")."""
+    are a 33-fold zero beside a protein's six rigid motions; 5 isolated sites beside a 300-site network, plus I, a 21-fold
+    value 1 of which ARPACK returned 10 copies; RESULTS.md "Decoupled dofs set apart")."""
     loose = decoupled(Kt)
     if not loose.size:
         sigma, factor = lowest_shift(Kt, rounding=rounding)
