@@ -32,7 +32,7 @@ MODES = 26  # ProDy's 20 and the six rigid-body modes
 
 def _network_problem(n: int, n_modes: int | None = MODES, **changes: object) -> Problem:
     fields = dict(n=n, n_modes=n_modes, band=None, vectors=True, accuracy="high", diagonal_mass=True, width=n - 1,
-                  ordering=None, sparse=True, nnz=170 * n, n_terms=28 * n, topology="network", separator=n // 3)
+                  ordering=None, sparse=True, nnz=170 * n, n_terms=28 * n, topology="network", separator=n // 3, free=True)
     fields.update(changes)
     return Problem(**fields)  # type: ignore[arg-type]
 
@@ -50,6 +50,7 @@ def test_weighed_is_a_few_modes_of_a_sparse_network_in_its_band_of_sizes() -> No
     assert not _network_problem(1200, topology="walled-ring").weighed  # (a ring's K wraps round: wide, but 1-D)
     assert _network_problem(1200, topology="none", n_terms=0).weighed  # ("fast": the springs' shape not asked)
     assert not _network_problem(1200, accuracy="certified").weighed  # (its refinement dominates: the dense path kept)
+    assert not _network_problem(1200, free=False).weighed  # (K 1 != 0: the lowest values away from zero)
     assert _network_problem(1200, n_modes=common.WEIGHED_MODES).weighed
     assert not _network_problem(1200, n_modes=common.WEIGHED_MODES + 1).weighed  # (many modes: the dense solve)
 
@@ -137,18 +138,42 @@ def test_a_network_of_many_parts_in_the_band(enl: Any, accuracy: str) -> None:
 @pytest.mark.parametrize("shift", [10.0, -1.0, -10.0])
 def test_on_site_springs_and_an_indefinite_k_in_the_band(enl: Any, shift: float) -> None:
     """K + c I (a six-fold lowest value c) and K - c I (indefinite: a six-fold -c, which a shift below Gershgorin's
-    bound once left short of convergence) at 1,308 dofs, through `normal_modes` with "auto": LAPACK's 26 lowest."""
+    bound once left short of convergence) at 1,308 dofs: not free (K 1 = c 1), so not weighed ("auto" keeps the dense
+    path: the shift-invert estimate places no shift away from zero), and the shift-invert path named: LAPACK's 26
+    lowest either way."""
     K = sp.csr_matrix(enl.hessian() + shift * sp.identity(enl.hessian().shape[0]))
     n = K.shape[0]
     plan = solvers.plan(K, np.ones(n), n_modes=MODES, vectors=True, band=None, solver="auto", spring_factor=None,
                         accuracy="fast")
-    assert plan.problem is not None and plan.problem.weighed
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # (K - c I: imaginary modes, as it should say)
-        modes = normal_modes(K, np.ones(n), n_modes=MODES, accuracy="fast")
+    assert plan.problem is not None and not plan.problem.free and not plan.problem.weighed and plan.path == "dense"
     norm = float(abs(K).sum(axis=1).max())
-    # each side backward stable, ~n eps ||K~|| absolute
-    np.testing.assert_allclose(modes.omega_squared, _lapack_lowest(K, MODES), rtol=0, atol=2 * n * np.finfo(float).eps * norm)
+    for solver in ("auto", "sparse"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # (K - c I: imaginary modes, as it should say)
+            modes = normal_modes(K, np.ones(n), n_modes=MODES, accuracy="fast", solver=solver)
+        # each side backward stable, ~n eps ||K~|| absolute
+        np.testing.assert_allclose(modes.omega_squared, _lapack_lowest(K, MODES), rtol=0,
+                                   atol=2 * n * np.finfo(float).eps * norm)
+
+
+def test_free_is_k_times_ones_zero(enl: Any) -> None:
+    """`Problem.free`: a network's K (its diagonal blocks minus the sums of its off-diagonal ones), with unit or
+    spread masses (K, not K~, is read), is free; K + 1e-6 ||K|| I is not; a random sparse symmetric K is not."""
+    K = sp.csr_matrix(enl.hessian())
+    n = K.shape[0]
+
+    def free(matrix: sp.csr_matrix, mass: Any) -> bool:
+        problem = solvers.plan(matrix, mass, n_modes=MODES, vectors=True, band=None, solver="auto",
+                               spring_factor=None, accuracy="fast").problem
+        assert problem is not None
+        return problem.free
+
+    masses = np.repeat(np.random.default_rng(0).uniform(1.0, 100.0, n // 3), 3)
+    assert free(K, np.ones(n)) and free(K, masses)
+    norm = float(abs(K).sum(axis=1).max())
+    assert not free(sp.csr_matrix(K + 1e-6 * norm * sp.identity(n)), np.ones(n))
+    A = sp.random(1000, 1000, density=0.005, random_state=0)
+    assert not free(sp.csr_matrix(A + A.T), np.ones(1000))
 
 
 def _spread_network(seed: int) -> tuple[Any, sp.csr_matrix]:

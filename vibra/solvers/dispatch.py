@@ -78,11 +78,23 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
             derived = spring_factor_of_chain(K)  # a chain given as K: its springs from K's entries
             if derived is not None and classify(derived[0]) == "chain":
                 topology = "chain-derived"
-    separator = separator_width(K) if sp.issparse(K) and diagonal and width > BAND_LIMIT and n >= WEIGHED_FROM else 0
+    wide = sp.issparse(K) and diagonal and width > BAND_LIMIT and n >= WEIGHED_FROM
+    separator = separator_width(K) if wide else 0
+    free = wide and n <= DENSE_LIMIT and _rows_sum_to_zero(K)  # (asked only by `Problem.weighed`)
     return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
                    width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
                    topology=topology, spread=spread, device=device, separator=separator,
-                   coordinates=positions is not None)
+                   coordinates=positions is not None, free=free)
+
+
+#: |K 1| / ||K||_inf under which K's rows count as summing to zero (`_rows_sum_to_zero`): as `sparse.ZERO` for a zero
+#: mode; a network's diagonal blocks are minus the sums of its off-diagonal ones, equal to ~1e-16 of its norm.
+FREE_ROWS = 1e-8
+
+
+def _rows_sum_to_zero(K: sp.csr_matrix) -> bool:
+    """Whether K 1 = 0 within `FREE_ROWS` ||K||_inf: a free network (its translations zero modes), O(nnz)."""
+    return bool(np.abs(K.sum(axis=1)).max() <= FREE_ROWS * abs(K).sum(axis=1).max())
 
 
 def plan(

@@ -35,7 +35,9 @@ class Problem:
     `batch` the number of matrices solved alike: a crystal's D(q) at `batch` wave vectors
     (``equation="bloch"``, `bloch_problem`), 1 for every other request;
     `coordinates` whether the sites' positions came with K (three dofs per site): the iterative
-    path's preconditioner and exact rotations use them (`iterative.lowest_modes`).
+    path's preconditioner and exact rotations use them (`iterative.lowest_modes`);
+    `free` whether K's rows sum to zero (K 1 = 0: a free network, every rigid translation a zero mode), measured
+    only where a request may be `weighed`.
     """
 
     n: int
@@ -60,6 +62,7 @@ class Problem:
     separator: int = 0
     batch: int = 1
     coordinates: bool = False
+    free: bool = False
 
     @property
     def quadratic(self) -> bool:
@@ -83,12 +86,15 @@ class Problem:
 
     @property
     def weighed(self) -> bool:
-        """A few modes of a sparse 3-D network (wider than a band, diagonal masses; springs of no 1-D shape, which has
-        its own paths) of `WEIGHED_FROM` to DENSE_LIMIT dofs, at most `WEIGHED_MODES` of them, "fast" or "high": the shift-invert paths serve it beside
-        the dense ones, and "auto" weighs them by estimate ("certified", whose refinement dominates either, keeps the
-        dense path: network-1500 took 463 s there in one run and 560 s on the shift-invert path in another, both
-        estimated ~3 min; not weighed until measured side by side)."""
-        return (self.sparse and self.diagonal_mass and self.width > BAND_LIMIT and self.band is None
+        """A few modes of a sparse free 3-D network (wider than a band, diagonal masses, K 1 = 0; springs of no 1-D
+        shape, which has its own paths) of `WEIGHED_FROM` to DENSE_LIMIT dofs, at most `WEIGHED_MODES` of them, "fast"
+        or "high": the shift-invert paths serve it beside the dense ones, and "auto" weighs them by estimate.
+        "certified", whose refinement dominates either, keeps the dense path: network-1500 took 463 s there in one run
+        and 560 s on the shift-invert path in another, both estimated ~3 min; not weighed until measured side by side.
+        A K that is not free (on-site springs, an indefinite K) keeps the dense path: its lowest values lie away from
+        zero, where the shift-invert estimate places no shift, and the shift is searched by extra factorisations (a
+        random sparse 1,000 x 1,000 K, + 25 I or indefinite, 5 modes: 81-84 ms dense, 187-405 ms shift-invert)."""
+        return (self.sparse and self.diagonal_mass and self.width > BAND_LIMIT and self.band is None and self.free
                 and self.topology in ("network", "none") and self.accuracy != "certified"
                 and self.n_modes is not None and self.n_modes <= WEIGHED_MODES and WEIGHED_FROM <= self.n <= DENSE_LIMIT)
 
