@@ -76,6 +76,8 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``standard/lapack.py``              dense, tridiagonal, banded (absolute accuracy)
 ``standard/sparse.py``              shift-invert for a few modes or a band (the factor, the
                                     shift, the probe)
+``standard/parts.py``               a K~ of several connected parts solved part by part (small
+                                    parts stacked for LAPACK, large ones by shift-invert)
 ``standard/ordering.py``            nested-dissection ordering (METIS through pymetis) for SuperLU
 ``standard/cholmod.py``             the default sparse Cholesky (SuiteSparse CHOLMOD, through cvxopt)
 ``standard/pardiso.py``             the optional MKL PARDISO Cholesky (``vibra[pardiso]``)
