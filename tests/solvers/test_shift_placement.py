@@ -29,6 +29,7 @@ from scipy.sparse.csgraph import connected_components
 from vibra import System, networks, normal_modes
 from vibra.solvers.standard import sparse
 from vibra.solvers.standard.sparse import sparse_path
+from vibra.solvers.topology import components
 
 EPS = np.finfo(float).eps
 
@@ -51,10 +52,10 @@ def iteration(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -
 
 @pytest.fixture(params=["by parts", "whole"])
 def split(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
-    """K~ solved part by part (`sparse.parts`, as every call is), or whole: the shift-invert iteration's own handling of
+    """K~ solved part by part (`topology.components`, as every call is), or whole: the shift-invert iteration's own handling of
     many zero modes, which a connected network with floppy parts still needs, kept under test on networks of parts."""
     if request.param == "whole":
-        monkeypatch.setattr(sparse, "parts", lambda Kt: (1, np.zeros(Kt.shape[0], dtype=np.int32)))
+        monkeypatch.setattr(sparse, "components", lambda Kt: (1, np.zeros(Kt.shape[0], dtype=np.int32)))
     return str(request.param)
 
 
@@ -170,8 +171,8 @@ def _all_to_rounding(K: sp.csr_matrix, k: int) -> np.ndarray:
 
 
 def _decoupled(K: sp.csr_matrix) -> list[int]:
-    """The dofs that are parts of one dof (`sparse.parts`)."""
-    label = sparse.parts(K)[1]
+    """The dofs that are parts of one dof (`topology.components`)."""
+    label = components(K)[1]
     return np.flatnonzero(np.bincount(label)[label] == 1).tolist()
 
 
@@ -253,14 +254,14 @@ def _soft_clusters(reach: float, seed: int = 0) -> tuple[Any, np.ndarray]:
 
 
 def test_parts_are_the_connected_components() -> None:
-    """`sparse.parts` on the soft clusters (7 parts at reach 15) and a lattice with isolated sites (each its own
+    """`topology.components` on the soft clusters (7 parts at reach 15) and a lattice with isolated sites (each its own
     three parts: decoupled dofs), against a union-find over the springs."""
     system, labels = _soft_clusters(15.0)
-    count, label = sparse.parts(sp.csr_matrix(system.hessian()))
+    count, label = components(sp.csr_matrix(system.hessian()))
     assert count == len(np.unique(labels)) == 7
     site = label[::3]
     assert all(len(np.unique(site[labels == r])) == 1 for r in np.unique(labels))  # the same partition
-    assert sparse.parts(sp.csr_matrix(_network(100, 4).hessian()))[0] == 1 + 3 * 4
+    assert components(sp.csr_matrix(_network(100, 4).hessian()))[0] == 1 + 3 * 4
 
 
 @pytest.mark.parametrize("reach", [10.0, 15.0])
@@ -330,7 +331,7 @@ def test_many_small_parts_in_one_stacked_solve() -> None:
     off[9::10] = 0.0
     K = sp.diags([off, np.r_[1.0, np.full(n - 2, 2.0), 1.0], off], [-1, 0, 1], format="csr")
     K.eliminate_zeros()
-    assert sparse.parts(K)[0] == 300
+    assert components(K)[0] == 300
     ends = 4.0 * np.sin(np.pi * (2 * np.arange(1, 11) - 1) / 42.0) ** 2  # one end free, one held: 10 values each
     held = np.sort(4.0 * np.sin(np.pi * np.arange(1, 11) / 22.0) ** 2)
     exact = np.sort(np.r_[ends, ends, np.tile(held, 298)])[:40]

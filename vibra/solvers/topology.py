@@ -124,7 +124,7 @@ def components(pattern: sp.csr_matrix) -> tuple[int, NDArray[np.int32]]:
     n = pattern.shape[0]
     if n == 0:
         return 0, np.zeros(0, dtype=np.int32)
-    graph = sp.csr_matrix((np.ones(pattern.indices.shape[0]), pattern.indices, pattern.indptr), shape=pattern.shape)
+    graph = _graph(pattern)
     if sp.csgraph.breadth_first_order(graph, 0, directed=True, return_predecessors=False).shape[0] == n:
         return 1, np.zeros(n, dtype=np.int32)
     count, labels = sp.csgraph.connected_components(graph, directed=False)
@@ -144,8 +144,7 @@ def separator_width(pattern: MatrixLike) -> int:
     n = given.shape[0]
     if n == 0:
         return 0
-    # every stored entry an edge (an explicit zero too), whatever scipy's graph routines make of zeros
-    graph = sp.csr_matrix((np.ones(given.indices.shape[0]), given.indices, given.indptr), shape=given.shape)
+    graph = _graph(given)
     levels = _levels(graph, 0)
     if sum(level.shape[0] for level in levels) == n:  # connected (most networks): no component search
         sizes, largest = np.array([n]), 0
@@ -164,6 +163,12 @@ def separator_width(pattern: MatrixLike) -> int:
     width = max(level.shape[0] for level in levels)
     share = float(np.sum((sizes / sizes[largest]) ** 2))
     return int(round(width * share ** (1.0 / 3.0)))
+
+
+def _graph(pattern: sp.csr_matrix) -> sp.csr_matrix:
+    """A CSR pattern's graph: every stored entry an edge (an explicit zero too), whatever scipy's graph routines make of
+    zeros."""
+    return sp.csr_matrix((np.ones(pattern.indices.shape[0]), pattern.indices, pattern.indptr), shape=pattern.shape)
 
 
 def _levels(graph: sp.csr_matrix, root: int) -> list[NDArray[np.intp]]:

@@ -1,6 +1,6 @@
 """A K~ of several parts solved part by part (`by_parts`), for the shift-invert paths (`sparse.lowest_pairs`).
 
-A K~ whose graph has several connected components (`parts`) is the direct sum of their matrices, so its lowest pairs
+A K~ whose graph has several connected components (`topology.components`) is the direct sum of their matrices, so its lowest pairs
 are the lowest of theirs; a Krylov iteration on the whole sees the copies of a value repeated across parts only
 through rounding. Eleven isolated sites are a 33-fold zero beside a protein's six rigid motions; 5 isolated sites
 beside a 300-site network, plus I, a 21-fold value 1 of which ARPACK returned 10 copies (RESULTS.md "Decoupled dofs set
@@ -18,9 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from vibra.solvers.topology import components
-
-__all__ = ["parts", "by_parts", "SMALL_PART"]
+__all__ = ["by_parts", "SMALL_PART", "Solver"]
 
 #: Parts of at most this many dofs are solved by LAPACK's eigh: 2.7 ms at 300 dofs, under one shift-invert run's start
 #: (a factorisation, a probe) on a part of that size.
@@ -31,12 +29,6 @@ STACK_ENTRIES = 2_000_000
 
 Found = tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.float64]]
 Solver = Callable[[int], tuple[NDArray[np.float64], NDArray[np.float64]]]
-
-
-def parts(Kt: sp.csr_matrix) -> tuple[int, NDArray[np.int32]]:
-    """K~'s connected components: their count and each dof's label (`topology.components`, O(nnz); a stored zero
-    counts as a coupling, which only keeps two parts together)."""
-    return components(Kt)
 
 
 def by_parts(Kt: sp.csr_matrix, k: int, count: int, label: NDArray[np.int32],

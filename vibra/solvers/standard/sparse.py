@@ -9,8 +9,6 @@ and the Ritz vectors get one Rayleigh-Ritz step in K~. A band inside the spectru
 
 from __future__ import annotations
 
-from typing import Callable
-
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
@@ -26,7 +24,8 @@ from vibra.solvers.standard.ordering import nested_dissection
 from vibra.solvers.standard.cholmod import CholmodCholesky, sparse_backend
 from vibra.solvers.standard.pardiso import PardisoCholesky
 from vibra.solvers.standard.lapack import dense_path
-from vibra.solvers.standard.parts import by_parts, parts
+from vibra.solvers.standard.parts import Solver, by_parts
+from vibra.solvers.topology import components
 
 
 class ShiftedInverse:
@@ -154,16 +153,16 @@ def lowest_pairs(Kt: sp.csr_matrix, k: int, *, rounding: float | None = None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], ShiftedInverse | None]:
     """The k lowest eigenpairs of K~ by shift-invert (`lowest_shift`, then `shift_invert`), ascending, and the factor.
 
-    A K~ of several parts (`parts`: its connected components) is solved part by part (`vibra.solvers.standard.parts`):
-    a Krylov iteration sees the copies of a value repeated across parts only through rounding. Parts over
-    `parts.SMALL_PART` dofs are shift-invert's, each on its own factor. The factor returned is K~'s where K~ is one
+    A K~ of several parts (`topology.components`: its connected components) is solved part by part
+    (`vibra.solvers.standard.parts`): a Krylov iteration sees the copies of a value repeated across parts only through
+    rounding. Parts over `parts.SMALL_PART` dofs are shift-invert's, each on its own factor. The factor returned is K~'s where K~ is one
     part, else None."""
-    count, label = parts(Kt)
+    count, label = components(Kt)
     if count == 1:
         sigma, factor = lowest_shift(Kt, rounding=rounding)
         return (*shift_invert(Kt, k, sigma, factor), factor)
 
-    def connected(block: sp.csr_matrix) -> Callable[[int], tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    def connected(block: sp.csr_matrix) -> Solver:
         sigma, factor = lowest_shift(block, rounding=rounding)
         return lambda wanted: shift_invert(block, wanted, sigma, factor)
 
