@@ -53,6 +53,7 @@ TRIDIAGONAL_S = 1e-8          # per n^2: dqds / MRRR values of a tridiagonal or 
 TRIDIAGONAL_VECTORS_S = 1e-7  # per n k: MRRR / inverse-iteration vectors, written out
 BANDED_S = 2e-9               # per (b + 1) n^2: band reduction
 LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
+ARNOLDI_S = 1.5e-9            # per n ncv^2: ARPACK's reorthogonalisation in a run (2-D meshes of 3,600-90,000 dofs, 10-300 modes)
 KRYLOV_RITZ_S = 1e-9          # per n k^2: the Rayleigh-Ritz step on a shift-invert basis
 # a 3-D network's shift-invert, by the widest breadth-first level w of K's graph (`topology.separator_width`,
 # nested dissection's top separator); fitted on 9 networks of 4,467-99,999 dofs (3 proteins, 3 synthetic

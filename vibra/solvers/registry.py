@@ -26,7 +26,7 @@ import vibra.solvers.common as common
 import vibra.solvers.runners as runners
 from vibra.solvers.accuracy import relative
 from vibra.solvers.budget import (
-    BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, CHECK_CALL_S, CHECK_FORM_S,
+    ARNOLDI_S, BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, CHECK_CALL_S, CHECK_FORM_S,
     CHECK_TERM_S, COMPANION_S, DENSE_FORM_S, DENSE_VALUES_S, JACOBI_FALLBACK_S,
     DENSE_VECTORS_S, GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S,
     RING_COUNTED_S, RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SOLID_SEPARATOR, SPARSE_ENTRY_S,
@@ -39,6 +39,7 @@ from vibra.solvers.accurate.gk_bisection import DSTEBZ_S, compiled_bisection_pay
 from vibra.solvers.problem import Problem, quadratic_problem
 from vibra.solvers.standard.cholmod import sparse_backend
 from vibra.solvers.standard.hermitian import BLOCH_EXTRAS, stack_cost
+from vibra.solvers.standard.sparse import BLOCK_FILL
 from vibra.solvers.standard.iterative import ITERATIVE_FROM, iterative_cost, most_modes
 
 __all__ = ["Problem", "SolverPath", "PATHS", "BY_NAME", "choose", "estimate", "path_names", "quadratic_problem",
@@ -161,27 +162,26 @@ def _ring_band_cost(p: Problem) -> Estimate:
 
 
 def _sparse_parts(p: Problem) -> tuple[float, float]:
-    """Shift-invert: ARPACK's restarted basis for a narrow band (a chain, a ring reordered: a
-    cheap factor), the block Krylov basis (up to max(10 k, 200) columns, `krylov.block_eigs`)
-    for any other; (columns + 2k + 3) n words + the factor: O(n) for a tridiagonal K~ (pttrf),
-    ~20 nnz (SuperLU fill) for a band. LANCZOS_S n columns per Lanczos run. A 3-D network
-    (half-bandwidth over BAND_LIMIT) is costed by the top separator w of its nested-dissection
-    order (`Problem.separator`; SOLID_SEPARATOR n^(2/3) where its graph was not at hand): the
-    factor's SPARSE_FACTOR_ENTRIES w^2 entries and K's copy, SPARSE_FACTOR_S w^3 to factor,
-    SPARSE_SOLVE_S w^2 per Krylov column, SPARSE_ENTRY_S per stored entry (n^2 for a solid,
-    n^1.5 for a shell: a capsid); SUPERLU_SLOWER times the factor and its solves for SuperLU's
-    LU where neither PARDISO nor CHOLMOD loads."""
+    """Shift-invert: ARPACK's restarted basis for a narrow band (a chain, a ring reordered: a cheap factor), the block
+    Krylov basis (up to max(10 k, 200) columns, `krylov.block_eigs`) for any other; (columns + 2k + 3) n words + the
+    factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) for a band. LANCZOS_S n columns per Lanczos run.
+    A 3-D network (half-bandwidth over BAND_LIMIT) is costed by the top separator w of its nested-dissection order
+    (`Problem.separator`; SOLID_SEPARATOR n^(2/3) where its graph was not at hand): the factor's SPARSE_FACTOR_ENTRIES
+    w^2 entries and K's copy, SPARSE_FACTOR_S w^3 to factor, SPARSE_SOLVE_S w^2 per Krylov column, SPARSE_ENTRY_S per
+    stored entry (n^2 for a solid, n^1.5 for a shell: a capsid); SUPERLU_SLOWER times the factor and its solves for
+    SuperLU's LU where neither PARDISO nor CHOLMOD loads. Under BLOCK_FILL entries a row: ARPACK + ARNOLDI_S n ncv^2."""
     n, k = p.n, p.k
-    columns = max(2 * k + 1, 20) if p.width <= BAND_LIMIT else min(n, max(10 * k, 200))
-    basis = 8.0 * (columns + 2 * k + 3) * n
-    if p.width <= BAND_LIMIT:
-        memory = basis + (8.0 * 4 * n if p.width <= 1 else 12.0 * 20 * max(p.nnz, n))
-        return memory, LANCZOS_S * n * columns * 10 + KRYLOV_RITZ_S * n * k * k
     w = float(p.separator) if p.separator else SOLID_SEPARATOR * float(n) ** (2.0 / 3.0)
+    arpack = p.width <= BAND_LIMIT or 2.0 * SPARSE_FACTOR_ENTRIES * w * w < BLOCK_FILL * n  # (`sparse.shift_invert`)
+    columns = max(2 * k + 1, 20) if arpack else min(n, max(10 * k, 200))
+    basis, ritz = 8.0 * (columns + 2 * k + 3) * n, KRYLOV_RITZ_S * n * k * k
+    if p.width <= BAND_LIMIT:
+        return basis + (8.0 * 4 * n if p.width <= 1 else 12.0 * 20 * max(p.nnz, n)), LANCZOS_S * n * columns * 10 + ritz
     lu = SUPERLU_SLOWER if sparse_backend(n) == "superlu" else 1.0
     memory = basis + 12.0 * (SPARSE_FACTOR_ENTRIES * w * w * lu + max(p.nnz, n))
-    seconds = SPARSE_ENTRY_S * max(p.nnz, n) + lu * (SPARSE_FACTOR_S * w ** 3 + SPARSE_SOLVE_S * w * w * columns)
-    return memory, seconds + KRYLOV_RITZ_S * n * k * k
+    seconds = SPARSE_ENTRY_S * max(p.nnz, n) + lu * SPARSE_FACTOR_S * w ** 3 + ritz
+    solves = LANCZOS_S * n * columns * 10 + ARNOLDI_S * n * columns ** 2 if arpack else lu * SPARSE_SOLVE_S * w * w * columns
+    return memory, seconds + solves
 
 
 def _sparse_cost(p: Problem) -> Estimate:

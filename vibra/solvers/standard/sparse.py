@@ -19,7 +19,8 @@ from vibra.solvers.common import (
     DENSE_ALL_LIMIT, EPS, Matrix, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
     tridiagonal_bands,
 )
-from vibra.solvers.standard.krylov import block_eigs
+from vibra.solvers.standard.inertia import missed, negative_pivots, repeats, symmetric_lu
+from vibra.solvers.standard.krylov import block_eigs, largest_cluster
 from vibra.solvers.standard.ordering import nested_dissection
 from vibra.solvers.standard.cholmod import CholmodCholesky, sparse_backend
 from vibra.solvers.standard.pardiso import PardisoCholesky
@@ -78,16 +79,11 @@ class ShiftedInverse:
             ordering = "NATURAL"
         shifted = shifted.tocsc()
         if need_inertia:
-            try:
-                lu = sla.splu(shifted, permc_spec=ordering, diag_pivot_thresh=0.0,
-                              options={"SymmetricMode": True})
-                pivots = lu.U.diagonal()
-                if (pivots > 0).all():
-                    self._lu = lu
-                    self.below_spectrum = True
-                    return
-            except RuntimeError:  # a zero pivot: sigma is (numerically) an eigenvalue
-                pass
+            lu = symmetric_lu(shifted, ordering)  # (None: a zero pivot, sigma numerically an eigenvalue)
+            if lu is not None and negative_pivots(lu) == 0:
+                self._lu = lu
+                self.below_spectrum = True
+                return
         self._lu = sla.splu(shifted, permc_spec=ordering)
 
     @property
@@ -239,9 +235,48 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     cheap factor ARPACK's own pairs say whether they are bunched (single-vector Lanczos far from a
     multiple value can return it with a copy short), or, where it has not converged in
     `ARPACK_RESTARTS` restarts, three block steps of F.
+
+    Where a nonzero value found shows two copies or more (`inertia.repeats`: a symmetric structure), the
+    eigenvalues below the highest one found are counted (`inertia.missed`, one more factorisation); if
+    some were not found (a value more multiple than the iteration saw), `_missing` finds them with the
+    found pairs deflated, and the answer is counted again (a RuntimeError naming the dense path where the
+    count still disagrees).
     """
     if factor is None:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
+    values, basis = _shift_invert(Kt, k, sigma, factor, reshift)
+    scale = float(abs(Kt).sum(axis=1).max())
+    if not repeats(values, scale):
+        return values, basis
+    missing, low = missed(Kt, values, scale)
+    if missing:
+        values, basis = _missing(Kt, k, factor, sigma, values, basis, missing, low)
+        if missed(Kt, values, scale)[0]:
+            raise RuntimeError(f"the {k} lowest modes of a {Kt.shape[0]}-dof system: a multiple eigenvalue's copies "
+                               f"were not all found (counted by Sylvester's inertia); use solver='dense'")
+    return values, basis
+
+
+def _missing(Kt: sp.csr_matrix, k: int, factor: ShiftedInverse, sigma: float, values: NDArray[np.float64],
+             basis: NDArray[np.float64], missing: int, low: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The k lowest pairs once `missing` eigenvalues below the `low` lowest found were counted and not found:
+    the block iteration on F with those `low` pairs deflated (after one sweep of F, as `_shift_invert_blocks`
+    sharpens its zero modes) finds the largest of F there, as many as are missing but k at most (they may lie
+    below some of those found), a block one wider than they are (it then holds every copy it asks of any value);
+    the highest values found fill what they leave, and a Rayleigh-Ritz step in K~ keeps the k lowest."""
+    wanted = min(missing, k)
+    Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, :low])[0]))[0]
+    mu, more, _, done = block_eigs(factor.solve, Kt.shape[0], wanted, tol=TOLERANCE, block=wanted + 1, deflate=Z)
+    if not done:
+        raise RuntimeError(f"shift-invert block Krylov did not converge for the {wanted} modes the count says the "
+                           f"{k} lowest of a {Kt.shape[0]}-dof system lacked; use solver='dense'")
+    values, basis = _ritz(Kt, np.column_stack([Z, more, basis[:, low:max(k - wanted, low)]]))
+    return values[:k], basis[:, :k]
+
+
+def _shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse, reshift: int
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`shift_invert` before its count."""
     if factor.fill < BLOCK_FILL:
         if not reshift or k < 2:
             return _shift_invert_arpack(Kt, k, sigma, factor)
@@ -252,15 +287,15 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
             mu, Y = block_eigs(factor.solve, Kt.shape[0], BLOCK_PROBE, block=BLOCK_PROBE, max_dim=3 * BLOCK_PROBE)[:2]
         closer = _closer_shift(Kt, sigma + 1.0 / mu, Y, sigma) if values is None else _closer_shift(Kt, values, basis, sigma)
         if closer is not None:  # (bunched values: a multiple one may have lost a copy)
-            return shift_invert(Kt, k, *closer, reshift=reshift - 1)
+            return _shift_invert(Kt, k, *closer, reshift - 1)
         return _shift_invert_arpack(Kt, k, sigma, factor) if values is None else (values, basis)
     return _shift_invert_blocks(Kt, k, sigma, factor, reshift)
 
 
-def _shift_invert_blocks(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse, reshift: int
-                         ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _shift_invert_blocks(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse, reshift: int,
+                         block: int | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """`shift_invert` by the block iteration: a probe for zero modes (doubled while every pair it finds is one), then
-    the rest with them deflated; ARPACK where a probe does not converge, even a column per pair."""
+    the rest with them deflated, `block` columns wide (`BLOCK_LOWEST` by default); ARPACK where a probe does not converge, even a column per pair."""
     n = Kt.shape[0]
     scale = float(abs(Kt).sum(axis=1).max())
     probe = min(k, PROBE)
@@ -301,16 +336,16 @@ def _shift_invert_blocks(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
     if reshift and not Z.shape[1]:
         closer = _closer_shift(Kt, values, basis, sigma)
         if closer is not None:
-            return shift_invert(Kt, k, *closer, reshift=reshift - 1)
+            return _shift_invert(Kt, k, *closer, reshift - 1)
     # one more sweep of F on the zero modes: their error shrinks by mu_other / mu_zero ~ 1e-9
     zero_values = np.r_[zero_values, values[zero]]
     Z = np.column_stack([Z, basis[:, zero]])
     Z = np.linalg.qr(factor.solve(np.linalg.qr(Z)[0]))[0] if Z.shape[1] else Z
-    mu, rest, _, done = block_eigs(factor.solve, n, k - Z.shape[1], tol=TOLERANCE, block=BLOCK_LOWEST,
+    mu, rest, _, done = block_eigs(factor.solve, n, k - Z.shape[1], tol=TOLERANCE, block=block or BLOCK_LOWEST,
                                    deflate=Z if Z.shape[1] else None, start=basis[:, ~zero], widen=True)
-    if not done:
-        raise RuntimeError(f"shift-invert block Krylov did not converge for the {k} lowest modes of a "
-                           f"{n}-dof system; ask for fewer modes or use solver='dense'")
+    if not done:  # a value more multiple than the widened block held (a star of 60 equal arms): ARPACK serves, and
+        # `shift_invert` counts what it finds
+        return _shift_invert_arpack(Kt, k, sigma, factor, blocks=False)
     values = np.r_[zero_values, sigma + 1.0 / mu]
     basis = np.column_stack([Z, rest])
     order = np.argsort(values)
@@ -408,8 +443,17 @@ def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
             operator = sla.LinearOperator(Kt.shape, matvec=deflated, dtype=float)
         else:
             operator = inverse
-        values, basis = _arpack(Kt, ask, sigma, operator, deflate=kept if kept.shape[1] else None, start=start,
-                                restarts=restarts)
+        try:
+            values, basis = _arpack(Kt, ask, sigma, operator, deflate=kept if kept.shape[1] else None, start=start,
+                                    restarts=restarts)
+        except sla.ArpackNoConvergence:
+            raise
+        except sla.ArpackError as error:  # error 3, no shifts to apply (a star of 400 equal arms, 450 modes asked:
+            # a 399-fold value): the block iteration with a column per pair, which holds every copy it asks
+            if not blocks:
+                raise RuntimeError(f"shift-invert failed for the {k} lowest modes of a {Kt.shape[0]}-dof system "
+                                   f"({error}); use solver='dense'") from error
+            return _shift_invert_blocks(Kt, k, sigma, factor, 0, block=k + 1)
         if kept.shape[1]:  # a Rayleigh-Ritz step off the kept pairs
             basis = basis - kept @ (kept.T @ basis)
             product = Kt @ basis
