@@ -5,13 +5,14 @@ exact arithmetic; rounding seeds the others, but where F = (K~ - sigma I)^-1 bar
 may not have grown when the wanted pairs converge. A block of b columns holds b copies (`krylov`), and
 widens where a cluster as wide as the block shows. Neither is certain: every returned pair has a small
 residual, and yet the k values are not the k lowest. A star of 200 identical 10-site arms on one hub
-(a 199-fold value per arm mode) came back with its lowest 250 values off by up to 0.38 (of 0.4 to 3.4).
+(a 199-fold value per arm mode) came back with its lowest 250 values (0 to 0.41) off by up to 0.38.
 
 The count is certain: K~ - tau I = L D L^T has as many negative pivots in D as K~ has eigenvalues below
 tau, whatever the order of elimination. `missed` places tau just below the highest cluster of the
 values found (in a gap of the found spectrum, `SPLIT` away from any of them) and compares. The
-factorisation is SuperLU's in symmetric mode without pivoting (the pivot signs are the signs of ratios
-of leading minors, which a positive scaling keeps), in nested-dissection order where
+factorisation is PARDISO's LDL^T where PARDISO serves the shifts (`pardiso.negative_eigenvalues`: its
+inertia, unless it perturbed a pivot), else SuperLU's in symmetric mode without pivoting (the pivot signs are
+the signs of ratios of leading minors, which a positive scaling keeps), in nested-dissection order where
 `ordering.nested_dissection` gives one.
 """
 
@@ -23,8 +24,10 @@ import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 from vibra.solvers.common import EPS
-from vibra.solvers.standard.krylov import largest_cluster
+from vibra.solvers.standard.krylov import CLUSTER
+from vibra.solvers.standard.cholmod import sparse_backend
 from vibra.solvers.standard.ordering import nested_dissection
+from vibra.solvers.standard.pardiso import negative_eigenvalues
 
 __all__ = ["below", "missed", "negative_pivots", "repeats", "symmetric_lu"]
 
@@ -52,6 +55,10 @@ def below(Kt: sp.csr_matrix, tau: float) -> int | None:
     """
     n = Kt.shape[0]
     shifted = (sp.csr_matrix(Kt) - tau * sp.identity(n, format="csr")).tocsr()
+    if sparse_backend(n) == "pardiso":  # its LDL^T, where it serves the shifts: a supernodal factor, not SuperLU's LU
+        count = negative_eigenvalues(shifted)
+        if count is not None:
+            return count
     order = nested_dissection(shifted)
     ordering = "MMD_AT_PLUS_A"
     if order is not None:
@@ -82,8 +89,8 @@ def repeats(values: NDArray[np.float64], scale: float) -> bool:
     """Whether a nonzero value among `values` shows more than one copy (within `krylov.CLUSTER`): the sign that
     a multiple value may have copies the iteration did not find. Zero modes do not count (every free network has
     them, and the iteration finds them first, `sparse.shift_invert`'s probe)."""
-    nonzero = values[np.abs(values) > ZERO * scale]
-    return largest_cluster(nonzero) >= 2
+    nonzero = np.sort(values[np.abs(values) > ZERO * scale])  # (signed: -1 and 1 of an indefinite K~ are not one value)
+    return bool(np.any(np.diff(nonzero) <= CLUSTER * np.abs(nonzero[1:])))
 
 
 def missed(Kt: sp.csr_matrix, values: NDArray[np.float64], scale: float) -> tuple[int, int]:

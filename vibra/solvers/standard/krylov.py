@@ -22,6 +22,11 @@ values as wide as its block is therefore done again with a wider block (`widen`:
 since the converged pairs would pass the stopping test before a missing copy had grown),
 until every cluster it finds is narrower than its block: a narrow first block (fewer
 applications of F: 88 at b = 2 against 124 at b = 4 on a protein's network) stays safe.
+
+An operator of few distinct values (a star of identical arms) closes its Krylov space after a few
+steps: the new block's remainder is then rounding, and is replaced by fresh random directions
+(`_remainders`, `LOST`); where more Ritz values tie with the k-th than fit, the converged ones are
+taken (`_wanted`). What the block iteration may still miss, `sparse.shift_invert` counts.
 """
 
 from __future__ import annotations
@@ -56,12 +61,57 @@ def _orthonormal_against(W: NDArray[np.float64], basis: NDArray[np.float64], def
     eps |W| along the deflated directions, large next to a small remainder, and F would
     multiply it by 1 / |sigma| at the next step.
     """
+    size = np.linalg.norm(W, axis=0)
     C = basis.T @ W
     W = W - basis @ C
     C2 = basis.T @ W
     W = _project(W - basis @ C2, deflate)
     Q, R = np.linalg.qr(W)
+    if np.any(np.abs(np.diagonal(R)) <= CANCEL * size):  # (rare: a Krylov space (nearly) invariant, a symmetric K~)
+        Q, R = _remainders(W, size, basis, deflate)
     return C + C2, Q, R
+
+
+#: A remainder under this fraction of its column's norm before the basis was taken off is orthogonalised once
+#: more (the rounding of the first two passes, ~eps of the column, is no longer small beside it: "twice is enough"
+#: holds where the remainder is not itself at rounding level).
+CANCEL = 1e-8
+
+#: A remainder under this fraction after that is rounding alone: the Krylov space is invariant there (a star of
+#: identical arms, whose operator holds few directions), and a fresh random direction continues it; normalising
+#: the rounding instead made columns that were not orthogonal to the basis (2e-3, then 0.4, then 0.99).
+LOST = 1e-12
+
+
+def _remainders(W: NDArray[np.float64], size: NDArray[np.float64], basis: NDArray[np.float64],
+                deflate: NDArray[np.float64] | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """W = Q R column by column (`_orthonormal_against` where a remainder cancelled): a third pass where one fell under
+    `CANCEL` times `size`, a fresh direction (R's diagonal 0 there) where under `LOST`."""
+    n, b = W.shape
+    rng = np.random.default_rng(basis.shape[1])
+    Q, R = np.empty_like(W), np.zeros((b, b))
+    for j in range(b):
+        w = W[:, j].copy()
+        for _ in range(2):
+            c = Q[:, :j].T @ w
+            w -= Q[:, :j] @ c
+            R[:j, j] += c
+        r = float(np.linalg.norm(w))
+        if r <= CANCEL * size[j]:
+            w = _project(w - basis @ (basis.T @ w), deflate)
+            c = Q[:, :j].T @ w
+            w -= Q[:, :j] @ c
+            R[:j, j] += c
+            r = float(np.linalg.norm(w))
+        if r <= LOST * size[j]:
+            w = rng.standard_normal(n)
+            for _ in range(2):
+                w = _project(w - basis @ (basis.T @ w), deflate)
+                w -= Q[:, :j] @ (Q[:, :j].T @ w)
+            Q[:, j], R[j, j] = w / np.linalg.norm(w), 0.0
+        else:
+            Q[:, j], R[j, j] = w / r, r
+    return Q, R
 
 
 def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: int, k: int, *,
@@ -134,7 +184,7 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
             done = False
         else:
             mu, S = np.linalg.eigh(0.5 * (H + H.T))
-            wanted = np.argsort(mu)[::-1][: min(k, m)]
+            wanted = _wanted(mu, S[m - X.shape[1]:], R, min(k, m))
             residual = np.linalg.norm(R @ S[m - X.shape[1]:, wanted], axis=0)
             done = m >= k and bool(np.all(residual <= tol * np.abs(mu[wanted])))
             if enough is not None:
@@ -155,6 +205,23 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
         H = grown
         space[:, m : m + X.shape[1]] = X
         m += X.shape[1]
+
+
+def _wanted(mu: NDArray[np.float64], last: NDArray[np.float64], R: NDArray[np.float64], k: int) -> NDArray[np.intp]:
+    """The k largest Ritz values' indices, descending; where more Ritz values than fit tie with the k-th (within
+    `CLUSTER`: a value more multiple than the k asked), the tied ones with the smallest residuals (`last`: the rows
+    of the Ritz vectors in the last block). Among equal values the choice is free, and the converged copies are the
+    answer: taken by position, fresh unconverged copies kept a 999-fold value from ever passing the test."""
+    order = np.argsort(mu)[::-1]
+    edge = mu[order[k - 1]]
+    tied = np.abs(mu[order] - edge) <= CLUSTER * abs(edge)
+    if k == order.shape[0] or not tied[k]:
+        return order[:k]
+    group = order[tied]
+    residual = np.linalg.norm(R @ last[:, group], axis=0)
+    chosen = group[np.argsort(residual, kind="stable")[: int(np.count_nonzero(tied[:k]))]]
+    keep = np.r_[order[:k][~tied[:k]], chosen]
+    return keep[np.argsort(mu[keep], kind="stable")[::-1]]
 
 
 def largest_cluster(mu: NDArray[np.float64]) -> int:

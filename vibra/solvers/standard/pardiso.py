@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from vibra.solvers.standard.ordering import DISSECTION_MIN
 
-__all__ = ["BACKEND", "pardiso_available", "use_pardiso", "PardisoCholesky"]
+__all__ = ["BACKEND", "negative_eigenvalues", "pardiso_available", "use_pardiso", "PardisoCholesky"]
 
 #: "auto" (PARDISO when `pypardiso` loads, else CHOLMOD when `cvxopt` loads, else SuperLU),
 #: "superlu", "cholmod" or "pardiso"; the environment variable VIBRA_SPARSE_BACKEND sets it at
@@ -112,6 +112,28 @@ def use_pardiso(n: int, minimum: int) -> bool:
         raise ImportError("the sparse backend 'pardiso' needs pypardiso and MKL; install them with "
                           'pip install "vibra[pardiso]", or set VIBRA_SPARSE_BACKEND=auto')
     return pardiso_available()
+
+
+def negative_eigenvalues(matrix: sp.spmatrix) -> int | None:
+    """How many eigenvalues of a symmetric sparse matrix are negative: the inertia of PARDISO's LDL^T (type -2,
+    Bunch-Kaufman pivots inside its supernodes; iparm(23)). None where it perturbed a pivot (iparm(14) > 0: the
+    factor is then of a nearby matrix, and its count may be off) or failed."""
+    import pypardiso
+
+    upper = sp.triu(sp.csr_matrix(matrix), format="csr")
+    upper.sort_indices()
+    pardiso_available()  # names mkl_rt for pypardiso (see there)
+    solver: Any = pypardiso.PyPardisoSolver(mtype=-2)
+    solver.set_statistical_info_off()
+    _choose_ordering(solver, upper.shape[0])
+    try:
+        solver.factorize(upper)
+        perturbed, negative = int(solver.iparm[13]), int(solver.iparm[22])
+    except pypardiso.pardiso_wrapper.PyPardisoError:
+        return None
+    finally:
+        solver.free_memory(everything=True)
+    return None if perturbed else negative
 
 
 class PardisoCholesky:

@@ -249,7 +249,8 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     if not repeats(values, scale):
         return values, basis
     missing, low = missed(Kt, values, scale)
-    if missing:
+    if missing:  # (from a shift just below the values where they lie bunched far above sigma, as `_shift_invert`)
+        sigma, factor = _closer_shift(Kt, values, basis, sigma) or (sigma, factor)
         values, basis = _missing(Kt, k, factor, sigma, values, basis, missing, low)
         if missed(Kt, values, scale)[0]:
             raise RuntimeError(f"the {k} lowest modes of a {Kt.shape[0]}-dof system: a multiple eigenvalue's copies "
@@ -295,7 +296,8 @@ def _shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInvers
 def _shift_invert_blocks(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse, reshift: int,
                          block: int | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """`shift_invert` by the block iteration: a probe for zero modes (doubled while every pair it finds is one), then
-    the rest with them deflated, `block` columns wide (`BLOCK_LOWEST` by default); ARPACK where a probe does not converge, even a column per pair."""
+    the rest with them deflated, `block` columns wide (`BLOCK_LOWEST` by default); ARPACK where a probe does not
+    converge, even a column per pair."""
     n = Kt.shape[0]
     scale = float(abs(Kt).sum(axis=1).max())
     probe = min(k, PROBE)
@@ -323,7 +325,7 @@ def _shift_invert_blocks(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
             mu, basis, _, done = block_eigs(factor.solve, n, probe, block=probe, enough=found,
                                             deflate=Z if Z.shape[1] else None)
         if not done:  # still not: ARPACK's restarted Lanczos serves the request (its pairs checked, `_arpack`)
-            return _shift_invert_arpack(Kt, k, sigma, factor, blocks=False)
+            return _shift_invert_arpack(Kt, k, sigma, factor, blocks=False, restarts=ARPACK_RESTARTS)
         values = sigma + 1.0 / mu
         zero = is_zero(mu)
         if not zero.all() or Z.shape[1] + probe >= k:
@@ -345,7 +347,7 @@ def _shift_invert_blocks(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
                                    deflate=Z if Z.shape[1] else None, start=basis[:, ~zero], widen=True)
     if not done:  # a value more multiple than the widened block held (a star of 60 equal arms): ARPACK serves, and
         # `shift_invert` counts what it finds
-        return _shift_invert_arpack(Kt, k, sigma, factor, blocks=False)
+        return _shift_invert_arpack(Kt, k, sigma, factor, blocks=False, restarts=ARPACK_RESTARTS)
     values = np.r_[zero_values, sigma + 1.0 / mu]
     basis = np.column_stack([Z, rest])
     order = np.argsort(values)
@@ -446,8 +448,11 @@ def _shift_invert_arpack(Kt: sp.csr_matrix, k: int, sigma: float, factor: Shifte
         try:
             values, basis = _arpack(Kt, ask, sigma, operator, deflate=kept if kept.shape[1] else None, start=start,
                                     restarts=restarts)
-        except sla.ArpackNoConvergence:
-            raise
+        except sla.ArpackNoConvergence as error:
+            if blocks:  # (`_shift_invert` asks a capped run first, and catches this)
+                raise
+            raise RuntimeError(f"shift-invert did not converge for the {k} lowest modes of a {Kt.shape[0]}-dof system "
+                               f"in {restarts} restarts; use solver='dense'") from error
         except sla.ArpackError as error:  # error 3, no shifts to apply (a star of 400 equal arms, 450 modes asked:
             # a 399-fold value): the block iteration with a column per pair, which holds every copy it asks
             if not blocks:
