@@ -20,7 +20,7 @@ from vibra.solvers.common import (
     tridiagonal_bands,
 )
 from vibra.solvers.standard.inertia import missed, negative_pivots, repeats, symmetric_lu
-from vibra.solvers.standard.krylov import block_eigs, largest_cluster
+from vibra.solvers.standard.krylov import block_eigs
 from vibra.solvers.standard.ordering import nested_dissection
 from vibra.solvers.standard.cholmod import CholmodCholesky, sparse_backend
 from vibra.solvers.standard.pardiso import PardisoCholesky
