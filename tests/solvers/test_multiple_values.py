@@ -173,3 +173,18 @@ def test_missed_counts_what_a_value_lacks() -> None:
     below_next = int(np.sum(truth < distinct[2] - 1e-9))
     assert missed(K, found, scale) == (below_next - 6, 6)
     assert missed(K, truth[:30], scale)[0] == 0
+
+
+def test_a_lower_value_missed_entirely_is_counted_and_found() -> None:
+    """Found: five copies of the lowest arm value and nothing else (the zero mode below them missed, as an
+    iteration whose start lacked it could): one cluster, counted below it, and the repair finds the zero mode.
+    (The found pairs are exact eigenpairs, from eigh, standing in for an iteration's.)"""
+    K = star(60, 30)
+    truth = star_spectrum(60, 30)
+    values, vectors = la.eigh(K.toarray())
+    found = np.flatnonzero(np.abs(values - truth[1]) <= 1e-9)[:5]
+    missing, low = missed(K, values[found], float(abs(K).sum(axis=1).max()))
+    assert (missing, low) == (1, 0)
+    sigma, factor = sparse.lowest_shift(K)
+    repaired, _ = sparse._missing(K, 5, factor, sigma, values[found], vectors[:, found], missing, low)
+    assert np.max(np.abs(repaired - truth[:5])) <= 1e-12 * float(abs(K).sum(axis=1).max())

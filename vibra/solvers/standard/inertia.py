@@ -112,9 +112,7 @@ def missed(Kt: sp.csr_matrix, values: NDArray[np.float64], scale: float) -> tupl
     apart = np.diff(values) > split[1:]  # a gap between neighbours i and i + 1
     gaps = np.flatnonzero(apart)
     start = int(gaps[-1]) + 1 if gaps.size else 0  # the highest cluster's lowest member
-    if start == 0:
-        return 0, 0  # one cluster: sigma lies below the whole spectrum, and every value found is one value
-    gap = float(values[start] - values[start - 1])
+    gap = float(values[start] - values[start - 1]) if start else float(split[start])  # (one cluster: below it, none)
     for tau in (float(values[start]) - min(float(split[start]), 0.5 * gap), float(values[start]) - 0.5 * gap):
         count = below(Kt, tau)
         if count is not None:

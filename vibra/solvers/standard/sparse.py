@@ -266,7 +266,7 @@ def _missing(Kt: sp.csr_matrix, k: int, factor: ShiftedInverse, sigma: float, va
     below some of those found), a block one wider than they are (it then holds every copy it asks of any value);
     the highest values found fill what they leave, and a Rayleigh-Ritz step in K~ keeps the k lowest."""
     wanted = min(missing, k)
-    Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, :low])[0]))[0]
+    Z = np.linalg.qr(factor.solve(np.linalg.qr(basis[:, :low])[0]))[0] if low else basis[:, :0]
     mu, more, _, done = block_eigs(factor.solve, Kt.shape[0], wanted, tol=TOLERANCE, block=wanted + 1, deflate=Z)
     if not done:
         raise RuntimeError(f"shift-invert block Krylov did not converge for the {wanted} modes the count says the "
