@@ -56,12 +56,14 @@ LANCZOS_S = 2e-8              # per n k (ncv): one shift-invert Lanczos run
 ARNOLDI_S = 1.5e-9            # per n ncv^2: ARPACK's reorthogonalisation in a run (2-D meshes of 3,600-90,000 dofs, 10-300 modes)
 KRYLOV_RITZ_S = 1e-9          # per n k^2: the Rayleigh-Ritz step on a shift-invert basis
 # a 3-D network's shift-invert, by the widest breadth-first level w of K's graph (`topology.separator_width`,
-# nested dissection's top separator); fitted on 9 networks of 4,467-99,999 dofs (3 proteins, 3 synthetic
-# assemblies, 7CTH's assemblies 3 and 4, the corpus's random network), CHOLMOD, one BLAS thread, quiet:
-# estimate / actual 0.74-1.27 (benchmarks/RESULTS.md, "The factorisation's cost, by the separator")
-SPARSE_ENTRY_S = 4.5e-7       # per stored entry of K: the ordering, K~'s copies, the products
+# nested dissection's top separator); each part measured apart (profiles of 3o21, 7pbl, 4v8r, the corpus's
+# 30,000-dof network, jittered cubic lattices at 20-120 modes; one BLAS thread), then checked on the 10 networks of
+# 4,467-388,260 dofs of RESULTS.md, "The factorisation's cost, by the separator": estimate / actual 0.67-1.27
+SPARSE_ENTRY_S = 1.5e-7       # per stored entry of K: the ordering, K~'s copies, the products
 SPARSE_FACTOR_S = 6e-11       # per w^3: the factor's dense fronts
-SPARSE_SOLVE_S = 9e-11        # per w^2 and Krylov column: the triangular solves (the factor holds 1-4 w^2 entries)
+SPARSE_SOLVE_S = 1.4e-9       # per w^2 and Krylov column, in blocks of 2: the triangular solves (0.8-3.7e-9 measured;
+                              # the factor holds 1.3-4.2 w^2 entries, each read twice, ~0.6-0.9 ns an entry a column)
+KRYLOV_TESTS_S = 2e-9         # per M^3, M the block basis's columns: the spaced stopping tests (`krylov.SPACING`)
 SPARSE_FACTOR_ENTRIES = 4.0   # the factor's entries per w^2, at most (1.0-4.2 measured on those 9)
 SOLID_SEPARATOR = 3.5         # w / n^(2/3) where K's graph is not at hand (a 3-D solid; 2.4-6.5 measured)
 SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
@@ -253,6 +255,15 @@ def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: 
         triplets = 0.0
     counts = RING_COUNTS_S * float(n) * n if n_terms == n and n <= RING_DENSE_LIMIT else 0.0
     return triplets + counts
+
+
+def block_krylov_seconds(n: int, k: int, column_s: float) -> float:
+    """Seconds of `krylov.block_eigs` on the sparse path for k pairs, a solve costing `column_s` a column: a zero-mode
+    probe of ~32 columns, then a basis that grows to ~3 columns a mode + 40 (applied 86-370 for 14-114 modes of cubic
+    lattices, 68 for 3o21's 20), reorthogonalised against all it holds (`ARNOLDI_S` n M^2: memory-bound, ~4 passes
+    over the basis a block), and its stopping tests."""
+    basis = min(float(n), 3.0 * k + 40.0)
+    return column_s * (basis + 32.0) + ARNOLDI_S * n * (basis * basis + 32.0 ** 2) + KRYLOV_TESTS_S * basis ** 3
 
 
 def describe_bytes(count: float) -> str:

@@ -26,12 +26,12 @@ import vibra.solvers.common as common
 import vibra.solvers.runners as runners
 from vibra.solvers.accuracy import relative
 from vibra.solvers.budget import (
-    ARNOLDI_S, BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, CHECK_CALL_S, CHECK_FORM_S,
-    CHECK_TERM_S, COMPANION_S, DENSE_FORM_S, DENSE_VALUES_S, JACOBI_FALLBACK_S,
-    DENSE_VECTORS_S, GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S,
-    RING_COUNTED_S, RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SOLID_SEPARATOR, SPARSE_ENTRY_S,
-    SPARSE_FACTOR_ENTRIES, SPARSE_FACTOR_S, SPARSE_SOLVE_S, SUPERLU_SLOWER,
-    TRIDIAGONAL_S, TRIDIAGONAL_VECTORS_S, TRIPLET_ROW, TRIPLET_UNIT_S, Estimate, refinement_seconds,
+    ARNOLDI_S, BANDED_S, BISECTION_VALUES_S, BISECTION_VECTORS_S, CERTIFY_BYTES, CERTIFY_S, CHECK_CALL_S,
+    CHECK_FORM_S, CHECK_TERM_S, COMPANION_S, DENSE_FORM_S, DENSE_VALUES_S, JACOBI_FALLBACK_S, DENSE_VECTORS_S,
+    GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S, RING_COUNTED_S,
+    RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SOLID_SEPARATOR, SPARSE_ENTRY_S, SPARSE_FACTOR_ENTRIES,
+    SPARSE_FACTOR_S, SPARSE_SOLVE_S, SUPERLU_SLOWER, TRIDIAGONAL_S, TRIDIAGONAL_VECTORS_S, TRIPLET_ROW,
+    TRIPLET_UNIT_S, Estimate, block_krylov_seconds, refinement_seconds,
 )
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
 from vibra.solvers.distributed.slepc import ranks as slepc_ranks, slepc_cost
@@ -163,13 +163,12 @@ def _ring_band_cost(p: Problem) -> Estimate:
 
 def _sparse_parts(p: Problem) -> tuple[float, float]:
     """Shift-invert: ARPACK's restarted basis for a narrow band (a chain, a ring reordered: a cheap factor), the block
-    Krylov basis (up to max(10 k, 200) columns, `krylov.block_eigs`) for any other; (columns + 2k + 3) n words + the
-    factor: O(n) for a tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) for a band. LANCZOS_S n columns per Lanczos run.
-    A 3-D network (half-bandwidth over BAND_LIMIT) is costed by the top separator w of its nested-dissection order
-    (`Problem.separator`; SOLID_SEPARATOR n^(2/3) where its graph was not at hand): the factor's SPARSE_FACTOR_ENTRIES
-    w^2 entries and K's copy, SPARSE_FACTOR_S w^3 to factor, SPARSE_SOLVE_S w^2 per Krylov column, SPARSE_ENTRY_S per
-    stored entry (n^2 for a solid, n^1.5 for a shell: a capsid); SUPERLU_SLOWER times the factor and its solves for
-    SuperLU's LU where neither PARDISO nor CHOLMOD loads. Under BLOCK_FILL entries a row: ARPACK + ARNOLDI_S n ncv^2."""
+    Krylov basis (max(10 k, 200) columns booked) for any other; (columns + 2k + 3) n words + the factor: O(n) for a
+    tridiagonal K~ (pttrf), ~20 nnz (SuperLU fill) for a band; LANCZOS_S n columns per Lanczos run. A 3-D network
+    (half-bandwidth over BAND_LIMIT) by the top separator w of its nested-dissection order (`Problem.separator`;
+    SOLID_SEPARATOR n^(2/3) where its graph was not at hand): SPARSE_FACTOR_ENTRIES w^2 entries, SPARSE_FACTOR_S w^3
+    to factor, SPARSE_ENTRY_S per stored entry, `budget.block_krylov_seconds` (SPARSE_SOLVE_S w^2 a column); a solid
+    n^2, a shell (a capsid) n^1.5; SUPERLU_SLOWER for SuperLU's LU. Under BLOCK_FILL entries a row: ARPACK."""
     n, k = p.n, p.k
     w = float(p.separator) if p.separator else SOLID_SEPARATOR * float(n) ** (2.0 / 3.0)
     arpack = p.width <= BAND_LIMIT or 2.0 * SPARSE_FACTOR_ENTRIES * w * w < BLOCK_FILL * n  # (`sparse.shift_invert`)
@@ -180,7 +179,8 @@ def _sparse_parts(p: Problem) -> tuple[float, float]:
     lu = SUPERLU_SLOWER if sparse_backend(n) == "superlu" else 1.0
     memory = basis + 12.0 * (SPARSE_FACTOR_ENTRIES * w * w * lu + max(p.nnz, n))
     seconds = SPARSE_ENTRY_S * max(p.nnz, n) + lu * SPARSE_FACTOR_S * w ** 3 + ritz
-    solves = LANCZOS_S * n * columns * 10 + ARNOLDI_S * n * columns ** 2 if arpack else lu * SPARSE_SOLVE_S * w * w * columns
+    solves = LANCZOS_S * n * columns * 10 + ARNOLDI_S * n * columns ** 2 if arpack else block_krylov_seconds(
+        n, k, lu * SPARSE_SOLVE_S * w * w)
     return memory, seconds + solves
 
 
