@@ -23,41 +23,8 @@ from hypothesis import strategies as st
 
 import vibra.solvers.standard.sparse as sparse
 from vibra.modes import normal_modes
+from tests.helpers.stars import star, star_spectrum
 from vibra.solvers.standard.inertia import below, missed
-
-
-def _springs(arm: int) -> np.ndarray:
-    return np.r_[1.0, 1.0 + 0.3 * np.arange(1, arm)]  # hub-first bond, then along the arm
-
-
-def star(arms: int, arm: int) -> sp.csr_matrix:
-    """K of the star: site 0 the hub, arm a's sites 1 + a arm ... (a + 1) arm, hub side first."""
-    springs = _springs(arm)
-    first, second, weight = [], [], []
-    for a in range(arms):
-        sites = 1 + a * arm + np.arange(arm)
-        first += [0, *sites[:-1]]
-        second += list(sites)
-        weight += list(springs)
-    m = len(weight)
-    B = sp.csr_matrix((np.r_[np.ones(m), -np.ones(m)], (np.r_[np.arange(m), np.arange(m)], np.r_[first, second])),
-                      shape=(m, 1 + arms * arm))
-    return (B.T @ sp.diags(weight) @ B).tocsr()
-
-
-def star_spectrum(arms: int, arm: int) -> np.ndarray:
-    """The star's eigenvalues from its two small chains (see the module's docstring), ascending."""
-    k = _springs(arm)
-    inner = np.r_[k[1:], 0.0]  # the spring beyond each site (none past the tip)
-    walled = np.diag(k + inner) - np.diag(k[1:], 1) - np.diag(k[1:], -1)
-    together = np.zeros((arm + 1, arm + 1))  # hub (mass 1) and one arm carrying all M
-    together[0, 0] = arms * k[0]
-    together[0, 1] = together[1, 0] = -arms * k[0]
-    together[1:, 1:] = arms * walled
-    scale = np.r_[1.0, np.full(arm, 1.0 / np.sqrt(arms))]  # M^-1/2 K M^-1/2, the arm's masses M
-    together = scale[:, None] * together * scale[None, :]
-    values = np.r_[np.repeat(la.eigvalsh(walled), arms - 1), la.eigvalsh(together)]
-    return np.sort(values)
 
 
 def test_the_truth_is_the_stars_spectrum() -> None:

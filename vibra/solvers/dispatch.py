@@ -80,7 +80,7 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
                 topology = "chain-derived"
     wide = sp.issparse(K) and diagonal and width > BAND_LIMIT and n >= WEIGHED_FROM
     separator = separator_width(K) if wide else 0
-    free = wide and n <= DENSE_LIMIT and _rows_sum_to_zero(K)  # (asked only by `Problem.weighed`)
+    free = wide and _rows_sum_to_zero(K)  # (asked only by `Problem.weighed`)
     return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
                    width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
                    topology=topology, spread=spread, device=device, separator=separator,

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 import vibra.solvers.common as common
 from vibra.solvers.accuracy import uses_springs
-from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, WEIGHED_FROM, WEIGHED_MODES
+from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, WEIGHED_FROM
 
 __all__ = ["Problem", "quadratic_problem", "chain_problem", "bloch_problem"]
 
@@ -87,8 +87,10 @@ class Problem:
     @property
     def weighed(self) -> bool:
         """A few modes of a sparse free 3-D network (wider than a band, diagonal masses, K 1 = 0; springs of no 1-D
-        shape, which has its own paths) of `WEIGHED_FROM` to DENSE_LIMIT dofs, at most `WEIGHED_MODES` of them, "fast"
-        or "high": the shift-invert paths serve it beside the dense ones, and "auto" weighs them by estimate.
+        shape, which has its own paths) of `WEIGHED_FROM` dofs or more, "fast" or "high": the shift-invert paths serve
+        it beside the dense ones (at "high" `accurate-checked` up to DENSE_LIMIT, where its Jacobi fallback stays
+        affordable), and "auto" weighs them by estimate: the dense solve wins where many modes are asked (450 of a
+        2,001-dof star: 0.82 s against 17.8 s; RESULTS.md, "Many modes priced").
         "certified", whose refinement dominates either, keeps the dense path: network-1500 took 463 s there in one run
         and 560 s on the shift-invert path in another, both estimated ~3 min; not weighed until measured side by side.
         A K that is not free (on-site springs, an indefinite K) keeps the dense path: its lowest values lie away from
@@ -96,7 +98,7 @@ class Problem:
         random sparse 1,000 x 1,000 K, + 25 I or indefinite, 5 modes: 81-84 ms dense, 187-405 ms shift-invert)."""
         return (self.sparse and self.diagonal_mass and self.width > BAND_LIMIT and self.band is None and self.free
                 and self.topology in ("network", "none") and self.accuracy != "certified"
-                and self.n_modes is not None and self.n_modes <= WEIGHED_MODES and WEIGHED_FROM <= self.n <= DENSE_LIMIT)
+                and self.n_modes is not None and self.n >= WEIGHED_FROM)
 
     @property
     def tridiagonal(self) -> bool:

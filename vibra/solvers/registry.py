@@ -481,7 +481,7 @@ PATHS: tuple[SolverPath, ...] = (
     SolverPath("accurate-checked", "accurate", _checked, _checked_cost, runners.accurate_checked,
                "relative, bound per mode",
                "all modes of any other spring system up to 1,500 dofs (or rings to 6,000 sites), or a few where its "
-               "estimate is under accurate-ritz's (a 3-D network from 900 dofs): the dense solve, each mode checked by its residual, the low ones refined in spring space",
+               "estimate is under accurate-ritz's (a 3-D network of 900 to 1,500 dofs): the dense solve, each mode checked by its residual, the low ones refined in spring space",
                fallbacks=("accurate-jacobi",), springs=True, rival="accurate-ritz", weighs=attrgetter("weighed"),
                cost="dense eigh with vectors (~1.5e-10 n^3 s); Jacobi ~5e-10 n_terms n^2 s where it escalates"),
     SolverPath("accurate-rayleigh", "accurate", _rayleigh, _rayleigh_cost, runners.accurate_rayleigh,
@@ -513,7 +513,8 @@ PATHS: tuple[SolverPath, ...] = (
                "shift (a band holding over a quarter of the modes: the dense solve)", fallbacks=("dense",),
                serves=lambda p: p.n_modes is not None or p.band is not None, springs=True,
                cost="the factor (O(n) for a chain, ~20 nnz words for a band); a 3-D network by its top separator w (K's widest "
-                    "breadth-first level): ~6e-11 w^3 s to factor, ~9e-11 w^2 s per Krylov column, ~4 w^2 words"),
+                    "breadth-first level): ~6e-11 w^3 s to factor, ~1.4e-9 w^2 s per Krylov column (~3k + 40 of them), "
+                    "~1.5e-9 n s per column squared to reorthogonalise, ~4 w^2 words"),
     SolverPath("slepc", "slepc", lambda p: False, _slepc_cost, runners.slepc, "absolute ~ ε‖K̃‖, every residual checked",
                'only when asked, solver="slepc": the lowest n_modes of a large sparse K on SLEPc over MPI '
                "(Krylov-Schur, shift-and-invert by MUMPS) in a separate program, ranks from VIBRA_MPI_RANKS",
@@ -525,8 +526,8 @@ PATHS: tuple[SolverPath, ...] = (
                "residual checked", rival="sparse", serves=_serves_iterative,
                cost="~3e-7 nnz s setup, + ~13 (n / 1e4)^0.52 iterations of 9 products with a block of 4k columns (1.3e-10 s per entry and column, on 2 cores); with the coordinates ~10.4 (n / 1e4)^0.38 iterations of 10 products; ~33 nnz + 512 n k bytes"),
     SolverPath("dense", "dense", _anything, _dense_cost, runners.dense, "absolute ~ n ε‖K̃‖",
-               "anything else, and a few modes where its estimate is under the shift-invert's: LAPACK eigh on the "
-               "dense K~ (a subset by index or value)", rival="sparse", weighs=attrgetter("weighed"),
+               "anything else, and a few modes of a 3-D network from 900 dofs where its estimate is under the "
+               "shift-invert's: LAPACK eigh on the dense K~ (a subset by index or value)", rival="sparse", weighs=attrgetter("weighed"),
                cost="~8e-11 n^3 s values, ~1.5e-10 n^3 s with all vectors; 8 n^2 bytes"),
     SolverPath("hermitian-eigh", "bloch", _anything, _bloch_cost, runners.hermitian, "absolute ~ n ε‖D(q)‖ per q; at "
                "\"high\" a spring model's q-points near Γ relative, ε-level", "a crystal's D(q) at a batch of wave "
@@ -581,14 +582,12 @@ def choose(problem: Problem, solver: str) -> SolverPath:
 
 
 def _cheaper_rival(first: SolverPath, problem: Problem, serving: list[SolverPath]) -> SolverPath:
-    """The one rule that weighs cost (issue 47): a path declaring `first` its `rival` and applying
-    to `problem` is taken where its estimated time is the smaller (the iterative path against the
-    factorisation); from sizes only, so the same request always plans the same path."""
-    for path in serving:
-        if path.rival == first.name and path.applies(problem) and (path.weighs is None or path.weighs(problem)):
-            if path.estimate(problem).seconds < first.estimate(problem).seconds:
-                return path
-    return first
+    """The one rule that weighs cost (issues 45, 47): of `first` and the paths declaring it their `rival` that apply to
+    `problem`, the least estimated time (the iterative and the dense paths against the factorisation); from sizes only.
+    """
+    rivals = [path for path in serving if path.rival == first.name and path.applies(problem)
+              and (path.weighs is None or path.weighs(problem))]
+    return min([first, *rivals], key=lambda path: path.estimate(problem).seconds) if rivals else first
 
 
 def readme_table() -> str:
