@@ -26,7 +26,7 @@ import scipy.sparse as sp
 
 from tests.helpers.stars import star, star_spectrum
 from vibra import System, networks, normal_modes, solvers
-from vibra.solvers import common
+from vibra.solvers import budget, common
 from vibra.solvers.registry import BY_NAME, Problem, choose
 
 prody = pytest.importorskip("prody")
@@ -56,6 +56,24 @@ def test_weighed_is_a_few_modes_of_a_sparse_network_in_its_band_of_sizes() -> No
     assert not _network_problem(1200, accuracy="certified").weighed  # (its refinement dominates: the dense path kept)
     assert not _network_problem(1200, free=False).weighed  # (K 1 != 0: the lowest values away from zero)
     assert _network_problem(1200, n_modes=400).weighed  # (many modes: the estimates choose, the dense solve wins)
+    assert not _network_problem(1200, n_modes=1199).weighed  # (all modes but one: the dense solve, unweighed)
+    assert not _network_problem(1200, parts=2).weighed  # (solved part by part: not what the estimate prices)
+
+
+def test_a_named_family_weighs_its_own_rivals_and_a_rival_must_fit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """solver="accurate" takes the cheaper of `accurate-ritz` and `accurate-checked` as "auto" does (300 of 1,200
+    modes once went to the shift-invert path, 1.5 s against 0.36 s: a review); a dense rival whose memory estimate
+    exceeds the memory limit is not taken (it would be refused), the factorisation is."""
+    many = _network_problem(1200, n_modes=300)
+    estimates = {name: BY_NAME[name].estimate(many).seconds for name in ("accurate-ritz", "accurate-checked")}
+    assert choose(many, "accurate").name == choose(many, "auto").name == min(estimates, key=estimates.get)  # type: ignore[arg-type]
+    assert estimates["accurate-checked"] < estimates["accurate-ritz"]
+    lattice = replace(_network_problem(3000, n_modes=600, separator=int(3.5 * 3000 ** (2 / 3))), topology="none",
+                      n_terms=0, accuracy="fast")  # (600 of a 3,000-dof lattice: 3.4 s dense, 18.2 s shift-invert)
+    dense, sparse = (BY_NAME[name].estimate(lattice) for name in ("dense", "sparse"))
+    assert dense.seconds < sparse.seconds and choose(lattice, "auto").name == "dense"
+    monkeypatch.setattr(budget, "MEMORY_LIMIT", 0.5 * (dense.memory + sparse.memory))
+    assert sparse.memory < dense.memory and choose(lattice, "auto").name == "sparse"
 
 
 @pytest.mark.parametrize("accuracy, rivals", [("fast", ("sparse", "dense")), ("high", ("accurate-ritz", "accurate-checked"))])
@@ -143,21 +161,24 @@ def _lapack_lowest(K: Any, count: int) -> np.ndarray:
 
 @pytest.mark.parametrize("accuracy", ["fast", "high"])
 def test_a_network_of_many_parts_in_the_band(enl: Any, accuracy: str) -> None:
-    """3ENL's network and 11 far sites (39 zero modes, 1,341 dofs): "auto" weighs the paths, and whichever it takes
-    returns 26 zero modes (the shift-invert probe once failed on an all-zero block)."""
+    """3ENL's network and 11 far sites (39 zero modes, 1,341 dofs, 34 parts of K's graph): not weighed (the shift-invert path
+    solves it part by part, which its estimate does not price), so "auto" keeps the dense paths; they and the
+    shift-invert path named ("fast") return 26 zero modes (its probe once failed on an all-zero block)."""
     positions = np.vstack([enl.positions, 1e4 + 100.0 * np.arange(11)[:, None] * np.ones((1, 3))])
     system = networks.anm(positions, cutoff=15.0)
     K = system.hessian()
     plan = solvers.plan(K, system.mass_matrix(), n_modes=MODES, vectors=True, band=None, solver="auto",
                         spring_factor=system.spring_factor() if accuracy == "high" else None, accuracy=accuracy)
-    assert plan.problem is not None and plan.problem.weighed
-    modes = system.modes(MODES, accuracy=accuracy)
-    norm, n = float(abs(K).sum(axis=1).max()), K.shape[0]
-    # backward stable: ~n eps ||K~|| (the block probes stopped at ~1e-10 ||K~|| before one more sweep of F)
-    assert np.abs(modes.omega_squared).max() <= 2 * n * np.finfo(float).eps * norm
-    V = modes.vectors.reshape(n, MODES)  # (unit masses: the shapes are the mass-weighted vectors)
-    assert np.linalg.norm(K @ V, axis=0).max() <= 2 * n * np.finfo(float).eps * norm
-    assert np.abs(V.T @ V - np.eye(MODES)).max() <= 1e-12
+    assert plan.problem is not None and plan.problem.parts == 34 and not plan.problem.weighed  # (each far dof alone)
+    assert plan.path == ("dense" if accuracy == "fast" else "accurate-checked")
+    for solver in ("auto", "sparse") if accuracy == "fast" else ("auto",):
+        modes = system.modes(MODES, accuracy=accuracy, solver=solver)
+        norm, n = float(abs(K).sum(axis=1).max()), K.shape[0]
+        # backward stable: ~n eps ||K~|| (the block probes stopped at ~1e-10 ||K~|| before one more sweep of F)
+        assert np.abs(modes.omega_squared).max() <= 2 * n * np.finfo(float).eps * norm
+        V = modes.vectors.reshape(n, MODES)  # (unit masses: the shapes are the mass-weighted vectors)
+        assert np.linalg.norm(K @ V, axis=0).max() <= 2 * n * np.finfo(float).eps * norm
+        assert np.abs(V.T @ V - np.eye(MODES)).max() <= 1e-12
 
 
 @pytest.mark.parametrize("shift", [10.0, -1.0, -10.0])

@@ -260,7 +260,7 @@ def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: 
 def block_krylov_seconds(n: int, k: int, column_s: float) -> float:
     """Seconds of `krylov.block_eigs` on the sparse path for k pairs, a solve costing `column_s` a column: a zero-mode
     probe of ~32 columns, then a basis that grows to ~3 columns a mode + 40 (applied 86-370 for 14-114 modes of cubic
-    lattices, 68 for 3o21's 20), reorthogonalised against all it holds (`ARNOLDI_S` n M^2: memory-bound, ~4 passes
+    lattices, 72 for 3o21's 20), reorthogonalised against all it holds (`ARNOLDI_S` n M^2: memory-bound, ~4 passes
     over the basis a block), and its stopping tests."""
     basis = min(float(n), 3.0 * k + 40.0)
     return column_s * (basis + 32.0) + ARNOLDI_S * n * (basis * basis + 32.0 ** 2) + KRYLOV_TESTS_S * basis ** 3

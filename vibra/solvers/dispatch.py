@@ -22,7 +22,7 @@ from vibra.solvers.problem import Problem
 from vibra.solvers.registry import BY_NAME, choose, path_names
 from vibra.solvers.runners import Inputs
 from vibra.solvers.standard.iterative import WIDTH, most_modes
-from vibra.solvers.topology import classify, separator_width
+from vibra.solvers.topology import classify, level_structure
 
 
 #: Every path a result can report in `Modes.solver` (the registry's, and their fallbacks).
@@ -79,12 +79,12 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
             if derived is not None and classify(derived[0]) == "chain":
                 topology = "chain-derived"
     wide = sp.issparse(K) and diagonal and width > BAND_LIMIT and n >= WEIGHED_FROM
-    separator = separator_width(K) if wide else 0
+    separator, parts = level_structure(K) if wide else (0, 1)
     free = wide and _rows_sum_to_zero(K)  # (asked only by `Problem.weighed`)
     return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
                    width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
                    topology=topology, spread=spread, device=device, separator=separator,
-                   coordinates=positions is not None, free=free)
+                   coordinates=positions is not None, free=free, parts=parts)
 
 
 #: |K 1| / ||K||_inf under which K's rows count as summing to zero (`_rows_sum_to_zero`). A network's diagonal blocks

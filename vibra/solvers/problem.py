@@ -36,8 +36,9 @@ class Problem:
     (``equation="bloch"``, `bloch_problem`), 1 for every other request;
     `coordinates` whether the sites' positions came with K (three dofs per site): the iterative
     path's preconditioner and exact rotations use them (`iterative.lowest_modes`);
-    `free` whether K's rows sum to zero (K 1 = 0: a free network, every rigid translation a zero mode), measured
-    only where a request may be `weighed`.
+    `free` whether K's rows sum to zero (K 1 = 0: a free network, every rigid translation a zero mode), and `parts`
+    the connected components of K's graph (`topology.level_structure`), both measured only where a request may be
+    `weighed`.
     """
 
     n: int
@@ -63,6 +64,7 @@ class Problem:
     batch: int = 1
     coordinates: bool = False
     free: bool = False
+    parts: int = 1
 
     @property
     def quadratic(self) -> bool:
@@ -86,19 +88,21 @@ class Problem:
 
     @property
     def weighed(self) -> bool:
-        """A few modes of a sparse free 3-D network (wider than a band, diagonal masses, K 1 = 0; springs of no 1-D
-        shape, which has its own paths) of `WEIGHED_FROM` dofs or more, "fast" or "high": the shift-invert paths serve
-        it beside the dense ones (at "high" `accurate-checked` up to DENSE_LIMIT, where its Jacobi fallback stays
-        affordable), and "auto" weighs them by estimate: the dense solve wins where many modes are asked (450 of a
-        2,001-dof star: 0.82 s against 17.8 s; RESULTS.md, "Many modes priced").
+        """Fewer than n - 1 modes of a sparse free 3-D network in one part (wider than a band, diagonal masses, K 1 = 0;
+        springs of no 1-D shape, which has its own paths) of `WEIGHED_FROM` dofs or more, "fast" or "high": the
+        shift-invert paths serve it beside the dense ones (at "high" `accurate-checked` up to DENSE_LIMIT, where its
+        Jacobi fallback stays affordable), and the plan weighs them by estimate: the dense solve wins where many modes
+        are asked (450 of a 2,001-dof star: 0.82 s against 17.8 s; RESULTS.md, "Many modes priced").
         "certified", whose refinement dominates either, keeps the dense path: network-1500 took 463 s there in one run
         and 560 s on the shift-invert path in another, both estimated ~3 min; not weighed until measured side by side.
         A K that is not free (on-site springs, an indefinite K) keeps the dense path: its lowest values lie away from
         zero, where the shift-invert estimate places no shift, and the shift is searched by extra factorisations (a
-        random sparse 1,000 x 1,000 K, + 25 I or indefinite, 5 modes: 81-84 ms dense, 187-405 ms shift-invert)."""
+        random sparse 1,000 x 1,000 K, + 25 I or indefinite, 5 modes: 81-84 ms dense, 187-405 ms shift-invert). A K
+        of several parts keeps the plan by size: the shift-invert path solves it part by part, which its estimate does
+        not price (30 parts of 40 sites, 400 modes: 0.17 s measured, 4.6 s estimated; a review of the change)."""
         return (self.sparse and self.diagonal_mass and self.width > BAND_LIMIT and self.band is None and self.free
                 and self.topology in ("network", "none") and self.accuracy != "certified"
-                and self.n_modes is not None and self.n >= WEIGHED_FROM)
+                and self.parts == 1 and self.n_modes is not None and self.n_modes < self.n - 1 and self.n >= WEIGHED_FROM)
 
     @property
     def tridiagonal(self) -> bool:

@@ -31,7 +31,7 @@ from vibra.solvers.budget import (
     GPU_VALUES_S, GPU_VECTORS_S, HAMILTONIAN_S, JACOBI_S, KRYLOV_RITZ_S, LANCZOS_S, MP_COUNT_S, RING_COUNTED_S,
     RING_MP_EXPECTED, RING_MP_SITES, RING_S, SKEW_S, SOLID_SEPARATOR, SPARSE_ENTRY_S, SPARSE_FACTOR_ENTRIES,
     SPARSE_FACTOR_S, SPARSE_SOLVE_S, SUPERLU_SLOWER, TRIDIAGONAL_S, TRIDIAGONAL_VECTORS_S, TRIPLET_ROW,
-    TRIPLET_UNIT_S, Estimate, block_krylov_seconds, refinement_seconds,
+    TRIPLET_UNIT_S, Estimate, block_krylov_seconds, memory_limit, refinement_seconds,
 )
 from vibra.solvers.common import BAND_LIMIT, DENSE_LIMIT, SolveResult
 from vibra.solvers.distributed.slepc import ranks as slepc_ranks, slepc_cost
@@ -564,8 +564,8 @@ def path_names() -> tuple[str, ...]:
 
 def choose(problem: Problem, solver: str) -> SolverPath:
     """The path for `problem`, among those for its device and equation (the symmetric paths, the
-    quadratic ones for G or C, the crystals' for D(q)): ``solver="auto"`` takes the first that applies; a named
-    family its own (a quadratic method by its name). Raises ValueError when none of them applies."""
+    quadratic ones for G or C, the crystals' for D(q)): ``solver="auto"`` takes the first that applies, a named family
+    its own, each weighed against its rivals (`_cheaper_rival`; a quadratic method by its name). Raises ValueError."""
     serving = [path for path in PATHS if path.device == problem.device and (path.family == "quadratic") == problem.quadratic
                and (path.family == "bloch") == (problem.equation == "bloch")]
     if problem.quadratic:
@@ -577,17 +577,18 @@ def choose(problem: Problem, solver: str) -> SolverPath:
                          f"expected 'auto' or one of {served}")
     for path in serving:
         if (path.applies(problem) if solver == "auto" else path.family == solver and (path.serves or path.applies)(problem)):
-            return _cheaper_rival(path, problem, serving) if solver == "auto" else path
+            return _cheaper_rival(path, problem, [rival for rival in serving if solver in ("auto", rival.family)])
     raise ValueError(f"solver={solver!r} cannot serve this request")
 
 
 def _cheaper_rival(first: SolverPath, problem: Problem, serving: list[SolverPath]) -> SolverPath:
-    """The one rule that weighs cost (issues 45, 47): of `first` and the paths declaring it their `rival` that apply to
-    `problem`, the least estimated time (the iterative and the dense paths against the factorisation); from sizes only.
-    """
+    """The one rule that weighs cost (issues 45, 47): of `first` and the paths serving that declare it their `rival`,
+    the least estimated time (the iterative, the dense paths against the factorisation), a rival only where it fits."""
     rivals = [path for path in serving if path.rival == first.name and path.applies(problem)
               and (path.weighs is None or path.weighs(problem))]
-    return min([first, *rivals], key=lambda path: path.estimate(problem).seconds) if rivals else first
+    room = memory_limit(None) if rivals else None  # (the memory left: a rival that would be refused is not taken)
+    fits = [path for path in rivals if room is None or path.estimate(problem).memory <= room[1]]
+    return min([first, *fits], key=lambda path: path.estimate(problem).seconds)
 
 
 def readme_table() -> str:

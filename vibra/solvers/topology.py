@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     from vibra.solvers.common import MatrixLike
 
-__all__ = ["Topology", "classify", "KINDS", "separator_width", "components"]
+__all__ = ["Topology", "classify", "KINDS", "separator_width", "level_structure", "components"]
 
 Topology = Literal["chain", "walled-chain", "ring", "walled-ring", "network", "none"]
 KINDS: tuple[str, ...] = ("chain", "walled-chain", "ring", "walled-ring", "network", "none")
@@ -132,18 +132,23 @@ def components(pattern: sp.csr_matrix) -> tuple[int, NDArray[np.int32]]:
 
 
 def separator_width(pattern: MatrixLike) -> int:
-    """The widest level of a breadth-first level structure of `pattern`'s graph (a square sparse
+    """`level_structure`'s width: the cost of a nested-dissection factor of `pattern`, from sizes."""
+    return level_structure(pattern)[0]
+
+
+def level_structure(pattern: MatrixLike) -> tuple[int, int]:
+    """(width, parts): the widest level of a breadth-first level structure of `pattern`'s graph (a square sparse
     matrix with a symmetric pattern, as K is: an edge per stored off-diagonal entry) rooted at a pseudo-peripheral vertex: a bound
     from sizes on the top separator a nested-dissection order finds, which is what a sparse
     Cholesky factor of that matrix costs (~width^3 work: n^2 for a 3-D solid, n^1.5 for a shell or
     a sheet, a cross-section's cube for a filament). Two sweeps from the largest component's
     first vertex (George and Liu's pseudo-peripheral search), O(nnz) each; the other components
     counted by size (width (n_c / n_max)^(2/3) each, so that the cube sums as their factors do),
-    returned as the one width whose cube is the sum."""
+    returned as the one width whose cube is the sum; and the number of connected components."""
     given = pattern if sp.isspmatrix_csr(pattern) else sp.csr_matrix(pattern)
     n = given.shape[0]
     if n == 0:
-        return 0
+        return 0, 0
     graph = _graph(given)
     levels = _levels(graph, 0)
     if sum(level.shape[0] for level in levels) == n:  # connected (most networks): no component search
@@ -162,7 +167,7 @@ def separator_width(pattern: MatrixLike) -> int:
         levels = again
     width = max(level.shape[0] for level in levels)
     share = float(np.sum((sizes / sizes[largest]) ** 2))
-    return int(round(width * share ** (1.0 / 3.0)))
+    return int(round(width * share ** (1.0 / 3.0))), int(sizes.shape[0])
 
 
 def _graph(pattern: sp.csr_matrix) -> sp.csr_matrix:
