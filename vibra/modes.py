@@ -467,7 +467,8 @@ def normal_modes(
         factor = None  # "fast" and the GPU: the standard paths, absolute accuracy
 
     request = solvers.plan(K_matrix, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                           spring_factor=factor, accuracy=accuracy, device=device, positions=sites)
+                           spring_factor=factor, accuracy=accuracy, device=device, positions=sites,
+                           max_memory=max_memory)
     solvers.check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                              max_seconds=max_seconds)
 

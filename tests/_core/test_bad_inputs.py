@@ -57,6 +57,12 @@ CASES: list[Case] = [
      ValueError, r"K\.data\[0\] is inf"),
     ("K not symmetric", lambda: normal_modes(np.array([[2.0, -1.0], [0.0, 2.0]]), M2), ValueError,
      r"K is not symmetric: \|K\[0,1\] - K\[1,0\]\|"),
+    ("K not symmetric sparse, the pattern symmetric", lambda: normal_modes(
+        sp.csr_matrix(np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.5], [0.0, -1.0, 2.0]])), M3), ValueError,
+     r"K is not symmetric: \|K\[1,2\] - K\[2,1\]\| = 0\.5"),
+    ("K not symmetric sparse, the pattern too", lambda: normal_modes(
+        sp.csr_matrix(np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, 0.0], [0.0, -1.0, 2.0]])), M3), ValueError,
+     r"K is not symmetric: \|K\[1,2\] - K\[2,1\]\| = 1 "),
     ("K object entries", lambda: normal_modes(np.array([[1.0, None], [None, 1.0]], dtype=object), M2),
      TypeError, r"K must be an array of real numbers, got an entry None"),
     # ------------------------------------------------------------------ normal_modes: M

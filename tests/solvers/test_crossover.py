@@ -76,6 +76,35 @@ def test_a_named_family_weighs_its_own_rivals_and_a_rival_must_fit(monkeypatch: 
     assert sparse.memory < dense.memory and choose(lattice, "auto").name == "sparse"
 
 
+def test_the_callers_memory_limit_weighs_the_rivals() -> None:
+    """`max_memory` given to `plan` (as `normal_modes` and `solve` give it) is the limit a path must fit: between the
+    factorisation's estimate and a dense rival's larger one, 450 modes of the star plan the factorisation, which the
+    guard then admits (before, the dense plan, faster by estimate, fitted the default limit and was refused by the
+    caller's: a review); where the first path (the factorisation of a 3 x 10^5-dof assembly) is the faster but only
+    the iteration fits, the iteration; where none fits, the first, which the guard refuses with the limit named."""
+    K = star(400, 5)
+    n, asked = K.shape[0], 450
+    dense, sparse = (BY_NAME[name].estimate(solvers.plan(K, np.ones(n), n_modes=asked, vectors=True, band=None,
+                                                         solver="auto", spring_factor=None, accuracy="fast").problem)
+                     for name in ("dense", "sparse"))  # type: ignore[arg-type]
+    assert sparse.memory < dense.memory and dense.seconds < sparse.seconds
+    for limit, path in ((None, "dense"), (0.5 * (sparse.memory + dense.memory), "sparse")):
+        plan = solvers.plan(K, np.ones(n), n_modes=asked, vectors=True, band=None, solver="auto", spring_factor=None,
+                            accuracy="fast", max_memory=limit)
+        assert plan.path == path
+        solvers.check_solve_plan(plan, n_modes=asked, vectors=True, band=None, max_memory=limit, max_seconds=None)
+    assembly = replace(_network_problem(300_000, accuracy="fast", topology="none", n_terms=0), coordinates=True,
+                       separator=int(3.5 * 300_000 ** (2 / 3)))
+    factor, iteration = (BY_NAME[name].estimate(assembly) for name in ("sparse", "iterative"))
+    assert factor.seconds < iteration.seconds and iteration.memory < factor.memory
+    assert choose(assembly, "auto").name == "sparse"
+    assert choose(replace(assembly, max_memory=0.5 * (factor.memory + iteration.memory)), "auto").name == "iterative"
+    tight = 0.5 * iteration.memory
+    assert choose(replace(assembly, max_memory=tight), "auto").name == "sparse"
+    with pytest.raises(budget.ResourceLimitError, match="memory"):
+        budget.guard(factor, n_dof=assembly.n, max_memory=tight, max_seconds=None, alternatives=[])
+
+
 @pytest.mark.parametrize("accuracy, rivals", [("fast", ("sparse", "dense")), ("high", ("accurate-ritz", "accurate-checked"))])
 @pytest.mark.parametrize("n", [common.WEIGHED_FROM, 1200, common.DENSE_LIMIT])
 def test_auto_takes_the_rival_with_the_smaller_estimate(n: int, accuracy: str, rivals: tuple[str, str]) -> None:

@@ -238,6 +238,28 @@ def _dense_asymmetry(matrix: NDArray[np.float64]) -> tuple[float, int, int, floa
     return gap, i, j, scale
 
 
+def _sparse_asymmetry(matrix: Any) -> tuple[float, int, int, float]:
+    """(max |A_ij - A_ji|, i, j, max |A|) of a sparse square A. A canonical CSR whose pattern is symmetric (every
+    stiffness matrix here) is compared with its transpose entry by entry, whose pattern is then the same (3HSY's
+    network: 2.5 against 9.7 ms by A - A^T, a sparse sum); any other, by that sum."""
+    given = matrix if sp.issparse(matrix) and matrix.format == "csr" else sp.csr_matrix(matrix)
+    scale = float(np.abs(given.data).max()) if given.nnz else 0.0
+    if given.has_canonical_format:
+        flipped = given.T.tocsr()  # (sorted indices, no duplicates)
+        if np.array_equal(given.indptr, flipped.indptr) and np.array_equal(given.indices, flipped.indices):
+            difference = np.abs(np.subtract(given.data, flipped.data, out=flipped.data), out=flipped.data)  # (in place)
+            k = int(np.argmax(difference)) if difference.size else 0
+            if not difference.size or difference[k] == 0:
+                return 0.0, 0, 0, scale
+            row = int(np.searchsorted(given.indptr, k, side="right")) - 1
+            return float(difference[k]), row, int(given.indices[k]), scale
+    gaps = (given - given.T).tocoo()
+    if not gaps.nnz:
+        return 0.0, 0, 0, scale
+    k = int(np.argmax(np.abs(gaps.data)))
+    return float(abs(gaps.data[k])), int(gaps.row[k]), int(gaps.col[k]), scale
+
+
 def boolean(value: Any, name: str) -> bool:
     """`value` as a bool: True, False or a numpy bool; anything else (1, "no", None) refused."""
     if not isinstance(value, (bool, np.bool_)):
@@ -326,14 +348,7 @@ def symmetric(
 ) -> NDArray[np.float64] | sp.csr_matrix:
     """Check symmetry within ``rtol * max|matrix|``; with `symmetrize`, return (A + A^T) / 2."""
     if isinstance(matrix, sp.spmatrix) or sp.issparse(matrix):
-        sparse_matrix: Any = matrix
-        gap_matrix = (sparse_matrix - sparse_matrix.T).tocoo()
-        scale = abs(sparse_matrix).max() if sparse_matrix.nnz else 0.0
-        if gap_matrix.nnz:
-            k = int(np.argmax(np.abs(gap_matrix.data)))
-            gap, i, j = abs(gap_matrix.data[k]), int(gap_matrix.row[k]), int(gap_matrix.col[k])
-        else:
-            gap, i, j = 0.0, 0, 0
+        gap, i, j, scale = _sparse_asymmetry(matrix)
     else:
         gap, i, j, scale = _dense_asymmetry(matrix)
     atol = rtol * scale

@@ -51,7 +51,8 @@ class SolvePlan:
 def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], *, n_modes: int | None,
              vectors: bool, band: tuple[float, float] | None, solver: str,
              spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, accuracy: str = "high",
-             device: str = "cpu", positions: NDArray[np.float64] | None = None) -> Problem:
+             device: str = "cpu", positions: NDArray[np.float64] | None = None, max_memory: float | None = None
+             ) -> Problem:
     """The `registry.Problem` of a request: sizes, K~'s band (a ring reordered where the band
     solver could use it), the springs' shape (`topology.classify`), and K~'s diagonal spread
     where the springs or a few modes of a chain are given, or K~ is large and not banded, and the
@@ -84,7 +85,7 @@ def describe(K: NDArray[np.float64] | sp.csr_matrix, mass: NDArray[np.float64], 
     return Problem(n=n, n_modes=n_modes, band=band, vectors=vectors, accuracy=accuracy, diagonal_mass=diagonal,
                    width=width, ordering=ordering, sparse=sp.issparse(K), nnz=_stored(K), n_terms=n_terms,
                    topology=topology, spread=spread, device=device, separator=separator,
-                   coordinates=positions is not None, free=free, parts=parts)
+                   coordinates=positions is not None, free=free, parts=parts, max_memory=max_memory)
 
 
 #: |K 1| / ||K||_inf under which K's rows count as summing to zero (`_rows_sum_to_zero`). A network's diagonal blocks
@@ -110,6 +111,7 @@ def plan(
     accuracy: str = "high",
     device: str = "cpu",
     positions: NDArray[np.float64] | None = None,
+    max_memory: float | None = None,
 ) -> SolvePlan:
     """Choose the path for this request (`registry.choose`; "auto" picks one) and estimate its
     cost; nothing allocated.
@@ -119,11 +121,13 @@ def plan(
     "high" or "certified" where a spring factor is given (the caller drops the factor for
     "fast"): "certified" runs the bound-tightening steps in full (a chain's Ritz values
     bracketed by Sturm counts from 8 eps). `positions` ((n / 3, 3), the sites' coordinates, checked
-    by the caller) are priced in by the iterative paths' estimate, which they speed up.
+    by the caller) are priced in by the iterative paths' estimate, which they speed up. `max_memory` (the caller's
+    limit, as `solve` takes it): of paths whose estimates are weighed, one that fits is taken over one that does not.
     """
     _check_named(solver, K, mass, n_modes=n_modes, band=band, spring_factor=spring_factor, device=device)
     problem = describe(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                       spring_factor=spring_factor, accuracy=accuracy, device=device, positions=positions)
+                       spring_factor=spring_factor, accuracy=accuracy, device=device, positions=positions,
+                       max_memory=max_memory)
     return plan_problem(problem, solver)
 
 
@@ -279,7 +283,7 @@ def solve(
     """
     if request is None:
         request = plan(K, mass, n_modes=n_modes, vectors=vectors, band=band, solver=solver,
-                       spring_factor=spring_factor, accuracy=accuracy, positions=positions)
+                       spring_factor=spring_factor, accuracy=accuracy, positions=positions, max_memory=max_memory)
         check_solve_plan(request, n_modes=n_modes, vectors=vectors, band=band, max_memory=max_memory,
                          max_seconds=max_seconds)
     problem = request.problem

@@ -38,7 +38,8 @@ class Problem:
     path's preconditioner and exact rotations use them (`iterative.lowest_modes`);
     `free` whether K's rows sum to zero (K 1 = 0: a free network, every rigid translation a zero mode), and `parts`
     the connected components of K's graph (`topology.level_structure`), both measured only where a request may be
-    `weighed`.
+    `weighed`; `max_memory` the caller's memory limit (`budget.memory_limit`: None, the default one), which a rival
+    path's memory estimate must fit to be taken (`registry.choose`).
     """
 
     n: int
@@ -65,6 +66,7 @@ class Problem:
     coordinates: bool = False
     free: bool = False
     parts: int = 1
+    max_memory: float | None = None
 
     @property
     def quadratic(self) -> bool:

@@ -582,13 +582,13 @@ def choose(problem: Problem, solver: str) -> SolverPath:
 
 
 def _cheaper_rival(first: SolverPath, problem: Problem, serving: list[SolverPath]) -> SolverPath:
-    """The one rule that weighs cost (issues 45, 47): of `first` and the paths serving that declare it their `rival`,
-    the least estimated time (the iterative, the dense paths against the factorisation), a rival only where it fits."""
+    """The one rule that weighs cost (issues 45, 47): of `first` and the paths serving that declare it their `rival`, the
+    least estimated time of those that fit the caller's memory (`Problem.max_memory`), else `first` (the guard refuses)."""
     rivals = [path for path in serving if path.rival == first.name and path.applies(problem)
               and (path.weighs is None or path.weighs(problem))]
-    room = memory_limit(None) if rivals else None  # (the memory left: a rival that would be refused is not taken)
-    fits = [path for path in rivals if room is None or path.estimate(problem).memory <= room[1]]
-    return min([first, *fits], key=lambda path: path.estimate(problem).seconds)
+    room = memory_limit(problem.max_memory) if rivals else None
+    fits = [path for path in [first, *rivals] if room is None or path.estimate(problem).memory <= room[1]]
+    return min(fits or [first], key=lambda path: path.estimate(problem).seconds)
 
 
 def readme_table() -> str:

@@ -41,7 +41,6 @@ from typing import Callable
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
-import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 from vibra._core import validate as _validate
