@@ -349,8 +349,13 @@ def _plan_seconds(system: Any, case: Case, level: str) -> float | None:
     factor = system.spring_factor() if level != "fast" and hasattr(system, "spring_factor") else None
     request = solvers.plan(system.hessian(), np.asarray(M, dtype=float), n_modes=case.n_modes,
                            vectors=case.vectors, band=None, solver="auto", spring_factor=factor,
-                           accuracy=level)
+                           accuracy=level, positions=_positions(system))
     return float(request.cost.seconds)
+
+
+def _positions(system: Any) -> np.ndarray | None:
+    """The sites' positions as `System.modes` passes them to the plan (a 3-D system, every dof free), else None."""
+    return system.solver_positions() if hasattr(system, "solver_positions") else None
 
 
 def _refusal(system: Any, case: Case, level: str) -> str:
@@ -361,7 +366,7 @@ def _refusal(system: Any, case: Case, level: str) -> str:
     factor = system.spring_factor() if level != "fast" and hasattr(system, "spring_factor") else None
     request = solvers.plan(system.hessian(), np.asarray(M, dtype=float), n_modes=case.n_modes,
                            vectors=case.vectors, band=None, solver="auto", spring_factor=factor,
-                           accuracy=level if factor is not None else "high")
+                           accuracy=level if factor is not None else "high", positions=_positions(system))
     try:
         solvers.check_solve_plan(request, n_modes=case.n_modes, vectors=case.vectors, band=None, max_memory=None,
                                  max_seconds=None)

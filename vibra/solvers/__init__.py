@@ -74,8 +74,10 @@ Where each path lives (one folder per family of paths; the registry and its help
 ``compiled.py``                     the compiled kernels' loading (numba on a kernel's first call,
                                     never with vibra) and when a kernel pays (`compiled_pays`)
 ``standard/lapack.py``              dense, tridiagonal, banded (absolute accuracy)
-``standard/sparse.py``              shift-invert for a few modes or a band (the factor, the
-                                    shift, the probe)
+``standard/sparse.py``              shift-invert for a few modes or a band (the probe, the known
+                                    kernel, the block iteration, ARPACK)
+``standard/shifted.py``             the shifted factor (K~ - sigma I)^-1 and the shift below the
+                                    spectrum
 ``standard/parts.py``               a K~ of several connected parts solved part by part (small
                                     parts stacked for LAPACK, large ones by shift-invert)
 ``standard/ordering.py``            nested-dissection ordering (METIS through pymetis) for SuperLU

@@ -257,13 +257,14 @@ def refinement_seconds(n: int, n_terms: int, *, k: int | None = None, accuracy: 
     return triplets + counts
 
 
-def block_krylov_seconds(n: int, k: int, column_s: float) -> float:
+def block_krylov_seconds(n: int, k: int, column_s: float, *, probe: bool = True) -> float:
     """Seconds of `krylov.block_eigs` on the sparse path for k pairs, a solve costing `column_s` a column: a zero-mode
-    probe of ~32 columns, then a basis that grows to ~3 columns a mode + 40 (applied 86-370 for 14-114 modes of cubic
-    lattices, 72 for 3o21's 20), reorthogonalised against all it holds (`ARNOLDI_S` n M^2: memory-bound, ~4 passes
-    over the basis a block), and its stopping tests."""
-    basis = min(float(n), 3.0 * k + 40.0)
-    return column_s * (basis + 32.0) + ARNOLDI_S * n * (basis * basis + 32.0 ** 2) + KRYLOV_TESTS_S * basis ** 3
+    probe of ~32 columns (where the rigid-body modes are known instead, `probe` False: their sweep, 6 columns), then
+    a basis that grows to ~3 columns a mode + 40 (applied 86-370 for 14-114 modes of cubic lattices, 72 for 3o21's
+    20), reorthogonalised against all it holds (`ARNOLDI_S` n M^2: memory-bound, ~4 passes over the basis a block),
+    and its stopping tests."""
+    basis, first = min(float(n), 3.0 * k + 40.0), 32.0 if probe else 6.0
+    return column_s * (basis + first) + ARNOLDI_S * n * (basis * basis + first ** 2) + KRYLOV_TESTS_S * basis ** 3
 
 
 def describe_bytes(count: float) -> str:

@@ -35,7 +35,7 @@ from vibra.solvers.accurate.ring.counted import ring_band_counted, ring_counted
 from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result, ring_vectors
 from vibra.solvers.standard.sparse import lowest_pairs, semidefinite_rounding, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
-from vibra.solvers.standard.iterative import RITZ_TOLERANCE, lowest_modes
+from vibra.solvers.standard.iterative import RITZ_TOLERANCE, annihilated, lowest_modes, rigid_body_modes
 from vibra.solvers.standard.hermitian import hermitian_stack
 from vibra.solvers.standard.lapack import banded_path, dense_path, tridiagonal_path
 from vibra.solvers.structured.equilibrated import pencil_result
@@ -79,7 +79,17 @@ def banded(p: Problem, x: Inputs) -> SolveResult:
 
 
 def sparse(p: Problem, x: Inputs) -> SolveResult:
-    return sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, spring_factor=x.factor)
+    return sparse_path(x.Kt, n_modes=p.n_modes, vectors=p.vectors, band=x.band, spring_factor=x.factor,
+                       kernel=_rigid_kernel(x))
+
+
+def _rigid_kernel(x: Inputs) -> NDArray[np.float64] | None:
+    """The mass-weighted rigid-body modes from the sites' positions that K~ annihilates (`iterative.annihilated`), which
+    the shift-invert paths deflate from the start (`sparse.shift_invert`); None without positions."""
+    if x.positions is None or (x.mass is not None and np.ndim(x.mass) != 1):
+        return None
+    Kt = sp.csr_matrix(x.Kt)
+    return annihilated(Kt, rigid_body_modes(x.positions, x.mass), float(abs(Kt).sum(axis=1).max()))
 
 
 def iterative(p: Problem, x: Inputs) -> SolveResult:
@@ -217,7 +227,8 @@ def accurate_ritz(p: Problem, x: Inputs) -> SolveResult:
     if x.band is None:
         matrix = sp.csr_matrix(x.Kt)
         rounding = semidefinite_rounding(x.factor, float(abs(matrix).sum(axis=1).max()))
-        _, basis, _ = lowest_pairs(matrix, min(int(p.n_modes) + 1, p.n - 2), rounding=rounding)  # type: ignore[arg-type]
+        _, basis, _ = lowest_pairs(matrix, min(int(p.n_modes) + 1, p.n - 2), rounding=rounding,  # type: ignore[arg-type]
+                                   kernel=_rigid_kernel(x))
         return _spring_ritz(p, x, basis, "shift-invert")  # (one more vector than asked: the gap)
     coupling, weights, weighted, deviation = _springs(x, lazy=True)
     standard = sparse_path(x.Kt, n_modes=None, vectors=True, band=x.band)

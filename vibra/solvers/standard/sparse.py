@@ -1,10 +1,11 @@
 """The sparse path: a few of the lowest modes (or a band) by shift-invert Lanczos (ARPACK).
 
-The shift is chosen below the spectrum from its scale (`lowest_shift`), so a singular K (a
-free system) is never hit; a tridiagonal K~ is factorised with LAPACK pttrf (O(N)), any
-other with SuperLU (symmetric mode; nested-dissection order for large K~, else minimum degree). Zero modes are
-deflated and the rest computed by a block Krylov iteration (`shift_invert`, `vibra.solvers.standard.krylov`),
-and the Ritz vectors get one Rayleigh-Ritz step in K~. A band inside the spectrum: ARPACK.
+The shift is chosen below the spectrum from its scale (`shifted.lowest_shift`), so a singular K (a
+free system) is never hit; the factor is `shifted.ShiftedInverse` (LAPACK pttrf for a tridiagonal K~, a sparse
+Cholesky or SuperLU otherwise). Zero modes (found by a probe, or known: a free network's rigid-body modes from its
+coordinates) are deflated and the rest computed by a block Krylov iteration (`shift_invert`,
+`vibra.solvers.standard.krylov`), and the Ritz vectors get one Rayleigh-Ritz step in K~. A band inside the spectrum:
+ARPACK.
 """
 
 from __future__ import annotations
@@ -16,168 +17,35 @@ import scipy.sparse.linalg as sla
 from numpy.typing import NDArray
 
 from vibra.solvers.common import (
-    DENSE_ALL_LIMIT, EPS, Matrix, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
+    DENSE_ALL_LIMIT, Matrix, SolveResult, absolute_figures, bandwidth, small_pencil, squared_range,
     tridiagonal_bands,
 )
-from vibra.solvers.standard.inertia import missed, negative_pivots, repeats, symmetric_lu
+from vibra.solvers.standard.inertia import missed, repeats
 from vibra.solvers.standard.krylov import block_eigs
-from vibra.solvers.standard.ordering import nested_dissection
-from vibra.solvers.standard.cholmod import CholmodCholesky, sparse_backend
-from vibra.solvers.standard.pardiso import PardisoCholesky
+from vibra.solvers.standard.shifted import ShiftedInverse, lowest_shift, semidefinite_rounding
 from vibra.solvers.standard.lapack import dense_path
 from vibra.solvers.standard.parts import Solver, by_parts
 from vibra.solvers.topology import components
 
 
-class ShiftedInverse:
-    """(K~ - sigma I)^-1 as a factorisation, and whether sigma lies below the whole spectrum.
-
-    Tridiagonal K~: LAPACK pttrf (LDL^T, O(N)), which succeeds exactly when K~ - sigma I is
-    positive definite. Otherwise SuperLU in symmetric mode without pivoting, whose pivots
-    give the inertia (Sylvester): no negative pivot means sigma is below every eigenvalue.
-    Larger K~ (`ordering.CHOLESKY_FROM` dofs and up) are factorised by a sparse Cholesky, whose success
-    is the inertia: MKL PARDISO's where `pypardiso` is installed (``vibra[pardiso]``,
-    `vibra.solvers.standard.pardiso`), else CHOLMOD's (cvxopt, `vibra.solvers.standard.cholmod`)
-    in nested-dissection order (`vibra.solvers.standard.ordering`; its own AMD order below
-    `ordering.DISSECTION_MIN` dofs); SuperLU, in that order too, where neither loads or the shift is
-    not below the spectrum.
-    """
-
-    def __init__(self, Kt: sp.csr_matrix, sigma: float, *, need_inertia: bool = True) -> None:
-        self.n = Kt.shape[0]
-        self.below_spectrum = False
-        self._pt: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
-        self._order: NDArray[np.intp] | None = None
-        self._cholesky: PardisoCholesky | CholmodCholesky | None = None
-        self.backend = "lapack pttrf"
-        if bandwidth(Kt) <= 1:
-            d, e = tridiagonal_bands(Kt)
-            pttrf = la.get_lapack_funcs("pttrf", dtype=np.float64)
-            d_factor, e_factor, info = pttrf(d - sigma, e)
-            if info == 0:
-                self._pt = (d_factor, e_factor)
-                self._pttrs = la.get_lapack_funcs("pttrs", dtype=np.float64)
-                self.below_spectrum = True
-                return
-        shifted = (Kt - sigma * sp.identity(self.n, format="csr")).tocsr()
-        backend = sparse_backend(self.n)  # (the budget's estimate asks the same)
-        order = None if backend == "pardiso" else nested_dissection(shifted)  # (PARDISO orders its own)
-        if backend != "superlu":
-            try:
-                self._cholesky = PardisoCholesky(shifted) if backend == "pardiso" else CholmodCholesky(shifted, order)
-                self.below_spectrum = True
-                self.backend = backend
-                return
-            except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
-                if order is None:
-                    order = nested_dissection(shifted)
-        self.backend = "superlu"
-        self._order = order
-        ordering = "MMD_AT_PLUS_A"
-        if self._order is not None:
-            shifted = shifted[self._order][:, self._order]
-            ordering = "NATURAL"
-        shifted = shifted.tocsc()
-        if need_inertia:
-            lu = symmetric_lu(shifted, ordering)  # (None: a zero pivot, sigma numerically an eigenvalue)
-            if lu is not None and negative_pivots(lu) == 0:
-                self._lu = lu
-                self.below_spectrum = True
-                return
-        self._lu = sla.splu(shifted, permc_spec=ordering)
-
-    @property
-    def fill(self) -> float:
-        """Factor entries one solve reads per row (L and U, or L twice): its cost in units of n."""
-        if self._pt is not None:
-            return 2.0
-        if self._cholesky is not None:
-            return 2.0 * self._cholesky.factor_entries / self.n
-        return float(self._lu.nnz) / self.n
-
-    def solve(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """(K~ - sigma I)^-1 x for a vector or a block of columns (one triangular sweep for all)."""
-        if self._pt is not None:
-            solution, info = self._pttrs(*self._pt, x)
-            return np.asarray(solution)
-        if self._cholesky is not None:
-            return self._cholesky.solve(x)
-        if self._order is None:
-            return np.asarray(self._lu.solve(x))
-        result = np.empty_like(x)
-        result[self._order] = self._lu.solve(np.ascontiguousarray(x[self._order]))
-        return result
-
-    def operator(self) -> sla.LinearOperator:
-        def apply(x: NDArray[np.float64]) -> NDArray[np.float64]:
-            return self.solve(np.asarray(x, dtype=float).reshape(self.n))
-
-        return sla.LinearOperator((self.n, self.n), matvec=apply, dtype=float)
-
-
-def lowest_shift(Kt: sp.csr_matrix, *, rounding: float | None = None) -> tuple[float, ShiftedInverse]:
-    """A negative shift below the whole spectrum, small next to its scale, and its factorisation.
-
-    The shift must be negative (a free system's K is singular), small compared with the
-    wanted eigenvalues (else Lanczos converges slowly: a naive -1e-3 ||K~|| takes minutes at
-    10^5 sites) and large enough to register in floating point: -1e4 eps ||K~|| is ~1e4 ulps
-    of the diagonal and below the lowest nonzero eigenvalue of a free chain of up to ~10^6
-    sites (pi^2 ||K~|| / 4 n^2). If the factorisation shows eigenvalues below it (an
-    indefinite K~), the shift moves below Gershgorin's bound of the spectrum.
-
-    `rounding`: where K~ is positive semidefinite by construction (springs of nonnegative
-    stiffness), a bound of the rounding in forming it (`semidefinite_rounding`); when the shift
-    lies below -rounding it lies below the spectrum (Weyl), and the pivot signs need not be
-    read (SuperLU hands them over only by copying its whole factor: 1.7 s and 1 GB at 50,000 dofs).
-    """
-    norm = float(abs(Kt).sum(axis=1).max())  # infinity norm, >= ||K~||_2
-    sigma = -1e4 * EPS * norm
-    if rounding is not None and rounding < -sigma:
-        factor = ShiftedInverse(Kt, sigma, need_inertia=False)
-        factor.below_spectrum = True
-        return sigma, factor
-    factor = ShiftedInverse(Kt, sigma)
-    if factor.below_spectrum:
-        return sigma, factor
-    radius = abs(Kt).sum(axis=1).A1 - np.abs(Kt.diagonal())
-    lower = float((Kt.diagonal() - radius).min())
-    sigma = min(lower, 0.0) - 1e-3 * norm
-    return sigma, ShiftedInverse(Kt, sigma, need_inertia=False)
-
-
-def lowest_pairs(Kt: sp.csr_matrix, k: int, *, rounding: float | None = None
+def lowest_pairs(Kt: sp.csr_matrix, k: int, *, rounding: float | None = None, kernel: NDArray[np.float64] | None = None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], ShiftedInverse | None]:
     """The k lowest eigenpairs of K~ by shift-invert (`lowest_shift`, then `shift_invert`), ascending, and the factor.
 
     A K~ of several parts (`topology.components`: its connected components) is solved part by part
     (`vibra.solvers.standard.parts`): a Krylov iteration sees the copies of a value repeated across parts only through
     rounding. Parts over `parts.SMALL_PART` dofs are shift-invert's, each on its own factor. The factor returned is K~'s where K~ is one
-    part, else None."""
+    part, else None. `kernel` (n, z) orthonormal: directions known to lie in K~'s kernel (`shift_invert`), one part only."""
     count, label = components(Kt)
     if count == 1:
         sigma, factor = lowest_shift(Kt, rounding=rounding)
-        return (*shift_invert(Kt, k, sigma, factor), factor)
+        return (*shift_invert(Kt, k, sigma, factor, kernel=kernel), factor)
 
     def connected(block: sp.csr_matrix) -> Solver:
         sigma, factor = lowest_shift(block, rounding=rounding)
         return lambda wanted: shift_invert(block, wanted, sigma, factor)
 
     return (*by_parts(Kt, k, count, label, connected, probe=PROBE), None)
-
-
-def semidefinite_rounding(spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, norm: float
-                          ) -> float | None:
-    """A bound of ||K~ - B~^T B~||_2 for K~ assembled from springs (B, w), None if some w < 0.
-
-    Each entry of K is a sum of at most t spring terms (t: the most springs on one dof) and
-    the mass weighting rounds twice more, so |E_ij| <= (t + 2) eps sum |terms|, and the row
-    sums of |terms| are at most 2 ||K~||_inf (each spring adds k to the diagonal and -k off it).
-    """
-    if spring_factor is None or np.any(np.asarray(spring_factor[1]) < 0):
-        return None
-    coupling = sp.csr_matrix(spring_factor[0])  # the most stored entries in one of its columns
-    most = float(np.bincount(coupling.indices, minlength=coupling.shape[1]).max(initial=0))
-    return 2.0 * (most + 2.0) * EPS * norm
 
 
 #: Modes asked of the first shift-invert run, which finds a free system's zero modes (doubled
@@ -217,7 +85,8 @@ RESHIFTS = 3
 
 
 def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse | None = None, *,
-                 reshift: int = RESHIFTS) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                 reshift: int = RESHIFTS, kernel: NDArray[np.float64] | None = None
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The k lowest eigenpairs of K~, sigma below the spectrum, by shift-invert Krylov, ascending.
 
     Zero modes (a free system) dominate (K~ - sigma I)^-1 by ||K~|| / |sigma| ~ 1e12 and would
@@ -227,6 +96,9 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     error lies in the near-null space). An expensive factor (3-D networks: `fill` >=
     `BLOCK_FILL`) runs `vibra.solvers.standard.krylov.block_eigs` in blocks of `BLOCK_LOWEST` columns
     (widened where a multiple value shows); a cheap one, ARPACK (`_shift_invert_arpack`).
+
+    A `kernel` known (a free network's rigid-body modes from its coordinates, `runners`) is deflated from the start
+    by the block iteration, without the probe (`_known_kernel`).
 
     A zero mode is a pair with |lambda| <= `ZERO` ||K~||; k of them asked and found (a network of
     many parts, isolated sites) are the answer. Where the probe shows the wanted values bunched far
@@ -244,7 +116,8 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     """
     if factor is None:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
-    values, basis = _shift_invert(Kt, k, sigma, factor, reshift)
+    known = _known_kernel(Kt, k, sigma, factor, kernel) if kernel is not None and factor.fill >= BLOCK_FILL else None
+    values, basis = known or _shift_invert(Kt, k, sigma, factor, reshift)
     scale = float(abs(Kt).sum(axis=1).max())
     if not repeats(values, scale):
         return values, basis
@@ -256,6 +129,32 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
             raise RuntimeError(f"the {k} lowest modes of a {Kt.shape[0]}-dof system: a multiple eigenvalue's copies "
                                f"were not all found (counted by Sylvester's inertia); use solver='dense'")
     return values, basis
+
+
+def _known_kernel(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse, kernel: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """`_shift_invert_blocks` with the z directions of `kernel` deflated from the start (after one sweep of F, as the
+    probe's zero modes are) in place of its probe (~20 applications of F on a protein's network): None where the run
+    meets a zero mode the kernel lacks (a floppy part), at which it stops (the probes then find them), or does not
+    converge."""
+    z = kernel.shape[1]
+    if z == 0:
+        return None
+    Z = np.linalg.qr(factor.solve(kernel[:, :k]))[0]
+    if z >= k:
+        return _ritz(Kt, Z)
+    scale = float(abs(Kt).sum(axis=1).max())
+
+    def enough(mu: NDArray[np.float64], residual: NDArray[np.float64]) -> bool:
+        zero = np.abs(sigma + 1.0 / mu) <= ZERO * scale
+        return bool(np.any(zero & (residual <= TOLERANCE * mu))) or (
+            mu.shape[0] >= k - z and bool(np.all(residual <= TOLERANCE * np.abs(mu))))
+
+    mu, rest, _, done = block_eigs(factor.solve, Kt.shape[0], k - z, tol=TOLERANCE, block=BLOCK_LOWEST, deflate=Z,
+                                   enough=enough, widen=True)
+    if not done or np.any(np.abs(sigma + 1.0 / mu) <= ZERO * scale):
+        return None
+    return np.r_[np.zeros(z), sigma + 1.0 / mu], np.column_stack([Z, rest])
 
 
 def _missing(Kt: sp.csr_matrix, k: int, factor: ShiftedInverse, sigma: float, values: NDArray[np.float64],
@@ -537,11 +436,12 @@ def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator
 
 
 def sparse_path(Kt: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
-                spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None = None) -> SolveResult:
+                spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None = None,
+                kernel: NDArray[np.float64] | None = None) -> SolveResult:
     """The lowest `n_modes` (or those in `band`) of a sparse K~ by shift-invert block Krylov.
 
     `spring_factor` (B, w), when K~ was assembled from springs: a nonnegative w makes K~
-    semidefinite, and the factorisation's inertia need not be read (`lowest_shift`).
+    semidefinite, and the factorisation's inertia need not be read (`lowest_shift`). `kernel`: `lowest_pairs`'s.
     """
     Kt = sp.csr_matrix(Kt)
     n = Kt.shape[0]
@@ -551,7 +451,7 @@ def sparse_path(Kt: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[f
     if k >= n - 1:
         return dense_path(Kt, n_modes=n_modes, vectors=vectors, band=None)
     rounding = semidefinite_rounding(spring_factor, float(abs(Kt).sum(axis=1).max()))
-    values, basis, factor = lowest_pairs(Kt, k, rounding=rounding)
+    values, basis, factor = lowest_pairs(Kt, k, rounding=rounding, kernel=kernel)
     if factor is None or factor.fill >= BLOCK_FILL:  # ARPACK's pairs come out of a Rayleigh-Ritz step already
         values, basis = _ritz(Kt, basis)
     result = absolute_figures(Kt, values, basis, "sparse", floor=4.0)
