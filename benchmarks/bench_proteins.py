@@ -119,7 +119,8 @@ def case(name: str, path: Path, n_atoms: int, *, rounds: int, fresh: bool) -> di
     system = networks.anm(coords)
     model = _prody_model(coords)
     plan = solvers.plan(system.hessian(), system.mass_matrix(), n_modes=N_MODES + 6, vectors=True, band=None, solver="auto",
-                        spring_factor=system.spring_factor(), accuracy="high")
+                        spring_factor=system.spring_factor(), accuracy="high",
+                        positions=system.solver_positions())  # (as `System.modes` plans it)
     print(f"{name}: {n_atoms} C-alpha, {3 * n_atoms} dofs, plan {plan.path} (estimate {plan.cost.seconds:.3g} s)",
           flush=True)
     timings = interleaved({"vibra": lambda: system.modes(N_MODES + 6),
