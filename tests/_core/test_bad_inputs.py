@@ -27,6 +27,14 @@ M2 = np.array([1.0, 1.0])
 K3 = np.array([[1.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
 M3 = np.ones(3)
 B3 = np.array([[-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]])  # K3 = B3^T B3
+def _duplicated() -> sp.csr_matrix:
+    """A CSR K, not canonical, 1e-6 from symmetric at (2, 1), with +1e6 and -1e6 stored twice at (0, 0) (a review: the
+    tolerance once scaled with the unsummed 1e6 and let the asymmetry pass)."""
+    data = [2.0, 1e6, -1e6, -1.0, -1.0, 2.0, -1.0, -1.0 + 1e-6, 2.0]
+    indices = [0, 0, 0, 1, 0, 1, 2, 1, 2]
+    return sp.csr_matrix((data, indices, [0, 4, 7, 9]), shape=(3, 3))
+
+
 INDEFINITE_C = np.array([[1.0, 2.0], [2.0, 1.0]])   # diagonal >= 0, eigenvalues 3 and -1
 
 
@@ -63,6 +71,8 @@ CASES: list[Case] = [
     ("K not symmetric sparse, the pattern too", lambda: normal_modes(
         sp.csr_matrix(np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, 0.0], [0.0, -1.0, 2.0]])), M3), ValueError,
      r"K is not symmetric: \|K\[1,2\] - K\[2,1\]\| = 1 "),
+    ("K not symmetric sparse, duplicates that cancel", lambda: normal_modes(_duplicated(), M3), ValueError,
+     r"K is not symmetric: \|K\[1,2\] - K\[2,1\]\| = 1e-06"),
     ("K object entries", lambda: normal_modes(np.array([[1.0, None], [None, 1.0]], dtype=object), M2),
      TypeError, r"K must be an array of real numbers, got an entry None"),
     # ------------------------------------------------------------------ normal_modes: M

@@ -243,8 +243,8 @@ def _sparse_asymmetry(matrix: Any) -> tuple[float, int, int, float]:
     stiffness matrix here) is compared with its transpose entry by entry, whose pattern is then the same (3HSY's
     network: 2.5 against 9.7 ms by A - A^T, a sparse sum); any other, by that sum."""
     given = matrix if sp.issparse(matrix) and matrix.format == "csr" else sp.csr_matrix(matrix)
-    scale = float(np.abs(given.data).max()) if given.nnz else 0.0
-    if given.has_canonical_format:
+    if given.has_canonical_format:  # (no duplicates: the stored entries are the matrix's)
+        scale = float(np.abs(given.data).max()) if given.nnz else 0.0
         flipped = given.T.tocsr()  # (sorted indices, no duplicates)
         if np.array_equal(given.indptr, flipped.indptr) and np.array_equal(given.indices, flipped.indices):
             difference = np.abs(np.subtract(given.data, flipped.data, out=flipped.data), out=flipped.data)  # (in place)
@@ -253,6 +253,7 @@ def _sparse_asymmetry(matrix: Any) -> tuple[float, int, int, float]:
                 return 0.0, 0, 0, scale
             row = int(np.searchsorted(given.indptr, k, side="right")) - 1
             return float(difference[k]), row, int(given.indices[k]), scale
+    scale = float(abs(given).max()) if given.nnz else 0.0  # (duplicates summed)
     gaps = (given - given.T).tocoo()
     if not gaps.nnz:
         return 0.0, 0, 0, scale

@@ -180,7 +180,7 @@ def _sparse_parts(p: Problem) -> tuple[float, float]:
     memory = basis + 12.0 * (SPARSE_FACTOR_ENTRIES * w * w * lu + max(p.nnz, n))
     seconds = SPARSE_ENTRY_S * max(p.nnz, n) + lu * SPARSE_FACTOR_S * w ** 3 + ritz
     solves = LANCZOS_S * n * columns * 10 + ARNOLDI_S * n * columns ** 2 if arpack else block_krylov_seconds(
-        n, k, lu * SPARSE_SOLVE_S * w * w, probe=not (p.coordinates and p.free))  # (the rigid modes known: no probe)
+        n, k, lu * SPARSE_SOLVE_S * w * w, probe=not (p.coordinates and p.free and p.parts == 1))  # (rigid modes known)
     return memory, seconds + solves
 
 

@@ -199,7 +199,7 @@ def block_eigs(apply: Callable[[NDArray[np.float64]], NDArray[np.float64]], n: i
             if cluster >= b and b < limit // 2:
                 wider = min(cluster + 1, limit // 2)
                 mu, Y, more, done = block_eigs(apply, n, k, tol=tol, max_dim=max_dim, block=wider, deflate=deflate,
-                                               seed=seed + 1, widen=True)
+                                               seed=seed + 1, enough=enough, widen=True)
                 return mu, Y, applied + more, done
             if done or room <= 0:
                 return mu[wanted], basis @ S[:, wanted], applied, done

@@ -116,9 +116,13 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     """
     if factor is None:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
-    known = _known_kernel(Kt, k, sigma, factor, kernel) if kernel is not None and factor.fill >= BLOCK_FILL else None
-    values, basis = known or _shift_invert(Kt, k, sigma, factor, reshift)
     scale = float(abs(Kt).sum(axis=1).max())
+    # the kernel's zero modes are the lowest only where K~ is semidefinite: the shift near zero and below the spectrum
+    # (an indefinite K~, a saddle point's Hessian, has its shift below Gershgorin's bound: the probes serve it)
+    semidefinite = factor.below_spectrum and -sigma <= ZERO * scale
+    known = _known_kernel(Kt, k, sigma, factor, kernel) if kernel is not None and semidefinite and \
+        factor.fill >= BLOCK_FILL else None
+    values, basis = known or _shift_invert(Kt, k, sigma, factor, reshift)
     if not repeats(values, scale):
         return values, basis
     missing, low = missed(Kt, values, scale)
