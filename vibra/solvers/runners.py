@@ -33,7 +33,7 @@ from vibra.solvers.accurate.chain.lowest import lowest_chain_modes
 from vibra.solvers.accurate.chain.sturm_counts import chain_counted, chain_form
 from vibra.solvers.accurate.ring.counted import ring_band_counted, ring_counted
 from vibra.solvers.accurate.ring.values import MP_WANTED, pair_step, ring_result, ring_vectors
-from vibra.solvers.standard.sparse import lowest_pairs, semidefinite_rounding, sparse_path
+from vibra.solvers.standard.sparse import Kernel, lowest_pairs, semidefinite_rounding, sparse_path
 from vibra.solvers.accurate.spring_ritz import TARGET, forming_deviation, spring_figures
 from vibra.solvers.standard.iterative import RITZ_TOLERANCE, annihilated, lowest_modes, rigid_body_modes
 from vibra.solvers.standard.hermitian import hermitian_stack
@@ -83,13 +83,14 @@ def sparse(p: Problem, x: Inputs) -> SolveResult:
                        kernel=_rigid_kernel(x))
 
 
-def _rigid_kernel(x: Inputs) -> NDArray[np.float64] | None:
+def _rigid_kernel(x: Inputs) -> Kernel | None:
     """The mass-weighted rigid-body modes from the sites' positions that K~ annihilates (`iterative.annihilated`), which
-    the shift-invert paths deflate from the start (`sparse.shift_invert`); None without positions."""
+    the shift-invert paths deflate from the start (`sparse.shift_invert`), as a function of ||K~||_inf called only
+    where the path uses them (the semidefinite one-part block iteration); None without positions."""
     if x.positions is None or (x.mass is not None and np.ndim(x.mass) != 1):
         return None
-    Kt = sp.csr_matrix(x.Kt)
-    return annihilated(Kt, rigid_body_modes(x.positions, x.mass), float(abs(Kt).sum(axis=1).max()))
+    positions, mass = x.positions, x.mass
+    return lambda Kt, norm: annihilated(Kt, rigid_body_modes(positions, mass), norm)
 
 
 def iterative(p: Problem, x: Inputs) -> SolveResult:

@@ -93,9 +93,10 @@ def repeats(values: NDArray[np.float64], scale: float) -> bool:
     return bool(np.any(np.diff(nonzero) <= CLUSTER * np.abs(nonzero[1:])))
 
 
-def missed(Kt: sp.csr_matrix, values: NDArray[np.float64], scale: float) -> tuple[int, int]:
+def missed(Kt: sp.csr_matrix, values: NDArray[np.float64], scale: float, *, under: int = 0) -> tuple[int, int]:
     """How many eigenvalues below the highest cluster of `values` (ascending, the lowest found) were not found,
-    and how many of `values` lie below the point counted at.
+    and how many of `values` lie below the point counted at. `under`: eigenvalues known to lie below every one of
+    `values` and not among them (an indefinite K~'s, counted apart: `sparse._saddle`).
 
     tau lies `SPLIT` below the lowest member of the highest cluster (a chain of values each within `SPLIT`
     of the next), or halfway to the next lower value where that is nearer, so it lies in a gap of the found
@@ -116,5 +117,5 @@ def missed(Kt: sp.csr_matrix, values: NDArray[np.float64], scale: float) -> tupl
     for tau in (float(values[start]) - min(float(split[start]), 0.5 * gap), float(values[start]) - 0.5 * gap):
         count = below(Kt, tau)
         if count is not None:
-            return max(count - start, 0), start
+            return max(count - under - start, 0), start
     return 0, start

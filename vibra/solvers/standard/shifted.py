@@ -5,6 +5,9 @@ bound of K~'s rounding that lets its inertia go unread (`semidefinite_rounding`)
 
 from __future__ import annotations
 
+import copy
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
@@ -17,7 +20,7 @@ from vibra.solvers.standard.ordering import nested_dissection
 from vibra.solvers.standard.cholmod import CholmodCholesky, sparse_backend
 from vibra.solvers.standard.pardiso import PardisoCholesky
 
-__all__ = ["ShiftedInverse", "lowest_shift", "semidefinite_rounding"]
+__all__ = ["NearZero", "ShiftedInverse", "lowest_shift", "lowest_shifts", "semidefinite_rounding"]
 
 
 class ShiftedInverse:
@@ -37,7 +40,10 @@ class ShiftedInverse:
     def __init__(self, Kt: sp.csr_matrix, sigma: float, *, need_inertia: bool = True) -> None:
         self.n = Kt.shape[0]
         self.below_spectrum = False
+        #: eigenvalues below sigma, where the factorisation read them (0 below the spectrum; else SuperLU's pivots)
+        self.negatives: int | None = None
         self._pt: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        self._projected: NDArray[np.float64] | None = None
         self._order: NDArray[np.intp] | None = None
         self._cholesky: PardisoCholesky | CholmodCholesky | None = None
         self.backend = "lapack pttrf"
@@ -48,7 +54,7 @@ class ShiftedInverse:
             if info == 0:
                 self._pt = (d_factor, e_factor)
                 self._pttrs = la.get_lapack_funcs("pttrs", dtype=np.float64)
-                self.below_spectrum = True
+                self.below_spectrum, self.negatives = True, 0
                 return
         shifted = (Kt - sigma * sp.identity(self.n, format="csr")).tocsr()
         backend = sparse_backend(self.n)  # (the budget's estimate asks the same)
@@ -56,7 +62,7 @@ class ShiftedInverse:
         if backend != "superlu":
             try:
                 self._cholesky = PardisoCholesky(shifted) if backend == "pardiso" else CholmodCholesky(shifted, order)
-                self.below_spectrum = True
+                self.below_spectrum, self.negatives = True, 0
                 self.backend = backend
                 return
             except ValueError:  # not positive definite: SuperLU (LU) serves, and reads the inertia
@@ -71,7 +77,8 @@ class ShiftedInverse:
         shifted = shifted.tocsc()
         if need_inertia:
             lu = symmetric_lu(shifted, ordering)  # (None: a zero pivot, sigma numerically an eigenvalue)
-            if lu is not None and negative_pivots(lu) == 0:
+            self.negatives = None if lu is None else negative_pivots(lu)
+            if self.negatives == 0:
                 self._lu = lu
                 self.below_spectrum = True
                 return
@@ -86,8 +93,22 @@ class ShiftedInverse:
             return 2.0 * self._cholesky.factor_entries / self.n
         return float(self._lu.nnz) / self.n
 
+    def deflated(self, Z: NDArray[np.float64]) -> ShiftedInverse:
+        """This factor with the orthonormal columns of Z projected out: P (K~ - sigma I)^-1 P, P = I - Z Z^T (an
+        indefinite K~'s pairs below sigma, `sparse._saddle`); it shares the factorisation."""
+        other = copy.copy(self)
+        other._projected = Z
+        return other
+
     def solve(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """(K~ - sigma I)^-1 x for a vector or a block of columns (one triangular sweep for all)."""
+        Z = self._projected
+        if Z is None:
+            return self._solve(x)
+        y = self._solve(x - Z @ (Z.T @ x))
+        return y - Z @ (Z.T @ y)
+
+    def _solve(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         if self._pt is not None:
             solution, info = self._pttrs(*self._pt, x)
             return np.asarray(solution)
@@ -106,8 +127,28 @@ class ShiftedInverse:
         return sla.LinearOperator((self.n, self.n), matvec=apply, dtype=float)
 
 
+@dataclass(frozen=True)
+class NearZero:
+    """An indefinite K~'s factor at the small negative shift `lowest_shift` tried first, and how many eigenvalues lie
+    below that shift (its inertia): the rest of the spectrum is F = (K~ - sigma I)^-1's positive part, its largest
+    values the lowest eigenvalues above sigma (`sparse.lowest_pairs`)."""
+
+    sigma: float
+    factor: ShiftedInverse
+    below: int
+
+
 def lowest_shift(Kt: sp.csr_matrix, *, rounding: float | None = None) -> tuple[float, ShiftedInverse]:
-    """A negative shift below the whole spectrum, small next to its scale, and its factorisation.
+    """A negative shift below the whole spectrum, small next to its scale, and its factorisation (`lowest_shifts`)."""
+    sigma, factor, _ = lowest_shifts(Kt, rounding=rounding)
+    return sigma, factor
+
+
+def lowest_shifts(Kt: sp.csr_matrix, *, rounding: float | None = None
+                  ) -> tuple[float, ShiftedInverse, NearZero | None]:
+    """A negative shift below the whole spectrum, small next to its scale, and its factorisation; and, for an
+    indefinite K~, the factor at the small shift with the count of eigenvalues below it (`NearZero`; None otherwise,
+    or where a zero pivot left the count unread).
 
     The shift must be negative (a free system's K is singular), small compared with the
     wanted eigenvalues (else Lanczos converges slowly: a naive -1e-3 ||K~|| takes minutes at
@@ -125,15 +166,16 @@ def lowest_shift(Kt: sp.csr_matrix, *, rounding: float | None = None) -> tuple[f
     sigma = -1e4 * EPS * norm
     if rounding is not None and rounding < -sigma:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
-        factor.below_spectrum = True
-        return sigma, factor
+        factor.below_spectrum, factor.negatives = True, 0
+        return sigma, factor, None
     factor = ShiftedInverse(Kt, sigma)
     if factor.below_spectrum:
-        return sigma, factor
+        return sigma, factor, None
+    near = None if factor.negatives is None else NearZero(sigma, factor, factor.negatives)
     radius = abs(Kt).sum(axis=1).A1 - np.abs(Kt.diagonal())
     lower = float((Kt.diagonal() - radius).min())
     sigma = min(lower, 0.0) - 1e-3 * norm
-    return sigma, ShiftedInverse(Kt, sigma, need_inertia=False)
+    return sigma, ShiftedInverse(Kt, sigma, need_inertia=False), near
 
 
 def semidefinite_rounding(spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None, norm: float

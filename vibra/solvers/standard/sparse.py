@@ -10,6 +10,8 @@ ARPACK.
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
@@ -22,30 +24,72 @@ from vibra.solvers.common import (
 )
 from vibra.solvers.standard.inertia import missed, repeats
 from vibra.solvers.standard.krylov import block_eigs
-from vibra.solvers.standard.shifted import ShiftedInverse, lowest_shift, semidefinite_rounding
+from vibra.solvers.standard.shifted import NearZero, ShiftedInverse, lowest_shift, lowest_shifts, semidefinite_rounding
 from vibra.solvers.standard.lapack import dense_path
 from vibra.solvers.standard.parts import Solver, by_parts
 from vibra.solvers.topology import components
 
+#: Directions known to lie in K~'s kernel (a free network's rigid-body modes from its coordinates, `runners`), formed
+#: where the path uses them: kernel(K~, ||K~||_inf) -> (n, z) orthonormal.
+Kernel = Callable[[sp.csr_matrix, float], NDArray[np.float64]]
 
-def lowest_pairs(Kt: sp.csr_matrix, k: int, *, rounding: float | None = None, kernel: NDArray[np.float64] | None = None
+
+def lowest_pairs(Kt: sp.csr_matrix, k: int, *, rounding: float | None = None, kernel: Kernel | None = None
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], ShiftedInverse | None]:
-    """The k lowest eigenpairs of K~ by shift-invert (`lowest_shift`, then `shift_invert`), ascending, and the factor.
+    """The k lowest eigenpairs of K~ by shift-invert (`lowest_shifts`, then `shift_invert`), ascending, and the factor.
 
     A K~ of several parts (`topology.components`: its connected components) is solved part by part
     (`vibra.solvers.standard.parts`): a Krylov iteration sees the copies of a value repeated across parts only through
-    rounding. Parts over `parts.SMALL_PART` dofs are shift-invert's, each on its own factor. The factor returned is K~'s where K~ is one
-    part, else None. `kernel` (n, z) orthonormal: directions known to lie in K~'s kernel (`shift_invert`), one part only."""
+    rounding. Parts over `parts.SMALL_PART` dofs are shift-invert's, each on its own factor. The factor returned is K~'s
+    where K~ is one part and semidefinite, else None (the caller then takes a Rayleigh-Ritz step). `kernel`
+    (`Kernel`): directions known to lie in K~'s kernel (`shift_invert`), one part only."""
     count, label = components(Kt)
     if count == 1:
-        sigma, factor = lowest_shift(Kt, rounding=rounding)
-        return (*shift_invert(Kt, k, sigma, factor, kernel=kernel), factor)
+        return _lowest(Kt, k, *lowest_shifts(Kt, rounding=rounding), kernel)
 
     def connected(block: sp.csr_matrix) -> Solver:
-        sigma, factor = lowest_shift(block, rounding=rounding)
-        return lambda wanted: shift_invert(block, wanted, sigma, factor)
+        shifts = lowest_shifts(block, rounding=rounding)  # (one part's factors, for every count asked of it)
+        return lambda wanted: _lowest(block, wanted, *shifts, None)[:2]
 
     return (*by_parts(Kt, k, count, label, connected, probe=PROBE), None)
+
+
+def _lowest(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse, near: NearZero | None,
+            kernel: Kernel | None) -> tuple[NDArray[np.float64], NDArray[np.float64], ShiftedInverse | None]:
+    """`lowest_pairs` of one part from `lowest_shifts`' factors: shift-invert from the shift below the spectrum, or,
+    for an indefinite K~ (`near` counts its eigenvalues under a small shift), `_saddle`."""
+    if near is None:
+        return (*shift_invert(Kt, k, sigma, factor, kernel=kernel), factor)
+    return (*_saddle(Kt, k, sigma, factor, near), None)
+
+
+def _saddle(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse, near: NearZero
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The k lowest pairs of an indefinite K~ (a saddle point's Hessian, springs in tension) whose inertia counts
+    `near.below` eigenvalues under the small shift s = `near.sigma`: the lowest min(below, k) from the shift below the
+    spectrum (two at least, so that a lone negative value bunched with the zero modes there is told from them:
+    `_shift_invert`'s closer shift), and the k - below lowest above s as the largest values of F = (K~ - s I)^-1 with
+    the pairs below s projected out of it (their values in F, negative and possibly huge, would hold the iteration
+    back), the zero modes found first as in a semidefinite K~; a Rayleigh-Ritz step in K~ on the union. From the shift
+    below the spectrum alone, the zero modes and the lowest positive values lie bunched in F (3ENL with five springs in
+    tension: 1 / 240.6 against 1 / 241.0): the runs did not converge, or returned two copies of a six-fold zero.
+    A known kernel is not used: the rigid-body directions of a noisy Hessian overlap its pairs under s. Where the
+    first run returns a value at or above s, one below it was missed: a RuntimeError naming the dense path."""
+    n, low = Kt.shape[0], min(near.below, k)
+    if low:
+        lower, low_basis = shift_invert(Kt, min(max(low, 2), n), sigma, factor)
+        lower, low_basis = lower[:low], low_basis[:, :low]
+    else:
+        lower, low_basis = np.zeros(0), np.zeros((n, 0))
+    if np.any(lower >= near.sigma):
+        raise RuntimeError(f"the {k} lowest modes of a {n}-dof system: {near.below} eigenvalues lie below "
+                           f"{near.sigma:.3g} (counted by Sylvester's inertia) and the shift-invert run found "
+                           f"{int(np.count_nonzero(lower < near.sigma))} of the {low} asked; use solver='dense'")
+    if low == k:
+        return lower, low_basis
+    deflated = near.factor.deflated(np.linalg.qr(low_basis)[0]) if low else near.factor
+    upper, high_basis = shift_invert(Kt, k - low, near.sigma, deflated, reshift=0, below=low)
+    return _ritz(Kt, np.column_stack([low_basis, high_basis]))
 
 
 #: Modes asked of the first shift-invert run, which finds a free system's zero modes (doubled
@@ -85,7 +129,7 @@ RESHIFTS = 3
 
 
 def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse | None = None, *,
-                 reshift: int = RESHIFTS, kernel: NDArray[np.float64] | None = None
+                 reshift: int = RESHIFTS, kernel: Kernel | None = None, below: int = 0
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The k lowest eigenpairs of K~, sigma below the spectrum, by shift-invert Krylov, ascending.
 
@@ -99,6 +143,10 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
 
     A `kernel` known (a free network's rigid-body modes from its coordinates, `runners`) is deflated from the start
     by the block iteration, without the probe (`_known_kernel`).
+
+    `below`: eigenvalues known to lie under sigma (an indefinite K~'s, counted, their pairs projected out of `factor`:
+    `_saddle`): the k pairs are then the lowest above sigma, F's largest values, and the count that checks them leaves
+    those out.
 
     A zero mode is a pair with |lambda| <= `ZERO` ||K~||; k of them asked and found (a network of
     many parts, isolated sites) are the answer. Where the probe shows the wanted values bunched far
@@ -117,19 +165,19 @@ def shift_invert(Kt: sp.csr_matrix, k: int, sigma: float, factor: ShiftedInverse
     if factor is None:
         factor = ShiftedInverse(Kt, sigma, need_inertia=False)
     scale = float(abs(Kt).sum(axis=1).max())
-    # the kernel's zero modes are the lowest only where K~ is semidefinite: the shift near zero and below the spectrum
-    # (an indefinite K~, a saddle point's Hessian, has its shift below Gershgorin's bound: the probes serve it)
+    # the kernel's zero modes are F's largest values where the shift lies near zero, below the spectrum; a shift below
+    # Gershgorin's bound (an indefinite K~'s lowest values) does not favour them: the probes serve it
     semidefinite = factor.below_spectrum and -sigma <= ZERO * scale
-    known = _known_kernel(Kt, k, sigma, factor, kernel) if kernel is not None and semidefinite and \
+    known = _known_kernel(Kt, k, sigma, factor, kernel(Kt, scale)) if kernel is not None and semidefinite and \
         factor.fill >= BLOCK_FILL else None
     values, basis = known or _shift_invert(Kt, k, sigma, factor, reshift)
     if not repeats(values, scale):
         return values, basis
-    missing, low = missed(Kt, values, scale)
+    missing, low = missed(Kt, values, scale, under=below)
     if missing:  # (from a shift just below the values where they lie bunched far above sigma, as `_shift_invert`)
-        sigma, factor = _closer_shift(Kt, values, basis, sigma) or (sigma, factor)
+        sigma, factor = (None if below else _closer_shift(Kt, values, basis, sigma)) or (sigma, factor)
         values, basis = _missing(Kt, k, factor, sigma, values, basis, missing, low)
-        if missed(Kt, values, scale)[0]:
+        if missed(Kt, values, scale, under=below)[0]:
             raise RuntimeError(f"the {k} lowest modes of a {Kt.shape[0]}-dof system: a multiple eigenvalue's copies "
                                f"were not all found (counted by Sylvester's inertia); use solver='dense'")
     return values, basis
@@ -427,21 +475,22 @@ LAST_RESIDUAL = 1e-12
 
 def _arpack(Kt: sp.csr_matrix, k: int, sigma: float, inverse: sla.LinearOperator,
             deflate: NDArray[np.float64] | None = None, start: NDArray[np.float64] | None = None,
-            restarts: int | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The k eigenpairs of K~ nearest sigma (ARPACK shift-invert), ascending; the start vector
-    (seeded where not given: reproducible runs) is kept off `deflate`."""
+            restarts: int | None = None, which: str = "LA") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The k eigenpairs of K~ just above sigma (ARPACK shift-invert, the largest values of (K~ - sigma I)^-1; where
+    sigma lies below the spectrum, those nearest it; `which` "LM": nearest it on either side), ascending; the start
+    vector (seeded where not given: reproducible runs) is kept off `deflate`."""
     if start is None:
         start = np.random.default_rng(0).standard_normal(Kt.shape[0])
     if deflate is not None:
         start = start - deflate @ (deflate.T @ start)
-    values, basis = sla.eigsh(Kt, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=0.0,
+    values, basis = sla.eigsh(Kt, k=k, sigma=sigma, which=which, OPinv=inverse, tol=0.0,
                               ncv=min(Kt.shape[0], max(2 * k + 1, 20)), v0=start, maxiter=restarts)
     return _ascending(values, basis)
 
 
 def sparse_path(Kt: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
                 spring_factor: tuple[sp.csr_matrix, NDArray[np.float64]] | None = None,
-                kernel: NDArray[np.float64] | None = None) -> SolveResult:
+                kernel: Kernel | None = None) -> SolveResult:
     """The lowest `n_modes` (or those in `band`) of a sparse K~ by shift-invert block Krylov.
 
     `spring_factor` (B, w), when K~ was assembled from springs: a nonnegative w makes K~
@@ -482,7 +531,7 @@ def _sparse_band(Kt: sp.csr_matrix, band: tuple[float, float], vectors: bool) ->
     centre = 0.5 * (low + high)
     shift = centre - 1e-9 * (high - low + abs(centre))
     inverse = ShiftedInverse(Kt, shift, need_inertia=False).operator()
-    values, basis = _arpack(Kt, min(count + 2, n - 2), shift, inverse)  # eigenvalues nearest the shift
+    values, basis = _arpack(Kt, min(count + 2, n - 2), shift, inverse, which="LM")  # eigenvalues nearest the shift
     keep = (values >= low) & (values <= high)
     values, basis = _ritz(Kt, basis[:, keep])
     result = absolute_figures(Kt, values, basis, "sparse", floor=4.0)
