@@ -269,7 +269,7 @@ def accurate_rayleigh(p: Problem, x: Inputs) -> SolveResult:
 
 
 def _checked(p: Problem, x: Inputs, *, jacobi: bool) -> SolveResult:
-    coupling, weights, weighted, deviation = _springs(x)
+    coupling, weights, weighted, deviation = _springs(x, lazy=True)  # (B~'s deviations formed only where a bound needs them)
     result = checked_dense(weighted, n_modes=p.n_modes, vectors=p.vectors, band=x.band, jacobi=jacobi,
                            deviation=deviation)
     return _finished(p, x, result, weighted, deviation)

@@ -327,7 +327,7 @@ def _accurate_jacobi(weighted: Matrix, *, n_modes: int | None, vectors: bool, ba
 
 
 def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band: tuple[float, float] | None,
-                  jacobi: bool = True, deviation: Deviation = None) -> SolveResult:
+                  jacobi: bool = True, deviation: Deviation | Callable[[], Deviation] = None) -> SolveResult:
     """The fast dense solve, checked mode by mode; refinement only for the modes that need it.
 
     1. K~ = B~^T B~ formed from the spring factor, then one dense solve of it: LAPACK eigh with
@@ -359,9 +359,16 @@ def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band:
     n_terms x n B~ would cost many times the dense solve: `registry`'s accurate-rayleigh): no step 4, the
     bounds stand as they are, and the path is ``accurate-rayleigh`` (its single-mode clusters
     are Rayleigh quotients ||B~ v||^2).
+
+    B~'s own rounding is first taken at its worst case (`FORMING` per entry, as `checked_ritz` does: no
+    deviations formed, no products of them); where a requested mode's bound then misses TARGET, the
+    refined clusters again with the exact deviations (`deviation`, which may be given as a function that
+    computes it: called only then), and the fallbacks below work with them. (1AKE, 642 dofs: ~7 of 37 ms
+    a call, RESULTS.md, "The dense path's checks".)
     """
     B = sp.csr_matrix(weighted)
     n = B.shape[1]
+    deviations = functools.cache(deviation) if callable(deviation) else (lambda: deviation)
     terms = most_terms(B)
     dense, delta, norm = _spring_gram(B, terms)
     subset = n_modes is not None and n_modes < n
@@ -385,14 +392,19 @@ def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band:
     count = min(low + 1, k)  # the refined modes and one beyond, for the gap
     fast_values = values
     fast_basis = basis[:, :count].copy() if low else basis
-    theta, ritz, bound = cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low, deviation=deviation)
-    # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
-    error = np.minimum(delta, np.abs(values - theta) + bound)
-    values, error = values.copy(), error.copy()
-    values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
     refined = np.arange(k) < low
-    zero = values + error <= zero_level(terms, n, norm)
-    missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
+    for formed in (None, deviations):  # the worst case first; the exact deviations where a mode then misses
+        theta, ritz, bound = cluster_bounds(B, fast_values, basis, delta, terms, complete=not subset, cheap_from=low,
+                                            deviation=formed and formed())
+        # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
+        error = np.minimum(delta, np.abs(fast_values - theta) + bound)
+        values = fast_values.copy()
+        values[:low], error[:low] = theta[:low], bound[:low]
+        zero = values + error <= zero_level(terms, n, norm)
+        missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
+        if not missed.any() or deviations() is None:
+            break
+    basis[:, :low] = ritz[:, :low]
     if missed.any() and _largest_cluster(fast_values[:count], delta) <= PRECISE_CLUSTER:
         # the refined clusters again with extended-precision products (their float64 rounding
         # margin, eps |B~|^T |B~| |v|, can dominate a residual: a ring's rigid mode, stiff
@@ -400,7 +412,7 @@ def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band:
         # (their rotation in np.longdouble costs n c^2 without BLAS), which only Jacobi resolves
         # (figures: benchmarks/RESULTS.md, "Figures formerly in code comments")
         theta, ritz, bound = cluster_bounds(B, fast_values[:count], fast_basis, delta, terms,
-                                             complete=count == n, precise=True, deviation=deviation)
+                                             complete=count == n, precise=True, deviation=deviations())
         values[:low], error[:low], basis[:, :low] = theta[:low], bound[:low], ritz[:, :low]
         zero = values + error <= zero_level(terms, n, norm)
         missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
@@ -427,7 +439,7 @@ def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band:
         # which would merge every omega^2 below it into one cluster with no gap.
         located = np.minimum(delta, 2 * residual_bounds(B, exact.eigenvalues, exact.vectors, terms))  # type: ignore[arg-type]
         values, basis, error = cluster_bounds(B, exact.eigenvalues, exact.vectors,  # type: ignore[arg-type]
-                                               located, terms, complete=True, precise=True, deviation=deviation)
+                                               located, terms, complete=True, precise=True, deviation=deviations())
         keep = np.zeros(values.shape[0], dtype=bool)
         keep[selected(np.sqrt(np.maximum(values, 0.0)), n_modes=n_modes, band=band)] = True
         refined = np.ones(values.shape[0], dtype=bool)
@@ -454,7 +466,8 @@ def _spring_gram(B: sp.csr_matrix, terms: float) -> tuple[NDArray[np.float64], f
     """
     n = B.shape[1]
     absolute = abs(B)
-    norm = max(float(np.asarray((absolute.T @ absolute).sum(axis=1)).max(initial=0.0)), 1e-300)
+    # (the row sums of |B~|^T |B~|, non-negative: |B~|^T (|B~| 1), two products, no sparse product)
+    norm = max(float(np.max(absolute.T @ (absolute @ np.ones(n)), initial=0.0)), 1e-300)
     gamma = terms * EPS / (1.0 - terms * EPS)
     delta = ((n + DENSE_FLOOR) * EPS * (1.0 + gamma) + gamma + FORMING * (2.0 + FORMING)) * norm
     return np.asfortranarray((B.T @ B).toarray()), delta, norm
