@@ -361,10 +361,11 @@ def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band:
     are Rayleigh quotients ||B~ v||^2).
 
     B~'s own rounding is first taken at its worst case (`FORMING` per entry, as `checked_ritz` does: no
-    deviations formed, no products of them); where a requested mode's bound then misses TARGET, the
-    refined clusters again with the exact deviations (`deviation`, which may be given as a function that
-    computes it: called only then), and the fallbacks below work with them. (1AKE, 642 dofs: ~7 of 37 ms
-    a call, RESULTS.md, "The dense path's checks".)
+    deviations formed, no products of them) where `cheap_columns` predicts that it holds the refined modes
+    asked; where a requested mode's bound then misses TARGET, the refined clusters again with the exact
+    deviations (`deviation`, which may be given as a function that computes it: called only where needed),
+    and the fallbacks below work with them. (1AKE, 642 dofs: ~4-7 of 35 ms a call, RESULTS.md, "The dense
+    path's checks, and per-call costs".)
     """
     B = sp.csr_matrix(weighted)
     n = B.shape[1]
@@ -393,17 +394,27 @@ def checked_dense(weighted: Matrix, *, n_modes: int | None, vectors: bool, band:
     fast_values = values
     fast_basis = basis[:, :count].copy() if low else basis
     refined = np.arange(k) < low
-    for formed in (None, deviations):  # the worst case first; the exact deviations where a mode then misses
-        theta, ritz, bound = cluster_bounds(B, fast_values, basis, delta, terms, complete=not subset, cheap_from=low,
-                                            deviation=formed and formed())
-        # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
-        error = np.minimum(delta, np.abs(fast_values - theta) + bound)
-        values = fast_values.copy()
+    # the worst case first where it is predicted to hold every refined mode asked to TARGET (`cheap_columns`, from
+    # sizes; values within delta of zero aside: a free network's rigid motions, which end as zero modes); where it
+    # is not (springs over decades), the exact deviations at once, as a second pass would need them anyway
+    asked = values[:low][keep[:low] & (values[:low] > delta)]
+    first = None if cheap_columns(B, asked, terms) == 0 else deviations()
+    theta, ritz, bound = cluster_bounds(B, values, basis, delta, terms, complete=not subset, cheap_from=low,
+                                        deviation=first)
+    # certified modes keep the fast value; theta's bound plus |lambda - theta| also bounds it
+    error = np.minimum(delta, np.abs(values - theta) + bound)
+    values = values.copy()
+    values[:low], error[:low] = theta[:low], bound[:low]
+    zero = values + error <= zero_level(terms, n, norm)
+    missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
+    if missed.any() and first is None and deviations() is not None:
+        # the refined clusters again with the exact deviations (and the mode beyond, for the gap: the columns
+        # from `low` on take the worst case either way)
+        theta, ritz, bound = cluster_bounds(B, fast_values[:count], fast_basis, delta, terms, complete=count == n,
+                                            cheap_from=low, deviation=deviations())
         values[:low], error[:low] = theta[:low], bound[:low]
         zero = values + error <= zero_level(terms, n, norm)
         missed = keep & refined & (error > TARGET * np.abs(values)) & ~zero
-        if not missed.any() or deviations() is None:
-            break
     basis[:, :low] = ritz[:, :low]
     if missed.any() and _largest_cluster(fast_values[:count], delta) <= PRECISE_CLUSTER:
         # the refined clusters again with extended-precision products (their float64 rounding
