@@ -138,7 +138,7 @@ def test_springs_over_decades_take_the_exact_deviations(monkeypatch: pytest.Monk
     deviation = forming_deviation(weighted, B, w_arr, mass)
     calls = _counting(monkeypatch)
     lazy = springs.checked_dense(weighted, n_modes=None, vectors=True, band=None, deviation=lambda: deviation)
-    assert True in calls  # some pass had the exact deviations
+    assert any(calls)  # some pass had the exact deviations
     eager = springs.checked_dense(weighted, n_modes=None, vectors=True, band=None, deviation=deviation)
     assert lazy.solver == eager.solver
     assert np.all(np.abs(lazy.eigenvalues - eager.eigenvalues) <= lazy.error + eager.error)
