@@ -171,7 +171,7 @@ def check_factor_matches(K: Matrix, factor: tuple[sp.csr_matrix, NDArray[np.floa
     largest_term = float(weights.max(initial=0.0)) * (float(np.abs(coupling.data).max()) if coupling.nnz else 0.0) ** 2
     s = max(largest_entry(K), largest_term) or 1.0
     stiffness_norm = _scaled_frobenius(K, s)
-    row_norms = _row_squares(coupling)
+    row_norms = np.asarray(coupling.multiply(coupling).sum(axis=1)).ravel()
     factor_norm = float(np.sum((weights / s) * row_norms))  # ||B^T W B||_F / s <= sum_t w_t ||b_t||^2 / s
     scale = max(stiffness_norm, factor_norm)
     # the samples as one block: three products, not nine
@@ -187,18 +187,6 @@ def check_factor_matches(K: Matrix, factor: tuple[sp.csr_matrix, NDArray[np.floa
             f"||K|| ||x|| for a random x (must be <= {FACTOR_RTOL:g}); pass the (B, w) that K "
             "was assembled from, or leave spring_factor out"
         )
-
-
-def _row_squares(matrix: sp.spmatrix) -> NDArray[np.float64]:
-    """The squared norm of each row of a sparse matrix (from its CSR arrays: no elementwise product formed)."""
-    csr = sp.csr_matrix(matrix)
-    if not csr.has_canonical_format:
-        csr = csr.copy()
-        csr.sum_duplicates()
-    squares, filled = np.zeros(csr.shape[0]), np.diff(csr.indptr) > 0
-    if csr.nnz:
-        squares[filled] = np.add.reduceat(np.square(csr.data), csr.indptr[:-1][filled])
-    return squares
 
 
 def largest_entry(K: Matrix) -> float:
