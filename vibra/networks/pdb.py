@@ -29,6 +29,7 @@ from vibra._core.text import counted, plural
 from vibra._core import validate as _validate
 from vibra._core.frozen import Frozen
 from vibra._core.validate import ArgumentError
+from vibra.networks.opening import is_mmcif, structure_text
 from vibra.networks.assemblies import (
     assembly_copies, assembly_transforms, mmcif_assemblies, mmcif_residue_chains, pdb_assemblies,
 )
@@ -63,8 +64,8 @@ _MMCIF_NUMBERS = ("Cartn_x", "Cartn_y", "Cartn_z", "B_iso_or_equiv", "occupancy"
 _MMCIF_INTEGERS = (("auth_seq_id", "label_seq_id"), ("pdbx_PDB_model_num",))
 
 
-def check_mmcif(file: Path) -> dict[str, str | list[str]]:
-    """The mmCIF dictionary of `file` (Biopython's ``MMCIF2Dict``) after checking its atom records
+def check_mmcif(file: Path, text: str | None = None) -> dict[str, str | list[str]]:
+    """The mmCIF dictionary of `file` (its `text` where already read; Biopython's ``MMCIF2Dict``) after checking its atom records
     whole: a ``data_`` block, an ``_atom_site`` loop with every column `MMCIF_COLUMNS` names, as
     many values in each column (a cut file or a row that misses a field breaks this), and numbers
     where numbers belong, the first bad row named.
@@ -77,7 +78,7 @@ def check_mmcif(file: Path) -> dict[str, str | list[str]]:
     from Bio.PDB.MMCIF2Dict import MMCIF2Dict
 
     try:
-        table = MMCIF2Dict(str(file))
+        table = MMCIF2Dict(str(file) if text is None else io.StringIO(text))
     except Exception as error:  # Biopython's tokenizer raises ValueError and others on malformed text
         raise ValueError(f"{file}: not an mmCIF file ({' '.join(str(error).split())}); expected a 'data_' block "
                          "with an _atom_site loop") from None
@@ -266,7 +267,8 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     ----------
     path : str or os.PathLike
         A regular file of at most `MAX_FILE_BYTES` bytes, PDB format (mmCIF when its name
-        ends in ``.cif`` or ``.mmcif``).
+        ends in ``.cif`` or ``.mmcif``), plain or gzip-compressed (``.pdb.gz``, ``.cif.gz``;
+        at most `MAX_FILE_BYTES` decompressed). Binary formats (MMTF, BinaryCIF) are refused.
     selection : {"CA", "protein", "all"} or sequence of str
         ``"CA"``: the C-alpha atoms of amino-acid residues (standard or modified, such as
         MSE; a calcium ion named CA is not one); ``"protein"``: every atom of the amino-acid
@@ -301,8 +303,8 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     FileNotFoundError
         No file at path.
     ValueError
-        Not a regular file, larger than `MAX_FILE_BYTES`, cut short (`check_pdb_text`: the
-        message names the line), unreadable by the parser, an unknown selection, a model the
+        Not a regular file, larger than `MAX_FILE_BYTES`, binary (MMTF, BinaryCIF), a damaged
+        gzip stream, cut short (`check_pdb_text`: the message names the line), unreadable by the parser, an unknown selection, a model the
         file does not have, or nothing selected (no atoms, no C-alpha atoms, no atom in the
         chains or residues asked: the message names the selection and what the file holds);
         the message names the file. A selection that finds nothing, a model or an altloc
@@ -346,10 +348,11 @@ def from_pdb(path: str | os.PathLike[str], selection: str | Sequence[str] = "CA"
     size = file.stat().st_size
     if size > MAX_FILE_BYTES:
         raise ValueError(f"{file}: {size} bytes, more than the {MAX_FILE_BYTES} that from_pdb reads")
-    cif = file.suffix.lower() in (".cif", ".mmcif")
-    text = None if cif else file.read_text(encoding="latin-1")
+    cif = is_mmcif(file)
+    content = structure_text(file, MAX_FILE_BYTES)  # (decompressed; a binary format refused by name)
+    text = None if cif else content
     notes = list(check_pdb_text(text, str(file))) if text is not None else []
-    table = check_mmcif(file) if cif else None  # whole before Biopython reads it: its errors name no row
+    table = check_mmcif(file, content) if cif else None  # whole before Biopython reads it: its errors name no row
     transforms = None if assembly is None else assembly_transforms(
         mmcif_assemblies(table, str(file)) if table is not None else pdb_assemblies(text or "", str(file)),
         assembly, str(file))
@@ -488,7 +491,7 @@ def _read_atoms(file: Path, *, backbone: bool = False, text: str | None = None, 
     from Bio.PDB.PDBParser import PDBParser
     from Bio.PDB.Polypeptide import is_aa
 
-    cif = file.suffix.lower() in (".cif", ".mmcif")
+    cif = is_mmcif(file)
     parser = MMCIFParser(QUIET=True) if cif else PDBParser(QUIET=True)
     source: Any = str(file)
     if not cif:

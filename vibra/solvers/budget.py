@@ -63,7 +63,8 @@ SPARSE_ENTRY_S = 1.5e-7       # per stored entry of K: the ordering, K~'s copies
 SPARSE_FACTOR_S = 6e-11       # per w^3: the factor's dense fronts
 SPARSE_SOLVE_S = 1.4e-9       # per w^2 and Krylov column, in blocks of 2: the triangular solves (0.8-3.7e-9 measured;
                               # the factor holds 1.3-4.2 w^2 entries, each read twice, ~0.6-0.9 ns an entry a column)
-KRYLOV_TESTS_S = 2e-9         # per M^3, M the block basis's columns: the spaced stopping tests (`krylov.SPACING`)
+KRYLOV_TESTS_S = 1e-9         # per M^3, M the block basis's columns: the spaced stopping tests (`krylov.SPACING`:
+                              # ~2 eigh of M columns, ~4.5e-10 M^3 each at M ~ 100; 2e-9 when they were ~6)
 SPARSE_FACTOR_ENTRIES = 4.0   # the factor's entries per w^2, at most (1.0-4.2 measured on those 9)
 SOLID_SEPARATOR = 3.5         # w / n^(2/3) where K's graph is not at hand (a 3-D solid; 2.4-6.5 measured)
 SUPERLU_SLOWER = 4.0          # SuperLU's LU against a sparse Cholesky (PARDISO, CHOLMOD) there
