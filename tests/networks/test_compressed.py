@@ -95,3 +95,11 @@ def test_decompressed_size_is_capped_while_reading(tmp_path: Path, monkeypatch: 
     monkeypatch.setattr(pdb, "MAX_FILE_BYTES", 4 << 20)
     with pytest.raises(ValueError, match=r"bomb\.pdb\.gz: more than 4194304 bytes once decompressed"):
         networks.from_pdb(bomb)
+
+
+@pytest.mark.parametrize("end", [b"\r", b"\r\n"])
+@pytest.mark.parametrize("name", ["pdb1ubi.pdb", "mmcif_1ake_chimerax.cif"])
+def test_old_mac_and_windows_line_ends_read_as_before(name: str, end: bytes, tmp_path: Path) -> None:
+    converted = tmp_path / name
+    converted.write_bytes((DATA / name).read_bytes().replace(b"\r\n", b"\n").replace(b"\n", end))
+    np.testing.assert_array_equal(networks.from_pdb(converted).positions, networks.from_pdb(DATA / name).positions)

@@ -73,4 +73,4 @@ def structure_text(file: Path, limit: int) -> str:
     if b"\x00" in data[:65536]:
         raise ValueError(f"{file}: binary data, not a structure's text; from_pdb reads PDB or mmCIF text, plain "
                          "or gzip-compressed")
-    return data.decode("latin-1")
+    return data.decode("latin-1").replace("\r\n", "\n").replace("\r", "\n")  # (as text mode reads CR and CRLF ends)
