@@ -233,7 +233,7 @@ def _next_test(history: list[tuple[int, float]], m: int, ratios: NDArray[np.floa
     `ratios` times their tolerance: m / `SPACING`, or fewer where the worst ratio fell since the last test,
     `PREDICT` times the columns a straight line through the two tests (in log) gives to reach 1, or m / (2
     `SPACING`) where it fell more than `FALLEN` and the line still reaches past m / `SPACING`; a block (`width`)
-    at least. The ratios are finite (a tolerance of 0 or a Ritz value of 0 gives inf: no prediction)."""
+    at least. A worst ratio that is not finite (a tolerance of 0, a Ritz value of 0) restarts `history`."""
     worst = float(ratios.max()) if ratios.size else np.inf
     step = m // SPACING
     if not np.isfinite(worst) or worst <= 0:
