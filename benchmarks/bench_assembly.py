@@ -10,7 +10,7 @@ on the same K~ (masses 1):
   rigid-body modes projected out);
 - ``iterative-translations``: the same on K~ alone (the translations deflated, translations as the
   multigrid's near-null space: what `normal_modes(K, M)` without `positions` runs);
-- ``iterative-high``: `normal_modes(..., accuracy="high", positions=...)` on the accurate-iterative path forced by
+- ``iterative-high``: `System.modes(20, accuracy="high")` on the accurate-iterative path forced by
   the registry's rule (the factorisation's rate raised; relative bounds from spring-space Ritz: the
   row records the largest relative bound on omega^2 of a moving mode and how many exceed 1e-10);
 - ``iterative-fast`` (not in the default methods): ``iterative-high``'s call at ``accuracy="fast"``, the plan, K~
@@ -89,7 +89,6 @@ def _product_threads() -> int:
 
 def run_one(method: str, dofs: int) -> dict:
     """One method on one size, in this process: its figures."""
-    from vibra import normal_modes
     from vibra.solvers import registry
     from vibra.solvers.standard.iterative import lowest_modes
     from vibra.solvers.standard.sparse import sparse_path
@@ -99,7 +98,9 @@ def run_one(method: str, dofs: int) -> dict:
 
     built = time.perf_counter()
     system = _system(dofs)
-    K = system.hessian()
+    # the system's own K (read-only; no path writes it), which `System.modes` solves: `system.hessian()` returns a
+    # copy, and holding it beside the system's counted a second K in every row's peak from 3cd1754 on (2.1 GB at 10^6)
+    K = system._hessian
     build_s = time.perf_counter() - built
     n = K.shape[0]
     norm = float(abs(K).sum(axis=1).max())
@@ -119,9 +120,9 @@ def run_one(method: str, dofs: int) -> dict:
     elif method in ("iterative-high", "iterative-fast"):
         registry.SPARSE_FACTOR_S = 1.0  # (the plan weighs the two: the factorisation's estimate made the larger)
         accuracy = "high" if method == "iterative-high" else "fast"
-        modes = normal_modes(K, system.mass_matrix(), n_modes=MODES, spring_factor=system.spring_factor(),
-                             positions=system.positions, accuracy=accuracy, max_seconds=float("inf"),
-                             max_memory=float("inf"), progress=lambda fraction, message: stages.append(message))
+        # as a user calls it: `System.modes` forms the spring factor for "high" only
+        modes = system.modes(MODES, accuracy=accuracy, max_seconds=float("inf"), max_memory=float("inf"),
+                             progress=lambda fraction, message: stages.append(message))
         assert modes.path == ("accurate-iterative" if accuracy == "high" else "iterative"), modes.path
         values, vectors = modes.omega ** 2 * np.sign(modes.omega), modes.vectors
         moving = modes.omega ** 2 > 1e-6 * norm  # (the six rigid-body modes: zero, within absolute bounds)
@@ -134,12 +135,13 @@ def run_one(method: str, dofs: int) -> dict:
     else:
         values, vectors = sla.eigsh(K.tocsc(), k=MODES, sigma=-1e-4 * norm, which="LM", tol=0.0)
     seconds = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0  # (the solve's, before the checks below)
     residual = np.linalg.norm(K @ vectors - vectors * values, axis=0) / norm
     iterations = [int(m.split()[1]) for m in stages if m.startswith("LOBPCG:")]
     if method == "iterative-gpu":  # (the path's own stages, with their times: the setup on the host, LOBPCG on the GPU)
         bounds["stages"] = stages
     return {"method": method, "dofs": n, "nnz": int(K.nnz), "seconds": seconds, "build_seconds": build_s,
-            "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0,
+            "peak_bytes": peak,
             "estimate_seconds": _estimate(method, K, int(system.spring_factor()[0].shape[0])),
             "max_relative_residual": float(residual.max()), "product_threads": _product_threads(),
             "iterations": iterations[0] if iterations else None,
