@@ -245,8 +245,8 @@ def _next_test(history: list[tuple[int, float]], m: int, ratios: NDArray[np.floa
         fall = (e1 - e2) / (m2 - m1)
         if fall > 0 and e2 > 0:
             predicted = int(PREDICT * e2 / fall)
-            # a fall begun since the last test, from its plateau: the line through the two under-estimates it (3o21,
-            # 300 modes: tests at 582 and 728 columns predicted 405 more where 80 passed), so wait half as long
+            # a fall begun since the last test, from its plateau: the line through the two is flatter than the fall
+            # (3o21, 300 modes: tests at 582 and 728 columns predicted 405 more where 80 passed), so wait half as long
             step = predicted if predicted < step else (m // (2 * SPACING) if e1 - e2 > FALLEN else step)
     return max(width, step)
 
